@@ -1,0 +1,14 @@
+//! The bridge daemon's library: the I/O shell around `floatball_shared`.
+//!
+//! # Layout
+//! - [`cli`]: the command line and what each command does.
+//! - [`server`]: the HTTP server — static app, API routes — and its shutdown.
+//! - [`ws`]: the WebSocket endpoint `/ws`: status out, control in.
+//! - [`state`]: what every request handler shares (status channel, paths).
+#![forbid(unsafe_code)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+pub mod cli;
+pub mod server;
+pub mod state;
+pub mod ws;

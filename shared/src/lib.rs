@@ -1,0 +1,15 @@
+//! Floatball's protocol core: everything that must behave identically in the bridge
+//! (native) and in the web app (wasm32).
+//!
+//! No I/O and no clocks live here ("sans-IO"): time is always a parameter and bytes come
+//! in and go out as buffers, so the same code runs on a show controller PC, in a phone's
+//! browser and in tests.
+//!
+//! # Layout
+//! - [`api`]: the JSON messages of the HTTP and WebSocket API (DESIGN §4), shared by the
+//!   bridge and the app so both sides agree on every field.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+pub mod api;

@@ -1,0 +1,36 @@
+//! The thin slice end to end: the real bridge serves the built app, Chromium loads it,
+//! the app connects over the WebSocket, and it notices the bridge going away and
+//! coming back without a reload.
+
+use std::time::{Duration, Instant};
+
+use floatball_e2e::{Bridge, Browser, UI_TIMEOUT};
+
+const INDICATOR: &str = "[data-testid=connection]";
+
+#[tokio::test]
+async fn app_shows_connected_and_follows_a_bridge_restart() {
+    let mut bridge = Bridge::start().await;
+    let browser = Browser::start(360, 740).await;
+    browser.client.goto(&bridge.url()).await.expect("open the app");
+
+    browser
+        .wait_for_attribute(INDICATOR, "data-state", "connected", UI_TIMEOUT)
+        .await;
+    assert_eq!(browser.text(INDICATOR).await, "已连接");
+
+    bridge.stop().await;
+    let stopped = Instant::now();
+    browser
+        .wait_for_attribute(INDICATOR, "data-state", "disconnected", Duration::from_secs(2))
+        .await;
+    assert!(stopped.elapsed() <= Duration::from_secs(2));
+    assert_eq!(browser.text(INDICATOR).await, "未连接");
+
+    bridge.restart().await;
+    browser
+        .wait_for_attribute(INDICATOR, "data-state", "connected", Duration::from_secs(5))
+        .await;
+
+    browser.client.close().await.expect("close the browser");
+}

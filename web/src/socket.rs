@@ -1,0 +1,250 @@
+//! The WebSocket to the bridge: opens it, reconnects with backoff when it closes,
+//! pings while connected and drops a connection that has gone silent, so the top bar
+//! never shows a stale "Connected". Decisions come from [`crate::connection`].
+
+use std::cell::RefCell;
+use std::rc::{Rc, Weak};
+use std::time::Duration;
+
+use floatball_shared::api::{ClientMessage, ServerMessage};
+use leptos::prelude::*;
+use wasm_bindgen::JsCast;
+use wasm_bindgen::closure::Closure;
+use web_sys::{Event, MessageEvent, WebSocket};
+
+use crate::connection::{Connection, Link, PING_INTERVAL_MS, SILENCE_TIMEOUT_MS};
+
+/// The WebSocket URL of a bridge at `host` for a page loaded over `protocol`
+/// (`"https:"` gives `wss://`).
+pub fn ws_url(protocol: &str, host: &str) -> String {
+    let scheme = if protocol == "https:" { "wss" } else { "ws" };
+    format!("{scheme}://{host}/ws")
+}
+
+/// The WebSocket URL of the bridge the page was loaded from.
+pub fn page_ws_url() -> Option<String> {
+    let location = window().location();
+    Some(ws_url(&location.protocol().ok()?, &location.host().ok()?))
+}
+
+/// A self-reconnecting WebSocket to the bridge. Dropping every clone does not close
+/// the socket; call [`Socket::close`] for that.
+#[derive(Clone)]
+pub struct Socket {
+    inner: Rc<RefCell<Inner>>,
+}
+
+impl std::fmt::Debug for Socket {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Socket")
+            .field("url", &self.inner.borrow().url)
+            .finish_non_exhaustive()
+    }
+}
+
+type Handler<T> = Closure<dyn FnMut(T)>;
+
+struct Inner {
+    url: String,
+    connection: Connection,
+    link: RwSignal<Link>,
+    on_message: Rc<dyn Fn(ServerMessage)>,
+    /// Bumped for every new socket so events of an old one are ignored.
+    generation: u64,
+    ws: Option<WebSocket>,
+    handlers: Vec<Handler<Event>>,
+    on_ws_message: Option<Handler<MessageEvent>>,
+    last_heard_ms: f64,
+    closed: bool,
+}
+
+impl Socket {
+    /// Opens a socket to `url`, reflecting its state in `link` and handing every
+    /// message from the bridge to `on_message`.
+    pub fn connect(
+        url: String,
+        link: RwSignal<Link>,
+        on_message: impl Fn(ServerMessage) + 'static,
+    ) -> Self {
+        let inner = Rc::new(RefCell::new(Inner {
+            url,
+            connection: Connection::new(),
+            link,
+            on_message: Rc::new(on_message),
+            generation: 0,
+            ws: None,
+            handlers: Vec::new(),
+            on_ws_message: None,
+            last_heard_ms: 0.0,
+            closed: false,
+        }));
+        open(&inner);
+        let weak = Rc::downgrade(&inner);
+        // The watchdog: ping while connected, give up on a silent connection.
+        let interval = set_interval_with_handle(
+            move || watchdog(&weak),
+            Duration::from_millis(u64::from(PING_INTERVAL_MS)),
+        );
+        if let Err(err) = interval {
+            leptos::logging::warn!("cannot start the connection watchdog: {err:?}");
+        }
+        Self { inner }
+    }
+
+    /// Sends `message` if connected; returns whether it was handed to the socket.
+    pub fn send(&self, message: &ClientMessage) -> bool {
+        let inner = self.inner.borrow();
+        if inner.connection.link() != Link::Connected {
+            return false;
+        }
+        let (Some(ws), Ok(text)) = (&inner.ws, serde_json::to_string(message)) else {
+            return false;
+        };
+        ws.send_with_str(&text).is_ok()
+    }
+
+    /// Closes the socket for good (no reconnect).
+    pub fn close(&self) {
+        let mut inner = self.inner.borrow_mut();
+        inner.closed = true;
+        inner.generation += 1;
+        inner.detach();
+        let link = inner.link;
+        drop(inner);
+        link.set(Link::Disconnected);
+    }
+}
+
+impl Inner {
+    /// Forgets the current socket: handlers off first (so no callback reaches a
+    /// dropped closure), then close it.
+    fn detach(&mut self) {
+        if let Some(ws) = self.ws.take() {
+            ws.set_onopen(None);
+            ws.set_onmessage(None);
+            ws.set_onclose(None);
+            ws.set_onerror(None);
+            let _ = ws.close();
+        }
+        self.handlers.clear();
+        self.on_ws_message = None;
+    }
+}
+
+fn now_ms() -> f64 {
+    js_sys::Date::now()
+}
+
+fn open(this: &Rc<RefCell<Inner>>) {
+    let mut inner = this.borrow_mut();
+    if inner.closed {
+        return;
+    }
+    inner.detach();
+    inner.generation += 1;
+    let generation = inner.generation;
+    inner.connection.on_connecting();
+    let link = inner.link;
+    let ws = match WebSocket::new(&inner.url) {
+        Ok(ws) => ws,
+        Err(err) => {
+            leptos::logging::warn!("cannot open {}: {err:?}", inner.url);
+            drop(inner);
+            lost(this, generation);
+            return;
+        }
+    };
+    let weak = Rc::downgrade(this);
+    let on_message = Closure::<dyn FnMut(MessageEvent)>::new({
+        let weak = weak.clone();
+        move |event: MessageEvent| received(&weak, generation, &event)
+    });
+    let on_close = Closure::<dyn FnMut(Event)>::new({
+        let weak = weak.clone();
+        move |_: Event| {
+            if let Some(this) = weak.upgrade() {
+                lost(&this, generation);
+            }
+        }
+    });
+    ws.set_onmessage(Some(on_message.as_ref().unchecked_ref()));
+    ws.set_onclose(Some(on_close.as_ref().unchecked_ref()));
+    // An error is always followed by a close event; the close handler reconnects.
+    inner.ws = Some(ws);
+    inner.on_ws_message = Some(on_message);
+    inner.handlers = vec![on_close];
+    drop(inner);
+    link.set(Link::Connecting);
+}
+
+fn received(weak: &Weak<RefCell<Inner>>, generation: u64, event: &MessageEvent) {
+    let Some(this) = weak.upgrade() else { return };
+    let mut inner = this.borrow_mut();
+    if inner.generation != generation {
+        return;
+    }
+    inner.last_heard_ms = now_ms();
+    inner.connection.on_message();
+    let link = inner.link;
+    let on_message = Rc::clone(&inner.on_message);
+    drop(inner);
+    if link.get_untracked() != Link::Connected {
+        link.set(Link::Connected);
+    }
+    let Some(text) = event.data().as_string() else { return };
+    match serde_json::from_str::<ServerMessage>(&text) {
+        Ok(message) => on_message(message),
+        Err(err) => leptos::logging::warn!("ignoring a message the app does not understand: {err}"),
+    }
+}
+
+fn lost(this: &Rc<RefCell<Inner>>, generation: u64) {
+    let mut inner = this.borrow_mut();
+    if inner.generation != generation || inner.closed {
+        return;
+    }
+    // Events of this socket are ignored from now on.
+    inner.generation += 1;
+    inner.detach();
+    let delay_ms = inner.connection.on_lost();
+    let link = inner.link;
+    drop(inner);
+    link.set(Link::Disconnected);
+    let weak = Rc::downgrade(this);
+    set_timeout(
+        move || {
+            if let Some(this) = weak.upgrade() {
+                open(&this);
+            }
+        },
+        Duration::from_millis(u64::from(delay_ms)),
+    );
+}
+
+fn watchdog(weak: &Weak<RefCell<Inner>>) {
+    let Some(this) = weak.upgrade() else { return };
+    let inner = this.borrow();
+    if inner.connection.link() != Link::Connected {
+        return;
+    }
+    let generation = inner.generation;
+    if now_ms() - inner.last_heard_ms > f64::from(SILENCE_TIMEOUT_MS) {
+        drop(inner);
+        lost(&this, generation);
+        return;
+    }
+    if let (Some(ws), Ok(ping)) = (&inner.ws, serde_json::to_string(&ClientMessage::Ping)) {
+        let _ = ws.send_with_str(&ping);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ws_url_follows_the_page() {
+        assert_eq!(ws_url("http:", "192.168.1.17:8080"), "ws://192.168.1.17:8080/ws");
+        assert_eq!(ws_url("https:", "floatball.local"), "wss://floatball.local/ws");
+    }
+}

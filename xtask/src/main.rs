@@ -1,0 +1,143 @@
+//! `cargo xtask run` and `cargo xtask test`: the two commands a new machine needs.
+//!
+//! Both install what is missing first (see [`tools`]), saying what and why, then do
+//! their work with plain `cargo` commands that are printed before they run, so anyone
+//! can repeat a single step by hand.
+//!
+//! # Layout
+//! - [`tools`]: finding and installing the toolchain pieces (wasm32 target,
+//!   wasm-bindgen-cli, wasm-pack, Chromium and ChromeDriver).
+//! - [`app`]: building the web app into `static/pkg/`.
+//! - [`stages`]: the test stages and their summary.
+
+mod app;
+mod stages;
+mod tools;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+const USAGE: &str = "\
+usage: cargo xtask <command> [options]
+
+commands:
+  run    build the web app and start the bridge with a simulated matrix
+         options: --listen ADDR (default 0.0.0.0:8080)  --data-dir DIR (default ./data)
+                  anything after `--` is passed to `floatball` unchanged
+  test   install what is missing, then run every check and test
+";
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("run") => run(&args[1..]),
+        Some("test") => stages::test(),
+        Some("-h" | "--help" | "help") => {
+            print!("{USAGE}");
+            Ok(())
+        }
+        _ => Err(format!("unknown command\n\n{USAGE}")),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("xtask: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Options of `cargo xtask run`.
+#[derive(Debug, PartialEq, Eq)]
+struct RunOptions {
+    listen: String,
+    data_dir: String,
+    passthrough: Vec<String>,
+}
+
+fn parse_run_options(args: &[String]) -> Result<RunOptions, String> {
+    let mut options = RunOptions {
+        listen: "0.0.0.0:8080".to_owned(),
+        data_dir: "data".to_owned(),
+        passthrough: Vec::new(),
+    };
+    let mut iter = args.iter();
+    while let Some(arg) = iter.next() {
+        match arg.as_str() {
+            "--listen" => {
+                options.listen = iter.next().ok_or("--listen needs an address")?.clone();
+            }
+            "--data-dir" => {
+                options.data_dir = iter.next().ok_or("--data-dir needs a directory")?.clone();
+            }
+            "--" => {
+                options.passthrough = iter.cloned().collect();
+                break;
+            }
+            other => return Err(format!("unknown option {other}\n\n{USAGE}")),
+        }
+    }
+    Ok(options)
+}
+
+fn run(args: &[String]) -> Result<(), String> {
+    let options = parse_run_options(args)?;
+    let root = tools::workspace_root();
+    let env = tools::Env::discover(&root)?;
+    tools::ensure_wasm_target(&env)?;
+    tools::ensure_wasm_bindgen_cli(&env)?;
+    app::build_web(&env)?;
+    let port = options.listen.rsplit(':').next().unwrap_or("8080");
+    println!("xtask: starting floatball; open http://localhost:{port} (Ctrl-C stops it)");
+    let mut command = tools::cargo(&env);
+    command
+        .args(["run", "--release", "--package", "floatball-bridge", "--bin", "floatball", "--"])
+        .args(["--listen", &options.listen])
+        .args(["--data-dir", &options.data_dir])
+        .args(["--static-dir", &path_string(root.join("static"))])
+        .args(&options.passthrough);
+    tools::run_command(&mut command)
+}
+
+fn path_string(path: PathBuf) -> String {
+    path.to_string_lossy().into_owned()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn strings(args: &[&str]) -> Vec<String> {
+        args.iter().map(|arg| (*arg).to_owned()).collect()
+    }
+
+    #[test]
+    fn run_defaults_to_port_8080_and_data() {
+        let options = parse_run_options(&[]).unwrap();
+        assert_eq!(options.listen, "0.0.0.0:8080");
+        assert_eq!(options.data_dir, "data");
+    }
+
+    #[test]
+    fn run_takes_listen_data_dir_and_passthrough() {
+        let options = parse_run_options(&strings(&[
+            "--listen",
+            "127.0.0.1:9000",
+            "--data-dir",
+            "/tmp/x",
+            "--",
+            "--gateway",
+            "sim",
+        ]))
+        .unwrap();
+        assert_eq!(options.listen, "127.0.0.1:9000");
+        assert_eq!(options.data_dir, "/tmp/x");
+        assert_eq!(options.passthrough, strings(&["--gateway", "sim"]));
+    }
+
+    #[test]
+    fn run_refuses_unknown_options() {
+        assert!(parse_run_options(&strings(&["--frobnicate"])).is_err());
+        assert!(parse_run_options(&strings(&["--listen"])).is_err());
+    }
+}

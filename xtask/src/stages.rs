@@ -1,0 +1,135 @@
+//! `cargo xtask test`: every check and test, one stage at a time, with a one-line
+//! summary per stage and a final `N passed, N failed` line.
+//!
+//! Stages keep going after a failure so one run shows everything that is wrong; the
+//! command fails if any stage failed.
+
+use std::time::Instant;
+
+use crate::app;
+use crate::tools::{self, Env};
+
+/// One line of the summary.
+struct Outcome {
+    name: &'static str,
+    seconds: f64,
+    error: Option<String>,
+}
+
+/// Runs every stage and prints the summary.
+pub fn test() -> Result<(), String> {
+    let root = tools::workspace_root();
+    let env = Env::discover(&root)?;
+    let mut outcomes = Vec::new();
+    let mut stage = |name: &'static str, body: &dyn Fn(&Env) -> Result<(), String>| {
+        println!("\nxtask: ==> {name}");
+        let started = Instant::now();
+        let error = body(&env).err();
+        let seconds = started.elapsed().as_secs_f64();
+        match &error {
+            None => println!("xtask: ok   {name} ({seconds:.1} s)"),
+            Some(message) => println!("xtask: FAIL {name} ({seconds:.1} s): {message}"),
+        }
+        outcomes.push(Outcome {
+            name,
+            seconds,
+            error,
+        });
+    };
+
+    stage("install missing tools", &install_tools);
+    stage("cargo fmt --check", &|env| {
+        tools::run_command(tools::cargo(env).args(["fmt", "--all", "--check"]))
+    });
+    stage("clippy (native)", &|env| {
+        tools::run_command(tools::cargo(env).args([
+            "clippy",
+            "--workspace",
+            "--all-targets",
+            "--",
+            "-D",
+            "warnings",
+        ]))
+    });
+    stage("clippy (wasm32: shared, web)", &|env| {
+        tools::run_command(tools::cargo(env).args([
+            "clippy",
+            "--package",
+            "floatball-shared",
+            "--package",
+            "floatball-web",
+            "--target",
+            "wasm32-unknown-unknown",
+            "--lib",
+            "--tests",
+            "--",
+            "-D",
+            "warnings",
+        ]))
+    });
+    stage("native tests", &|env| {
+        tools::run_command(tools::cargo(env).args([
+            "test",
+            "--workspace",
+            "--exclude",
+            "floatball-e2e",
+        ]))
+    });
+    stage("shared tests on wasm32 (Node.js)", &|env| {
+        tools::run_command(tools::cargo(env).args([
+            "test",
+            "--package",
+            "floatball-shared",
+            "--target",
+            "wasm32-unknown-unknown",
+        ]))
+    });
+    stage("web tests in headless Chromium (wasm-pack)", &|env| {
+        tools::run_command(
+            tools::program(env, "wasm-pack")
+                .args(["test", "--headless", "--chrome", "--chromedriver"])
+                .arg(tools::CHROMEDRIVER)
+                .arg("web"),
+        )
+    });
+    stage("build the app and the bridge", &|env| {
+        app::build_web(env)?;
+        tools::run_command(tools::cargo(env).args([
+            "build",
+            "--package",
+            "floatball-bridge",
+            "--bin",
+            "floatball",
+        ]))
+    });
+    stage("end-to-end tests (real bridge, headless Chromium)", &|env| {
+        tools::run_command(
+            tools::cargo(env)
+                .args(["test", "--package", "floatball-e2e"])
+                .env("FLOATBALL_BIN", env.target_dir.join("debug").join("floatball"))
+                .env("FLOATBALL_STATIC_DIR", env.root.join("static"))
+                .env("CHROMEDRIVER", tools::CHROMEDRIVER),
+        )
+    });
+
+    println!("\nxtask: summary");
+    for outcome in &outcomes {
+        let mark = if outcome.error.is_none() { "ok  " } else { "FAIL" };
+        println!("  {mark} {:<52} {:>7.1} s", outcome.name, outcome.seconds);
+    }
+    let failed = outcomes.iter().filter(|o| o.error.is_some()).count();
+    let passed = outcomes.len() - failed;
+    println!("{passed} passed, {failed} failed");
+    if failed == 0 {
+        Ok(())
+    } else {
+        Err(format!("{failed} stage(s) failed"))
+    }
+}
+
+fn install_tools(env: &Env) -> Result<(), String> {
+    tools::ensure_wasm_target(env)?;
+    tools::ensure_wasm_bindgen_cli(env)?;
+    tools::ensure_wasm_pack(env)?;
+    tools::ensure_chromium(env)
+}

@@ -1,0 +1,241 @@
+//! Finding and installing what the build and the tests need.
+//!
+//! Every install says what it installs and why before it starts. Nothing is
+//! downloaded outside the package registries: Rust tools come from crates.io through
+//! `cargo install`, the browser from Debian's packages through `apt-get`.
+
+use std::ffi::OsString;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+/// Where things are: the workspace, its target directory, and the directory `cargo
+/// install` puts binaries in (put first on `PATH` for every command we run).
+#[derive(Debug, Clone)]
+pub struct Env {
+    /// The workspace root (where `Cargo.lock` is).
+    pub root: PathBuf,
+    /// Cargo's target directory (honours `CARGO_TARGET_DIR`).
+    pub target_dir: PathBuf,
+    /// `$CARGO_HOME/bin`.
+    pub cargo_bin: PathBuf,
+    /// `PATH` with `cargo_bin` first.
+    pub path: OsString,
+}
+
+/// The workspace root: the parent of this crate's directory.
+pub fn workspace_root() -> PathBuf {
+    let manifest_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    manifest_dir
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or(manifest_dir)
+}
+
+impl Env {
+    /// Finds the target directory and cargo's bin directory.
+    pub fn discover(root: &Path) -> Result<Self, String> {
+        let cargo_home = std::env::var_os("CARGO_HOME")
+            .map(PathBuf::from)
+            .or_else(|| std::env::var_os("HOME").map(|home| PathBuf::from(home).join(".cargo")))
+            .ok_or("neither CARGO_HOME nor HOME is set")?;
+        let cargo_bin = cargo_home.join("bin");
+        let mut paths = vec![cargo_bin.clone()];
+        if let Some(existing) = std::env::var_os("PATH") {
+            paths.extend(std::env::split_paths(&existing));
+        }
+        let path = std::env::join_paths(paths).map_err(|err| format!("bad PATH: {err}"))?;
+        let target_dir = match std::env::var_os("CARGO_TARGET_DIR") {
+            Some(dir) => {
+                let dir = PathBuf::from(dir);
+                if dir.is_absolute() { dir } else { root.join(dir) }
+            }
+            None => root.join("target"),
+        };
+        Ok(Self {
+            root: root.to_path_buf(),
+            target_dir,
+            cargo_bin,
+            path,
+        })
+    }
+}
+
+/// A `cargo` command run from the workspace root with our `PATH`.
+pub fn cargo(env: &Env) -> Command {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let mut command = Command::new(cargo);
+    command.current_dir(&env.root).env("PATH", &env.path);
+    command
+}
+
+/// Any program, run from the workspace root with our `PATH`.
+pub fn program(env: &Env, name: &str) -> Command {
+    let mut command = Command::new(name);
+    command.current_dir(&env.root).env("PATH", &env.path);
+    command
+}
+
+/// Prints and runs `command`, failing if it does not exit successfully.
+pub fn run_command(command: &mut Command) -> Result<(), String> {
+    println!("xtask: $ {}", describe(command));
+    let status = command
+        .status()
+        .map_err(|err| format!("cannot start `{}`: {err}", describe(command)))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("`{}` failed ({status})", describe(command)))
+    }
+}
+
+/// The stdout of `command` if it runs and succeeds.
+fn output_of(command: &mut Command) -> Option<String> {
+    let output = command.stderr(Stdio::null()).output().ok()?;
+    output
+        .status
+        .success()
+        .then(|| String::from_utf8_lossy(&output.stdout).into_owned())
+}
+
+fn describe(command: &Command) -> String {
+    let mut text = command.get_program().to_string_lossy().into_owned();
+    for arg in command.get_args() {
+        text.push(' ');
+        text.push_str(&arg.to_string_lossy());
+    }
+    text
+}
+
+/// Adds the `wasm32-unknown-unknown` target if rustup does not have it.
+pub fn ensure_wasm_target(env: &Env) -> Result<(), String> {
+    let installed = output_of(program(env, "rustup").args(["target", "list", "--installed"]))
+        .ok_or("cannot ask rustup for the installed targets; is rustup installed?")?;
+    if installed.lines().any(|line| line.trim() == "wasm32-unknown-unknown") {
+        return Ok(());
+    }
+    println!("xtask: installing the wasm32-unknown-unknown target (the web app is compiled to WebAssembly)");
+    run_command(program(env, "rustup").args(["target", "add", "wasm32-unknown-unknown"]))
+}
+
+/// The `wasm-bindgen` version recorded in `Cargo.lock`.
+pub fn locked_wasm_bindgen_version(root: &Path) -> Result<String, String> {
+    let lock = std::fs::read_to_string(root.join("Cargo.lock"))
+        .map_err(|err| format!("cannot read Cargo.lock: {err}"))?;
+    locked_version(&lock, "wasm-bindgen")
+        .ok_or_else(|| "Cargo.lock has no wasm-bindgen package".to_owned())
+}
+
+/// The version of package `name` in the text of a `Cargo.lock`.
+pub fn locked_version(lock: &str, name: &str) -> Option<String> {
+    let wanted = format!("name = \"{name}\"");
+    let mut lines = lock.lines();
+    while let Some(line) = lines.next() {
+        if line.trim() == wanted {
+            let version = lines.next()?.trim();
+            return version
+                .strip_prefix("version = \"")
+                .and_then(|rest| rest.strip_suffix('"'))
+                .map(str::to_owned);
+        }
+    }
+    None
+}
+
+/// Installs `wasm-bindgen-cli` at exactly the `wasm-bindgen` version in `Cargo.lock`
+/// (the generated glue and the library must match to the patch version).
+pub fn ensure_wasm_bindgen_cli(env: &Env) -> Result<(), String> {
+    let wanted = locked_wasm_bindgen_version(&env.root)?;
+    let have = output_of(program(env, "wasm-bindgen").arg("--version"));
+    let runner = output_of(program(env, "wasm-bindgen-test-runner").arg("--version"));
+    let matches = |out: &Option<String>| {
+        out.as_deref()
+            .and_then(|text| text.split_whitespace().nth(1))
+            .is_some_and(|version| version == wanted)
+    };
+    if matches(&have) && matches(&runner) {
+        return Ok(());
+    }
+    println!(
+        "xtask: installing wasm-bindgen-cli {wanted} (it must match the wasm-bindgen version in Cargo.lock; {})",
+        match have {
+            Some(text) => format!("found {}", text.trim()),
+            None => "none found".to_owned(),
+        }
+    );
+    run_command(cargo(env).args([
+        "install",
+        "wasm-bindgen-cli",
+        "--version",
+        &wanted,
+        "--locked",
+        "--force",
+    ]))
+}
+
+/// Installs `wasm-pack` (it runs the web app's tests in Chromium) if it is missing.
+pub fn ensure_wasm_pack(env: &Env) -> Result<(), String> {
+    if output_of(program(env, "wasm-pack").arg("--version")).is_some() {
+        return Ok(());
+    }
+    println!("xtask: installing wasm-pack (it runs the web app's tests in headless Chromium)");
+    run_command(cargo(env).args(["install", "wasm-pack", "--locked"]))
+}
+
+/// The path of ChromeDriver.
+pub const CHROMEDRIVER: &str = "/usr/bin/chromedriver";
+/// The path of Chromium.
+pub const CHROMIUM: &str = "/usr/bin/chromium";
+
+/// Installs Debian's Chromium and ChromeDriver when running as root; otherwise stops
+/// with the command to run.
+pub fn ensure_chromium(env: &Env) -> Result<(), String> {
+    if Path::new(CHROMIUM).is_file() && Path::new(CHROMEDRIVER).is_file() {
+        return Ok(());
+    }
+    const INSTALL: &str = "apt-get install -y chromium chromium-driver";
+    let uid = output_of(program(env, "id").arg("-u")).unwrap_or_default();
+    if uid.trim() != "0" {
+        return Err(format!(
+            "Chromium and ChromeDriver are needed for the browser tests; install them with:\n\n    sudo apt-get update && sudo {INSTALL}\n"
+        ));
+    }
+    println!("xtask: installing Debian's chromium and chromium-driver (the browser tests run in headless Chromium)");
+    run_command(
+        program(env, "apt-get")
+            .arg("update")
+            .env("DEBIAN_FRONTEND", "noninteractive"),
+    )?;
+    run_command(
+        program(env, "apt-get")
+            .args(["install", "-y", "--no-install-recommends", "chromium", "chromium-driver"])
+            .env("DEBIAN_FRONTEND", "noninteractive"),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LOCK: &str = r#"
+[[package]]
+name = "wasm-bindgen"
+version = "0.2.105"
+source = "registry+https://github.com/rust-lang/crates.io-index"
+
+[[package]]
+name = "wasm-bindgen-backend"
+version = "0.2.105"
+"#;
+
+    #[test]
+    fn finds_the_locked_version_of_exactly_that_package() {
+        assert_eq!(locked_version(LOCK, "wasm-bindgen").as_deref(), Some("0.2.105"));
+        assert_eq!(locked_version(LOCK, "wasm-bindgen-macro"), None);
+    }
+
+    #[test]
+    fn the_real_lock_file_names_wasm_bindgen() {
+        let version = locked_wasm_bindgen_version(&workspace_root()).unwrap();
+        assert!(version.starts_with("0.2."), "{version}");
+    }
+}
