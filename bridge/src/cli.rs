@@ -32,8 +32,12 @@ pub struct Cli {
 
 /// Runs the command the user asked for until it ends or Ctrl-C is pressed.
 pub async fn run(cli: Cli) -> anyhow::Result<()> {
-    std::fs::create_dir_all(&cli.data_dir)
-        .with_context(|| format!("cannot create the data directory {}", cli.data_dir.display()))?;
+    std::fs::create_dir_all(&cli.data_dir).with_context(|| {
+        format!(
+            "cannot create the data directory {}",
+            cli.data_dir.display()
+        )
+    })?;
     if !cli.static_dir.join("index.html").is_file() {
         tracing::warn!(
             "{} has no index.html: the app will not load (build it with `cargo xtask run`)",
@@ -43,7 +47,9 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
     let listener = tokio::net::TcpListener::bind(cli.listen)
         .await
         .with_context(|| format!("cannot listen on {}", cli.listen))?;
-    let addr = listener.local_addr().context("cannot read the listening address")?;
+    let addr = listener
+        .local_addr()
+        .context("cannot read the listening address")?;
     // The first line on stdout is the URL: people read it, and tests parse it.
     println!("floatball listening on http://{addr}");
     let state = AppState::new(cli.static_dir);

@@ -6,7 +6,10 @@
 //! - [`ws`]: the WebSocket endpoint `/ws`: status out, control in.
 //! - [`state`]: what every request handler shares (status channel, paths).
 #![forbid(unsafe_code)]
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+#![cfg_attr(
+    not(test),
+    deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
+)]
 
 pub mod cli;
 pub mod server;

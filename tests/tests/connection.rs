@@ -12,7 +12,11 @@ const INDICATOR: &str = "[data-testid=connection]";
 async fn app_shows_connected_and_follows_a_bridge_restart() {
     let mut bridge = Bridge::start().await;
     let browser = Browser::start(360, 740).await;
-    browser.client.goto(&bridge.url()).await.expect("open the app");
+    browser
+        .client
+        .goto(&bridge.url())
+        .await
+        .expect("open the app");
 
     browser
         .wait_for_attribute(INDICATOR, "data-state", "connected", UI_TIMEOUT)
@@ -22,7 +26,12 @@ async fn app_shows_connected_and_follows_a_bridge_restart() {
     bridge.stop().await;
     let stopped = Instant::now();
     browser
-        .wait_for_attribute(INDICATOR, "data-state", "disconnected", Duration::from_secs(2))
+        .wait_for_attribute(
+            INDICATOR,
+            "data-state",
+            "disconnected",
+            Duration::from_secs(2),
+        )
         .await;
     assert!(stopped.elapsed() <= Duration::from_secs(2));
     assert_eq!(browser.text(INDICATOR).await, "未连接");

@@ -191,7 +191,9 @@ fn received(weak: &Weak<RefCell<Inner>>, generation: u64, event: &MessageEvent) 
     if link.get_untracked() != Link::Connected {
         link.set(Link::Connected);
     }
-    let Some(text) = event.data().as_string() else { return };
+    let Some(text) = event.data().as_string() else {
+        return;
+    };
     match serde_json::from_str::<ServerMessage>(&text) {
         Ok(message) => on_message(message),
         Err(err) => leptos::logging::warn!("ignoring a message the app does not understand: {err}"),
@@ -244,7 +246,13 @@ mod tests {
 
     #[test]
     fn ws_url_follows_the_page() {
-        assert_eq!(ws_url("http:", "192.168.1.17:8080"), "ws://192.168.1.17:8080/ws");
-        assert_eq!(ws_url("https:", "floatball.local"), "wss://floatball.local/ws");
+        assert_eq!(
+            ws_url("http:", "192.168.1.17:8080"),
+            "ws://192.168.1.17:8080/ws"
+        );
+        assert_eq!(
+            ws_url("https:", "floatball.local"),
+            "wss://floatball.local/ws"
+        );
     }
 }

@@ -36,12 +36,18 @@ async fn connection_indicator_shows_both_states_in_both_languages() {
     });
     let indicator = element(&container, "connection");
     assert_eq!(indicator.text_content().as_deref(), Some("未连接"));
-    assert_eq!(indicator.get_attribute("data-state").as_deref(), Some("disconnected"));
+    assert_eq!(
+        indicator.get_attribute("data-state").as_deref(),
+        Some("disconnected")
+    );
 
     link.set(Link::Connected);
     tick().await;
     assert_eq!(indicator.text_content().as_deref(), Some("已连接"));
-    assert_eq!(indicator.get_attribute("data-state").as_deref(), Some("connected"));
+    assert_eq!(
+        indicator.get_attribute("data-state").as_deref(),
+        Some("connected")
+    );
 
     lang.set(Lang::En);
     tick().await;
@@ -50,14 +56,20 @@ async fn connection_indicator_shows_both_states_in_both_languages() {
     link.set(Link::Connecting);
     tick().await;
     assert_eq!(indicator.text_content().as_deref(), Some("Not connected"));
-    assert_eq!(indicator.get_attribute("data-state").as_deref(), Some("connecting"));
+    assert_eq!(
+        indicator.get_attribute("data-state").as_deref(),
+        Some("connecting")
+    );
 }
 
 #[wasm_bindgen_test]
 async fn language_switch_toggles() {
     let container = fresh_container();
     let lang = RwSignal::new(Lang::Zh);
-    let _mounted = mount_to(container.clone(), move || view! { <LanguageSwitch lang=lang /> });
+    let _mounted = mount_to(
+        container.clone(),
+        move || view! { <LanguageSwitch lang=lang /> },
+    );
     let switch = element(&container, "lang");
     assert_eq!(switch.text_content().as_deref(), Some("English"));
     switch.click();

@@ -30,6 +30,12 @@ pub fn build_web(env: &Env) -> Result<(), String> {
             .arg(&wasm)
             .arg("--out-dir")
             .arg(&out_dir)
-            .args(["--out-name", "floatball", "--target", "web", "--no-typescript"]),
+            .args([
+                "--out-name",
+                "floatball",
+                "--target",
+                "web",
+                "--no-typescript",
+            ]),
     )
 }

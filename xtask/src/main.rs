@@ -91,7 +91,15 @@ fn run(args: &[String]) -> Result<(), String> {
     println!("xtask: starting floatball; open http://localhost:{port} (Ctrl-C stops it)");
     let mut command = tools::cargo(&env);
     command
-        .args(["run", "--release", "--package", "floatball-bridge", "--bin", "floatball", "--"])
+        .args([
+            "run",
+            "--release",
+            "--package",
+            "floatball-bridge",
+            "--bin",
+            "floatball",
+            "--",
+        ])
         .args(["--listen", &options.listen])
         .args(["--data-dir", &options.data_dir])
         .args(["--static-dir", &path_string(root.join("static"))])

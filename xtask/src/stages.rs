@@ -102,19 +102,29 @@ pub fn test() -> Result<(), String> {
             "floatball",
         ]))
     });
-    stage("end-to-end tests (real bridge, headless Chromium)", &|env| {
-        tools::run_command(
-            tools::cargo(env)
-                .args(["test", "--package", "floatball-e2e"])
-                .env("FLOATBALL_BIN", env.target_dir.join("debug").join("floatball"))
-                .env("FLOATBALL_STATIC_DIR", env.root.join("static"))
-                .env("CHROMEDRIVER", tools::CHROMEDRIVER),
-        )
-    });
+    stage(
+        "end-to-end tests (real bridge, headless Chromium)",
+        &|env| {
+            tools::run_command(
+                tools::cargo(env)
+                    .args(["test", "--package", "floatball-e2e"])
+                    .env(
+                        "FLOATBALL_BIN",
+                        env.target_dir.join("debug").join("floatball"),
+                    )
+                    .env("FLOATBALL_STATIC_DIR", env.root.join("static"))
+                    .env("CHROMEDRIVER", tools::CHROMEDRIVER),
+            )
+        },
+    );
 
     println!("\nxtask: summary");
     for outcome in &outcomes {
-        let mark = if outcome.error.is_none() { "ok  " } else { "FAIL" };
+        let mark = if outcome.error.is_none() {
+            "ok  "
+        } else {
+            "FAIL"
+        };
         println!("  {mark} {:<52} {:>7.1} s", outcome.name, outcome.seconds);
     }
     let failed = outcomes.iter().filter(|o| o.error.is_some()).count();

@@ -8,17 +8,15 @@ use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-/// Where things are: the workspace, its target directory, and the directory `cargo
-/// install` puts binaries in (put first on `PATH` for every command we run).
+/// Where things are: the workspace, its target directory, and a `PATH` that starts
+/// with the directory `cargo install` puts binaries in.
 #[derive(Debug, Clone)]
 pub struct Env {
     /// The workspace root (where `Cargo.lock` is).
     pub root: PathBuf,
     /// Cargo's target directory (honours `CARGO_TARGET_DIR`).
     pub target_dir: PathBuf,
-    /// `$CARGO_HOME/bin`.
-    pub cargo_bin: PathBuf,
-    /// `PATH` with `cargo_bin` first.
+    /// `PATH` with `$CARGO_HOME/bin` first, so freshly installed tools are found.
     pub path: OsString,
 }
 
@@ -47,14 +45,17 @@ impl Env {
         let target_dir = match std::env::var_os("CARGO_TARGET_DIR") {
             Some(dir) => {
                 let dir = PathBuf::from(dir);
-                if dir.is_absolute() { dir } else { root.join(dir) }
+                if dir.is_absolute() {
+                    dir
+                } else {
+                    root.join(dir)
+                }
             }
             None => root.join("target"),
         };
         Ok(Self {
             root: root.to_path_buf(),
             target_dir,
-            cargo_bin,
             path,
         })
     }
@@ -110,10 +111,15 @@ fn describe(command: &Command) -> String {
 pub fn ensure_wasm_target(env: &Env) -> Result<(), String> {
     let installed = output_of(program(env, "rustup").args(["target", "list", "--installed"]))
         .ok_or("cannot ask rustup for the installed targets; is rustup installed?")?;
-    if installed.lines().any(|line| line.trim() == "wasm32-unknown-unknown") {
+    if installed
+        .lines()
+        .any(|line| line.trim() == "wasm32-unknown-unknown")
+    {
         return Ok(());
     }
-    println!("xtask: installing the wasm32-unknown-unknown target (the web app is compiled to WebAssembly)");
+    println!(
+        "xtask: installing the wasm32-unknown-unknown target (the web app is compiled to WebAssembly)"
+    );
     run_command(program(env, "rustup").args(["target", "add", "wasm32-unknown-unknown"]))
 }
 
@@ -162,14 +168,28 @@ pub fn ensure_wasm_bindgen_cli(env: &Env) -> Result<(), String> {
             None => "none found".to_owned(),
         }
     );
-    run_command(cargo(env).args([
-        "install",
-        "wasm-bindgen-cli",
-        "--version",
-        &wanted,
-        "--locked",
-        "--force",
-    ]))
+    cargo_install(env, "wasm-bindgen-cli", Some(&wanted))
+}
+
+/// `cargo install` of `krate` (at `version` if given), with `--locked` first.
+fn cargo_install(env: &Env, krate: &str, version: Option<&str>) -> Result<(), String> {
+    let install = |locked: bool| {
+        let mut command = cargo(env);
+        command.args(["install", krate, "--force"]);
+        if let Some(version) = version {
+            command.args(["--version", version]);
+        }
+        if locked {
+            command.arg("--locked");
+        }
+        run_command(&mut command)
+    };
+    install(true).or_else(|err| {
+        // A release's own lock file can pin a dependency version the registry has
+        // since withdrawn; the same release then still builds with fresh resolution.
+        println!("xtask: {err}; retrying without --locked");
+        install(false)
+    })
 }
 
 /// Installs `wasm-pack` (it runs the web app's tests in Chromium) if it is missing.
@@ -178,7 +198,7 @@ pub fn ensure_wasm_pack(env: &Env) -> Result<(), String> {
         return Ok(());
     }
     println!("xtask: installing wasm-pack (it runs the web app's tests in headless Chromium)");
-    run_command(cargo(env).args(["install", "wasm-pack", "--locked"]))
+    cargo_install(env, "wasm-pack", None)
 }
 
 /// The path of ChromeDriver.
@@ -199,7 +219,9 @@ pub fn ensure_chromium(env: &Env) -> Result<(), String> {
             "Chromium and ChromeDriver are needed for the browser tests; install them with:\n\n    sudo apt-get update && sudo {INSTALL}\n"
         ));
     }
-    println!("xtask: installing Debian's chromium and chromium-driver (the browser tests run in headless Chromium)");
+    println!(
+        "xtask: installing Debian's chromium and chromium-driver (the browser tests run in headless Chromium)"
+    );
     run_command(
         program(env, "apt-get")
             .arg("update")
@@ -207,7 +229,13 @@ pub fn ensure_chromium(env: &Env) -> Result<(), String> {
     )?;
     run_command(
         program(env, "apt-get")
-            .args(["install", "-y", "--no-install-recommends", "chromium", "chromium-driver"])
+            .args([
+                "install",
+                "-y",
+                "--no-install-recommends",
+                "chromium",
+                "chromium-driver",
+            ])
             .env("DEBIAN_FRONTEND", "noninteractive"),
     )
 }
@@ -229,7 +257,10 @@ version = "0.2.105"
 
     #[test]
     fn finds_the_locked_version_of_exactly_that_package() {
-        assert_eq!(locked_version(LOCK, "wasm-bindgen").as_deref(), Some("0.2.105"));
+        assert_eq!(
+            locked_version(LOCK, "wasm-bindgen").as_deref(),
+            Some("0.2.105")
+        );
         assert_eq!(locked_version(LOCK, "wasm-bindgen-macro"), None);
     }
 
