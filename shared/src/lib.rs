@@ -8,8 +8,15 @@
 //! # Layout
 //! - [`api`]: the JSON messages of the HTTP and WebSocket API (DESIGN §4), shared by the
 //!   bridge and the app so both sides agree on every field.
+//! - [`ascii`]: the UIM2503 instruction language (host → gateway): typed instructions, the
+//!   encoder (20-character rule, compact form), the script parser and the gateway-side
+//!   byte reader.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+#![cfg_attr(
+    not(test),
+    deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
+)]
 
 pub mod api;
+pub mod ascii;
