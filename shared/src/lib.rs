@@ -8,6 +8,12 @@
 //! # Layout
 //! - [`api`]: the JSON messages of the HTTP and WebSocket API (DESIGN §4), shared by the
 //!   bridge and the app so both sides agree on every field.
+//! - [`ascii`]: the UIM2503 instruction language (host → gateway): typed instructions, the
+//!   encoder (20-character rule, compact form), the script parser and the gateway-side
+//!   byte reader.
+//! - [`feedback`]: the binary feedback frames (gateway → host): the streaming decoder, the
+//!   frame encoder, typed ACKs, notifications and errors, and every code in one place
+//!   ([`feedback::code`]).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 #![cfg_attr(
@@ -16,3 +22,5 @@
 )]
 
 pub mod api;
+pub mod ascii;
+pub mod feedback;
