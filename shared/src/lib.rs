@@ -8,8 +8,16 @@
 //! # Layout
 //! - [`api`]: the JSON messages of the HTTP and WebSocket API (DESIGN §4), shared by the
 //!   bridge and the app so both sides agree on every field.
+//! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
+//!   single-sequence and loop runs, `MP` parameters, watermark) driven by time.
+//! - [`show`]: the show model and its native file format, CSV keyframe import,
+//!   validation against an installation's limits, and sampling for the preview.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+#![cfg_attr(
+    not(test),
+    deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
+)]
 
 pub mod api;
+pub mod pvt;
