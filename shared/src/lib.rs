@@ -21,3 +21,4 @@
 
 pub mod api;
 pub mod pvt;
+pub mod show;
