@@ -797,3 +797,89 @@ mod tests {
         assert_eq!(error.to_string(), "line 2, column 3: \"x\" is not a number");
     }
 }
+
+#[cfg(all(test, not(target_arch = "wasm32")))]
+mod proptests {
+    use proptest::prelude::*;
+
+    use super::*;
+    use crate::show::{DEFAULT_TRAVEL_MM, Limits, ViolationKind, validate};
+
+    /// Balls, then keyframes as (gap before it in ms with decimals, a position per
+    /// ball in [0, travel], often right at the ends).
+    fn keyframes() -> impl Strategy<Value = (usize, Vec<(f64, Vec<f64>)>)> {
+        (1usize..4).prop_flat_map(|units| {
+            let position =
+                prop_oneof![Just(0.0), Just(DEFAULT_TRAVEL_MM), 0.0..=DEFAULT_TRAVEL_MM,];
+            let frame = (10.5..700.0f64, proptest::collection::vec(position, units));
+            (Just(units), proptest::collection::vec(frame, 1..30))
+        })
+    }
+
+    /// The CSV text, and the keyframe times (ms) as the importer rounds them.
+    fn csv(units: usize, frames: &[(f64, Vec<f64>)]) -> (String, Vec<u64>) {
+        let header: Vec<_> = (0..units).map(|u| format!("u{u}")).collect();
+        let mut text = format!("time_ms,{}\n", header.join(","));
+        let mut times_ms = Vec::new();
+        let mut time_ms = 0.0;
+        for (index, (gap_ms, positions)) in frames.iter().enumerate() {
+            if index > 0 {
+                time_ms += gap_ms;
+            }
+            let time = format!("{time_ms:.3}");
+            times_ms.push(time.parse::<f64>().unwrap().round() as u64);
+            let values: Vec<_> = positions.iter().map(f64::to_string).collect();
+            text.push_str(&format!("{time},{}\n", values.join(",")));
+        }
+        (text, times_ms)
+    }
+
+    proptest! {
+        #[test]
+        fn imported_tracks_pass_every_keyframe_and_stay_in_travel((units, frames) in keyframes()) {
+            let (text, times_ms) = csv(units, &frames);
+            let layout = Layout { rows: 1, cols: u32::try_from(units).unwrap(), pitch_mm: 500.0 };
+            let show = import_csv("p", &text, layout).unwrap();
+            show.check().unwrap();
+            for (unit, track) in show.tracks.iter().enumerate() {
+                let keyframe = |i: usize| frames[i].1[unit];
+                prop_assert_eq!(track.start_mm, keyframe(0));
+                // Walk the rows: every keyframe time is a row end exactly on the keyframe,
+                // and between two keyframes the curve stays between them.
+                let mut next = 1;
+                for (start_ms, segment) in track.segments() {
+                    let end_ms = start_ms + (segment.duration_s * 1000.0).round() as u64;
+                    let (a, b) = (keyframe(next - 1), keyframe(next));
+                    let range = segment.position_range();
+                    let slack = 1e-9 * DEFAULT_TRAVEL_MM;
+                    prop_assert!(range.min.value >= a.min(b) - slack, "{range:?} {a} {b}");
+                    prop_assert!(range.max.value <= a.max(b) + slack, "{range:?} {a} {b}");
+                    prop_assert!(range.min.value >= -slack);
+                    prop_assert!(range.max.value <= DEFAULT_TRAVEL_MM + slack);
+                    prop_assert!((10..=255).contains(&((segment.duration_s * 1000.0).round() as u64)));
+                    if end_ms == times_ms[next] {
+                        prop_assert_eq!(segment.p1, b);
+                        next += 1;
+                    } else {
+                        prop_assert!(end_ms < times_ms[next]);
+                    }
+                }
+                prop_assert_eq!(next, frames.len(), "every keyframe reached");
+                prop_assert_eq!(track.rows.last().map_or(0.0, |row| row.velocity_mm_s), 0.0);
+            }
+            // Validation agrees: no ball leaves the travel.
+            let violations = validate(&show, &Limits::for_layout(1, layout.cols));
+            prop_assert!(!violations.iter().any(|v| matches!(
+                v.kind,
+                ViolationKind::AboveTop { .. } | ViolationKind::BelowTravel { .. }
+            )), "{violations:?}");
+        }
+
+        #[test]
+        fn any_text_is_imported_or_refused_without_panic(text in "[0-9u#=,.\\-e \n]{0,120}") {
+            let layout = Layout { rows: 1, cols: 2, pitch_mm: 500.0 };
+            let _ = import_csv("p", &format!("time_ms,u0,u1\n{text}"), layout);
+            let _ = import_csv("p", &text, layout);
+        }
+    }
+}

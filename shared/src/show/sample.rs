@@ -324,3 +324,233 @@ fn interval_segment(
 fn rgb_f32(rgb: [u8; 3]) -> [f32; 3] {
     rgb.map(f32::from)
 }
+
+#[cfg(test)]
+mod tests {
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
+
+    use super::*;
+    use crate::show::{ColourKey, Layout, Track, TrackRow};
+
+    fn show() -> Show {
+        let rows = |rows: &[(f64, f64, u32)]| rows.iter().copied().map(TrackRow::from).collect();
+        Show {
+            name: "sampler".into(),
+            layout: Layout {
+                rows: 1,
+                cols: 3,
+                pitch_mm: 500.0,
+            },
+            tracks: vec![
+                Track {
+                    start_mm: 1000.0,
+                    rows: rows(&[
+                        (1200.0, 800.0, 250),
+                        (1500.0, 0.0, 100),
+                        (900.0, -300.0, 255),
+                        (800.0, 0.0, 95),
+                    ]),
+                    colours: vec![
+                        ColourKey {
+                            time_ms: 100,
+                            rgb: [0, 0, 0],
+                        },
+                        ColourKey {
+                            time_ms: 300,
+                            rgb: [200, 100, 255],
+                        },
+                    ],
+                },
+                Track {
+                    start_mm: 0.0,
+                    rows: rows(&[(7500.0, 0.0, 200), (0.0, 0.0, 200), (10.0, 0.0, 300)]),
+                    colours: Vec::new(),
+                },
+                Track {
+                    start_mm: 50.0,
+                    rows: Vec::new(),
+                    colours: Vec::new(),
+                },
+            ],
+        }
+    }
+
+    /// The position by the PVT evaluator directly.
+    fn expected(track: &Track, t_ms: f64) -> f32 {
+        let mut position = track.start_mm;
+        for (start_ms, segment) in track.segments() {
+            let start_ms = start_ms as f64;
+            if t_ms < start_ms {
+                break;
+            }
+            position = segment.position(((t_ms - start_ms) / 1000.0).min(segment.duration_s));
+        }
+        position as f32
+    }
+
+    #[test]
+    fn follows_the_pvt_evaluator() {
+        let show = show();
+        let mut sampler = Sampler::new(&show);
+        assert_eq!(sampler.unit_count(), 3);
+        assert_eq!(sampler.duration_ms(), 700);
+        let mut positions = [0.0f32; 3];
+        for step in -20..=900 {
+            let t_ms = f64::from(step) * 0.9;
+            sampler.sample(t_ms, &mut positions, None);
+            for (unit, track) in show.tracks.iter().enumerate() {
+                let want = expected(track, t_ms);
+                assert!(
+                    (positions[unit] - want).abs() <= 1e-3,
+                    "unit {unit} at {t_ms} ms: {} vs {want}",
+                    positions[unit]
+                );
+            }
+        }
+    }
+
+    fn expected_at_200() -> f32 {
+        expected(&show().tracks[0], 200.0)
+    }
+
+    #[test]
+    fn rows_end_exactly_and_the_ends_hold() {
+        let show = show();
+        let mut sampler = Sampler::new(&show);
+        let mut positions = [0.0f32; 3];
+        for (t_ms, want) in [
+            (-1e9, [1000.0, 0.0, 50.0]),
+            (0.0, [1000.0, 0.0, 50.0]),
+            (200.0, [expected_at_200(), 7500.0, 50.0]),
+            (250.0, [1200.0, 6328.125, 50.0]),
+            (350.0, [1500.0, 1171.875, 50.0]),
+            (700.0, [800.0, 10.0, 50.0]),
+            (1e12, [800.0, 10.0, 50.0]),
+            (f64::INFINITY, [800.0, 10.0, 50.0]),
+            (f64::NAN, [1000.0, 0.0, 50.0]),
+        ] {
+            sampler.sample(t_ms, &mut positions, None);
+            assert_eq!(positions, want, "at {t_ms} ms");
+        }
+    }
+
+    #[test]
+    fn any_order_of_times_gives_the_same_answer() {
+        let show = show();
+        let mut sampler = Sampler::new(&show);
+        let times = [
+            500.0, 10.0, 10.5, 699.0, 0.0, -5.0, 260.0, 259.0, 1000.0, 351.0,
+        ];
+        for t_ms in times {
+            let mut fresh = [0.0f32; 3];
+            Sampler::new(&show).sample(t_ms, &mut fresh, None);
+            let mut reused = [0.0f32; 3];
+            sampler.sample(t_ms, &mut reused, None);
+            assert_eq!(fresh, reused, "at {t_ms} ms");
+        }
+    }
+
+    #[test]
+    fn colours_interpolate_and_hold() {
+        let show = show();
+        let mut sampler = Sampler::new(&show);
+        let mut positions = [0.0f32; 3];
+        let mut colours = [[1u8; 3]; 3];
+        for (t_ms, want) in [
+            (0.0, [0, 0, 0]),
+            (100.0, [0, 0, 0]),
+            (200.0, [100, 50, 128]),
+            (300.0, [200, 100, 255]),
+            (5000.0, [200, 100, 255]),
+            (150.0, [50, 25, 64]),
+        ] {
+            sampler.sample(t_ms, &mut positions, Some(&mut colours));
+            assert_eq!(colours[0], want, "at {t_ms} ms");
+            assert_eq!(colours[1], DEFAULT_COLOUR);
+        }
+    }
+
+    #[test]
+    fn short_buffers_get_the_first_balls() {
+        let show = show();
+        let mut sampler = Sampler::new(&show);
+        let mut positions = [0.0f32; 1];
+        let mut colours = [[0u8; 3]; 2];
+        sampler.sample(250.0, &mut positions, Some(&mut colours));
+        assert_eq!(positions, [1200.0]);
+        assert_eq!(colours[1], DEFAULT_COLOUR);
+        sampler.sample(250.0, &mut [], Some(&mut []));
+        let mut all = [0.0f32; 3];
+        sampler.sample(250.0, &mut all, None);
+        assert_eq!(all, [1200.0, 6328.125, 50.0]);
+    }
+
+    #[test]
+    fn a_zero_ms_row_is_an_instant_jump() {
+        let mut show = show();
+        show.tracks[2].rows = vec![
+            TrackRow::new(50.0, 0.0, 100),
+            TrackRow::new(500.0, 0.0, 0),
+            TrackRow::new(500.0, 0.0, 100),
+        ];
+        let mut sampler = Sampler::new(&show);
+        let mut positions = [0.0f32; 3];
+        sampler.sample(99.0, &mut positions, None);
+        assert_eq!(positions[2], 50.0);
+        sampler.sample(100.0, &mut positions, None);
+        assert_eq!(positions[2], 500.0);
+    }
+}
+
+#[cfg(all(test, not(target_arch = "wasm32")))]
+mod proptests {
+    use proptest::prelude::*;
+
+    use super::*;
+    use crate::show::{Layout, Track, TrackRow};
+
+    fn track() -> impl Strategy<Value = Track> {
+        (
+            0.0..7500.0f64,
+            proptest::collection::vec((0.0..7500.0f64, -3000.0..3000.0f64, 10u32..=255), 0..30),
+        )
+            .prop_map(|(start_mm, rows)| Track {
+                start_mm,
+                rows: rows.into_iter().map(TrackRow::from).collect(),
+                colours: Vec::new(),
+            })
+    }
+
+    proptest! {
+        #[test]
+        fn reused_sampler_matches_a_fresh_one_and_the_evaluator(
+            tracks in proptest::collection::vec(track(), 1..6),
+            times in proptest::collection::vec(-100.0..8000.0f64, 1..40),
+        ) {
+            let show = Show {
+                name: "p".into(),
+                layout: Layout { rows: 1, cols: u32::try_from(tracks.len()).unwrap(), pitch_mm: 1.0 },
+                tracks,
+            };
+            let mut sampler = Sampler::new(&show);
+            let mut reused = vec![0.0f32; show.tracks.len()];
+            let mut fresh = vec![0.0f32; show.tracks.len()];
+            for t_ms in times {
+                sampler.sample(t_ms, &mut reused, None);
+                Sampler::new(&show).sample(t_ms, &mut fresh, None);
+                prop_assert_eq!(&reused, &fresh);
+                for (unit, track) in show.tracks.iter().enumerate() {
+                    let mut want = track.start_mm;
+                    for (start_ms, segment) in track.segments() {
+                        if t_ms >= start_ms as f64 {
+                            let tau_s = ((t_ms - start_ms as f64) / 1000.0).min(segment.duration_s);
+                            want = segment.position(tau_s);
+                        }
+                    }
+                    prop_assert!((f64::from(reused[unit]) - want).abs() < 1e-3 * want.abs().max(1.0));
+                }
+            }
+        }
+    }
+}
