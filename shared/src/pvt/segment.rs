@@ -22,6 +22,8 @@
 //! assert!(row.peak_speed().value >= 8000.0);
 //! ```
 
+use std::ops::{Add, Mul, Sub};
+
 /// Position, velocity and acceleration at one instant, in the caller's units
 /// (e.g. counts, counts/s, counts/s²).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -56,16 +58,22 @@ pub struct PositionRange {
 /// 1 = end): `p0`, `p1` are the end positions, `m0`, `m1` the end velocities multiplied
 /// by the segment's duration.
 ///
-/// This is the one function that turns a PVT row into a position. At `s = 0` it returns
-/// `p0` and at `s = 1` exactly `p1`; outside `0..=1` it extrapolates the cubic.
+/// This is the one function that turns a PVT row into a position: in `f64` for the
+/// evaluator (and so the simulator and planner), in `f32` for the preview's
+/// [`Sampler`](crate::show::Sampler). At `s = 0` it returns `p0` and at `s = 1` exactly
+/// `p1`; outside `0..=1` it extrapolates the cubic.
 #[inline]
 #[must_use]
-pub fn hermite_position(p0: f64, m0: f64, p1: f64, m1: f64, s: f64) -> f64 {
+pub fn hermite_position<F>(p0: F, m0: F, p1: F, m1: F, s: F) -> F
+where
+    F: Copy + Add<Output = F> + Sub<Output = F> + Mul<Output = F> + From<u8>,
+{
+    let (one, two, three) = (F::from(1), F::from(2), F::from(3));
     let s2 = s * s;
     let s3 = s2 * s;
-    let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
-    let h01 = 3.0 * s2 - 2.0 * s3;
-    let h10 = s3 - 2.0 * s2 + s;
+    let h00 = two * s3 - three * s2 + one;
+    let h01 = three * s2 - two * s3;
+    let h10 = s3 - two * s2 + s;
     let h11 = s3 - s2;
     h00 * p0 + h01 * p1 + (h10 * m0 + h11 * m1)
 }
