@@ -494,6 +494,30 @@ mod tests {
         assert_eq!(show.check(), Err(ShowError::NotFinite { unit: 1 }));
     }
 
+    /// The fenced block after `opening` in the format's documentation.
+    fn documented(opening: &str) -> &'static str {
+        let doc = include_str!("../../../docs/show-format.md");
+        let start = doc.find(opening).unwrap() + opening.len();
+        let end = start + doc[start..].find("```").unwrap();
+        &doc[start..end]
+    }
+
+    #[test]
+    fn the_documented_examples_are_valid() {
+        let show = Show::from_json(documented("```json\n")).unwrap();
+        assert_eq!(show.tracks.len(), 4);
+        assert_eq!(show.duration_ms(), 1000);
+        assert_eq!(validate(&show, &Limits::for_layout(2, 2)), []);
+        let installation = Layout {
+            rows: 1,
+            cols: 1,
+            pitch_mm: 1.0,
+        };
+        let show = import_csv("doc", documented("```text\n"), installation).unwrap();
+        assert_eq!(show.layout.unit_count(), 3);
+        assert_eq!(show.tracks[2].rows[2].position_mm, 950.0);
+    }
+
     #[test]
     fn cells_are_row_major() {
         let layout = Layout {
