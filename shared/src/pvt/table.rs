@@ -467,6 +467,11 @@ impl PvtTable {
     /// See [`PvtError`]: unknown or read-only parameters, values out of range, mode 2,
     /// and `MP[1]`…`MP[3]` while moving.
     pub fn set_mp(&mut self, index: u8, value: i32) -> Result<(), PvtError> {
+        match index {
+            0..=3 | 5 => {}
+            6 => return Err(PvtError::ReadOnlyParameter),
+            _ => return Err(PvtError::NoSuchParameter { index }),
+        }
         let out_of_range = PvtError::ValueOutOfRange { index, value };
         let n = u8::try_from(value).map_err(|_| out_of_range)?;
         if matches!(index, 1..=3) && self.is_moving() {
@@ -482,9 +487,7 @@ impl PvtTable {
             (3, 2) => return Err(PvtError::ReservedMode),
             (3, 3) => self.mode = Mode::Loop,
             (5, 0..=254) => self.watermark = n,
-            (0 | 3 | 5, _) => return Err(out_of_range),
-            (6, _) => return Err(PvtError::ReadOnlyParameter),
-            _ => return Err(PvtError::NoSuchParameter { index }),
+            _ => return Err(out_of_range),
         }
         Ok(())
     }
@@ -712,7 +715,7 @@ impl PvtTable {
             segment: row.segment_from(position, velocity),
         };
         run.read_index = index;
-        events.rows_started += 1;
+        events.rows_started = events.rows_started.saturating_add(1);
         events.last_row = Some(RowStart { index, at_us });
         let pending = match self.mode {
             Mode::Fifo => {
@@ -1173,6 +1176,10 @@ mod tests {
         );
         assert_eq!(t.set_mp(4, 0), Err(PvtError::NoSuchParameter { index: 4 }));
         assert_eq!(t.set_mp(7, 0), Err(PvtError::NoSuchParameter { index: 7 }));
+        assert_eq!(
+            t.set_mp(9, 300),
+            Err(PvtError::NoSuchParameter { index: 9 })
+        );
         assert_eq!(t.mp(4), Err(PvtError::NoSuchParameter { index: 4 }));
         assert_eq!(t.set_mp(6, 0), Err(PvtError::ReadOnlyParameter));
         assert_eq!(

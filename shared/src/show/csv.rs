@@ -64,6 +64,9 @@ pub enum CsvProblem {
     /// Nothing but blank lines.
     #[error("the file is empty; it must start with a header line \"time_ms,u0,u1,…\"")]
     Empty,
+    /// A layout line and nothing after it.
+    #[error("the header line \"time_ms,u0,u1,…\" is missing after the layout line")]
+    NoHeader,
     /// A `#` line that is not a layout line in first position.
     #[error(
         "a line starting with # is only allowed first, as the layout \"# rows=R cols=C pitch_mm=P\""
@@ -209,7 +212,7 @@ pub fn import_csv(name: &str, text: &str, installation: Layout) -> Result<Show, 
         (header_number, header) = lines.next().ok_or(CsvError {
             line: header_number + 1,
             column: 1,
-            problem: CsvProblem::Empty,
+            problem: CsvProblem::NoHeader,
         })?;
     }
     let units = parse_header(header_number, header)?;
@@ -654,6 +657,10 @@ mod tests {
     #[test]
     fn errors_name_line_and_column() {
         assert_eq!(error_at(""), (1, 1, CsvProblem::Empty));
+        assert_eq!(
+            error_at("# rows=1 cols=2\n\n"),
+            (2, 1, CsvProblem::NoHeader)
+        );
         assert_eq!(
             error_at("time_ms,u0,u2\n"),
             (

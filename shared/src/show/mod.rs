@@ -10,7 +10,7 @@
 //!
 //! - this module: the model and the native file format (JSON, `docs/show-format.md`);
 //! - [`csv`]: keyframe import from 3D tools;
-//! - [`validate`]: checks against an installation's limits;
+//! - [`mod@validate`]: checks against an installation's limits;
 //! - [`sample`]: positions and colours of every ball at any time, for the preview.
 //!
 //! ```
