@@ -14,6 +14,10 @@
 //! - [`feedback`]: the binary feedback frames (gateway → host): the streaming decoder, the
 //!   frame encoder, typed ACKs, notifications and errors, and every code in one place
 //!   ([`feedback::code`]).
+//! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
+//!   single-sequence and loop runs, `MP` parameters, watermark) driven by time.
+//! - [`show`]: the show model and its native file format, CSV keyframe import,
+//!   validation against an installation's limits, and sampling for the preview.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 #![cfg_attr(
@@ -24,3 +28,5 @@
 pub mod api;
 pub mod ascii;
 pub mod feedback;
+pub mod pvt;
+pub mod show;

@@ -1,0 +1,532 @@
+//! Shows: what every ball of a matrix does over time, independent of the hardware
+//! (DESIGN §3).
+//!
+//! A [`Show`] is a name, a [`Layout`] (rows × columns of balls) and one [`Track`] per
+//! ball in row-major order. Positions are in **mm below the top** (0 = top, the
+//! installation's travel = lowest), velocities in mm/s, durations in whole ms. A track
+//! is the ball's start position (at rest) and a list of PVT rows, each "be at
+//! `position_mm` moving at `velocity_mm_s` after `duration_ms`", evaluated with the
+//! same [`Segment`] as the units run; plus optional colour keyframes for the preview.
+//!
+//! - this module: the model and the native file format (JSON, `docs/show-format.md`);
+//! - [`csv`]: keyframe import from 3D tools;
+//! - [`mod@validate`]: checks against an installation's limits;
+//! - [`sample`]: positions and colours of every ball at any time, for the preview.
+//!
+//! ```
+//! use floatball_shared::show::{Layout, Show, Track, TrackRow};
+//!
+//! # fn main() -> Result<(), floatball_shared::show::ShowError> {
+//! let track = Track {
+//!     start_mm: 1000.0,
+//!     rows: vec![TrackRow::new(1500.0, 0.0, 250)],
+//!     colours: Vec::new(),
+//! };
+//! let show = Show {
+//!     name: "drop".into(),
+//!     layout: Layout { rows: 1, cols: 1, pitch_mm: 500.0 },
+//!     tracks: vec![track],
+//! };
+//! let json = show.to_json()?;
+//! assert_eq!(Show::from_json(&json)?, show);
+//! assert_eq!(show.duration_ms(), 250);
+//! # Ok(())
+//! # }
+//! ```
+
+pub mod csv;
+pub mod sample;
+pub mod validate;
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::pvt::Segment;
+
+pub use csv::{CsvError, CsvProblem, import_csv};
+pub use sample::Sampler;
+pub use validate::{Limits, UnitRef, Violation, ViolationKind, validate};
+
+/// The `"format"` of a native show file.
+pub const FORMAT: &str = "floatball-show";
+
+/// The native file format version this code reads and writes.
+pub const VERSION: u64 = 1;
+
+/// A UFQ750's travel, mm (manual: 7.5 m).
+pub const DEFAULT_TRAVEL_MM: f64 = 7500.0;
+
+/// The grid of balls, seen from below: `rows` × `cols`, `pitch_mm` apart.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Layout {
+    /// Number of rows of balls.
+    pub rows: u32,
+    /// Number of balls in each row.
+    pub cols: u32,
+    /// Distance between neighbouring balls, mm.
+    pub pitch_mm: f64,
+}
+
+impl Layout {
+    /// Number of balls, `rows × cols`.
+    #[must_use]
+    pub fn unit_count(&self) -> usize {
+        self.rows as usize * self.cols as usize
+    }
+
+    /// The 0-based (row, column) of the ball at row-major `unit` index.
+    #[must_use]
+    pub fn cell(&self, unit: usize) -> (u32, u32) {
+        let cols = self.cols.max(1) as usize;
+        (
+            u32::try_from(unit / cols).unwrap_or(u32::MAX),
+            u32::try_from(unit % cols).unwrap_or(u32::MAX),
+        )
+    }
+}
+
+/// One PVT row of a track: be at `position_mm` moving at `velocity_mm_s` after
+/// `duration_ms`. In a file it is the array `[position_mm, velocity_mm_s, duration_ms]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(from = "(f64, f64, u32)", into = "(f64, f64, u32)")]
+pub struct TrackRow {
+    /// Target position, mm below the top.
+    pub position_mm: f64,
+    /// Velocity at the target, mm/s (positive = downwards).
+    pub velocity_mm_s: f64,
+    /// Duration, ms (a unit accepts 10–255).
+    pub duration_ms: u32,
+}
+
+impl TrackRow {
+    /// A row reaching `position_mm` at `velocity_mm_s` after `duration_ms`.
+    #[must_use]
+    pub const fn new(position_mm: f64, velocity_mm_s: f64, duration_ms: u32) -> Self {
+        Self {
+            position_mm,
+            velocity_mm_s,
+            duration_ms,
+        }
+    }
+}
+
+impl From<(f64, f64, u32)> for TrackRow {
+    fn from((position_mm, velocity_mm_s, duration_ms): (f64, f64, u32)) -> Self {
+        Self::new(position_mm, velocity_mm_s, duration_ms)
+    }
+}
+
+impl From<TrackRow> for (f64, f64, u32) {
+    fn from(row: TrackRow) -> Self {
+        (row.position_mm, row.velocity_mm_s, row.duration_ms)
+    }
+}
+
+/// A colour keyframe for the preview (the units' lamps are not controlled over the
+/// protocol). Between keyframes the colour changes linearly; before the first and after
+/// the last it holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ColourKey {
+    /// Show time, ms.
+    pub time_ms: u64,
+    /// Red, green, blue.
+    pub rgb: [u8; 3],
+}
+
+/// One ball's motion: it starts at rest at `start_mm`, then runs `rows` in order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Track {
+    /// Start position, mm below the top; the ball is at rest there at time 0.
+    pub start_mm: f64,
+    /// The PVT rows.
+    pub rows: Vec<TrackRow>,
+    /// Colour keyframes in strictly increasing time (may be empty).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub colours: Vec<ColourKey>,
+}
+
+impl Track {
+    /// Total duration of the rows, ms.
+    #[must_use]
+    pub fn duration_ms(&self) -> u64 {
+        self.rows.iter().map(|row| u64::from(row.duration_ms)).sum()
+    }
+
+    /// Each row as a segment in mm, mm/s and seconds, with its start time in ms.
+    pub fn segments(&self) -> impl Iterator<Item = (u64, Segment)> + '_ {
+        let mut from = (self.start_mm, 0.0, 0u64);
+        self.rows.iter().map(move |row| {
+            let (p0, v0, start_ms) = from;
+            let segment = Segment::new(
+                p0,
+                v0,
+                row.position_mm,
+                row.velocity_mm_s,
+                f64::from(row.duration_ms) / 1000.0,
+            );
+            from = (
+                row.position_mm,
+                row.velocity_mm_s,
+                start_ms + u64::from(row.duration_ms),
+            );
+            (start_ms, segment)
+        })
+    }
+}
+
+/// A show: a name, the layout it was made for and one track per ball, row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Show {
+    /// A name for people.
+    pub name: String,
+    /// The grid the show was made for.
+    pub layout: Layout,
+    /// One track per ball, row-major (`tracks[row * cols + col]`).
+    pub tracks: Vec<Track>,
+}
+
+/// A show file that cannot be read.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum ShowError {
+    /// The text is not JSON, or a field is missing, unknown or of the wrong type.
+    #[error("the show file is not valid: {message}")]
+    Invalid {
+        /// What serde found, with its line and column.
+        message: String,
+    },
+    /// The JSON is not a Floatball show.
+    #[error("this is not a Floatball show file: \"format\" is {found:?}, expected \"{FORMAT}\"")]
+    WrongFormat {
+        /// The `"format"` found (empty when missing).
+        found: String,
+    },
+    /// A version this code does not read (a newer Floatball wrote it).
+    #[error(
+        "this show file is format version {found}, but this Floatball reads version {VERSION}; \
+         update Floatball to open it"
+    )]
+    UnsupportedVersion {
+        /// The `"version"` found.
+        found: u64,
+    },
+    /// The layout has no balls or a pitch that is not a positive number.
+    #[error("the layout must have at least one row and one column and a positive pitch_mm")]
+    EmptyLayout,
+    /// The number of tracks differs from rows × cols.
+    #[error("the show has {tracks} tracks but its layout is {rows} × {cols} = {} balls", *rows as usize * *cols as usize)]
+    TrackCount {
+        /// Tracks in the show.
+        tracks: usize,
+        /// Layout rows.
+        rows: u32,
+        /// Layout columns.
+        cols: u32,
+    },
+    /// A position or velocity is not a finite number.
+    #[error("track {unit}: a position or velocity is not a finite number")]
+    NotFinite {
+        /// The track's index.
+        unit: usize,
+    },
+    /// Colour keyframes out of order.
+    #[error("track {unit}: colour keyframe {index} is not later than the one before")]
+    ColourOrder {
+        /// The track's index.
+        unit: usize,
+        /// The keyframe's index.
+        index: usize,
+    },
+}
+
+/// The file as read.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileIn {
+    format: String,
+    version: u64,
+    name: String,
+    layout: Layout,
+    units: Vec<Track>,
+}
+
+/// The file as written, borrowing the show.
+#[derive(Serialize)]
+struct FileOut<'a> {
+    format: &'static str,
+    version: u64,
+    name: &'a str,
+    layout: &'a Layout,
+    units: &'a [Track],
+}
+
+/// Just the identifying fields, to explain why a file does not read as this version.
+#[derive(Deserialize)]
+struct Header {
+    format: Option<String>,
+    version: Option<u64>,
+}
+
+impl Show {
+    /// Reads a native show file and [checks](Self::check) it.
+    ///
+    /// # Errors
+    /// [`ShowError`]: not JSON or not the expected shape, another format, another
+    /// version (refused with a message saying so), or an inconsistent show.
+    pub fn from_json(text: &str) -> Result<Self, ShowError> {
+        let file = match serde_json::from_str::<FileIn>(text) {
+            Ok(file) => file,
+            Err(error) => {
+                // Explain a foreign or newer file better than by its first odd field.
+                if let Ok(header) = serde_json::from_str::<Header>(text) {
+                    check_header(header.format.as_deref(), header.version)?;
+                }
+                return Err(ShowError::Invalid {
+                    message: error.to_string(),
+                });
+            }
+        };
+        check_header(Some(&file.format), Some(file.version))?;
+        let show = Self {
+            name: file.name,
+            layout: file.layout,
+            tracks: file.units,
+        };
+        show.check()?;
+        Ok(show)
+    }
+
+    /// Writes the native show file (compact JSON).
+    ///
+    /// # Errors
+    /// [`ShowError::Invalid`] if serialisation fails.
+    pub fn to_json(&self) -> Result<String, ShowError> {
+        let file = FileOut {
+            format: FORMAT,
+            version: VERSION,
+            name: &self.name,
+            layout: &self.layout,
+            units: &self.tracks,
+        };
+        serde_json::to_string(&file).map_err(|error| ShowError::Invalid {
+            message: error.to_string(),
+        })
+    }
+
+    /// Checks that the show is consistent in itself (not against an installation: see
+    /// [`validate()`]): a non-empty layout, one track per ball, finite numbers, colour
+    /// keyframes in order. [`from_json`](Self::from_json) and [`import_csv`] only
+    /// return shows that pass; call it on shows built in code.
+    ///
+    /// # Errors
+    /// The first inconsistency found.
+    pub fn check(&self) -> Result<(), ShowError> {
+        let layout = self.layout;
+        if layout.rows == 0
+            || layout.cols == 0
+            || !layout.pitch_mm.is_finite()
+            || layout.pitch_mm <= 0.0
+        {
+            return Err(ShowError::EmptyLayout);
+        }
+        if self.tracks.len() != layout.unit_count() {
+            return Err(ShowError::TrackCount {
+                tracks: self.tracks.len(),
+                rows: layout.rows,
+                cols: layout.cols,
+            });
+        }
+        for (unit, track) in self.tracks.iter().enumerate() {
+            let finite = track.start_mm.is_finite()
+                && track
+                    .rows
+                    .iter()
+                    .all(|row| row.position_mm.is_finite() && row.velocity_mm_s.is_finite());
+            if !finite {
+                return Err(ShowError::NotFinite { unit });
+            }
+            if let Some(index) = track
+                .colours
+                .windows(2)
+                .position(|pair| pair[1].time_ms <= pair[0].time_ms)
+            {
+                return Err(ShowError::ColourOrder {
+                    unit,
+                    index: index + 1,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The longest track's duration, ms.
+    #[must_use]
+    pub fn duration_ms(&self) -> u64 {
+        self.tracks
+            .iter()
+            .map(Track::duration_ms)
+            .max()
+            .unwrap_or(0)
+    }
+}
+
+fn check_header(format: Option<&str>, version: Option<u64>) -> Result<(), ShowError> {
+    match (format, version) {
+        (Some(FORMAT), Some(VERSION) | None) => Ok(()),
+        (Some(FORMAT), Some(found)) => Err(ShowError::UnsupportedVersion { found }),
+        (found, _) => Err(ShowError::WrongFormat {
+            found: found.unwrap_or_default().to_owned(),
+        }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
+
+    use super::*;
+
+    const EXAMPLE: &str = r#"{
+        "format": "floatball-show",
+        "version": 1,
+        "name": "two balls",
+        "layout": {"rows": 1, "cols": 2, "pitch_mm": 600},
+        "units": [
+            {"start_mm": 500, "rows": [[1000, 2000, 250], [1500, 0, 250]],
+             "colours": [{"time_ms": 0, "rgb": [255, 0, 0]}, {"time_ms": 500, "rgb": [0, 0, 255]}]},
+            {"start_mm": 500, "rows": [[500, 0, 250], [500, 0, 250]]}
+        ]
+    }"#;
+
+    #[test]
+    fn reads_and_round_trips_a_show() {
+        let show = Show::from_json(EXAMPLE).unwrap();
+        assert_eq!(show.name, "two balls");
+        assert_eq!(show.layout.unit_count(), 2);
+        assert_eq!(show.tracks[0].rows[0], TrackRow::new(1000.0, 2000.0, 250));
+        assert_eq!(show.tracks[0].colours[1].rgb, [0, 0, 255]);
+        assert!(show.tracks[1].colours.is_empty());
+        assert_eq!(show.duration_ms(), 500);
+        let json = show.to_json().unwrap();
+        assert!(json.starts_with(r#"{"format":"floatball-show","version":1,"#));
+        assert!(json.contains("[1000.0,2000.0,250]"));
+        assert_eq!(Show::from_json(&json).unwrap(), show);
+    }
+
+    #[test]
+    fn segments_chain_from_rest_at_the_start() {
+        let show = Show::from_json(EXAMPLE).unwrap();
+        let segments: Vec<_> = show.tracks[0].segments().collect();
+        assert_eq!(segments[0].0, 0);
+        assert_eq!(
+            segments[0].1,
+            Segment::new(500.0, 0.0, 1000.0, 2000.0, 0.25)
+        );
+        assert_eq!(segments[1].0, 250);
+        assert_eq!(
+            segments[1].1,
+            Segment::new(1000.0, 2000.0, 1500.0, 0.0, 0.25)
+        );
+    }
+
+    #[test]
+    fn a_future_version_is_refused_clearly() {
+        let newer = EXAMPLE.replace(r#""version": 1"#, r#""version": 2"#);
+        let error = Show::from_json(&newer).unwrap_err();
+        assert_eq!(error, ShowError::UnsupportedVersion { found: 2 });
+        assert!(error.to_string().contains("update Floatball"));
+        // Even when the newer file has fields this version does not know.
+        let newer = newer.replace(r#""name""#, r#""tempo": 120, "name""#);
+        assert_eq!(
+            Show::from_json(&newer),
+            Err(ShowError::UnsupportedVersion { found: 2 })
+        );
+    }
+
+    #[test]
+    fn other_files_are_refused() {
+        let other = EXAMPLE.replace("floatball-show", "something-else");
+        assert_eq!(
+            Show::from_json(&other),
+            Err(ShowError::WrongFormat {
+                found: "something-else".into()
+            })
+        );
+        assert!(matches!(
+            Show::from_json("{\"format\": \"floatball-show\""),
+            Err(ShowError::Invalid { .. })
+        ));
+        let error = Show::from_json(r#"{"hello": 1}"#).unwrap_err();
+        assert_eq!(error, ShowError::WrongFormat { found: "".into() });
+        let typo = EXAMPLE.replace("pitch_mm", "pich_mm");
+        let error = Show::from_json(&typo).unwrap_err();
+        assert!(error.to_string().contains("pich_mm"), "{error}");
+        let bad_row = EXAMPLE.replace("[1500, 0, 250]", "[1500, 0, -250]");
+        assert!(matches!(
+            Show::from_json(&bad_row),
+            Err(ShowError::Invalid { .. })
+        ));
+    }
+
+    #[test]
+    fn inconsistent_shows_are_refused() {
+        let missing = EXAMPLE.replace(r#""cols": 2"#, r#""cols": 3"#);
+        assert_eq!(
+            Show::from_json(&missing),
+            Err(ShowError::TrackCount {
+                tracks: 2,
+                rows: 1,
+                cols: 3
+            })
+        );
+        let empty = EXAMPLE.replace(r#""rows": 1,"#, r#""rows": 0,"#);
+        assert_eq!(Show::from_json(&empty), Err(ShowError::EmptyLayout));
+        let order = EXAMPLE.replace(r#""time_ms": 500"#, r#""time_ms": 0"#);
+        assert_eq!(
+            Show::from_json(&order),
+            Err(ShowError::ColourOrder { unit: 0, index: 1 })
+        );
+        let mut show = Show::from_json(EXAMPLE).unwrap();
+        show.tracks[1].rows[0].velocity_mm_s = f64::NAN;
+        assert_eq!(show.check(), Err(ShowError::NotFinite { unit: 1 }));
+    }
+
+    /// The fenced block after `opening` in the format's documentation.
+    fn documented(opening: &str) -> &'static str {
+        let doc = include_str!("../../../docs/show-format.md");
+        let start = doc.find(opening).unwrap() + opening.len();
+        let end = start + doc[start..].find("```").unwrap();
+        &doc[start..end]
+    }
+
+    #[test]
+    fn the_documented_examples_are_valid() {
+        let show = Show::from_json(documented("```json\n")).unwrap();
+        assert_eq!(show.tracks.len(), 4);
+        assert_eq!(show.duration_ms(), 1000);
+        assert_eq!(validate(&show, &Limits::for_layout(2, 2)), []);
+        let installation = Layout {
+            rows: 1,
+            cols: 1,
+            pitch_mm: 1.0,
+        };
+        let show = import_csv("doc", documented("```text\n"), installation).unwrap();
+        assert_eq!(show.layout.unit_count(), 3);
+        assert_eq!(show.tracks[2].rows[2].position_mm, 950.0);
+    }
+
+    #[test]
+    fn cells_are_row_major() {
+        let layout = Layout {
+            rows: 3,
+            cols: 4,
+            pitch_mm: 500.0,
+        };
+        assert_eq!(layout.cell(0), (0, 0));
+        assert_eq!(layout.cell(5), (1, 1));
+        assert_eq!(layout.cell(11), (2, 3));
+    }
+}
