@@ -1,10 +1,197 @@
-//! The JSON messages of the HTTP and WebSocket API (DESIGN §4).
+//! The JSON messages of the HTTP and WebSocket API (DESIGN §4): the contract between
+//! the bridge and its clients.
 //!
 //! The bridge serialises these and the web app deserialises them (and the other way
-//! round for [`ClientMessage`]), so the wire contract lives in exactly one place.
-//! Every WebSocket text frame is one JSON object with a `"type"` field.
+//! round for requests), so every field is defined in exactly one place. `docs/api.md`
+//! documents the same contract for people.
+//!
+//! Every WebSocket text frame is one JSON object with a `"type"` field:
+//!
+//! ```
+//! use floatball_shared::api::{ClientMessage, ServerMessage};
+//!
+//! let raw: ClientMessage = serde_json::from_str(r#"{"type":"raw","line":"*5;PV;"}"#).unwrap();
+//! assert_eq!(raw, ClientMessage::Raw { line: "*5;PV;".into() });
+//! let error = ServerMessage::Error { message: "no such show".into() };
+//! assert_eq!(
+//!     serde_json::to_string(&error).unwrap(),
+//!     r#"{"type":"error","message":"no such show"}"#
+//! );
+//! ```
 
 use serde::{Deserialize, Serialize};
+
+// ----------------------------------------------------------------------------------
+// HTTP
+// ----------------------------------------------------------------------------------
+
+/// `POST /api/login` request body.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LoginRequest {
+    /// The operator password.
+    pub password: String,
+}
+
+/// `POST /api/login` answer (200).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LoginResponse {
+    /// The bearer token for `Authorization: Bearer …` and `/ws?token=…`.
+    pub token: String,
+    /// The password is still the factory default (`1234`): uploads and control are
+    /// refused (403) until it is changed with `POST /api/password`.
+    pub must_change_password: bool,
+}
+
+/// `POST /api/password` request body.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PasswordChange {
+    /// The current password.
+    pub old: String,
+    /// The new password.
+    pub new: String,
+}
+
+/// The body of every HTTP error answer: `{"error": "...", "details": [...]}`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ApiError {
+    /// What went wrong, in one sentence an operator can act on.
+    pub error: String,
+    /// Every individual problem (e.g. each validation violation of a show), if any.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub details: Vec<String>,
+}
+
+/// One show in `GET /api/shows` and the answer to a successful upload (201).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShowSummary {
+    /// The show's file name on the controller (any script, at most 100 bytes).
+    pub name: String,
+    /// Size of the stored native JSON file, bytes.
+    pub bytes: u64,
+    /// SHA-256 of the stored file, lowercase hex.
+    pub sha256: String,
+    /// Last modification time, RFC 3339 in UTC (e.g. `2026-11-21T06:30:00Z`).
+    pub modified: String,
+    /// Number of balls (tracks) in the show.
+    pub units: u32,
+    /// Length of the show, ms.
+    pub duration_ms: u64,
+}
+
+/// One entry of the playlist.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PlaylistEntry {
+    /// The name of a show stored on the controller.
+    pub show: String,
+    /// Wait before the entry starts, ms.
+    pub delay_ms: u64,
+    /// How many times the entry plays in a row (the vendor app's "period"); at least 1.
+    pub cycles: u32,
+}
+
+/// `GET` / `PUT /api/playlist`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Playlist {
+    /// The entries, played in order by Start.
+    pub entries: Vec<PlaylistEntry>,
+    /// After the last entry, start again from the first.
+    #[serde(rename = "loop")]
+    pub loop_playlist: bool,
+    /// Delay given to newly added entries, ms.
+    pub default_delay_ms: u64,
+    /// Cycles given to newly added entries.
+    pub default_cycles: u32,
+}
+
+impl Default for Playlist {
+    fn default() -> Self {
+        Self {
+            entries: Vec::new(),
+            loop_playlist: false,
+            default_delay_ms: 0,
+            default_cycles: 1,
+        }
+    }
+}
+
+/// Whether a show can run on this installation, and why not (`GET /api/plan/{name}`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanReport {
+    /// The show's name.
+    pub show: String,
+    /// The show can run: it is valid and every gateway's line can carry it.
+    pub feasible: bool,
+    /// Why it cannot run (absent when feasible).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+    /// What would make it run (higher baud, fewer units per gateway, longer rows…).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fixes: Vec<String>,
+    /// The figures per gateway.
+    pub gateways: Vec<GatewayPlan>,
+}
+
+/// The bandwidth figures of one gateway in a [`PlanReport`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GatewayPlan {
+    /// The configured port (`sim` for a simulated gateway).
+    pub port: String,
+    /// The link's speed, baud.
+    pub baud: u32,
+    /// Units of the show on this gateway.
+    pub units: u32,
+    /// Mean bytes on the wire per PVT row.
+    pub bytes_per_row: f64,
+    /// Bytes sent before the synchronised start.
+    pub preload_bytes: u64,
+    /// Time to send the preload at this baud, ms.
+    pub preload_ms: u64,
+    /// Streaming rate the show needs while it plays, bytes/s.
+    pub needed_bytes_per_s: f64,
+    /// Rate the line carries (baud / 10), bytes/s.
+    pub available_bytes_per_s: f64,
+    /// The lowest FIFO water level any unit reaches (simulated), rows; absent when no
+    /// unit streams.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lowest_water_level: Option<u16>,
+}
+
+/// `GET /api/sim/positions`: the simulated units' true state, for tests and the app.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SimPositions {
+    /// Every simulated gateway, in configuration order.
+    pub gateways: Vec<SimGateway>,
+}
+
+/// One simulated gateway in [`SimPositions`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SimGateway {
+    /// Index of the gateway in the configuration.
+    pub gateway: usize,
+    /// The simulator's clock, µs since it started.
+    pub time_us: u64,
+    /// Every unit on this gateway's bus.
+    pub units: Vec<SimUnit>,
+}
+
+/// One simulated unit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SimUnit {
+    /// Its station number (CAN id).
+    pub station: u8,
+    /// Its serial number.
+    pub serial: u64,
+    /// Position, counts below the top (0 = upper limit).
+    pub position_counts: f64,
+    /// Velocity, counts/s (positive = down).
+    pub velocity_counts_s: f64,
+    /// The motor is enabled (`MO=1`).
+    pub motor_on: bool,
+}
+
+// ----------------------------------------------------------------------------------
+// WebSocket
+// ----------------------------------------------------------------------------------
 
 /// A message from a client (the web app, a test) to the bridge over `/ws`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -20,6 +207,9 @@ pub enum ClientMessage {
     Raw {
         /// The instruction text, e.g. `*5;PV;`.
         line: String,
+        /// Which gateway to send it to (index in the configuration); all when absent.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        gateway: Option<usize>,
     },
     /// Liveness check; the bridge answers [`ServerMessage::Pong`].
     Ping,
@@ -32,6 +222,8 @@ pub enum ServerMessage {
     /// The state of the matrix, sent on connect, on every change and at most ten
     /// times a second.
     Status(Status),
+    /// One decoded feedback frame from a gateway.
+    Feedback(FeedbackFrame),
     /// The answer to a [`ClientMessage::Ping`].
     Pong,
     /// A request was refused; the connection stays open.
@@ -39,6 +231,19 @@ pub enum ServerMessage {
         /// What was wrong, in words an operator can act on.
         message: String,
     },
+}
+
+/// A decoded feedback frame, as relayed to clients (bit 7 of the data restored).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FeedbackFrame {
+    /// Index of the gateway in the configuration.
+    pub gateway: usize,
+    /// The unit's station number.
+    pub station: u8,
+    /// The frame's code (the instruction's code for an ACK).
+    pub code: u8,
+    /// The restored data bytes (at most 8).
+    pub data: Vec<u8>,
 }
 
 /// What the player is doing.
@@ -81,6 +286,15 @@ pub struct GatewayStatus {
     pub port: String,
     /// Whether the link is up.
     pub link: LinkState,
+    /// Bytes written to the line per second, averaged over the last second.
+    pub bytes_per_s: f64,
+    /// The lowest FIFO water level of the units on this gateway during the current
+    /// show, rows; absent when nothing streams.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lowest_water_level: Option<u16>,
+    /// Why the link is down, if it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
 }
 
 /// The `status` message.
@@ -88,9 +302,24 @@ pub struct GatewayStatus {
 pub struct Status {
     /// What the player is doing.
     pub state: PlayerState,
+    /// Index of the playlist entry being played, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub entry: Option<usize>,
+    /// Name of the show being played, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub show: Option<String>,
+    /// Time into the show, ms.
+    pub show_time_ms: u64,
+    /// Length of the show, ms (0 when none).
+    pub show_duration_ms: u64,
+    /// Which cycle of the entry is playing (1-based; 0 when none).
+    pub cycle: u32,
+    /// Progress of the current phase (loading or playback), 0.0 to 1.0.
+    pub progress: f64,
     /// Every configured gateway and its link.
     pub gateways: Vec<GatewayStatus>,
     /// The last error, if any, in words an operator can act on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub last_error: Option<String>,
 }
 
@@ -108,7 +337,8 @@ mod tests {
         assert_eq!(
             raw,
             ClientMessage::Raw {
-                line: "*5;PV;".into()
+                line: "*5;PV;".into(),
+                gateway: None
             }
         );
         let estop: ClientMessage = serde_json::from_str(r#"{"type":"estop"}"#).expect("estop");
@@ -120,6 +350,45 @@ mod tests {
         let json = serde_json::to_value(ServerMessage::Status(Status::default())).expect("json");
         assert_eq!(json["type"], "status");
         assert_eq!(json["state"], "idle");
+        assert!(json.get("last_error").is_none());
+    }
+
+    #[test]
+    fn feedback_has_the_documented_fields() {
+        let message = ServerMessage::Feedback(FeedbackFrame {
+            gateway: 0,
+            station: 5,
+            code: 0x23,
+            data: vec![3, 0],
+        });
+        let json = serde_json::to_string(&message).expect("json");
+        assert_eq!(
+            json,
+            r#"{"type":"feedback","gateway":0,"station":5,"code":35,"data":[3,0]}"#
+        );
+    }
+
+    #[test]
+    fn playlist_uses_loop_as_the_field_name() {
+        let playlist: Playlist = serde_json::from_str(
+            r#"{"entries":[{"show":"波浪","delay_ms":500,"cycles":2}],"loop":true,
+                "default_delay_ms":0,"default_cycles":1}"#,
+        )
+        .expect("playlist");
+        assert!(playlist.loop_playlist);
+        assert_eq!(playlist.entries[0].show, "波浪");
+        let json = serde_json::to_value(&playlist).expect("json");
+        assert_eq!(json["loop"], true);
+    }
+
+    #[test]
+    fn api_errors_omit_empty_details() {
+        let json = serde_json::to_string(&ApiError {
+            error: "bad name".into(),
+            details: Vec::new(),
+        })
+        .expect("json");
+        assert_eq!(json, r#"{"error":"bad name"}"#);
     }
 
     #[test]
