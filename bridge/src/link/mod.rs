@@ -337,10 +337,10 @@ fn run_writer(shared: &Shared, line: &mut impl LineWrite, lost: &AtomicBool) -> 
             } else {
                 IDLE_TICK
             };
-            if wait.is_zero() {
-                if let Some(from_bulk) = queues.pop_into(&mut instruction) {
-                    break from_bulk;
-                }
+            if wait.is_zero()
+                && let Some(from_bulk) = queues.pop_into(&mut instruction)
+            {
+                break from_bulk;
             }
             queues = lanes.wait(queues, wait.min(IDLE_TICK));
         };
