@@ -11,7 +11,7 @@ use std::collections::VecDeque;
 use std::sync::{Condvar, Mutex, MutexGuard};
 use std::time::Duration;
 
-use super::batch::Batch;
+use floatball_shared::ascii::Batch;
 
 /// One lane: instruction bytes back to back, and each instruction's length.
 #[derive(Debug, Default)]
@@ -271,7 +271,7 @@ mod tests {
         let mut queues = Queues::default();
         queues.push_bulk(&batch("*5;PV=0;BG;"));
         queues.push_priority(&batch("*0;MO=0;"));
-        assert_eq!(queues.clear_bulk(), 12);
+        assert_eq!(queues.clear_bulk(), 11);
         assert_eq!(drain(&mut queues), ["*0;", "MO=0;"]);
         assert!(!queues.has_work());
     }

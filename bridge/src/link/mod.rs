@@ -9,12 +9,10 @@
 //! dropped (nothing stale is sent later), and the link is retried with backoff while
 //! the daemon keeps serving.
 //!
-//! - [`batch`]: validated instructions on their way to a gateway;
 //! - [`lanes`]: the two lanes and the station re-selection after a priority write;
 //! - [`pacer`]: line timing and the bytes/s meter;
 //! - [`serial`]: serial ports through the `serialport` crate.
 
-pub mod batch;
 pub mod lanes;
 pub mod pacer;
 pub mod serial;
@@ -27,7 +25,7 @@ use floatball_shared::api::LinkState;
 use floatball_shared::feedback::Frame;
 use tokio::sync::{broadcast, watch};
 
-pub use batch::Batch;
+pub use floatball_shared::ascii::Batch;
 use lanes::Lanes;
 use pacer::{Pacer, RateMeter};
 

@@ -107,7 +107,7 @@ mod tests {
     #[test]
     fn a_byte_takes_ten_bit_times() {
         assert_eq!(byte_time(9600), Duration::from_secs_f64(10.0 / 9600.0));
-        assert_eq!(byte_time(115_200).as_nanos(), 86_805);
+        assert_eq!(byte_time(115_200).as_nanos(), 86_806);
     }
 
     #[test]

@@ -5,10 +5,11 @@
 //! every instruction ends: it writes one instruction at a time so an e-stop never waits
 //! behind more than one.
 
-use floatball_shared::ascii::{EncodeError, Form, Instruction};
+use super::{EncodeError, Form, Instruction};
 
 /// Encoded, validated instructions, in order.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[must_use]
 pub struct Batch {
     bytes: Vec<u8>,
     /// Length of each instruction in `bytes`, in order (each ≤ 20).
@@ -85,7 +86,10 @@ impl Batch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use floatball_shared::ascii::parse_script;
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
+
+    use crate::ascii::parse_script;
 
     #[test]
     fn splits_at_instruction_boundaries() {
