@@ -917,6 +917,80 @@ mod tests {
     }
 
     #[test]
+    fn a_timed_bg_whose_parameters_went_wrong_reports_when_its_time_comes() {
+        let mut gateway = Gateway::new(GatewayConfig::numbered(1)).unwrap();
+        gateway.receive(
+            0,
+            b"*1;MO=1;MP[3]=1;MP[1]=0;MP[2]=1;QT[0]=10;QT[1]=10;PV=0;",
+        );
+        sent(&mut gateway);
+        gateway.receive(0, b"BG=1000;MP[1]=5;");
+        assert_eq!(
+            sent(&mut gateway),
+            format!(
+                "{} {}",
+                ack(1, Ack::Begin { at_us: 1000 }),
+                ack(1, Ack::MotionProfile { param: 1, value: 5 })
+            )
+        );
+        gateway.advance(1000);
+        assert_eq!(sent(&mut gateway), error(1, 0x33, 0x22, 2), "sent unasked");
+        assert!(!gateway.unit(0).unwrap().moving);
+    }
+
+    #[test]
+    fn a_point_to_point_move_takes_over_a_pvt_run_at_once() {
+        let mut gateway = Gateway::new(GatewayConfig::numbered(1)).unwrap();
+        // FIFO rows up to a steady 10000 counts/s; PA=0;BG; in the middle of the second.
+        gateway.receive(0, b"*1;MO=1;SP=5000;QP[0]=1000;QV[0]=10000;QT[0]=200;");
+        gateway.receive(0, b"QP[1]=2000;QV[1]=10000;QT[1]=100;PV=0;BG;");
+        sent(&mut gateway);
+        gateway.advance(250_000);
+        let at = gateway.unit(0).unwrap();
+        assert!((at.velocity_counts_s - 10_000.0).abs() < 1e-6, "{at:?}");
+        gateway.receive(250_000, b"PA=0;BG;PV;");
+        assert_eq!(
+            sent(&mut gateway),
+            [
+                ack(1, Ack::PtpPosition { position_counts: 0 }),
+                ack(1, Ack::Begin { at_us: 0 }),
+                ack(1, Ack::PvtStart { value: 0 }),
+            ]
+            .join(" ")
+        );
+        // It brakes from 10000 counts/s, comes back at SP and stops at 0.
+        let trapezoid = Trapezoid::new(at.position_counts, 10_000.0, 0.0, 5000.0, 400_000.0);
+        assert_eq!(trapezoid.pieces().len(), 4);
+        for ms in 250..1000 {
+            gateway.advance(ms * 1000);
+            let tau = (ms - 250) as f64 / 1000.0;
+            assert!(
+                (position(&gateway, 0) - trapezoid.kinematics(tau).position).abs() < 1e-6,
+                "{ms} ms"
+            );
+        }
+        assert_eq!(sent(&mut gateway), "", "the PVT run ended silently");
+    }
+
+    #[test]
+    fn braking_after_a_run_never_exceeds_the_top_acceleration() {
+        let mut gateway = Gateway::new(GatewayConfig::numbered(1)).unwrap();
+        gateway.receive(
+            0,
+            b"*1;MO=1;SD=4000000000;QP[0]=1000;QV[0]=20000;QT[0]=100;PV=0;BG;",
+        );
+        gateway.advance(100_000);
+        // 20000 counts/s at the top acceleration, 400000 counts/s²: 50 ms, 500 counts.
+        gateway.advance(125_000);
+        let braking = gateway.unit(0).unwrap();
+        assert!((braking.velocity_counts_s - 10_000.0).abs() < 1e-6);
+        gateway.advance(150_000);
+        let stopped = gateway.unit(0).unwrap();
+        assert!((stopped.position_counts - 1500.0).abs() < 1e-6);
+        assert!(!stopped.moving);
+    }
+
+    #[test]
     fn a_global_bg_starts_every_unit_in_the_same_microsecond() {
         let mut gateway = Gateway::new(GatewayConfig::numbered(5)).unwrap();
         gateway.receive(0, b"*0;MO=1;MP[3]=0;QP[0]=500;QV[0]=0;QT[0]=100;PV=0;");
