@@ -590,20 +590,14 @@ impl Unit {
     pub fn moving(&self, at_us: u64, limits: &Limits) -> bool {
         match self.motion {
             Motion::Rest { .. } => false,
-            Motion::Ptp { .. } | Motion::Pvt { .. } if at_us >= self.next_motion_end() => false,
-            Motion::Ptp { .. } => true,
-            Motion::Pvt { .. } => {
-                self.table.current_row().is_some() || self.kinematics(at_us, limits).velocity != 0.0
+            Motion::Ptp { end_us, stop, .. } => {
+                at_us < stop.map_or(end_us, |stop| stop.at_us.min(end_us))
             }
-        }
-    }
-
-    /// When the current move ends or stops at a limit (`u64::MAX` if not known yet).
-    fn next_motion_end(&self) -> u64 {
-        match self.motion {
-            Motion::Rest { .. } => 0,
-            Motion::Ptp { end_us, stop, .. } => stop.map_or(end_us, |stop| stop.at_us.min(end_us)),
-            Motion::Pvt { stop, .. } => stop.map_or(u64::MAX, |stop| stop.at_us),
+            Motion::Pvt { stop, .. } => {
+                stop.is_none_or(|stop| at_us < stop.at_us)
+                    && (self.table.current_row().is_some()
+                        || self.kinematics(at_us, limits).velocity != 0.0)
+            }
         }
     }
 }
