@@ -475,6 +475,10 @@ pub struct RangeError {
     pub min: i128,
     /// The largest value allowed.
     pub max: i128,
+    /// For an operand, the index of its instruction (`QT[3]=0` → `Some(3)`), so that a
+    /// unit can say which row or parameter it refused; `None` for an instruction
+    /// without an index and for the other fields.
+    pub index: Option<u8>,
 }
 
 /// A documented range; the parsers and the encoder take every limit from the constants
@@ -505,6 +509,7 @@ impl Range {
             value,
             min: self.min,
             max: self.max,
+            index: None,
         }
     }
 }

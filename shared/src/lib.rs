@@ -18,6 +18,8 @@
 //!   single-sequence and loop runs, `MP` parameters, watermark) driven by time.
 //! - [`show`]: the show model and its native file format, CSV keyframe import,
 //!   validation against an installation's limits, and sampling for the preview.
+//! - [`sim`]: a simulated gateway and its units: instruction bytes and time in,
+//!   feedback bytes out, every ball's PVT table and motion in between.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 #![cfg_attr(
@@ -30,3 +32,4 @@ pub mod ascii;
 pub mod feedback;
 pub mod pvt;
 pub mod show;
+pub mod sim;
