@@ -14,6 +14,8 @@
 //! - [`feedback`]: the binary feedback frames (gateway → host): the streaming decoder, the
 //!   frame encoder, typed ACKs, notifications and errors, and every code in one place
 //!   ([`feedback::code`]).
+//! - [`plan`]: from a show and an installation to each gateway's instruction stream in
+//!   the fewest bytes, the FIFO refill schedule and the bandwidth / feasibility report.
 //! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
 //!   single-sequence and loop runs, `MP` parameters, watermark) driven by time.
 //! - [`show`]: the show model and its native file format, CSV keyframe import,
@@ -30,6 +32,7 @@
 pub mod api;
 pub mod ascii;
 pub mod feedback;
+pub mod plan;
 pub mod pvt;
 pub mod show;
 pub mod sim;

@@ -133,6 +133,7 @@ impl From<UnitView> for SimUnit {
             position_counts: unit.position_counts,
             velocity_counts_s: unit.velocity_counts_s,
             motor_on: unit.motor_on,
+            moving: unit.moving,
         }
     }
 }
@@ -1131,6 +1132,7 @@ mod tests {
                 position_counts: 0.0,
                 velocity_counts_s: 0.0,
                 motor_on: true,
+                moving: false,
             }
         );
         assert_eq!(gateway.unit(2), None);
