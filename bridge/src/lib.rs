@@ -5,6 +5,8 @@
 //! - [`link`]: the links to the gateways (serial ports, the simulated gateway) with
 //!   their e-stop lane.
 //! - [`simulate`]: `floatball simulate`, the simulated gateway on a real serial device.
+//! - [`playback`]: the player driven by the clock and the links; e-stop straight to
+//!   the links.
 //! - [`server`]: the HTTP server — static app, API routes — and its shutdown.
 //! - [`ws`]: the WebSocket endpoint `/ws`: status out, control in.
 //! - [`state`]: what every request handler shares (status channel, paths).
@@ -16,6 +18,7 @@
 
 pub mod cli;
 pub mod link;
+pub mod playback;
 pub mod server;
 pub mod simulate;
 pub mod state;
