@@ -69,7 +69,7 @@ fn estop() -> Batch {
 
 async fn wait_for(playback: &Playback, within: Duration, what: impl Fn(&Status) -> bool) -> Status {
     let mut status = playback.status();
-    let found = tokio::time::timeout(within, status.wait_for(|status| what(status)))
+    tokio::time::timeout(within, status.wait_for(|status| what(status)))
         .await
         .unwrap_or_else(|_| {
             panic!(
@@ -78,8 +78,7 @@ async fn wait_for(playback: &Playback, within: Duration, what: impl Fn(&Status) 
             )
         })
         .unwrap()
-        .clone();
-    found
+        .clone()
 }
 
 async fn up(link: &Link) {
