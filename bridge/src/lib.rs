@@ -2,16 +2,29 @@
 //!
 //! # Layout
 //! - [`cli`]: the command line and what each command does.
-//! - [`server`]: the HTTP server — static app, API routes — and its shutdown.
-//! - [`ws`]: the WebSocket endpoint `/ws`: status out, control in.
-//! - [`state`]: what every request handler shares (status channel, paths).
+//! - [`config`]: `floatball.toml`, written with defaults on first start, checked with
+//!   errors that name the line.
+//! - [`auth`]: the operator password (argon2id), bearer tokens, the login limit.
+//! - [`store`]: the show files on disk, validated before they are stored.
+//! - [`playlist`]: the playlist Start plays, stored beside the shows.
+//! - [`durable`]: atomic, durable file writes.
+//! - [`http`]: the HTTP API under `/api`.
+//! - [`ws`]: the WebSocket endpoint `/ws`: status and feedback out, control in.
+//! - [`server`]: the router (API, WebSocket, static app) and its shutdown.
+//! - [`state`]: what every request handler shares.
 #![forbid(unsafe_code)]
 #![cfg_attr(
     not(test),
     deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
 )]
 
+pub mod auth;
 pub mod cli;
+pub mod config;
+pub mod durable;
+pub mod http;
+pub mod playlist;
 pub mod server;
 pub mod state;
+pub mod store;
 pub mod ws;
