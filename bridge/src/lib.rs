@@ -8,6 +8,8 @@
 //! - [`store`]: the show files on disk, validated before they are stored.
 //! - [`playlist`]: the playlist Start plays, stored beside the shows.
 //! - [`durable`]: atomic, durable file writes.
+//! - [`link`]: the links to the gateways (serial ports, the simulated gateway) with
+//!   their e-stop lane.
 //! - [`http`]: the HTTP API under `/api`.
 //! - [`ws`]: the WebSocket endpoint `/ws`: status and feedback out, control in.
 //! - [`server`]: the router (API, WebSocket, static app) and its shutdown.
@@ -23,6 +25,7 @@ pub mod cli;
 pub mod config;
 pub mod durable;
 pub mod http;
+pub mod link;
 pub mod playlist;
 pub mod server;
 pub mod state;
