@@ -10,6 +10,8 @@
 //! - [`durable`]: atomic, durable file writes.
 //! - [`link`]: the links to the gateways (serial ports, the simulated gateway) with
 //!   their e-stop lane.
+//! - [`gateways`]: every link together: console lines, the e-stop broadcast, feedback
+//!   and link states for the clients.
 //! - [`http`]: the HTTP API under `/api`.
 //! - [`ws`]: the WebSocket endpoint `/ws`: status and feedback out, control in.
 //! - [`server`]: the router (API, WebSocket, static app) and its shutdown.
@@ -24,6 +26,7 @@ pub mod auth;
 pub mod cli;
 pub mod config;
 pub mod durable;
+pub mod gateways;
 pub mod http;
 pub mod link;
 pub mod playlist;

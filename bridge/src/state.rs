@@ -1,5 +1,5 @@
 //! What every request handler shares: the configuration, the password and tokens, the
-//! show store and playlist, and the live status.
+//! show store and playlist, the gateways, and the live status.
 //!
 //! [`AppState::open`] builds it from the data directory at start; nothing in it is
 //! global, so tests run many bridges side by side.
@@ -8,10 +8,12 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use floatball_shared::api::Status;
+use floatball_shared::ascii::EncodeError;
 use tokio::sync::{Mutex, watch};
 
 use crate::auth::{Clock, LoginLimiter, Password, PasswordError, Tokens};
 use crate::config::Config;
+use crate::gateways::Gateways;
 use crate::playlist::{PlaylistError, PlaylistStore};
 use crate::store::{ShowStore, StoreError};
 
@@ -35,6 +37,9 @@ pub enum OpenError {
     /// The playlist.
     #[error(transparent)]
     Playlist(#[from] PlaylistError),
+    /// The e-stop instruction cannot be encoded.
+    #[error("the e-stop instruction cannot be sent: {0}")]
+    Estop(#[from] EncodeError),
 }
 
 /// Where the bridge keeps and finds its files, and the clock it reads.
@@ -63,12 +68,14 @@ struct Inner {
     shows: ShowStore,
     playlist: PlaylistStore,
     catalogue: Mutex<()>,
-    status: watch::Sender<Status>,
+    gateways: Gateways,
+    status: Arc<watch::Sender<Status>>,
 }
 
 impl AppState {
     /// Opens the data directory (creating what is missing) for a bridge with `config`,
-    /// reading time from `clock`.
+    /// reading time from `clock`, and opens the links to the gateways. Must run inside
+    /// the async runtime.
     ///
     /// # Errors
     /// [`OpenError`] naming the file or directory that cannot be used.
@@ -80,7 +87,8 @@ impl AppState {
         let password = Password::open(&paths.data_dir)?;
         let shows = ShowStore::open(&paths.data_dir)?;
         let playlist = PlaylistStore::open(&paths.data_dir)?;
-        let (status, _) = watch::channel(Status::default());
+        let status = Arc::new(watch::channel(Status::default()).0);
+        let gateways = Gateways::open(&config, &status)?;
         Ok(Self {
             inner: Arc::new(Inner {
                 config,
@@ -92,6 +100,7 @@ impl AppState {
                 shows,
                 playlist,
                 catalogue: Mutex::new(()),
+                gateways,
                 status,
             }),
         })
@@ -143,13 +152,18 @@ impl AppState {
         self.inner.catalogue.lock().await
     }
 
+    /// The links to the gateways.
+    pub fn gateways(&self) -> &Gateways {
+        &self.inner.gateways
+    }
+
     /// A receiver that sees every status change.
     pub fn subscribe_status(&self) -> watch::Receiver<Status> {
         self.inner.status.subscribe()
     }
 
-    /// Changes the status; every connected client is told. The one place the status
-    /// is changed.
+    /// Changes the status; every connected client is told. The player's part of the
+    /// status is changed here; each gateway's link part by [`Gateways`].
     pub fn update_status(&self, change: impl FnOnce(&mut Status)) {
         self.inner.status.send_modify(change);
     }

@@ -11,6 +11,11 @@
 //! use of its token; when the token has expired or was ended by a logout, the
 //! session says so and closes. Anything the bridge cannot do is answered with an
 //! `error` message and the connection stays open.
+//!
+//! `estop` is always obeyed, even before the initial password is changed. `raw`
+//! console lines are parsed by the codec; a valid line is queued, in order, on the
+//! bulk lane of its gateway (or of all), by a task of the session so that a full lane
+//! never holds up status and feedback.
 
 use std::collections::HashMap;
 use std::time::Duration;
@@ -20,7 +25,8 @@ use axum::extract::{Query, State};
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{ClientMessage, ServerMessage};
-use floatball_shared::ascii::parse_script;
+use floatball_shared::ascii::{Batch, Form, parse_script};
+use tokio::sync::{broadcast, mpsc};
 use tokio::time::Instant;
 
 use crate::config::normalise_origin;
@@ -32,6 +38,15 @@ pub const STATUS_PER_S: u32 = 10;
 
 /// Largest message a client may send, bytes.
 pub const MAX_MESSAGE_BYTES: usize = 64 * 1024;
+
+/// Console lines one session may have waiting for room on a bulk lane.
+const CONSOLE_QUEUE: usize = 32;
+
+/// A console line on its way: the gateway (all when `None`) and the instructions.
+type ConsoleLine = (Option<usize>, Batch);
+
+/// How long a closing session waits for the client to answer its close frame.
+const CLOSE_HANDSHAKE: Duration = Duration::from_secs(1);
 
 /// How often an open session checks that its token is still valid.
 const TOKEN_CHECK_INTERVAL: Duration = Duration::from_secs(1);
@@ -110,6 +125,10 @@ enum Step {
 /// One client's session.
 async fn session(mut socket: WebSocket, state: AppState, token: String) {
     let mut status = state.subscribe_status();
+    let mut feedback = state.gateways().subscribe_feedback();
+    let (console_lines, waiting_lines) = mpsc::channel(CONSOLE_QUEUE);
+    let (console_errors, mut console_failures) = mpsc::channel(CONSOLE_QUEUE);
+    tokio::spawn(console(state.clone(), waiting_lines, console_errors));
     let first = ServerMessage::Status(status.borrow_and_update().clone());
     if send(&mut socket, &first).await.is_err() {
         return;
@@ -117,6 +136,7 @@ async fn session(mut socket: WebSocket, state: AppState, token: String) {
     let status_interval = Duration::from_secs(1) / STATUS_PER_S;
     let mut status_sent_at = Instant::now();
     let mut status_pending = false;
+    let mut feedback_open = true;
     let mut token_check = tokio::time::interval(TOKEN_CHECK_INTERVAL);
     loop {
         let step = tokio::select! {
@@ -134,6 +154,20 @@ async fn session(mut socket: WebSocket, state: AppState, token: String) {
                 let message = ServerMessage::Status(status.borrow_and_update().clone());
                 sent(send(&mut socket, &message).await)
             }
+            frame = feedback.recv(), if feedback_open => match frame {
+                Ok(frame) => sent(send(&mut socket, &ServerMessage::Feedback(frame)).await),
+                Err(broadcast::error::RecvError::Lagged(missed)) => {
+                    let message = error(format!(
+                        "{missed} feedback frames were dropped: this client reads too slowly"
+                    ));
+                    sent(send(&mut socket, &message).await)
+                }
+                Err(broadcast::error::RecvError::Closed) => {
+                    feedback_open = false;
+                    Step::Continue
+                }
+            },
+            Some(failure) = console_failures.recv() => sent(send(&mut socket, &failure).await),
             _ = token_check.tick() => {
                 if state.tokens().is_valid(&token, state.clock().now()) {
                     Step::Continue
@@ -144,8 +178,7 @@ async fn session(mut socket: WebSocket, state: AppState, token: String) {
             incoming = socket.recv() => match incoming {
                 Some(Ok(Message::Text(text))) => {
                     if state.tokens().touch(&token, state.clock().now()) {
-                        let reply = answer(&state, text.as_str());
-                        match reply {
+                        match answer(&state, &console_lines, text.as_str()) {
                             Some(reply) => sent(send(&mut socket, &reply).await),
                             None => Step::Continue,
                         }
@@ -167,6 +200,25 @@ async fn session(mut socket: WebSocket, state: AppState, token: String) {
     }
 }
 
+/// Sends a session's console lines in order, each waiting for room on its lanes;
+/// reports the lines a gateway refused. Ends with the session.
+async fn console(
+    state: AppState,
+    mut lines: mpsc::Receiver<ConsoleLine>,
+    failures: mpsc::Sender<ServerMessage>,
+) {
+    while let Some((gateway, batch)) = lines.recv().await {
+        if let Err(reason) = state.gateways().send(gateway, batch).await
+            && failures
+                .send(error(format!("the line was not sent: {reason}")))
+                .await
+                .is_err()
+        {
+            return;
+        }
+    }
+}
+
 fn sent(result: Result<(), axum::Error>) -> Step {
     match result {
         Ok(()) => Step::Continue,
@@ -174,19 +226,30 @@ fn sent(result: Result<(), axum::Error>) -> Step {
     }
 }
 
-/// Tells the client its token is no longer valid and closes.
+/// Tells the client its token is no longer valid and closes, waiting a moment for the
+/// client's side of the closing handshake.
 async fn end_session(socket: &mut WebSocket) -> Step {
     let _ = send(
         socket,
         &error("the session has expired or ended; log in again"),
     )
     .await;
-    let _ = socket
+    let closing = socket
         .send(Message::Close(Some(CloseFrame {
             code: close_code::POLICY,
             reason: "session ended".into(),
         })))
         .await;
+    if closing.is_ok() {
+        let _ = tokio::time::timeout(CLOSE_HANDSHAKE, async {
+            while let Some(Ok(message)) = socket.recv().await {
+                if let Message::Close(_) = message {
+                    break;
+                }
+            }
+        })
+        .await;
+    }
     Step::Close
 }
 
@@ -197,7 +260,11 @@ fn error(message: impl Into<String>) -> ServerMessage {
 }
 
 /// The reply to one text frame from a client, if it needs one.
-fn answer(state: &AppState, text: &str) -> Option<ServerMessage> {
+fn answer(
+    state: &AppState,
+    console_lines: &mpsc::Sender<ConsoleLine>,
+    text: &str,
+) -> Option<ServerMessage> {
     let message = match serde_json::from_str::<ClientMessage>(text) {
         Ok(message) => message,
         Err(err) => return Some(error(format!("not a valid message: {err}"))),
@@ -205,8 +272,17 @@ fn answer(state: &AppState, text: &str) -> Option<ServerMessage> {
     match message {
         ClientMessage::Ping => Some(ServerMessage::Pong),
         ClientMessage::Estop => {
+            let failures = state.gateways().estop();
             tracing::warn!("e-stop requested over the WebSocket");
-            None
+            if failures.is_empty() {
+                None
+            } else {
+                tracing::error!("the e-stop did not reach {}", failures.join("; "));
+                Some(error(format!(
+                    "the e-stop did not reach every gateway: {}",
+                    failures.join("; ")
+                )))
+            }
         }
         ClientMessage::Start | ClientMessage::Reset if state.password().is_default() => Some(
             error("change the initial password (1234) before controlling the matrix"),
@@ -217,13 +293,36 @@ fn answer(state: &AppState, text: &str) -> Option<ServerMessage> {
         ClientMessage::Raw { .. } if state.password().is_default() => Some(error(
             "change the initial password (1234) before sending instructions",
         )),
-        ClientMessage::Raw { line, .. } => match parse_script(&line) {
-            Err(parse_error) => Some(error(format!("the line is not valid: {parse_error}"))),
-            Ok(instructions) if instructions.is_empty() => {
-                Some(error("the line holds no instruction"))
+        ClientMessage::Raw { line, gateway } => {
+            let count = state.gateways().links().len();
+            if let Some(index) = gateway.filter(|index| *index >= count) {
+                return Some(error(format!(
+                    "there is no gateway {index}; gateways are numbered 0 to {}",
+                    count.saturating_sub(1)
+                )));
             }
-            Ok(_) => Some(error("no gateway link in this build yet")),
-        },
+            let instructions = match parse_script(&line) {
+                Ok(instructions) if instructions.is_empty() => {
+                    return Some(error("the line holds no instruction"));
+                }
+                Ok(instructions) => instructions,
+                Err(parse_error) => {
+                    return Some(error(format!("the line is not valid: {parse_error}")));
+                }
+            };
+            let batch = match Batch::encode(&instructions, Form::Standard) {
+                Ok(batch) => batch,
+                Err(encode_error) => {
+                    return Some(error(format!("the line is not valid: {encode_error}")));
+                }
+            };
+            match console_lines.try_send((gateway, batch)) {
+                Ok(()) => None,
+                Err(_) => Some(error(
+                    "too many console lines are waiting for the gateway; this one was not sent",
+                )),
+            }
+        }
     }
 }
 

@@ -293,6 +293,17 @@ pub async fn next_message(ws: &mut Ws) -> floatball_shared::api::ServerMessage {
     }
 }
 
+/// The next message from the bridge that is not a `status` (statuses come whenever a
+/// link changes).
+pub async fn next_reply(ws: &mut Ws) -> floatball_shared::api::ServerMessage {
+    loop {
+        match next_message(ws).await {
+            floatball_shared::api::ServerMessage::Status(_) => {}
+            other => return other,
+        }
+    }
+}
+
 /// Sends a text frame.
 pub async fn send_text(ws: &mut Ws, text: &str) {
     ws.send(Message::text(text)).await.expect("send");
