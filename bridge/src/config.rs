@@ -943,6 +943,30 @@ mod tests {
     }
 
     #[test]
+    fn every_key_of_the_default_file_is_documented() {
+        let docs = include_str!("../../docs/configuration.md");
+        let keys: Vec<&str> = DEFAULT_FILE
+            .lines()
+            .map(|line| line.trim_start_matches("# "))
+            .filter_map(|line| line.split_once(" = ").map(|(key, _)| key))
+            .filter(|key| key.chars().all(|c| c.is_ascii_lowercase() || c == '_'))
+            .collect();
+        assert!(keys.len() >= 17, "{keys:?}");
+        for key in keys {
+            assert!(
+                docs.contains(&format!("| `{key}` |")),
+                "{key} is not documented"
+            );
+        }
+        for table in ["[matrix]", "[[gateway]]", "[safety]", "[uploads]"] {
+            assert!(
+                DEFAULT_FILE.contains(table) && docs.contains(table),
+                "{table}"
+            );
+        }
+    }
+
+    #[test]
     fn origins_are_normalised() {
         assert_eq!(
             normalise_origin("HTTP://Tablet.local:8080/").as_deref(),
