@@ -24,8 +24,9 @@ pub fn router(state: AppState) -> Router {
         .with_state(state)
 }
 
-/// Serves on `listener` until `shutdown` completes. Handlers see each client's
-/// address (for the login limit).
+/// Serves on `listener` until `shutdown` completes; then open WebSockets are closed
+/// and requests under way finish. Handlers see each client's address (for the login
+/// limit).
 ///
 /// # Errors
 /// If accepting connections fails for good.
@@ -34,10 +35,14 @@ pub async fn run(
     state: AppState,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
+    let stopping = state.clone();
     axum::serve(
         listener,
         router(state).into_make_service_with_connect_info::<SocketAddr>(),
     )
-    .with_graceful_shutdown(shutdown)
+    .with_graceful_shutdown(async move {
+        shutdown.await;
+        stopping.stop();
+    })
     .await
 }

@@ -42,7 +42,7 @@ pub enum OpenError {
     Estop(#[from] EncodeError),
 }
 
-/// Where the bridge keeps and finds its files, and the clock it reads.
+/// Where the bridge keeps and finds its files.
 #[derive(Debug, Clone)]
 pub struct Paths {
     /// Configuration, password, shows and playlist.
@@ -70,6 +70,7 @@ struct Inner {
     catalogue: Mutex<()>,
     gateways: Gateways,
     status: Arc<watch::Sender<Status>>,
+    stopping: watch::Sender<bool>,
 }
 
 impl AppState {
@@ -102,6 +103,7 @@ impl AppState {
                 catalogue: Mutex::new(()),
                 gateways,
                 status,
+                stopping: watch::channel(false).0,
             }),
         })
     }
@@ -155,6 +157,16 @@ impl AppState {
     /// The links to the gateways.
     pub fn gateways(&self) -> &Gateways {
         &self.inner.gateways
+    }
+
+    /// Tells long-lived connections (WebSockets) that the server is stopping.
+    pub fn stop(&self) {
+        self.inner.stopping.send_replace(true);
+    }
+
+    /// A receiver that turns `true` when the server is stopping.
+    pub fn stopping(&self) -> watch::Receiver<bool> {
+        self.inner.stopping.subscribe()
     }
 
     /// A receiver that sees every status change.

@@ -138,8 +138,21 @@ async fn session(mut socket: WebSocket, state: AppState, token: String) {
     let mut status_pending = false;
     let mut feedback_open = true;
     let mut token_check = tokio::time::interval(TOKEN_CHECK_INTERVAL);
+    let mut stopping = state.stopping();
+    if *stopping.borrow_and_update() {
+        return;
+    }
     loop {
         let step = tokio::select! {
+            _ = stopping.changed() => {
+                let _ = socket
+                    .send(Message::Close(Some(CloseFrame {
+                        code: close_code::AWAY,
+                        reason: "the bridge is stopping".into(),
+                    })))
+                    .await;
+                Step::Close
+            }
             changed = status.changed(), if !status_pending => {
                 if changed.is_err() {
                     Step::Close

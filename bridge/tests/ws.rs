@@ -250,3 +250,25 @@ async fn an_expired_or_ended_token_ends_the_session() {
     assert_eq!(logout.status, StatusCode::NO_CONTENT);
     assert!(expect_error(next_reply(&mut ws).await).contains("log in again"));
 }
+
+#[tokio::test]
+async fn stopping_the_bridge_closes_open_websockets() {
+    let bridge = Bridge::start().await;
+    let mut ws = bridge.ws(&bridge.token().await).await;
+    first_status(&mut ws).await;
+    // `restart` stops the server and waits (at most 5 s) for it to finish.
+    let _bridge = bridge.restart().await;
+    loop {
+        let frame = tokio::time::timeout(Duration::from_secs(5), ws.next())
+            .await
+            .expect("closed within 5 s");
+        match frame {
+            Some(Ok(Message::Close(Some(close)))) => {
+                assert_eq!(u16::from(close.code), 1001);
+                break;
+            }
+            Some(Ok(Message::Text(_))) => {}
+            other => panic!("expected a close frame, got {other:?}"),
+        }
+    }
+}

@@ -128,8 +128,11 @@ impl Bridge {
         } = self;
         let _ = stop.send(());
         drop(state);
-        // Open WebSockets keep a graceful shutdown waiting; the test has closed its own.
-        let _ = tokio::time::timeout(Duration::from_secs(5), serving).await;
+        tokio::time::timeout(Duration::from_secs(5), serving)
+            .await
+            .expect("the server stops within 5 s")
+            .expect("server task")
+            .expect("server");
         Self::start_in(data).await
     }
 
