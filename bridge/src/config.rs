@@ -540,11 +540,9 @@ impl Checker<'_> {
                 stations: None,
             },
         )];
-        let raw = if raw.is_empty() {
-            &default_gateway[..]
-        } else {
-            raw
-        };
+        // Without a [[gateway]] table there is no place in the file to point at.
+        let implicit = raw.is_empty();
+        let raw = if implicit { &default_gateway[..] } else { raw };
         if overrides.gateway_ports.len() > raw.len() {
             return Err(self.file(format!(
                 "{} --gateway flags given but the file configures {} [[gateway]] table(s); \
@@ -617,9 +615,10 @@ impl Checker<'_> {
                 .map(Spanned::span)
                 .or_else(|| gateway.units.as_ref().map(Spanned::span))
                 .unwrap_or_else(|| table_span.clone());
+            let units_span = (!implicit).then_some(units_span);
             if units > MAX_UNITS_PER_GATEWAY {
-                return Err(self.at(
-                    &units_span,
+                return Err(self.wrong(
+                    units_span.as_ref(),
                     format!(
                         "gateway {} would serve {units} units; a gateway serves at most \
                          {MAX_UNITS_PER_GATEWAY}: add a [[gateway]]",
@@ -634,7 +633,7 @@ impl Checker<'_> {
                     let last = usize::from(first) + units.saturating_sub(1);
                     if first == 0 || last > 127 {
                         return Err(self.wrong(
-                            first_span.as_ref().or(Some(&units_span)),
+                            first_span.as_ref().or(units_span.as_ref()),
                             format!(
                                 "gateway {}: stations {first} to {last} must lie within 1 to 127",
                                 index + 1
@@ -868,8 +867,18 @@ mod tests {
         let message = parse("[matrix]\nrows = 11\ncols = 10\n")
             .expect_err("110 units on one gateway")
             .to_string();
+        assert!(
+            message.starts_with("data/floatball.toml: gateway 1"),
+            "{message}"
+        );
         assert!(message.contains("110 units"), "{message}");
         assert!(message.contains("at most 100"), "{message}");
+        let text = "[matrix]\nrows = 11\ncols = 10\n[[gateway]]\nport = \"sim\"\n";
+        let message = parse(text).expect_err("110 units").to_string();
+        assert!(
+            message.starts_with("data/floatball.toml line 4, column 1: gateway 1"),
+            "{message}"
+        );
     }
 
     #[test]
