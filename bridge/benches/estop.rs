@@ -40,7 +40,7 @@ fn measure(runtime: &tokio::runtime::Runtime, baud: u32, samples: usize) {
     master
         .set_timeout(Duration::from_millis(5))
         .expect("timeout");
-    let link = Link::open(0, LinkConfig { port: path, baud });
+    let link = Link::open(0, LinkConfig::new(path, baud));
     runtime.block_on(async {
         let mut status = link.status();
         status

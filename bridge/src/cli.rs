@@ -1,14 +1,18 @@
 //! The `floatball` command line.
 //!
 //! `floatball` with no subcommand serves the app and the API with the installation in
-//! `--data-dir`; `floatball check` only reads and checks the configuration. Every
+//! `--data-dir`; `floatball check` only reads and checks the configuration;
+//! `floatball simulate` answers as a simulated gateway on a serial device. Every
 //! subcommand is listed by `floatball --help`.
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use floatball_shared::sim::{self, GatewayConfig};
 
 use crate::auth::Clock;
 use crate::config::{self, Config, Overrides};
@@ -17,9 +21,14 @@ use crate::state::{AppState, Paths};
 
 /// Floatball's bridge: serves the operator app and relays to the ball matrix.
 #[derive(Debug, Parser)]
-#[command(name = "floatball", version, about)]
+#[command(
+    name = "floatball",
+    version,
+    about,
+    args_conflicts_with_subcommands = true
+)]
 pub struct Cli {
-    /// What to do; without a command, serve.
+    /// What to do instead of serving.
     #[command(subcommand)]
     pub command: Option<Command>,
     /// Address and port to listen on (port 0 picks a free port); overrides `listen` in
@@ -31,7 +40,7 @@ pub struct Cli {
     #[arg(long = "gateway", value_name = "PORT")]
     pub gateways: Vec<String>,
     /// Directory for the configuration, the password and the show files.
-    #[arg(long, default_value = "data", global = true)]
+    #[arg(long, default_value = "data")]
     pub data_dir: PathBuf,
     /// Directory holding the web app (`index.html` and the built `pkg/`).
     #[arg(long, default_value = "static")]
@@ -42,7 +51,41 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Check floatball.toml (writing the defaults if it is missing) and exit.
-    Check,
+    Check(CheckArgs),
+    /// Answer as a simulated UIM2503 gateway with its units on a serial device (e.g. one
+    /// end of a pseudo-terminal pair or a null-modem cable).
+    Simulate(SimulateArgs),
+}
+
+/// Options of `floatball simulate`.
+#[derive(Debug, clap::Args)]
+pub struct SimulateArgs {
+    /// The serial device to answer on, e.g. /dev/pts/3 or /dev/ttyUSB1.
+    #[arg(long)]
+    pub port: String,
+    /// The line's baud rate (a UIM2503 leaves the factory at 9600).
+    #[arg(long, default_value_t = 9600)]
+    pub baud: u32,
+    /// Number of units behind the gateway (stations 1…N).
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u8).range(1..=sim::MAX_UNITS as i64))]
+    pub units: u8,
+    /// Every unit answers on station 5, as delivered from the factory.
+    #[arg(long)]
+    pub factory_fresh: bool,
+    /// Seed of the units' serial numbers.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Calibration: encoder counts per mm.
+    #[arg(long, default_value_t = sim::DEFAULT_COUNTS_PER_MM)]
+    pub counts_per_mm: f64,
+}
+
+/// Options of `floatball check`.
+#[derive(Debug, clap::Args)]
+pub struct CheckArgs {
+    /// Directory holding floatball.toml.
+    #[arg(long, default_value = "data")]
+    pub data_dir: PathBuf,
 }
 
 /// Runs the command the user asked for until it ends or Ctrl-C is pressed.
@@ -50,34 +93,46 @@ pub enum Command {
 /// # Errors
 /// Whatever stops the command, in words for the person who started it.
 pub async fn run(cli: Cli) -> anyhow::Result<()> {
-    std::fs::create_dir_all(&cli.data_dir).with_context(|| {
-        format!(
-            "cannot create the data directory {}",
-            cli.data_dir.display()
-        )
-    })?;
-    let overrides = Overrides {
-        listen: cli.listen,
-        gateway_ports: cli.gateways.clone(),
-    };
-    let config = Config::load_or_create(&cli.data_dir, &overrides)?;
     match cli.command {
-        Some(Command::Check) => {
-            println!(
-                "{} is valid: {} × {} balls on {} gateway(s)",
-                cli.data_dir.join(config::FILE_NAME).display(),
-                config.matrix.rows,
-                config.matrix.cols,
-                config.gateways.len()
-            );
-            Ok(())
+        Some(Command::Simulate(args)) => simulate(args).await,
+        Some(Command::Check(args)) => check(&args.data_dir),
+        None => {
+            let overrides = Overrides {
+                listen: cli.listen,
+                gateway_ports: cli.gateways,
+            };
+            serve(&cli.data_dir, &overrides, cli.static_dir).await
         }
-        None => serve(config, cli.data_dir, cli.static_dir).await,
     }
 }
 
+fn create_data_dir(data_dir: &std::path::Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(data_dir)
+        .with_context(|| format!("cannot create the data directory {}", data_dir.display()))
+}
+
+/// `floatball check`.
+fn check(data_dir: &std::path::Path) -> anyhow::Result<()> {
+    create_data_dir(data_dir)?;
+    let config = Config::load_or_create(data_dir, &Overrides::default())?;
+    println!(
+        "{} is valid: {} × {} balls on {} gateway(s)",
+        data_dir.join(config::FILE_NAME).display(),
+        config.matrix.rows,
+        config.matrix.cols,
+        config.gateways.len()
+    );
+    Ok(())
+}
+
 /// Serves the app and the API until Ctrl-C or SIGTERM.
-async fn serve(config: Config, data_dir: PathBuf, static_dir: PathBuf) -> anyhow::Result<()> {
+async fn serve(
+    data_dir: &std::path::Path,
+    overrides: &Overrides,
+    static_dir: PathBuf,
+) -> anyhow::Result<()> {
+    create_data_dir(data_dir)?;
+    let config = Config::load_or_create(data_dir, overrides)?;
     if !static_dir.join("index.html").is_file() {
         tracing::warn!(
             "{} has no index.html: the app will not load (build it with `cargo xtask run`)",
@@ -88,7 +143,7 @@ async fn serve(config: Config, data_dir: PathBuf, static_dir: PathBuf) -> anyhow
     let state = AppState::open(
         config,
         Paths {
-            data_dir,
+            data_dir: data_dir.to_owned(),
             static_dir,
         },
         Clock::system(),
@@ -132,4 +187,38 @@ async fn shutdown_signal() {
         () = terminate => {}
     }
     tracing::info!("shutting down");
+}
+
+/// `floatball simulate`: runs until Ctrl-C or SIGTERM.
+async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
+    let mut gateway = if args.factory_fresh {
+        GatewayConfig::factory_fresh(usize::from(args.units))
+    } else {
+        GatewayConfig::numbered(args.units)
+    };
+    gateway.seed = args.seed;
+    gateway.counts_per_mm = args.counts_per_mm;
+    let options = crate::simulate::SimulateOptions {
+        port: args.port,
+        baud: args.baud,
+        gateway,
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let worker_stop = Arc::clone(&stop);
+    let banner = format!(
+        "floatball simulating a gateway with {} units on {} at {} baud",
+        args.units, options.port, options.baud
+    );
+    let worker = tokio::task::spawn_blocking(move || {
+        crate::simulate::run(&options, &worker_stop, || println!("{banner}"))
+    });
+    tokio::select! {
+        result = worker => {
+            result.context("the simulator stopped unexpectedly")?.map_err(anyhow::Error::msg)
+        }
+        () = shutdown_signal() => {
+            stop.store(true, Ordering::Release);
+            Ok(())
+        }
+    }
 }

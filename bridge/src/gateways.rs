@@ -11,6 +11,7 @@ use std::sync::Arc;
 
 use floatball_shared::api::{FeedbackFrame, GatewayStatus, LinkState, Status};
 use floatball_shared::ascii::{Batch, EncodeError, Form};
+use floatball_shared::sim::GatewayConfig;
 use tokio::sync::{broadcast, watch};
 
 use crate::config::Config;
@@ -56,13 +57,18 @@ impl Gateways {
             .iter()
             .enumerate()
             .map(|(index, gateway)| {
-                Link::open(
-                    index,
-                    LinkConfig {
-                        port: gateway.port.clone(),
-                        baud: gateway.baud,
-                    },
-                )
+                let mut link = LinkConfig::new(gateway.port.clone(), gateway.baud);
+                // A simulated gateway has the installation's units and calibration.
+                link.sim = GatewayConfig {
+                    stations: gateway.stations.clone(),
+                    seed: index as u64,
+                    counts_per_mm: config.matrix.counts_per_mm,
+                    travel_mm: config.matrix.travel_mm,
+                    max_speed_mm_s: config.matrix.max_speed_mm_s,
+                    max_accel_mm_s2: config.matrix.max_accel_mm_s2,
+                    ..GatewayConfig::default()
+                };
+                Link::open(index, link)
             })
             .collect();
         for link in &links {

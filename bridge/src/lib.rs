@@ -12,6 +12,7 @@
 //!   their e-stop lane.
 //! - [`gateways`]: every link together: console lines, the e-stop broadcast, feedback
 //!   and link states for the clients.
+//! - [`simulate`]: `floatball simulate`, the simulated gateway on a real serial device.
 //! - [`http`]: the HTTP API under `/api`.
 //! - [`ws`]: the WebSocket endpoint `/ws`: status and feedback out, control in.
 //! - [`server`]: the router (API, WebSocket, static app) and its shutdown.
@@ -31,6 +32,7 @@ pub mod http;
 pub mod link;
 pub mod playlist;
 pub mod server;
+pub mod simulate;
 pub mod state;
 pub mod store;
 pub mod ws;

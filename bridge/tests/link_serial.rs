@@ -80,13 +80,7 @@ async fn a_batch_reaches_the_line_byte_for_byte() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("gateway0");
     let gateway = pty_at(&path);
-    let link = Link::open(
-        0,
-        LinkConfig {
-            port: path.display().to_string(),
-            baud: 115_200,
-        },
-    );
+    let link = Link::open(0, LinkConfig::new(path.display().to_string(), 115_200));
     wait_for_state(&link, LinkState::Up).await;
 
     link.send(batch("*20; PV=3; BG;")).await.unwrap();
@@ -100,13 +94,7 @@ async fn an_estop_overtakes_queued_bulk_within_one_instruction() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("gateway0");
     let gateway = pty_at(&path);
-    let link = Link::open(
-        0,
-        LinkConfig {
-            port: path.display().to_string(),
-            baud: 9600,
-        },
-    );
+    let link = Link::open(0, LinkConfig::new(path.display().to_string(), 9600));
     wait_for_state(&link, LinkState::Up).await;
     let rx = spawn_reader(gateway.master);
 
@@ -166,13 +154,7 @@ async fn feedback_in_odd_chunks_with_garbage_arrives_as_frames() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("gateway0");
     let mut gateway = pty_at(&path);
-    let link = Link::open(
-        3,
-        LinkConfig {
-            port: path.display().to_string(),
-            baud: 115_200,
-        },
-    );
+    let link = Link::open(3, LinkConfig::new(path.display().to_string(), 115_200));
     wait_for_state(&link, LinkState::Up).await;
     let mut feedback = link.feedback();
 
@@ -211,13 +193,7 @@ async fn a_lost_line_is_reported_and_recovered() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("gateway0");
     let gateway = pty_at(&path);
-    let link = Link::open(
-        0,
-        LinkConfig {
-            port: path.display().to_string(),
-            baud: 115_200,
-        },
-    );
+    let link = Link::open(0, LinkConfig::new(path.display().to_string(), 115_200));
     wait_for_state(&link, LinkState::Up).await;
 
     // The far side goes away (the adapter is unplugged).
@@ -237,13 +213,7 @@ async fn a_lost_line_is_reported_and_recovered() {
 
 #[tokio::test]
 async fn a_missing_port_is_down_with_the_reason() {
-    let link = Link::open(
-        0,
-        LinkConfig {
-            port: "/dev/floatball-no-such-port".into(),
-            baud: 9600,
-        },
-    );
+    let link = Link::open(0, LinkConfig::new("/dev/floatball-no-such-port", 9600));
     wait_for_state(&link, LinkState::Down).await;
     let status = link.status().borrow().clone();
     let error = status.error.unwrap();

@@ -54,18 +54,24 @@ fn a_bad_configuration_stops_the_start_naming_file_line_and_reason() {
 }
 
 #[test]
-fn gateway_flags_override_the_configured_ports() {
+fn more_gateway_flags_than_gateways_stop_the_start() {
     let data = tempfile::tempdir().expect("temp dir");
     let output = floatball(
-        &["--gateway", "sim", "--gateway", "sim", "check"],
+        &[
+            "--gateway",
+            "sim",
+            "--gateway",
+            "/dev/ttyUSB1",
+            "--listen",
+            "127.0.0.1:0",
+        ],
         data.path(),
     );
     assert!(!output.status.success());
+    assert!(output.stdout.is_empty(), "it must not start listening");
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(
         stderr.contains("2 --gateway flags given but the file configures 1 [[gateway]]"),
         "{stderr}"
     );
-    let output = floatball(&["--gateway", "/dev/ttyUSB7", "check"], data.path());
-    assert!(output.status.success(), "{output:?}");
 }

@@ -11,11 +11,13 @@
 //!
 //! - [`lanes`]: the two lanes and the station re-selection after a priority write;
 //! - [`pacer`]: line timing and the bytes/s meter;
-//! - [`serial`]: serial ports through the `serialport` crate.
+//! - [`serial`]: serial ports through the `serialport` crate;
+//! - [`sim`]: the simulated gateway behind a virtual line as slow as a real one.
 
 pub mod lanes;
 pub mod pacer;
 pub mod serial;
+pub mod sim;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -23,6 +25,7 @@ use std::time::{Duration, Instant};
 
 use floatball_shared::api::LinkState;
 use floatball_shared::feedback::Frame;
+use floatball_shared::sim::GatewayConfig;
 use tokio::sync::{broadcast, watch};
 
 pub use floatball_shared::ascii::Batch;
@@ -45,6 +48,19 @@ pub struct LinkConfig {
     pub port: String,
     /// The line's speed, baud (8N1: baud / 10 bytes per second).
     pub baud: u32,
+    /// The simulated gateway's units (used when `port` is `sim`).
+    pub sim: GatewayConfig,
+}
+
+impl LinkConfig {
+    /// A link to `port` at `baud`; a simulated gateway gets the default 100 units.
+    pub fn new(port: impl Into<String>, baud: u32) -> Self {
+        Self {
+            port: port.into(),
+            baud,
+            sim: GatewayConfig::default(),
+        }
+    }
 }
 
 /// A link's state as shown to operators.
@@ -159,6 +175,7 @@ impl Drop for CloseOnDrop {
 #[derive(Debug, Clone)]
 pub struct Link {
     shared: Arc<Shared>,
+    sim: Option<sim::SimView>,
     _close: Arc<CloseOnDrop>,
 }
 
@@ -179,16 +196,15 @@ impl Link {
             status,
             closed: AtomicBool::new(false),
         });
-        if shared.config.port == SIM_PORT {
-            shared.set_state(
-                LinkState::Down,
-                Some("the simulated gateway is not built into this bridge yet".to_owned()),
-            );
+        let sim = if shared.config.port == SIM_PORT {
+            sim::spawn(Arc::clone(&shared), shared.config.sim.clone())
         } else {
             serial::spawn(Arc::clone(&shared));
-        }
+            None
+        };
         Self {
             _close: Arc::new(CloseOnDrop(Arc::clone(&shared))),
+            sim,
             shared,
         }
     }
@@ -292,6 +308,11 @@ impl Link {
     /// Every feedback frame decoded from now on.
     pub fn feedback(&self) -> broadcast::Receiver<Frame> {
         self.shared.feedback.subscribe()
+    }
+
+    /// The simulated gateway behind this link, if it is one.
+    pub fn sim_view(&self) -> Option<&sim::SimView> {
+        self.sim.as_ref()
     }
 
     /// The link's status, updated on every change.
