@@ -262,3 +262,16 @@ async fn a_lost_gateway_shows_in_the_status_and_the_estop_reports_it() {
     assert!(message.contains("gateway 1"), "{message}");
     assert!(!message.contains("gateway 0"), "{message}");
 }
+
+#[tokio::test]
+async fn the_simulated_gateway_answers_a_console_line_with_feedback() {
+    let bridge = Bridge::start_with(
+        "[matrix]\nrows = 1\ncols = 2\n[[gateway]]\nport = \"sim\"\nfirst_station = 7\n",
+    )
+    .await;
+    let mut ws = bridge.ws(&bridge.operator().await).await;
+    wait_until_links_are_up(&mut ws).await;
+    send_text(&mut ws, r#"{"type":"raw","line":"*8;PV;"}"#).await;
+    let frame = next_feedback(&mut ws).await;
+    assert_eq!((frame.gateway, frame.station, frame.code), (0, 8, 0x23));
+}
