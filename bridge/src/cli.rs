@@ -36,7 +36,7 @@ pub struct Cli {
     #[arg(long)]
     pub listen: Option<SocketAddr>,
     /// A gateway's port, `sim` or a serial device such as /dev/ttyUSB0; the n-th flag
-    /// replaces the n-th [[gateway]]'s port in floatball.toml.
+    /// replaces the port of the n-th `[[gateway]]` in floatball.toml.
     #[arg(long = "gateway", value_name = "PORT")]
     pub gateways: Vec<String>,
     /// Directory for the configuration, the password and the show files.
