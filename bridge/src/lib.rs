@@ -13,6 +13,8 @@
 //! - [`gateways`]: every link together: console lines, the e-stop broadcast, feedback
 //!   and link states for the clients.
 //! - [`simulate`]: `floatball simulate`, the simulated gateway on a real serial device.
+//! - [`playback`]: the player driven by the clock and the links; e-stop straight to
+//!   the links.
 //! - [`http`]: the HTTP API under `/api`.
 //! - [`ws`]: the WebSocket endpoint `/ws`: status and feedback out, control in.
 //! - [`server`]: the router (API, WebSocket, static app) and its shutdown.
@@ -30,6 +32,7 @@ pub mod durable;
 pub mod gateways;
 pub mod http;
 pub mod link;
+pub mod playback;
 pub mod playlist;
 pub mod server;
 pub mod simulate;

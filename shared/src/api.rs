@@ -255,6 +255,8 @@ pub enum PlayerState {
     /// Nothing is playing.
     #[default]
     Idle,
+    /// Waiting for a playlist entry's delay to pass.
+    Waiting,
     /// Balls are moving to the first position of a show.
     Approaching,
     /// Rows are being preloaded into the units.

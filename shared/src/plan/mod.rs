@@ -8,6 +8,8 @@
 //!   unit of a gateway shares (a row, or just its duration);
 //! - [`schedule`]: when each refill round of a FIFO stream goes out, and the water
 //!   levels that leaves — used by the report and by the player alike;
+//! - [`player`]: Start / E-stop / Reset — the playlist played on the matrix, as a state
+//!   machine driven by time, the links' state and feedback;
 //! - [`report`]: the bandwidth / feasibility report served at `GET /api/plan/{name}`.
 //!
 //! Positions are converted from absolute millimetres, each rounded on its own, so the
@@ -29,15 +31,19 @@
 //!     rows: vec![TrackRow::new(to_mm, 0.0, 200), TrackRow::new(1000.0, 0.0, 200)],
 //!     colours: Vec::new(),
 //! };
-//! let show = Show { name: "bob".into(), layout, tracks: vec![track(1100.0), track(1200.0)] };
+//! let show = Show { name: "bob".into(), layout, tracks: vec![track(1010.0), track(1020.0)] };
 //! let plan = Plan::new(&show, &installation, PlanOptions::default()).unwrap();
-//! assert_eq!(plan.units[1].rows[0].position_counts, 120_000);
+//! assert_eq!(plan.units[1].rows[0].position_counts, 102_000);
 //! assert_eq!(plan.gateways[0].mode, RunMode::Single);
 //! ```
 
+pub mod player;
 pub mod report;
 pub mod schedule;
 pub mod stream;
+
+#[cfg(test)]
+mod player_tests;
 
 use thiserror::Error;
 

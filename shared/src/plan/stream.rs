@@ -55,22 +55,22 @@ pub fn table_index(mode: RunMode, row: usize) -> u8 {
     u8::try_from(index).unwrap_or(u8::MAX)
 }
 
-/// Point-to-point moves of every unit on `run`'s gateway to `target(unit)` at the plan's
-/// approach speed: motor on, speed, targets (one broadcast when all are the same), then
-/// one broadcast `BG`.
-pub fn approach(plan: &Plan, run: &GatewayRun, target: impl Fn(usize) -> i32) -> Batch {
+/// Point-to-point moves of the units at `targets` (station, target counts) at
+/// `speed_counts_s`: motor on, speed, targets (one broadcast when all are the same),
+/// then one broadcast `BG`. `targets` should name every unit of the gateway: the
+/// broadcasts reach them all.
+pub fn move_to(speed_counts_s: i32, targets: &[(u8, i32)]) -> Batch {
     let mut batch = Batch::new();
     select(&mut batch, 0);
     push(&mut batch, Instruction::Motor { on: Some(true) });
     push(
         &mut batch,
         Instruction::PtpSpeed {
-            speed_counts_s: Some(plan.approach_speed_counts_s),
+            speed_counts_s: Some(speed_counts_s),
         },
     );
-    let targets: Vec<i32> = run.units.iter().map(|&unit| target(unit)).collect();
-    if targets.windows(2).all(|pair| pair[0] == pair[1]) {
-        if let Some(&position_counts) = targets.first() {
+    if targets.windows(2).all(|pair| pair[0].1 == pair[1].1) {
+        if let Some(&(_, position_counts)) = targets.first() {
             push(
                 &mut batch,
                 Instruction::PtpPosition {
@@ -79,8 +79,8 @@ pub fn approach(plan: &Plan, run: &GatewayRun, target: impl Fn(usize) -> i32) ->
             );
         }
     } else {
-        for (&unit, &position_counts) in run.units.iter().zip(&targets) {
-            select(&mut batch, plan.units[unit].address.station);
+        for &(station, position_counts) in targets {
+            select(&mut batch, station);
             push(
                 &mut batch,
                 Instruction::PtpPosition {
@@ -94,14 +94,55 @@ pub fn approach(plan: &Plan, run: &GatewayRun, target: impl Fn(usize) -> i32) ->
     batch
 }
 
-/// The moves to every unit's start position.
+/// The moves of every unit on `run`'s gateway to its start position.
 pub fn approach_start(plan: &Plan, run: &GatewayRun) -> Batch {
-    approach(plan, run, |unit| plan.units[unit].start_counts)
+    let targets: Vec<(u8, i32)> = run
+        .units
+        .iter()
+        .map(|&unit| {
+            (
+                plan.units[unit].address.station,
+                plan.units[unit].start_counts,
+            )
+        })
+        .collect();
+    move_to(plan.approach_speed_counts_s, &targets)
 }
 
-/// The moves home.
+/// The moves of every unit on `run`'s gateway home.
 pub fn home(plan: &Plan, run: &GatewayRun) -> Batch {
-    approach(plan, run, |_| plan.home_counts)
+    let targets: Vec<(u8, i32)> = run
+        .units
+        .iter()
+        .map(|&unit| (plan.units[unit].address.station, plan.home_counts))
+        .collect();
+    move_to(plan.approach_speed_counts_s, &targets)
+}
+
+/// Asks each unit at `stations` where it is (`PA;`): the simulated units answer with
+/// their position, so a move's arrival can be confirmed.
+pub fn where_are(stations: &[u8]) -> Batch {
+    let mut batch = Batch::new();
+    for &station in stations {
+        select(&mut batch, station);
+        push(
+            &mut batch,
+            Instruction::PtpPosition {
+                position_counts: None,
+            },
+        );
+    }
+    batch
+}
+
+/// Arms every unit of the gateway to start at row 0 (`PV=0`) and asks the unit at
+/// `barrier_station` for its `PV`: the answer comes only after the gateway has carried
+/// out everything sent before it.
+pub fn arm_and_confirm(barrier_station: u8) -> Batch {
+    let mut batch = arm();
+    select(&mut batch, barrier_station);
+    push(&mut batch, Instruction::PvtStart { row: None });
+    batch
 }
 
 /// Configures the table of every unit on `run`'s gateway (units at rest): mode, a
