@@ -210,3 +210,22 @@ async fn plan_and_positions_need_a_session_and_a_known_show() {
     assert_eq!(sim.gateways.len(), 1);
     assert_eq!(sim.gateways[0].units.len(), 4);
 }
+
+#[tokio::test]
+async fn the_example_show_in_the_docs_runs_on_the_default_matrix() {
+    let example = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../docs/examples/ripple-10x10.csv"
+    ))
+    .expect("docs/examples/ripple-10x10.csv");
+    let bridge = Bridge::start().await;
+    let token = bridge.operator().await;
+    let upload = bridge.upload(&token, "ripple", "text/csv", &example).await;
+    assert_eq!(upload.status, StatusCode::CREATED, "{:?}", upload.body);
+    let plan: PlanReport = bridge
+        .request(Method::GET, "/api/plan/ripple", Some(&token), None)
+        .await
+        .json();
+    assert!(plan.feasible, "{plan:?}");
+    assert_eq!(plan.gateways[0].units, 100);
+}
