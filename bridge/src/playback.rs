@@ -118,18 +118,12 @@ impl Playback {
         entries: Vec<Entry>,
         loop_playlist: bool,
     ) -> Result<(), PlaybackError> {
-        let (reply, answer) = oneshot::channel();
-        self.requests
-            .send(Request::Start {
-                entries,
-                loop_playlist,
-                reply,
-            })
-            .map_err(|_| PlaybackError::Gone)?;
-        answer
-            .await
-            .map_err(|_| PlaybackError::Gone)?
-            .map_err(PlaybackError::from)
+        self.ask(|reply| Request::Start {
+            entries,
+            loop_playlist,
+            reply,
+        })
+        .await
     }
 
     /// Reset: stop now, home, and play the playlist from its first entry.
@@ -146,13 +140,22 @@ impl Playback {
                 tracing::error!("reset: stopping gateway {}: {err}", link.index());
             }
         }
+        self.ask(|reply| Request::Reset {
+            entries,
+            loop_playlist,
+            reply,
+        })
+        .await
+    }
+
+    /// Sends the player a request and waits for its answer.
+    async fn ask(
+        &self,
+        request: impl FnOnce(oneshot::Sender<Result<(), StartError>>) -> Request,
+    ) -> Result<(), PlaybackError> {
         let (reply, answer) = oneshot::channel();
         self.requests
-            .send(Request::Reset {
-                entries,
-                loop_playlist,
-                reply,
-            })
+            .send(request(reply))
             .map_err(|_| PlaybackError::Gone)?;
         answer
             .await

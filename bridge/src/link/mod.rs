@@ -139,6 +139,19 @@ impl Shared {
             .send_modify(|status| status.bytes_per_s = bytes_per_s);
     }
 
+    /// Whether the link can take writes now: not shut down, and up.
+    fn writable(&self) -> Result<(), LinkError> {
+        if self.is_closed() {
+            return Err(LinkError::Closed {
+                port: self.config.port.clone(),
+            });
+        }
+        if self.status.borrow().state != LinkState::Up {
+            return Err(self.down_error());
+        }
+        Ok(())
+    }
+
     fn down_error(&self) -> LinkError {
         LinkError::Down {
             port: self.config.port.clone(),
@@ -241,14 +254,7 @@ impl Link {
             room.as_mut().enable();
             {
                 let mut queues = lanes.lock();
-                if self.shared.is_closed() {
-                    return Err(LinkError::Closed {
-                        port: self.port().to_owned(),
-                    });
-                }
-                if self.shared.status.borrow().state != LinkState::Up {
-                    return Err(self.shared.down_error());
-                }
+                self.shared.writable()?;
                 let queued = queues.bulk_bytes();
                 if queued == 0 || queued + batch.len() <= lanes.capacity_bytes {
                     queues.push_bulk(&batch);
@@ -270,14 +276,7 @@ impl Link {
     pub fn enqueue(&self, batch: &Batch) -> Result<(), LinkError> {
         let lanes = &self.shared.lanes;
         let mut queues = lanes.lock();
-        if self.shared.is_closed() {
-            return Err(LinkError::Closed {
-                port: self.port().to_owned(),
-            });
-        }
-        if self.shared.status.borrow().state != LinkState::Up {
-            return Err(self.shared.down_error());
-        }
+        self.shared.writable()?;
         queues.push_bulk(batch);
         drop(queues);
         lanes.wake_writer();
@@ -292,14 +291,7 @@ impl Link {
     pub fn send_priority(&self, batch: &Batch) -> Result<(), LinkError> {
         let lanes = &self.shared.lanes;
         let mut queues = lanes.lock();
-        if self.shared.is_closed() {
-            return Err(LinkError::Closed {
-                port: self.port().to_owned(),
-            });
-        }
-        if self.shared.status.borrow().state != LinkState::Up {
-            return Err(self.shared.down_error());
-        }
+        self.shared.writable()?;
         queues.push_priority(batch);
         drop(queues);
         lanes.wake_writer();
