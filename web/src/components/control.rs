@@ -172,6 +172,8 @@ pub fn ControlPage() -> impl IntoView {
     view! {
         <section class="control">
             <ControlTabs />
+            <div class="control-layout">
+            <div class="control-main">
             <div class="toolbar icons">
                 {icon("add", "＋", Text::Add, Box::new(toggle_panel(Panel::Add)))}
                 {icon("move-up", "↑", Text::MoveUp, Box::new(needs_checks(PlaylistEditor::move_up)))}
@@ -229,8 +231,12 @@ pub fn ControlPage() -> impl IntoView {
                         }
                     })
             }}
-            <PlanView verdicts=verdicts />
-            <StatusView />
+            </div>
+            <div class="control-side">
+                <PlanView verdicts=verdicts />
+                <StatusView />
+            </div>
+            </div>
         </section>
     }
 }
