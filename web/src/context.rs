@@ -58,6 +58,15 @@ pub enum PreviewItem {
     Failed(String, String),
 }
 
+/// What the E-stop buttons say after a press.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EstopAck {
+    /// Handed to the socket.
+    Sent,
+    /// The socket was not open.
+    NotSent,
+}
+
 /// The app's state, `Copy` so every closure can hold it.
 #[derive(Debug, Clone, Copy)]
 pub struct Ctx {
@@ -85,6 +94,9 @@ pub struct Ctx {
     pub feedback: RwSignal<FeedbackLog>,
     /// What the Preview page shows.
     pub preview: RwSignal<Option<PreviewItem>>,
+    /// The last E-stop press (its number and outcome), shown on every E-stop button
+    /// until it times out.
+    pub estop_ack: RwSignal<Option<(u32, EstopAck)>>,
     origin: StoredValue<Origin>,
     services: StoredValue<Services, LocalStorage>,
 }
@@ -105,6 +117,7 @@ impl Ctx {
             playlist: RwSignal::new(PlaylistEditor::default()),
             feedback: RwSignal::new(FeedbackLog::default()),
             preview: RwSignal::new(None),
+            estop_ack: RwSignal::new(None),
             origin: StoredValue::new(origin),
             services: StoredValue::new_local(services),
         }

@@ -192,6 +192,11 @@ pub fn App() -> impl IntoView {
 pub fn Shell() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     let shown = Memo::new(move |_| ctx.page.get().resolve(ctx.logged_in()));
+    // A refusal belongs to the page where the request was made.
+    Effect::new(move |_| {
+        shown.track();
+        ctx.bridge_error.set(None);
+    });
     view! {
         <TopBar />
         <main class="page" data-testid=move || format!("page-{}", shown.get().key())>

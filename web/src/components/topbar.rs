@@ -5,7 +5,7 @@ use floatball_shared::api::{ClientMessage, PlayerState};
 use leptos::prelude::*;
 
 use crate::connection::Link;
-use crate::context::Ctx;
+use crate::context::{Ctx, EstopAck};
 use crate::i18n::{Lang, Text};
 use crate::page::Page;
 
@@ -124,29 +124,23 @@ pub fn LanguageSwitch(
     }
 }
 
-/// What the E-stop button says after a press.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Ack {
-    /// Handed to the socket.
-    Sent,
-    /// The socket was not open.
-    NotSent,
-}
-
-/// The E-stop: one press sends one `estop`, at once, without a confirmation; the
-/// button then says it was sent, and "stopped" once the bridge reports it.
+/// The E-stop: one press sends one `estop`, at once, without a confirmation; every
+/// E-stop button then says it was sent, and "stopped" once the bridge reports it.
 #[component]
 pub fn EstopButton() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
-    // (press number, outcome): a later press's acknowledgement is not cleared by an
-    // earlier press's timer.
-    let ack = RwSignal::new(None::<(u32, Ack)>);
-    let presses = StoredValue::new(0u32);
+    let ack = ctx.estop_ack;
     let press = move |_| {
         let sent = ctx.send(&ClientMessage::Estop);
-        presses.update_value(|n| *n += 1);
-        let press = presses.get_value();
-        ack.set(Some((press, if sent { Ack::Sent } else { Ack::NotSent })));
+        // The press's number: a later press's acknowledgement is not cleared by an
+        // earlier press's timer.
+        let press = ack.get_untracked().map_or(1, |(n, _)| n.wrapping_add(1));
+        let outcome = if sent {
+            EstopAck::Sent
+        } else {
+            EstopAck::NotSent
+        };
+        ack.set(Some((press, outcome)));
         set_timeout(
             move || {
                 if ack.get_untracked().map(|(n, _)| n) == Some(press) {
@@ -162,17 +156,17 @@ pub fn EstopButton() -> impl IntoView {
     };
     let ack_text = move || {
         let text = match ack.get()?.1 {
-            Ack::NotSent => Text::EstopNotSent,
-            Ack::Sent if stopped() => Text::EstopStopped,
-            Ack::Sent => Text::EstopSent,
+            EstopAck::NotSent => Text::EstopNotSent,
+            EstopAck::Sent if stopped() => Text::EstopStopped,
+            EstopAck::Sent => Text::EstopSent,
         };
         Some(ctx.t(text))
     };
     let ack_state = move || match ack.get().map(|(_, ack)| ack) {
         None => "ready",
-        Some(Ack::NotSent) => "not-sent",
-        Some(Ack::Sent) if stopped() => "stopped",
-        Some(Ack::Sent) => "sent",
+        Some(EstopAck::NotSent) => "not-sent",
+        Some(EstopAck::Sent) if stopped() => "stopped",
+        Some(EstopAck::Sent) => "sent",
     };
     view! {
         <button

@@ -128,6 +128,7 @@ pub fn PreviewPage(
                 <span class="symbol" aria-hidden="true">
                     {symbol}
                 </span>
+                <span class="caption">{move || lang.get().t(text)}</span>
             </button>
         }
     };
@@ -172,8 +173,8 @@ pub fn PreviewPage(
             </Show>
             <canvas node_ref=canvas class="stage" data-testid="preview-canvas" style=aspect></canvas>
             <div class="transport">
-                {button("preview-restart", "⏮", Text::Restart, Playback::restart)}
-                {button("preview-back", "⏪", Text::StepBack, Playback::step_back)}
+                {button("preview-restart", "|◀", Text::Restart, Playback::restart)}
+                {button("preview-back", "◀◀", Text::StepBack, Playback::step_back)}
                 <button
                     class="icon"
                     data-testid="preview-toggle"
@@ -184,10 +185,11 @@ pub fn PreviewPage(
                     on:click=move |_| playback.update(Playback::toggle)
                 >
                     <span class="symbol" aria-hidden="true">
-                        {move || if playback.with(Playback::playing) { "⏸" } else { "▶" }}
+                        {move || if playback.with(Playback::playing) { "II" } else { "▶" }}
                     </span>
+                    <span class="caption">{move || lang.get().t(toggle_text())}</span>
                 </button>
-                {button("preview-forward", "⏩", Text::StepForward, Playback::step_forward)}
+                {button("preview-forward", "▶▶", Text::StepForward, Playback::step_forward)}
                 <span class="time mono" data-testid="preview-time">
                     {move || {
                         playback.with(|p| {
