@@ -16,8 +16,9 @@ use floatball_shared::show::{Layout, Show, Track, TrackRow};
 use floatball_web::client::{
     LocalFuture, Method, OnProgress, Request, Response, Transport, UploadProgress,
 };
+use floatball_web::components::Shell;
 use floatball_web::components::console::ConsolePage;
-use floatball_web::components::control::ControlPage;
+use floatball_web::components::control::{ControlPage, SettingsPage};
 use floatball_web::components::files::FilesPage;
 use floatball_web::components::login::LoginPage;
 use floatball_web::components::{ConnectionIndicator, EstopButton, LanguageSwitch};
@@ -365,6 +366,49 @@ async fn estop_sends_exactly_one_estop_per_press_and_is_acknowledged() {
     tick().await;
     assert_eq!(socket.sent.borrow().len(), 2);
     assert_eq!(text(&container, "estop-ack"), "NOT sent: no connection");
+}
+
+#[wasm_bindgen_test]
+async fn the_top_bar_shows_the_estop_only_when_connected_and_guards_control_pages() {
+    let container = fresh_container();
+    let bridge = FakeBridge::new(|_| response(404, ""));
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-shell");
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <Shell /> }
+    });
+    tick().await;
+    assert!(all(&container, "estop").is_empty());
+    assert_eq!(all(&container, "page-files").len(), 1);
+
+    element(&container, "nav-control").click();
+    tick().await;
+    assert_eq!(
+        all(&container, "page-login").len(),
+        1,
+        "control needs a login"
+    );
+
+    online(ctx);
+    tick().await;
+    assert_eq!(all(&container, "page-control").len(), 1);
+    assert_eq!(all(&container, "estop").len(), 2, "top bar and Control");
+    element(&container, "connection").click();
+    tick().await;
+    assert_eq!(
+        all(&container, "page-login").len(),
+        1,
+        "the indicator opens Login"
+    );
+    assert_eq!(all(&container, "logged-in").len(), 1);
+
+    ctx.link.set(Link::Disconnected);
+    tick().await;
+    assert!(
+        all(&container, "estop").is_empty(),
+        "no E-stop that cannot be sent"
+    );
 }
 
 // ----------------------------------------------------------------------------------
@@ -889,6 +933,54 @@ async fn an_infeasible_show_blocks_start_and_says_why() {
         "{bad}"
     );
     assert!(disabled(&container, "start"));
+}
+
+#[wasm_bindgen_test]
+async fn settings_store_the_defaults_and_the_loop_flag() {
+    let container = fresh_container();
+    let bridge = playlist_bridge();
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-settings");
+    online(ctx);
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <SettingsPage /> }
+    });
+    tick().await;
+    type_into(&container, "default-delay", "abc");
+    element(&container, "settings-apply").click();
+    tick().await;
+    assert_eq!(
+        text(&container, "settings-error"),
+        "The delay must be a number of seconds from 0 to 86400"
+    );
+    assert!(bridge.requests.borrow().is_empty());
+
+    type_into(&container, "default-delay", "1.5");
+    type_into(&container, "default-cycles", "4");
+    element(&container, "loop").click();
+    element(&container, "settings-apply").click();
+    until("the settings are stored", || {
+        all(&container, "settings-saved").len() == 1
+    })
+    .await;
+    let puts = bridge.requests_to(Method::Put, "/api/playlist");
+    let stored: Playlist = serde_json::from_str(puts[0].body.as_deref().unwrap()).unwrap();
+    assert_eq!(
+        (
+            stored.default_delay_ms,
+            stored.default_cycles,
+            stored.loop_playlist
+        ),
+        (1500, 4, true)
+    );
+    ctx.playlist.update(|editor| editor.add("new"));
+    let entry = ctx.playlist.get_untracked().entries()[0].clone();
+    assert_eq!(
+        (entry.delay_ms, entry.cycles),
+        (1500, 4),
+        "new entries get the defaults"
+    );
 }
 
 // ----------------------------------------------------------------------------------
