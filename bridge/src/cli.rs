@@ -6,8 +6,12 @@
 use std::net::SocketAddr;
 use std::path::PathBuf;
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use anyhow::Context;
-use clap::Parser;
+use clap::{Parser, Subcommand};
+use floatball_shared::sim::{self, GatewayConfig};
 
 use crate::server;
 use crate::state::AppState;
@@ -17,8 +21,16 @@ pub const DEFAULT_LISTEN: &str = "0.0.0.0:8080";
 
 /// Floatball's bridge: serves the operator app and relays to the ball matrix.
 #[derive(Debug, Parser)]
-#[command(name = "floatball", version, about)]
+#[command(
+    name = "floatball",
+    version,
+    about,
+    args_conflicts_with_subcommands = true
+)]
 pub struct Cli {
+    /// What to do instead of serving.
+    #[command(subcommand)]
+    pub command: Option<Command>,
     /// Address and port to listen on (port 0 picks a free port).
     #[arg(long, default_value = DEFAULT_LISTEN)]
     pub listen: SocketAddr,
@@ -30,8 +42,42 @@ pub struct Cli {
     pub static_dir: PathBuf,
 }
 
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Answer as a simulated UIM2503 gateway with its units on a serial device (e.g. one
+    /// end of a pseudo-terminal pair or a null-modem cable).
+    Simulate(SimulateArgs),
+}
+
+/// Options of `floatball simulate`.
+#[derive(Debug, clap::Args)]
+pub struct SimulateArgs {
+    /// The serial device to answer on, e.g. /dev/pts/3 or /dev/ttyUSB1.
+    #[arg(long)]
+    pub port: String,
+    /// The line's baud rate (a UIM2503 leaves the factory at 9600).
+    #[arg(long, default_value_t = 9600)]
+    pub baud: u32,
+    /// Number of units behind the gateway (stations 1…N).
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u8).range(1..=sim::MAX_UNITS as i64))]
+    pub units: u8,
+    /// Every unit answers on station 5, as delivered from the factory.
+    #[arg(long)]
+    pub factory_fresh: bool,
+    /// Seed of the units' serial numbers.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Calibration: encoder counts per mm.
+    #[arg(long, default_value_t = sim::DEFAULT_COUNTS_PER_MM)]
+    pub counts_per_mm: f64,
+}
+
 /// Runs the command the user asked for until it ends or Ctrl-C is pressed.
 pub async fn run(cli: Cli) -> anyhow::Result<()> {
+    if let Some(Command::Simulate(args)) = cli.command {
+        return simulate(args).await;
+    }
     std::fs::create_dir_all(&cli.data_dir).with_context(|| {
         format!(
             "cannot create the data directory {}",
@@ -84,4 +130,38 @@ async fn shutdown_signal() {
         () = terminate => {}
     }
     tracing::info!("shutting down");
+}
+
+/// `floatball simulate`: runs until Ctrl-C or SIGTERM.
+async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
+    let mut gateway = if args.factory_fresh {
+        GatewayConfig::factory_fresh(usize::from(args.units))
+    } else {
+        GatewayConfig::numbered(args.units)
+    };
+    gateway.seed = args.seed;
+    gateway.counts_per_mm = args.counts_per_mm;
+    let options = crate::simulate::SimulateOptions {
+        port: args.port,
+        baud: args.baud,
+        gateway,
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let worker_stop = Arc::clone(&stop);
+    let banner = format!(
+        "floatball simulating a gateway with {} units on {} at {} baud",
+        args.units, options.port, options.baud
+    );
+    let worker = tokio::task::spawn_blocking(move || {
+        crate::simulate::run(&options, &worker_stop, || println!("{banner}"))
+    });
+    tokio::select! {
+        result = worker => {
+            result.context("the simulator stopped unexpectedly")?.map_err(anyhow::Error::msg)
+        }
+        () = shutdown_signal() => {
+            stop.store(true, Ordering::Release);
+            Ok(())
+        }
+    }
 }

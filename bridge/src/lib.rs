@@ -2,6 +2,9 @@
 //!
 //! # Layout
 //! - [`cli`]: the command line and what each command does.
+//! - [`link`]: the links to the gateways (serial ports, the simulated gateway) with
+//!   their e-stop lane.
+//! - [`simulate`]: `floatball simulate`, the simulated gateway on a real serial device.
 //! - [`server`]: the HTTP server — static app, API routes — and its shutdown.
 //! - [`ws`]: the WebSocket endpoint `/ws`: status out, control in.
 //! - [`state`]: what every request handler shares (status channel, paths).
@@ -12,6 +15,8 @@
 )]
 
 pub mod cli;
+pub mod link;
 pub mod server;
+pub mod simulate;
 pub mod state;
 pub mod ws;

@@ -11,7 +11,7 @@
 //! use floatball_shared::api::{ClientMessage, ServerMessage};
 //!
 //! let raw: ClientMessage = serde_json::from_str(r#"{"type":"raw","line":"*5;PV;"}"#).unwrap();
-//! assert_eq!(raw, ClientMessage::Raw { line: "*5;PV;".into() });
+//! assert_eq!(raw, ClientMessage::Raw { line: "*5;PV;".into(), gateway: None });
 //! let error = ServerMessage::Error { message: "no such show".into() };
 //! assert_eq!(
 //!     serde_json::to_string(&error).unwrap(),
@@ -187,6 +187,8 @@ pub struct SimUnit {
     pub velocity_counts_s: f64,
     /// The motor is enabled (`MO=1`).
     pub motor_on: bool,
+    /// The ball is moving (point-to-point or PVT).
+    pub moving: bool,
 }
 
 // ----------------------------------------------------------------------------------
@@ -253,6 +255,8 @@ pub enum PlayerState {
     /// Nothing is playing.
     #[default]
     Idle,
+    /// Waiting for a playlist entry's delay to pass.
+    Waiting,
     /// Balls are moving to the first position of a show.
     Approaching,
     /// Rows are being preloaded into the units.

@@ -15,6 +15,8 @@
 //!   [`Instruction::encoded_len`] says how long that text is without writing it.
 //! - [`parse_script`] reads what engineers type: instructions separated by whitespace,
 //!   `#` comments, errors with line and column ([`ParseError`]).
+//! - [`Batch`] holds encoded instructions on their way to a gateway, remembering where
+//!   each one ends (a link writes one at a time so an e-stop can overtake the rest).
 //! - [`InstructionReader`] reads raw bytes the way the gateway does: in any chunking,
 //!   one `;`-terminated instruction at a time, from a bounded buffer.
 //!
@@ -41,12 +43,14 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod batch;
 mod encode;
 mod parse;
 mod reader;
 
 use std::fmt;
 
+pub use batch::Batch;
 pub use encode::{EncodeError, Encoded, Form};
 pub use parse::{Expected, Found, Head, ParseError, ParseErrorKind, parse_script};
 pub use reader::{InstructionReader, ReadInstructions};
@@ -471,6 +475,10 @@ pub struct RangeError {
     pub min: i128,
     /// The largest value allowed.
     pub max: i128,
+    /// For an operand, the index of its instruction (`QT[3]=0` → `Some(3)`), so that a
+    /// unit can say which row or parameter it refused; `None` for an instruction
+    /// without an index and for the other fields.
+    pub index: Option<u8>,
 }
 
 /// A documented range; the parsers and the encoder take every limit from the constants
@@ -501,6 +509,7 @@ impl Range {
             value,
             min: self.min,
             max: self.max,
+            index: None,
         }
     }
 }

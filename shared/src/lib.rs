@@ -14,10 +14,14 @@
 //! - [`feedback`]: the binary feedback frames (gateway → host): the streaming decoder, the
 //!   frame encoder, typed ACKs, notifications and errors, and every code in one place
 //!   ([`feedback::code`]).
+//! - [`plan`]: from a show and an installation to each gateway's instruction stream in
+//!   the fewest bytes, the FIFO refill schedule and the bandwidth / feasibility report.
 //! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
 //!   single-sequence and loop runs, `MP` parameters, watermark) driven by time.
 //! - [`show`]: the show model and its native file format, CSV keyframe import,
 //!   validation against an installation's limits, and sampling for the preview.
+//! - [`sim`]: a simulated gateway and its units: instruction bytes and time in,
+//!   feedback bytes out, every ball's PVT table and motion in between.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 #![cfg_attr(
@@ -28,5 +32,7 @@
 pub mod api;
 pub mod ascii;
 pub mod feedback;
+pub mod plan;
 pub mod pvt;
 pub mod show;
+pub mod sim;

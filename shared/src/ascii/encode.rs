@@ -112,10 +112,15 @@ impl Instruction {
                 STATION.narrow::<u8>(Field::Station, station.into())?;
             }
             Self::PvtTime {
+                row,
                 duration_ms: Some(duration_ms),
-                ..
             } => {
-                QT_MS.narrow::<u8>(Field::Operand(Mnemonic::QT), duration_ms.into())?;
+                QT_MS
+                    .narrow::<u8>(Field::Operand(Mnemonic::QT), duration_ms.into())
+                    .map_err(|error| RangeError {
+                        index: Some(row),
+                        ..error
+                    })?;
             }
             Self::SetStation { station, .. } => {
                 SN_STATION.narrow::<u8>(Field::Index(Mnemonic::SN), station.into())?;
@@ -490,12 +495,13 @@ mod tests {
     #[test]
     fn refuses_what_the_gateway_would_not_take() {
         use Instruction::*;
-        let range = |field, value, min, max| {
+        let range = |field, value, min, max, index| {
             EncodeError::OutOfRange(RangeError {
                 field,
                 value,
                 min,
                 max,
+                index,
             })
         };
         let too_long = |instruction, form, length| EncodeError::TooLong {
@@ -513,7 +519,7 @@ mod tests {
             (
                 Select { station: 128 },
                 Form::Standard,
-                range(Field::Station, 128, 0, 127),
+                range(Field::Station, 128, 0, 127, None),
                 "the station of `*N;` must be 0–127, found 128",
             ),
             (
@@ -522,16 +528,16 @@ mod tests {
                     duration_ms: Some(0),
                 },
                 Form::Compact,
-                range(Field::Operand(Mnemonic::QT), 0, 10, 255),
+                range(Field::Operand(Mnemonic::QT), 0, 10, 255, Some(0)),
                 "the operand of QT[X] (ms) must be 10–255, found 0",
             ),
             (
                 PvtTime {
-                    row: 0,
+                    row: 7,
                     duration_ms: Some(9),
                 },
                 Form::Standard,
-                range(Field::Operand(Mnemonic::QT), 9, 10, 255),
+                range(Field::Operand(Mnemonic::QT), 9, 10, 255, Some(7)),
                 "the operand of QT[X] (ms) must be 10–255, found 9",
             ),
             (
@@ -540,7 +546,7 @@ mod tests {
                     serial: 1,
                 },
                 Form::Standard,
-                range(Field::Index(Mnemonic::SN), 128, 0, 127),
+                range(Field::Index(Mnemonic::SN), 128, 0, 127, None),
                 "the new station of SN[X] must be 0–127, found 128",
             ),
             (

@@ -618,17 +618,18 @@ fn starts_operand(byte: u8, hex: bool) -> bool {
     }
 }
 
-/// The operand, checked against `range`, as a `T`.
+/// The operand of the instruction with `index`, checked against `range`, as a `T`.
 fn value<T: TryFrom<i128>>(
     operand: Option<(Mark, i128)>,
     range: Range,
     field: Field,
+    index: Option<u8>,
 ) -> Result<Option<T>, ParseError> {
     operand
         .map(|(at, value)| {
-            range
-                .narrow(field, value)
-                .map_err(|error| at.error(ParseErrorKind::OutOfRange(error)))
+            range.narrow(field, value).map_err(|error| {
+                at.error(ParseErrorKind::OutOfRange(RangeError { index, ..error }))
+            })
         })
         .transpose()
 }
@@ -653,7 +654,7 @@ fn build(parsed: Parsed) -> Result<Instruction, ParseError> {
     };
     Ok(match mnemonic {
         Mnemonic::BG => Instruction::Begin {
-            at_us: value(operand, U32, field)?,
+            at_us: value(operand, U32, field, head.index)?,
         },
         Mnemonic::MP => {
             let index = row()?;
@@ -664,23 +665,23 @@ fn build(parsed: Parsed) -> Result<Instruction, ParseError> {
             })?;
             Instruction::MotionProfile {
                 param,
-                value: value(operand, BYTE, field)?,
+                value: value(operand, BYTE, field, head.index)?,
             }
         }
         Mnemonic::PV => Instruction::PvtStart {
-            row: value(operand, BYTE, field)?,
+            row: value(operand, BYTE, field, head.index)?,
         },
         Mnemonic::QP => Instruction::PvtPosition {
             row: row()?,
-            position_counts: value(operand, I32, field)?,
+            position_counts: value(operand, I32, field, head.index)?,
         },
         Mnemonic::QV => Instruction::PvtVelocity {
             row: row()?,
-            velocity_counts_s: value(operand, I32, field)?,
+            velocity_counts_s: value(operand, I32, field, head.index)?,
         },
         Mnemonic::QT => Instruction::PvtTime {
             row: row()?,
-            duration_ms: value(operand, QT_MS, field)?,
+            duration_ms: value(operand, QT_MS, field, head.index)?,
         },
         Mnemonic::SN => match (head.index, operand) {
             (None, None) => Instruction::QuerySerial,
@@ -688,9 +689,12 @@ fn build(parsed: Parsed) -> Result<Instruction, ParseError> {
                 station: SN_STATION
                     .narrow(Field::Index(mnemonic), station.into())
                     .map_err(|error| index_at.error(ParseErrorKind::OutOfRange(error)))?,
-                serial: U64
-                    .narrow(field, serial)
-                    .map_err(|error| at.error(ParseErrorKind::OutOfRange(error)))?,
+                serial: U64.narrow(field, serial).map_err(|error| {
+                    at.error(ParseErrorKind::OutOfRange(RangeError {
+                        index: Some(station),
+                        ..error
+                    }))
+                })?,
             },
             (Some(_), None) => return Err(end.error(ParseErrorKind::MissingOperand { head })),
             (None, Some((at, _))) => {
@@ -698,28 +702,28 @@ fn build(parsed: Parsed) -> Result<Instruction, ParseError> {
             }
         },
         Mnemonic::MO => Instruction::Motor {
-            on: value::<u8>(operand, FLAG, field)?.map(|on| on == 1),
+            on: value::<u8>(operand, FLAG, field, head.index)?.map(|on| on == 1),
         },
         Mnemonic::SP => Instruction::PtpSpeed {
-            speed_counts_s: value(operand, I32, field)?,
+            speed_counts_s: value(operand, I32, field, head.index)?,
         },
         Mnemonic::PA => Instruction::PtpPosition {
-            position_counts: value(operand, I32, field)?,
+            position_counts: value(operand, I32, field, head.index)?,
         },
         Mnemonic::SD => Instruction::StopDecel {
-            decel_counts_s2: value(operand, U32, field)?,
+            decel_counts_s2: value(operand, U32, field, head.index)?,
         },
         Mnemonic::IE => Instruction::InfoEnable {
             index: row()?,
-            enabled: value::<u8>(operand, FLAG, field)?.map(|enabled| enabled == 1),
+            enabled: value::<u8>(operand, FLAG, field, head.index)?.map(|enabled| enabled == 1),
         },
         _ => Instruction::Generic(Generic {
             mnemonic,
             index: head.index,
             operand: if head.hex {
-                value(operand, U64, field)?.map(Operand::Hex)
+                value(operand, U64, field, head.index)?.map(Operand::Hex)
             } else {
-                value(operand, I64, field)?.map(Operand::Decimal)
+                value(operand, I64, field, head.index)?.map(Operand::Decimal)
             },
         }),
     })
@@ -1406,6 +1410,43 @@ mod tests {
             })
         ));
         assert_eq!(read[2], Ok(Instruction::Select { station: 1 }));
+    }
+
+    /// A refused operand names its instruction's index, so a unit can say which row or
+    /// parameter it refused (`QT[3]=0;` → ER `[0x33, 0x27, 3]`).
+    #[test]
+    fn an_operand_out_of_range_carries_its_index() {
+        let index_of = |text: &[u8]| match InstructionReader::new().push(text).next() {
+            Some(Err(ParseError {
+                kind: ParseErrorKind::OutOfRange(error),
+                ..
+            })) => Some((error.field, error.index)),
+            _ => None,
+        };
+        let operand = |mnemonic| Field::Operand(mnemonic);
+        assert_eq!(
+            index_of(b"QT[3]=0;"),
+            Some((operand(Mnemonic::QT), Some(3)))
+        );
+        assert_eq!(
+            index_of(b"qt [ 200 ] 256;"),
+            Some((operand(Mnemonic::QT), Some(200)))
+        );
+        assert_eq!(
+            index_of(b"MP[1]=256;"),
+            Some((operand(Mnemonic::MP), Some(1)))
+        );
+        assert_eq!(
+            index_of(b"IE[5]=2;"),
+            Some((operand(Mnemonic::IE), Some(5)))
+        );
+        assert_eq!(index_of(b"PV=256;"), Some((operand(Mnemonic::PV), None)));
+        assert_eq!(
+            index_of(b"MP[7]=1;"),
+            Some((Field::Index(Mnemonic::MP), None)),
+            "an index out of range is the value itself"
+        );
+        assert_eq!(index_of(b"*128;"), Some((Field::Station, None)));
     }
 
     #[test]

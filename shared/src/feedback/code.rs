@@ -70,6 +70,15 @@ pub mod error {
     pub const WHILE_MOVING: u8 = 0x3D;
     /// `BG` while the motor driver is off (`MO=0`).
     pub const MOTOR_OFF: u8 = 0x3E;
+    /// A PVT row asks for more speed or acceleration than the unit has (or starts too
+    /// far from where the ball is): the unit stops at once and switches its driver off.
+    /// Sent unasked when the row starts, with code `QT` and the row as index. *Our
+    /// number*, not from a UIROBOT manual.
+    pub const OVERLOAD: u8 = 0x40;
+    /// PVT motion reached the upper limit switch (position 0) or the end of the travel:
+    /// the unit stops there, its driver stays on. Sent unasked at that moment, with code
+    /// `QT` and the row as index. *Our number*, not from a UIROBOT manual.
+    pub const LIMIT: u8 = 0x41;
 
     /// A few words on an error number, for operators.
     pub fn describe(error: u8) -> &'static str {
@@ -79,6 +88,8 @@ pub mod error {
             INDEX => "index out of range",
             WHILE_MOVING => "not allowed while the motor moves",
             MOTOR_OFF => "the motor driver is off",
+            OVERLOAD => "the unit cannot follow the PVT row (speed or acceleration)",
+            LIMIT => "the ball reached the end of its travel",
             _ => "unknown error",
         }
     }
@@ -161,6 +172,11 @@ mod tests {
             (error::INDEX, "index out of range"),
             (error::WHILE_MOVING, "not allowed while the motor moves"),
             (error::MOTOR_OFF, "the motor driver is off"),
+            (
+                error::OVERLOAD,
+                "the unit cannot follow the PVT row (speed or acceleration)",
+            ),
+            (error::LIMIT, "the ball reached the end of its travel"),
             (0, "unknown error"),
         ] {
             assert_eq!(error::describe(error), words);

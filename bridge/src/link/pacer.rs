@@ -1,0 +1,149 @@
+//! Pacing writes to the line's real speed.
+//!
+//! A UART sends a byte in 10 bit times (8N1), so a line carries baud / 10 bytes per
+//! second. The writer hands the next instruction to the port only shortly before the
+//! line is free ([`LEAD`]): the line stays busy, and the port's buffer never holds
+//! more than the instruction being sent — so an e-stop waits for at most that one.
+//! The same pacing makes the simulated gateway's line exactly as slow as a real one.
+
+use std::time::{Duration, Instant};
+
+/// How long before the line is free the next instruction is handed over, at least.
+pub const LEAD: Duration = Duration::from_micros(300);
+
+/// How long one byte takes on the wire at `baud` (8 data bits, 1 start, 1 stop).
+pub fn byte_time(baud: u32) -> Duration {
+    Duration::from_secs_f64(10.0 / f64::from(baud.max(1)))
+}
+
+/// When the line will be free, given what was written.
+#[derive(Debug, Clone)]
+pub struct Pacer {
+    byte_time: Duration,
+    lead: Duration,
+    line_free_at: Instant,
+}
+
+impl Pacer {
+    /// A pacer for a line at `baud`, idle at `now`.
+    pub fn new(baud: u32, now: Instant) -> Self {
+        let byte_time = byte_time(baud);
+        Self {
+            byte_time,
+            lead: LEAD.max(byte_time * 2),
+            line_free_at: now,
+        }
+    }
+
+    /// How long to wait at `now` before handing over the next instruction.
+    pub fn wait_before_next(&self, now: Instant) -> Duration {
+        self.line_free_at
+            .checked_sub(self.lead)
+            .map_or(Duration::ZERO, |start| start.saturating_duration_since(now))
+    }
+
+    /// Records `len` bytes handed to the port at `now`; returns when they will have
+    /// left the line.
+    pub fn wrote(&mut self, now: Instant, len: usize) -> Instant {
+        let start = self.line_free_at.max(now);
+        let len = u32::try_from(len).unwrap_or(u32::MAX);
+        self.line_free_at = start + self.byte_time * len;
+        self.line_free_at
+    }
+}
+
+/// Bytes per second over the last window of about a second.
+#[derive(Debug, Clone)]
+pub struct RateMeter {
+    window_start: Instant,
+    bytes: u64,
+    rate_bytes_per_s: f64,
+}
+
+/// The length of a [`RateMeter`] window.
+pub const RATE_WINDOW: Duration = Duration::from_secs(1);
+
+impl RateMeter {
+    /// A meter starting at `now` with a rate of 0.
+    pub fn new(now: Instant) -> Self {
+        Self {
+            window_start: now,
+            bytes: 0,
+            rate_bytes_per_s: 0.0,
+        }
+    }
+
+    /// Counts `len` bytes written at `now`.
+    pub fn add(&mut self, now: Instant, len: usize) {
+        self.roll(now);
+        self.bytes += len as u64;
+    }
+
+    /// The rate of the last complete window, rolling over at `now` if a window ended.
+    /// Returns `Some(rate)` when it changed.
+    pub fn roll(&mut self, now: Instant) -> Option<f64> {
+        let elapsed = now.saturating_duration_since(self.window_start);
+        if elapsed < RATE_WINDOW {
+            return None;
+        }
+        let rate = self.bytes as f64 / elapsed.as_secs_f64();
+        self.window_start = now;
+        self.bytes = 0;
+        let changed = (rate - self.rate_bytes_per_s).abs() > f64::EPSILON;
+        self.rate_bytes_per_s = rate;
+        changed.then_some(rate)
+    }
+
+    /// The last published rate, bytes/s.
+    pub fn rate_bytes_per_s(&self) -> f64 {
+        self.rate_bytes_per_s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_byte_takes_ten_bit_times() {
+        assert_eq!(byte_time(9600), Duration::from_secs_f64(10.0 / 9600.0));
+        assert_eq!(byte_time(115_200).as_nanos(), 86_806);
+    }
+
+    #[test]
+    fn the_next_write_waits_until_shortly_before_the_line_is_free() {
+        let start = Instant::now();
+        let mut pacer = Pacer::new(9600, start);
+        assert_eq!(pacer.wait_before_next(start), Duration::ZERO);
+        // 20 bytes at 9600 baud: 20.83 ms on the wire.
+        let free = pacer.wrote(start, 20);
+        assert_eq!(free - start, byte_time(9600) * 20);
+        let wait = pacer.wait_before_next(start);
+        let lead = byte_time(9600) * 2;
+        assert_eq!(wait, byte_time(9600) * 20 - lead);
+        // Writing again right away queues behind the first instruction.
+        let free_again = pacer.wrote(start + wait, 10);
+        assert_eq!(free_again - free, byte_time(9600) * 10);
+    }
+
+    #[test]
+    fn an_idle_line_starts_from_now() {
+        let start = Instant::now();
+        let mut pacer = Pacer::new(115_200, start);
+        pacer.wrote(start, 10);
+        let later = start + Duration::from_secs(1);
+        assert_eq!(pacer.wrote(later, 10) - later, byte_time(115_200) * 10);
+    }
+
+    #[test]
+    fn rate_is_measured_per_window() {
+        let start = Instant::now();
+        let mut meter = RateMeter::new(start);
+        meter.add(start, 500);
+        meter.add(start + Duration::from_millis(500), 460);
+        assert_eq!(meter.roll(start + Duration::from_millis(900)), None);
+        let rate = meter.roll(start + Duration::from_secs(1)).unwrap();
+        assert!((rate - 960.0).abs() < 1e-9);
+        assert_eq!(meter.roll(start + Duration::from_secs(2)), Some(0.0));
+    }
+}

@@ -1,0 +1,141 @@
+//! Serial-port links through the `serialport` crate: 8 data bits, no parity, 1 stop bit,
+//! no flow control (PROTOCOL §1.2).
+//!
+//! One supervisor thread per port opens it, runs the writer, and after a loss reports
+//! it, waits (backoff) and opens it again. A reader thread feeds the bytes it reads to
+//! the feedback decoder and broadcasts every frame. The ports are blocking, so these are
+//! plain threads rather than async tasks.
+
+use std::io::{Read, Write};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use floatball_shared::api::LinkState;
+use floatball_shared::feedback::FrameDecoder;
+use serialport::SerialPort;
+
+use super::{Backoff, LineWrite, Shared, run_writer};
+
+/// How long a read waits for bytes before checking whether to stop.
+const READ_TIMEOUT: Duration = Duration::from_millis(50);
+
+/// A connection that lasted this long resets the backoff.
+const STABLE_AFTER: Duration = Duration::from_secs(10);
+
+/// Starts the supervisor thread of a serial link.
+pub(super) fn spawn(shared: Arc<Shared>) {
+    let name = format!("link-{}", shared.index);
+    let started = std::thread::Builder::new()
+        .name(name)
+        .spawn(move || supervise(&shared));
+    if let Err(err) = started {
+        tracing::error!("cannot start a thread for a serial link: {err}");
+    }
+}
+
+/// Opens a serial port as the gateway expects it.
+///
+/// # Errors
+/// The port's refusal, with the port's name in the message.
+pub fn open_port(port: &str, baud: u32) -> Result<Box<dyn SerialPort>, String> {
+    serialport::new(port, baud)
+        .data_bits(serialport::DataBits::Eight)
+        .parity(serialport::Parity::None)
+        .stop_bits(serialport::StopBits::One)
+        .flow_control(serialport::FlowControl::None)
+        .timeout(READ_TIMEOUT)
+        .open()
+        .map_err(|err| format!("cannot open {port}: {err}"))
+}
+
+fn supervise(shared: &Arc<Shared>) {
+    let port_name = shared.config.port.clone();
+    let mut backoff = Backoff::new();
+    while !shared.is_closed() {
+        shared.set_state(LinkState::Connecting, None);
+        let opened = open_port(&port_name, shared.config.baud).and_then(|port| {
+            let reader = port
+                .try_clone()
+                .map_err(|err| format!("cannot read from {port_name}: {err}"))?;
+            Ok((port, reader))
+        });
+        let (port, reader) = match opened {
+            Ok(pair) => pair,
+            Err(reason) => {
+                tracing::warn!("gateway {port_name}: {reason}; retrying");
+                shared.set_state(LinkState::Down, Some(reason));
+                shared.sleep(backoff.next_delay());
+                continue;
+            }
+        };
+        tracing::info!(
+            "gateway {port_name}: connected at {} baud",
+            shared.config.baud
+        );
+        shared.set_state(LinkState::Up, None);
+        let connected_at = Instant::now();
+        let lost = Arc::new(AtomicBool::new(false));
+        let reader_thread = {
+            let shared = Arc::clone(shared);
+            let lost = Arc::clone(&lost);
+            std::thread::Builder::new()
+                .name(format!("link-{}-read", shared.index))
+                .spawn(move || read_loop(&shared, reader, &lost))
+        };
+        let reason = match reader_thread {
+            Ok(reader_thread) => {
+                let reason = run_writer(shared, &mut SerialLine { port }, &lost);
+                lost.store(true, Ordering::Release);
+                let read_reason = reader_thread.join().ok().flatten();
+                read_reason.unwrap_or(reason)
+            }
+            Err(err) => format!("cannot start the reader thread: {err}"),
+        };
+        if shared.is_closed() {
+            break;
+        }
+        tracing::warn!("gateway {port_name}: link lost ({reason}); retrying");
+        shared.set_state(LinkState::Down, Some(reason));
+        if connected_at.elapsed() >= STABLE_AFTER {
+            backoff.reset();
+        }
+        shared.sleep(backoff.next_delay());
+    }
+    shared.set_state(LinkState::Down, Some("shut down".to_owned()));
+}
+
+/// Reads until the link closes or the port fails; returns the failure, if any.
+fn read_loop(shared: &Shared, mut port: Box<dyn SerialPort>, lost: &AtomicBool) -> Option<String> {
+    let mut decoder = FrameDecoder::new();
+    let mut buffer = [0u8; 256];
+    while !shared.is_closed() && !lost.load(Ordering::Acquire) {
+        match port.read(&mut buffer) {
+            Ok(0) => {}
+            Ok(n) => {
+                for frame in decoder.push(&buffer[..n]) {
+                    // No subscriber is fine: nobody is listening right now.
+                    let _ = shared.feedback.send(frame);
+                }
+            }
+            Err(err) if err.kind() == std::io::ErrorKind::TimedOut => {}
+            Err(err) if err.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(err) => {
+                lost.store(true, Ordering::Release);
+                shared.lanes.wake_writer();
+                return Some(format!("read failed: {err}"));
+            }
+        }
+    }
+    None
+}
+
+struct SerialLine {
+    port: Box<dyn SerialPort>,
+}
+
+impl LineWrite for SerialLine {
+    fn write_instruction(&mut self, instruction: &[u8]) -> std::io::Result<()> {
+        self.port.write_all(instruction)
+    }
+}

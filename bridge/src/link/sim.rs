@@ -1,0 +1,239 @@
+//! The simulated gateway as a link kind: `shared::sim::Gateway` behind a virtual serial
+//! line that is exactly as slow as a real one.
+//!
+//! The writer paces instructions at baud / 10 bytes/s like any link; each instruction
+//! reaches the simulated gateway when its last byte would have crossed the line. The
+//! gateway's answers come back at the same speed, byte by byte. [`SimEngine`] is that
+//! line-plus-gateway; the in-process link ([`spawn`]) and `floatball simulate` (the
+//! gateway on the far end of a real serial device) both drive it.
+
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use floatball_shared::api::{LinkState, SimGateway};
+use floatball_shared::feedback::FrameDecoder;
+use floatball_shared::sim::{Gateway, GatewayConfig};
+
+use super::pacer::byte_time;
+use super::{LineWrite, Shared, run_writer};
+
+/// The longest the simulation sleeps, so positions and clocks stay fresh.
+const TICK: Duration = Duration::from_millis(10);
+
+/// A read-only window on a simulated gateway, for `GET /api/sim/positions` and tests.
+#[derive(Debug, Clone)]
+pub struct SimView {
+    gateway: Arc<Mutex<Gateway>>,
+    epoch: Instant,
+    received_bytes: Arc<AtomicU64>,
+}
+
+impl SimView {
+    fn lock(&self) -> MutexGuard<'_, Gateway> {
+        self.gateway
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    /// Every unit's true state now, for gateway number `index`.
+    pub fn positions(&self, index: usize) -> SimGateway {
+        let now_us = micros_since(self.epoch, Instant::now());
+        let mut gateway = self.lock();
+        gateway.advance(now_us);
+        gateway.positions(index)
+    }
+
+    /// Instruction bytes the gateway has received so far.
+    pub fn received_bytes(&self) -> u64 {
+        self.received_bytes.load(Ordering::Relaxed)
+    }
+
+    /// Runs `change` on the gateway (fault injection in tests: a unit dropping off the
+    /// bus, a garbled byte).
+    pub fn with_gateway<T>(&self, change: impl FnOnce(&mut Gateway) -> T) -> T {
+        change(&mut self.lock())
+    }
+}
+
+fn micros_since(epoch: Instant, at: Instant) -> u64 {
+    u64::try_from(at.saturating_duration_since(epoch).as_micros()).unwrap_or(u64::MAX)
+}
+
+/// A simulated gateway at the far end of a line of `baud`: takes instruction bytes at
+/// the times they arrive, and releases its answers no faster than the line carries them.
+#[derive(Debug)]
+pub struct SimEngine {
+    view: SimView,
+    byte_time: Duration,
+    /// Answers waiting to cross the line.
+    outgoing: VecDeque<u8>,
+    /// When the next answer byte will have crossed it.
+    next_out_at: Instant,
+    scratch: Vec<u8>,
+}
+
+impl SimEngine {
+    /// A gateway built from `config`, on a line at `baud`, starting now.
+    ///
+    /// # Errors
+    /// The simulator's refusal of the configuration.
+    pub fn new(config: GatewayConfig, baud: u32) -> Result<Self, String> {
+        let gateway = Gateway::new(config).map_err(|err| format!("simulated gateway: {err}"))?;
+        let epoch = Instant::now();
+        Ok(Self {
+            view: SimView {
+                gateway: Arc::new(Mutex::new(gateway)),
+                epoch,
+                received_bytes: Arc::new(AtomicU64::new(0)),
+            },
+            byte_time: byte_time(baud),
+            outgoing: VecDeque::new(),
+            next_out_at: epoch,
+            scratch: Vec::new(),
+        })
+    }
+
+    /// The read-only window on the gateway.
+    pub fn view(&self) -> SimView {
+        self.view.clone()
+    }
+
+    /// Instruction bytes that finished arriving at `at`.
+    pub fn receive(&mut self, at: Instant, bytes: &[u8]) {
+        let at_us = micros_since(self.view.epoch, at);
+        self.view.lock().receive(at_us, bytes);
+        self.view
+            .received_bytes
+            .fetch_add(bytes.len() as u64, Ordering::Relaxed);
+    }
+
+    /// Lets the gateway run until `now` and appends to `out` the answer bytes that have
+    /// crossed the line by then.
+    pub fn step(&mut self, now: Instant, out: &mut Vec<u8>) {
+        {
+            let mut gateway = self.view.lock();
+            gateway.advance(micros_since(self.view.epoch, now));
+            self.scratch.clear();
+            gateway.poll_output(&mut self.scratch);
+        }
+        if !self.scratch.is_empty() {
+            if self.outgoing.is_empty() {
+                // An idle line starts sending now.
+                self.next_out_at = self.next_out_at.max(now) + self.byte_time;
+            }
+            self.outgoing.extend(self.scratch.iter().copied());
+        }
+        while self.next_out_at <= now {
+            let Some(byte) = self.outgoing.pop_front() else {
+                break;
+            };
+            out.push(byte);
+            self.next_out_at += self.byte_time;
+        }
+    }
+
+    /// When [`SimEngine::step`] next has something to do (at the latest one tick on).
+    pub fn next_wakeup(&self, now: Instant) -> Instant {
+        let mut at = now + TICK;
+        if !self.outgoing.is_empty() {
+            at = at.min(self.next_out_at);
+        }
+        if let Some(event_us) = self.view.lock().next_event_us() {
+            at = at.min(self.view.epoch + Duration::from_micros(event_us));
+        }
+        at.max(now)
+    }
+}
+
+/// Starts an in-process simulated gateway behind `shared`'s link; returns its view.
+pub(super) fn spawn(shared: Arc<Shared>, config: GatewayConfig) -> Option<SimView> {
+    let mut engine = match SimEngine::new(config, shared.config.baud) {
+        Ok(engine) => engine,
+        Err(reason) => {
+            shared.set_state(LinkState::Down, Some(reason));
+            return None;
+        }
+    };
+    let view = engine.view();
+    let (to_sim, deliveries) = channel::<(Instant, Vec<u8>)>();
+    let writer_shared = Arc::clone(&shared);
+    let sim_shared = Arc::clone(&shared);
+    shared.set_state(LinkState::Up, None);
+    let lost = Arc::new(AtomicBool::new(false));
+    let writer = std::thread::Builder::new()
+        .name(format!("link-{}-sim-write", shared.index))
+        .spawn(move || {
+            let mut line = SimLine {
+                to_sim,
+                byte_time: byte_time(writer_shared.config.baud),
+                line_free_at: Instant::now(),
+            };
+            run_writer(&writer_shared, &mut line, &lost);
+        });
+    let simulation = std::thread::Builder::new()
+        .name(format!("link-{}-sim", shared.index))
+        .spawn(move || simulate(&sim_shared, &mut engine, &deliveries));
+    if let Err(err) = writer.and(simulation) {
+        shared.set_state(
+            LinkState::Down,
+            Some(format!("cannot start the simulator: {err}")),
+        );
+    }
+    Some(view)
+}
+
+/// The writer's end of the virtual line: an instruction reaches the gateway when its
+/// last byte has crossed.
+struct SimLine {
+    to_sim: Sender<(Instant, Vec<u8>)>,
+    byte_time: Duration,
+    line_free_at: Instant,
+}
+
+impl LineWrite for SimLine {
+    fn write_instruction(&mut self, instruction: &[u8]) -> std::io::Result<()> {
+        let start = self.line_free_at.max(Instant::now());
+        let len = u32::try_from(instruction.len()).unwrap_or(u32::MAX);
+        self.line_free_at = start + self.byte_time * len;
+        self.to_sim
+            .send((self.line_free_at, instruction.to_vec()))
+            .map_err(|_| std::io::Error::other("the simulator stopped"))
+    }
+}
+
+/// The simulation thread: delivers instructions on time, runs the gateway, decodes its
+/// answers and broadcasts the frames.
+fn simulate(shared: &Shared, engine: &mut SimEngine, deliveries: &Receiver<(Instant, Vec<u8>)>) {
+    let mut pending: VecDeque<(Instant, Vec<u8>)> = VecDeque::new();
+    let mut decoder = FrameDecoder::new();
+    let mut answers = Vec::new();
+    while !shared.is_closed() {
+        let now = Instant::now();
+        let mut wake = engine.next_wakeup(now);
+        if let Some((due, _)) = pending.front() {
+            wake = wake.min(*due);
+        }
+        match deliveries.recv_timeout(wake.saturating_duration_since(now)) {
+            Ok(delivery) => pending.push_back(delivery),
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+        while let Ok(delivery) = deliveries.try_recv() {
+            pending.push_back(delivery);
+        }
+        let now = Instant::now();
+        while pending.front().is_some_and(|(due, _)| *due <= now) {
+            if let Some((due, bytes)) = pending.pop_front() {
+                engine.receive(due, &bytes);
+            }
+        }
+        answers.clear();
+        engine.step(now, &mut answers);
+        for frame in decoder.push(&answers) {
+            let _ = shared.feedback.send(frame);
+        }
+    }
+}

@@ -1,0 +1,590 @@
+//! From a show and an installation to what each gateway's line carries (PROTOCOL §1.6,
+//! DESIGN §4–5): the planner.
+//!
+//! - this module: the [`Installation`] (which unit hangs where, calibration, lines) and
+//!   the [`Plan`]: every unit's rows in counts and how each gateway runs them;
+//! - [`stream`]: the instruction stream in the fewest bytes the manual allows — compact
+//!   form, one `*N;` per batch of a station's rows, and `*0;` broadcasts of what every
+//!   unit of a gateway shares (a row, or just its duration);
+//! - [`schedule`]: when each refill round of a FIFO stream goes out, and the water
+//!   levels that leaves — used by the report and by the player alike;
+//! - [`player`]: Start / E-stop / Reset — the playlist played on the matrix, as a state
+//!   machine driven by time, the links' state and feedback;
+//! - [`report`]: the bandwidth / feasibility report served at `GET /api/plan/{name}`.
+//!
+//! Positions are converted from absolute millimetres, each rounded on its own, so the
+//! rounding error stays below half a count and never accumulates along a track.
+//!
+//! ```
+//! use floatball_shared::plan::{Installation, GatewaySpec, Plan, PlanOptions, RunMode};
+//! use floatball_shared::show::{Layout, Limits, Show, Track, TrackRow};
+//!
+//! let layout = Layout { rows: 1, cols: 2, pitch_mm: 500.0 };
+//! let installation = Installation::row_major(
+//!     Limits::for_layout(1, 2),
+//!     100.0,
+//!     vec![GatewaySpec { port: "sim".into(), baud: 115_200 }],
+//!     1,
+//! ).unwrap();
+//! let track = |to_mm: f64| Track {
+//!     start_mm: 1000.0,
+//!     rows: vec![TrackRow::new(to_mm, 0.0, 200), TrackRow::new(1000.0, 0.0, 200)],
+//!     colours: Vec::new(),
+//! };
+//! let show = Show { name: "bob".into(), layout, tracks: vec![track(1010.0), track(1020.0)] };
+//! let plan = Plan::new(&show, &installation, PlanOptions::default()).unwrap();
+//! assert_eq!(plan.units[1].rows[0].position_counts, 102_000);
+//! assert_eq!(plan.gateways[0].mode, RunMode::Single);
+//! ```
+
+pub mod player;
+pub mod report;
+pub mod schedule;
+pub mod stream;
+
+#[cfg(test)]
+mod player_tests;
+
+use thiserror::Error;
+
+use crate::pvt::{ROW_MAX_MS, ROW_MIN_MS, Row, TABLE_ROWS};
+use crate::show::{Limits, Show, Violation, validate};
+
+/// A gateway's line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct GatewaySpec {
+    /// `sim` or a serial device.
+    pub port: String,
+    /// The line's speed, baud (8N1: baud / 10 bytes per second).
+    pub baud: u32,
+}
+
+/// Where one unit is reached.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UnitAddress {
+    /// Index of the gateway in [`Installation::gateways`].
+    pub gateway: usize,
+    /// The unit's station number on that gateway's bus (1–127).
+    pub station: u8,
+}
+
+/// The machine a show runs on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Installation {
+    /// Physical limits and the matrix size (rows × cols).
+    pub limits: Limits,
+    /// Calibration: encoder counts per millimetre of ball travel.
+    pub counts_per_mm: f64,
+    /// The gateways, in configuration order.
+    pub gateways: Vec<GatewaySpec>,
+    /// Every unit's address, row-major (`units[row * cols + col]`).
+    pub units: Vec<UnitAddress>,
+    /// Speed of the point-to-point moves before a show and when homing, mm/s.
+    pub approach_speed_mm_s: f64,
+    /// Where balls go when homing (Reset, Start after an e-stop), mm below the top.
+    pub home_mm: f64,
+    /// The stop deceleration (`SD`) for runs that end moving, mm/s².
+    pub stop_decel_mm_s2: f64,
+}
+
+/// The most units the manual allows on one gateway.
+pub const MAX_UNITS_PER_GATEWAY: usize = 100;
+
+impl Installation {
+    /// An installation whose units are spread row-major over `gateways`, at most
+    /// [`MAX_UNITS_PER_GATEWAY`] each, on consecutive stations from `first_station`.
+    ///
+    /// # Errors
+    /// [`PlanError::TooFewGateways`] when the matrix needs more gateways, and
+    /// [`PlanError::StationOutOfRange`] when the stations would pass 127.
+    pub fn row_major(
+        limits: Limits,
+        counts_per_mm: f64,
+        gateways: Vec<GatewaySpec>,
+        first_station: u8,
+    ) -> Result<Self, PlanError> {
+        let count = limits.rows as usize * limits.cols as usize;
+        let per_gateway = count.div_ceil(gateways.len().max(1));
+        if gateways.is_empty() || per_gateway > MAX_UNITS_PER_GATEWAY {
+            return Err(PlanError::TooFewGateways {
+                units: count,
+                gateways: gateways.len(),
+            });
+        }
+        let mut units = Vec::with_capacity(count);
+        for unit in 0..count {
+            let offset = unit % per_gateway;
+            let station = u8::try_from(usize::from(first_station) + offset)
+                .ok()
+                .filter(|station| (1..=127).contains(station))
+                .ok_or(PlanError::StationOutOfRange {
+                    station: usize::from(first_station) + offset,
+                })?;
+            units.push(UnitAddress {
+                gateway: unit / per_gateway,
+                station,
+            });
+        }
+        Ok(Self {
+            limits,
+            counts_per_mm,
+            gateways,
+            units,
+            approach_speed_mm_s: 300.0,
+            home_mm: 0.0,
+            stop_decel_mm_s2: limits.max_accel_mm_s2,
+        })
+    }
+
+    /// `mm` in counts, rounded; `None` when it does not fit an `i32`.
+    pub fn counts(&self, mm: f64) -> Option<i32> {
+        let counts = (mm * self.counts_per_mm).round();
+        (counts.is_finite() && counts >= f64::from(i32::MIN) && counts <= f64::from(i32::MAX))
+            .then_some(counts as i32)
+    }
+
+    /// The units (indices into [`Installation::units`]) on `gateway`, in order.
+    pub fn units_on(&self, gateway: usize) -> impl Iterator<Item = usize> + '_ {
+        self.units
+            .iter()
+            .enumerate()
+            .filter(move |(_, address)| address.gateway == gateway)
+            .map(|(unit, _)| unit)
+    }
+}
+
+/// How a gateway's units run their rows (`MP[3]`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RunMode {
+    /// Every track fits the 256-row table: all rows are loaded before the start.
+    Single,
+    /// Tracks are longer than the table: rows are streamed while the show plays.
+    Fifo,
+    /// The show repeats forever and every track ends where it started: the units loop
+    /// on their own, and nothing is streamed.
+    Loop,
+}
+
+impl RunMode {
+    /// The `MP[3]` value.
+    pub fn mp3(self) -> u8 {
+        match self {
+            RunMode::Fifo => 0,
+            RunMode::Single => 1,
+            RunMode::Loop => 3,
+        }
+    }
+}
+
+/// One unit's part of a plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UnitPlan {
+    /// Where it is reached.
+    pub address: UnitAddress,
+    /// Where it waits at rest before the start, counts.
+    pub start_counts: i32,
+    /// Its rows, in counts, counts/s and ms.
+    pub rows: Vec<Row>,
+    /// Start time of each row in show time, ms (`row_start_ms[i]` = sum of the
+    /// durations of the rows before `i`).
+    pub row_start_ms: Vec<u64>,
+}
+
+impl UnitPlan {
+    /// How many of its rows have started by show time `t_ms` (0 before the start).
+    pub fn rows_started_by(&self, t_ms: f64) -> usize {
+        if t_ms < 0.0 {
+            return 0;
+        }
+        self.row_start_ms
+            .partition_point(|&start| (start as f64) <= t_ms)
+    }
+}
+
+/// How one gateway runs the show.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GatewayRun {
+    /// Index of the gateway.
+    pub gateway: usize,
+    /// The run mode of all its units.
+    pub mode: RunMode,
+    /// Its units (indices into [`Plan::units`]).
+    pub units: Vec<usize>,
+    /// Rows per unit written before the start (all of them unless streaming).
+    pub preload_rows: usize,
+}
+
+/// Choices that change a plan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct PlanOptions {
+    /// The show will repeat until stopped (the playlist loops over this one entry):
+    /// loop mode may be used where it repeats exactly.
+    pub repeat_forever: bool,
+}
+
+/// A show made ready for an installation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// The show's name.
+    pub show: String,
+    /// The show's length, ms.
+    pub duration_ms: u64,
+    /// One plan per unit, in the installation's (row-major) order.
+    pub units: Vec<UnitPlan>,
+    /// One run per gateway that has units.
+    pub gateways: Vec<GatewayRun>,
+    /// `SP` for the approach and homing moves, counts/s.
+    pub approach_speed_counts_s: i32,
+    /// `PA` for homing, counts.
+    pub home_counts: i32,
+    /// `SD`, counts/s².
+    pub stop_decel_counts_s2: u32,
+}
+
+/// Why a show cannot be planned.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum PlanError {
+    /// The show was made for another matrix size.
+    #[error(
+        "the show is for a {show_rows} × {show_cols} matrix but this installation is {rows} × {cols}"
+    )]
+    LayoutMismatch {
+        /// The show's rows.
+        show_rows: u32,
+        /// The show's columns.
+        show_cols: u32,
+        /// The installation's rows.
+        rows: u32,
+        /// The installation's columns.
+        cols: u32,
+    },
+    /// The show breaks the installation's limits.
+    #[error("the show is not valid here: {} problem(s), the first: {}", violations.len(), violations.first().map(ToString::to_string).unwrap_or_default())]
+    Invalid {
+        /// Every problem.
+        violations: Vec<Violation>,
+    },
+    /// A position or speed does not fit the units' 32-bit counters.
+    #[error("ball {unit}: {value_mm} mm does not fit in counts at {counts_per_mm} counts/mm")]
+    OutOfCounts {
+        /// The unit (row-major index).
+        unit: usize,
+        /// The value, mm or mm/s.
+        value_mm: f64,
+        /// The calibration.
+        counts_per_mm: f64,
+    },
+    /// The matrix needs more gateways than configured.
+    #[error("{units} units need at least {} gateways (at most 100 units each), but {gateways} are configured", units.div_ceil(MAX_UNITS_PER_GATEWAY))]
+    TooFewGateways {
+        /// Units in the matrix.
+        units: usize,
+        /// Gateways configured.
+        gateways: usize,
+    },
+    /// A station number would pass 127.
+    #[error("station {station} is out of range (1–127)")]
+    StationOutOfRange {
+        /// The station that would be needed.
+        station: usize,
+    },
+    /// The installation's unit list does not match its matrix size.
+    #[error("the installation lists {listed} units for a matrix of {expected}")]
+    UnitCount {
+        /// Units listed.
+        listed: usize,
+        /// rows × cols.
+        expected: usize,
+    },
+}
+
+impl Plan {
+    /// Plans `show` for `installation`: checks it, converts it to counts and chooses
+    /// each gateway's mode and preload. The FIFO preload depth comes from
+    /// [`schedule::choose_preload`]; a show the lines cannot carry still gets a plan
+    /// (with the deepest preload), and [`report`] says why it cannot run.
+    ///
+    /// # Errors
+    /// [`PlanError`]: another layout, limit violations, values beyond the counters.
+    pub fn new(
+        show: &Show,
+        installation: &Installation,
+        options: PlanOptions,
+    ) -> Result<Self, PlanError> {
+        let limits = &installation.limits;
+        if show.layout.rows != limits.rows || show.layout.cols != limits.cols {
+            return Err(PlanError::LayoutMismatch {
+                show_rows: show.layout.rows,
+                show_cols: show.layout.cols,
+                rows: limits.rows,
+                cols: limits.cols,
+            });
+        }
+        let expected = limits.rows as usize * limits.cols as usize;
+        if installation.units.len() != expected {
+            return Err(PlanError::UnitCount {
+                listed: installation.units.len(),
+                expected,
+            });
+        }
+        let violations = validate(show, limits);
+        if !violations.is_empty() {
+            return Err(PlanError::Invalid { violations });
+        }
+        let counts = |unit: usize, mm: f64| {
+            installation.counts(mm).ok_or(PlanError::OutOfCounts {
+                unit,
+                value_mm: mm,
+                counts_per_mm: installation.counts_per_mm,
+            })
+        };
+        let mut units = Vec::with_capacity(show.tracks.len());
+        for (unit, (track, address)) in show.tracks.iter().zip(&installation.units).enumerate() {
+            let mut rows = Vec::with_capacity(track.rows.len());
+            let mut row_start_ms = Vec::with_capacity(track.rows.len());
+            let mut t_ms = 0u64;
+            for row in &track.rows {
+                let duration_ms = u8::try_from(row.duration_ms)
+                    .ok()
+                    .filter(|ms| (ROW_MIN_MS..=ROW_MAX_MS).contains(ms))
+                    .unwrap_or(ROW_MAX_MS);
+                rows.push(Row {
+                    position_counts: counts(unit, row.position_mm)?,
+                    velocity_counts_s: counts(unit, row.velocity_mm_s)?,
+                    duration_ms,
+                });
+                row_start_ms.push(t_ms);
+                t_ms += u64::from(duration_ms);
+            }
+            units.push(UnitPlan {
+                address: *address,
+                start_counts: counts(unit, track.start_mm)?,
+                rows,
+                row_start_ms,
+            });
+        }
+        let mut gateways = Vec::new();
+        for gateway in 0..installation.gateways.len() {
+            let members: Vec<usize> = installation.units_on(gateway).collect();
+            if members.is_empty() {
+                continue;
+            }
+            let longest = members
+                .iter()
+                .map(|&u| units[u].rows.len())
+                .max()
+                .unwrap_or(0);
+            let shortest = members
+                .iter()
+                .map(|&u| units[u].rows.len())
+                .min()
+                .unwrap_or(0);
+            let fits = longest <= TABLE_ROWS && shortest >= 2;
+            let periodic = members.iter().all(|&u| is_periodic(&units[u]));
+            let mode = if !fits {
+                RunMode::Fifo
+            } else if options.repeat_forever && periodic {
+                RunMode::Loop
+            } else {
+                RunMode::Single
+            };
+            gateways.push(GatewayRun {
+                gateway,
+                mode,
+                units: members,
+                preload_rows: longest,
+            });
+        }
+        let approach_speed_counts_s = counts(0, installation.approach_speed_mm_s)?.max(1);
+        let home_counts = counts(0, installation.home_mm)?;
+        let stop_decel_counts_s2 =
+            u32::try_from(counts(0, installation.stop_decel_mm_s2)?.max(1)).unwrap_or(1);
+        let mut plan = Self {
+            show: show.name.clone(),
+            duration_ms: show.duration_ms(),
+            units,
+            gateways,
+            approach_speed_counts_s,
+            home_counts,
+            stop_decel_counts_s2,
+        };
+        for index in 0..plan.gateways.len() {
+            if plan.gateways[index].mode == RunMode::Fifo {
+                let baud = installation.gateways[plan.gateways[index].gateway].baud;
+                let preload = schedule::choose_preload(&plan, index, baud).preload_rows;
+                plan.gateways[index].preload_rows = preload;
+            }
+        }
+        Ok(plan)
+    }
+
+    /// The run of gateway `gateway` (its index in the installation), if it has units.
+    pub fn run_of(&self, gateway: usize) -> Option<&GatewayRun> {
+        self.gateways.iter().find(|run| run.gateway == gateway)
+    }
+}
+
+/// Whether a unit ends exactly where and how it started (at rest at its start), so
+/// running its rows again continues the motion without a jump.
+fn is_periodic(unit: &UnitPlan) -> bool {
+    unit.rows.last().is_some_and(|last| {
+        last.position_counts == unit.start_counts && last.velocity_counts_s == 0
+    })
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
+
+    use super::*;
+    use crate::show::{Layout, Track, TrackRow};
+
+    /// A wave across a `rows` × `cols` matrix: every ball bobs 0.5 m around 3 m with a
+    /// phase that moves along the columns; `rows_per_ball` rows of `row_ms`.
+    pub(crate) fn wave(rows: u32, cols: u32, rows_per_ball: usize, row_ms: u32) -> Show {
+        let mut tracks = Vec::new();
+        for row in 0..rows {
+            for col in 0..cols {
+                let phase = f64::from(col) * 0.6 + f64::from(row) * 0.2;
+                let omega = 2.0 * std::f64::consts::PI / 4.0; // one wave every 4 s
+                let at = |t_s: f64| 3000.0 + 500.0 * (omega * t_s + phase).sin();
+                let speed = |t_s: f64| 500.0 * omega * (omega * t_s + phase).cos();
+                let mut track_rows = Vec::with_capacity(rows_per_ball);
+                for i in 1..=rows_per_ball {
+                    let t_s = (i as f64) * f64::from(row_ms) / 1000.0;
+                    let last = i == rows_per_ball;
+                    let position = (at(t_s) * 10.0).round() / 10.0;
+                    let velocity = if last {
+                        0.0
+                    } else {
+                        (speed(t_s) * 10.0).round() / 10.0
+                    };
+                    track_rows.push(TrackRow::new(position, velocity, row_ms));
+                }
+                // Start at rest where the wave starts.
+                tracks.push(Track {
+                    start_mm: (at(0.0) * 10.0).round() / 10.0,
+                    rows: track_rows,
+                    colours: Vec::new(),
+                });
+            }
+        }
+        Show {
+            name: "wave".into(),
+            layout: Layout {
+                rows,
+                cols,
+                pitch_mm: 500.0,
+            },
+            tracks,
+        }
+    }
+
+    /// Generous limits so test shows are valid (the start-from-rest jumps in speed are
+    /// within these).
+    pub(crate) fn installation(rows: u32, cols: u32, baud: u32) -> Installation {
+        let mut limits = Limits::for_layout(rows, cols);
+        limits.max_accel_mm_s2 = 40_000.0;
+        Installation::row_major(
+            limits,
+            100.0,
+            vec![GatewaySpec {
+                port: "sim".into(),
+                baud,
+            }],
+            1,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn positions_are_rounded_from_absolute_millimetres() {
+        let show = wave(1, 3, 50, 200);
+        let plan = Plan::new(&show, &installation(1, 3, 115_200), PlanOptions::default()).unwrap();
+        for (unit, track) in plan.units.iter().zip(&show.tracks) {
+            for (row, source) in unit.rows.iter().zip(&track.rows) {
+                let error = f64::from(row.position_counts) - source.position_mm * 100.0;
+                assert!(error.abs() <= 0.5, "{error}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_mode_follows_the_table_size() {
+        let installation = installation(2, 5, 115_200);
+        let short =
+            Plan::new(&wave(2, 5, 256, 250), &installation, PlanOptions::default()).unwrap();
+        assert_eq!(short.gateways[0].mode, RunMode::Single);
+        assert_eq!(short.gateways[0].preload_rows, 256);
+        let long = Plan::new(&wave(2, 5, 257, 250), &installation, PlanOptions::default()).unwrap();
+        assert_eq!(long.gateways[0].mode, RunMode::Fifo);
+        assert!(long.gateways[0].preload_rows <= 255);
+    }
+
+    #[test]
+    fn loop_mode_only_when_repeating_forever_and_periodic() {
+        let installation = installation(1, 2, 115_200);
+        let mut show = wave(1, 2, 16, 250);
+        let forever = PlanOptions {
+            repeat_forever: true,
+        };
+        // The 4 s wave ends at its start after 16 rows of 250 ms, at rest only if we
+        // make it so.
+        for track in &mut show.tracks {
+            let last = track.rows.len() - 1;
+            track.rows[last] = TrackRow::new(track.start_mm, 0.0, 250);
+        }
+        let plan = Plan::new(&show, &installation, forever).unwrap();
+        assert_eq!(plan.gateways[0].mode, RunMode::Loop);
+        let once = Plan::new(&show, &installation, PlanOptions::default()).unwrap();
+        assert_eq!(once.gateways[0].mode, RunMode::Single);
+        let start = show.tracks[1].start_mm;
+        show.tracks[1].rows.pop();
+        show.tracks[1]
+            .rows
+            .push(TrackRow::new(start + 1.0, 0.0, 250));
+        // One ball ending a millimetre off its start: not periodic any more.
+        let not_periodic = Plan::new(&show, &installation, forever).unwrap();
+        assert_eq!(not_periodic.gateways[0].mode, RunMode::Single);
+    }
+
+    #[test]
+    fn invalid_and_mismatched_shows_are_refused() {
+        let installation = installation(1, 2, 115_200);
+        let error =
+            Plan::new(&wave(2, 2, 10, 200), &installation, PlanOptions::default()).unwrap_err();
+        assert!(matches!(error, PlanError::LayoutMismatch { .. }), "{error}");
+        let mut show = wave(1, 2, 10, 200);
+        show.tracks[0].rows[3].position_mm = 9000.0;
+        let error = Plan::new(&show, &installation, PlanOptions::default()).unwrap_err();
+        assert!(error.to_string().contains("not valid"), "{error}");
+    }
+
+    #[test]
+    fn big_matrices_spread_over_gateways() {
+        let limits = Limits::for_layout(15, 10);
+        let spec = |port: &str| GatewaySpec {
+            port: port.into(),
+            baud: 115_200,
+        };
+        let error = Installation::row_major(limits, 100.0, vec![spec("a")], 1).unwrap_err();
+        assert!(error.to_string().contains("at least 2 gateways"), "{error}");
+        let two = Installation::row_major(limits, 100.0, vec![spec("a"), spec("b")], 1).unwrap();
+        assert_eq!(
+            two.units[74],
+            UnitAddress {
+                gateway: 0,
+                station: 75
+            }
+        );
+        assert_eq!(
+            two.units[75],
+            UnitAddress {
+                gateway: 1,
+                station: 1
+            }
+        );
+        assert_eq!(two.units_on(1).count(), 75);
+    }
+}

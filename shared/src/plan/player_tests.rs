@@ -1,0 +1,493 @@
+//! The player against simulated gateways, in virtual time: a small stand-in for the
+//! bridge that paces every byte at baud / 10 in both directions, hands instructions to
+//! [`crate::sim::Gateway`]s when their last byte has crossed, decodes the answers and
+//! feeds them back — the player sees what it would see on a real line.
+
+#[cfg(target_arch = "wasm32")]
+use wasm_bindgen_test::wasm_bindgen_test as test;
+
+use std::collections::VecDeque;
+
+use super::player::{Command, Entry, LinkView, Player, PlayerConfig, StartError, line_time_us};
+use super::tests::wave;
+use super::{GatewaySpec, Installation};
+use crate::api::PlayerState;
+use crate::ascii::{Batch, Form, parse_script};
+use crate::feedback::FrameDecoder;
+use crate::show::{Limits, Sampler, Show};
+use crate::sim::{Gateway, GatewayConfig};
+
+const STEP_US: u64 = 1_000;
+
+/// One gateway behind a virtual line.
+struct Line {
+    gateway: Gateway,
+    baud: u32,
+    bulk: VecDeque<Vec<u8>>,
+    priority: VecDeque<Vec<u8>>,
+    line_free_us: u64,
+    in_flight: VecDeque<(u64, Vec<u8>)>,
+    answers: VecDeque<(u64, u8)>,
+    answers_free_us: u64,
+    decoder: FrameDecoder,
+    /// The station the bulk lane last selected, restored after a priority write.
+    bulk_selection: Option<Vec<u8>>,
+    reselect: bool,
+}
+
+impl Line {
+    fn byte_us(&self) -> u64 {
+        line_time_us(1, self.baud)
+    }
+
+    fn queued_bytes(&self) -> usize {
+        self.bulk.iter().map(Vec::len).sum()
+    }
+
+    fn push(&mut self, lane: Lane, batch: &Batch) {
+        let queue = match lane {
+            Lane::Bulk => &mut self.bulk,
+            Lane::Priority => &mut self.priority,
+        };
+        queue.extend(batch.instructions().map(<[u8]>::to_vec));
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Lane {
+    Bulk,
+    Priority,
+}
+
+/// The stand-in bridge.
+struct Rig {
+    now_us: u64,
+    lines: Vec<Line>,
+    player: Player,
+    installation: Installation,
+    states: Vec<(u64, PlayerState)>,
+}
+
+fn installation(rows: u32, cols: u32, bauds: &[u32]) -> Installation {
+    let mut limits = Limits::for_layout(rows, cols);
+    limits.max_accel_mm_s2 = 40_000.0;
+    let gateways = bauds
+        .iter()
+        .map(|&baud| GatewaySpec {
+            port: "sim".into(),
+            baud,
+        })
+        .collect();
+    let mut installation = Installation::row_major(limits, 100.0, gateways, 1).unwrap();
+    installation.approach_speed_mm_s = 1500.0;
+    installation
+}
+
+impl Rig {
+    fn new(installation: Installation) -> Self {
+        let lines = (0..installation.gateways.len())
+            .map(|gateway| {
+                let stations: Vec<u8> = installation
+                    .units_on(gateway)
+                    .map(|unit| installation.units[unit].station)
+                    .collect();
+                let mut config = GatewayConfig::numbered(1);
+                config.stations = stations;
+                config.seed = gateway as u64;
+                config.max_accel_mm_s2 = installation.limits.max_accel_mm_s2;
+                config.counts_per_mm = installation.counts_per_mm;
+                Line {
+                    gateway: Gateway::new(config).unwrap(),
+                    baud: installation.gateways[gateway].baud,
+                    bulk: VecDeque::new(),
+                    priority: VecDeque::new(),
+                    line_free_us: 0,
+                    in_flight: VecDeque::new(),
+                    answers: VecDeque::new(),
+                    answers_free_us: 0,
+                    decoder: FrameDecoder::new(),
+                    bulk_selection: None,
+                    reselect: false,
+                }
+            })
+            .collect();
+        let estop = Batch::encode(&parse_script("*0;MO=0;").unwrap(), Form::Standard).unwrap();
+        let player = Player::new(PlayerConfig {
+            installation: installation.clone(),
+            estop,
+        });
+        Self {
+            now_us: 0,
+            lines,
+            player,
+            installation,
+            states: Vec::new(),
+        }
+    }
+
+    fn links(&self) -> Vec<LinkView> {
+        self.lines
+            .iter()
+            .map(|line| LinkView {
+                up: true,
+                queued_bytes: line.queued_bytes(),
+            })
+            .collect()
+    }
+
+    fn carry_out(&mut self) {
+        for command in self.player.take_commands() {
+            match command {
+                Command::Bulk { gateway, batch } => self.lines[gateway].push(Lane::Bulk, &batch),
+                Command::Priority { gateway, batch } => {
+                    self.lines[gateway].push(Lane::Priority, &batch);
+                }
+                Command::Estop { gateway, batch } => {
+                    self.lines[gateway].bulk.clear();
+                    self.lines[gateway].push(Lane::Priority, &batch);
+                }
+            }
+        }
+    }
+
+    /// One step of virtual time: the lines move bytes, the gateways run, answers come
+    /// back, the player is polled.
+    fn step(&mut self) {
+        let end = self.now_us + STEP_US;
+        for (index, line) in self.lines.iter_mut().enumerate() {
+            // Writer: one instruction at a time, priority first, as the bridge's link.
+            while line.line_free_us <= end {
+                let next = if let Some(next) = line.priority.pop_front() {
+                    if next.first() == Some(&b'*') {
+                        line.reselect = true;
+                    }
+                    next
+                } else if line.reselect
+                    && line
+                        .bulk
+                        .front()
+                        .is_some_and(|next| next.first() != Some(&b'*'))
+                    && line.bulk_selection.is_some()
+                {
+                    line.reselect = false;
+                    line.bulk_selection.clone().unwrap_or_default()
+                } else if let Some(next) = line.bulk.pop_front() {
+                    if next.first() == Some(&b'*') {
+                        line.bulk_selection = Some(next.clone());
+                        line.reselect = false;
+                    }
+                    next
+                } else {
+                    break;
+                };
+                let start = line.line_free_us.max(self.now_us);
+                line.line_free_us = start + line.byte_us() * next.len() as u64;
+                line.in_flight.push_back((line.line_free_us, next));
+            }
+            while line.in_flight.front().is_some_and(|(at, _)| *at <= end) {
+                let (at, bytes) = line.in_flight.pop_front().unwrap();
+                line.gateway.receive(at, &bytes);
+            }
+            line.gateway.advance(end);
+            let mut out = Vec::new();
+            line.gateway.poll_output(&mut out);
+            for byte in out {
+                let start = line.answers_free_us.max(self.now_us);
+                line.answers_free_us = start + line.byte_us();
+                line.answers.push_back((line.answers_free_us, byte));
+            }
+            let mut arrived = Vec::new();
+            while line.answers.front().is_some_and(|(at, _)| *at <= end) {
+                arrived.push(line.answers.pop_front().unwrap().1);
+            }
+            let frames: Vec<_> = line.decoder.push(&arrived).collect();
+            for frame in frames {
+                self.player.handle_feedback(end, index, &frame);
+            }
+        }
+        self.now_us = end;
+        let links = self.links();
+        self.player.poll(self.now_us, &links);
+        self.carry_out();
+        let state = self.player.status().state;
+        if self.states.last().map(|(_, last)| *last) != Some(state) {
+            self.states.push((self.now_us, state));
+        }
+    }
+
+    fn run_until(&mut self, limit_us: u64, mut done: impl FnMut(&Rig) -> bool) {
+        let deadline = self.now_us + limit_us;
+        while !done(self) {
+            assert!(
+                self.now_us < deadline,
+                "timed out in {:?}; states {:?}; last error {:?}",
+                self.player.status().state,
+                self.states,
+                self.player.status().last_error
+            );
+            self.step();
+        }
+    }
+
+    fn start(&mut self, entries: Vec<Entry>, loop_playlist: bool) -> Result<(), StartError> {
+        let links = self.links();
+        let result = self
+            .player
+            .start(self.now_us, entries, loop_playlist, &links);
+        self.carry_out();
+        result
+    }
+
+    fn state(&self) -> PlayerState {
+        self.player.status().state
+    }
+
+    /// Every ball's true position, mm.
+    fn positions_mm(&self) -> Vec<f64> {
+        let cpm = self.installation.counts_per_mm;
+        let mut positions = vec![0.0; self.installation.units.len()];
+        for (gateway, line) in self.lines.iter().enumerate() {
+            for (slot, unit) in self.installation.units_on(gateway).enumerate() {
+                positions[unit] = line.gateway.unit(slot).unwrap().position_counts / cpm;
+            }
+        }
+        positions
+    }
+
+    fn anyone_moving(&self) -> bool {
+        self.lines
+            .iter()
+            .any(|line| line.gateway.units().any(|unit| unit.moving))
+    }
+}
+
+fn entry(show: Show, delay_ms: u64, cycles: u32) -> Entry {
+    Entry {
+        show,
+        delay_ms,
+        cycles,
+    }
+}
+
+/// Plays to `Playing` and checks every ball against the show every 100 ms until the
+/// end; returns the largest deviation, mm.
+fn follow(rig: &mut Rig, show: &Show) -> f64 {
+    rig.run_until(120_000_000, |rig| rig.state() == PlayerState::Playing);
+    let start_us = rig.now_us;
+    compare_from(rig, show, start_us)
+}
+
+/// Steps until the show ends, comparing every ball with the show every 100 ms; the
+/// player reached `Playing` at `start_us`. Returns the largest deviation, mm.
+fn compare_from(rig: &mut Rig, show: &Show, start_us: u64) -> f64 {
+    // The units began when `*0;BG;` finished crossing the line.
+    let begin_us = start_us + line_time_us(6, rig.installation.gateways[0].baud);
+    let mut sampler = Sampler::new(show);
+    let mut expected = vec![0.0f32; show.tracks.len()];
+    let mut worst: f64 = 0.0;
+    let mut checks = 0;
+    while rig.state() == PlayerState::Playing {
+        rig.step();
+        if !(rig.now_us - start_us).is_multiple_of(100_000) || rig.now_us < begin_us {
+            continue;
+        }
+        let show_ms = (rig.now_us - begin_us) as f64 / 1000.0;
+        if show_ms > show.duration_ms() as f64 {
+            continue;
+        }
+        sampler.sample(show_ms, &mut expected, None);
+        for (actual, expected) in rig.positions_mm().iter().zip(&expected) {
+            worst = worst.max((actual - f64::from(*expected)).abs());
+        }
+        checks += 1;
+    }
+    assert!(checks > 10, "only {checks} samples were compared");
+    worst
+}
+
+#[test]
+fn a_show_plays_as_written_within_a_millimetre() {
+    let show = wave(2, 3, 120, 200);
+    let mut rig = Rig::new(installation(2, 3, &[115_200]));
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &show);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+    // The first start homes the balls (their positions are unknown), then approaches.
+    let states: Vec<PlayerState> = rig.states.iter().map(|(_, state)| *state).collect();
+    assert_eq!(
+        &states[..5],
+        [
+            PlayerState::Homing,
+            PlayerState::Approaching,
+            PlayerState::Loading,
+            PlayerState::Playing,
+            PlayerState::Idle
+        ]
+    );
+}
+
+#[test]
+fn a_long_show_streams_without_running_dry() {
+    // 400 rows of 100 ms per ball: more than the table holds, streamed at 115200 baud.
+    let show = wave(2, 5, 400, 100);
+    let mut rig = Rig::new(installation(2, 5, &[115_200]));
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &show);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+    let lowest = rig.player.lowest_water_levels()[0].unwrap();
+    assert!(lowest >= 2, "the FIFOs went down to {lowest} rows");
+    // Every ball finished its track.
+    let ends: Vec<f64> = show
+        .tracks
+        .iter()
+        .map(|track| track.rows.last().unwrap().position_mm)
+        .collect();
+    for (actual, end) in rig.positions_mm().iter().zip(&ends) {
+        assert!((actual - end).abs() < 0.01, "{actual} vs {end}");
+    }
+}
+
+#[test]
+fn an_infeasible_show_is_refused_with_numbers_before_anything_moves() {
+    let show = wave(10, 10, 600, 250);
+    let mut rig = Rig::new(installation(10, 10, &[9600]));
+    let error = rig.start(vec![entry(show, 0, 1)], false).unwrap_err();
+    let StartError::Infeasible { reason, fixes, .. } = &error else {
+        panic!("expected an infeasible show, got {error}");
+    };
+    assert!(reason.contains("960 B/s"), "{reason}");
+    assert!(!fixes.is_empty());
+    assert!(rig.player.take_commands().is_empty(), "nothing may be sent");
+    assert_eq!(rig.state(), PlayerState::Idle);
+}
+
+#[test]
+fn an_estop_stops_every_ball_within_one_instruction_and_start_homes_first() {
+    let show = wave(2, 3, 200, 200);
+    let mut rig = Rig::new(installation(2, 3, &[115_200]));
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    rig.run_until(3_000_000, |rig| {
+        rig.now_us % 1_000_000 == 0 && rig.anyone_moving()
+    });
+    rig.player.estop();
+    rig.carry_out();
+    let stopped_at = rig.now_us;
+    // One instruction already on the wire (≤ 20 bytes) plus the 8-byte stop.
+    let bound_us = line_time_us(28, 115_200) + STEP_US;
+    rig.run_until(bound_us, |rig| !rig.anyone_moving());
+    assert!(rig.now_us - stopped_at <= bound_us);
+    assert_eq!(rig.state(), PlayerState::Stopped);
+    let frozen = rig.positions_mm();
+    rig.run_until(1_000_000, |rig| rig.now_us >= stopped_at + 1_000_000);
+    assert_eq!(rig.positions_mm(), frozen, "nothing moves after an e-stop");
+
+    // Start again: home first, then from the beginning.
+    rig.states.clear();
+    rig.start(vec![entry(show, 0, 1)], false).unwrap();
+    assert_eq!(rig.state(), PlayerState::Homing);
+    rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Approaching);
+    for position in rig.positions_mm() {
+        assert!(position.abs() < 0.01, "homed to {position}");
+    }
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    assert_eq!(rig.player.status().entry, Some(0));
+    assert!(rig.player.status().show_time_ms < 100);
+}
+
+#[test]
+fn reset_stops_homes_and_restarts_from_the_first_entry() {
+    let first = wave(1, 2, 60, 200);
+    let mut second = wave(1, 2, 60, 200);
+    second.name = "second".into();
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    let playlist = vec![entry(first.clone(), 0, 1), entry(second.clone(), 0, 1)];
+    rig.start(playlist.clone(), false).unwrap();
+    rig.run_until(60_000_000, |rig| {
+        rig.player.status().entry == Some(1) && rig.state() == PlayerState::Playing
+    });
+    rig.states.clear();
+    let links = rig.links();
+    rig.player
+        .reset(rig.now_us, playlist, false, &links)
+        .unwrap();
+    rig.carry_out();
+    assert_eq!(rig.state(), PlayerState::Homing);
+    rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Approaching);
+    for position in rig.positions_mm() {
+        assert!(position.abs() < 0.01, "homed to {position}");
+    }
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    assert_eq!(rig.player.status().entry, Some(0));
+    assert_eq!(rig.player.status().show.as_deref(), Some("wave"));
+}
+
+#[test]
+fn delays_cycles_and_loop_behave_as_specified() {
+    let show = wave(1, 2, 20, 100); // 2 s
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    rig.start(vec![entry(show.clone(), 700, 2)], true).unwrap();
+    rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Waiting);
+    let waited_from = rig.now_us;
+    rig.run_until(2_000_000, |rig| rig.state() != PlayerState::Waiting);
+    let waited_us = rig.now_us - waited_from;
+    assert!(
+        (690_000..=710_000).contains(&waited_us),
+        "waited {waited_us} µs"
+    );
+    rig.run_until(30_000_000, |rig| {
+        rig.state() == PlayerState::Playing && rig.player.status().cycle == 1
+    });
+    rig.run_until(30_000_000, |rig| {
+        rig.state() == PlayerState::Playing && rig.player.status().cycle == 2
+    });
+    // The loop comes back to the entry, delay and all.
+    rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Waiting);
+    rig.run_until(30_000_000, |rig| {
+        rig.state() == PlayerState::Playing && rig.player.status().cycle == 1
+    });
+    assert_eq!(rig.player.status().last_error, None);
+}
+
+#[test]
+fn two_gateways_start_together() {
+    let show = wave(2, 3, 40, 200);
+    let mut rig = Rig::new(installation(2, 3, &[115_200, 115_200]));
+    assert_eq!(rig.installation.units_on(1).count(), 3);
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    let start_us = rig.now_us;
+    // Both gateways' balls are under way within the same couple of milliseconds…
+    rig.run_until(3_000, |rig| {
+        rig.lines
+            .iter()
+            .all(|line| line.gateway.units().all(|unit| unit.moving))
+    });
+    // …and all follow the show from the same start.
+    let worst = compare_from(&mut rig, &show, start_us);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+}
+
+#[test]
+fn a_unit_error_stops_the_matrix_and_says_which_ball() {
+    let show = wave(1, 3, 100, 200);
+    let mut rig = Rig::new(installation(1, 3, &[115_200]));
+    rig.start(vec![entry(show, 0, 1)], false).unwrap();
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    // Unit 2 (station 2) reports an overload.
+    let frame =
+        crate::feedback::Frame::new(2, crate::feedback::code::ER, &[0x40, 0x27, 7]).unwrap();
+    rig.player.handle_feedback(rig.now_us, 0, &frame);
+    rig.carry_out();
+    assert_eq!(rig.state(), PlayerState::Error);
+    let error = rig.player.status().last_error.unwrap();
+    assert!(
+        error.contains("row 1, col 2") && error.contains("station 2"),
+        "{error}"
+    );
+    rig.run_until(100_000, |rig| !rig.anyone_moving());
+}

@@ -1,0 +1,240 @@
+//! The bandwidth / feasibility report (`GET /api/plan/{name}`): for each gateway the
+//! bytes per row, the preload and how long it takes, the streaming rate needed against
+//! what the line carries and the lowest water level reached on paper; a verdict, and
+//! when a show cannot run, why and what would make it run.
+
+use super::schedule::{self, Simulation};
+use super::{Installation, Plan, PlanError, PlanOptions, RunMode};
+use crate::api::{GatewayPlan, PlanReport};
+use crate::show::Show;
+
+/// The baud rates a UIM2503 can be set to (`BDR=x;`, PROTOCOL §1.2), ascending.
+pub const GATEWAY_BAUDS: [u32; 5] = [9600, 19_200, 38_400, 57_600, 115_200];
+
+/// The report for `show` on `installation`. An invalid show gets a report saying so.
+pub fn report(show: &Show, installation: &Installation, options: PlanOptions) -> PlanReport {
+    match Plan::new(show, installation, options) {
+        Ok(plan) => report_for(&plan, installation),
+        Err(error) => refused(&show.name, &error),
+    }
+}
+
+/// A report for a show that cannot be planned at all.
+pub fn refused(show: &str, error: &PlanError) -> PlanReport {
+    let fixes = match error {
+        PlanError::Invalid { violations } => violations
+            .iter()
+            .take(20)
+            .map(ToString::to_string)
+            .collect(),
+        _ => Vec::new(),
+    };
+    PlanReport {
+        show: show.to_owned(),
+        feasible: false,
+        reason: Some(error.to_string()),
+        fixes,
+        gateways: Vec::new(),
+    }
+}
+
+/// The report for a plan.
+pub fn report_for(plan: &Plan, installation: &Installation) -> PlanReport {
+    let duration_s = (plan.duration_ms as f64 / 1000.0).max(1e-3);
+    let mut gateways = Vec::with_capacity(plan.gateways.len());
+    let mut reason = None;
+    let mut fixes = Vec::new();
+    for (index, run) in plan.gateways.iter().enumerate() {
+        let Some(spec) = installation.gateways.get(run.gateway) else {
+            continue;
+        };
+        let simulation = schedule::simulate(plan, index, spec.baud, run.preload_rows);
+        let needed = simulation.stream_bytes as f64 / duration_s;
+        let available = f64::from(spec.baud) / 10.0;
+        gateways.push(GatewayPlan {
+            port: spec.port.clone(),
+            baud: spec.baud,
+            units: u32::try_from(run.units.len()).unwrap_or(u32::MAX),
+            bytes_per_row: simulation.bytes_per_row,
+            preload_bytes: simulation.preload_bytes,
+            preload_ms: simulation.preload_ms.ceil() as u64,
+            needed_bytes_per_s: needed,
+            available_bytes_per_s: available,
+            lowest_water_level: simulation
+                .lowest_level
+                .map(|level| u16::try_from(level.max(0)).unwrap_or(u16::MAX)),
+        });
+        if reason.is_none() && !simulation.keeps_margin() {
+            reason = Some(starved(
+                plan,
+                run.units.len(),
+                spec,
+                &simulation,
+                needed,
+                available,
+            ));
+            fixes = remedies(plan, index, spec.baud, needed, available);
+        }
+    }
+    PlanReport {
+        show: plan.show.clone(),
+        feasible: reason.is_none(),
+        reason,
+        fixes,
+        gateways,
+    }
+}
+
+fn starved(
+    plan: &Plan,
+    units: usize,
+    spec: &super::GatewaySpec,
+    simulation: &Simulation,
+    needed: f64,
+    available: f64,
+) -> String {
+    let when = simulation
+        .underrun_at_ms
+        .map(|ms| format!("{:.1} s into the show", ms / 1000.0))
+        .unwrap_or_else(|| "during the show".to_owned());
+    format!(
+        "gateway {} ({} baud) cannot keep its {units} units fed: \"{}\" streams {needed:.0} B/s \
+         while the line carries {available:.0} B/s, so the units' row buffers run dry {when} \
+         even with a full {}-row preload",
+        spec.port, spec.baud, plan.show, simulation.preload_rows
+    )
+}
+
+/// What would make run `index` feasible: a faster line, fewer units per gateway,
+/// longer rows.
+fn remedies(plan: &Plan, index: usize, baud: u32, needed: f64, available: f64) -> Vec<String> {
+    let mut fixes = Vec::new();
+    match GATEWAY_BAUDS
+        .iter()
+        .copied()
+        .filter(|&faster| faster > baud)
+        .find(|&faster| schedule::choose_preload(plan, index, faster).keeps_margin())
+    {
+        Some(faster) => fixes.push(format!(
+            "raise the line to {faster} baud (BDR={faster}; on the gateway, then `baud = {faster}` in floatball.toml)"
+        )),
+        None => fixes.push("no baud rate up to 115200 is enough on its own".to_owned()),
+    }
+    let units = plan.gateways[index].units.len();
+    if let Some(fit) = most_units_that_fit(plan, index, baud) {
+        let gateways = units.div_ceil(fit.max(1));
+        fixes.push(format!(
+            "put at most {fit} of these units on each gateway at {baud} baud ({gateways} gateways for these {units})"
+        ));
+    }
+    let unit_rows: usize = plan.gateways[index]
+        .units
+        .iter()
+        .map(|&unit| plan.units[unit].rows.len())
+        .sum();
+    if unit_rows > 0 && available > 0.0 {
+        let mean_row_ms = plan.duration_ms as f64 * units as f64 / unit_rows as f64;
+        let wanted_ms = (mean_row_ms * needed / (available * schedule::LINE_UTILISATION)).ceil();
+        if wanted_ms <= 255.0 {
+            fixes.push(format!(
+                "use rows of at least {wanted_ms:.0} ms (this show's rows last {mean_row_ms:.0} ms on average)"
+            ));
+        }
+    }
+    if plan.gateways[index].mode == RunMode::Fifo {
+        fixes.push(format!(
+            "or shorten the show to at most {} rows per ball so it loads completely before it starts",
+            crate::pvt::TABLE_ROWS
+        ));
+    }
+    fixes
+}
+
+/// The most of run `index`'s units (taken in order) one gateway at `baud` can feed.
+fn most_units_that_fit(plan: &Plan, index: usize, baud: u32) -> Option<usize> {
+    let units = plan.gateways[index].units.len();
+    let fits = |count: usize| {
+        let mut smaller = plan.clone();
+        smaller.gateways[index].units.truncate(count);
+        schedule::choose_preload(&smaller, index, baud).keeps_margin()
+    };
+    if units <= 1 || !fits(1) {
+        return None;
+    }
+    let (mut low, mut high) = (1, units - 1);
+    while low < high {
+        let middle = (low + high).div_ceil(2);
+        if fits(middle) {
+            low = middle;
+        } else {
+            high = middle - 1;
+        }
+    }
+    Some(low)
+}
+
+#[cfg(test)]
+mod tests {
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
+
+    use super::*;
+    use crate::plan::tests::{installation, wave};
+
+    #[test]
+    fn an_infeasible_show_says_why_with_numbers_and_how_to_fix_it() {
+        let show = wave(10, 10, 600, 250);
+        let report = report(&show, &installation(10, 10, 9600), PlanOptions::default());
+        assert!(!report.feasible);
+        let reason = report.reason.as_deref().unwrap();
+        assert!(reason.contains("gateway sim (9600 baud)"), "{reason}");
+        assert!(reason.contains("960 B/s"), "{reason}");
+        assert!(reason.contains("run dry"), "{reason}");
+        let gateway = &report.gateways[0];
+        assert!(gateway.needed_bytes_per_s > gateway.available_bytes_per_s);
+        assert_eq!(gateway.lowest_water_level, Some(0));
+        assert!(
+            report
+                .fixes
+                .iter()
+                .any(|fix| fix.contains("units on each gateway")),
+            "{:?}",
+            report.fixes
+        );
+    }
+
+    #[test]
+    fn a_feasible_show_has_figures_and_no_reason() {
+        let show = wave(2, 5, 600, 250);
+        let report = report(&show, &installation(2, 5, 115_200), PlanOptions::default());
+        assert!(report.feasible, "{:?}", report.reason);
+        assert!(report.reason.is_none() && report.fixes.is_empty());
+        let gateway = &report.gateways[0];
+        assert_eq!(gateway.units, 10);
+        assert!(gateway.lowest_water_level.unwrap() >= 2);
+        assert!(gateway.needed_bytes_per_s < gateway.available_bytes_per_s);
+        assert!(gateway.bytes_per_row > 10.0 && gateway.bytes_per_row < 40.0);
+    }
+
+    #[test]
+    fn a_faster_line_is_suggested_when_it_is_enough() {
+        let show = wave(5, 10, 600, 250);
+        let report = report(&show, &installation(5, 10, 9600), PlanOptions::default());
+        assert!(!report.feasible);
+        assert!(
+            report.fixes[0].starts_with("raise the line to 38400 baud"),
+            "{:?}",
+            report.fixes
+        );
+    }
+
+    #[test]
+    fn an_invalid_show_is_refused_with_its_problems() {
+        let mut show = wave(1, 2, 20, 200);
+        show.tracks[1].rows[5].position_mm = -50.0;
+        let report = report(&show, &installation(1, 2, 115_200), PlanOptions::default());
+        assert!(!report.feasible);
+        assert!(report.reason.unwrap().contains("not valid"));
+        assert!(!report.fixes.is_empty());
+    }
+}
