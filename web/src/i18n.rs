@@ -257,6 +257,8 @@ texts! {
     ConsoleHint => "每行一条或多条指令，例如 *5;PV; 。# 之后为注释。", "One or more instructions per line, e.g. *5;PV; — # starts a comment.";
     /// Player state: idle.
     StateIdle => "空闲", "idle";
+    /// Player state: waiting out an entry's delay.
+    StateWaiting => "等待中", "waiting";
     /// Player state: approaching.
     StateApproaching => "就位中", "approaching";
     /// Player state: loading.
@@ -367,6 +369,7 @@ impl Lang {
     pub fn player_state(self, state: PlayerState) -> &'static str {
         self.t(match state {
             PlayerState::Idle => Text::StateIdle,
+            PlayerState::Waiting => Text::StateWaiting,
             PlayerState::Approaching => Text::StateApproaching,
             PlayerState::Loading => Text::StateLoading,
             PlayerState::Playing => Text::StatePlaying,

@@ -9,6 +9,7 @@ use crate::files::format_duration_ms;
 pub fn state_key(state: PlayerState) -> &'static str {
     match state {
         PlayerState::Idle => "idle",
+        PlayerState::Waiting => "waiting",
         PlayerState::Approaching => "approaching",
         PlayerState::Loading => "loading",
         PlayerState::Playing => "playing",
@@ -52,6 +53,7 @@ mod tests {
     fn state_keys_match_the_api() {
         for state in [
             PlayerState::Idle,
+            PlayerState::Waiting,
             PlayerState::Approaching,
             PlayerState::Loading,
             PlayerState::Playing,
