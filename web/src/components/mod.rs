@@ -122,9 +122,16 @@ pub fn App() -> impl IntoView {
     Effect::new(move |_| {
         let hash = ctx.page.get().hash();
         let location = window().location();
-        if location.hash().ok().as_deref() != Some(hash.as_str()) {
-            let _ = location.set_hash(&hash);
-        }
+        let current = location.hash().unwrap_or_default();
+        // The first page replaces the bare URL, so that Back does not bounce off it;
+        // later pages are history entries of their own.
+        let _ = if current.is_empty() {
+            location.replace(&hash)
+        } else if current != hash {
+            location.set_hash(&hash)
+        } else {
+            Ok(())
+        };
     });
     let hash_listener = window_event_listener(leptos::ev::hashchange, move |_| {
         let hash = window().location().hash().unwrap_or_default();
