@@ -198,7 +198,7 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
             }
         });
     };
-    let nothing = move || selected().is_none();
+    let nothing = move || ctx.local_files.with(|list| list.selected_name().is_none());
     view! {
         <div class="toolbar">
             <label class="button" data-testid="add-files">
