@@ -1,7 +1,7 @@
 //! The operator's evening, end to end: log in with the factory password, change it,
 //! add a CSV from the device, upload it, see it among the controller's files, put it
-//! in the playlist, press Start, press E-stop — in the real app against the real
-//! bridge.
+//! in the playlist, talk to a unit from the console, press Start, press E-stop — in
+//! the real app against the real bridge and its simulated gateway.
 
 use std::fmt::Write as _;
 
@@ -104,7 +104,27 @@ async fn operator_logs_in_uploads_and_controls_the_playlist() {
         )
         .await;
 
+    // The console: a checked line goes to the simulated gateway, and its answer comes
+    // back decoded.
+    browser.click("[data-testid=nav-console]").await;
+    browser
+        .type_into("[data-testid=console-input]", "*5;PV;")
+        .await;
+    browser
+        .wait_for_attribute(
+            "[data-testid=console-check]",
+            "data-state",
+            "ok",
+            UI_TIMEOUT,
+        )
+        .await;
+    browser.click("[data-testid=console-send]").await;
+    browser
+        .wait_for_text("[data-testid=feedback-line]", "PV = ")
+        .await;
+
     // Start, then E-stop from the top bar: one press, acknowledged on the button.
+    browser.click("[data-testid=nav-control]").await;
     browser.click("[data-testid=start]").await;
     browser.click(".topbar [data-testid=estop]").await;
     browser
