@@ -1,11 +1,12 @@
 //! The `floatball` command line.
 //!
-//! `floatball` with no subcommand serves the app and the API; later subcommands (such as
-//! `simulate`) are listed by `floatball --help`.
+//! `floatball` with no subcommand serves the app and the API with the installation in
+//! `--data-dir`; `floatball check` only reads and checks the configuration;
+//! `floatball simulate` answers as a simulated gateway on a serial device. Every
+//! subcommand is listed by `floatball --help`.
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
-
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -13,11 +14,10 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 use floatball_shared::sim::{self, GatewayConfig};
 
+use crate::auth::Clock;
+use crate::config::{self, Config, Overrides};
 use crate::server;
-use crate::state::AppState;
-
-/// The address the bridge listens on unless told otherwise.
-pub const DEFAULT_LISTEN: &str = "0.0.0.0:8080";
+use crate::state::{AppState, Paths};
 
 /// Floatball's bridge: serves the operator app and relays to the ball matrix.
 #[derive(Debug, Parser)]
@@ -31,9 +31,14 @@ pub struct Cli {
     /// What to do instead of serving.
     #[command(subcommand)]
     pub command: Option<Command>,
-    /// Address and port to listen on (port 0 picks a free port).
-    #[arg(long, default_value = DEFAULT_LISTEN)]
-    pub listen: SocketAddr,
+    /// Address and port to listen on (port 0 picks a free port); overrides `listen` in
+    /// floatball.toml.
+    #[arg(long)]
+    pub listen: Option<SocketAddr>,
+    /// A gateway's port, `sim` or a serial device such as /dev/ttyUSB0; the n-th flag
+    /// replaces the port of the n-th `[[gateway]]` in floatball.toml.
+    #[arg(long = "gateway", value_name = "PORT")]
+    pub gateways: Vec<String>,
     /// Directory for the configuration, the password and the show files.
     #[arg(long, default_value = "data")]
     pub data_dir: PathBuf,
@@ -45,6 +50,8 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Check floatball.toml (writing the defaults if it is missing) and exit.
+    Check(CheckArgs),
     /// Answer as a simulated UIM2503 gateway with its units on a serial device (e.g. one
     /// end of a pseudo-terminal pair or a null-modem cable).
     Simulate(SimulateArgs),
@@ -73,32 +80,82 @@ pub struct SimulateArgs {
     pub counts_per_mm: f64,
 }
 
+/// Options of `floatball check`.
+#[derive(Debug, clap::Args)]
+pub struct CheckArgs {
+    /// Directory holding floatball.toml.
+    #[arg(long, default_value = "data")]
+    pub data_dir: PathBuf,
+}
+
 /// Runs the command the user asked for until it ends or Ctrl-C is pressed.
+///
+/// # Errors
+/// Whatever stops the command, in words for the person who started it.
 pub async fn run(cli: Cli) -> anyhow::Result<()> {
-    if let Some(Command::Simulate(args)) = cli.command {
-        return simulate(args).await;
+    match cli.command {
+        Some(Command::Simulate(args)) => simulate(args).await,
+        Some(Command::Check(args)) => check(&args.data_dir),
+        None => {
+            let overrides = Overrides {
+                listen: cli.listen,
+                gateway_ports: cli.gateways,
+            };
+            serve(&cli.data_dir, &overrides, cli.static_dir).await
+        }
     }
-    std::fs::create_dir_all(&cli.data_dir).with_context(|| {
-        format!(
-            "cannot create the data directory {}",
-            cli.data_dir.display()
-        )
-    })?;
-    if !cli.static_dir.join("index.html").is_file() {
+}
+
+fn create_data_dir(data_dir: &std::path::Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(data_dir)
+        .with_context(|| format!("cannot create the data directory {}", data_dir.display()))
+}
+
+/// `floatball check`.
+fn check(data_dir: &std::path::Path) -> anyhow::Result<()> {
+    create_data_dir(data_dir)?;
+    let config = Config::load_or_create(data_dir, &Overrides::default())?;
+    println!(
+        "{} is valid: {} × {} balls on {} gateway(s)",
+        data_dir.join(config::FILE_NAME).display(),
+        config.matrix.rows,
+        config.matrix.cols,
+        config.gateways.len()
+    );
+    Ok(())
+}
+
+/// Serves the app and the API until Ctrl-C or SIGTERM.
+async fn serve(
+    data_dir: &std::path::Path,
+    overrides: &Overrides,
+    static_dir: PathBuf,
+) -> anyhow::Result<()> {
+    create_data_dir(data_dir)?;
+    let config = Config::load_or_create(data_dir, overrides)?;
+    if !static_dir.join("index.html").is_file() {
         tracing::warn!(
             "{} has no index.html: the app will not load (build it with `cargo xtask run`)",
-            cli.static_dir.display()
+            static_dir.display()
         );
     }
-    let listener = tokio::net::TcpListener::bind(cli.listen)
+    let listen = config.listen;
+    let state = AppState::open(
+        config,
+        Paths {
+            data_dir: data_dir.to_owned(),
+            static_dir,
+        },
+        Clock::system(),
+    )?;
+    let listener = tokio::net::TcpListener::bind(listen)
         .await
-        .with_context(|| format!("cannot listen on {}", cli.listen))?;
+        .with_context(|| format!("cannot listen on {listen}"))?;
     let addr = listener
         .local_addr()
         .context("cannot read the listening address")?;
     // The first line on stdout is the URL: people read it, and tests parse it.
     println!("floatball listening on http://{addr}");
-    let state = AppState::new(cli.static_dir);
     server::run(listener, state, shutdown_signal()).await?;
     Ok(())
 }

@@ -1,66 +1,390 @@
-//! The WebSocket endpoint `/ws`: sends `status` on connect and on every change, and
-//! answers client messages.
+//! The WebSocket endpoint `/ws?token=…` (DESIGN §4): status and feedback out, control
+//! and console lines in.
+//!
+//! Before the upgrade: a browser's cross-site `Origin` is refused (403) — allowed are
+//! no `Origin` (programs), the bridge's own host, and the configured
+//! `allowed_origins` — and the token must be valid (401).
+//!
+//! A session then gets the status at once and on every change, at most
+//! [`STATUS_PER_S`] times a second (changes in between are merged: the latest wins),
+//! and every feedback frame of every gateway. Every message from the client counts as
+//! use of its token; when the token has expired or was ended by a logout, the
+//! session says so and closes. Anything the bridge cannot do is answered with an
+//! `error` message and the connection stays open.
+//!
+//! `estop` is always obeyed, even before the initial password is changed. `raw`
+//! console lines are parsed by the codec; a valid line is queued, in order, on the
+//! bulk lane of its gateway (or of all), by a task of the session so that a full lane
+//! never holds up status and feedback.
 
-use axum::extract::State;
-use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
-use axum::response::Response;
+use std::collections::HashMap;
+use std::time::Duration;
+
+use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade, close_code};
+use axum::extract::{Query, State};
+use axum::http::{HeaderMap, StatusCode, header};
+use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{ClientMessage, ServerMessage};
+use floatball_shared::ascii::{Batch, Form, parse_script};
+use tokio::sync::{broadcast, mpsc};
+use tokio::time::Instant;
 
+use crate::config::normalise_origin;
+use crate::http::Failure;
 use crate::state::AppState;
 
-/// Upgrades an HTTP request to the `/ws` WebSocket.
-pub async fn upgrade(ws: WebSocketUpgrade, State(state): State<AppState>) -> Response {
-    ws.on_upgrade(move |socket| session(socket, state))
+/// Most `status` messages per second to one client.
+pub const STATUS_PER_S: u32 = 10;
+
+/// Largest message a client may send, bytes.
+pub const MAX_MESSAGE_BYTES: usize = 64 * 1024;
+
+/// Console lines one session may have waiting for room on a bulk lane.
+const CONSOLE_QUEUE: usize = 32;
+
+/// A console line on its way: the gateway (all when `None`) and the instructions.
+type ConsoleLine = (Option<usize>, Batch);
+
+/// How long a closing session waits for the client to answer its close frame.
+const CLOSE_HANDSHAKE: Duration = Duration::from_secs(1);
+
+/// How often an open session checks that its token is still valid.
+const TOKEN_CHECK_INTERVAL: Duration = Duration::from_secs(1);
+
+/// `GET /ws?token=…`: checks the origin and the token, then upgrades.
+pub async fn upgrade(
+    State(state): State<AppState>,
+    Query(query): Query<HashMap<String, String>>,
+    headers: HeaderMap,
+    upgrade: WebSocketUpgrade,
+) -> Response {
+    if !origin_allowed(&headers, &state.config().allowed_origins) {
+        return Failure::new(
+            StatusCode::FORBIDDEN,
+            "this page's origin may not open the bridge's WebSocket; add it to \
+             allowed_origins in floatball.toml",
+        )
+        .into_response();
+    }
+    let Some(token) = query.get("token").cloned() else {
+        return Failure::new(
+            StatusCode::UNAUTHORIZED,
+            "log in first: open /ws?token=<token from POST /api/login>",
+        )
+        .into_response();
+    };
+    if !state.tokens().touch(&token, state.clock().now()) {
+        return Failure::new(
+            StatusCode::UNAUTHORIZED,
+            "the session has expired or ended; log in again",
+        )
+        .into_response();
+    }
+    upgrade
+        .max_message_size(MAX_MESSAGE_BYTES)
+        .on_upgrade(move |socket| session(socket, state, token))
 }
 
-/// One client's session: the current status at once, then every change, until the
-/// client goes away.
-async fn session(mut socket: WebSocket, state: AppState) {
+/// Whether a request's `Origin` may open the WebSocket: none (not a browser), the
+/// bridge's own host (`Origin` matches `Host`), or a configured extra origin.
+fn origin_allowed(headers: &HeaderMap, allowed_origins: &[String]) -> bool {
+    let Some(origin) = headers.get(header::ORIGIN) else {
+        return true;
+    };
+    let Some(origin) = origin.to_str().ok().and_then(normalise_origin) else {
+        return false;
+    };
+    if allowed_origins.contains(&origin) {
+        return true;
+    }
+    let Some((scheme, authority)) = origin.split_once("://") else {
+        return false;
+    };
+    let Some(host) = headers
+        .get(header::HOST)
+        .and_then(|host| host.to_str().ok())
+    else {
+        return false;
+    };
+    let default_port = if scheme == "https" { ":443" } else { ":80" };
+    let strip = |authority: &str| -> String {
+        let lower = authority.trim().to_ascii_lowercase();
+        lower
+            .strip_suffix(default_port)
+            .map_or_else(|| lower.clone(), str::to_owned)
+    };
+    strip(authority) == strip(host)
+}
+
+/// What a session's loop does next.
+enum Step {
+    Continue,
+    Close,
+}
+
+/// One client's session.
+async fn session(mut socket: WebSocket, state: AppState, token: String) {
     let mut status = state.subscribe_status();
+    let mut feedback = state.gateways().subscribe_feedback();
+    let (console_lines, waiting_lines) = mpsc::channel(CONSOLE_QUEUE);
+    let (console_errors, mut console_failures) = mpsc::channel(CONSOLE_QUEUE);
+    tokio::spawn(console(state.clone(), waiting_lines, console_errors));
     let first = ServerMessage::Status(status.borrow_and_update().clone());
     if send(&mut socket, &first).await.is_err() {
         return;
     }
+    let status_interval = Duration::from_secs(1) / STATUS_PER_S;
+    let mut status_sent_at = Instant::now();
+    let mut status_pending = false;
+    let mut feedback_open = true;
+    let mut token_check = tokio::time::interval(TOKEN_CHECK_INTERVAL);
+    let mut stopping = state.stopping();
+    if *stopping.borrow_and_update() {
+        return;
+    }
     loop {
-        tokio::select! {
-            changed = status.changed() => {
+        let step = tokio::select! {
+            _ = stopping.changed() => {
+                let _ = socket
+                    .send(Message::Close(Some(CloseFrame {
+                        code: close_code::AWAY,
+                        reason: "the bridge is stopping".into(),
+                    })))
+                    .await;
+                Step::Close
+            }
+            changed = status.changed(), if !status_pending => {
                 if changed.is_err() {
-                    return;
+                    Step::Close
+                } else {
+                    status_pending = true;
+                    Step::Continue
                 }
+            }
+            () = tokio::time::sleep_until(status_sent_at + status_interval), if status_pending => {
+                status_pending = false;
+                status_sent_at = Instant::now();
                 let message = ServerMessage::Status(status.borrow_and_update().clone());
-                if send(&mut socket, &message).await.is_err() {
-                    return;
+                sent(send(&mut socket, &message).await)
+            }
+            frame = feedback.recv(), if feedback_open => match frame {
+                Ok(frame) => sent(send(&mut socket, &ServerMessage::Feedback(frame)).await),
+                Err(broadcast::error::RecvError::Lagged(missed)) => {
+                    let message = error(format!(
+                        "{missed} feedback frames were dropped: this client reads too slowly"
+                    ));
+                    sent(send(&mut socket, &message).await)
+                }
+                Err(broadcast::error::RecvError::Closed) => {
+                    feedback_open = false;
+                    Step::Continue
+                }
+            },
+            Some(failure) = console_failures.recv() => sent(send(&mut socket, &failure).await),
+            _ = token_check.tick() => {
+                if state.tokens().is_valid(&token, state.clock().now()) {
+                    Step::Continue
+                } else {
+                    end_session(&mut socket).await
                 }
             }
-            incoming = socket.recv() => {
-                let Some(Ok(incoming)) = incoming else { return };
-                let reply = match incoming {
-                    Message::Text(text) => answer(text.as_str()),
-                    Message::Close(_) => return,
-                    _ => continue,
-                };
-                if send(&mut socket, &reply).await.is_err() {
-                    return;
+            incoming = socket.recv() => match incoming {
+                Some(Ok(Message::Text(text))) => {
+                    if state.tokens().touch(&token, state.clock().now()) {
+                        match answer(&state, &console_lines, text.as_str()) {
+                            Some(reply) => sent(send(&mut socket, &reply).await),
+                            None => Step::Continue,
+                        }
+                    } else {
+                        end_session(&mut socket).await
+                    }
                 }
-            }
+                Some(Ok(Message::Binary(_))) => {
+                    let reply = error("only text frames holding JSON messages are understood");
+                    sent(send(&mut socket, &reply).await)
+                }
+                Some(Ok(Message::Ping(_) | Message::Pong(_))) => Step::Continue,
+                Some(Ok(Message::Close(_)) | Err(_)) | None => Step::Close,
+            },
+        };
+        if let Step::Close = step {
+            return;
         }
     }
 }
 
-/// The reply to one text frame from a client.
-fn answer(text: &str) -> ServerMessage {
-    match serde_json::from_str::<ClientMessage>(text) {
-        Ok(ClientMessage::Ping) => ServerMessage::Pong,
-        Ok(other) => ServerMessage::Error {
-            message: format!("{other:?} is not supported by this bridge yet"),
-        },
-        Err(err) => ServerMessage::Error {
-            message: format!("not a valid message: {err}"),
-        },
+/// Sends a session's console lines in order, each waiting for room on its lanes;
+/// reports the lines a gateway refused. Ends with the session.
+async fn console(
+    state: AppState,
+    mut lines: mpsc::Receiver<ConsoleLine>,
+    failures: mpsc::Sender<ServerMessage>,
+) {
+    while let Some((gateway, batch)) = lines.recv().await {
+        if let Err(reason) = state.gateways().send(gateway, batch).await
+            && failures
+                .send(error(format!("the line was not sent: {reason}")))
+                .await
+                .is_err()
+        {
+            return;
+        }
+    }
+}
+
+fn sent(result: Result<(), axum::Error>) -> Step {
+    match result {
+        Ok(()) => Step::Continue,
+        Err(_) => Step::Close,
+    }
+}
+
+/// Tells the client its token is no longer valid and closes, waiting a moment for the
+/// client's side of the closing handshake.
+async fn end_session(socket: &mut WebSocket) -> Step {
+    let _ = send(
+        socket,
+        &error("the session has expired or ended; log in again"),
+    )
+    .await;
+    let closing = socket
+        .send(Message::Close(Some(CloseFrame {
+            code: close_code::POLICY,
+            reason: "session ended".into(),
+        })))
+        .await;
+    if closing.is_ok() {
+        let _ = tokio::time::timeout(CLOSE_HANDSHAKE, async {
+            while let Some(Ok(message)) = socket.recv().await {
+                if let Message::Close(_) = message {
+                    break;
+                }
+            }
+        })
+        .await;
+    }
+    Step::Close
+}
+
+fn error(message: impl Into<String>) -> ServerMessage {
+    ServerMessage::Error {
+        message: message.into(),
+    }
+}
+
+/// The reply to one text frame from a client, if it needs one.
+fn answer(
+    state: &AppState,
+    console_lines: &mpsc::Sender<ConsoleLine>,
+    text: &str,
+) -> Option<ServerMessage> {
+    let message = match serde_json::from_str::<ClientMessage>(text) {
+        Ok(message) => message,
+        Err(err) => return Some(error(format!("not a valid message: {err}"))),
+    };
+    match message {
+        ClientMessage::Ping => Some(ServerMessage::Pong),
+        ClientMessage::Estop => {
+            let failures = state.gateways().estop();
+            tracing::warn!("e-stop requested over the WebSocket");
+            if failures.is_empty() {
+                None
+            } else {
+                tracing::error!("the e-stop did not reach {}", failures.join("; "));
+                Some(error(format!(
+                    "the e-stop did not reach every gateway: {}",
+                    failures.join("; ")
+                )))
+            }
+        }
+        ClientMessage::Start | ClientMessage::Reset if state.password().is_default() => Some(
+            error("change the initial password (1234) before controlling the matrix"),
+        ),
+        ClientMessage::Start | ClientMessage::Reset => Some(error(
+            "start and reset are not available yet: this bridge has no player",
+        )),
+        ClientMessage::Raw { .. } if state.password().is_default() => Some(error(
+            "change the initial password (1234) before sending instructions",
+        )),
+        ClientMessage::Raw { line, gateway } => {
+            let count = state.gateways().links().len();
+            if let Some(index) = gateway.filter(|index| *index >= count) {
+                return Some(error(format!(
+                    "there is no gateway {index}; gateways are numbered 0 to {}",
+                    count.saturating_sub(1)
+                )));
+            }
+            let instructions = match parse_script(&line) {
+                Ok(instructions) if instructions.is_empty() => {
+                    return Some(error("the line holds no instruction"));
+                }
+                Ok(instructions) => instructions,
+                Err(parse_error) => {
+                    return Some(error(format!("the line is not valid: {parse_error}")));
+                }
+            };
+            let batch = match Batch::encode(&instructions, Form::Standard) {
+                Ok(batch) => batch,
+                Err(encode_error) => {
+                    return Some(error(format!("the line is not valid: {encode_error}")));
+                }
+            };
+            match console_lines.try_send((gateway, batch)) {
+                Ok(()) => None,
+                Err(_) => Some(error(
+                    "too many console lines are waiting for the gateway; this one was not sent",
+                )),
+            }
+        }
     }
 }
 
 async fn send(socket: &mut WebSocket, message: &ServerMessage) -> Result<(), axum::Error> {
     let text = serde_json::to_string(message).map_err(axum::Error::new)?;
     socket.send(Message::Text(text.into())).await
+}
+
+#[cfg(test)]
+mod tests {
+    use axum::http::HeaderValue;
+
+    use super::*;
+
+    fn headers(origin: Option<&'static str>, host: &'static str) -> HeaderMap {
+        let mut headers = HeaderMap::new();
+        headers.insert(header::HOST, HeaderValue::from_static(host));
+        if let Some(origin) = origin {
+            headers.insert(header::ORIGIN, HeaderValue::from_static(origin));
+        }
+        headers
+    }
+
+    #[test]
+    fn same_origin_and_configured_origins_are_allowed() {
+        let allowed = ["http://kiosk.local:3000".to_owned()];
+        assert!(origin_allowed(&headers(None, "a:8080"), &allowed));
+        assert!(origin_allowed(
+            &headers(Some("http://192.168.1.17:8080"), "192.168.1.17:8080"),
+            &allowed
+        ));
+        assert!(origin_allowed(
+            &headers(Some("http://Bridge.local"), "bridge.local:80"),
+            &allowed
+        ));
+        assert!(origin_allowed(
+            &headers(Some("http://kiosk.local:3000"), "192.168.1.17:8080"),
+            &allowed
+        ));
+    }
+
+    #[test]
+    fn cross_site_origins_are_refused() {
+        let allowed = ["http://kiosk.local:3000".to_owned()];
+        for origin in ["http://evil.example", "http://192.168.1.17:8081", "null"] {
+            assert!(
+                !origin_allowed(&headers(Some(origin), "192.168.1.17:8080"), &allowed),
+                "{origin}"
+            );
+        }
+    }
 }

@@ -1,108 +1,274 @@
-//! The WebSocket endpoint over a real socket: the server on port 0, a real
-//! tokio-tungstenite client.
+//! The WebSocket endpoint over real sockets: who may connect, status delivery and its
+//! rate, many clients, and answers to every kind of message.
 
-use std::time::Duration;
+mod common;
 
-use floatball_bridge::server;
-use floatball_bridge::state::AppState;
+use std::time::{Duration, Instant};
+
+use axum::http::{Method, StatusCode};
+use common::{Bridge, Ws, next_message, next_reply, send_text};
 use floatball_shared::api::{PlayerState, ServerMessage};
-use futures_util::{SinkExt, StreamExt};
-use tokio_tungstenite::tungstenite::Message;
+use futures_util::StreamExt;
+use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+use tokio_tungstenite::tungstenite::{Error as WsError, Message};
 
-async fn start() -> (
-    std::net::SocketAddr,
-    tokio::sync::oneshot::Sender<()>,
-    AppState,
-) {
-    let static_dir = tempfile::tempdir().expect("temp dir").keep();
-    std::fs::write(
-        static_dir.join("index.html"),
-        "<!doctype html><title>t</title>",
-    )
-    .unwrap();
-    let state = AppState::new(static_dir);
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let addr = listener.local_addr().unwrap();
-    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-    let serving = state.clone();
-    tokio::spawn(async move {
-        server::run(listener, serving, async {
-            let _ = stopped.await;
-        })
-        .await
-        .unwrap();
-    });
-    (addr, stop, state)
+/// Opens `/ws` with `origin` (if any) and returns the HTTP status of a refusal.
+async fn refused_status(bridge: &Bridge, query: &str, origin: Option<&str>) -> Option<u16> {
+    let mut request = format!("ws://{}/ws{query}", bridge.addr)
+        .into_client_request()
+        .expect("request");
+    if let Some(origin) = origin {
+        request
+            .headers_mut()
+            .insert("origin", origin.parse().expect("header"));
+    }
+    match tokio_tungstenite::connect_async(request).await {
+        Ok(_) => None,
+        Err(WsError::Http(response)) => Some(response.status().as_u16()),
+        Err(other) => panic!("unexpected error: {other}"),
+    }
 }
 
-async fn next_message(
-    ws: &mut tokio_tungstenite::WebSocketStream<
-        tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>,
-    >,
-) -> ServerMessage {
-    loop {
-        let frame = tokio::time::timeout(Duration::from_secs(5), ws.next())
-            .await
-            .expect("a message within 5 s")
-            .expect("stream open")
-            .expect("valid frame");
-        if let Message::Text(text) = frame {
-            return serde_json::from_str(text.as_str()).expect("a ServerMessage");
-        }
+fn expect_error(message: ServerMessage) -> String {
+    match message {
+        ServerMessage::Error { message } => message,
+        other => panic!("expected an error, got {other:?}"),
     }
+}
+
+async fn first_status(ws: &mut Ws) {
+    let ServerMessage::Status(_) = next_message(ws).await else {
+        panic!("the first message is not a status");
+    };
+}
+
+#[tokio::test]
+async fn the_websocket_needs_a_valid_token() {
+    let bridge = Bridge::start().await;
+    assert_eq!(refused_status(&bridge, "", None).await, Some(401));
+    assert_eq!(refused_status(&bridge, "?token=abc", None).await, Some(401));
+    let token = bridge.token().await;
+    assert_eq!(
+        refused_status(&bridge, &format!("?token={token}"), None).await,
+        None
+    );
+}
+
+#[tokio::test]
+async fn cross_site_origins_are_refused_before_the_upgrade() {
+    let bridge = Bridge::start_with("allowed_origins = [\"http://kiosk.local:3000\"]\n").await;
+    let token = bridge.token().await;
+    let query = format!("?token={token}");
+    let own = format!("http://{}", bridge.addr);
+    assert_eq!(
+        refused_status(&bridge, &query, Some("http://evil.example")).await,
+        Some(403)
+    );
+    assert_eq!(
+        refused_status(&bridge, &query, Some("null")).await,
+        Some(403)
+    );
+    assert_eq!(
+        refused_status(&bridge, "", Some("http://evil.example")).await,
+        Some(403)
+    );
+    assert_eq!(refused_status(&bridge, &query, Some(&own)).await, None);
+    assert_eq!(
+        refused_status(&bridge, &query, Some("http://kiosk.local:3000")).await,
+        None
+    );
 }
 
 #[tokio::test]
 async fn status_arrives_on_connect_and_on_change() {
-    let (addr, _stop, state) = start().await;
-    let (mut ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/ws"))
-        .await
-        .expect("connect");
+    let bridge = Bridge::start().await;
+    let mut ws = bridge.ws(&bridge.token().await).await;
     let ServerMessage::Status(status) = next_message(&mut ws).await else {
         panic!("first message is not a status");
     };
     assert_eq!(status.state, PlayerState::Idle);
 
-    state.update_status(|status| status.state = PlayerState::Playing);
-    let ServerMessage::Status(status) = next_message(&mut ws).await else {
-        panic!("expected a status after the change");
-    };
-    assert_eq!(status.state, PlayerState::Playing);
+    bridge
+        .state
+        .update_status(|status| status.state = PlayerState::Playing);
+    // A link's state may change in between; the change must come.
+    while let ServerMessage::Status(status) = next_message(&mut ws).await {
+        if status.state == PlayerState::Playing {
+            return;
+        }
+    }
+    panic!("expected statuses only");
 }
 
 #[tokio::test]
-async fn ping_is_answered_and_bad_json_gets_an_error_without_closing() {
-    let (addr, _stop, _state) = start().await;
-    let (mut ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/ws"))
+async fn status_is_sent_at_most_ten_times_a_second_and_the_latest_wins() {
+    let bridge = Bridge::start().await;
+    let mut ws = bridge.ws(&bridge.token().await).await;
+    first_status(&mut ws).await;
+    let started = Instant::now();
+    for time_ms in 1..=100u64 {
+        bridge
+            .state
+            .update_status(|status| status.show_time_ms = time_ms);
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    let mut received = 0;
+    loop {
+        let ServerMessage::Status(status) = next_message(&mut ws).await else {
+            panic!("only statuses are expected");
+        };
+        received += 1;
+        if status.show_time_ms == 100 {
+            break;
+        }
+    }
+    let elapsed_s = started.elapsed().as_secs_f64();
+    let allowed = (elapsed_s * 10.0).ceil() as usize + 1;
+    assert!(
+        received <= allowed,
+        "{received} statuses in {elapsed_s:.2} s (at most {allowed})"
+    );
+    assert!(
+        received >= 2,
+        "changes are sent while they happen: {received}"
+    );
+}
+
+#[tokio::test]
+async fn a_hundred_clients_each_get_every_status() {
+    let bridge = Bridge::start().await;
+    let token = bridge.token().await;
+    let mut clients = Vec::new();
+    for _ in 0..100 {
+        let mut ws = bridge.ws(&token).await;
+        first_status(&mut ws).await;
+        clients.push(ws);
+    }
+    bridge
+        .state
+        .update_status(|status| status.state = PlayerState::Loading);
+    let received = futures_util::future::join_all(clients.iter_mut().map(|ws| async move {
+        loop {
+            match next_message(ws).await {
+                ServerMessage::Status(status) if status.state == PlayerState::Loading => {
+                    return status.state;
+                }
+                ServerMessage::Status(_) => {}
+                other => panic!("expected a status, got {other:?}"),
+            }
+        }
+    }))
+    .await;
+    assert!(received.iter().all(|state| *state == PlayerState::Loading));
+    assert_eq!(received.len(), 100);
+}
+
+#[tokio::test]
+async fn bad_messages_get_an_error_and_the_connection_stays() {
+    let bridge = Bridge::start().await;
+    let mut ws = bridge.ws(&bridge.token().await).await;
+    first_status(&mut ws).await;
+
+    send_text(&mut ws, "{not json").await;
+    assert!(expect_error(next_reply(&mut ws).await).contains("not a valid message"));
+    send_text(&mut ws, r#"{"type":"dance"}"#).await;
+    assert!(expect_error(next_reply(&mut ws).await).contains("dance"));
+    futures_util::SinkExt::send(&mut ws, Message::binary(vec![1, 2, 3]))
         .await
-        .expect("connect");
-    next_message(&mut ws).await;
+        .expect("send");
+    assert!(expect_error(next_reply(&mut ws).await).contains("text frames"));
 
-    ws.send(Message::text("{not json")).await.unwrap();
-    let ServerMessage::Error { message } = next_message(&mut ws).await else {
-        panic!("malformed JSON must be answered with an error");
-    };
-    assert!(message.contains("not a valid message"), "{message}");
-
-    ws.send(Message::text(r#"{"type":"ping"}"#)).await.unwrap();
-    assert_eq!(next_message(&mut ws).await, ServerMessage::Pong);
+    send_text(&mut ws, r#"{"type":"ping"}"#).await;
+    assert_eq!(next_reply(&mut ws).await, ServerMessage::Pong);
 }
 
 #[tokio::test]
-async fn the_app_is_served_and_unknown_paths_fall_back_to_index() {
-    let (addr, _stop, _state) = start().await;
-    for path in ["/", "/control"] {
-        let mut stream = tokio::net::TcpStream::connect(addr).await.unwrap();
-        use tokio::io::{AsyncReadExt, AsyncWriteExt};
-        stream
-            .write_all(
-                format!("GET {path} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n").as_bytes(),
-            )
+async fn console_lines_and_control_need_a_changed_password() {
+    let bridge = Bridge::start().await;
+    let mut ws = bridge.ws(&bridge.token().await).await;
+    first_status(&mut ws).await;
+    for message in [
+        r#"{"type":"raw","line":"*5;PV;"}"#,
+        r#"{"type":"start"}"#,
+        r#"{"type":"reset"}"#,
+    ] {
+        send_text(&mut ws, message).await;
+        let error = expect_error(next_reply(&mut ws).await);
+        assert!(error.contains("initial password"), "{message}: {error}");
+    }
+}
+
+#[tokio::test]
+async fn invalid_console_lines_are_refused_with_the_parsers_message() {
+    let bridge = Bridge::start().await;
+    let mut ws = bridge.ws(&bridge.operator().await).await;
+    first_status(&mut ws).await;
+    send_text(
+        &mut ws,
+        r#"{"type":"raw","line":"*20;QP[3]=1000 QV[3]=0;"}"#,
+    )
+    .await;
+    let error = expect_error(next_reply(&mut ws).await);
+    assert_eq!(
+        error,
+        "the line is not valid: line 1, column 16: expected `;` after the operand of QP[3], \
+         found `Q`"
+    );
+    send_text(&mut ws, r#"{"type":"raw","line":"QT[0]=0;"}"#).await;
+    let error = expect_error(next_reply(&mut ws).await);
+    assert!(
+        error.starts_with("the line is not valid: line 1, column "),
+        "{error}"
+    );
+    send_text(&mut ws, r#"{"type":"raw","line":"  # only a comment"}"#).await;
+    assert!(expect_error(next_reply(&mut ws).await).contains("no instruction"));
+}
+
+#[tokio::test]
+async fn an_expired_or_ended_token_ends_the_session() {
+    let bridge = Bridge::start().await;
+    let token = bridge.token().await;
+    let mut ws = bridge.ws(&token).await;
+    first_status(&mut ws).await;
+    bridge.clock.advance(Duration::from_secs(12 * 3600));
+    send_text(&mut ws, r#"{"type":"ping"}"#).await;
+    assert!(expect_error(next_reply(&mut ws).await).contains("log in again"));
+    let closed = tokio::time::timeout(Duration::from_secs(5), ws.next())
+        .await
+        .expect("closed within 5 s");
+    assert!(
+        matches!(closed, Some(Ok(Message::Close(_))) | None),
+        "{closed:?}"
+    );
+
+    let token = bridge.token().await;
+    let mut ws = bridge.ws(&token).await;
+    first_status(&mut ws).await;
+    let logout = bridge
+        .request(Method::POST, "/api/logout", Some(&token), None)
+        .await;
+    assert_eq!(logout.status, StatusCode::NO_CONTENT);
+    assert!(expect_error(next_reply(&mut ws).await).contains("log in again"));
+}
+
+#[tokio::test]
+async fn stopping_the_bridge_closes_open_websockets() {
+    let bridge = Bridge::start().await;
+    let mut ws = bridge.ws(&bridge.token().await).await;
+    first_status(&mut ws).await;
+    // `restart` stops the server and waits (at most 5 s) for it to finish.
+    let _bridge = bridge.restart().await;
+    loop {
+        let frame = tokio::time::timeout(Duration::from_secs(5), ws.next())
             .await
-            .unwrap();
-        let mut response = String::new();
-        stream.read_to_string(&mut response).await.unwrap();
-        assert!(response.starts_with("HTTP/1.1 200"), "{path}: {response}");
-        assert!(response.contains("<title>t</title>"), "{path}: {response}");
+            .expect("closed within 5 s");
+        match frame {
+            Some(Ok(Message::Close(Some(close)))) => {
+                assert_eq!(u16::from(close.code), 1001);
+                break;
+            }
+            Some(Ok(Message::Text(_))) => {}
+            other => panic!("expected a close frame, got {other:?}"),
+        }
     }
 }

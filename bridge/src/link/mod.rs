@@ -261,6 +261,29 @@ impl Link {
         }
     }
 
+    /// Queues `batch` on the bulk lane at once, whatever is queued already: for a
+    /// caller that keeps the queue shallow itself (the player refills only when the
+    /// queue has drained) and must not wait.
+    ///
+    /// # Errors
+    /// As [`Link::send`].
+    pub fn enqueue(&self, batch: &Batch) -> Result<(), LinkError> {
+        let lanes = &self.shared.lanes;
+        let mut queues = lanes.lock();
+        if self.shared.is_closed() {
+            return Err(LinkError::Closed {
+                port: self.port().to_owned(),
+            });
+        }
+        if self.shared.status.borrow().state != LinkState::Up {
+            return Err(self.shared.down_error());
+        }
+        queues.push_bulk(batch);
+        drop(queues);
+        lanes.wake_writer();
+        Ok(())
+    }
+
     /// Queues `batch` on the priority lane: it is written before anything on the bulk
     /// lane, after at most the one instruction already on the wire.
     ///

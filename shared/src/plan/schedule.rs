@@ -22,6 +22,10 @@ pub const FIFO_LIMIT: usize = 255;
 /// as feasible: a margin for jitter on the line and in the host.
 pub const MIN_LEVEL_ROWS: i64 = 2;
 
+/// Rows added to the shallowest workable preload, for what paper cannot foresee (a
+/// host busy for a moment, a slow answer); capped by the table.
+pub const SAFETY_ROWS: usize = ROUND_ROWS;
+
 /// The share of the line's bytes/s the plan counts on (pauses between writes, the
 /// host's scheduling).
 pub const LINE_UTILISATION: f64 = 0.95;
@@ -169,8 +173,8 @@ pub fn simulate(plan: &Plan, run_index: usize, baud: u32, preload_rows: usize) -
 }
 
 /// The shallowest preload (rows per unit) that keeps every FIFO at least
-/// [`MIN_LEVEL_ROWS`] deep at `baud`, with its simulation; the deepest possible preload
-/// when none does (the simulation then says how it fails).
+/// [`MIN_LEVEL_ROWS`] deep at `baud`, plus [`SAFETY_ROWS`], with its simulation; the
+/// deepest possible preload when none does (the simulation then says how it fails).
 pub fn choose_preload(plan: &Plan, run_index: usize, baud: u32) -> Simulation {
     let Some(run) = plan.gateways.get(run_index) else {
         return simulate(plan, run_index, baud, 0);
@@ -193,8 +197,9 @@ pub fn choose_preload(plan: &Plan, run_index: usize, baud: u32) -> Simulation {
             low = middle + 1;
         }
     }
-    if best.preload_rows != high {
-        best = simulate(plan, run_index, baud, high);
+    let safe = (high + SAFETY_ROWS).min(total.min(FIFO_LIMIT));
+    if best.preload_rows != safe {
+        best = simulate(plan, run_index, baud, safe);
     }
     best
 }
@@ -215,7 +220,7 @@ mod tests {
         let plan = Plan::new(&show, &installation(2, 5, 115_200), PlanOptions::default()).unwrap();
         let simulation = choose_preload(&plan, 0, 115_200);
         assert!(simulation.keeps_margin(), "{simulation:?}");
-        assert!(simulation.preload_rows <= 32, "{simulation:?}");
+        assert!(simulation.preload_rows <= 48, "{simulation:?}");
         assert_eq!(plan.gateways[0].preload_rows, simulation.preload_rows);
     }
 

@@ -1,0 +1,115 @@
+//! Line utilisation while the player streams: a 10 × 10 show loading into the
+//! in-process simulated gateway at 115200 baud, the line's bytes/s read from the link
+//! status once a second. Run with `cargo bench -p floatball-bridge --bench stream`.
+
+use std::time::Duration;
+
+use floatball_bridge::link::{Link, LinkConfig};
+use floatball_bridge::playback::Playback;
+use floatball_shared::api::{LinkState, PlayerState};
+use floatball_shared::ascii::{Batch, Form, parse_script};
+use floatball_shared::plan::player::Entry;
+use floatball_shared::plan::{GatewaySpec, Installation};
+use floatball_shared::show::{Layout, Limits, Show, Track, TrackRow};
+
+fn wave(row_count: usize) -> Show {
+    let tracks = (0..100u32)
+        .map(|unit| {
+            let phase = f64::from(unit) * 0.3;
+            let omega = 2.0 * std::f64::consts::PI / 8.0;
+            let at = |t_s: f64| 3000.0 + 500.0 * (omega * t_s + phase).sin();
+            let speed = |t_s: f64| 500.0 * omega * (omega * t_s + phase).cos();
+            Track {
+                start_mm: at(0.0),
+                rows: (1..=row_count)
+                    .map(|i| {
+                        let t_s = i as f64 * 0.25;
+                        let velocity = if i == row_count { 0.0 } else { speed(t_s) };
+                        TrackRow::new(at(t_s), velocity, 250)
+                    })
+                    .collect(),
+                colours: Vec::new(),
+            }
+        })
+        .collect();
+    Show {
+        name: "wave".into(),
+        layout: Layout {
+            rows: 10,
+            cols: 10,
+            pitch_mm: 500.0,
+        },
+        tracks,
+    }
+}
+
+fn main() {
+    let smoke = std::env::args().any(|arg| arg == "--test");
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .expect("runtime");
+    runtime.block_on(async {
+        let baud = 115_200;
+        let mut limits = Limits::for_layout(10, 10);
+        limits.max_accel_mm_s2 = 40_000.0;
+        let installation = Installation::row_major(
+            limits,
+            100.0,
+            vec![GatewaySpec {
+                port: "sim".into(),
+                baud,
+            }],
+            1,
+        )
+        .expect("installation");
+        let link = Link::open(0, LinkConfig::new("sim", baud));
+        let mut link_status = link.status();
+        link_status
+            .wait_for(|status| status.state == LinkState::Up)
+            .await
+            .expect("link up");
+        let estop = Batch::encode(&parse_script("*0;MO=0;").expect("estop"), Form::Standard)
+            .expect("estop");
+        let playback = Playback::spawn(installation, vec![link], estop);
+        playback
+            .start(
+                vec![Entry {
+                    show: wave(120),
+                    delay_ms: 0,
+                    cycles: 1,
+                }],
+                false,
+            )
+            .await
+            .expect("start");
+        let mut status = playback.status();
+        status
+            .wait_for(|status| status.state == PlayerState::Loading)
+            .await
+            .expect("loading");
+        // Skip the first window (the line was idle before).
+        tokio::time::sleep(Duration::from_millis(1500)).await;
+        let seconds = if smoke { 2 } else { 10 };
+        let mut rates = Vec::new();
+        for _ in 0..seconds {
+            tokio::time::sleep(Duration::from_secs(1)).await;
+            let status = playback.status().borrow().clone();
+            if status.state != PlayerState::Loading {
+                break;
+            }
+            rates.push(status.gateways[0].bytes_per_s);
+        }
+        playback.estop();
+        let available = f64::from(baud) / 10.0;
+        let mean = rates.iter().sum::<f64>() / rates.len().max(1) as f64;
+        let lowest = rates.iter().copied().fold(f64::INFINITY, f64::min);
+        println!(
+            "line utilisation while streaming rows at {baud} baud: mean {mean:.0} B/s = {:.1}% \
+             (lowest second {:.1}%) of the {available:.0} B/s the line carries, over {} s",
+            100.0 * mean / available,
+            100.0 * lowest / available,
+            rates.len()
+        );
+    });
+}

@@ -1,0 +1,156 @@
+//! The HTTP API under `/api` (DESIGN §4; `docs/api.md`).
+//!
+//! - [`session`]: login, logout, password change, and the extractors that let a
+//!   handler run only for a logged-in client ([`session::Session`]) or only once the
+//!   initial password is changed ([`session::Operator`]);
+//! - [`library`]: the show files and the playlist.
+//!
+//! Every error answer is an [`ApiError`] JSON body with the right status code
+//! ([`Failure`]); so are unknown `/api` paths (404) and methods (405).
+
+pub mod library;
+pub mod session;
+
+use axum::Router;
+use axum::extract::DefaultBodyLimit;
+use axum::http::{HeaderValue, Method, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use floatball_shared::api::ApiError;
+use serde::de::DeserializeOwned;
+use tower_http::cors::{AllowOrigin, CorsLayer};
+
+use crate::state::AppState;
+
+/// Largest JSON body accepted by the calls other than uploads, bytes.
+const MAX_JSON_BYTES: usize = 1024 * 1024;
+
+/// The `/api` routes, to be nested under `/api`.
+pub fn router(state: &AppState) -> Router<AppState> {
+    let upload_limit = DefaultBodyLimit::max(state.config().uploads.max_bytes);
+    Router::new()
+        .route("/login", post(session::login))
+        .route("/logout", post(session::logout))
+        .route("/password", post(session::change_password))
+        .route("/shows", get(library::list_shows))
+        .route(
+            "/shows/{name}",
+            get(library::get_show)
+                .put(library::put_show)
+                .delete(library::delete_show)
+                .layer(upload_limit),
+        )
+        .route(
+            "/playlist",
+            get(library::get_playlist).put(library::put_playlist),
+        )
+        .fallback(not_found)
+        .method_not_allowed_fallback(method_not_allowed)
+        .layer(DefaultBodyLimit::max(MAX_JSON_BYTES))
+        .layer(cors(&state.config().allowed_origins))
+}
+
+/// CORS for the extra origins of the configuration (the bridge's own origin needs
+/// none).
+fn cors(allowed_origins: &[String]) -> CorsLayer {
+    let origins: Vec<HeaderValue> = allowed_origins
+        .iter()
+        .filter_map(|origin| HeaderValue::from_str(origin).ok())
+        .collect();
+    CorsLayer::new()
+        .allow_origin(AllowOrigin::list(origins))
+        .allow_methods([Method::GET, Method::PUT, Method::POST, Method::DELETE])
+        .allow_headers([header::AUTHORIZATION, header::CONTENT_TYPE])
+        .expose_headers([header::RETRY_AFTER])
+}
+
+async fn not_found() -> Failure {
+    Failure::new(StatusCode::NOT_FOUND, "there is no such API call")
+}
+
+async fn method_not_allowed() -> Failure {
+    Failure::new(
+        StatusCode::METHOD_NOT_ALLOWED,
+        "this API call does not take that method",
+    )
+}
+
+/// An error answer: a status code, an [`ApiError`] body and, for 429, how many seconds
+/// to wait.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Failure {
+    /// The status code.
+    pub status: StatusCode,
+    /// The body.
+    pub body: ApiError,
+    /// `Retry-After`, seconds.
+    pub retry_after_s: Option<u64>,
+}
+
+impl Failure {
+    /// An answer with `status` and one sentence.
+    pub fn new(status: StatusCode, error: impl Into<String>) -> Self {
+        Self {
+            status,
+            body: ApiError {
+                error: error.into(),
+                details: Vec::new(),
+            },
+            retry_after_s: None,
+        }
+    }
+
+    /// The same answer listing `details`.
+    #[must_use]
+    pub fn with_details(mut self, details: Vec<String>) -> Self {
+        self.body.details = details;
+        self
+    }
+
+    /// A 500 for something that should not fail: logged here, reported in general
+    /// words.
+    pub fn internal(what: &str, error: &dyn std::fmt::Display) -> Self {
+        tracing::error!("{what}: {error}");
+        Self::new(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("{what}: {error}"),
+        )
+    }
+}
+
+impl IntoResponse for Failure {
+    fn into_response(self) -> Response {
+        let mut response = (self.status, axum::Json(self.body)).into_response();
+        if let Some(seconds) = self.retry_after_s {
+            response
+                .headers_mut()
+                .insert(header::RETRY_AFTER, HeaderValue::from(seconds));
+        }
+        if self.status == StatusCode::UNAUTHORIZED {
+            response
+                .headers_mut()
+                .insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
+        }
+        response
+    }
+}
+
+/// Reads a JSON request body; a body that is not the expected JSON is a 400 that says
+/// what serde found.
+fn json_body<T: DeserializeOwned>(body: &[u8], what: &str) -> Result<T, Failure> {
+    serde_json::from_slice(body).map_err(|error| {
+        Failure::new(
+            StatusCode::BAD_REQUEST,
+            format!("the body is not a valid {what}: {error}"),
+        )
+    })
+}
+
+/// Runs slow or blocking work (password hashing, file I/O) off the async threads.
+async fn blocking<T: Send + 'static>(
+    work: impl FnOnce() -> T + Send + 'static,
+) -> Result<T, Failure> {
+    tokio::task::spawn_blocking(work)
+        .await
+        .map_err(|error| Failure::internal("a background task failed", &error))
+}

@@ -1,0 +1,173 @@
+//! Logging in and out, changing the password, and who may call what.
+//!
+//! - `POST /api/login`: 200 with a token; 401 for a wrong password; 429 with
+//!   `Retry-After` after [`MAX_FAILURES`](crate::auth::MAX_FAILURES) wrong passwords
+//!   from one address within a minute.
+//! - `POST /api/logout`: 204; the token is no longer accepted.
+//! - `POST /api/password`: 204; 403 for a wrong current password (which counts as a
+//!   failed login), 400 for an unacceptable new one. Every other token is ended.
+//!
+//! A handler that takes a [`Session`] runs only with a valid bearer token (else 401);
+//! one that takes an [`Operator`] also only once the initial password is changed
+//! (else 403).
+
+use std::net::SocketAddr;
+
+use axum::body::Bytes;
+use axum::extract::{ConnectInfo, FromRequestParts, State};
+use axum::http::request::Parts;
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use floatball_shared::api::{LoginRequest, LoginResponse, PasswordChange};
+
+use super::{Failure, blocking, json_body};
+use crate::auth::PasswordError;
+use crate::state::AppState;
+
+/// A request with a valid bearer token.
+#[derive(Debug, Clone)]
+pub struct Session {
+    /// The token.
+    pub token: String,
+}
+
+impl FromRequestParts<AppState> for Session {
+    type Rejection = Failure;
+
+    async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, Failure> {
+        let token = parts
+            .headers
+            .get(header::AUTHORIZATION)
+            .and_then(|value| value.to_str().ok())
+            .and_then(|value| value.strip_prefix("Bearer "))
+            .map(str::trim)
+            .ok_or_else(|| {
+                Failure::new(
+                    StatusCode::UNAUTHORIZED,
+                    "log in first: this call needs an `Authorization: Bearer <token>` header",
+                )
+            })?;
+        if state.tokens().touch(token, state.clock().now()) {
+            Ok(Self {
+                token: token.to_owned(),
+            })
+        } else {
+            Err(Failure::new(
+                StatusCode::UNAUTHORIZED,
+                "the session has expired or ended; log in again",
+            ))
+        }
+    }
+}
+
+/// A logged-in request allowed to change things: the initial password is changed.
+#[derive(Debug, Clone)]
+pub struct Operator(pub Session);
+
+impl FromRequestParts<AppState> for Operator {
+    type Rejection = Failure;
+
+    async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, Failure> {
+        let session = Session::from_request_parts(parts, state).await?;
+        if state.password().is_default() {
+            return Err(must_change_password());
+        }
+        Ok(Self(session))
+    }
+}
+
+/// The 403 for a call refused while the password is the initial one.
+pub fn must_change_password() -> Failure {
+    Failure::new(
+        StatusCode::FORBIDDEN,
+        "change the initial password (1234) first: POST /api/password",
+    )
+}
+
+/// The 429 for an address that guessed too often.
+fn too_many(wait: std::time::Duration) -> Failure {
+    let seconds = wait.as_secs() + u64::from(wait.subsec_nanos() > 0);
+    Failure {
+        retry_after_s: Some(seconds.max(1)),
+        ..Failure::new(
+            StatusCode::TOO_MANY_REQUESTS,
+            format!(
+                "too many wrong passwords; try again in {} s",
+                seconds.max(1)
+            ),
+        )
+    }
+}
+
+/// `POST /api/login`.
+pub async fn login(
+    State(state): State<AppState>,
+    ConnectInfo(client): ConnectInfo<SocketAddr>,
+    body: Bytes,
+) -> Result<axum::Json<LoginResponse>, Failure> {
+    let request: LoginRequest = json_body(&body, "login request ({\"password\": \"…\"})")?;
+    let started = state.clock().now();
+    state
+        .login_limiter()
+        .attempt(client.ip(), started)
+        .map_err(too_many)?;
+    let checking = state.clone();
+    let right = blocking(move || checking.password().verify(&request.password)).await?;
+    if !right {
+        tracing::warn!("wrong password from {}", client.ip());
+        return Err(Failure::new(StatusCode::UNAUTHORIZED, "wrong password"));
+    }
+    state.login_limiter().forgive(client.ip(), started);
+    let token = state
+        .tokens()
+        .issue(state.clock().now())
+        .map_err(|error| Failure::internal("cannot make a token", &error))?;
+    Ok(axum::Json(LoginResponse {
+        token,
+        must_change_password: state.password().is_default(),
+    }))
+}
+
+/// `POST /api/logout`.
+pub async fn logout(State(state): State<AppState>, session: Session) -> StatusCode {
+    state.tokens().revoke(&session.token);
+    StatusCode::NO_CONTENT
+}
+
+/// `POST /api/password`.
+pub async fn change_password(
+    State(state): State<AppState>,
+    ConnectInfo(client): ConnectInfo<SocketAddr>,
+    session: Session,
+    body: Bytes,
+) -> Result<Response, Failure> {
+    let request: PasswordChange =
+        json_body(&body, "password change ({\"old\": \"…\", \"new\": \"…\"})")?;
+    let started = state.clock().now();
+    state
+        .login_limiter()
+        .attempt(client.ip(), started)
+        .map_err(too_many)?;
+    let changing = state.clone();
+    let result = blocking(move || changing.password().change(&request.old, &request.new)).await?;
+    match result {
+        Ok(()) => {
+            state.login_limiter().forgive(client.ip(), started);
+            state.tokens().revoke_others(&session.token);
+            tracing::info!("the operator password was changed from {}", client.ip());
+            Ok(StatusCode::NO_CONTENT.into_response())
+        }
+        Err(PasswordError::WrongPassword) => Err(Failure::new(
+            StatusCode::FORBIDDEN,
+            "the current password is wrong",
+        )),
+        Err(PasswordError::Unacceptable(reason)) => {
+            state.login_limiter().forgive(client.ip(), started);
+            Err(Failure::new(StatusCode::BAD_REQUEST, reason))
+        }
+        Err(error) => {
+            state.login_limiter().forgive(client.ip(), started);
+            Err(Failure::internal("cannot change the password", &error))
+        }
+    }
+}

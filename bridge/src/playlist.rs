@@ -1,0 +1,230 @@
+//! The playlist (the vendor app's "configuration"): which shows Start plays, in which
+//! order, with which delay and how many cycles; stored in `<data-dir>/playlist.json`.
+//!
+//! A new playlist is checked as a whole ([`check`]) — every show must be stored, every
+//! count sensible — and written atomically, so a restart finds exactly the last
+//! playlist accepted.
+
+use std::io;
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, PoisonError};
+
+use floatball_shared::api::Playlist;
+
+use crate::durable;
+use crate::store::Refused;
+
+/// The playlist file's name inside the data directory.
+pub const FILE_NAME: &str = "playlist.json";
+
+/// Most entries a playlist holds.
+pub const MAX_ENTRIES: usize = 1000;
+
+/// Longest delay before an entry, ms (one day).
+pub const MAX_DELAY_MS: u64 = 24 * 60 * 60 * 1000;
+
+/// Most cycles of one entry.
+pub const MAX_CYCLES: u32 = 1_000_000;
+
+/// Why the playlist cannot be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum PlaylistError {
+    /// The disk said no.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the system said.
+        source: io::Error,
+    },
+    /// The stored file is not a playlist.
+    #[error("{}: not a playlist ({reason}); fix or delete it", path.display())]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// The stored playlist.
+#[derive(Debug)]
+pub struct PlaylistStore {
+    dir: PathBuf,
+    current: Mutex<Playlist>,
+}
+
+impl PlaylistStore {
+    /// Reads `<data_dir>/playlist.json`; an empty playlist if there is none yet.
+    ///
+    /// # Errors
+    /// If the file cannot be read or is not a playlist.
+    pub fn open(data_dir: &Path) -> Result<Self, PlaylistError> {
+        let path = data_dir.join(FILE_NAME);
+        let current = match std::fs::read_to_string(&path) {
+            Ok(text) => serde_json::from_str(&text).map_err(|error| PlaylistError::Corrupt {
+                path: path.clone(),
+                reason: error.to_string(),
+            })?,
+            Err(error) if error.kind() == io::ErrorKind::NotFound => Playlist::default(),
+            Err(source) => return Err(PlaylistError::Io { path, source }),
+        };
+        Ok(Self {
+            dir: data_dir.to_owned(),
+            current: Mutex::new(current),
+        })
+    }
+
+    /// The playlist.
+    pub fn get(&self) -> Playlist {
+        self.lock().clone()
+    }
+
+    /// Replaces the playlist (already [checked](check)) on disk and in memory.
+    ///
+    /// # Errors
+    /// An I/O error; the playlist is then as before.
+    pub fn put(&self, playlist: Playlist) -> Result<(), PlaylistError> {
+        let path = self.dir.join(FILE_NAME);
+        let text = serde_json::to_vec_pretty(&playlist).map_err(|error| PlaylistError::Io {
+            path: path.clone(),
+            source: io::Error::other(error),
+        })?;
+        let mut current = self.lock();
+        durable::write_atomic(&self.dir, FILE_NAME, &text)
+            .map_err(|source| PlaylistError::Io { path, source })?;
+        *current = playlist;
+        Ok(())
+    }
+
+    /// Whether any entry plays `show`.
+    pub fn uses(&self, show: &str) -> bool {
+        self.lock().entries.iter().any(|entry| entry.show == show)
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Playlist> {
+        self.current.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+}
+
+/// Checks a playlist: every entry's show is stored (`show_exists`), cycles are at
+/// least 1, delays at most a day, and there are at most [`MAX_ENTRIES`] entries.
+///
+/// # Errors
+/// [`Refused`] listing every problem, entries numbered from 1.
+pub fn check(playlist: &Playlist, show_exists: impl Fn(&str) -> bool) -> Result<(), Refused> {
+    let mut details = Vec::new();
+    if playlist.entries.len() > MAX_ENTRIES {
+        details.push(format!(
+            "the playlist has {} entries; at most {MAX_ENTRIES} are allowed",
+            playlist.entries.len()
+        ));
+    }
+    for (index, entry) in playlist.entries.iter().enumerate().take(MAX_ENTRIES) {
+        let number = index + 1;
+        if !show_exists(&entry.show) {
+            details.push(format!(
+                "entry {number}: there is no show named \"{}\"",
+                entry.show
+            ));
+        }
+        if !(1..=MAX_CYCLES).contains(&entry.cycles) {
+            details.push(format!(
+                "entry {number}: cycles is {}; it must be from 1 to {MAX_CYCLES}",
+                entry.cycles
+            ));
+        }
+        if entry.delay_ms > MAX_DELAY_MS {
+            details.push(format!(
+                "entry {number}: delay_ms is {}; it must be at most {MAX_DELAY_MS} (one day)",
+                entry.delay_ms
+            ));
+        }
+    }
+    if !(1..=MAX_CYCLES).contains(&playlist.default_cycles) {
+        details.push(format!(
+            "default_cycles is {}; it must be from 1 to {MAX_CYCLES}",
+            playlist.default_cycles
+        ));
+    }
+    if playlist.default_delay_ms > MAX_DELAY_MS {
+        details.push(format!(
+            "default_delay_ms is {}; it must be at most {MAX_DELAY_MS} (one day)",
+            playlist.default_delay_ms
+        ));
+    }
+    if details.is_empty() {
+        Ok(())
+    } else {
+        Err(Refused {
+            error: "the playlist is not valid".to_owned(),
+            details,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use floatball_shared::api::PlaylistEntry;
+
+    use super::*;
+
+    fn entry(show: &str, delay_ms: u64, cycles: u32) -> PlaylistEntry {
+        PlaylistEntry {
+            show: show.into(),
+            delay_ms,
+            cycles,
+        }
+    }
+
+    #[test]
+    fn a_playlist_survives_a_reopen() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let store = PlaylistStore::open(dir.path()).expect("open");
+        assert_eq!(store.get(), Playlist::default());
+        let playlist = Playlist {
+            entries: vec![entry("波浪", 500, 2), entry("rain", 0, 1)],
+            loop_playlist: true,
+            default_delay_ms: 1000,
+            default_cycles: 3,
+        };
+        store.put(playlist.clone()).expect("put");
+        assert!(store.uses("波浪"));
+        assert!(!store.uses("snow"));
+        assert_eq!(
+            PlaylistStore::open(dir.path()).expect("reopen").get(),
+            playlist
+        );
+    }
+
+    #[test]
+    fn every_problem_is_listed() {
+        let playlist = Playlist {
+            entries: vec![entry("rain", 0, 1), entry("snow", MAX_DELAY_MS + 1, 0)],
+            loop_playlist: false,
+            default_delay_ms: 0,
+            default_cycles: 0,
+        };
+        let refused = check(&playlist, |show| show == "rain").expect_err("invalid");
+        assert_eq!(
+            refused.details,
+            [
+                "entry 2: there is no show named \"snow\"",
+                "entry 2: cycles is 0; it must be from 1 to 1000000",
+                "entry 2: delay_ms is 86400001; it must be at most 86400000 (one day)",
+                "default_cycles is 0; it must be from 1 to 1000000",
+            ]
+        );
+        assert_eq!(check(&Playlist::default(), |_| false), Ok(()));
+    }
+
+    #[test]
+    fn a_corrupt_file_is_reported() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        std::fs::write(dir.path().join(FILE_NAME), "[").expect("write");
+        let message = PlaylistStore::open(dir.path())
+            .expect_err("corrupt")
+            .to_string();
+        assert!(message.contains("playlist.json"), "{message}");
+    }
+}

@@ -1,0 +1,121 @@
+//! Planner figures: bytes on the wire per row against the naive form
+//! `*N;QP[X]=…;QV[X]=…;QT[X]=…;` for a 100-unit wave, and how long planning and the
+//! bandwidth report take. Run with `cargo bench -p floatball-shared --bench plan`.
+
+use std::hint::black_box;
+use std::time::Instant;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use floatball_shared::plan::report::report_for;
+use floatball_shared::plan::schedule::ROUND_ROWS;
+use floatball_shared::plan::{GatewaySpec, Installation, Plan, PlanOptions, stream};
+use floatball_shared::show::{Layout, Limits, Show, Track, TrackRow};
+
+/// A wave across 10 × 10 balls, 600 rows of 250 ms each (150 s).
+fn wave() -> Show {
+    let (rows, cols, row_count, row_ms) = (10u32, 10u32, 600usize, 250u32);
+    let mut tracks = Vec::new();
+    for unit in 0..rows * cols {
+        let phase = f64::from(unit % cols) * 0.6 + f64::from(unit / cols) * 0.2;
+        let omega = 2.0 * std::f64::consts::PI / 8.0;
+        let at = |t_s: f64| 3000.0 + 1500.0 * (omega * t_s + phase).sin();
+        let speed = |t_s: f64| 1500.0 * omega * (omega * t_s + phase).cos();
+        let track_rows = (1..=row_count)
+            .map(|i| {
+                let t_s = i as f64 * f64::from(row_ms) / 1000.0;
+                let velocity = if i == row_count { 0.0 } else { speed(t_s) };
+                TrackRow::new(
+                    (at(t_s) * 10.0).round() / 10.0,
+                    (velocity * 10.0).round() / 10.0,
+                    row_ms,
+                )
+            })
+            .collect();
+        tracks.push(Track {
+            start_mm: (at(0.0) * 10.0).round() / 10.0,
+            rows: track_rows,
+            colours: Vec::new(),
+        });
+    }
+    Show {
+        name: "wave".into(),
+        layout: Layout {
+            rows,
+            cols,
+            pitch_mm: 500.0,
+        },
+        tracks,
+    }
+}
+
+fn installation() -> Installation {
+    let mut limits = Limits::for_layout(10, 10);
+    limits.max_accel_mm_s2 = 40_000.0;
+    Installation::row_major(
+        limits,
+        100.0,
+        vec![GatewaySpec {
+            port: "sim".into(),
+            baud: 115_200,
+        }],
+        1,
+    )
+    .expect("installation")
+}
+
+fn figures() {
+    let show = wave();
+    let installation = installation();
+    let started = Instant::now();
+    let plan = Plan::new(&show, &installation, PlanOptions::default()).expect("plan");
+    let planned = started.elapsed();
+    let run = &plan.gateways[0];
+    let rows = run.units.len() * plan.units[0].rows.len();
+    let mut ours = 0usize;
+    let mut row = 0;
+    while row < 600 {
+        ours += stream::rows(&plan, run, row, (row + ROUND_ROWS).min(600)).len();
+        row += ROUND_ROWS;
+    }
+    let naive = stream::naive_bytes(&plan, run);
+    let report = report_for(&plan, &installation);
+    let gateway = &report.gateways[0];
+    println!(
+        "wave of 100 units × 600 rows: {:.2} bytes per row vs {:.2} naive = {:.3}× (goal ≤ 0.75×); \
+         planning took {planned:?}; at 115200 baud it needs {:.0} of {:.0} B/s, preloads {} rows per ball \
+         ({} bytes, {:.1} s), lowest water level {:?}, feasible: {}",
+        ours as f64 / rows as f64,
+        naive as f64 / rows as f64,
+        ours as f64 / naive as f64,
+        gateway.needed_bytes_per_s,
+        gateway.available_bytes_per_s,
+        run.preload_rows,
+        gateway.preload_bytes,
+        gateway.preload_ms as f64 / 1000.0,
+        gateway.lowest_water_level,
+        report.feasible,
+    );
+}
+
+fn benches(c: &mut Criterion) {
+    figures();
+    let show = wave();
+    let installation = installation();
+    c.bench_function("plan a 100-unit, 600-row show", |b| {
+        b.iter(|| Plan::new(black_box(&show), &installation, PlanOptions::default()))
+    });
+    let plan = Plan::new(&show, &installation, PlanOptions::default()).expect("plan");
+    c.bench_function("bandwidth report for it", |b| {
+        b.iter(|| report_for(black_box(&plan), &installation))
+    });
+    c.bench_function("encode one 16-row round for 100 units", |b| {
+        b.iter(|| stream::rows(&plan, &plan.gateways[0], black_box(256), 272))
+    });
+}
+
+criterion_group! {
+    name = plan;
+    config = Criterion::default().sample_size(10);
+    targets = benches
+}
+criterion_main!(plan);
