@@ -672,6 +672,64 @@ async fn offline_files_cannot_move_but_local_ones_preview() {
 }
 
 #[wasm_bindgen_test]
+async fn controller_files_download_to_the_device_and_preview() {
+    let container = fresh_container();
+    let json = two_ball_show().to_json().unwrap();
+    let bridge = FakeBridge::new(move |request| match request.url.as_str() {
+        "/api/shows/two" => response(200, &json),
+        _ => response(404, ""),
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-download");
+    LocalStore::new("test-download")
+        .delete("two.json")
+        .await
+        .unwrap();
+    online(ctx);
+    ctx.controller_files.update(|list| {
+        list.replace(vec![summary("two")]);
+        list.select("two");
+    });
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <FilesPage /> }
+    });
+    element(&container, "tab-controller").click();
+    tick().await;
+    element(&container, "download").click();
+    until("the download is kept", || {
+        ctx.local_files
+            .with_untracked(|list| list.get("two.json").is_some())
+    })
+    .await;
+    assert_eq!(
+        text(&container, "files-message"),
+        "Downloaded to the local files: two.json"
+    );
+    let stored = LocalStore::new("test-download").load_all().await.unwrap();
+    assert_eq!(stored[0].name, "two.json");
+    assert_eq!(stored[0].to_show().unwrap(), two_ball_show());
+
+    element(&container, "preview-controller").click();
+    until("the preview is ready", || {
+        matches!(ctx.preview.get_untracked(), Some(PreviewItem::Ready(..)))
+    })
+    .await;
+    assert_eq!(ctx.page.get_untracked(), Page::Preview);
+    let Some(PreviewItem::Ready(name, show)) = ctx.preview.get_untracked() else {
+        unreachable!()
+    };
+    assert_eq!((name.as_str(), show), ("two", two_ball_show()));
+    assert!(
+        bridge
+            .requests
+            .borrow()
+            .iter()
+            .all(|r| r.bearer.as_deref() == Some("tok"))
+    );
+}
+
+#[wasm_bindgen_test]
 async fn local_files_survive_in_indexeddb() {
     let store = LocalStore::new("test-indexeddb");
     for name in ["a.csv", "b.json"] {
