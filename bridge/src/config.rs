@@ -18,6 +18,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use floatball_shared::ascii::{Form, Instruction, parse_script};
+use floatball_shared::plan::{GatewaySpec, Installation, UnitAddress};
 use floatball_shared::show::{Layout, Limits};
 use serde::Deserialize;
 use toml::Spanned;
@@ -266,6 +267,37 @@ impl Config {
             rows: self.matrix.rows,
             cols: self.matrix.cols,
             pitch_mm: self.matrix.pitch_mm,
+        }
+    }
+
+    /// The installation as the planner and the player see it: limits, calibration,
+    /// lines, and every unit's address (row-major, gateway by gateway in order).
+    pub fn installation(&self) -> Installation {
+        let units = self
+            .gateways
+            .iter()
+            .enumerate()
+            .flat_map(|(gateway, spec)| {
+                spec.stations
+                    .iter()
+                    .map(move |&station| UnitAddress { gateway, station })
+            })
+            .collect();
+        Installation {
+            limits: self.limits(),
+            counts_per_mm: self.matrix.counts_per_mm,
+            gateways: self
+                .gateways
+                .iter()
+                .map(|gateway| GatewaySpec {
+                    port: gateway.port.clone(),
+                    baud: gateway.baud,
+                })
+                .collect(),
+            units,
+            approach_speed_mm_s: self.safety.approach_speed_mm_s,
+            home_mm: self.matrix.home_mm,
+            stop_decel_mm_s2: self.matrix.max_accel_mm_s2,
         }
     }
 

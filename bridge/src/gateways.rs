@@ -90,6 +90,11 @@ impl Gateways {
         })
     }
 
+    /// The e-stop batch: `*0;` followed by the configured stop.
+    pub fn estop_batch(&self) -> &Batch {
+        &self.estop
+    }
+
     /// The links, in configuration order.
     pub fn links(&self) -> &[Link] {
         &self.links

@@ -28,6 +28,7 @@
 pub mod auth;
 pub mod cli;
 pub mod config;
+pub mod control;
 pub mod durable;
 pub mod gateways;
 pub mod http;

@@ -93,14 +93,20 @@ impl Playback {
     }
 
     /// E-stop: the stop goes on every link's priority lane now, ahead of anything
-    /// queued (which is dropped); then the player stops.
-    pub fn estop(&self) {
-        for link in self.links.iter() {
-            if let Err(err) = link.estop(&self.estop) {
-                tracing::error!("e-stop on gateway {}: {err}", link.index());
-            }
-        }
+    /// queued (which is dropped); then the player stops. Returns the gateways the stop
+    /// could not reach, each with the reason.
+    pub fn estop(&self) -> Vec<String> {
+        let failures = self
+            .links
+            .iter()
+            .filter_map(|link| {
+                link.estop(&self.estop)
+                    .err()
+                    .map(|error| format!("gateway {}: {error}", link.index()))
+            })
+            .collect();
         let _ = self.requests.send(Request::Estop);
+        failures
     }
 
     /// Start the playlist.

@@ -14,6 +14,7 @@ use tokio::sync::{Mutex, watch};
 use crate::auth::{Clock, LoginLimiter, Password, PasswordError, Tokens};
 use crate::config::Config;
 use crate::gateways::Gateways;
+use crate::playback::Playback;
 use crate::playlist::{PlaylistError, PlaylistStore};
 use crate::store::{ShowStore, StoreError};
 
@@ -69,6 +70,7 @@ struct Inner {
     playlist: PlaylistStore,
     catalogue: Mutex<()>,
     gateways: Gateways,
+    playback: Playback,
     status: Arc<watch::Sender<Status>>,
     stopping: watch::Sender<bool>,
 }
@@ -90,6 +92,12 @@ impl AppState {
         let playlist = PlaylistStore::open(&paths.data_dir)?;
         let status = Arc::new(watch::channel(Status::default()).0);
         let gateways = Gateways::open(&config, &status)?;
+        let playback = Playback::spawn(
+            config.installation(),
+            gateways.links().to_vec(),
+            gateways.estop_batch().clone(),
+        );
+        tokio::spawn(merge_player_status(playback.status(), Arc::clone(&status)));
         Ok(Self {
             inner: Arc::new(Inner {
                 config,
@@ -102,6 +110,7 @@ impl AppState {
                 playlist,
                 catalogue: Mutex::new(()),
                 gateways,
+                playback,
                 status,
                 stopping: watch::channel(false).0,
             }),
@@ -159,6 +168,11 @@ impl AppState {
         &self.inner.gateways
     }
 
+    /// The player: Start, E-stop, Reset.
+    pub fn playback(&self) -> &Playback {
+        &self.inner.playback
+    }
+
     /// Tells long-lived connections (WebSockets) that the server is stopping.
     pub fn stop(&self) {
         self.inner.stopping.send_replace(true);
@@ -179,4 +193,56 @@ impl AppState {
     pub fn update_status(&self, change: impl FnOnce(&mut Status)) {
         self.inner.status.send_modify(change);
     }
+}
+
+/// Copies the player's part of the status (state, entry, show, times, progress, last
+/// error, each gateway's lowest water level) into the shared status, where the links
+/// write their own part. Only a change of the player's part is copied.
+async fn merge_player_status(
+    mut player: watch::Receiver<Status>,
+    status: Arc<watch::Sender<Status>>,
+) {
+    let mut last: Option<Status> = None;
+    loop {
+        let mut current = player.borrow_and_update().clone();
+        let levels: Vec<Option<u16>> = current
+            .gateways
+            .iter()
+            .map(|gateway| gateway.lowest_water_level)
+            .collect();
+        // The links' part of the player's copy is not the player's to publish.
+        current.gateways.clear();
+        let part = (current, levels);
+        if last.as_ref() != Some(&part.0) || levels_changed(&status, &part.1) {
+            let (current, levels) = &part;
+            status.send_if_modified(|status| {
+                let before = status.clone();
+                status.state = current.state;
+                status.entry = current.entry;
+                status.show = current.show.clone();
+                status.show_time_ms = current.show_time_ms;
+                status.show_duration_ms = current.show_duration_ms;
+                status.cycle = current.cycle;
+                status.progress = current.progress;
+                status.last_error = current.last_error.clone();
+                for (shown, level) in status.gateways.iter_mut().zip(levels) {
+                    shown.lowest_water_level = *level;
+                }
+                *status != before
+            });
+            last = Some(part.0);
+        }
+        if player.changed().await.is_err() {
+            return;
+        }
+    }
+}
+
+fn levels_changed(status: &watch::Sender<Status>, levels: &[Option<u16>]) -> bool {
+    let status = status.borrow();
+    status
+        .gateways
+        .iter()
+        .zip(levels)
+        .any(|(shown, level)| shown.lowest_water_level != *level)
 }

@@ -30,6 +30,7 @@ use tokio::sync::{broadcast, mpsc};
 use tokio::time::Instant;
 
 use crate::config::normalise_origin;
+use crate::control::{self, Control};
 use crate::http::Failure;
 use crate::state::AppState;
 
@@ -128,6 +129,7 @@ async fn session(mut socket: WebSocket, state: AppState, token: String) {
     let mut feedback = state.gateways().subscribe_feedback();
     let (console_lines, waiting_lines) = mpsc::channel(CONSOLE_QUEUE);
     let (console_errors, mut console_failures) = mpsc::channel(CONSOLE_QUEUE);
+    let replies = console_errors.clone();
     tokio::spawn(console(state.clone(), waiting_lines, console_errors));
     let first = ServerMessage::Status(status.borrow_and_update().clone());
     if send(&mut socket, &first).await.is_err() {
@@ -191,7 +193,7 @@ async fn session(mut socket: WebSocket, state: AppState, token: String) {
             incoming = socket.recv() => match incoming {
                 Some(Ok(Message::Text(text))) => {
                     if state.tokens().touch(&token, state.clock().now()) {
-                        match answer(&state, &console_lines, text.as_str()) {
+                        match answer(&state, &console_lines, &replies, text.as_str()) {
                             Some(reply) => sent(send(&mut socket, &reply).await),
                             None => Step::Continue,
                         }
@@ -272,10 +274,12 @@ fn error(message: impl Into<String>) -> ServerMessage {
     }
 }
 
-/// The reply to one text frame from a client, if it needs one.
+/// The reply to one text frame from a client, if it needs one. Replies that take time
+/// (Start, Reset) come later through `replies`.
 fn answer(
     state: &AppState,
     console_lines: &mpsc::Sender<ConsoleLine>,
+    replies: &mpsc::Sender<ServerMessage>,
     text: &str,
 ) -> Option<ServerMessage> {
     let message = match serde_json::from_str::<ClientMessage>(text) {
@@ -285,7 +289,7 @@ fn answer(
     match message {
         ClientMessage::Ping => Some(ServerMessage::Pong),
         ClientMessage::Estop => {
-            let failures = state.gateways().estop();
+            let failures = state.playback().estop();
             tracing::warn!("e-stop requested over the WebSocket");
             if failures.is_empty() {
                 None
@@ -300,9 +304,21 @@ fn answer(
         ClientMessage::Start | ClientMessage::Reset if state.password().is_default() => Some(
             error("change the initial password (1234) before controlling the matrix"),
         ),
-        ClientMessage::Start | ClientMessage::Reset => Some(error(
-            "start and reset are not available yet: this bridge has no player",
-        )),
+        ClientMessage::Start | ClientMessage::Reset => {
+            let control = if message == ClientMessage::Start {
+                Control::Start
+            } else {
+                Control::Reset
+            };
+            let (state, replies) = (state.clone(), replies.clone());
+            tokio::spawn(async move {
+                if let Err(reason) = control::run(&state, control).await {
+                    tracing::warn!("{control:?} refused: {reason}");
+                    let _ = replies.send(error(reason)).await;
+                }
+            });
+            None
+        }
         ClientMessage::Raw { .. } if state.password().is_default() => Some(error(
             "change the initial password (1234) before sending instructions",
         )),

@@ -54,7 +54,7 @@ fn unprocessable(refused: Refused) -> Failure {
     Failure::new(StatusCode::UNPROCESSABLE_ENTITY, refused.error).with_details(refused.details)
 }
 
-fn store_failure(error: StoreError) -> Failure {
+pub(crate) fn store_failure(error: StoreError) -> Failure {
     match error {
         StoreError::NotFound(_) => Failure::new(StatusCode::NOT_FOUND, error.to_string()),
         other => Failure::internal("the show store failed", &other),

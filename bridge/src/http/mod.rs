@@ -3,12 +3,14 @@
 //! - [`session`]: login, logout, password change, and the extractors that let a
 //!   handler run only for a logged-in client ([`session::Session`]) or only once the
 //!   initial password is changed ([`session::Operator`]);
-//! - [`library`]: the show files and the playlist.
+//! - [`library`]: the show files and the playlist;
+//! - [`matrix`]: the feasibility report of a show, and the simulated balls' positions.
 //!
 //! Every error answer is an [`ApiError`] JSON body with the right status code
 //! ([`Failure`]); so are unknown `/api` paths (404) and methods (405).
 
 pub mod library;
+pub mod matrix;
 pub mod session;
 
 use axum::Router;
@@ -44,6 +46,8 @@ pub fn router(state: &AppState) -> Router<AppState> {
             "/playlist",
             get(library::get_playlist).put(library::put_playlist),
         )
+        .route("/plan/{name}", get(matrix::plan))
+        .route("/sim/positions", get(matrix::sim_positions))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(DefaultBodyLimit::max(MAX_JSON_BYTES))

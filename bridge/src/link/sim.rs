@@ -4,7 +4,7 @@
 //! The writer paces instructions at baud / 10 bytes/s like any link; each instruction
 //! reaches the simulated gateway when its last byte would have crossed the line. The
 //! gateway's answers come back at the same speed, byte by byte. [`SimEngine`] is that
-//! line-plus-gateway; the in-process link ([`spawn`]) and `floatball simulate` (the
+//! line-plus-gateway; the in-process link and `floatball simulate` (the
 //! gateway on the far end of a real serial device) both drive it.
 
 use std::collections::VecDeque;

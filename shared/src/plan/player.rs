@@ -38,11 +38,15 @@ pub const REFILL_LOW_BYTES: usize = 256;
 /// How often the player wants to be polled while something is under way, µs.
 pub const TICK_US: u64 = 10_000;
 
-/// Time allowed for answers to position queries before asking again, µs (at least).
+/// Time allowed for answers to position queries before asking again, µs (at least;
+/// more on a slow line).
 const CONFIRM_WAIT_US: u64 = 500_000;
 
-/// How often unconfirmed balls are asked again before the player gives up.
-const CONFIRM_TRIES: u32 = 20;
+/// When the balls' positions were unknown, the first question comes this soon.
+const FIRST_QUERY_UNKNOWN_US: u64 = 300_000;
+
+/// How long after the modelled arrival a ball may still not be there, µs.
+const ARRIVAL_GRACE_US: u64 = 10_000_000;
 
 /// Time after the last row for the last ball to settle, µs.
 const END_MARGIN_US: u64 = 200_000;
@@ -168,10 +172,13 @@ enum Step {
         kind: MoveKind,
         targets: Vec<i32>,
         began_us: u64,
+        /// The modelled arrival (the latest, when positions were unknown).
         arrive_us: u64,
-        queried_us: Option<u64>,
+        /// When to ask the units where they are next.
+        next_query_us: u64,
+        /// Whether a question was sent (answers before it are `PA=p;` echoes).
+        queried: bool,
         confirmed: Vec<bool>,
-        tries: u32,
     },
     Loading {
         /// Per run: the next row to load.
@@ -445,7 +452,7 @@ impl Player {
                     Step::Moving {
                         targets,
                         confirmed,
-                        queried_us: Some(_),
+                        queried: true,
                         ..
                     },
                 ) = (unit, &mut self.step)
@@ -633,6 +640,14 @@ impl Player {
             self.commands.push(Command::Bulk { gateway, batch });
         }
         let arrive_us = now_us + line_us + (move_s * 1e6).ceil() as u64 + MOVE_MARGIN_US;
+        // Known positions: ask once the model says they are there. Unknown: ask early
+        // and again until every ball answers its target.
+        let all_known = self.believed.iter().all(Option::is_some);
+        let next_query_us = if all_known {
+            arrive_us
+        } else {
+            now_us + line_us + FIRST_QUERY_UNKNOWN_US
+        };
         self.believed
             .iter_mut()
             .for_each(|position| *position = None);
@@ -642,9 +657,9 @@ impl Player {
             targets,
             began_us: now_us,
             arrive_us,
-            queried_us: None,
+            next_query_us,
+            queried: false,
             confirmed: vec![false; unit_count],
-            tries: 0,
         };
         self.progress = 0.0;
     }
@@ -673,9 +688,9 @@ impl Player {
             targets,
             began_us,
             arrive_us,
-            queried_us,
+            next_query_us,
+            queried,
             confirmed,
-            tries,
         } = &mut self.step
         else {
             return;
@@ -685,6 +700,7 @@ impl Player {
         if confirmed.iter().all(|&done| done) {
             let (kind, targets) = (*kind, std::mem::take(targets));
             self.believed = targets.into_iter().map(Some).collect();
+            self.progress = 1.0;
             match kind {
                 MoveKind::Approach => self.begin_load(),
                 MoveKind::Home => {
@@ -697,14 +713,10 @@ impl Player {
             }
             return;
         }
-        if now_us < *arrive_us {
+        if now_us < *next_query_us {
             return;
         }
-        let wait_us = queried_us.map(|at| now_us.saturating_sub(at));
-        if wait_us.is_some_and(|waited| waited < CONFIRM_WAIT_US) {
-            return;
-        }
-        if *tries >= CONFIRM_TRIES {
+        if now_us > *arrive_us + ARRIVAL_GRACE_US {
             let missing: Vec<usize> = confirmed
                 .iter()
                 .enumerate()
@@ -721,10 +733,10 @@ impl Player {
             ));
             return;
         }
-        *tries += 1;
-        *queried_us = Some(now_us);
+        *queried = true;
         let confirmed = confirmed.clone();
         let installation = &self.config.installation;
+        let mut slowest_us = 0;
         for gateway in 0..installation.gateways.len() {
             let stations: Vec<u8> = installation
                 .units_on(gateway)
@@ -732,11 +744,14 @@ impl Player {
                 .map(|unit| installation.units[unit].station)
                 .collect();
             if !stations.is_empty() {
-                self.commands.push(Command::Bulk {
-                    gateway,
-                    batch: stream::where_are(&stations),
-                });
+                let batch = stream::where_are(&stations);
+                // Questions and answers both cross the line: leave room for them.
+                slowest_us = slowest_us.max(3 * line_time_us(batch.len() * 2, self.baud(gateway)));
+                self.commands.push(Command::Bulk { gateway, batch });
             }
+        }
+        if let Step::Moving { next_query_us, .. } = &mut self.step {
+            *next_query_us = now_us + CONFIRM_WAIT_US.max(slowest_us);
         }
     }
 

@@ -1,0 +1,81 @@
+//! Start and Reset as the WebSocket asks for them: the stored playlist, its shows read
+//! from the store, handed to the player. Every refusal comes back as a sentence an
+//! operator can act on (which entry, why, and what would make it run).
+
+use floatball_shared::plan::player::{Entry, StartError};
+use floatball_shared::show::Show;
+
+use crate::playback::PlaybackError;
+use crate::state::AppState;
+use crate::store::ShowName;
+
+/// What the operator asked for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Control {
+    /// Play the playlist from its first entry (homing first after an e-stop).
+    Start,
+    /// Stop, home, and play the playlist from its first entry.
+    Reset,
+}
+
+/// The stored playlist with its shows, and its loop flag.
+///
+/// # Errors
+/// A show the playlist names cannot be read.
+pub fn playlist_entries(state: &AppState) -> Result<(Vec<Entry>, bool), String> {
+    let playlist = state.playlist().get();
+    let mut entries = Vec::with_capacity(playlist.entries.len());
+    for (index, entry) in playlist.entries.iter().enumerate() {
+        let show = ShowName::parse(&entry.show)
+            .map_err(|error| error.to_string())
+            .and_then(|name| state.shows().read(&name).map_err(|error| error.to_string()))
+            .and_then(|bytes| {
+                let text = String::from_utf8(bytes).map_err(|error| error.to_string())?;
+                Show::from_json(&text).map_err(|error| error.to_string())
+            })
+            .map_err(|reason| {
+                format!(
+                    "playlist entry {} (\"{}\") cannot be read: {reason}",
+                    index + 1,
+                    entry.show
+                )
+            })?;
+        entries.push(Entry {
+            show,
+            delay_ms: entry.delay_ms,
+            cycles: entry.cycles.max(1),
+        });
+    }
+    Ok((entries, playlist.loop_playlist))
+}
+
+/// Carries out `control`.
+///
+/// # Errors
+/// Why the matrix did not start, in words (it did not move; after a refused Reset it
+/// stays stopped).
+pub async fn run(state: &AppState, control: Control) -> Result<(), String> {
+    let (entries, loop_playlist) = match playlist_entries(state) {
+        Ok(playlist) => playlist,
+        Err(reason) => {
+            if control == Control::Reset {
+                let _ = state.playback().estop();
+            }
+            return Err(reason);
+        }
+    };
+    let result = match control {
+        Control::Start => state.playback().start(entries, loop_playlist).await,
+        Control::Reset => state.playback().reset(entries, loop_playlist).await,
+    };
+    result.map_err(|error| describe(&error))
+}
+
+fn describe(error: &PlaybackError) -> String {
+    match error {
+        PlaybackError::Refused(StartError::Infeasible { fixes, .. }) if !fixes.is_empty() => {
+            format!("{error}. To make it run: {}", fixes.join("; "))
+        }
+        other => other.to_string(),
+    }
+}

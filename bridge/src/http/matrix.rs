@@ -1,0 +1,53 @@
+//! The matrix over HTTP: whether a show can run here, and where the simulated balls
+//! really are.
+//!
+//! - `GET /api/plan/{name}`: 200 the bandwidth / feasibility report
+//!   ([`PlanReport`]) of a stored show on this installation; 404.
+//! - `GET /api/sim/positions`: 200 every simulated gateway's units with their true
+//!   positions ([`SimPositions`]; empty when no gateway is simulated).
+//!
+//! Both need a [`Session`].
+
+use axum::Json;
+use axum::extract::State;
+use axum::http::StatusCode;
+use floatball_shared::api::{PlanReport, SimPositions};
+use floatball_shared::plan::PlanOptions;
+use floatball_shared::plan::report::report;
+use floatball_shared::show::Show;
+
+use super::library::{NameParam, store_failure};
+use super::session::Session;
+use super::{Failure, blocking};
+use crate::state::AppState;
+
+/// `GET /api/plan/{name}`.
+pub async fn plan(
+    State(state): State<AppState>,
+    _session: Session,
+    NameParam(name): NameParam,
+) -> Result<Json<PlanReport>, Failure> {
+    let planning = state.clone();
+    let result = blocking(move || {
+        let bytes = planning.shows().read(&name).map_err(store_failure)?;
+        let text = String::from_utf8(bytes)
+            .map_err(|error| Failure::internal("a stored show is not UTF-8", &error))?;
+        let show = Show::from_json(&text)
+            .map_err(|error| Failure::new(StatusCode::UNPROCESSABLE_ENTITY, error.to_string()))?;
+        let installation = planning.config().installation();
+        Ok(report(&show, &installation, PlanOptions::default()))
+    })
+    .await?;
+    result.map(Json)
+}
+
+/// `GET /api/sim/positions`.
+pub async fn sim_positions(State(state): State<AppState>, _session: Session) -> Json<SimPositions> {
+    let gateways = state
+        .gateways()
+        .links()
+        .iter()
+        .filter_map(|link| link.sim_view().map(|view| view.positions(link.index())))
+        .collect();
+    Json(SimPositions { gateways })
+}
