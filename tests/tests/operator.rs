@@ -1,13 +1,18 @@
 //! The operator's evening, end to end: log in with the factory password, change it,
 //! add a CSV from the device, upload it, see it among the controller's files, put it
-//! in the playlist, talk to a unit from the console, press Start, press E-stop — in
-//! the real app against the real bridge and its simulated gateway.
+//! in the playlist, talk to a unit from the console, press Start and see it play,
+//! press E-stop and see it stop — in the real app against the real bridge and its
+//! simulated gateway.
 
 use std::fmt::Write as _;
+use std::time::Duration;
 
 use floatball_e2e::{Bridge, Browser, UI_TIMEOUT};
 
 const INDICATOR: &str = "[data-testid=connection]";
+
+/// How long homing, the approach and the preload may take before the show plays.
+const PLAY_TIMEOUT: Duration = Duration::from_secs(90);
 
 /// A gentle wave over the default 10 × 10 installation: every ball swings ±300 mm
 /// around 1 m, fading in and out over 2 s so it starts and ends at rest.
@@ -35,7 +40,7 @@ fn wave_csv() -> String {
 }
 
 #[tokio::test]
-async fn operator_logs_in_uploads_and_controls_the_playlist() {
+async fn operator_logs_in_uploads_plays_and_stops() {
     let bridge = Bridge::start().await;
     let browser = Browser::start(360, 740).await;
     browser
@@ -123,15 +128,43 @@ async fn operator_logs_in_uploads_and_controls_the_playlist() {
         .wait_for_text("[data-testid=feedback-line]", "PV = ")
         .await;
 
-    // Start, then E-stop from the top bar: one press, acknowledged on the button.
+    // The bandwidth report says the show can run; Start plays it.
     browser.click("[data-testid=nav-control]").await;
+    browser
+        .wait_for_attribute(
+            "[data-testid=verdict]",
+            "data-verdict",
+            "feasible",
+            UI_TIMEOUT,
+        )
+        .await;
     browser.click("[data-testid=start]").await;
+    browser
+        .wait_for_attribute(
+            "[data-testid=status-state]",
+            "data-state",
+            "playing",
+            PLAY_TIMEOUT,
+        )
+        .await;
+    assert_eq!(browser.text("[data-testid=status-show]").await, "wave");
+
+    // E-stop from the top bar: one press, acknowledged on the button, and the
+    // bridge reports the matrix stopped.
     browser.click(".topbar [data-testid=estop]").await;
+    browser
+        .wait_for_attribute(
+            "[data-testid=status-state]",
+            "data-state",
+            "stopped",
+            UI_TIMEOUT,
+        )
+        .await;
     browser
         .wait_for_attribute(
             ".topbar [data-testid=estop]",
             "data-ack",
-            "sent",
+            "stopped",
             UI_TIMEOUT,
         )
         .await;
