@@ -153,6 +153,11 @@ impl Browser {
         capabilities.insert(
             "goog:chromeOptions".into(),
             serde_json::json!({
+                // A real phone-sized viewport: desktop windows do not get narrower
+                // than 500 px.
+                "mobileEmulation": {
+                    "deviceMetrics": { "width": width, "height": height, "pixelRatio": 1.0 }
+                },
                 "args": [
                     "--headless=new",
                     "--no-sandbox",
@@ -163,7 +168,7 @@ impl Browser {
                     "--disable-sync",
                     "--disable-quic",
                     "--no-first-run",
-                    format!("--window-size={width},{height}"),
+                    format!("--window-size={},{height}", width.max(500)),
                     format!("--user-data-dir={}", profile.path().display()),
                 ]
             }),
@@ -218,5 +223,73 @@ impl Browser {
             .text()
             .await
             .expect("element text")
+    }
+
+    /// Waits until an element matching `css` exists, and returns it.
+    pub async fn wait_for(&self, css: &str) -> fantoccini::elements::Element {
+        self.client
+            .wait()
+            .at_most(UI_TIMEOUT)
+            .for_element(fantoccini::Locator::Css(css))
+            .await
+            .unwrap_or_else(|err| panic!("{css} never appeared within {UI_TIMEOUT:?}: {err}"))
+    }
+
+    /// Waits for the element matching `css`, then clicks it once it is enabled.
+    pub async fn click(&self, css: &str) {
+        let deadline = tokio::time::Instant::now() + UI_TIMEOUT;
+        loop {
+            let element = self.wait_for(css).await;
+            let enabled = element.is_enabled().await.unwrap_or(false);
+            if enabled && element.click().await.is_ok() {
+                return;
+            }
+            assert!(
+                tokio::time::Instant::now() < deadline,
+                "{css} could not be clicked within {UI_TIMEOUT:?}"
+            );
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    }
+
+    /// Replaces the text of the input matching `css` with `text`, as typed.
+    pub async fn type_into(&self, css: &str, text: &str) {
+        let element = self.wait_for(css).await;
+        element.clear().await.expect("clear the field");
+        element.send_keys(text).await.expect("type into the field");
+    }
+
+    /// Picks the file at `path` in the file input matching `css`.
+    pub async fn pick_file(&self, css: &str, path: &std::path::Path) {
+        let element = self.wait_for(css).await;
+        element
+            .send_keys(&path.display().to_string())
+            .await
+            .expect("pick the file");
+    }
+
+    /// Waits until the text of the element matching `css` contains `part`.
+    pub async fn wait_for_text(&self, css: &str, part: &str) {
+        let deadline = tokio::time::Instant::now() + UI_TIMEOUT;
+        let mut seen = None;
+        while tokio::time::Instant::now() < deadline {
+            if let Ok(element) = self.client.find(fantoccini::Locator::Css(css)).await {
+                seen = element.text().await.ok();
+                if seen.as_deref().is_some_and(|text| text.contains(part)) {
+                    return;
+                }
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        panic!("{css} never contained {part:?} within {UI_TIMEOUT:?} (last seen {seen:?})");
+    }
+
+    /// Logs in from the Login page (opened with the connection button) with
+    /// `password`.
+    pub async fn log_in(&self, password: &str) {
+        self.click("[data-testid=connection]").await;
+        self.type_into("[data-testid=login-password]", password)
+            .await;
+        self.click("[data-testid=login-submit]").await;
     }
 }

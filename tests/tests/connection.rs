@@ -1,6 +1,8 @@
 //! The thin slice end to end: the real bridge serves the built app, Chromium loads it,
-//! the app connects over the WebSocket, and it notices the bridge going away and
-//! coming back without a reload.
+//! the operator logs in, the app connects over the WebSocket with its token, and it
+//! notices the bridge going away and coming back without a reload. The bridge keeps
+//! tokens in memory only, so after its restart the app asks for a new login (and
+//! never shows a stale "Connected").
 
 use std::time::{Duration, Instant};
 
@@ -17,7 +19,12 @@ async fn app_shows_connected_and_follows_a_bridge_restart() {
         .goto(&bridge.url())
         .await
         .expect("open the app");
+    browser
+        .wait_for_attribute(INDICATOR, "data-state", "disconnected", UI_TIMEOUT)
+        .await;
+    assert_eq!(browser.text(INDICATOR).await, "未连接");
 
+    browser.log_in("1234").await;
     browser
         .wait_for_attribute(INDICATOR, "data-state", "connected", UI_TIMEOUT)
         .await;
@@ -36,7 +43,15 @@ async fn app_shows_connected_and_follows_a_bridge_restart() {
     assert!(stopped.elapsed() <= Duration::from_secs(2));
     assert_eq!(browser.text(INDICATOR).await, "未连接");
 
+    // The restarted bridge refuses the old token: the app says so on the Login page.
     bridge.restart().await;
+    browser.wait_for("[data-testid=login-notice]").await;
+    assert_eq!(
+        browser.text("[data-testid=login-notice]").await,
+        "登录已失效，请重新登录"
+    );
+    assert_eq!(browser.text(INDICATOR).await, "未连接");
+    browser.log_in("1234").await;
     browser
         .wait_for_attribute(INDICATOR, "data-state", "connected", Duration::from_secs(5))
         .await;

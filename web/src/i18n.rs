@@ -1,4 +1,13 @@
 //! The app's two languages and every string a user sees.
+//!
+//! Fixed strings are [`Text`] variants, translated by [`Lang::t`]; strings with a
+//! value in them are methods of [`Lang`]. Messages that come from elsewhere (the
+//! bridge's validation details, the shared parser's errors) are shown as they come.
+
+use floatball_shared::api::{LinkState, PlayerState};
+
+use crate::client::Failure;
+use crate::playlist::InputError;
 
 /// A language of the user interface.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -10,17 +19,270 @@ pub enum Lang {
     En,
 }
 
-/// A user-visible string.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Text {
+macro_rules! texts {
+    ($($(#[$doc:meta])* $name:ident => $zh:literal, $en:literal;)*) => {
+        /// A fixed user-visible string.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        pub enum Text {
+            $($(#[$doc])* $name,)*
+        }
+
+        impl Text {
+            /// Every string, for tests that check both languages.
+            pub const ALL: &'static [Text] = &[$(Text::$name),*];
+
+            fn pair(self) -> (&'static str, &'static str) {
+                match self {
+                    $(Text::$name => ($zh, $en),)*
+                }
+            }
+        }
+    };
+}
+
+texts! {
     /// The top bar when the bridge is reachable.
-    Connected,
+    Connected => "已连接", "Connected";
     /// The top bar when it is not.
-    NotConnected,
-    /// The top bar while a connection is being opened.
-    Connecting,
+    NotConnected => "未连接", "Not connected";
     /// The language switch's label: the *other* language's name.
-    SwitchLanguage,
+    SwitchLanguage => "English", "中文";
+    /// The emergency stop button.
+    Estop => "急停", "E-STOP";
+    /// The e-stop was handed to the socket.
+    EstopSent => "急停已发送", "E-stop sent";
+    /// The bridge reports the matrix stopped after an e-stop.
+    EstopStopped => "已停止", "Stopped";
+    /// The e-stop could not be sent.
+    EstopNotSent => "未发送：无连接", "NOT sent: no connection";
+    /// Navigation: Files.
+    NavFiles => "文件管理", "Files";
+    /// Navigation: Preview.
+    NavPreview => "预览", "Preview";
+    /// Navigation: Control.
+    NavControl => "控制", "Control";
+    /// Navigation: Console.
+    NavConsole => "控制台", "Console";
+    /// Control's second tab: Settings.
+    NavSettings => "设置", "Settings";
+    /// Login page title.
+    LoginTitle => "登录", "Log in";
+    /// Label of the address field.
+    Address => "控制器地址", "Controller address";
+    /// Label of the password field.
+    Password => "密码", "Password";
+    /// The login button.
+    LoginButton => "登录", "Log in";
+    /// While the login request runs.
+    Working => "请稍候…", "Please wait…";
+    /// 401 on login.
+    WrongPassword => "密码错误", "Wrong password";
+    /// 401 on a call with a token.
+    SessionExpired => "登录已失效，请重新登录", "Your login has expired; please log in again";
+    /// Logged in; the address follows.
+    LoggedInTo => "已登录到", "Logged in to";
+    /// The logout button.
+    Logout => "退出登录", "Log out";
+    /// The forced password change: title.
+    ChangePasswordTitle => "请修改初始密码", "Change the factory password";
+    /// The forced password change: why.
+    ChangePasswordNote => "初始密码必须修改后才能上传文件和控制浮球。", "The factory password must be changed before files can be uploaded or the matrix controlled.";
+    /// Label: the current password (when the app does not have it).
+    CurrentPassword => "当前密码", "Current password";
+    /// Label: the new password.
+    NewPassword => "新密码", "New password";
+    /// Label: the new password again.
+    ConfirmPassword => "确认新密码", "Confirm the new password";
+    /// The change-password button.
+    ChangePasswordButton => "修改密码", "Change password";
+    /// The two new passwords differ.
+    PasswordsDiffer => "两次输入的新密码不一致", "The two new passwords differ";
+    /// 401 on a password change.
+    WrongCurrentPassword => "当前密码错误", "The current password is wrong";
+    /// 403: change the password first.
+    MustChangePasswordFirst => "请先修改初始密码", "Change the factory password first";
+    /// Files: the local tab.
+    LocalFiles => "本地文件", "Local files";
+    /// Files: the controller tab.
+    ControllerFiles => "浮球文件", "Controller files";
+    /// Add files from the device.
+    AddFiles => "添加文件", "Add files";
+    /// Upload to the controller.
+    Upload => "上传", "Upload";
+    /// Download from the controller.
+    Download => "下载", "Download";
+    /// Open the preview.
+    Preview => "预览", "Preview";
+    /// Delete.
+    Delete => "删除", "Delete";
+    /// Delete, second tap.
+    ConfirmDelete => "确认删除？", "Really delete?";
+    /// Save a local file to the device.
+    SaveToDevice => "保存到设备", "Save to device";
+    /// Reload the list.
+    Refresh => "刷新", "Refresh";
+    /// Column: name.
+    Name => "名称", "Name";
+    /// Column: number of balls.
+    Units => "球数", "Balls";
+    /// Column: duration.
+    Duration => "时长", "Duration";
+    /// Column: size.
+    Size => "大小", "Size";
+    /// No local files yet.
+    NoLocalFiles => "还没有本地文件。点“添加文件”，从设备中选择 CSV 或 JSON 动作文件。", "No local files yet. Tap “Add files” to pick CSV or JSON show files from this device.";
+    /// No files on the controller.
+    NoControllerFiles => "控制器上还没有文件。", "There are no files on the controller yet.";
+    /// Not connected: what works.
+    OfflineHint => "未连接：不能上传和下载，本地文件仍可预览。", "Not connected: upload and download are unavailable; local files can still be previewed.";
+    /// Upload finished.
+    Uploaded => "已上传", "Uploaded";
+    /// Download finished.
+    Downloaded => "已下载到本地文件", "Downloaded to the local files";
+    /// 422 on upload: the list of problems follows.
+    UploadRefused => "控制器拒绝了这个文件：", "The controller refused this file:";
+    /// 413.
+    TooLarge => "文件超过了控制器的大小限制", "The file is over the controller's size limit";
+    /// A picked file is not CSV or JSON.
+    NotAShowFile => "不是 CSV 或 JSON 文件，已跳过", "is not a CSV or JSON file; skipped";
+    /// Local storage failed.
+    StorageFailed => "浏览器存储出错", "The browser's storage failed";
+    /// Preview: pick a show.
+    ChooseShow => "选择动作文件", "Choose a show";
+    /// Preview: nothing chosen.
+    NoShowSelected => "没有选择动作文件。", "No show selected.";
+    /// Preview: loading a controller file.
+    Loading => "加载中…", "Loading…";
+    /// Preview: restart.
+    Restart => "重新播放", "Restart";
+    /// Preview: step back.
+    StepBack => "后退", "Step back";
+    /// Preview: pause.
+    Pause => "暂停", "Pause";
+    /// Preview: play.
+    Play => "播放", "Play";
+    /// Preview: step forward.
+    StepForward => "前进", "Step forward";
+    /// Preview: the time slider.
+    ShowTime => "时间", "Time";
+    /// Preview: the show passes validation.
+    WithinLimits => "在默认限制之内（行程、速度、加速度）", "Within the default limits (travel, speed, acceleration)";
+    /// Preview: validation problems follow.
+    BeyondLimits => "超出默认限制：", "Beyond the default limits:";
+    /// Preview: the file cannot be read.
+    CannotRead => "无法读取这个文件：", "This file cannot be read:";
+    /// Control: the playlist.
+    Playlist => "配置", "Playlist";
+    /// Control: add an entry.
+    Add => "添加", "Add";
+    /// Control: move up.
+    MoveUp => "上移", "Move up";
+    /// Control: move down.
+    MoveDown => "下移", "Move down";
+    /// Control: edit.
+    Edit => "编辑", "Edit";
+    /// Control: delay in seconds.
+    DelayS => "延时（秒）", "Delay (s)";
+    /// Control: cycles.
+    Cycles => "周期", "Cycles";
+    /// Apply a form.
+    Apply => "应用", "Apply";
+    /// Close a form.
+    Cancel => "取消", "Cancel";
+    /// Start the playlist.
+    Start => "开始", "Start";
+    /// Reset: home and start over.
+    Reset => "重置", "Reset";
+    /// Empty playlist.
+    EmptyPlaylist => "配置为空。点“添加”选择浮球文件。", "The playlist is empty. Tap “Add” to pick controller files.";
+    /// Pick a show to add.
+    PickShow => "选择要添加的浮球文件", "Pick a controller file to add";
+    /// Nothing checked for an action that needs checks.
+    CheckFirst => "请先勾选条目", "Check entries first";
+    /// Settings: default delay.
+    DefaultDelayS => "默认延时（秒）", "Default delay (s)";
+    /// Settings: default cycles.
+    DefaultCycles => "默认周期", "Default cycles";
+    /// Settings: loop.
+    LoopPlaylist => "循环播放配置", "Loop the playlist";
+    /// Settings saved.
+    Saved => "已保存", "Saved";
+    /// Status: heading.
+    StatusTitle => "状态", "Status";
+    /// Status: player state.
+    State => "状态", "State";
+    /// Status: playlist entry.
+    Entry => "条目", "Entry";
+    /// Status: show.
+    ShowLabel => "动作", "Show";
+    /// Status: cycle.
+    Cycle => "周期", "Cycle";
+    /// Status: gateways.
+    Gateways => "网关", "Gateways";
+    /// Status: last error.
+    LastError => "最近错误", "Last error";
+    /// Status while not connected.
+    StatusUnavailable => "未连接：没有实时状态。", "Not connected: no live status.";
+    /// Bandwidth report: heading.
+    PlanTitle => "带宽检查", "Bandwidth check";
+    /// Bandwidth report: can run.
+    PlanFeasible => "可以运行", "can run";
+    /// Bandwidth report: cannot run.
+    PlanInfeasible => "不能运行", "cannot run";
+    /// Bandwidth report: no planner on this bridge.
+    PlanUnavailable => "暂无报告", "not available";
+    /// Bandwidth report: being fetched.
+    PlanPending => "检查中…", "checking…";
+    /// Bandwidth report: what would help.
+    PlanFixes => "建议：", "To fix:";
+    /// A refused request reported over the WebSocket.
+    BridgeSays => "控制器：", "Controller:";
+    /// Console: the input.
+    Instructions => "指令", "Instructions";
+    /// Console: send.
+    Send => "发送", "Send";
+    /// Console: gateway choice.
+    Gateway => "网关", "Gateway";
+    /// Console: every gateway.
+    AllGateways => "全部网关", "All gateways";
+    /// Console: feedback heading.
+    Feedback => "反馈帧", "Feedback frames";
+    /// Console: no frames yet.
+    NoFeedback => "还没有收到反馈帧。", "No feedback frames yet.";
+    /// Console: clear the list.
+    Clear => "清除", "Clear";
+    /// Console: sent lines heading.
+    SentLines => "已发送", "Sent";
+    /// Console: the instruction syntax hint.
+    ConsoleHint => "每行一条或多条指令，例如 *5;PV; 。# 之后为注释。", "One or more instructions per line, e.g. *5;PV; — # starts a comment.";
+    /// Player state: idle.
+    StateIdle => "空闲", "idle";
+    /// Player state: waiting out an entry's delay.
+    StateWaiting => "等待中", "waiting";
+    /// Player state: approaching.
+    StateApproaching => "就位中", "approaching";
+    /// Player state: loading.
+    StateLoading => "加载中", "loading";
+    /// Player state: playing.
+    StatePlaying => "运行中", "playing";
+    /// Player state: stopped.
+    StateStopped => "已停止", "stopped";
+    /// Player state: homing.
+    StateHoming => "回原点", "homing";
+    /// Player state: error.
+    StateError => "错误", "error";
+    /// Link state: up.
+    LinkUp => "正常", "up";
+    /// Link state: connecting.
+    LinkConnecting => "连接中", "connecting";
+    /// Link state: down.
+    LinkDown => "断开", "down";
+    /// A delay that cannot be used.
+    BadDelay => "延时必须是 0 到 86400 之间的秒数", "The delay must be a number of seconds from 0 to 86400";
+    /// Cycles that cannot be used.
+    BadCycles => "周期必须是 1 到 10000 之间的整数", "Cycles must be a whole number from 1 to 10000";
+    /// 404.
+    NotFound => "控制器上没有这个文件", "The controller has no such file";
 }
 
 impl Lang {
@@ -50,15 +312,103 @@ impl Lang {
 
     /// `text` in this language.
     pub fn t(self, text: Text) -> &'static str {
-        match (self, text) {
-            (Lang::Zh, Text::Connected) => "已连接",
-            (Lang::En, Text::Connected) => "Connected",
-            (Lang::Zh, Text::NotConnected) => "未连接",
-            (Lang::En, Text::NotConnected) => "Not connected",
-            (Lang::Zh, Text::Connecting) => "连接中…",
-            (Lang::En, Text::Connecting) => "Connecting…",
-            (Lang::Zh, Text::SwitchLanguage) => "English",
-            (Lang::En, Text::SwitchLanguage) => "中文",
+        let (zh, en) = text.pair();
+        match self {
+            Lang::Zh => zh,
+            Lang::En => en,
+        }
+    }
+
+    /// 429 on login, with the wait if the bridge gave one.
+    pub fn too_many_attempts(self, retry_after_s: Option<u64>) -> String {
+        match (self, retry_after_s) {
+            (Lang::Zh, Some(s)) => format!("登录失败次数过多，请 {s} 秒后再试"),
+            (Lang::Zh, None) => "登录失败次数过多，请稍后再试".into(),
+            (Lang::En, Some(s)) => {
+                format!("Too many failed logins; try again in {s} s")
+            }
+            (Lang::En, None) => "Too many failed logins; try again later".into(),
+        }
+    }
+
+    /// The controller cannot be reached.
+    pub fn unreachable(self, detail: &str) -> String {
+        match self {
+            Lang::Zh => format!("无法连接控制器（{detail}）"),
+            Lang::En => format!("Cannot reach the controller ({detail})"),
+        }
+    }
+
+    /// What a failed API call means, in one sentence (details, if any, are listed
+    /// apart by the caller).
+    pub fn failure(self, failure: &Failure) -> String {
+        match failure {
+            Failure::Network(detail) => self.unreachable(detail),
+            Failure::Unauthorized => self.t(Text::SessionExpired).into(),
+            Failure::MustChangePassword => self.t(Text::MustChangePasswordFirst).into(),
+            Failure::TooManyAttempts { retry_after_s } => self.too_many_attempts(*retry_after_s),
+            Failure::NotFound => self.t(Text::NotFound).into(),
+            Failure::TooLarge => self.t(Text::TooLarge).into(),
+            Failure::Rejected(error) => error.error.clone(),
+            Failure::Unexpected { status, body } => match self {
+                Lang::Zh => format!("控制器出错（HTTP {status}）：{body}"),
+                Lang::En => format!("The controller failed (HTTP {status}): {body}"),
+            },
+        }
+    }
+
+    /// A form value that cannot be used.
+    pub fn input_error(self, error: InputError) -> &'static str {
+        self.t(match error {
+            InputError::Delay => Text::BadDelay,
+            InputError::Cycles => Text::BadCycles,
+        })
+    }
+
+    /// The player's state.
+    pub fn player_state(self, state: PlayerState) -> &'static str {
+        self.t(match state {
+            PlayerState::Idle => Text::StateIdle,
+            PlayerState::Waiting => Text::StateWaiting,
+            PlayerState::Approaching => Text::StateApproaching,
+            PlayerState::Loading => Text::StateLoading,
+            PlayerState::Playing => Text::StatePlaying,
+            PlayerState::Stopped => Text::StateStopped,
+            PlayerState::Homing => Text::StateHoming,
+            PlayerState::Error => Text::StateError,
+        })
+    }
+
+    /// A gateway link's state.
+    pub fn link_state(self, link: LinkState) -> &'static str {
+        self.t(match link {
+            LinkState::Up => Text::LinkUp,
+            LinkState::Connecting => Text::LinkConnecting,
+            LinkState::Down => Text::LinkDown,
+        })
+    }
+
+    /// Console: the text parses.
+    pub fn ready_to_send(self, instructions: usize) -> String {
+        match self {
+            Lang::Zh => format!("✓ {instructions} 条指令，可以发送"),
+            Lang::En => format!("✓ {instructions} instruction(s), ready to send"),
+        }
+    }
+
+    /// Files: an upload's progress.
+    pub fn uploading(self, percent: u32) -> String {
+        match self {
+            Lang::Zh => format!("正在上传… {percent}%"),
+            Lang::En => format!("Uploading… {percent}%"),
+        }
+    }
+
+    /// A show's size and length: `16 balls, 0:12.5`.
+    pub fn show_facts(self, units: usize, duration: &str) -> String {
+        match self {
+            Lang::Zh => format!("{units} 个球，{duration}"),
+            Lang::En => format!("{units} balls, {duration}"),
         }
     }
 }
@@ -76,10 +426,58 @@ mod tests {
     }
 
     #[test]
+    fn every_text_differs_between_the_languages() {
+        for text in Text::ALL {
+            let (zh, en) = (Lang::Zh.t(*text), Lang::En.t(*text));
+            assert!(!zh.is_empty() && !en.is_empty(), "{text:?}");
+            assert_ne!(zh, en, "{text:?} is not translated");
+        }
+    }
+
+    #[test]
     fn codes_round_trip() {
         for lang in [Lang::Zh, Lang::En] {
             assert_eq!(Lang::from_code(lang.code()), lang);
         }
         assert_eq!(Lang::from_code("fr"), Lang::Zh);
+    }
+
+    #[test]
+    fn rate_limit_messages_carry_the_wait() {
+        assert_eq!(
+            Lang::En.too_many_attempts(Some(42)),
+            "Too many failed logins; try again in 42 s"
+        );
+        assert!(Lang::Zh.too_many_attempts(Some(42)).contains("42 秒"));
+        assert_eq!(
+            Lang::En.too_many_attempts(None),
+            "Too many failed logins; try again later"
+        );
+    }
+
+    #[test]
+    fn failures_read_as_sentences() {
+        assert_eq!(
+            Lang::En.failure(&Failure::Unauthorized),
+            "Your login has expired; please log in again"
+        );
+        assert!(
+            Lang::En
+                .failure(&Failure::Network("timeout".into()))
+                .contains("timeout")
+        );
+        assert!(
+            Lang::Zh
+                .failure(&Failure::Unexpected {
+                    status: 500,
+                    body: "x".into()
+                })
+                .contains("500")
+        );
+        assert_eq!(
+            Lang::En.player_state(PlayerState::Playing),
+            "playing",
+            "the end-to-end test reads this word"
+        );
     }
 }

@@ -1,18 +1,41 @@
 //! Floatball's operator app: a Leptos client-side app compiled to WebAssembly.
 //!
-//! Logic lives in plain types that are tested natively ([`connection`], [`i18n`]);
-//! components stay thin ([`components`]); the browser plumbing is in [`socket`].
+//! Logic lives in plain types that are tested natively; components stay thin and reach
+//! the bridge only through the services in [`context`], so component tests run them
+//! against a fake bridge.
 //!
 //! # Layout
-//! - [`connection`]: the connection state machine and its reconnect backoff.
-//! - [`i18n`]: the two languages (中文 / English) and every user-visible string.
-//! - [`socket`]: the WebSocket to the bridge, reconnecting by itself.
-//! - [`components`]: the views.
+//! Plain logic (native tests):
+//! - [`client`]: the HTTP API as typed calls over a transport, status codes as failures;
+//! - [`connection`]: the connection state machine and its reconnect backoff;
+//! - [`console`]: instruction checking and feedback decoding for the console;
+//! - [`files`]: local and controller file lists, formats, CSV preview layout;
+//! - [`i18n`]: the two languages (中文 / English) and every user-visible string;
+//! - [`page`]: the pages and their URL fragments;
+//! - [`playlist`]: playlist editing (check, move, delete, edit), form input, Start verdict;
+//! - [`session`]: the controller's address, base and WebSocket URLs, the stored login;
+//! - [`status`]: reading the bridge's status;
+//! - [`preview::playback`], [`preview::top_view`]: the preview's controls and drawing.
+//!
+//! Browser plumbing: [`http`] (XMLHttpRequest), [`socket`] (the WebSocket), [`store`]
+//! (IndexedDB). State shared by the views: [`context`]. Views: [`components`],
+//! [`preview`].
 
+pub mod client;
 pub mod components;
 pub mod connection;
+pub mod console;
+pub mod context;
+pub mod files;
+pub mod http;
 pub mod i18n;
+pub mod page;
+pub mod playlist;
+pub mod preview;
+pub mod session;
 pub mod socket;
+pub mod status;
+pub mod store;
 
 use wasm_bindgen::prelude::wasm_bindgen;
 

@@ -1,6 +1,9 @@
 //! The WebSocket to the bridge: opens it, reconnects with backoff when it closes,
 //! pings while connected and drops a connection that has gone silent, so the top bar
 //! never shows a stale "Connected". Decisions come from [`crate::connection`].
+//!
+//! The URL carries the login's token (`/ws?token=…`); the app opens a socket only
+//! while it holds a login.
 
 use std::cell::RefCell;
 use std::rc::{Rc, Weak};
@@ -13,19 +16,6 @@ use wasm_bindgen::closure::Closure;
 use web_sys::{Event, MessageEvent, WebSocket};
 
 use crate::connection::{Connection, Link, PING_INTERVAL_MS, SILENCE_TIMEOUT_MS};
-
-/// The WebSocket URL of a bridge at `host` for a page loaded over `protocol`
-/// (`"https:"` gives `wss://`).
-pub fn ws_url(protocol: &str, host: &str) -> String {
-    let scheme = if protocol == "https:" { "wss" } else { "ws" };
-    format!("{scheme}://{host}/ws")
-}
-
-/// The WebSocket URL of the bridge the page was loaded from.
-pub fn page_ws_url() -> Option<String> {
-    let location = window().location();
-    Some(ws_url(&location.protocol().ok()?, &location.host().ok()?))
-}
 
 /// A self-reconnecting WebSocket to the bridge. Dropping every clone does not close
 /// the socket; call [`Socket::close`] for that.
@@ -101,6 +91,22 @@ impl Socket {
             return false;
         };
         ws.send_with_str(&text).is_ok()
+    }
+
+    /// Checks the connection at once, for when the page wakes up (the phone was
+    /// asleep, the tab hidden): a connection not heard from within the ping interval
+    /// is dropped now, and reopened after the first backoff step, instead of showing
+    /// "Connected" until the next watchdog round. (A socket already down retries
+    /// within [`crate::connection::MAX_RETRY_MS`] anyway.)
+    pub fn wake(&self) {
+        let inner = self.inner.borrow();
+        let stale = inner.connection.link() == Link::Connected
+            && now_ms() - inner.last_heard_ms > f64::from(PING_INTERVAL_MS);
+        let generation = inner.generation;
+        drop(inner);
+        if stale {
+            lost(&self.inner, generation);
+        }
     }
 
     /// Closes the socket for good (no reconnect).
@@ -237,22 +243,5 @@ fn watchdog(weak: &Weak<RefCell<Inner>>) {
     }
     if let (Some(ws), Ok(ping)) = (&inner.ws, serde_json::to_string(&ClientMessage::Ping)) {
         let _ = ws.send_with_str(&ping);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn ws_url_follows_the_page() {
-        assert_eq!(
-            ws_url("http:", "192.168.1.17:8080"),
-            "ws://192.168.1.17:8080/ws"
-        );
-        assert_eq!(
-            ws_url("https:", "floatball.local"),
-            "wss://floatball.local/ws"
-        );
     }
 }

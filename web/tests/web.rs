@@ -1,15 +1,185 @@
 //! Component tests in a real browser (`wasm-pack test --headless --chrome web`).
+//!
+//! Pages are mounted with a fake bridge: [`FakeBridge`] answers HTTP requests as
+//! each test scripts it (at once, or held until the test releases them, with upload
+//! progress events in between) and records them; [`FakeSocket`] records every
+//! WebSocket message instead of sending it.
 
-use floatball_web::components::{ConnectionIndicator, LanguageSwitch};
+use std::cell::{Cell, RefCell};
+use std::collections::VecDeque;
+use std::rc::Rc;
+
+use floatball_shared::api::{
+    ClientMessage, FeedbackFrame, PlayerState, Playlist, ServerMessage, ShowSummary, Status,
+};
+use floatball_shared::show::{Layout, Show, Track, TrackRow};
+use floatball_web::client::{
+    LocalFuture, Method, OnProgress, Request, Response, Transport, UploadProgress,
+};
+use floatball_web::components::Shell;
+use floatball_web::components::console::ConsolePage;
+use floatball_web::components::control::{ControlPage, SettingsPage};
+use floatball_web::components::files::FilesPage;
+use floatball_web::components::login::LoginPage;
+use floatball_web::components::{ConnectionIndicator, EstopButton, LanguageSwitch};
 use floatball_web::connection::Link;
+use floatball_web::context::{Ctx, PreviewItem, Sender, Services};
+use floatball_web::files::LocalFile;
 use floatball_web::i18n::Lang;
+use floatball_web::page::Page;
+use floatball_web::playlist::PlaylistEditor;
+use floatball_web::preview::PreviewPage;
+use floatball_web::session::{Origin, Session};
+use floatball_web::store::LocalStore;
 use leptos::mount::mount_to;
 use leptos::prelude::*;
 use leptos::task::tick;
 use wasm_bindgen::JsCast;
+use wasm_bindgen_futures::JsFuture;
 use wasm_bindgen_test::*;
 
 wasm_bindgen_test_configure!(run_in_browser);
+
+// ----------------------------------------------------------------------------------
+// The fake bridge
+// ----------------------------------------------------------------------------------
+
+/// What the fake bridge does with a request.
+enum Answer {
+    /// Answer at once.
+    Now(Response),
+    /// Hold the request until [`FakeBridge::release`].
+    Hold,
+}
+
+type Held = (js_sys::Function, Rc<RefCell<Option<Response>>>);
+
+struct FakeBridge {
+    route: Box<dyn Fn(&Request) -> Answer>,
+    requests: RefCell<Vec<Request>>,
+    progress: RefCell<Vec<OnProgress>>,
+    held: RefCell<VecDeque<Held>>,
+}
+
+impl FakeBridge {
+    fn new(route: impl Fn(&Request) -> Answer + 'static) -> Rc<Self> {
+        Rc::new(Self {
+            route: Box::new(route),
+            requests: RefCell::default(),
+            progress: RefCell::default(),
+            held: RefCell::default(),
+        })
+    }
+
+    /// Answers the oldest held request.
+    fn release(&self, response: Response) {
+        let (resolve, slot) = self.held.borrow_mut().pop_front().expect("a held request");
+        *slot.borrow_mut() = Some(response);
+        resolve.call0(&wasm_bindgen::JsValue::NULL).unwrap();
+    }
+
+    /// Reports upload progress on the latest upload.
+    fn report(&self, sent_bytes: f64, total_bytes: f64) {
+        let progress = self.progress.borrow().last().cloned().expect("an upload");
+        progress(UploadProgress {
+            sent_bytes,
+            total_bytes,
+        });
+    }
+
+    fn requests_to(&self, method: Method, prefix: &str) -> Vec<Request> {
+        self.requests
+            .borrow()
+            .iter()
+            .filter(|r| r.method == method && r.url.starts_with(prefix))
+            .cloned()
+            .collect()
+    }
+}
+
+impl Transport for FakeBridge {
+    fn send(
+        &self,
+        request: Request,
+        progress: Option<OnProgress>,
+    ) -> LocalFuture<Result<Response, String>> {
+        if let Some(progress) = progress {
+            self.progress.borrow_mut().push(progress);
+        }
+        let answer = (self.route)(&request);
+        self.requests.borrow_mut().push(request);
+        match answer {
+            Answer::Now(response) => Box::pin(async move { Ok(response) }),
+            Answer::Hold => {
+                let slot = Rc::new(RefCell::new(None));
+                let mut resolver = None;
+                let promise = js_sys::Promise::new(&mut |resolve, _| resolver = Some(resolve));
+                self.held
+                    .borrow_mut()
+                    .push_back((resolver.expect("resolver"), Rc::clone(&slot)));
+                Box::pin(async move {
+                    JsFuture::from(promise).await.expect("released");
+                    let response = slot.borrow_mut().take().expect("a response");
+                    Ok(response)
+                })
+            }
+        }
+    }
+}
+
+fn response(status: u16, body: &str) -> Answer {
+    Answer::Now(Response {
+        status,
+        retry_after: None,
+        body: body.into(),
+    })
+}
+
+/// Records WebSocket messages; "open" unless told otherwise.
+#[derive(Default)]
+struct FakeSocket {
+    sent: RefCell<Vec<ClientMessage>>,
+    closed: Cell<bool>,
+}
+
+impl Sender for FakeSocket {
+    fn send(&self, message: &ClientMessage) -> bool {
+        if self.closed.get() {
+            return false;
+        }
+        self.sent.borrow_mut().push(message.clone());
+        true
+    }
+}
+
+const HOST: &str = "bridge.test:8080";
+
+fn context(bridge: &Rc<FakeBridge>, socket: &Rc<FakeSocket>, database: &str) -> Ctx {
+    let services = Services {
+        transport: bridge.clone(),
+        sender: socket.clone(),
+        store: LocalStore::new(database),
+    };
+    let origin = Origin {
+        protocol: "http:".into(),
+        host: HOST.into(),
+    };
+    Ctx::new(services, origin, Lang::En)
+}
+
+/// Logged in and connected.
+fn online(ctx: Ctx) {
+    ctx.session.set(Some(Session {
+        address: HOST.into(),
+        token: "tok".into(),
+        must_change_password: false,
+    }));
+    ctx.link.set(Link::Connected);
+}
+
+// ----------------------------------------------------------------------------------
+// DOM helpers
+// ----------------------------------------------------------------------------------
 
 fn fresh_container() -> web_sys::HtmlElement {
     let document = document();
@@ -18,13 +188,87 @@ fn fresh_container() -> web_sys::HtmlElement {
     container.unchecked_into()
 }
 
-fn element(container: &web_sys::HtmlElement, test_id: &str) -> web_sys::HtmlElement {
-    container
-        .query_selector(&format!("[data-testid={test_id}]"))
-        .unwrap()
-        .unwrap_or_else(|| panic!("no element with data-testid={test_id}"))
-        .unchecked_into()
+fn all(container: &web_sys::HtmlElement, test_id: &str) -> Vec<web_sys::HtmlElement> {
+    let list = container
+        .query_selector_all(&format!("[data-testid={test_id}]"))
+        .unwrap();
+    (0..list.length())
+        .filter_map(|i| list.get(i))
+        .map(JsCast::unchecked_into)
+        .collect()
 }
+
+fn element(container: &web_sys::HtmlElement, test_id: &str) -> web_sys::HtmlElement {
+    all(container, test_id)
+        .into_iter()
+        .next()
+        .unwrap_or_else(|| panic!("no element with data-testid={test_id}"))
+}
+
+fn text(container: &web_sys::HtmlElement, test_id: &str) -> String {
+    element(container, test_id)
+        .text_content()
+        .unwrap_or_default()
+}
+
+fn disabled(container: &web_sys::HtmlElement, test_id: &str) -> bool {
+    element(container, test_id).has_attribute("disabled")
+}
+
+/// Types `value` into an input or textarea as a user would (an `input` event).
+fn type_into(container: &web_sys::HtmlElement, test_id: &str, value: &str) {
+    let field = element(container, test_id);
+    if let Some(input) = field.dyn_ref::<web_sys::HtmlInputElement>() {
+        input.set_value(value);
+    } else {
+        field
+            .unchecked_ref::<web_sys::HtmlTextAreaElement>()
+            .set_value(value);
+    }
+    let event = web_sys::Event::new_with_event_init_dict("input", &{
+        let init = web_sys::EventInit::new();
+        init.set_bubbles(true);
+        init
+    })
+    .unwrap();
+    field.dispatch_event(&event).unwrap();
+}
+
+async fn sleep(ms: i32) {
+    let promise = js_sys::Promise::new(&mut |resolve, _| {
+        window()
+            .set_timeout_with_callback_and_timeout_and_arguments_0(&resolve, ms)
+            .unwrap();
+    });
+    JsFuture::from(promise).await.unwrap();
+}
+
+/// Waits (up to 2 s) until `condition` holds.
+async fn until(what: &str, condition: impl Fn() -> bool) {
+    for _ in 0..200 {
+        tick().await;
+        if condition() {
+            return;
+        }
+        sleep(10).await;
+    }
+    panic!("timed out waiting until {what}");
+}
+
+fn summary(name: &str) -> ShowSummary {
+    ShowSummary {
+        name: name.into(),
+        bytes: 1234,
+        sha256: "00".into(),
+        modified: "2026-01-01T00:00:00Z".into(),
+        units: 4,
+        duration_ms: 2500,
+    }
+}
+
+// ----------------------------------------------------------------------------------
+// Top bar
+// ----------------------------------------------------------------------------------
 
 #[wasm_bindgen_test]
 async fn connection_indicator_shows_both_states_in_both_languages() {
@@ -76,4 +320,885 @@ async fn language_switch_toggles() {
     tick().await;
     assert_eq!(lang.get_untracked(), Lang::En);
     assert_eq!(switch.text_content().as_deref(), Some("中文"));
+}
+
+#[wasm_bindgen_test]
+async fn estop_sends_exactly_one_estop_per_press_and_is_acknowledged() {
+    let container = fresh_container();
+    let bridge = FakeBridge::new(|_| response(500, ""));
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-estop");
+    online(ctx);
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <EstopButton /> }
+    });
+    let estop = element(&container, "estop");
+    assert_eq!(estop.get_attribute("data-ack").as_deref(), Some("ready"));
+    assert_eq!(text(&container, "estop-ack"), "");
+
+    estop.click();
+    tick().await;
+    assert_eq!(*socket.sent.borrow(), [ClientMessage::Estop]);
+    assert_eq!(text(&container, "estop-ack"), "E-stop sent");
+    assert_eq!(estop.get_attribute("data-ack").as_deref(), Some("sent"));
+    assert!(
+        bridge.requests.borrow().is_empty(),
+        "no HTTP, no confirmation"
+    );
+
+    ctx.status.set(Some(Status {
+        state: PlayerState::Stopped,
+        ..Status::default()
+    }));
+    tick().await;
+    assert_eq!(text(&container, "estop-ack"), "Stopped");
+
+    estop.click();
+    tick().await;
+    assert_eq!(
+        *socket.sent.borrow(),
+        [ClientMessage::Estop, ClientMessage::Estop]
+    );
+
+    socket.closed.set(true);
+    estop.click();
+    tick().await;
+    assert_eq!(socket.sent.borrow().len(), 2);
+    assert_eq!(text(&container, "estop-ack"), "NOT sent: no connection");
+}
+
+#[wasm_bindgen_test]
+async fn the_top_bar_shows_the_estop_only_when_connected_and_guards_control_pages() {
+    let container = fresh_container();
+    let bridge = FakeBridge::new(|_| response(404, ""));
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-shell");
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <Shell /> }
+    });
+    tick().await;
+    assert!(all(&container, "estop").is_empty());
+    assert_eq!(all(&container, "page-files").len(), 1);
+
+    element(&container, "nav-control").click();
+    tick().await;
+    assert_eq!(
+        all(&container, "page-login").len(),
+        1,
+        "control needs a login"
+    );
+
+    online(ctx);
+    tick().await;
+    assert_eq!(all(&container, "page-control").len(), 1);
+    assert_eq!(all(&container, "estop").len(), 2, "top bar and Control");
+    element(&container, "connection").click();
+    tick().await;
+    assert_eq!(
+        all(&container, "page-login").len(),
+        1,
+        "the indicator opens Login"
+    );
+    assert_eq!(all(&container, "logged-in").len(), 1);
+
+    ctx.link.set(Link::Disconnected);
+    tick().await;
+    assert!(
+        all(&container, "estop").is_empty(),
+        "no E-stop that cannot be sent"
+    );
+}
+
+// ----------------------------------------------------------------------------------
+// Login
+// ----------------------------------------------------------------------------------
+
+#[wasm_bindgen_test]
+async fn login_shows_wrong_password_and_the_rate_limit_wait() {
+    let container = fresh_container();
+    let attempt = Rc::new(Cell::new(0));
+    let bridge = FakeBridge::new({
+        let attempt = attempt.clone();
+        move |_| {
+            attempt.set(attempt.get() + 1);
+            if attempt.get() == 1 {
+                response(401, "")
+            } else {
+                Answer::Now(Response {
+                    status: 429,
+                    retry_after: Some("42".into()),
+                    body: String::new(),
+                })
+            }
+        }
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-login");
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <LoginPage /> }
+    });
+    let address =
+        element(&container, "login-address").unchecked_into::<web_sys::HtmlInputElement>();
+    until("the address is prefilled with the page's host", || {
+        address.value() == HOST
+    })
+    .await;
+
+    type_into(&container, "login-password", "wrong");
+    element(&container, "login-submit").click();
+    until("the error shows", || {
+        all(&container, "login-error").len() == 1
+    })
+    .await;
+    assert_eq!(text(&container, "login-error"), "Wrong password");
+    let request = bridge.requests.borrow()[0].clone();
+    assert_eq!(request.url, "/api/login");
+    assert_eq!(request.body.as_deref(), Some(r#"{"password":"wrong"}"#));
+    assert_eq!(ctx.session.get_untracked(), None);
+
+    element(&container, "login-submit").click();
+    until("the wait shows", || {
+        text(&container, "login-error").contains("42")
+    })
+    .await;
+    assert_eq!(
+        text(&container, "login-error"),
+        "Too many failed logins; try again in 42 s"
+    );
+}
+
+#[wasm_bindgen_test]
+async fn login_with_the_factory_password_forces_a_change() {
+    let container = fresh_container();
+    let bridge = FakeBridge::new(|request| match request.url.as_str() {
+        "http://10.0.0.9:8080/api/login" => {
+            response(200, r#"{"token":"t1","must_change_password":true}"#)
+        }
+        "http://10.0.0.9:8080/api/password" => response(204, ""),
+        _ => response(404, ""),
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-password");
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <LoginPage /> }
+    });
+    type_into(&container, "login-address", "10.0.0.9:8080");
+    type_into(&container, "login-password", "1234");
+    element(&container, "login-submit").click();
+    until("the password form shows", || {
+        all(&container, "password-form").len() == 1
+    })
+    .await;
+    assert!(
+        all(&container, "password-current").is_empty(),
+        "the password just typed is used"
+    );
+    type_into(&container, "password-new", "s3cret-show");
+    type_into(&container, "password-confirm", "typo");
+    element(&container, "password-submit").click();
+    tick().await;
+    assert_eq!(
+        text(&container, "password-error"),
+        "The two new passwords differ"
+    );
+
+    type_into(&container, "password-confirm", "s3cret-show");
+    element(&container, "password-submit").click();
+    until("the session is unlocked", || {
+        ctx.session
+            .get_untracked()
+            .is_some_and(|s| !s.must_change_password)
+    })
+    .await;
+    let change = bridge.requests_to(Method::Post, "http://10.0.0.9:8080/api/password");
+    assert_eq!(
+        change[0].body.as_deref(),
+        Some(r#"{"old":"1234","new":"s3cret-show"}"#)
+    );
+    assert_eq!(change[0].bearer.as_deref(), Some("t1"));
+    assert_eq!(ctx.page.get_untracked(), Page::Files);
+    assert_eq!(
+        ctx.session.get_untracked().unwrap().address,
+        "10.0.0.9:8080"
+    );
+}
+
+// ----------------------------------------------------------------------------------
+// Files
+// ----------------------------------------------------------------------------------
+
+const CSV: &str = "time_ms,u0,u1,u2,u3\n0,100,100,100,100\n1000,900,700,500,300\n";
+
+fn with_local_file(ctx: Ctx) {
+    ctx.local_files.update(|list| {
+        list.upsert(LocalFile::new("wave.csv", CSV.into(), 0.0).unwrap());
+    });
+}
+
+#[wasm_bindgen_test]
+async fn upload_shows_progress_then_the_new_controller_file() {
+    let container = fresh_container();
+    let bridge = FakeBridge::new(|request| match request.method {
+        Method::Put => Answer::Hold,
+        _ => response(404, ""),
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-upload");
+    online(ctx);
+    with_local_file(ctx);
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <FilesPage /> }
+    });
+    assert!(!disabled(&container, "upload"));
+    element(&container, "upload").click();
+    until("the progress bar shows", || {
+        all(&container, "upload-progress").len() == 1
+    })
+    .await;
+    let upload = bridge.requests.borrow()[0].clone();
+    assert_eq!(upload.url, "/api/shows/wave");
+    assert_eq!(upload.content_type, Some("text/csv"));
+    assert_eq!(upload.body.as_deref(), Some(CSV));
+    assert!(disabled(&container, "upload"), "one upload at a time");
+
+    let bar = || {
+        element(&container, "upload-progress")
+            .unchecked_into::<web_sys::HtmlProgressElement>()
+            .value()
+    };
+    assert_eq!(bar(), 0.0);
+    bridge.report(25.0, 100.0);
+    tick().await;
+    assert_eq!(bar(), 0.25);
+    assert_eq!(text(&container, "upload-percent"), "Uploading… 25%");
+    bridge.report(100.0, 100.0);
+    tick().await;
+    assert_eq!(bar(), 1.0);
+
+    bridge.release(Response {
+        status: 201,
+        retry_after: None,
+        body: serde_json::to_string(&summary("wave")).unwrap(),
+    });
+    until("the upload ends", || {
+        all(&container, "upload-progress").is_empty()
+    })
+    .await;
+    assert_eq!(text(&container, "files-message"), "Uploaded: wave");
+    element(&container, "tab-controller").click();
+    tick().await;
+    let rows = all(&container, "controller-file");
+    assert_eq!(rows.len(), 1);
+    let row = rows[0].text_content().unwrap();
+    assert!(
+        row.contains("wave") && row.contains("0:02.5") && row.contains("1.2 kB"),
+        "{row}"
+    );
+}
+
+#[wasm_bindgen_test]
+async fn a_refused_upload_lists_every_problem() {
+    let container = fresh_container();
+    let bridge = FakeBridge::new(|_| {
+        response(
+            422,
+            r#"{"error":"the show is not valid","details":["ball u0 (row 1, col 1) at 0.10 s: speed 7500.0 mm/s exceeds the limit of 2000.0 mm/s","ball u3 (row 2, col 2): below the travel"]}"#,
+        )
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-refused");
+    online(ctx);
+    with_local_file(ctx);
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <FilesPage /> }
+    });
+    element(&container, "upload").click();
+    until("the refusal shows", || {
+        all(&container, "upload-details").len() == 1
+    })
+    .await;
+    assert!(
+        text(&container, "files-message")
+            .starts_with("The controller refused this file: the show is not valid")
+    );
+    let details = element(&container, "upload-details")
+        .query_selector_all("li")
+        .unwrap();
+    assert_eq!(details.length(), 2);
+    assert!(
+        details
+            .get(0)
+            .unwrap()
+            .text_content()
+            .unwrap()
+            .contains("7500.0 mm/s")
+    );
+}
+
+#[wasm_bindgen_test]
+async fn offline_files_cannot_move_but_local_ones_preview() {
+    let container = fresh_container();
+    let bridge = FakeBridge::new(|_| response(500, ""));
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-offline");
+    with_local_file(ctx);
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <FilesPage /> }
+    });
+    assert_eq!(all(&container, "offline-hint").len(), 1);
+    assert!(disabled(&container, "upload"));
+    assert!(!disabled(&container, "preview-local"));
+    element(&container, "preview-local").click();
+    tick().await;
+    assert_eq!(ctx.page.get_untracked(), Page::Preview);
+    let Some(PreviewItem::Ready(name, show)) = ctx.preview.get_untracked() else {
+        panic!("the local file previews")
+    };
+    assert_eq!(name, "wave.csv");
+    assert_eq!((show.layout.rows, show.layout.cols), (2, 2));
+
+    element(&container, "tab-controller").click();
+    tick().await;
+    assert!(disabled(&container, "download"));
+    assert!(disabled(&container, "refresh"));
+    assert!(bridge.requests.borrow().is_empty());
+}
+
+#[wasm_bindgen_test]
+async fn controller_files_download_to_the_device_and_preview() {
+    let container = fresh_container();
+    let json = two_ball_show().to_json().unwrap();
+    let bridge = FakeBridge::new(move |request| match request.url.as_str() {
+        "/api/shows/two" => response(200, &json),
+        _ => response(404, ""),
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-download");
+    LocalStore::new("test-download")
+        .delete("two.json")
+        .await
+        .unwrap();
+    online(ctx);
+    ctx.controller_files.update(|list| {
+        list.replace(vec![summary("two")]);
+        list.select("two");
+    });
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <FilesPage /> }
+    });
+    element(&container, "tab-controller").click();
+    tick().await;
+    element(&container, "download").click();
+    until("the download is kept", || {
+        ctx.local_files
+            .with_untracked(|list| list.get("two.json").is_some())
+    })
+    .await;
+    assert_eq!(
+        text(&container, "files-message"),
+        "Downloaded to the local files: two.json"
+    );
+    let stored = LocalStore::new("test-download").load_all().await.unwrap();
+    assert_eq!(stored[0].name, "two.json");
+    assert_eq!(stored[0].to_show().unwrap(), two_ball_show());
+
+    element(&container, "preview-controller").click();
+    until("the preview is ready", || {
+        matches!(ctx.preview.get_untracked(), Some(PreviewItem::Ready(..)))
+    })
+    .await;
+    assert_eq!(ctx.page.get_untracked(), Page::Preview);
+    let Some(PreviewItem::Ready(name, show)) = ctx.preview.get_untracked() else {
+        unreachable!()
+    };
+    assert_eq!((name.as_str(), show), ("two", two_ball_show()));
+    assert!(
+        bridge
+            .requests
+            .borrow()
+            .iter()
+            .all(|r| r.bearer.as_deref() == Some("tok"))
+    );
+}
+
+#[wasm_bindgen_test]
+async fn local_files_survive_in_indexeddb() {
+    let store = LocalStore::new("test-indexeddb");
+    for name in ["a.csv", "b.json"] {
+        store.delete(name).await.unwrap();
+    }
+    store
+        .put(&LocalFile::new("a.csv", CSV.into(), 1.0).unwrap())
+        .await
+        .unwrap();
+    store
+        .put(&LocalFile::new("b.json", "{}".into(), 2.0).unwrap())
+        .await
+        .unwrap();
+    store
+        .put(&LocalFile::new("a.csv", "time_ms,u0\n".into(), 3.0).unwrap())
+        .await
+        .unwrap();
+    let mut files = LocalStore::new("test-indexeddb").load_all().await.unwrap();
+    files.sort_by(|a, b| a.name.cmp(&b.name));
+    assert_eq!(files.len(), 2);
+    assert_eq!(files[0].text, "time_ms,u0\n", "replaced by name");
+    assert_eq!(files[1].name, "b.json");
+    store.delete("a.csv").await.unwrap();
+    let files = store.load_all().await.unwrap();
+    assert_eq!(files.len(), 1);
+}
+
+// ----------------------------------------------------------------------------------
+// Control
+// ----------------------------------------------------------------------------------
+
+fn playlist_bridge() -> Rc<FakeBridge> {
+    FakeBridge::new(|request| match (request.method, request.url.as_str()) {
+        (Method::Put, "/api/playlist") => response(204, ""),
+        _ => response(404, ""),
+    })
+}
+
+fn shown_order(container: &web_sys::HtmlElement) -> Vec<String> {
+    all(container, "entry")
+        .iter()
+        .map(|entry| entry.get_attribute("data-show").unwrap())
+        .collect()
+}
+
+fn stored_order(bridge: &FakeBridge) -> Vec<String> {
+    let puts = bridge.requests_to(Method::Put, "/api/playlist");
+    let body = puts.last().expect("a PUT").body.clone().unwrap();
+    let playlist: Playlist = serde_json::from_str(&body).unwrap();
+    playlist.entries.into_iter().map(|e| e.show).collect()
+}
+
+fn check_entry(container: &web_sys::HtmlElement, index: usize) {
+    all(container, "entry-check")[index].click();
+}
+
+async fn mount_control(
+    bridge: &Rc<FakeBridge>,
+    socket: &Rc<FakeSocket>,
+    database: &str,
+) -> (web_sys::HtmlElement, Ctx) {
+    let container = fresh_container();
+    let ctx = context(bridge, socket, database);
+    online(ctx);
+    let mut editor = PlaylistEditor::new(Playlist::default());
+    for show in ["a", "b", "c"] {
+        editor.add(show);
+    }
+    ctx.playlist.set(editor);
+    ctx.controller_files.update(|list| {
+        list.replace(vec![summary("a"), summary("b"), summary("c"), summary("d")]);
+    });
+    let mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <ControlPage /> }
+    });
+    // Stays mounted for the rest of the test run, like the other tests' pages.
+    std::mem::forget(mounted);
+    tick().await;
+    (container, ctx)
+}
+
+#[wasm_bindgen_test]
+async fn playlist_moves_deletes_and_edits_the_checked_entries() {
+    let bridge = playlist_bridge();
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-playlist").await;
+    assert_eq!(shown_order(&container), ["a", "b", "c"]);
+
+    check_entry(&container, 2);
+    element(&container, "move-up").click();
+    until("c moved up", || shown_order(&container) == ["a", "c", "b"]).await;
+    assert_eq!(stored_order(&bridge), ["a", "c", "b"]);
+    element(&container, "move-up").click();
+    until("c at the top", || {
+        shown_order(&container) == ["c", "a", "b"]
+    })
+    .await;
+    element(&container, "move-down").click();
+    until("c moved down", || {
+        shown_order(&container) == ["a", "c", "b"]
+    })
+    .await;
+    assert_eq!(stored_order(&bridge), ["a", "c", "b"]);
+
+    // Edit the checked entry (c) and one more (a): the unchecked b keeps its values.
+    check_entry(&container, 0);
+    element(&container, "edit").click();
+    tick().await;
+    type_into(&container, "edit-delay", "2,5");
+    type_into(&container, "edit-cycles", "0");
+    element(&container, "edit-apply").click();
+    tick().await;
+    assert_eq!(
+        text(&container, "edit-error"),
+        "Cycles must be a whole number from 1 to 10000"
+    );
+    type_into(&container, "edit-cycles", "3");
+    element(&container, "edit-apply").click();
+    until("the edit shows", || {
+        all(&container, "entry-facts")
+            .iter()
+            .filter(|facts| facts.text_content().unwrap() == "2.5 s · ×3")
+            .count()
+            == 2
+    })
+    .await;
+    let puts = bridge.requests_to(Method::Put, "/api/playlist");
+    let stored: Playlist =
+        serde_json::from_str(puts.last().unwrap().body.as_deref().unwrap()).unwrap();
+    let values: Vec<_> = stored
+        .entries
+        .iter()
+        .map(|e| (e.show.as_str(), e.delay_ms, e.cycles))
+        .collect();
+    assert_eq!(values, [("a", 2500, 3), ("c", 2500, 3), ("b", 0, 1)]);
+
+    element(&container, "delete").click();
+    until("both checked entries are gone", || {
+        shown_order(&container) == ["b"]
+    })
+    .await;
+    assert_eq!(stored_order(&bridge), ["b"]);
+
+    // Add picks from the controller files.
+    element(&container, "add").click();
+    tick().await;
+    all(&container, "pick-show")
+        .into_iter()
+        .find(|pick| pick.get_attribute("data-name").as_deref() == Some("d"))
+        .unwrap()
+        .click();
+    until("d is added", || shown_order(&container) == ["b", "d"]).await;
+    assert!(
+        socket.sent.borrow().is_empty(),
+        "editing sends no control message"
+    );
+    assert_eq!(ctx.playlist.get_untracked().entries().len(), 2);
+}
+
+#[wasm_bindgen_test]
+async fn start_and_reset_ignore_the_checkboxes_and_status_is_live() {
+    let bridge = playlist_bridge();
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-start").await;
+    until("the plan is fetched", || {
+        all(&container, "verdict")
+            .iter()
+            .all(|v| v.get_attribute("data-verdict").as_deref() == Some("unavailable"))
+    })
+    .await;
+    assert_eq!(all(&container, "verdict").len(), 3);
+    assert!(!disabled(&container, "start"));
+    element(&container, "start").click();
+    element(&container, "reset").click();
+    tick().await;
+    assert_eq!(
+        *socket.sent.borrow(),
+        [ClientMessage::Start, ClientMessage::Reset]
+    );
+
+    ctx.receive(ServerMessage::Status(Status {
+        state: PlayerState::Playing,
+        entry: Some(1),
+        show: Some("b".into()),
+        show_time_ms: 1500,
+        show_duration_ms: 2500,
+        cycle: 1,
+        progress: 0.6,
+        ..Status::default()
+    }));
+    tick().await;
+    let state = element(&container, "status-state");
+    assert_eq!(
+        state.get_attribute("data-state").as_deref(),
+        Some("playing")
+    );
+    assert_eq!(text(&container, "status-show"), "b");
+    assert_eq!(text(&container, "status-time"), "0:01.5 / 0:02.5");
+    let bar =
+        element(&container, "status-progress").unchecked_into::<web_sys::HtmlProgressElement>();
+    assert!((bar.value() - 0.6).abs() < 1e-9);
+
+    ctx.receive(ServerMessage::Error {
+        message: "change the password first".into(),
+    });
+    tick().await;
+    assert!(text(&container, "bridge-error").contains("change the password first"));
+
+    ctx.link.set(Link::Disconnected);
+    tick().await;
+    assert_eq!(
+        element(&container, "status-state")
+            .get_attribute("data-state")
+            .as_deref(),
+        Some("unknown"),
+        "no stale status"
+    );
+    assert!(disabled(&container, "start"));
+}
+
+#[wasm_bindgen_test]
+async fn an_infeasible_show_blocks_start_and_says_why() {
+    let bridge = FakeBridge::new(|request| {
+        if request.url.starts_with("/api/plan/") {
+            let feasible = !request.url.ends_with("/b");
+            response(
+                200,
+                &serde_json::json!({
+                    "show": "x",
+                    "feasible": feasible,
+                    "reason": if feasible { None } else { Some("9600 baud carries 960 B/s; the show needs 2400 B/s") },
+                    "fixes": if feasible { vec![] } else { vec!["raise the baud rate to 38400"] },
+                    "gateways": []
+                })
+                .to_string(),
+            )
+        } else {
+            response(204, "")
+        }
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let (container, _ctx) = mount_control(&bridge, &socket, "test-plan").await;
+    until("the verdicts arrive", || {
+        all(&container, "verdict")
+            .iter()
+            .any(|v| v.get_attribute("data-verdict").as_deref() == Some("infeasible"))
+    })
+    .await;
+    let verdicts = all(&container, "verdict");
+    let bad = verdicts
+        .iter()
+        .find(|v| v.get_attribute("data-verdict").as_deref() == Some("infeasible"))
+        .unwrap()
+        .text_content()
+        .unwrap();
+    assert!(
+        bad.contains("cannot run") && bad.contains("2400 B/s") && bad.contains("38400"),
+        "{bad}"
+    );
+    assert!(disabled(&container, "start"));
+}
+
+#[wasm_bindgen_test]
+async fn settings_store_the_defaults_and_the_loop_flag() {
+    let container = fresh_container();
+    let bridge = playlist_bridge();
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-settings");
+    online(ctx);
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <SettingsPage /> }
+    });
+    tick().await;
+    type_into(&container, "default-delay", "abc");
+    element(&container, "settings-apply").click();
+    tick().await;
+    assert_eq!(
+        text(&container, "settings-error"),
+        "The delay must be a number of seconds from 0 to 86400"
+    );
+    assert!(bridge.requests.borrow().is_empty());
+
+    type_into(&container, "default-delay", "1.5");
+    type_into(&container, "default-cycles", "4");
+    element(&container, "loop").click();
+    element(&container, "settings-apply").click();
+    until("the settings are stored", || {
+        all(&container, "settings-saved").len() == 1
+    })
+    .await;
+    let puts = bridge.requests_to(Method::Put, "/api/playlist");
+    let stored: Playlist = serde_json::from_str(puts[0].body.as_deref().unwrap()).unwrap();
+    assert_eq!(
+        (
+            stored.default_delay_ms,
+            stored.default_cycles,
+            stored.loop_playlist
+        ),
+        (1500, 4, true)
+    );
+    ctx.playlist.update(|editor| editor.add("new"));
+    let entry = ctx.playlist.get_untracked().entries()[0].clone();
+    assert_eq!(
+        (entry.delay_ms, entry.cycles),
+        (1500, 4),
+        "new entries get the defaults"
+    );
+}
+
+// ----------------------------------------------------------------------------------
+// Console
+// ----------------------------------------------------------------------------------
+
+#[wasm_bindgen_test]
+async fn console_checks_before_sending_and_decodes_feedback() {
+    let container = fresh_container();
+    let bridge = FakeBridge::new(|_| response(500, ""));
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-console");
+    online(ctx);
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <ConsolePage /> }
+    });
+    type_into(&container, "console-input", "*5;\nQT[3]=0;");
+    tick().await;
+    let check = element(&container, "console-check");
+    assert_eq!(check.get_attribute("data-state").as_deref(), Some("error"));
+    assert!(text(&container, "console-check").starts_with("line 2, column"));
+    assert!(disabled(&container, "console-send"));
+
+    type_into(&container, "console-input", "*5;PV;\n# a comment\n*0;MO=0;");
+    tick().await;
+    assert_eq!(
+        element(&container, "console-check")
+            .get_attribute("data-state")
+            .as_deref(),
+        Some("ok")
+    );
+    element(&container, "console-send").click();
+    tick().await;
+    assert_eq!(
+        *socket.sent.borrow(),
+        [
+            ClientMessage::Raw {
+                line: "*5;PV;".into(),
+                gateway: None
+            },
+            ClientMessage::Raw {
+                line: "*0;MO=0;".into(),
+                gateway: None
+            }
+        ]
+    );
+
+    ctx.receive(ServerMessage::Feedback(FeedbackFrame {
+        gateway: 0,
+        station: 5,
+        code: 0x23,
+        data: vec![3, 0],
+    }));
+    tick().await;
+    let lines = all(&container, "feedback-line");
+    assert_eq!(lines.len(), 1);
+    let line = lines[0].text_content().unwrap();
+    assert!(line.contains("gw0 #5") && line.contains("PV = 3"), "{line}");
+}
+
+// ----------------------------------------------------------------------------------
+// Preview
+// ----------------------------------------------------------------------------------
+
+fn two_ball_show() -> Show {
+    let track = |to_mm| Track {
+        start_mm: to_mm,
+        rows: vec![
+            TrackRow::new(to_mm, 0.0, 250),
+            TrackRow::new(to_mm, 0.0, 250),
+            TrackRow::new(to_mm, 0.0, 250),
+            TrackRow::new(to_mm, 0.0, 250),
+        ],
+        colours: Vec::new(),
+    };
+    Show {
+        name: "two".into(),
+        layout: Layout {
+            rows: 1,
+            cols: 2,
+            pitch_mm: 500.0,
+        },
+        tracks: vec![track(100.0), track(7000.0)],
+    }
+}
+
+/// The canvas pixel at a fraction of its width and height.
+fn pixel(container: &web_sys::HtmlElement, x: f64, y: f64) -> [u8; 3] {
+    let canvas =
+        element(container, "preview-canvas").unchecked_into::<web_sys::HtmlCanvasElement>();
+    let context = canvas
+        .get_context("2d")
+        .unwrap()
+        .unwrap()
+        .unchecked_into::<web_sys::CanvasRenderingContext2d>();
+    let data = context
+        .get_image_data(
+            (f64::from(canvas.width()) * x).floor(),
+            (f64::from(canvas.height()) * y).floor(),
+            1.0,
+            1.0,
+        )
+        .unwrap()
+        .data();
+    [data[0], data[1], data[2]]
+}
+
+#[wasm_bindgen_test]
+async fn preview_steps_and_draws_the_balls() {
+    let container = fresh_container();
+    let show = RwSignal::new(None::<Show>);
+    let _mounted = mount_to(container.clone(), move || {
+        view! { <PreviewPage show=show lang=Lang::En /> }
+    });
+    assert_eq!(all(&container, "preview-empty").len(), 1);
+    assert!(disabled(&container, "preview-forward"));
+
+    show.set(Some(two_ball_show()));
+    tick().await;
+    // Pause, then step: time moves by half a second and stays.
+    element(&container, "preview-toggle").click();
+    element(&container, "preview-restart").click();
+    element(&container, "preview-toggle").click();
+    tick().await;
+    assert_eq!(
+        element(&container, "preview-toggle")
+            .get_attribute("data-playing")
+            .as_deref(),
+        Some("false")
+    );
+    assert_eq!(text(&container, "preview-time"), "0:00.0 / 0:01.0");
+    element(&container, "preview-forward").click();
+    tick().await;
+    assert_eq!(text(&container, "preview-time"), "0:00.5 / 0:01.0");
+    sleep(100).await;
+    assert_eq!(
+        text(&container, "preview-time"),
+        "0:00.5 / 0:01.0",
+        "paused"
+    );
+
+    // Ball 0 hangs high (bright), ball 1 low (dark); between them is background.
+    let high = pixel(&container, 0.25, 0.5);
+    let low = pixel(&container, 0.75, 0.5);
+    let gap = pixel(&container, 0.5, 0.05);
+    let brightness = |rgb: [u8; 3]| rgb.iter().map(|c| u32::from(*c)).sum::<u32>();
+    assert!(brightness(high) > brightness(low), "{high:?} vs {low:?}");
+    assert!(brightness(low) > brightness(gap), "{low:?} vs {gap:?}");
+
+    element(&container, "preview-back").click();
+    tick().await;
+    assert_eq!(text(&container, "preview-time"), "0:00.0 / 0:01.0");
+    element(&container, "preview-toggle").click();
+    sleep(300).await;
+    tick().await;
+    assert_ne!(
+        text(&container, "preview-time"),
+        "0:00.0 / 0:01.0",
+        "playing"
+    );
+    assert_eq!(all(&container, "preview-valid").len(), 1);
 }

@@ -1,0 +1,158 @@
+//! The Console page (for engineers): instruction lines checked by the parser before
+//! they are sent, and the feedback frames decoded as they arrive.
+
+use floatball_shared::api::ClientMessage;
+use leptos::prelude::*;
+
+use crate::console::{Check, check};
+use crate::context::Ctx;
+use crate::i18n::Text;
+
+/// How many sent lines the page lists.
+const SENT_LINES: usize = 50;
+
+/// The Console page.
+#[component]
+pub fn ConsolePage() -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    let text = RwSignal::new(String::new());
+    let gateway = RwSignal::new(None::<usize>);
+    let sent = RwSignal::new(Vec::<String>::new());
+    let checked = Memo::new(move |_| text.with(|text| check(text)));
+    let ready = move || matches!(checked.get(), Check::Ready { .. }) && ctx.connected();
+    let send = move |_| {
+        let Check::Ready { lines, .. } = checked.get_untracked() else {
+            return;
+        };
+        ctx.bridge_error.set(None);
+        let gateway = gateway.get_untracked();
+        for line in lines {
+            if ctx.send(&ClientMessage::Raw {
+                line: line.clone(),
+                gateway,
+            }) {
+                sent.update(|sent| {
+                    sent.insert(0, line);
+                    sent.truncate(SENT_LINES);
+                });
+            }
+        }
+    };
+    let verdict = move || match checked.get() {
+        Check::Empty => view! {
+            <p class="muted" data-testid="console-check" data-state="empty">
+                {move || ctx.t(Text::ConsoleHint)}
+            </p>
+        }
+        .into_any(),
+        Check::Ready { instructions, .. } => view! {
+            <p class="note done" data-testid="console-check" data-state="ok">
+                {move || ctx.lang.get().ready_to_send(instructions)}
+            </p>
+        }
+        .into_any(),
+        Check::Invalid(error) => view! {
+            <p class="note error" data-testid="console-check" data-state="error">
+                {error}
+            </p>
+        }
+        .into_any(),
+    };
+    let gateways = move || {
+        ctx.status.with(|status| {
+            status.as_ref().map(|status| {
+                status
+                    .gateways
+                    .iter()
+                    .enumerate()
+                    .map(|(index, gateway)| {
+                        view! {
+                            <option value=index.to_string()>
+                                {format!("{index}: {}", gateway.port)}
+                            </option>
+                        }
+                    })
+                    .collect_view()
+            })
+        })
+    };
+    view! {
+        <section class="console">
+            <label class="stack">
+                <span>{move || ctx.t(Text::Instructions)}</span>
+                <textarea
+                    rows="4"
+                    spellcheck="false"
+                    autocapitalize="characters"
+                    data-testid="console-input"
+                    prop:value=text
+                    on:input=move |ev| text.set(event_target_value(&ev))
+                ></textarea>
+            </label>
+            {verdict}
+            <div class="toolbar">
+                <label class="inline">
+                    <span>{move || ctx.t(Text::Gateway)}</span>
+                    <select
+                        data-testid="console-gateway"
+                        on:change=move |ev| gateway.set(event_target_value(&ev).parse().ok())
+                    >
+                        <option value="">{move || ctx.t(Text::AllGateways)}</option>
+                        {gateways}
+                    </select>
+                </label>
+                <button
+                    class="primary"
+                    data-testid="console-send"
+                    disabled=move || !ready()
+                    on:click=send
+                >
+                    {move || ctx.t(Text::Send)}
+                </button>
+            </div>
+            {move || {
+                ctx.bridge_error
+                    .get()
+                    .map(|message| {
+                        view! {
+                            <p class="note error" data-testid="bridge-error">
+                                {move || ctx.t(Text::BridgeSays)} " " {message}
+                            </p>
+                        }
+                    })
+            }}
+            <Show when=move || sent.with(|sent| !sent.is_empty())>
+                <h3>{move || ctx.t(Text::SentLines)}</h3>
+                <ul class="mono sent" data-testid="sent-lines">
+                    {move || sent.get().into_iter().map(|line| view! { <li>{line}</li> }).collect_view()}
+                </ul>
+            </Show>
+            <div class="heading-row">
+                <h3>{move || ctx.t(Text::Feedback)}</h3>
+                <button data-testid="feedback-clear" on:click=move |_| ctx.feedback.update(|log| log.clear())>
+                    {move || ctx.t(Text::Clear)}
+                </button>
+            </div>
+            <ul class="mono feedback" data-testid="feedback-list">
+                {move || {
+                    let log = ctx.feedback.get();
+                    if log.is_empty() {
+                        return view! { <li class="muted">{move || ctx.t(Text::NoFeedback)}</li> }.into_any();
+                    }
+                    log.lines()
+                        .map(|line| {
+                            view! {
+                                <li data-testid="feedback-line">
+                                    <span class="where">{format!("gw{} #{}", line.gateway, line.station)}</span>
+                                    <span class="what">{line.text.clone()}</span>
+                                    <span class="hex muted">{line.hex.clone()}</span>
+                                </li>
+                            }
+                        })
+                        .collect_view()
+                        .into_any()
+                }}
+            </ul>
+        </section>
+    }
+}

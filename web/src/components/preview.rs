@@ -1,0 +1,113 @@
+//! The Preview page: the show files on one side (local, and the controller's when
+//! logged in), the chosen one playing on the other ([`crate::preview::PreviewPage`]).
+
+use leptos::prelude::*;
+
+use crate::context::{Ctx, PreviewItem};
+use crate::i18n::Text;
+use crate::preview::PreviewPage;
+
+/// The Preview page.
+#[component]
+pub fn PreviewScreen() -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    let show = Memo::new(move |_| match ctx.preview.get() {
+        Some(PreviewItem::Ready(_, show)) => Some(show),
+        _ => None,
+    });
+    let current = move || {
+        ctx.preview.with(|item| match item {
+            Some(
+                PreviewItem::Loading(name)
+                | PreviewItem::Ready(name, _)
+                | PreviewItem::Failed(name, _),
+            ) => Some(name.clone()),
+            None => None,
+        })
+    };
+    let local = move || {
+        ctx.local_files.with(|list| {
+            list.items()
+                .iter()
+                .map(|file| {
+                    let name = file.name.clone();
+                    let active = current().as_deref() == Some(name.as_str());
+                    view! {
+                        <li>
+                            <button
+                                class="row"
+                                class:selected=active
+                                data-testid="preview-pick-local"
+                                data-name=name.clone()
+                                on:click=move |_| {
+                                    let file = ctx.local_files.with_untracked(|list| list.get(&name).cloned());
+                                    if let Some(file) = file {
+                                        ctx.preview_local(&file);
+                                    }
+                                }
+                            >
+                                {file.name.clone()}
+                            </button>
+                        </li>
+                    }
+                })
+                .collect_view()
+        })
+    };
+    let controller = move || {
+        let online = ctx.logged_in() && ctx.connected();
+        ctx.controller_files.with(|list| {
+            list.items()
+                .iter()
+                .map(|summary| {
+                    let name = summary.name.clone();
+                    let active = current().as_deref() == Some(name.as_str());
+                    view! {
+                        <li>
+                            <button
+                                class="row"
+                                class:selected=active
+                                disabled=!online
+                                data-testid="preview-pick-controller"
+                                data-name=name.clone()
+                                on:click=move |_| ctx.preview_controller(&name)
+                            >
+                                {summary.name.clone()}
+                            </button>
+                        </li>
+                    }
+                })
+                .collect_view()
+        })
+    };
+    view! {
+        <section class="preview-screen">
+            <aside class="chooser">
+                <h2>{move || ctx.t(Text::ChooseShow)}</h2>
+                <h3>{move || ctx.t(Text::LocalFiles)}</h3>
+                <ul class="list">{local}</ul>
+                <Show when=move || ctx.logged_in()>
+                    <h3>{move || ctx.t(Text::ControllerFiles)}</h3>
+                    <ul class="list">{controller}</ul>
+                </Show>
+            </aside>
+            <div class="viewer">
+                {move || match ctx.preview.get() {
+                    Some(PreviewItem::Loading(name)) => Some(view! {
+                        <h2>{name}</h2>
+                        <p class="muted" data-testid="preview-loading">{move || ctx.t(Text::Loading)}</p>
+                    }.into_any()),
+                    Some(PreviewItem::Failed(name, error)) => Some(view! {
+                        <h2>{name}</h2>
+                        <p class="note error" data-testid="preview-error">
+                            {move || ctx.t(Text::CannotRead)} " " {error}
+                        </p>
+                    }.into_any()),
+                    Some(PreviewItem::Ready(name, _)) => Some(view! { <h2 data-testid="preview-name">{name}</h2> }.into_any()),
+                    None => None,
+                }}
+                <PreviewPage show=show lang=ctx.lang />
+            </div>
+        </section>
+    }
+}

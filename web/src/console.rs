@@ -1,0 +1,230 @@
+//! The engineers' console as plain logic: typed instruction lines checked by the
+//! shared parser before anything is sent, and feedback frames decoded into the
+//! protocol's notation as they arrive.
+//!
+//! The decoded notation (`QP[3] = 1000`, `ER …`) is the manual's, the same in both
+//! languages; error sentences come from the shared codec (English).
+
+use std::collections::VecDeque;
+
+use floatball_shared::api::FeedbackFrame;
+use floatball_shared::ascii::parse_script;
+use floatball_shared::feedback::{Ack, Feedback, Frame, code};
+
+/// How many feedback lines the console keeps.
+pub const FEEDBACK_LINES: usize = 200;
+
+/// What the parser says about the typed text.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Check {
+    /// Nothing to send.
+    Empty,
+    /// Every line parses: send these lines (blank and comment-only lines dropped).
+    Ready {
+        /// The lines to send, one `raw` message each.
+        lines: Vec<String>,
+        /// The number of instructions in them.
+        instructions: usize,
+    },
+    /// The parser's error, with line and column.
+    Invalid(String),
+}
+
+/// Checks the console's text with the shared parser (the same the bridge uses).
+pub fn check(text: &str) -> Check {
+    match parse_script(text) {
+        Err(error) => Check::Invalid(error.to_string()),
+        Ok(instructions) if instructions.is_empty() => Check::Empty,
+        Ok(instructions) => Check::Ready {
+            lines: text
+                .lines()
+                .filter(|line| !matches!(parse_script(line), Ok(parsed) if parsed.is_empty()))
+                .map(|line| line.trim().to_owned())
+                .collect(),
+            instructions: instructions.len(),
+        },
+    }
+}
+
+/// One received frame as the console shows it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FeedbackLine {
+    /// A number that grows with every frame (a stable key for the list).
+    pub id: u64,
+    /// The gateway it came from.
+    pub gateway: usize,
+    /// The unit's station.
+    pub station: u8,
+    /// The meaning, in the protocol's notation.
+    pub text: String,
+    /// The restored data bytes in hex.
+    pub hex: String,
+}
+
+/// The most recent feedback frames, newest first.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct FeedbackLog {
+    lines: VecDeque<FeedbackLine>,
+    next_id: u64,
+}
+
+impl FeedbackLog {
+    /// Decodes `frame` and puts it first, dropping the oldest beyond
+    /// [`FEEDBACK_LINES`].
+    pub fn push(&mut self, frame: &FeedbackFrame) {
+        let line = FeedbackLine {
+            id: self.next_id,
+            gateway: frame.gateway,
+            station: frame.station,
+            text: describe(frame),
+            hex: frame
+                .data
+                .iter()
+                .map(|byte| format!("{byte:02X}"))
+                .collect::<Vec<_>>()
+                .join(" "),
+        };
+        self.next_id += 1;
+        self.lines.push_front(line);
+        self.lines.truncate(FEEDBACK_LINES);
+    }
+
+    /// The lines, newest first.
+    pub fn lines(&self) -> impl Iterator<Item = &FeedbackLine> {
+        self.lines.iter()
+    }
+
+    /// Forgets every line.
+    pub fn clear(&mut self) {
+        self.lines.clear();
+    }
+
+    /// How many lines there are.
+    pub fn len(&self) -> usize {
+        self.lines.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.lines.is_empty()
+    }
+}
+
+/// A frame's meaning in the protocol's notation: `PV = 3`, `QP[3] = 1000`,
+/// `ER: value out of range … (error 0x33, QT (0x27), index 3)`.
+pub fn describe(frame: &FeedbackFrame) -> String {
+    let decoded = Frame::new(frame.station, frame.code, &frame.data)
+        .map_err(|err| err.to_string())
+        .and_then(|frame| Feedback::from_frame(&frame).map_err(|err| err.to_string()));
+    match decoded {
+        Err(error) => format!("? code {:#04x}: {error}", frame.code),
+        Ok(Feedback::Ack(ack)) => describe_ack(ack),
+        Ok(Feedback::Notification(notice)) => {
+            if notice.kind == code::notification::PVT_WATERMARK {
+                format!("RTCN {} (PVT watermark)", notice.kind)
+            } else {
+                format!("RTCN {}", notice.kind)
+            }
+        }
+        Ok(Feedback::Error(error)) => format!("ER: {error}"),
+        Ok(Feedback::Unknown { code, .. }) => format!("code {code:#04x}"),
+    }
+}
+
+fn describe_ack(ack: Ack) -> String {
+    match ack {
+        Ack::Begin { at_us } => format!("BG = {at_us}"),
+        Ack::MotionProfile { param, value } => format!("MP[{param}] = {value}"),
+        Ack::PvtStart { value } => format!("PV = {value}"),
+        Ack::PvtPosition {
+            row,
+            position_counts,
+        } => format!("QP[{row}] = {position_counts}"),
+        Ack::PvtVelocity {
+            row,
+            velocity_counts_s,
+        } => format!("QV[{row}] = {velocity_counts_s}"),
+        Ack::PvtTime { row, duration_ms } => format!("QT[{row}] = {duration_ms}"),
+        Ack::Serial { serial } => format!("SN = {serial}"),
+        Ack::Motor { on } => format!("MO = {}", u8::from(on)),
+        Ack::PtpSpeed { speed_counts_s } => format!("SP = {speed_counts_s}"),
+        Ack::PtpPosition { position_counts } => format!("PA = {position_counts}"),
+        Ack::StopDecel { decel_counts_s2 } => format!("SD = {decel_counts_s2}"),
+        Ack::InfoEnable { index, enabled } => format!("IE[{index}] = {}", u8::from(enabled)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(station: u8, code: u8, data: &[u8]) -> FeedbackFrame {
+        FeedbackFrame {
+            gateway: 0,
+            station,
+            code,
+            data: data.to_vec(),
+        }
+    }
+
+    #[test]
+    fn valid_text_is_ready_line_by_line() {
+        assert_eq!(check("  \n # only a comment\n"), Check::Empty);
+        assert_eq!(
+            check("*5;PV;\n\n# query\n*0; MO=0;"),
+            Check::Ready {
+                lines: vec!["*5;PV;".into(), "*0; MO=0;".into()],
+                instructions: 4
+            }
+        );
+    }
+
+    #[test]
+    fn the_parser_error_is_shown_with_its_place() {
+        let Check::Invalid(error) = check("*5;\nQT[3]=0;") else {
+            panic!("QT=0 must be refused");
+        };
+        assert!(error.starts_with("line 2, column"), "{error}");
+        let Check::Invalid(error) = check("PV") else {
+            panic!("missing ;");
+        };
+        assert!(error.contains("`;`"), "{error}");
+    }
+
+    #[test]
+    fn frames_are_decoded_in_the_manuals_notation() {
+        assert_eq!(describe(&frame(5, code::PV, &[3, 0])), "PV = 3");
+        assert_eq!(
+            describe(&frame(5, code::QP, &[3, 0, 0xE8, 3, 0, 0])),
+            "QP[3] = 1000"
+        );
+        assert_eq!(describe(&frame(5, code::MO, &[1])), "MO = 1");
+        assert_eq!(
+            describe(&frame(9, code::RTCN, &[44])),
+            "RTCN 44 (PVT watermark)"
+        );
+        let error = describe(&frame(9, code::ER, &[0x33, code::QT, 3]));
+        assert!(error.starts_with("ER: value out of range"), "{error}");
+        assert_eq!(describe(&frame(5, 0x70, &[])), "code 0x70");
+        let bad = describe(&frame(5, code::PV, &[3]));
+        assert!(bad.starts_with("? code 0x23"), "{bad}");
+        let bad = describe(&frame(200, code::PV, &[3, 0]));
+        assert!(bad.contains("station 200"), "{bad}");
+    }
+
+    #[test]
+    fn the_log_keeps_the_newest_frames_first() {
+        let mut log = FeedbackLog::default();
+        assert!(log.is_empty());
+        for value in 0..(FEEDBACK_LINES as u8 + 5) {
+            log.push(&frame(5, code::PV, &[value, 0]));
+        }
+        assert_eq!(log.len(), FEEDBACK_LINES);
+        let newest = log.lines().next().unwrap();
+        assert_eq!(newest.text, format!("PV = {}", FEEDBACK_LINES + 4));
+        assert_eq!(newest.hex, format!("{:02X} 00", FEEDBACK_LINES + 4));
+        assert_eq!(newest.id, FEEDBACK_LINES as u64 + 4);
+        log.clear();
+        assert!(log.is_empty());
+    }
+}

@@ -1,0 +1,278 @@
+//! The app's shared state and its ways out, provided to every component as one
+//! [`Ctx`] in the Leptos context.
+//!
+//! Components reach the bridge only through [`Services`]: a [`Transport`] for HTTP and
+//! a [`Sender`] for WebSocket messages. The app passes the real ones; component tests
+//! pass a fake bridge and count what was sent.
+
+use std::rc::Rc;
+
+use floatball_shared::api::{ClientMessage, ServerMessage, ShowSummary, Status};
+use floatball_shared::show::Show;
+use leptos::prelude::*;
+use leptos::task::spawn_local;
+
+use crate::client::{Client, Failure, Transport};
+use crate::connection::Link;
+use crate::console::FeedbackLog;
+use crate::files::{Listing, LocalFile};
+use crate::i18n::{Lang, Text};
+use crate::page::Page;
+use crate::playlist::PlaylistEditor;
+use crate::session::{Origin, Session};
+use crate::store::LocalStore;
+
+/// Sends messages to the bridge over the WebSocket.
+pub trait Sender {
+    /// Sends `message` now; returns whether it was handed to an open socket.
+    fn send(&self, message: &ClientMessage) -> bool;
+}
+
+/// Everything that leaves the page: HTTP, the WebSocket, the local file store.
+#[derive(Clone)]
+pub struct Services {
+    /// How HTTP requests travel.
+    pub transport: Rc<dyn Transport>,
+    /// How WebSocket messages travel.
+    pub sender: Rc<dyn Sender>,
+    /// Where local files are kept.
+    pub store: LocalStore,
+}
+
+impl std::fmt::Debug for Services {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Services")
+            .field("store", &self.store)
+            .finish_non_exhaustive()
+    }
+}
+
+/// What a preview shows: a parsed show, or why there is none.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PreviewItem {
+    /// A controller file is being fetched.
+    Loading(String),
+    /// The show to draw, with the label of its file.
+    Ready(String, Show),
+    /// The file could not be read.
+    Failed(String, String),
+}
+
+/// What the E-stop buttons say after a press.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EstopAck {
+    /// Handed to the socket.
+    Sent,
+    /// The socket was not open.
+    NotSent,
+}
+
+/// The app's state, `Copy` so every closure can hold it.
+#[derive(Debug, Clone, Copy)]
+pub struct Ctx {
+    /// The interface language.
+    pub lang: RwSignal<Lang>,
+    /// The WebSocket's state.
+    pub link: RwSignal<Link>,
+    /// The page asked for (shown as [`Page::resolve`] says).
+    pub page: RwSignal<Page>,
+    /// The login held, if any.
+    pub session: RwSignal<Option<Session>>,
+    /// Why the app went back to Login by itself (expired login, must change password).
+    pub login_notice: RwSignal<Option<Text>>,
+    /// The latest status from the bridge.
+    pub status: RwSignal<Option<Status>>,
+    /// The latest request the bridge refused over the WebSocket.
+    pub bridge_error: RwSignal<Option<String>>,
+    /// Local files.
+    pub local_files: RwSignal<Listing<LocalFile>>,
+    /// Controller files.
+    pub controller_files: RwSignal<Listing<ShowSummary>>,
+    /// The playlist being edited.
+    pub playlist: RwSignal<PlaylistEditor>,
+    /// Decoded feedback frames for the console.
+    pub feedback: RwSignal<FeedbackLog>,
+    /// What the Preview page shows.
+    pub preview: RwSignal<Option<PreviewItem>>,
+    /// The last E-stop press (its number and outcome), shown on every E-stop button
+    /// until it times out.
+    pub estop_ack: RwSignal<Option<(u32, EstopAck)>>,
+    origin: StoredValue<Origin>,
+    services: StoredValue<Services, LocalStorage>,
+}
+
+impl Ctx {
+    /// Fresh state for a page loaded from `origin`.
+    pub fn new(services: Services, origin: Origin, lang: Lang) -> Self {
+        Self {
+            lang: RwSignal::new(lang),
+            link: RwSignal::new(Link::Disconnected),
+            page: RwSignal::new(Page::default()),
+            session: RwSignal::new(None),
+            login_notice: RwSignal::new(None),
+            status: RwSignal::new(None),
+            bridge_error: RwSignal::new(None),
+            local_files: RwSignal::new(Listing::default()),
+            controller_files: RwSignal::new(Listing::default()),
+            playlist: RwSignal::new(PlaylistEditor::default()),
+            feedback: RwSignal::new(FeedbackLog::default()),
+            preview: RwSignal::new(None),
+            estop_ack: RwSignal::new(None),
+            origin: StoredValue::new(origin),
+            services: StoredValue::new_local(services),
+        }
+    }
+
+    /// `text` in the current language (tracked).
+    pub fn t(&self, text: Text) -> &'static str {
+        self.lang.get().t(text)
+    }
+
+    /// Where the page came from.
+    pub fn origin(&self) -> Origin {
+        self.origin.get_value()
+    }
+
+    /// The local file store.
+    pub fn store(&self) -> LocalStore {
+        self.services.with_value(|services| services.store.clone())
+    }
+
+    /// A client for the controller at `address`, without a login.
+    pub fn client_for(&self, address: &str) -> Client {
+        let base = self.origin.with_value(|origin| origin.base_url(address));
+        let transport = self
+            .services
+            .with_value(|services| Rc::clone(&services.transport));
+        Client::new(transport, base)
+    }
+
+    /// A client with the current login, if there is one.
+    pub fn client(&self) -> Option<Client> {
+        let session = self.session.get_untracked()?;
+        Some(self.client_for(&session.address).with_token(session.token))
+    }
+
+    /// Whether the bridge is connected (tracked).
+    pub fn connected(&self) -> bool {
+        self.link.get() == Link::Connected
+    }
+
+    /// Whether a login is held (tracked).
+    pub fn logged_in(&self) -> bool {
+        self.session.with(Option::is_some)
+    }
+
+    /// Sends `message` over the WebSocket; returns whether it went.
+    pub fn send(&self, message: &ClientMessage) -> bool {
+        self.services
+            .with_value(|services| Rc::clone(&services.sender))
+            .send(message)
+    }
+
+    /// Takes in one message from the bridge.
+    pub fn receive(&self, message: ServerMessage) {
+        match message {
+            ServerMessage::Status(status) => self.status.set(Some(status)),
+            ServerMessage::Feedback(frame) => self.feedback.update(|log| log.push(&frame)),
+            ServerMessage::Error { message } => self.bridge_error.set(Some(message)),
+            ServerMessage::Pong => {}
+        }
+    }
+
+    /// Reacts to a failure every page treats alike: an expired login goes back to
+    /// Login, a refused control call asks for the password change. Returns the
+    /// sentence to show.
+    pub fn failed(&self, failure: &Failure) -> String {
+        match failure {
+            Failure::Unauthorized => self.expire(Text::SessionExpired),
+            Failure::MustChangePassword => {
+                self.session.update(|session| {
+                    if let Some(session) = session {
+                        session.must_change_password = true;
+                    }
+                });
+                self.login_notice.set(Some(Text::MustChangePasswordFirst));
+                self.page.set(Page::Login);
+            }
+            _ => {}
+        }
+        self.lang.get_untracked().failure(failure)
+    }
+
+    /// Drops the login and goes to Login, saying why.
+    pub fn expire(&self, why: Text) {
+        self.session.set(None);
+        self.status.set(None);
+        self.login_notice.set(Some(why));
+        self.page.set(Page::Login);
+    }
+
+    /// Fetches the controller's files and the playlist again (after a login, a
+    /// reconnect, an upload).
+    pub fn refresh(&self) {
+        let Some(client) = self.client() else { return };
+        let ctx = *self;
+        spawn_local(async move {
+            match client.shows().await {
+                Ok(shows) => ctx.controller_files.update(|list| list.replace(shows)),
+                Err(failure) => {
+                    ctx.failed(&failure);
+                    return;
+                }
+            }
+            match client.playlist().await {
+                Ok(playlist) => ctx.playlist.update(|editor| editor.replace(playlist)),
+                Err(failure) => {
+                    ctx.failed(&failure);
+                }
+            }
+        });
+    }
+
+    /// Reloads the local files from the browser's store.
+    pub fn load_local_files(&self) {
+        let ctx = *self;
+        let store = self.store();
+        spawn_local(async move {
+            match store.load_all().await {
+                Ok(files) => ctx.local_files.update(|list| list.replace(files)),
+                Err(error) => leptos::logging::warn!("cannot read local files: {error}"),
+            }
+        });
+    }
+
+    /// Opens the Preview page on a local file.
+    pub fn preview_local(&self, file: &LocalFile) {
+        let item = match file.to_show() {
+            Ok(show) => PreviewItem::Ready(file.name.clone(), show),
+            Err(error) => PreviewItem::Failed(file.name.clone(), error),
+        };
+        self.preview.set(Some(item));
+        self.page.set(Page::Preview);
+    }
+
+    /// Opens the Preview page on a controller file, fetching it first.
+    pub fn preview_controller(&self, name: &str) {
+        let Some(client) = self.client() else { return };
+        let name = name.to_owned();
+        self.preview.set(Some(PreviewItem::Loading(name.clone())));
+        self.page.set(Page::Preview);
+        let ctx = *self;
+        spawn_local(async move {
+            let item = match client.download(&name).await {
+                Ok(json) => match Show::from_json(&json) {
+                    Ok(show) => PreviewItem::Ready(name.clone(), show),
+                    Err(error) => PreviewItem::Failed(name.clone(), error.to_string()),
+                },
+                Err(failure) => PreviewItem::Failed(name.clone(), ctx.failed(&failure)),
+            };
+            // Only if the operator has not picked another file meanwhile.
+            ctx.preview.update(|preview| {
+                if matches!(preview, Some(PreviewItem::Loading(loading)) if *loading == name) {
+                    *preview = Some(item);
+                }
+            });
+        });
+    }
+}

@@ -1,0 +1,102 @@
+//! The app's pages and their place in the URL (`#/files`), so a reload or the
+//! browser's back button stays on the same page.
+
+/// A page of the app.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Page {
+    /// Controller address and password; the forced password change.
+    Login,
+    /// Local and controller files.
+    #[default]
+    Files,
+    /// A show's animation.
+    Preview,
+    /// The playlist, Start / E-stop / Reset and the live status.
+    Control,
+    /// Default delay and cycles, loop.
+    Settings,
+    /// Instruction lines and feedback frames, for engineers.
+    Console,
+}
+
+impl Page {
+    /// The pages in the navigation bar, in order (Settings is reached from Control,
+    /// Login from the connection button).
+    pub const NAV: [Page; 4] = [Page::Files, Page::Preview, Page::Control, Page::Console];
+
+    /// Every page.
+    pub const ALL: [Page; 6] = [
+        Page::Login,
+        Page::Files,
+        Page::Preview,
+        Page::Control,
+        Page::Settings,
+        Page::Console,
+    ];
+
+    /// The page's name in the URL and in `data-testid`s.
+    pub fn key(self) -> &'static str {
+        match self {
+            Page::Login => "login",
+            Page::Files => "files",
+            Page::Preview => "preview",
+            Page::Control => "control",
+            Page::Settings => "settings",
+            Page::Console => "console",
+        }
+    }
+
+    /// The URL fragment: `#/files`.
+    pub fn hash(self) -> String {
+        format!("#/{}", self.key())
+    }
+
+    /// The page a URL fragment names; anything else is the default page.
+    pub fn from_hash(hash: &str) -> Self {
+        let key = hash.trim_start_matches('#').trim_start_matches('/');
+        Self::ALL
+            .into_iter()
+            .find(|page| page.key() == key)
+            .unwrap_or_default()
+    }
+
+    /// Whether the page needs a login: Files and Preview work offline (local files),
+    /// the others talk to the controller.
+    pub fn needs_login(self) -> bool {
+        matches!(self, Page::Control | Page::Settings | Page::Console)
+    }
+
+    /// The page to show when `self` is asked for: Login instead of a page that needs
+    /// a login the app does not have.
+    pub fn resolve(self, logged_in: bool) -> Self {
+        if self.needs_login() && !logged_in {
+            Page::Login
+        } else {
+            self
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hashes_round_trip() {
+        for page in Page::ALL {
+            assert_eq!(Page::from_hash(&page.hash()), page);
+        }
+        assert_eq!(Page::from_hash(""), Page::Files);
+        assert_eq!(Page::from_hash("#/nowhere"), Page::Files);
+        assert_eq!(Page::from_hash("#control"), Page::Control);
+    }
+
+    #[test]
+    fn control_pages_need_a_login() {
+        assert_eq!(Page::Control.resolve(false), Page::Login);
+        assert_eq!(Page::Console.resolve(false), Page::Login);
+        assert_eq!(Page::Control.resolve(true), Page::Control);
+        assert_eq!(Page::Files.resolve(false), Page::Files);
+        assert_eq!(Page::Preview.resolve(false), Page::Preview);
+    }
+}
