@@ -23,6 +23,7 @@ use argon2::Argon2;
 use argon2::password_hash::phc::PasswordHash;
 use argon2::password_hash::{PasswordHasher, PasswordVerifier};
 use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
 
 use crate::durable;
 
@@ -267,16 +268,54 @@ fn store(dir: &Path, record: &Record) -> Result<(), PasswordError> {
         .map_err(|source| PasswordError::Io { path, source })
 }
 
-/// The bearer tokens handed out by `POST /api/login`, each with its last use.
+/// The file that keeps the sessions across restarts: the SHA-256 of every live token
+/// (never a token itself), so phones and kiosks reconnect after the bridge restarts
+/// without logging in again.
+const SESSIONS_FILE: &str = "sessions.json";
+
+/// The bearer tokens handed out by `POST /api/login`, each with its last use. Tokens
+/// are known by their SHA-256; a restart counts as a use of every token it keeps.
 #[derive(Debug, Default)]
 pub struct Tokens {
     last_used: Mutex<HashMap<String, Instant>>,
+    /// Where the sessions are kept; `None` keeps them in memory only.
+    dir: Option<PathBuf>,
+}
+
+fn digest(token: &str) -> String {
+    durable::hex(&Sha256::digest(token.as_bytes()))
 }
 
 impl Tokens {
-    /// No tokens.
+    /// No tokens, kept in memory only.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// The tokens kept in `dir` (none if the file is missing or unreadable, which is
+    /// logged), valid from `now`; changes are written back there.
+    pub fn open(dir: &Path, now: Instant) -> Self {
+        let path = dir.join(SESSIONS_FILE);
+        let digests: Vec<String> = match std::fs::read(&path) {
+            Ok(bytes) => serde_json::from_slice(&bytes).unwrap_or_else(|error| {
+                tracing::warn!("{}: {error}; everyone logs in again", path.display());
+                Vec::new()
+            }),
+            Err(error) if error.kind() == io::ErrorKind::NotFound => Vec::new(),
+            Err(error) => {
+                tracing::warn!("{}: {error}; everyone logs in again", path.display());
+                Vec::new()
+            }
+        };
+        let last_used = digests
+            .into_iter()
+            .take(MAX_TOKENS)
+            .map(|digest| (digest, now))
+            .collect();
+        Self {
+            last_used: Mutex::new(last_used),
+            dir: Some(dir.to_path_buf()),
+        }
     }
 
     /// A new random token, valid from `now`.
@@ -293,24 +332,27 @@ impl Tokens {
             && let Some(oldest) = tokens
                 .iter()
                 .min_by_key(|(_, last_used)| **last_used)
-                .map(|(token, _)| token.clone())
+                .map(|(digest, _)| digest.clone())
         {
             tokens.remove(&oldest);
         }
-        tokens.insert(token.clone(), now);
+        tokens.insert(digest(&token), now);
+        self.keep(&tokens);
         Ok(token)
     }
 
     /// Whether `token` is valid at `now`; a valid token's idle time starts again.
     pub fn touch(&self, token: &str, now: Instant) -> bool {
         let mut tokens = self.lock();
-        match tokens.get_mut(token) {
+        let digest = digest(token);
+        match tokens.get_mut(&digest) {
             Some(last_used) if !expired(*last_used, now) => {
                 *last_used = now.max(*last_used);
                 true
             }
             Some(_) => {
-                tokens.remove(token);
+                tokens.remove(&digest);
+                self.keep(&tokens);
                 false
             }
             None => false,
@@ -320,18 +362,40 @@ impl Tokens {
     /// Whether `token` is valid at `now`, without counting this as a use.
     pub fn is_valid(&self, token: &str, now: Instant) -> bool {
         self.lock()
-            .get(token)
+            .get(&digest(token))
             .is_some_and(|last_used| !expired(*last_used, now))
     }
 
     /// Ends `token` (logout).
     pub fn revoke(&self, token: &str) {
-        self.lock().remove(token);
+        let mut tokens = self.lock();
+        tokens.remove(&digest(token));
+        self.keep(&tokens);
     }
 
     /// Ends every token but `keep` (after a password change).
     pub fn revoke_others(&self, keep: &str) {
-        self.lock().retain(|token, _| token == keep);
+        let keep = digest(keep);
+        let mut tokens = self.lock();
+        tokens.retain(|digest, _| *digest == keep);
+        self.keep(&tokens);
+    }
+
+    /// Writes the live tokens' digests, if they are kept on disk. A failure is logged:
+    /// the sessions still work until the next restart.
+    fn keep(&self, tokens: &HashMap<String, Instant>) {
+        let Some(dir) = &self.dir else { return };
+        let mut digests: Vec<&String> = tokens.keys().collect();
+        digests.sort();
+        let written = serde_json::to_vec(&digests)
+            .map_err(io::Error::other)
+            .and_then(|bytes| durable::write_atomic(dir, SESSIONS_FILE, &bytes));
+        if let Err(error) = written {
+            tracing::warn!(
+                "cannot keep the sessions in {}: {error}",
+                dir.join(SESSIONS_FILE).display()
+            );
+        }
     }
 
     fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<String, Instant>> {
@@ -415,6 +479,36 @@ fn forget_old(times: &mut VecDeque<Instant>, now: Instant) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sessions_survive_a_restart_and_the_file_holds_no_token() {
+        let dir = tempfile::tempdir().unwrap();
+        let start = Instant::now();
+        let tokens = Tokens::open(dir.path(), start);
+        let kept = tokens.issue(start).unwrap();
+        let ended = tokens.issue(start).unwrap();
+        tokens.revoke(&ended);
+        let file = std::fs::read_to_string(dir.path().join(SESSIONS_FILE)).unwrap();
+        assert!(!file.contains(&kept) && !file.contains(&ended), "{file}");
+
+        let later = start + Duration::from_secs(3600);
+        let restarted = Tokens::open(dir.path(), later);
+        assert!(restarted.touch(&kept, later));
+        assert!(!restarted.is_valid(&ended, later));
+        // The restart counts as a use: 12 h idle from then.
+        assert!(restarted.is_valid(&kept, later + IDLE_EXPIRY - Duration::from_secs(1)));
+        assert!(!restarted.is_valid(&kept, later + IDLE_EXPIRY + Duration::from_secs(1)));
+    }
+
+    #[test]
+    fn a_damaged_sessions_file_means_logging_in_again() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join(SESSIONS_FILE), b"{not json").unwrap();
+        let tokens = Tokens::open(dir.path(), Instant::now());
+        assert!(!tokens.is_valid("anything", Instant::now()));
+        let token = tokens.issue(Instant::now()).unwrap();
+        assert!(Tokens::open(dir.path(), Instant::now()).is_valid(&token, Instant::now()));
+    }
 
     #[test]
     fn the_first_start_writes_the_initial_password() {

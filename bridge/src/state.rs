@@ -90,6 +90,7 @@ impl AppState {
         let password = Password::open(&paths.data_dir)?;
         let shows = ShowStore::open(&paths.data_dir)?;
         let playlist = PlaylistStore::open(&paths.data_dir)?;
+        let tokens = Tokens::open(&paths.data_dir, clock.now());
         let status = Arc::new(watch::channel(Status::default()).0);
         let gateways = Gateways::open(&config, &status)?;
         let playback = Playback::spawn(
@@ -104,7 +105,7 @@ impl AppState {
                 paths,
                 clock,
                 password,
-                tokens: Tokens::new(),
+                tokens,
                 login_limiter: LoginLimiter::new(),
                 shows,
                 playlist,
