@@ -3,12 +3,40 @@
 
 use crate::tools::{self, Env};
 
-/// The cargo profile the served app is built with (see the workspace `Cargo.toml`).
-const PROFILE: &str = "wasm-release";
+/// How the app is built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Build {
+    /// Small and fast, as operators get it (`cargo xtask run`): the `wasm-release`
+    /// profile of the workspace `Cargo.toml`.
+    Release,
+    /// For the end-to-end tests: the dev profile, which reuses what the browser tests
+    /// already compiled instead of compiling every dependency again.
+    Test,
+}
+
+impl Build {
+    fn profile(self) -> &'static str {
+        match self {
+            Build::Release => "wasm-release",
+            Build::Test => "dev",
+        }
+    }
+
+    /// The directory cargo puts the profile's output in.
+    fn dir(self) -> &'static str {
+        match self {
+            Build::Release => "wasm-release",
+            Build::Test => "debug",
+        }
+    }
+}
 
 /// Builds the app into `static/pkg/`.
-pub fn build_web(env: &Env) -> Result<(), String> {
-    println!("xtask: building the web app into static/pkg/");
+pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
+    println!(
+        "xtask: building the web app ({} profile) into static/pkg/",
+        build.profile()
+    );
     tools::run_command(tools::cargo(env).args([
         "build",
         "--package",
@@ -17,12 +45,12 @@ pub fn build_web(env: &Env) -> Result<(), String> {
         "--target",
         "wasm32-unknown-unknown",
         "--profile",
-        PROFILE,
+        build.profile(),
     ]))?;
     let wasm = env
         .target_dir
         .join("wasm32-unknown-unknown")
-        .join(PROFILE)
+        .join(build.dir())
         .join("floatball_web.wasm");
     let out_dir = env.root.join("static").join("pkg");
     tools::run_command(

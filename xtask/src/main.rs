@@ -86,7 +86,7 @@ fn run(args: &[String]) -> Result<(), String> {
     let env = tools::Env::discover(&root)?;
     tools::ensure_wasm_target(&env)?;
     tools::ensure_wasm_bindgen_cli(&env)?;
-    app::build_web(&env)?;
+    app::build_web(&env, app::Build::Release)?;
     let port = options.listen.rsplit(':').next().unwrap_or("8080");
     println!("xtask: starting floatball; open http://localhost:{port} (Ctrl-C stops it)");
     let mut command = tools::cargo(&env);

@@ -93,7 +93,7 @@ pub fn test() -> Result<(), String> {
         )
     });
     stage("build the app and the bridge", &|env| {
-        app::build_web(env)?;
+        app::build_web(env, app::Build::Test)?;
         tools::run_command(tools::cargo(env).args([
             "build",
             "--package",
