@@ -328,7 +328,7 @@ async fn every_ball_lands_on_its_pixel_in_its_lit_colour() {
     let mut stage = Stage::new(canvas.clone(), &show, Vec::new(), RendererKind::WebGl2)
         .expect("WebGL2 in headless Chromium");
     assert_eq!(stage.kind(), RendererKind::WebGl2);
-    stage.draw(500.0, true).expect("a frame");
+    assert!(stage.draw(500.0, true), "a frame");
     assert_eq!((canvas.width(), canvas.height()), (480, 360));
 
     let camera = stage.camera();
@@ -440,6 +440,23 @@ async fn a_ball_beyond_a_limit_is_red_and_a_tap_plots_it_with_the_violation() {
     );
     let calm = pixel_2d(&plot_canvas, at(950.0));
     assert!(near(calm, [11, 17, 23], 4), "no band later: {calm:?}");
+
+    // The time on screen is marked, and moves with it.
+    let cursor_left = || {
+        let style = attribute(&container, "preview-plot-cursor", "style");
+        style
+            .split("left: ")
+            .nth(1)
+            .and_then(|rest| rest.split('%').next())
+            .and_then(|left| left.parse::<f64>().ok())
+            .unwrap_or_else(|| panic!("{style}"))
+    };
+    let at_start = cursor_left();
+    let want = layout.time.px(0.0) / f64::from(plot_canvas.width()) * 100.0;
+    assert!((at_start - want).abs() < 0.01, "{at_start} vs {want}");
+    element(&container, "preview-forward").click();
+    tick().await;
+    assert!(cursor_left() > at_start);
 
     // The other ball: no problems. Close: no plot.
     tap(&canvas, fine);

@@ -510,7 +510,13 @@ pub fn PreviewPage(
             <Show when=move || renderer.get() == RendererKind::WebGl2 && show.with(Option::is_some)>
                 <p class="muted small">{move || lang.get().t(Text::GestureHint)}</p>
             </Show>
-            {move || plot.get().map(|plot| view! { <PlotPanel plot lang on_close=move || selected.set(None) /> })}
+            {move || {
+                plot.get()
+                    .map(|plot| {
+                        let t_ms = Signal::derive(move || playback.with(Playback::t_ms));
+                        view! { <PlotPanel plot lang t_ms on_close=move || selected.set(None) /> }
+                    })
+            }}
             <Show when=move || perf_open.get()>
                 <PerfPanel lang />
             </Show>
@@ -553,16 +559,23 @@ fn animate(step: Rc<dyn Fn()>, alive: Arc<AtomicBool>) {
     });
 }
 
-/// The tapped ball's plot, its figures and its problems.
+/// The tapped ball's plot, its figures and its problems, with the time on screen
+/// marked.
 #[component]
 fn PlotPanel(
     plot: BallPlot,
     #[prop(into)] lang: Signal<Lang>,
+    /// The show time on screen, ms.
+    #[prop(into)]
+    t_ms: Signal<f64>,
     on_close: impl Fn() + 'static,
 ) -> impl IntoView {
     let canvas = NodeRef::<Canvas>::new();
     let plot = StoredValue::new(plot);
     let resized = RwSignal::new(0u32);
+    // Where the panels are on the canvas drawn, as shares of its size.
+    let drawn = RwSignal::new(None::<plot::PlotLayout>);
+    let size = RwSignal::new((1.0f64, 1.0f64));
     let resize = window_event_listener(leptos::ev::resize, move |_| resized.update(|n| *n += 1));
     on_cleanup(move || resize.remove());
     Effect::new(move |_| {
@@ -583,6 +596,7 @@ fn PlotPanel(
         canvas.set_width(width as u32);
         canvas.set_height(height as u32);
         plot.with_value(|plot| {
+            let end = format_duration_ms(plot.duration_ms as u64);
             plot::draw(
                 &context,
                 plot,
@@ -590,10 +604,25 @@ fn PlotPanel(
                 plot::Labels {
                     position: lang.t(Text::PlotPosition),
                     velocity: lang.t(Text::PlotVelocity),
+                    start: &format_duration_ms(0),
+                    end: &end,
                 },
             );
+            drawn.set(Some(plot.layout(width, height)));
+            size.set((width, height));
         });
     });
+    let cursor = move || {
+        let layout = drawn.get()?;
+        let (width, height) = size.get();
+        let x = layout.time.px(t_ms.get()) / width * 100.0;
+        let top = layout.position.px_lo / height * 100.0;
+        let bottom = layout.velocity.px_hi / height * 100.0;
+        Some(format!(
+            "left: {x:.3}%; top: {top:.3}%; height: {:.3}%",
+            bottom - top
+        ))
+    };
     let (index, row, col, facts, problems) = plot.with_value(|plot| {
         let (highest, lowest) = plot.position_range_mm();
         (
@@ -617,7 +646,10 @@ fn PlotPanel(
                 </button>
             </div>
             <p class="muted small">{move || lang.get().ball_facts(facts.0, facts.1, facts.2)}</p>
-            <canvas node_ref=canvas class="plot-canvas" data-testid="preview-plot-canvas"></canvas>
+            <div class="plot-wrap">
+                <canvas node_ref=canvas class="plot-canvas" data-testid="preview-plot-canvas"></canvas>
+                <div class="plot-cursor" data-testid="preview-plot-cursor" style=cursor></div>
+            </div>
             {if count == 0 {
                 view! { <p class="note done">{move || lang.get().t(Text::BallWithinLimits)}</p> }.into_any()
             } else {

@@ -273,6 +273,10 @@ pub struct Labels<'a> {
     pub position: &'a str,
     /// Over the lower panel.
     pub velocity: &'a str,
+    /// Under the start of the time axis.
+    pub start: &'a str,
+    /// Under its end.
+    pub end: &'a str,
 }
 
 /// Draws `plot` on a `width` × `height` canvas (pixels).
@@ -340,6 +344,15 @@ pub fn draw(
         }
         let _ = context.set_line_dash(&js_sys::Array::new());
     }
+
+    // The time axis's ends.
+    context.set_fill_style_str(LABEL);
+    context.set_text_baseline("top");
+    let below = layout.velocity.px_hi + 3.0;
+    let _ = context.fill_text(labels.start, x0, below);
+    context.set_text_align("right");
+    let _ = context.fill_text(labels.end, x1, below);
+    context.set_text_align("left");
 
     // The zero line of the velocity.
     context.set_stroke_style_str(AXIS);

@@ -43,15 +43,6 @@ impl RendererKind {
     }
 }
 
-/// How long one frame took, ms.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FrameTiming {
-    /// Sampling the show.
-    pub eval_ms: f64,
-    /// Sampling and drawing (the GPU's work excepted unless [`Stage::finish`] follows).
-    pub frame_ms: f64,
-}
-
 #[derive(Debug)]
 enum Renderer {
     Gl(GlView),
@@ -230,22 +221,27 @@ impl Stage {
         }
     }
 
-    /// Draws the show at `t_ms` unless that very frame is on screen already (`force`
-    /// draws anyway); the time it took, when it drew.
-    pub fn draw(&mut self, t_ms: f64, force: bool) -> Option<FrameTiming> {
-        let resized = self.fit_canvas();
-        if !force && !resized && self.drawn_ms == Some(t_ms) {
-            return None;
-        }
-        let started = now_ms();
+    /// Samples every ball at `t_ms` into the stage's buffers (what [`Self::draw`]
+    /// does first); balls beyond a limit turn red.
+    pub fn sample(&mut self, t_ms: f64) {
         self.sampler
             .sample(t_ms, &mut self.positions_mm, Some(&mut self.colours));
-        let eval_ms = now_ms() - started;
         for unit in &self.beyond {
             if let Some(colour) = self.colours.get_mut(*unit) {
                 *colour = BEYOND_COLOUR;
             }
         }
+    }
+
+    /// Samples and draws the show at `t_ms` unless that very frame is on screen
+    /// already (`force` draws anyway); whether it drew. The GPU may still be drawing
+    /// on return (see [`Self::finish`]).
+    pub fn draw(&mut self, t_ms: f64, force: bool) -> bool {
+        let resized = self.fit_canvas();
+        if !force && !resized && self.drawn_ms == Some(t_ms) {
+            return false;
+        }
+        self.sample(t_ms);
         match &self.renderer {
             Renderer::Gl(gl) => {
                 let radius = self.scene.ball_radius_m;
@@ -282,10 +278,7 @@ impl Stage {
             ),
         }
         self.drawn_ms = Some(t_ms);
-        Some(FrameTiming {
-            eval_ms,
-            frame_ms: now_ms() - started,
-        })
+        true
     }
 
     /// Waits until the GPU has finished the frames drawn so far (the 2D canvas draws
