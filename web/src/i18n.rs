@@ -171,6 +171,42 @@ texts! {
     BeyondLimits => "超出默认限制：", "Beyond the default limits:";
     /// Preview: the file cannot be read.
     CannotRead => "无法读取这个文件：", "This file cannot be read:";
+    /// Preview: the 3D view.
+    View3d => "三维", "3D";
+    /// Preview: the 2D view from above.
+    TopView => "俯视", "Top view";
+    /// Preview: back to the default camera.
+    ResetView => "复位视角", "Reset view";
+    /// Preview: the playback speed.
+    PlaybackSpeed => "播放速度", "Speed";
+    /// Preview: follow the matrix's show time.
+    Live => "实时", "Live";
+    /// Preview: why live mode is off.
+    LiveHint => "矩阵运行这个动作时，可实时跟随它的进度。", "Live follows the matrix while it plays this show.";
+    /// Preview: the browser has no WebGL2.
+    NoWebGl => "此浏览器不支持 WebGL2，显示俯视图。", "This browser has no WebGL2: showing the top view.";
+    /// Preview: how to move the 3D view.
+    GestureHint => "拖动旋转，双指或滚轮缩放，双指或右键拖动平移；点一个球查看它的曲线。", "Drag to turn, pinch or wheel to zoom, two fingers or the right button to pan; tap a ball for its plot.";
+    /// Preview: the plot's upper panel.
+    PlotPosition => "位置（毫米，距顶部）", "Position (mm below the top)";
+    /// Preview: the plot's lower panel.
+    PlotVelocity => "速度（毫米/秒，向下为正）", "Velocity (mm/s, + = down)";
+    /// Preview: close the plot.
+    Close => "关闭", "Close";
+    /// Preview: the ball keeps every limit.
+    BallWithinLimits => "这个球在限制之内。", "This ball stays within the limits.";
+    /// Performance panel: heading and the button that opens it.
+    Performance => "性能", "Performance";
+    /// Performance panel: what it does.
+    PerfExplain => "用合成动作测量本设备每帧计算和绘制所需的时间。", "Measures how long this device takes to evaluate and to draw one frame of synthetic shows.";
+    /// Performance panel: start.
+    PerfRun => "开始测量", "Measure";
+    /// Performance panel: column.
+    PerfEvalMs => "计算（毫秒）", "Evaluate (ms)";
+    /// Performance panel: column.
+    PerfFrameMs => "每帧（毫秒）", "Frame (ms)";
+    /// Performance panel: column.
+    PerfFps => "帧率", "Frames/s";
     /// Control: the playlist.
     Playlist => "配置", "Playlist";
     /// Control: add an entry.
@@ -404,6 +440,45 @@ impl Lang {
         }
     }
 
+    /// A ball of the matrix (`index` row-major, `row` and `col` from 0).
+    pub fn ball_name(self, index: usize, row: u32, col: u32) -> String {
+        let (row, col) = (u64::from(row) + 1, u64::from(col) + 1);
+        match self {
+            Lang::Zh => format!("球 u{index}（第 {row} 行，第 {col} 列）"),
+            Lang::En => format!("Ball u{index} (row {row}, col {col})"),
+        }
+    }
+
+    /// A ball's range and top speed over the show.
+    pub fn ball_facts(self, highest_mm: f64, lowest_mm: f64, peak_mm_s: f64) -> String {
+        match self {
+            Lang::Zh => format!(
+                "最高 {highest_mm:.0} 毫米，最低 {lowest_mm:.0} 毫米，最大速度 {peak_mm_s:.0} 毫米/秒"
+            ),
+            Lang::En => format!(
+                "highest {highest_mm:.0} mm, lowest {lowest_mm:.0} mm, top speed {peak_mm_s:.0} mm/s"
+            ),
+        }
+    }
+
+    /// Performance panel: measuring a size.
+    pub fn measuring(self, balls: usize) -> String {
+        match self {
+            Lang::Zh => format!("正在测量 {balls} 个球…"),
+            Lang::En => format!("Measuring {balls} balls…"),
+        }
+    }
+
+    /// Performance panel: what drew, at what size.
+    pub fn drawn_by(self, webgl2: bool, width: u32, height: u32) -> String {
+        match (self, webgl2) {
+            (Lang::Zh, true) => format!("WebGL2 三维，{width}×{height} 像素"),
+            (Lang::Zh, false) => format!("二维俯视图，{width}×{height} 像素"),
+            (Lang::En, true) => format!("WebGL2 3D, {width}×{height} px"),
+            (Lang::En, false) => format!("2D top view, {width}×{height} px"),
+        }
+    }
+
     /// A show's size and length: `16 balls, 0:12.5`.
     pub fn show_facts(self, units: usize, duration: &str) -> String {
         match self {
@@ -432,6 +507,19 @@ mod tests {
             assert!(!zh.is_empty() && !en.is_empty(), "{text:?}");
             assert_ne!(zh, en, "{text:?} is not translated");
         }
+    }
+
+    #[test]
+    fn balls_are_named_from_one_in_both_languages() {
+        assert_eq!(Lang::En.ball_name(7, 1, 2), "Ball u7 (row 2, col 3)");
+        assert_eq!(Lang::Zh.ball_name(7, 1, 2), "球 u7（第 2 行，第 3 列）");
+        assert!(
+            Lang::Zh
+                .ball_facts(10.0, 7000.0, 1500.4)
+                .contains("1500 毫米/秒")
+        );
+        assert_eq!(Lang::En.measuring(2500), "Measuring 2500 balls…");
+        assert!(Lang::Zh.drawn_by(false, 640, 480).contains("640×480"));
     }
 
     #[test]

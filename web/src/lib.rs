@@ -15,7 +15,11 @@
 //! - [`playlist`]: playlist editing (check, move, delete, edit), form input, Start verdict;
 //! - [`session`]: the controller's address, base and WebSocket URLs, the stored login;
 //! - [`status`]: reading the bridge's status;
-//! - [`preview::playback`], [`preview::top_view`]: the preview's controls and drawing.
+//! - the preview's plain parts: [`preview::playback`] (the controls), [`preview::live`]
+//!   (the machine's clock), [`preview::camera`], [`preview::scene`],
+//!   [`preview::gestures`] (the 3D view's maths and touch), [`preview::plot`] (one
+//!   ball over the show), [`preview::top_view`] (the 2D fallback), and the synthetic
+//!   shows of [`preview::perf`].
 //!
 //! Browser plumbing: [`http`] (XMLHttpRequest), [`socket`] (the WebSocket), [`store`]
 //! (IndexedDB). State shared by the views: [`context`]. Views: [`components`],

@@ -28,7 +28,6 @@ use floatball_web::files::LocalFile;
 use floatball_web::i18n::Lang;
 use floatball_web::page::Page;
 use floatball_web::playlist::PlaylistEditor;
-use floatball_web::preview::PreviewPage;
 use floatball_web::session::{Origin, Session};
 use floatball_web::store::LocalStore;
 use leptos::mount::mount_to;
@@ -1101,7 +1100,7 @@ async fn console_checks_before_sending_and_decodes_feedback() {
 }
 
 // ----------------------------------------------------------------------------------
-// Preview
+// A show for the file tests (the preview's own tests are in tests/preview.rs)
 // ----------------------------------------------------------------------------------
 
 fn two_ball_show() -> Show {
@@ -1124,81 +1123,4 @@ fn two_ball_show() -> Show {
         },
         tracks: vec![track(100.0), track(7000.0)],
     }
-}
-
-/// The canvas pixel at a fraction of its width and height.
-fn pixel(container: &web_sys::HtmlElement, x: f64, y: f64) -> [u8; 3] {
-    let canvas =
-        element(container, "preview-canvas").unchecked_into::<web_sys::HtmlCanvasElement>();
-    let context = canvas
-        .get_context("2d")
-        .unwrap()
-        .unwrap()
-        .unchecked_into::<web_sys::CanvasRenderingContext2d>();
-    let data = context
-        .get_image_data(
-            (f64::from(canvas.width()) * x).floor(),
-            (f64::from(canvas.height()) * y).floor(),
-            1.0,
-            1.0,
-        )
-        .unwrap()
-        .data();
-    [data[0], data[1], data[2]]
-}
-
-#[wasm_bindgen_test]
-async fn preview_steps_and_draws_the_balls() {
-    let container = fresh_container();
-    let show = RwSignal::new(None::<Show>);
-    let _mounted = mount_to(container.clone(), move || {
-        view! { <PreviewPage show=show lang=Lang::En /> }
-    });
-    assert_eq!(all(&container, "preview-empty").len(), 1);
-    assert!(disabled(&container, "preview-forward"));
-
-    show.set(Some(two_ball_show()));
-    tick().await;
-    // Pause, then step: time moves by half a second and stays.
-    element(&container, "preview-toggle").click();
-    element(&container, "preview-restart").click();
-    element(&container, "preview-toggle").click();
-    tick().await;
-    assert_eq!(
-        element(&container, "preview-toggle")
-            .get_attribute("data-playing")
-            .as_deref(),
-        Some("false")
-    );
-    assert_eq!(text(&container, "preview-time"), "0:00.0 / 0:01.0");
-    element(&container, "preview-forward").click();
-    tick().await;
-    assert_eq!(text(&container, "preview-time"), "0:00.5 / 0:01.0");
-    sleep(100).await;
-    assert_eq!(
-        text(&container, "preview-time"),
-        "0:00.5 / 0:01.0",
-        "paused"
-    );
-
-    // Ball 0 hangs high (bright), ball 1 low (dark); between them is background.
-    let high = pixel(&container, 0.25, 0.5);
-    let low = pixel(&container, 0.75, 0.5);
-    let gap = pixel(&container, 0.5, 0.05);
-    let brightness = |rgb: [u8; 3]| rgb.iter().map(|c| u32::from(*c)).sum::<u32>();
-    assert!(brightness(high) > brightness(low), "{high:?} vs {low:?}");
-    assert!(brightness(low) > brightness(gap), "{low:?} vs {gap:?}");
-
-    element(&container, "preview-back").click();
-    tick().await;
-    assert_eq!(text(&container, "preview-time"), "0:00.0 / 0:01.0");
-    element(&container, "preview-toggle").click();
-    sleep(300).await;
-    tick().await;
-    assert_ne!(
-        text(&container, "preview-time"),
-        "0:00.0 / 0:01.0",
-        "playing"
-    );
-    assert_eq!(all(&container, "preview-valid").len(), 1);
 }

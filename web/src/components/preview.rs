@@ -1,5 +1,6 @@
 //! The Preview page: the show files on one side (local, and the controller's when
-//! logged in), the chosen one playing on the other ([`crate::preview::PreviewPage`]).
+//! logged in), the chosen one playing on the other ([`crate::preview::PreviewPage`],
+//! given the file's name and the bridge's status for its live mode).
 
 use leptos::prelude::*;
 
@@ -106,7 +107,7 @@ pub fn PreviewScreen() -> impl IntoView {
                     Some(PreviewItem::Ready(name, _)) => Some(view! { <h2 data-testid="preview-name">{name}</h2> }.into_any()),
                     None => None,
                 }}
-                <PreviewPage show=show lang=ctx.lang />
+                <PreviewPage show=show lang=ctx.lang name=Signal::derive(current) status=ctx.status />
             </div>
         </section>
     }

@@ -1,43 +1,90 @@
-//! The show preview: a parsed [`Show`] played back with the vendor app's four buttons
-//! (restart, step back, pause / play, step forward) and a time slider.
+//! The show preview: a parsed [`Show`] played back in 3D (WebGL2) or as a 2D top
+//! view, with the vendor app's four buttons (restart, step back, pause / play, step
+//! forward), a time slider, the speed, a live mode that follows the matrix, a plot of
+//! any ball tapped, and a performance panel.
 //!
-//! [`PreviewPage`] takes the show as a signal and draws it; pages only hand it a show.
-//! Until the 3D renderer (WebGL2) lands, it draws the 2D [`top_view`]; the renderer
-//! replaces that canvas here without touching the pages.
+//! [`PreviewPage`] takes the show as a signal and draws it; pages only hand it a show
+//! (and, for live mode, its name and the bridge's status). Every animation frame it
+//! samples the show through the shared [`Sampler`] (the simulator's evaluator) into
+//! buffers it keeps, and draws only when the picture changes.
 //!
-//! - [`playback`]: the controls as a plain type;
-//! - [`top_view`]: geometry, shading and drawing of the top view.
+//! - [`playback`]: the controls as a plain type; [`live`]: the machine's clock;
+//! - [`camera`], [`scene`], [`gestures`]: the 3D view's maths and touch handling;
+//! - [`stage`]: a show on a canvas (sampling and the renderer); [`gl`]: WebGL2;
+//!   [`top_view`]: the 2D fallback;
+//! - [`plot`]: one ball over the whole show; [`perf`]: the performance panel.
 
+pub mod camera;
+pub mod gestures;
+pub mod gl;
+pub mod live;
+pub mod perf;
 pub mod playback;
+pub mod plot;
+pub mod scene;
+pub mod stage;
 pub mod top_view;
 
-use std::time::Duration;
+use std::cell::Cell;
+use std::rc::Rc;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
-use floatball_shared::show::{Layout, Limits, Sampler, Show, validate};
+use floatball_shared::api::Status;
+use floatball_shared::show::{Limits, Show, Violation, validate};
+use glam::Vec2;
 use leptos::html::Canvas;
 use leptos::prelude::*;
 use wasm_bindgen::JsCast;
 
 use crate::files::format_duration_ms;
 use crate::i18n::{Lang, Text};
-use playback::Playback;
-
-/// How often the clock advances while playing (about 30 frames a second).
-const FRAME: Duration = Duration::from_millis(33);
+use gestures::{Gesture, Gestures};
+use live::LiveClock;
+use perf::PerfPanel;
+use playback::{Playback, SPEEDS};
+use plot::BallPlot;
+use stage::{RendererKind, Stage, now_ms};
 
 /// How many validation problems are listed.
 const PROBLEMS_SHOWN: usize = 10;
 
-/// A show being sampled, with its buffers.
-struct Frame {
-    sampler: Sampler,
-    layout: Layout,
-    positions_mm: Vec<f32>,
-    colours: Vec<[u8; 3]>,
+/// A show checked against the default limits of its layout.
+#[derive(Debug, Clone, PartialEq)]
+struct Checked {
+    limits: Limits,
+    violations: Vec<Violation>,
+    /// The balls with a violation, each once, in order.
+    beyond: Vec<usize>,
 }
 
-/// The preview of `show`: canvas, controls, time, and the show's problems against
-/// the default limits.
+impl Checked {
+    fn of(show: &Show) -> Self {
+        let limits = Limits::for_layout(show.layout.rows, show.layout.cols);
+        let violations = validate(show, &limits);
+        let mut beyond: Vec<usize> = violations
+            .iter()
+            .filter_map(|violation| violation.unit.map(|unit| unit.index))
+            .collect();
+        beyond.sort_unstable();
+        beyond.dedup();
+        Self {
+            limits,
+            violations,
+            beyond,
+        }
+    }
+}
+
+/// Which view the user asked for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    ThreeD,
+    Top,
+}
+
+/// The preview of `show`: the stage, the controls, the time, the tapped ball's plot,
+/// and the show's problems against the default limits.
 #[component]
 pub fn PreviewPage(
     /// The show to play; `None` shows a hint.
@@ -46,72 +93,129 @@ pub fn PreviewPage(
     /// The language of the labels.
     #[prop(into)]
     lang: Signal<Lang>,
+    /// The show's file name, to recognise it in the bridge's status (live mode).
+    #[prop(optional, into)]
+    name: MaybeProp<String>,
+    /// The bridge's latest status; none while not connected.
+    #[prop(optional, into)]
+    status: MaybeProp<Status>,
 ) -> impl IntoView {
     let playback = RwSignal::new(Playback::new(0));
-    let frame = StoredValue::new_local(None::<Frame>);
-    let problems = RwSignal::new((0usize, Vec::<String>::new()));
+    let checked = Memo::new(move |_| show.with(|show| show.as_ref().map(Checked::of)));
     let canvas = NodeRef::<Canvas>::new();
-    let generation = RwSignal::new(0u32);
+    let stage = StoredValue::new_local(None::<Stage>);
+    let mode = RwSignal::new(Mode::ThreeD);
+    let no_webgl = RwSignal::new(None::<String>);
+    let renderer = Memo::new(move |_| {
+        if mode.get() == Mode::ThreeD && no_webgl.with(Option::is_none) {
+            RendererKind::WebGl2
+        } else {
+            RendererKind::TopView
+        }
+    });
+    let selected = RwSignal::new(None::<usize>);
+    let gestures = StoredValue::new(Gestures::default());
+    let live_clock = StoredValue::new(LiveClock::default());
+    let live_available = RwSignal::new(false);
+    let live_on = RwSignal::new(false);
+    let perf_open = RwSignal::new(false);
 
+    // A new show: from its start, nothing chosen.
     Effect::new(move |_| {
-        show.with(|show| match show {
-            Some(show) => {
-                let units = show.tracks.len();
-                frame.set_value(Some(Frame {
-                    sampler: Sampler::new(show),
-                    layout: show.layout,
-                    positions_mm: vec![0.0; units],
-                    colours: vec![[0; 3]; units],
-                }));
-                let limits = Limits::for_layout(show.layout.rows, show.layout.cols);
-                let violations = validate(show, &limits);
-                problems.set((
-                    violations.len(),
-                    violations
-                        .iter()
-                        .take(PROBLEMS_SHOWN)
-                        .map(ToString::to_string)
-                        .collect(),
-                ));
-                playback.set(Playback::new(show.duration_ms()));
-            }
-            None => {
-                frame.set_value(None);
-                problems.set((0, Vec::new()));
-            }
-        });
-        generation.update(|n| *n += 1);
+        let duration_ms = show.with(|show| show.as_ref().map_or(0, Show::duration_ms));
+        playback.update(|p| *p = p.for_show(duration_ms));
+        selected.set(None);
     });
 
-    // Draw whenever the time, the show or the canvas changes.
+    // The stage follows the show, the canvas and the renderer asked for; where WebGL2
+    // cannot draw, the canvas is replaced by a 2D one.
     Effect::new(move |_| {
-        let t_ms = playback.with(Playback::t_ms);
-        generation.track();
-        let Some(canvas) = canvas.get() else { return };
-        frame.update_value(|frame| {
-            if let Some(frame) = frame {
-                draw(&canvas, frame, t_ms);
+        let kind = renderer.get();
+        let canvas = canvas.get();
+        let beyond = checked.with(|checked| checked.as_ref().map(|c| c.beyond.clone()));
+        show.with(|show| {
+            let (Some(canvas), Some(show), Some(beyond)) = (canvas, show, beyond) else {
+                stage.set_value(None);
+                return;
+            };
+            let reused = stage
+                .try_update_value(|current| match current {
+                    Some(current) if current.canvas() == &canvas && current.kind() == kind => {
+                        Some(current.set_show(show, beyond.clone()))
+                    }
+                    _ => None,
+                })
+                .flatten();
+            let outcome = match reused {
+                Some(outcome) => outcome,
+                None => Stage::new(canvas, show, beyond, kind).map(|new| {
+                    stage.set_value(Some(new));
+                }),
+            };
+            if let Err(why) = outcome {
+                stage.set_value(None);
+                if kind == RendererKind::WebGl2 {
+                    leptos::logging::warn!("3D preview unavailable: {why}");
+                    no_webgl.set(Some(why));
+                }
             }
         });
     });
 
-    // The clock.
-    let last_ms = StoredValue::new(js_sys::Date::now());
-    let clock = set_interval_with_handle(
-        move || {
-            let now = js_sys::Date::now();
-            let elapsed = now - last_ms.get_value();
-            last_ms.set_value(now);
-            if playback.with_untracked(Playback::playing) {
-                playback.update(|p| p.advance(elapsed));
+    Effect::new(move |_| {
+        let unit = selected.get();
+        stage.update_value(|stage| {
+            if let Some(stage) = stage {
+                stage.select(unit);
             }
-        },
-        FRAME,
-    );
-    if let Ok(clock) = clock {
-        on_cleanup(move || clock.clear());
+        });
+    });
+
+    // Live mode: the bridge's reports feed the clock; it can only be on while the
+    // matrix plays this show.
+    Effect::new(move |_| {
+        let status = status.get();
+        let name = name.get();
+        let now = now_ms();
+        live_clock.update_value(|clock| clock.report(status.as_ref(), name.as_deref(), now));
+        let playing = live_clock.with_value(LiveClock::playing);
+        live_available.set(playing);
+        if !playing {
+            live_on.set(false);
+        }
+    });
+
+    // The frame loop: the clock (own or live), then a frame if the picture changed.
+    let alive = Arc::new(AtomicBool::new(true));
+    {
+        let alive = Arc::clone(&alive);
+        on_cleanup(move || alive.store(false, Ordering::Relaxed));
     }
+    let last_ms = Rc::new(Cell::new(now_ms()));
+    let step = move || {
+        let now = now_ms();
+        let elapsed = now - last_ms.replace(now);
+        if live_on.get_untracked() {
+            if let Some(t_ms) = live_clock
+                .try_update_value(|clock| clock.time_at(now))
+                .flatten()
+            {
+                playback.update(|p| p.follow(t_ms));
+            }
+        } else if playback.with_untracked(Playback::playing) {
+            playback.update(|p| p.advance(elapsed));
+        }
+        let t_ms = playback.with_untracked(Playback::t_ms);
+        stage.update_value(|stage| {
+            if let Some(stage) = stage {
+                stage.draw(t_ms, false);
+            }
+        });
+    };
+    animate(Rc::new(step), alive);
 
+    // Taking the controls leaves live mode.
+    let take_over = move || live_on.set(false);
     let button = move |test_id: &'static str,
                        symbol: &'static str,
                        text: Text,
@@ -123,7 +227,10 @@ pub fn PreviewPage(
                 title=move || lang.get().t(text)
                 aria-label=move || lang.get().t(text)
                 disabled=move || show.with(Option::is_none)
-                on:click=move |_| playback.update(action)
+                on:click=move |_| {
+                    take_over();
+                    playback.update(action);
+                }
             >
                 <span class="symbol" aria-hidden="true">
                     {symbol}
@@ -139,20 +246,99 @@ pub fn PreviewPage(
             Text::Play
         }
     };
-    let aspect = move || {
-        show.with(|show| {
-            show.as_ref().map_or_else(
-                || "aspect-ratio: 1".to_owned(),
-                |show| {
-                    format!(
-                        "aspect-ratio: {} / {}",
-                        show.layout.cols.max(1),
-                        show.layout.rows.max(1)
-                    )
-                },
-            )
-        })
+
+    // Pointer gestures on the canvas.
+    let point = move |event: &web_sys::MouseEvent| {
+        let rect = event
+            .target()
+            .and_then(|target| target.dyn_into::<web_sys::Element>().ok())
+            .map(|element| element.get_bounding_client_rect());
+        let (left, top) = rect.map_or((0.0, 0.0), |rect| (rect.left(), rect.top()));
+        Vec2::new(
+            (f64::from(event.client_x()) - left) as f32,
+            (f64::from(event.client_y()) - top) as f32,
+        )
     };
+    let apply = move |moves: Vec<Gesture>| {
+        stage.update_value(|stage| {
+            if let Some(stage) = stage {
+                for gesture in moves {
+                    stage.apply(gesture);
+                }
+            }
+        });
+    };
+    let released = move |event: web_sys::PointerEvent, tap: bool| {
+        let at = point(&event);
+        let gesture = gestures
+            .try_update_value(|g| g.up(event.pointer_id(), at, tap, now_ms()))
+            .flatten();
+        if let Some(Gesture::Tap(at)) = gesture {
+            let picked = stage.with_value(|stage| stage.as_ref().and_then(|s| s.pick(at)));
+            selected.set(picked);
+        }
+    };
+    // One canvas per renderer: a canvas that had a WebGL2 context cannot draw in 2D,
+    // so switching makes a new one.
+    let stage_canvas = move |kind: RendererKind| {
+        let style = move || match (kind, show.with(|show| show.as_ref().map(|s| s.layout))) {
+            (RendererKind::TopView, Some(layout)) => format!(
+                "aspect-ratio: {} / {}",
+                layout.cols.max(1),
+                layout.rows.max(1)
+            ),
+            (RendererKind::TopView, None) => "aspect-ratio: 1".to_owned(),
+            (RendererKind::WebGl2, _) => String::new(),
+        };
+        view! {
+            <canvas
+                node_ref=canvas
+                class="stage"
+                class:three-d=kind == RendererKind::WebGl2
+                data-testid="preview-canvas"
+                data-renderer=kind.name()
+                style=style
+                on:pointerdown=move |event| {
+                    let at = point(&event);
+                    let pan = event.button() == 2 || event.shift_key();
+                    gestures.update_value(|g| g.down(event.pointer_id(), at, pan, now_ms()));
+                    if let Some(target) = event
+                        .target()
+                        .and_then(|target| target.dyn_into::<web_sys::Element>().ok())
+                    {
+                        // Synthetic pointers cannot be captured; the drag then ends at
+                        // the canvas's edge.
+                        let _ = target.set_pointer_capture(event.pointer_id());
+                    }
+                }
+                on:pointermove=move |event| {
+                    let at = point(&event);
+                    let moves = gestures
+                        .try_update_value(|g| g.moved(event.pointer_id(), at))
+                        .unwrap_or_default();
+                    apply(moves);
+                }
+                on:pointerup=move |event| released(event, true)
+                on:pointercancel=move |event| released(event, false)
+                on:wheel=move |event| {
+                    event.prevent_default();
+                    apply(vec![Gestures::wheel(event.delta_y())]);
+                }
+                on:contextmenu=move |event| event.prevent_default()
+            ></canvas>
+        }
+    };
+
+    let plot = Memo::new(move |_| {
+        let unit = selected.get()?;
+        show.with(|show| {
+            checked.with(|checked| {
+                let (show, checked) = (show.as_ref()?, checked.as_ref()?);
+                BallPlot::new(show, unit, &checked.limits, &checked.violations)
+            })
+        })
+    });
+
     view! {
         <div class="preview" data-testid="preview">
             <Show
@@ -171,7 +357,17 @@ pub fn PreviewPage(
                     }}
                 </p>
             </Show>
-            <canvas node_ref=canvas class="stage" data-testid="preview-canvas" style=aspect></canvas>
+            <div class="stage-box">
+                <Show
+                    when=move || renderer.get() == RendererKind::WebGl2
+                    fallback=move || stage_canvas(RendererKind::TopView)
+                >
+                    {stage_canvas(RendererKind::WebGl2)}
+                </Show>
+            </div>
+            <Show when=move || no_webgl.with(Option::is_some) && mode.get() == Mode::ThreeD>
+                <p class="note" data-testid="preview-no-webgl">{move || lang.get().t(Text::NoWebGl)}</p>
+            </Show>
             <div class="transport">
                 {button("preview-restart", "|◀", Text::Restart, Playback::restart)}
                 {button("preview-back", "◀◀", Text::StepBack, Playback::step_back)}
@@ -182,7 +378,10 @@ pub fn PreviewPage(
                     title=move || lang.get().t(toggle_text())
                     aria-label=move || lang.get().t(toggle_text())
                     disabled=move || show.with(Option::is_none)
-                    on:click=move |_| playback.update(Playback::toggle)
+                    on:click=move |_| {
+                        take_over();
+                        playback.update(Playback::toggle);
+                    }
                 >
                     <span class="symbol" aria-hidden="true">
                         {move || if playback.with(Playback::playing) { "II" } else { "▶" }}
@@ -190,7 +389,11 @@ pub fn PreviewPage(
                     <span class="caption">{move || lang.get().t(toggle_text())}</span>
                 </button>
                 {button("preview-forward", "▶▶", Text::StepForward, Playback::step_forward)}
-                <span class="time mono" data-testid="preview-time">
+                <span
+                    class="time mono"
+                    data-testid="preview-time"
+                    data-t-ms=move || format!("{:.0}", playback.with(Playback::t_ms))
+                >
                     {move || {
                         playback.with(|p| {
                             format!(
@@ -213,67 +416,250 @@ pub fn PreviewPage(
                 prop:value=move || playback.with(Playback::t_ms)
                 on:input=move |ev| {
                     if let Ok(t_ms) = event_target_value(&ev).parse::<f64>() {
+                        take_over();
                         playback.update(|p| p.seek(t_ms));
                     }
                 }
             />
+            <div class="tools">
+                <label class="speed">
+                    <span>{move || lang.get().t(Text::PlaybackSpeed)}</span>
+                    <select
+                        data-testid="preview-speed"
+                        on:change=move |ev| {
+                            if let Ok(speed) = event_target_value(&ev).parse::<f64>() {
+                                playback.update(|p| p.set_speed(speed));
+                            }
+                        }
+                    >
+                        {SPEEDS
+                            .iter()
+                            .map(|speed| {
+                                view! {
+                                    <option
+                                        value=speed.to_string()
+                                        selected=move || playback.with(Playback::speed) == *speed
+                                    >
+                                        {format!("{speed}×")}
+                                    </option>
+                                }
+                            })
+                            .collect_view()}
+                    </select>
+                </label>
+                <Show when=move || status.with(Option::is_some)>
+                    <button
+                        class="toggle"
+                        class:on=move || live_on.get()
+                        data-testid="preview-live"
+                        aria-pressed=move || live_on.get().to_string()
+                        title=move || lang.get().t(Text::LiveHint)
+                        disabled=move || !live_available.get()
+                        on:click=move |_| live_on.update(|on| *on = !*on)
+                    >
+                        {move || lang.get().t(Text::Live)}
+                    </button>
+                </Show>
+                <div class="segmented" role="group">
+                    <button
+                        data-testid="preview-mode-3d"
+                        aria-pressed=move || (mode.get() == Mode::ThreeD).to_string()
+                        disabled=move || no_webgl.with(Option::is_some)
+                        on:click=move |_| mode.set(Mode::ThreeD)
+                    >
+                        {move || lang.get().t(Text::View3d)}
+                    </button>
+                    <button
+                        data-testid="preview-mode-top"
+                        aria-pressed=move || (renderer.get() == RendererKind::TopView).to_string()
+                        on:click=move |_| mode.set(Mode::Top)
+                    >
+                        {move || lang.get().t(Text::TopView)}
+                    </button>
+                </div>
+                <Show when=move || renderer.get() == RendererKind::WebGl2>
+                    <button
+                        data-testid="preview-reset-view"
+                        on:click=move |_| stage.update_value(|stage| {
+                            if let Some(stage) = stage {
+                                stage.reset_view();
+                            }
+                        })
+                    >
+                        {move || lang.get().t(Text::ResetView)}
+                    </button>
+                </Show>
+                <button
+                    class="toggle"
+                    class:on=move || perf_open.get()
+                    data-testid="preview-perf"
+                    aria-pressed=move || perf_open.get().to_string()
+                    on:click=move |_| {
+                        if !perf_open.get_untracked() {
+                            playback.update(Playback::pause);
+                        }
+                        perf_open.update(|open| *open = !*open);
+                    }
+                >
+                    {move || lang.get().t(Text::Performance)}
+                </button>
+            </div>
+            <Show when=move || status.with(Option::is_some) && !live_available.get()>
+                <p class="muted small" data-testid="preview-live-hint">{move || lang.get().t(Text::LiveHint)}</p>
+            </Show>
+            <Show when=move || renderer.get() == RendererKind::WebGl2 && show.with(Option::is_some)>
+                <p class="muted small">{move || lang.get().t(Text::GestureHint)}</p>
+            </Show>
+            {move || {
+                plot.get()
+                    .map(|plot| {
+                        let t_ms = Signal::derive(move || playback.with(Playback::t_ms));
+                        view! { <PlotPanel plot lang t_ms on_close=move || selected.set(None) /> }
+                    })
+            }}
+            <Show when=move || perf_open.get()>
+                <PerfPanel lang />
+            </Show>
             <Show when=move || show.with(Option::is_some)>
                 {move || {
-                    let (count, shown) = problems.get();
-                    if count == 0 {
-                        view! { <p class="note done" data-testid="preview-valid">{move || lang.get().t(Text::WithinLimits)}</p> }
-                            .into_any()
-                    } else {
-                        let more = count.saturating_sub(shown.len());
-                        view! {
-                            <div class="note error" data-testid="preview-problems">
-                                <p>{move || lang.get().t(Text::BeyondLimits)} " " {count}</p>
-                                <ul>
-                                    {shown.into_iter().map(|problem| view! { <li>{problem}</li> }).collect_view()}
-                                    {(more > 0).then(|| view! { <li>"…"</li> })}
-                                </ul>
-                            </div>
+                    checked.with(|checked| {
+                        let violations = checked.as_ref().map_or(&[][..], |c| &c.violations[..]);
+                        let count = violations.len();
+                        if count == 0 {
+                            view! { <p class="note done" data-testid="preview-valid">{move || lang.get().t(Text::WithinLimits)}</p> }
+                                .into_any()
+                        } else {
+                            let shown: Vec<String> = violations.iter().take(PROBLEMS_SHOWN).map(ToString::to_string).collect();
+                            let more = count.saturating_sub(shown.len());
+                            view! {
+                                <div class="note error" data-testid="preview-problems">
+                                    <p>{move || lang.get().t(Text::BeyondLimits)} " " {count}</p>
+                                    <ul>
+                                        {shown.into_iter().map(|problem| view! { <li>{problem}</li> }).collect_view()}
+                                        {(more > 0).then(|| view! { <li>"…"</li> })}
+                                    </ul>
+                                </div>
+                            }
+                                .into_any()
                         }
-                            .into_any()
-                    }
+                    })
                 }}
             </Show>
         </div>
     }
 }
 
-/// Samples the show at `t_ms` and draws it, sizing the canvas to its box.
-fn draw(canvas: &web_sys::HtmlCanvasElement, frame: &mut Frame, t_ms: f64) {
-    let ratio = window().device_pixel_ratio().max(1.0);
-    let css_width = f64::from(canvas.client_width().max(0));
-    let css_height = f64::from(canvas.client_height().max(0));
-    let (css_width, css_height) = if css_width < 1.0 || css_height < 1.0 {
-        (320.0, 320.0)
-    } else {
-        (css_width, css_height)
+/// Runs `step` on every animation frame while `alive`.
+fn animate(step: Rc<dyn Fn()>, alive: Arc<AtomicBool>) {
+    request_animation_frame(move || {
+        if alive.load(Ordering::Relaxed) {
+            step();
+            animate(step, alive);
+        }
+    });
+}
+
+/// The tapped ball's plot, its figures and its problems, with the time on screen
+/// marked.
+#[component]
+fn PlotPanel(
+    plot: BallPlot,
+    #[prop(into)] lang: Signal<Lang>,
+    /// The show time on screen, ms.
+    #[prop(into)]
+    t_ms: Signal<f64>,
+    on_close: impl Fn() + 'static,
+) -> impl IntoView {
+    let canvas = NodeRef::<Canvas>::new();
+    let plot = StoredValue::new(plot);
+    let resized = RwSignal::new(0u32);
+    // Where the panels are on the canvas drawn, as shares of its size.
+    let drawn = RwSignal::new(None::<plot::PlotLayout>);
+    let size = RwSignal::new((1.0f64, 1.0f64));
+    let resize = window_event_listener(leptos::ev::resize, move |_| resized.update(|n| *n += 1));
+    on_cleanup(move || resize.remove());
+    Effect::new(move |_| {
+        resized.track();
+        let lang = lang.get();
+        let Some(canvas) = canvas.get() else { return };
+        let Some(context) = canvas
+            .get_context("2d")
+            .ok()
+            .flatten()
+            .and_then(|context| context.dyn_into::<web_sys::CanvasRenderingContext2d>().ok())
+        else {
+            return;
+        };
+        let ratio = window().device_pixel_ratio().clamp(1.0, 2.0);
+        let width = (f64::from(canvas.client_width().max(200)) * ratio).round();
+        let height = (f64::from(canvas.client_height().max(120)) * ratio).round();
+        canvas.set_width(width as u32);
+        canvas.set_height(height as u32);
+        plot.with_value(|plot| {
+            let end = format_duration_ms(plot.duration_ms as u64);
+            plot::draw(
+                &context,
+                plot,
+                (width, height),
+                plot::Labels {
+                    position: lang.t(Text::PlotPosition),
+                    velocity: lang.t(Text::PlotVelocity),
+                    start: &format_duration_ms(0),
+                    end: &end,
+                },
+            );
+            drawn.set(Some(plot.layout(width, height)));
+            size.set((width, height));
+        });
+    });
+    let cursor = move || {
+        let layout = drawn.get()?;
+        let (width, height) = size.get();
+        let x = layout.time.px(t_ms.get()) / width * 100.0;
+        let top = layout.position.px_lo / height * 100.0;
+        let bottom = layout.velocity.px_hi / height * 100.0;
+        Some(format!(
+            "left: {x:.3}%; top: {top:.3}%; height: {:.3}%",
+            bottom - top
+        ))
     };
-    let width = (css_width * ratio).round() as u32;
-    let height = (css_height * ratio).round() as u32;
-    if canvas.width() != width || canvas.height() != height {
-        canvas.set_width(width);
-        canvas.set_height(height);
+    let (index, row, col, facts, problems) = plot.with_value(|plot| {
+        let (highest, lowest) = plot.position_range_mm();
+        (
+            plot.unit.index,
+            plot.unit.row,
+            plot.unit.col,
+            (highest, lowest, plot.peak_speed_mm_s()),
+            plot.violations
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>(),
+        )
+    });
+    let count = problems.len();
+    view! {
+        <section class="plot card" data-testid="preview-plot" data-unit=index data-violations=count>
+            <div class="plot-head">
+                <h3 data-testid="preview-plot-title">{move || lang.get().ball_name(index, row, col)}</h3>
+                <button data-testid="preview-plot-close" on:click=move |_| on_close()>
+                    {move || lang.get().t(Text::Close)}
+                </button>
+            </div>
+            <p class="muted small">{move || lang.get().ball_facts(facts.0, facts.1, facts.2)}</p>
+            <div class="plot-wrap">
+                <canvas node_ref=canvas class="plot-canvas" data-testid="preview-plot-canvas"></canvas>
+                <div class="plot-cursor" data-testid="preview-plot-cursor" style=cursor></div>
+            </div>
+            {if count == 0 {
+                view! { <p class="note done">{move || lang.get().t(Text::BallWithinLimits)}</p> }.into_any()
+            } else {
+                view! {
+                    <ul class="note error" data-testid="preview-plot-problems">
+                        {problems.into_iter().map(|problem| view! { <li>{problem}</li> }).collect_view()}
+                    </ul>
+                }
+                    .into_any()
+            }}
+        </section>
     }
-    let Some(context) = canvas
-        .get_context("2d")
-        .ok()
-        .flatten()
-        .and_then(|context| context.dyn_into::<web_sys::CanvasRenderingContext2d>().ok())
-    else {
-        return;
-    };
-    frame
-        .sampler
-        .sample(t_ms, &mut frame.positions_mm, Some(&mut frame.colours));
-    top_view::draw(
-        &context,
-        frame.layout,
-        (f64::from(width), f64::from(height)),
-        &frame.positions_mm,
-        &frame.colours,
-    );
 }

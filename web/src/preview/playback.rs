@@ -1,8 +1,12 @@
 //! The preview's transport controls as a plain type: the vendor app's restart, step
-//! back, pause / play and step forward (PROTOCOL §1.7), plus a time slider.
+//! back, pause / play and step forward (PROTOCOL §1.7), plus a time slider and the
+//! playback speed.
 
 /// How far one step back or forward moves, ms.
 pub const STEP_MS: f64 = 500.0;
+
+/// The speeds offered, as multiples of real time.
+pub const SPEEDS: [f64; 5] = [0.25, 0.5, 1.0, 2.0, 4.0];
 
 /// Where the preview is in a show, and whether it runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -10,15 +14,25 @@ pub struct Playback {
     t_ms: f64,
     duration_ms: f64,
     playing: bool,
+    speed: f64,
 }
 
 impl Playback {
-    /// At the start of a show of `duration_ms`, playing.
+    /// At the start of a show of `duration_ms`, playing in real time.
     pub fn new(duration_ms: u64) -> Self {
         Self {
             t_ms: 0.0,
             duration_ms: duration_ms as f64,
             playing: true,
+            speed: 1.0,
+        }
+    }
+
+    /// The same place and speed in another show of `duration_ms`, from its start.
+    pub fn for_show(self, duration_ms: u64) -> Self {
+        Self {
+            speed: self.speed,
+            ..Self::new(duration_ms)
         }
     }
 
@@ -37,12 +51,25 @@ impl Playback {
         self.playing
     }
 
-    /// Lets `elapsed_ms` of real time pass; at the end the preview stops there.
+    /// How many show ms pass in one ms of real time.
+    pub fn speed(&self) -> f64 {
+        self.speed
+    }
+
+    /// Plays at `speed` times real time (ignored unless positive and finite).
+    pub fn set_speed(&mut self, speed: f64) {
+        if speed.is_finite() && speed > 0.0 {
+            self.speed = speed;
+        }
+    }
+
+    /// Lets `elapsed_ms` of real time pass (at the speed set); at the end the preview
+    /// stops there.
     pub fn advance(&mut self, elapsed_ms: f64) {
         if !self.playing || !elapsed_ms.is_finite() || elapsed_ms <= 0.0 {
             return;
         }
-        self.t_ms = (self.t_ms + elapsed_ms).min(self.duration_ms);
+        self.t_ms = (self.t_ms + elapsed_ms * self.speed).min(self.duration_ms);
         if self.t_ms >= self.duration_ms {
             self.playing = false;
         }
@@ -66,6 +93,11 @@ impl Playback {
         self.playing = false;
     }
 
+    /// Stops the clock where it is.
+    pub fn pause(&mut self) {
+        self.playing = false;
+    }
+
     /// Pause, or play; at the end, play starts over.
     pub fn toggle(&mut self) {
         if self.playing {
@@ -76,6 +108,13 @@ impl Playback {
             }
             self.playing = true;
         }
+    }
+
+    /// Follows a time given from outside (the machine's, in live mode): there, and
+    /// paused so that the preview's own clock does not run as well.
+    pub fn follow(&mut self, t_ms: f64) {
+        self.seek(t_ms);
+        self.playing = false;
     }
 
     /// Jumps to `t_ms` (clamped to the show).
@@ -135,10 +174,45 @@ mod tests {
         playback.toggle();
         assert!(playback.playing());
         assert_eq!(playback.t_ms(), 300.0);
+        playback.pause();
+        playback.pause();
+        assert!(!playback.playing());
+        playback.toggle();
         playback.advance(5000.0);
         playback.toggle();
         assert!(playback.playing());
         assert_eq!(playback.t_ms(), 0.0);
+    }
+
+    #[test]
+    fn speed_scales_time_and_survives_a_new_show() {
+        let mut playback = Playback::new(10_000);
+        playback.set_speed(4.0);
+        playback.advance(250.0);
+        assert_eq!(playback.t_ms(), 1000.0);
+        playback.set_speed(0.0);
+        playback.set_speed(f64::INFINITY);
+        assert_eq!(playback.speed(), 4.0);
+        playback.set_speed(0.25);
+        playback.advance(400.0);
+        assert_eq!(playback.t_ms(), 1100.0);
+        let next = playback.for_show(2000);
+        assert_eq!(
+            (next.t_ms(), next.duration_ms(), next.speed()),
+            (0.0, 2000.0, 0.25)
+        );
+        assert!(SPEEDS.contains(&1.0));
+    }
+
+    #[test]
+    fn following_pauses_the_own_clock() {
+        let mut playback = Playback::new(10_000);
+        playback.follow(2500.0);
+        assert_eq!((playback.t_ms(), playback.playing()), (2500.0, false));
+        playback.advance(100.0);
+        assert_eq!(playback.t_ms(), 2500.0);
+        playback.follow(1e12);
+        assert_eq!(playback.t_ms(), 10_000.0);
     }
 
     #[test]

@@ -1,13 +1,16 @@
 //! The 2D top view: every ball seen from above at its place in the grid, as a disc
 //! that is larger and brighter the higher the ball hangs (closer to the viewer) and
-//! smaller and darker the lower it is. Geometry and shading are plain functions; only
-//! [`draw`] touches the canvas.
+//! smaller and darker the lower it is. It is what the preview draws where WebGL2 is
+//! missing, or when the user asks for it. Geometry and shading are plain functions;
+//! only [`draw`] touches the canvas.
 
 use floatball_shared::show::{DEFAULT_TRAVEL_MM, Layout};
 use web_sys::CanvasRenderingContext2d;
 
 /// The canvas background.
 pub const BACKGROUND: &str = "#0b1117";
+/// The ring around the ball whose plot is shown (the app's accent colour).
+const SELECTED: &str = "#3fa7f5";
 
 /// Where the grid sits on a canvas.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -49,6 +52,23 @@ impl Geometry {
     pub fn radius(&self, position_mm: f32) -> f64 {
         self.cell * 0.45 * (1.0 - 0.5 * depth(position_mm))
     }
+
+    /// The ball drawn under the point (`x`, `y`): the one whose cell holds it, if the
+    /// point is within the disc's largest size (a tap need not hit a small disc).
+    pub fn hit(&self, x: f64, y: f64, positions_mm: &[f32]) -> Option<usize> {
+        if self.cell <= 0.0 || self.cols == 0 {
+            return None;
+        }
+        let col = ((x - self.origin.0) / self.cell).floor();
+        let row = ((y - self.origin.1) / self.cell).floor();
+        if col < 0.0 || row < 0.0 || col >= f64::from(self.cols) {
+            return None;
+        }
+        let unit = row as usize * self.cols as usize + col as usize;
+        let (cx, cy) = self.centre(unit);
+        let reach = self.radius(0.0);
+        (unit < positions_mm.len() && (x - cx).hypot(y - cy) <= reach).then_some(unit)
+    }
 }
 
 /// How low a ball hangs, 0.0 (top) to 1.0 (end of travel).
@@ -67,13 +87,14 @@ pub fn shade(rgb: [u8; 3], position_mm: f32) -> String {
     format!("rgb({r},{g},{b})")
 }
 
-/// Draws every ball on a `width` × `height` canvas.
+/// Draws every ball on a `width` × `height` canvas, with a ring around `selected`.
 pub fn draw(
     context: &CanvasRenderingContext2d,
     layout: Layout,
     (width, height): (f64, f64),
     positions_mm: &[f32],
     colours: &[[u8; 3]],
+    selected: Option<usize>,
 ) {
     context.set_fill_style_str(BACKGROUND);
     context.fill_rect(0.0, 0.0, width, height);
@@ -91,6 +112,21 @@ pub fn draw(
         );
         context.set_fill_style_str(&shade(*rgb, *position_mm));
         context.fill();
+    }
+    if let Some(unit) = selected.filter(|unit| *unit < positions_mm.len()) {
+        let (x, y) = geometry.centre(unit);
+        context.begin_path();
+        // As above.
+        let _ = context.arc(
+            x,
+            y,
+            geometry.radius(0.0) * 1.05,
+            0.0,
+            std::f64::consts::TAU,
+        );
+        context.set_stroke_style_str(SELECTED);
+        context.set_line_width((geometry.cell * 0.06).max(2.0));
+        context.stroke();
     }
 }
 
@@ -113,6 +149,38 @@ mod tests {
         assert_eq!(geometry.origin, (0.0, 100.0));
         assert_eq!(geometry.centre(0), (50.0, 150.0));
         assert_eq!(geometry.centre(5), (150.0, 250.0));
+    }
+
+    #[test]
+    fn a_tap_hits_the_ball_of_its_cell() {
+        let geometry = Geometry::fit(layout(2, 4), 400.0, 400.0);
+        let positions = [0.0; 8];
+        assert_eq!(geometry.hit(150.0, 250.0, &positions), Some(5));
+        assert_eq!(
+            geometry.hit(190.0, 250.0, &positions),
+            Some(5),
+            "within reach"
+        );
+        assert_eq!(
+            geometry.hit(199.0, 201.0, &positions),
+            None,
+            "a cell's corner"
+        );
+        assert_eq!(
+            geometry.hit(150.0, 50.0, &positions),
+            None,
+            "above the grid"
+        );
+        assert_eq!(
+            geometry.hit(150.0, 350.0, &positions),
+            None,
+            "below the grid"
+        );
+        assert_eq!(
+            geometry.hit(150.0, 250.0, &positions[..5]),
+            None,
+            "no such ball"
+        );
     }
 
     #[test]
