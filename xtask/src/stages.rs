@@ -20,6 +20,11 @@ struct Outcome {
 pub fn test() -> Result<(), String> {
     let root = tools::workspace_root();
     let env = Env::discover(&root)?;
+    println!(
+        "xtask: disk: {} (target directory {})",
+        tools::free_space(&env.target_dir),
+        env.target_dir.display()
+    );
     let mut outcomes = Vec::new();
     let mut stage = |name: &'static str, body: &dyn Fn(&Env) -> Result<(), String>| {
         println!("\nxtask: ==> {name}");
@@ -127,6 +132,7 @@ pub fn test() -> Result<(), String> {
         };
         println!("  {mark} {:<52} {:>7.1} s", outcome.name, outcome.seconds);
     }
+    println!("xtask: disk: {}", tools::free_space(&env.target_dir));
     let failed = outcomes.iter().filter(|o| o.error.is_some()).count();
     let passed = outcomes.len() - failed;
     println!("{passed} passed, {failed} failed");

@@ -65,15 +65,49 @@ impl Env {
 pub fn cargo(env: &Env) -> Command {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut command = Command::new(cargo);
-    command.current_dir(&env.root).env("PATH", &env.path);
+    command
+        .current_dir(&env.root)
+        .env("PATH", &env.path)
+        .env("CARGO_INCREMENTAL", "0");
     command
 }
 
 /// Any program, run from the workspace root with our `PATH`.
+///
+/// Builds started from here (cargo, wasm-pack) are not incremental: the xtask builds
+/// each thing once, and incremental caches would take gigabytes of a CI machine's disk
+/// for nothing.
 pub fn program(env: &Env, name: &str) -> Command {
     let mut command = Command::new(name);
-    command.current_dir(&env.root).env("PATH", &env.path);
     command
+        .current_dir(&env.root)
+        .env("PATH", &env.path)
+        .env("CARGO_INCREMENTAL", "0");
+    command
+}
+
+/// Free space on the disk that holds `dir`, as `df` reports it (for the log: a full
+/// disk is the commonest reason for a build to fail on a CI machine).
+pub fn free_space(dir: &Path) -> String {
+    let mut probe = dir;
+    while !probe.exists() {
+        match probe.parent() {
+            Some(parent) => probe = parent,
+            None => break,
+        }
+    }
+    output_of(Command::new("df").args(["-Ph"]).arg(probe))
+        .and_then(|text| {
+            let line = text.lines().nth(1)?.to_owned();
+            let fields: Vec<&str> = line.split_whitespace().collect();
+            Some(format!(
+                "{} free of {} on {}",
+                fields.get(3)?,
+                fields.get(1)?,
+                fields.get(5)?
+            ))
+        })
+        .unwrap_or_else(|| "unknown (df failed)".to_owned())
 }
 
 /// Prints and runs `command`, failing if it does not exit successfully.
