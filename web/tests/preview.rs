@@ -23,9 +23,12 @@ use leptos::mount::mount_to;
 use leptos::prelude::*;
 use leptos::task::tick;
 use wasm_bindgen::{JsCast, JsValue};
-use wasm_bindgen_futures::JsFuture;
 use wasm_bindgen_test::*;
 use web_sys::{HtmlCanvasElement, WebGl2RenderingContext as Gl};
+
+mod dom;
+
+use dom::*;
 
 wasm_bindgen_test_configure!(run_in_browser);
 
@@ -99,42 +102,6 @@ fn speeding_show() -> Show {
 // Helpers
 // ----------------------------------------------------------------------------------
 
-fn fresh_container() -> web_sys::HtmlElement {
-    let document = document();
-    let container = document.create_element("section").unwrap();
-    document.body().unwrap().append_child(&container).unwrap();
-    container.unchecked_into()
-}
-
-fn all(container: &web_sys::HtmlElement, test_id: &str) -> Vec<web_sys::HtmlElement> {
-    let list = container
-        .query_selector_all(&format!("[data-testid={test_id}]"))
-        .unwrap();
-    (0..list.length())
-        .filter_map(|i| list.get(i))
-        .map(JsCast::unchecked_into)
-        .collect()
-}
-
-fn element(container: &web_sys::HtmlElement, test_id: &str) -> web_sys::HtmlElement {
-    all(container, test_id)
-        .into_iter()
-        .next()
-        .unwrap_or_else(|| panic!("no element with data-testid={test_id}"))
-}
-
-fn text(container: &web_sys::HtmlElement, test_id: &str) -> String {
-    element(container, test_id)
-        .text_content()
-        .unwrap_or_default()
-}
-
-fn attribute(container: &web_sys::HtmlElement, test_id: &str, name: &str) -> String {
-    element(container, test_id)
-        .get_attribute(name)
-        .unwrap_or_default()
-}
-
 fn stage_canvas(container: &web_sys::HtmlElement) -> HtmlCanvasElement {
     element(container, "preview-canvas").unchecked_into()
 }
@@ -144,31 +111,6 @@ fn shown_ms(container: &web_sys::HtmlElement) -> f64 {
     attribute(container, "preview-time", "data-t-ms")
         .parse()
         .unwrap()
-}
-
-async fn sleep(ms: i32) {
-    let promise = js_sys::Promise::new(&mut |resolve, _| {
-        window()
-            .set_timeout_with_callback_and_timeout_and_arguments_0(&resolve, ms)
-            .unwrap();
-    });
-    JsFuture::from(promise).await.unwrap();
-}
-
-/// Waits (up to `within_ms`) until `condition` holds.
-async fn until_within(what: &str, within_ms: i32, condition: impl Fn() -> bool) {
-    for _ in 0..within_ms / 10 {
-        tick().await;
-        if condition() {
-            return;
-        }
-        sleep(10).await;
-    }
-    panic!("timed out waiting until {what}");
-}
-
-async fn until(what: &str, condition: impl Fn() -> bool) {
-    until_within(what, 3000, condition).await;
 }
 
 /// Sets an input's value and sends the event a user's change would.

@@ -37,6 +37,10 @@ use wasm_bindgen::JsCast;
 use wasm_bindgen_futures::JsFuture;
 use wasm_bindgen_test::*;
 
+mod dom;
+
+use dom::*;
+
 wasm_bindgen_test_configure!(run_in_browser);
 
 // ----------------------------------------------------------------------------------
@@ -180,36 +184,6 @@ fn online(ctx: Ctx) {
 // DOM helpers
 // ----------------------------------------------------------------------------------
 
-fn fresh_container() -> web_sys::HtmlElement {
-    let document = document();
-    let container = document.create_element("section").unwrap();
-    document.body().unwrap().append_child(&container).unwrap();
-    container.unchecked_into()
-}
-
-fn all(container: &web_sys::HtmlElement, test_id: &str) -> Vec<web_sys::HtmlElement> {
-    let list = container
-        .query_selector_all(&format!("[data-testid={test_id}]"))
-        .unwrap();
-    (0..list.length())
-        .filter_map(|i| list.get(i))
-        .map(JsCast::unchecked_into)
-        .collect()
-}
-
-fn element(container: &web_sys::HtmlElement, test_id: &str) -> web_sys::HtmlElement {
-    all(container, test_id)
-        .into_iter()
-        .next()
-        .unwrap_or_else(|| panic!("no element with data-testid={test_id}"))
-}
-
-fn text(container: &web_sys::HtmlElement, test_id: &str) -> String {
-    element(container, test_id)
-        .text_content()
-        .unwrap_or_default()
-}
-
 fn disabled(container: &web_sys::HtmlElement, test_id: &str) -> bool {
     element(container, test_id).has_attribute("disabled")
 }
@@ -231,27 +205,6 @@ fn type_into(container: &web_sys::HtmlElement, test_id: &str, value: &str) {
     })
     .unwrap();
     field.dispatch_event(&event).unwrap();
-}
-
-async fn sleep(ms: i32) {
-    let promise = js_sys::Promise::new(&mut |resolve, _| {
-        window()
-            .set_timeout_with_callback_and_timeout_and_arguments_0(&resolve, ms)
-            .unwrap();
-    });
-    JsFuture::from(promise).await.unwrap();
-}
-
-/// Waits (up to 2 s) until `condition` holds.
-async fn until(what: &str, condition: impl Fn() -> bool) {
-    for _ in 0..200 {
-        tick().await;
-        if condition() {
-            return;
-        }
-        sleep(10).await;
-    }
-    panic!("timed out waiting until {what}");
 }
 
 fn summary(name: &str) -> ShowSummary {
