@@ -64,21 +64,21 @@ impl Env {
 /// A `cargo` command run from the workspace root with our `PATH`.
 pub fn cargo(env: &Env) -> Command {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let mut command = Command::new(cargo);
-    command
-        .current_dir(&env.root)
-        .env("PATH", &env.path)
-        .env("CARGO_INCREMENTAL", "0");
-    command
+    command_in(env, cargo)
 }
 
 /// Any program, run from the workspace root with our `PATH`.
+pub fn program(env: &Env, name: &str) -> Command {
+    command_in(env, name)
+}
+
+/// `program` run from the workspace root with our `PATH`.
 ///
 /// Builds started from here (cargo, wasm-pack) are not incremental: the xtask builds
 /// each thing once, and incremental caches would take gigabytes of a CI machine's disk
 /// for nothing.
-pub fn program(env: &Env, name: &str) -> Command {
-    let mut command = Command::new(name);
+fn command_in(env: &Env, program: impl AsRef<std::ffi::OsStr>) -> Command {
+    let mut command = Command::new(program);
     command
         .current_dir(&env.root)
         .env("PATH", &env.path)
@@ -98,8 +98,7 @@ pub fn free_space(dir: &Path) -> String {
     }
     output_of(Command::new("df").args(["-Ph"]).arg(probe))
         .and_then(|text| {
-            let line = text.lines().nth(1)?.to_owned();
-            let fields: Vec<&str> = line.split_whitespace().collect();
+            let fields: Vec<&str> = text.lines().nth(1)?.split_whitespace().collect();
             Some(format!(
                 "{} free of {} on {}",
                 fields.get(3)?,
