@@ -5,17 +5,37 @@
 //! It answers exactly as the in-process simulated gateway does ([`SimEngine`]): bytes
 //! are handed to the gateway as they arrive, and its answers are written no faster than
 //! the line's baud rate carries them.
+//!
+//! The device is read no faster than the line carries bytes (baud / 10 bytes/s, with
+//! the receive FIFO's slack, [`RX_FIFO_BYTES`]): what a host writes faster waits in the
+//! operating system's buffer and the host's writes block, exactly as writing to a real
+//! serial port at that baud rate does. So nothing a host sends is lost here, however
+//! fast it writes; the simulated line's overrun (bytes lost, counted) is for callers that
+//! hand the engine bytes faster than the line carries them.
+//!
+//! The answers are bounded by the simulated line ([`TX_QUEUE_BYTES`]: the oldest answers
+//! are dropped, and counted, when a flood of queries makes more than the line can
+//! carry). If the host does not read the device and its buffer is full, the answers
+//! that cannot be written are lost too, as on a real line nobody listens to; they are
+//! counted and logged, and the simulator carries on.
+//!
+//! [`RX_FIFO_BYTES`]: floatball_shared::sim::RX_FIFO_BYTES
+//! [`TX_QUEUE_BYTES`]: floatball_shared::sim::TX_QUEUE_BYTES
 
-use std::io::{Read, Write};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{RecvTimeoutError, channel};
+use std::sync::mpsc::{RecvTimeoutError, Sender, channel};
 use std::time::{Duration, Instant};
 
-use floatball_shared::sim::GatewayConfig;
+use floatball_shared::sim::{GatewayConfig, RxLine};
+use serialport::SerialPort;
 
 use crate::link::serial::open_port;
 use crate::link::sim::SimEngine;
+
+/// Bytes the reader leaves of the line's room, so that the engine's clock and the
+/// reader's never disagree into an overrun.
+const READ_MARGIN: usize = 4;
 
 /// What to simulate, and where.
 #[derive(Debug, Clone)]
@@ -39,33 +59,20 @@ pub fn run(
     ready: impl FnOnce(),
 ) -> Result<(), String> {
     let mut port = open_port(&options.port, options.baud)?;
-    let mut reader = port
+    let reader = port
         .try_clone()
         .map_err(|err| format!("cannot read from {}: {err}", options.port))?;
     let mut engine = SimEngine::new(options.gateway.clone(), options.baud)?;
     let (arrivals, arrived) = channel::<Result<(Instant, Vec<u8>), String>>();
     let reader_stop = Arc::clone(stop);
+    let baud = options.baud;
     std::thread::Builder::new()
         .name("simulate-read".to_owned())
-        .spawn(move || {
-            let mut buffer = [0u8; 1024];
-            while !reader_stop.load(Ordering::Acquire) {
-                let result = match reader.read(&mut buffer) {
-                    Ok(0) => continue,
-                    Ok(n) => Ok((Instant::now(), buffer[..n].to_vec())),
-                    Err(err) if err.kind() == std::io::ErrorKind::TimedOut => continue,
-                    Err(err) if err.kind() == std::io::ErrorKind::Interrupted => continue,
-                    Err(err) => Err(format!("read failed: {err}")),
-                };
-                let failed = result.is_err();
-                if arrivals.send(result).is_err() || failed {
-                    return;
-                }
-            }
-        })
+        .spawn(move || read_at_line_speed(reader, baud, &reader_stop, &arrivals))
         .map_err(|err| format!("cannot start the reader thread: {err}"))?;
     ready();
     let mut answers = Vec::new();
+    let mut unwritten: u64 = 0;
     while !stop.load(Ordering::Acquire) {
         let now = Instant::now();
         let wait = engine
@@ -80,10 +87,84 @@ pub fn run(
         }
         answers.clear();
         engine.step(Instant::now(), &mut answers);
-        if !answers.is_empty() {
-            port.write_all(&answers)
-                .map_err(|err| format!("write failed: {err}"))?;
+        let lost = write_or_drop(&mut *port, &answers)?;
+        if lost > 0 {
+            unwritten += lost as u64;
+            let line = engine.view().line();
+            tracing::warn!(
+                "the host is not reading {}: {lost} answer bytes lost ({unwritten} so far; \
+                 {} dropped from the full answer queue, {} overrun)",
+                options.port,
+                line.dropped_bytes,
+                line.overrun_bytes
+            );
         }
     }
     Ok(())
+}
+
+/// The reader thread: reads `port` no faster than a line at `baud` carries bytes, and
+/// hands what it read, with the time, to the engine.
+fn read_at_line_speed(
+    mut port: Box<dyn SerialPort>,
+    baud: u32,
+    stop: &AtomicBool,
+    arrivals: &Sender<Result<(Instant, Vec<u8>), String>>,
+) {
+    let epoch = Instant::now();
+    let micros = |at: Instant| {
+        u64::try_from(at.saturating_duration_since(epoch).as_micros()).unwrap_or(u64::MAX)
+    };
+    // The engine keeps its own clock; a few bytes less than the room keeps rounding
+    // between the two from ever counting as an overrun.
+    let mut line = RxLine::new(baud);
+    let mut buffer = [0u8; 1024];
+    while !stop.load(Ordering::Acquire) {
+        let room = line
+            .room(micros(Instant::now()))
+            .saturating_sub(READ_MARGIN)
+            .min(buffer.len());
+        if room == 0 {
+            let wait = line
+                .next_room_us()
+                .saturating_sub(micros(Instant::now()))
+                .clamp(100, 50_000);
+            std::thread::sleep(Duration::from_micros(wait));
+            continue;
+        }
+        let result = match port.read(&mut buffer[..room]) {
+            Ok(0) => continue,
+            Ok(n) => {
+                let at = Instant::now();
+                line.accept(micros(at), n);
+                Ok((at, buffer[..n].to_vec()))
+            }
+            Err(err) if err.kind() == std::io::ErrorKind::TimedOut => continue,
+            Err(err) if err.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(err) => Err(format!("read failed: {err}")),
+        };
+        let failed = result.is_err();
+        if arrivals.send(result).is_err() || failed {
+            return;
+        }
+    }
+}
+
+/// Writes `bytes`; what the device cannot take within its timeout (the host is not
+/// reading) is dropped. Returns the number of bytes dropped.
+///
+/// # Errors
+/// The port failed.
+fn write_or_drop(port: &mut dyn SerialPort, bytes: &[u8]) -> Result<usize, String> {
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        match port.write(rest) {
+            Ok(0) => break,
+            Ok(n) => rest = &rest[n..],
+            Err(err) if err.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(err) if err.kind() == std::io::ErrorKind::TimedOut => break,
+            Err(err) => return Err(format!("write failed: {err}")),
+        }
+    }
+    Ok(rest.len())
 }

@@ -172,6 +172,27 @@ pub struct SimGateway {
     pub time_us: u64,
     /// Every unit on this gateway's bus.
     pub units: Vec<SimUnit>,
+    /// Its serial line: bytes taken, sent and dropped.
+    #[serde(default)]
+    pub line: SimLineStats,
+}
+
+/// A simulated gateway's serial line in [`SimGateway`]: what crossed it, and what was
+/// dropped because it came faster than the line carries or than the gateway could send
+/// (see `docs/protocol-notes.md`, "The simulator's serial line").
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SimLineStats {
+    /// Bytes from the host the gateway read.
+    pub received_bytes: u64,
+    /// Bytes from the host that arrived faster than the line carries them and were
+    /// lost, as in a UART receive overrun.
+    pub overrun_bytes: u64,
+    /// Answer bytes that crossed the line to the host.
+    pub sent_bytes: u64,
+    /// Answer frames dropped unsent because the transmit queue was full.
+    pub dropped_frames: u64,
+    /// The bytes of those frames.
+    pub dropped_bytes: u64,
 }
 
 /// One simulated unit.

@@ -8,14 +8,14 @@
 //! gateway on the far end of a real serial device) both drive it.
 
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use floatball_shared::api::{LinkState, SimGateway};
+use floatball_shared::api::{LinkState, SimGateway, SimLineStats};
 use floatball_shared::feedback::FrameDecoder;
-use floatball_shared::sim::{Gateway, GatewayConfig};
+use floatball_shared::sim::{Gateway, GatewayConfig, Uart};
 
 use super::pacer::byte_time;
 use super::{LineWrite, Shared, run_writer};
@@ -26,35 +26,40 @@ const TICK: Duration = Duration::from_millis(10);
 /// A read-only window on a simulated gateway, for `GET /api/sim/positions` and tests.
 #[derive(Debug, Clone)]
 pub struct SimView {
-    gateway: Arc<Mutex<Gateway>>,
+    uart: Arc<Mutex<Uart>>,
     epoch: Instant,
-    received_bytes: Arc<AtomicU64>,
 }
 
 impl SimView {
-    fn lock(&self) -> MutexGuard<'_, Gateway> {
-        self.gateway
+    fn lock(&self) -> MutexGuard<'_, Uart> {
+        self.uart
             .lock()
             .unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 
-    /// Every unit's true state now, for gateway number `index`.
+    /// Every unit's true state now, and the line's counts, for gateway number `index`.
     pub fn positions(&self, index: usize) -> SimGateway {
         let now_us = micros_since(self.epoch, Instant::now());
-        let mut gateway = self.lock();
-        gateway.advance(now_us);
-        gateway.positions(index)
+        let mut uart = self.lock();
+        uart.gateway_mut().advance(now_us);
+        uart.positions(index)
     }
 
-    /// Instruction bytes the gateway has received so far.
+    /// Instruction bytes the gateway has read so far (bytes lost to an overrun are not
+    /// counted; see [`SimView::line`]).
     pub fn received_bytes(&self) -> u64 {
-        self.received_bytes.load(Ordering::Relaxed)
+        self.lock().stats().received_bytes
+    }
+
+    /// What crossed the line so far, and what was lost (overrun, full answer queue).
+    pub fn line(&self) -> SimLineStats {
+        self.lock().stats()
     }
 
     /// Runs `change` on the gateway (fault injection in tests: a unit dropping off the
     /// bus, a garbled byte).
     pub fn with_gateway<T>(&self, change: impl FnOnce(&mut Gateway) -> T) -> T {
-        change(&mut self.lock())
+        change(self.lock().gateway_mut())
     }
 }
 
@@ -64,15 +69,13 @@ fn micros_since(epoch: Instant, at: Instant) -> u64 {
 
 /// A simulated gateway at the far end of a line of `baud`: takes instruction bytes at
 /// the times they arrive, and releases its answers no faster than the line carries them.
+///
+/// The line is the shared [`Uart`]: bytes that come faster than the line carries them
+/// overrun and are lost, and the answers wait in a bounded queue that drops its oldest
+/// frames when full; both are counted ([`SimView::line`]).
 #[derive(Debug)]
 pub struct SimEngine {
     view: SimView,
-    byte_time: Duration,
-    /// Answers waiting to cross the line.
-    outgoing: VecDeque<u8>,
-    /// When the next answer byte will have crossed it.
-    next_out_at: Instant,
-    scratch: Vec<u8>,
 }
 
 impl SimEngine {
@@ -81,18 +84,12 @@ impl SimEngine {
     /// # Errors
     /// The simulator's refusal of the configuration.
     pub fn new(config: GatewayConfig, baud: u32) -> Result<Self, String> {
-        let gateway = Gateway::new(config).map_err(|err| format!("simulated gateway: {err}"))?;
-        let epoch = Instant::now();
+        let uart = Uart::new(config, baud).map_err(|err| format!("simulated gateway: {err}"))?;
         Ok(Self {
             view: SimView {
-                gateway: Arc::new(Mutex::new(gateway)),
-                epoch,
-                received_bytes: Arc::new(AtomicU64::new(0)),
+                uart: Arc::new(Mutex::new(uart)),
+                epoch: Instant::now(),
             },
-            byte_time: byte_time(baud),
-            outgoing: VecDeque::new(),
-            next_out_at: epoch,
-            scratch: Vec::new(),
         })
     }
 
@@ -101,46 +98,23 @@ impl SimEngine {
         self.view.clone()
     }
 
-    /// Instruction bytes that finished arriving at `at`.
+    /// Instruction bytes that finished arriving at `at` (back to back, the last one at
+    /// `at`); those that came faster than the line carries are lost.
     pub fn receive(&mut self, at: Instant, bytes: &[u8]) {
         let at_us = micros_since(self.view.epoch, at);
         self.view.lock().receive(at_us, bytes);
-        self.view
-            .received_bytes
-            .fetch_add(bytes.len() as u64, Ordering::Relaxed);
     }
 
     /// Lets the gateway run until `now` and appends to `out` the answer bytes that have
     /// crossed the line by then.
     pub fn step(&mut self, now: Instant, out: &mut Vec<u8>) {
-        {
-            let mut gateway = self.view.lock();
-            gateway.advance(micros_since(self.view.epoch, now));
-            self.scratch.clear();
-            gateway.poll_output(&mut self.scratch);
-        }
-        if !self.scratch.is_empty() {
-            if self.outgoing.is_empty() {
-                // An idle line starts sending now.
-                self.next_out_at = self.next_out_at.max(now) + self.byte_time;
-            }
-            self.outgoing.extend(self.scratch.iter().copied());
-        }
-        while self.next_out_at <= now {
-            let Some(byte) = self.outgoing.pop_front() else {
-                break;
-            };
-            out.push(byte);
-            self.next_out_at += self.byte_time;
-        }
+        let now_us = micros_since(self.view.epoch, now);
+        self.view.lock().step(now_us, out);
     }
 
     /// When [`SimEngine::step`] next has something to do (at the latest one tick on).
     pub fn next_wakeup(&self, now: Instant) -> Instant {
         let mut at = now + TICK;
-        if !self.outgoing.is_empty() {
-            at = at.min(self.next_out_at);
-        }
         if let Some(event_us) = self.view.lock().next_event_us() {
             at = at.min(self.view.epoch + Duration::from_micros(event_us));
         }

@@ -52,7 +52,9 @@
 //! ```
 
 mod config;
+mod line;
 mod motion;
+pub mod noise;
 mod unit;
 
 #[cfg(test)]
@@ -60,13 +62,14 @@ mod procedures;
 
 use std::ops::Range;
 
-use crate::api::{SimGateway, SimUnit};
+use crate::api::{SimGateway, SimLineStats, SimUnit};
 use crate::ascii::{Field, Instruction, InstructionReader, ParseError, ParseErrorKind};
 use crate::feedback::{Feedback, Frame, UnitError, code};
 
 pub use config::{
     ConfigError, DEFAULT_COUNTS_PER_MM, FACTORY_STATION, Faults, Garble, GatewayConfig, MAX_UNITS,
 };
+pub use line::{RX_FIFO_BYTES, RxLine, TX_QUEUE_BYTES, Uart};
 pub use motion::Trapezoid;
 
 use config::Limits;
@@ -277,6 +280,7 @@ impl Gateway {
             gateway,
             time_us: self.now_us,
             units: self.units().map(SimUnit::from).collect(),
+            line: SimLineStats::default(),
         }
     }
 
