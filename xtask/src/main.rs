@@ -9,8 +9,10 @@
 //!   wasm-bindgen-cli, wasm-pack, Chromium and ChromeDriver).
 //! - [`app`]: building the web app into `static/pkg/`.
 //! - [`stages`]: the test stages and their summary.
+//! - [`fuzz`]: `cargo xtask fuzz`, the fuzz targets at length.
 
 mod app;
+mod fuzz;
 mod stages;
 mod tools;
 
@@ -25,6 +27,8 @@ commands:
          options: --listen ADDR (default 0.0.0.0:8080)  --data-dir DIR (default ./data)
                   anything after `--` is passed to `floatball` unchanged
   test   install what is missing, then run every check and test
+  fuzz   run the fuzz targets (readers of untrusted bytes) in an optimised build
+         options: --bytes N (per target, default 10000000)  --target NAME  --seed S
 ";
 
 fn main() -> ExitCode {
@@ -32,6 +36,7 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("run") => run(&args[1..]),
         Some("test") => stages::test(),
+        Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())

@@ -193,6 +193,13 @@ impl Uart {
         self.tx.len()
     }
 
+    /// How many bytes may finish arriving at `now_us` without an overrun (see
+    /// [`RxLine::room`]).
+    #[must_use]
+    pub fn room(&self, now_us: u64) -> usize {
+        self.rx.room(now_us)
+    }
+
     /// [`Gateway::positions`] with the line's counts.
     #[must_use]
     pub fn positions(&self, gateway: usize) -> SimGateway {
@@ -204,7 +211,9 @@ impl Uart {
 
     /// Bytes from the host finished arriving at `now_us` (time first passes up to then):
     /// those the line could have carried are read by the gateway, the others overrun.
+    /// Times earlier than the gateway's count as its time (time never goes back).
     pub fn receive(&mut self, now_us: u64, bytes: &[u8]) {
+        let now_us = now_us.max(self.gateway.now_us());
         let accepted = self.rx.accept(now_us, bytes.len());
         let lost = bytes.len() - accepted;
         bump(&mut self.stats.overrun_bytes, lost);
@@ -220,6 +229,7 @@ impl Uart {
     /// Lets time pass up to `now_us` and appends to `out` the answer bytes that have
     /// crossed the line by then.
     pub fn step(&mut self, now_us: u64, out: &mut Vec<u8>) {
+        let now_us = now_us.max(self.gateway.now_us());
         self.gateway.advance(now_us);
         self.collect();
         let now = i128::from(now_us) * self.baud;

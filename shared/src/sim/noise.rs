@@ -94,7 +94,7 @@ impl LineNoise {
     pub fn new(seed: u64) -> Self {
         Self {
             rng: SplitMix::new(seed),
-            binary: seed % 2 == 0,
+            binary: seed & 1 == 0,
         }
     }
 

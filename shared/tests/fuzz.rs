@@ -1,0 +1,52 @@
+//! The fuzz targets ([`targets`]) briefly, as part of the test suite: a few seeds each,
+//! a few megabytes per target in all. The long runs are
+//! `cargo bench -p floatball-shared --bench fuzz -- --bytes 10000000` (or
+//! `cargo xtask fuzz`).
+#![cfg(not(target_arch = "wasm32"))]
+
+#[path = "fuzz/targets.rs"]
+mod targets;
+
+use proptest::prelude::*;
+
+/// Bytes per case: small enough for a debug build, long enough for several roll calls.
+const CASE_BYTES: usize = 512 * 1024;
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 8, failure_persistence: None, ..ProptestConfig::default() })]
+
+    #[test]
+    fn the_instruction_reader_survives_noise_and_resynchronises(seed in any::<u64>()) {
+        targets::reader(seed, CASE_BYTES);
+    }
+
+    #[test]
+    fn the_simulated_gateway_answers_a_roll_call_after_any_noise(seed in any::<u64>()) {
+        targets::gateway(seed, CASE_BYTES);
+    }
+
+    #[test]
+    fn the_feedback_decoder_survives_noise_and_resynchronises(seed in any::<u64>()) {
+        targets::decoder(seed, CASE_BYTES);
+    }
+
+    #[test]
+    fn the_console_parser_survives_noise(seed in any::<u64>()) {
+        targets::console(seed, CASE_BYTES);
+    }
+}
+
+/// Every kind of gateway (four configurations by seed) at a fixed seed, so that each is
+/// always covered.
+#[test]
+fn every_gateway_kind_answers_its_roll_calls() {
+    for seed in 0..4 {
+        let report = targets::gateway(seed, CASE_BYTES);
+        let roll_calls = report
+            .counts
+            .iter()
+            .find(|(name, _)| *name == "roll calls")
+            .map_or(0, |&(_, count)| count);
+        assert!(roll_calls > 0, "seed {seed}: {report:?}");
+    }
+}

@@ -1,0 +1,468 @@
+//! Fuzz targets for every reader of untrusted bytes: the gateway's streaming
+//! instruction reader, the simulated gateway behind its serial line, the bridge's
+//! feedback decoder and its console parser.
+//!
+//! Each target takes a seed and a number of bytes, makes a reproducible stream of
+//! line noise ([`LineNoise`]: binary chunks and instruction fragments) mixed with
+//! valid input, feeds it in random chunks and checks its properties as it goes; a
+//! failed property panics with the seed and the offset. The same targets run briefly
+//! in `cargo test -p floatball-shared --test fuzz` and at length in
+//! `cargo bench -p floatball-shared --bench fuzz -- --bytes N` (`cargo xtask fuzz`).
+#![allow(dead_code)] // Each harness uses its own part of this.
+
+use std::collections::BTreeSet;
+
+use floatball_shared::ascii::{Form, Instruction, InstructionReader, parse_script};
+use floatball_shared::feedback::{Ack, Feedback, Frame, FrameDecoder, MAX_FRAME_LEN};
+use floatball_shared::sim::noise::{LineNoise, SplitMix};
+use floatball_shared::sim::{GatewayConfig, TX_QUEUE_BYTES, Uart};
+
+/// What one run of a target did.
+#[derive(Debug, Clone, Default)]
+pub struct Report {
+    /// Bytes fed.
+    pub bytes: u64,
+    /// Named counts, in a fixed order.
+    pub counts: Vec<(&'static str, u64)>,
+}
+
+impl Report {
+    fn count(&mut self, name: &'static str, by: u64) {
+        match self.counts.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, count)) => *count += by,
+            None => self.counts.push((name, by)),
+        }
+    }
+
+    /// Adds `other` to this report.
+    pub fn absorb(&mut self, other: &Report) {
+        self.bytes += other.bytes;
+        for &(name, count) in &other.counts {
+            self.count(name, count);
+        }
+    }
+}
+
+/// A target: seed and byte budget in, report out.
+pub type Target = fn(u64, usize) -> Report;
+
+/// Every target, by name.
+pub const TARGETS: [(&str, Target); 4] = [
+    ("reader", reader),
+    ("gateway", gateway),
+    ("decoder", decoder),
+    ("console", console),
+];
+
+/// The roll call the liveness property sends after the noise: end whatever
+/// instruction the noise left open, stop every unit, ask every unit its serial.
+const ROLL_CALL: &[u8] = b";;;*0;MO=0;*0;SN;";
+
+/// The streaming instruction reader: chunked and byte-by-byte reading agree; after
+/// any noise and a `;`, valid instructions are read exactly.
+pub fn reader(seed: u64, bytes: usize) -> Report {
+    let mut noise = LineNoise::new(seed);
+    let mut chunked = InstructionReader::new();
+    let mut bytewise = InstructionReader::new();
+    let mut report = Report::default();
+    let mut chunk = Vec::new();
+    let mut results = Vec::new();
+    let probe = b"*7;QP[3]=-1000;  mo = 1 ;";
+    let expected = parse_script("*7;QP[3]=-1000;MO=1;").expect("the probe parses");
+    while (report.bytes as usize) < bytes {
+        chunk.clear();
+        noise.chunk(&mut chunk);
+        if noise.rng().below(4) == 0 {
+            // A long run without `;`: the reader counts it and holds 20 bytes.
+            let run = noise.rng().below(5000) as usize;
+            chunk.extend(std::iter::repeat_n(b'7', run));
+        }
+        let probing = noise.rng().below(8) == 0;
+        let closed_at = chunk.len();
+        if probing {
+            chunk.push(b';');
+            chunk.extend_from_slice(probe);
+        }
+        results.clear();
+        let mut rest = &chunk[..];
+        while !rest.is_empty() {
+            let cut = 1 + noise.rng().below(rest.len() as u64) as usize;
+            let (piece, after) = rest.split_at(cut);
+            results.extend(chunked.push(piece));
+            rest = after;
+        }
+        let mut by_byte = chunk.iter().filter_map(|&byte| bytewise.push_byte(byte));
+        for (i, result) in results.iter().enumerate() {
+            assert_eq!(
+                Some(result),
+                by_byte.next().as_ref(),
+                "seed {seed}, byte {}: result {i} differs by chunking",
+                report.bytes
+            );
+        }
+        assert!(by_byte.next().is_none(), "seed {seed}: bytewise read more");
+        assert_eq!(chunked.pending(), bytewise.pending());
+        if probing {
+            let tail = &results[results.len() - expected.len()..];
+            let read: Vec<_> = tail.iter().filter_map(|r| r.ok()).collect();
+            assert_eq!(
+                read, expected,
+                "seed {seed}, byte {}: the probe after {closed_at} bytes of noise",
+                report.bytes
+            );
+            assert_eq!(chunked.pending(), 0);
+            report.count("probes", 1);
+        }
+        let ok = results.iter().filter(|r| r.is_ok()).count() as u64;
+        report.count("instructions", ok);
+        report.count("errors", results.len() as u64 - ok);
+        report.bytes += chunk.len() as u64;
+    }
+    report
+}
+
+/// The simulated gateway behind its serial line: noise at any speed (bursts far beyond
+/// the line, pauses that let moves and rows run); the answers always decode, the queue
+/// stays bounded, and — the liveness property — after any noise, `;` and a roll call
+/// sent at the line's speed, every unit answers with its serial number within the time
+/// the line needs for a full queue and the answers.
+pub fn gateway(seed: u64, bytes: usize) -> Report {
+    let mut noise = LineNoise::new(seed);
+    let (config, baud) = match seed % 4 {
+        0 => (GatewayConfig::numbered(100), 921_600),
+        1 => (GatewayConfig::numbered(100), 115_200),
+        2 => (GatewayConfig::factory_fresh(8), 9600),
+        _ => (GatewayConfig::numbered(17), 460_800),
+    };
+    let mut uart = Uart::new(config, baud).expect("a valid configuration");
+    let travel = 750_000.0;
+    let serials: BTreeSet<u64> = uart.gateway().units().map(|unit| unit.serial).collect();
+    let units = serials.len();
+    // One byte on the line, µs (rounded up).
+    let byte_us = |count: usize| (count as u64 * 10_000_000).div_ceil(u64::from(baud));
+    let mut decoder = FrameDecoder::new();
+    let mut report = Report::default();
+    let mut chunk = Vec::new();
+    let mut out = Vec::new();
+    let mut frames: Vec<Frame> = Vec::new();
+    let mut now_us: u64 = 0;
+    let mut next_probe = 1 + noise.rng().below(64 * 1024) as usize;
+    while (report.bytes as usize) < bytes {
+        chunk.clear();
+        noise.chunk(&mut chunk);
+        now_us += match noise.rng().below(8) {
+            // A burst: no time at all, or far faster than the line.
+            0 | 1 => 0,
+            2 => byte_us(chunk.len()) / 10,
+            // At the line's speed, or slower.
+            3..=5 => byte_us(chunk.len()),
+            6 => byte_us(chunk.len()) * 3,
+            // A pause: moves, rows and timed starts run.
+            _ => noise.rng().below(2_000_000),
+        };
+        uart.receive(now_us, &chunk);
+        report.bytes += chunk.len() as u64;
+        out.clear();
+        uart.step(now_us, &mut out);
+        frames.clear();
+        frames.extend(decoder.push(&out));
+        assert!(
+            uart.queued_bytes() <= TX_QUEUE_BYTES + MAX_FRAME_LEN,
+            "seed {seed}: {} bytes queued",
+            uart.queued_bytes()
+        );
+        // A roll call every 32 kB or so, and at the end.
+        if (report.bytes as usize) < next_probe.min(bytes) {
+            continue;
+        }
+        next_probe += 1 + noise.rng().below(64 * 1024) as usize;
+        // The roll call, sent at the line's speed after the noise.
+        now_us += byte_us(ROLL_CALL.len() + 1);
+        assert!(
+            uart.room(now_us) >= ROLL_CALL.len(),
+            "seed {seed}: the line has no room"
+        );
+        let overrun = uart.stats().overrun_bytes;
+        uart.receive(now_us, ROLL_CALL);
+        assert_eq!(uart.stats().overrun_bytes, overrun);
+        report.bytes += ROLL_CALL.len() as u64;
+        // The line needs: a full queue, the frame on the wire, and the answers.
+        let answers = 3 * 5 + units * 12;
+        let deadline = now_us + byte_us(TX_QUEUE_BYTES + MAX_FRAME_LEN + answers) + 1;
+        out.clear();
+        uart.step(deadline, &mut out);
+        now_us = deadline;
+        frames.clear();
+        frames.extend(decoder.push(&out));
+        assert_eq!(uart.queued_bytes(), 0, "seed {seed}: answers still queued");
+        assert_eq!(decoder.pending(), 0, "seed {seed}: half a frame");
+        let answered: BTreeSet<u64> = frames
+            .iter()
+            .rev()
+            .take(units)
+            .filter_map(|frame| match Feedback::from_frame(frame) {
+                Ok(Feedback::Ack(Ack::Serial { serial })) => Some(serial),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(
+            answered, serials,
+            "seed {seed}, byte {}: the roll call was not answered by every unit",
+            report.bytes
+        );
+        assert_eq!(
+            uart.gateway().next_event_us(),
+            None,
+            "seed {seed}: something still runs after MO=0"
+        );
+        for unit in uart.gateway().units() {
+            assert!(!unit.moving && !unit.motor_on, "seed {seed}: {unit:?}");
+            assert!((0.0..=travel).contains(&unit.position_counts), "{unit:?}");
+        }
+        report.count("roll calls", 1);
+    }
+    let stats = uart.stats();
+    let decoded = decoder.stats();
+    assert_eq!(
+        decoded.dropped_bytes, 0,
+        "seed {seed}: the line carried something that is not a frame"
+    );
+    report.count("frames", decoded.frames);
+    report.count("overrun bytes", stats.overrun_bytes);
+    report.count("dropped frames", stats.dropped_frames);
+    report.count("sent bytes", stats.sent_bytes);
+    report
+}
+
+/// A random valid frame.
+fn random_frame(rng: &mut SplitMix) -> Frame {
+    let len = rng.below(9) as usize;
+    let data: Vec<u8> = (0..len).map(|_| rng.next_u64() as u8).collect();
+    Frame::new(rng.below(128) as u8, rng.below(128) as u8, &data).expect("a valid frame")
+}
+
+/// The feedback decoder: chunked and byte-by-byte decoding agree; every byte is a
+/// frame's, dropped or pending; at most one frame is pending; after any garbage a
+/// valid frame is decoded intact.
+pub fn decoder(seed: u64, bytes: usize) -> Report {
+    let mut noise = LineNoise::new(seed);
+    let mut chunked = FrameDecoder::new();
+    let mut bytewise = FrameDecoder::new();
+    let mut report = Report::default();
+    let mut chunk = Vec::new();
+    let mut frames = Vec::new();
+    let mut delivered: u64 = 0;
+    while (report.bytes as usize) < bytes {
+        chunk.clear();
+        match noise.rng().below(4) {
+            0 => noise.chunk(&mut chunk),
+            1 => {
+                // Valid frames with damage here and there.
+                for _ in 0..noise.rng().below(40) {
+                    random_frame(noise.rng()).encode_into(&mut chunk);
+                    if noise.rng().below(6) == 0 && !chunk.is_empty() {
+                        let at = noise.rng().below(chunk.len() as u64) as usize;
+                        chunk[at] ^= 1 << noise.rng().below(8);
+                    }
+                }
+            }
+            _ => {
+                let len = noise.rng().below(64) as usize;
+                chunk.extend((0..len).map(|_| noise.rng().next_u64() as u8));
+            }
+        }
+        // After any garbage, a valid frame is decoded intact.
+        let probe = random_frame(noise.rng());
+        let probe_at = chunk.len();
+        probe.encode_into(&mut chunk);
+        frames.clear();
+        let mut rest = &chunk[..];
+        while !rest.is_empty() {
+            let cut = 1 + noise.rng().below(rest.len() as u64) as usize;
+            let (piece, after) = rest.split_at(cut);
+            frames.extend(chunked.push(piece));
+            rest = after;
+        }
+        let by_byte: Vec<Frame> = chunk
+            .iter()
+            .filter_map(|&byte| bytewise.push_byte(byte))
+            .collect();
+        assert_eq!(frames, by_byte, "seed {seed}: chunking changed the frames");
+        assert_eq!(chunked.stats(), bytewise.stats());
+        assert_eq!(
+            frames.last(),
+            Some(&probe),
+            "seed {seed}, byte {}: no resync after {probe_at} bytes",
+            report.bytes
+        );
+        assert_eq!(chunked.pending(), 0);
+        report.bytes += chunk.len() as u64;
+        delivered += frames.iter().map(|f| f.encoded_len() as u64).sum::<u64>();
+        let stats = chunked.stats();
+        assert_eq!(
+            delivered + stats.dropped_bytes,
+            report.bytes,
+            "seed {seed}: a byte is unaccounted for"
+        );
+        report.count("probes", 1);
+    }
+    let stats = chunked.stats();
+    report.count("frames", stats.frames);
+    report.count("stray bytes", stats.stray_bytes);
+    report.count("truncated", stats.truncated_frames);
+    report.count("overlong", stats.overlong_frames);
+    report.count("malformed", stats.malformed_frames);
+    report
+}
+
+/// Fragments of console text beyond the line noise: comments, line breaks, braces,
+/// full-width and other non-ASCII characters.
+const CONSOLE_EXTRAS: &[&str] = &[
+    "# a comment; with ; inside\n",
+    "\n",
+    "#",
+    "{",
+    "}",
+    "；",
+    "ＱＰ",
+    "é",
+    "\u{0}",
+    "qp [ 3 ] : -9000 ;",
+    "*20;",
+    "MP[1]=12;",
+    "SN[3]=1234;",
+    "QPx0A0B;",
+    "QPx;",
+    "x0",
+];
+
+/// The console parser: any text is parsed or refused with a line and column inside
+/// it; what it accepts encodes in the standard form and reads back the same.
+pub fn console(seed: u64, bytes: usize) -> Report {
+    let mut noise = LineNoise::new(seed);
+    let mut report = Report::default();
+    let mut raw = Vec::new();
+    while (report.bytes as usize) < bytes {
+        raw.clear();
+        let valid = noise.rng().below(2) == 0;
+        let target = match noise.rng().below(16) {
+            0 => 64 * 1024,
+            _ if valid => noise.rng().below(512) as usize,
+            _ => noise.rng().below(2048) as usize,
+        };
+        while raw.len() < target {
+            match noise.rng().below(if valid { 256 } else { 3 }) {
+                0 => {
+                    let extra =
+                        CONSOLE_EXTRAS[noise.rng().below(CONSOLE_EXTRAS.len() as u64) as usize];
+                    raw.extend_from_slice(extra.as_bytes());
+                }
+                1 => noise.chunk(&mut raw),
+                _ if valid => valid_instruction(noise.rng(), &mut raw),
+                _ => noise.chunk(&mut raw),
+            }
+        }
+        if noise.rng().below(3) == 0 {
+            // Mostly valid text, so that parsing gets far.
+            raw.retain(|&b| b.is_ascii_graphic() || b == b' ' || b == b'\n');
+        }
+        let text = String::from_utf8_lossy(&raw);
+        report.bytes += text.len() as u64;
+        match parse_script(&text) {
+            Ok(instructions) => {
+                let semicolons = text.matches(';').count() + text.matches('；').count();
+                assert!(instructions.len() <= semicolons, "seed {seed}");
+                for instruction in &instructions {
+                    round_trip(seed, instruction);
+                }
+                report.count("scripts accepted", 1);
+                report.count("instructions", instructions.len() as u64);
+            }
+            Err(error) => {
+                let lines = text.split('\n').count() as u32;
+                assert!(
+                    (1..=lines).contains(&error.line) && error.column >= 1,
+                    "seed {seed}: {error:?} outside the text"
+                );
+                let line = text.split('\n').nth(error.line as usize - 1).unwrap_or("");
+                assert!(
+                    error.column as usize <= line.chars().count() + 1,
+                    "seed {seed}: column {} of a line of {} characters",
+                    error.column,
+                    line.chars().count()
+                );
+                assert!(!error.to_string().is_empty());
+                report.count("scripts refused", 1);
+            }
+        }
+    }
+    report
+}
+
+/// Appends a well-formed instruction (its operand sometimes out of range) with some
+/// spacing, case and comments around it.
+fn valid_instruction(rng: &mut SplitMix, out: &mut Vec<u8>) {
+    const FORMS: &[&str] = &[
+        "*{s};",
+        "QP[{i}]={n};",
+        "QV[{i}]={n};",
+        "QT[{i}]={t};",
+        "qp [ {i} ] : {n} ;",
+        "MO=1;",
+        "MO=0;",
+        "MO;",
+        "SN;",
+        "SN[{s}]={u};",
+        "PA={n};",
+        "SP={t};",
+        "SD={u};",
+        "BG;",
+        "BG={u};",
+        "PV={i};",
+        "PV;",
+        "MP[{p}]={i};",
+        "MP[{p}];",
+        "IE[{i}]=1;",
+        "QP[{i}];",
+        "ZZ;",
+        "XYx0A0B;",
+    ];
+    let form = FORMS[rng.below(FORMS.len() as u64) as usize];
+    let mut text = String::new();
+    let mut rest = form;
+    while let Some(open) = rest.find('{') {
+        text.push_str(&rest[..open]);
+        let kind = &rest[open + 1..open + 2];
+        let value = match kind {
+            // Now and then beyond the field's range.
+            _ if rng.below(50) == 0 => (rng.next_u64() >> rng.below(64)).to_string(),
+            "s" => rng.below(128).to_string(),
+            "i" => rng.below(256).to_string(),
+            "p" => rng.below(8).to_string(),
+            "t" => (1 + rng.below(1000)).to_string(),
+            "u" => (rng.next_u64() >> 33).to_string(),
+            _ => ((rng.next_u64() as i64) >> (33 + rng.below(31))).to_string(),
+        };
+        text.push_str(&value);
+        rest = &rest[open + 3..];
+    }
+    text.push_str(rest);
+    out.extend_from_slice(text.as_bytes());
+    match rng.below(8) {
+        0 => out.push(b'\n'),
+        1 => out.extend_from_slice(b"  # note\n"),
+        _ => {}
+    }
+}
+
+fn round_trip(seed: u64, instruction: &Instruction) {
+    let encoded = instruction
+        .encode(Form::Standard)
+        .unwrap_or_else(|err| panic!("seed {seed}: {instruction:?} does not encode: {err}"));
+    let text = std::str::from_utf8(encoded.as_bytes()).expect("encoded text is ASCII");
+    assert_eq!(
+        parse_script(text).as_deref(),
+        Ok(std::slice::from_ref(instruction)),
+        "seed {seed}: {text}"
+    );
+}
