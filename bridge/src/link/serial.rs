@@ -89,7 +89,12 @@ fn supervise(shared: &Arc<Shared>, inbox: &Receiver<Input>) {
         };
         let reason = match reader_thread {
             Ok(reader_thread) => {
-                let reason = run_writer(shared, inbox, &mut SerialLine { port }, &lost);
+                let mut line = SerialLine {
+                    port,
+                    shared: Arc::clone(shared),
+                    lost: Arc::clone(&lost),
+                };
+                let reason = run_writer(shared, inbox, &mut line, &lost);
                 lost.store(true, Ordering::Release);
                 let read_reason = reader_thread.join().ok().flatten();
                 read_reason.unwrap_or(reason)
@@ -134,12 +139,37 @@ fn read_loop(shared: &Shared, mut port: Box<dyn SerialPort>, lost: &AtomicBool) 
     None
 }
 
+/// The writer's end of a serial port.
 struct SerialLine {
     port: Box<dyn SerialPort>,
+    shared: Arc<Shared>,
+    lost: Arc<AtomicBool>,
 }
 
 impl LineWrite for SerialLine {
+    /// Writes the whole instruction. A port that takes nothing for a while (its buffer
+    /// full: a gateway or adapter that stopped reading) is not an error by itself: the
+    /// write goes on until the link closes or is lost, and the link counts as stalled
+    /// meanwhile (its bytes stay queued; the playback watchdog acts on it).
     fn write_instruction(&mut self, instruction: &[u8]) -> std::io::Result<()> {
-        self.port.write_all(instruction)
+        let mut rest = instruction;
+        while !rest.is_empty() {
+            match self.port.write(rest) {
+                Ok(0) => std::thread::sleep(std::time::Duration::from_millis(1)),
+                Ok(n) => rest = &rest[n..],
+                Err(err)
+                    if matches!(
+                        err.kind(),
+                        std::io::ErrorKind::TimedOut
+                            | std::io::ErrorKind::WouldBlock
+                            | std::io::ErrorKind::Interrupted
+                    ) => {}
+                Err(err) => return Err(err),
+            }
+            if self.shared.is_closed() || self.lost.load(Ordering::Acquire) {
+                return Err(std::io::Error::other("the line was lost mid-instruction"));
+            }
+        }
+        Ok(())
     }
 }
