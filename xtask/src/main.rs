@@ -9,9 +9,11 @@
 //!   wasm-bindgen-cli, wasm-pack, Chromium and ChromeDriver).
 //! - [`app`]: building the web app into `static/pkg/`.
 //! - [`stages`]: the test stages and their summary.
+//! - [`stress`]: the engine's race and load tests, many times in a row.
 
 mod app;
 mod stages;
+mod stress;
 mod tools;
 
 use std::path::PathBuf;
@@ -25,6 +27,8 @@ commands:
          options: --listen ADDR (default 0.0.0.0:8080)  --data-dir DIR (default ./data)
                   anything after `--` is passed to `floatball` unchanged
   test   install what is missing, then run every check and test
+  stress run the e-stop race and load tests many times in a row, with figures
+         options: --runs N (default 50)
 ";
 
 fn main() -> ExitCode {
@@ -32,6 +36,7 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("run") => run(&args[1..]),
         Some("test") => stages::test(),
+        Some("stress") => stress::stress(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())
