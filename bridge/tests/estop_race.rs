@@ -177,3 +177,65 @@ async fn a_stalled_line_stops_the_show_and_names_the_gateway() {
     );
     assert!(bridge.log().contains("stalled"), "the stall is logged");
 }
+
+/// An e-stop while a long show preloads its rows: no stale row follows the stop (the
+/// player may have a batch on its way between the link dropping its queue and the
+/// player hearing of the stop).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_estop_during_the_preload_leaves_no_stale_rows() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let tap = Tap::new(dir.path(), "gateway0", 9600, GatewayConfig::numbered(4));
+    let bridge = Process::start(&format!(
+        "[matrix]\nrows = 2\ncols = 2\n\
+         [[gateway]]\nport = \"{}\"\nbaud = 9600\n\
+         [safety]\napproach_speed_mm_s = 2000.0\n",
+        tap.path.display()
+    ));
+    let show = common::process::wave_json("long", 2, 2, 30_000, 40.0);
+    let token = bridge.prepare_show("long", &show, false).await;
+    let mut ws = bridge.ws(&token).await;
+    assert!(
+        common::process::links_up(&mut ws).await,
+        "log:\n{}",
+        bridge.log()
+    );
+    for (repetition, wait_ms) in [0u64, 150, 400]
+        .into_iter()
+        .cycle()
+        .take(repetitions() * 3)
+        .enumerate()
+    {
+        let mark = tap.len();
+        send_text(&mut ws, r#"{"type":"start"}"#).await;
+        let deadline = Instant::now() + Duration::from_secs(30);
+        let mut state = PlayerState::Stopped;
+        while state != PlayerState::Loading {
+            assert!(
+                Instant::now() < deadline,
+                "never loaded; log:\n{}",
+                bridge.log()
+            );
+            settle(&mut ws, Duration::from_millis(20), &mut state).await;
+        }
+        tokio::time::sleep(Duration::from_millis(wait_ms)).await;
+        send_text(&mut ws, r#"{"type":"estop"}"#).await;
+        let acknowledged = settle(&mut ws, Duration::from_millis(600), &mut state).await;
+        let wire = tap.wire();
+        let wire = &wire[mark..];
+        let context = format!("repetition {repetition}, e-stop {wait_ms} ms into the preload");
+        assert!(acknowledged, "no estop_sent: {context}");
+        assert!(
+            wait_ms == 0 || wire.windows(3).any(|window| window == b"QP["),
+            "the preload had begun: {context}"
+        );
+        let tail = after_the_stop(wire).unwrap_or_else(|| panic!("no stop: {context}"));
+        let instructions = parse_script(&tail).unwrap_or_else(|error| panic!("{error}: {context}"));
+        assert!(
+            instructions
+                .iter()
+                .all(|instruction| instruction.is_inert()),
+            "rows or motion followed the stop ({context}): {tail:?}"
+        );
+        assert_eq!(state, PlayerState::Stopped, "{context}");
+    }
+}
