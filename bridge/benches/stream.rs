@@ -7,7 +7,6 @@ use std::time::Duration;
 use floatball_bridge::link::{Link, LinkConfig};
 use floatball_bridge::playback::Playback;
 use floatball_shared::api::{LinkState, PlayerState};
-use floatball_shared::ascii::{Batch, Form, parse_script};
 use floatball_shared::plan::player::Entry;
 use floatball_shared::plan::{GatewaySpec, Installation};
 use floatball_shared::show::{Layout, Limits, Show, Track, TrackRow};
@@ -69,9 +68,7 @@ fn main() {
             .wait_for(|status| status.state == LinkState::Up)
             .await
             .expect("link up");
-        let estop = Batch::encode(&parse_script("*0;MO=0;").expect("estop"), Form::Standard)
-            .expect("estop");
-        let playback = Playback::spawn(installation, vec![link], estop);
+        let playback = Playback::spawn(installation, vec![link]);
         playback
             .start(
                 vec![Entry {

@@ -1,5 +1,6 @@
-//! Start and Reset as the WebSocket asks for them: the stored playlist, its shows read
-//! from the store, handed to the player. Every refusal comes back as a sentence an
+//! Start, Reset and Home as the WebSocket asks for them: the stored playlist, its shows
+//! read from the store (on a blocking thread), handed to the player with the e-stop
+//! generation the request was issued at. Every refusal comes back as a sentence an
 //! operator can act on (which entry, why, and what would make it run).
 
 use floatball_shared::plan::player::{Entry, StartError};
@@ -16,6 +17,8 @@ pub enum Control {
     Start,
     /// Stop, home, and play the playlist from its first entry.
     Reset,
+    /// Stop, home, and stay idle.
+    Home,
 }
 
 /// The stored playlist with its shows, and its loop flag.
@@ -49,24 +52,35 @@ pub fn playlist_entries(state: &AppState) -> Result<(Vec<Entry>, bool), String> 
     Ok((entries, playlist.loop_playlist))
 }
 
-/// Carries out `control`.
+/// Carries out `control`, a request issued at e-stop `generation` (for Reset and
+/// Home, after their own stop was pressed).
 ///
 /// # Errors
-/// Why the matrix did not start, in words (it did not move; after a refused Reset it
-/// stays stopped).
-pub async fn run(state: &AppState, control: Control) -> Result<(), String> {
-    let (entries, loop_playlist) = match playlist_entries(state) {
-        Ok(playlist) => playlist,
-        Err(reason) => {
-            if control == Control::Reset {
-                let _ = state.playback().estop();
-            }
-            return Err(reason);
-        }
-    };
+/// Why the matrix did not start, in words (it did not move; after a refused Reset or
+/// Home it stays stopped).
+pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<(), String> {
+    let playback = state.playback();
+    if control == Control::Home {
+        return playback
+            .home_issued(generation)
+            .await
+            .map_err(|error| describe(&error));
+    }
+    let reading = state.clone();
+    let (entries, loop_playlist) = tokio::task::spawn_blocking(move || playlist_entries(&reading))
+        .await
+        .map_err(|error| format!("the playlist cannot be read: {error}"))??;
     let result = match control {
-        Control::Start => state.playback().start(entries, loop_playlist).await,
-        Control::Reset => state.playback().reset(entries, loop_playlist).await,
+        Control::Start => {
+            playback
+                .start_issued(entries, loop_playlist, generation)
+                .await
+        }
+        Control::Reset | Control::Home => {
+            playback
+                .reset_issued(entries, loop_playlist, generation)
+                .await
+        }
     };
     result.map_err(|error| describe(&error))
 }

@@ -1,21 +1,24 @@
 //! Every configured gateway's [`Link`] together, as the clients see them.
 //!
 //! - console lines go to one gateway or to all, on the bulk lane ([`Gateways::send`]);
-//! - the e-stop goes to every gateway at once on the priority lane, as a global
-//!   broadcast, dropping queued bulk ([`Gateways::estop`]);
+//! - every link obeys the one e-stop latch and writes the configured stop (pressed
+//!   through [`crate::playback::Playback::estop`], the one e-stop path);
 //! - every feedback frame of every link is relayed, tagged with its gateway, to one
-//!   channel the WebSocket sessions subscribe to ([`Gateways::subscribe_feedback`]);
-//! - every link's state and bytes/s are written into the shared [`Status`].
+//!   channel the WebSocket sessions subscribe to ([`Gateways::subscribe_feedback`]).
+//!
+//! The links' state and bytes/s reach the clients through the status, which the
+//! playback task owns and fills from the links' snapshots.
 
 use std::sync::Arc;
 
-use floatball_shared::api::{FeedbackFrame, GatewayStatus, LinkState, Status};
+use floatball_shared::api::FeedbackFrame;
 use floatball_shared::ascii::{Batch, EncodeError, Form};
 use floatball_shared::sim::GatewayConfig;
-use tokio::sync::{broadcast, watch};
+use tokio::sync::broadcast;
 
 use crate::config::Config;
-use crate::link::{Link, LinkConfig, LinkStatus};
+use crate::estop::Latch;
+use crate::link::{Link, LinkConfig};
 
 /// How many relayed frames a slow WebSocket client may fall behind before it is told
 /// that it missed some.
@@ -25,39 +28,27 @@ const FEEDBACK_CAPACITY: usize = 4096;
 #[derive(Debug)]
 pub struct Gateways {
     links: Vec<Link>,
-    estop: Batch,
     feedback: broadcast::Sender<FeedbackFrame>,
 }
 
 impl Gateways {
-    /// Opens a link per configured gateway and starts relaying its feedback and its
-    /// state into `status`. Must run inside the async runtime.
+    /// Opens a link per configured gateway, all obeying `latch`, and starts relaying
+    /// their feedback. Must run inside the async runtime.
     ///
     /// # Errors
     /// If the configured e-stop does not encode (the configuration check already
     /// makes sure it does).
-    pub fn open(config: &Config, status: &Arc<watch::Sender<Status>>) -> Result<Self, EncodeError> {
+    pub fn open(config: &Config, latch: &Arc<Latch>) -> Result<Self, EncodeError> {
         let estop = Batch::encode(&config.safety.estop, Form::Standard)?;
         let (feedback, _) = broadcast::channel(FEEDBACK_CAPACITY);
-        status.send_modify(|status| {
-            status.gateways = config
-                .gateways
-                .iter()
-                .map(|gateway| GatewayStatus {
-                    port: gateway.port.clone(),
-                    link: LinkState::Connecting,
-                    bytes_per_s: 0.0,
-                    lowest_water_level: None,
-                    error: None,
-                })
-                .collect();
-        });
         let links: Vec<Link> = config
             .gateways
             .iter()
             .enumerate()
             .map(|(index, gateway)| {
                 let mut link = LinkConfig::new(gateway.port.clone(), gateway.baud);
+                link.estop = estop.clone();
+                link.latch = Arc::clone(latch);
                 // A simulated gateway has the installation's units and calibration.
                 link.sim = GatewayConfig {
                     stations: gateway.stations.clone(),
@@ -77,22 +68,8 @@ impl Gateways {
                 link.feedback(),
                 feedback.clone(),
             ));
-            tokio::spawn(relay_status(
-                link.index(),
-                link.status(),
-                Arc::clone(status),
-            ));
         }
-        Ok(Self {
-            links,
-            estop,
-            feedback,
-        })
-    }
-
-    /// The e-stop batch: `*0;` followed by the configured stop.
-    pub fn estop_batch(&self) -> &Batch {
-        &self.estop
+        Ok(Self { links, feedback })
     }
 
     /// The links, in configuration order.
@@ -105,26 +82,18 @@ impl Gateways {
         self.feedback.subscribe()
     }
 
-    /// Sends the e-stop (`*0;` + the configured instructions) on every gateway's
-    /// priority lane, dropping whatever bulk was queued. Returns the gateways it could
-    /// not reach, each with the reason.
-    pub fn estop(&self) -> Vec<String> {
-        self.links
-            .iter()
-            .filter_map(|link| {
-                link.estop(&self.estop)
-                    .err()
-                    .map(|error| format!("gateway {}: {error}", link.index()))
-            })
-            .collect()
-    }
-
     /// Queues `batch` on the bulk lane of `gateway`, or of every gateway when `None`,
-    /// waiting while a lane is full.
+    /// waiting while a lane is full; `generation` is the e-stop generation the line was
+    /// issued at (void if the e-stop was pressed since).
     ///
     /// # Errors
     /// No such gateway, or each gateway that refused, with the reason.
-    pub async fn send(&self, gateway: Option<usize>, batch: Batch) -> Result<(), String> {
+    pub async fn send(
+        &self,
+        gateway: Option<usize>,
+        batch: Batch,
+        generation: u64,
+    ) -> Result<(), String> {
         let targets: Vec<&Link> = match gateway {
             Some(index) => vec![self.links.get(index).ok_or_else(|| {
                 format!(
@@ -136,7 +105,7 @@ impl Gateways {
         };
         let mut failures = Vec::new();
         for link in targets {
-            if let Err(error) = link.send(batch.clone()).await {
+            if let Err(error) = link.send_issued(batch.clone(), generation).await {
                 failures.push(format!("gateway {}: {error}", link.index()));
             }
         }
@@ -169,33 +138,6 @@ async fn relay_feedback(
                 tracing::warn!("gateway {gateway}: {missed} feedback frames were not relayed");
             }
             Err(broadcast::error::RecvError::Closed) => return,
-        }
-    }
-}
-
-/// Copies one link's state into the status until the link is gone.
-async fn relay_status(
-    gateway: usize,
-    mut link: watch::Receiver<LinkStatus>,
-    status: Arc<watch::Sender<Status>>,
-) {
-    loop {
-        let current = link.borrow_and_update().clone();
-        status.send_if_modified(|status| {
-            let Some(shown) = status.gateways.get_mut(gateway) else {
-                return false;
-            };
-            let before = shown.clone();
-            shown.link = current.state;
-            shown.bytes_per_s = current.bytes_per_s;
-            shown.error = match current.state {
-                LinkState::Up => None,
-                LinkState::Connecting | LinkState::Down => current.error,
-            };
-            *shown != before
-        });
-        if link.changed().await.is_err() {
-            return;
         }
     }
 }

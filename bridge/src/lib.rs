@@ -1,5 +1,21 @@
 //! The bridge daemon's library: the I/O shell around `floatball_shared`.
 //!
+//! # Concurrency rule
+//! Each piece of mutable state has **one owner**, and everyone else gets snapshots:
+//! - a link's queues and counters belong to its writer thread ([`link`]); handles hand
+//!   batches over through a channel, read atomics, and read the link's status as a
+//!   copy;
+//! - the status every client sees belongs to the playback task ([`playback`]), which
+//!   alone writes it;
+//! - the e-stop is a latch of atomics ([`estop`]): pressing it takes no lock, awaits
+//!   nothing and needs no task or blocking thread — it bumps a generation and wakes
+//!   every link's writer, which writes the stop before its next instruction.
+//!
+//! No lock is held across another lock, an `.await`, or a call into another
+//! component; a guard is taken, the value copied out, and the guard dropped at once.
+//! Slow work (planning a show, reading files, password hashing) runs on blocking
+//! threads, never on the async workers or in the playback task.
+//!
 //! # Layout
 //! - [`cli`]: the command line and what each command does.
 //! - [`config`]: `floatball.toml`, written with defaults on first start, checked with
@@ -10,11 +26,12 @@
 //! - [`durable`]: atomic, durable file writes.
 //! - [`link`]: the links to the gateways (serial ports, the simulated gateway) with
 //!   their e-stop lane.
-//! - [`gateways`]: every link together: console lines, the e-stop broadcast, feedback
-//!   and link states for the clients.
+//! - [`estop`]: the e-stop latch and the one path that presses it.
+//! - [`gateways`]: every link together: console lines and feedback for the clients.
 //! - [`simulate`]: `floatball simulate`, the simulated gateway on a real serial device.
-//! - [`playback`]: the player driven by the clock and the links; e-stop straight to
-//!   the links.
+//! - [`playback`]: the player driven by the clock and the links, the owner of the
+//!   status, and the link watchdog.
+//! - [`control`]: Start, Reset and Home as the WebSocket asks for them.
 //! - [`http`]: the HTTP API under `/api`.
 //! - [`ws`]: the WebSocket endpoint `/ws`: status and feedback out, control in.
 //! - [`server`]: the router (API, WebSocket, static app) and its shutdown.
@@ -30,6 +47,7 @@ pub mod cli;
 pub mod config;
 pub mod control;
 pub mod durable;
+pub mod estop;
 pub mod gateways;
 pub mod http;
 pub mod link;

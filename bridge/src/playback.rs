@@ -1,35 +1,67 @@
 //! Playback: the player (`floatball_shared::plan::player`) driven by the bridge's
 //! clock, the links' state and their feedback, its commands carried out on the links.
 //!
-//! E-stop never waits for this task: [`Playback::estop`] writes the stop on every link's
-//! priority lane itself, then tells the player. Status is published on a watch channel
-//! whenever it changes (the WebSocket layer limits how often clients hear of it).
+//! **One owner.** The playback task owns the player and the status: it is the only
+//! writer of the [`Status`] every client sees (the player's part and each gateway's
+//! link part, read from the links as snapshots), published on a watch channel whenever
+//! it changes (the WebSocket layer limits how often clients hear of it).
+//!
+//! **The e-stop waits on nothing.** [`Playback::estop`] presses the latch and wakes the
+//! links itself ([`crate::estop::press`]); the task only learns of it, on its next turn,
+//! from the latch's generation, and stops the player. Start, Reset and Home are tagged
+//! with the generation they were issued at; they are planned away from the task (a
+//! blocking thread), and the task accepts them only if no e-stop came since. Every
+//! batch the player queues carries the generation of the request that started the
+//! run, so nothing planned before an e-stop reaches a line after it.
+//!
+//! **A stalled link is a fault.** While a playlist runs, a link that has bytes queued
+//! and writes nothing for [`stall_limit`] stops the show on every gateway and sets the
+//! state `error`, naming the gateway.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use floatball_shared::api::{GatewayStatus, LinkState, Status};
-use floatball_shared::ascii::Batch;
+use floatball_shared::api::{GatewayStatus, Status};
 use floatball_shared::plan::Installation;
 use floatball_shared::plan::player::{
-    Command, Entry, LinkView, Player, PlayerConfig, StartError, TICK_US,
+    Command, Entry, LinkView, Player, PlayerConfig, Prepared, StartError, TICK_US, prepare,
 };
 use tokio::sync::{mpsc, oneshot, watch};
 
+use crate::estop::{self, Latch};
 use crate::link::Link;
+use crate::link::pacer::byte_time;
+
+type Reply = oneshot::Sender<Result<(), StartError>>;
 
 enum Request {
     Start {
-        entries: Vec<Entry>,
-        loop_playlist: bool,
-        reply: oneshot::Sender<Result<(), StartError>>,
+        generation: u64,
+        prepared: Result<Prepared, StartError>,
+        reply: Reply,
     },
     Reset {
-        entries: Vec<Entry>,
-        loop_playlist: bool,
-        reply: oneshot::Sender<Result<(), StartError>>,
+        generation: u64,
+        prepared: Result<Prepared, StartError>,
+        reply: Reply,
     },
+    Home {
+        generation: u64,
+        reply: Reply,
+    },
+    /// Look at the latch now (the e-stop was pressed).
     Estop,
+}
+
+impl std::fmt::Debug for Request {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Request::Start { .. } => "Start",
+            Request::Reset { .. } => "Reset",
+            Request::Home { .. } => "Home",
+            Request::Estop => "Estop",
+        })
+    }
 }
 
 /// A handle to the playback task; cheap to clone.
@@ -38,17 +70,8 @@ pub struct Playback {
     requests: mpsc::UnboundedSender<Request>,
     status: watch::Receiver<Status>,
     links: Arc<Vec<Link>>,
-    estop: Batch,
-}
-
-impl std::fmt::Debug for Request {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Request::Start { .. } => "Start",
-            Request::Reset { .. } => "Reset",
-            Request::Estop => "Estop",
-        })
-    }
+    latch: Arc<Latch>,
+    installation: Arc<Installation>,
 }
 
 /// Why a request could not be handled.
@@ -64,21 +87,31 @@ pub enum PlaybackError {
 
 impl Playback {
     /// Starts the playback task for `installation` on `links` (one per gateway, in
-    /// order); `estop` is the stop instruction batch (e.g. `*0;MO=0;`).
-    pub fn spawn(installation: Installation, links: Vec<Link>, estop: Batch) -> Self {
+    /// order, all obeying the same e-stop latch). Must run inside the async runtime.
+    pub fn spawn(installation: Installation, links: Vec<Link>) -> Self {
+        let latch = links
+            .first()
+            .map_or_else(|| Arc::new(Latch::new()), |link| Arc::clone(link.latch()));
         let links = Arc::new(links);
+        let installation = Arc::new(installation);
         let player = Player::new(PlayerConfig {
-            installation,
-            estop: estop.clone(),
+            installation: (*installation).clone(),
         });
         let (requests, inbox) = mpsc::unbounded_channel();
-        let (status_tx, status) = watch::channel(Status::default());
-        tokio::spawn(run(player, Arc::clone(&links), inbox, status_tx));
+        let (status_tx, status) = watch::channel(status_of(&player, &links));
+        tokio::spawn(run(
+            player,
+            Arc::clone(&links),
+            Arc::clone(&latch),
+            inbox,
+            status_tx,
+        ));
         Self {
             requests,
             status,
             links,
-            estop,
+            latch,
+            installation,
         }
     }
 
@@ -92,24 +125,21 @@ impl Playback {
         &self.links
     }
 
-    /// E-stop: the stop goes on every link's priority lane now, ahead of anything
-    /// queued (which is dropped); then the player stops. Returns the gateways the stop
-    /// could not reach, each with the reason.
+    /// The e-stop latch.
+    pub fn latch(&self) -> &Arc<Latch> {
+        &self.latch
+    }
+
+    /// E-stop: presses the latch — every link writes its stop ahead of anything
+    /// queued (which is dropped) — then tells the player. Takes no lock and waits for
+    /// nothing. Returns the gateways the stop cannot reach now, each with the reason.
     pub fn estop(&self) -> Vec<String> {
-        let failures = self
-            .links
-            .iter()
-            .filter_map(|link| {
-                link.estop(&self.estop)
-                    .err()
-                    .map(|error| format!("gateway {}: {error}", link.index()))
-            })
-            .collect();
+        let failures = estop::press(&self.latch, &self.links);
         let _ = self.requests.send(Request::Estop);
         failures
     }
 
-    /// Start the playlist.
+    /// Start the playlist, as a request issued now.
     ///
     /// # Errors
     /// [`PlaybackError::Refused`] with the player's reason; nothing moved.
@@ -118,9 +148,25 @@ impl Playback {
         entries: Vec<Entry>,
         loop_playlist: bool,
     ) -> Result<(), PlaybackError> {
+        let generation = self.latch.generation();
+        self.start_issued(entries, loop_playlist, generation).await
+    }
+
+    /// Start the playlist, as a request issued at e-stop `generation`: refused with
+    /// [`StartError::Superseded`] if the e-stop was pressed since.
+    ///
+    /// # Errors
+    /// As [`Playback::start`].
+    pub async fn start_issued(
+        &self,
+        entries: Vec<Entry>,
+        loop_playlist: bool,
+        generation: u64,
+    ) -> Result<(), PlaybackError> {
+        let prepared = self.prepare(entries, loop_playlist).await?;
         self.ask(|reply| Request::Start {
-            entries,
-            loop_playlist,
+            generation,
+            prepared,
             reply,
         })
         .await
@@ -135,24 +181,64 @@ impl Playback {
         entries: Vec<Entry>,
         loop_playlist: bool,
     ) -> Result<(), PlaybackError> {
-        for link in self.links.iter() {
-            if let Err(err) = link.estop(&self.estop) {
-                tracing::error!("reset: stopping gateway {}: {err}", link.index());
-            }
-        }
+        self.estop();
+        let generation = self.latch.generation();
+        self.reset_issued(entries, loop_playlist, generation).await
+    }
+
+    /// The rest of a Reset whose stop was pressed already, at e-stop `generation`.
+    ///
+    /// # Errors
+    /// As [`Playback::reset`].
+    pub async fn reset_issued(
+        &self,
+        entries: Vec<Entry>,
+        loop_playlist: bool,
+        generation: u64,
+    ) -> Result<(), PlaybackError> {
+        let prepared = self.prepare(entries, loop_playlist).await?;
         self.ask(|reply| Request::Reset {
-            entries,
-            loop_playlist,
+            generation,
+            prepared,
             reply,
         })
         .await
     }
 
-    /// Sends the player a request and waits for its answer.
-    async fn ask(
+    /// Home: stop now, bring every ball home, and stay idle there.
+    ///
+    /// # Errors
+    /// [`PlaybackError::Refused`]: the matrix is stopped, and stays so.
+    pub async fn home(&self) -> Result<(), PlaybackError> {
+        self.estop();
+        let generation = self.latch.generation();
+        self.home_issued(generation).await
+    }
+
+    /// The rest of a Home whose stop was pressed already, at e-stop `generation`.
+    ///
+    /// # Errors
+    /// As [`Playback::home`].
+    pub async fn home_issued(&self, generation: u64) -> Result<(), PlaybackError> {
+        self.ask(|reply| Request::Home { generation, reply }).await
+    }
+
+    /// Plans the playlist on a blocking thread: planning a long show takes a while, and
+    /// neither the playback task nor the runtime's workers may wait for it.
+    async fn prepare(
         &self,
-        request: impl FnOnce(oneshot::Sender<Result<(), StartError>>) -> Request,
-    ) -> Result<(), PlaybackError> {
+        entries: Vec<Entry>,
+        loop_playlist: bool,
+    ) -> Result<Result<Prepared, StartError>, PlaybackError> {
+        let installation = Arc::clone(&self.installation);
+        let views = link_views(&self.links);
+        tokio::task::spawn_blocking(move || prepare(&installation, entries, loop_playlist, &views))
+            .await
+            .map_err(|_| PlaybackError::Gone)
+    }
+
+    /// Sends the player a request and waits for its answer.
+    async fn ask(&self, request: impl FnOnce(Reply) -> Request) -> Result<(), PlaybackError> {
         let (reply, answer) = oneshot::channel();
         self.requests
             .send(request(reply))
@@ -164,11 +250,18 @@ impl Playback {
     }
 }
 
+/// How long a link may hold queued bytes without writing any while a show runs
+/// before it counts as stalled: ten of the longest instructions on its line, and never
+/// less than half a second (threads are not scheduled to the millisecond).
+pub fn stall_limit(baud: u32) -> Duration {
+    (byte_time(baud) * 10 * floatball_shared::ascii::MAX_LEN as u32).max(Duration::from_millis(500))
+}
+
 fn link_views(links: &[Link]) -> Vec<LinkView> {
     links
         .iter()
         .map(|link| LinkView {
-            up: link.status().borrow().state == LinkState::Up,
+            up: link.is_up(),
             queued_bytes: link.queued_bytes(),
         })
         .collect()
@@ -181,31 +274,105 @@ fn status_of(player: &Player, links: &[Link]) -> Status {
         .iter()
         .enumerate()
         .map(|(gateway, link)| {
-            let link_status = link.status().borrow().clone();
+            let link_status = link.snapshot();
             GatewayStatus {
                 port: link.port().to_owned(),
                 link: link_status.state,
                 bytes_per_s: link_status.bytes_per_s,
                 lowest_water_level: lowest.get(gateway).copied().flatten(),
-                error: link_status.error,
+                error: match link_status.state {
+                    floatball_shared::api::LinkState::Up => None,
+                    _ => link_status.error,
+                },
             }
         })
         .collect();
     status
 }
 
-fn carry_out(links: &[Link], commands: Vec<Command>) {
+/// Progress of one link as the watchdog last saw it.
+#[derive(Debug, Clone, Copy)]
+struct Progress {
+    written_bytes: u64,
+    since: Instant,
+}
+
+/// The link watchdog: a link with bytes queued that writes nothing for its
+/// [`stall_limit`] while a show runs.
+#[derive(Debug)]
+struct Watchdog {
+    progress: Vec<Progress>,
+}
+
+impl Watchdog {
+    fn new(links: &[Link]) -> Self {
+        let now = Instant::now();
+        Self {
+            progress: links
+                .iter()
+                .map(|link| Progress {
+                    written_bytes: link.written_bytes(),
+                    since: now,
+                })
+                .collect(),
+        }
+    }
+
+    /// The first stalled link's description, if one is stalled.
+    fn check(&mut self, links: &[Link], running: bool) -> Option<String> {
+        let now = Instant::now();
+        let mut stalled = None;
+        for (progress, link) in self.progress.iter_mut().zip(links) {
+            let written_bytes = link.written_bytes();
+            let queued = link.queued_bytes();
+            if !running || queued == 0 || written_bytes != progress.written_bytes {
+                *progress = Progress {
+                    written_bytes,
+                    since: now,
+                };
+                continue;
+            }
+            let silent = now.saturating_duration_since(progress.since);
+            if stalled.is_none() && silent >= stall_limit(link.baud()) {
+                stalled = Some(format!(
+                    "gateway {} ({}) stalled: {queued} bytes queued and nothing written for {} ms; the show was stopped on every gateway",
+                    link.index(),
+                    link.port(),
+                    silent.as_millis()
+                ));
+            }
+        }
+        stalled
+    }
+}
+
+/// Carries out the player's commands, every batch tagged with `generation` (the e-stop
+/// generation of the request that started the run). Returns whether it pressed the
+/// e-stop (the player asked for it).
+fn carry_out(links: &[Link], latch: &Latch, commands: Vec<Command>, generation: u64) -> bool {
+    let mut pressed = false;
     for command in commands {
         let (gateway, result) = match command {
-            Command::Bulk { gateway, batch } => {
-                (gateway, links.get(gateway).map(|link| link.enqueue(&batch)))
-            }
+            Command::Bulk { gateway, batch } => (
+                gateway,
+                links
+                    .get(gateway)
+                    .map(|link| link.enqueue(&batch, generation)),
+            ),
             Command::Priority { gateway, batch } => (
                 gateway,
-                links.get(gateway).map(|link| link.send_priority(&batch)),
+                links
+                    .get(gateway)
+                    .map(|link| link.send_priority(&batch, generation)),
             ),
-            // The handle already wrote the stop; the player only says so again.
-            Command::Estop { gateway, .. } => (gateway, Some(Ok(()))),
+            Command::Estop => {
+                pressed = true;
+                let failures = estop::press(latch, links);
+                if !failures.is_empty() {
+                    tracing::error!("the stop did not reach {}", failures.join("; "));
+                }
+                continue;
+            }
         };
         match result {
             Some(Ok(())) => {}
@@ -213,11 +380,34 @@ fn carry_out(links: &[Link], commands: Vec<Command>) {
             None => tracing::error!("player: there is no gateway {gateway}"),
         }
     }
+    pressed
+}
+
+/// Whether a request issued at `generation` may run now: no e-stop since, every
+/// gateway up; then the latch is released for it.
+fn admit(
+    latch: &Latch,
+    generation: u64,
+    views: &[LinkView],
+    gateways: usize,
+) -> Result<(), StartError> {
+    if generation != latch.generation() {
+        return Err(StartError::Superseded);
+    }
+    if let Some(gateway) = (0..gateways).find(|&gateway| !views.get(gateway).is_some_and(|v| v.up))
+    {
+        return Err(StartError::NotConnected { gateway });
+    }
+    if !latch.release(generation) {
+        return Err(StartError::Superseded);
+    }
+    Ok(())
 }
 
 async fn run(
     mut player: Player,
     links: Arc<Vec<Link>>,
+    latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
     status: watch::Sender<Status>,
 ) {
@@ -247,35 +437,93 @@ async fn run(
         });
     }
     drop(frames_tx);
+    let gateways = links.len();
+    let mut seen_generation = latch.generation();
+    let mut run_generation = seen_generation;
+    let mut watchdog = Watchdog::new(&links);
     loop {
         let now = now_us();
         // Idle, it still looks at the links ten times a second for the status.
         let wake_us = player.next_wakeup_us(now).unwrap_or(now + 100_000);
         let sleep = tokio::time::sleep(Duration::from_micros(
-            wake_us.saturating_sub(now).clamp(1_000, TICK_US * 25),
+            wake_us.saturating_sub(now).clamp(1_000, TICK_US * 10),
         ));
+        let mut request = None;
         tokio::select! {
-            request = inbox.recv() => {
-                let Some(request) = request else { return };
-                let now = now_us();
-                let views = link_views(&links);
-                match request {
-                    Request::Start { entries, loop_playlist, reply } => {
-                        let _ = reply.send(player.start(now, entries, loop_playlist, &views));
-                    }
-                    Request::Reset { entries, loop_playlist, reply } => {
-                        let _ = reply.send(player.reset(now, entries, loop_playlist, &views));
-                    }
-                    Request::Estop => player.estop(),
-                }
+            received = inbox.recv() => {
+                let Some(received) = received else { return };
+                request = Some(received);
             }
             Some((gateway, frame)) = frames.recv() => {
                 player.handle_feedback(now_us(), gateway, &frame);
             }
             () = sleep => {}
         }
+        // An e-stop pressed since the last turn: the links have acted on it already.
+        let generation = latch.generation();
+        if generation != seen_generation {
+            seen_generation = generation;
+            player.estop();
+        }
+        let now = now_us();
+        if let Some(request) = request {
+            let views = link_views(&links);
+            match request {
+                Request::Start {
+                    generation,
+                    prepared,
+                    reply,
+                } => {
+                    let result = if player.is_running() {
+                        Err(StartError::Busy)
+                    } else {
+                        prepared
+                            .and_then(|prepared| {
+                                admit(&latch, generation, &views, gateways).map(|()| prepared)
+                            })
+                            .and_then(|prepared| player.start_prepared(now, prepared, &views))
+                    };
+                    if result.is_ok() {
+                        run_generation = generation;
+                    }
+                    let _ = reply.send(result);
+                }
+                Request::Reset {
+                    generation,
+                    prepared,
+                    reply,
+                } => {
+                    let admitted = prepared.and_then(|prepared| {
+                        admit(&latch, generation, &views, gateways).map(|()| prepared)
+                    });
+                    let result = player.reset_prepared(now, admitted, &views);
+                    if result.is_ok() {
+                        run_generation = generation;
+                    }
+                    let _ = reply.send(result);
+                }
+                Request::Home { generation, reply } => {
+                    let result = match admit(&latch, generation, &views, gateways) {
+                        Ok(()) => player.home(now, &views),
+                        Err(error) => Err(error),
+                    };
+                    if result.is_ok() {
+                        run_generation = generation;
+                    }
+                    let _ = reply.send(result);
+                }
+                Request::Estop => {}
+            }
+        }
         player.poll(now_us(), &link_views(&links));
-        carry_out(&links, player.take_commands());
+        if let Some(stall) = watchdog.check(&links, player.is_running()) {
+            tracing::error!("{stall}");
+            player.fail_with(stall);
+        }
+        if carry_out(&links, &latch, player.take_commands(), run_generation) {
+            // A stop the player asked for is not news to it (it failed, and stays so).
+            seen_generation = latch.generation();
+        }
         let current = status_of(&player, &links);
         status.send_if_modified(|published| {
             let changed = *published != current;

@@ -1,5 +1,5 @@
 //! What every request handler shares: the configuration, the password and tokens, the
-//! show store and playlist, the gateways, and the live status.
+//! show store and playlist, the gateways, and the player (which owns the live status).
 //!
 //! [`AppState::open`] builds it from the data directory at start; nothing in it is
 //! global, so tests run many bridges side by side.
@@ -10,6 +10,8 @@ use std::sync::Arc;
 use floatball_shared::api::Status;
 use floatball_shared::ascii::EncodeError;
 use tokio::sync::{Mutex, watch};
+
+use crate::estop::Latch;
 
 use crate::auth::{Clock, LoginLimiter, Password, PasswordError, Tokens};
 use crate::config::Config;
@@ -71,7 +73,6 @@ struct Inner {
     catalogue: Mutex<()>,
     gateways: Gateways,
     playback: Playback,
-    status: Arc<watch::Sender<Status>>,
     stopping: watch::Sender<bool>,
 }
 
@@ -91,14 +92,9 @@ impl AppState {
         let shows = ShowStore::open(&paths.data_dir)?;
         let playlist = PlaylistStore::open(&paths.data_dir)?;
         let tokens = Tokens::open(&paths.data_dir, clock.now());
-        let status = Arc::new(watch::channel(Status::default()).0);
-        let gateways = Gateways::open(&config, &status)?;
-        let playback = Playback::spawn(
-            config.installation(),
-            gateways.links().to_vec(),
-            gateways.estop_batch().clone(),
-        );
-        tokio::spawn(merge_player_status(playback.status(), Arc::clone(&status)));
+        let latch = Arc::new(Latch::new());
+        let gateways = Gateways::open(&config, &latch)?;
+        let playback = Playback::spawn(config.installation(), gateways.links().to_vec());
         Ok(Self {
             inner: Arc::new(Inner {
                 config,
@@ -112,7 +108,6 @@ impl AppState {
                 catalogue: Mutex::new(()),
                 gateways,
                 playback,
-                status,
                 stopping: watch::channel(false).0,
             }),
         })
@@ -184,66 +179,8 @@ impl AppState {
         self.inner.stopping.subscribe()
     }
 
-    /// A receiver that sees every status change.
+    /// A receiver that sees every status change (the playback task owns the status).
     pub fn subscribe_status(&self) -> watch::Receiver<Status> {
-        self.inner.status.subscribe()
+        self.inner.playback.status()
     }
-
-    /// Changes the status; every connected client is told. The player's part of the
-    /// status is changed here; each gateway's link part by [`Gateways`].
-    pub fn update_status(&self, change: impl FnOnce(&mut Status)) {
-        self.inner.status.send_modify(change);
-    }
-}
-
-/// Copies the player's part of the status (state, entry, show, times, progress, last
-/// error, each gateway's lowest water level) into the shared status, where the links
-/// write their own part. Only a change of the player's part is copied.
-async fn merge_player_status(
-    mut player: watch::Receiver<Status>,
-    status: Arc<watch::Sender<Status>>,
-) {
-    let mut last: Option<Status> = None;
-    loop {
-        let mut current = player.borrow_and_update().clone();
-        let levels: Vec<Option<u16>> = current
-            .gateways
-            .iter()
-            .map(|gateway| gateway.lowest_water_level)
-            .collect();
-        // The links' part of the player's copy is not the player's to publish.
-        current.gateways.clear();
-        let part = (current, levels);
-        if last.as_ref() != Some(&part.0) || levels_changed(&status, &part.1) {
-            let (current, levels) = &part;
-            status.send_if_modified(|status| {
-                let before = status.clone();
-                status.state = current.state;
-                status.entry = current.entry;
-                status.show = current.show.clone();
-                status.show_time_ms = current.show_time_ms;
-                status.show_duration_ms = current.show_duration_ms;
-                status.cycle = current.cycle;
-                status.progress = current.progress;
-                status.last_error = current.last_error.clone();
-                for (shown, level) in status.gateways.iter_mut().zip(levels) {
-                    shown.lowest_water_level = *level;
-                }
-                *status != before
-            });
-            last = Some(part.0);
-        }
-        if player.changed().await.is_err() {
-            return;
-        }
-    }
-}
-
-fn levels_changed(status: &watch::Sender<Status>, levels: &[Option<u16>]) -> bool {
-    let status = status.borrow();
-    status
-        .gateways
-        .iter()
-        .zip(levels)
-        .any(|(shown, level)| shown.lowest_water_level != *level)
 }

@@ -12,10 +12,15 @@
 //! session says so and closes. Anything the bridge cannot do is answered with an
 //! `error` message and the connection stays open.
 //!
-//! `estop` is always obeyed, even before the initial password is changed. `raw`
+//! `estop` is always obeyed, even before the initial password is changed: it is
+//! carried out right here, before anything else, by pressing the e-stop latch (no lock,
+//! no await: [`crate::estop`]), and answered with `estop_sent`. Start, Reset and Home
+//! are tagged with the e-stop generation at the moment they arrive, so an e-stop that
+//! arrives after them voids them even while they are still being prepared. `raw`
 //! console lines are parsed by the codec; a valid line is queued, in order, on the
 //! bulk lane of its gateway (or of all), by a task of the session so that a full lane
-//! never holds up status and feedback.
+//! never holds up status and feedback. While the e-stop is latched, a line that could
+//! move a ball is refused (queries still go).
 
 use std::collections::HashMap;
 use std::time::Duration;
@@ -43,8 +48,9 @@ pub const MAX_MESSAGE_BYTES: usize = 64 * 1024;
 /// Console lines one session may have waiting for room on a bulk lane.
 const CONSOLE_QUEUE: usize = 32;
 
-/// A console line on its way: the gateway (all when `None`) and the instructions.
-type ConsoleLine = (Option<usize>, Batch);
+/// A console line on its way: the gateway (all when `None`), the instructions, and the
+/// e-stop generation it was issued at.
+type ConsoleLine = (Option<usize>, Batch, u64);
 
 /// How long a closing session waits for the client to answer its close frame.
 const CLOSE_HANDSHAKE: Duration = Duration::from_secs(1);
@@ -222,8 +228,8 @@ async fn console(
     mut lines: mpsc::Receiver<ConsoleLine>,
     failures: mpsc::Sender<ServerMessage>,
 ) {
-    while let Some((gateway, batch)) = lines.recv().await {
-        if let Err(reason) = state.gateways().send(gateway, batch).await
+    while let Some((gateway, batch, generation)) = lines.recv().await {
+        if let Err(reason) = state.gateways().send(gateway, batch, generation).await
             && failures
                 .send(error(format!("the line was not sent: {reason}")))
                 .await
@@ -289,30 +295,34 @@ fn answer(
     match message {
         ClientMessage::Ping => Some(ServerMessage::Pong),
         ClientMessage::Estop => {
-            let failures = state.playback().estop();
+            let unreached = state.playback().estop();
             tracing::warn!("e-stop requested over the WebSocket");
-            if failures.is_empty() {
-                None
-            } else {
-                tracing::error!("the e-stop did not reach {}", failures.join("; "));
-                Some(error(format!(
-                    "the e-stop did not reach every gateway: {}",
-                    failures.join("; ")
-                )))
+            if !unreached.is_empty() {
+                tracing::error!("the e-stop did not reach {}", unreached.join("; "));
             }
+            Some(ServerMessage::EstopSent { unreached })
         }
-        ClientMessage::Start | ClientMessage::Reset if state.password().is_default() => Some(
-            error("change the initial password (1234) before controlling the matrix"),
-        ),
-        ClientMessage::Start | ClientMessage::Reset => {
-            let control = if message == ClientMessage::Start {
-                Control::Start
-            } else {
-                Control::Reset
+        ClientMessage::Start | ClientMessage::Reset | ClientMessage::Home
+            if state.password().is_default() =>
+        {
+            Some(error(
+                "change the initial password (1234) before controlling the matrix",
+            ))
+        }
+        ClientMessage::Start | ClientMessage::Reset | ClientMessage::Home => {
+            let control = match message {
+                ClientMessage::Reset => Control::Reset,
+                ClientMessage::Home => Control::Home,
+                _ => Control::Start,
             };
+            // Reset and Home stop at once; every one of them is tagged now.
+            if control != Control::Start {
+                state.playback().estop();
+            }
+            let generation = state.playback().latch().generation();
             let (state, replies) = (state.clone(), replies.clone());
             tokio::spawn(async move {
-                if let Err(reason) = control::run(&state, control).await {
+                if let Err(reason) = control::run(&state, control, generation).await {
                     tracing::warn!("{control:?} refused: {reason}");
                     let _ = replies.send(error(reason)).await;
                 }
@@ -339,13 +349,24 @@ fn answer(
                     return Some(error(format!("the line is not valid: {parse_error}")));
                 }
             };
+            if state.playback().latch().is_latched()
+                && !instructions
+                    .iter()
+                    .all(|instruction| instruction.is_inert())
+            {
+                return Some(error(
+                    "the e-stop is latched: only queries can be sent until Start, Reset or \
+                     Home; this line was not sent",
+                ));
+            }
+            let generation = state.playback().latch().generation();
             let batch = match Batch::encode(&instructions, Form::Standard) {
                 Ok(batch) => batch,
                 Err(encode_error) => {
                     return Some(error(format!("the line is not valid: {encode_error}")));
                 }
             };
-            match console_lines.try_send((gateway, batch)) {
+            match console_lines.try_send((gateway, batch, generation)) {
                 Ok(()) => None,
                 Err(_) => Some(error(
                     "too many console lines are waiting for the gateway; this one was not sent",

@@ -230,14 +230,23 @@ async fn estop_broadcasts_the_stop_on_every_gateway() {
     for reader in &mut readers {
         assert_eq!(read_exactly(reader, 8).await, b"*0;MO=0;");
     }
-    send_text(&mut ws, r#"{"type":"ping"}"#).await;
     loop {
         match next_message(&mut ws).await {
-            ServerMessage::Pong => break,
+            ServerMessage::EstopSent { unreached } => {
+                assert!(unreached.is_empty(), "{unreached:?}");
+                break;
+            }
             ServerMessage::Status(_) => {}
             other => panic!("the e-stop reached every gateway; got {other:?}"),
         }
     }
+    // Latched: a console line that would move is refused, a query still goes.
+    let mut ws = bridge.ws(&bridge.operator().await).await;
+    send_text(&mut ws, r#"{"type":"raw","line":"*5;MO=1;","gateway":0}"#).await;
+    let message = next_error(&mut ws).await;
+    assert!(message.contains("latched"), "{message}");
+    send_text(&mut ws, r#"{"type":"raw","line":"*5;PV;","gateway":0}"#).await;
+    assert_eq!(read_exactly(&mut readers[0], 6).await, b"*5;PV;");
 }
 
 #[tokio::test]
@@ -258,7 +267,14 @@ async fn a_lost_gateway_shows_in_the_status_and_the_estop_reports_it() {
         }
     }
     send_text(&mut ws, r#"{"type":"estop"}"#).await;
-    let message = next_error(&mut ws).await;
+    let unreached = loop {
+        match next_message(&mut ws).await {
+            ServerMessage::EstopSent { unreached } => break unreached,
+            ServerMessage::Status(_) => {}
+            other => panic!("expected the e-stop's answer, got {other:?}"),
+        }
+    };
+    let message = unreached.join("; ");
     assert!(message.contains("gateway 1"), "{message}");
     assert!(!message.contains("gateway 0"), "{message}");
 }

@@ -112,7 +112,7 @@ async fn an_estop_overtakes_queued_bulk_within_one_instruction() {
     link.send(bulk).await.unwrap();
     // Let the line get going, then stop.
     let before = collect(&rx, |bytes| bytes.len() >= 200);
-    link.estop(&batch("*0;MO=0;")).unwrap();
+    assert_eq!(link.estop(), None);
     let after = collect(&rx, |bytes| bytes.windows(8).any(|w| w == b"*0;MO=0;"));
     let mut all = before;
     all.extend(&after);
@@ -218,4 +218,32 @@ async fn a_missing_port_is_down_with_the_reason() {
     let status = link.status().borrow().clone();
     let error = status.error.unwrap();
     assert!(error.contains("/dev/floatball-no-such-port"), "{error}");
+}
+
+#[tokio::test]
+async fn while_the_estop_is_latched_only_queries_pass_and_older_batches_are_void() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("gateway0");
+    let gateway = pty_at(&path);
+    let link = Link::open(0, LinkConfig::new(path.display().to_string(), 115_200));
+    wait_for_state(&link, LinkState::Up).await;
+    let rx = spawn_reader(gateway.master);
+
+    let issued_before = link.latch().generation();
+    assert_eq!(link.estop(), None);
+    // A batch issued before the e-stop is void, whenever it arrives.
+    link.send_issued(batch("*5;PV=0;BG;"), issued_before)
+        .await
+        .unwrap();
+    // Issued after it, while latched: only what cannot move a ball goes.
+    link.send(batch("*5;MO=1;PA=100;PA;BG;SN;")).await.unwrap();
+    let wire = collect(&rx, |bytes| bytes.ends_with(b"SN;"));
+    assert_eq!(String::from_utf8_lossy(&wire), "*0;MO=0;*5;PA;SN;");
+    assert!(link.dropped_instructions() >= 2);
+
+    // Released by a request issued after the e-stop: motion goes again.
+    assert!(link.latch().release(link.latch().generation()));
+    link.send(batch("*5;MO=1;")).await.unwrap();
+    let wire = collect(&rx, |bytes| bytes.ends_with(b"MO=1;"));
+    assert_eq!(String::from_utf8_lossy(&wire), "*5;MO=1;");
 }

@@ -8,7 +8,6 @@ use std::time::{Duration, Instant};
 use floatball_bridge::link::{Link, LinkConfig};
 use floatball_bridge::playback::Playback;
 use floatball_shared::api::{LinkState, PlayerState, Status};
-use floatball_shared::ascii::{Batch, Form, parse_script};
 use floatball_shared::plan::player::Entry;
 use floatball_shared::plan::{GatewaySpec, Installation};
 use floatball_shared::show::{Layout, Limits, Sampler, Show, Track, TrackRow};
@@ -63,10 +62,6 @@ fn installation(rows: u32, cols: u32, port: &str, baud: u32) -> Installation {
     installation
 }
 
-fn estop() -> Batch {
-    Batch::encode(&parse_script("*0;MO=0;").unwrap(), Form::Standard).unwrap()
-}
-
 async fn wait_for(playback: &Playback, within: Duration, what: impl Fn(&Status) -> bool) -> Status {
     let mut status = playback.status();
     tokio::time::timeout(within, status.wait_for(|status| what(status)))
@@ -101,7 +96,7 @@ async fn a_show_plays_on_the_simulated_gateway_and_follows_its_track() {
     let link = Link::open(0, config);
     up(&link).await;
     let view = link.sim_view().unwrap().clone();
-    let playback = Playback::spawn(installation, vec![link], estop());
+    let playback = Playback::spawn(installation, vec![link]);
     playback
         .start(
             vec![Entry {
@@ -152,7 +147,7 @@ async fn estop_stops_every_simulated_ball_at_once() {
     let link = Link::open(0, config);
     up(&link).await;
     let view = link.sim_view().unwrap().clone();
-    let playback = Playback::spawn(installation(1, 4, "sim", 115_200), vec![link], estop());
+    let playback = Playback::spawn(installation(1, 4, "sim", 115_200), vec![link]);
     let entries = vec![Entry {
         show,
         delay_ms: 0,
@@ -250,7 +245,7 @@ async fn a_show_plays_through_real_serial_devices() {
 
     let link = Link::open(0, LinkConfig::new(path_a, 115_200));
     up(&link).await;
-    let playback = Playback::spawn(installation(2, 2, "pty", 115_200), vec![link], estop());
+    let playback = Playback::spawn(installation(2, 2, "pty", 115_200), vec![link]);
     // 300 rows of 40 ms: streamed through the FIFOs, over the cable.
     let show = gentle_wave(2, 2, 300, 40);
     playback

@@ -88,40 +88,55 @@ async fn status_arrives_on_connect_and_on_change() {
     };
     assert_eq!(status.state, PlayerState::Idle);
 
-    bridge
-        .state
-        .update_status(|status| status.state = PlayerState::Playing);
-    // A link's state may change in between; the change must come.
-    while let ServerMessage::Status(status) = next_message(&mut ws).await {
-        if status.state == PlayerState::Playing {
-            return;
+    // The e-stop is obeyed even before the password change, answered at once, and
+    // the status follows.
+    send_text(&mut ws, r#"{"type":"estop"}"#).await;
+    let mut acknowledged = false;
+    loop {
+        match next_message(&mut ws).await {
+            ServerMessage::EstopSent { unreached } => {
+                assert!(unreached.is_empty(), "{unreached:?}");
+                acknowledged = true;
+            }
+            ServerMessage::Status(status) if status.state == PlayerState::Stopped => break,
+            ServerMessage::Status(_) => {}
+            other => panic!("unexpected {other:?}"),
         }
     }
-    panic!("expected statuses only");
+    assert!(
+        acknowledged,
+        "the e-stop is answered before the status changes"
+    );
 }
 
 #[tokio::test]
 async fn status_is_sent_at_most_ten_times_a_second_and_the_latest_wins() {
     let bridge = Bridge::start().await;
-    let mut ws = bridge.ws(&bridge.token().await).await;
+    let token = bridge.operator().await;
+    let mut ws = bridge.ws(&token).await;
     first_status(&mut ws).await;
+    // Homing changes its progress every few milliseconds.
+    send_text(&mut ws, r#"{"type":"home"}"#).await;
     let started = Instant::now();
-    for time_ms in 1..=100u64 {
-        bridge
-            .state
-            .update_status(|status| status.show_time_ms = time_ms);
-        tokio::time::sleep(Duration::from_millis(5)).await;
-    }
     let mut received = 0;
-    loop {
-        let ServerMessage::Status(status) = next_message(&mut ws).await else {
-            panic!("only statuses are expected");
-        };
-        received += 1;
-        if status.show_time_ms == 100 {
-            break;
+    let mut homed = false;
+    while started.elapsed() < Duration::from_secs(60) {
+        match next_message(&mut ws).await {
+            ServerMessage::Status(status) => {
+                received += 1;
+                if status.state == PlayerState::Homing {
+                    homed = true;
+                }
+                if homed && status.state == PlayerState::Idle {
+                    break;
+                }
+            }
+            // The units' answers to the homing move.
+            ServerMessage::EstopSent { .. } | ServerMessage::Feedback(_) => {}
+            other => panic!("unexpected {other:?}"),
         }
     }
+    assert!(homed, "the matrix homed");
     let elapsed_s = started.elapsed().as_secs_f64();
     let allowed = (elapsed_s * 10.0).ceil() as usize + 1;
     assert!(
@@ -144,22 +159,20 @@ async fn a_hundred_clients_each_get_every_status() {
         first_status(&mut ws).await;
         clients.push(ws);
     }
-    bridge
-        .state
-        .update_status(|status| status.state = PlayerState::Loading);
+    send_text(&mut clients[0], r#"{"type":"estop"}"#).await;
     let received = futures_util::future::join_all(clients.iter_mut().map(|ws| async move {
         loop {
             match next_message(ws).await {
-                ServerMessage::Status(status) if status.state == PlayerState::Loading => {
+                ServerMessage::Status(status) if status.state == PlayerState::Stopped => {
                     return status.state;
                 }
-                ServerMessage::Status(_) => {}
+                ServerMessage::Status(_) | ServerMessage::EstopSent { .. } => {}
                 other => panic!("expected a status, got {other:?}"),
             }
         }
     }))
     .await;
-    assert!(received.iter().all(|state| *state == PlayerState::Loading));
+    assert!(received.iter().all(|state| *state == PlayerState::Stopped));
     assert_eq!(received.len(), 100);
 }
 

@@ -226,6 +226,8 @@ pub enum ClientMessage {
     Estop,
     /// Stop, return every ball home and restart from the first entry.
     Reset,
+    /// Stop, return every ball home and stay idle there.
+    Home,
     /// A console line of instructions, checked by the codec before it is sent.
     Raw {
         /// The instruction text, e.g. `*5;PV;`.
@@ -249,6 +251,13 @@ pub enum ServerMessage {
     Feedback(FeedbackFrame),
     /// The answer to a [`ClientMessage::Ping`].
     Pong,
+    /// The answer to a [`ClientMessage::Estop`]: the stop was handed to every link's
+    /// writer (it is on the wire after at most the instruction already there).
+    EstopSent {
+        /// The gateways the stop could not reach now (not connected), each with the
+        /// reason; they get it first thing when they come back.
+        unreached: Vec<String>,
+    },
     /// A request was refused; the connection stays open.
     Error {
         /// What was wrong, in words an operator can act on.

@@ -324,6 +324,32 @@ pub enum Operand {
 }
 
 impl Instruction {
+    /// Whether the instruction is safe to send while the e-stop is latched: it cannot
+    /// switch a motor on, move a ball, load or arm motion rows, or start anything. These
+    /// are queries (no value), station selections `*N;`, the serial-number roll call,
+    /// and switching the motor driver off. `BG;` has no value but starts motion, so it is
+    /// not inert; neither is any untyped instruction (its meaning is not known here).
+    pub fn is_inert(&self) -> bool {
+        match *self {
+            Self::Select { .. } | Self::QuerySerial => true,
+            Self::Begin { .. } | Self::SetStation { .. } | Self::Generic(_) => false,
+            Self::Motor { on } => on != Some(true),
+            Self::MotionProfile { value, .. } => value.is_none(),
+            Self::PvtStart { row } => row.is_none(),
+            Self::PvtPosition {
+                position_counts, ..
+            } => position_counts.is_none(),
+            Self::PvtVelocity {
+                velocity_counts_s, ..
+            } => velocity_counts_s.is_none(),
+            Self::PvtTime { duration_ms, .. } => duration_ms.is_none(),
+            Self::PtpSpeed { speed_counts_s } => speed_counts_s.is_none(),
+            Self::PtpPosition { position_counts } => position_counts.is_none(),
+            Self::StopDecel { decel_counts_s2 } => decel_counts_s2.is_none(),
+            Self::InfoEnable { enabled, .. } => enabled.is_none(),
+        }
+    }
+
     /// The mnemonic, or `None` for [`Instruction::Select`].
     pub fn mnemonic(&self) -> Option<Mnemonic> {
         match self.parts() {
@@ -551,6 +577,20 @@ mod tests {
     use wasm_bindgen_test::wasm_bindgen_test as test;
 
     use super::*;
+
+    #[test]
+    fn only_queries_selections_and_motor_off_are_inert() {
+        let inert = "*0; *5; SN; PA; PV; QP[3]; QV[3]; QT[3]; MP[1]; SP; SD; IE[5]; MO; MO=0;";
+        for instruction in parse_script(inert).unwrap() {
+            assert!(instruction.is_inert(), "{instruction:?}");
+        }
+        let active = "BG; BG=1000; MO=1; PA=0; PA0; SP=25000; PV=0; QP[16]=162878; \
+                      QV[16]=-34110; QT[16]=100; MP[1]=1; SD=1000; IE[5]=1; SN[3]=12345; \
+                      ST; JV=100;";
+        for instruction in parse_script(active).unwrap() {
+            assert!(!instruction.is_inert(), "{instruction:?}");
+        }
+    }
 
     #[test]
     fn mnemonic_new_normalises_case_and_refuses_non_letters() {

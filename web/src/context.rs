@@ -176,7 +176,11 @@ impl Ctx {
             ServerMessage::Status(status) => self.status.set(Some(status)),
             ServerMessage::Feedback(frame) => self.feedback.update(|log| log.push(&frame)),
             ServerMessage::Error { message } => self.bridge_error.set(Some(message)),
-            ServerMessage::Pong => {}
+            ServerMessage::EstopSent { unreached } if !unreached.is_empty() => {
+                self.bridge_error
+                    .set(Some(format!("E-stop: {}", unreached.join("; "))));
+            }
+            ServerMessage::Pong | ServerMessage::EstopSent { .. } => {}
         }
     }
 

@@ -10,10 +10,12 @@
 //! - [`app`]: building the web app into `static/pkg/`.
 //! - [`stages`]: the test stages and their summary.
 //! - [`fuzz`]: `cargo xtask fuzz`, the fuzz targets at length.
+//! - [`stress`]: the engine's race and load tests, many times in a row.
 
 mod app;
 mod fuzz;
 mod stages;
+mod stress;
 mod tools;
 
 use std::path::PathBuf;
@@ -29,6 +31,8 @@ commands:
   test   install what is missing, then run every check and test
   fuzz   run the fuzz targets (readers of untrusted bytes) in an optimised build
          options: --bytes N (per target, default 10000000)  --target NAME  --seed S
+  stress run the e-stop race and load tests many times in a row, with figures
+         options: --runs N (default 50)
 ";
 
 fn main() -> ExitCode {
@@ -37,6 +41,7 @@ fn main() -> ExitCode {
         Some("run") => run(&args[1..]),
         Some("test") => stages::test(),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
+        Some("stress") => stress::stress(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())

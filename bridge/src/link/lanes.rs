@@ -1,15 +1,13 @@
-//! The two write lanes of a link: **priority** (e-stop) before **bulk** (everything
-//! else), one instruction at a time.
+//! The two write lanes of a link: **priority** (the synchronised start, the stop)
+//! before **bulk** (everything else), one instruction at a time.
 //!
-//! [`Queues`] is the plain logic: which instruction goes next, and the station selection
-//! the gateway is left with. The gateway's `*N;` selection is state: an e-stop
-//! `*0;MO=0;` written in the middle of a bulk batch leaves the gateway addressing every
-//! unit, so before the next bulk instruction the bulk lane's own selection is written
-//! again. [`Lanes`] wraps the queues for the writer thread and the async senders.
+//! [`Queues`] is plain logic owned by the link's writer thread alone (no lock): which
+//! instruction goes next, and the station selection the gateway is left with. The
+//! gateway's `*N;` selection is state: an e-stop `*0;MO=0;` written in the middle of a
+//! bulk batch leaves the gateway addressing every unit, so before the next bulk
+//! instruction the bulk lane's own selection is written again.
 
 use std::collections::VecDeque;
-use std::sync::{Condvar, Mutex, MutexGuard};
-use std::time::Duration;
 
 use floatball_shared::ascii::Batch;
 
@@ -21,12 +19,20 @@ struct Lane {
 }
 
 impl Lane {
-    fn push(&mut self, batch: &Batch) {
+    /// Queues the instructions of `batch` that `keep` accepts; returns the bytes of
+    /// those it refused.
+    fn push(&mut self, batch: &Batch, keep: impl Fn(&[u8]) -> bool) -> usize {
+        let mut refused = 0;
         for instruction in batch.instructions() {
+            if !keep(instruction) {
+                refused += instruction.len();
+                continue;
+            }
             self.bytes.extend(instruction);
             self.lens
                 .push_back(u8::try_from(instruction.len()).unwrap_or(u8::MAX));
         }
+        refused
     }
 
     fn pop_into(&mut self, out: &mut Vec<u8>) -> bool {
@@ -51,6 +57,18 @@ fn is_selection(instruction: &[u8]) -> bool {
     instruction.first() == Some(&b'*')
 }
 
+/// Where the instruction [`Queues::pop_into`] gave came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Popped {
+    /// The priority lane.
+    Priority,
+    /// The bulk lane's selection, written again after a priority selection (not a
+    /// queued instruction itself).
+    Reselection,
+    /// The bulk lane.
+    Bulk,
+}
+
 /// The queues of one link and the selection bookkeeping.
 #[derive(Debug, Default)]
 pub struct Queues {
@@ -65,12 +83,24 @@ pub struct Queues {
 impl Queues {
     /// Queues `batch` on the bulk lane.
     pub fn push_bulk(&mut self, batch: &Batch) {
-        self.bulk.push(batch);
+        self.bulk.push(batch, |_| true);
+    }
+
+    /// Queues the instructions of `batch` that `keep` accepts on the bulk lane; returns
+    /// the bytes of those it refused.
+    pub fn push_bulk_filtered(&mut self, batch: &Batch, keep: impl Fn(&[u8]) -> bool) -> usize {
+        self.bulk.push(batch, keep)
     }
 
     /// Queues `batch` on the priority lane.
     pub fn push_priority(&mut self, batch: &Batch) {
-        self.priority.push(batch);
+        self.priority.push(batch, |_| true);
+    }
+
+    /// Queues the instructions of `batch` that `keep` accepts on the priority lane;
+    /// returns the bytes of those it refused.
+    pub fn push_priority_filtered(&mut self, batch: &Batch, keep: impl Fn(&[u8]) -> bool) -> usize {
+        self.priority.push(batch, keep)
     }
 
     /// Drops every queued bulk instruction; returns how many bytes were dropped.
@@ -78,6 +108,11 @@ impl Queues {
         let dropped = self.bulk.bytes.len();
         self.bulk.clear();
         dropped
+    }
+
+    /// Drops every queued priority instruction.
+    pub fn clear_priority(&mut self) {
+        self.priority.clear();
     }
 
     /// Drops everything, e.g. when the link is lost: nothing stale is sent later.
@@ -113,14 +148,14 @@ impl Queues {
 
     /// Moves the next instruction to write into `out` (cleared first): priority first,
     /// then the bulk lane's selection again if a priority write changed it, then bulk.
-    /// Returns whether it came from the bulk lane, or `None` when both lanes are empty.
-    pub fn pop_into(&mut self, out: &mut Vec<u8>) -> Option<bool> {
+    /// Returns where it came from, or `None` when both lanes are empty.
+    pub fn pop_into(&mut self, out: &mut Vec<u8>) -> Option<Popped> {
         out.clear();
         if self.priority.pop_into(out) {
             if is_selection(out) {
                 self.reselect = true;
             }
-            return Some(false);
+            return Some(Popped::Priority);
         }
         if self.bulk.is_empty() {
             return None;
@@ -130,7 +165,7 @@ impl Queues {
             self.reselect = false;
             if let Some(selection) = &self.bulk_selection {
                 out.extend_from_slice(selection);
-                return Some(true);
+                return Some(Popped::Reselection);
             }
         }
         self.bulk.pop_into(out);
@@ -138,66 +173,7 @@ impl Queues {
             self.bulk_selection = Some(out.clone());
             self.reselect = false;
         }
-        Some(true)
-    }
-}
-
-/// The queues shared between the link's writer thread and its senders.
-#[derive(Debug)]
-pub struct Lanes {
-    queues: Mutex<Queues>,
-    /// Wakes the writer: work arrived, or the link is closing.
-    work: Condvar,
-    /// Wakes senders waiting for room on the bulk lane.
-    room: tokio::sync::Notify,
-    /// Most bytes the bulk lane holds before senders wait.
-    pub capacity_bytes: usize,
-}
-
-impl Lanes {
-    /// Empty lanes whose bulk lane holds up to `capacity_bytes`.
-    pub fn new(capacity_bytes: usize) -> Self {
-        Self {
-            queues: Mutex::new(Queues::default()),
-            work: Condvar::new(),
-            room: tokio::sync::Notify::new(),
-            capacity_bytes,
-        }
-    }
-
-    /// The queues, locked. A poisoned lock only means another thread panicked while
-    /// holding it; the queues themselves are always consistent, so carry on.
-    pub fn lock(&self) -> MutexGuard<'_, Queues> {
-        self.queues
-            .lock()
-            .unwrap_or_else(|poisoned| poisoned.into_inner())
-    }
-
-    /// Waits on the writer's condition variable for at most `timeout`.
-    pub fn wait<'a>(
-        &self,
-        guard: MutexGuard<'a, Queues>,
-        timeout: Duration,
-    ) -> MutexGuard<'a, Queues> {
-        match self.work.wait_timeout(guard, timeout) {
-            Ok((guard, _)) => guard,
-            Err(poisoned) => poisoned.into_inner().0,
-        }
-    }
-
-    /// Wakes the writer.
-    pub fn wake_writer(&self) {
-        self.work.notify_all();
-    }
-
-    /// Tells waiting senders there may be room now.
-    pub fn wake_senders(&self) {
-        self.room.notify_waiters();
-    }
-
-    /// A future that completes at the next [`Lanes::wake_senders`].
-    pub fn room(&self) -> tokio::sync::futures::Notified<'_> {
-        self.room.notified()
+        Some(Popped::Bulk)
     }
 }
 
@@ -264,6 +240,15 @@ mod tests {
         assert_eq!(queues.next_len(), Some(3));
         queues.pop_into(&mut out);
         assert_eq!(queues.next_len(), Some(4), "the *12; comes back before PV;");
+    }
+
+    #[test]
+    fn a_filter_keeps_only_what_it_accepts() {
+        let mut queues = Queues::default();
+        let refused =
+            queues.push_bulk_filtered(&batch("*5;PA=100;PA;BG;"), |i| i == b"PA;" || i == b"*5;");
+        assert_eq!(refused, "PA=100;BG;".len());
+        assert_eq!(drain(&mut queues), ["*5;", "PA;"]);
     }
 
     #[test]

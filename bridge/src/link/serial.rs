@@ -9,13 +9,14 @@
 use std::io::{Read, Write};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::LinkState;
 use floatball_shared::feedback::FrameDecoder;
 use serialport::SerialPort;
 
-use super::{Backoff, LineWrite, Shared, run_writer};
+use super::{Backoff, Input, LineWrite, Shared, run_writer};
 
 /// How long a read waits for bytes before checking whether to stop.
 const READ_TIMEOUT: Duration = Duration::from_millis(50);
@@ -24,11 +25,11 @@ const READ_TIMEOUT: Duration = Duration::from_millis(50);
 const STABLE_AFTER: Duration = Duration::from_secs(10);
 
 /// Starts the supervisor thread of a serial link.
-pub(super) fn spawn(shared: Arc<Shared>) {
+pub(super) fn spawn(shared: Arc<Shared>, inbox: Receiver<Input>) {
     let name = format!("link-{}", shared.index);
     let started = std::thread::Builder::new()
         .name(name)
-        .spawn(move || supervise(&shared));
+        .spawn(move || supervise(&shared, &inbox));
     if let Err(err) = started {
         tracing::error!("cannot start a thread for a serial link: {err}");
     }
@@ -49,7 +50,9 @@ pub fn open_port(port: &str, baud: u32) -> Result<Box<dyn SerialPort>, String> {
         .map_err(|err| format!("cannot open {port}: {err}"))
 }
 
-fn supervise(shared: &Arc<Shared>) {
+/// The supervisor thread is also the link's writer: it owns the queues.
+fn supervise(shared: &Arc<Shared>, inbox: &Receiver<Input>) {
+    shared.register_writer();
     let port_name = shared.config.port.clone();
     let mut backoff = Backoff::new();
     while !shared.is_closed() {
@@ -65,7 +68,7 @@ fn supervise(shared: &Arc<Shared>) {
             Err(reason) => {
                 tracing::warn!("gateway {port_name}: {reason}; retrying");
                 shared.set_state(LinkState::Down, Some(reason));
-                shared.sleep(backoff.next_delay());
+                shared.sleep(inbox, backoff.next_delay());
                 continue;
             }
         };
@@ -73,6 +76,7 @@ fn supervise(shared: &Arc<Shared>) {
             "gateway {port_name}: connected at {} baud",
             shared.config.baud
         );
+        shared.drop_inbox(inbox);
         shared.set_state(LinkState::Up, None);
         let connected_at = Instant::now();
         let lost = Arc::new(AtomicBool::new(false));
@@ -85,7 +89,12 @@ fn supervise(shared: &Arc<Shared>) {
         };
         let reason = match reader_thread {
             Ok(reader_thread) => {
-                let reason = run_writer(shared, &mut SerialLine { port }, &lost);
+                let mut line = SerialLine {
+                    port,
+                    shared: Arc::clone(shared),
+                    lost: Arc::clone(&lost),
+                };
+                let reason = run_writer(shared, inbox, &mut line, &lost);
                 lost.store(true, Ordering::Release);
                 let read_reason = reader_thread.join().ok().flatten();
                 read_reason.unwrap_or(reason)
@@ -100,7 +109,7 @@ fn supervise(shared: &Arc<Shared>) {
         if connected_at.elapsed() >= STABLE_AFTER {
             backoff.reset();
         }
-        shared.sleep(backoff.next_delay());
+        shared.sleep(inbox, backoff.next_delay());
     }
     shared.set_state(LinkState::Down, Some("shut down".to_owned()));
 }
@@ -122,7 +131,7 @@ fn read_loop(shared: &Shared, mut port: Box<dyn SerialPort>, lost: &AtomicBool) 
             Err(err) if err.kind() == std::io::ErrorKind::Interrupted => {}
             Err(err) => {
                 lost.store(true, Ordering::Release);
-                shared.lanes.wake_writer();
+                shared.wake();
                 return Some(format!("read failed: {err}"));
             }
         }
@@ -130,12 +139,37 @@ fn read_loop(shared: &Shared, mut port: Box<dyn SerialPort>, lost: &AtomicBool) 
     None
 }
 
+/// The writer's end of a serial port.
 struct SerialLine {
     port: Box<dyn SerialPort>,
+    shared: Arc<Shared>,
+    lost: Arc<AtomicBool>,
 }
 
 impl LineWrite for SerialLine {
+    /// Writes the whole instruction. A port that takes nothing for a while (its buffer
+    /// full: a gateway or adapter that stopped reading) is not an error by itself: the
+    /// write goes on until the link closes or is lost, and the link counts as stalled
+    /// meanwhile (its bytes stay queued; the playback watchdog acts on it).
     fn write_instruction(&mut self, instruction: &[u8]) -> std::io::Result<()> {
-        self.port.write_all(instruction)
+        let mut rest = instruction;
+        while !rest.is_empty() {
+            match self.port.write(rest) {
+                Ok(0) => std::thread::sleep(std::time::Duration::from_millis(1)),
+                Ok(n) => rest = &rest[n..],
+                Err(err)
+                    if matches!(
+                        err.kind(),
+                        std::io::ErrorKind::TimedOut
+                            | std::io::ErrorKind::WouldBlock
+                            | std::io::ErrorKind::Interrupted
+                    ) => {}
+                Err(err) => return Err(err),
+            }
+            if self.shared.is_closed() || self.lost.load(Ordering::Acquire) {
+                return Err(std::io::Error::other("the line was lost mid-instruction"));
+            }
+        }
+        Ok(())
     }
 }

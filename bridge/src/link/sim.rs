@@ -18,7 +18,7 @@ use floatball_shared::feedback::FrameDecoder;
 use floatball_shared::sim::{Gateway, GatewayConfig, Uart};
 
 use super::pacer::byte_time;
-use super::{LineWrite, Shared, run_writer};
+use super::{Input, LineWrite, Shared, run_writer};
 
 /// The longest the simulation sleeps, so positions and clocks stay fresh.
 const TICK: Duration = Duration::from_millis(10);
@@ -123,7 +123,11 @@ impl SimEngine {
 }
 
 /// Starts an in-process simulated gateway behind `shared`'s link; returns its view.
-pub(super) fn spawn(shared: Arc<Shared>, config: GatewayConfig) -> Option<SimView> {
+pub(super) fn spawn(
+    shared: Arc<Shared>,
+    config: GatewayConfig,
+    inbox: Receiver<Input>,
+) -> Option<SimView> {
     let mut engine = match SimEngine::new(config, shared.config.baud) {
         Ok(engine) => engine,
         Err(reason) => {
@@ -135,17 +139,19 @@ pub(super) fn spawn(shared: Arc<Shared>, config: GatewayConfig) -> Option<SimVie
     let (to_sim, deliveries) = channel::<(Instant, Vec<u8>)>();
     let writer_shared = Arc::clone(&shared);
     let sim_shared = Arc::clone(&shared);
-    shared.set_state(LinkState::Up, None);
     let lost = Arc::new(AtomicBool::new(false));
     let writer = std::thread::Builder::new()
         .name(format!("link-{}-sim-write", shared.index))
         .spawn(move || {
+            writer_shared.register_writer();
+            writer_shared.set_state(LinkState::Up, None);
             let mut line = SimLine {
                 to_sim,
                 byte_time: byte_time(writer_shared.config.baud),
                 line_free_at: Instant::now(),
             };
-            run_writer(&writer_shared, &mut line, &lost);
+            let reason = run_writer(&writer_shared, &inbox, &mut line, &lost);
+            writer_shared.set_state(LinkState::Down, Some(reason));
         });
     let simulation = std::thread::Builder::new()
         .name(format!("link-{}-sim", shared.index))

@@ -2,6 +2,8 @@
 //! client that speaks to it over real sockets.
 #![allow(dead_code)] // Each test binary uses its own part of this.
 
+pub mod process;
+
 use std::net::{IpAddr, SocketAddr};
 use std::path::Path;
 use std::time::Duration;
@@ -24,9 +26,9 @@ use tokio_tungstenite::tungstenite::Message;
 /// The password tests change the initial one to.
 pub const PASSWORD: &str = "ball-operator";
 
-/// A running bridge.
+/// A running bridge in this process.
 pub struct Bridge {
-    pub addr: SocketAddr,
+    remote: Remote,
     pub state: AppState,
     pub clock: Clock,
     pub data: TempDir,
@@ -108,7 +110,7 @@ impl Bridge {
             let _ = stopped.await;
         }));
         Self {
-            addr,
+            remote: Remote { addr },
             state,
             clock,
             data,
@@ -139,7 +141,23 @@ impl Bridge {
     pub fn data_dir(&self) -> &Path {
         self.data.path()
     }
+}
 
+impl std::ops::Deref for Bridge {
+    type Target = Remote;
+
+    fn deref(&self) -> &Remote {
+        &self.remote
+    }
+}
+
+/// A bridge seen from outside, over HTTP and WebSocket (in this process or another).
+#[derive(Debug, Clone, Copy)]
+pub struct Remote {
+    pub addr: SocketAddr,
+}
+
+impl Remote {
     pub fn url(&self, path: &str) -> String {
         format!("http://{}{path}", self.addr)
     }

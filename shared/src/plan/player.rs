@@ -59,8 +59,6 @@ const MOVE_MARGIN_US: u64 = 50_000;
 pub struct PlayerConfig {
     /// The installation.
     pub installation: Installation,
-    /// The e-stop instructions, already addressed (e.g. `*0;MO=0;`).
-    pub estop: Batch,
 }
 
 /// One playlist entry, with its show.
@@ -100,13 +98,74 @@ pub enum Command {
         /// The instructions.
         batch: Batch,
     },
-    /// Drop everything queued on `gateway` and write `batch` first.
-    Estop {
-        /// The gateway.
-        gateway: usize,
-        /// The stop instructions.
-        batch: Batch,
-    },
+    /// Stop the whole matrix now, through the caller's one e-stop path (every
+    /// gateway's configured stop, ahead of everything, queued work dropped). The player
+    /// asks for it when it fails on its own (a unit's error, a lost link, a ball that
+    /// does not arrive); an operator's e-stop is sent by the caller, who then tells the
+    /// player with [`Player::estop`].
+    Estop,
+}
+
+/// A playlist planned and checked, ready to start: the slow part of Start, which the
+/// caller may run away from the player (it needs only the installation).
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    plans: Vec<Plan>,
+    entries: Vec<Entry>,
+    loop_playlist: bool,
+}
+
+/// Plans every entry of a playlist for `installation`, refusing an invalid or
+/// infeasible show (or a gateway that is not connected) before anything moves.
+///
+/// # Errors
+/// [`StartError`] naming the entry and the reason.
+pub fn prepare(
+    installation: &Installation,
+    entries: Vec<Entry>,
+    loop_playlist: bool,
+    links: &[LinkView],
+) -> Result<Prepared, StartError> {
+    if entries.is_empty() {
+        return Err(StartError::Empty);
+    }
+    check_links(installation, links)?;
+    let options = PlanOptions {
+        repeat_forever: loop_playlist && entries.len() == 1,
+    };
+    let mut plans = Vec::with_capacity(entries.len());
+    for (index, entry) in entries.iter().enumerate() {
+        let plan =
+            Plan::new(&entry.show, installation, options).map_err(|error| StartError::Invalid {
+                entry: index + 1,
+                show: entry.show.name.clone(),
+                reason: error.to_string(),
+            })?;
+        let report = report_for(&plan, installation);
+        if !report.feasible {
+            return Err(StartError::Infeasible {
+                entry: index + 1,
+                show: entry.show.name.clone(),
+                reason: report.reason.unwrap_or_default(),
+                fixes: report.fixes,
+            });
+        }
+        plans.push(plan);
+    }
+    Ok(Prepared {
+        plans,
+        entries,
+        loop_playlist,
+    })
+}
+
+fn check_links(installation: &Installation, links: &[LinkView]) -> Result<(), StartError> {
+    for gateway in 0..installation.gateways.len() {
+        if !links.get(gateway).is_some_and(|link| link.up) {
+            return Err(StartError::NotConnected { gateway });
+        }
+    }
+    Ok(())
 }
 
 /// Why Start (or Reset) was refused. Nothing moved.
@@ -146,6 +205,10 @@ pub enum StartError {
     /// The matrix is already playing (press E-stop or Reset first).
     #[error("the matrix is already running a playlist")]
     Busy,
+    /// The E-stop was pressed after this request was made: the request is void and
+    /// the matrix stays stopped.
+    #[error("the E-stop was pressed after this request was made; the matrix stays stopped")]
+    Superseded,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -323,10 +386,33 @@ impl Player {
         loop_playlist: bool,
         links: &[LinkView],
     ) -> Result<(), StartError> {
-        if !matches!(self.step, Step::Idle | Step::Stopped | Step::Failed) {
+        if !self.is_at_rest() {
             return Err(StartError::Busy);
         }
-        let plans = self.plan_all(&entries, loop_playlist, links)?;
+        let prepared = prepare(&self.config.installation, entries, loop_playlist, links)?;
+        self.start_prepared(now_us, prepared, links)
+    }
+
+    /// Start with a playlist [`prepare`]d already: as [`Player::start`].
+    ///
+    /// # Errors
+    /// [`StartError::Busy`] while a playlist runs, [`StartError::NotConnected`] when a
+    /// link went down since it was prepared; nothing was changed.
+    pub fn start_prepared(
+        &mut self,
+        now_us: u64,
+        prepared: Prepared,
+        links: &[LinkView],
+    ) -> Result<(), StartError> {
+        if !self.is_at_rest() {
+            return Err(StartError::Busy);
+        }
+        check_links(&self.config.installation, links)?;
+        let Prepared {
+            plans,
+            entries,
+            loop_playlist,
+        } = prepared;
         self.plans = plans;
         self.entries = entries;
         self.loop_playlist = loop_playlist;
@@ -342,15 +428,18 @@ impl Player {
         Ok(())
     }
 
-    /// E-stop: the stop ahead of everything on every gateway; queued bulk is dropped.
+    /// Whether nothing runs: a Start may begin.
+    fn is_at_rest(&self) -> bool {
+        matches!(self.step, Step::Idle | Step::Stopped | Step::Failed)
+    }
+
+    /// The e-stop was sent (by the caller, ahead of everything on every gateway): the
+    /// player stops, forgets where the balls are, and homes before the next show. A
+    /// failure stays a failure (its reason stays visible).
     pub fn estop(&mut self) {
-        for gateway in 0..self.config.installation.gateways.len() {
-            self.commands.push(Command::Estop {
-                gateway,
-                batch: self.config.estop.clone(),
-            });
+        if !matches!(self.step, Step::Failed) {
+            self.step = Step::Stopped;
         }
-        self.step = Step::Stopped;
         self.needs_home = true;
         self.loaded_entry = None;
         self.believed
@@ -373,52 +462,50 @@ impl Player {
         links: &[LinkView],
     ) -> Result<(), StartError> {
         self.estop();
-        let result = self.start(now_us, entries, loop_playlist, links);
+        self.step = Step::Stopped;
+        let result = prepare(&self.config.installation, entries, loop_playlist, links)
+            .and_then(|prepared| self.start_prepared(now_us, prepared, links));
         if let Err(error) = &result {
             self.last_error = Some(error.to_string());
         }
         result
     }
 
-    fn plan_all(
-        &self,
-        entries: &[Entry],
-        loop_playlist: bool,
+    /// Reset with a playlist [`prepare`]d already (the caller sent the stop first).
+    ///
+    /// # Errors
+    /// As [`Player::reset`].
+    pub fn reset_prepared(
+        &mut self,
+        now_us: u64,
+        prepared: Result<Prepared, StartError>,
         links: &[LinkView],
-    ) -> Result<Vec<Plan>, StartError> {
-        if entries.is_empty() {
-            return Err(StartError::Empty);
+    ) -> Result<(), StartError> {
+        self.estop();
+        self.step = Step::Stopped;
+        let result = prepared.and_then(|prepared| self.start_prepared(now_us, prepared, links));
+        if let Err(error) = &result {
+            self.last_error = Some(error.to_string());
         }
-        let installation = &self.config.installation;
-        for gateway in 0..installation.gateways.len() {
-            if !links.get(gateway).is_some_and(|link| link.up) {
-                return Err(StartError::NotConnected { gateway });
-            }
+        result
+    }
+
+    /// Home: stop (the caller sent the stop first), bring every ball to the home
+    /// position, and stay idle there.
+    ///
+    /// # Errors
+    /// [`StartError::NotConnected`]: the matrix is stopped, and stays so.
+    pub fn home(&mut self, now_us: u64, links: &[LinkView]) -> Result<(), StartError> {
+        self.estop();
+        self.step = Step::Stopped;
+        if let Err(error) = check_links(&self.config.installation, links) {
+            self.last_error = Some(error.to_string());
+            return Err(error);
         }
-        let options = PlanOptions {
-            repeat_forever: loop_playlist && entries.len() == 1,
-        };
-        let mut plans = Vec::with_capacity(entries.len());
-        for (index, entry) in entries.iter().enumerate() {
-            let plan = Plan::new(&entry.show, installation, options).map_err(|error| {
-                StartError::Invalid {
-                    entry: index + 1,
-                    show: entry.show.name.clone(),
-                    reason: error.to_string(),
-                }
-            })?;
-            let report = report_for(&plan, installation);
-            if !report.feasible {
-                return Err(StartError::Infeasible {
-                    entry: index + 1,
-                    show: entry.show.name.clone(),
-                    reason: report.reason.unwrap_or_default(),
-                    fixes: report.fixes,
-                });
-            }
-            plans.push(plan);
-        }
-        Ok(plans)
+        self.last_error = None;
+        self.after_home = AfterHome::Rest;
+        self.begin_home(now_us);
+        Ok(())
     }
 
     /// A feedback frame from `gateway`.
@@ -492,11 +579,26 @@ impl Player {
         )
     }
 
-    /// Stops everything with `reason` as the last error.
+    /// Stops everything with `reason` as the last error: asks the caller for the
+    /// e-stop ([`Command::Estop`]) and stays failed until the next Start.
     fn fail(&mut self, reason: String) {
+        self.commands.push(Command::Estop);
         self.estop();
         self.step = Step::Failed;
         self.last_error = Some(reason);
+    }
+
+    /// Stops with `reason` as the last error, for a fault the caller found (a stalled
+    /// link): as a failure of the player's own, the e-stop is asked for.
+    pub fn fail_with(&mut self, reason: String) {
+        if self.is_active() {
+            self.fail(reason);
+        }
+    }
+
+    /// Whether a playlist (or a homing move) is under way.
+    pub fn is_running(&self) -> bool {
+        self.is_active()
     }
 
     /// When the player next needs to be polled, µs (`None` when idle).

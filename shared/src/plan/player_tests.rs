@@ -61,6 +61,7 @@ enum Lane {
 
 /// The stand-in bridge.
 struct Rig {
+    estop: Batch,
     now_us: u64,
     lines: Vec<Line>,
     player: Player,
@@ -114,9 +115,9 @@ impl Rig {
         let estop = Batch::encode(&parse_script("*0;MO=0;").unwrap(), Form::Standard).unwrap();
         let player = Player::new(PlayerConfig {
             installation: installation.clone(),
-            estop,
         });
         Self {
+            estop,
             now_us: 0,
             lines,
             player,
@@ -142,12 +143,25 @@ impl Rig {
                 Command::Priority { gateway, batch } => {
                     self.lines[gateway].push(Lane::Priority, &batch);
                 }
-                Command::Estop { gateway, batch } => {
-                    self.lines[gateway].bulk.clear();
-                    self.lines[gateway].push(Lane::Priority, &batch);
-                }
+                Command::Estop => self.send_stop(),
             }
         }
+    }
+
+    /// The bridge's e-stop path: every line drops its bulk and writes the stop first.
+    fn send_stop(&mut self) {
+        let estop = self.estop.clone();
+        for line in &mut self.lines {
+            line.bulk.clear();
+            line.push(Lane::Priority, &estop);
+        }
+    }
+
+    /// The operator's e-stop: the stop on every line, then the player is told.
+    fn estop(&mut self) {
+        self.send_stop();
+        self.player.estop();
+        self.carry_out();
     }
 
     /// One step of virtual time: the lines move bytes, the gateways run, answers come
@@ -374,8 +388,7 @@ fn an_estop_stops_every_ball_within_one_instruction_and_start_homes_first() {
     rig.run_until(3_000_000, |rig| {
         rig.now_us % 1_000_000 == 0 && rig.anyone_moving()
     });
-    rig.player.estop();
-    rig.carry_out();
+    rig.estop();
     let stopped_at = rig.now_us;
     // One instruction already on the wire (≤ 20 bytes) plus the 8-byte stop.
     let bound_us = line_time_us(28, 115_200) + STEP_US;
@@ -412,6 +425,7 @@ fn reset_stops_homes_and_restarts_from_the_first_entry() {
     });
     rig.states.clear();
     let links = rig.links();
+    rig.send_stop();
     rig.player
         .reset(rig.now_us, playlist, false, &links)
         .unwrap();
@@ -490,4 +504,51 @@ fn a_unit_error_stops_the_matrix_and_says_which_ball() {
         "{error}"
     );
     rig.run_until(100_000, |rig| !rig.anyone_moving());
+}
+
+#[test]
+fn home_stops_brings_every_ball_home_and_stays_idle() {
+    let show = wave(1, 3, 200, 200);
+    let mut rig = Rig::new(installation(1, 3, &[115_200]));
+    rig.start(vec![entry(show, 0, 1)], false).unwrap();
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    rig.send_stop();
+    let links = rig.links();
+    rig.player.home(rig.now_us, &links).unwrap();
+    rig.carry_out();
+    assert_eq!(rig.state(), PlayerState::Homing);
+    assert_eq!(
+        rig.player.status().show,
+        None,
+        "homing shows no show's time"
+    );
+    rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Idle);
+    for position in rig.positions_mm() {
+        assert!(position.abs() < 0.01, "homed to {position}");
+    }
+    let until_us = rig.now_us + 1_000_000;
+    rig.run_until(2_000_000, |rig| rig.now_us >= until_us);
+    assert!(
+        rig.states
+            .ends_with(&[(rig.states.last().unwrap().0, PlayerState::Idle)]),
+        "it stays idle at home: {:?}",
+        rig.states
+    );
+}
+
+#[test]
+fn a_failure_asks_for_the_estop_and_an_estop_keeps_the_failure() {
+    let show = wave(1, 2, 200, 200);
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    rig.start(vec![entry(show, 0, 1)], false).unwrap();
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    rig.player.fail_with("gateway 0 stalled".into());
+    assert_eq!(rig.player.take_commands(), vec![Command::Estop]);
+    assert_eq!(rig.state(), PlayerState::Error);
+    rig.player.estop();
+    assert_eq!(rig.state(), PlayerState::Error);
+    assert_eq!(
+        rig.player.status().last_error.as_deref(),
+        Some("gateway 0 stalled")
+    );
 }

@@ -1,0 +1,275 @@
+//! The real `floatball` binary as a child process on a temporary data directory, and a
+//! gateway on a pseudo-terminal whose far end is a tap: it records every byte the
+//! bridge writes, and answers as a UIM2503 with the simulator.
+
+use std::io::{BufRead, BufReader, Read, Write};
+
+use futures_util::StreamExt;
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use axum::http::{Method, StatusCode};
+use floatball_bridge::link::sim::SimEngine;
+use floatball_shared::sim::GatewayConfig;
+use serialport::{SerialPort, TTYPort};
+use tempfile::TempDir;
+
+use super::Remote;
+
+/// A running `floatball` process; killed when dropped.
+pub struct Process {
+    child: Child,
+    remote: Remote,
+    pub data: TempDir,
+}
+
+impl Process {
+    /// Starts `floatball` with `config` as its floatball.toml, listening on a free
+    /// loopback port; returns once it listens. Its log goes to `floatball.log` in the
+    /// data directory.
+    pub fn start(config: &str) -> Self {
+        let data = tempfile::tempdir().expect("temp dir");
+        std::fs::write(data.path().join("floatball.toml"), config).expect("write config");
+        let static_dir = data.path().join("static");
+        std::fs::create_dir_all(&static_dir).expect("static dir");
+        std::fs::write(
+            static_dir.join("index.html"),
+            "<!doctype html><title>t</title>",
+        )
+        .expect("index");
+        let log = std::fs::File::create(data.path().join("floatball.log")).expect("log");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_floatball"))
+            .arg("--data-dir")
+            .arg(data.path())
+            .arg("--static-dir")
+            .arg(&static_dir)
+            .args(["--listen", "127.0.0.1:0"])
+            .env("RUST_LOG", "warn")
+            .stdout(Stdio::piped())
+            .stderr(log)
+            .spawn()
+            .expect("start floatball");
+        let stdout = child.stdout.take().expect("stdout");
+        let mut lines = BufReader::new(stdout).lines();
+        let addr = loop {
+            let line = lines
+                .next()
+                .expect("floatball said where it listens")
+                .expect("stdout line");
+            if let Some(url) = line.strip_prefix("floatball listening on http://") {
+                break url.trim().parse().expect("address");
+            }
+        };
+        // Keep reading so the child never blocks on a full pipe.
+        std::thread::spawn(move || for _ in lines {});
+        Self {
+            child,
+            remote: Remote { addr },
+            data,
+        }
+    }
+
+    /// The log so far.
+    pub fn log(&self) -> String {
+        std::fs::read_to_string(self.data.path().join("floatball.log")).unwrap_or_default()
+    }
+
+    /// Whether the process still runs.
+    pub fn is_running(&mut self) -> bool {
+        matches!(self.child.try_wait(), Ok(None))
+    }
+}
+
+impl std::ops::Deref for Process {
+    type Target = Remote;
+
+    fn deref(&self) -> &Remote {
+        &self.remote
+    }
+}
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A gateway on a pseudo-terminal pair: the bridge opens the slave through a symlink;
+/// the tap records what arrives on the master and answers with the simulator.
+pub struct Tap {
+    pub path: std::path::PathBuf,
+    wire: Arc<Mutex<Vec<u8>>>,
+    answering: Arc<AtomicBool>,
+    stop: Arc<AtomicBool>,
+}
+
+impl Tap {
+    /// A tap at `dir/name` on a line of `baud`, answering as a gateway with `units`.
+    pub fn new(dir: &std::path::Path, name: &str, baud: u32, units: GatewayConfig) -> Self {
+        let (mut master, slave) = TTYPort::pair().expect("pty pair");
+        let slave_path = slave.name().expect("slave name");
+        drop(slave);
+        master
+            .set_timeout(Duration::from_millis(2))
+            .expect("timeout");
+        let path = dir.join(name);
+        std::os::unix::fs::symlink(slave_path, &path).expect("symlink");
+        let wire = Arc::new(Mutex::new(Vec::new()));
+        let answering = Arc::new(AtomicBool::new(true));
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut engine = SimEngine::new(units, baud).expect("simulated gateway");
+        {
+            let (wire, answering, stop) =
+                (Arc::clone(&wire), Arc::clone(&answering), Arc::clone(&stop));
+            std::thread::spawn(move || {
+                let mut buffer = [0u8; 1024];
+                let mut answers = Vec::new();
+                while !stop.load(Ordering::Acquire) {
+                    if !answering.load(Ordering::Acquire) {
+                        // A gateway that stopped reading: the line backs up.
+                        std::thread::sleep(Duration::from_millis(5));
+                        continue;
+                    }
+                    match master.read(&mut buffer) {
+                        Ok(n) if n > 0 => {
+                            wire.lock().expect("wire").extend_from_slice(&buffer[..n]);
+                            engine.receive(Instant::now(), &buffer[..n]);
+                        }
+                        Ok(_) => {}
+                        Err(err) if err.kind() == std::io::ErrorKind::TimedOut => {}
+                        // No one has the slave open (yet, or between reconnects).
+                        Err(_) => std::thread::sleep(Duration::from_millis(5)),
+                    }
+                    answers.clear();
+                    engine.step(Instant::now(), &mut answers);
+                    if !answers.is_empty() {
+                        let _ = master.write_all(&answers);
+                    }
+                }
+            });
+        }
+        Self {
+            path,
+            wire,
+            answering,
+            stop,
+        }
+    }
+
+    /// Every byte the bridge wrote so far.
+    pub fn wire(&self) -> Vec<u8> {
+        self.wire.lock().expect("wire").clone()
+    }
+
+    /// How many bytes the bridge wrote so far.
+    pub fn len(&self) -> usize {
+        self.wire.lock().expect("wire").len()
+    }
+
+    /// Stops (`false`) or resumes reading and answering, as a gateway that hangs.
+    pub fn set_answering(&self, answering: bool) {
+        self.answering.store(answering, Ordering::Release);
+    }
+}
+
+impl Drop for Tap {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+    }
+}
+
+/// A native show for a `rows` × `cols` matrix lasting `duration_ms`: a wave that
+/// travels along each row, every ball still at 0 mm until its column's turn, then
+/// dipping `depth_mm` once a second until a second before the end, in rows of 100 ms
+/// (within the default limits up to about 200 mm).
+pub fn wave_json(name: &str, rows: u32, cols: u32, duration_ms: u32, depth_mm: f64) -> Vec<u8> {
+    use std::f64::consts::{PI, TAU};
+    let steps = (duration_ms / 100).max(2);
+    let units: Vec<serde_json::Value> = (0..rows * cols)
+        .map(|unit| {
+            let delay_s = f64::from(unit % cols) * 0.1;
+            let active_s = (f64::from(duration_ms) / 1000.0 - 1.0 - delay_s)
+                .floor()
+                .max(0.0);
+            let track: Vec<serde_json::Value> = (1..=steps)
+                .map(|step| {
+                    let local_s = f64::from(step) / 10.0 - delay_s;
+                    if local_s <= 0.0 || local_s >= active_s {
+                        return serde_json::json!([0.0, 0.0, 100]);
+                    }
+                    let angle = local_s * TAU;
+                    let position = depth_mm * (1.0 - angle.cos()) / 2.0;
+                    let velocity = depth_mm * PI * angle.sin();
+                    serde_json::json!([position, velocity, 100])
+                })
+                .collect();
+            serde_json::json!({ "start_mm": 0.0, "rows": track })
+        })
+        .collect();
+    serde_json::to_vec(&serde_json::json!({
+        "format": "floatball-show",
+        "version": 1,
+        "name": name,
+        "layout": { "rows": rows, "cols": cols, "pitch_mm": 500.0 },
+        "units": units,
+    }))
+    .expect("json")
+}
+
+impl Remote {
+    /// Changes the initial password, uploads `show` as `name` and makes it the whole
+    /// playlist; returns the operator's token.
+    pub async fn prepare_show(&self, name: &str, show: &[u8], loop_playlist: bool) -> String {
+        let token = self.operator().await;
+        let upload = self.upload(&token, name, "application/json", show).await;
+        assert_eq!(
+            upload.status,
+            StatusCode::CREATED,
+            "{}",
+            String::from_utf8_lossy(&upload.body)
+        );
+        let playlist = serde_json::json!({
+            "entries": [{ "show": name, "delay_ms": 0, "cycles": 1 }],
+            "loop": loop_playlist,
+            "default_delay_ms": 0,
+            "default_cycles": 1,
+        });
+        let reply = self
+            .request(
+                Method::PUT,
+                "/api/playlist",
+                Some(&token),
+                Some(("application/json", playlist.to_string().into_bytes())),
+            )
+            .await;
+        assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+        token
+    }
+}
+
+/// Reads statuses until every gateway's link is up; `false` if they are not within
+/// 10 s.
+pub async fn links_up(ws: &mut super::Ws) -> bool {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
+    loop {
+        let Ok(Some(Ok(frame))) = tokio::time::timeout_at(deadline, ws.next()).await else {
+            return false;
+        };
+        let tokio_tungstenite::tungstenite::Message::Text(text) = frame else {
+            continue;
+        };
+        if let Ok(floatball_shared::api::ServerMessage::Status(status)) =
+            serde_json::from_str(text.as_str())
+            && !status.gateways.is_empty()
+            && status
+                .gateways
+                .iter()
+                .all(|gateway| gateway.link == floatball_shared::api::LinkState::Up)
+        {
+            return true;
+        }
+    }
+}
