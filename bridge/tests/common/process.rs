@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use axum::http::{Method, StatusCode};
 use floatball_bridge::link::sim::SimEngine;
-use floatball_shared::sim::GatewayConfig;
+use floatball_shared::sim::{GatewayConfig, RxLine};
 use serialport::{SerialPort, TTYPort};
 use tempfile::TempDir;
 
@@ -127,16 +127,36 @@ impl Tap {
             std::thread::spawn(move || {
                 let mut buffer = [0u8; 1024];
                 let mut answers = Vec::new();
+                // Read no faster than the line carries, as a UART does: what the
+                // bridge wrote meanwhile waits in the pseudo-terminal.
+                let epoch = Instant::now();
+                let micros = |at: Instant| {
+                    u64::try_from(at.saturating_duration_since(epoch).as_micros())
+                        .unwrap_or(u64::MAX)
+                };
+                let mut line = RxLine::new(baud);
                 while !stop.load(Ordering::Acquire) {
                     if !answering.load(Ordering::Acquire) {
                         // A gateway that stopped reading: the line backs up.
                         std::thread::sleep(Duration::from_millis(5));
                         continue;
                     }
-                    match master.read(&mut buffer) {
+                    let room = line
+                        .room(micros(Instant::now()))
+                        .saturating_sub(4)
+                        .min(buffer.len());
+                    let read = if room == 0 {
+                        std::thread::sleep(Duration::from_micros(200));
+                        Ok(0)
+                    } else {
+                        master.read(&mut buffer[..room])
+                    };
+                    match read {
                         Ok(n) if n > 0 => {
+                            let at = Instant::now();
+                            line.accept(micros(at), n);
                             wire.lock().expect("wire").extend_from_slice(&buffer[..n]);
-                            engine.receive(Instant::now(), &buffer[..n]);
+                            engine.receive(at, &buffer[..n]);
                         }
                         Ok(_) => {}
                         Err(err) if err.kind() == std::io::ErrorKind::TimedOut => {}
