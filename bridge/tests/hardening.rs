@@ -1,0 +1,234 @@
+//! What a hostile or careless client meets: every refusal is the documented JSON, an
+//! oversized WebSocket message is closed with 1009, every response carries the
+//! browser-security headers, misleading show names and unbounded uploads are refused,
+//! and nothing an interrupted write left behind survives a restart.
+
+mod common;
+
+use std::time::Duration;
+
+use axum::http::{Method, StatusCode, header};
+use common::{Bridge, Reply, encode_path};
+use futures_util::{SinkExt, StreamExt};
+use tokio_tungstenite::tungstenite::Message;
+
+/// Asserts `reply` is an error answer in the documented form: the status, a JSON
+/// content type, and an `{"error": …}` body.
+fn assert_json_error(reply: &Reply, status: StatusCode) -> floatball_shared::api::ApiError {
+    assert_eq!(
+        reply.status,
+        status,
+        "{}",
+        String::from_utf8_lossy(&reply.body)
+    );
+    assert_eq!(
+        reply.headers[header::CONTENT_TYPE],
+        "application/json",
+        "{}",
+        String::from_utf8_lossy(&reply.body)
+    );
+    let error = reply.error();
+    assert!(!error.error.is_empty());
+    error
+}
+
+/// Asserts the browser-security headers are on `reply`.
+fn assert_security_headers(reply: &Reply, what: &str) {
+    for (name, value) in floatball_bridge::server::SECURITY_HEADERS {
+        assert_eq!(
+            reply.headers.get(&name).and_then(|v| v.to_str().ok()),
+            Some(value),
+            "{name} on {what}"
+        );
+    }
+}
+
+#[tokio::test]
+async fn bodies_over_the_limit_are_refused_with_json_413() {
+    let bridge = Bridge::start().await;
+    let operator = bridge.operator().await;
+    let huge = vec![b' '; 2 * 1024 * 1024];
+    for (method, path, token) in [
+        (Method::POST, "/api/login", None),
+        (Method::POST, "/api/password", Some(operator.as_str())),
+        (Method::PUT, "/api/playlist", Some(operator.as_str())),
+    ] {
+        let reply = bridge
+            .request(
+                method.clone(),
+                path,
+                token,
+                Some(("application/json", huge.clone())),
+            )
+            .await;
+        let error = assert_json_error(&reply, StatusCode::PAYLOAD_TOO_LARGE);
+        assert!(
+            error.error.contains("at most 1048576 bytes"),
+            "{method} {path}: {error:?}"
+        );
+        assert_security_headers(&reply, path);
+    }
+}
+
+#[tokio::test]
+async fn the_frameworks_refusals_are_json_too() {
+    let bridge = Bridge::start().await;
+    let token = bridge.token().await;
+    // A path segment that is not UTF-8.
+    let reply = bridge
+        .request(Method::GET, "/api/shows/%FF%FE", Some(&token), None)
+        .await;
+    assert_json_error(&reply, StatusCode::BAD_REQUEST);
+    // Unknown call and method.
+    assert_json_error(
+        &bridge
+            .request(Method::GET, "/api/nothing", None, None)
+            .await,
+        StatusCode::NOT_FOUND,
+    );
+    let reply = bridge
+        .request(Method::DELETE, "/api/login", None, None)
+        .await;
+    assert_json_error(&reply, StatusCode::METHOD_NOT_ALLOWED);
+    assert!(reply.headers.contains_key(header::ALLOW), "{reply:?}");
+    // A plain GET of /ws is not a WebSocket handshake.
+    let reply = bridge.request(Method::GET, "/ws?token=x", None, None).await;
+    assert!(reply.status.is_client_error(), "{reply:?}");
+    assert_json_error(&reply, reply.status);
+}
+
+#[tokio::test]
+async fn a_websocket_message_over_64_kib_is_closed_with_1009() {
+    let bridge = Bridge::start().await;
+    let token = bridge.token().await;
+    let mut ws = bridge.ws(&token).await;
+    let big = format!(
+        "{{\"type\":\"ping\",\"pad\":\"{}\"}}",
+        "x".repeat(floatball_bridge::ws::MAX_MESSAGE_BYTES)
+    );
+    ws.send(Message::text(big)).await.expect("send");
+    let closed = tokio::time::timeout(Duration::from_secs(5), async {
+        loop {
+            match ws.next().await {
+                Some(Ok(Message::Close(frame))) => return frame,
+                Some(Ok(_)) => {}
+                other => panic!("expected a close frame, got {other:?}"),
+            }
+        }
+    })
+    .await
+    .expect("closed within 5 s")
+    .expect("a close code");
+    assert_eq!(u16::from(closed.code), 1009, "{closed:?}");
+    assert!(closed.reason.contains("65536"), "{closed:?}");
+}
+
+#[tokio::test]
+async fn every_response_carries_the_security_headers() {
+    let bridge = Bridge::start().await;
+    let csp = floatball_bridge::server::CONTENT_SECURITY_POLICY;
+    for needed in [
+        "default-src 'self'",
+        "script-src 'self' 'wasm-unsafe-eval'",
+        "style-src 'self' 'unsafe-inline'",
+        "img-src 'self' data: blob:",
+        "frame-ancestors 'none'",
+    ] {
+        assert!(csp.contains(needed), "{needed} in {csp}");
+    }
+    assert!(!csp.contains("script-src 'self' 'unsafe-inline'"), "{csp}");
+
+    let login = bridge.login("1234").await;
+    let cases = [
+        (
+            "the app",
+            bridge.request(Method::GET, "/", None, None).await,
+        ),
+        (
+            "an app route",
+            bridge.request(Method::GET, "/shows/x", None, None).await,
+        ),
+        ("a login", login),
+        (
+            "a refused API call",
+            bridge.request(Method::GET, "/api/shows", None, None).await,
+        ),
+        (
+            "an unknown API call",
+            bridge.request(Method::GET, "/api/nope", None, None).await,
+        ),
+        (
+            "a refused WebSocket",
+            bridge.request(Method::GET, "/ws", None, None).await,
+        ),
+        (
+            "a WebSocket from another site",
+            bridge
+                .request_from(
+                    "127.0.0.1".parse().expect("ip"),
+                    Method::GET,
+                    "/ws?token=x",
+                    None,
+                    None,
+                    &[
+                        ("origin", "http://evil.example"),
+                        ("connection", "upgrade"),
+                        ("upgrade", "websocket"),
+                        ("sec-websocket-version", "13"),
+                        ("sec-websocket-key", "dGhlIHNhbXBsZSBub25jZQ=="),
+                    ],
+                )
+                .await,
+        ),
+    ];
+    for (what, reply) in &cases {
+        assert_security_headers(reply, what);
+    }
+    assert_eq!(cases[5].1.status.as_u16() / 100, 4);
+    assert_eq!(cases[6].1.status, StatusCode::FORBIDDEN);
+}
+
+#[test]
+fn the_app_page_has_no_inline_script() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../static");
+    let page = std::fs::read_to_string(root.join("index.html")).expect("index.html");
+    let scripts: Vec<&str> = page.split("<script").skip(1).collect();
+    assert!(!scripts.is_empty(), "the page loads the app");
+    for script in scripts {
+        let tag = &script[..script.find('>').expect("tag end")];
+        let body = &script[script.find('>').expect("tag end") + 1..];
+        assert!(tag.contains("src="), "inline script: <script{tag}>");
+        assert!(
+            body.trim_start().starts_with("</script>"),
+            "a script with src has no body"
+        );
+    }
+    assert!(!page.contains(" style="), "no style attributes in the page");
+    let boot = std::fs::read_to_string(root.join("boot.js")).expect("boot.js");
+    assert!(boot.contains("/pkg/floatball.js"), "{boot}");
+}
+
+#[tokio::test]
+async fn misleading_show_names_are_refused() {
+    let bridge = Bridge::start().await;
+    let operator = bridge.operator().await;
+    let show = common::show_json("x", 10, 10, 20.0);
+    for name in [
+        "invoice\u{202E}fdp.exe",
+        "wave\u{2066}1\u{2069}",
+        "a\u{200B}b",
+        "\u{FEFF}rain",
+        "snow\u{200F}",
+        "x\u{061C}y",
+    ] {
+        let reply = bridge
+            .upload(&operator, &encode_path(name), "application/json", &show)
+            .await;
+        let error = assert_json_error(&reply, StatusCode::BAD_REQUEST);
+        assert!(error.error.contains("U+"), "{name:?}: {error:?}");
+    }
+    let reply = bridge
+        .upload(&operator, &encode_path("波浪 1"), "application/json", &show)
+        .await;
+    assert_eq!(reply.status, StatusCode::CREATED, "{reply:?}");
+}
