@@ -1,7 +1,9 @@
 //! The show store: `<data-dir>/shows/`, one native JSON file per show.
 //!
 //! Show names are for people: any script, at most [`MAX_NAME_BYTES`] bytes, without
-//! `/`, `\`, control characters, a leading `.` or `..` ([`ShowName`]). On disk each show
+//! `/`, `\`, control characters, a leading `.` or `..` ([`ShowName`]). A new show's
+//! name also may not hold invisible or text-direction characters, which make one name
+//! look like another ([`ShowName::parse_new`]). On disk each show
 //! is `<hex of the name's UTF-8>.json`, so every name is a safe file name of at most
 //! 205 bytes and the listing gives the names back exactly.
 //!
@@ -55,6 +57,35 @@ pub enum NameError {
     /// A character that cannot be in a name.
     #[error("the show name must not contain {0}")]
     Forbidden(&'static str),
+    /// An invisible or text-direction character, which makes the name look like another
+    /// (or read backwards).
+    #[error(
+        "the show name must not contain U+{code:04X} ({kind}): such characters make a name \
+         look like another"
+    )]
+    Misleading {
+        /// The character's code point.
+        code: u32,
+        /// What it is, in words.
+        kind: &'static str,
+    },
+}
+
+/// What `c` is, if it is an invisible or text-direction character: the bidirectional
+/// embeddings, overrides and isolates (U+202A–U+202E, U+2066–U+2069), the direction
+/// marks (U+200E, U+200F, U+061C), and the zero-width characters (U+200B–U+200D,
+/// U+2060–U+2064, U+FEFF).
+fn misleading(c: char) -> Option<&'static str> {
+    match c {
+        '\u{202A}'..='\u{202E}' | '\u{2066}'..='\u{2069}' => {
+            Some("a bidirectional override or isolate")
+        }
+        '\u{200E}' | '\u{200F}' | '\u{061C}' => Some("a text-direction mark"),
+        '\u{200B}'..='\u{200D}' | '\u{2060}'..='\u{2064}' | '\u{FEFF}' => {
+            Some("a zero-width character")
+        }
+        _ => None,
+    }
 }
 
 impl ShowName {
@@ -85,6 +116,23 @@ impl ShowName {
             return Err(NameError::Forbidden("`..`"));
         }
         Ok(Self(name.to_owned()))
+    }
+
+    /// Checks the name of a show being stored: as [`parse`](Self::parse), and without
+    /// invisible or text-direction characters. (Shows stored before this rule keep
+    /// their names, so they can still be read and deleted.)
+    ///
+    /// # Errors
+    /// [`NameError`] saying what is wrong.
+    pub fn parse_new(name: &str) -> Result<Self, NameError> {
+        let parsed = Self::parse(name)?;
+        match name.chars().find_map(|c| Some((c, misleading(c)?))) {
+            Some((c, kind)) => Err(NameError::Misleading {
+                code: u32::from(c),
+                kind,
+            }),
+            None => Ok(parsed),
+        }
     }
 
     /// The name.
@@ -435,6 +483,31 @@ mod tests {
         assert_eq!(ShowName::from_file_name("2e2e.json"), None);
         assert_eq!(ShowName::from_file_name("zz.json"), None);
         assert_eq!(ShowName::from_file_name("616.json"), None);
+    }
+
+    #[test]
+    fn new_names_with_invisible_or_direction_characters_are_refused() {
+        for code in [
+            0x202A, 0x202B, 0x202C, 0x202D, 0x202E, 0x2066, 0x2067, 0x2068, 0x2069, 0x200E, 0x200F,
+            0x061C, 0x200B, 0x200C, 0x200D, 0x2060, 0xFEFF,
+        ] {
+            let c = char::from_u32(code).expect("char");
+            let name = format!("show{c}gpj.exe");
+            let refused = ShowName::parse_new(&name).expect_err(&format!("U+{code:04X}"));
+            assert!(
+                matches!(refused, NameError::Misleading { code: found, .. } if found == code),
+                "{refused:?}"
+            );
+            assert!(
+                refused.to_string().contains(&format!("U+{code:04X}")),
+                "{refused}"
+            );
+            // Stored before the rule: still a name the store can list and delete.
+            assert!(ShowName::parse(&name).is_ok());
+        }
+        for name in ["波浪", "موجة", "Welle 1", "שלום"] {
+            assert!(ShowName::parse_new(name).is_ok(), "{name}");
+        }
     }
 
     #[test]

@@ -2,7 +2,8 @@
 //!
 //! - `GET /api/shows`: 200, every show's summary.
 //! - `PUT /api/shows/{name}`: native JSON or CSV; 201 with the summary of a new show,
-//!   200 when it replaced one; 400 bad name; 413 over the size limit; 422 with every
+//!   200 when it replaced one; 400 bad name (also one with invisible or text-direction
+//!   characters); 413 over the size limit; 422 with every
 //!   problem when the show is invalid (nothing is stored). The body is read whole
 //!   before anything is checked or written, so an upload cut off half-way stores
 //!   nothing.
@@ -90,6 +91,8 @@ pub async fn put_show(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Response, Failure> {
+    let name = ShowName::parse_new(name.as_str())
+        .map_err(|error| Failure::new(StatusCode::BAD_REQUEST, error.to_string()))?;
     let body = body.map_err(|rejection| {
         let status = rejection.status();
         if status == StatusCode::PAYLOAD_TOO_LARGE {
