@@ -292,11 +292,23 @@ pub struct ShowStore {
 
 impl ShowStore {
     /// Opens `<data_dir>/shows/`, creating it if needed, removing what interrupted
-    /// writes left, and summarising every complete show.
+    /// writes left there and in the data directory itself (the temporary files of the
+    /// playlist, password, sessions and configuration), and summarising every complete
+    /// show.
     ///
     /// # Errors
-    /// If the directory cannot be created or read.
+    /// If a directory cannot be created, read or cleaned.
     pub fn open(data_dir: &Path) -> Result<Self, StoreError> {
+        let removed = durable::remove_temporaries(data_dir).map_err(|source| StoreError::Io {
+            path: data_dir.to_owned(),
+            source,
+        })?;
+        if removed > 0 {
+            tracing::warn!(
+                "removed {removed} unfinished file(s) from {}",
+                data_dir.display()
+            );
+        }
         let dir = data_dir.join(DIR_NAME);
         let io_error = |source| StoreError::Io {
             path: dir.clone(),

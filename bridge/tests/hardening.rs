@@ -232,3 +232,36 @@ async fn misleading_show_names_are_refused() {
         .await;
     assert_eq!(reply.status, StatusCode::CREATED, "{reply:?}");
 }
+
+#[tokio::test]
+async fn a_restart_removes_every_unfinished_write() {
+    let bridge = Bridge::start().await;
+    let operator = bridge.operator().await;
+    let data = bridge.data_dir().to_owned();
+    // What `kill -9` in the middle of each kind of durable write leaves behind.
+    let leftovers = [
+        data.join(".playlist.json.0123456789abcdef.tmp"),
+        data.join(".password.fedcba9876543210.tmp"),
+        data.join(".sessions.json.00112233aabbccdd.tmp"),
+        data.join(".floatball.toml.0a0b0c0d0e0f0102.tmp"),
+        data.join("shows")
+            .join(".77617665.json.1122334455667788.tmp"),
+    ];
+    for leftover in &leftovers {
+        std::fs::write(leftover, b"{\"half").expect("write");
+    }
+    // Not ours: kept.
+    std::fs::write(data.join("notes.tmp"), b"mine").expect("write");
+    std::fs::write(data.join(".notes.tmp"), b"mine").expect("write");
+
+    let bridge = bridge.restart().await;
+    for leftover in &leftovers {
+        assert!(!leftover.exists(), "{} is left", leftover.display());
+    }
+    assert!(data.join("notes.tmp").exists() && data.join(".notes.tmp").exists());
+    // The session and the password survived.
+    let reply = bridge
+        .request(Method::GET, "/api/playlist", Some(&operator), None)
+        .await;
+    assert_eq!(reply.status, StatusCode::OK, "{reply:?}");
+}
