@@ -265,3 +265,132 @@ async fn a_restart_removes_every_unfinished_write() {
         .await;
     assert_eq!(reply.status, StatusCode::OK, "{reply:?}");
 }
+
+/// A CSV for the default 10 × 10 installation: every ball at `depth_mm` at each of
+/// `times_ms`.
+fn keyframes_csv(times_ms: &[u64], depth_mm: f64) -> String {
+    let mut text = String::from("time_ms");
+    for unit in 0..100 {
+        text.push_str(&format!(",u{unit}"));
+    }
+    text.push('\n');
+    for (index, time_ms) in times_ms.iter().enumerate() {
+        text.push_str(&time_ms.to_string());
+        let depth = if index % 2 == 0 { 0.0 } else { depth_mm };
+        for _ in 0..100 {
+            text.push_str(&format!(",{depth}"));
+        }
+        text.push('\n');
+    }
+    text
+}
+
+#[tokio::test]
+async fn a_small_csv_cannot_become_a_huge_or_endless_show() {
+    let bridge = Bridge::start().await;
+    let operator = bridge.operator().await;
+    // Two keyframes 7 hours apart: 1.4 kB that would be a 176 MB show.
+    let seven_hours = keyframes_csv(&[0, 7 * 3600 * 1000], 20.0);
+    assert!(seven_hours.len() < 1500, "{}", seven_hours.len());
+    let reply = bridge
+        .upload(&operator, "far", "text/csv", seven_hours.as_bytes())
+        .await;
+    let error = assert_json_error(&reply, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(
+        error.error.contains("30m") && error.error.contains("max_duration"),
+        "{error:?}"
+    );
+
+    // Within the duration, but over max_bytes once converted: 413 naming the limit.
+    let bridge = Bridge::start_with("[uploads]\nmax_bytes = 65536\n").await;
+    let operator = bridge.operator().await;
+    let ten_minutes = keyframes_csv(&[0, 10 * 60 * 1000], 20.0);
+    let reply = bridge
+        .upload(&operator, "big", "text/csv", ten_minutes.as_bytes())
+        .await;
+    let error = assert_json_error(&reply, StatusCode::PAYLOAD_TOO_LARGE);
+    assert!(
+        error.error.contains("65536 bytes") && error.error.contains("max_bytes"),
+        "{error:?}"
+    );
+    // Nothing was stored.
+    let list = bridge
+        .request(Method::GET, "/api/shows", Some(&operator), None)
+        .await;
+    assert_eq!(&list.body[..], b"[]");
+}
+
+#[tokio::test]
+async fn max_duration_is_configurable_and_applies_to_json_too() {
+    let bridge = Bridge::start_with("[uploads]\nmax_duration = \"1s\"\n").await;
+    let operator = bridge.operator().await;
+    let csv = keyframes_csv(&[0, 500, 1000], 20.0);
+    let reply = bridge
+        .upload(&operator, "one-second", "text/csv", csv.as_bytes())
+        .await;
+    assert_eq!(reply.status, StatusCode::CREATED, "{reply:?}");
+    let csv = keyframes_csv(&[0, 500, 1000, 1500], 20.0);
+    let reply = bridge
+        .upload(&operator, "longer", "text/csv", csv.as_bytes())
+        .await;
+    let error = assert_json_error(&reply, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(error.error.contains("1s"), "{error:?}");
+    assert!(
+        error.details.iter().any(|detail| detail.contains("line 5")),
+        "{error:?}"
+    );
+
+    // A native show of 2 × 250 ms × 3 = 1.5 s.
+    let units: Vec<serde_json::Value> = (0..100)
+        .map(|_| serde_json::json!({ "start_mm": 0.0, "rows": [[20.0, 0.0, 250], [0.0, 0.0, 250], [20.0, 0.0, 250], [0.0, 0.0, 250], [20.0, 0.0, 250], [0.0, 0.0, 250]] }))
+        .collect();
+    let json = serde_json::json!({
+        "format": "floatball-show", "version": 1, "name": "x",
+        "layout": { "rows": 10, "cols": 10, "pitch_mm": 500.0 },
+        "units": units,
+    })
+    .to_string();
+    let reply = bridge
+        .upload(&operator, "native", "application/json", json.as_bytes())
+        .await;
+    let error = assert_json_error(&reply, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(error.error.contains("max_duration"), "{error:?}");
+    assert!(
+        error.details.iter().any(|detail| detail.contains("1s 500ms")),
+        "{error:?}"
+    );
+}
+
+#[tokio::test]
+async fn empty_shows_are_refused() {
+    let bridge = Bridge::start().await;
+    let operator = bridge.operator().await;
+    let one_keyframe = keyframes_csv(&[0], 0.0);
+    let reply = bridge
+        .upload(&operator, "still", "text/csv", one_keyframe.as_bytes())
+        .await;
+    let error = assert_json_error(&reply, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(error.error.contains("empty"), "{error:?}");
+
+    let no_rows = common::show_json("x", 10, 10, 20.0);
+    let mut value: serde_json::Value = serde_json::from_slice(&no_rows).expect("json");
+    for unit in value["units"].as_array_mut().expect("units") {
+        unit["rows"] = serde_json::json!([]);
+    }
+    let reply = bridge
+        .upload(
+            &operator,
+            "nothing",
+            "application/json",
+            value.to_string().as_bytes(),
+        )
+        .await;
+    let error = assert_json_error(&reply, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(error.error.contains("empty"), "{error:?}");
+
+    let header_only = keyframes_csv(&[], 0.0);
+    let reply = bridge
+        .upload(&operator, "header", "text/csv", header_only.as_bytes())
+        .await;
+    assert_json_error(&reply, StatusCode::UNPROCESSABLE_ENTITY);
+}
