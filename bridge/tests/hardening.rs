@@ -356,7 +356,10 @@ async fn max_duration_is_configurable_and_applies_to_json_too() {
     let error = assert_json_error(&reply, StatusCode::UNPROCESSABLE_ENTITY);
     assert!(error.error.contains("max_duration"), "{error:?}");
     assert!(
-        error.details.iter().any(|detail| detail.contains("1s 500ms")),
+        error
+            .details
+            .iter()
+            .any(|detail| detail.contains("1s 500ms")),
         "{error:?}"
     );
 }
