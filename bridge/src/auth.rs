@@ -4,9 +4,12 @@
 //! - [`Password`]: the operator password as an argon2id hash in `<data-dir>/password`.
 //!   The first start writes the vendor's initial password `1234`, marked as the default
 //!   until it is changed (uploads and control are refused until then). Deleting the file
-//!   resets the password to `1234`.
-//! - [`Tokens`]: random 256-bit bearer tokens, kept in memory only (a restart logs
-//!   everyone out), that expire after [`IDLE_EXPIRY`] without use.
+//!   resets the password to `1234`. At most [`CHECK_PERMITS`] password checks run at
+//!   once, each in an argon2 work area that is allocated once and reused
+//!   ([`CheckPermit`]), so login traffic cannot grow the process's memory.
+//! - [`Tokens`]: random 256-bit bearer tokens that expire after [`IDLE_EXPIRY`] without
+//!   use. Only their SHA-256 digests are kept, in memory and in
+//!   `<data-dir>/sessions.json`, so sessions survive a restart.
 //! - [`LoginLimiter`]: at most [`MAX_FAILURES`] wrong passwords per client address in
 //!   any [`FAILURE_WINDOW`]; then the address waits.
 //! - [`Clock`]: the time all of these read, which tests move forward instead of
@@ -19,11 +22,11 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
-use argon2::Argon2;
-use argon2::password_hash::phc::PasswordHash;
-use argon2::password_hash::{PasswordHasher, PasswordVerifier};
+use argon2::password_hash::phc::{Output, ParamsString, PasswordHash, Salt};
+use argon2::{Algorithm, Argon2, Block, Params, Version};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 use crate::durable;
 
@@ -53,6 +56,24 @@ const MAX_TOKENS: usize = 1000;
 
 /// Most client addresses the limiter remembers at once.
 const MAX_TRACKED_ADDRESSES: usize = 10_000;
+
+/// Password checks (argon2id runs) at once, at most. Each needs its own work area of
+/// [`Params::DEFAULT_M_COST`] KiB (19 MiB), kept for reuse.
+pub const CHECK_PERMITS: usize = 2;
+
+/// How long a login or password change waits for a free check before it is answered
+/// 503 with `Retry-After`.
+pub const CHECK_QUEUE_WAIT: Duration = Duration::from_secs(10);
+
+/// The largest argon2 memory cost a password file may ask for, KiB (64 MiB): a file
+/// asking for more is refused as corrupt rather than allocated.
+const MAX_M_COST_KIB: u32 = 64 * 1024;
+
+/// Salt of a new hash, bytes.
+const SALT_BYTES: usize = 16;
+
+/// Hash output of a new hash, bytes.
+const OUTPUT_BYTES: usize = 32;
 
 /// The time as the auth rules see it: the system's monotonic clock, or in tests one
 /// that can be moved forward.
@@ -143,7 +164,80 @@ struct Record {
 pub struct Password {
     dir: PathBuf,
     record: Mutex<Record>,
+    checks: Checks,
 }
+
+/// Argon2 work areas, one per permit, allocated on first use and then reused, so the
+/// memory password checks take is at most [`CHECK_PERMITS`] × 19 MiB for the life of
+/// the process (freeing and reallocating 19 MiB per check let the allocator's arenas
+/// grow to gigabytes under concurrent logins).
+type WorkAreas = Arc<Mutex<Vec<Vec<Block>>>>;
+
+/// The permits and work areas of the password checks.
+#[derive(Debug)]
+struct Checks {
+    permits: Arc<Semaphore>,
+    areas: WorkAreas,
+}
+
+impl Checks {
+    fn new() -> Self {
+        Self {
+            permits: Arc::new(Semaphore::new(CHECK_PERMITS)),
+            areas: Arc::new(Mutex::new(Vec::with_capacity(CHECK_PERMITS))),
+        }
+    }
+
+    fn permit(&self, permit: OwnedSemaphorePermit) -> CheckPermit {
+        let area = self
+            .areas
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .pop()
+            .unwrap_or_default();
+        CheckPermit {
+            _permit: permit,
+            area,
+            areas: Arc::clone(&self.areas),
+        }
+    }
+}
+
+/// The right to run one password check now, with its argon2 work area; dropping it
+/// frees the permit and returns the area for the next check.
+#[derive(Debug)]
+pub struct CheckPermit {
+    _permit: OwnedSemaphorePermit,
+    area: Vec<Block>,
+    areas: WorkAreas,
+}
+
+impl CheckPermit {
+    /// The first `blocks` blocks of the work area, grown (once) if it is smaller.
+    fn memory(&mut self, blocks: usize) -> &mut [Block] {
+        if self.area.len() < blocks {
+            self.area.resize(blocks, Block::new());
+        }
+        &mut self.area[..blocks]
+    }
+}
+
+impl Drop for CheckPermit {
+    fn drop(&mut self) {
+        let area = std::mem::take(&mut self.area);
+        if !area.is_empty() {
+            self.areas
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .push(area);
+        }
+    }
+}
+
+/// Every password check is taken: the caller waited [`CHECK_QUEUE_WAIT`] in vain.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("the bridge is busy checking other passwords")]
+pub struct Busy;
 
 impl Password {
     /// Reads `<dir>/password`, creating it with the initial password `1234` if absent.
@@ -153,6 +247,7 @@ impl Password {
     /// file.
     pub fn open(dir: &Path) -> Result<Self, PasswordError> {
         let path = dir.join(FILE_NAME);
+        let checks = Checks::new();
         let record = match std::fs::read_to_string(&path) {
             Ok(text) => {
                 let record: Record =
@@ -160,15 +255,19 @@ impl Password {
                         path: path.clone(),
                         reason: error.to_string(),
                     })?;
-                PasswordHash::new(&record.argon2id).map_err(|error| PasswordError::Corrupt {
+                Stored::parse(&record.argon2id).map_err(|reason| PasswordError::Corrupt {
                     path: path.clone(),
-                    reason: error.to_string(),
+                    reason,
                 })?;
                 record
             }
             Err(error) if error.kind() == io::ErrorKind::NotFound => {
+                // Nothing else runs yet: a permit is free.
+                let permit = Arc::clone(&checks.permits)
+                    .try_acquire_owned()
+                    .map_err(|_| PasswordError::Interrupted)?;
                 let record = Record {
-                    argon2id: hash(DEFAULT_PASSWORD)?,
+                    argon2id: hash(&mut checks.permit(permit), DEFAULT_PASSWORD)?,
                     default: true,
                 };
                 store(dir, &record)?;
@@ -183,6 +282,7 @@ impl Password {
         Ok(Self {
             dir: dir.to_owned(),
             record: Mutex::new(record),
+            checks,
         })
     }
 
@@ -191,24 +291,48 @@ impl Password {
         self.lock().default
     }
 
+    /// Waits for a free password check, in the order of asking, at most `wait`.
+    ///
+    /// # Errors
+    /// [`Busy`] if none came free in time.
+    pub async fn admit(&self, wait: Duration) -> Result<CheckPermit, Busy> {
+        let permits = Arc::clone(&self.checks.permits);
+        match tokio::time::timeout(wait, permits.acquire_owned()).await {
+            Ok(Ok(permit)) => Ok(self.checks.permit(permit)),
+            // The semaphore is never closed; a timeout is the only real case.
+            Ok(Err(_)) | Err(_) => Err(Busy),
+        }
+    }
+
+    /// A free password check now, if there is one.
+    pub fn try_admit(&self) -> Option<CheckPermit> {
+        let permit = Arc::clone(&self.checks.permits).try_acquire_owned().ok()?;
+        Some(self.checks.permit(permit))
+    }
+
     /// Whether `candidate` is the password. Slow on purpose (argon2id): call it from
-    /// a blocking thread.
-    pub fn verify(&self, candidate: &str) -> bool {
+    /// a blocking thread, with a permit from [`admit`](Self::admit).
+    pub fn verify(&self, permit: &mut CheckPermit, candidate: &str) -> bool {
         let phc = self.lock().argon2id.clone();
-        verify(&phc, candidate)
+        verify(permit, &phc, candidate)
     }
 
     /// Replaces the password if `old` is the current one. Slow (two argon2id runs):
-    /// call it from a blocking thread.
+    /// call it from a blocking thread, with a permit from [`admit`](Self::admit).
     ///
     /// # Errors
     /// [`PasswordError::WrongPassword`], [`PasswordError::Unacceptable`] (too short,
     /// too long, or the initial password), or an I/O error writing the file (the old
     /// password then stays).
-    pub fn change(&self, old: &str, new: &str) -> Result<(), PasswordError> {
+    pub fn change(
+        &self,
+        permit: &mut CheckPermit,
+        old: &str,
+        new: &str,
+    ) -> Result<(), PasswordError> {
         // Held throughout, so two changes cannot interleave.
         let mut record = self.lock();
-        if !verify(&record.argon2id, old) {
+        if !verify(permit, &record.argon2id, old) {
             return Err(PasswordError::WrongPassword);
         }
         if new.chars().count() < MIN_PASSWORD_CHARS {
@@ -227,7 +351,7 @@ impl Password {
             ));
         }
         let changed = Record {
-            argon2id: hash(new)?,
+            argon2id: hash(permit, new)?,
             default: false,
         };
         store(&self.dir, &changed)?;
@@ -240,22 +364,98 @@ impl Password {
     }
 }
 
-fn hash(password: &str) -> Result<String, PasswordError> {
-    Argon2::default()
-        .hash_password(password.as_bytes())
-        .map(|hash| hash.to_string())
-        .map_err(|error| PasswordError::Hash(error.to_string()))
+/// A stored argon2 hash, taken apart.
+struct Stored {
+    argon2: Argon2<'static>,
+    salt: Vec<u8>,
+    hash: Vec<u8>,
+    blocks: usize,
 }
 
-fn verify(phc: &str, candidate: &str) -> bool {
+impl Stored {
+    /// Reads a PHC string (`$argon2id$v=19$m=…,t=…,p=…$salt$hash`).
+    fn parse(phc: &str) -> Result<Self, String> {
+        let parsed = PasswordHash::new(phc).map_err(|error| error.to_string())?;
+        let algorithm = Algorithm::try_from(parsed.algorithm.as_str())
+            .map_err(|_| format!("{} is not an argon2 algorithm", parsed.algorithm))?;
+        let version = parsed
+            .version
+            .map(Version::try_from)
+            .transpose()
+            .map_err(|_| "unknown argon2 version".to_owned())?
+            .unwrap_or_default();
+        let params = Params::try_from(&parsed).map_err(|error| error.to_string())?;
+        if params.m_cost() > MAX_M_COST_KIB {
+            return Err(format!(
+                "the hash asks for {} KiB of memory; at most {MAX_M_COST_KIB} are allowed",
+                params.m_cost()
+            ));
+        }
+        let salt = parsed.salt.ok_or("the hash has no salt")?;
+        let hash = parsed.hash.ok_or("the hash has no output")?;
+        let blocks = params.block_count();
+        Ok(Self {
+            argon2: Argon2::new(algorithm, version, params),
+            salt: salt.as_ref().to_vec(),
+            hash: hash.as_bytes().to_vec(),
+            blocks,
+        })
+    }
+}
+
+/// A new argon2id hash of `password` with the default parameters and a random salt,
+/// computed in the permit's work area.
+fn hash(permit: &mut CheckPermit, password: &str) -> Result<String, PasswordError> {
+    let failed = |error: &dyn std::fmt::Display| PasswordError::Hash(error.to_string());
+    let params = Params::DEFAULT;
+    let mut salt = [0u8; SALT_BYTES];
+    getrandom::fill(&mut salt).map_err(|error| failed(&error))?;
+    let mut output = [0u8; OUTPUT_BYTES];
+    let memory = permit.memory(params.block_count());
+    Argon2::new(Algorithm::Argon2id, Version::V0x13, params.clone())
+        .hash_password_into_with_memory(password.as_bytes(), &salt, &mut output, memory)
+        .map_err(|error| failed(&error))?;
+    let phc = PasswordHash {
+        algorithm: Algorithm::Argon2id.ident(),
+        version: Some(Version::V0x13.into()),
+        params: ParamsString::try_from(&params).map_err(|error| failed(&error))?,
+        salt: Some(Salt::new(&salt).map_err(|error| failed(&error))?),
+        hash: Some(Output::new(&output).map_err(|error| failed(&error))?),
+    };
+    Ok(phc.to_string())
+}
+
+/// Whether `candidate` hashes to the stored `phc`, computed in the permit's work area
+/// and compared in constant time.
+fn verify(permit: &mut CheckPermit, phc: &str, candidate: &str) -> bool {
     if candidate.len() > MAX_PASSWORD_BYTES {
         return false;
     }
-    PasswordHash::new(phc).is_ok_and(|hash| {
-        Argon2::default()
-            .verify_password(candidate.as_bytes(), &hash)
-            .is_ok()
-    })
+    let Ok(stored) = Stored::parse(phc) else {
+        return false;
+    };
+    let mut output = [0u8; Output::MAX_LENGTH];
+    let Some(output) = output.get_mut(..stored.hash.len()) else {
+        return false;
+    };
+    let memory = permit.memory(stored.blocks);
+    stored
+        .argon2
+        .hash_password_into_with_memory(candidate.as_bytes(), &stored.salt, output, memory)
+        .is_ok()
+        && constant_time_eq(output, &stored.hash)
+}
+
+/// Whether `a` and `b` are equal, taking the same time wherever they differ.
+fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
+    if a.len() != b.len() {
+        return false;
+    }
+    let difference = a
+        .iter()
+        .zip(b)
+        .fold(0u8, |difference, (x, y)| difference | (x ^ y));
+    std::hint::black_box(difference) == 0
 }
 
 fn store(dir: &Path, record: &Record) -> Result<(), PasswordError> {
@@ -480,6 +680,10 @@ fn forget_old(times: &mut VecDeque<Instant>, now: Instant) {
 mod tests {
     use super::*;
 
+    fn check(password: &Password) -> CheckPermit {
+        password.try_admit().expect("a free check")
+    }
+
     #[test]
     fn sessions_survive_a_restart_and_the_file_holds_no_token() {
         let dir = tempfile::tempdir().unwrap();
@@ -515,11 +719,77 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let password = Password::open(dir.path()).expect("open");
         assert!(password.is_default());
-        assert!(password.verify("1234"));
-        assert!(!password.verify("12345"));
+        assert!(password.verify(&mut check(&password), "1234"));
+        assert!(!password.verify(&mut check(&password), "12345"));
         let text = std::fs::read_to_string(dir.path().join(FILE_NAME)).expect("file");
         assert!(text.contains("$argon2id$"), "{text}");
         assert!(!text.contains("\"1234\""), "{text}");
+    }
+
+    #[test]
+    fn hashes_agree_with_the_argon2_crate_both_ways() {
+        use argon2::password_hash::{PasswordHasher, PasswordVerifier};
+        let dir = tempfile::tempdir().expect("temp dir");
+        let password = Password::open(dir.path()).expect("open");
+        // A file written by an earlier version (the crate's own hasher) still verifies.
+        let earlier = Argon2::default()
+            .hash_password(b"old secret")
+            .expect("hash")
+            .to_string();
+        assert!(verify(&mut check(&password), &earlier, "old secret"));
+        assert!(!verify(&mut check(&password), &earlier, "old secreT"));
+        // Ours verifies with the crate's own verifier, and keeps the default parameters.
+        let ours = hash(&mut check(&password), "new secret").expect("hash");
+        assert!(
+            ours.starts_with("$argon2id$v=19$m=19456,t=2,p=1$"),
+            "{ours}"
+        );
+        let parsed = PasswordHash::new(&ours).expect("phc");
+        assert!(
+            Argon2::default()
+                .verify_password(b"new secret", &parsed)
+                .is_ok()
+        );
+        assert!(verify(&mut check(&password), &ours, "new secret"));
+        assert!(!verify(&mut check(&password), "not a hash", "new secret"));
+    }
+
+    #[test]
+    fn checks_are_limited_and_their_memory_is_reused() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let password = Password::open(dir.path()).expect("open");
+        let first = check(&password);
+        let mut second = check(&password);
+        assert!(
+            password.try_admit().is_none(),
+            "only {CHECK_PERMITS} at once"
+        );
+        assert!(password.verify(&mut second, "1234"));
+        let area = second.area.as_ptr();
+        drop(second);
+        drop(first);
+        let mut again = check(&password);
+        assert!(password.verify(&mut again, "1234"));
+        let areas = password.checks.areas.lock().expect("areas");
+        assert!(
+            areas.iter().any(|kept| kept.as_ptr() == area) || again.area.as_ptr() == area,
+            "the work area is reused"
+        );
+        assert!(areas.len() < CHECK_PERMITS, "one area is in use");
+    }
+
+    #[test]
+    fn a_password_file_asking_for_too_much_memory_is_corrupt() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let greedy = "$argon2id$v=19$m=4194304,t=1,p=1$c2FsdHNhbHRzYWx0$\
+                      AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA";
+        std::fs::write(
+            dir.path().join(FILE_NAME),
+            serde_json::json!({ "argon2id": greedy, "default": false }).to_string(),
+        )
+        .expect("write");
+        let message = Password::open(dir.path()).expect_err("greedy").to_string();
+        assert!(message.contains("KiB of memory"), "{message}");
     }
 
     #[test]
@@ -527,24 +797,26 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let password = Password::open(dir.path()).expect("open");
         assert!(matches!(
-            password.change("0000", "secret"),
+            password.change(&mut check(&password), "0000", "secret"),
             Err(PasswordError::WrongPassword)
         ));
         assert!(matches!(
-            password.change("1234", "abc"),
+            password.change(&mut check(&password), "1234", "abc"),
             Err(PasswordError::Unacceptable(_))
         ));
         assert!(matches!(
-            password.change("1234", "1234"),
+            password.change(&mut check(&password), "1234", "1234"),
             Err(PasswordError::Unacceptable(_))
         ));
         assert!(password.is_default());
-        password.change("1234", "秘密的口令").expect("change");
+        password
+            .change(&mut check(&password), "1234", "秘密的口令")
+            .expect("change");
         assert!(!password.is_default());
         let reopened = Password::open(dir.path()).expect("reopen");
         assert!(!reopened.is_default());
-        assert!(reopened.verify("秘密的口令"));
-        assert!(!reopened.verify("1234"));
+        assert!(reopened.verify(&mut check(&reopened), "秘密的口令"));
+        assert!(!reopened.verify(&mut check(&reopened), "1234"));
     }
 
     #[test]

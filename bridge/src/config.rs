@@ -16,6 +16,7 @@ use std::io;
 use std::net::SocketAddr;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use floatball_shared::ascii::{Form, Instruction, parse_script};
 use floatball_shared::plan::{GatewaySpec, Installation, UnitAddress};
@@ -95,8 +96,11 @@ estop = "MO=0;"
 approach_speed_mm_s = 250.0
 
 [uploads]
-# Largest show file accepted, bytes (32 MiB).
+# Largest show file accepted, bytes (32 MiB): the upload, and the show as stored (a CSV
+# becomes one row per 255 ms or less of every ball, which can be much larger).
 max_bytes = 33554432
+# Longest show accepted, such as "30m", "1h 15m" or "90s" (1 second to 24 hours).
+max_duration = "30m"
 "#;
 
 /// The checked configuration of the installation.
@@ -169,9 +173,19 @@ pub struct Safety {
 /// Upload settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Uploads {
-    /// Largest show file accepted, bytes.
+    /// Largest show file accepted, bytes: the upload, and the show as stored.
     pub max_bytes: usize,
+    /// Longest show accepted.
+    pub max_duration: Duration,
 }
+
+/// `max_duration` unless configured: 30 minutes.
+pub const DEFAULT_MAX_DURATION: Duration = Duration::from_secs(30 * 60);
+
+/// The shortest and longest `max_duration` accepted: 1 second to 24 hours (the latest
+/// keyframe a CSV may have).
+pub const MAX_DURATION_RANGE: std::ops::RangeInclusive<Duration> =
+    Duration::from_secs(1)..=Duration::from_secs(24 * 60 * 60);
 
 /// What the command line overrides.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -367,6 +381,7 @@ struct RawSafety {
 #[serde(deny_unknown_fields)]
 struct RawUploads {
     max_bytes: Option<Spanned<usize>>,
+    max_duration: Option<Spanned<String>>,
 }
 
 // ----------------------------------------------------------------------------------
@@ -479,13 +494,32 @@ impl Checker<'_> {
                 format!("max_bytes = {max_bytes} must be from 1024 (1 KiB) to 1073741824 (1 GiB)"),
             ));
         }
+        let max_duration = match &raw.uploads.max_duration {
+            None => DEFAULT_MAX_DURATION,
+            Some(text) => humantime::parse_duration(text.get_ref().trim())
+                .ok()
+                .filter(|duration| MAX_DURATION_RANGE.contains(duration))
+                .ok_or_else(|| {
+                    self.at(
+                        &text.span(),
+                        format!(
+                            "max_duration = {:?} must be a duration such as \"30m\" or \
+                             \"1h 15m\", from 1 second to 24 hours",
+                            text.get_ref()
+                        ),
+                    )
+                })?,
+        };
         Ok(Config {
             listen,
             allowed_origins,
             matrix,
             gateways,
             safety,
-            uploads: Uploads { max_bytes },
+            uploads: Uploads {
+                max_bytes,
+                max_duration,
+            },
         })
     }
 
@@ -820,6 +854,7 @@ mod tests {
         assert_eq!(config.gateways[0].stations, (1..=100).collect::<Vec<u8>>());
         assert_eq!(estop_bytes(&config), b"*0;MO=0;");
         assert_eq!(config.uploads.max_bytes, 32 * 1024 * 1024);
+        assert_eq!(config.uploads.max_duration, Duration::from_secs(30 * 60));
         assert_eq!(config.limits(), Limits::for_layout(10, 10));
     }
 
@@ -970,6 +1005,12 @@ mod tests {
             ("[matrix]\nrows = 0\n", "rows"),
             ("[matrix]\nhome_mm = 8000.0\n", "home_mm"),
             ("[uploads]\nmax_bytes = 10\n", "max_bytes"),
+            ("[uploads]\nmax_duration = \"25h\"\n", "max_duration"),
+            (
+                "[uploads]\nmax_duration = \"half an hour\"\n",
+                "max_duration",
+            ),
+            ("[uploads]\nmax_duration = \"0s\"\n", "max_duration"),
             (
                 "[safety]\napproach_speed_mm_s = 5000.0\n",
                 "approach_speed_mm_s",
@@ -981,6 +1022,12 @@ mod tests {
             assert!(message.contains(key), "{text}: {message}");
             assert!(message.contains("line "), "{text}: {message}");
         }
+    }
+
+    #[test]
+    fn max_duration_reads_human_durations() {
+        let config = parse("[uploads]\nmax_duration = \"1h 15m\"\n").expect("duration");
+        assert_eq!(config.uploads.max_duration, Duration::from_secs(75 * 60));
     }
 
     #[test]

@@ -46,23 +46,39 @@ pub fn remove(dir: &Path, name: &str) -> io::Result<()> {
     sync_dir(dir)
 }
 
-/// Deletes the temporary files an interrupted [`write_atomic`] left in `dir`; returns
-/// how many.
+/// Deletes the temporary files an interrupted [`write_atomic`] left in `dir` (files
+/// named `.<target>.<hex>.tmp`); returns how many. Other files, and directories, are
+/// left alone.
 ///
 /// # Errors
-/// If the directory cannot be read.
+/// If the directory cannot be read or a temporary file cannot be removed.
 pub fn remove_temporaries(dir: &Path) -> io::Result<usize> {
     let mut removed = 0;
     for entry in fs::read_dir(dir)? {
         let entry = entry?;
         let name = entry.file_name();
-        let name = name.to_string_lossy();
-        if name.starts_with('.') && name.ends_with(TEMP_SUFFIX) {
+        if is_temporary(&name.to_string_lossy()) && entry.file_type()?.is_file() {
             fs::remove_file(entry.path())?;
             removed += 1;
         }
     }
     Ok(removed)
+}
+
+/// Whether `name` is one of [`write_atomic`]'s temporary file names:
+/// `.<target>.<hex>.tmp`.
+pub fn is_temporary(name: &str) -> bool {
+    let Some(inner) = name
+        .strip_prefix('.')
+        .and_then(|name| name.strip_suffix(TEMP_SUFFIX))
+    else {
+        return false;
+    };
+    inner.rsplit_once('.').is_some_and(|(target, random)| {
+        !target.is_empty()
+            && !random.is_empty()
+            && random.bytes().all(|byte| byte.is_ascii_hexdigit())
+    })
 }
 
 /// Flushes a directory's entries (creations, renames, removals) to disk.
@@ -110,6 +126,27 @@ mod tests {
         fs::write(dir.path().join("b.json"), b"whole").expect("write");
         assert_eq!(remove_temporaries(dir.path()).expect("clean"), 1);
         assert_eq!(fs::read_dir(dir.path()).expect("dir").count(), 1);
+    }
+
+    #[test]
+    fn only_write_atomic_temporaries_are_recognised() {
+        assert!(is_temporary(".playlist.json.00112233aabbccdd.tmp"));
+        assert!(is_temporary(".password.0a.tmp"));
+        for name in [
+            "playlist.json.0011.tmp",
+            ".notes.tmp",
+            ".a.json.xyz.tmp",
+            "..0011.tmp",
+            ".a.json.0011",
+            ".tmp",
+        ] {
+            assert!(!is_temporary(name), "{name}");
+        }
+        let dir = tempfile::tempdir().expect("temp dir");
+        fs::create_dir(dir.path().join(".d.0011.tmp")).expect("mkdir");
+        fs::write(dir.path().join(".notes.tmp"), b"mine").expect("write");
+        assert_eq!(remove_temporaries(dir.path()).expect("clean"), 0);
+        assert_eq!(fs::read_dir(dir.path()).expect("dir").count(), 2);
     }
 
     #[test]

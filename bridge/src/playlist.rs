@@ -156,10 +156,7 @@ pub fn check(playlist: &Playlist, show_exists: impl Fn(&str) -> bool) -> Result<
     if details.is_empty() {
         Ok(())
     } else {
-        Err(Refused {
-            error: "the playlist is not valid".to_owned(),
-            details,
-        })
+        Err(Refused::invalid("the playlist is not valid", details))
     }
 }
 

@@ -1,13 +1,18 @@
 //! The show store: `<data-dir>/shows/`, one native JSON file per show.
 //!
 //! Show names are for people: any script, at most [`MAX_NAME_BYTES`] bytes, without
-//! `/`, `\`, control characters, a leading `.` or `..` ([`ShowName`]). On disk each show
+//! `/`, `\`, control characters, a leading `.` or `..` ([`ShowName`]). A new show's
+//! name also may not hold invisible or text-direction characters, which make one name
+//! look like another ([`ShowName::parse_new`]). On disk each show
 //! is `<hex of the name's UTF-8>.json`, so every name is a safe file name of at most
 //! 205 bytes and the listing gives the names back exactly.
 //!
 //! An upload is decoded (native JSON, or CSV converted with the installation's layout)
 //! and validated against the installation's limits *before* anything is written
-//! ([`decode_upload`]); then it is written atomically ([`crate::durable`]). A summary of
+//! ([`decode_upload`]): not empty, at most `[uploads] max_duration` long, and at most
+//! `max_bytes` as stored — a CSV's duration and converted size are checked from its
+//! keyframes before its rows are built. Then it is written atomically
+//! ([`crate::durable`]). A summary of
 //! every show (size, SHA-256, time, units, duration) is kept in memory, built at
 //! start from the complete files, so listing does not reread them.
 
@@ -19,7 +24,9 @@ use std::sync::{Mutex, PoisonError};
 use std::time::SystemTime;
 
 use floatball_shared::api::ShowSummary;
-use floatball_shared::show::{Show, import_csv, validate};
+use floatball_shared::show::{
+    CsvProblem, ImportError, ImportLimits, Show, import_csv_within, validate,
+};
 use sha2::{Digest, Sha256};
 
 use crate::config::Config;
@@ -55,6 +62,35 @@ pub enum NameError {
     /// A character that cannot be in a name.
     #[error("the show name must not contain {0}")]
     Forbidden(&'static str),
+    /// An invisible or text-direction character, which makes the name look like another
+    /// (or read backwards).
+    #[error(
+        "the show name must not contain U+{code:04X} ({kind}): such characters make a name \
+         look like another"
+    )]
+    Misleading {
+        /// The character's code point.
+        code: u32,
+        /// What it is, in words.
+        kind: &'static str,
+    },
+}
+
+/// What `c` is, if it is an invisible or text-direction character: the bidirectional
+/// embeddings, overrides and isolates (U+202A–U+202E, U+2066–U+2069), the direction
+/// marks (U+200E, U+200F, U+061C), and the zero-width characters (U+200B–U+200D,
+/// U+2060–U+2064, U+FEFF).
+fn misleading(c: char) -> Option<&'static str> {
+    match c {
+        '\u{202A}'..='\u{202E}' | '\u{2066}'..='\u{2069}' => {
+            Some("a bidirectional override or isolate")
+        }
+        '\u{200E}' | '\u{200F}' | '\u{061C}' => Some("a text-direction mark"),
+        '\u{200B}'..='\u{200D}' | '\u{2060}'..='\u{2064}' | '\u{FEFF}' => {
+            Some("a zero-width character")
+        }
+        _ => None,
+    }
 }
 
 impl ShowName {
@@ -85,6 +121,23 @@ impl ShowName {
             return Err(NameError::Forbidden("`..`"));
         }
         Ok(Self(name.to_owned()))
+    }
+
+    /// Checks the name of a show being stored: as [`parse`](Self::parse), and without
+    /// invisible or text-direction characters. (Shows stored before this rule keep
+    /// their names, so they can still be read and deleted.)
+    ///
+    /// # Errors
+    /// [`NameError`] saying what is wrong.
+    pub fn parse_new(name: &str) -> Result<Self, NameError> {
+        let parsed = Self::parse(name)?;
+        match name.chars().find_map(|c| Some((c, misleading(c)?))) {
+            Some((c, kind)) => Err(NameError::Misleading {
+                code: u32::from(c),
+                kind,
+            }),
+            None => Ok(parsed),
+        }
     }
 
     /// The name.
@@ -126,6 +179,28 @@ pub struct Refused {
     pub error: String,
     /// Each problem.
     pub details: Vec<String>,
+    /// Refused for its size (`max_bytes`, 413) rather than its content (422).
+    pub too_large: bool,
+}
+
+impl Refused {
+    /// Refused for its content, with `details`.
+    pub fn invalid(error: impl Into<String>, details: Vec<String>) -> Self {
+        Self {
+            error: error.into(),
+            details,
+            too_large: false,
+        }
+    }
+}
+
+/// A decoded, valid upload: the show and its native file as it will be stored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Upload {
+    /// The show.
+    pub show: Show,
+    /// Its native JSON file.
+    pub json: String,
 }
 
 /// How an upload's body is written.
@@ -161,57 +236,119 @@ impl UploadFormat {
 /// Reads an upload as a show named `name` and validates it for this installation.
 ///
 /// # Errors
-/// [`Refused`] with every problem: not UTF-8, not a show file, a CSV error, or each
-/// violation of the installation's limits.
+/// [`Refused`] with every problem: not UTF-8, not a show file, a CSV error, an empty
+/// show, a show longer than `[uploads] max_duration`, each violation of the
+/// installation's limits, or (with [`Refused::too_large`]) a stored file over
+/// `max_bytes` — for a CSV known from its keyframes, before its rows are built.
 pub fn decode_upload(
     name: &ShowName,
     body: &[u8],
     format: UploadFormat,
     config: &Config,
-) -> Result<Show, Refused> {
-    let text = std::str::from_utf8(body).map_err(|error| Refused {
-        error: "the show file is not UTF-8 text".to_owned(),
-        details: vec![format!(
-            "byte {} is not part of a UTF-8 character",
-            error.valid_up_to() + 1
-        )],
+) -> Result<Upload, Refused> {
+    let uploads = config.uploads;
+    let max_duration = humantime::format_duration(uploads.max_duration);
+    let too_long = |details: Vec<String>| {
+        Refused::invalid(
+            format!("the show is longer than the limit of {max_duration} ([uploads] max_duration)"),
+            details,
+        )
+    };
+    let too_large = |details: Vec<String>| Refused {
+        error: format!(
+            "the show as stored would be larger than the limit of {} bytes ([uploads] max_bytes)",
+            uploads.max_bytes
+        ),
+        details,
+        too_large: true,
+    };
+    let text = std::str::from_utf8(body).map_err(|error| {
+        Refused::invalid(
+            "the show file is not UTF-8 text",
+            vec![format!(
+                "byte {} is not part of a UTF-8 character",
+                error.valid_up_to() + 1
+            )],
+        )
     })?;
     let mut show = match format {
-        UploadFormat::Json => Show::from_json(text).map_err(|error| Refused {
-            error: "the show file cannot be read".to_owned(),
-            details: vec![error.to_string()],
+        UploadFormat::Json => Show::from_json(text).map_err(|error| {
+            Refused::invalid("the show file cannot be read", vec![error.to_string()])
         })?,
         UploadFormat::Csv => {
-            import_csv(name.as_str(), text, config.layout()).map_err(|error| Refused {
-                error: "the CSV keyframes cannot be imported".to_owned(),
-                details: vec![error.to_string()],
+            let limits = ImportLimits {
+                max_duration_ms: u64::try_from(uploads.max_duration.as_millis())
+                    .unwrap_or(u64::MAX),
+                max_json_bytes: uploads.max_bytes,
+            };
+            import_csv_within(name.as_str(), text, config.layout(), limits).map_err(|error| {
+                match &error {
+                    ImportError::TooLarge { .. } => too_large(vec![error.to_string()]),
+                    ImportError::Csv(csv) if matches!(csv.problem, CsvProblem::TooLong { .. }) => {
+                        too_long(vec![error.to_string()])
+                    }
+                    ImportError::Csv(_) => Refused::invalid(
+                        "the CSV keyframes cannot be imported",
+                        vec![error.to_string()],
+                    ),
+                }
             })?
         }
     };
     show.name = name.as_str().to_owned();
-    let violations = validate(&show, &config.limits());
-    if violations.is_empty() {
-        return Ok(show);
-    }
-    let count = violations.len();
-    let mut details: Vec<String> = violations
-        .iter()
-        .take(MAX_LISTED_PROBLEMS)
-        .map(ToString::to_string)
-        .collect();
-    if count > MAX_LISTED_PROBLEMS {
-        details.push(format!(
-            "… and {} more problems",
-            count - MAX_LISTED_PROBLEMS
+    let duration_ms = show.duration_ms();
+    if duration_ms == 0 {
+        return Err(Refused::invalid(
+            "the show is empty: it has no motion",
+            vec![match format {
+                UploadFormat::Csv => {
+                    "a CSV show needs at least two keyframes, the last after 0 ms".to_owned()
+                }
+                UploadFormat::Json => "every ball's \"rows\" is empty".to_owned(),
+            }],
         ));
     }
-    Err(Refused {
-        error: format!(
-            "the show does not fit this installation: {count} problem{}",
-            if count == 1 { "" } else { "s" }
-        ),
-        details,
-    })
+    if u128::from(duration_ms) > uploads.max_duration.as_millis() {
+        return Err(too_long(vec![format!(
+            "the show lasts {}",
+            humantime::format_duration(std::time::Duration::from_millis(duration_ms))
+        )]));
+    }
+    let violations = validate(&show, &config.limits());
+    if !violations.is_empty() {
+        let count = violations.len();
+        let mut details: Vec<String> = violations
+            .iter()
+            .take(MAX_LISTED_PROBLEMS)
+            .map(ToString::to_string)
+            .collect();
+        if count > MAX_LISTED_PROBLEMS {
+            details.push(format!(
+                "… and {} more problems",
+                count - MAX_LISTED_PROBLEMS
+            ));
+        }
+        return Err(Refused::invalid(
+            format!(
+                "the show does not fit this installation: {count} problem{}",
+                if count == 1 { "" } else { "s" }
+            ),
+            details,
+        ));
+    }
+    let json = show.to_json().map_err(|error| {
+        Refused::invalid(
+            "the show cannot be written as JSON",
+            vec![error.to_string()],
+        )
+    })?;
+    if json.len() > uploads.max_bytes {
+        return Err(too_large(vec![format!(
+            "as stored the show takes {} bytes",
+            json.len()
+        )]));
+    }
+    Ok(Upload { show, json })
 }
 
 /// Why the store cannot do what was asked.
@@ -228,9 +365,6 @@ pub enum StoreError {
         /// What the system said.
         source: io::Error,
     },
-    /// The show cannot be written as JSON (it always can).
-    #[error("cannot write the show as JSON: {0}")]
-    Encode(String),
 }
 
 /// The shows on disk and a summary of each.
@@ -244,11 +378,23 @@ pub struct ShowStore {
 
 impl ShowStore {
     /// Opens `<data_dir>/shows/`, creating it if needed, removing what interrupted
-    /// writes left, and summarising every complete show.
+    /// writes left there and in the data directory itself (the temporary files of the
+    /// playlist, password, sessions and configuration), and summarising every complete
+    /// show.
     ///
     /// # Errors
-    /// If the directory cannot be created or read.
+    /// If a directory cannot be created, read or cleaned.
     pub fn open(data_dir: &Path) -> Result<Self, StoreError> {
+        let removed = durable::remove_temporaries(data_dir).map_err(|source| StoreError::Io {
+            path: data_dir.to_owned(),
+            source,
+        })?;
+        if removed > 0 {
+            tracing::warn!(
+                "removed {removed} unfinished file(s) from {}",
+                data_dir.display()
+            );
+        }
         let dir = data_dir.join(DIR_NAME);
         let io_error = |source| StoreError::Io {
             path: dir.clone(),
@@ -308,15 +454,17 @@ impl ShowStore {
         })
     }
 
-    /// Stores a show (already validated) under `name`, replacing one of the same name.
-    /// Returns its summary and whether it is new.
+    /// Stores a show (already validated, with its native file `json`) under `name`,
+    /// replacing one of the same name. Returns its summary and whether it is new.
     ///
     /// # Errors
     /// An I/O error; the store is then as before.
-    pub fn put(&self, name: &ShowName, show: &Show) -> Result<(ShowSummary, bool), StoreError> {
-        let json = show
-            .to_json()
-            .map_err(|error| StoreError::Encode(error.to_string()))?;
+    pub fn put(
+        &self,
+        name: &ShowName,
+        show: &Show,
+        json: &str,
+    ) -> Result<(ShowSummary, bool), StoreError> {
         let _writing = self.writing.lock().unwrap_or_else(PoisonError::into_inner);
         let file_name = name.file_name();
         durable::write_atomic(&self.dir, &file_name, json.as_bytes()).map_err(|source| {
@@ -438,6 +586,31 @@ mod tests {
     }
 
     #[test]
+    fn new_names_with_invisible_or_direction_characters_are_refused() {
+        for code in [
+            0x202A, 0x202B, 0x202C, 0x202D, 0x202E, 0x2066, 0x2067, 0x2068, 0x2069, 0x200E, 0x200F,
+            0x061C, 0x200B, 0x200C, 0x200D, 0x2060, 0xFEFF,
+        ] {
+            let c = char::from_u32(code).expect("char");
+            let name = format!("show{c}gpj.exe");
+            let refused = ShowName::parse_new(&name).expect_err(&format!("U+{code:04X}"));
+            assert!(
+                matches!(refused, NameError::Misleading { code: found, .. } if found == code),
+                "{refused:?}"
+            );
+            assert!(
+                refused.to_string().contains(&format!("U+{code:04X}")),
+                "{refused}"
+            );
+            // Stored before the rule: still a name the store can list and delete.
+            assert!(ShowName::parse(&name).is_ok());
+        }
+        for name in ["波浪", "موجة", "Welle 1", "שלום"] {
+            assert!(ShowName::parse_new(name).is_ok(), "{name}");
+        }
+    }
+
+    #[test]
     fn the_format_follows_the_content_type_or_the_first_character() {
         assert_eq!(
             UploadFormat::detect(Some("application/json; charset=utf-8"), b"x"),
@@ -463,7 +636,8 @@ mod tests {
         let json = show(1, 2).to_json().expect("json");
         let decoded =
             decode_upload(&name, json.as_bytes(), UploadFormat::Json, &config(1, 2)).expect("ok");
-        assert_eq!(decoded.name, "test");
+        assert_eq!(decoded.show.name, "test");
+        assert_eq!(decoded.json, decoded.show.to_json().expect("json"));
 
         let refused = decode_upload(&name, json.as_bytes(), UploadFormat::Json, &config(2, 2))
             .expect_err("wrong layout");
@@ -491,7 +665,8 @@ mod tests {
         let name = ShowName::parse("波浪").expect("name");
         let mut stored = show(1, 2);
         stored.name = name.to_string();
-        let (summary, created) = store.put(&name, &stored).expect("put");
+        let json = stored.to_json().expect("json");
+        let (summary, created) = store.put(&name, &stored, &json).expect("put");
         assert!(created);
         assert_eq!(summary.name, "波浪");
         assert_eq!(summary.units, 2);
@@ -500,7 +675,7 @@ mod tests {
         assert!(summary.modified.ends_with('Z'), "{}", summary.modified);
         let bytes = store.read(&name).expect("read");
         assert_eq!(summary.bytes, bytes.len() as u64);
-        assert!(!store.put(&name, &stored).expect("replace").1);
+        assert!(!store.put(&name, &stored, &json).expect("replace").1);
 
         let reopened = ShowStore::open(dir.path()).expect("reopen");
         assert_eq!(reopened.list(), store.list());

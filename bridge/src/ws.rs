@@ -212,7 +212,8 @@ async fn session(mut socket: WebSocket, state: AppState, token: String) {
                     sent(send(&mut socket, &reply).await)
                 }
                 Some(Ok(Message::Ping(_) | Message::Pong(_))) => Step::Continue,
-                Some(Ok(Message::Close(_)) | Err(_)) | None => Step::Close,
+                Some(Ok(Message::Close(_))) | None => Step::Close,
+                Some(Err(error)) => receive_failed(&mut socket, &error).await,
             },
         };
         if let Step::Close = step {
@@ -245,6 +246,25 @@ fn sent(result: Result<(), axum::Error>) -> Step {
         Ok(()) => Step::Continue,
         Err(_) => Step::Close,
     }
+}
+
+/// Ends a session whose client sent what cannot be received. A message over
+/// [`MAX_MESSAGE_BYTES`] is first answered with close code 1009 (Message Too Big), so
+/// the client learns why; any other error (a broken connection) just ends it.
+async fn receive_failed(socket: &mut WebSocket, error: &axum::Error) -> Step {
+    let too_big = std::error::Error::source(error)
+        .and_then(|source| source.downcast_ref::<tungstenite::Error>())
+        .is_some_and(|error| matches!(error, tungstenite::Error::Capacity(_)));
+    if too_big {
+        tracing::info!("closing a WebSocket whose client sent a message over the limit");
+        let _ = socket
+            .send(Message::Close(Some(CloseFrame {
+                code: close_code::SIZE,
+                reason: format!("messages are limited to {MAX_MESSAGE_BYTES} bytes").into(),
+            })))
+            .await;
+    }
+    Step::Close
 }
 
 /// Tells the client its token is no longer valid and closes, waiting a moment for the

@@ -2,8 +2,10 @@
 //!
 //! - `GET /api/shows`: 200, every show's summary.
 //! - `PUT /api/shows/{name}`: native JSON or CSV; 201 with the summary of a new show,
-//!   200 when it replaced one; 400 bad name; 413 over the size limit; 422 with every
-//!   problem when the show is invalid (nothing is stored). The body is read whole
+//!   200 when it replaced one; 400 bad name (also one with invisible or text-direction
+//!   characters); 413 over the size limit (the upload, or the show as stored: a CSV
+//!   converted to rows); 422 with every problem when the show is invalid, empty or
+//!   longer than `max_duration` (nothing is stored). The body is read whole
 //!   before anything is checked or written, so an upload cut off half-way stores
 //!   nothing.
 //! - `GET /api/shows/{name}`: 200 the stored native JSON; 404.
@@ -50,8 +52,14 @@ impl FromRequestParts<AppState> for NameParam {
     }
 }
 
+/// 422 for an invalid show or playlist, 413 for a show too large once converted.
 fn unprocessable(refused: Refused) -> Failure {
-    Failure::new(StatusCode::UNPROCESSABLE_ENTITY, refused.error).with_details(refused.details)
+    let status = if refused.too_large {
+        StatusCode::PAYLOAD_TOO_LARGE
+    } else {
+        StatusCode::UNPROCESSABLE_ENTITY
+    };
+    Failure::new(status, refused.error).with_details(refused.details)
 }
 
 pub(crate) fn store_failure(error: StoreError) -> Failure {
@@ -90,6 +98,8 @@ pub async fn put_show(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Response, Failure> {
+    let name = ShowName::parse_new(name.as_str())
+        .map_err(|error| Failure::new(StatusCode::BAD_REQUEST, error.to_string()))?;
     let body = body.map_err(|rejection| {
         let status = rejection.status();
         if status == StatusCode::PAYLOAD_TOO_LARGE {
@@ -113,14 +123,15 @@ pub async fn put_show(
     let format = UploadFormat::detect(content_type, &body);
     let decoding = state.clone();
     let show_name = name.clone();
-    let show = blocking(move || decode_upload(&show_name, &body, format, decoding.config()))
+    let upload = blocking(move || decode_upload(&show_name, &body, format, decoding.config()))
         .await?
         .map_err(unprocessable)?;
     let _catalogue = state.lock_catalogue().await;
     let storing = state.clone();
-    let (summary, created) = blocking(move || storing.shows().put(&name, &show))
-        .await?
-        .map_err(store_failure)?;
+    let (summary, created) =
+        blocking(move || storing.shows().put(&name, &upload.show, &upload.json))
+            .await?
+            .map_err(store_failure)?;
     tracing::info!("stored show \"{}\" ({} bytes)", summary.name, summary.bytes);
     let status = if created {
         StatusCode::CREATED

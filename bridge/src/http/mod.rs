@@ -7,7 +7,9 @@
 //! - [`matrix`]: the feasibility report of a show, and the simulated balls' positions.
 //!
 //! Every error answer is an [`ApiError`] JSON body with the right status code
-//! ([`Failure`]); so are unknown `/api` paths (404) and methods (405).
+//! ([`Failure`]); so are unknown `/api` paths (404) and methods (405), and the
+//! framework's own refusals (a body over the limit, a malformed request…), which
+//! [`json_errors`] rewrites.
 
 pub mod library;
 pub mod matrix;
@@ -16,6 +18,7 @@ pub mod session;
 use axum::Router;
 use axum::extract::DefaultBodyLimit;
 use axum::http::{HeaderValue, Method, StatusCode, header};
+use axum::middleware::map_response;
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use floatball_shared::api::ApiError;
@@ -25,7 +28,10 @@ use tower_http::cors::{AllowOrigin, CorsLayer};
 use crate::state::AppState;
 
 /// Largest JSON body accepted by the calls other than uploads, bytes.
-const MAX_JSON_BYTES: usize = 1024 * 1024;
+pub const MAX_JSON_BYTES: usize = 1024 * 1024;
+
+/// Most bytes of a framework refusal's text kept in the JSON answer that replaces it.
+const MAX_REFUSAL_TEXT: usize = 4096;
 
 /// The `/api` routes, to be nested under `/api`.
 pub fn router(state: &AppState) -> Router<AppState> {
@@ -50,6 +56,7 @@ pub fn router(state: &AppState) -> Router<AppState> {
         .route("/sim/positions", get(matrix::sim_positions))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
+        .layer(map_response(json_errors))
         .layer(DefaultBodyLimit::max(MAX_JSON_BYTES))
         .layer(cors(&state.config().allowed_origins))
 }
@@ -66,6 +73,56 @@ fn cors(allowed_origins: &[String]) -> CorsLayer {
         .allow_methods([Method::GET, Method::PUT, Method::POST, Method::DELETE])
         .allow_headers([header::AUTHORIZATION, header::CONTENT_TYPE])
         .expose_headers([header::RETRY_AFTER])
+}
+
+/// Makes every error answer an [`ApiError`] JSON body: an answer of 400 or above that
+/// is not JSON (the framework's refusals are plain text, e.g. "Failed to buffer the
+/// request body") becomes one with the same status and headers, a sentence saying
+/// what was refused, and the original text in `details`.
+pub async fn json_errors(response: Response) -> Response {
+    let status = response.status();
+    let is_json = response
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .and_then(|value| value.to_str().ok())
+        .is_some_and(|value| value.starts_with("application/json"));
+    if is_json || !(status.is_client_error() || status.is_server_error()) {
+        return response;
+    }
+    let (parts, body) = response.into_parts();
+    let text = axum::body::to_bytes(body, MAX_REFUSAL_TEXT)
+        .await
+        .map(|bytes| String::from_utf8_lossy(&bytes).trim().to_owned())
+        .unwrap_or_default();
+    let error = match status {
+        StatusCode::PAYLOAD_TOO_LARGE => format!(
+            "the request body is too large: this call accepts at most {MAX_JSON_BYTES} bytes"
+        ),
+        StatusCode::UNSUPPORTED_MEDIA_TYPE => {
+            "the request's Content-Type is not one this call accepts".to_owned()
+        }
+        _ if !text.is_empty() => text.clone(),
+        _ => format!(
+            "the request was refused ({})",
+            status.canonical_reason().unwrap_or("error")
+        ),
+    };
+    let details = if text.is_empty() || text == error {
+        Vec::new()
+    } else {
+        vec![text]
+    };
+    let mut rewritten = Failure::new(status, error)
+        .with_details(details)
+        .into_response();
+    let own = rewritten.headers().clone();
+    for (name, value) in &parts.headers {
+        if name != header::CONTENT_TYPE && name != header::CONTENT_LENGTH && !own.contains_key(name)
+        {
+            rewritten.headers_mut().append(name, value.clone());
+        }
+    }
+    rewritten
 }
 
 async fn not_found() -> Failure {

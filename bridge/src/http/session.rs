@@ -2,10 +2,14 @@
 //!
 //! - `POST /api/login`: 200 with a token; 401 for a wrong password; 429 with
 //!   `Retry-After` after [`MAX_FAILURES`](crate::auth::MAX_FAILURES) wrong passwords
-//!   from one address within a minute.
+//!   from one address within a minute; 503 with `Retry-After` when every password
+//!   check ([`CHECK_PERMITS`](crate::auth::CHECK_PERMITS)) stayed taken for
+//!   [`CHECK_QUEUE_WAIT`](crate::auth::CHECK_QUEUE_WAIT) (checks are granted in the
+//!   order asked).
 //! - `POST /api/logout`: 204; the token is no longer accepted.
 //! - `POST /api/password`: 204; 403 for a wrong current password (which counts as a
-//!   failed login), 400 for an unacceptable new one. Every other token is ended.
+//!   failed login), 400 for an unacceptable new one, 503 as for a login. Every other
+//!   token is ended.
 //!
 //! A handler that takes a [`Session`] runs only with a valid bearer token (else 401);
 //! one that takes an [`Operator`] also only once the initial password is changed
@@ -21,7 +25,7 @@ use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{LoginRequest, LoginResponse, PasswordChange};
 
 use super::{Failure, blocking, json_body};
-use crate::auth::PasswordError;
+use crate::auth::{Busy, CHECK_QUEUE_WAIT, PasswordError};
 use crate::state::AppState;
 
 /// A request with a valid bearer token.
@@ -99,6 +103,23 @@ fn too_many(wait: std::time::Duration) -> Failure {
     }
 }
 
+/// Seconds a client is told to wait after a 503 for a busy password check.
+const BUSY_RETRY_AFTER_S: u64 = 5;
+
+/// The 503 for a password check that found every permit taken for too long.
+fn busy(_: Busy) -> Failure {
+    Failure {
+        retry_after_s: Some(BUSY_RETRY_AFTER_S),
+        ..Failure::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            format!(
+                "the bridge is busy checking other passwords; try again in \
+                 {BUSY_RETRY_AFTER_S} s"
+            ),
+        )
+    }
+}
+
 /// `POST /api/login`.
 pub async fn login(
     State(state): State<AppState>,
@@ -111,8 +132,17 @@ pub async fn login(
         .login_limiter()
         .attempt(client.ip(), started)
         .map_err(too_many)?;
+    let mut permit = match state.password().admit(CHECK_QUEUE_WAIT).await {
+        Ok(permit) => permit,
+        Err(refused) => {
+            // Not a guess: nothing was checked.
+            state.login_limiter().forgive(client.ip(), started);
+            return Err(busy(refused));
+        }
+    };
     let checking = state.clone();
-    let right = blocking(move || checking.password().verify(&request.password)).await?;
+    let right =
+        blocking(move || checking.password().verify(&mut permit, &request.password)).await?;
     if !right {
         tracing::warn!("wrong password from {}", client.ip());
         return Err(Failure::new(StatusCode::UNAUTHORIZED, "wrong password"));
@@ -148,8 +178,20 @@ pub async fn change_password(
         .login_limiter()
         .attempt(client.ip(), started)
         .map_err(too_many)?;
+    let mut permit = match state.password().admit(CHECK_QUEUE_WAIT).await {
+        Ok(permit) => permit,
+        Err(refused) => {
+            state.login_limiter().forgive(client.ip(), started);
+            return Err(busy(refused));
+        }
+    };
     let changing = state.clone();
-    let result = blocking(move || changing.password().change(&request.old, &request.new)).await?;
+    let result = blocking(move || {
+        changing
+            .password()
+            .change(&mut permit, &request.old, &request.new)
+    })
+    .await?;
     match result {
         Ok(()) => {
             state.login_limiter().forgive(client.ip(), started);

@@ -24,6 +24,11 @@
 //! Every error names the line and the column (1-based; on the layout line the column is
 //! the character position, elsewhere the field number, 1 = `time_ms`).
 //!
+//! A few keyframes far apart become many rows (a gap of an hour is over 14,000 rows per
+//! ball), so [`import_csv_within`] checks the show's duration and the size of its
+//! native file against [`ImportLimits`] from the keyframes alone, *before* it builds a
+//! single row.
+//!
 //! ```
 //! use floatball_shared::show::{Layout, import_csv};
 //!
@@ -45,6 +50,46 @@ pub const MAX_TOTAL_ROWS: usize = 10_000_000;
 
 /// The latest keyframe time accepted, ms (24 hours).
 pub const MAX_TIME_MS: f64 = 86_400_000.0;
+
+/// Bounds on what an import may produce, checked before the show is built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ImportLimits {
+    /// Longest show, ms: the last keyframe's time.
+    pub max_duration_ms: u64,
+    /// Largest native show file (compact JSON, [`Show::to_json`]) the import may
+    /// produce, bytes.
+    pub max_json_bytes: usize,
+}
+
+/// Why [`import_csv_within`] refuses a file.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ImportError {
+    /// The file is wrong, or the show lasts too long, at a known line.
+    #[error(transparent)]
+    Csv(#[from] CsvError),
+    /// Converted to rows, the show's native file would be over the size limit.
+    #[error(
+        "converted to PVT rows the show would take {}{bytes} bytes, more than the limit \
+         of {max_bytes} bytes; use fewer balls, a shorter show or keyframes closer \
+         together",
+        if *exact { "" } else { "at least " }
+    )]
+    TooLarge {
+        /// The size (or, when not `exact`, the least size) of the converted show.
+        bytes: usize,
+        /// The limit.
+        max_bytes: usize,
+        /// Whether `bytes` is the exact size rather than a lower bound.
+        exact: bool,
+    },
+}
+
+/// The least bytes one row takes in a show file: `[0.0,0.0,10]` and a comma.
+const MIN_ROW_JSON_BYTES: usize = 13;
+
+/// The least bytes one track takes besides its rows: `{"start_mm":0.0,"rows":[]}`, less
+/// the one comma [`MIN_ROW_JSON_BYTES`] counts too many.
+const MIN_TRACK_JSON_BYTES: usize = 25;
 
 /// A CSV file that cannot be imported: where, and what is wrong.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -172,6 +217,14 @@ pub enum CsvProblem {
         /// The time found.
         time_ms: f64,
     },
+    /// A keyframe later than the longest show allowed ([`ImportLimits`]).
+    #[error("time {time_ms} ms is later than the longest show accepted here ({max_ms} ms)")]
+    TooLong {
+        /// The time found.
+        time_ms: f64,
+        /// The longest show, ms.
+        max_ms: u64,
+    },
     /// The show would have more than [`MAX_TOTAL_ROWS`] rows.
     #[error(
         "the show would have {rows} rows in all, more than {MAX_TOTAL_ROWS}; \
@@ -190,6 +243,68 @@ pub enum CsvProblem {
 /// # Errors
 /// A [`CsvError`] naming the line and column of the first problem.
 pub fn import_csv(name: &str, text: &str, installation: Layout) -> Result<Show, CsvError> {
+    let (layout, keyframes) = read(text, installation, MAX_TIME_MS as u64)?;
+    Ok(Show {
+        name: name.to_owned(),
+        layout,
+        tracks: keyframes.tracks(),
+    })
+}
+
+/// Imports CSV keyframes as [`import_csv`] does, but first checks, from the keyframes
+/// alone, that the show lasts at most `limits.max_duration_ms` and that its native
+/// file takes at most `limits.max_json_bytes`; only then are the rows built. So a
+/// small file cannot make a huge show.
+///
+/// # Errors
+/// [`ImportError::Csv`] naming the line and column of the first problem (a keyframe
+/// past the longest show is [`CsvProblem::TooLong`]), or [`ImportError::TooLarge`].
+pub fn import_csv_within(
+    name: &str,
+    text: &str,
+    installation: Layout,
+    limits: ImportLimits,
+) -> Result<Show, ImportError> {
+    let (layout, keyframes) = read(text, installation, limits.max_duration_ms)?;
+    let too_large = |bytes, exact| ImportError::TooLarge {
+        bytes,
+        max_bytes: limits.max_json_bytes,
+        exact,
+    };
+    let header = Show {
+        name: name.to_owned(),
+        layout,
+        tracks: Vec::new(),
+    }
+    .to_json()
+    .map_or(0, |json| json.len());
+    let units = keyframes.positions_mm.len();
+    let least = keyframes
+        .rows_per_unit
+        .saturating_mul(units)
+        .saturating_mul(MIN_ROW_JSON_BYTES)
+        .saturating_add(units.saturating_mul(MIN_TRACK_JSON_BYTES))
+        .saturating_add(header);
+    if least > limits.max_json_bytes {
+        return Err(too_large(least, false));
+    }
+    let bytes = header + keyframes.tracks_json_bytes();
+    if bytes > limits.max_json_bytes {
+        return Err(too_large(bytes, true));
+    }
+    Ok(Show {
+        name: name.to_owned(),
+        layout,
+        tracks: keyframes.tracks(),
+    })
+}
+
+/// Reads the layout and the keyframes, refusing a keyframe after `max_time_ms`.
+fn read(
+    text: &str,
+    installation: Layout,
+    max_time_ms: u64,
+) -> Result<(Layout, Keyframes), CsvError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text
         .lines()
@@ -231,12 +346,8 @@ pub fn import_csv(name: &str, text: &str, installation: Layout) -> Result<Show, 
         });
     }
 
-    let keyframes = parse_keyframes(header_number, units, lines)?;
-    Ok(Show {
-        name: name.to_owned(),
-        layout,
-        tracks: keyframes.tracks(),
-    })
+    let keyframes = parse_keyframes(header_number, units, lines, max_time_ms)?;
+    Ok((layout, keyframes))
 }
 
 fn parse_layout(
@@ -348,6 +459,7 @@ fn parse_keyframes<'a>(
     header_line: usize,
     units: usize,
     lines: impl Iterator<Item = (usize, &'a str)>,
+    max_time_ms: u64,
 ) -> Result<Keyframes, CsvError> {
     let mut keyframes = Keyframes {
         times_ms: Vec::new(),
@@ -381,6 +493,16 @@ fn parse_keyframes<'a>(
         }
         // Rounded on its own, so that 33.333 ms frames do not accumulate drift.
         let rounded = time_ms.round();
+        // Within 0..=MAX_TIME_MS (or negative, refused below), so the cast is exact.
+        if rounded > 0.0 && rounded as u64 > max_time_ms {
+            return Err(error(
+                1,
+                CsvProblem::TooLong {
+                    time_ms,
+                    max_ms: max_time_ms,
+                },
+            ));
+        }
         match previous {
             None if rounded != 0.0 => {
                 return Err(error(1, CsvProblem::FirstTimeNotZero { time_ms }));
@@ -477,9 +599,48 @@ impl Keyframes {
             .collect()
     }
 
+    /// The bytes the tracks take in a show file (compact JSON, with the commas between
+    /// them), computed row by row without keeping any.
+    fn tracks_json_bytes(&self) -> usize {
+        let mut velocities_mm_s = vec![0.0; self.times_ms.len()];
+        let tracks: usize = self
+            .positions_mm
+            .iter()
+            .map(|positions_mm| {
+                monotone_velocities(&self.times_ms, positions_mm, &mut velocities_mm_s);
+                let empty = Track {
+                    start_mm: positions_mm.first().copied().unwrap_or_default(),
+                    rows: Vec::new(),
+                    colours: Vec::new(),
+                };
+                let (rows, bytes) = self
+                    .rows(positions_mm, &velocities_mm_s)
+                    .fold((0usize, 0usize), |(rows, bytes), row| {
+                        (rows + 1, bytes + json_len(&row))
+                    });
+                json_len(&empty) + bytes + rows.saturating_sub(1)
+            })
+            .sum();
+        tracks + self.positions_mm.len().saturating_sub(1)
+    }
+
     fn track(&self, positions_mm: &[f64], velocities_mm_s: &[f64]) -> Track {
         let mut rows = Vec::with_capacity(self.rows_per_unit);
-        for i in 1..self.times_ms.len() {
+        rows.extend(self.rows(positions_mm, velocities_mm_s));
+        Track {
+            start_mm: positions_mm.first().copied().unwrap_or_default(),
+            rows,
+            colours: Vec::new(),
+        }
+    }
+
+    /// One ball's rows, in order.
+    fn rows<'a>(
+        &'a self,
+        positions_mm: &'a [f64],
+        velocities_mm_s: &'a [f64],
+    ) -> impl Iterator<Item = TrackRow> + 'a {
+        (1..self.times_ms.len()).flat_map(move |i| {
             let gap_ms = self.times_ms[i] - self.times_ms[i - 1];
             let (p0, v0) = (positions_mm[i - 1], velocities_mm_s[i - 1]);
             let (p1, v1) = (positions_mm[i], velocities_mm_s[i]);
@@ -487,29 +648,39 @@ impl Keyframes {
             let pieces = split_count(gap_ms);
             let segment = Segment::new(p0, v0, p1, v1, gap_ms as f64 / 1000.0);
             let (short_ms, longer) = (gap_ms / pieces, gap_ms % pieces);
-            let mut elapsed_ms = 0;
-            for piece in 1..=pieces {
+            (1..=pieces).map(move |piece| {
+                // The time at the end of this piece: `piece` pieces, the first `longer`
+                // of them 1 ms longer.
+                let elapsed_ms = short_ms * piece + piece.min(longer);
                 let duration_ms = short_ms + u64::from(piece <= longer);
-                elapsed_ms += duration_ms;
                 let (position_mm, velocity_mm_s) = if piece == pieces {
                     (p1, v1)
                 } else {
                     let k = segment.kinematics_at_fraction(elapsed_ms as f64 / gap_ms as f64);
                     (k.position, k.velocity)
                 };
-                rows.push(TrackRow::new(
-                    position_mm,
-                    velocity_mm_s,
-                    ms_u32(duration_ms),
-                ));
-            }
+                TrackRow::new(position_mm, velocity_mm_s, ms_u32(duration_ms))
+            })
+        })
+    }
+}
+
+/// The length of `value` as compact JSON.
+fn json_len(value: &impl serde::Serialize) -> usize {
+    struct Count(usize);
+    impl std::io::Write for Count {
+        fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+            self.0 += bytes.len();
+            Ok(bytes.len())
         }
-        Track {
-            start_mm: positions_mm.first().copied().unwrap_or_default(),
-            rows,
-            colours: Vec::new(),
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
         }
     }
+    let mut count = Count(0);
+    // Rows and tracks are plain numbers and arrays: writing them cannot fail.
+    let _ = serde_json::to_writer(&mut count, value);
+    count.0
 }
 
 /// A row's duration; rows are at most 255 ms, so this never saturates.
@@ -579,6 +750,71 @@ mod tests {
         // The local maximum of ball 1 at 200 mm gets zero velocity.
         assert_eq!(show.tracks[1].rows[0].velocity_mm_s, 0.0);
         show.check().unwrap();
+    }
+
+    const ROOMY: ImportLimits = ImportLimits {
+        max_duration_ms: 30 * 60 * 1000,
+        max_json_bytes: 32 * 1024 * 1024,
+    };
+
+    #[test]
+    fn the_size_is_known_exactly_before_the_rows_are_built() {
+        // Gaps that split into rows of unequal length, curves with decimals.
+        let text = "time_ms,u0,u1\n0,100,200\n1000.4,1234.5,17\n1513,10,17\n9999,7000,3.25\n";
+        let show = import_csv_within("exact", text, ONE_BY_TWO, ROOMY).unwrap();
+        assert_eq!(show, import_csv("exact", text, ONE_BY_TWO).unwrap());
+        let bytes = show.to_json().unwrap().len();
+        let just = ImportLimits {
+            max_json_bytes: bytes,
+            ..ROOMY
+        };
+        assert_eq!(import_csv_within("exact", text, ONE_BY_TWO, just), Ok(show));
+        let under = ImportLimits {
+            max_json_bytes: bytes - 1,
+            ..ROOMY
+        };
+        assert_eq!(
+            import_csv_within("exact", text, ONE_BY_TWO, under),
+            Err(ImportError::TooLarge {
+                bytes,
+                max_bytes: bytes - 1,
+                exact: true
+            })
+        );
+    }
+
+    #[test]
+    fn keyframes_far_apart_are_refused_before_they_become_rows() {
+        // Two keyframes 7 hours apart: nearly 100,000 rows per ball.
+        let text = "time_ms,u0,u1\n0,0,0\n25200000,100,100\n";
+        let Err(ImportError::Csv(error)) = import_csv_within("far", text, ONE_BY_TWO, ROOMY) else {
+            panic!("not refused for its duration");
+        };
+        assert_eq!((error.line, error.column), (3, 1));
+        assert!(matches!(
+            error.problem,
+            CsvProblem::TooLong {
+                max_ms: 1_800_000,
+                ..
+            }
+        ));
+        assert!(error.to_string().contains("1800000 ms"), "{error}");
+        // Within the duration but not the size: refused by the least size it can have.
+        let long = ImportLimits {
+            max_duration_ms: 86_400_000,
+            max_json_bytes: 1024 * 1024,
+        };
+        match import_csv_within("far", text, ONE_BY_TWO, long) {
+            Err(ImportError::TooLarge {
+                bytes,
+                max_bytes,
+                exact: false,
+            }) => {
+                assert!(bytes > 2 * 98_000 * MIN_ROW_JSON_BYTES, "{bytes}");
+                assert_eq!(max_bytes, 1024 * 1024);
+            }
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]
@@ -842,6 +1078,23 @@ mod proptests {
     }
 
     proptest! {
+        #[test]
+        fn the_size_known_before_building_is_the_files_size((units, frames) in keyframes()) {
+            let (text, _) = csv(units, &frames);
+            let layout = Layout { rows: 1, cols: u32::try_from(units).unwrap(), pitch_mm: 500.0 };
+            let show = import_csv("p", &text, layout).unwrap();
+            let bytes = show.to_json().unwrap().len();
+            let limits = |max_json_bytes| ImportLimits { max_duration_ms: 86_400_000, max_json_bytes };
+            prop_assert_eq!(import_csv_within("p", &text, layout, limits(bytes)), Ok(show));
+            prop_assert!(
+                matches!(
+                    import_csv_within("p", &text, layout, limits(bytes - 1)),
+                    Err(ImportError::TooLarge { .. })
+                ),
+                "one byte less is too large"
+            );
+        }
+
         #[test]
         fn imported_tracks_pass_every_keyframe_and_stay_in_travel((units, frames) in keyframes()) {
             let (text, times_ms) = csv(units, &frames);

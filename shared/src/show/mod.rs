@@ -43,7 +43,7 @@ use thiserror::Error;
 
 use crate::pvt::Segment;
 
-pub use csv::{CsvError, CsvProblem, import_csv};
+pub use csv::{CsvError, CsvProblem, ImportError, ImportLimits, import_csv, import_csv_within};
 pub use sample::Sampler;
 pub use validate::{Limits, UnitRef, Violation, ViolationKind, validate};
 
