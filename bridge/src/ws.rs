@@ -7,7 +7,11 @@
 //!
 //! A session then gets the status at once and on every change, at most
 //! [`STATUS_PER_S`] times a second (changes in between are merged: the latest wins),
-//! and every feedback frame of every gateway. Every message from the client counts as
+//! and every feedback frame of every gateway. Its reading and writing are separate
+//! tasks: what the client sends is acted on as it arrives, even while a status waits
+//! for a client that reads slowly. Its reading and writing are separate
+//! tasks: what the client sends is acted on as it arrives, even while a status waits
+//! for a client that reads slowly. Every message from the client counts as
 //! use of its token; when the token has expired or was ended by a logout, the
 //! session says so and closes. Anything the bridge cannot do is answered with an
 //! `error` message and the connection stays open.
@@ -31,6 +35,7 @@ use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{ClientMessage, ServerMessage};
 use floatball_shared::ascii::{Batch, Form, parse_script};
+use futures_util::{SinkExt, StreamExt};
 use tokio::sync::{broadcast, mpsc};
 use tokio::time::Instant;
 
@@ -123,22 +128,56 @@ fn origin_allowed(headers: &HeaderMap, allowed_origins: &[String]) -> bool {
     strip(authority) == strip(host)
 }
 
-/// What a session's loop does next.
+/// What a session's writing loop does next.
 enum Step {
     Continue,
     Close,
 }
 
-/// One client's session.
-async fn session(mut socket: WebSocket, state: AppState, token: String) {
+/// What a session's reading half tells its writing half.
+#[derive(Debug)]
+enum Inbound {
+    /// A message for the client (an answer to one of its messages).
+    Reply(ServerMessage),
+    /// The client used a token that is no longer valid.
+    EndSession,
+    /// The client sent what cannot be received: close with this frame.
+    Refuse(CloseFrame),
+    /// The client closed the connection, or it broke.
+    Closed,
+}
+
+/// Replies a session's reader may have waiting for its writer; a client that sends
+/// faster than it reads loses the excess replies, never the effect of its messages.
+const REPLY_QUEUE: usize = 64;
+
+type Sink = futures_util::stream::SplitSink<WebSocket, Message>;
+type Stream = futures_util::stream::SplitStream<WebSocket>;
+
+/// One client's session: a reading half that acts on every message the moment it
+/// arrives (so an `estop` is pressed even while the writing half waits for a slow
+/// client to take a status), and a writing half that sends statuses, feedback and
+/// replies.
+async fn session(socket: WebSocket, state: AppState, token: String) {
+    let (mut sink, stream) = socket.split();
     let mut status = state.subscribe_status();
     let mut feedback = state.gateways().subscribe_feedback();
     let (console_lines, waiting_lines) = mpsc::channel(CONSOLE_QUEUE);
     let (console_errors, mut console_failures) = mpsc::channel(CONSOLE_QUEUE);
     let replies = console_errors.clone();
     tokio::spawn(console(state.clone(), waiting_lines, console_errors));
+    let (inbound_tx, mut inbound) = mpsc::channel(REPLY_QUEUE);
+    let reader = tokio::spawn(read_messages(
+        stream,
+        state.clone(),
+        token.clone(),
+        console_lines,
+        replies,
+        inbound_tx,
+    ));
+    let _stop_reading = AbortOnDrop(reader);
     let first = ServerMessage::Status(status.borrow_and_update().clone());
-    if send(&mut socket, &first).await.is_err() {
+    if send(&mut sink, &first).await.is_err() {
         return;
     }
     let status_interval = Duration::from_secs(1) / STATUS_PER_S;
@@ -153,7 +192,7 @@ async fn session(mut socket: WebSocket, state: AppState, token: String) {
     loop {
         let step = tokio::select! {
             _ = stopping.changed() => {
-                let _ = socket
+                let _ = sink
                     .send(Message::Close(Some(CloseFrame {
                         code: close_code::AWAY,
                         reason: "the bridge is stopping".into(),
@@ -173,50 +212,92 @@ async fn session(mut socket: WebSocket, state: AppState, token: String) {
                 status_pending = false;
                 status_sent_at = Instant::now();
                 let message = ServerMessage::Status(status.borrow_and_update().clone());
-                sent(send(&mut socket, &message).await)
+                sent(send(&mut sink, &message).await)
             }
             frame = feedback.recv(), if feedback_open => match frame {
-                Ok(frame) => sent(send(&mut socket, &ServerMessage::Feedback(frame)).await),
+                Ok(frame) => sent(send(&mut sink, &ServerMessage::Feedback(frame)).await),
                 Err(broadcast::error::RecvError::Lagged(missed)) => {
                     let message = error(format!(
                         "{missed} feedback frames were dropped: this client reads too slowly"
                     ));
-                    sent(send(&mut socket, &message).await)
+                    sent(send(&mut sink, &message).await)
                 }
                 Err(broadcast::error::RecvError::Closed) => {
                     feedback_open = false;
                     Step::Continue
                 }
             },
-            Some(failure) = console_failures.recv() => sent(send(&mut socket, &failure).await),
+            Some(failure) = console_failures.recv() => sent(send(&mut sink, &failure).await),
             _ = token_check.tick() => {
                 if state.tokens().is_valid(&token, state.clock().now()) {
                     Step::Continue
                 } else {
-                    end_session(&mut socket).await
+                    end_session(&mut sink, &mut inbound).await
                 }
             }
-            incoming = socket.recv() => match incoming {
-                Some(Ok(Message::Text(text))) => {
-                    if state.tokens().touch(&token, state.clock().now()) {
-                        match answer(&state, &console_lines, &replies, text.as_str()) {
-                            Some(reply) => sent(send(&mut socket, &reply).await),
-                            None => Step::Continue,
-                        }
-                    } else {
-                        end_session(&mut socket).await
-                    }
+            message = inbound.recv() => match message {
+                Some(Inbound::Reply(reply)) => sent(send(&mut sink, &reply).await),
+                Some(Inbound::EndSession) => end_session(&mut sink, &mut inbound).await,
+                Some(Inbound::Refuse(frame)) => {
+                    let _ = sink.send(Message::Close(Some(frame))).await;
+                    Step::Close
                 }
-                Some(Ok(Message::Binary(_))) => {
-                    let reply = error("only text frames holding JSON messages are understood");
-                    sent(send(&mut socket, &reply).await)
-                }
-                Some(Ok(Message::Ping(_) | Message::Pong(_))) => Step::Continue,
-                Some(Ok(Message::Close(_))) | None => Step::Close,
-                Some(Err(error)) => receive_failed(&mut socket, &error).await,
+                Some(Inbound::Closed) | None => Step::Close,
             },
         };
         if let Step::Close = step {
+            return;
+        }
+    }
+}
+
+/// Aborts a session's reading task when the session ends.
+struct AbortOnDrop(tokio::task::JoinHandle<()>);
+
+impl Drop for AbortOnDrop {
+    fn drop(&mut self) {
+        self.0.abort();
+    }
+}
+
+/// A session's reading half: every message is acted on as it arrives; what the client
+/// must be told goes to the writing half.
+async fn read_messages(
+    mut stream: Stream,
+    state: AppState,
+    token: String,
+    console_lines: mpsc::Sender<ConsoleLine>,
+    replies: mpsc::Sender<ServerMessage>,
+    inbound: mpsc::Sender<Inbound>,
+) {
+    loop {
+        let reply = match stream.next().await {
+            Some(Ok(Message::Text(text))) => {
+                if !state.tokens().touch(&token, state.clock().now()) {
+                    let _ = inbound.send(Inbound::EndSession).await;
+                    // Keep reading: the client's side of the closing handshake.
+                    continue;
+                }
+                answer(&state, &console_lines, &replies, text.as_str())
+            }
+            Some(Ok(Message::Binary(_))) => Some(error(
+                "only text frames holding JSON messages are understood",
+            )),
+            Some(Ok(Message::Ping(_) | Message::Pong(_))) => None,
+            Some(Ok(Message::Close(_))) | None => {
+                let _ = inbound.send(Inbound::Closed).await;
+                return;
+            }
+            Some(Err(error)) => {
+                let refusal = receive_failed(&error).map_or(Inbound::Closed, Inbound::Refuse);
+                let _ = inbound.send(refusal).await;
+                return;
+            }
+        };
+        if let Some(reply) = reply
+            && inbound.try_send(Inbound::Reply(reply)).is_err()
+            && inbound.is_closed()
+        {
             return;
         }
     }
@@ -248,34 +329,31 @@ fn sent(result: Result<(), axum::Error>) -> Step {
     }
 }
 
-/// Ends a session whose client sent what cannot be received. A message over
-/// [`MAX_MESSAGE_BYTES`] is first answered with close code 1009 (Message Too Big), so
-/// the client learns why; any other error (a broken connection) just ends it.
-async fn receive_failed(socket: &mut WebSocket, error: &axum::Error) -> Step {
+/// What to answer a client that sent what cannot be received. A message over
+/// [`MAX_MESSAGE_BYTES`] is answered with close code 1009 (Message Too Big); other
+/// failures (a broken connection) need no answer.
+fn receive_failed(error: &axum::Error) -> Option<CloseFrame> {
     let too_big = std::error::Error::source(error)
         .and_then(|source| source.downcast_ref::<tungstenite::Error>())
         .is_some_and(|error| matches!(error, tungstenite::Error::Capacity(_)));
-    if too_big {
+    too_big.then(|| {
         tracing::info!("closing a WebSocket whose client sent a message over the limit");
-        let _ = socket
-            .send(Message::Close(Some(CloseFrame {
-                code: close_code::SIZE,
-                reason: format!("messages are limited to {MAX_MESSAGE_BYTES} bytes").into(),
-            })))
-            .await;
-    }
-    Step::Close
+        CloseFrame {
+            code: close_code::SIZE,
+            reason: format!("messages are limited to {MAX_MESSAGE_BYTES} bytes").into(),
+        }
+    })
 }
 
 /// Tells the client its token is no longer valid and closes, waiting a moment for the
 /// client's side of the closing handshake.
-async fn end_session(socket: &mut WebSocket) -> Step {
+async fn end_session(sink: &mut Sink, inbound: &mut mpsc::Receiver<Inbound>) -> Step {
     let _ = send(
-        socket,
+        sink,
         &error("the session has expired or ended; log in again"),
     )
     .await;
-    let closing = socket
+    let closing = sink
         .send(Message::Close(Some(CloseFrame {
             code: close_code::POLICY,
             reason: "session ended".into(),
@@ -283,8 +361,8 @@ async fn end_session(socket: &mut WebSocket) -> Step {
         .await;
     if closing.is_ok() {
         let _ = tokio::time::timeout(CLOSE_HANDSHAKE, async {
-            while let Some(Ok(message)) = socket.recv().await {
-                if let Message::Close(_) = message {
+            while let Some(message) = inbound.recv().await {
+                if let Inbound::Closed | Inbound::Refuse(_) = message {
                     break;
                 }
             }
@@ -396,9 +474,9 @@ fn answer(
     }
 }
 
-async fn send(socket: &mut WebSocket, message: &ServerMessage) -> Result<(), axum::Error> {
+async fn send(sink: &mut Sink, message: &ServerMessage) -> Result<(), axum::Error> {
     let text = serde_json::to_string(message).map_err(axum::Error::new)?;
-    socket.send(Message::Text(text.into())).await
+    sink.send(Message::Text(text.into())).await
 }
 
 #[cfg(test)]

@@ -2,7 +2,8 @@
 //! looping 10 × 10 show while 100 WebSocket clients read every status and 20 never read
 //! at all, with the e-stop pressed at random moments, round after round, against the
 //! real `floatball` binary. Each round: the show time advances, the e-stop is answered
-//! within 100 ms, the matrix stops, and the server answers HTTP.
+//! within 100 ms (or, every other round, pressed by one of the clients that never read
+//! and obeyed all the same), the matrix stops, and the server answers HTTP.
 //!
 //! `FLOATBALL_STRESS_ROUNDS` sets the rounds per gateway count (default 3); `cargo
 //! xtask stress` runs it many times over.
@@ -43,17 +44,34 @@ impl Random {
     }
 }
 
-/// The next server message within `within`, or `None`.
-async fn next_within(ws: &mut Ws, within: Duration) -> Option<ServerMessage> {
+/// What came from the bridge.
+enum Heard {
+    Message(ServerMessage),
+    Nothing,
+    /// The connection ended.
+    Closed,
+}
+
+/// The next server message within `within`.
+async fn hear_within(ws: &mut Ws, within: Duration) -> Heard {
     let deadline = tokio::time::Instant::now() + within;
     loop {
-        let frame = tokio::time::timeout_at(deadline, ws.next())
-            .await
-            .ok()??
-            .ok()?;
-        if let Message::Text(text) = frame {
-            return serde_json::from_str(text.as_str()).ok();
+        match tokio::time::timeout_at(deadline, ws.next()).await {
+            Err(_) => return Heard::Nothing,
+            Ok(None | Some(Err(_))) => return Heard::Closed,
+            Ok(Some(Ok(Message::Text(text)))) => {
+                return serde_json::from_str(text.as_str()).map_or(Heard::Nothing, Heard::Message);
+            }
+            Ok(Some(Ok(_))) => {}
         }
+    }
+}
+
+/// The next server message within `within`, or `None`.
+async fn next_within(ws: &mut Ws, within: Duration) -> Option<ServerMessage> {
+    match hear_within(ws, within).await {
+        Heard::Message(message) => Some(message),
+        Heard::Nothing | Heard::Closed => None,
     }
 }
 
@@ -106,10 +124,13 @@ async fn run(gateways: usize, seed: u64) {
         let (reading, statuses) = (Arc::clone(&reading), Arc::clone(&statuses));
         readers.push(tokio::spawn(async move {
             while reading.load(Ordering::Acquire) {
-                if let Some(ServerMessage::Status(_)) =
-                    next_within(&mut ws, Duration::from_millis(200)).await
-                {
-                    statuses.fetch_add(1, Ordering::Relaxed);
+                match hear_within(&mut ws, Duration::from_millis(200)).await {
+                    Heard::Message(ServerMessage::Status(_)) => {
+                        statuses.fetch_add(1, Ordering::Relaxed);
+                    }
+                    Heard::Message(_) | Heard::Nothing => {}
+                    // The bridge is gone (the test failed and killed it): stop.
+                    Heard::Closed => return,
                 }
             }
         }));
@@ -138,26 +159,38 @@ async fn run(gateways: usize, seed: u64) {
 
         tokio::time::sleep(Duration::from_millis(random.below(1_500))).await;
         let pressed = Instant::now();
-        send_text(&mut control, r#"{"type":"estop"}"#).await;
-        let acknowledged = loop {
-            match next_within(&mut control, Duration::from_secs(2)).await {
-                Some(ServerMessage::EstopSent { unreached }) => {
-                    assert!(unreached.is_empty(), "{unreached:?} ({context})");
-                    break pressed.elapsed();
+        if round % 2 == 1 {
+            // A client that never reads (its socket backed up with statuses) presses
+            // the e-stop: it is obeyed all the same.
+            let silent = &mut slow[round % SLOW_CLIENTS];
+            send_text(silent, r#"{"type":"estop"}"#).await;
+            status_until(&mut control, Duration::from_secs(2), |status| {
+                status.state == PlayerState::Stopped
+            })
+            .await
+            .unwrap_or_else(|| panic!("a silent client's e-stop was not obeyed ({context})"));
+        } else {
+            send_text(&mut control, r#"{"type":"estop"}"#).await;
+            let acknowledged = loop {
+                match next_within(&mut control, Duration::from_secs(2)).await {
+                    Some(ServerMessage::EstopSent { unreached }) => {
+                        assert!(unreached.is_empty(), "{unreached:?} ({context})");
+                        break pressed.elapsed();
+                    }
+                    Some(_) => {}
+                    None => panic!("the e-stop was not answered ({context})"),
                 }
-                Some(_) => {}
-                None => panic!("the e-stop was not answered ({context})"),
-            }
-        };
-        assert!(
-            acknowledged <= Duration::from_millis(100),
-            "the e-stop took {acknowledged:?} to be answered ({context})"
-        );
-        status_until(&mut control, Duration::from_secs(2), |status| {
-            status.state == PlayerState::Stopped
-        })
-        .await
-        .unwrap_or_else(|| panic!("the matrix did not stop ({context})"));
+            };
+            assert!(
+                acknowledged <= Duration::from_millis(100),
+                "the e-stop took {acknowledged:?} to be answered ({context})"
+            );
+            status_until(&mut control, Duration::from_secs(2), |status| {
+                status.state == PlayerState::Stopped
+            })
+            .await
+            .unwrap_or_else(|| panic!("the matrix did not stop ({context})"));
+        }
         answers_http(&bridge, &token).await;
         assert!(bridge.is_running(), "floatball died ({context})");
     }
