@@ -404,6 +404,50 @@ fn admit(
     Ok(())
 }
 
+/// Carries out a Start, Reset or Home on the player, if no e-stop came since it was
+/// issued; returns its generation, where to answer, and the answer.
+fn handle(
+    player: &mut Player,
+    latch: &Latch,
+    request: Request,
+    now_us: u64,
+    views: &[LinkView],
+) -> Option<(u64, Reply, Result<(), StartError>)> {
+    let gateways = views.len();
+    let admitted = |generation, prepared: Result<Prepared, StartError>| {
+        prepared.and_then(|prepared| admit(latch, generation, views, gateways).map(|()| prepared))
+    };
+    Some(match request {
+        Request::Start {
+            generation,
+            prepared,
+            reply,
+        } => {
+            let result = if player.is_running() {
+                Err(StartError::Busy)
+            } else {
+                admitted(generation, prepared)
+                    .and_then(|prepared| player.start_prepared(now_us, prepared, views))
+            };
+            (generation, reply, result)
+        }
+        Request::Reset {
+            generation,
+            prepared,
+            reply,
+        } => {
+            let result = player.reset_prepared(now_us, admitted(generation, prepared), views);
+            (generation, reply, result)
+        }
+        Request::Home { generation, reply } => {
+            let result =
+                admit(latch, generation, views, gateways).and_then(|()| player.home(now_us, views));
+            (generation, reply, result)
+        }
+        Request::Estop => return None,
+    })
+}
+
 async fn run(
     mut player: Player,
     links: Arc<Vec<Link>>,
@@ -437,7 +481,6 @@ async fn run(
         });
     }
     drop(frames_tx);
-    let gateways = links.len();
     let mut seen_generation = latch.generation();
     let mut run_generation = seen_generation;
     let mut watchdog = Watchdog::new(&links);
@@ -466,54 +509,14 @@ async fn run(
             player.estop();
         }
         let now = now_us();
-        if let Some(request) = request {
-            let views = link_views(&links);
-            match request {
-                Request::Start {
-                    generation,
-                    prepared,
-                    reply,
-                } => {
-                    let result = if player.is_running() {
-                        Err(StartError::Busy)
-                    } else {
-                        prepared
-                            .and_then(|prepared| {
-                                admit(&latch, generation, &views, gateways).map(|()| prepared)
-                            })
-                            .and_then(|prepared| player.start_prepared(now, prepared, &views))
-                    };
-                    if result.is_ok() {
-                        run_generation = generation;
-                    }
-                    let _ = reply.send(result);
-                }
-                Request::Reset {
-                    generation,
-                    prepared,
-                    reply,
-                } => {
-                    let admitted = prepared.and_then(|prepared| {
-                        admit(&latch, generation, &views, gateways).map(|()| prepared)
-                    });
-                    let result = player.reset_prepared(now, admitted, &views);
-                    if result.is_ok() {
-                        run_generation = generation;
-                    }
-                    let _ = reply.send(result);
-                }
-                Request::Home { generation, reply } => {
-                    let result = match admit(&latch, generation, &views, gateways) {
-                        Ok(()) => player.home(now, &views),
-                        Err(error) => Err(error),
-                    };
-                    if result.is_ok() {
-                        run_generation = generation;
-                    }
-                    let _ = reply.send(result);
-                }
-                Request::Estop => {}
+        if let Some(request) = request
+            && let Some((generation, reply, result)) =
+                handle(&mut player, &latch, request, now, &link_views(&links))
+        {
+            if result.is_ok() {
+                run_generation = generation;
             }
+            let _ = reply.send(result);
         }
         player.poll(now_us(), &link_views(&links));
         if let Some(stall) = watchdog.check(&links, player.is_running()) {

@@ -57,24 +57,49 @@ fn after_the_stop(wire: &[u8]) -> Option<String> {
     Some(String::from_utf8_lossy(&wire[at + STOP.len()..]).into_owned())
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn an_estop_right_after_start_wins_at_every_offset() {
+/// The real binary with one gateway on a tapped pseudo-terminal: a `side` × `side`
+/// matrix at `baud`, `show` uploaded as the whole playlist, a WebSocket open and the
+/// link up.
+struct Rig {
+    _dir: tempfile::TempDir,
+    tap: Tap,
+    bridge: Process,
+    ws: Ws,
+}
+
+async fn rig(side: u32, baud: u32, name: &str, show: &[u8]) -> Rig {
     let dir = tempfile::tempdir().expect("temp dir");
-    let tap = Tap::new(dir.path(), "gateway0", 9600, GatewayConfig::numbered(4));
+    let units = u8::try_from(side * side).expect("at most 127 units");
+    let tap = Tap::new(dir.path(), "gateway0", baud, GatewayConfig::numbered(units));
     let bridge = Process::start(&format!(
-        "[matrix]\nrows = 2\ncols = 2\n\
-         [[gateway]]\nport = \"{}\"\nbaud = 9600\n\
+        "[matrix]\nrows = {side}\ncols = {side}\n\
+         [[gateway]]\nport = \"{}\"\nbaud = {baud}\n\
          [safety]\napproach_speed_mm_s = 2000.0\n",
         tap.path.display()
     ));
-    let show = common::show_json("race", 2, 2, 20.0);
-    let token = bridge.prepare_show("race", &show, false).await;
+    let token = bridge.prepare_show(name, show, false).await;
     let mut ws = bridge.ws(&token).await;
     assert!(
         common::process::links_up(&mut ws).await,
         "the gateway did not come up; log:\n{}",
         bridge.log()
     );
+    Rig {
+        _dir: dir,
+        tap,
+        bridge,
+        ws,
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_estop_right_after_start_wins_at_every_offset() {
+    let Rig {
+        tap,
+        bridge,
+        mut ws,
+        ..
+    } = rig(2, 9600, "race", &common::show_json("race", 2, 2, 20.0)).await;
     let mut state = PlayerState::Idle;
     let started = Instant::now();
     let mut runs = 0;
@@ -123,27 +148,13 @@ async fn an_estop_right_after_start_wins_at_every_offset() {
 /// while bytes wait, and the watchdog stops the show and names the gateway.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_stalled_line_stops_the_show_and_names_the_gateway() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let tap = Tap::new(
-        dir.path(),
-        "gateway0",
-        921_600,
-        GatewayConfig::numbered(100),
-    );
-    let bridge = Process::start(&format!(
-        "[matrix]\nrows = 10\ncols = 10\n\
-         [[gateway]]\nport = \"{}\"\nbaud = 921600\n\
-         [safety]\napproach_speed_mm_s = 2000.0\n",
-        tap.path.display()
-    ));
     let show = common::process::wave_json("long", 10, 10, 60_000, 40.0);
-    let token = bridge.prepare_show("long", &show, false).await;
-    let mut ws = bridge.ws(&token).await;
-    assert!(
-        common::process::links_up(&mut ws).await,
-        "log:\n{}",
-        bridge.log()
-    );
+    let Rig {
+        tap,
+        bridge,
+        mut ws,
+        ..
+    } = rig(10, 921_600, "long", &show).await;
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let deadline = Instant::now() + Duration::from_secs(30);
     let mut state = PlayerState::Idle;
@@ -183,22 +194,13 @@ async fn a_stalled_line_stops_the_show_and_names_the_gateway() {
 /// player hearing of the stop).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_estop_during_the_preload_leaves_no_stale_rows() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let tap = Tap::new(dir.path(), "gateway0", 9600, GatewayConfig::numbered(4));
-    let bridge = Process::start(&format!(
-        "[matrix]\nrows = 2\ncols = 2\n\
-         [[gateway]]\nport = \"{}\"\nbaud = 9600\n\
-         [safety]\napproach_speed_mm_s = 2000.0\n",
-        tap.path.display()
-    ));
     let show = common::process::wave_json("long", 2, 2, 30_000, 40.0);
-    let token = bridge.prepare_show("long", &show, false).await;
-    let mut ws = bridge.ws(&token).await;
-    assert!(
-        common::process::links_up(&mut ws).await,
-        "log:\n{}",
-        bridge.log()
-    );
+    let Rig {
+        tap,
+        bridge,
+        mut ws,
+        ..
+    } = rig(2, 9600, "long", &show).await;
     for (repetition, wait_ms) in [0u64, 150, 400]
         .into_iter()
         .cycle()

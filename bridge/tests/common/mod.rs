@@ -349,6 +349,11 @@ pub fn show_json(name: &str, rows: u32, cols: u32, depth_mm: f64) -> Vec<u8> {
     let units: Vec<serde_json::Value> = (0..rows * cols)
         .map(|_| serde_json::json!({ "start_mm": 0.0, "rows": [[depth_mm, 0.0, 250], [0.0, 0.0, 250]] }))
         .collect();
+    native_show(name, rows, cols, units)
+}
+
+/// A native show file for a `rows` × `cols` matrix with one track per unit.
+pub fn native_show(name: &str, rows: u32, cols: u32, units: Vec<serde_json::Value>) -> Vec<u8> {
     serde_json::to_vec(&serde_json::json!({
         "format": "floatball-show",
         "version": 1,

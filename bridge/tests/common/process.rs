@@ -229,14 +229,7 @@ pub fn wave_json(name: &str, rows: u32, cols: u32, duration_ms: u32, depth_mm: f
             serde_json::json!({ "start_mm": 0.0, "rows": track })
         })
         .collect();
-    serde_json::to_vec(&serde_json::json!({
-        "format": "floatball-show",
-        "version": 1,
-        "name": name,
-        "layout": { "rows": rows, "cols": cols, "pitch_mm": 500.0 },
-        "units": units,
-    }))
-    .expect("json")
+    super::native_show(name, rows, cols, units)
 }
 
 impl Remote {
