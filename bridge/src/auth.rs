@@ -19,6 +19,7 @@ use std::collections::{HashMap, VecDeque};
 use std::io;
 use std::net::IpAddr;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
@@ -163,7 +164,11 @@ struct Record {
 #[derive(Debug)]
 pub struct Password {
     dir: PathBuf,
+    /// Held through a whole change (check, hash, durable write), so two changes cannot
+    /// interleave; nothing on an async worker waits for it.
     record: Mutex<Record>,
+    /// `record.default`, readable without the lock (request handlers ask it often).
+    is_default: AtomicBool,
     checks: Checks,
 }
 
@@ -281,6 +286,7 @@ impl Password {
         };
         Ok(Self {
             dir: dir.to_owned(),
+            is_default: AtomicBool::new(record.default),
             record: Mutex::new(record),
             checks,
         })
@@ -288,7 +294,7 @@ impl Password {
 
     /// Whether the password is still the initial `1234`.
     pub fn is_default(&self) -> bool {
-        self.lock().default
+        self.is_default.load(Ordering::Acquire)
     }
 
     /// Waits for a free password check, in the order of asking, at most `wait`.
@@ -356,6 +362,7 @@ impl Password {
         };
         store(&self.dir, &changed)?;
         *record = changed;
+        self.is_default.store(false, Ordering::Release);
         Ok(())
     }
 

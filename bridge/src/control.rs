@@ -60,26 +60,23 @@ pub fn playlist_entries(state: &AppState) -> Result<(Vec<Entry>, bool), String> 
 /// Home it stays stopped).
 pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<(), String> {
     let playback = state.playback();
-    if control == Control::Home {
-        return playback
-            .home_issued(generation)
-            .await
-            .map_err(|error| describe(&error));
-    }
-    let reading = state.clone();
-    let (entries, loop_playlist) = tokio::task::spawn_blocking(move || playlist_entries(&reading))
-        .await
-        .map_err(|error| format!("the playlist cannot be read: {error}"))??;
     let result = match control {
-        Control::Start => {
-            playback
-                .start_issued(entries, loop_playlist, generation)
-                .await
-        }
-        Control::Reset | Control::Home => {
-            playback
-                .reset_issued(entries, loop_playlist, generation)
-                .await
+        Control::Home => playback.home_issued(generation).await,
+        Control::Start | Control::Reset => {
+            let reading = state.clone();
+            let (entries, loop_playlist) =
+                tokio::task::spawn_blocking(move || playlist_entries(&reading))
+                    .await
+                    .map_err(|error| format!("the playlist cannot be read: {error}"))??;
+            if control == Control::Start {
+                playback
+                    .start_issued(entries, loop_playlist, generation)
+                    .await
+            } else {
+                playback
+                    .reset_issued(entries, loop_playlist, generation)
+                    .await
+            }
         }
     };
     result.map_err(|error| describe(&error))

@@ -163,13 +163,7 @@ impl Playback {
         loop_playlist: bool,
         generation: u64,
     ) -> Result<(), PlaybackError> {
-        let prepared = self.prepare(entries, loop_playlist).await?;
-        self.ask(|reply| Request::Start {
-            generation,
-            prepared,
-            reply,
-        })
-        .await
+        self.play(entries, loop_playlist, generation, false).await
     }
 
     /// Reset: stop now, home, and play the playlist from its first entry.
@@ -196,11 +190,32 @@ impl Playback {
         loop_playlist: bool,
         generation: u64,
     ) -> Result<(), PlaybackError> {
+        self.play(entries, loop_playlist, generation, true).await
+    }
+
+    /// Plans the playlist, then hands it to the task as a Start (or a Reset).
+    async fn play(
+        &self,
+        entries: Vec<Entry>,
+        loop_playlist: bool,
+        generation: u64,
+        reset: bool,
+    ) -> Result<(), PlaybackError> {
         let prepared = self.prepare(entries, loop_playlist).await?;
-        self.ask(|reply| Request::Reset {
-            generation,
-            prepared,
-            reply,
+        self.ask(|reply| {
+            if reset {
+                Request::Reset {
+                    generation,
+                    prepared,
+                    reply,
+                }
+            } else {
+                Request::Start {
+                    generation,
+                    prepared,
+                    reply,
+                }
+            }
         })
         .await
     }

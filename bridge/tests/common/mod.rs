@@ -84,13 +84,7 @@ impl Bridge {
             },
         )
         .expect("config");
-        let static_dir = data.path().join("static");
-        std::fs::create_dir_all(&static_dir).expect("static dir");
-        std::fs::write(
-            static_dir.join("index.html"),
-            "<!doctype html><title>t</title>",
-        )
-        .expect("index");
+        let static_dir = static_dir(data.path());
         let clock = Clock::adjustable();
         let state = AppState::open(
             config,
@@ -362,4 +356,16 @@ pub fn native_show(name: &str, rows: u32, cols: u32, units: Vec<serde_json::Valu
         "units": units,
     }))
     .expect("json")
+}
+
+/// A stand-in web app under `data/static`; returns its folder.
+pub fn static_dir(data: &Path) -> std::path::PathBuf {
+    let static_dir = data.join("static");
+    std::fs::create_dir_all(&static_dir).expect("static dir");
+    std::fs::write(
+        static_dir.join("index.html"),
+        "<!doctype html><title>t</title>",
+    )
+    .expect("index");
+    static_dir
 }

@@ -32,13 +32,7 @@ impl Process {
     pub fn start(config: &str) -> Self {
         let data = tempfile::tempdir().expect("temp dir");
         std::fs::write(data.path().join("floatball.toml"), config).expect("write config");
-        let static_dir = data.path().join("static");
-        std::fs::create_dir_all(&static_dir).expect("static dir");
-        std::fs::write(
-            static_dir.join("index.html"),
-            "<!doctype html><title>t</title>",
-        )
-        .expect("index");
+        let static_dir = super::static_dir(data.path());
         let log = std::fs::File::create(data.path().join("floatball.log")).expect("log");
         let mut child = Command::new(env!("CARGO_BIN_EXE_floatball"))
             .arg("--data-dir")
