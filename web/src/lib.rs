@@ -9,6 +9,8 @@
 //! - [`client`]: the HTTP API as typed calls over a transport, status codes as failures;
 //! - [`connection`]: the connection state machine and its reconnect backoff;
 //! - [`console`]: instruction checking and feedback decoding for the console;
+//! - [`control`]: the Control and Settings pages' decisions: plan verdicts by round,
+//!   panels, the delay-and-cycles forms, saving an edit;
 //! - [`files`]: local and controller file lists, formats, CSV preview layout;
 //! - [`i18n`]: the two languages (中文 / English) and every user-visible string;
 //! - [`page`]: the pages and their URL fragments;
@@ -30,6 +32,7 @@ pub mod components;
 pub mod connection;
 pub mod console;
 pub mod context;
+pub mod control;
 pub mod files;
 pub mod http;
 pub mod i18n;
