@@ -18,14 +18,15 @@
 //! - [`session`]: the controller's address, base and WebSocket URLs, the stored login;
 //! - [`status`]: reading the bridge's status;
 //! - the preview's plain parts: [`preview::playback`] (the controls), [`preview::live`]
-//!   (the machine's clock), [`preview::camera`], [`preview::scene`],
+//!   (the machine's clock), [`preview::model`] (the clock on screen, the renderer
+//!   chosen, the ball selected), [`preview::camera`], [`preview::scene`],
 //!   [`preview::gestures`] (the 3D view's maths and touch), [`preview::plot`] (one
 //!   ball over the show), [`preview::top_view`] (the 2D fallback), and the synthetic
 //!   shows of [`preview::perf`].
 //!
 //! Browser plumbing: [`http`] (XMLHttpRequest), [`socket`] (the WebSocket), [`store`]
-//! (IndexedDB). State shared by the views: [`context`]. Views: [`components`],
-//! [`preview`].
+//! (IndexedDB). State shared by the views: [`context`]. Views: [`components`] (with
+//! the widgets the pages share in [`components::widgets`]), [`preview`].
 
 pub mod client;
 pub mod components;
