@@ -9,6 +9,8 @@
 //! - [`client`]: the HTTP API as typed calls over a transport, status codes as failures;
 //! - [`connection`]: the connection state machine and its reconnect backoff;
 //! - [`console`]: instruction checking and feedback decoding for the console;
+//! - [`control`]: the Control and Settings pages' decisions: plan verdicts by round,
+//!   panels, the delay-and-cycles forms, saving an edit;
 //! - [`files`]: local and controller file lists, formats, CSV preview layout;
 //! - [`i18n`]: the two languages (中文 / English) and every user-visible string;
 //! - [`page`]: the pages and their URL fragments;
@@ -16,20 +18,22 @@
 //! - [`session`]: the controller's address, base and WebSocket URLs, the stored login;
 //! - [`status`]: reading the bridge's status;
 //! - the preview's plain parts: [`preview::playback`] (the controls), [`preview::live`]
-//!   (the machine's clock), [`preview::camera`], [`preview::scene`],
+//!   (the machine's clock), [`preview::model`] (the clock on screen, the renderer
+//!   chosen, the ball selected), [`preview::camera`], [`preview::scene`],
 //!   [`preview::gestures`] (the 3D view's maths and touch), [`preview::plot`] (one
 //!   ball over the show), [`preview::top_view`] (the 2D fallback), and the synthetic
 //!   shows of [`preview::perf`].
 //!
 //! Browser plumbing: [`http`] (XMLHttpRequest), [`socket`] (the WebSocket), [`store`]
-//! (IndexedDB). State shared by the views: [`context`]. Views: [`components`],
-//! [`preview`].
+//! (IndexedDB). State shared by the views: [`context`]. Views: [`components`] (with
+//! the widgets the pages share in [`components::widgets`]), [`preview`].
 
 pub mod client;
 pub mod components;
 pub mod connection;
 pub mod console;
 pub mod context;
+pub mod control;
 pub mod files;
 pub mod http;
 pub mod i18n;

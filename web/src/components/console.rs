@@ -4,6 +4,7 @@
 use floatball_shared::api::ClientMessage;
 use leptos::prelude::*;
 
+use crate::components::widgets::{BridgeError, Field};
 use crate::console::{Check, check};
 use crate::context::Ctx;
 use crate::i18n::Text;
@@ -78,8 +79,7 @@ pub fn ConsolePage() -> impl IntoView {
     };
     view! {
         <section class="console">
-            <label class="stack">
-                <span>{move || ctx.t(Text::Instructions)}</span>
+            <Field label=Text::Instructions class="stack">
                 <textarea
                     rows="4"
                     spellcheck="false"
@@ -88,11 +88,10 @@ pub fn ConsolePage() -> impl IntoView {
                     prop:value=text
                     on:input=move |ev| text.set(event_target_value(&ev))
                 ></textarea>
-            </label>
+            </Field>
             {verdict}
             <div class="toolbar">
-                <label class="inline">
-                    <span>{move || ctx.t(Text::Gateway)}</span>
+                <Field label=Text::Gateway class="inline">
                     <select
                         data-testid="console-gateway"
                         on:change=move |ev| gateway.set(event_target_value(&ev).parse().ok())
@@ -100,7 +99,7 @@ pub fn ConsolePage() -> impl IntoView {
                         <option value="">{move || ctx.t(Text::AllGateways)}</option>
                         {gateways}
                     </select>
-                </label>
+                </Field>
                 <button
                     class="primary"
                     data-testid="console-send"
@@ -110,17 +109,7 @@ pub fn ConsolePage() -> impl IntoView {
                     {move || ctx.t(Text::Send)}
                 </button>
             </div>
-            {move || {
-                ctx.bridge_error
-                    .get()
-                    .map(|message| {
-                        view! {
-                            <p class="note error" data-testid="bridge-error">
-                                {move || ctx.t(Text::BridgeSays)} " " {message}
-                            </p>
-                        }
-                    })
-            }}
+            <BridgeError />
             <Show when=move || sent.with(|sent| !sent.is_empty())>
                 <h3>{move || ctx.t(Text::SentLines)}</h3>
                 <ul class="mono sent" data-testid="sent-lines">

@@ -4,19 +4,23 @@
 //!
 //! Every edit is applied to [`crate::playlist::PlaylistEditor`] and then stored on
 //! the bridge (`PUT /api/playlist`); what the bridge answers is what the page shows.
+//! The decisions (plan rounds, panels, forms, saving) are [`crate::control`]'s; this
+//! module wires them to the page.
 
 use floatball_shared::api::{ClientMessage, Status};
 use leptos::prelude::*;
 use leptos::task::spawn_local;
 
 use crate::components::topbar::EstopButton;
+use crate::components::widgets::{
+    BridgeError, EmptyItem, ErrorNote, RowButton, TabButton, TextField,
+};
 use crate::context::Ctx;
+use crate::control::{Panel, PlanVerdicts, TimingForm, begin_save, needs_checks, settle_save};
 use crate::files::format_duration_ms;
 use crate::i18n::Text;
 use crate::page::Page;
-use crate::playlist::{
-    PlaylistEditor, Verdict, can_start, format_delay_s, parse_cycles, parse_delay_s,
-};
+use crate::playlist::{PlaylistEditor, Verdict, format_delay_s};
 use crate::status::{progress, shows_progress, state_key, time_text};
 
 /// Applies `edit` to the playlist and stores the result on the bridge; `note` gets
@@ -26,33 +30,25 @@ fn edit_and_save(
     note: RwSignal<Option<String>>,
     edit: impl FnOnce(&mut PlaylistEditor) -> bool,
 ) {
-    let mut changed = false;
-    ctx.playlist.update(|editor| changed = edit(editor));
-    if !changed {
+    let mut playlist = None;
+    ctx.playlist
+        .update(|editor| playlist = begin_save(editor, edit));
+    let (Some(playlist), Some(client)) = (playlist, ctx.client()) else {
         return;
-    }
-    let Some(client) = ctx.client() else { return };
-    let playlist = ctx
-        .playlist
-        .with_untracked(|editor| editor.playlist().clone());
+    };
     note.set(None);
     spawn_local(async move {
-        match client.put_playlist(&playlist).await {
-            Ok(stored) => ctx.playlist.update(|editor| editor.replace(stored)),
-            Err(failure) => {
-                note.set(Some(ctx.failed(&failure)));
-                ctx.refresh();
-            }
+        let answer = client.put_playlist(&playlist).await;
+        let mut settled = Ok(());
+        ctx.playlist.maybe_update(|editor| {
+            settled = settle_save(editor, answer);
+            settled.is_ok()
+        });
+        if let Err(failure) = settled {
+            note.set(Some(ctx.failed(&failure)));
+            ctx.refresh();
         }
     });
-}
-
-/// Which panel under the icons is open.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Panel {
-    None,
-    Add,
-    Edit,
 }
 
 /// The Control / Settings switch (the vendor app's left-hand buttons).
@@ -61,14 +57,12 @@ fn ControlTabs() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     let tab = move |page: Page, text: Text| {
         view! {
-            <button
-                class="tab"
-                class:active=move || ctx.page.get() == page
-                data-testid=format!("subtab-{}", page.key())
-                on:click=move |_| ctx.page.set(page)
-            >
-                {move || ctx.t(text)}
-            </button>
+            <TabButton
+                text
+                test_id=format!("subtab-{}", page.key())
+                active=Signal::derive(move || ctx.page.get() == page)
+                on_click=Callback::new(move |()| ctx.page.set(page))
+            />
         }
     };
     view! {
@@ -84,26 +78,19 @@ pub fn ControlPage() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     let panel = RwSignal::new(Panel::None);
     let note = RwSignal::new(None::<String>);
-    let verdicts = RwSignal::new(Vec::<(String, Verdict)>::new());
-    let plan_round = StoredValue::new(0u32);
+    let plans = RwSignal::new(PlanVerdicts::default());
 
     // The bandwidth report of each show, fetched again when the shows change.
     let shows = Memo::new(move |_| ctx.playlist.with(PlaylistEditor::shows));
     Effect::new(move |_| {
         let shows = shows.get();
         let connected = ctx.connected();
-        plan_round.update_value(|round| *round += 1);
-        let round = plan_round.get_value();
-        let Some(client) = ctx.client().filter(|_| connected) else {
-            verdicts.set(Vec::new());
+        let client = ctx.client().filter(|_| connected);
+        let mut round = None;
+        plans.update(|plans| round = plans.begin(&shows, client.is_some()));
+        let (Some(client), Some(round)) = (client, round) else {
             return;
         };
-        verdicts.set(
-            shows
-                .iter()
-                .map(|show| (show.clone(), Verdict::Pending))
-                .collect(),
-        );
         for show in shows {
             let client = client.clone();
             spawn_local(async move {
@@ -111,13 +98,7 @@ pub fn ControlPage() -> impl IntoView {
                     Ok(report) => Verdict::of(report),
                     Err(failure) => Verdict::Failed(ctx.lang.get_untracked().failure(&failure)),
                 };
-                if plan_round.get_value() == round {
-                    verdicts.update(|verdicts| {
-                        if let Some(slot) = verdicts.iter_mut().find(|(name, _)| *name == show) {
-                            slot.1 = verdict;
-                        }
-                    });
-                }
+                plans.maybe_update(|plans| plans.answer(round, &show, verdict));
             });
         }
     });
@@ -140,30 +121,25 @@ pub fn ControlPage() -> impl IntoView {
             </button>
         }
     };
+    let checked = move || ctx.playlist.with_untracked(PlaylistEditor::checked_count);
+    let refuse = move |why: Text| note.set(Some(ctx.lang.get_untracked().t(why).into()));
     let needs_checks = move |edit: fn(&mut PlaylistEditor) -> bool| {
-        move || {
-            if ctx.playlist.with_untracked(PlaylistEditor::checked_count) == 0 {
-                note.set(Some(ctx.lang.get_untracked().t(Text::CheckFirst).into()));
-                return;
-            }
-            edit_and_save(ctx, note, edit);
+        move || match needs_checks(checked()) {
+            Ok(()) => edit_and_save(ctx, note, edit),
+            Err(why) => refuse(why),
         }
     };
     let toggle_panel = move |which: Panel| {
-        move || {
-            if which == Panel::Edit
-                && ctx.playlist.with_untracked(PlaylistEditor::checked_count) == 0
-            {
-                note.set(Some(ctx.lang.get_untracked().t(Text::CheckFirst).into()));
-                return;
+        move || match panel.get_untracked().pressed(which, checked()) {
+            Ok(open) => {
+                note.set(None);
+                panel.set(open);
             }
-            note.set(None);
-            panel.update(|open| *open = if *open == which { Panel::None } else { which });
+            Err(why) => refuse(why),
         }
     };
     let start_allowed = move || {
-        ctx.connected()
-            && verdicts.with(|verdicts| ctx.playlist.with(|editor| can_start(editor, verdicts)))
+        ctx.connected() && plans.with(|plans| ctx.playlist.with(|editor| plans.allow_start(editor)))
     };
     let send = move |message: ClientMessage| {
         ctx.bridge_error.set(None);
@@ -191,10 +167,7 @@ pub fn ControlPage() -> impl IntoView {
                 )}
                 {icon("edit", "✎", Text::Edit, Box::new(toggle_panel(Panel::Edit)))}
             </div>
-            {move || {
-                note.get()
-                    .map(|text| view! { <p class="note error" data-testid="control-note">{text}</p> })
-            }}
+            <ErrorNote text=note test_id="control-note" />
             {move || match panel.get() {
                 Panel::None => ().into_any(),
                 Panel::Add => view! { <AddPanel panel=panel note=note /> }.into_any(),
@@ -220,20 +193,10 @@ pub fn ControlPage() -> impl IntoView {
                     {move || ctx.t(Text::Reset)}
                 </button>
             </div>
-            {move || {
-                ctx.bridge_error
-                    .get()
-                    .map(|message| {
-                        view! {
-                            <p class="note error" data-testid="bridge-error">
-                                {move || ctx.t(Text::BridgeSays)} " " {message}
-                            </p>
-                        }
-                    })
-            }}
+            <BridgeError />
             </div>
             <div class="control-side">
-                <PlanView verdicts=verdicts />
+                <PlanView plans=plans />
                 <StatusView />
             </div>
             </div>
@@ -251,10 +214,7 @@ fn PlaylistView() -> impl IntoView {
             {move || {
                 let editor = ctx.playlist.get();
                 if editor.entries().is_empty() {
-                    return view! {
-                        <li class="empty muted">{move || ctx.t(Text::EmptyPlaylist)}</li>
-                    }
-                        .into_any();
+                    return view! { <EmptyItem text=Text::EmptyPlaylist /> }.into_any();
                 }
                 let playing = ctx.status.with(|status| status.as_ref().and_then(|s| s.entry));
                 editor
@@ -312,10 +272,7 @@ fn AddPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Into
                 {move || {
                     let files = ctx.controller_files.get();
                     if files.items().is_empty() {
-                        return view! {
-                            <li class="empty muted">{move || ctx.t(Text::NoControllerFiles)}</li>
-                        }
-                            .into_any();
+                        return view! { <EmptyItem text=Text::NoControllerFiles /> }.into_any();
                     }
                     files
                         .items()
@@ -327,29 +284,16 @@ fn AddPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Into
                                 show.units,
                                 format_duration_ms(show.duration_ms),
                             );
+                            let pick = Callback::new(move |()| {
+                                let name = name.clone();
+                                edit_and_save(ctx, note, move |editor| {
+                                    editor.add(&name);
+                                    true
+                                });
+                                panel.set(Panel::None);
+                            });
                             view! {
-                                <li>
-                                    <button
-                                        class="row"
-                                        data-testid="pick-show"
-                                        data-name=name.clone()
-                                        on:click=move |_| {
-                                            let name = name.clone();
-                                            edit_and_save(
-                                                ctx,
-                                                note,
-                                                move |editor| {
-                                                    editor.add(&name);
-                                                    true
-                                                },
-                                            );
-                                            panel.set(Panel::None);
-                                        }
-                                    >
-                                        <span class="name">{show.name.clone()}</span>
-                                        <span class="facts muted">{facts}</span>
-                                    </button>
-                                </li>
+                                <RowButton name=show.name.clone() test_id="pick-show" facts on_click=pick />
                             }
                         })
                         .collect_view()
@@ -365,28 +309,21 @@ fn AddPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Into
 #[component]
 fn EditPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl IntoView {
     let ctx = expect_context::<Ctx>();
-    let first = ctx
+    let form = ctx
         .playlist
-        .with_untracked(|editor| editor.first_checked().cloned());
-    let delay = RwSignal::new(
-        first
-            .as_ref()
-            .map_or_else(|| "0".to_owned(), |entry| format_delay_s(entry.delay_ms)),
-    );
-    let cycles =
-        RwSignal::new(first.map_or_else(|| "1".to_owned(), |entry| entry.cycles.to_string()));
-    let error = RwSignal::new(None::<&'static str>);
+        .with_untracked(|editor| TimingForm::of_entry(editor.first_checked()));
+    let delay = RwSignal::new(form.delay_s);
+    let cycles = RwSignal::new(form.cycles);
+    let error = RwSignal::new(None::<String>);
     let apply = move |event: leptos::ev::SubmitEvent| {
         event.prevent_default();
         let lang = ctx.lang.get_untracked();
-        let parsed = parse_delay_s(&delay.get_untracked())
-            .and_then(|delay_ms| Ok((delay_ms, parse_cycles(&cycles.get_untracked())?)));
-        match parsed {
-            Err(input) => error.set(Some(lang.input_error(input))),
-            Ok((delay_ms, cycles)) => {
+        match TimingForm::parse(&delay.get_untracked(), &cycles.get_untracked()) {
+            Err(input) => error.set(Some(lang.input_error(input).into())),
+            Ok(timing) => {
                 error.set(None);
                 edit_and_save(ctx, note, move |editor| {
-                    editor.edit_checked(delay_ms, cycles) > 0
+                    editor.edit_checked(timing.delay_ms, timing.cycles) > 0
                 });
                 panel.set(Panel::None);
             }
@@ -394,27 +331,9 @@ fn EditPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Int
     };
     view! {
         <form class="card panel form" data-testid="edit-panel" on:submit=apply>
-            <label>
-                <span>{move || ctx.t(Text::DelayS)}</span>
-                <input
-                    type="text"
-                    inputmode="decimal"
-                    data-testid="edit-delay"
-                    prop:value=delay
-                    on:input=move |ev| delay.set(event_target_value(&ev))
-                />
-            </label>
-            <label>
-                <span>{move || ctx.t(Text::Cycles)}</span>
-                <input
-                    type="text"
-                    inputmode="numeric"
-                    data-testid="edit-cycles"
-                    prop:value=cycles
-                    on:input=move |ev| cycles.set(event_target_value(&ev))
-                />
-            </label>
-            {move || error.get().map(|text| view! { <p class="note error" data-testid="edit-error">{text}</p> })}
+            <TextField label=Text::DelayS value=delay test_id="edit-delay" inputmode="decimal" />
+            <TextField label=Text::Cycles value=cycles test_id="edit-cycles" inputmode="numeric" />
+            <ErrorNote text=error test_id="edit-error" />
             <div class="row-buttons">
                 <button type="submit" class="primary" data-testid="edit-apply">
                     {move || ctx.t(Text::Apply)}
@@ -429,16 +348,16 @@ fn EditPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Int
 
 /// The bandwidth verdict of each show before Start.
 #[component]
-fn PlanView(verdicts: RwSignal<Vec<(String, Verdict)>>) -> impl IntoView {
+fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     view! {
-        <Show when=move || verdicts.with(|verdicts| !verdicts.is_empty())>
+        <Show when=move || plans.with(|plans| !plans.is_empty())>
             <div class="card" data-testid="plan">
                 <h3>{move || ctx.t(Text::PlanTitle)}</h3>
                 <ul class="verdicts">
                     {move || {
-                        verdicts
-                            .get()
+                        plans
+                            .with(|plans| plans.verdicts().to_vec())
                             .into_iter()
                             .map(|(show, verdict)| {
                                 let key = verdict.key();
@@ -592,65 +511,56 @@ pub fn SettingsPage() -> impl IntoView {
     let current = ctx
         .playlist
         .with_untracked(|editor| editor.playlist().clone());
-    let delay = RwSignal::new(format_delay_s(current.default_delay_ms));
-    let cycles = RwSignal::new(current.default_cycles.to_string());
+    let form = TimingForm::defaults_of(&current);
+    let delay = RwSignal::new(form.delay_s);
+    let cycles = RwSignal::new(form.cycles);
     let looped = RwSignal::new(current.loop_playlist);
     // Follow the bridge's values when they arrive (a refresh after the page opened).
     Effect::new(move |_| {
-        let playlist = ctx.playlist.with(|editor| editor.playlist().clone());
-        delay.set(format_delay_s(playlist.default_delay_ms));
-        cycles.set(playlist.default_cycles.to_string());
-        looped.set(playlist.loop_playlist);
+        let (form, loop_playlist) = ctx.playlist.with(|editor| {
+            let playlist = editor.playlist();
+            (TimingForm::defaults_of(playlist), playlist.loop_playlist)
+        });
+        delay.set(form.delay_s);
+        cycles.set(form.cycles);
+        looped.set(loop_playlist);
     });
     let note = RwSignal::new(None::<String>);
     let saved = RwSignal::new(false);
     let apply = move |event: leptos::ev::SubmitEvent| {
         event.prevent_default();
         let lang = ctx.lang.get_untracked();
-        let parsed = parse_delay_s(&delay.get_untracked())
-            .and_then(|delay_ms| Ok((delay_ms, parse_cycles(&cycles.get_untracked())?)));
-        match parsed {
+        match TimingForm::parse(&delay.get_untracked(), &cycles.get_untracked()) {
             Err(input) => note.set(Some(lang.input_error(input).into())),
-            Ok((delay_ms, cycles)) => {
+            Ok(timing) => {
                 let looped = looped.get_untracked();
                 edit_and_save(ctx, note, move |editor| {
-                    editor.set_settings(delay_ms, cycles, looped);
+                    editor.set_settings(timing.delay_ms, timing.cycles, looped);
                     true
                 });
                 saved.set(true);
             }
         }
     };
+    let unsaved = Callback::new(move |()| saved.set(false));
     view! {
         <section class="control">
             <ControlTabs />
             <form class="card form" data-testid="settings-form" on:submit=apply>
-                <label>
-                    <span>{move || ctx.t(Text::DefaultDelayS)}</span>
-                    <input
-                        type="text"
-                        inputmode="decimal"
-                        data-testid="default-delay"
-                        prop:value=delay
-                        on:input=move |ev| {
-                            saved.set(false);
-                            delay.set(event_target_value(&ev));
-                        }
-                    />
-                </label>
-                <label>
-                    <span>{move || ctx.t(Text::DefaultCycles)}</span>
-                    <input
-                        type="text"
-                        inputmode="numeric"
-                        data-testid="default-cycles"
-                        prop:value=cycles
-                        on:input=move |ev| {
-                            saved.set(false);
-                            cycles.set(event_target_value(&ev));
-                        }
-                    />
-                </label>
+                <TextField
+                    label=Text::DefaultDelayS
+                    value=delay
+                    test_id="default-delay"
+                    inputmode="decimal"
+                    on_edit=unsaved
+                />
+                <TextField
+                    label=Text::DefaultCycles
+                    value=cycles
+                    test_id="default-cycles"
+                    inputmode="numeric"
+                    on_edit=unsaved
+                />
                 <label class="check">
                     <input
                         type="checkbox"
@@ -666,10 +576,7 @@ pub fn SettingsPage() -> impl IntoView {
                 <button type="submit" class="primary" data-testid="settings-apply">
                     {move || ctx.t(Text::Apply)}
                 </button>
-                {move || {
-                    note.get()
-                        .map(|text| view! { <p class="note error" data-testid="settings-error">{text}</p> })
-                }}
+                <ErrorNote text=note test_id="settings-error" />
                 {move || {
                     (saved.get() && note.with(Option::is_none))
                         .then(|| view! { <p class="note done" data-testid="settings-saved">{move || ctx.t(Text::Saved)}</p> })

@@ -10,6 +10,7 @@ use wasm_bindgen::JsCast;
 use wasm_bindgen_futures::JsFuture;
 
 use crate::client::{Failure, OnProgress, UploadProgress};
+use crate::components::widgets::{ActionButton, ConfirmButton, EmptyItem, RowButton, TabButton};
 use crate::context::Ctx;
 use crate::files::{LocalFile, format_bytes, format_duration_ms};
 use crate::i18n::Text;
@@ -55,17 +56,15 @@ pub fn FilesPage() -> impl IntoView {
     let message = RwSignal::new(None::<Message>);
     let tab_button = move |which: Tab, text: Text, test_id: &'static str| {
         view! {
-            <button
-                class="tab"
-                class:active=move || tab.get() == which
-                data-testid=test_id
-                on:click=move |_| {
+            <TabButton
+                text
+                test_id
+                active=Signal::derive(move || tab.get() == which)
+                on_click=Callback::new(move |()| {
                     tab.set(which);
                     message.set(None);
-                }
-            >
-                {move || ctx.t(text)}
-            </button>
+                })
+            />
         }
     };
     let online = move || ctx.connected() && ctx.logged_in();
@@ -137,7 +136,7 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
         input.set_value("");
         spawn_local(add_files(ctx, files, message));
     };
-    let upload = move |_| {
+    let upload = Callback::new(move |()| {
         let (Some(file), Some(client)) = (selected(), ctx.client()) else {
             return;
         };
@@ -165,26 +164,21 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
                 Err(failure) => Message::error(ctx.failed(&failure)),
             }));
         });
-    };
-    let preview = move |_| {
+    });
+    let preview = Callback::new(move |()| {
         if let Some(file) = selected() {
             ctx.preview_local(&file);
         }
-    };
-    let save = move |_| {
+    });
+    let save = Callback::new(move |()| {
         if let Some(file) = selected()
             && let Err(error) = save_to_device(&file)
         {
             message.set(Some(Message::error(error)));
         }
-    };
-    let delete = move |_| {
+    });
+    let delete = Callback::new(move |()| {
         let Some(file) = selected() else { return };
-        if !confirm_delete.get_untracked() {
-            confirm_delete.set(true);
-            return;
-        }
-        confirm_delete.set(false);
         let store = ctx.store();
         spawn_local(async move {
             match store.delete(&file.name).await {
@@ -197,7 +191,7 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
                 )))),
             }
         });
-    };
+    });
     let nothing = move || ctx.local_files.with(|list| list.selected_name().is_none());
     view! {
         <div class="toolbar">
@@ -212,27 +206,30 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
                     on:change=on_pick
                 />
             </label>
-            <button
-                data-testid="upload"
-                disabled=move || nothing() || !online() || progress.get().is_some()
-                on:click=upload
-            >
-                {move || ctx.t(Text::Upload)}
-            </button>
-            <button data-testid="preview-local" disabled=nothing on:click=preview>
-                {move || ctx.t(Text::Preview)}
-            </button>
-            <button data-testid="save-local" disabled=nothing on:click=save>
-                {move || ctx.t(Text::SaveToDevice)}
-            </button>
-            <button
-                data-testid="delete-local"
-                class:danger=confirm_delete
-                disabled=nothing
-                on:click=delete
-            >
-                {move || ctx.t(if confirm_delete.get() { Text::ConfirmDelete } else { Text::Delete })}
-            </button>
+            <ActionButton
+                text=Text::Upload
+                test_id="upload"
+                disabled=Signal::derive(move || nothing() || !online() || progress.get().is_some())
+                on_click=upload
+            />
+            <ActionButton
+                text=Text::Preview
+                test_id="preview-local"
+                disabled=Signal::derive(nothing)
+                on_click=preview
+            />
+            <ActionButton
+                text=Text::SaveToDevice
+                test_id="save-local"
+                disabled=Signal::derive(nothing)
+                on_click=save
+            />
+            <ConfirmButton
+                test_id="delete-local"
+                armed=confirm_delete
+                disabled=Signal::derive(nothing)
+                on_confirm=delete
+            />
         </div>
         {move || {
             progress
@@ -258,10 +255,7 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
             {move || {
                 let list = ctx.local_files.get();
                 if list.items().is_empty() {
-                    return view! {
-                        <li class="empty muted">{move || ctx.t(Text::NoLocalFiles)}</li>
-                    }
-                        .into_any();
+                    return view! { <EmptyItem text=Text::NoLocalFiles /> }.into_any();
                 }
                 let selected = list.selected_name().map(str::to_owned);
                 list.items()
@@ -270,22 +264,18 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
                         let name = file.name.clone();
                         let is_selected = selected.as_deref() == Some(name.as_str());
                         let facts = format!("{} · {}", file.kind.label(), format_bytes(file.bytes()));
+                        let pick = Callback::new(move |()| {
+                            confirm_delete.set(false);
+                            ctx.local_files.update(|list| list.select(&name));
+                        });
                         view! {
-                            <li>
-                                <button
-                                    class="row"
-                                    class:selected=is_selected
-                                    data-testid="local-file"
-                                    data-name=name.clone()
-                                    on:click=move |_| {
-                                        confirm_delete.set(false);
-                                        ctx.local_files.update(|list| list.select(&name));
-                                    }
-                                >
-                                    <span class="name">{file.name.clone()}</span>
-                                    <span class="facts muted">{facts}</span>
-                                </button>
-                            </li>
+                            <RowButton
+                                name=file.name.clone()
+                                test_id="local-file"
+                                selected=is_selected
+                                facts
+                                on_click=pick
+                            />
                         }
                     })
                     .collect_view()
@@ -356,7 +346,7 @@ fn ControllerTab(message: RwSignal<Option<Message>>) -> impl IntoView {
             .with(|list| list.selected_name().map(str::to_owned))
     };
     let online = move || ctx.connected() && ctx.logged_in();
-    let download = move |_| {
+    let download = Callback::new(move |()| {
         let (Some(name), Some(client)) = (selected(), ctx.client()) else {
             return;
         };
@@ -384,21 +374,16 @@ fn ControllerTab(message: RwSignal<Option<Message>>) -> impl IntoView {
             message.set(Some(outcome));
             busy.set(false);
         });
-    };
-    let preview = move |_| {
+    });
+    let preview = Callback::new(move |()| {
         if let Some(name) = selected() {
             ctx.preview_controller(&name);
         }
-    };
-    let delete = move |_| {
+    });
+    let delete = Callback::new(move |()| {
         let (Some(name), Some(client)) = (selected(), ctx.client()) else {
             return;
         };
-        if !confirm_delete.get_untracked() {
-            confirm_delete.set(true);
-            return;
-        }
-        confirm_delete.set(false);
         spawn_local(async move {
             match client.delete_show(&name).await {
                 Ok(()) => ctx.controller_files.update(|list| {
@@ -407,27 +392,34 @@ fn ControllerTab(message: RwSignal<Option<Message>>) -> impl IntoView {
                 Err(failure) => message.set(Some(Message::error(ctx.failed(&failure)))),
             }
         });
-    };
+    });
     let unusable = move || selected().is_none() || !online() || busy.get();
     view! {
         <div class="toolbar">
-            <button data-testid="refresh" disabled=move || !online() on:click=move |_| ctx.refresh()>
-                {move || ctx.t(Text::Refresh)}
-            </button>
-            <button data-testid="download" disabled=unusable on:click=download>
-                {move || ctx.t(Text::Download)}
-            </button>
-            <button data-testid="preview-controller" disabled=unusable on:click=preview>
-                {move || ctx.t(Text::Preview)}
-            </button>
-            <button
-                data-testid="delete-controller"
-                class:danger=confirm_delete
-                disabled=unusable
-                on:click=delete
-            >
-                {move || ctx.t(if confirm_delete.get() { Text::ConfirmDelete } else { Text::Delete })}
-            </button>
+            <ActionButton
+                text=Text::Refresh
+                test_id="refresh"
+                disabled=Signal::derive(move || !online())
+                on_click=Callback::new(move |()| ctx.refresh())
+            />
+            <ActionButton
+                text=Text::Download
+                test_id="download"
+                disabled=Signal::derive(unusable)
+                on_click=download
+            />
+            <ActionButton
+                text=Text::Preview
+                test_id="preview-controller"
+                disabled=Signal::derive(unusable)
+                on_click=preview
+            />
+            <ConfirmButton
+                test_id="delete-controller"
+                armed=confirm_delete
+                disabled=Signal::derive(unusable)
+                on_confirm=delete
+            />
         </div>
         <table class="list table" data-testid="controller-list">
             <thead>

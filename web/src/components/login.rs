@@ -5,23 +5,11 @@ use leptos::prelude::*;
 use leptos::task::spawn_local;
 
 use crate::client::Failure;
+use crate::components::widgets::{ErrorNote, TextField};
 use crate::context::Ctx;
 use crate::i18n::Text;
 use crate::page::Page;
 use crate::session::Session;
-
-/// An error under a form.
-fn error_view(error: RwSignal<Option<String>>, test_id: &'static str) -> impl IntoView {
-    move || {
-        error.get().map(|text| {
-            view! {
-                <p class="note error" data-testid=test_id role="alert">
-                    {text}
-                </p>
-            }
-        })
-    }
-}
 
 /// The Login page.
 #[component]
@@ -32,17 +20,10 @@ pub fn LoginPage() -> impl IntoView {
     let remembered = RwSignal::new(None::<String>);
     view! {
         <section class="login">
-            {move || {
-                ctx.login_notice
-                    .get()
-                    .map(|text| {
-                        view! {
-                            <p class="note error" data-testid="login-notice">
-                                {move || ctx.t(text)}
-                            </p>
-                        }
-                    })
-            }}
+            <ErrorNote
+                text=Signal::derive(move || ctx.login_notice.get().map(|text| ctx.t(text).to_owned()))
+                test_id="login-notice"
+            />
             {move || match ctx.session.get() {
                 None => view! { <LoginForm remembered=remembered /> }.into_any(),
                 Some(session) if session.must_change_password => {
@@ -97,31 +78,24 @@ fn LoginForm(remembered: RwSignal<Option<String>>) -> impl IntoView {
     view! {
         <form class="card form" on:submit=submit data-testid="login-form">
             <h2>{move || ctx.t(Text::LoginTitle)}</h2>
-            <label>
-                <span>{move || ctx.t(Text::Address)}</span>
-                <input
-                    type="text"
-                    inputmode="url"
-                    autocomplete="url"
-                    data-testid="login-address"
-                    prop:value=address
-                    on:input=move |ev| address.set(event_target_value(&ev))
-                />
-            </label>
-            <label>
-                <span>{move || ctx.t(Text::Password)}</span>
-                <input
-                    type="password"
-                    autocomplete="current-password"
-                    data-testid="login-password"
-                    prop:value=password
-                    on:input=move |ev| password.set(event_target_value(&ev))
-                />
-            </label>
+            <TextField
+                label=Text::Address
+                value=address
+                test_id="login-address"
+                inputmode="url"
+                autocomplete="url"
+            />
+            <TextField
+                label=Text::Password
+                value=password
+                test_id="login-password"
+                kind="password"
+                autocomplete="current-password"
+            />
             <button type="submit" class="primary" data-testid="login-submit" disabled=busy>
                 {move || ctx.t(if busy.get() { Text::Working } else { Text::LoginButton })}
             </button>
-            {error_view(note, "login-error")}
+            <ErrorNote text=note test_id="login-error" alert=true />
         </form>
     }
 }
@@ -179,41 +153,32 @@ fn PasswordForm(remembered: RwSignal<Option<String>>) -> impl IntoView {
             <h2>{move || ctx.t(Text::ChangePasswordTitle)}</h2>
             <p class="muted">{move || ctx.t(Text::ChangePasswordNote)}</p>
             <Show when=move || remembered.with(Option::is_none)>
-                <label>
-                    <span>{move || ctx.t(Text::CurrentPassword)}</span>
-                    <input
-                        type="password"
-                        autocomplete="current-password"
-                        data-testid="password-current"
-                        prop:value=current
-                        on:input=move |ev| current.set(event_target_value(&ev))
-                    />
-                </label>
+                <TextField
+                    label=Text::CurrentPassword
+                    value=current
+                    test_id="password-current"
+                    kind="password"
+                    autocomplete="current-password"
+                />
             </Show>
-            <label>
-                <span>{move || ctx.t(Text::NewPassword)}</span>
-                <input
-                    type="password"
-                    autocomplete="new-password"
-                    data-testid="password-new"
-                    prop:value=new
-                    on:input=move |ev| new.set(event_target_value(&ev))
-                />
-            </label>
-            <label>
-                <span>{move || ctx.t(Text::ConfirmPassword)}</span>
-                <input
-                    type="password"
-                    autocomplete="new-password"
-                    data-testid="password-confirm"
-                    prop:value=confirm
-                    on:input=move |ev| confirm.set(event_target_value(&ev))
-                />
-            </label>
+            <TextField
+                label=Text::NewPassword
+                value=new
+                test_id="password-new"
+                kind="password"
+                autocomplete="new-password"
+            />
+            <TextField
+                label=Text::ConfirmPassword
+                value=confirm
+                test_id="password-confirm"
+                kind="password"
+                autocomplete="new-password"
+            />
             <button type="submit" class="primary" data-testid="password-submit" disabled=busy>
                 {move || ctx.t(Text::ChangePasswordButton)}
             </button>
-            {error_view(note, "password-error")}
+            <ErrorNote text=note test_id="password-error" alert=true />
         </form>
     }
 }

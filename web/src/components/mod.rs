@@ -3,7 +3,9 @@
 //!
 //! - [`App`]: the real app: browser services, the WebSocket, storage, the URL;
 //! - [`Shell`]: the top bar and the current page (mounted by tests with fakes);
-//! - one module per page, and [`topbar`] for the bar on every page.
+//! - one module per page, [`topbar`] for the bar on every page, and [`widgets`] for
+//!   the small views several pages share (labelled fields, notes, the two-press
+//!   Delete, tabs, list rows).
 
 pub mod console;
 pub mod control;
@@ -11,6 +13,7 @@ pub mod files;
 pub mod login;
 pub mod preview;
 pub mod topbar;
+pub mod widgets;
 
 use std::cell::RefCell;
 use std::rc::Rc;

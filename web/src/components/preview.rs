@@ -4,6 +4,7 @@
 
 use leptos::prelude::*;
 
+use crate::components::widgets::RowButton;
 use crate::context::{Ctx, PreviewItem};
 use crate::i18n::Text;
 use crate::preview::PreviewPage;
@@ -33,23 +34,14 @@ pub fn PreviewScreen() -> impl IntoView {
                 .map(|file| {
                     let name = file.name.clone();
                     let active = current().as_deref() == Some(name.as_str());
+                    let pick = Callback::new(move |()| {
+                        let file = ctx.local_files.with_untracked(|list| list.get(&name).cloned());
+                        if let Some(file) = file {
+                            ctx.preview_local(&file);
+                        }
+                    });
                     view! {
-                        <li>
-                            <button
-                                class="row"
-                                class:selected=active
-                                data-testid="preview-pick-local"
-                                data-name=name.clone()
-                                on:click=move |_| {
-                                    let file = ctx.local_files.with_untracked(|list| list.get(&name).cloned());
-                                    if let Some(file) = file {
-                                        ctx.preview_local(&file);
-                                    }
-                                }
-                            >
-                                {file.name.clone()}
-                            </button>
-                        </li>
+                        <RowButton name=file.name.clone() test_id="preview-pick-local" selected=active on_click=pick />
                     }
                 })
                 .collect_view()
@@ -63,19 +55,15 @@ pub fn PreviewScreen() -> impl IntoView {
                 .map(|summary| {
                     let name = summary.name.clone();
                     let active = current().as_deref() == Some(name.as_str());
+                    let pick = Callback::new(move |()| ctx.preview_controller(&name));
                     view! {
-                        <li>
-                            <button
-                                class="row"
-                                class:selected=active
-                                disabled=!online
-                                data-testid="preview-pick-controller"
-                                data-name=name.clone()
-                                on:click=move |_| ctx.preview_controller(&name)
-                            >
-                                {summary.name.clone()}
-                            </button>
-                        </li>
+                        <RowButton
+                            name=summary.name.clone()
+                            test_id="preview-pick-controller"
+                            selected=active
+                            disabled=!online
+                            on_click=pick
+                        />
                     }
                 })
                 .collect_view()

@@ -4,6 +4,7 @@
 use floatball_shared::api::{ClientMessage, PlayerState};
 use leptos::prelude::*;
 
+use crate::components::widgets::TabButton;
 use crate::connection::Link;
 use crate::context::{Ctx, EstopAck};
 use crate::i18n::{Lang, Text};
@@ -23,14 +24,12 @@ pub fn TopBar() -> impl IntoView {
             current == page || (page == Page::Control && current == Page::Settings)
         };
         view! {
-            <button
-                class="tab"
-                class:active=active
-                data-testid=format!("nav-{}", page.key())
-                on:click=move |_| ctx.page.set(page)
-            >
-                {move || ctx.t(text)}
-            </button>
+            <TabButton
+                text
+                test_id=format!("nav-{}", page.key())
+                active=Signal::derive(active)
+                on_click=Callback::new(move |()| ctx.page.set(page))
+            />
         }
     };
     view! {
@@ -47,7 +46,7 @@ pub fn TopBar() -> impl IntoView {
                 <LanguageSwitch lang=ctx.lang />
                 <ConnectionIndicator link=ctx.link lang=ctx.lang />
             </div>
-            <nav class="tabs">{Page::NAV.map(tab).to_vec()}</nav>
+            <nav class="tabs">{Page::NAV.map(tab).into_iter().collect_view()}</nav>
         </header>
     }
 }

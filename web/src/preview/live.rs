@@ -68,10 +68,11 @@ impl LiveClock {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn status(state: PlayerState, show: &str, show_time_ms: u64) -> Status {
+    /// A status of the matrix in `state` at `show_time_ms` into `show`.
+    pub(crate) fn status(state: PlayerState, show: &str, show_time_ms: u64) -> Status {
         Status {
             state,
             entry: Some(0),

@@ -9,6 +9,8 @@
 //! buffers it keeps, and draws only when the picture changes.
 //!
 //! - [`playback`]: the controls as a plain type; [`live`]: the machine's clock;
+//!   [`model`]: what the page shows as plain types (the clock on screen, the renderer
+//!   chosen, the ball selected), so that [`PreviewPage`] only wires them;
 //! - [`camera`], [`scene`], [`gestures`]: the 3D view's maths and touch handling;
 //! - [`stage`]: a show on a canvas (sampling and the renderer); [`gl`]: WebGL2;
 //!   [`top_view`]: the 2D fallback;
@@ -18,6 +20,7 @@ pub mod camera;
 pub mod gestures;
 pub mod gl;
 pub mod live;
+pub mod model;
 pub mod perf;
 pub mod playback;
 pub mod plot;
@@ -25,7 +28,6 @@ pub mod scene;
 pub mod stage;
 pub mod top_view;
 
-use std::cell::Cell;
 use std::rc::Rc;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -40,7 +42,7 @@ use wasm_bindgen::JsCast;
 use crate::files::format_duration_ms;
 use crate::i18n::{Lang, Text};
 use gestures::{Gesture, Gestures};
-use live::LiveClock;
+use model::{Clock, Mode, ViewChoice};
 use perf::PerfPanel;
 use playback::{Playback, SPEEDS};
 use plot::BallPlot;
@@ -76,15 +78,11 @@ impl Checked {
     }
 }
 
-/// Which view the user asked for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Mode {
-    ThreeD,
-    Top,
-}
-
 /// The preview of `show`: the stage, the controls, the time, the tapped ball's plot,
 /// and the show's problems against the default limits.
+///
+/// What it shows is kept in two plain models ([`model`]): the [`Clock`], which
+/// moves every frame, and the [`ViewChoice`], which moves when the user asks.
 #[component]
 pub fn PreviewPage(
     /// The show to play; `None` shows a hint.
@@ -100,38 +98,33 @@ pub fn PreviewPage(
     #[prop(optional, into)]
     status: MaybeProp<Status>,
 ) -> impl IntoView {
-    let playback = RwSignal::new(Playback::new(0));
+    let clock = RwSignal::new(Clock::new(now_ms()));
+    let view_choice = RwSignal::new(ViewChoice::default());
     let checked = Memo::new(move |_| show.with(|show| show.as_ref().map(Checked::of)));
-    let canvas = NodeRef::<Canvas>::new();
     let stage = StoredValue::new_local(None::<Stage>);
-    let mode = RwSignal::new(Mode::ThreeD);
-    let no_webgl = RwSignal::new(None::<String>);
-    let renderer = Memo::new(move |_| {
-        if mode.get() == Mode::ThreeD && no_webgl.with(Option::is_none) {
-            RendererKind::WebGl2
-        } else {
-            RendererKind::TopView
-        }
-    });
-    let selected = RwSignal::new(None::<usize>);
-    let gestures = StoredValue::new(Gestures::default());
-    let live_clock = StoredValue::new(LiveClock::default());
-    let live_available = RwSignal::new(false);
-    let live_on = RwSignal::new(false);
-    let perf_open = RwSignal::new(false);
+    let renderer = Memo::new(move |_| view_choice.with(ViewChoice::renderer));
+    let selected = Memo::new(move |_| view_choice.with(ViewChoice::selected));
+    let live = Memo::new(move |_| clock.with(|c| (c.live_on(), c.live_available())));
+    let parts = StageParts {
+        show,
+        canvas: NodeRef::new(),
+        stage,
+        gestures: StoredValue::new(Gestures::default()),
+        view_choice,
+    };
 
     // A new show: from its start, nothing chosen.
     Effect::new(move |_| {
         let duration_ms = show.with(|show| show.as_ref().map_or(0, Show::duration_ms));
-        playback.update(|p| *p = p.for_show(duration_ms));
-        selected.set(None);
+        clock.update(|clock| clock.for_show(duration_ms));
+        view_choice.update(|view| view.select(None));
     });
 
     // The stage follows the show, the canvas and the renderer asked for; where WebGL2
     // cannot draw, the canvas is replaced by a 2D one.
     Effect::new(move |_| {
         let kind = renderer.get();
-        let canvas = canvas.get();
+        let canvas = parts.canvas.get();
         let beyond = checked.with(|checked| checked.as_ref().map(|c| c.beyond.clone()));
         show.with(|show| {
             let (Some(canvas), Some(show), Some(beyond)) = (canvas, show, beyond) else {
@@ -156,7 +149,7 @@ pub fn PreviewPage(
                 stage.set_value(None);
                 if kind == RendererKind::WebGl2 {
                     leptos::logging::warn!("3D preview unavailable: {why}");
-                    no_webgl.set(Some(why));
+                    view_choice.update(|view| view.webgl_failed(why));
                 }
             }
         });
@@ -164,58 +157,19 @@ pub fn PreviewPage(
 
     Effect::new(move |_| {
         let unit = selected.get();
-        stage.update_value(|stage| {
-            if let Some(stage) = stage {
-                stage.select(unit);
-            }
-        });
+        with_stage(stage, |stage| stage.select(unit));
     });
 
-    // Live mode: the bridge's reports feed the clock; it can only be on while the
-    // matrix plays this show.
+    // Live mode: the bridge's reports feed the clock.
     Effect::new(move |_| {
         let status = status.get();
         let name = name.get();
         let now = now_ms();
-        live_clock.update_value(|clock| clock.report(status.as_ref(), name.as_deref(), now));
-        let playing = live_clock.with_value(LiveClock::playing);
-        live_available.set(playing);
-        if !playing {
-            live_on.set(false);
-        }
+        clock.update(|clock| clock.report(status.as_ref(), name.as_deref(), now));
     });
 
-    // The frame loop: the clock (own or live), then a frame if the picture changed.
-    let alive = Arc::new(AtomicBool::new(true));
-    {
-        let alive = Arc::clone(&alive);
-        on_cleanup(move || alive.store(false, Ordering::Relaxed));
-    }
-    let last_ms = Rc::new(Cell::new(now_ms()));
-    let step = move || {
-        let now = now_ms();
-        let elapsed = now - last_ms.replace(now);
-        if live_on.get_untracked() {
-            if let Some(t_ms) = live_clock
-                .try_update_value(|clock| clock.time_at(now))
-                .flatten()
-            {
-                playback.update(|p| p.follow(t_ms));
-            }
-        } else if playback.with_untracked(Playback::playing) {
-            playback.update(|p| p.advance(elapsed));
-        }
-        let t_ms = playback.with_untracked(Playback::t_ms);
-        stage.update_value(|stage| {
-            if let Some(stage) = stage {
-                stage.draw(t_ms, false);
-            }
-        });
-    };
-    animate(Rc::new(step), alive);
+    run_frames(clock, stage);
 
-    // Taking the controls leaves live mode.
-    let take_over = move || live_on.set(false);
     let button = move |test_id: &'static str,
                        symbol: &'static str,
                        text: Text,
@@ -227,10 +181,7 @@ pub fn PreviewPage(
                 title=move || lang.get().t(text)
                 aria-label=move || lang.get().t(text)
                 disabled=move || show.with(Option::is_none)
-                on:click=move |_| {
-                    take_over();
-                    playback.update(action);
-                }
+                on:click=move |_| clock.update(|clock| clock.control(action))
             >
                 <span class="symbol" aria-hidden="true">
                     {symbol}
@@ -239,95 +190,9 @@ pub fn PreviewPage(
             </button>
         }
     };
-    let toggle_text = move || {
-        if playback.with(Playback::playing) {
-            Text::Pause
-        } else {
-            Text::Play
-        }
-    };
-
-    // Pointer gestures on the canvas.
-    let point = move |event: &web_sys::MouseEvent| {
-        let rect = event
-            .target()
-            .and_then(|target| target.dyn_into::<web_sys::Element>().ok())
-            .map(|element| element.get_bounding_client_rect());
-        let (left, top) = rect.map_or((0.0, 0.0), |rect| (rect.left(), rect.top()));
-        Vec2::new(
-            (f64::from(event.client_x()) - left) as f32,
-            (f64::from(event.client_y()) - top) as f32,
-        )
-    };
-    let apply = move |moves: Vec<Gesture>| {
-        stage.update_value(|stage| {
-            if let Some(stage) = stage {
-                for gesture in moves {
-                    stage.apply(gesture);
-                }
-            }
-        });
-    };
-    let released = move |event: web_sys::PointerEvent, tap: bool| {
-        let at = point(&event);
-        let gesture = gestures
-            .try_update_value(|g| g.up(event.pointer_id(), at, tap, now_ms()))
-            .flatten();
-        if let Some(Gesture::Tap(at)) = gesture {
-            let picked = stage.with_value(|stage| stage.as_ref().and_then(|s| s.pick(at)));
-            selected.set(picked);
-        }
-    };
-    // One canvas per renderer: a canvas that had a WebGL2 context cannot draw in 2D,
-    // so switching makes a new one.
-    let stage_canvas = move |kind: RendererKind| {
-        let style = move || match (kind, show.with(|show| show.as_ref().map(|s| s.layout))) {
-            (RendererKind::TopView, Some(layout)) => format!(
-                "aspect-ratio: {} / {}",
-                layout.cols.max(1),
-                layout.rows.max(1)
-            ),
-            (RendererKind::TopView, None) => "aspect-ratio: 1".to_owned(),
-            (RendererKind::WebGl2, _) => String::new(),
-        };
-        view! {
-            <canvas
-                node_ref=canvas
-                class="stage"
-                class:three-d=kind == RendererKind::WebGl2
-                data-testid="preview-canvas"
-                data-renderer=kind.name()
-                style=style
-                on:pointerdown=move |event| {
-                    let at = point(&event);
-                    let pan = event.button() == 2 || event.shift_key();
-                    gestures.update_value(|g| g.down(event.pointer_id(), at, pan, now_ms()));
-                    if let Some(target) = event
-                        .target()
-                        .and_then(|target| target.dyn_into::<web_sys::Element>().ok())
-                    {
-                        // Synthetic pointers cannot be captured; the drag then ends at
-                        // the canvas's edge.
-                        let _ = target.set_pointer_capture(event.pointer_id());
-                    }
-                }
-                on:pointermove=move |event| {
-                    let at = point(&event);
-                    let moves = gestures
-                        .try_update_value(|g| g.moved(event.pointer_id(), at))
-                        .unwrap_or_default();
-                    apply(moves);
-                }
-                on:pointerup=move |event| released(event, true)
-                on:pointercancel=move |event| released(event, false)
-                on:wheel=move |event| {
-                    event.prevent_default();
-                    apply(vec![Gestures::wheel(event.delta_y())]);
-                }
-                on:contextmenu=move |event| event.prevent_default()
-            ></canvas>
-        }
-    };
+    let playing = move || clock.with(|clock| clock.playback().playing());
+    let t_ms = move || clock.with(Clock::t_ms);
+    let toggle_text = move || if playing() { Text::Pause } else { Text::Play };
 
     let plot = Memo::new(move |_| {
         let unit = selected.get()?;
@@ -360,12 +225,12 @@ pub fn PreviewPage(
             <div class="stage-box">
                 <Show
                     when=move || renderer.get() == RendererKind::WebGl2
-                    fallback=move || stage_canvas(RendererKind::TopView)
+                    fallback=move || stage_canvas(RendererKind::TopView, parts)
                 >
-                    {stage_canvas(RendererKind::WebGl2)}
+                    {stage_canvas(RendererKind::WebGl2, parts)}
                 </Show>
             </div>
-            <Show when=move || no_webgl.with(Option::is_some) && mode.get() == Mode::ThreeD>
+            <Show when=move || view_choice.with(ViewChoice::explains_no_webgl)>
                 <p class="note" data-testid="preview-no-webgl">{move || lang.get().t(Text::NoWebGl)}</p>
             </Show>
             <div class="transport">
@@ -374,17 +239,14 @@ pub fn PreviewPage(
                 <button
                     class="icon"
                     data-testid="preview-toggle"
-                    data-playing=move || playback.with(Playback::playing).to_string()
+                    data-playing=move || playing().to_string()
                     title=move || lang.get().t(toggle_text())
                     aria-label=move || lang.get().t(toggle_text())
                     disabled=move || show.with(Option::is_none)
-                    on:click=move |_| {
-                        take_over();
-                        playback.update(Playback::toggle);
-                    }
+                    on:click=move |_| clock.update(|clock| clock.control(Playback::toggle))
                 >
                     <span class="symbol" aria-hidden="true">
-                        {move || if playback.with(Playback::playing) { "II" } else { "▶" }}
+                        {move || if playing() { "II" } else { "▶" }}
                     </span>
                     <span class="caption">{move || lang.get().t(toggle_text())}</span>
                 </button>
@@ -392,14 +254,14 @@ pub fn PreviewPage(
                 <span
                     class="time mono"
                     data-testid="preview-time"
-                    data-t-ms=move || format!("{:.0}", playback.with(Playback::t_ms))
+                    data-t-ms=move || format!("{:.0}", t_ms())
                 >
                     {move || {
-                        playback.with(|p| {
+                        clock.with(|clock| {
                             format!(
                                 "{} / {}",
-                                format_duration_ms(p.t_ms() as u64),
-                                format_duration_ms(p.duration_ms() as u64),
+                                format_duration_ms(clock.t_ms() as u64),
+                                format_duration_ms(clock.playback().duration_ms() as u64),
                             )
                         })
                     }}
@@ -412,12 +274,11 @@ pub fn PreviewPage(
                 step="10"
                 aria-label=move || lang.get().t(Text::ShowTime)
                 data-testid="preview-slider"
-                prop:max=move || playback.with(Playback::duration_ms)
-                prop:value=move || playback.with(Playback::t_ms)
+                prop:max=move || clock.with(|clock| clock.playback().duration_ms())
+                prop:value=t_ms
                 on:input=move |ev| {
                     if let Ok(t_ms) = event_target_value(&ev).parse::<f64>() {
-                        take_over();
-                        playback.update(|p| p.seek(t_ms));
+                        clock.update(|clock| clock.control(|p| p.seek(t_ms)));
                     }
                 }
             />
@@ -428,7 +289,7 @@ pub fn PreviewPage(
                         data-testid="preview-speed"
                         on:change=move |ev| {
                             if let Ok(speed) = event_target_value(&ev).parse::<f64>() {
-                                playback.update(|p| p.set_speed(speed));
+                                clock.update(|clock| clock.set_speed(speed));
                             }
                         }
                     >
@@ -438,7 +299,7 @@ pub fn PreviewPage(
                                 view! {
                                     <option
                                         value=speed.to_string()
-                                        selected=move || playback.with(Playback::speed) == *speed
+                                        selected=move || clock.with(|clock| clock.playback().speed()) == *speed
                                     >
                                         {format!("{speed}×")}
                                     </option>
@@ -450,12 +311,12 @@ pub fn PreviewPage(
                 <Show when=move || status.with(Option::is_some)>
                     <button
                         class="toggle"
-                        class:on=move || live_on.get()
+                        class:on=move || live.get().0
                         data-testid="preview-live"
-                        aria-pressed=move || live_on.get().to_string()
+                        aria-pressed=move || live.get().0.to_string()
                         title=move || lang.get().t(Text::LiveHint)
-                        disabled=move || !live_available.get()
-                        on:click=move |_| live_on.update(|on| *on = !*on)
+                        disabled=move || !live.get().1
+                        on:click=move |_| clock.update(Clock::toggle_live)
                     >
                         {move || lang.get().t(Text::Live)}
                     </button>
@@ -463,16 +324,16 @@ pub fn PreviewPage(
                 <div class="segmented" role="group">
                     <button
                         data-testid="preview-mode-3d"
-                        aria-pressed=move || (mode.get() == Mode::ThreeD).to_string()
-                        disabled=move || no_webgl.with(Option::is_some)
-                        on:click=move |_| mode.set(Mode::ThreeD)
+                        aria-pressed=move || (view_choice.with(ViewChoice::mode) == Mode::ThreeD).to_string()
+                        disabled=move || !view_choice.with(ViewChoice::offers_3d)
+                        on:click=move |_| view_choice.update(|view| view.choose(Mode::ThreeD))
                     >
                         {move || lang.get().t(Text::View3d)}
                     </button>
                     <button
                         data-testid="preview-mode-top"
                         aria-pressed=move || (renderer.get() == RendererKind::TopView).to_string()
-                        on:click=move |_| mode.set(Mode::Top)
+                        on:click=move |_| view_choice.update(|view| view.choose(Mode::Top))
                     >
                         {move || lang.get().t(Text::TopView)}
                     </button>
@@ -480,31 +341,28 @@ pub fn PreviewPage(
                 <Show when=move || renderer.get() == RendererKind::WebGl2>
                     <button
                         data-testid="preview-reset-view"
-                        on:click=move |_| stage.update_value(|stage| {
-                            if let Some(stage) = stage {
-                                stage.reset_view();
-                            }
-                        })
+                        on:click=move |_| with_stage(stage, Stage::reset_view)
                     >
                         {move || lang.get().t(Text::ResetView)}
                     </button>
                 </Show>
                 <button
                     class="toggle"
-                    class:on=move || perf_open.get()
+                    class:on=move || view_choice.with(ViewChoice::perf_open)
                     data-testid="preview-perf"
-                    aria-pressed=move || perf_open.get().to_string()
+                    aria-pressed=move || view_choice.with(ViewChoice::perf_open).to_string()
                     on:click=move |_| {
-                        if !perf_open.get_untracked() {
-                            playback.update(Playback::pause);
+                        let mut opened = false;
+                        view_choice.update(|view| opened = view.toggle_perf());
+                        if opened {
+                            clock.update(Clock::pause);
                         }
-                        perf_open.update(|open| *open = !*open);
                     }
                 >
                     {move || lang.get().t(Text::Performance)}
                 </button>
             </div>
-            <Show when=move || status.with(Option::is_some) && !live_available.get()>
+            <Show when=move || status.with(Option::is_some) && !live.get().1>
                 <p class="muted small" data-testid="preview-live-hint">{move || lang.get().t(Text::LiveHint)}</p>
             </Show>
             <Show when=move || renderer.get() == RendererKind::WebGl2 && show.with(Option::is_some)>
@@ -513,39 +371,172 @@ pub fn PreviewPage(
             {move || {
                 plot.get()
                     .map(|plot| {
-                        let t_ms = Signal::derive(move || playback.with(Playback::t_ms));
-                        view! { <PlotPanel plot lang t_ms on_close=move || selected.set(None) /> }
+                        let t_ms = Signal::derive(t_ms);
+                        let on_close = move || view_choice.update(|view| view.select(None));
+                        view! { <PlotPanel plot lang t_ms on_close /> }
                     })
             }}
-            <Show when=move || perf_open.get()>
+            <Show when=move || view_choice.with(ViewChoice::perf_open)>
                 <PerfPanel lang />
             </Show>
             <Show when=move || show.with(Option::is_some)>
-                {move || {
-                    checked.with(|checked| {
-                        let violations = checked.as_ref().map_or(&[][..], |c| &c.violations[..]);
-                        let count = violations.len();
-                        if count == 0 {
-                            view! { <p class="note done" data-testid="preview-valid">{move || lang.get().t(Text::WithinLimits)}</p> }
-                                .into_any()
-                        } else {
-                            let shown: Vec<String> = violations.iter().take(PROBLEMS_SHOWN).map(ToString::to_string).collect();
-                            let more = count.saturating_sub(shown.len());
-                            view! {
-                                <div class="note error" data-testid="preview-problems">
-                                    <p>{move || lang.get().t(Text::BeyondLimits)} " " {count}</p>
-                                    <ul>
-                                        {shown.into_iter().map(|problem| view! { <li>{problem}</li> }).collect_view()}
-                                        {(more > 0).then(|| view! { <li>"…"</li> })}
-                                    </ul>
-                                </div>
-                            }
-                                .into_any()
-                        }
-                    })
-                }}
+                {move || checked.with(|checked| problems_view(checked.as_ref(), lang))}
             </Show>
         </div>
+    }
+}
+
+/// The show's problems against the default limits, or that it is within them.
+fn problems_view(checked: Option<&Checked>, lang: Signal<Lang>) -> AnyView {
+    let violations = checked.map_or(&[][..], |c| &c.violations[..]);
+    let count = violations.len();
+    if count == 0 {
+        return view! { <p class="note done" data-testid="preview-valid">{move || lang.get().t(Text::WithinLimits)}</p> }
+            .into_any();
+    }
+    let shown: Vec<String> = violations
+        .iter()
+        .take(PROBLEMS_SHOWN)
+        .map(ToString::to_string)
+        .collect();
+    let more = count.saturating_sub(shown.len());
+    view! {
+        <div class="note error" data-testid="preview-problems">
+            <p>{move || lang.get().t(Text::BeyondLimits)} " " {count}</p>
+            <ul>
+                {shown.into_iter().map(|problem| view! { <li>{problem}</li> }).collect_view()}
+                {(more > 0).then(|| view! { <li>"…"</li> })}
+            </ul>
+        </div>
+    }
+    .into_any()
+}
+
+/// Runs `act` on the stage, if there is one.
+fn with_stage(stage: StoredValue<Option<Stage>, LocalStorage>, act: impl FnOnce(&mut Stage)) {
+    stage.update_value(|stage| {
+        if let Some(stage) = stage {
+            act(stage);
+        }
+    });
+}
+
+/// Starts the frame loop until the component goes: every frame the clock moves (own
+/// or live), then the stage draws if its picture changed.
+fn run_frames(clock: RwSignal<Clock>, stage: StoredValue<Option<Stage>, LocalStorage>) {
+    let alive = Arc::new(AtomicBool::new(true));
+    {
+        let alive = Arc::clone(&alive);
+        on_cleanup(move || alive.store(false, Ordering::Relaxed));
+    }
+    let step = move || {
+        let now = now_ms();
+        clock.maybe_update(|clock| clock.frame(now));
+        let t_ms = clock.with_untracked(Clock::t_ms);
+        with_stage(stage, |stage| {
+            stage.draw(t_ms, false);
+        });
+    };
+    animate(Rc::new(step), alive);
+}
+
+/// What the stage's canvas is wired to (all `Copy`, for the event handlers).
+#[derive(Clone, Copy)]
+struct StageParts {
+    show: Signal<Option<Show>>,
+    canvas: NodeRef<Canvas>,
+    stage: StoredValue<Option<Stage>, LocalStorage>,
+    gestures: StoredValue<Gestures>,
+    view_choice: RwSignal<ViewChoice>,
+}
+
+/// Where a pointer event is on its target, CSS pixels.
+fn point(event: &web_sys::MouseEvent) -> Vec2 {
+    let rect = event
+        .target()
+        .and_then(|target| target.dyn_into::<web_sys::Element>().ok())
+        .map(|element| element.get_bounding_client_rect());
+    let (left, top) = rect.map_or((0.0, 0.0), |rect| (rect.left(), rect.top()));
+    Vec2::new(
+        (f64::from(event.client_x()) - left) as f32,
+        (f64::from(event.client_y()) - top) as f32,
+    )
+}
+
+/// The canvas `kind` draws on, with the pointer gestures: drag to turn (or pan with
+/// the right button or Shift), wheel to zoom, tap to select a ball. One canvas per
+/// renderer: a canvas that had a WebGL2 context cannot draw in 2D, so switching
+/// makes a new one.
+fn stage_canvas(kind: RendererKind, parts: StageParts) -> impl IntoView {
+    let StageParts {
+        show,
+        canvas,
+        stage,
+        gestures,
+        view_choice,
+    } = parts;
+    let apply = move |moves: Vec<Gesture>| {
+        with_stage(stage, |stage| {
+            for gesture in moves {
+                stage.apply(gesture);
+            }
+        });
+    };
+    let released = move |event: web_sys::PointerEvent, tap: bool| {
+        let at = point(&event);
+        let gesture = gestures
+            .try_update_value(|g| g.up(event.pointer_id(), at, tap, now_ms()))
+            .flatten();
+        if let Some(Gesture::Tap(at)) = gesture {
+            let picked = stage.with_value(|stage| stage.as_ref().and_then(|s| s.pick(at)));
+            view_choice.update(|view| view.select(picked));
+        }
+    };
+    let style = move || match (kind, show.with(|show| show.as_ref().map(|s| s.layout))) {
+        (RendererKind::TopView, Some(layout)) => format!(
+            "aspect-ratio: {} / {}",
+            layout.cols.max(1),
+            layout.rows.max(1)
+        ),
+        (RendererKind::TopView, None) => "aspect-ratio: 1".to_owned(),
+        (RendererKind::WebGl2, _) => String::new(),
+    };
+    view! {
+        <canvas
+            node_ref=canvas
+            class="stage"
+            class:three-d=kind == RendererKind::WebGl2
+            data-testid="preview-canvas"
+            data-renderer=kind.name()
+            style=style
+            on:pointerdown=move |event| {
+                let at = point(&event);
+                let pan = event.button() == 2 || event.shift_key();
+                gestures.update_value(|g| g.down(event.pointer_id(), at, pan, now_ms()));
+                if let Some(target) = event
+                    .target()
+                    .and_then(|target| target.dyn_into::<web_sys::Element>().ok())
+                {
+                    // Synthetic pointers cannot be captured; the drag then ends at
+                    // the canvas's edge.
+                    let _ = target.set_pointer_capture(event.pointer_id());
+                }
+            }
+            on:pointermove=move |event| {
+                let at = point(&event);
+                let moves = gestures
+                    .try_update_value(|g| g.moved(event.pointer_id(), at))
+                    .unwrap_or_default();
+                apply(moves);
+            }
+            on:pointerup=move |event| released(event, true)
+            on:pointercancel=move |event| released(event, false)
+            on:wheel=move |event| {
+                event.prevent_default();
+                apply(vec![Gestures::wheel(event.delta_y())]);
+            }
+            on:contextmenu=move |event| event.prevent_default()
+        ></canvas>
     }
 }
 
