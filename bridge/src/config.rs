@@ -299,6 +299,7 @@ impl Config {
             .collect();
         Installation {
             limits: self.limits(),
+            pitch_mm: self.matrix.pitch_mm,
             counts_per_mm: self.matrix.counts_per_mm,
             gateways: self
                 .gateways
@@ -306,6 +307,7 @@ impl Config {
                 .map(|gateway| GatewaySpec {
                     port: gateway.port.clone(),
                     baud: gateway.baud,
+                    kind: floatball_shared::plan::DriveKind::Uim2503,
                 })
                 .collect(),
             units,
