@@ -931,6 +931,89 @@ mod tests {
         assert_eq!(config.gateways[1].stations, (10..=84).collect::<Vec<u8>>());
     }
 
+    /// Every unit's (gateway, station), row-major.
+    fn addresses(text: &str) -> Vec<(usize, u8)> {
+        parse(text)
+            .expect("config")
+            .installation()
+            .units
+            .iter()
+            .map(|address| (address.gateway, address.station))
+            .collect()
+    }
+
+    #[test]
+    fn unit_addresses_stay_as_they_were() {
+        // The default file: one gateway, stations 1 to 100.
+        let default: Vec<(usize, u8)> = (1..=100).map(|station| (0, station)).collect();
+        assert_eq!(addresses(DEFAULT_FILE), default);
+        // Ten units shared by three gateways: 4, 3, 3, each from its first station.
+        let text = "[matrix]\nrows = 2\ncols = 5\n\
+                    [[gateway]]\nport = \"sim\"\n\
+                    [[gateway]]\nport = \"sim\"\n\
+                    [[gateway]]\nport = \"sim\"\nfirst_station = 20\n";
+        assert_eq!(
+            addresses(text),
+            [
+                (0, 1),
+                (0, 2),
+                (0, 3),
+                (0, 4),
+                (1, 1),
+                (1, 2),
+                (1, 3),
+                (2, 20),
+                (2, 21),
+                (2, 22)
+            ]
+        );
+        // Counts and lists first, the rest shared among the others.
+        let text = "[matrix]\nrows = 2\ncols = 5\n\
+                    [[gateway]]\nport = \"sim\"\nfirst_station = 5\nunits = 3\n\
+                    [[gateway]]\nport = \"sim\"\n\
+                    [[gateway]]\nport = \"sim\"\nstations = [9, 7]\nfirst_station = 40\n\
+                    [[gateway]]\nport = \"sim\"\nfirst_station = 50\n";
+        assert_eq!(
+            addresses(text),
+            [
+                (0, 5),
+                (0, 6),
+                (0, 7),
+                (1, 1),
+                (1, 2),
+                (1, 3),
+                (2, 9),
+                (2, 7),
+                (3, 50),
+                (3, 51)
+            ]
+        );
+        // A gateway left with nothing to share serves no unit.
+        let text = "[matrix]\nrows = 1\ncols = 2\n\
+                    [[gateway]]\nport = \"sim\"\nunits = 2\n\
+                    [[gateway]]\nport = \"sim\"\n";
+        assert_eq!(addresses(text), [(0, 1), (0, 2)]);
+        // 150 units on two gateways: 75 each, the second from station 10.
+        let text = "[matrix]\nrows = 15\ncols = 10\n\
+                    [[gateway]]\nport = \"sim\"\n\
+                    [[gateway]]\nport = \"sim\"\nfirst_station = 10\n";
+        let two: Vec<(usize, u8)> = (1..=75)
+            .map(|station| (0, station))
+            .chain((10..=84).map(|station| (1, station)))
+            .collect();
+        assert_eq!(addresses(text), two);
+    }
+
+    #[test]
+    fn the_gateways_must_serve_every_unit_exactly() {
+        let text = "[matrix]\nrows = 1\ncols = 3\n[[gateway]]\nport = \"sim\"\nunits = 2\n";
+        assert_eq!(
+            parse(text).expect_err("2 of 3").to_string(),
+            "data/floatball.toml: the matrix has 1 × 3 = 3 units but the gateways serve 2; \
+             adjust the gateways' units or stations (each gateway serves at most 100)"
+        );
+    }
+
     #[test]
     fn too_many_units_for_the_gateways_is_refused() {
         let message = parse("[matrix]\nrows = 11\ncols = 10\n")
