@@ -118,9 +118,9 @@ fn check(data_dir: &std::path::Path) -> anyhow::Result<()> {
     println!(
         "{} is valid: {} × {} balls on {} gateway(s)",
         data_dir.join(config::FILE_NAME).display(),
-        config.matrix.rows,
-        config.matrix.cols,
-        config.gateways.len()
+        config.installation.limits.rows,
+        config.installation.limits.cols,
+        config.installation.gateways.len()
     );
     Ok(())
 }

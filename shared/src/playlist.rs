@@ -39,9 +39,8 @@ pub fn problems(playlist: &Playlist, show_exists: impl Fn(&str) -> bool) -> Vec<
             .then(|| format!("{what} is {cycles}; it must be from 1 to {MAX_CYCLES}"))
     };
     let delay = |what: &str, delay_ms: u64| {
-        (!delay_in_range(delay_ms)).then(|| {
-            format!("{what} is {delay_ms}; it must be at most {MAX_DELAY_MS} (one day)")
-        })
+        (!delay_in_range(delay_ms))
+            .then(|| format!("{what} is {delay_ms}; it must be at most {MAX_DELAY_MS} (one day)"))
     };
     for (index, entry) in playlist.entries.iter().enumerate().take(MAX_ENTRIES) {
         let number = index + 1;
