@@ -66,12 +66,15 @@ mod tests {
     use super::*;
     use crate::api::PlaylistEntry;
 
-    fn entry(show: &str, delay_ms: u64, cycles: u32) -> PlaylistEntry {
-        PlaylistEntry {
-            show: show.into(),
-            delay_ms,
-            cycles,
-        }
+    /// Entries from (show, delay_ms, cycles).
+    fn entries(list: &[(&str, u64, u32)]) -> Vec<PlaylistEntry> {
+        list.iter()
+            .map(|&(show, delay_ms, cycles)| PlaylistEntry {
+                show: show.into(),
+                delay_ms,
+                cycles,
+            })
+            .collect()
     }
 
     #[test]
@@ -85,7 +88,7 @@ mod tests {
     #[test]
     fn every_problem_is_listed_in_order() {
         let playlist = Playlist {
-            entries: vec![entry("rain", 0, 1), entry("snow", MAX_DELAY_MS + 1, 0)],
+            entries: entries(&[("rain", 0, 1), ("snow", MAX_DELAY_MS + 1, 0)]),
             loop_playlist: false,
             default_delay_ms: MAX_DELAY_MS + 1,
             default_cycles: 0,
@@ -102,7 +105,7 @@ mod tests {
         );
         assert!(problems(&Playlist::default(), |_| false).is_empty());
         let long = Playlist {
-            entries: vec![entry("rain", 0, 1); MAX_ENTRIES + 1],
+            entries: entries(&[("rain", 0, 1); MAX_ENTRIES + 1]),
             ..Playlist::default()
         };
         assert_eq!(

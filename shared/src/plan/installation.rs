@@ -78,13 +78,6 @@ pub struct GatewaySpec {
     pub kind: DriveKind,
 }
 
-impl GatewaySpec {
-    /// Whether this is the built-in simulated gateway.
-    pub fn is_sim(&self) -> bool {
-        self.port == SIM_PORT
-    }
-}
-
 /// Where one unit is reached.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct UnitAddress {
@@ -522,7 +515,5 @@ mod tests {
         assert_eq!(DriveKind::from_name("uim2503"), Some(DriveKind::Uim2503));
         assert_eq!(DriveKind::from_name("mbox"), None);
         assert_eq!(DriveKind::default(), DriveKind::Uim2503);
-        assert!(spec(SIM_PORT).is_sim());
-        assert!(!spec("/dev/ttyUSB0").is_sim());
     }
 }
