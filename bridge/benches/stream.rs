@@ -8,7 +8,7 @@ use floatball_bridge::link::{Link, LinkConfig};
 use floatball_bridge::playback::Playback;
 use floatball_shared::api::{LinkState, PlayerState};
 use floatball_shared::plan::player::Entry;
-use floatball_shared::plan::{GatewaySpec, Installation};
+use floatball_shared::plan::{DriveKind, GatewaySpec, Installation};
 use floatball_shared::show::{Layout, Limits, Show, Track, TrackRow};
 
 fn wave(row_count: usize) -> Show {
@@ -58,6 +58,7 @@ fn main() {
             vec![GatewaySpec {
                 port: "sim".into(),
                 baud,
+                kind: DriveKind::Uim2503,
             }],
             1,
         )

@@ -64,7 +64,7 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub port: String,
     /// The line's baud rate (a UIM2503 leaves the factory at 9600).
-    #[arg(long, default_value_t = 9600)]
+    #[arg(long, default_value_t = config::DEFAULT_SERIAL_BAUD)]
     pub baud: u32,
     /// Number of units behind the gateway (stations 1…N).
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u8).range(1..=sim::MAX_UNITS as i64))]
@@ -118,9 +118,9 @@ fn check(data_dir: &std::path::Path) -> anyhow::Result<()> {
     println!(
         "{} is valid: {} × {} balls on {} gateway(s)",
         data_dir.join(config::FILE_NAME).display(),
-        config.matrix.rows,
-        config.matrix.cols,
-        config.gateways.len()
+        config.installation.limits.rows,
+        config.installation.limits.cols,
+        config.installation.gateways.len()
     );
     Ok(())
 }

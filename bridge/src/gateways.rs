@@ -39,9 +39,10 @@ impl Gateways {
     /// If the configured e-stop does not encode (the configuration check already
     /// makes sure it does).
     pub fn open(config: &Config, latch: &Arc<Latch>) -> Result<Self, EncodeError> {
-        let estop = Batch::encode(&config.safety.estop, Form::Standard)?;
+        let estop = Batch::encode(&config.estop, Form::Standard)?;
+        let installation = &config.installation;
         let (feedback, _) = broadcast::channel(FEEDBACK_CAPACITY);
-        let links: Vec<Link> = config
+        let links: Vec<Link> = installation
             .gateways
             .iter()
             .enumerate()
@@ -51,12 +52,12 @@ impl Gateways {
                 link.latch = Arc::clone(latch);
                 // A simulated gateway has the installation's units and calibration.
                 link.sim = GatewayConfig {
-                    stations: gateway.stations.clone(),
+                    stations: installation.stations_on(index),
                     seed: index as u64,
-                    counts_per_mm: config.matrix.counts_per_mm,
-                    travel_mm: config.matrix.travel_mm,
-                    max_speed_mm_s: config.matrix.max_speed_mm_s,
-                    max_accel_mm_s2: config.matrix.max_accel_mm_s2,
+                    counts_per_mm: installation.counts_per_mm,
+                    travel_mm: installation.limits.travel_mm,
+                    max_speed_mm_s: installation.limits.max_speed_mm_s,
+                    max_accel_mm_s2: installation.limits.max_accel_mm_s2,
                     ..GatewayConfig::default()
                 };
                 Link::open(index, link)

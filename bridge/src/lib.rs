@@ -18,8 +18,11 @@
 //!
 //! # Layout
 //! - [`cli`]: the command line and what each command does.
-//! - [`config`]: `floatball.toml`, written with defaults on first start, checked with
-//!   errors that name the line.
+//! - [`config`]: `floatball.toml` (its defaults in `config/default.toml`, written on
+//!   first start), parsed (`config/raw.rs`) and checked (`config/check.rs`, the one
+//!   place the installation is checked) straight into the shared
+//!   [`Installation`](floatball_shared::plan::Installation), with errors that name the
+//!   line and column.
 //! - [`auth`]: the operator password (argon2id), bearer tokens, the login limit.
 //! - [`store`]: the show files on disk, validated before they are stored.
 //! - [`playlist`]: the playlist Start plays, stored beside the shows.
@@ -32,7 +35,8 @@
 //! - [`playback`]: the player driven by the clock and the links, the owner of the
 //!   status, and the link watchdog.
 //! - [`control`]: Start, Reset and Home as the WebSocket asks for them.
-//! - [`http`]: the HTTP API under `/api`.
+//! - [`http`]: the HTTP API under `/api`, and which browser origins may call it and
+//!   open the WebSocket ([`http::origin`]).
 //! - [`ws`]: the WebSocket endpoint `/ws`: status and feedback out, control in.
 //! - [`server`]: the router (API, WebSocket, static app) and its shutdown.
 //! - [`state`]: what every request handler shares.

@@ -2,7 +2,7 @@
 //! order, with which delay and how many cycles; stored in `<data-dir>/playlist.json`.
 //!
 //! A new playlist is checked as a whole ([`check`]) — every show must be stored, every
-//! count sensible — and written atomically, so a restart finds exactly the last
+//! count within the limits the app shares (`floatball_shared::playlist`) — and written atomically, so a restart finds exactly the last
 //! playlist accepted.
 
 use std::io;
@@ -10,21 +10,13 @@ use std::path::{Path, PathBuf};
 use std::sync::{Mutex, PoisonError};
 
 use floatball_shared::api::Playlist;
+use floatball_shared::playlist::problems;
 
 use crate::durable;
 use crate::store::Refused;
 
 /// The playlist file's name inside the data directory.
 pub const FILE_NAME: &str = "playlist.json";
-
-/// Most entries a playlist holds.
-pub const MAX_ENTRIES: usize = 1000;
-
-/// Longest delay before an entry, ms (one day).
-pub const MAX_DELAY_MS: u64 = 24 * 60 * 60 * 1000;
-
-/// Most cycles of one entry.
-pub const MAX_CYCLES: u32 = 1_000_000;
 
 /// Why the playlist cannot be read or written.
 #[derive(Debug, thiserror::Error)]
@@ -107,52 +99,13 @@ impl PlaylistStore {
     }
 }
 
-/// Checks a playlist: every entry's show is stored (`show_exists`), cycles are at
-/// least 1, delays at most a day, and there are at most [`MAX_ENTRIES`] entries.
+/// Checks a playlist: every entry's show is stored (`show_exists`), and counts and
+/// delays are within the shared limits ([`floatball_shared::playlist::problems`]).
 ///
 /// # Errors
 /// [`Refused`] listing every problem, entries numbered from 1.
 pub fn check(playlist: &Playlist, show_exists: impl Fn(&str) -> bool) -> Result<(), Refused> {
-    let mut details = Vec::new();
-    if playlist.entries.len() > MAX_ENTRIES {
-        details.push(format!(
-            "the playlist has {} entries; at most {MAX_ENTRIES} are allowed",
-            playlist.entries.len()
-        ));
-    }
-    for (index, entry) in playlist.entries.iter().enumerate().take(MAX_ENTRIES) {
-        let number = index + 1;
-        if !show_exists(&entry.show) {
-            details.push(format!(
-                "entry {number}: there is no show named \"{}\"",
-                entry.show
-            ));
-        }
-        if !(1..=MAX_CYCLES).contains(&entry.cycles) {
-            details.push(format!(
-                "entry {number}: cycles is {}; it must be from 1 to {MAX_CYCLES}",
-                entry.cycles
-            ));
-        }
-        if entry.delay_ms > MAX_DELAY_MS {
-            details.push(format!(
-                "entry {number}: delay_ms is {}; it must be at most {MAX_DELAY_MS} (one day)",
-                entry.delay_ms
-            ));
-        }
-    }
-    if !(1..=MAX_CYCLES).contains(&playlist.default_cycles) {
-        details.push(format!(
-            "default_cycles is {}; it must be from 1 to {MAX_CYCLES}",
-            playlist.default_cycles
-        ));
-    }
-    if playlist.default_delay_ms > MAX_DELAY_MS {
-        details.push(format!(
-            "default_delay_ms is {}; it must be at most {MAX_DELAY_MS} (one day)",
-            playlist.default_delay_ms
-        ));
-    }
+    let details = problems(playlist, show_exists);
     if details.is_empty() {
         Ok(())
     } else {
@@ -163,6 +116,7 @@ pub fn check(playlist: &Playlist, show_exists: impl Fn(&str) -> bool) -> Result<
 #[cfg(test)]
 mod tests {
     use floatball_shared::api::PlaylistEntry;
+    use floatball_shared::playlist::MAX_DELAY_MS;
 
     use super::*;
 

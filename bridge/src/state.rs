@@ -94,7 +94,7 @@ impl AppState {
         let tokens = Tokens::open(&paths.data_dir, clock.now());
         let latch = Arc::new(Latch::new());
         let gateways = Gateways::open(&config, &latch)?;
-        let playback = Playback::spawn(config.installation(), gateways.links().to_vec());
+        let playback = Playback::spawn(config.installation.clone(), gateways.links().to_vec());
         Ok(Self {
             inner: Arc::new(Inner {
                 config,

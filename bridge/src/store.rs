@@ -281,8 +281,8 @@ pub fn decode_upload(
                     .unwrap_or(u64::MAX),
                 max_json_bytes: uploads.max_bytes,
             };
-            import_csv_within(name.as_str(), text, config.layout(), limits).map_err(|error| {
-                match &error {
+            import_csv_within(name.as_str(), text, config.installation.layout(), limits).map_err(
+                |error| match &error {
                     ImportError::TooLarge { .. } => too_large(vec![error.to_string()]),
                     ImportError::Csv(csv) if matches!(csv.problem, CsvProblem::TooLong { .. }) => {
                         too_long(vec![error.to_string()])
@@ -291,8 +291,8 @@ pub fn decode_upload(
                         "the CSV keyframes cannot be imported",
                         vec![error.to_string()],
                     ),
-                }
-            })?
+                },
+            )?
         }
     };
     show.name = name.as_str().to_owned();
@@ -314,7 +314,7 @@ pub fn decode_upload(
             humantime::format_duration(std::time::Duration::from_millis(duration_ms))
         )]));
     }
-    let violations = validate(&show, &config.limits());
+    let violations = validate(&show, &config.installation.limits);
     if !violations.is_empty() {
         let count = violations.len();
         let mut details: Vec<String> = violations

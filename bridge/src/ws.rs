@@ -9,8 +9,6 @@
 //! [`STATUS_PER_S`] times a second (changes in between are merged: the latest wins),
 //! and every feedback frame of every gateway. Its reading and writing are separate
 //! tasks: what the client sends is acted on as it arrives, even while a status waits
-//! for a client that reads slowly. Its reading and writing are separate
-//! tasks: what the client sends is acted on as it arrives, even while a status waits
 //! for a client that reads slowly. Every message from the client counts as
 //! use of its token; when the token has expired or was ended by a logout, the
 //! session says so and closes. Anything the bridge cannot do is answered with an
@@ -31,7 +29,7 @@ use std::time::Duration;
 
 use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade, close_code};
 use axum::extract::{Query, State};
-use axum::http::{HeaderMap, StatusCode, header};
+use axum::http::{HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{ClientMessage, ServerMessage};
 use floatball_shared::ascii::{Batch, Form, parse_script};
@@ -39,9 +37,9 @@ use futures_util::{SinkExt, StreamExt};
 use tokio::sync::{broadcast, mpsc};
 use tokio::time::Instant;
 
-use crate::config::normalise_origin;
 use crate::control::{self, Control};
 use crate::http::Failure;
+use crate::http::origin::origin_allowed;
 use crate::state::AppState;
 
 /// Most `status` messages per second to one client.
@@ -95,37 +93,6 @@ pub async fn upgrade(
     upgrade
         .max_message_size(MAX_MESSAGE_BYTES)
         .on_upgrade(move |socket| session(socket, state, token))
-}
-
-/// Whether a request's `Origin` may open the WebSocket: none (not a browser), the
-/// bridge's own host (`Origin` matches `Host`), or a configured extra origin.
-fn origin_allowed(headers: &HeaderMap, allowed_origins: &[String]) -> bool {
-    let Some(origin) = headers.get(header::ORIGIN) else {
-        return true;
-    };
-    let Some(origin) = origin.to_str().ok().and_then(normalise_origin) else {
-        return false;
-    };
-    if allowed_origins.contains(&origin) {
-        return true;
-    }
-    let Some((scheme, authority)) = origin.split_once("://") else {
-        return false;
-    };
-    let Some(host) = headers
-        .get(header::HOST)
-        .and_then(|host| host.to_str().ok())
-    else {
-        return false;
-    };
-    let default_port = if scheme == "https" { ":443" } else { ":80" };
-    let strip = |authority: &str| -> String {
-        let lower = authority.trim().to_ascii_lowercase();
-        lower
-            .strip_suffix(default_port)
-            .map_or_else(|| lower.clone(), str::to_owned)
-    };
-    strip(authority) == strip(host)
 }
 
 /// What a session's writing loop does next.
@@ -477,49 +444,4 @@ fn answer(
 async fn send(sink: &mut Sink, message: &ServerMessage) -> Result<(), axum::Error> {
     let text = serde_json::to_string(message).map_err(axum::Error::new)?;
     sink.send(Message::Text(text.into())).await
-}
-
-#[cfg(test)]
-mod tests {
-    use axum::http::HeaderValue;
-
-    use super::*;
-
-    fn headers(origin: Option<&'static str>, host: &'static str) -> HeaderMap {
-        let mut headers = HeaderMap::new();
-        headers.insert(header::HOST, HeaderValue::from_static(host));
-        if let Some(origin) = origin {
-            headers.insert(header::ORIGIN, HeaderValue::from_static(origin));
-        }
-        headers
-    }
-
-    #[test]
-    fn same_origin_and_configured_origins_are_allowed() {
-        let allowed = ["http://kiosk.local:3000".to_owned()];
-        assert!(origin_allowed(&headers(None, "a:8080"), &allowed));
-        assert!(origin_allowed(
-            &headers(Some("http://192.168.1.17:8080"), "192.168.1.17:8080"),
-            &allowed
-        ));
-        assert!(origin_allowed(
-            &headers(Some("http://Bridge.local"), "bridge.local:80"),
-            &allowed
-        ));
-        assert!(origin_allowed(
-            &headers(Some("http://kiosk.local:3000"), "192.168.1.17:8080"),
-            &allowed
-        ));
-    }
-
-    #[test]
-    fn cross_site_origins_are_refused() {
-        let allowed = ["http://kiosk.local:3000".to_owned()];
-        for origin in ["http://evil.example", "http://192.168.1.17:8081", "null"] {
-            assert!(
-                !origin_allowed(&headers(Some(origin), "192.168.1.17:8080"), &allowed),
-                "{origin}"
-            );
-        }
-    }
 }

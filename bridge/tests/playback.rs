@@ -9,7 +9,7 @@ use floatball_bridge::link::{Link, LinkConfig};
 use floatball_bridge::playback::Playback;
 use floatball_shared::api::{LinkState, PlayerState, Status};
 use floatball_shared::plan::player::Entry;
-use floatball_shared::plan::{GatewaySpec, Installation};
+use floatball_shared::plan::{DriveKind, GatewaySpec, Installation};
 use floatball_shared::show::{Layout, Limits, Sampler, Show, Track, TrackRow};
 use floatball_shared::sim::GatewayConfig;
 use serialport::{SerialPort, TTYPort};
@@ -54,6 +54,7 @@ fn installation(rows: u32, cols: u32, port: &str, baud: u32) -> Installation {
         vec![GatewaySpec {
             port: port.into(),
             baud,
+            kind: DriveKind::Uim2503,
         }],
         1,
     )

@@ -8,7 +8,7 @@ use std::time::Instant;
 use criterion::{Criterion, criterion_group, criterion_main};
 use floatball_shared::plan::report::report_for;
 use floatball_shared::plan::schedule::ROUND_ROWS;
-use floatball_shared::plan::{GatewaySpec, Installation, Plan, PlanOptions, stream};
+use floatball_shared::plan::{DriveKind, GatewaySpec, Installation, Plan, PlanOptions, stream};
 use floatball_shared::show::{Layout, Limits, Show, Track, TrackRow};
 
 /// A wave across 10 × 10 balls, 600 rows of 250 ms each (150 s).
@@ -57,6 +57,7 @@ fn installation() -> Installation {
         vec![GatewaySpec {
             port: "sim".into(),
             baud: 115_200,
+            kind: DriveKind::Uim2503,
         }],
         1,
     )

@@ -14,8 +14,11 @@
 //! - [`feedback`]: the binary feedback frames (gateway → host): the streaming decoder, the
 //!   frame encoder, typed ACKs, notifications and errors, and every code in one place
 //!   ([`feedback::code`]).
-//! - [`plan`]: from a show and an installation to each gateway's instruction stream in
-//!   the fewest bytes, the FIFO refill schedule and the bandwidth / feasibility report.
+//! - [`plan`]: the installation (gateways, kinds of drive, which unit hangs where) and,
+//!   from a show and an installation, each gateway's instruction stream in the fewest
+//!   bytes, the FIFO refill schedule and the bandwidth / feasibility report.
+//! - [`playlist`]: the playlist's limits and the one check of its ranges, used by the
+//!   bridge and the app alike.
 //! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
 //!   single-sequence and loop runs, `MP` parameters, watermark) driven by time.
 //! - [`show`]: the show model and its native file format, CSV keyframe import,
@@ -33,6 +36,7 @@ pub mod api;
 pub mod ascii;
 pub mod feedback;
 pub mod plan;
+pub mod playlist;
 pub mod pvt;
 pub mod show;
 pub mod sim;

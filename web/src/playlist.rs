@@ -8,9 +8,11 @@
 //! the verdict of the bandwidth reports before Start.
 
 use floatball_shared::api::{PlanReport, Playlist, PlaylistEntry};
+use floatball_shared::playlist::{cycles_in_range, delay_in_range};
 
-/// The longest delay accepted, ms (one day).
-pub const MAX_DELAY_MS: u64 = 86_400_000;
+/// The most cycles the forms accept (the bridge takes more; the form's message names
+/// this number).
+pub const FORM_MAX_CYCLES: u32 = 10_000;
 
 /// A playlist being edited, with one checkbox per entry.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -182,7 +184,8 @@ pub fn parse_delay_s(text: &str) -> Result<u64, InputError> {
         .parse()
         .map_err(|_| InputError::Delay)?;
     let ms = (seconds * 1000.0).round();
-    if ms.is_finite() && (0.0..=MAX_DELAY_MS as f64).contains(&ms) {
+    // `as` saturates: anything past `u64::MAX` ms is out of range all the same.
+    if ms.is_finite() && ms >= 0.0 && delay_in_range(ms as u64) {
         Ok(ms as u64)
     } else {
         Err(InputError::Delay)
@@ -195,13 +198,13 @@ pub fn format_delay_s(delay_ms: u64) -> String {
     text.trim_end_matches('0').trim_end_matches('.').to_owned()
 }
 
-/// Reads a number of cycles (1 to 10 000).
+/// Reads a number of cycles (1 to [`FORM_MAX_CYCLES`]).
 ///
 /// # Errors
 /// [`InputError::Cycles`].
 pub fn parse_cycles(text: &str) -> Result<u32, InputError> {
     match text.trim().parse::<u32>() {
-        Ok(cycles @ 1..=10_000) => Ok(cycles),
+        Ok(cycles) if cycles_in_range(cycles) && cycles <= FORM_MAX_CYCLES => Ok(cycles),
         _ => Err(InputError::Cycles),
     }
 }
@@ -386,6 +389,10 @@ mod tests {
         assert_eq!(parse_cycles("3"), Ok(3));
         assert_eq!(parse_cycles("0"), Err(InputError::Cycles));
         assert_eq!(parse_cycles("1.5"), Err(InputError::Cycles));
+        assert_eq!(parse_cycles("10000"), Ok(10_000));
+        assert_eq!(parse_cycles("10001"), Err(InputError::Cycles));
+        assert_eq!(parse_delay_s("86400"), Ok(86_400_000));
+        assert_eq!(parse_delay_s("86400.001"), Err(InputError::Delay));
         assert_eq!(format_delay_s(1500), "1.5");
         assert_eq!(format_delay_s(0), "0");
         assert_eq!(format_delay_s(2000), "2");

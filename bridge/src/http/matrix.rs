@@ -34,8 +34,8 @@ pub async fn plan(
             .map_err(|error| Failure::internal("a stored show is not UTF-8", &error))?;
         let show = Show::from_json(&text)
             .map_err(|error| Failure::new(StatusCode::UNPROCESSABLE_ENTITY, error.to_string()))?;
-        let installation = planning.config().installation();
-        Ok(report(&show, &installation, PlanOptions::default()))
+        let installation = &planning.config().installation;
+        Ok(report(&show, installation, PlanOptions::default()))
     })
     .await?;
     result.map(Json)

@@ -4,7 +4,8 @@
 //!   handler run only for a logged-in client ([`session::Session`]) or only once the
 //!   initial password is changed ([`session::Operator`]);
 //! - [`library`]: the show files and the playlist;
-//! - [`matrix`]: the feasibility report of a show, and the simulated balls' positions.
+//! - [`matrix`]: the feasibility report of a show, and the simulated balls' positions;
+//! - [`origin`]: which browser origins may call the API (CORS) and open the WebSocket.
 //!
 //! Every error answer is an [`ApiError`] JSON body with the right status code
 //! ([`Failure`]); so are unknown `/api` paths (404) and methods (405), and the
@@ -13,17 +14,17 @@
 
 pub mod library;
 pub mod matrix;
+pub mod origin;
 pub mod session;
 
 use axum::Router;
 use axum::extract::DefaultBodyLimit;
-use axum::http::{HeaderValue, Method, StatusCode, header};
+use axum::http::{HeaderValue, StatusCode, header};
 use axum::middleware::map_response;
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use floatball_shared::api::ApiError;
 use serde::de::DeserializeOwned;
-use tower_http::cors::{AllowOrigin, CorsLayer};
 
 use crate::state::AppState;
 
@@ -58,21 +59,7 @@ pub fn router(state: &AppState) -> Router<AppState> {
         .method_not_allowed_fallback(method_not_allowed)
         .layer(map_response(json_errors))
         .layer(DefaultBodyLimit::max(MAX_JSON_BYTES))
-        .layer(cors(&state.config().allowed_origins))
-}
-
-/// CORS for the extra origins of the configuration (the bridge's own origin needs
-/// none).
-fn cors(allowed_origins: &[String]) -> CorsLayer {
-    let origins: Vec<HeaderValue> = allowed_origins
-        .iter()
-        .filter_map(|origin| HeaderValue::from_str(origin).ok())
-        .collect();
-    CorsLayer::new()
-        .allow_origin(AllowOrigin::list(origins))
-        .allow_methods([Method::GET, Method::PUT, Method::POST, Method::DELETE])
-        .allow_headers([header::AUTHORIZATION, header::CONTENT_TYPE])
-        .expose_headers([header::RETRY_AFTER])
+        .layer(origin::cors(&state.config().allowed_origins))
 }
 
 /// Makes every error answer an [`ApiError`] JSON body: an answer of 400 or above that

@@ -41,6 +41,7 @@ use std::time::{Duration, Instant};
 use floatball_shared::api::LinkState;
 use floatball_shared::ascii::{Form, parse_script};
 use floatball_shared::feedback::Frame;
+use floatball_shared::plan::installation::SIM_PORT;
 use floatball_shared::sim::GatewayConfig;
 use tokio::sync::{Notify, broadcast, watch};
 
@@ -49,9 +50,6 @@ use lanes::{Popped, Queues};
 use pacer::{Pacer, RateMeter};
 
 use crate::estop::Latch;
-
-/// The `port` value that selects the simulated gateway.
-pub const SIM_PORT: &str = "sim";
 
 /// How many bytes the bulk lane holds before [`Link::send`] waits.
 pub const BULK_CAPACITY_BYTES: usize = 64 * 1024;

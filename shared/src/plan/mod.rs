@@ -1,8 +1,10 @@
 //! From a show and an installation to what each gateway's line carries (PROTOCOL §1.6,
 //! DESIGN §4–5): the planner.
 //!
-//! - this module: the [`Installation`] (which unit hangs where, calibration, lines) and
-//!   the [`Plan`]: every unit's rows in counts and how each gateway runs them;
+//! - [`installation`]: the [`Installation`] (which unit hangs where, calibration, lines,
+//!   kinds of drive) and the one rule that gives every unit its gateway and station;
+//! - this module: the [`Plan`]: every unit's rows in counts and how each gateway runs
+//!   them;
 //! - [`stream`]: the instruction stream in the fewest bytes the manual allows — compact
 //!   form, one `*N;` per batch of a station's rows, and `*0;` broadcasts of what every
 //!   unit of a gateway shares (a row, or just its duration);
@@ -16,14 +18,14 @@
 //! rounding error stays below half a count and never accumulates along a track.
 //!
 //! ```
-//! use floatball_shared::plan::{Installation, GatewaySpec, Plan, PlanOptions, RunMode};
+//! use floatball_shared::plan::{DriveKind, Installation, GatewaySpec, Plan, PlanOptions, RunMode};
 //! use floatball_shared::show::{Layout, Limits, Show, Track, TrackRow};
 //!
 //! let layout = Layout { rows: 1, cols: 2, pitch_mm: 500.0 };
 //! let installation = Installation::row_major(
 //!     Limits::for_layout(1, 2),
 //!     100.0,
-//!     vec![GatewaySpec { port: "sim".into(), baud: 115_200 }],
+//!     vec![GatewaySpec { port: "sim".into(), baud: 115_200, kind: DriveKind::Uim2503 }],
 //!     1,
 //! ).unwrap();
 //! let track = |to_mm: f64| Track {
@@ -37,6 +39,7 @@
 //! assert_eq!(plan.gateways[0].mode, RunMode::Single);
 //! ```
 
+pub mod installation;
 pub mod player;
 pub mod report;
 pub mod schedule;
@@ -47,111 +50,12 @@ mod player_tests;
 
 use thiserror::Error;
 
+pub use installation::{
+    AllocationError, DriveKind, GatewaySpec, Installation, MAX_UNITS_PER_GATEWAY, UnitAddress,
+};
+
 use crate::pvt::{ROW_MAX_MS, ROW_MIN_MS, Row, TABLE_ROWS};
-use crate::show::{Limits, Show, Violation, validate};
-
-/// A gateway's line.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct GatewaySpec {
-    /// `sim` or a serial device.
-    pub port: String,
-    /// The line's speed, baud (8N1: baud / 10 bytes per second).
-    pub baud: u32,
-}
-
-/// Where one unit is reached.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct UnitAddress {
-    /// Index of the gateway in [`Installation::gateways`].
-    pub gateway: usize,
-    /// The unit's station number on that gateway's bus (1–127).
-    pub station: u8,
-}
-
-/// The machine a show runs on.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Installation {
-    /// Physical limits and the matrix size (rows × cols).
-    pub limits: Limits,
-    /// Calibration: encoder counts per millimetre of ball travel.
-    pub counts_per_mm: f64,
-    /// The gateways, in configuration order.
-    pub gateways: Vec<GatewaySpec>,
-    /// Every unit's address, row-major (`units[row * cols + col]`).
-    pub units: Vec<UnitAddress>,
-    /// Speed of the point-to-point moves before a show and when homing, mm/s.
-    pub approach_speed_mm_s: f64,
-    /// Where balls go when homing (Reset, Start after an e-stop), mm below the top.
-    pub home_mm: f64,
-    /// The stop deceleration (`SD`) for runs that end moving, mm/s².
-    pub stop_decel_mm_s2: f64,
-}
-
-/// The most units the manual allows on one gateway.
-pub const MAX_UNITS_PER_GATEWAY: usize = 100;
-
-impl Installation {
-    /// An installation whose units are spread row-major over `gateways`, at most
-    /// [`MAX_UNITS_PER_GATEWAY`] each, on consecutive stations from `first_station`.
-    ///
-    /// # Errors
-    /// [`PlanError::TooFewGateways`] when the matrix needs more gateways, and
-    /// [`PlanError::StationOutOfRange`] when the stations would pass 127.
-    pub fn row_major(
-        limits: Limits,
-        counts_per_mm: f64,
-        gateways: Vec<GatewaySpec>,
-        first_station: u8,
-    ) -> Result<Self, PlanError> {
-        let count = limits.rows as usize * limits.cols as usize;
-        let per_gateway = count.div_ceil(gateways.len().max(1));
-        if gateways.is_empty() || per_gateway > MAX_UNITS_PER_GATEWAY {
-            return Err(PlanError::TooFewGateways {
-                units: count,
-                gateways: gateways.len(),
-            });
-        }
-        let mut units = Vec::with_capacity(count);
-        for unit in 0..count {
-            let offset = unit % per_gateway;
-            let station = u8::try_from(usize::from(first_station) + offset)
-                .ok()
-                .filter(|station| (1..=127).contains(station))
-                .ok_or(PlanError::StationOutOfRange {
-                    station: usize::from(first_station) + offset,
-                })?;
-            units.push(UnitAddress {
-                gateway: unit / per_gateway,
-                station,
-            });
-        }
-        Ok(Self {
-            limits,
-            counts_per_mm,
-            gateways,
-            units,
-            approach_speed_mm_s: 300.0,
-            home_mm: 0.0,
-            stop_decel_mm_s2: limits.max_accel_mm_s2,
-        })
-    }
-
-    /// `mm` in counts, rounded; `None` when it does not fit an `i32`.
-    pub fn counts(&self, mm: f64) -> Option<i32> {
-        let counts = (mm * self.counts_per_mm).round();
-        (counts.is_finite() && counts >= f64::from(i32::MIN) && counts <= f64::from(i32::MAX))
-            .then_some(counts as i32)
-    }
-
-    /// The units (indices into [`Installation::units`]) on `gateway`, in order.
-    pub fn units_on(&self, gateway: usize) -> impl Iterator<Item = usize> + '_ {
-        self.units
-            .iter()
-            .enumerate()
-            .filter(move |(_, address)| address.gateway == gateway)
-            .map(|(unit, _)| unit)
-    }
-}
+use crate::show::{Show, Violation, validate};
 
 /// How a gateway's units run their rows (`MP[3]`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -273,20 +177,6 @@ pub enum PlanError {
         value_mm: f64,
         /// The calibration.
         counts_per_mm: f64,
-    },
-    /// The matrix needs more gateways than configured.
-    #[error("{units} units need at least {} gateways (at most 100 units each), but {gateways} are configured", units.div_ceil(MAX_UNITS_PER_GATEWAY))]
-    TooFewGateways {
-        /// Units in the matrix.
-        units: usize,
-        /// Gateways configured.
-        gateways: usize,
-    },
-    /// A station number would pass 127.
-    #[error("station {station} is out of range (1–127)")]
-    StationOutOfRange {
-        /// The station that would be needed.
-        station: usize,
     },
     /// The installation's unit list does not match its matrix size.
     #[error("the installation lists {listed} units for a matrix of {expected}")]
@@ -438,7 +328,7 @@ pub(crate) mod tests {
     use wasm_bindgen_test::wasm_bindgen_test as test;
 
     use super::*;
-    use crate::show::{Layout, Track, TrackRow};
+    use crate::show::{Layout, Limits, Track, TrackRow};
 
     /// A wave across a `rows` × `cols` matrix: every ball bobs 0.5 m around 3 m with a
     /// phase that moves along the columns; `rows_per_ball` rows of `row_ms`.
@@ -492,6 +382,7 @@ pub(crate) mod tests {
             vec![GatewaySpec {
                 port: "sim".into(),
                 baud,
+                kind: DriveKind::Uim2503,
             }],
             1,
         )
@@ -559,32 +450,5 @@ pub(crate) mod tests {
         show.tracks[0].rows[3].position_mm = 9000.0;
         let error = Plan::new(&show, &installation, PlanOptions::default()).unwrap_err();
         assert!(error.to_string().contains("not valid"), "{error}");
-    }
-
-    #[test]
-    fn big_matrices_spread_over_gateways() {
-        let limits = Limits::for_layout(15, 10);
-        let spec = |port: &str| GatewaySpec {
-            port: port.into(),
-            baud: 115_200,
-        };
-        let error = Installation::row_major(limits, 100.0, vec![spec("a")], 1).unwrap_err();
-        assert!(error.to_string().contains("at least 2 gateways"), "{error}");
-        let two = Installation::row_major(limits, 100.0, vec![spec("a"), spec("b")], 1).unwrap();
-        assert_eq!(
-            two.units[74],
-            UnitAddress {
-                gateway: 0,
-                station: 75
-            }
-        );
-        assert_eq!(
-            two.units[75],
-            UnitAddress {
-                gateway: 1,
-                station: 1
-            }
-        );
-        assert_eq!(two.units_on(1).count(), 75);
     }
 }

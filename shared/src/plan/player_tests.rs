@@ -10,7 +10,7 @@ use std::collections::VecDeque;
 
 use super::player::{Command, Entry, LinkView, Player, PlayerConfig, StartError, line_time_us};
 use super::tests::wave;
-use super::{GatewaySpec, Installation};
+use super::{DriveKind, GatewaySpec, Installation};
 use crate::api::PlayerState;
 use crate::ascii::{Batch, Form, parse_script};
 use crate::feedback::FrameDecoder;
@@ -77,6 +77,7 @@ fn installation(rows: u32, cols: u32, bauds: &[u32]) -> Installation {
         .map(|&baud| GatewaySpec {
             port: "sim".into(),
             baud,
+            kind: DriveKind::Uim2503,
         })
         .collect();
     let mut installation = Installation::row_major(limits, 100.0, gateways, 1).unwrap();

@@ -1,0 +1,460 @@
+//! The one place the installation is checked: the raw file (`super::raw`) becomes a
+//! [`Config`] — the shared [`Installation`] and the bridge's own settings — with the
+//! defaults filled in, and every problem named by the file, line and column of the
+//! value at fault (or by the file alone when the value is a default).
+
+use std::ops::Range;
+use std::path::Path;
+
+use floatball_shared::ascii::{Form, Instruction, parse_script};
+use floatball_shared::plan::installation::{
+    AllocationError, DEFAULT_PITCH_MM, DriveKind, GatewaySpec, Installation, MAX_UNITS_PER_GATEWAY,
+    SIM_PORT, Stations, UnitAddress, allocate,
+};
+use floatball_shared::show::Limits;
+use toml::Spanned;
+
+use super::raw::{RawConfig, RawGateway, RawMatrix, RawSafety};
+use super::{
+    BAUD_RANGE, Config, ConfigError, DEFAULT_MAX_DURATION, DEFAULT_SERIAL_BAUD, DEFAULT_SIM_BAUD,
+    MAX_DURATION_RANGE, Overrides, Uploads,
+};
+use crate::http::origin::normalise_origin;
+
+/// Turns the raw file into a [`Config`], naming the place of every problem.
+pub(super) struct Checker<'a> {
+    /// The file, as errors name it.
+    pub(super) path: &'a Path,
+    /// Its text, to turn byte spans into lines and columns.
+    pub(super) text: &'a str,
+}
+
+/// A value and where it came from (`None`: the default).
+type Located<T> = (T, Option<Range<usize>>);
+
+fn located<T: Clone>(value: Option<&Spanned<T>>, default: T) -> Located<T> {
+    match value {
+        Some(spanned) => (spanned.get_ref().clone(), Some(spanned.span())),
+        None => (default, None),
+    }
+}
+
+impl Checker<'_> {
+    /// An error at `span` of the file.
+    pub(super) fn at(&self, span: &Range<usize>, reason: String) -> ConfigError {
+        let before = self.text.get(..span.start).unwrap_or(self.text);
+        let line = before.matches('\n').count() + 1;
+        let line_start = before.rfind('\n').map_or(0, |newline| newline + 1);
+        let column = before
+            .get(line_start..)
+            .map_or(0, |text| text.chars().count())
+            + 1;
+        ConfigError::At {
+            path: self.path.to_owned(),
+            line,
+            column,
+            reason,
+        }
+    }
+
+    /// An error about the file as a whole.
+    pub(super) fn file(&self, reason: String) -> ConfigError {
+        ConfigError::File {
+            path: self.path.to_owned(),
+            reason,
+        }
+    }
+
+    /// An error at `span`, or for the whole file when the value is a default (a default
+    /// can only be wrong together with another value, which the reason names).
+    fn wrong(&self, span: Option<&Range<usize>>, reason: String) -> ConfigError {
+        match span {
+            Some(span) => self.at(span, reason),
+            None => self.file(reason),
+        }
+    }
+
+    fn positive(
+        &self,
+        (value, span): Located<f64>,
+        key: &str,
+        max: f64,
+    ) -> Result<f64, ConfigError> {
+        if value.is_finite() && value > 0.0 && value <= max {
+            Ok(value)
+        } else {
+            Err(self.wrong(
+                span.as_ref(),
+                format!("{key} = {value} must be a number above 0 and at most {max}"),
+            ))
+        }
+    }
+
+    /// Checks the whole file and applies the command-line `overrides`.
+    pub(super) fn check(
+        &self,
+        raw: RawConfig,
+        overrides: &Overrides,
+    ) -> Result<Config, ConfigError> {
+        let listen = match overrides.listen {
+            Some(listen) => listen,
+            None => {
+                let (text, span) = located(raw.listen.as_ref(), "0.0.0.0:8080".to_owned());
+                text.parse().map_err(|_| {
+                    self.wrong(
+                        span.as_ref(),
+                        format!(
+                            "listen = {text:?} is not an address and port such as \"0.0.0.0:8080\""
+                        ),
+                    )
+                })?
+            }
+        };
+        let allowed_origins = raw
+            .allowed_origins
+            .iter()
+            .map(|origin| {
+                normalise_origin(origin.get_ref()).ok_or_else(|| {
+                    self.at(
+                        &origin.span(),
+                        format!(
+                            "{:?} is not an origin such as \"http://192.168.1.20:8080\" \
+                             (scheme://host[:port], no path)",
+                            origin.get_ref()
+                        ),
+                    )
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let matrix = self.matrix(&raw.matrix)?;
+        let (gateways, units) = self.gateways(&raw.gateways, &matrix.limits, overrides)?;
+        let (estop, approach_speed_mm_s) = self.safety(&raw.safety, &matrix.limits)?;
+        let installation = Installation {
+            limits: matrix.limits,
+            pitch_mm: matrix.pitch_mm,
+            counts_per_mm: matrix.counts_per_mm,
+            gateways,
+            units,
+            approach_speed_mm_s,
+            home_mm: matrix.home_mm,
+            stop_decel_mm_s2: matrix.limits.max_accel_mm_s2,
+        };
+        let (max_bytes, span) = located(raw.uploads.max_bytes.as_ref(), 32 * 1024 * 1024);
+        if !(1024..=1024 * 1024 * 1024).contains(&max_bytes) {
+            return Err(self.wrong(
+                span.as_ref(),
+                format!("max_bytes = {max_bytes} must be from 1024 (1 KiB) to 1073741824 (1 GiB)"),
+            ));
+        }
+        let max_duration = match &raw.uploads.max_duration {
+            None => DEFAULT_MAX_DURATION,
+            Some(text) => humantime::parse_duration(text.get_ref().trim())
+                .ok()
+                .filter(|duration| MAX_DURATION_RANGE.contains(duration))
+                .ok_or_else(|| {
+                    self.at(
+                        &text.span(),
+                        format!(
+                            "max_duration = {:?} must be a duration such as \"30m\" or \
+                             \"1h 15m\", from 1 second to 24 hours",
+                            text.get_ref()
+                        ),
+                    )
+                })?,
+        };
+        Ok(Config {
+            listen,
+            allowed_origins,
+            installation,
+            estop,
+            uploads: Uploads {
+                max_bytes,
+                max_duration,
+            },
+        })
+    }
+
+    /// `[matrix]`.
+    fn matrix(&self, raw: &RawMatrix) -> Result<Matrix, ConfigError> {
+        let size = |value: Option<&Spanned<u32>>, key: &str| {
+            let (count, span) = located(value, 10);
+            if (1..=1000).contains(&count) {
+                Ok(count)
+            } else {
+                Err(self.wrong(
+                    span.as_ref(),
+                    format!("{key} = {count} must be from 1 to 1000"),
+                ))
+            }
+        };
+        let rows = size(raw.rows.as_ref(), "rows")?;
+        let cols = size(raw.cols.as_ref(), "cols")?;
+        let pitch_mm = self.positive(
+            located(raw.pitch_mm.as_ref(), DEFAULT_PITCH_MM),
+            "pitch_mm",
+            100_000.0,
+        )?;
+        let travel_mm = self.positive(
+            located(raw.travel_mm.as_ref(), 7500.0),
+            "travel_mm",
+            100_000.0,
+        )?;
+        let counts_per_mm = self.positive(
+            located(raw.counts_per_mm.as_ref(), 100.0),
+            "counts_per_mm",
+            100_000.0,
+        )?;
+        let max_speed_mm_s = self.positive(
+            located(raw.max_speed_mm_s.as_ref(), 2000.0),
+            "max_speed_mm_s",
+            100_000.0,
+        )?;
+        let max_accel_mm_s2 = self.positive(
+            located(raw.max_accel_mm_s2.as_ref(), 4000.0),
+            "max_accel_mm_s2",
+            1_000_000.0,
+        )?;
+        let (home_mm, span) = located(raw.home_mm.as_ref(), 0.0);
+        if !(home_mm.is_finite() && (0.0..=travel_mm).contains(&home_mm)) {
+            return Err(self.wrong(
+                span.as_ref(),
+                format!("home_mm = {home_mm} must be from 0 to travel_mm ({travel_mm})"),
+            ));
+        }
+        // Positions in counts travel as i32 on the wire (QP, PA).
+        if travel_mm * counts_per_mm > f64::from(i32::MAX) {
+            let span = raw.counts_per_mm.as_ref().map(Spanned::span);
+            return Err(self.wrong(
+                span.as_ref(),
+                format!(
+                    "travel_mm × counts_per_mm = {} counts does not fit in a position (at most {})",
+                    travel_mm * counts_per_mm,
+                    i32::MAX
+                ),
+            ));
+        }
+        Ok(Matrix {
+            limits: Limits {
+                travel_mm,
+                max_speed_mm_s,
+                max_accel_mm_s2,
+                rows,
+                cols,
+            },
+            pitch_mm,
+            counts_per_mm,
+            home_mm,
+        })
+    }
+
+    /// The `[[gateway]]` tables: each gateway's line and kind, and every unit's address
+    /// by the shared rule.
+    fn gateways(
+        &self,
+        raw: &[Spanned<RawGateway>],
+        limits: &Limits,
+        overrides: &Overrides,
+    ) -> Result<(Vec<GatewaySpec>, Vec<UnitAddress>), ConfigError> {
+        let default_gateway = [Spanned::new(
+            0..0,
+            RawGateway {
+                kind: None,
+                port: Spanned::new(0..0, SIM_PORT.to_owned()),
+                baud: None,
+                first_station: None,
+                units: None,
+                stations: None,
+            },
+        )];
+        // Without a [[gateway]] table there is no place in the file to point at.
+        let implicit = raw.is_empty();
+        let raw = if implicit { &default_gateway[..] } else { raw };
+        if overrides.gateway_ports.len() > raw.len() {
+            return Err(self.file(format!(
+                "{} --gateway flags given but the file configures {} [[gateway]] table(s); \
+                 add [[gateway]] tables for the others",
+                overrides.gateway_ports.len(),
+                raw.len()
+            )));
+        }
+        let mut specs = Vec::with_capacity(raw.len());
+        let mut wanted = Vec::with_capacity(raw.len());
+        for (index, spanned) in raw.iter().enumerate() {
+            let gateway = spanned.get_ref();
+            let (port, port_span) = match overrides.gateway_ports.get(index) {
+                Some(port) => (port.clone(), None),
+                None => (gateway.port.get_ref().clone(), Some(gateway.port.span())),
+            };
+            if port.is_empty() || port.chars().any(char::is_control) {
+                return Err(self.wrong(
+                    port_span.as_ref(),
+                    format!(
+                        "gateway {}: port {port:?} must be \"sim\" or a device path such as \
+                         \"/dev/ttyUSB0\"",
+                        index + 1
+                    ),
+                ));
+            }
+            let kind = match &gateway.kind {
+                None => DriveKind::default(),
+                Some(name) => DriveKind::from_name(name.get_ref()).ok_or_else(|| {
+                    let known: Vec<String> = DriveKind::ALL
+                        .iter()
+                        .map(|kind| format!("{:?}", kind.name()))
+                        .collect();
+                    self.at(
+                        &name.span(),
+                        format!(
+                            "gateway {}: kind {:?} is not a known kind of drive; the known \
+                             kinds are {}",
+                            index + 1,
+                            name.get_ref(),
+                            known.join(", ")
+                        ),
+                    )
+                })?,
+            };
+            let default_baud = if port == SIM_PORT {
+                DEFAULT_SIM_BAUD
+            } else {
+                DEFAULT_SERIAL_BAUD
+            };
+            let (baud, baud_span) = located(gateway.baud.as_ref(), default_baud);
+            if !BAUD_RANGE.contains(&baud) {
+                return Err(self.wrong(
+                    baud_span.as_ref(),
+                    format!(
+                        "baud {baud} is out of range ({} to {})",
+                        BAUD_RANGE.start(),
+                        BAUD_RANGE.end()
+                    ),
+                ));
+            }
+            let stations = match &gateway.stations {
+                Some(list) => {
+                    Stations::Listed(list.get_ref().iter().map(|s| *s.get_ref()).collect())
+                }
+                None => Stations::Consecutive {
+                    first: located(gateway.first_station.as_ref(), 1).0,
+                    units: gateway.units.as_ref().map(|units| *units.get_ref()),
+                },
+            };
+            specs.push(GatewaySpec { port, baud, kind });
+            wanted.push((kind, stations));
+        }
+        let units = allocate(limits.rows as usize * limits.cols as usize, &wanted)
+            .map_err(|error| self.allocation(error, raw, implicit, limits))?;
+        Ok((specs, units))
+    }
+
+    /// Where an allocation problem sits in the file, in the file's words.
+    fn allocation(
+        &self,
+        error: AllocationError,
+        raw: &[Spanned<RawGateway>],
+        implicit: bool,
+        limits: &Limits,
+    ) -> ConfigError {
+        // The gateway's units: its station list, its count, or its table.
+        let units_span = |gateway: usize| {
+            let spanned = raw.get(gateway)?;
+            let table = spanned.get_ref();
+            let span = table
+                .stations
+                .as_ref()
+                .map(Spanned::span)
+                .or_else(|| table.units.as_ref().map(Spanned::span))
+                .unwrap_or_else(|| spanned.span());
+            (!implicit).then_some(span)
+        };
+        let listed_span = |gateway: usize, index: usize| {
+            raw.get(gateway)?
+                .get_ref()
+                .stations
+                .as_ref()?
+                .get_ref()
+                .get(index)
+                .map(Spanned::span)
+        };
+        match error {
+            AllocationError::TooManyUnits { gateway, .. } => self.wrong(
+                units_span(gateway).as_ref(),
+                format!("{error}: add a [[gateway]]"),
+            ),
+            AllocationError::StationsOutOfRange { gateway, .. } => {
+                let first_span = raw
+                    .get(gateway)
+                    .and_then(|table| table.get_ref().first_station.as_ref())
+                    .map(Spanned::span);
+                self.wrong(
+                    first_span.or_else(|| units_span(gateway)).as_ref(),
+                    error.to_string(),
+                )
+            }
+            AllocationError::StationOutOfRange { gateway, index, .. }
+            | AllocationError::DuplicateStation { gateway, index, .. } => {
+                self.wrong(listed_span(gateway, index).as_ref(), error.to_string())
+            }
+            AllocationError::UnitCount { units, served } => self.file(format!(
+                "the matrix has {} × {} = {units} units but the gateways serve {served}; \
+                 adjust the gateways' units or stations (each gateway serves at most \
+                 {MAX_UNITS_PER_GATEWAY})",
+                limits.rows, limits.cols
+            )),
+            AllocationError::NoGateway => self.file(error.to_string()),
+        }
+    }
+
+    /// `[safety]`: the e-stop's instructions and the approach speed, mm/s.
+    fn safety(
+        &self,
+        raw: &RawSafety,
+        limits: &Limits,
+    ) -> Result<(Vec<Instruction>, f64), ConfigError> {
+        let (text, span) = located(raw.estop.as_ref(), "MO=0;".to_owned());
+        let estop = parse_script(&text)
+            .map_err(|error| self.wrong(span.as_ref(), format!("estop = {text:?}: {error}")))?;
+        if estop.is_empty() {
+            return Err(self.wrong(
+                span.as_ref(),
+                "estop is empty; it must hold the stop instruction, e.g. \"MO=0;\"".to_owned(),
+            ));
+        }
+        if estop
+            .iter()
+            .any(|instruction| matches!(instruction, Instruction::Select { .. }))
+        {
+            return Err(self.wrong(
+                span.as_ref(),
+                format!(
+                    "estop = {text:?} selects a station; leave it out: the e-stop always goes \
+                     to every unit (\"*0;\")"
+                ),
+            ));
+        }
+        let estop: Vec<Instruction> = [Instruction::Select { station: 0 }]
+            .into_iter()
+            .chain(estop)
+            .collect();
+        // The parser only returns instructions that encode; checked again all the same.
+        for instruction in &estop {
+            instruction
+                .encode(Form::Standard)
+                .map_err(|error| self.wrong(span.as_ref(), format!("estop: {error}")))?;
+        }
+        let approach_speed_mm_s = self.positive(
+            located(raw.approach_speed_mm_s.as_ref(), 250.0),
+            "approach_speed_mm_s",
+            limits.max_speed_mm_s,
+        )?;
+        Ok((estop, approach_speed_mm_s))
+    }
+}
+
+/// `[matrix]` checked: the limits and what else the installation takes from it.
+struct Matrix {
+    limits: Limits,
+    pitch_mm: f64,
+    counts_per_mm: f64,
+    home_mm: f64,
+}

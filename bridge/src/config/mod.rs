@@ -1,0 +1,170 @@
+//! The installation's configuration: `<data-dir>/floatball.toml` (DESIGN §2).
+//!
+//! On first start the file is written with every key at its default and a comment
+//! saying what it means ([`DEFAULT_FILE`], kept as `config/default.toml`). The file is
+//! read in two steps, as ripgrep does:
+//! - `raw`: `toml` parses it into a raw form that keeps where each value sits;
+//! - `check`: the one place the installation is checked — straight into the shared
+//!   [`Installation`] (units given to gateways by the shared rule,
+//!   [`floatball_shared::plan::installation::allocate`]), beside the bridge's own
+//!   settings, together a [`Config`]. Every mistake stops the start with the file, the
+//!   line, the column and the reason, e.g.
+//!   `data/floatball.toml line 12, column 8: baud 300 is out of range (1200 to 921600)`.
+//!
+//! Two command-line flags override the file without editing it ([`Overrides`]):
+//! `--listen` and `--gateway PORT` (repeatable, the n-th flag replaces the n-th
+//! gateway's port).
+
+mod check;
+mod raw;
+#[cfg(test)]
+mod tests;
+
+use std::io;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use floatball_shared::ascii::Instruction;
+use floatball_shared::plan::Installation;
+
+use crate::durable;
+
+/// The configuration file's name inside the data directory.
+pub const FILE_NAME: &str = "floatball.toml";
+
+/// Slowest and fastest baud rate accepted.
+pub const BAUD_RANGE: std::ops::RangeInclusive<u32> = 1200..=921_600;
+
+/// Baud rate of a real gateway unless configured: the factory setting (PROTOCOL §1.2).
+pub const DEFAULT_SERIAL_BAUD: u32 = 9600;
+
+/// Baud rate of the simulated gateway unless configured.
+pub const DEFAULT_SIM_BAUD: u32 = 115_200;
+
+/// The file written on first start: every key at its default, each explained.
+pub const DEFAULT_FILE: &str = include_str!("default.toml");
+
+/// The checked configuration: the installation and the bridge's own settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Config {
+    /// Address and port to listen on.
+    pub listen: SocketAddr,
+    /// Extra origins allowed for CORS and the WebSocket, normalised
+    /// (`scheme://host[:port]`, lower case, no trailing `/`).
+    pub allowed_origins: Vec<String>,
+    /// The matrix, its limits and calibration, the gateways and every unit's address,
+    /// as the planner, the player and the simulated gateways see them.
+    pub installation: Installation,
+    /// What goes on every gateway's line for an e-stop: `*0;` (every unit), then the
+    /// configured instructions (`[safety] estop`).
+    pub estop: Vec<Instruction>,
+    /// Show uploads.
+    pub uploads: Uploads,
+}
+
+/// Upload settings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Uploads {
+    /// Largest show file accepted, bytes: the upload, and the show as stored.
+    pub max_bytes: usize,
+    /// Longest show accepted.
+    pub max_duration: Duration,
+}
+
+/// `max_duration` unless configured: 30 minutes.
+pub const DEFAULT_MAX_DURATION: Duration = Duration::from_secs(30 * 60);
+
+/// The shortest and longest `max_duration` accepted: 1 second to 24 hours (the latest
+/// keyframe a CSV may have).
+pub const MAX_DURATION_RANGE: std::ops::RangeInclusive<Duration> =
+    Duration::from_secs(1)..=Duration::from_secs(24 * 60 * 60);
+
+/// What the command line overrides.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Overrides {
+    /// Replaces `listen`.
+    pub listen: Option<SocketAddr>,
+    /// Replaces the ports of the first gateways, in order.
+    pub gateway_ports: Vec<String>,
+}
+
+/// Why the configuration cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file exists but cannot be read.
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// What the system said.
+        source: io::Error,
+    },
+    /// The defaults cannot be written on first start.
+    #[error("cannot write the default configuration to {}: {source}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// What the system said.
+        source: io::Error,
+    },
+    /// A value is wrong at a known place in the file.
+    #[error("{} line {line}, column {column}: {reason}", path.display())]
+    At {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column, in characters.
+        column: usize,
+        /// What is wrong and what is allowed.
+        reason: String,
+    },
+    /// Something is wrong with the file as a whole, or with a command-line override.
+    #[error("{}: {reason}", path.display())]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong and what is allowed.
+        reason: String,
+    },
+}
+
+impl Config {
+    /// Reads `<data_dir>/floatball.toml`, writing the defaults first if it does not
+    /// exist, and applies the command-line `overrides`.
+    ///
+    /// # Errors
+    /// [`ConfigError`] naming the file, and the line and column where known.
+    pub fn load_or_create(data_dir: &Path, overrides: &Overrides) -> Result<Self, ConfigError> {
+        let path = data_dir.join(FILE_NAME);
+        let text = match std::fs::read_to_string(&path) {
+            Ok(text) => text,
+            Err(source) if source.kind() == io::ErrorKind::NotFound => {
+                durable::write_atomic(data_dir, FILE_NAME, DEFAULT_FILE.as_bytes()).map_err(
+                    |source| ConfigError::Write {
+                        path: path.clone(),
+                        source,
+                    },
+                )?;
+                tracing::info!("wrote the default configuration to {}", path.display());
+                DEFAULT_FILE.to_owned()
+            }
+            Err(source) => return Err(ConfigError::Read { path, source }),
+        };
+        Self::parse(&path, &text, overrides)
+    }
+
+    /// Parses and checks the text of a configuration file; `path` names it in errors.
+    ///
+    /// # Errors
+    /// [`ConfigError::At`] or [`ConfigError::File`] for the first problem found.
+    pub fn parse(path: &Path, text: &str, overrides: &Overrides) -> Result<Self, ConfigError> {
+        let checker = check::Checker { path, text };
+        let raw: raw::RawConfig = toml::from_str(text).map_err(|error| match error.span() {
+            Some(span) => checker.at(&span, error.message().trim_end().to_owned()),
+            None => checker.file(error.message().trim_end().to_owned()),
+        })?;
+        checker.check(raw, overrides)
+    }
+}

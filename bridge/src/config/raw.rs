@@ -1,0 +1,66 @@
+//! `floatball.toml` as written: what `toml` parses, every value with the place it sits
+//! in the file (`Spanned`) so that the checker can name the line and column of a
+//! mistake. Every key is optional here; the checker supplies the defaults. Unknown keys
+//! are refused by the parser.
+
+use serde::Deserialize;
+use toml::Spanned;
+
+/// The whole file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawConfig {
+    pub(super) listen: Option<Spanned<String>>,
+    #[serde(default)]
+    pub(super) allowed_origins: Vec<Spanned<String>>,
+    #[serde(default)]
+    pub(super) matrix: RawMatrix,
+    #[serde(default, rename = "gateway")]
+    pub(super) gateways: Vec<Spanned<RawGateway>>,
+    #[serde(default)]
+    pub(super) safety: RawSafety,
+    #[serde(default)]
+    pub(super) uploads: RawUploads,
+}
+
+/// `[matrix]`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawMatrix {
+    pub(super) rows: Option<Spanned<u32>>,
+    pub(super) cols: Option<Spanned<u32>>,
+    pub(super) pitch_mm: Option<Spanned<f64>>,
+    pub(super) travel_mm: Option<Spanned<f64>>,
+    pub(super) counts_per_mm: Option<Spanned<f64>>,
+    pub(super) max_speed_mm_s: Option<Spanned<f64>>,
+    pub(super) max_accel_mm_s2: Option<Spanned<f64>>,
+    pub(super) home_mm: Option<Spanned<f64>>,
+}
+
+/// One `[[gateway]]` table.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawGateway {
+    pub(super) kind: Option<Spanned<String>>,
+    pub(super) port: Spanned<String>,
+    pub(super) baud: Option<Spanned<u32>>,
+    pub(super) first_station: Option<Spanned<u8>>,
+    pub(super) units: Option<Spanned<usize>>,
+    pub(super) stations: Option<Spanned<Vec<Spanned<u8>>>>,
+}
+
+/// `[safety]`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawSafety {
+    pub(super) estop: Option<Spanned<String>>,
+    pub(super) approach_speed_mm_s: Option<Spanned<f64>>,
+}
+
+/// `[uploads]`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawUploads {
+    pub(super) max_bytes: Option<Spanned<usize>>,
+    pub(super) max_duration: Option<Spanned<String>>,
+}

@@ -1,0 +1,362 @@
+//! The checks of `floatball.toml`, through [`Config::parse`] as the bridge reads it.
+
+use std::path::Path;
+use std::time::Duration;
+
+use floatball_shared::ascii::Form;
+use floatball_shared::plan::DriveKind;
+use floatball_shared::show::{Layout, Limits};
+
+use super::*;
+
+fn parse(text: &str) -> Result<Config, ConfigError> {
+    Config::parse(
+        Path::new("data/floatball.toml"),
+        text,
+        &Overrides::default(),
+    )
+}
+
+fn estop_bytes(config: &Config) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    for instruction in &config.estop {
+        instruction
+            .encode_into(Form::Standard, &mut bytes)
+            .expect("encodes");
+    }
+    bytes
+}
+
+#[test]
+fn the_default_file_gives_the_defaults() {
+    let config = parse(DEFAULT_FILE).expect("defaults parse");
+    assert_eq!(config, parse("").expect("empty file"));
+    assert_eq!(config.listen, "0.0.0.0:8080".parse().expect("addr"));
+    assert_eq!(
+        config.installation.limits.rows * config.installation.limits.cols,
+        100
+    );
+    assert_eq!(config.installation.gateways.len(), 1);
+    assert_eq!(config.installation.gateways[0].port, "sim");
+    assert_eq!(config.installation.gateways[0].baud, DEFAULT_SIM_BAUD);
+    assert_eq!(
+        config.installation.stations_on(0),
+        (1..=100).collect::<Vec<u8>>()
+    );
+    assert_eq!(estop_bytes(&config), b"*0;MO=0;");
+    assert_eq!(config.uploads.max_bytes, 32 * 1024 * 1024);
+    assert_eq!(config.uploads.max_duration, Duration::from_secs(30 * 60));
+    assert_eq!(config.installation.limits, Limits::for_layout(10, 10));
+}
+
+#[test]
+fn syntax_errors_name_the_file_line_and_column() {
+    let error = parse("[matrix]\nrows = 10\ncols = ten\n").expect_err("bad value");
+    let message = error.to_string();
+    assert!(
+        message.starts_with("data/floatball.toml line 3, column 8: "),
+        "{message}"
+    );
+}
+
+#[test]
+fn unknown_keys_are_refused_with_their_line() {
+    let message = parse("[matrix]\nrows = 10\ncolumns = 3\n")
+        .expect_err("unknown key")
+        .to_string();
+    assert!(message.contains("line 3, column 1"), "{message}");
+    assert!(message.contains("columns"), "{message}");
+}
+
+#[test]
+fn a_baud_out_of_range_names_its_line() {
+    let text = "[[gateway]]\nport = \"/dev/ttyUSB0\"\nbaud = 300\n";
+    let message = parse(text).expect_err("baud").to_string();
+    assert_eq!(
+        message,
+        "data/floatball.toml line 3, column 8: baud 300 is out of range (1200 to 921600)"
+    );
+}
+
+#[test]
+fn a_real_port_defaults_to_9600_baud_and_sim_to_115200() {
+    let config = parse("[[gateway]]\nport = \"/dev/ttyUSB0\"\n").expect("config");
+    assert_eq!(config.installation.gateways[0].baud, 9600);
+    let overridden = Config::parse(
+        Path::new("f"),
+        "[[gateway]]\nport = \"/dev/ttyUSB0\"\n",
+        &Overrides {
+            listen: Some("127.0.0.1:0".parse().expect("addr")),
+            gateway_ports: vec!["sim".into()],
+        },
+    )
+    .expect("config");
+    assert_eq!(overridden.installation.gateways[0].port, "sim");
+    assert_eq!(overridden.installation.gateways[0].baud, 115_200);
+    assert_eq!(overridden.listen.port(), 0);
+}
+
+#[test]
+fn more_gateway_flags_than_gateways_are_refused() {
+    let error = Config::parse(
+        Path::new("f"),
+        "",
+        &Overrides {
+            listen: None,
+            gateway_ports: vec!["sim".into(), "sim".into()],
+        },
+    )
+    .expect_err("two flags, one gateway");
+    assert!(error.to_string().contains("2 --gateway flags"), "{error}");
+}
+
+#[test]
+fn units_are_shared_among_gateways_row_major() {
+    let text = "[matrix]\nrows = 15\ncols = 10\n\
+                [[gateway]]\nport = \"sim\"\n\
+                [[gateway]]\nport = \"sim\"\nfirst_station = 10\n";
+    let config = parse(text).expect("config");
+    assert_eq!(
+        config.installation.stations_on(0),
+        (1..=75).collect::<Vec<u8>>()
+    );
+    assert_eq!(
+        config.installation.stations_on(1),
+        (10..=84).collect::<Vec<u8>>()
+    );
+}
+
+/// Every unit's (gateway, station), row-major.
+fn addresses(text: &str) -> Vec<(usize, u8)> {
+    parse(text)
+        .expect("config")
+        .installation
+        .units
+        .iter()
+        .map(|address| (address.gateway, address.station))
+        .collect()
+}
+
+#[test]
+fn unit_addresses_stay_as_they_were() {
+    // The default file: one gateway, stations 1 to 100.
+    let default: Vec<(usize, u8)> = (1..=100).map(|station| (0, station)).collect();
+    assert_eq!(addresses(DEFAULT_FILE), default);
+    // Ten units shared by three gateways: 4, 3, 3, each from its first station.
+    let text = "[matrix]\nrows = 2\ncols = 5\n\
+                [[gateway]]\nport = \"sim\"\n\
+                [[gateway]]\nport = \"sim\"\n\
+                [[gateway]]\nport = \"sim\"\nfirst_station = 20\n";
+    assert_eq!(
+        addresses(text),
+        [
+            (0, 1),
+            (0, 2),
+            (0, 3),
+            (0, 4),
+            (1, 1),
+            (1, 2),
+            (1, 3),
+            (2, 20),
+            (2, 21),
+            (2, 22)
+        ]
+    );
+    // Counts and lists first, the rest shared among the others.
+    let text = "[matrix]\nrows = 2\ncols = 5\n\
+                [[gateway]]\nport = \"sim\"\nfirst_station = 5\nunits = 3\n\
+                [[gateway]]\nport = \"sim\"\n\
+                [[gateway]]\nport = \"sim\"\nstations = [9, 7]\nfirst_station = 40\n\
+                [[gateway]]\nport = \"sim\"\nfirst_station = 50\n";
+    assert_eq!(
+        addresses(text),
+        [
+            (0, 5),
+            (0, 6),
+            (0, 7),
+            (1, 1),
+            (1, 2),
+            (1, 3),
+            (2, 9),
+            (2, 7),
+            (3, 50),
+            (3, 51)
+        ]
+    );
+    // A gateway left with nothing to share serves no unit.
+    let text = "[matrix]\nrows = 1\ncols = 2\n\
+                [[gateway]]\nport = \"sim\"\nunits = 2\n\
+                [[gateway]]\nport = \"sim\"\n";
+    assert_eq!(addresses(text), [(0, 1), (0, 2)]);
+    // 150 units on two gateways: 75 each, the second from station 10.
+    let text = "[matrix]\nrows = 15\ncols = 10\n\
+                [[gateway]]\nport = \"sim\"\n\
+                [[gateway]]\nport = \"sim\"\nfirst_station = 10\n";
+    let two: Vec<(usize, u8)> = (1..=75)
+        .map(|station| (0, station))
+        .chain((10..=84).map(|station| (1, station)))
+        .collect();
+    assert_eq!(addresses(text), two);
+}
+
+#[test]
+fn the_gateways_must_serve_every_unit_exactly() {
+    let text = "[matrix]\nrows = 1\ncols = 3\n[[gateway]]\nport = \"sim\"\nunits = 2\n";
+    assert_eq!(
+        parse(text).expect_err("2 of 3").to_string(),
+        "data/floatball.toml: the matrix has 1 × 3 = 3 units but the gateways serve 2; \
+         adjust the gateways' units or stations (each gateway serves at most 100)"
+    );
+}
+
+#[test]
+fn too_many_units_for_the_gateways_is_refused() {
+    let message = parse("[matrix]\nrows = 11\ncols = 10\n")
+        .expect_err("110 units on one gateway")
+        .to_string();
+    assert!(
+        message.starts_with("data/floatball.toml: gateway 1"),
+        "{message}"
+    );
+    assert!(message.contains("110 units"), "{message}");
+    assert!(message.contains("at most 100"), "{message}");
+    let text = "[matrix]\nrows = 11\ncols = 10\n[[gateway]]\nport = \"sim\"\n";
+    let message = parse(text).expect_err("110 units").to_string();
+    assert!(
+        message.starts_with("data/floatball.toml line 4, column 1: gateway 1"),
+        "{message}"
+    );
+}
+
+#[test]
+fn explicit_stations_must_be_unique_and_in_range() {
+    let duplicate =
+        "[matrix]\nrows = 1\ncols = 3\n[[gateway]]\nport = \"sim\"\nstations = [5, 6, 5]\n";
+    let message = parse(duplicate).expect_err("duplicate").to_string();
+    assert_eq!(
+        message,
+        "data/floatball.toml line 6, column 19: gateway 1: station 5 is listed twice; two \
+         units with one station number break the bus"
+    );
+    let range = "[matrix]\nrows = 1\ncols = 2\n[[gateway]]\nport = \"sim\"\nstations = [0, 6]\n";
+    assert!(
+        parse(range)
+            .expect_err("station 0")
+            .to_string()
+            .contains("line 6, column 13")
+    );
+    let stations = "[matrix]\nrows = 1\ncols = 2\n[[gateway]]\nport = \"sim\"\nstations = [9, 7]\n";
+    assert_eq!(
+        parse(stations).expect("config").installation.stations_on(0),
+        [9, 7]
+    );
+}
+
+#[test]
+fn stations_past_127_are_refused() {
+    let text = "[[gateway]]\nport = \"sim\"\nfirst_station = 100\n";
+    let message = parse(text).expect_err("100..199").to_string();
+    assert!(message.contains("line 3"), "{message}");
+    assert!(message.contains("stations 100 to 199"), "{message}");
+}
+
+#[test]
+fn the_estop_is_checked_by_the_codec() {
+    let message = parse("[safety]\nestop = \"MO=0\"\n")
+        .expect_err("no ;")
+        .to_string();
+    assert!(
+        message.starts_with("data/floatball.toml line 2, column 9: estop"),
+        "{message}"
+    );
+    assert!(message.contains("`;`"), "{message}");
+    let select = parse("[safety]\nestop = \"*5;MO=0;\"\n").expect_err("selects");
+    assert!(select.to_string().contains("selects a station"), "{select}");
+    let two = parse("[safety]\nestop = \"mo=0; SD=1000;\"\n").expect("two instructions");
+    assert_eq!(estop_bytes(&two), b"*0;MO=0;SD=1000;");
+}
+
+#[test]
+fn numbers_are_checked() {
+    for (text, key) in [
+        ("[matrix]\npitch_mm = -1.0\n", "pitch_mm"),
+        ("[matrix]\nrows = 0\n", "rows"),
+        ("[matrix]\nhome_mm = 8000.0\n", "home_mm"),
+        ("[uploads]\nmax_bytes = 10\n", "max_bytes"),
+        ("[uploads]\nmax_duration = \"25h\"\n", "max_duration"),
+        (
+            "[uploads]\nmax_duration = \"half an hour\"\n",
+            "max_duration",
+        ),
+        ("[uploads]\nmax_duration = \"0s\"\n", "max_duration"),
+        (
+            "[safety]\napproach_speed_mm_s = 5000.0\n",
+            "approach_speed_mm_s",
+        ),
+        ("listen = \"everywhere\"\n", "listen"),
+        ("allowed_origins = [\"example.com\"]\n", "origin"),
+    ] {
+        let message = parse(text).expect_err(key).to_string();
+        assert!(message.contains(key), "{text}: {message}");
+        assert!(message.contains("line "), "{text}: {message}");
+    }
+}
+
+#[test]
+fn max_duration_reads_human_durations() {
+    let config = parse("[uploads]\nmax_duration = \"1h 15m\"\n").expect("duration");
+    assert_eq!(config.uploads.max_duration, Duration::from_secs(75 * 60));
+}
+
+#[test]
+fn every_key_of_the_default_file_is_documented() {
+    let docs = include_str!("../../../docs/configuration.md");
+    let keys: Vec<&str> = DEFAULT_FILE
+        .lines()
+        .map(|line| line.trim_start_matches("# "))
+        .filter_map(|line| line.split_once(" = ").map(|(key, _)| key))
+        .filter(|key| key.chars().all(|c| c.is_ascii_lowercase() || c == '_'))
+        .collect();
+    assert!(keys.len() >= 17, "{keys:?}");
+    for key in keys {
+        assert!(
+            docs.contains(&format!("| `{key}` |")),
+            "{key} is not documented"
+        );
+    }
+    for table in ["[matrix]", "[[gateway]]", "[safety]", "[uploads]"] {
+        assert!(
+            DEFAULT_FILE.contains(table) && docs.contains(table),
+            "{table}"
+        );
+    }
+}
+
+#[test]
+fn the_layout_carries_the_pitch() {
+    let config = parse("[matrix]\nrows = 2\ncols = 3\npitch_mm = 750.0\n").expect("config");
+    assert_eq!(
+        config.installation.layout(),
+        Layout {
+            rows: 2,
+            cols: 3,
+            pitch_mm: 750.0
+        }
+    );
+}
+
+#[test]
+fn a_gateway_kind_defaults_to_the_uim2503_and_unknown_kinds_are_refused() {
+    let config = parse("[[gateway]]\nport = \"sim\"\n").expect("no kind");
+    assert_eq!(config.installation.gateways[0].kind, DriveKind::Uim2503);
+    let named = parse("[[gateway]]\nkind = \"uim2503\"\nport = \"sim\"\n").expect("kind");
+    assert_eq!(named, config);
+    let message = parse("[[gateway]]\nport = \"sim\"\nkind = \"mbox\"\n")
+        .expect_err("unknown kind")
+        .to_string();
+    assert_eq!(
+        message,
+        "data/floatball.toml line 3, column 8: gateway 1: kind \"mbox\" is not a known kind \
+         of drive; the known kinds are \"uim2503\""
+    );
+}
