@@ -98,7 +98,7 @@ fn main() {
             rates.push(status.gateways[0].bytes_per_s);
         }
         playback.estop();
-        let available = f64::from(baud) / 10.0;
+        let available = floatball_shared::line::Line::new(baud).bytes_per_s();
         let mean = rates.iter().sum::<f64>() / rates.len().max(1) as f64;
         let lowest = rates.iter().copied().fold(f64::INFINITY, f64::min);
         println!(

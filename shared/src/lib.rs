@@ -14,6 +14,9 @@
 //! - [`feedback`]: the binary feedback frames (gateway → host): the streaming decoder, the
 //!   frame encoder, typed ACKs, notifications and errors, and every code in one place
 //!   ([`feedback::code`]).
+//! - [`line`]: a serial line's timing (8N1: 10 bit times a byte): byte time, bytes per
+//!   second, time for N bytes — used by the planner, the player, the simulator and the
+//!   bridge's pacer.
 //! - [`plan`]: from a show and an installation to each gateway's instruction stream in
 //!   the fewest bytes, the FIFO refill schedule and the bandwidth / feasibility report.
 //! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
@@ -32,6 +35,7 @@
 pub mod api;
 pub mod ascii;
 pub mod feedback;
+pub mod line;
 pub mod plan;
 pub mod pvt;
 pub mod show;

@@ -47,6 +47,7 @@ mod player_tests;
 
 use thiserror::Error;
 
+use crate::line::Line;
 use crate::pvt::{ROW_MAX_MS, ROW_MIN_MS, Row, TABLE_ROWS};
 use crate::show::{Limits, Show, Violation, validate};
 
@@ -212,6 +213,8 @@ pub struct GatewayRun {
     pub units: Vec<usize>,
     /// Rows per unit written before the start (all of them unless streaming).
     pub preload_rows: usize,
+    /// The gateway's line (its baud rate from the installation), for every timing.
+    pub line: Line,
 }
 
 /// Choices that change a plan.
@@ -364,7 +367,7 @@ impl Plan {
             });
         }
         let mut gateways = Vec::new();
-        for gateway in 0..installation.gateways.len() {
+        for (gateway, spec) in installation.gateways.iter().enumerate() {
             let members: Vec<usize> = installation.units_on(gateway).collect();
             if members.is_empty() {
                 continue;
@@ -393,6 +396,7 @@ impl Plan {
                 mode,
                 units: members,
                 preload_rows: longest,
+                line: Line::new(spec.baud),
             });
         }
         let approach_speed_counts_s = counts(0, installation.approach_speed_mm_s)?.max(1);
@@ -410,8 +414,8 @@ impl Plan {
         };
         for index in 0..plan.gateways.len() {
             if plan.gateways[index].mode == RunMode::Fifo {
-                let baud = installation.gateways[plan.gateways[index].gateway].baud;
-                let preload = schedule::choose_preload(&plan, index, baud).preload_rows;
+                let line = plan.gateways[index].line;
+                let preload = schedule::choose_preload(&plan, index, line).preload_rows;
                 plan.gateways[index].preload_rows = preload;
             }
         }

@@ -27,6 +27,7 @@ use super::{Installation, Plan, PlanOptions, RunMode};
 use crate::api::{PlayerState, Status};
 use crate::ascii::Batch;
 use crate::feedback::{Ack, Feedback, Frame, Notification};
+use crate::line::Line;
 use crate::show::Show;
 use crate::sim::Trapezoid;
 
@@ -737,8 +738,8 @@ impl Player {
         }
         let mut line_us = 0u64;
         let runs = self.runs_for_move(&targets);
-        for (gateway, batch) in runs {
-            line_us = line_us.max(line_time_us(batch.len(), self.baud(gateway)));
+        for (gateway, line, batch) in runs {
+            line_us = line_us.max(line.time_us(batch.len()));
             self.commands.push(Command::Bulk { gateway, batch });
         }
         let arrive_us = now_us + line_us + (move_s * 1e6).ceil() as u64 + MOVE_MARGIN_US;
@@ -766,20 +767,27 @@ impl Player {
         self.progress = 0.0;
     }
 
-    /// The move batches per gateway: `SP`, every `PA` (one broadcast when shared), `BG`.
-    fn runs_for_move(&self, targets: &[i32]) -> Vec<(usize, Batch)> {
+    /// The move batches per gateway, with its line: `SP`, every `PA` (one broadcast
+    /// when shared), `BG`.
+    fn runs_for_move(&self, targets: &[i32]) -> Vec<(usize, Line, Batch)> {
         let installation = &self.config.installation;
         let speed = installation
             .counts(installation.approach_speed_mm_s)
             .unwrap_or(1)
             .max(1);
-        (0..installation.gateways.len())
-            .filter_map(|gateway| {
+        installation
+            .gateways
+            .iter()
+            .enumerate()
+            .filter_map(|(gateway, spec)| {
                 let stations: Vec<(u8, i32)> = installation
                     .units_on(gateway)
                     .map(|unit| (installation.units[unit].station, targets[unit]))
                     .collect();
-                (!stations.is_empty()).then(|| (gateway, stream::move_to(speed, &stations)))
+                (!stations.is_empty()).then(|| {
+                    let line = Line::new(spec.baud);
+                    (gateway, line, stream::move_to(speed, &stations))
+                })
             })
             .collect()
     }
@@ -839,7 +847,7 @@ impl Player {
         let confirmed = confirmed.clone();
         let installation = &self.config.installation;
         let mut slowest_us = 0;
-        for gateway in 0..installation.gateways.len() {
+        for (gateway, spec) in installation.gateways.iter().enumerate() {
             let stations: Vec<u8> = installation
                 .units_on(gateway)
                 .filter(|&unit| !confirmed[unit])
@@ -848,7 +856,7 @@ impl Player {
             if !stations.is_empty() {
                 let batch = stream::where_are(&stations);
                 // Questions and answers both cross the line: leave room for them.
-                slowest_us = slowest_us.max(3 * line_time_us(batch.len() * 2, self.baud(gateway)));
+                slowest_us = slowest_us.max(3 * Line::new(spec.baud).time_us(batch.len() * 2));
                 self.commands.push(Command::Bulk { gateway, batch });
             }
         }
@@ -1006,7 +1014,7 @@ impl Player {
         let mut next_row = Vec::with_capacity(plan.gateways.len());
         let begin = stream::begin();
         for run in &plan.gateways {
-            start_us.push(now_us + line_time_us(begin.len(), self.baud(run.gateway)));
+            start_us.push(now_us + run.line.time_us(begin.len()));
             next_row.push(run.preload_rows);
             self.commands.push(Command::Priority {
                 gateway: run.gateway,
@@ -1061,13 +1069,7 @@ impl Player {
                 continue;
             }
             let batch = stream::rows(plan, run, *next, to);
-            let baud = self
-                .config
-                .installation
-                .gateways
-                .get(run.gateway)
-                .map_or(9600, |spec| spec.baud);
-            let landing_ms = show_ms + line_time_us(queued + batch.len(), baud) as f64 / 1000.0;
+            let landing_ms = show_ms + run.line.time_us(queued + batch.len()) as f64 / 1000.0;
             if let Some(level) = schedule::level_at(plan, run, *next, landing_ms) {
                 let level = u16::try_from(level.max(0)).unwrap_or(u16::MAX);
                 let lowest = &mut self.lowest_level[run.gateway];
@@ -1084,17 +1086,4 @@ impl Player {
             self.cycle_done(now_us);
         }
     }
-
-    fn baud(&self, gateway: usize) -> u32 {
-        self.config
-            .installation
-            .gateways
-            .get(gateway)
-            .map_or(9600, |spec| spec.baud)
-    }
-}
-
-/// How long `bytes` take on a line at `baud`, µs (8N1).
-pub fn line_time_us(bytes: usize, baud: u32) -> u64 {
-    (bytes as u64 * 10_000_000).div_ceil(u64::from(baud.max(1)))
 }

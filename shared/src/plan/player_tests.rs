@@ -8,7 +8,7 @@ use wasm_bindgen_test::wasm_bindgen_test as test;
 
 use std::collections::VecDeque;
 
-use super::player::{Command, Entry, LinkView, Player, PlayerConfig, StartError, line_time_us};
+use super::player::{Command, Entry, LinkView, Player, PlayerConfig, StartError};
 use super::tests::wave;
 use super::{GatewaySpec, Installation};
 use crate::api::PlayerState;
@@ -40,7 +40,7 @@ struct Line {
 
 impl Line {
     fn byte_us(&self) -> u64 {
-        line_time_us(1, self.baud)
+        crate::line::Line::new(self.baud).time_us(1)
     }
 
     fn queued_bytes(&self) -> usize {
@@ -300,7 +300,7 @@ fn follow(rig: &mut Rig, show: &Show) -> f64 {
 /// player reached `Playing` at `start_us`. Returns the largest deviation, mm.
 fn compare_from(rig: &mut Rig, show: &Show, start_us: u64) -> f64 {
     // The units began when `*0;BG;` finished crossing the line.
-    let begin_us = start_us + line_time_us(6, rig.installation.gateways[0].baud);
+    let begin_us = start_us + crate::line::Line::new(rig.installation.gateways[0].baud).time_us(6);
     let mut sampler = Sampler::new(show);
     let mut expected = vec![0.0f32; show.tracks.len()];
     let mut worst: f64 = 0.0;
@@ -396,7 +396,7 @@ fn an_estop_stops_every_ball_within_one_instruction_and_start_homes_first() {
     rig.estop();
     let stopped_at = rig.now_us;
     // One instruction already on the wire (≤ 20 bytes) plus the 8-byte stop.
-    let bound_us = line_time_us(28, 115_200) + STEP_US;
+    let bound_us = crate::line::Line::new(115_200).time_us(28) + STEP_US;
     rig.run_until(bound_us, |rig| !rig.anyone_moving());
     assert!(rig.now_us - stopped_at <= bound_us);
     assert_eq!(rig.state(), PlayerState::Stopped);
@@ -596,7 +596,10 @@ fn assert_golden(name: &str, expected: &str, actual: &str) {
             ),
         }
     }
-    assert_eq!(expected, actual, "{name}: same instructions, other line ends");
+    assert_eq!(
+        expected, actual,
+        "{name}: same instructions, other line ends"
+    );
 }
 
 /// Golden wire test, streaming: two gateways at 9600 baud, three units each, a 28 s
