@@ -17,6 +17,8 @@
 //! - [`line`]: a serial line's timing (8N1: 10 bit times a byte): byte time, bytes per
 //!   second, time for N bytes — used by the planner, the player, the simulator and the
 //!   bridge's pacer.
+//! - [`motion`]: motion profiles outside the PVT table — point-to-point moves
+//!   ([`motion::Trapezoid`]) and braking — used by the player's timing and the simulator.
 //! - [`plan`]: from a show and an installation to each gateway's instruction stream in
 //!   the fewest bytes, the FIFO refill schedule and the bandwidth / feasibility report.
 //! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
@@ -36,6 +38,7 @@ pub mod api;
 pub mod ascii;
 pub mod feedback;
 pub mod line;
+pub mod motion;
 pub mod plan;
 pub mod pvt;
 pub mod show;

@@ -28,8 +28,8 @@ use crate::api::{PlayerState, Status};
 use crate::ascii::Batch;
 use crate::feedback::{Ack, Feedback, Frame, Notification};
 use crate::line::Line;
+use crate::motion::Trapezoid;
 use crate::show::Show;
-use crate::sim::Trapezoid;
 
 /// How long after a bulk queue falls below [`REFILL_LOW_BYTES`] the next round may be
 /// queued: the player keeps every link's queue shallow so an e-stop has little to drop

@@ -12,12 +12,14 @@
 
 use super::{GatewayRun, Plan, RunMode, stream};
 use crate::line::Line;
+use crate::pvt::TABLE_ROWS;
 
 /// Rows per unit in one refill round.
 pub const ROUND_ROWS: usize = 16;
 
-/// Most rows pending in a running unit's FIFO (256 when idle; one is running).
-pub const FIFO_LIMIT: usize = 255;
+/// Most rows pending in a running unit's FIFO: the table's [`TABLE_ROWS`] less the slot
+/// the running row keeps (as [`crate::pvt::PvtTable`] counts them).
+pub const FIFO_LIMIT: usize = TABLE_ROWS - 1;
 
 /// The fewest rows that must be pending whenever a refill lands, for a plan to count
 /// as feasible: a margin for jitter on the line and in the host.

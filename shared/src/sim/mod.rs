@@ -16,9 +16,10 @@
 //!
 //! Each unit keeps a [`PvtTable`](crate::pvt::PvtTable) and moves PVT rows with the
 //! shared [`Segment`](crate::pvt::Segment) evaluator; point-to-point moves are
-//! [`Trapezoid`]s. Time is µs since [`Gateway::new`], and the units' system time (the
-//! clock `BG=N;` refers to) is that time modulo 2³². Nothing here reads a clock or
-//! draws a random number: the same configuration and inputs give the same bytes.
+//! [`Trapezoid`](crate::motion::Trapezoid)s. Time is µs since [`Gateway::new`], and the
+//! units' system time (the clock `BG=N;` refers to) is that time modulo 2³². Nothing
+//! here reads a clock or draws a random number: the same configuration and inputs give
+//! the same bytes.
 //! Where the manual is silent, `docs/protocol-notes.md` ("What the simulator does
 //! where the manual is silent") says what the simulator does.
 //!
@@ -70,7 +71,6 @@ pub use config::{
     ConfigError, DEFAULT_COUNTS_PER_MM, FACTORY_STATION, Faults, Garble, GatewayConfig, MAX_UNITS,
 };
 pub use line::{RX_FIFO_BYTES, RxLine, TX_QUEUE_BYTES, Uart};
-pub use motion::Trapezoid;
 
 use config::Limits;
 use unit::{Outbox, Timed, Unit};
@@ -510,6 +510,7 @@ mod tests {
 
     use super::*;
     use crate::feedback::{Ack, FrameDecoder, Notification};
+    use crate::motion::Trapezoid;
 
     /// Bytes as the manual writes them: `F0 14 15 01 E0`.
     pub(super) fn hex(bytes: &[u8]) -> String {
