@@ -14,7 +14,7 @@
 //! - [`feedback`]: the binary feedback frames (gateway → host): the streaming decoder, the
 //!   frame encoder, typed ACKs, notifications and errors, and every code in one place
 //!   ([`feedback::code`]).
-//! - [`line`]: a serial line's timing (8N1: 10 bit times a byte): byte time, bytes per
+//! - [`mod@line`]: a serial line's timing (8N1: 10 bit times a byte): byte time, bytes per
 //!   second, time for N bytes — used by the planner, the player, the simulator and the
 //!   bridge's pacer.
 //! - [`motion`]: motion profiles outside the PVT table — point-to-point moves
