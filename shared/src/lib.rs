@@ -20,11 +20,13 @@
 //! - [`motion`]: motion profiles outside the PVT table — point-to-point moves
 //!   ([`motion::Trapezoid`]) and braking — used by the player's timing and the simulator.
 //! - [`plan`]: from a show and an installation to each gateway's instruction stream in
-//!   the fewest bytes, the FIFO refill schedule and the bandwidth / feasibility report.
+//!   the fewest bytes, the FIFO refill schedule, the bandwidth / feasibility report and
+//!   the player (Start / E-stop / Reset as a state machine, split by phase).
 //! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
 //!   single-sequence and loop runs, `MP` parameters, watermark) driven by time.
 //! - [`show`]: the show model and its native file format, CSV keyframe import,
-//!   validation against an installation's limits, and sampling for the preview.
+//!   validation against an installation's limits, sampling for the preview, and the
+//!   demo wave the tests and benches share ([`show::demo`]).
 //! - [`sim`]: a simulated gateway and its units: instruction bytes and time in,
 //!   feedback bytes out, every ball's PVT table and motion in between.
 #![forbid(unsafe_code)]

@@ -356,14 +356,8 @@ impl Player {
         loop_playlist: bool,
         links: &[LinkView],
     ) -> Result<(), StartError> {
-        self.estop();
-        self.step = Step::Stopped;
-        let result = prepare(&self.config.installation, entries, loop_playlist, links)
-            .and_then(|prepared| self.start_prepared(now_us, prepared, links));
-        if let Err(error) = &result {
-            self.last_error = Some(error.to_string());
-        }
-        result
+        let prepared = prepare(&self.config.installation, entries, loop_playlist, links);
+        self.reset_prepared(now_us, prepared, links)
     }
 
     /// Reset with a playlist [`prepare`]d already (the caller sent the stop first).
