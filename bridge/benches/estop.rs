@@ -48,7 +48,7 @@ fn measure(runtime: &tokio::runtime::Runtime, baud: u32, samples: usize) {
             .await
             .expect("link up");
     });
-    let byte_time = Duration::from_secs_f64(10.0 / f64::from(baud));
+    let byte_time = floatball_shared::line::Line::new(baud).byte_time();
     let mut latencies = Vec::with_capacity(samples);
     let mut buffer = [0u8; 4096];
     let mut seed = 0x2545_f491_4f6c_dd1du64;

@@ -9,37 +9,19 @@ use floatball_bridge::playback::Playback;
 use floatball_shared::api::{LinkState, PlayerState};
 use floatball_shared::plan::player::Entry;
 use floatball_shared::plan::{DriveKind, GatewaySpec, Installation};
-use floatball_shared::show::{Layout, Limits, Show, Track, TrackRow};
+use floatball_shared::show::demo::Wave;
+use floatball_shared::show::{Limits, Show};
 
+/// A 10 × 10 wave of `row_count` rows of 250 ms.
 fn wave(row_count: usize) -> Show {
-    let tracks = (0..100u32)
-        .map(|unit| {
-            let phase = f64::from(unit) * 0.3;
-            let omega = 2.0 * std::f64::consts::PI / 8.0;
-            let at = |t_s: f64| 3000.0 + 500.0 * (omega * t_s + phase).sin();
-            let speed = |t_s: f64| 500.0 * omega * (omega * t_s + phase).cos();
-            Track {
-                start_mm: at(0.0),
-                rows: (1..=row_count)
-                    .map(|i| {
-                        let t_s = i as f64 * 0.25;
-                        let velocity = if i == row_count { 0.0 } else { speed(t_s) };
-                        TrackRow::new(at(t_s), velocity, 250)
-                    })
-                    .collect(),
-                colours: Vec::new(),
-            }
-        })
-        .collect();
-    Show {
-        name: "wave".into(),
-        layout: Layout {
-            rows: 10,
-            cols: 10,
-            pitch_mm: 500.0,
-        },
-        tracks,
+    Wave {
+        period_s: 8.0,
+        col_phase: 0.3,
+        row_phase: 3.0,
+        tenths: false,
+        ..Wave::new(10, 10, row_count, 250)
     }
+    .show()
 }
 
 fn main() {
@@ -99,7 +81,7 @@ fn main() {
             rates.push(status.gateways[0].bytes_per_s);
         }
         playback.estop();
-        let available = f64::from(baud) / 10.0;
+        let available = floatball_shared::line::Line::new(baud).bytes_per_s();
         let mean = rates.iter().sum::<f64>() / rates.len().max(1) as f64;
         let lowest = rates.iter().copied().fold(f64::INFINITY, f64::min);
         println!(

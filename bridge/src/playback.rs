@@ -30,7 +30,6 @@ use tokio::sync::{mpsc, oneshot, watch};
 
 use crate::estop::{self, Latch};
 use crate::link::Link;
-use crate::link::pacer::byte_time;
 
 type Reply = oneshot::Sender<Result<(), StartError>>;
 
@@ -269,7 +268,10 @@ impl Playback {
 /// before it counts as stalled: ten of the longest instructions on its line, and never
 /// less than half a second (threads are not scheduled to the millisecond).
 pub fn stall_limit(baud: u32) -> Duration {
-    (byte_time(baud) * 10 * floatball_shared::ascii::MAX_LEN as u32).max(Duration::from_millis(500))
+    (floatball_shared::line::Line::new(baud).byte_time()
+        * 10
+        * floatball_shared::ascii::MAX_LEN as u32)
+        .max(Duration::from_millis(500))
 }
 
 fn link_views(links: &[Link]) -> Vec<LinkView> {

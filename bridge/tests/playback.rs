@@ -10,41 +10,25 @@ use floatball_bridge::playback::Playback;
 use floatball_shared::api::{LinkState, PlayerState, Status};
 use floatball_shared::plan::player::Entry;
 use floatball_shared::plan::{DriveKind, GatewaySpec, Installation};
-use floatball_shared::show::{Layout, Limits, Sampler, Show, Track, TrackRow};
+use floatball_shared::show::demo::Wave;
+use floatball_shared::show::{Limits, Sampler, Show};
 use floatball_shared::sim::GatewayConfig;
 use serialport::{SerialPort, TTYPort};
 
 /// A slow, gentle wave (≤ 40 mm/s) so a few ms of scheduling jitter stay far below a
 /// millimetre.
 fn gentle_wave(rows: u32, cols: u32, row_count: usize, row_ms: u32) -> Show {
-    let mut tracks = Vec::new();
-    for unit in 0..rows * cols {
-        let phase = f64::from(unit) * 0.7;
-        let omega = 2.0 * std::f64::consts::PI / 4.0;
-        let at = |t_s: f64| 2000.0 + 25.0 * (omega * t_s + phase).sin();
-        let speed = |t_s: f64| 25.0 * omega * (omega * t_s + phase).cos();
-        let track_rows = (1..=row_count)
-            .map(|i| {
-                let t_s = i as f64 * f64::from(row_ms) / 1000.0;
-                let velocity = if i == row_count { 0.0 } else { speed(t_s) };
-                TrackRow::new(at(t_s), velocity, row_ms)
-            })
-            .collect();
-        tracks.push(Track {
-            start_mm: at(0.0),
-            rows: track_rows,
-            colours: Vec::new(),
-        });
+    let mut show = Wave {
+        centre_mm: 2000.0,
+        amplitude_mm: 25.0,
+        col_phase: 0.7,
+        row_phase: f64::from(cols) * 0.7,
+        tenths: false,
+        ..Wave::new(rows, cols, row_count, row_ms)
     }
-    Show {
-        name: "gentle".into(),
-        layout: Layout {
-            rows,
-            cols,
-            pitch_mm: 500.0,
-        },
-        tracks,
-    }
+    .show();
+    show.name = "gentle".into();
+    show
 }
 
 fn installation(rows: u32, cols: u32, port: &str, baud: u32) -> Installation {

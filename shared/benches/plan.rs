@@ -9,43 +9,17 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use floatball_shared::plan::report::report_for;
 use floatball_shared::plan::schedule::ROUND_ROWS;
 use floatball_shared::plan::{DriveKind, GatewaySpec, Installation, Plan, PlanOptions, stream};
-use floatball_shared::show::{Layout, Limits, Show, Track, TrackRow};
+use floatball_shared::show::demo::Wave;
+use floatball_shared::show::{Limits, Show};
 
 /// A wave across 10 × 10 balls, 600 rows of 250 ms each (150 s).
 fn wave() -> Show {
-    let (rows, cols, row_count, row_ms) = (10u32, 10u32, 600usize, 250u32);
-    let mut tracks = Vec::new();
-    for unit in 0..rows * cols {
-        let phase = f64::from(unit % cols) * 0.6 + f64::from(unit / cols) * 0.2;
-        let omega = 2.0 * std::f64::consts::PI / 8.0;
-        let at = |t_s: f64| 3000.0 + 1500.0 * (omega * t_s + phase).sin();
-        let speed = |t_s: f64| 1500.0 * omega * (omega * t_s + phase).cos();
-        let track_rows = (1..=row_count)
-            .map(|i| {
-                let t_s = i as f64 * f64::from(row_ms) / 1000.0;
-                let velocity = if i == row_count { 0.0 } else { speed(t_s) };
-                TrackRow::new(
-                    (at(t_s) * 10.0).round() / 10.0,
-                    (velocity * 10.0).round() / 10.0,
-                    row_ms,
-                )
-            })
-            .collect();
-        tracks.push(Track {
-            start_mm: (at(0.0) * 10.0).round() / 10.0,
-            rows: track_rows,
-            colours: Vec::new(),
-        });
+    Wave {
+        amplitude_mm: 1500.0,
+        period_s: 8.0,
+        ..Wave::new(10, 10, 600, 250)
     }
-    Show {
-        name: "wave".into(),
-        layout: Layout {
-            rows,
-            cols,
-            pitch_mm: 500.0,
-        },
-        tracks,
-    }
+    .show()
 }
 
 fn installation() -> Installation {

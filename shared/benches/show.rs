@@ -7,45 +7,33 @@ use std::f64::consts::TAU;
 use std::hint::black_box;
 
 use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_main};
-use floatball_shared::show::{ColourKey, Layout, Sampler, Show, Track, TrackRow, import_csv};
+use floatball_shared::show::demo::Wave;
+use floatball_shared::show::{ColourKey, Layout, Sampler, Show, import_csv};
 
-/// A travelling wave over a `rows` × `cols` matrix: 100 ms rows for `seconds`.
+/// A travelling wave over a `rows` × `cols` matrix: 100 ms rows for `seconds`, red to
+/// blue.
 fn wave(rows: u32, cols: u32, seconds: u32) -> Show {
-    let position =
-        |unit: usize, t_s: f64| 3000.0 + 2000.0 * (TAU * (t_s / 4.0 + unit as f64 / 97.0)).sin();
-    let velocity =
-        |unit: usize, t_s: f64| 2000.0 * TAU / 4.0 * (TAU * (t_s / 4.0 + unit as f64 / 97.0)).cos();
-    let units = rows as usize * cols as usize;
-    let tracks = (0..units)
-        .map(|unit| Track {
-            start_mm: position(unit, 0.0),
-            rows: (1..=seconds * 10)
-                .map(|row| {
-                    let t_s = f64::from(row) / 10.0;
-                    TrackRow::new(position(unit, t_s), velocity(unit, t_s), 100)
-                })
-                .collect(),
-            colours: vec![
-                ColourKey {
-                    time_ms: 0,
-                    rgb: [255, 0, 0],
-                },
-                ColourKey {
-                    time_ms: u64::from(seconds) * 1000,
-                    rgb: [0, 0, 255],
-                },
-            ],
-        })
-        .collect();
-    Show {
-        name: "wave".into(),
-        layout: Layout {
-            rows,
-            cols,
-            pitch_mm: 500.0,
-        },
-        tracks,
+    let mut show = Wave {
+        amplitude_mm: 2000.0,
+        col_phase: TAU / 97.0,
+        row_phase: f64::from(cols) * TAU / 97.0,
+        tenths: false,
+        ..Wave::new(rows, cols, seconds as usize * 10, 100)
     }
+    .show();
+    for track in &mut show.tracks {
+        track.colours = vec![
+            ColourKey {
+                time_ms: 0,
+                rgb: [255, 0, 0],
+            },
+            ColourKey {
+                time_ms: u64::from(seconds) * 1000,
+                rgb: [0, 0, 255],
+            },
+        ];
+    }
+    show
 }
 
 fn sample(c: &mut Criterion) {

@@ -195,8 +195,9 @@ pub struct SimLineStats {
     pub dropped_bytes: u64,
 }
 
-/// One simulated unit.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// One simulated unit, at the simulated gateway's time: what
+/// [`crate::sim::Gateway::units`] returns and `GET /api/sim/positions` serves.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SimUnit {
     /// Its station number (CAN id).
     pub station: u8,

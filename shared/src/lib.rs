@@ -14,15 +14,22 @@
 //! - [`feedback`]: the binary feedback frames (gateway → host): the streaming decoder, the
 //!   frame encoder, typed ACKs, notifications and errors, and every code in one place
 //!   ([`feedback::code`]).
+//! - [`mod@line`]: a serial line's timing (8N1: 10 bit times a byte): byte time, bytes per
+//!   second, time for N bytes — used by the planner, the player, the simulator and the
+//!   bridge's pacer.
+//! - [`motion`]: motion profiles outside the PVT table — point-to-point moves
+//!   ([`motion::Trapezoid`]) and braking — used by the player's timing and the simulator.
 //! - [`plan`]: the installation (gateways, kinds of drive, which unit hangs where) and,
 //!   from a show and an installation, each gateway's instruction stream in the fewest
-//!   bytes, the FIFO refill schedule and the bandwidth / feasibility report.
+//!   bytes, the FIFO refill schedule, the bandwidth / feasibility report and the player
+//!   (Start / E-stop / Reset as a state machine, split by phase).
 //! - [`playlist`]: the playlist's limits and the one check of its ranges, used by the
 //!   bridge and the app alike.
 //! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
 //!   single-sequence and loop runs, `MP` parameters, watermark) driven by time.
 //! - [`show`]: the show model and its native file format, CSV keyframe import,
-//!   validation against an installation's limits, and sampling for the preview.
+//!   validation against an installation's limits, sampling for the preview, and the
+//!   demo wave the tests and benches share ([`show::demo`]).
 //! - [`sim`]: a simulated gateway and its units: instruction bytes and time in,
 //!   feedback bytes out, every ball's PVT table and motion in between.
 #![forbid(unsafe_code)]
@@ -35,6 +42,8 @@
 pub mod api;
 pub mod ascii;
 pub mod feedback;
+pub mod line;
+pub mod motion;
 pub mod plan;
 pub mod playlist;
 pub mod pvt;

@@ -1,20 +1,17 @@
 //! Pacing writes to the line's real speed.
 //!
-//! A UART sends a byte in 10 bit times (8N1), so a line carries baud / 10 bytes per
-//! second. The writer hands the next instruction to the port only shortly before the
+//! A byte's time on the wire is [`Line::byte_time`] (8N1, the rule written once in
+//! [`floatball_shared::line`]). The writer hands the next instruction to the port only shortly before the
 //! line is free ([`LEAD`]): the line stays busy, and the port's buffer never holds
 //! more than the instruction being sent — so an e-stop waits for at most that one.
 //! The same pacing makes the simulated gateway's line exactly as slow as a real one.
 
 use std::time::{Duration, Instant};
 
+use floatball_shared::line::Line;
+
 /// How long before the line is free the next instruction is handed over, at least.
 pub const LEAD: Duration = Duration::from_micros(300);
-
-/// How long one byte takes on the wire at `baud` (8 data bits, 1 start, 1 stop).
-pub fn byte_time(baud: u32) -> Duration {
-    Duration::from_secs_f64(10.0 / f64::from(baud.max(1)))
-}
 
 /// When the line will be free, given what was written.
 #[derive(Debug, Clone)]
@@ -27,7 +24,7 @@ pub struct Pacer {
 impl Pacer {
     /// A pacer for a line at `baud`, idle at `now`.
     pub fn new(baud: u32, now: Instant) -> Self {
-        let byte_time = byte_time(baud);
+        let byte_time = Line::new(baud).byte_time();
         Self {
             byte_time,
             lead: LEAD.max(byte_time * 2),
@@ -105,25 +102,19 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_byte_takes_ten_bit_times() {
-        assert_eq!(byte_time(9600), Duration::from_secs_f64(10.0 / 9600.0));
-        assert_eq!(byte_time(115_200).as_nanos(), 86_806);
-    }
-
-    #[test]
     fn the_next_write_waits_until_shortly_before_the_line_is_free() {
         let start = Instant::now();
         let mut pacer = Pacer::new(9600, start);
         assert_eq!(pacer.wait_before_next(start), Duration::ZERO);
         // 20 bytes at 9600 baud: 20.83 ms on the wire.
         let free = pacer.wrote(start, 20);
-        assert_eq!(free - start, byte_time(9600) * 20);
+        assert_eq!(free - start, Line::new(9600).byte_time() * 20);
         let wait = pacer.wait_before_next(start);
-        let lead = byte_time(9600) * 2;
-        assert_eq!(wait, byte_time(9600) * 20 - lead);
+        let lead = Line::new(9600).byte_time() * 2;
+        assert_eq!(wait, Line::new(9600).byte_time() * 20 - lead);
         // Writing again right away queues behind the first instruction.
         let free_again = pacer.wrote(start + wait, 10);
-        assert_eq!(free_again - free, byte_time(9600) * 10);
+        assert_eq!(free_again - free, Line::new(9600).byte_time() * 10);
     }
 
     #[test]
@@ -132,7 +123,10 @@ mod tests {
         let mut pacer = Pacer::new(115_200, start);
         pacer.wrote(start, 10);
         let later = start + Duration::from_secs(1);
-        assert_eq!(pacer.wrote(later, 10) - later, byte_time(115_200) * 10);
+        assert_eq!(
+            pacer.wrote(later, 10) - later,
+            Line::new(115_200).byte_time() * 10
+        );
     }
 
     #[test]

@@ -17,8 +17,8 @@ use floatball_shared::api::{LinkState, SimGateway, SimLineStats};
 use floatball_shared::feedback::FrameDecoder;
 use floatball_shared::sim::{Gateway, GatewayConfig, Uart};
 
-use super::pacer::byte_time;
 use super::{Input, LineWrite, Shared, run_writer};
+use floatball_shared::line::Line;
 
 /// The longest the simulation sleeps, so positions and clocks stay fresh.
 const TICK: Duration = Duration::from_millis(10);
@@ -147,7 +147,7 @@ pub(super) fn spawn(
             writer_shared.set_state(LinkState::Up, None);
             let mut line = SimLine {
                 to_sim,
-                byte_time: byte_time(writer_shared.config.baud),
+                byte_time: Line::new(writer_shared.config.baud).byte_time(),
                 line_free_at: Instant::now(),
             };
             let reason = run_writer(&writer_shared, &inbox, &mut line, &lost);

@@ -54,6 +54,7 @@ pub use installation::{
     AllocationError, DriveKind, GatewaySpec, Installation, MAX_UNITS_PER_GATEWAY, UnitAddress,
 };
 
+use crate::line::Line;
 use crate::pvt::{ROW_MAX_MS, ROW_MIN_MS, Row, TABLE_ROWS};
 use crate::show::{Show, Violation, validate};
 
@@ -116,6 +117,8 @@ pub struct GatewayRun {
     pub units: Vec<usize>,
     /// Rows per unit written before the start (all of them unless streaming).
     pub preload_rows: usize,
+    /// The gateway's line (its baud rate from the installation), for every timing.
+    pub line: Line,
 }
 
 /// Choices that change a plan.
@@ -254,7 +257,7 @@ impl Plan {
             });
         }
         let mut gateways = Vec::new();
-        for gateway in 0..installation.gateways.len() {
+        for (gateway, spec) in installation.gateways.iter().enumerate() {
             let members: Vec<usize> = installation.units_on(gateway).collect();
             if members.is_empty() {
                 continue;
@@ -283,6 +286,7 @@ impl Plan {
                 mode,
                 units: members,
                 preload_rows: longest,
+                line: Line::new(spec.baud),
             });
         }
         let approach_speed_counts_s = counts(0, installation.approach_speed_mm_s)?.max(1);
@@ -300,8 +304,8 @@ impl Plan {
         };
         for index in 0..plan.gateways.len() {
             if plan.gateways[index].mode == RunMode::Fifo {
-                let baud = installation.gateways[plan.gateways[index].gateway].baud;
-                let preload = schedule::choose_preload(&plan, index, baud).preload_rows;
+                let line = plan.gateways[index].line;
+                let preload = schedule::choose_preload(&plan, index, line).preload_rows;
                 plan.gateways[index].preload_rows = preload;
             }
         }
@@ -328,48 +332,9 @@ pub(crate) mod tests {
     use wasm_bindgen_test::wasm_bindgen_test as test;
 
     use super::*;
-    use crate::show::{Layout, Limits, Track, TrackRow};
+    use crate::show::{Limits, TrackRow};
 
-    /// A wave across a `rows` × `cols` matrix: every ball bobs 0.5 m around 3 m with a
-    /// phase that moves along the columns; `rows_per_ball` rows of `row_ms`.
-    pub(crate) fn wave(rows: u32, cols: u32, rows_per_ball: usize, row_ms: u32) -> Show {
-        let mut tracks = Vec::new();
-        for row in 0..rows {
-            for col in 0..cols {
-                let phase = f64::from(col) * 0.6 + f64::from(row) * 0.2;
-                let omega = 2.0 * std::f64::consts::PI / 4.0; // one wave every 4 s
-                let at = |t_s: f64| 3000.0 + 500.0 * (omega * t_s + phase).sin();
-                let speed = |t_s: f64| 500.0 * omega * (omega * t_s + phase).cos();
-                let mut track_rows = Vec::with_capacity(rows_per_ball);
-                for i in 1..=rows_per_ball {
-                    let t_s = (i as f64) * f64::from(row_ms) / 1000.0;
-                    let last = i == rows_per_ball;
-                    let position = (at(t_s) * 10.0).round() / 10.0;
-                    let velocity = if last {
-                        0.0
-                    } else {
-                        (speed(t_s) * 10.0).round() / 10.0
-                    };
-                    track_rows.push(TrackRow::new(position, velocity, row_ms));
-                }
-                // Start at rest where the wave starts.
-                tracks.push(Track {
-                    start_mm: (at(0.0) * 10.0).round() / 10.0,
-                    rows: track_rows,
-                    colours: Vec::new(),
-                });
-            }
-        }
-        Show {
-            name: "wave".into(),
-            layout: Layout {
-                rows,
-                cols,
-                pitch_mm: 500.0,
-            },
-            tracks,
-        }
-    }
+    pub(crate) use crate::show::demo::wave;
 
     /// Generous limits so test shows are valid (the start-from-rest jumps in speed are
     /// within these).

@@ -8,7 +8,7 @@ use wasm_bindgen_test::wasm_bindgen_test as test;
 
 use std::collections::VecDeque;
 
-use super::player::{Command, Entry, LinkView, Player, PlayerConfig, StartError, line_time_us};
+use super::player::{Command, Entry, LinkView, Player, PlayerConfig, StartError};
 use super::tests::wave;
 use super::{DriveKind, GatewaySpec, Installation};
 use crate::api::PlayerState;
@@ -33,11 +33,14 @@ struct Line {
     /// The station the bulk lane last selected, restored after a priority write.
     bulk_selection: Option<Vec<u8>>,
     reselect: bool,
+    /// Every instruction written, in order: when it began to cross the line (µs) and its
+    /// bytes — what the golden wire test pins.
+    wire: Vec<(u64, Vec<u8>)>,
 }
 
 impl Line {
     fn byte_us(&self) -> u64 {
-        line_time_us(1, self.baud)
+        crate::line::Line::new(self.baud).time_us(1)
     }
 
     fn queued_bytes(&self) -> usize {
@@ -110,6 +113,7 @@ impl Rig {
                     decoder: FrameDecoder::new(),
                     bulk_selection: None,
                     reselect: false,
+                    wire: Vec::new(),
                 }
             })
             .collect();
@@ -197,6 +201,7 @@ impl Rig {
                 };
                 let start = line.line_free_us.max(self.now_us);
                 line.line_free_us = start + line.byte_us() * next.len() as u64;
+                line.wire.push((start, next.clone()));
                 line.in_flight.push_back((line.line_free_us, next));
             }
             while line.in_flight.front().is_some_and(|(at, _)| *at <= end) {
@@ -296,7 +301,7 @@ fn follow(rig: &mut Rig, show: &Show) -> f64 {
 /// player reached `Playing` at `start_us`. Returns the largest deviation, mm.
 fn compare_from(rig: &mut Rig, show: &Show, start_us: u64) -> f64 {
     // The units began when `*0;BG;` finished crossing the line.
-    let begin_us = start_us + line_time_us(6, rig.installation.gateways[0].baud);
+    let begin_us = start_us + crate::line::Line::new(rig.installation.gateways[0].baud).time_us(6);
     let mut sampler = Sampler::new(show);
     let mut expected = vec![0.0f32; show.tracks.len()];
     let mut worst: f64 = 0.0;
@@ -392,7 +397,7 @@ fn an_estop_stops_every_ball_within_one_instruction_and_start_homes_first() {
     rig.estop();
     let stopped_at = rig.now_us;
     // One instruction already on the wire (≤ 20 bytes) plus the 8-byte stop.
-    let bound_us = line_time_us(28, 115_200) + STEP_US;
+    let bound_us = crate::line::Line::new(115_200).time_us(28) + STEP_US;
     rig.run_until(bound_us, |rig| !rig.anyone_moving());
     assert!(rig.now_us - stopped_at <= bound_us);
     assert_eq!(rig.state(), PlayerState::Stopped);
@@ -551,5 +556,103 @@ fn a_failure_asks_for_the_estop_and_an_estop_keeps_the_failure() {
     assert_eq!(
         rig.player.status().last_error.as_deref(),
         Some("gateway 0 stalled")
+    );
+}
+
+/// The instructions written to each gateway, one a line: when the instruction began to
+/// cross the line (µs of virtual time), a space, its bytes as ASCII.
+fn wire_text(rig: &Rig) -> Vec<String> {
+    rig.lines
+        .iter()
+        .map(|line| {
+            line.wire
+                .iter()
+                .map(|(at_us, bytes)| format!("{at_us} {}\n", bytes.escape_ascii()))
+                .collect()
+        })
+        .collect()
+}
+
+/// Compares `actual` with the golden file `name` (in `shared/tests/golden/`) line by
+/// line and names the first instruction that differs. With `FLOATBALL_BLESS=1` (native
+/// only) the file is written from `actual` instead: only ever from code whose bytes on
+/// the wire are known to be right.
+fn assert_golden(name: &str, expected: &str, actual: &str) {
+    #[cfg(not(target_arch = "wasm32"))]
+    if std::env::var_os("FLOATBALL_BLESS").is_some() {
+        let path = format!("{}/tests/golden/{name}", env!("CARGO_MANIFEST_DIR"));
+        std::fs::write(&path, actual).unwrap();
+        return;
+    }
+    let mut expected_lines = expected.lines();
+    let mut actual_lines = actual.lines();
+    for number in 1.. {
+        match (expected_lines.next(), actual_lines.next()) {
+            (None, None) => break,
+            (expected, actual) if expected == actual => {}
+            (expected, actual) => panic!(
+                "{name}: instruction {number} differs on the wire\n  expected: {}\n  actual:   {}",
+                expected.unwrap_or("(nothing: the stream ended)"),
+                actual.unwrap_or("(nothing: the stream ended)")
+            ),
+        }
+    }
+    assert_eq!(
+        expected, actual,
+        "{name}: same instructions, other line ends"
+    );
+}
+
+/// Golden wire test, streaming: two gateways at 9600 baud, three units each, a 28 s
+/// wave too long for the table (FIFO). Pins every byte each gateway is sent, and when:
+/// homing, approach, position queries, configuration, preload, arm, the synchronised
+/// start and every refill round.
+#[test]
+fn the_wire_carries_exactly_the_golden_stream_when_streaming() {
+    let show = wave(2, 3, 280, 100);
+    let mut rig = Rig::new(installation(2, 3, &[9600, 9600]));
+    rig.start(vec![entry(show, 0, 1)], false).unwrap();
+    rig.run_until(120_000_000, |rig| rig.state() == PlayerState::Playing);
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+    let wire = wire_text(&rig);
+    assert_golden(
+        "wave_fifo_9600_gateway0.txt",
+        include_str!("../../tests/golden/wave_fifo_9600_gateway0.txt"),
+        &wire[0],
+    );
+    assert_golden(
+        "wave_fifo_9600_gateway1.txt",
+        include_str!("../../tests/golden/wave_fifo_9600_gateway1.txt"),
+        &wire[1],
+    );
+}
+
+/// Golden wire test, a playlist of short shows: two gateways at 9600 baud, a wave that
+/// fits the table (single mode) played twice after a delay, then a second show — the
+/// moves and loads between entries and cycles.
+#[test]
+fn the_wire_carries_exactly_the_golden_stream_for_a_playlist() {
+    let first = wave(2, 3, 20, 200);
+    let mut second = wave(2, 3, 12, 250);
+    second.name = "second".into();
+    let mut rig = Rig::new(installation(2, 3, &[9600, 9600]));
+    rig.start(vec![entry(first, 300, 2), entry(second, 0, 1)], false)
+        .unwrap();
+    rig.run_until(120_000_000, |rig| {
+        rig.player.status().entry == Some(1) && rig.state() == PlayerState::Playing
+    });
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+    let wire = wire_text(&rig);
+    assert_golden(
+        "wave_playlist_9600_gateway0.txt",
+        include_str!("../../tests/golden/wave_playlist_9600_gateway0.txt"),
+        &wire[0],
+    );
+    assert_golden(
+        "wave_playlist_9600_gateway1.txt",
+        include_str!("../../tests/golden/wave_playlist_9600_gateway1.txt"),
+        &wire[1],
     );
 }

@@ -6,6 +6,7 @@
 use super::schedule::{self, Simulation};
 use super::{Installation, Plan, PlanError, PlanOptions, RunMode};
 use crate::api::{GatewayPlan, PlanReport};
+use crate::line::Line;
 use crate::show::Show;
 
 /// The baud rates a UIM2503 can be set to (`BDR=x;`, PROTOCOL §1.2), ascending.
@@ -48,9 +49,9 @@ pub fn report_for(plan: &Plan, installation: &Installation) -> PlanReport {
         let Some(spec) = installation.gateways.get(run.gateway) else {
             continue;
         };
-        let simulation = schedule::simulate(plan, index, spec.baud, run.preload_rows);
+        let simulation = schedule::simulate(plan, index, run.line, run.preload_rows);
         let needed = simulation.stream_bytes as f64 / duration_s;
-        let available = f64::from(spec.baud) / 10.0;
+        let available = run.line.bytes_per_s();
         gateways.push(GatewayPlan {
             port: spec.port.clone(),
             baud: spec.baud,
@@ -73,7 +74,7 @@ pub fn report_for(plan: &Plan, installation: &Installation) -> PlanReport {
                 needed,
                 available,
             ));
-            fixes = remedies(plan, index, spec.baud, needed, available);
+            fixes = remedies(plan, index, run.line, needed, available);
         }
     }
     PlanReport {
@@ -107,13 +108,14 @@ fn starved(
 
 /// What would make run `index` feasible: a faster line, fewer units per gateway,
 /// longer rows.
-fn remedies(plan: &Plan, index: usize, baud: u32, needed: f64, available: f64) -> Vec<String> {
+fn remedies(plan: &Plan, index: usize, line: Line, needed: f64, available: f64) -> Vec<String> {
+    let baud = line.baud();
     let mut fixes = Vec::new();
     match GATEWAY_BAUDS
         .iter()
         .copied()
         .filter(|&faster| faster > baud)
-        .find(|&faster| schedule::choose_preload(plan, index, faster).keeps_margin())
+        .find(|&faster| schedule::choose_preload(plan, index, Line::new(faster)).keeps_margin())
     {
         Some(faster) => fixes.push(format!(
             "raise the line to {faster} baud (BDR={faster}; on the gateway, then `baud = {faster}` in floatball.toml)"
@@ -121,7 +123,7 @@ fn remedies(plan: &Plan, index: usize, baud: u32, needed: f64, available: f64) -
         None => fixes.push("no baud rate up to 115200 is enough on its own".to_owned()),
     }
     let units = plan.gateways[index].units.len();
-    if let Some(fit) = most_units_that_fit(plan, index, baud) {
+    if let Some(fit) = most_units_that_fit(plan, index, line) {
         let gateways = units.div_ceil(fit.max(1));
         fixes.push(format!(
             "put at most {fit} of these units on each gateway at {baud} baud ({gateways} gateways for these {units})"
@@ -150,13 +152,13 @@ fn remedies(plan: &Plan, index: usize, baud: u32, needed: f64, available: f64) -
     fixes
 }
 
-/// The most of run `index`'s units (taken in order) one gateway at `baud` can feed.
-fn most_units_that_fit(plan: &Plan, index: usize, baud: u32) -> Option<usize> {
+/// The most of run `index`'s units (taken in order) one gateway on `line` can feed.
+fn most_units_that_fit(plan: &Plan, index: usize, line: Line) -> Option<usize> {
     let units = plan.gateways[index].units.len();
     let fits = |count: usize| {
         let mut smaller = plan.clone();
         smaller.gateways[index].units.truncate(count);
-        schedule::choose_preload(&smaller, index, baud).keeps_margin()
+        schedule::choose_preload(&smaller, index, line).keeps_margin()
     };
     if units <= 1 || !fits(1) {
         return None;

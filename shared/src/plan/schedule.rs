@@ -11,12 +11,15 @@
 //! that keeps every FIFO at least [`MIN_LEVEL_ROWS`] deep.
 
 use super::{GatewayRun, Plan, RunMode, stream};
+use crate::line::Line;
+use crate::pvt::TABLE_ROWS;
 
 /// Rows per unit in one refill round.
 pub const ROUND_ROWS: usize = 16;
 
-/// Most rows pending in a running unit's FIFO (256 when idle; one is running).
-pub const FIFO_LIMIT: usize = 255;
+/// Most rows pending in a running unit's FIFO: the table's [`TABLE_ROWS`] less the slot
+/// the running row keeps (as [`crate::pvt::PvtTable`] counts them).
+pub const FIFO_LIMIT: usize = TABLE_ROWS - 1;
 
 /// The fewest rows that must be pending whenever a refill lands, for a plan to count
 /// as feasible: a margin for jitter on the line and in the host.
@@ -30,9 +33,9 @@ pub const SAFETY_ROWS: usize = ROUND_ROWS;
 /// host's scheduling).
 pub const LINE_UTILISATION: f64 = 0.95;
 
-/// How long a byte takes at `baud` as the planner counts it (derated), ms.
-pub fn planned_byte_ms(baud: u32) -> f64 {
-    10_000.0 / f64::from(baud.max(1)) / LINE_UTILISATION
+/// How long a byte takes on `line` as the planner counts it (derated), ms.
+pub fn planned_byte_ms(line: Line) -> f64 {
+    line.byte_ms() / LINE_UTILISATION
 }
 
 /// The outcome of streaming a gateway's rows on paper.
@@ -104,9 +107,9 @@ pub fn level_at(plan: &Plan, run: &GatewayRun, written: usize, at_ms: f64) -> Op
         .min()
 }
 
-/// Streams run `run_index` of `plan` on paper at `baud` with `preload_rows` rows per
+/// Streams run `run_index` of `plan` on paper over `line` with `preload_rows` rows per
 /// unit loaded before the start.
-pub fn simulate(plan: &Plan, run_index: usize, baud: u32, preload_rows: usize) -> Simulation {
+pub fn simulate(plan: &Plan, run_index: usize, line: Line, preload_rows: usize) -> Simulation {
     let Some(run) = plan.gateways.get(run_index) else {
         return Simulation {
             preload_rows: 0,
@@ -118,7 +121,7 @@ pub fn simulate(plan: &Plan, run_index: usize, baud: u32, preload_rows: usize) -
             underrun_at_ms: None,
         };
     };
-    let byte_ms = planned_byte_ms(baud);
+    let byte_ms = planned_byte_ms(line);
     let total_rows = longest(plan, run);
     let preload_rows = match run.mode {
         RunMode::Fifo => preload_rows.min(total_rows),
@@ -173,14 +176,14 @@ pub fn simulate(plan: &Plan, run_index: usize, baud: u32, preload_rows: usize) -
 }
 
 /// The shallowest preload (rows per unit) that keeps every FIFO at least
-/// [`MIN_LEVEL_ROWS`] deep at `baud`, plus [`SAFETY_ROWS`], with its simulation; the
+/// [`MIN_LEVEL_ROWS`] deep over `line`, plus [`SAFETY_ROWS`], with its simulation; the
 /// deepest possible preload when none does (the simulation then says how it fails).
-pub fn choose_preload(plan: &Plan, run_index: usize, baud: u32) -> Simulation {
+pub fn choose_preload(plan: &Plan, run_index: usize, line: Line) -> Simulation {
     let Some(run) = plan.gateways.get(run_index) else {
-        return simulate(plan, run_index, baud, 0);
+        return simulate(plan, run_index, line, 0);
     };
     let total = longest(plan, run);
-    let deepest = simulate(plan, run_index, baud, total.min(FIFO_LIMIT));
+    let deepest = simulate(plan, run_index, line, total.min(FIFO_LIMIT));
     if run.mode != RunMode::Fifo || !deepest.keeps_margin() {
         return deepest;
     }
@@ -189,7 +192,7 @@ pub fn choose_preload(plan: &Plan, run_index: usize, baud: u32) -> Simulation {
     let mut best = deepest;
     while low < high {
         let middle = (low + high) / 2;
-        let attempt = simulate(plan, run_index, baud, middle);
+        let attempt = simulate(plan, run_index, line, middle);
         if attempt.keeps_margin() {
             high = middle;
             best = attempt;
@@ -199,7 +202,7 @@ pub fn choose_preload(plan: &Plan, run_index: usize, baud: u32) -> Simulation {
     }
     let safe = (high + SAFETY_ROWS).min(total.min(FIFO_LIMIT));
     if best.preload_rows != safe {
-        best = simulate(plan, run_index, baud, safe);
+        best = simulate(plan, run_index, line, safe);
     }
     best
 }
@@ -218,7 +221,7 @@ mod tests {
         // 10 units, 600 rows of 250 ms (150 s) at 115200 baud: easy.
         let show = wave(2, 5, 600, 250);
         let plan = Plan::new(&show, &installation(2, 5, 115_200), PlanOptions::default()).unwrap();
-        let simulation = choose_preload(&plan, 0, 115_200);
+        let simulation = choose_preload(&plan, 0, Line::new(115_200));
         assert!(simulation.keeps_margin(), "{simulation:?}");
         assert!(simulation.preload_rows <= 48, "{simulation:?}");
         assert_eq!(plan.gateways[0].preload_rows, simulation.preload_rows);
@@ -228,7 +231,7 @@ mod tests {
     fn a_hundred_units_on_9600_baud_run_dry() {
         let show = wave(10, 10, 600, 250);
         let plan = Plan::new(&show, &installation(10, 10, 9600), PlanOptions::default()).unwrap();
-        let simulation = choose_preload(&plan, 0, 9600);
+        let simulation = choose_preload(&plan, 0, Line::new(9600));
         assert!(!simulation.keeps_margin());
         assert_eq!(simulation.preload_rows, 255);
         assert!(simulation.lowest_level.unwrap() < 0);
@@ -241,7 +244,9 @@ mod tests {
         let plan = Plan::new(&show, &installation(4, 5, 57_600), PlanOptions::default()).unwrap();
         let mut previous = i64::MIN;
         for preload in [16, 32, 64, 128, 255] {
-            let level = simulate(&plan, 0, 57_600, preload).lowest_level.unwrap();
+            let level = simulate(&plan, 0, Line::new(57_600), preload)
+                .lowest_level
+                .unwrap();
             assert!(level >= previous, "{preload}: {level} < {previous}");
             previous = level;
         }
@@ -261,7 +266,7 @@ mod tests {
     fn single_mode_preloads_everything() {
         let show = wave(1, 2, 100, 200);
         let plan = Plan::new(&show, &installation(1, 2, 9600), PlanOptions::default()).unwrap();
-        let simulation = choose_preload(&plan, 0, 9600);
+        let simulation = choose_preload(&plan, 0, Line::new(9600));
         assert_eq!(simulation.preload_rows, 100);
         assert_eq!(simulation.lowest_level, None);
         assert_eq!(simulation.stream_bytes, 0);

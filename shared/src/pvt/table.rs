@@ -1,9 +1,11 @@
 //! A unit's 256-row PVT table and its run, as a deterministic state machine driven by
 //! time (manual §7.2–§7.4, §8 MP/PV/QP/QV/QT).
 //!
-//! The simulator wraps one [`PvtTable`] per simulated unit; the planner uses the same
-//! model to predict FIFO water levels. Time is a parameter in µs of the unit's system
-//! time (the clock `BG=N;` refers to) and nothing here allocates.
+//! The simulator wraps one [`PvtTable`] per simulated unit. The planner does not run
+//! this table: it predicts FIFO water levels on paper ([`crate::plan::schedule`]) from
+//! the rows' start times, with the same table size ([`TABLE_ROWS`]; one slot is held by
+//! the running row). Time is a parameter in µs of the unit's system time (the clock
+//! `BG=N;` refers to) and nothing here allocates.
 //!
 //! Drive it like a sans-IO protocol state machine: first bring the table to the time an
 //! instruction takes effect with [`PvtTable::advance`] (and act on the [`Events`] it

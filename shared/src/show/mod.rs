@@ -10,6 +10,7 @@
 //!
 //! - this module: the model and the native file format (JSON, `docs/show-format.md`);
 //! - [`csv`]: keyframe import from 3D tools;
+//! - [`demo`]: the demo show (a travelling wave) the tests and benches share;
 //! - [`mod@validate`]: checks against an installation's limits;
 //! - [`sample`]: positions and colours of every ball at any time, for the preview.
 //!
@@ -35,6 +36,7 @@
 //! ```
 
 pub mod csv;
+pub mod demo;
 pub mod sample;
 pub mod validate;
 

@@ -49,6 +49,7 @@ use std::collections::VecDeque;
 use crate::api::{SimGateway, SimLineStats};
 
 use super::{ConfigError, Gateway, GatewayConfig};
+use crate::line::BITS_PER_BYTE;
 
 /// Bytes beyond the line's speed the receive side absorbs before it overruns.
 pub const RX_FIFO_BYTES: usize = 256;
@@ -57,8 +58,9 @@ pub const RX_FIFO_BYTES: usize = 256;
 /// It holds three full roll calls of 100 units (12 bytes each).
 pub const TX_QUEUE_BYTES: usize = 4096;
 
-/// One byte on the line in line units (µs × baud): 10 bits (8N1) of 10⁶/baud µs.
-const BYTE: i128 = 10 * 1_000_000;
+/// One byte on the line in line units (µs × baud): [`BITS_PER_BYTE`] bits (8N1) of
+/// 10⁶/baud µs.
+const BYTE: i128 = BITS_PER_BYTE as i128 * 1_000_000;
 
 /// The slack of the receive FIFO, line units.
 const RX_LIMIT: i128 = (RX_FIFO_BYTES as i128 - 1) * BYTE;

@@ -16,9 +16,10 @@
 //!
 //! Each unit keeps a [`PvtTable`](crate::pvt::PvtTable) and moves PVT rows with the
 //! shared [`Segment`](crate::pvt::Segment) evaluator; point-to-point moves are
-//! [`Trapezoid`]s. Time is µs since [`Gateway::new`], and the units' system time (the
-//! clock `BG=N;` refers to) is that time modulo 2³². Nothing here reads a clock or
-//! draws a random number: the same configuration and inputs give the same bytes.
+//! [`Trapezoid`](crate::motion::Trapezoid)s. Time is µs since [`Gateway::new`], and the
+//! units' system time (the clock `BG=N;` refers to) is that time modulo 2³². Nothing
+//! here reads a clock or draws a random number: the same configuration and inputs give
+//! the same bytes.
 //! Where the manual is silent, `docs/protocol-notes.md` ("What the simulator does
 //! where the manual is silent") says what the simulator does.
 //!
@@ -70,7 +71,6 @@ pub use config::{
     ConfigError, DEFAULT_COUNTS_PER_MM, FACTORY_STATION, Faults, Garble, GatewayConfig, MAX_UNITS,
 };
 pub use line::{RX_FIFO_BYTES, RxLine, TX_QUEUE_BYTES, Uart};
-pub use motion::Trapezoid;
 
 use config::Limits;
 use unit::{Outbox, Timed, Unit};
@@ -107,38 +107,6 @@ pub struct Gateway {
     sent_bytes: u64,
     /// Bytes to garble, by position.
     garbles: Vec<Garble>,
-}
-
-/// What a simulated unit looks like from outside, at the gateway's time.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct UnitView {
-    /// Its station (CAN id).
-    pub station: u8,
-    /// Its serial number.
-    pub serial: u64,
-    /// Position, counts below the top (0 = upper limit switch).
-    pub position_counts: f64,
-    /// Velocity, counts/s (positive = down).
-    pub velocity_counts_s: f64,
-    /// The motor driver is on (`MO=1`).
-    pub motor_on: bool,
-    /// A motion is under way (a move, a PVT row, or braking).
-    pub moving: bool,
-    /// On the bus (see [`Gateway::set_connected`]).
-    pub connected: bool,
-}
-
-impl From<UnitView> for SimUnit {
-    fn from(unit: UnitView) -> Self {
-        Self {
-            station: unit.station,
-            serial: unit.serial,
-            position_counts: unit.position_counts,
-            velocity_counts_s: unit.velocity_counts_s,
-            motor_on: unit.motor_on,
-            moving: unit.moving,
-        }
-    }
 }
 
 /// A unit index that does not exist.
@@ -261,14 +229,15 @@ impl Gateway {
         system_time_us(self.now_us)
     }
 
-    /// Every unit, in configuration order, at the gateway's time.
-    pub fn units(&self) -> impl ExactSizeIterator<Item = UnitView> + '_ {
+    /// Every unit, in configuration order, at the gateway's time, as the bridge serves
+    /// it at `GET /api/sim/positions`.
+    pub fn units(&self) -> impl ExactSizeIterator<Item = SimUnit> + '_ {
         self.units.iter().map(|unit| self.view(unit))
     }
 
     /// Unit `index` (its place in [`GatewayConfig::stations`]) at the gateway's time.
     #[must_use]
-    pub fn unit(&self, index: usize) -> Option<UnitView> {
+    pub fn unit(&self, index: usize) -> Option<SimUnit> {
         self.units.get(index).map(|unit| self.view(unit))
     }
 
@@ -279,7 +248,7 @@ impl Gateway {
         SimGateway {
             gateway,
             time_us: self.now_us,
-            units: self.units().map(SimUnit::from).collect(),
+            units: self.units().collect(),
             line: SimLineStats::default(),
         }
     }
@@ -303,16 +272,15 @@ impl Gateway {
         self.garbles.insert(at, garble);
     }
 
-    fn view(&self, unit: &Unit) -> UnitView {
+    fn view(&self, unit: &Unit) -> SimUnit {
         let state = unit.kinematics(self.now_us, &self.limits);
-        UnitView {
+        SimUnit {
             station: unit.station,
             serial: unit.serial,
             position_counts: state.position,
             velocity_counts_s: state.velocity,
             motor_on: unit.motor_on,
             moving: unit.moving(self.now_us, &self.limits),
-            connected: unit.connected,
         }
     }
 
@@ -510,6 +478,7 @@ mod tests {
 
     use super::*;
     use crate::feedback::{Ack, FrameDecoder, Notification};
+    use crate::motion::Trapezoid;
 
     /// Bytes as the manual writes them: `F0 14 15 01 E0`.
     pub(super) fn hex(bytes: &[u8]) -> String {
@@ -1121,7 +1090,7 @@ mod tests {
     }
 
     #[test]
-    fn the_view_maps_onto_the_api() {
+    fn the_units_are_what_the_api_serves() {
         let mut gateway = Gateway::new(GatewayConfig::numbered(2)).unwrap();
         gateway.receive(5, b"*2;MO=1;");
         let positions = gateway.positions(3);
@@ -1139,6 +1108,7 @@ mod tests {
                 moving: false,
             }
         );
+        assert_eq!(positions.units[1], unit);
         assert_eq!(gateway.unit(2), None);
         assert_eq!(gateway.now_us(), 5);
         gateway.advance(1);

@@ -16,8 +16,9 @@ use crate::feedback::{Ack, Feedback, Frame, Notification, UnitError, code};
 use crate::pvt::{Events, Kinematics, PvtError, PvtTable, Segment};
 
 use super::config::Limits;
-use super::motion::{self, Trapezoid};
+use super::motion;
 use super::system_time_us;
+use crate::motion::{Trapezoid, braking};
 
 /// The notifications enabled at power-on: `IE[5]` (the PVT watermark), so that the
 /// manual's FIFO procedure (§7.4), which never sends `IE[5]=1;`, gets its notices.
@@ -275,7 +276,7 @@ impl Unit {
             };
             let stop = (end.velocity_counts_s != 0.0)
                 .then(|| {
-                    let brake = motion::braking(
+                    let brake = braking(
                         end.position_counts,
                         end.velocity_counts_s,
                         self.stop_decel(limits),
@@ -324,7 +325,7 @@ impl Unit {
                         start_us: at_us,
                         end_us: at_us.saturating_add(micros(trapezoid.duration_s())),
                         trapezoid,
-                        stop: stop_at(at_us, trapezoid.exit(limits.travel_counts)),
+                        stop: stop_at(at_us, motion::move_exit(&trapezoid, limits.travel_counts)),
                     }
                 };
             }

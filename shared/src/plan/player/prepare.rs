@@ -1,0 +1,115 @@
+//! Planning a playlist before anything moves: every entry planned for the installation
+//! and checked (valid, feasible on its lines, every gateway connected), or refused with
+//! a [`StartError`] saying why.
+
+use super::{Entry, LinkView};
+use crate::plan::report::report_for;
+use crate::plan::{Installation, Plan, PlanOptions};
+
+/// A playlist planned and checked, ready to start: the slow part of Start, which the
+/// caller may run away from the player (it needs only the installation).
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    pub(super) plans: Vec<Plan>,
+    pub(super) entries: Vec<Entry>,
+    pub(super) loop_playlist: bool,
+}
+
+/// Plans every entry of a playlist for `installation`, refusing an invalid or
+/// infeasible show (or a gateway that is not connected) before anything moves.
+///
+/// # Errors
+/// [`StartError`] naming the entry and the reason.
+pub fn prepare(
+    installation: &Installation,
+    entries: Vec<Entry>,
+    loop_playlist: bool,
+    links: &[LinkView],
+) -> Result<Prepared, StartError> {
+    if entries.is_empty() {
+        return Err(StartError::Empty);
+    }
+    check_links(installation, links)?;
+    let options = PlanOptions {
+        repeat_forever: loop_playlist && entries.len() == 1,
+    };
+    let mut plans = Vec::with_capacity(entries.len());
+    for (index, entry) in entries.iter().enumerate() {
+        let plan =
+            Plan::new(&entry.show, installation, options).map_err(|error| StartError::Invalid {
+                entry: index + 1,
+                show: entry.show.name.clone(),
+                reason: error.to_string(),
+            })?;
+        let report = report_for(&plan, installation);
+        if !report.feasible {
+            return Err(StartError::Infeasible {
+                entry: index + 1,
+                show: entry.show.name.clone(),
+                reason: report.reason.unwrap_or_default(),
+                fixes: report.fixes,
+            });
+        }
+        plans.push(plan);
+    }
+    Ok(Prepared {
+        plans,
+        entries,
+        loop_playlist,
+    })
+}
+
+pub(super) fn check_links(
+    installation: &Installation,
+    links: &[LinkView],
+) -> Result<(), StartError> {
+    for gateway in 0..installation.gateways.len() {
+        if !links.get(gateway).is_some_and(|link| link.up) {
+            return Err(StartError::NotConnected { gateway });
+        }
+    }
+    Ok(())
+}
+
+/// Why Start (or Reset) was refused. Nothing moved.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StartError {
+    /// The playlist has no entries.
+    #[error("the playlist is empty: add a show first")]
+    Empty,
+    /// A show cannot be planned (invalid, wrong layout…).
+    #[error("entry {entry} (\"{show}\") cannot run: {reason}")]
+    Invalid {
+        /// 1-based entry number.
+        entry: usize,
+        /// The show's name.
+        show: String,
+        /// Why.
+        reason: String,
+    },
+    /// A show is valid but the lines cannot carry it.
+    #[error("entry {entry} (\"{show}\") cannot run: {reason}")]
+    Infeasible {
+        /// 1-based entry number.
+        entry: usize,
+        /// The show's name.
+        show: String,
+        /// Why, with the numbers.
+        reason: String,
+        /// What would make it run.
+        fixes: Vec<String>,
+    },
+    /// A gateway is not connected.
+    #[error("gateway {gateway} is not connected")]
+    NotConnected {
+        /// The gateway.
+        gateway: usize,
+    },
+    /// The matrix is already playing (press E-stop or Reset first).
+    #[error("the matrix is already running a playlist")]
+    Busy,
+    /// The E-stop was pressed after this request was made: the request is void and
+    /// the matrix stays stopped.
+    #[error("the E-stop was pressed after this request was made; the matrix stays stopped")]
+    Superseded,
+}
