@@ -35,8 +35,9 @@
 //! - [`playback`]: the player driven by the clock and the links, the owner of the
 //!   status, and the link watchdog.
 //! - [`control`]: Start, Reset and Home as the WebSocket asks for them.
-//! - [`http`]: the HTTP API under `/api`, and which browser origins may call it and
-//!   open the WebSocket ([`http::origin`]).
+//! - [`http`]: the HTTP API under `/api`.
+//! - [`origin`]: which browser origins may call the API (CORS) and open the WebSocket;
+//!   the configuration's `allowed_origins` are normalised by it when checked.
 //! - [`ws`]: the WebSocket endpoint `/ws`: status and feedback out, control in.
 //! - [`server`]: the router (API, WebSocket, static app) and its shutdown.
 //! - [`state`]: what every request handler shares.
@@ -55,6 +56,7 @@ pub mod estop;
 pub mod gateways;
 pub mod http;
 pub mod link;
+pub mod origin;
 pub mod playback;
 pub mod playlist;
 pub mod server;

@@ -39,7 +39,7 @@ use tokio::time::Instant;
 
 use crate::control::{self, Control};
 use crate::http::Failure;
-use crate::http::origin::origin_allowed;
+use crate::origin::origin_allowed;
 use crate::state::AppState;
 
 /// Most `status` messages per second to one client.

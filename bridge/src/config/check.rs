@@ -19,7 +19,7 @@ use super::{
     BAUD_RANGE, Config, ConfigError, DEFAULT_MAX_DURATION, DEFAULT_SERIAL_BAUD, DEFAULT_SIM_BAUD,
     MAX_DURATION_RANGE, Overrides, Uploads,
 };
-use crate::http::origin::normalise_origin;
+use crate::origin::normalise_origin;
 
 /// Turns the raw file into a [`Config`], naming the place of every problem.
 pub(super) struct Checker<'a> {

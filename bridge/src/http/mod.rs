@@ -5,7 +5,6 @@
 //!   initial password is changed ([`session::Operator`]);
 //! - [`library`]: the show files and the playlist;
 //! - [`matrix`]: the feasibility report of a show, and the simulated balls' positions;
-//! - [`origin`]: which browser origins may call the API (CORS) and open the WebSocket.
 //!
 //! Every error answer is an [`ApiError`] JSON body with the right status code
 //! ([`Failure`]); so are unknown `/api` paths (404) and methods (405), and the
@@ -14,7 +13,6 @@
 
 pub mod library;
 pub mod matrix;
-pub mod origin;
 pub mod session;
 
 use axum::Router;
@@ -59,7 +57,7 @@ pub fn router(state: &AppState) -> Router<AppState> {
         .method_not_allowed_fallback(method_not_allowed)
         .layer(map_response(json_errors))
         .layer(DefaultBodyLimit::max(MAX_JSON_BYTES))
-        .layer(origin::cors(&state.config().allowed_origins))
+        .layer(crate::origin::cors(&state.config().allowed_origins))
 }
 
 /// Makes every error answer an [`ApiError`] JSON body: an answer of 400 or above that
