@@ -21,8 +21,9 @@ use thiserror::Error;
 use crate::show::DEFAULT_TRAVEL_MM;
 use crate::show::validate::{DEFAULT_MAX_ACCEL_MM_S2, DEFAULT_MAX_SPEED_MM_S};
 
-/// Most units one UIM2503 gateway serves (manual §1: "one gateway serves up to 100").
-pub const MAX_UNITS: usize = 100;
+/// Most units one UIM2503 gateway serves (manual §1: "one gateway serves up to 100"):
+/// the installation model's one copy of the limit.
+pub const MAX_UNITS: usize = crate::plan::MAX_UNITS_PER_GATEWAY;
 
 /// The station every unit has when it leaves the factory (manual §6.0).
 pub const FACTORY_STATION: u8 = 5;
