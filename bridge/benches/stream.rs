@@ -7,10 +7,10 @@ use std::time::Duration;
 use floatball_bridge::link::{Link, LinkConfig};
 use floatball_bridge::playback::Playback;
 use floatball_shared::api::{LinkState, PlayerState};
+use floatball_shared::plan::Installation;
 use floatball_shared::plan::player::Entry;
-use floatball_shared::plan::{DriveKind, GatewaySpec, Installation};
+use floatball_shared::show::Show;
 use floatball_shared::show::demo::Wave;
-use floatball_shared::show::{Limits, Show};
 
 /// A 10 × 10 wave of `row_count` rows of 250 ms.
 fn wave(row_count: usize) -> Show {
@@ -32,19 +32,7 @@ fn main() {
         .expect("runtime");
     runtime.block_on(async {
         let baud = 115_200;
-        let mut limits = Limits::for_layout(10, 10);
-        limits.max_accel_mm_s2 = 40_000.0;
-        let installation = Installation::row_major(
-            limits,
-            100.0,
-            vec![GatewaySpec {
-                port: "sim".into(),
-                baud,
-                kind: DriveKind::Uim2503,
-            }],
-            1,
-        )
-        .expect("installation");
+        let installation = Installation::demo(10, 10, &[baud]).expect("installation");
         let link = Link::open(0, LinkConfig::new("sim", baud));
         let mut link_status = link.status();
         link_status

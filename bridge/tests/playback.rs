@@ -9,7 +9,7 @@ use floatball_bridge::link::{Link, LinkConfig};
 use floatball_bridge::playback::Playback;
 use floatball_shared::api::{LinkState, PlayerState, Status};
 use floatball_shared::plan::player::Entry;
-use floatball_shared::plan::{DriveKind, GatewaySpec, Installation};
+use floatball_shared::plan::{GatewaySpec, Installation};
 use floatball_shared::show::demo::Wave;
 use floatball_shared::show::{Limits, Sampler, Show};
 use floatball_shared::sim::GatewayConfig;
@@ -35,11 +35,7 @@ fn installation(rows: u32, cols: u32, port: &str, baud: u32) -> Installation {
     let mut installation = Installation::row_major(
         Limits::for_layout(rows, cols),
         100.0,
-        vec![GatewaySpec {
-            port: port.into(),
-            baud,
-            kind: DriveKind::Uim2503,
-        }],
+        vec![GatewaySpec::uim2503(port, baud)],
         1,
     )
     .unwrap();

@@ -8,9 +8,9 @@ use std::time::Instant;
 use criterion::{Criterion, criterion_group, criterion_main};
 use floatball_shared::plan::report::report_for;
 use floatball_shared::plan::schedule::ROUND_ROWS;
-use floatball_shared::plan::{DriveKind, GatewaySpec, Installation, Plan, PlanOptions, stream};
+use floatball_shared::plan::{Installation, Plan, PlanOptions, stream};
+use floatball_shared::show::Show;
 use floatball_shared::show::demo::Wave;
-use floatball_shared::show::{Limits, Show};
 
 /// A wave across 10 × 10 balls, 600 rows of 250 ms each (150 s).
 fn wave() -> Show {
@@ -23,19 +23,7 @@ fn wave() -> Show {
 }
 
 fn installation() -> Installation {
-    let mut limits = Limits::for_layout(10, 10);
-    limits.max_accel_mm_s2 = 40_000.0;
-    Installation::row_major(
-        limits,
-        100.0,
-        vec![GatewaySpec {
-            port: "sim".into(),
-            baud: 115_200,
-            kind: DriveKind::Uim2503,
-        }],
-        1,
-    )
-    .expect("installation")
+    Installation::demo(10, 10, &[115_200]).expect("installation")
 }
 
 fn figures() {

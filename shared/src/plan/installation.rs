@@ -78,6 +78,17 @@ pub struct GatewaySpec {
     pub kind: DriveKind,
 }
 
+impl GatewaySpec {
+    /// A UIM2503 gateway on `port` ([`SIM_PORT`] or a serial device) at `baud`.
+    pub fn uim2503(port: impl Into<String>, baud: u32) -> Self {
+        Self {
+            port: port.into(),
+            baud,
+            kind: DriveKind::Uim2503,
+        }
+    }
+}
+
 /// Where one unit is reached.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct UnitAddress {
@@ -144,6 +155,23 @@ impl Installation {
             home_mm: 0.0,
             stop_decel_mm_s2: limits.max_accel_mm_s2,
         })
+    }
+
+    /// The installation the demo shows ([`crate::show::demo`]) are tried on in tests and
+    /// benches: a `rows` × `cols` matrix on simulated UIM2503 gateways, one per entry of
+    /// `bauds`, units shared evenly from station 1, 100 counts/mm, the default limits but
+    /// an acceleration of 40 000 mm/s² (so a wave's start from rest is within them).
+    ///
+    /// # Errors
+    /// [`AllocationError`] as for [`Installation::row_major`].
+    pub fn demo(rows: u32, cols: u32, bauds: &[u32]) -> Result<Self, AllocationError> {
+        let mut limits = Limits::for_layout(rows, cols);
+        limits.max_accel_mm_s2 = 40_000.0;
+        let gateways = bauds
+            .iter()
+            .map(|&baud| GatewaySpec::uim2503(SIM_PORT, baud))
+            .collect();
+        Self::row_major(limits, 100.0, gateways, 1)
     }
 
     /// The matrix's grid, for CSV import.
@@ -352,11 +380,7 @@ mod tests {
     use super::*;
 
     fn spec(port: &str) -> GatewaySpec {
-        GatewaySpec {
-            port: port.into(),
-            baud: 115_200,
-            kind: DriveKind::Uim2503,
-        }
+        GatewaySpec::uim2503(port, 115_200)
     }
 
     fn shared(first: u8) -> (DriveKind, Stations) {

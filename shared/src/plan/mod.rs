@@ -18,14 +18,14 @@
 //! rounding error stays below half a count and never accumulates along a track.
 //!
 //! ```
-//! use floatball_shared::plan::{DriveKind, Installation, GatewaySpec, Plan, PlanOptions, RunMode};
+//! use floatball_shared::plan::{Installation, GatewaySpec, Plan, PlanOptions, RunMode};
 //! use floatball_shared::show::{Layout, Limits, Show, Track, TrackRow};
 //!
 //! let layout = Layout { rows: 1, cols: 2, pitch_mm: 500.0 };
 //! let installation = Installation::row_major(
 //!     Limits::for_layout(1, 2),
 //!     100.0,
-//!     vec![GatewaySpec { port: "sim".into(), baud: 115_200, kind: DriveKind::Uim2503 }],
+//!     vec![GatewaySpec::uim2503("sim", 115_200)],
 //!     1,
 //! ).unwrap();
 //! let track = |to_mm: f64| Track {
@@ -332,26 +332,14 @@ pub(crate) mod tests {
     use wasm_bindgen_test::wasm_bindgen_test as test;
 
     use super::*;
-    use crate::show::{Limits, TrackRow};
+    use crate::show::TrackRow;
 
     pub(crate) use crate::show::demo::wave;
 
     /// Generous limits so test shows are valid (the start-from-rest jumps in speed are
     /// within these).
     pub(crate) fn installation(rows: u32, cols: u32, baud: u32) -> Installation {
-        let mut limits = Limits::for_layout(rows, cols);
-        limits.max_accel_mm_s2 = 40_000.0;
-        Installation::row_major(
-            limits,
-            100.0,
-            vec![GatewaySpec {
-                port: "sim".into(),
-                baud,
-                kind: DriveKind::Uim2503,
-            }],
-            1,
-        )
-        .unwrap()
+        Installation::demo(rows, cols, &[baud]).unwrap()
     }
 
     #[test]

@@ -8,13 +8,13 @@ use wasm_bindgen_test::wasm_bindgen_test as test;
 
 use std::collections::VecDeque;
 
+use super::Installation;
 use super::player::{Command, Entry, LinkView, Player, PlayerConfig, StartError};
 use super::tests::wave;
-use super::{DriveKind, GatewaySpec, Installation};
 use crate::api::PlayerState;
 use crate::ascii::{Batch, Form, parse_script};
 use crate::feedback::FrameDecoder;
-use crate::show::{Limits, Sampler, Show};
+use crate::show::{Sampler, Show};
 use crate::sim::{Gateway, GatewayConfig};
 
 const STEP_US: u64 = 1_000;
@@ -73,17 +73,7 @@ struct Rig {
 }
 
 fn installation(rows: u32, cols: u32, bauds: &[u32]) -> Installation {
-    let mut limits = Limits::for_layout(rows, cols);
-    limits.max_accel_mm_s2 = 40_000.0;
-    let gateways = bauds
-        .iter()
-        .map(|&baud| GatewaySpec {
-            port: "sim".into(),
-            baud,
-            kind: DriveKind::Uim2503,
-        })
-        .collect();
-    let mut installation = Installation::row_major(limits, 100.0, gateways, 1).unwrap();
+    let mut installation = Installation::demo(rows, cols, bauds).unwrap();
     installation.approach_speed_mm_s = 1500.0;
     installation
 }
