@@ -406,12 +406,13 @@ fn summary(name: &ShowName, bytes: &[u8], show: &Show, modified: SystemTime) -> 
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use floatball_shared::show::{Layout, Track, TrackRow};
 
     use super::*;
 
-    fn show(rows: u32, cols: u32) -> Show {
+    /// A show of `rows` × `cols` balls, each 40 mm down and back in 500 ms.
+    pub(crate) fn show(rows: u32, cols: u32) -> Show {
         Show {
             name: "whatever".into(),
             layout: Layout {

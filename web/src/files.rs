@@ -261,46 +261,38 @@ mod tests {
         assert_eq!(list.items()[0].name, "c");
     }
 
+    fn preview(name: &str, text: &str) -> Result<Show, Refused> {
+        LocalFile::new(name, text.into(), 0.0).unwrap().to_show()
+    }
+
     #[test]
     fn csv_without_a_layout_is_previewed_as_a_square_grid() {
-        let file = LocalFile::new(
-            "four.csv",
-            "time_ms,u0,u1,u2,u3\n0,100,100,100,100\n500,200,300,400,500\n".into(),
-            0.0,
-        )
-        .unwrap();
-        let show = file.to_show().unwrap();
+        let four = "time_ms,u0,u1,u2,u3\n0,100,100,100,100\n500,200,300,400,500\n";
+        let show = preview("four.csv", four).unwrap();
         assert_eq!((show.layout.rows, show.layout.cols), (2, 2));
         assert_eq!(show.name, "four");
         assert_eq!(show.duration_ms(), 500);
-        let file = LocalFile::new(
-            "seven.csv",
-            "time_ms,u0,u1,u2,u3,u4,u5,u6\n0,1,1,1,1,1,1,1\n".into(),
-            0.0,
-        )
-        .unwrap();
-        let show = file.to_show().unwrap();
+        let seven = "time_ms,u0,u1,u2,u3,u4,u5,u6\n0,1,1,1,1,1,1,1\n";
+        let show = preview("seven.csv", seven).unwrap();
         assert_eq!((show.layout.rows, show.layout.cols), (1, 7));
     }
 
     #[test]
     fn previews_are_not_held_to_limits() {
         // Beyond any travel, and still: shown, with its problems listed by the preview.
-        let file = LocalFile::new("deep.csv", "time_ms,u0\n0,90000\n".into(), 0.0).unwrap();
-        assert_eq!(file.to_show().unwrap().tracks[0].start_mm, 90_000.0);
+        let show = preview("deep.csv", "time_ms,u0\n0,90000\n").unwrap();
+        assert_eq!(show.tracks[0].start_mm, 90_000.0);
     }
 
     #[test]
     fn unreadable_files_say_why() {
-        let file = LocalFile::new("bad.csv", "time_ms,u0\n0,1\n5,2\n".into(), 0.0).unwrap();
-        let error = file.to_show().unwrap_err();
+        let error = preview("bad.csv", "time_ms,u0\n0,1\n5,2\n").unwrap_err();
         assert!(
             matches!(&error, Refused::Csv(csv) if csv.line == 3),
             "{error:?}"
         );
         assert!(error.details()[0].starts_with("line 3"), "{error:?}");
-        let file = LocalFile::new("bad.json", "{".into(), 0.0).unwrap();
-        let error = file.to_show().unwrap_err();
+        let error = preview("bad.json", "{").unwrap_err();
         assert!(matches!(error, Refused::Unreadable(_)), "{error:?}");
         assert!(error.details()[0].contains("not valid"), "{error:?}");
     }

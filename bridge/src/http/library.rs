@@ -238,10 +238,9 @@ pub async fn put_playlist(
 mod tests {
     use std::path::Path;
 
-    use floatball_shared::show::{Layout, Show, Track, TrackRow};
-
     use super::*;
     use crate::config::Overrides;
+    use crate::store::tests::show;
 
     fn config(rows: u32, cols: u32) -> Config {
         Config::parse(
@@ -250,24 +249,6 @@ mod tests {
             &Overrides::default(),
         )
         .expect("config")
-    }
-
-    fn show(rows: u32, cols: u32) -> Show {
-        Show {
-            name: "whatever".into(),
-            layout: Layout {
-                rows,
-                cols,
-                pitch_mm: 500.0,
-            },
-            tracks: (0..rows * cols)
-                .map(|_| Track {
-                    start_mm: 0.0,
-                    rows: vec![TrackRow::new(40.0, 0.0, 250), TrackRow::new(0.0, 0.0, 250)],
-                    colours: Vec::new(),
-                })
-                .collect(),
-        }
     }
 
     #[test]

@@ -736,13 +736,14 @@ fn monotone_velocities(times_ms: &[u64], positions_mm: &[f64], velocities_mm_s: 
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     #[cfg(target_arch = "wasm32")]
     use wasm_bindgen_test::wasm_bindgen_test as test;
 
     use super::*;
 
-    const ONE_BY_TWO: Layout = Layout {
+    /// One row of two balls, 500 mm apart.
+    pub(in crate::show) const ONE_BY_TWO: Layout = Layout {
         rows: 1,
         cols: 2,
         pitch_mm: 500.0,

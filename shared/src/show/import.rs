@@ -395,14 +395,9 @@ mod tests {
     #[cfg(target_arch = "wasm32")]
     use wasm_bindgen_test::wasm_bindgen_test as test;
 
+    use super::super::csv::tests::ONE_BY_TWO;
     use super::super::{Track, TrackRow};
     use super::*;
-
-    const ONE_BY_TWO: Layout = Layout {
-        rows: 1,
-        cols: 2,
-        pitch_mm: 500.0,
-    };
 
     fn limits() -> UploadLimits {
         UploadLimits {
