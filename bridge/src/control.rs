@@ -4,7 +4,6 @@
 //! operator can act on (which entry, why, and what would make it run).
 
 use floatball_shared::plan::player::{Entry, StartError};
-use floatball_shared::show::Show;
 
 use crate::playback::PlaybackError;
 use crate::state::AppState;
@@ -31,11 +30,7 @@ pub fn playlist_entries(state: &AppState) -> Result<(Vec<Entry>, bool), String> 
     for (index, entry) in playlist.entries.iter().enumerate() {
         let show = ShowName::parse(&entry.show)
             .map_err(|error| error.to_string())
-            .and_then(|name| state.shows().read(&name).map_err(|error| error.to_string()))
-            .and_then(|bytes| {
-                let text = String::from_utf8(bytes).map_err(|error| error.to_string())?;
-                Show::from_json(&text).map_err(|error| error.to_string())
-            })
+            .and_then(|name| state.shows().load(&name).map_err(|error| error.to_string()))
             .map_err(|reason| {
                 format!(
                     "playlist entry {} (\"{}\") cannot be read: {reason}",

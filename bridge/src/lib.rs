@@ -24,7 +24,8 @@
 //!   [`Installation`](floatball_shared::plan::Installation), with errors that name the
 //!   line and column.
 //! - [`auth`]: the operator password (argon2id), bearer tokens, the login limit.
-//! - [`store`]: the show files on disk, validated before they are stored.
+//! - [`store`]: the show files on disk; shows go in and come out as `Show`s, read
+//!   through `floatball_shared::show::import`.
 //! - [`playlist`]: the playlist Start plays, stored beside the shows.
 //! - [`durable`]: atomic, durable file writes.
 //! - [`link`]: the links to the gateways (serial ports, the simulated gateway) with

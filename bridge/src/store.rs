@@ -7,14 +7,13 @@
 //! is `<hex of the name's UTF-8>.json`, so every name is a safe file name of at most
 //! 205 bytes and the listing gives the names back exactly.
 //!
-//! An upload is decoded (native JSON, or CSV converted with the installation's layout)
-//! and validated against the installation's limits *before* anything is written
-//! ([`decode_upload`]): not empty, at most `[uploads] max_duration` long, and at most
-//! `max_bytes` as stored — a CSV's duration and converted size are checked from its
-//! keyframes before its rows are built. Then it is written atomically
-//! ([`crate::durable`]). A summary of
-//! every show (size, SHA-256, time, units, duration) is kept in memory, built at
-//! start from the complete files, so listing does not reread them.
+//! The store holds shows, not bytes: [`ShowStore::put`] takes a [`Show`] (imported and
+//! checked against the installation by [`show::import`](fn@show::import) before it
+//! gets here) and writes its native file atomically ([`crate::durable`]);
+//! [`ShowStore::load`] reads one back through the same import. Only a download takes
+//! the stored file as it is ([`ShowStore::file`]). A summary of every show (size,
+//! SHA-256, time, units, duration) is kept in memory, built at start from the complete
+//! files, so listing does not reread them.
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -24,12 +23,9 @@ use std::sync::{Mutex, PoisonError};
 use std::time::SystemTime;
 
 use floatball_shared::api::ShowSummary;
-use floatball_shared::show::{
-    CsvProblem, ImportError, ImportLimits, Show, import_csv_within, validate,
-};
+use floatball_shared::show::{self, Show, ShowFormat};
 use sha2::{Digest, Sha256};
 
-use crate::config::Config;
 use crate::durable;
 
 /// The directory of the show files inside the data directory.
@@ -37,9 +33,6 @@ pub const DIR_NAME: &str = "shows";
 
 /// Longest show name, bytes of UTF-8.
 pub const MAX_NAME_BYTES: usize = 100;
-
-/// Most problems listed for one refused upload; the rest are counted.
-pub const MAX_LISTED_PROBLEMS: usize = 10_000;
 
 const EXTENSION: &str = ".json";
 
@@ -170,8 +163,8 @@ impl fmt::Display for ShowName {
     }
 }
 
-/// An upload that is not a show this installation can run: what is wrong, and every
-/// problem.
+/// A show or playlist this installation refuses, as the HTTP API answers it: what is
+/// wrong, and every problem.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{error}")]
 pub struct Refused {
@@ -194,161 +187,14 @@ impl Refused {
     }
 }
 
-/// A decoded, valid upload: the show and its native file as it will be stored.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Upload {
-    /// The show.
-    pub show: Show,
-    /// Its native JSON file.
-    pub json: String,
-}
-
-/// How an upload's body is written.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum UploadFormat {
-    /// The native JSON show file.
-    Json,
-    /// CSV keyframes.
-    Csv,
-}
-
-impl UploadFormat {
-    /// From the request's `Content-Type`, or by a look at the body when it is absent or
-    /// neither JSON nor CSV: a body starting with `{` is JSON.
-    pub fn detect(content_type: Option<&str>, body: &[u8]) -> Self {
-        let essence = content_type
-            .and_then(|value| value.split(';').next())
-            .map(|essence| essence.trim().to_ascii_lowercase());
-        match essence.as_deref() {
-            Some("application/json") => Self::Json,
-            Some("text/csv") => Self::Csv,
-            _ => {
-                let start = body.strip_prefix("\u{feff}".as_bytes()).unwrap_or(body);
-                match start.iter().find(|byte| !byte.is_ascii_whitespace()) {
-                    Some(b'{') => Self::Json,
-                    _ => Self::Csv,
-                }
-            }
+impl From<show::Refused> for Refused {
+    fn from(refused: show::Refused) -> Self {
+        Self {
+            error: refused.to_string(),
+            details: refused.details(),
+            too_large: refused.too_large(),
         }
     }
-}
-
-/// Reads an upload as a show named `name` and validates it for this installation.
-///
-/// # Errors
-/// [`Refused`] with every problem: not UTF-8, not a show file, a CSV error, an empty
-/// show, a show longer than `[uploads] max_duration`, each violation of the
-/// installation's limits, or (with [`Refused::too_large`]) a stored file over
-/// `max_bytes` — for a CSV known from its keyframes, before its rows are built.
-pub fn decode_upload(
-    name: &ShowName,
-    body: &[u8],
-    format: UploadFormat,
-    config: &Config,
-) -> Result<Upload, Refused> {
-    let uploads = config.uploads;
-    let max_duration = humantime::format_duration(uploads.max_duration);
-    let too_long = |details: Vec<String>| {
-        Refused::invalid(
-            format!("the show is longer than the limit of {max_duration} ([uploads] max_duration)"),
-            details,
-        )
-    };
-    let too_large = |details: Vec<String>| Refused {
-        error: format!(
-            "the show as stored would be larger than the limit of {} bytes ([uploads] max_bytes)",
-            uploads.max_bytes
-        ),
-        details,
-        too_large: true,
-    };
-    let text = std::str::from_utf8(body).map_err(|error| {
-        Refused::invalid(
-            "the show file is not UTF-8 text",
-            vec![format!(
-                "byte {} is not part of a UTF-8 character",
-                error.valid_up_to() + 1
-            )],
-        )
-    })?;
-    let mut show = match format {
-        UploadFormat::Json => Show::from_json(text).map_err(|error| {
-            Refused::invalid("the show file cannot be read", vec![error.to_string()])
-        })?,
-        UploadFormat::Csv => {
-            let limits = ImportLimits {
-                max_duration_ms: u64::try_from(uploads.max_duration.as_millis())
-                    .unwrap_or(u64::MAX),
-                max_json_bytes: uploads.max_bytes,
-            };
-            import_csv_within(name.as_str(), text, config.installation.layout(), limits).map_err(
-                |error| match &error {
-                    ImportError::TooLarge { .. } => too_large(vec![error.to_string()]),
-                    ImportError::Csv(csv) if matches!(csv.problem, CsvProblem::TooLong { .. }) => {
-                        too_long(vec![error.to_string()])
-                    }
-                    ImportError::Csv(_) => Refused::invalid(
-                        "the CSV keyframes cannot be imported",
-                        vec![error.to_string()],
-                    ),
-                },
-            )?
-        }
-    };
-    show.name = name.as_str().to_owned();
-    let duration_ms = show.duration_ms();
-    if duration_ms == 0 {
-        return Err(Refused::invalid(
-            "the show is empty: it has no motion",
-            vec![match format {
-                UploadFormat::Csv => {
-                    "a CSV show needs at least two keyframes, the last after 0 ms".to_owned()
-                }
-                UploadFormat::Json => "every ball's \"rows\" is empty".to_owned(),
-            }],
-        ));
-    }
-    if u128::from(duration_ms) > uploads.max_duration.as_millis() {
-        return Err(too_long(vec![format!(
-            "the show lasts {}",
-            humantime::format_duration(std::time::Duration::from_millis(duration_ms))
-        )]));
-    }
-    let violations = validate(&show, &config.installation.limits);
-    if !violations.is_empty() {
-        let count = violations.len();
-        let mut details: Vec<String> = violations
-            .iter()
-            .take(MAX_LISTED_PROBLEMS)
-            .map(ToString::to_string)
-            .collect();
-        if count > MAX_LISTED_PROBLEMS {
-            details.push(format!(
-                "… and {} more problems",
-                count - MAX_LISTED_PROBLEMS
-            ));
-        }
-        return Err(Refused::invalid(
-            format!(
-                "the show does not fit this installation: {count} problem{}",
-                if count == 1 { "" } else { "s" }
-            ),
-            details,
-        ));
-    }
-    let json = show.to_json().map_err(|error| {
-        Refused::invalid(
-            "the show cannot be written as JSON",
-            vec![error.to_string()],
-        )
-    })?;
-    if json.len() > uploads.max_bytes {
-        return Err(too_large(vec![format!(
-            "as stored the show takes {} bytes",
-            json.len()
-        )]));
-    }
-    Ok(Upload { show, json })
 }
 
 /// Why the store cannot do what was asked.
@@ -357,6 +203,23 @@ pub enum StoreError {
     /// No show of that name.
     #[error("there is no show named \"{0}\"")]
     NotFound(ShowName),
+    /// A stored file that does not read as a show (changed on disk since it was
+    /// stored, or written by a newer Floatball): in the parser's words.
+    #[error("{}", refused.details().join("; "))]
+    Unreadable {
+        /// The show.
+        name: ShowName,
+        /// Why.
+        refused: show::Refused,
+    },
+    /// The show cannot be written as its native file.
+    #[error("the show \"{name}\" cannot be written as JSON: {source}")]
+    Unwritable {
+        /// The show.
+        name: ShowName,
+        /// Why.
+        source: show::ShowError,
+    },
     /// The disk said no.
     #[error("{}: {source}", path.display())]
     Io {
@@ -442,11 +305,11 @@ impl ShowStore {
         ShowName::parse(name).is_ok_and(|name| self.index().contains_key(&name))
     }
 
-    /// The stored file of a show.
+    /// The stored native file of a show, byte for byte (what a download serves).
     ///
     /// # Errors
     /// [`StoreError::NotFound`], or an I/O error.
-    pub fn read(&self, name: &ShowName) -> Result<Vec<u8>, StoreError> {
+    pub fn file(&self, name: &ShowName) -> Result<Vec<u8>, StoreError> {
         let path = self.dir.join(name.file_name());
         std::fs::read(&path).map_err(|source| match source.kind() {
             io::ErrorKind::NotFound => StoreError::NotFound(name.clone()),
@@ -454,17 +317,25 @@ impl ShowStore {
         })
     }
 
-    /// Stores a show (already validated, with its native file `json`) under `name`,
-    /// replacing one of the same name. Returns its summary and whether it is new.
+    /// A stored show.
     ///
     /// # Errors
-    /// An I/O error; the store is then as before.
-    pub fn put(
-        &self,
-        name: &ShowName,
-        show: &Show,
-        json: &str,
-    ) -> Result<(ShowSummary, bool), StoreError> {
+    /// [`StoreError::NotFound`], [`StoreError::Unreadable`], or an I/O error.
+    pub fn load(&self, name: &ShowName) -> Result<Show, StoreError> {
+        decode(name, &self.file(name)?)
+    }
+
+    /// Stores a show (already [imported](fn@show::import) with this installation's
+    /// limits) under `name`, replacing one of the same name. Returns its summary and
+    /// whether it is new.
+    ///
+    /// # Errors
+    /// [`StoreError::Unwritable`], or an I/O error; the store is then as before.
+    pub fn put(&self, name: &ShowName, show: &Show) -> Result<(ShowSummary, bool), StoreError> {
+        let json = show.to_json().map_err(|source| StoreError::Unwritable {
+            name: name.clone(),
+            source,
+        })?;
         let _writing = self.writing.lock().unwrap_or_else(PoisonError::into_inner);
         let file_name = name.file_name();
         durable::write_atomic(&self.dir, &file_name, json.as_bytes()).map_err(|source| {
@@ -504,13 +375,22 @@ impl ShowStore {
     }
 }
 
+/// A stored file as the show `name`.
+fn decode(name: &ShowName, bytes: &[u8]) -> Result<Show, StoreError> {
+    show::import(name.as_str(), bytes, ShowFormat::Json, None, None).map_err(|refused| {
+        StoreError::Unreadable {
+            name: name.clone(),
+            refused,
+        }
+    })
+}
+
 fn summarise_file(path: &Path, name: &ShowName) -> Result<ShowSummary, String> {
     let bytes = std::fs::read(path).map_err(|error| error.to_string())?;
     let modified = std::fs::metadata(path)
         .and_then(|metadata| metadata.modified())
         .map_err(|error| error.to_string())?;
-    let text = std::str::from_utf8(&bytes).map_err(|error| error.to_string())?;
-    let show = Show::from_json(text).map_err(|error| error.to_string())?;
+    let show = decode(name, &bytes).map_err(|error| error.to_string())?;
     Ok(summary(name, &bytes, &show, modified))
 }
 
@@ -526,22 +406,13 @@ fn summary(name: &ShowName, bytes: &[u8], show: &Show, modified: SystemTime) -> 
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use floatball_shared::show::{Layout, Track, TrackRow};
 
     use super::*;
-    use crate::config::Overrides;
 
-    fn config(rows: u32, cols: u32) -> Config {
-        Config::parse(
-            Path::new("floatball.toml"),
-            &format!("[matrix]\nrows = {rows}\ncols = {cols}\n"),
-            &Overrides::default(),
-        )
-        .expect("config")
-    }
-
-    fn show(rows: u32, cols: u32) -> Show {
+    /// A show of `rows` × `cols` balls, each 40 mm down and back in 500 ms.
+    pub(crate) fn show(rows: u32, cols: u32) -> Show {
         Show {
             name: "whatever".into(),
             layout: Layout {
@@ -611,71 +482,24 @@ mod tests {
     }
 
     #[test]
-    fn the_format_follows_the_content_type_or_the_first_character() {
-        assert_eq!(
-            UploadFormat::detect(Some("application/json; charset=utf-8"), b"x"),
-            UploadFormat::Json
-        );
-        assert_eq!(
-            UploadFormat::detect(Some("text/csv"), b"{"),
-            UploadFormat::Csv
-        );
-        assert_eq!(
-            UploadFormat::detect(None, b"  \n{\"a\":1}"),
-            UploadFormat::Json
-        );
-        assert_eq!(
-            UploadFormat::detect(Some("application/octet-stream"), b"time_ms,u0"),
-            UploadFormat::Csv
-        );
-    }
-
-    #[test]
-    fn uploads_are_validated_against_the_installation() {
-        let name = ShowName::parse("test").expect("name");
-        let json = show(1, 2).to_json().expect("json");
-        let decoded =
-            decode_upload(&name, json.as_bytes(), UploadFormat::Json, &config(1, 2)).expect("ok");
-        assert_eq!(decoded.show.name, "test");
-        assert_eq!(decoded.json, decoded.show.to_json().expect("json"));
-
-        let refused = decode_upload(&name, json.as_bytes(), UploadFormat::Json, &config(2, 2))
-            .expect_err("wrong layout");
-        assert_eq!(refused.details.len(), 1, "{refused:?}");
-        assert!(
-            refused.details[0].contains("2 rows × 2 columns"),
-            "{refused:?}"
-        );
-
-        let csv = "time_ms,u0,u1\n0,0,0\n200,9000,0\n";
-        let refused = decode_upload(&name, csv.as_bytes(), UploadFormat::Csv, &config(1, 2))
-            .expect_err("beyond travel and too fast");
-        assert!(refused.details.len() >= 2, "{refused:?}");
-        assert!(refused.error.contains("problems"), "{refused:?}");
-
-        let refused = decode_upload(&name, b"\xff\xfe", UploadFormat::Csv, &config(1, 2))
-            .expect_err("not UTF-8");
-        assert!(refused.error.contains("UTF-8"), "{refused:?}");
-    }
-
-    #[test]
     fn shows_are_stored_listed_read_and_deleted() {
         let dir = tempfile::tempdir().expect("temp dir");
         let store = ShowStore::open(dir.path()).expect("open");
         let name = ShowName::parse("波浪").expect("name");
         let mut stored = show(1, 2);
         stored.name = name.to_string();
-        let json = stored.to_json().expect("json");
-        let (summary, created) = store.put(&name, &stored, &json).expect("put");
+        let (summary, created) = store.put(&name, &stored).expect("put");
         assert!(created);
         assert_eq!(summary.name, "波浪");
         assert_eq!(summary.units, 2);
         assert_eq!(summary.duration_ms, 500);
         assert_eq!(summary.sha256.len(), 64);
         assert!(summary.modified.ends_with('Z'), "{}", summary.modified);
-        let bytes = store.read(&name).expect("read");
+        let bytes = store.file(&name).expect("file");
+        assert_eq!(bytes, stored.to_json().expect("json").as_bytes());
         assert_eq!(summary.bytes, bytes.len() as u64);
-        assert!(!store.put(&name, &stored, &json).expect("replace").1);
+        assert_eq!(store.load(&name).expect("load"), stored);
+        assert!(!store.put(&name, &stored).expect("replace").1);
 
         let reopened = ShowStore::open(dir.path()).expect("reopen");
         assert_eq!(reopened.list(), store.list());
@@ -686,7 +510,8 @@ mod tests {
             reopened.delete(&name),
             Err(StoreError::NotFound(_))
         ));
-        assert!(matches!(reopened.read(&name), Err(StoreError::NotFound(_))));
+        assert!(matches!(reopened.file(&name), Err(StoreError::NotFound(_))));
+        assert!(matches!(reopened.load(&name), Err(StoreError::NotFound(_))));
         assert!(reopened.list().is_empty());
     }
 
@@ -701,5 +526,22 @@ mod tests {
         let store = ShowStore::open(dir.path()).expect("open");
         assert!(store.list().is_empty());
         assert!(!shows.join(".61.json.0a0b.tmp").exists());
+        // Broken on disk: loading it says so, in the parser's words.
+        let name = ShowName::parse("a").expect("name");
+        let error = store.load(&name).expect_err("broken");
+        assert!(
+            matches!(
+                &error,
+                StoreError::Unreadable {
+                    refused: show::Refused::Unreadable(_),
+                    ..
+                }
+            ),
+            "{error:?}"
+        );
+        assert!(
+            error.to_string().starts_with("the show file is not valid"),
+            "{error}"
+        );
     }
 }

@@ -13,10 +13,9 @@ use std::rc::Rc;
 use floatball_shared::api::{
     ApiError, LoginRequest, LoginResponse, PasswordChange, PlanReport, Playlist, ShowSummary,
 };
+use floatball_shared::show::ShowFormat;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
-
-use crate::files::FileKind;
 
 /// A future that stays on the browser's single thread.
 pub type LocalFuture<T> = Pin<Box<dyn Future<Output = T>>>;
@@ -306,7 +305,7 @@ impl Client {
     pub async fn upload(
         &self,
         name: &str,
-        kind: FileKind,
+        kind: ShowFormat,
         text: String,
         progress: OnProgress,
     ) -> Result<ShowSummary, Failure> {
@@ -522,7 +521,7 @@ mod tests {
         };
         let summary = run(client.upload(
             "波浪 1",
-            FileKind::Csv,
+            ShowFormat::Csv,
             "time_ms,u0\n0,0\n".into(),
             progress,
         ))
@@ -543,7 +542,7 @@ mod tests {
         );
         let client = Client::new(fake, "").with_token("abc");
         let progress: OnProgress = Rc::new(|_| {});
-        let failure = run(client.upload("x", FileKind::Json, "{}".into(), progress)).unwrap_err();
+        let failure = run(client.upload("x", ShowFormat::Json, "{}".into(), progress)).unwrap_err();
         let Failure::Rejected(error) = failure else {
             panic!("{failure:?}")
         };

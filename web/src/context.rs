@@ -8,7 +8,7 @@
 use std::rc::Rc;
 
 use floatball_shared::api::{ClientMessage, ServerMessage, ShowSummary, Status};
-use floatball_shared::show::Show;
+use floatball_shared::show::{Show, ShowFormat, import};
 use leptos::prelude::*;
 use leptos::task::spawn_local;
 
@@ -250,7 +250,7 @@ impl Ctx {
     pub fn preview_local(&self, file: &LocalFile) {
         let item = match file.to_show() {
             Ok(show) => PreviewItem::Ready(file.name.clone(), show),
-            Err(error) => PreviewItem::Failed(file.name.clone(), error),
+            Err(refused) => PreviewItem::Failed(file.name.clone(), refused.reason()),
         };
         self.preview.set(Some(item));
         self.page.set(Page::Preview);
@@ -265,9 +265,9 @@ impl Ctx {
         let ctx = *self;
         spawn_local(async move {
             let item = match client.download(&name).await {
-                Ok(json) => match Show::from_json(&json) {
+                Ok(json) => match import(&name, json.as_bytes(), ShowFormat::Json, None, None) {
                     Ok(show) => PreviewItem::Ready(name.clone(), show),
-                    Err(error) => PreviewItem::Failed(name.clone(), error.to_string()),
+                    Err(refused) => PreviewItem::Failed(name.clone(), refused.reason()),
                 },
                 Err(failure) => PreviewItem::Failed(name.clone(), ctx.failed(&failure)),
             };

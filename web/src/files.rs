@@ -3,49 +3,8 @@
 //! ([`ShowSummary`]), each in a [`Listing`] with one selected entry.
 
 use floatball_shared::api::ShowSummary;
-use floatball_shared::show::{Layout, Show, import_csv};
+use floatball_shared::show::{Refused, Show, ShowFormat, import};
 use serde::{Deserialize, Serialize};
-
-/// Distance between balls assumed for a CSV file without a layout line, mm.
-pub const PREVIEW_PITCH_MM: f64 = 500.0;
-
-/// The two show file formats the app reads.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum FileKind {
-    /// CSV keyframes (`time_ms,u0,u1,…`).
-    Csv,
-    /// The native JSON format.
-    Json,
-}
-
-impl FileKind {
-    /// The kind a file name's extension says (`.csv`, `.json`, any case).
-    pub fn from_name(name: &str) -> Option<Self> {
-        let (_, extension) = name.rsplit_once('.')?;
-        match extension.to_ascii_lowercase().as_str() {
-            "csv" => Some(FileKind::Csv),
-            "json" => Some(FileKind::Json),
-            _ => None,
-        }
-    }
-
-    /// The `Content-Type` of an upload.
-    pub fn content_type(self) -> &'static str {
-        match self {
-            FileKind::Csv => "text/csv",
-            FileKind::Json => "application/json",
-        }
-    }
-
-    /// The short label shown in lists.
-    pub fn label(self) -> &'static str {
-        match self {
-            FileKind::Csv => "CSV",
-            FileKind::Json => "JSON",
-        }
-    }
-}
 
 /// A show file kept in the browser.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -53,7 +12,7 @@ pub struct LocalFile {
     /// The file name, with its extension (`wave.csv`).
     pub name: String,
     /// Its format.
-    pub kind: FileKind,
+    pub kind: ShowFormat,
     /// Its content.
     pub text: String,
     /// When it was added, ms since 1970.
@@ -66,7 +25,7 @@ impl LocalFile {
     pub fn new(name: &str, text: String, added_ms: f64) -> Option<Self> {
         Some(Self {
             name: name.to_owned(),
-            kind: FileKind::from_name(name)?,
+            kind: ShowFormat::from_file_name(name)?,
             text,
             added_ms,
         })
@@ -76,7 +35,7 @@ impl LocalFile {
     pub fn downloaded(show_name: &str, json: String, added_ms: f64) -> Self {
         Self {
             name: format!("{show_name}.json"),
-            kind: FileKind::Json,
+            kind: ShowFormat::Json,
             text: json,
             added_ms,
         }
@@ -95,45 +54,21 @@ impl LocalFile {
         self.text.len() as u64
     }
 
-    /// The show, parsed for the preview. A CSV file without a layout line is laid
-    /// out as the most nearly square grid of its ball count.
+    /// The show, read for the preview by the one import ([`import`]) without an
+    /// installation: a CSV file without a layout line is laid out as the most nearly
+    /// square grid of its ball count, and limits are not checked (the preview shows
+    /// the violations).
     ///
     /// # Errors
-    /// What is wrong with the file, in the shared parser's words.
-    pub fn to_show(&self) -> Result<Show, String> {
-        match self.kind {
-            FileKind::Json => Show::from_json(&self.text).map_err(|err| err.to_string()),
-            FileKind::Csv => {
-                let units = csv_unit_count(&self.text).unwrap_or(1);
-                import_csv(self.show_name(), &self.text, square_layout(units))
-                    .map_err(|err| err.to_string())
-            }
-        }
-    }
-}
-
-/// The number of ball columns in a CSV header (`time_ms,u0,u1` → 2), if there is a
-/// header.
-pub fn csv_unit_count(text: &str) -> Option<usize> {
-    let header = text
-        .lines()
-        .map(str::trim)
-        .find(|line| !line.is_empty() && !line.starts_with('#'))?;
-    Some(header.split(',').count().saturating_sub(1))
-}
-
-/// The most nearly square grid with exactly `units` balls (rows ≤ columns).
-pub fn square_layout(units: usize) -> Layout {
-    let units = units.max(1);
-    let rows = (1..=units)
-        .take_while(|rows| rows * rows <= units)
-        .filter(|rows| units.is_multiple_of(*rows))
-        .last()
-        .unwrap_or(1);
-    Layout {
-        rows: u32::try_from(rows).unwrap_or(1),
-        cols: u32::try_from(units / rows).unwrap_or(u32::MAX),
-        pitch_mm: PREVIEW_PITCH_MM,
+    /// What is wrong with the file ([`Refused::details`] in the parser's words).
+    pub fn to_show(&self) -> Result<Show, Refused> {
+        import(
+            self.show_name(),
+            self.text.as_bytes(),
+            self.kind,
+            None,
+            None,
+        )
     }
 }
 
@@ -261,10 +196,10 @@ mod tests {
 
     #[test]
     fn kinds_come_from_the_extension() {
-        assert_eq!(FileKind::from_name("wave.CSV"), Some(FileKind::Csv));
-        assert_eq!(FileKind::from_name("a.b.json"), Some(FileKind::Json));
-        assert_eq!(FileKind::from_name("notes.txt"), None);
-        assert_eq!(FileKind::from_name("csv"), None);
+        assert_eq!(local("wave.CSV").kind, ShowFormat::Csv);
+        assert_eq!(local("a.b.json").kind, ShowFormat::Json);
+        assert!(LocalFile::new("notes.txt", String::new(), 0.0).is_none());
+        assert!(LocalFile::new("csv", String::new(), 0.0).is_none());
         assert!(LocalFile::new("x.png", String::new(), 0.0).is_none());
     }
 
@@ -326,36 +261,40 @@ mod tests {
         assert_eq!(list.items()[0].name, "c");
     }
 
+    fn preview(name: &str, text: &str) -> Result<Show, Refused> {
+        LocalFile::new(name, text.into(), 0.0).unwrap().to_show()
+    }
+
     #[test]
     fn csv_without_a_layout_is_previewed_as_a_square_grid() {
-        assert_eq!(csv_unit_count("# rows=1 cols=2\ntime_ms,u0,u1\n"), Some(2));
-        assert_eq!(csv_unit_count("\n\n"), None);
-        let layout = square_layout(12);
-        assert_eq!((layout.rows, layout.cols), (3, 4));
-        let layout = square_layout(7);
-        assert_eq!((layout.rows, layout.cols), (1, 7));
-        let layout = square_layout(0);
-        assert_eq!((layout.rows, layout.cols), (1, 1));
-
-        let file = LocalFile::new(
-            "four.csv",
-            "time_ms,u0,u1,u2,u3\n0,100,100,100,100\n500,200,300,400,500\n".into(),
-            0.0,
-        )
-        .unwrap();
-        let show = file.to_show().unwrap();
+        let four = "time_ms,u0,u1,u2,u3\n0,100,100,100,100\n500,200,300,400,500\n";
+        let show = preview("four.csv", four).unwrap();
         assert_eq!((show.layout.rows, show.layout.cols), (2, 2));
         assert_eq!(show.name, "four");
         assert_eq!(show.duration_ms(), 500);
+        let seven = "time_ms,u0,u1,u2,u3,u4,u5,u6\n0,1,1,1,1,1,1,1\n";
+        let show = preview("seven.csv", seven).unwrap();
+        assert_eq!((show.layout.rows, show.layout.cols), (1, 7));
+    }
+
+    #[test]
+    fn previews_are_not_held_to_limits() {
+        // Beyond any travel, and still: shown, with its problems listed by the preview.
+        let show = preview("deep.csv", "time_ms,u0\n0,90000\n").unwrap();
+        assert_eq!(show.tracks[0].start_mm, 90_000.0);
     }
 
     #[test]
     fn unreadable_files_say_why() {
-        let file = LocalFile::new("bad.csv", "time_ms,u0\n0,1\n5,2\n".into(), 0.0).unwrap();
-        let error = file.to_show().unwrap_err();
-        assert!(error.starts_with("line 3"), "{error}");
-        let file = LocalFile::new("bad.json", "{".into(), 0.0).unwrap();
-        assert!(file.to_show().unwrap_err().contains("not valid"));
+        let error = preview("bad.csv", "time_ms,u0\n0,1\n5,2\n").unwrap_err();
+        assert!(
+            matches!(&error, Refused::Csv(csv) if csv.line == 3),
+            "{error:?}"
+        );
+        assert!(error.details()[0].starts_with("line 3"), "{error:?}");
+        let error = preview("bad.json", "{").unwrap_err();
+        assert!(matches!(error, Refused::Unreadable(_)), "{error:?}");
+        assert!(error.details()[0].contains("not valid"), "{error:?}");
     }
 
     #[test]

@@ -13,6 +13,10 @@
 //! - `GET /api/playlist`: 200. `PUT /api/playlist`: 200 with the stored playlist; 400
 //!   not a playlist; 422 every problem (unknown shows, zero cycles…).
 //!
+//! An upload's format is taken from its `Content-Type` here (or, without one, from its
+//! first character); the show is then imported and checked against this installation
+//! by [`floatball_shared::show::import()`], and stored only if it passes.
+//!
 //! Reading needs a [`Session`]; changing needs an [`Operator`].
 
 use axum::Json;
@@ -23,12 +27,14 @@ use axum::http::request::Parts;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{Playlist, ShowSummary};
+use floatball_shared::show::{self, ShowFormat, UploadLimits};
 
 use super::session::{Operator, Session};
 use super::{Failure, blocking, json_body};
+use crate::config::Config;
 use crate::playlist;
 use crate::state::AppState;
-use crate::store::{Refused, ShowName, StoreError, UploadFormat, decode_upload};
+use crate::store::{Refused, ShowName, StoreError};
 
 /// The `{name}` of a show route, checked.
 #[derive(Debug, Clone)]
@@ -65,8 +71,54 @@ fn unprocessable(refused: Refused) -> Failure {
 pub(crate) fn store_failure(error: StoreError) -> Failure {
     match error {
         StoreError::NotFound(_) => Failure::new(StatusCode::NOT_FOUND, error.to_string()),
+        StoreError::Unreadable { .. } => {
+            Failure::new(StatusCode::UNPROCESSABLE_ENTITY, error.to_string())
+        }
         other => Failure::internal("the show store failed", &other),
     }
+}
+
+/// The format of an upload's body: as its `Content-Type` says, or, when that is absent
+/// or neither format's, by a look at the body: one starting with `{` is JSON.
+fn upload_format(content_type: Option<&str>, body: &[u8]) -> ShowFormat {
+    let essence = content_type
+        .and_then(|value| value.split(';').next())
+        .map(|essence| essence.trim().to_ascii_lowercase());
+    let named = ShowFormat::ALL
+        .into_iter()
+        .find(|format| essence.as_deref() == Some(format.content_type()));
+    named.unwrap_or_else(|| {
+        let start = body.strip_prefix("\u{feff}".as_bytes()).unwrap_or(body);
+        match start.iter().find(|byte| !byte.is_ascii_whitespace()) {
+            Some(b'{') => ShowFormat::Json,
+            _ => ShowFormat::Csv,
+        }
+    })
+}
+
+/// What this installation takes: its motion limits and `[uploads]`.
+fn upload_limits(config: &Config) -> UploadLimits {
+    UploadLimits {
+        motion: config.installation.limits,
+        max_duration_ms: u64::try_from(config.uploads.max_duration.as_millis()).unwrap_or(u64::MAX),
+        max_json_bytes: config.uploads.max_bytes,
+    }
+}
+
+/// An upload as the show `name`, if this installation takes it.
+fn import_upload(
+    name: &ShowName,
+    body: &[u8],
+    format: ShowFormat,
+    config: &Config,
+) -> Result<show::Show, show::Refused> {
+    show::import(
+        name.as_str(),
+        body,
+        format,
+        Some(config.installation.layout()),
+        Some(&upload_limits(config)),
+    )
 }
 
 /// `GET /api/shows`.
@@ -84,7 +136,7 @@ pub async fn get_show(
     NameParam(name): NameParam,
 ) -> Result<Response, Failure> {
     let reading = state.clone();
-    let bytes = blocking(move || reading.shows().read(&name))
+    let bytes = blocking(move || reading.shows().file(&name))
         .await?
         .map_err(store_failure)?;
     Ok(([(header::CONTENT_TYPE, "application/json")], bytes).into_response())
@@ -120,18 +172,17 @@ pub async fn put_show(
     let content_type = headers
         .get(header::CONTENT_TYPE)
         .and_then(|value| value.to_str().ok());
-    let format = UploadFormat::detect(content_type, &body);
-    let decoding = state.clone();
+    let format = upload_format(content_type, &body);
+    let importing = state.clone();
     let show_name = name.clone();
-    let upload = blocking(move || decode_upload(&show_name, &body, format, decoding.config()))
+    let show = blocking(move || import_upload(&show_name, &body, format, importing.config()))
         .await?
-        .map_err(unprocessable)?;
+        .map_err(|refused| unprocessable(refused.into()))?;
     let _catalogue = state.lock_catalogue().await;
     let storing = state.clone();
-    let (summary, created) =
-        blocking(move || storing.shows().put(&name, &upload.show, &upload.json))
-            .await?
-            .map_err(store_failure)?;
+    let (summary, created) = blocking(move || storing.shows().put(&name, &show))
+        .await?
+        .map_err(store_failure)?;
     tracing::info!("stored show \"{}\" ({} bytes)", summary.name, summary.bytes);
     let status = if created {
         StatusCode::CREATED
@@ -181,4 +232,114 @@ pub async fn put_playlist(
         .await?
         .map_err(|error| Failure::internal("cannot store the playlist", &error))?;
     Ok(Json(new))
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::config::Overrides;
+    use crate::store::tests::show;
+
+    fn config(rows: u32, cols: u32) -> Config {
+        Config::parse(
+            Path::new("floatball.toml"),
+            &format!("[matrix]\nrows = {rows}\ncols = {cols}\n"),
+            &Overrides::default(),
+        )
+        .expect("config")
+    }
+
+    #[test]
+    fn the_format_follows_the_content_type_or_the_first_character() {
+        assert_eq!(
+            upload_format(Some("application/json; charset=utf-8"), b"x"),
+            ShowFormat::Json
+        );
+        assert_eq!(upload_format(Some("Text/CSV"), b"{"), ShowFormat::Csv);
+        assert_eq!(upload_format(None, b"  \n{\"a\":1}"), ShowFormat::Json);
+        assert_eq!(
+            upload_format(None, "\u{feff}{}".as_bytes()),
+            ShowFormat::Json
+        );
+        assert_eq!(
+            upload_format(Some("application/octet-stream"), b"time_ms,u0"),
+            ShowFormat::Csv
+        );
+    }
+
+    #[test]
+    fn uploads_are_validated_against_the_installation() {
+        let name = ShowName::parse("test").expect("name");
+        let json = show(1, 2).to_json().expect("json");
+        let imported =
+            import_upload(&name, json.as_bytes(), ShowFormat::Json, &config(1, 2)).expect("ok");
+        assert_eq!(imported.name, "test");
+
+        let refused: Refused =
+            import_upload(&name, json.as_bytes(), ShowFormat::Json, &config(2, 2))
+                .expect_err("wrong layout")
+                .into();
+        assert_eq!(refused.details.len(), 1, "{refused:?}");
+        assert!(
+            refused.details[0].contains("2 rows × 2 columns"),
+            "{refused:?}"
+        );
+        assert!(!refused.too_large);
+
+        // Without a layout line a CSV takes the installation's.
+        let csv = "time_ms,u0,u1\n0,0,0\n200,9000,0\n";
+        let refused: Refused = import_upload(&name, csv.as_bytes(), ShowFormat::Csv, &config(1, 2))
+            .expect_err("beyond travel and too fast")
+            .into();
+        assert!(refused.details.len() >= 2, "{refused:?}");
+        assert!(refused.error.contains("problems"), "{refused:?}");
+        let refused = import_upload(&name, csv.as_bytes(), ShowFormat::Csv, &config(2, 2))
+            .expect_err("two columns for four balls");
+        assert!(matches!(refused, show::Refused::Csv(_)), "{refused:?}");
+
+        let refused: Refused = import_upload(&name, b"\xff\xfe", ShowFormat::Csv, &config(1, 2))
+            .expect_err("not UTF-8")
+            .into();
+        assert!(refused.error.contains("UTF-8"), "{refused:?}");
+    }
+
+    #[test]
+    fn the_upload_limits_are_the_configured_ones() {
+        let config = Config::parse(
+            Path::new("floatball.toml"),
+            "[uploads]\nmax_bytes = 4096\nmax_duration = \"1m 30s\"\n",
+            &Overrides::default(),
+        )
+        .expect("config");
+        let limits = upload_limits(&config);
+        assert_eq!(limits.max_json_bytes, 4096);
+        assert_eq!(limits.max_duration_ms, 90_000);
+        assert_eq!(limits.motion, config.installation.limits);
+        // The refusal names the limit as the file writes it.
+        let refused = show::Refused::TooLong {
+            max_duration_ms: limits.max_duration_ms,
+            duration_ms: 100_000,
+        };
+        assert!(refused.to_string().contains(&format!(
+            "the limit of {} ([uploads] max_duration)",
+            humantime::format_duration(config.uploads.max_duration)
+        )));
+    }
+
+    #[test]
+    fn refusals_write_durations_as_the_configuration_does() {
+        let mut duration_ms = 1;
+        while duration_ms < 100 * 365 * 86_400_000 {
+            for ms in [duration_ms, duration_ms * 7 + 13, duration_ms * 61 - 1] {
+                assert_eq!(
+                    show::import::human_duration(ms),
+                    humantime::format_duration(std::time::Duration::from_millis(ms)).to_string(),
+                    "{ms} ms"
+                );
+            }
+            duration_ms *= 3;
+        }
+    }
 }

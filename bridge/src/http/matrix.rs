@@ -10,11 +10,9 @@
 
 use axum::Json;
 use axum::extract::State;
-use axum::http::StatusCode;
 use floatball_shared::api::{PlanReport, SimPositions};
 use floatball_shared::plan::PlanOptions;
 use floatball_shared::plan::report::report;
-use floatball_shared::show::Show;
 
 use super::library::{NameParam, store_failure};
 use super::session::Session;
@@ -29,11 +27,7 @@ pub async fn plan(
 ) -> Result<Json<PlanReport>, Failure> {
     let planning = state.clone();
     let result = blocking(move || {
-        let bytes = planning.shows().read(&name).map_err(store_failure)?;
-        let text = String::from_utf8(bytes)
-            .map_err(|error| Failure::internal("a stored show is not UTF-8", &error))?;
-        let show = Show::from_json(&text)
-            .map_err(|error| Failure::new(StatusCode::UNPROCESSABLE_ENTITY, error.to_string()))?;
+        let show = planning.shows().load(&name).map_err(store_failure)?;
         let installation = &planning.config().installation;
         Ok(report(&show, installation, PlanOptions::default()))
     })

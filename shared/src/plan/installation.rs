@@ -24,8 +24,9 @@ pub const MAX_UNITS_PER_GATEWAY: usize = 100;
 /// The station numbers a unit may have on a bus (0 addresses every unit).
 pub const STATIONS: RangeInclusive<u8> = 1..=127;
 
-/// Distance between neighbouring balls unless configured, mm.
-pub const DEFAULT_PITCH_MM: f64 = 500.0;
+/// Distance between neighbouring balls unless configured, mm: the same as a show's
+/// when its installation is not known.
+pub use crate::show::DEFAULT_PITCH_MM;
 
 /// The family of drives behind a gateway: its instruction language, feedback and
 /// limits. Only the UIM2503 exists today; a new family is a new variant here, and the

@@ -41,7 +41,7 @@
 
 use thiserror::Error;
 
-use super::{Layout, Show, Track, TrackRow};
+use super::{DEFAULT_PITCH_MM, Layout, Show, Track, TrackRow, json_len};
 use crate::pvt::{ROW_MAX_MS, ROW_MIN_MS, Segment};
 
 /// The most PVT rows an import may produce over all balls (about 240 MB), so that a
@@ -243,12 +243,7 @@ pub enum CsvProblem {
 /// # Errors
 /// A [`CsvError`] naming the line and column of the first problem.
 pub fn import_csv(name: &str, text: &str, installation: Layout) -> Result<Show, CsvError> {
-    let (layout, keyframes) = read(text, installation, MAX_TIME_MS as u64)?;
-    Ok(Show {
-        name: name.to_owned(),
-        layout,
-        tracks: keyframes.tracks(),
-    })
+    convert(name, text, Some(installation))
 }
 
 /// Imports CSV keyframes as [`import_csv`] does, but first checks, from the keyframes
@@ -263,6 +258,32 @@ pub fn import_csv_within(
     name: &str,
     text: &str,
     installation: Layout,
+    limits: ImportLimits,
+) -> Result<Show, ImportError> {
+    convert_within(name, text, Some(installation), limits)
+}
+
+/// [`import_csv`], where an unknown installation (`None`) lays a file without a layout
+/// line out as [`square_layout`].
+pub(super) fn convert(
+    name: &str,
+    text: &str,
+    installation: Option<Layout>,
+) -> Result<Show, CsvError> {
+    let (layout, keyframes) = read(text, installation, MAX_TIME_MS as u64)?;
+    Ok(Show {
+        name: name.to_owned(),
+        layout,
+        tracks: keyframes.tracks(),
+    })
+}
+
+/// [`import_csv_within`], where an unknown installation (`None`) lays a file without a
+/// layout line out as [`square_layout`].
+pub(super) fn convert_within(
+    name: &str,
+    text: &str,
+    installation: Option<Layout>,
     limits: ImportLimits,
 ) -> Result<Show, ImportError> {
     let (layout, keyframes) = read(text, installation, limits.max_duration_ms)?;
@@ -299,10 +320,30 @@ pub fn import_csv_within(
     })
 }
 
+/// The layout of `units` balls when the installation is not known: the most nearly
+/// square grid with exactly that many balls (rows ≤ columns),
+/// [`DEFAULT_PITCH_MM`] apart.
+fn square_layout(units: usize) -> Layout {
+    let units = units.max(1);
+    let rows = (1..=units)
+        .take_while(|rows| rows * rows <= units)
+        .filter(|rows| units.is_multiple_of(*rows))
+        .last()
+        .unwrap_or(1);
+    Layout {
+        rows: u32::try_from(rows).unwrap_or(1),
+        cols: u32::try_from(units / rows).unwrap_or(u32::MAX),
+        pitch_mm: DEFAULT_PITCH_MM,
+    }
+}
+
 /// Reads the layout and the keyframes, refusing a keyframe after `max_time_ms`.
+/// Without an `installation`, a file without a layout line is laid out as
+/// [`square_layout`] of its ball columns, and the layout line's pitch defaults to
+/// [`DEFAULT_PITCH_MM`].
 fn read(
     text: &str,
-    installation: Layout,
+    installation: Option<Layout>,
     max_time_ms: u64,
 ) -> Result<(Layout, Keyframes), CsvError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
@@ -317,13 +358,14 @@ fn read(
         column: 1,
         problem: CsvProblem::Empty,
     })?;
-    let mut layout = (installation, "from the installation");
+    let mut layout = None;
     if let Some(rest) = header.trim_start().strip_prefix('#') {
         let offset = header.len() - rest.len();
-        layout = (
-            parse_layout(header_number, offset, rest, installation)?,
+        let pitch_mm = installation.map_or(DEFAULT_PITCH_MM, |layout| layout.pitch_mm);
+        layout = Some((
+            parse_layout(header_number, offset, rest, pitch_mm)?,
             "from line 1",
-        );
+        ));
         (header_number, header) = lines.next().ok_or(CsvError {
             line: header_number + 1,
             column: 1,
@@ -331,7 +373,10 @@ fn read(
         })?;
     }
     let units = parse_header(header_number, header)?;
-    let (layout, origin) = layout;
+    let (layout, origin) = layout.unwrap_or(match installation {
+        Some(installation) => (installation, "from the installation"),
+        None => (square_layout(units), "a square grid of the ball columns"),
+    });
     if units != layout.unit_count() {
         let column = units.min(layout.unit_count()) + 2;
         return Err(CsvError {
@@ -354,9 +399,9 @@ fn parse_layout(
     line: usize,
     offset: usize,
     text: &str,
-    installation: Layout,
+    default_pitch_mm: f64,
 ) -> Result<Layout, CsvError> {
-    let (mut rows, mut cols, mut pitch_mm) = (None, None, installation.pitch_mm);
+    let (mut rows, mut cols, mut pitch_mm) = (None, None, default_pitch_mm);
     let base = text.as_ptr() as usize;
     for word in text.split_whitespace() {
         let column = offset + (word.as_ptr() as usize - base) + 1;
@@ -665,24 +710,6 @@ impl Keyframes {
     }
 }
 
-/// The length of `value` as compact JSON.
-fn json_len(value: &impl serde::Serialize) -> usize {
-    struct Count(usize);
-    impl std::io::Write for Count {
-        fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
-            self.0 += bytes.len();
-            Ok(bytes.len())
-        }
-        fn flush(&mut self) -> std::io::Result<()> {
-            Ok(())
-        }
-    }
-    let mut count = Count(0);
-    // Rows and tracks are plain numbers and arrays: writing them cannot fail.
-    let _ = serde_json::to_writer(&mut count, value);
-    count.0
-}
-
 /// A row's duration; rows are at most 255 ms, so this never saturates.
 fn ms_u32(ms: u64) -> u32 {
     u32::try_from(ms).unwrap_or(u32::MAX)
@@ -709,13 +736,14 @@ fn monotone_velocities(times_ms: &[u64], positions_mm: &[f64], velocities_mm_s: 
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     #[cfg(target_arch = "wasm32")]
     use wasm_bindgen_test::wasm_bindgen_test as test;
 
     use super::*;
 
-    const ONE_BY_TWO: Layout = Layout {
+    /// One row of two balls, 500 mm apart.
+    pub(in crate::show) const ONE_BY_TWO: Layout = Layout {
         rows: 1,
         cols: 2,
         pitch_mm: 500.0,
@@ -848,6 +876,42 @@ mod tests {
         let show = import("# cols=2 rows=1\ntime_ms,u0,u1\n0,1,2\n").unwrap();
         assert_eq!(show.layout, ONE_BY_TWO);
         assert!(show.tracks[0].rows.is_empty());
+    }
+
+    #[test]
+    fn without_an_installation_the_grid_is_as_square_as_the_ball_count_allows() {
+        let grid = |units| {
+            let layout = square_layout(units);
+            (layout.rows, layout.cols)
+        };
+        assert_eq!(grid(12), (3, 4));
+        assert_eq!(grid(7), (1, 7));
+        assert_eq!(grid(16), (4, 4));
+        assert_eq!(grid(0), (1, 1));
+        assert_eq!(square_layout(2).pitch_mm, DEFAULT_PITCH_MM);
+
+        let four = "time_ms,u0,u1,u2,u3\n0,100,100,100,100\n500,200,300,400,500\n";
+        let show = convert("four", four, None).unwrap();
+        assert_eq!(show.layout, square_layout(4));
+        assert_eq!(show.name, "four");
+        assert_eq!(show.duration_ms(), 500);
+        // A layout line still wins, with the assumed pitch when it names none.
+        let show = convert("t", "# rows=1 cols=2\ntime_ms,u0,u1\n0,1,2\n", None).unwrap();
+        assert_eq!(
+            show.layout,
+            Layout {
+                rows: 1,
+                cols: 2,
+                pitch_mm: DEFAULT_PITCH_MM
+            }
+        );
+        // And it is checked against the columns as with an installation.
+        let error = convert("t", "# rows=2 cols=2\ntime_ms,u0,u1\n0,1,2\n", None).unwrap_err();
+        assert_eq!((error.line, error.column), (2, 4));
+        assert!(matches!(
+            error.problem,
+            CsvProblem::LayoutMismatch { units: 2, .. }
+        ));
     }
 
     #[test]

@@ -9,6 +9,9 @@
 //! same [`Segment`] as the units run; plus optional colour keyframes for the preview.
 //!
 //! - this module: the model and the native file format (JSON, `docs/show-format.md`);
+//! - [`mod@import`]: the one way a file (native JSON or CSV) becomes a show, refused
+//!   in words the user can act on, and checked against an installation before it is
+//!   stored;
 //! - [`csv`]: keyframe import from 3D tools;
 //! - [`demo`]: the demo show (a travelling wave) the tests and benches share;
 //! - [`mod@validate`]: checks against an installation's limits;
@@ -37,6 +40,7 @@
 
 pub mod csv;
 pub mod demo;
+pub mod import;
 pub mod sample;
 pub mod validate;
 
@@ -46,6 +50,7 @@ use thiserror::Error;
 use crate::pvt::Segment;
 
 pub use csv::{CsvError, CsvProblem, ImportError, ImportLimits, import_csv, import_csv_within};
+pub use import::{Refused, ShowFormat, UploadLimits, import};
 pub use sample::Sampler;
 pub use validate::{Limits, UnitRef, Violation, ViolationKind, validate};
 
@@ -57,6 +62,11 @@ pub const VERSION: u64 = 1;
 
 /// A UFQ750's travel, mm (manual: 7.5 m).
 pub const DEFAULT_TRAVEL_MM: f64 = 7500.0;
+
+/// Distance between neighbouring balls, mm, unless the installation configures it
+/// (`pitch_mm`) — also what is assumed when a show's installation is not known (a CSV
+/// file without a layout line, read in the web app).
+pub const DEFAULT_PITCH_MM: f64 = 500.0;
 
 /// The grid of balls, seen from below: `rows` × `cols`, `pitch_mm` apart.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -305,16 +315,26 @@ impl Show {
     /// # Errors
     /// [`ShowError::Invalid`] if serialisation fails.
     pub fn to_json(&self) -> Result<String, ShowError> {
-        let file = FileOut {
+        serde_json::to_string(&self.file()).map_err(|error| ShowError::Invalid {
+            message: error.to_string(),
+        })
+    }
+
+    /// The size of its native file ([`to_json`](Self::to_json)) in bytes, counted
+    /// without writing it.
+    #[must_use]
+    pub fn json_bytes(&self) -> usize {
+        json_len(&self.file())
+    }
+
+    fn file(&self) -> FileOut<'_> {
+        FileOut {
             format: FORMAT,
             version: VERSION,
             name: &self.name,
             layout: &self.layout,
             units: &self.tracks,
-        };
-        serde_json::to_string(&file).map_err(|error| ShowError::Invalid {
-            message: error.to_string(),
-        })
+        }
     }
 
     /// Checks that the show is consistent in itself (not against an installation: see
@@ -374,6 +394,24 @@ impl Show {
     }
 }
 
+/// The length of `value` as compact JSON.
+pub(crate) fn json_len(value: &impl serde::Serialize) -> usize {
+    struct Count(usize);
+    impl std::io::Write for Count {
+        fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+            self.0 += bytes.len();
+            Ok(bytes.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+    let mut count = Count(0);
+    // Shows are numbers, strings and arrays of them: writing them cannot fail.
+    let _ = serde_json::to_writer(&mut count, value);
+    count.0
+}
+
 fn check_header(format: Option<&str>, version: Option<u64>) -> Result<(), ShowError> {
     match (format, version) {
         (Some(FORMAT), Some(VERSION) | None) => Ok(()),
@@ -416,6 +454,7 @@ mod tests {
         assert!(json.starts_with(r#"{"format":"floatball-show","version":1,"#));
         assert!(json.contains("[1000.0,2000.0,250]"));
         assert_eq!(Show::from_json(&json).unwrap(), show);
+        assert_eq!(show.json_bytes(), json.len());
     }
 
     #[test]
