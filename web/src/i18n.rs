@@ -316,7 +316,7 @@ texts! {
     /// A delay that cannot be used.
     BadDelay => "延时必须是 0 到 86400 之间的秒数", "The delay must be a number of seconds from 0 to 86400";
     /// Cycles that cannot be used.
-    BadCycles => "周期必须是 1 到 10000 之间的整数", "Cycles must be a whole number from 1 to 10000";
+    BadCycles => "周期必须是 1 到 1000000 之间的整数", "Cycles must be a whole number from 1 to 1000000";
     /// 404.
     NotFound => "控制器上没有这个文件", "The controller has no such file";
 }

@@ -10,10 +10,6 @@
 use floatball_shared::api::{PlanReport, Playlist, PlaylistEntry};
 use floatball_shared::playlist::{cycles_in_range, delay_in_range};
 
-/// The most cycles the forms accept (the bridge takes more; the form's message names
-/// this number).
-pub const FORM_MAX_CYCLES: u32 = 10_000;
-
 /// A playlist being edited, with one checkbox per entry.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct PlaylistEditor {
@@ -169,7 +165,7 @@ impl PlaylistEditor {
 pub enum InputError {
     /// Not a number, negative, or longer than a day.
     Delay,
-    /// Not a whole number from 1 to 10 000.
+    /// Not a whole number from 1 to 1 000 000.
     Cycles,
 }
 
@@ -198,13 +194,14 @@ pub fn format_delay_s(delay_ms: u64) -> String {
     text.trim_end_matches('0').trim_end_matches('.').to_owned()
 }
 
-/// Reads a number of cycles (1 to [`FORM_MAX_CYCLES`]).
+/// Reads a number of cycles (1 to [`floatball_shared::playlist::MAX_CYCLES`], as the
+/// bridge accepts).
 ///
 /// # Errors
 /// [`InputError::Cycles`].
 pub fn parse_cycles(text: &str) -> Result<u32, InputError> {
     match text.trim().parse::<u32>() {
-        Ok(cycles) if cycles_in_range(cycles) && cycles <= FORM_MAX_CYCLES => Ok(cycles),
+        Ok(cycles) if cycles_in_range(cycles) => Ok(cycles),
         _ => Err(InputError::Cycles),
     }
 }
@@ -389,8 +386,8 @@ mod tests {
         assert_eq!(parse_cycles("3"), Ok(3));
         assert_eq!(parse_cycles("0"), Err(InputError::Cycles));
         assert_eq!(parse_cycles("1.5"), Err(InputError::Cycles));
-        assert_eq!(parse_cycles("10000"), Ok(10_000));
-        assert_eq!(parse_cycles("10001"), Err(InputError::Cycles));
+        assert_eq!(parse_cycles("1000000"), Ok(1_000_000));
+        assert_eq!(parse_cycles("1000001"), Err(InputError::Cycles));
         assert_eq!(parse_delay_s("86400"), Ok(86_400_000));
         assert_eq!(parse_delay_s("86400.001"), Err(InputError::Delay));
         assert_eq!(format_delay_s(1500), "1.5");

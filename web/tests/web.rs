@@ -797,7 +797,7 @@ async fn playlist_moves_deletes_and_edits_the_checked_entries() {
     tick().await;
     assert_eq!(
         text(&container, "edit-error"),
-        "Cycles must be a whole number from 1 to 10000"
+        "Cycles must be a whole number from 1 to 1000000"
     );
     type_into(&container, "edit-cycles", "3");
     element(&container, "edit-apply").click();
