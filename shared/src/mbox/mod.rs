@@ -15,9 +15,9 @@
 //!   constructors: [`RegisterWrite::estop`], [`RegisterWrite::release_estop`],
 //!   [`RegisterWrite::reset`], [`RegisterWrite::effects`], [`RegisterWrite::set_ip`]
 //!   ([`register`]).
-//! - [`Datagram`] is any of them: [`Datagram::decode`] refuses what the document makes
-//!   invalid with a [`DecodeError`] that says what is wrong, and whatever it accepts
-//!   encodes back to the same bytes.
+//! - [`Datagram`] is any of them. [`Encode`] writes each; [`Datagram::decode`] refuses
+//!   what the document makes invalid with a [`DecodeError`] that says what is wrong,
+//!   and whatever it accepts encodes back to the same bytes.
 //!
 //! Where the summary and the original differ, and what the document leaves open, is in
 //! `docs/protocol-notes.md`, "MBOX (UDP)".
@@ -25,8 +25,8 @@
 //! # Example
 //! ```
 //! use floatball_shared::mbox::{
-//!     AxisPositions, Datagram, DigitalOutputs, MotionFrame, RegisterWrite, Route, TimeCode,
-//!     TimeMode,
+//!     AxisPositions, Datagram, DigitalOutputs, Encode, MotionFrame, RegisterWrite, Route,
+//!     TimeCode, TimeMode,
 //! };
 //!
 //! // The document's 3-axis relative vector: 100 ms, every axis at 50 000 pulses.
@@ -60,8 +60,8 @@ use std::net::Ipv4Addr;
 pub use error::{DecodeError, OutputError, PositionsError, RangeError};
 pub use motion::{AxisCount, AxisPositions, DigitalOutputs, MotionFrame, TimeCode, TimeMode};
 pub use register::{
-    MAX_REGISTERS, ReadBank, RegisterBlock, RegisterRange, RegisterRead, RegisterReply,
-    RegisterWrite, WriteBank,
+    Bank, MAX_REGISTERS, ReadBank, RegisterBlock, RegisterRange, RegisterRead, RegisterReply,
+    RegisterWrite, Registers, WriteBank,
 };
 
 /// The UDP port an MBOX listens on (factory default; configurable on the box).
@@ -226,6 +226,22 @@ impl Route {
     }
 }
 
+/// A datagram's bytes: implemented by every datagram type and by [`Datagram`].
+pub trait Encode {
+    /// Its length on the wire.
+    fn encoded_len(&self) -> usize;
+
+    /// Appends its bytes to `out`.
+    fn encode_into(&self, out: &mut Vec<u8>);
+
+    /// Its bytes.
+    fn encode(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(self.encoded_len());
+        self.encode_into(&mut out);
+        out
+    }
+}
+
 /// Any datagram of the protocol.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 pub enum Datagram {
@@ -268,10 +284,10 @@ impl Datagram {
             Self::Write(_) => Function::Write,
         }
     }
+}
 
-    /// Its length on the wire.
-    #[must_use]
-    pub fn encoded_len(&self) -> usize {
+impl Encode for Datagram {
+    fn encoded_len(&self) -> usize {
         match self {
             Self::Motion(frame) => frame.encoded_len(),
             Self::Read(read) => read.encoded_len(),
@@ -280,22 +296,13 @@ impl Datagram {
         }
     }
 
-    /// Appends its bytes to `out`.
-    pub fn encode_into(&self, out: &mut Vec<u8>) {
+    fn encode_into(&self, out: &mut Vec<u8>) {
         match self {
             Self::Motion(frame) => frame.encode_into(out),
             Self::Read(read) => read.encode_into(out),
             Self::ReadReply(reply) => reply.encode_into(out),
             Self::Write(write) => write.encode_into(out),
         }
-    }
-
-    /// Its bytes.
-    #[must_use]
-    pub fn encode(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(self.encoded_len());
-        self.encode_into(&mut out);
-        out
     }
 }
 

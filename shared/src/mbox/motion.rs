@@ -8,7 +8,7 @@
 use std::num::NonZeroU32;
 
 use super::error::{DecodeError, OutputError, PositionsError};
-use super::{COMMON_HEADER_LEN, Function, Header, Route, be_u16, be_u32, encode_header};
+use super::{COMMON_HEADER_LEN, Encode, Function, Header, Route, be_u16, be_u32, encode_header};
 
 /// The bytes before the positions: the common header, sequence and time.
 pub const MOTION_HEADER_LEN: usize = COMMON_HEADER_LEN + 8;
@@ -283,15 +283,13 @@ pub struct MotionFrame {
     pub analog: [u16; 2],
 }
 
-impl MotionFrame {
-    /// Its length on the wire: 38, 50 or 66 bytes.
-    #[must_use]
-    pub const fn encoded_len(&self) -> usize {
+impl Encode for MotionFrame {
+    /// 38, 50 or 66 bytes.
+    fn encoded_len(&self) -> usize {
         self.positions_pulses.axes().frame_len()
     }
 
-    /// Appends its bytes to `out`.
-    pub fn encode_into(&self, out: &mut Vec<u8>) {
+    fn encode_into(&self, out: &mut Vec<u8>) {
         let axes = self.positions_pulses.axes();
         out.reserve(axes.frame_len());
         encode_header(out, self.mode.function(), axes.channel(), self.route);
@@ -304,15 +302,9 @@ impl MotionFrame {
             out.extend_from_slice(&field.to_be_bytes());
         }
     }
+}
 
-    /// Its bytes.
-    #[must_use]
-    pub fn encode(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(self.encoded_len());
-        self.encode_into(&mut out);
-        out
-    }
-
+impl MotionFrame {
     /// The rest of a motion frame whose common header is read.
     pub(super) fn decode_body(header: &Header, bytes: &[u8]) -> Result<Self, DecodeError> {
         let mode = match header.function {

@@ -10,7 +10,7 @@
 use std::net::Ipv4Addr;
 
 use super::error::{DecodeError, RangeError};
-use super::{COMMON_HEADER_LEN, Function, Header, Route, be_u16, encode_header};
+use super::{COMMON_HEADER_LEN, Encode, Function, Header, Route, be_u16, encode_header};
 
 /// The bytes before the values: the common header, start and count.
 pub const REGISTER_HEADER_LEN: usize = COMMON_HEADER_LEN + 4;
@@ -27,6 +27,32 @@ pub const CX_PLAY_CONTROL: u16 = 0;
 /// CX 1: effects (a bit mask; `0xFFFF` all on).
 pub const CX_EFFECTS: u16 = 1;
 
+/// The registers a datagram addresses: its channel, read ([`ReadBank`]) or written
+/// ([`WriteBank`]).
+pub trait Bank: Copy + Eq + Sized + 'static {
+    /// The function of the datagrams that carry values of this bank: the read reply
+    /// or the write.
+    const FUNCTION: Function;
+    /// Every bank of this kind.
+    const ALL: &[Self];
+
+    /// The channel on the wire.
+    fn channel(self) -> u16;
+
+    /// The bank of a channel, if the function takes it.
+    fn from_channel(channel: u16) -> Option<Self> {
+        Self::ALL
+            .iter()
+            .copied()
+            .find(|bank| bank.channel() == channel)
+    }
+}
+
+/// The bank of a datagram whose common header is read.
+fn bank_of<B: Bank>(header: &Header) -> Result<B, DecodeError> {
+    B::from_channel(header.channel).ok_or(header.unknown_channel())
+}
+
 /// Which parameters a read asks for, or a reply carries (the channel of `0x1101` and
 /// `0x1102`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -37,21 +63,14 @@ pub enum ReadBank {
     Fn,
 }
 
-impl ReadBank {
-    /// The channel on the wire.
-    #[must_use]
-    pub const fn channel(self) -> u16 {
+impl Bank for ReadBank {
+    const FUNCTION: Function = Function::ReadReply;
+    const ALL: &[Self] = &[Self::Dn, Self::Fn];
+
+    fn channel(self) -> u16 {
         match self {
             Self::Dn => 0,
             Self::Fn => 1,
-        }
-    }
-
-    fn from_header(header: &Header) -> Result<Self, DecodeError> {
-        match header.channel {
-            0 => Ok(Self::Dn),
-            1 => Ok(Self::Fn),
-            _ => Err(header.unknown_channel()),
         }
     }
 }
@@ -67,23 +86,15 @@ pub enum WriteBank {
     Cx,
 }
 
-impl WriteBank {
-    /// The channel on the wire.
-    #[must_use]
-    pub const fn channel(self) -> u16 {
+impl Bank for WriteBank {
+    const FUNCTION: Function = Function::Write;
+    const ALL: &[Self] = &[Self::FnVolatile, Self::FnSaved, Self::Cx];
+
+    fn channel(self) -> u16 {
         match self {
             Self::FnVolatile => 0,
             Self::FnSaved => 1,
             Self::Cx => 2,
-        }
-    }
-
-    fn from_header(header: &Header) -> Result<Self, DecodeError> {
-        match header.channel {
-            0 => Ok(Self::FnVolatile),
-            1 => Ok(Self::FnSaved),
-            2 => Ok(Self::Cx),
-            _ => Err(header.unknown_channel()),
         }
     }
 }
@@ -254,86 +265,66 @@ pub struct RegisterRead {
 }
 
 impl RegisterRead {
-    /// Its length on the wire: 16 bytes.
-    #[must_use]
-    pub const fn encoded_len(&self) -> usize {
-        REGISTER_HEADER_LEN
-    }
-
-    /// Appends its bytes to `out`.
-    pub fn encode_into(&self, out: &mut Vec<u8>) {
-        encode_header(out, Function::Read, self.bank.channel(), self.route);
-        self.range.encode_into(out);
-    }
-
-    /// Its bytes.
-    #[must_use]
-    pub fn encode(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(self.encoded_len());
-        self.encode_into(&mut out);
-        out
-    }
-
     pub(super) fn decode_body(header: &Header, bytes: &[u8]) -> Result<Self, DecodeError> {
         Ok(Self {
-            bank: ReadBank::from_header(header)?,
+            bank: bank_of(header)?,
             route: header.route,
             range: RegisterRange::decode(header, bytes, false)?,
         })
     }
 }
 
-/// A box's answer to a read (`0x1102`): the values of the registers asked for.
+impl Encode for RegisterRead {
+    /// 16 bytes.
+    fn encoded_len(&self) -> usize {
+        REGISTER_HEADER_LEN
+    }
+
+    fn encode_into(&self, out: &mut Vec<u8>) {
+        encode_header(out, Function::Read, self.bank.channel(), self.route);
+        self.range.encode_into(out);
+    }
+}
+
+/// Values of consecutive registers in a bank: a box's answer to a read
+/// ([`RegisterReply`], `0x1102`) or a write ([`RegisterWrite`], `0x1201`).
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
-pub struct RegisterReply {
-    /// DN or FN parameters.
-    pub bank: ReadBank,
-    /// As the box sends it ([`Route::REPLY`] in the document's example).
+pub struct Registers<B> {
+    /// Which registers: DN or FN for a reply; FN (saved or not) or CX for a write.
+    pub bank: B,
+    /// Who executes it and who replies ([`Route::REPLY`] in the box's replies).
     pub route: Route,
     /// The registers and their values.
     pub block: RegisterBlock,
 }
 
-impl RegisterReply {
-    /// Its length on the wire: 16 bytes and 2 a register.
-    #[must_use]
-    pub fn encoded_len(&self) -> usize {
-        self.block.encoded_len()
-    }
+/// A box's answer to a read (`0x1102`): the values of the registers asked for.
+pub type RegisterReply = Registers<ReadBank>;
 
-    /// Appends its bytes to `out`.
-    pub fn encode_into(&self, out: &mut Vec<u8>) {
-        let channel = self.bank.channel();
-        self.block
-            .encode_into(out, Function::ReadReply, channel, self.route);
-    }
+/// A write of consecutive registers (`0x1201`).
+pub type RegisterWrite = Registers<WriteBank>;
 
-    /// Its bytes.
-    #[must_use]
-    pub fn encode(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(self.encoded_len());
-        self.encode_into(&mut out);
-        out
-    }
-
+impl<B: Bank> Registers<B> {
     pub(super) fn decode_body(header: &Header, bytes: &[u8]) -> Result<Self, DecodeError> {
         Ok(Self {
-            bank: ReadBank::from_header(header)?,
+            bank: bank_of(header)?,
             route: header.route,
             block: RegisterBlock::decode(header, bytes)?,
         })
     }
 }
 
-/// A write of consecutive registers (`0x1201`).
-#[derive(Debug, Clone, PartialEq, Eq, Hash)]
-pub struct RegisterWrite {
-    /// FN (saved or not) or CX registers.
-    pub bank: WriteBank,
-    /// Who executes it and who replies.
-    pub route: Route,
-    /// The registers and their new values.
-    pub block: RegisterBlock,
+impl<B: Bank> Encode for Registers<B> {
+    /// 16 bytes and 2 a register.
+    fn encoded_len(&self) -> usize {
+        self.block.encoded_len()
+    }
+
+    fn encode_into(&self, out: &mut Vec<u8>) {
+        let channel = self.bank.channel();
+        self.block
+            .encode_into(out, B::FUNCTION, channel, self.route);
+    }
 }
 
 impl RegisterWrite {
@@ -381,34 +372,5 @@ impl RegisterWrite {
             route,
             block: RegisterBlock::one(address, value),
         }
-    }
-
-    /// Its length on the wire: 16 bytes and 2 a register.
-    #[must_use]
-    pub fn encoded_len(&self) -> usize {
-        self.block.encoded_len()
-    }
-
-    /// Appends its bytes to `out`.
-    pub fn encode_into(&self, out: &mut Vec<u8>) {
-        let channel = self.bank.channel();
-        self.block
-            .encode_into(out, Function::Write, channel, self.route);
-    }
-
-    /// Its bytes.
-    #[must_use]
-    pub fn encode(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(self.encoded_len());
-        self.encode_into(&mut out);
-        out
-    }
-
-    pub(super) fn decode_body(header: &Header, bytes: &[u8]) -> Result<Self, DecodeError> {
-        Ok(Self {
-            bank: WriteBank::from_header(header)?,
-            route: header.route,
-            block: RegisterBlock::decode(header, bytes)?,
-        })
     }
 }

@@ -119,26 +119,31 @@ fn the_documents_data_area_example() {
 
 #[test]
 fn the_documents_register_reads_and_reply() {
-    // DN10…DN1F.
-    let read_dn = RegisterRead {
-        bank: ReadBank::Dn,
-        route: Route::BROADCAST,
-        range: RegisterRange::new(0x0010, 16).unwrap(),
-    };
-    assert_vector(
-        "55 aa 00 00 11 01 00 00 ff ff ff ff 00 10 00 10",
-        &Datagram::Read(read_dn),
-    );
-    // FN001, FN002.
-    let read_fn = RegisterRead {
-        bank: ReadBank::Fn,
-        route: Route::BROADCAST,
-        range: RegisterRange::new(0x0001, 2).unwrap(),
-    };
-    assert_vector(
-        "55 aa 00 00 11 01 00 01 ff ff ff ff 00 01 00 02",
-        &Datagram::Read(read_fn),
-    );
+    let reads = [
+        // DN10…DN1F.
+        (
+            ReadBank::Dn,
+            0x0010,
+            16,
+            "55 aa 00 00 11 01 00 00 ff ff ff ff 00 10 00 10",
+        ),
+        // FN001, FN002.
+        (
+            ReadBank::Fn,
+            0x0001,
+            2,
+            "55 aa 00 00 11 01 00 01 ff ff ff ff 00 01 00 02",
+        ),
+    ];
+    for (bank, start, count, wire) in reads {
+        let range = RegisterRange::new(start, count).unwrap();
+        let read = RegisterRead {
+            bank,
+            route: Route::BROADCAST,
+            range,
+        };
+        assert_vector(wire, &Datagram::Read(read));
+    }
     // The reply: FN001 = FN002 = 0.
     let reply = RegisterReply {
         bank: ReadBank::Fn,

@@ -15,9 +15,9 @@ use std::collections::BTreeSet;
 use floatball_shared::ascii::{Form, Instruction, InstructionReader, parse_script};
 use floatball_shared::feedback::{Ack, Feedback, Frame, FrameDecoder, MAX_FRAME_LEN};
 use floatball_shared::mbox::{
-    AxisCount, AxisPositions, BoxAddress, Datagram, DecodeError, DigitalOutputs, MotionFrame,
-    ReadBank, RegisterBlock, RegisterRange, RegisterRead, RegisterReply, RegisterWrite, Route,
-    TimeCode, TimeMode, WriteBank,
+    AxisCount, AxisPositions, BoxAddress, Datagram, DecodeError, DigitalOutputs, Encode,
+    MotionFrame, ReadBank, RegisterBlock, RegisterRange, RegisterRead, RegisterReply,
+    RegisterWrite, Route, TimeCode, TimeMode, WriteBank,
 };
 use floatball_shared::sim::noise::{LineNoise, SplitMix};
 use floatball_shared::sim::{GatewayConfig, TX_QUEUE_BYTES, Uart};
