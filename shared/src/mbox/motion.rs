@@ -193,8 +193,7 @@ impl AxisPositions {
         fn read<const N: usize>(bytes: &[u8]) -> Option<[i32; N]> {
             let mut pulses = [0; N];
             for (axis, slot) in pulses.iter_mut().enumerate() {
-                *slot =
-                    i32::from_be_bytes(be_u32(bytes, MOTION_HEADER_LEN + 4 * axis)?.to_be_bytes());
+                *slot = be_u32(bytes, MOTION_HEADER_LEN + 4 * axis)?.cast_signed();
             }
             Some(pulses)
         }
