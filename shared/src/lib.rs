@@ -17,6 +17,10 @@
 //! - [`mod@line`]: a serial line's timing (8N1: 10 bit times a byte): byte time, bytes per
 //!   second, time for N bytes — used by the planner, the player, the simulator and the
 //!   bridge's pacer.
+//! - [`mbox`]: the MBOX motion controller's UDP protocol: typed motion frames (3, 6 or
+//!   10 axes, absolute or relative time) and register reads, replies and writes (e-stop,
+//!   reset, effects, the box's IP), their big-endian encoder and a decoder that refuses
+//!   what the document makes invalid.
 //! - [`motion`]: motion profiles outside the PVT table — point-to-point moves
 //!   ([`motion::Trapezoid`]) and braking — used by the player's timing and the simulator.
 //! - [`plan`]: the installation (gateways, kinds of drive, which unit hangs where) and,
@@ -43,6 +47,7 @@ pub mod api;
 pub mod ascii;
 pub mod feedback;
 pub mod line;
+pub mod mbox;
 pub mod motion;
 pub mod plan;
 pub mod playlist;

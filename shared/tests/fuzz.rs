@@ -34,6 +34,11 @@ proptest! {
     fn the_console_parser_survives_noise(seed in any::<u64>()) {
         targets::console(seed, CASE_BYTES);
     }
+
+    #[test]
+    fn the_mbox_decoder_survives_any_datagram(seed in any::<u64>()) {
+        targets::mbox(seed, CASE_BYTES);
+    }
 }
 
 /// Every kind of gateway (four configurations by seed) at a fixed seed, so that each is
@@ -48,5 +53,30 @@ fn every_gateway_kind_answers_its_roll_calls() {
             .find(|(name, _)| *name == "roll calls")
             .map_or(0, |&(_, count)| count);
         assert!(roll_calls > 0, "seed {seed}: {report:?}");
+    }
+}
+
+/// Every kind of refusal and acceptance occurs in the MBOX target's stream.
+#[test]
+fn the_mbox_target_reaches_every_refusal() {
+    let report = targets::mbox(1, CASE_BYTES);
+    for kind in [
+        "accepted",
+        "truncated",
+        "bad magic",
+        "bad pass code",
+        "unknown function",
+        "unknown channel",
+        "motion length",
+        "register length",
+        "register range",
+    ] {
+        assert!(
+            report
+                .counts
+                .iter()
+                .any(|&(name, count)| name == kind && count > 0),
+            "{kind}: {report:?}"
+        );
     }
 }

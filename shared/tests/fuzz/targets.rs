@@ -1,6 +1,6 @@
 //! Fuzz targets for every reader of untrusted bytes: the gateway's streaming
 //! instruction reader, the simulated gateway behind its serial line, the bridge's
-//! feedback decoder and its console parser.
+//! feedback decoder, its console parser and the MBOX datagram decoder.
 //!
 //! Each target takes a seed and a number of bytes, makes a reproducible stream of
 //! line noise ([`LineNoise`]: binary chunks and instruction fragments) mixed with
@@ -14,6 +14,11 @@ use std::collections::BTreeSet;
 
 use floatball_shared::ascii::{Form, Instruction, InstructionReader, parse_script};
 use floatball_shared::feedback::{Ack, Feedback, Frame, FrameDecoder, MAX_FRAME_LEN};
+use floatball_shared::mbox::{
+    AxisCount, AxisPositions, BoxAddress, Datagram, DecodeError, DigitalOutputs, Encode,
+    MotionFrame, ReadBank, RegisterBlock, RegisterRange, RegisterRead, RegisterReply,
+    RegisterWrite, Route, TimeCode, TimeMode, WriteBank,
+};
 use floatball_shared::sim::noise::{LineNoise, SplitMix};
 use floatball_shared::sim::{GatewayConfig, TX_QUEUE_BYTES, Uart};
 
@@ -47,11 +52,12 @@ impl Report {
 pub type Target = fn(u64, usize) -> Report;
 
 /// Every target, by name.
-pub const TARGETS: [(&str, Target); 4] = [
+pub const TARGETS: [(&str, Target); 5] = [
     ("reader", reader),
     ("gateway", gateway),
     ("decoder", decoder),
     ("console", console),
+    ("mbox", mbox),
 ];
 
 /// The roll call the liveness property sends after the noise: end whatever
@@ -465,4 +471,141 @@ fn round_trip(seed: u64, instruction: &Instruction) {
         Ok(std::slice::from_ref(instruction)),
         "seed {seed}: {text}"
     );
+}
+
+/// A random valid MBOX datagram of any kind.
+fn random_datagram(rng: &mut SplitMix) -> Datagram {
+    let route = Route {
+        receiver: BoxAddress(rng.next_u64() as u16),
+        replier: BoxAddress(rng.next_u64() as u16),
+    };
+    let kind = rng.below(4);
+    if kind == 0 {
+        let axes = AxisCount::ALL[rng.below(3) as usize];
+        let pulses: Vec<i32> = (0..axes.count()).map(|_| rng.next_u64() as i32).collect();
+        return Datagram::Motion(MotionFrame {
+            mode: [TimeMode::Absolute, TimeMode::Relative][rng.below(2) as usize],
+            route,
+            sequence: rng.next_u64() as u32,
+            // Now and then 0, the box's default.
+            time_code: TimeCode::from_ms((rng.next_u64() >> rng.below(64)) as u32),
+            positions_pulses: AxisPositions::from_slice(&pulses).expect("3, 6 or 10 axes"),
+            digital: DigitalOutputs::from_bits(rng.next_u64() as u16),
+            analog: [rng.next_u64() as u16, rng.next_u64() as u16],
+        });
+    }
+    let start = rng.next_u64() as u16;
+    let count = 1 + rng.below(40.min(0x1_0000 - u64::from(start)));
+    let values = (0..count).map(|_| rng.next_u64() as u16).collect();
+    let block = RegisterBlock::new(start, values).expect("a valid block");
+    let read_bank = [ReadBank::Dn, ReadBank::Fn][rng.below(2) as usize];
+    match kind {
+        1 => Datagram::Read(RegisterRead {
+            bank: read_bank,
+            route,
+            range: RegisterRange::new(start, count as usize).expect("a valid range"),
+        }),
+        2 => Datagram::ReadReply(RegisterReply {
+            bank: read_bank,
+            route,
+            block,
+        }),
+        _ => Datagram::Write(RegisterWrite {
+            bank: [WriteBank::FnVolatile, WriteBank::FnSaved, WriteBank::Cx][rng.below(3) as usize],
+            route,
+            block,
+        }),
+    }
+}
+
+/// Damages a datagram 1–4 times: a bit flipped, a byte replaced (often in the header),
+/// the end cut off, or bytes added.
+fn mutate(rng: &mut SplitMix, wire: &mut Vec<u8>) {
+    for _ in 0..1 + rng.below(4) {
+        match rng.below(5) {
+            0 if !wire.is_empty() => {
+                let at = rng.below(wire.len() as u64) as usize;
+                wire[at] ^= 1 << rng.below(8);
+            }
+            1 if !wire.is_empty() => {
+                let at = rng.below(wire.len().min(16) as u64) as usize;
+                wire[at] = rng.next_u64() as u8;
+            }
+            2 => wire.truncate(rng.below(wire.len() as u64 + 1) as usize),
+            3 => wire.extend((0..1 + rng.below(8)).map(|_| rng.next_u64() as u8)),
+            _ => {}
+        }
+    }
+}
+
+/// The MBOX datagram decoder on single datagrams: random bytes, random bytes behind a
+/// valid start, and valid datagrams damaged ([`mutate`]). It never panics, every
+/// refusal has a message, whatever it accepts encodes back to the same bytes, and an
+/// undamaged datagram decodes to itself.
+pub fn mbox(seed: u64, bytes: usize) -> Report {
+    let mut noise = LineNoise::new(seed);
+    let mut report = Report::default();
+    let mut wire = Vec::new();
+    while (report.bytes as usize) < bytes {
+        let rng = noise.rng();
+        wire.clear();
+        let original = match rng.below(8) {
+            0 => {
+                let len = rng.below(80) as usize;
+                wire.extend((0..len).map(|_| rng.next_u64() as u8));
+                None
+            }
+            1 => {
+                let function = [0x1301_u16, 0x1401, 0x1101, 0x1102, 0x1201][rng.below(5) as usize];
+                wire.extend([0x55, 0xAA, 0, 0]);
+                wire.extend(function.to_be_bytes());
+                wire.extend([0, rng.below(4) as u8]);
+                let len = rng.below(80) as usize;
+                wire.extend((0..len).map(|_| rng.next_u64() as u8));
+                None
+            }
+            2 => {
+                let datagram = random_datagram(rng);
+                datagram.encode_into(&mut wire);
+                Some(datagram)
+            }
+            _ => {
+                random_datagram(rng).encode_into(&mut wire);
+                mutate(rng, &mut wire);
+                None
+            }
+        };
+        report.bytes += wire.len() as u64;
+        match (Datagram::decode(&wire), original) {
+            (Ok(decoded), original) => {
+                assert_eq!(decoded.encode(), wire, "seed {seed}: {decoded:?}");
+                if let Some(original) = original {
+                    assert_eq!(decoded, original, "seed {seed}");
+                }
+                report.count("accepted", 1);
+            }
+            (Err(error), None) => {
+                assert!(!error.to_string().is_empty());
+                report.count(refusal(&error), 1);
+            }
+            (Err(error), Some(original)) => {
+                panic!("seed {seed}: {original:?} refused: {error}")
+            }
+        }
+    }
+    report
+}
+
+/// The kind of a refusal, for the report.
+fn refusal(error: &DecodeError) -> &'static str {
+    match error {
+        DecodeError::Truncated { .. } => "truncated",
+        DecodeError::BadMagic { .. } => "bad magic",
+        DecodeError::BadPassCode { .. } => "bad pass code",
+        DecodeError::UnknownFunction { .. } => "unknown function",
+        DecodeError::UnknownChannel { .. } => "unknown channel",
+        DecodeError::MotionLength { .. } => "motion length",
+        DecodeError::RegisterLength { .. } => "register length",
+        DecodeError::Registers { .. } => "register range",
+    }
 }
