@@ -1,6 +1,6 @@
-//! The MBOX motion controller's UDP protocol (`PROTOCOL.md` §2; the Chinese original,
-//! the authority, is `seeds/002_7a8d5b5579c39d7d.txt`): every datagram the document
-//! defines, typed, with its big-endian encoder and its decoder. No sockets here: bytes
+//! The MBOX motion controller's UDP protocol (the vendor's Chinese protocol document is
+//! the authority; `docs/protocol-notes.md` §7 says what we took from it): every
+//! datagram the document defines, typed, with its big-endian encoder and its decoder. No sockets here: bytes
 //! in, bytes out.
 //!
 //! An MBOX drives 3, 6 or 10 axes from UDP datagrams sent to its port [`BOX_PORT`]
