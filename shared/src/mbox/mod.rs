@@ -1,7 +1,7 @@
 //! The MBOX motion controller's UDP protocol (the vendor's Chinese protocol document is
 //! the authority; `docs/protocol-notes.md` §7 says what we took from it): every
-//! datagram the document defines, typed, with its big-endian encoder and its decoder. No sockets here: bytes
-//! in, bytes out.
+//! datagram the document defines, typed, with its big-endian encoder and its decoder.
+//! No sockets here: bytes in, bytes out.
 //!
 //! An MBOX drives 3, 6 or 10 axes from UDP datagrams sent to its port [`BOX_PORT`]
 //! (from the host's [`HOST_PORT`]). Every datagram starts `55 AA | 00 00 | function(2) |
