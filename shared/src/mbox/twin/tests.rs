@@ -102,22 +102,26 @@ fn time_code_zero_takes_the_boxs_default_in_either_mode() {
 #[test]
 fn an_absolute_frame_lasts_from_the_last_time_code_to_its_own() {
     let mut twin = twin();
-    // The first has no earlier time code: the default 100 ms.
-    twin.receive(0, &frame(TimeMode::Absolute, 1, 15_000, 1_000));
-    assert_eq!(twin.next_event_us(), Some(100_000));
-    // The document's example: 15 000 ms then 15 100 ms → 100 ms.
-    twin.receive(100_000, &frame(TimeMode::Absolute, 2, 15_100, 2_000));
-    assert_eq!(twin.next_event_us(), Some(200_000));
-    // 250 ms later on the film.
-    twin.receive(200_000, &frame(TimeMode::Absolute, 3, 15_350, 3_000));
-    assert_eq!(twin.next_event_us(), Some(450_000));
-    // A time code not after the last one (the film rewound): the default.
-    twin.receive(450_000, &frame(TimeMode::Absolute, 4, 15_000, 0));
-    assert_eq!(twin.next_event_us(), Some(550_000));
-    // Time code 0 leaves the last one as it was.
-    twin.receive(550_000, &frame(TimeMode::Absolute, 5, 0, 10));
-    twin.receive(650_000, &frame(TimeMode::Absolute, 6, 15_020, 20));
-    assert_eq!(twin.next_event_us(), Some(670_000));
+    // (arrival µs, time code ms, when the move ends µs)
+    let steps = [
+        // The first has no earlier time code: the default 100 ms.
+        (0, 15_000, 100_000),
+        // The document's example: 15 000 ms then 15 100 ms → 100 ms.
+        (100_000, 15_100, 200_000),
+        // 250 ms later on the film.
+        (200_000, 15_350, 450_000),
+        // A time code not after the last one (the film rewound): the default.
+        (450_000, 15_000, 550_000),
+        // Time code 0: the default, and the last time code stays 15 000…
+        (550_000, 0, 650_000),
+        // …so 15 020 lasts 20 ms.
+        (650_000, 15_020, 670_000),
+    ];
+    for (sequence, (now_us, code, end_us)) in (1..).zip(steps) {
+        let pulses = i32::try_from(sequence).unwrap() * 1_000;
+        twin.receive(now_us, &frame(TimeMode::Absolute, sequence, code, pulses));
+        assert_eq!(twin.next_event_us(), Some(end_us), "time code {code}");
+    }
 }
 
 #[test]
