@@ -2,16 +2,18 @@
 //!
 //! `floatball` with no subcommand serves the app and the API with the installation in
 //! `--data-dir`; `floatball check` only reads and checks the configuration;
-//! `floatball simulate` answers as a simulated gateway on a serial device. Every
+//! `floatball simulate` answers as a simulated UIM2503 gateway on a serial device, or
+//! (`--kind mbox`) as simulated MBOX boxes on UDP sockets. Every
 //! subcommand is listed by `floatball --help`.
 
-use std::net::SocketAddr;
+use std::net::{Ipv4Addr, SocketAddr};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use floatball_shared::mbox::{self, AxisCount};
 use floatball_shared::sim::{self, GatewayConfig};
 
 use crate::auth::Clock;
@@ -53,16 +55,43 @@ pub enum Command {
     /// Check floatball.toml (writing the defaults if it is missing) and exit.
     Check(CheckArgs),
     /// Answer as a simulated UIM2503 gateway with its units on a serial device (e.g. one
-    /// end of a pseudo-terminal pair or a null-modem cable).
+    /// end of a pseudo-terminal pair or a null-modem cable), or as simulated MBOX boxes
+    /// on UDP sockets (`--kind mbox`).
     Simulate(SimulateArgs),
+}
+
+/// What `floatball simulate` simulates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SimulateKind {
+    /// A UIM2503 gateway and its units on a serial device (`--port`).
+    Uim2503,
+    /// MBOX boxes on UDP sockets (`--listen`, `--axes`, `--boxes`, `--ip`).
+    Mbox,
 }
 
 /// Options of `floatball simulate`.
 #[derive(Debug, clap::Args)]
 pub struct SimulateArgs {
-    /// The serial device to answer on, e.g. /dev/pts/3 or /dev/ttyUSB1.
+    /// What to simulate.
+    #[arg(long, value_enum, default_value_t = SimulateKind::Uim2503)]
+    pub kind: SimulateKind,
+    /// (uim2503) The serial device to answer on, e.g. /dev/pts/3 or /dev/ttyUSB1.
     #[arg(long)]
-    pub port: String,
+    pub port: Option<String>,
+    /// (mbox) The first box's UDP address; box i listens on its port + i (port 0: each
+    /// box on a free port).
+    #[arg(long, default_value_t = SocketAddr::from(([127, 0, 0, 1], mbox::BOX_PORT)))]
+    pub listen: SocketAddr,
+    /// (mbox) Axes of every box: 3, 6 or 10.
+    #[arg(long, default_value_t = 10, value_parser = parse_axes_count)]
+    pub axes: u8,
+    /// (mbox) Number of boxes.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..))]
+    pub boxes: u16,
+    /// (mbox) The first box's IP address (its address in datagrams is the last two
+    /// octets); box i has this + i.
+    #[arg(long, default_value_t = mbox::FACTORY_IP)]
+    pub ip: Ipv4Addr,
     /// The line's baud rate (a UIM2503 leaves the factory at 9600).
     #[arg(long, default_value_t = config::DEFAULT_SERIAL_BAUD)]
     pub baud: u32,
@@ -78,6 +107,14 @@ pub struct SimulateArgs {
     /// Calibration: encoder counts per mm.
     #[arg(long, default_value_t = sim::DEFAULT_COUNTS_PER_MM)]
     pub counts_per_mm: f64,
+}
+
+/// `--axes`: 3, 6 or 10.
+fn parse_axes_count(text: &str) -> Result<u8, String> {
+    match text.parse::<u8>() {
+        Ok(axes @ (3 | 6 | 10)) => Ok(axes),
+        _ => Err(format!("{text} axes: an MBOX drives 3, 6 or 10")),
+    }
 }
 
 /// Options of `floatball check`.
@@ -191,6 +228,14 @@ async fn shutdown_signal() {
 
 /// `floatball simulate`: runs until Ctrl-C or SIGTERM.
 async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
+    let port = match (args.kind, args.port.clone()) {
+        (SimulateKind::Mbox, None) => return simulate_mbox(&args).await,
+        (SimulateKind::Mbox, Some(_)) => {
+            anyhow::bail!("--port is the serial device of --kind uim2503; MBOX boxes take --listen")
+        }
+        (SimulateKind::Uim2503, Some(port)) => port,
+        (SimulateKind::Uim2503, None) => anyhow::bail!("--kind uim2503 needs --port"),
+    };
     let mut gateway = if args.factory_fresh {
         GatewayConfig::factory_fresh(usize::from(args.units))
     } else {
@@ -199,7 +244,7 @@ async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     gateway.seed = args.seed;
     gateway.counts_per_mm = args.counts_per_mm;
     let options = crate::simulate::SimulateOptions {
-        port: args.port,
+        port,
         baud: args.baud,
         gateway,
     };
@@ -221,4 +266,38 @@ async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// `floatball simulate --kind mbox`: one line a box once every socket listens; on
+/// Ctrl-C or SIGTERM, each box's final state as one JSON line ([`SimBox`]).
+///
+/// [`SimBox`]: floatball_shared::api::SimBox
+async fn simulate_mbox(args: &SimulateArgs) -> anyhow::Result<()> {
+    let axes = AxisCount::ALL
+        .into_iter()
+        .find(|axes| axes.count() == usize::from(args.axes))
+        .context("an MBOX drives 3, 6 or 10 axes")?;
+    let boxes = crate::simulate::mbox::MboxBoxes::start(crate::simulate::mbox::MboxOptions {
+        listen: args.listen,
+        boxes: args.boxes,
+        axes,
+        ip: args.ip,
+    })
+    .await
+    .map_err(anyhow::Error::msg)?;
+    // People read these lines, and tests parse them: the socket is the last word.
+    for running in boxes.boxes() {
+        println!(
+            "floatball simulating MBOX box 0x{:04X} ({}, {} axes) on {}",
+            mbox::BoxAddress::of_ip(running.ip).0,
+            running.ip,
+            axes.count(),
+            running.socket
+        );
+    }
+    shutdown_signal().await;
+    for snapshot in boxes.stop().await {
+        println!("{}", serde_json::to_string(&snapshot)?);
+    }
+    Ok(())
 }

@@ -19,8 +19,12 @@
 //! that cannot be written are lost too, as on a real line nobody listens to; they are
 //! counted and logged, and the simulator carries on.
 //!
+//! MBOX boxes on UDP sockets (`--kind mbox`) are [`mbox`].
+//!
 //! [`RX_FIFO_BYTES`]: floatball_shared::sim::RX_FIFO_BYTES
 //! [`TX_QUEUE_BYTES`]: floatball_shared::sim::TX_QUEUE_BYTES
+
+pub mod mbox;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -213,6 +213,105 @@ pub struct SimUnit {
     pub moving: bool,
 }
 
+/// One simulated MBOX box (`floatball_shared::mbox::twin`), at the twin's time: where
+/// its axes are, its registers that matter to a show, and what it received.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SimBox {
+    /// Its address: the last two octets of its IP address (`0x0FC9` = x.x.15.201).
+    pub address: u16,
+    /// Its IP address as the saved FN020–FN023 registers give it.
+    pub ip: String,
+    /// The twin's clock, µs since it started.
+    pub time_us: u64,
+    /// Every axis's position now, pulses, axis 1 (X) first.
+    pub positions_pulses: Vec<i32>,
+    /// Every axis's target (the last frame's position, or where it stopped).
+    pub targets_pulses: Vec<i32>,
+    /// Some axis has not reached its target yet.
+    pub moving: bool,
+    /// The e-stop is engaged (FN `0x0090` = 1): motion frames are ignored.
+    pub estop: bool,
+    /// CX 0, play control (0 = reset).
+    pub play_control: u16,
+    /// CX 1, the effects mask.
+    pub effects_mask: u16,
+    /// The last motion frame's 16 digital-output bits.
+    pub digital: u16,
+    /// The last motion frame's two analog outputs, raw.
+    pub analog: [u16; 2],
+    /// What the box received.
+    pub counters: SimBoxCounters,
+}
+
+/// What a simulated MBOX received, in [`SimBox`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SimBoxCounters {
+    /// Datagrams received, whatever they were.
+    pub datagrams: u64,
+    /// Valid datagrams addressed to another box.
+    pub not_for_this_box: u64,
+    /// Motion frames carried out.
+    pub motion_frames: u64,
+    /// Motion frames ignored because the e-stop was engaged.
+    pub ignored_estop: u64,
+    /// Motion frames ignored because they drive another number of axes than the box has.
+    pub wrong_axes: u64,
+    /// Register reads answered or not (the replier decides).
+    pub register_reads: u64,
+    /// Register writes carried out.
+    pub register_writes: u64,
+    /// Read replies (`0x1102`) sent.
+    pub replies: u64,
+    /// Datagrams only a box sends (`0x1102`), received by a box.
+    pub unexpected: u64,
+    /// Numbered motion frames that skipped sequence numbers (each jump counts once).
+    pub sequence_gaps: u64,
+    /// The sequence numbers skipped by those jumps, in all.
+    pub sequence_skipped: u64,
+    /// Numbered motion frames whose sequence was not above the last one (repeats and
+    /// frames from the past).
+    pub sequence_repeats: u64,
+    /// Datagrams the decoder refused, by reason.
+    pub malformed: SimMalformed,
+}
+
+/// Datagrams a simulated MBOX refused, by the decoder's reason
+/// (`floatball_shared::mbox::DecodeError`), in [`SimBoxCounters`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SimMalformed {
+    /// Shorter than a field their kind has.
+    pub truncated: u64,
+    /// Not starting `55 AA`.
+    pub bad_magic: u64,
+    /// A pass code other than `00 00`.
+    pub bad_pass_code: u64,
+    /// A function code the document does not define.
+    pub unknown_function: u64,
+    /// A channel the function does not take.
+    pub unknown_channel: u64,
+    /// A motion frame whose length does not match its axes.
+    pub motion_length: u64,
+    /// A register datagram whose length does not match its count.
+    pub register_length: u64,
+    /// An empty or overflowing register range.
+    pub registers: u64,
+}
+
+impl SimMalformed {
+    /// Every refused datagram.
+    #[must_use]
+    pub const fn total(&self) -> u64 {
+        self.truncated
+            + self.bad_magic
+            + self.bad_pass_code
+            + self.unknown_function
+            + self.unknown_channel
+            + self.motion_length
+            + self.register_length
+            + self.registers
+    }
+}
+
 // ----------------------------------------------------------------------------------
 // WebSocket
 // ----------------------------------------------------------------------------------

@@ -19,6 +19,9 @@
 //!   what the document makes invalid with a [`DecodeError`] that says what is wrong,
 //!   and whatever it accepts encodes back to the same bytes.
 //!
+//! - [`twin`]: a simulated box (the digital twin) built on the codec: datagrams and
+//!   time in, replies out, axes moving in between.
+//!
 //! Where the summary and the original differ, and what the document leaves open, is in
 //! `docs/protocol-notes.md`, "MBOX (UDP)".
 //!
@@ -53,6 +56,7 @@ pub mod motion;
 pub mod register;
 #[cfg(test)]
 mod tests;
+pub mod twin;
 
 use std::fmt;
 use std::net::Ipv4Addr;

@@ -8,7 +8,7 @@ use std::num::NonZeroU32;
 use super::*;
 
 /// The bytes of a hex dump as the document writes them (`55 aa 00 …`).
-fn hex(dump: &str) -> Vec<u8> {
+pub(super) fn hex(dump: &str) -> Vec<u8> {
     dump.split_whitespace()
         .map(|pair| u8::from_str_radix(pair, 16).unwrap())
         .collect()
@@ -29,7 +29,7 @@ fn assert_vector(wire: &str, datagram: &Datagram) {
 /// The document's motion vectors (its section 3): every axis at 50 000 pulses, DO
 /// `0x1234`, AO `0x5678 0xABCD`, sequence 1, broadcast; absolute frames with time code
 /// 0 (the box's default), relative ones with 100 ms.
-fn document_motion_frame(mode: TimeMode, axes: AxisCount) -> Datagram {
+pub(super) fn document_motion_frame(mode: TimeMode, axes: AxisCount) -> Datagram {
     Datagram::Motion(MotionFrame {
         mode,
         route: Route::BROADCAST,

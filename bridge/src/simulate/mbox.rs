@@ -1,0 +1,157 @@
+//! `floatball simulate --kind mbox`: MBOX boxes on real UDP sockets — for tests on
+//! loopback and for demonstrations on a LAN.
+//!
+//! Each box is a [`MboxTwin`] (the sans-IO twin in `floatball_shared::mbox::twin`) on
+//! its own socket, owned by its own task: a datagram is handed to the twin with the
+//! time since the boxes started, and the twin's reply, if any, goes back to the
+//! sender's address and port. N boxes listen on consecutive ports from the first (or
+//! each on a port of the system's choosing when the first is 0), with consecutive IP
+//! addresses from the first, so each has its own address in datagrams.
+//!
+//! [`MboxBoxes::stop`] ends every task and returns each box's final [`SimBox`].
+
+use std::net::{Ipv4Addr, SocketAddr};
+use std::time::Instant;
+
+use floatball_shared::api::SimBox;
+use floatball_shared::mbox::AxisCount;
+use floatball_shared::mbox::twin::{MboxTwin, TwinConfig};
+use tokio::net::UdpSocket;
+use tokio::sync::watch;
+use tokio::task::JoinHandle;
+
+/// The largest datagram a box takes (anything longer is cut and refused as malformed).
+const MAX_DATAGRAM: usize = 65_536;
+
+/// What to simulate, and where.
+#[derive(Debug, Clone, Copy)]
+pub struct MboxOptions {
+    /// The first box's socket; box `i` listens on its port + `i` (all on port 0: each
+    /// on a free port).
+    pub listen: SocketAddr,
+    /// How many boxes.
+    pub boxes: u16,
+    /// Axes of every box.
+    pub axes: AxisCount,
+    /// The first box's IP address; box `i` has this + `i`.
+    pub ip: Ipv4Addr,
+}
+
+/// One running box, as [`MboxBoxes::boxes`] lists it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RunningBox {
+    /// Where its socket listens.
+    pub socket: SocketAddr,
+    /// The IP address it stands for (its address in datagrams is the last two octets).
+    pub ip: Ipv4Addr,
+}
+
+/// The boxes, each answering on its socket until [`Self::stop`].
+#[derive(Debug)]
+pub struct MboxBoxes {
+    boxes: Vec<RunningBox>,
+    stop: watch::Sender<bool>,
+    tasks: Vec<JoinHandle<SimBox>>,
+}
+
+impl MboxBoxes {
+    /// Binds every box's socket and starts answering.
+    ///
+    /// # Errors
+    /// A port or IP address past the last one, or a socket that cannot be bound.
+    pub async fn start(options: MboxOptions) -> Result<Self, String> {
+        let epoch = Instant::now();
+        let (stop, stopped) = watch::channel(false);
+        let mut boxes = Vec::with_capacity(usize::from(options.boxes));
+        let mut tasks = Vec::with_capacity(usize::from(options.boxes));
+        for index in 0..options.boxes {
+            let (listen, ip) = box_at(&options, index)?;
+            let socket = UdpSocket::bind(listen)
+                .await
+                .map_err(|err| format!("cannot listen on UDP {listen}: {err}"))?;
+            let local = socket
+                .local_addr()
+                .map_err(|err| format!("cannot read the address of UDP {listen}: {err}"))?;
+            let twin = MboxTwin::new(TwinConfig::new(ip, options.axes));
+            boxes.push(RunningBox { socket: local, ip });
+            tasks.push(tokio::spawn(answer(socket, twin, epoch, stopped.clone())));
+        }
+        Ok(Self { boxes, stop, tasks })
+    }
+
+    /// The boxes, in order.
+    #[must_use]
+    pub fn boxes(&self) -> &[RunningBox] {
+        &self.boxes
+    }
+
+    /// Stops every box; returns each one's final state, in order.
+    pub async fn stop(self) -> Vec<SimBox> {
+        // Receivers may be gone if a task ended already; the join below says so.
+        let _ = self.stop.send(true);
+        let mut snapshots = Vec::with_capacity(self.tasks.len());
+        for task in self.tasks {
+            match task.await {
+                Ok(snapshot) => snapshots.push(snapshot),
+                Err(err) => tracing::error!("a simulated MBOX stopped unexpectedly: {err}"),
+            }
+        }
+        snapshots
+    }
+}
+
+/// Box `index`'s socket and IP address.
+fn box_at(options: &MboxOptions, index: u16) -> Result<(SocketAddr, Ipv4Addr), String> {
+    let mut listen = options.listen;
+    if listen.port() != 0 {
+        let port = listen.port().checked_add(index).ok_or_else(|| {
+            format!(
+                "{} boxes from port {} run past port 65535",
+                options.boxes,
+                options.listen.port()
+            )
+        })?;
+        listen.set_port(port);
+    }
+    let ip = u32::from(options.ip)
+        .checked_add(u32::from(index))
+        .map(Ipv4Addr::from)
+        .ok_or_else(|| {
+            format!(
+                "{} boxes from {} run past 255.255.255.255",
+                options.boxes, options.ip
+            )
+        })?;
+    Ok((listen, ip))
+}
+
+/// One box: takes datagrams until `stop`, answers the sender; returns the box's state.
+async fn answer(
+    socket: UdpSocket,
+    mut twin: MboxTwin,
+    epoch: Instant,
+    mut stop: watch::Receiver<bool>,
+) -> SimBox {
+    let micros = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
+    let mut buffer = vec![0u8; MAX_DATAGRAM];
+    loop {
+        tokio::select! {
+            received = socket.recv_from(&mut buffer) => match received {
+                Ok((len, sender)) => {
+                    let datagram = buffer.get(..len).unwrap_or_default();
+                    if let Some(reply) = twin.receive(micros(), datagram)
+                        && let Err(err) = socket.send_to(&reply, sender).await
+                    {
+                        tracing::warn!("simulated MBOX {}: cannot reply to {sender}: {err}", twin.snapshot().ip);
+                    }
+                }
+                // On Linux an ICMP "port unreachable" for an earlier reply surfaces
+                // here; the box carries on, as a real one does.
+                Err(err) => tracing::debug!("simulated MBOX: receive failed: {err}"),
+            },
+            _ = stop.changed() => break,
+        }
+    }
+    twin.advance(micros());
+    twin.snapshot()
+}
