@@ -39,6 +39,34 @@ proptest! {
     fn the_mbox_decoder_survives_any_datagram(seed in any::<u64>()) {
         targets::mbox(seed, CASE_BYTES);
     }
+
+    #[test]
+    fn the_scl_parsers_survive_noise_and_print_back_what_they_accept(seed in any::<u64>()) {
+        targets::scl(seed, CASE_BYTES);
+    }
+}
+
+/// The SCL target accepts and refuses scripts, answers and datagrams alike, so that
+/// both paths are exercised.
+#[test]
+fn the_scl_target_reaches_acceptance_and_refusal() {
+    let report = targets::scl(1, CASE_BYTES);
+    for kind in [
+        "scripts accepted",
+        "scripts refused",
+        "answers accepted",
+        "answers refused",
+        "datagrams accepted",
+        "datagrams refused",
+    ] {
+        assert!(
+            report
+                .counts
+                .iter()
+                .any(|&(name, count)| name == kind && count > 0),
+            "{kind}: {report:?}"
+        );
+    }
 }
 
 /// Every kind of gateway (four configurations by seed) at a fixed seed, so that each is

@@ -275,7 +275,7 @@ impl<'a> Cursor<'a> {
                 condition: self.letter(
                     mnemonic,
                     "a condition (T, F, P, G, L, E, U or Z)",
-                    |c| JumpCondition::from_letter(c),
+                    JumpCondition::from_letter,
                 )?,
                 line: self.q_line(mnemonic)?,
             },
@@ -409,9 +409,11 @@ impl<'a> Cursor<'a> {
         mnemonic: &'static str,
     ) -> Result<(IoPoint, InputCondition), ParseError> {
         let input = self.io_point(mnemonic)?;
-        let condition = self.letter(mnemonic, "a condition (H, L, R or F)", |c| {
-            InputCondition::from_letter(c)
-        })?;
+        let condition = self.letter(
+            mnemonic,
+            "a condition (H, L, R or F)",
+            InputCondition::from_letter,
+        )?;
         Ok((input, condition))
     }
 
