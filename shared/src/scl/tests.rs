@@ -23,9 +23,10 @@ const SEED_PROGRAMS: [&str; 9] = [
     "FL\nWT0.5\nQG1",
     // Looping with QR: register 3 holds 5; repeat from line 2 that many times.
     "RX35\nFL\nWT0.5\nQR32",
-    // Jumping: clockwise, or counter-clockwise at AC 300, DE 450, VE 18.5 while input 5
-    // is low (active), 0.25 s between moves.
-    "AC300\nDE450\nVE18.5\nDI20000\nFL\nWT0.25\nTI5L\nQJT10\nDI20000\nFL\nQG1\nDI-20000\nFL\nQG1",
+    // Jumping: AC 300, DE 450, VE 18.5, 0.25 s between moves; while input 5 is low
+    // (active) jump to line 10 and turn counter-clockwise, else fall through to line 7
+    // and turn clockwise; then back to line 1.
+    "AC300\nDE450\nVE18.5\nWT0.25\nTI5L\nQJT10\nDI20000\nFL\nQG1\nDI-20000\nFL\nQG1",
     // Calling: segment 1 calls segment 2, which toggles Y1 and Y2 and returns.
     "QC2\nSO1L\nWT0.25\nSO2L\nWT0.25\nSO2H\nWT0.25\nSO1H\nQC",
     // Multitasking: the output is set 0.5 s into the move, not after it.
