@@ -724,9 +724,7 @@ impl Request {
     /// The bytes on a serial line: the text and a carriage return.
     #[must_use]
     pub fn to_wire(&self) -> Vec<u8> {
-        let mut wire = self.to_string().into_bytes();
-        wire.push(super::CR);
-        wire
+        super::wire(self)
     }
 }
 

@@ -65,3 +65,10 @@ pub use response::{Answer, Reply};
 
 /// The carriage return that ends every command and answer.
 pub const CR: u8 = b'\r';
+
+/// A line's bytes on a serial line: its text and a carriage return.
+fn wire(line: &impl std::fmt::Display) -> Vec<u8> {
+    let mut wire = line.to_string().into_bytes();
+    wire.push(CR);
+    wire
+}

@@ -224,14 +224,15 @@ impl<'a> Cursor<'a> {
         Ok(match mnemonic {
             "FL" => Command::FeedToLength,
             "FP" => Command::FeedToPosition,
-            "FS" => {
-                let (input, condition) = self.input_condition(mnemonic)?;
-                Command::FeedToSensor { input, condition }
-            }
-            "WI" => {
-                let (input, condition) = self.input_condition(mnemonic)?;
-                Command::WaitForInput { input, condition }
-            }
+            // Struct fields are read in the order written: the point, then its letter.
+            "FS" => Command::FeedToSensor {
+                input: self.io_point(mnemonic)?,
+                condition: self.input_condition(mnemonic)?,
+            },
+            "WI" => Command::WaitForInput {
+                input: self.io_point(mnemonic)?,
+                condition: self.input_condition(mnemonic)?,
+            },
             "DI" => Command::Distance {
                 counts: self.optional(|c| c.signed(mnemonic))?,
             },
@@ -292,14 +293,14 @@ impl<'a> Cursor<'a> {
                 segment: self.segment(mnemonic)?,
             },
             "QE" => Command::QueueExecuteLoaded,
-            "TI" => {
-                let (input, level) = self.point_level(mnemonic)?;
-                Command::TestInput { input, level }
-            }
-            "SO" => {
-                let (output, level) = self.point_level(mnemonic)?;
-                Command::SetOutput { output, level }
-            }
+            "TI" => Command::TestInput {
+                input: self.io_point(mnemonic)?,
+                level: self.level(mnemonic)?,
+            },
+            "SO" => Command::SetOutput {
+                output: self.io_point(mnemonic)?,
+                level: self.level(mnemonic)?,
+            },
             "TR" => Command::TestRegister {
                 register: self.register(mnemonic)?,
                 value: self.signed(mnemonic)?,
@@ -404,23 +405,16 @@ impl<'a> Cursor<'a> {
         })
     }
 
-    fn input_condition(
-        &mut self,
-        mnemonic: &'static str,
-    ) -> Result<(IoPoint, InputCondition), ParseError> {
-        let input = self.io_point(mnemonic)?;
-        let condition = self.letter(
+    fn input_condition(&mut self, mnemonic: &'static str) -> Result<InputCondition, ParseError> {
+        self.letter(
             mnemonic,
             "a condition (H, L, R or F)",
             InputCondition::from_letter,
-        )?;
-        Ok((input, condition))
+        )
     }
 
-    fn point_level(&mut self, mnemonic: &'static str) -> Result<(IoPoint, Level), ParseError> {
-        let point = self.io_point(mnemonic)?;
-        let level = self.letter(mnemonic, "a level (H or L)", Level::from_letter)?;
-        Ok((point, level))
+    fn level(&mut self, mnemonic: &'static str) -> Result<Level, ParseError> {
+        self.letter(mnemonic, "a level (H or L)", Level::from_letter)
     }
 
     fn q_line(&mut self, mnemonic: &'static str) -> Result<QLine, ParseError> {

@@ -732,32 +732,8 @@ fn scl_lines(text: &str) -> Vec<&str> {
 pub fn scl(seed: u64, bytes: usize) -> Report {
     let mut noise = LineNoise::new(seed);
     let mut report = Report::default();
-    let mut raw = Vec::new();
     while (report.bytes as usize) < bytes {
-        raw.clear();
-        let valid = noise.rng().below(2) == 0;
-        let target = noise.rng().below(if valid { 400 } else { 1200 }) as usize;
-        while raw.len() < target {
-            let rng = noise.rng();
-            match rng.below(if valid { 64 } else { 3 }) {
-                0 => noise.chunk(&mut raw),
-                _ => {
-                    let form = SCL_FORMS[rng.below(SCL_FORMS.len() as u64) as usize];
-                    let line = scl_form(rng, form);
-                    let spaces = if rng.below(8) == 0 { " \t" } else { "" };
-                    let end = ["\n", "\r", "\r\n", "\n\n"][rng.below(4) as usize];
-                    raw.extend_from_slice(format!("{spaces}{line}{spaces}{end}").as_bytes());
-                }
-            }
-        }
-        if !valid && !raw.is_empty() {
-            // Damage a few bytes.
-            for _ in 0..1 + noise.rng().below(3) {
-                let at = noise.rng().below(raw.len() as u64) as usize;
-                raw[at] ^= 1 << noise.rng().below(7);
-            }
-        }
-        let text = String::from_utf8_lossy(&raw);
+        let text = scl_script(&mut noise);
         report.bytes += text.len() as u64;
         match scl::parse_script(&text) {
             Ok(requests) => {
@@ -829,4 +805,31 @@ pub fn scl(seed: u64, bytes: usize) -> Report {
         }
     }
     report
+}
+
+/// A script for the SCL target: valid command lines (now and then with spaces, values
+/// out of range, blank lines), or mostly noise with a few bytes damaged.
+fn scl_script(noise: &mut LineNoise) -> String {
+    let valid = noise.rng().below(2) == 0;
+    let length = noise.rng().below(if valid { 400 } else { 1200 }) as usize;
+    let mut raw = Vec::with_capacity(length);
+    while raw.len() < length {
+        let rng = noise.rng();
+        if rng.below(if valid { 64 } else { 3 }) == 0 {
+            noise.chunk(&mut raw);
+            continue;
+        }
+        let form = SCL_FORMS[rng.below(SCL_FORMS.len() as u64) as usize];
+        let line = scl_form(rng, form);
+        let spaces = if rng.below(8) == 0 { " \t" } else { "" };
+        let end = ["\n", "\r", "\r\n", "\n\n"][rng.below(4) as usize];
+        raw.extend_from_slice(format!("{spaces}{line}{spaces}{end}").as_bytes());
+    }
+    if !valid && !raw.is_empty() {
+        for _ in 0..1 + noise.rng().below(3) {
+            let at = noise.rng().below(raw.len() as u64) as usize;
+            raw[at] ^= 1 << noise.rng().below(7);
+        }
+    }
+    String::from_utf8_lossy(&raw).into_owned()
 }
