@@ -32,6 +32,9 @@
 //!   bridge and the app alike.
 //! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
 //!   single-sequence and loop runs, `MP` parameters, watermark) driven by time.
+//! - [`scl`]: MOONS' drives' serial command language: typed commands with units and
+//!   their text, the drives' answers (`%`, `*`, `?code`, `XX=value`), RS-485 address
+//!   characters, eSCL datagrams (UDP), and the parser for command lines and answers.
 //! - [`show`]: the show model and its native file format, CSV keyframe import,
 //!   validation against an installation's limits, sampling for the preview, and the
 //!   demo wave the tests and benches share ([`show::demo`]).
@@ -53,5 +56,6 @@ pub mod motion;
 pub mod plan;
 pub mod playlist;
 pub mod pvt;
+pub mod scl;
 pub mod show;
 pub mod sim;

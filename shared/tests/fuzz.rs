@@ -39,6 +39,28 @@ proptest! {
     fn the_mbox_decoder_survives_any_datagram(seed in any::<u64>()) {
         targets::mbox(seed, CASE_BYTES);
     }
+
+    #[test]
+    fn the_scl_parsers_survive_noise_and_print_back_what_they_accept(seed in any::<u64>()) {
+        targets::scl(seed, CASE_BYTES);
+    }
+}
+
+/// The SCL target accepts and refuses scripts, answers and datagrams alike, so that
+/// both paths are exercised.
+#[test]
+fn the_scl_target_reaches_acceptance_and_refusal() {
+    assert_reaches(
+        &targets::scl(1, CASE_BYTES),
+        &[
+            "scripts accepted",
+            "scripts refused",
+            "answers accepted",
+            "answers refused",
+            "datagrams accepted",
+            "datagrams refused",
+        ],
+    );
 }
 
 /// Every kind of gateway (four configurations by seed) at a fixed seed, so that each is
@@ -59,23 +81,30 @@ fn every_gateway_kind_answers_its_roll_calls() {
 /// Every kind of refusal and acceptance occurs in the MBOX target's stream.
 #[test]
 fn the_mbox_target_reaches_every_refusal() {
-    let report = targets::mbox(1, CASE_BYTES);
-    for kind in [
-        "accepted",
-        "truncated",
-        "bad magic",
-        "bad pass code",
-        "unknown function",
-        "unknown channel",
-        "motion length",
-        "register length",
-        "register range",
-    ] {
+    assert_reaches(
+        &targets::mbox(1, CASE_BYTES),
+        &[
+            "accepted",
+            "truncated",
+            "bad magic",
+            "bad pass code",
+            "unknown function",
+            "unknown channel",
+            "motion length",
+            "register length",
+            "register range",
+        ],
+    );
+}
+
+/// Every one of `kinds` was counted at least once in `report`.
+fn assert_reaches(report: &targets::Report, kinds: &[&str]) {
+    for kind in kinds {
         assert!(
             report
                 .counts
                 .iter()
-                .any(|&(name, count)| name == kind && count > 0),
+                .any(|&(name, count)| name == *kind && count > 0),
             "{kind}: {report:?}"
         );
     }

@@ -1,6 +1,7 @@
 //! Fuzz targets for every reader of untrusted bytes: the gateway's streaming
 //! instruction reader, the simulated gateway behind its serial line, the bridge's
-//! feedback decoder, its console parser and the MBOX datagram decoder.
+//! feedback decoder, its console parser, the MBOX datagram decoder and the SCL parsers
+//! (MOONS' drives: command lines, answers, eSCL datagrams).
 //!
 //! Each target takes a seed and a number of bytes, makes a reproducible stream of
 //! line noise ([`LineNoise`]: binary chunks and instruction fragments) mixed with
@@ -19,6 +20,8 @@ use floatball_shared::mbox::{
     MotionFrame, ReadBank, RegisterBlock, RegisterRange, RegisterRead, RegisterReply,
     RegisterWrite, Route, TimeCode, TimeMode, WriteBank,
 };
+use floatball_shared::scl;
+use floatball_shared::scl::{Reply, Request};
 use floatball_shared::sim::noise::{LineNoise, SplitMix};
 use floatball_shared::sim::{GatewayConfig, TX_QUEUE_BYTES, Uart};
 
@@ -52,12 +55,13 @@ impl Report {
 pub type Target = fn(u64, usize) -> Report;
 
 /// Every target, by name.
-pub const TARGETS: [(&str, Target); 5] = [
+pub const TARGETS: [(&str, Target); 6] = [
     ("reader", reader),
     ("gateway", gateway),
     ("decoder", decoder),
     ("console", console),
     ("mbox", mbox),
+    ("scl", scl),
 ];
 
 /// The roll call the liveness property sends after the noise: end whatever
@@ -608,4 +612,224 @@ fn refusal(error: &DecodeError) -> &'static str {
         DecodeError::RegisterLength { .. } => "register length",
         DecodeError::Registers { .. } => "register range",
     }
+}
+
+/// SCL command forms: `{i}` a signed integer, `{u}` an unsigned one, `{d}` a decimal,
+/// `{p}` an I/O digit, `{c}` an input condition, `{l}` a level, `{q}` a Q line, `{s}` a
+/// segment, `{r}` a register, `{j}` a jump condition, `{a}` an address or nothing.
+const SCL_FORMS: &[&str] = &[
+    "{a}FL",
+    "{a}FP",
+    "{a}FS{p}{c}",
+    "{a}WI{p}{c}",
+    "{a}DI{i}",
+    "{a}DI",
+    "{a}VE{d}",
+    "{a}VE",
+    "{a}AC{d}",
+    "{a}DE{d}",
+    "{a}EG{u}",
+    "{a}SP{i}",
+    "{a}EP{i}",
+    "{a}IP",
+    "{a}WT{d}",
+    "{a}QG{q}",
+    "{a}QR{r}{q}",
+    "{a}QJ{j}{q}",
+    "{a}QC{s}",
+    "{a}QC",
+    "{a}QL{s}",
+    "{a}QS{s}",
+    "{a}QX{s}",
+    "{a}QE",
+    "{a}TI{p}{l}",
+    "{a}TR{r}{i}",
+    "{a}CR{r}{r}",
+    "{a}MT1",
+    "{a}MT0",
+    "{a}SO{p}{l}",
+    "{a}R+{r}{r}",
+    "{a}R-{r}{r}",
+    "{a}R*{r}{r}",
+    "{a}R/{r}{r}",
+    "{a}R|{r}{r}",
+    "{a}R&{r}{r}",
+    "{a}RX{r}{i}",
+    "{a}RM{r}{r}",
+    "{a}SK",
+    "{a}ST",
+    "{a}ME",
+    "{a}MD",
+    "{a}SC",
+    "{a}AL",
+    "{a}AR",
+];
+
+/// Answer forms, with the same placeholders.
+const SCL_ANSWERS: &[&str] = &[
+    "{a}%",
+    "{a}*",
+    "{a}?",
+    "{a}?{u}",
+    "{a}IP={i}",
+    "{a}SC={u}",
+    "{a}VE={d}",
+    "{a}RLh={i}",
+];
+
+/// Fills an SCL form's placeholders, now and then with something out of range.
+fn scl_form(rng: &mut SplitMix, form: &str) -> String {
+    let mut text = String::new();
+    let mut rest = form;
+    while let Some(open) = rest.find('{') {
+        text.push_str(&rest[..open]);
+        let pick = |rng: &mut SplitMix, set: &str| {
+            let bytes = set.as_bytes();
+            char::from(bytes[rng.below(bytes.len() as u64) as usize]).to_string()
+        };
+        let value = match &rest[open + 1..open + 2] {
+            _ if rng.below(60) == 0 => (rng.next_u64() >> rng.below(64)).to_string(),
+            "i" => ((rng.next_u64() as i64) >> (32 + rng.below(32))).to_string(),
+            "u" => (rng.next_u64() >> (32 + rng.below(32))).to_string(),
+            "d" => {
+                let whole = rng.next_u64() >> (40 + rng.below(24));
+                match rng.below(3) {
+                    0 => whole.to_string(),
+                    _ => format!("{whole}.{}", rng.below(1000) + 1),
+                }
+            }
+            "p" => rng.below(10).to_string(),
+            "c" => pick(rng, "HLRF"),
+            "l" => pick(rng, "HL"),
+            "q" => (1 + rng.below(62)).to_string(),
+            "s" => (1 + rng.below(12)).to_string(),
+            "r" => pick(rng, "0123456789:;<=>?@ABCDXYZ[]^_`aehz"),
+            "j" => pick(rng, "TFPGLEUZ"),
+            _ if rng.below(2) == 0 => String::new(),
+            _ => pick(rng, "0123456789\"#$&'()+,-./:;<=>"),
+        };
+        text.push_str(&value);
+        rest = &rest[open + 3..];
+    }
+    text.push_str(rest);
+    text
+}
+
+/// The lines of `text` as the SCL script parser cuts them: CR LF, CR or LF end a line;
+/// spaces and tabs around a command do not count; blank lines are skipped.
+fn scl_lines(text: &str) -> Vec<&str> {
+    text.split('\n')
+        .flat_map(|line| line.split('\r'))
+        .map(|line| line.trim_matches([' ', '\t']))
+        .filter(|line| !line.is_empty())
+        .collect()
+}
+
+/// The SCL parsers: scripts of command lines (valid forms, out-of-range values, noise,
+/// damaged bytes), single answers and eSCL datagrams. Nothing panics; a refusal points
+/// inside the text; whatever is accepted prints back exactly as it was written (a
+/// script line by line, an answer and a datagram byte for byte).
+pub fn scl(seed: u64, bytes: usize) -> Report {
+    let mut noise = LineNoise::new(seed);
+    let mut report = Report::default();
+    while (report.bytes as usize) < bytes {
+        let text = scl_script(&mut noise);
+        report.bytes += text.len() as u64;
+        match scl::parse_script(&text) {
+            Ok(requests) => {
+                let lines = scl_lines(&text);
+                let printed: Vec<String> = requests.iter().map(ToString::to_string).collect();
+                assert_eq!(printed, lines, "seed {seed}: {text:?}");
+                report.count("scripts accepted", 1);
+                report.count("commands", requests.len() as u64);
+            }
+            Err(error) => {
+                let line_count = text.split('\n').flat_map(|l| l.split('\r')).count();
+                assert!(
+                    (1..=line_count as u32).contains(&error.line) && error.column >= 1,
+                    "seed {seed}: {error:?} outside the text"
+                );
+                assert!(!error.to_string().is_empty());
+                report.count("scripts refused", 1);
+            }
+        }
+        // One answer: a valid form, sometimes damaged.
+        let rng = noise.rng();
+        let form = SCL_ANSWERS[rng.below(SCL_ANSWERS.len() as u64) as usize];
+        let mut answer = scl_form(rng, form);
+        if rng.below(3) == 0 && !answer.is_empty() {
+            let at = rng.below(answer.len() as u64) as usize;
+            let mut bytes = answer.into_bytes();
+            bytes[at] = rng.next_u64() as u8 & 0x7F;
+            answer = String::from_utf8_lossy(&bytes).into_owned();
+        }
+        report.bytes += answer.len() as u64;
+        match Reply::parse(&answer) {
+            Ok(reply) => {
+                assert_eq!(
+                    reply.to_string(),
+                    answer.strip_suffix('\r').unwrap_or(&answer)
+                );
+                report.count("answers accepted", 1);
+            }
+            Err(error) => {
+                assert!(!error.to_string().is_empty());
+                report.count("answers refused", 1);
+            }
+        }
+        // One eSCL datagram: a command's, sometimes damaged, or noise behind the header.
+        let rng = noise.rng();
+        let form = SCL_FORMS[rng.below(SCL_FORMS.len() as u64) as usize];
+        let line = scl_form(rng, form);
+        let mut datagram = vec![0x00, 0x07];
+        datagram.extend_from_slice(line.as_bytes());
+        datagram.push(b'\r');
+        match rng.below(4) {
+            0 => {
+                let at = rng.below(datagram.len() as u64) as usize;
+                datagram[at] = rng.next_u64() as u8;
+            }
+            1 => datagram.truncate(rng.below(datagram.len() as u64) as usize),
+            _ => {}
+        }
+        report.bytes += datagram.len() as u64;
+        match Request::from_escl(&datagram) {
+            Ok(request) => {
+                assert_eq!(request.to_escl(), datagram, "seed {seed}");
+                report.count("datagrams accepted", 1);
+            }
+            Err(error) => {
+                assert!(!error.to_string().is_empty());
+                report.count("datagrams refused", 1);
+            }
+        }
+    }
+    report
+}
+
+/// A script for the SCL target: valid command lines (now and then with spaces, values
+/// out of range, blank lines), or mostly noise with a few bytes damaged.
+fn scl_script(noise: &mut LineNoise) -> String {
+    let valid = noise.rng().below(2) == 0;
+    let length = noise.rng().below(if valid { 400 } else { 1200 }) as usize;
+    let mut raw = Vec::with_capacity(length);
+    while raw.len() < length {
+        let rng = noise.rng();
+        if rng.below(if valid { 64 } else { 3 }) == 0 {
+            noise.chunk(&mut raw);
+            continue;
+        }
+        let form = SCL_FORMS[rng.below(SCL_FORMS.len() as u64) as usize];
+        let line = scl_form(rng, form);
+        let spaces = if rng.below(8) == 0 { " \t" } else { "" };
+        let end = ["\n", "\r", "\r\n", "\n\n"][rng.below(4) as usize];
+        raw.extend_from_slice(format!("{spaces}{line}{spaces}{end}").as_bytes());
+    }
+    if !valid && !raw.is_empty() {
+        for _ in 0..1 + noise.rng().below(3) {
+            let at = noise.rng().below(raw.len() as u64) as usize;
+            raw[at] ^= 1 << noise.rng().below(7);
+        }
+    }
+    String::from_utf8_lossy(&raw).into_owned()
 }
