@@ -181,8 +181,15 @@ async fn run(gateways: usize, seed: u64) {
                     None => panic!("the e-stop was not answered ({context})"),
                 }
             };
+            // The answer comes from the session's reading task, which waits on
+            // nothing: it takes a few ms on a quiet machine (the figure is printed; the
+            // long runs of `cargo xtask stress` show its spread). The bound only tells a
+            // frozen engine from a busy machine — CI shares its two cores with 120
+            // clients here, and a bound of 100 ms once failed at 132 ms under a
+            // parallel build.
+            println!("e-stop answered in {acknowledged:?} ({context})");
             assert!(
-                acknowledged <= Duration::from_millis(100),
+                acknowledged <= Duration::from_secs(1),
                 "the e-stop took {acknowledged:?} to be answered ({context})"
             );
             status_until(&mut control, Duration::from_secs(2), |status| {
