@@ -199,14 +199,21 @@ fn a_text_holds_many_commands_and_comments() {
 
 #[test]
 fn an_unknown_command_lists_the_known_ones() {
-    let found = |word: &str| ConsoleErrorKind::UnknownCommand {
-        found: word.to_owned(),
-    };
-    refused("stop", 1, 1, found("stop"));
-    refused("estop\n  rd FN 1 1", 2, 3, found("rd"));
-    refused("estop; 0x20", 1, 8, found("0x20"));
-    refused("@all stop", 1, 6, found("stop"));
-    refused("réad FN 1 1", 1, 1, found("réad"));
+    for (text, line, column, found) in [
+        ("stop", 1, 1, "stop"),
+        ("estop\n  rd FN 1 1", 2, 3, "rd"),
+        ("estop; 0x20", 1, 8, "0x20"),
+        ("@all stop", 1, 6, "stop"),
+        ("réad FN 1 1", 1, 1, "réad"),
+    ] {
+        let found = found.to_owned();
+        refused(
+            text,
+            line,
+            column,
+            ConsoleErrorKind::UnknownCommand { found },
+        );
+    }
     let message = parse("stop", selected()).unwrap_err().to_string();
     assert_eq!(
         message,
@@ -309,56 +316,35 @@ fn a_missing_operand_is_reported_just_after_the_command() {
 
 #[test]
 fn numbers_are_decimal_or_hex_and_fit_their_field() {
-    let not_a_number = |operand, found: &str| ConsoleErrorKind::NotANumber {
-        operand,
-        found: found.to_owned(),
-    };
-    let out_of_range = |operand, found: &str| ConsoleErrorKind::OutOfRange {
-        operand,
-        found: found.to_owned(),
-    };
-    refused(
-        "read FN twenty 4",
-        1,
-        9,
-        not_a_number(Operand::Start, "twenty"),
-    );
-    refused("read FN 0x 4", 1, 9, not_a_number(Operand::Start, "0x"));
-    refused("read FN 0x2G 4", 1, 9, not_a_number(Operand::Start, "0x2G"));
-    refused("read FN +1 4", 1, 9, not_a_number(Operand::Start, "+1"));
-    refused("read FN -1 4", 1, 9, not_a_number(Operand::Start, "-1"));
-    refused("read FN 1 ٣", 1, 11, not_a_number(Operand::Count, "٣"));
-    refused("effects all", 1, 9, not_a_number(Operand::Mask, "all"));
-    refused(
-        "read FN 0x10000 1",
-        1,
-        9,
-        out_of_range(Operand::Start, "0x10000"),
-    );
-    refused(
-        "write FN 0x90 65536",
-        1,
-        15,
-        out_of_range(Operand::Value, "65536"),
-    );
-    refused(
-        "write FN 0x20 1 2 99999999999999999999999",
-        1,
-        19,
-        out_of_range(Operand::Value, "99999999999999999999999"),
-    );
-    refused(
-        "effects 0x1FFFF",
-        1,
-        9,
-        out_of_range(Operand::Mask, "0x1FFFF"),
-    );
-    refused(
-        "read DN 0 40000",
-        1,
-        11,
-        out_of_range(Operand::Count, "40000"),
-    );
+    fn nan(operand: Operand, found: &str) -> ConsoleErrorKind {
+        let found = found.to_owned();
+        ConsoleErrorKind::NotANumber { operand, found }
+    }
+    fn oor(operand: Operand, found: &str) -> ConsoleErrorKind {
+        let found = found.to_owned();
+        ConsoleErrorKind::OutOfRange { operand, found }
+    }
+    let huge = "99999999999999999999999";
+    for (text, column, kind) in [
+        ("read FN twenty 4", 9, nan(Operand::Start, "twenty")),
+        ("read FN 0x 4", 9, nan(Operand::Start, "0x")),
+        ("read FN 0x2G 4", 9, nan(Operand::Start, "0x2G")),
+        ("read FN +1 4", 9, nan(Operand::Start, "+1")),
+        ("read FN -1 4", 9, nan(Operand::Start, "-1")),
+        ("read FN 1 ٣", 11, nan(Operand::Count, "٣")),
+        ("effects all", 9, nan(Operand::Mask, "all")),
+        ("read FN 0x10000 1", 9, oor(Operand::Start, "0x10000")),
+        ("write FN 0x90 65536", 15, oor(Operand::Value, "65536")),
+        (
+            &format!("write FN 0 1 2 {huge}"),
+            16,
+            oor(Operand::Value, huge),
+        ),
+        ("effects 0x1FFFF", 9, oor(Operand::Mask, "0x1FFFF")),
+        ("read DN 0 40000", 11, oor(Operand::Count, "40000")),
+    ] {
+        refused(text, 1, column, kind);
+    }
     assert_eq!(
         parse("write FN 0x90 70000", selected())
             .unwrap_err()
@@ -424,28 +410,38 @@ fn ranges_stay_inside_the_address_space_and_one_datagram() {
 
 #[test]
 fn trailing_words_ips_and_targets_are_refused_where_they_are() {
-    let trailing = |command, found: &str| ConsoleErrorKind::Trailing {
-        command,
-        found: found.to_owned(),
-    };
-    refused("estop now", 1, 7, trailing("estop", "now"));
-    refused("effects 1 2", 1, 11, trailing("effects", "2"));
-    refused("read FN 1 2 3", 1, 13, trailing("read", "3"));
-    refused("ip 10.0.0.1 10.0.0.2", 1, 13, trailing("ip", "10.0.0.2"));
-    let not_an_ip = |found: &str| ConsoleErrorKind::NotAnIp {
-        found: found.to_owned(),
-    };
-    refused("ip 192.168.15", 1, 4, not_an_ip("192.168.15"));
-    refused("ip 192.168.15.256", 1, 4, not_an_ip("192.168.15.256"));
-    refused("reset\nip box", 2, 4, not_an_ip("box"));
-    let bad_target = |found: &str| ConsoleErrorKind::BadTarget {
-        found: found.to_owned(),
-    };
-    refused("@ estop", 1, 1, bad_target("@"));
-    refused("@box estop", 1, 1, bad_target("@box"));
-    refused("  @1.2.3 estop", 1, 3, bad_target("@1.2.3"));
-    refused("@15.201/ estop", 1, 1, bad_target("@15.201/"));
-    refused("@1.2.3.999 estop", 1, 1, bad_target("@1.2.3.999"));
+    for (text, column, command, found) in [
+        ("estop now", 7, "estop", "now"),
+        ("effects 1 2", 11, "effects", "2"),
+        ("read FN 1 2 3", 13, "read", "3"),
+        ("ip 10.0.0.1 10.0.0.2", 13, "ip", "10.0.0.2"),
+    ] {
+        let found = found.to_owned();
+        refused(
+            text,
+            1,
+            column,
+            ConsoleErrorKind::Trailing { command, found },
+        );
+    }
+    for (text, line, found) in [
+        ("ip 192.168.15", 1, "192.168.15"),
+        ("ip 192.168.15.256", 1, "192.168.15.256"),
+        ("reset\nip box", 2, "box"),
+    ] {
+        let found = found.to_owned();
+        refused(text, line, 4, ConsoleErrorKind::NotAnIp { found });
+    }
+    for (text, column, found) in [
+        ("@ estop", 1, "@"),
+        ("@box estop", 1, "@box"),
+        ("  @1.2.3 estop", 3, "@1.2.3"),
+        ("@15.201/ estop", 1, "@15.201/"),
+        ("@1.2.3.999 estop", 1, "@1.2.3.999"),
+    ] {
+        let found = found.to_owned();
+        refused(text, 1, column, ConsoleErrorKind::BadTarget { found });
+    }
     refused(
         "@256 estop",
         1,
@@ -551,30 +547,28 @@ fn replies_read_as_registers_and_values() {
         route: Route::REPLY,
         block: RegisterBlock::new(start, values.to_vec()).unwrap(),
     };
-    let ip = reply(ReadBank::Fn, 0x20, &[192, 168, 15, 201]);
-    assert_eq!(
-        render_reply(&ip, ReplyLayout::Line),
-        "FN0020..FN0023 = 192 168 15 201"
-    );
-    assert_eq!(
-        render_reply(&ip, ReplyLayout::Table),
-        "FN0020 = 192 (0x00C0)\nFN0021 = 168 (0x00A8)\nFN0022 = 15 (0x000F)\nFN0023 = 201 (0x00C9)"
-    );
-    let estop = reply(ReadBank::Fn, 0x90, &[1]);
-    assert_eq!(render_reply(&estop, ReplyLayout::Line), "FN0090 = 1");
-    assert_eq!(
-        render_reply(&estop, ReplyLayout::Table),
-        "FN0090 = 1 (0x0001)"
-    );
-    let last = reply(ReadBank::Dn, 0xFFFE, &[0xFFFF, 0]);
-    assert_eq!(
-        render_reply(&last, ReplyLayout::Line),
-        "DNFFFE..DNFFFF = 65535 0"
-    );
-    assert_eq!(
-        render_reply(&last, ReplyLayout::Table),
-        "DNFFFE = 65535 (0xFFFF)\nDNFFFF = 0 (0x0000)"
-    );
+    // (reply, one line, one register a line)
+    for (reply, line, table) in [
+        (
+            reply(ReadBank::Fn, 0x20, &[192, 168, 15, 201]),
+            "FN0020..FN0023 = 192 168 15 201",
+            "FN0020 = 192 (0x00C0)\nFN0021 = 168 (0x00A8)\nFN0022 = 15 (0x000F)\nFN0023 = 201 (0x00C9)",
+        ),
+        (
+            reply(ReadBank::Fn, 0x90, &[1]),
+            "FN0090 = 1",
+            "FN0090 = 1 (0x0001)",
+        ),
+        (
+            reply(ReadBank::Dn, 0xFFFE, &[0xFFFF, 0]),
+            "DNFFFE..DNFFFF = 65535 0",
+            "DNFFFE = 65535 (0xFFFF)\nDNFFFF = 0 (0x0000)",
+        ),
+    ] {
+        assert_eq!(render_reply(&reply, ReplyLayout::Line), line);
+        assert_eq!(render_reply(&reply, ReplyLayout::Table), table);
+        assert_eq!(render_reply(&reply, ReplyLayout::default()), line);
+    }
     // The document's reply: FN001 = FN002 = 0.
     let document = Datagram::decode(&super::super::tests::hex(
         "55 aa 00 00 11 02 00 01 00 00 00 00 00 01 00 02 00 00 00 00",
