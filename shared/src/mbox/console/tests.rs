@@ -582,6 +582,47 @@ fn replies_read_as_registers_and_values() {
     );
 }
 
+/// The messages `docs/gateways.md` shows, word for word, and its example.
+#[test]
+fn the_documented_messages_are_the_parsers() {
+    for (text, message) in [
+        (
+            "read FX 0x20 4",
+            "line 1, column 6: expected a register bank FN, DN or CX, found `FX`",
+        ),
+        (
+            "read FN 0x20 0",
+            "line 1, column 14: count 0: read at least one register",
+        ),
+        (
+            "estop\nwrite FN 0x90 70000",
+            "line 2, column 15: a value `70000` is out of range: a register holds 0 to 65535 (0xFFFF)",
+        ),
+        (
+            "stop",
+            "line 1, column 1: unknown command `stop`: the console knows read, write, save, estop, release, reset, effects and ip",
+        ),
+        (
+            "read CX 0 1",
+            "line 1, column 6: `read` does not take CX: CX command registers cannot be read over UDP; read FN or DN",
+        ),
+    ] {
+        assert_eq!(
+            parse(text, selected()).map_err(|error| error.to_string()),
+            Err(message.to_owned())
+        );
+    }
+    let example = "# check box .201's address, then stop everything without waiting for answers\n\
+                   @201 read FN 0x20 4\n\
+                   @all/none estop\n";
+    let echo: Vec<String> = parse(example, Route::to(BoxAddress::from_octets(15, 7)))
+        .unwrap()
+        .iter()
+        .map(ToString::to_string)
+        .collect();
+    assert_eq!(echo, ["@15.201 read FN 0x0020 4", "@all/none estop"]);
+}
+
 #[cfg(not(target_arch = "wasm32"))]
 mod proptests {
     use proptest::prelude::*;
