@@ -21,7 +21,8 @@
 //!   10 axes, absolute or relative time) and register reads, replies and writes (e-stop,
 //!   reset, effects, the box's IP), their big-endian encoder and a decoder that refuses
 //!   what the document makes invalid; and [`mbox::twin`], a simulated box (registers,
-//!   replies, axes moving over each frame's time, e-stop, counters).
+//!   replies, axes moving over each frame's time, e-stop, counters), and
+//!   [`mbox::console`], the operator's text syntax for register operations.
 //! - [`motion`]: motion profiles outside the PVT table — point-to-point moves
 //!   ([`motion::Trapezoid`]) and braking — used by the player's timing and the simulator.
 //! - [`plan`]: the installation (gateways, kinds of drive, which unit hangs where) and,

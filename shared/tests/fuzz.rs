@@ -41,6 +41,11 @@ proptest! {
     }
 
     #[test]
+    fn the_mbox_console_parser_survives_noise_and_prints_back_what_it_accepts(seed in any::<u64>()) {
+        targets::mbox_console(seed, CASE_BYTES);
+    }
+
+    #[test]
     fn the_scl_parsers_survive_noise_and_print_back_what_they_accept(seed in any::<u64>()) {
         targets::scl(seed, CASE_BYTES);
     }
@@ -95,6 +100,14 @@ fn the_mbox_target_reaches_every_refusal() {
             "register range",
         ],
     );
+}
+
+/// The MBOX console target accepts texts and reaches every refusal.
+#[test]
+fn the_mbox_console_target_reaches_every_refusal() {
+    let report = targets::mbox_console(1, CASE_BYTES);
+    assert_reaches(&report, &["texts accepted", "operations"]);
+    assert_reaches(&report, &targets::CONSOLE_REFUSALS);
 }
 
 /// Every one of `kinds` was counted at least once in `report`.

@@ -19,6 +19,10 @@
 //!   what the document makes invalid with a [`DecodeError`] that says what is wrong,
 //!   and whatever it accepts encodes back to the same bytes.
 //!
+//! - [`console`]: the operator's console language for register operations
+//!   (`read FN 0x20 4`, `estop`, `@15.201 ip 192.168.15.210`), parsed to these
+//!   datagrams with line and column on every mistake, printed back canonically, and
+//!   the boxes' replies as text.
 //! - [`twin`]: a simulated box (the digital twin) built on the codec: datagrams and
 //!   time in, replies out, axes moving in between.
 //!
@@ -51,6 +55,7 @@
 //! assert_eq!(estop[12..], [0x00, 0x90, 0x00, 0x01, 0x00, 0x01]);
 //! ```
 
+pub mod console;
 mod error;
 pub mod motion;
 pub mod register;

@@ -1,7 +1,7 @@
 //! Fuzz targets for every reader of untrusted bytes: the gateway's streaming
 //! instruction reader, the simulated gateway behind its serial line, the bridge's
-//! feedback decoder, its console parser, the MBOX datagram decoder and the SCL parsers
-//! (MOONS' drives: command lines, answers, eSCL datagrams).
+//! feedback decoder, its console parser, the MBOX datagram decoder, the MBOX console's
+//! parser and the SCL parsers (MOONS' drives: command lines, answers, eSCL datagrams).
 //!
 //! Each target takes a seed and a number of bytes, makes a reproducible stream of
 //! line noise ([`LineNoise`]: binary chunks and instruction fragments) mixed with
@@ -15,6 +15,7 @@ use std::collections::BTreeSet;
 
 use floatball_shared::ascii::{Form, Instruction, InstructionReader, parse_script};
 use floatball_shared::feedback::{Ack, Feedback, Frame, FrameDecoder, MAX_FRAME_LEN};
+use floatball_shared::mbox::console::{self as mbox_console, ConsoleErrorKind};
 use floatball_shared::mbox::{
     AxisCount, AxisPositions, BoxAddress, Datagram, DecodeError, DigitalOutputs, Encode,
     MotionFrame, ReadBank, RegisterBlock, RegisterRange, RegisterRead, RegisterReply,
@@ -55,12 +56,13 @@ impl Report {
 pub type Target = fn(u64, usize) -> Report;
 
 /// Every target, by name.
-pub const TARGETS: [(&str, Target); 6] = [
+pub const TARGETS: [(&str, Target); 7] = [
     ("reader", reader),
     ("gateway", gateway),
     ("decoder", decoder),
     ("console", console),
     ("mbox", mbox),
+    ("mbox-console", mbox_console),
     ("scl", scl),
 ];
 
@@ -725,19 +727,33 @@ fn scl_lines(text: &str) -> Vec<&str> {
         .collect()
 }
 
+/// Runs `check` on texts made by `text` from the seed's noise, until `bytes` bytes of
+/// text have been checked; `check` may draw more from the noise.
+fn on_texts(
+    seed: u64,
+    bytes: usize,
+    text: fn(&mut LineNoise) -> String,
+    mut check: impl FnMut(&mut LineNoise, &str, &mut Report),
+) -> Report {
+    let mut noise = LineNoise::new(seed);
+    let mut report = Report::default();
+    while (report.bytes as usize) < bytes {
+        let text = text(&mut noise);
+        report.bytes += text.len() as u64;
+        check(&mut noise, &text, &mut report);
+    }
+    report
+}
+
 /// The SCL parsers: scripts of command lines (valid forms, out-of-range values, noise,
 /// damaged bytes), single answers and eSCL datagrams. Nothing panics; a refusal points
 /// inside the text; whatever is accepted prints back exactly as it was written (a
 /// script line by line, an answer and a datagram byte for byte).
 pub fn scl(seed: u64, bytes: usize) -> Report {
-    let mut noise = LineNoise::new(seed);
-    let mut report = Report::default();
-    while (report.bytes as usize) < bytes {
-        let text = scl_script(&mut noise);
-        report.bytes += text.len() as u64;
-        match scl::parse_script(&text) {
+    on_texts(seed, bytes, scl_script, |noise, text, report| {
+        match scl::parse_script(text) {
             Ok(requests) => {
-                let lines = scl_lines(&text);
+                let lines = scl_lines(text);
                 let printed: Vec<String> = requests.iter().map(ToString::to_string).collect();
                 assert_eq!(printed, lines, "seed {seed}: {text:?}");
                 report.count("scripts accepted", 1);
@@ -803,8 +819,7 @@ pub fn scl(seed: u64, bytes: usize) -> Report {
                 report.count("datagrams refused", 1);
             }
         }
-    }
-    report
+    })
 }
 
 /// A script for the SCL target: valid command lines (now and then with spaces, values
@@ -832,4 +847,178 @@ fn scl_script(noise: &mut LineNoise) -> String {
         }
     }
     String::from_utf8_lossy(&raw).into_owned()
+}
+
+/// A number for the MBOX console: decimal or hex, mostly small or 16-bit, now and then
+/// far beyond any field.
+fn console_number(rng: &mut SplitMix) -> String {
+    let value = match rng.below(16) {
+        0 => rng.next_u64() >> rng.below(64),
+        1..=5 => rng.below(0x1_0000),
+        6..=8 => rng.below(5),
+        _ => rng.below(256),
+    };
+    match rng.below(3) {
+        0 => format!("0x{value:X}"),
+        1 => format!("0X{value:04x}"),
+        _ => value.to_string(),
+    }
+}
+
+/// One of the first `common` words seven times in eight, else any of `words`.
+fn mostly<'w>(rng: &mut SplitMix, common: usize, words: &[&'w str]) -> &'w str {
+    let from = if rng.below(8) == 0 {
+        words.len()
+    } else {
+        common
+    };
+    words[rng.below(from as u64) as usize]
+}
+
+/// One MBOX console command: every command, bank and target form, in any case, mostly
+/// valid, now and then with a part missing, one too many, or a word that is wrong.
+fn console_command(rng: &mut SplitMix) -> String {
+    let mut words: Vec<String> = Vec::new();
+    match rng.below(8) {
+        0 => words.push(format!("@{}", rng.below(260))),
+        1 => words.push(format!("@{}.{}", rng.below(260), rng.below(256))),
+        2 => {
+            let targets = [
+                "@all",
+                "@ALL/none",
+                "@15.201/15.202",
+                "@192.168.15.7",
+                "@",
+                "@x/",
+            ];
+            words.push(mostly(rng, 4, &targets).to_owned());
+        }
+        _ => {}
+    }
+    if !words.is_empty() && rng.below(32) == 0 {
+        return words.join(" ");
+    }
+    let commands = [
+        "read", "write", "save", "estop", "release", "reset", "effects", "ip", "Read", "SAVE",
+        "stop",
+    ];
+    let command = mostly(rng, 10, &commands);
+    words.push(command.to_owned());
+    let operands = match command.to_ascii_lowercase().as_str() {
+        "read" => 3,
+        "write" | "save" => 3 + rng.below(5) as usize,
+        "effects" | "ip" => 1,
+        _ => 0,
+    };
+    let operands = match rng.below(32) {
+        0 => operands.saturating_sub(1),
+        1 => operands + 1,
+        _ => operands,
+    };
+    for index in 0..operands {
+        let word = match (index, command) {
+            (_, "ip") if rng.below(8) != 0 => {
+                let octets: Vec<String> = (0..4).map(|_| rng.below(257).to_string()).collect();
+                octets.join(".")
+            }
+            (0, "read" | "write" | "save" | "Read" | "SAVE") if rng.below(32) != 0 => {
+                // The banks the command takes first, then the others.
+                let banks = match command {
+                    "read" | "Read" => ["FN", "dn", "CX", "FX"],
+                    "write" => ["fn", "CX", "DN", "FX"],
+                    _ => ["FN", "Fn", "DN", "cx"],
+                };
+                mostly(rng, 2, &banks).to_owned()
+            }
+            _ => console_number(rng),
+        };
+        words.push(word);
+    }
+    let space = [" ", "  ", "\t", " \r"][rng.below(4) as usize];
+    words.join(space)
+}
+
+/// A text for the MBOX console target: up to a dozen commands ended by new lines,
+/// `;` or comments; in half of the texts, noise between them and one byte damaged.
+fn console_text(noise: &mut LineNoise) -> String {
+    let damaged = noise.rng().below(2) == 0;
+    let mut raw = Vec::new();
+    for _ in 0..noise.rng().below(12) {
+        if noise.rng().below(if damaged { 4 } else { 64 }) == 0 {
+            noise.chunk(&mut raw);
+        }
+        let rng = noise.rng();
+        raw.extend_from_slice(console_command(rng).as_bytes());
+        let end = ["\n", ";", " ; ", "\r\n", " # note; estop\n", "#"][rng.below(6) as usize];
+        raw.extend_from_slice(end.as_bytes());
+    }
+    if damaged && !raw.is_empty() {
+        let at = noise.rng().below(raw.len() as u64) as usize;
+        raw[at] = noise.rng().next_u64() as u8;
+    }
+    String::from_utf8_lossy(&raw).into_owned()
+}
+
+/// The MBOX console's parser on texts of commands (valid, slightly wrong, and noise or
+/// damaged bytes between them), with a random selected box. It never panics; a refusal
+/// points inside the text (a line that exists, a column at most one past its end) and
+/// says something; whatever it accepts prints to canonical texts that parse back to the
+/// same operations, with any selected box.
+pub fn mbox_console(seed: u64, bytes: usize) -> Report {
+    on_texts(seed, bytes, console_text, |noise, text, report| {
+        let rng = noise.rng();
+        let selected = Route {
+            receiver: BoxAddress([0xFFFF, 0x0FC9, rng.next_u64() as u16][rng.below(3) as usize]),
+            replier: BoxAddress(rng.next_u64() as u16),
+        };
+        match mbox_console::parse(text, selected) {
+            Ok(operations) => {
+                let canonical: Vec<String> = operations.iter().map(ToString::to_string).collect();
+                let again = mbox_console::parse(&canonical.join("\n"), Route::BROADCAST);
+                assert_eq!(again.as_ref(), Ok(&operations), "seed {seed}: {text:?}");
+                report.count("texts accepted", 1);
+                report.count("operations", operations.len() as u64);
+            }
+            Err(error) => {
+                let line = text.split('\n').nth((error.line as usize).wrapping_sub(1));
+                let Some(line) = line else {
+                    panic!("seed {seed}: {error:?} outside {text:?}");
+                };
+                assert!(
+                    error.column >= 1 && error.column as usize <= line.chars().count() + 1,
+                    "seed {seed}: {error:?} outside the line {line:?}"
+                );
+                assert!(!error.to_string().is_empty());
+                report.count("texts refused", 1);
+                report.count(console_refusal(&error.kind), 1);
+            }
+        }
+    })
+}
+
+/// Every kind of MBOX console refusal, by its variant's name, for the report.
+pub const CONSOLE_REFUSALS: [&str; 13] = [
+    "UnknownCommand",
+    "MissingCommand",
+    "Missing",
+    "NotABank",
+    "WrongBank",
+    "NotANumber",
+    "OutOfRange",
+    "ZeroCount",
+    "Range",
+    "Trailing",
+    "NotAnIp",
+    "BadTarget",
+    "NoSubnet",
+];
+
+/// The kind of an MBOX console refusal: its variant's name.
+fn console_refusal(kind: &ConsoleErrorKind) -> &'static str {
+    let debug = format!("{kind:?}");
+    let variant = debug.split([' ', '{', '(']).next().unwrap_or_default();
+    CONSOLE_REFUSALS
+        .into_iter()
+        .find(|&name| name == variant)
+        .unwrap_or_else(|| panic!("{variant} is not in CONSOLE_REFUSALS"))
 }
