@@ -60,14 +60,25 @@ impl MboxBoxes {
     /// # Errors
     /// A port or IP address past the last one, or a socket that cannot be bound.
     pub async fn start(options: MboxOptions) -> Result<Self, String> {
+        Self::spawn(options)
+    }
+
+    /// As [`Self::start`], from code that is not async (inside the runtime).
+    ///
+    /// # Errors
+    /// As [`Self::start`].
+    pub fn spawn(options: MboxOptions) -> Result<Self, String> {
         let epoch = Instant::now();
         let (stop, stopped) = watch::channel(false);
         let mut boxes = Vec::with_capacity(usize::from(options.boxes));
         let mut tasks = Vec::with_capacity(usize::from(options.boxes));
         for index in 0..options.boxes {
             let (listen, ip) = box_at(&options, index)?;
-            let socket = UdpSocket::bind(listen)
-                .await
+            let socket = std::net::UdpSocket::bind(listen)
+                .and_then(|socket| {
+                    socket.set_nonblocking(true)?;
+                    UdpSocket::from_std(socket)
+                })
                 .map_err(|err| format!("cannot listen on UDP {listen}: {err}"))?;
             let local = socket
                 .local_addr()
