@@ -105,6 +105,8 @@ fn open_boxes(
                     boxes: 1,
                     axes: one.axes,
                     ip: ip.into(),
+                    drop_percent: 0,
+                    seed: 0,
                 })
                 .map_err(OpenError::Mbox)?;
                 let socket = sim.boxes().first().map(|running| running.socket);

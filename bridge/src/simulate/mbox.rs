@@ -35,6 +35,40 @@ pub struct MboxOptions {
     pub axes: AxisCount,
     /// The first box's IP address; box `i` has this + `i`.
     pub ip: Ipv4Addr,
+    /// Per cent of datagrams lost on the way in and of replies lost on the way out,
+    /// each box drawing from its own generator seeded with `seed` + its index (a lossy
+    /// network, for tests).
+    pub drop_percent: u8,
+    /// The seed of the losses.
+    pub seed: u64,
+}
+
+/// A lossy network for one box: a seeded xorshift generator.
+#[derive(Debug, Clone, Copy)]
+struct Loss {
+    percent: u64,
+    state: u64,
+}
+
+impl Loss {
+    fn new(percent: u8, seed: u64) -> Self {
+        Self {
+            percent: u64::from(percent.min(100)),
+            // xorshift must not start at 0.
+            state: seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
+        }
+    }
+
+    /// Whether the next datagram is lost.
+    fn drops(&mut self) -> bool {
+        if self.percent == 0 {
+            return false;
+        }
+        self.state ^= self.state << 13;
+        self.state ^= self.state >> 7;
+        self.state ^= self.state << 17;
+        self.state % 100 < self.percent
+    }
 }
 
 /// One running box, as [`MboxBoxes::boxes`] lists it.
@@ -85,7 +119,8 @@ impl MboxBoxes {
                 .map_err(|err| format!("cannot read the address of UDP {listen}: {err}"))?;
             let twin = MboxTwin::new(TwinConfig::new(ip, options.axes));
             boxes.push(RunningBox { socket: local, ip });
-            tasks.push(tokio::spawn(answer(socket, twin, epoch, stopped.clone())));
+            let loss = Loss::new(options.drop_percent, options.seed.wrapping_add(u64::from(index)));
+            tasks.push(tokio::spawn(answer(socket, twin, loss, epoch, stopped.clone())));
         }
         Ok(Self { boxes, stop, tasks })
     }
@@ -140,6 +175,7 @@ fn box_at(options: &MboxOptions, index: u16) -> Result<(SocketAddr, Ipv4Addr), S
 async fn answer(
     socket: UdpSocket,
     mut twin: MboxTwin,
+    mut loss: Loss,
     epoch: Instant,
     mut stop: watch::Receiver<bool>,
 ) -> SimBox {
@@ -150,7 +186,11 @@ async fn answer(
             received = socket.recv_from(&mut buffer) => match received {
                 Ok((len, sender)) => {
                     let datagram = buffer.get(..len).unwrap_or_default();
+                    if loss.drops() {
+                        continue;
+                    }
                     if let Some(reply) = twin.receive(micros(), datagram)
+                        && !loss.drops()
                         && let Err(err) = socket.send_to(&reply, sender).await
                     {
                         tracing::warn!("simulated MBOX {}: cannot reply to {sender}: {err}", twin.snapshot().ip);
