@@ -81,17 +81,16 @@ struct Inner {
     gateways: Gateways,
     playback: Playback,
     /// The simulated MBOX boxes (`port = "sim"`), one per such gateway, in order.
-    mbox_sims: Vec<(usize, MboxBoxes)>,
+    mbox_sims: Vec<MboxBoxes>,
     stopping: watch::Sender<bool>,
 }
 
 /// Opens the MBOX boxes' socket, starting a simulated box on loopback for each
-/// `port = "sim"` gateway first; returns the boxes and the simulated ones (with their
-/// gateway).
+/// `port = "sim"` gateway first; returns the boxes and the simulated ones.
 fn open_boxes(
     mbox: &MboxConfig,
     latch: &Arc<Latch>,
-) -> Result<(MboxNet, Vec<(usize, MboxBoxes)>), OpenError> {
+) -> Result<(MboxNet, Vec<MboxBoxes>), OpenError> {
     let mut sims = Vec::new();
     let mut addresses = Vec::with_capacity(mbox.boxes.len());
     for (index, one) in mbox.boxes.iter().enumerate() {
@@ -113,7 +112,7 @@ fn open_boxes(
                 addresses.push(socket.ok_or_else(|| {
                     OpenError::Mbox(format!("simulated MBOX box {index} did not start"))
                 })?);
-                sims.push((index, sim));
+                sims.push(sim);
             }
         }
     }
@@ -232,6 +231,12 @@ impl AppState {
     /// The links to the gateways.
     pub fn gateways(&self) -> &Gateways {
         &self.inner.gateways
+    }
+
+    /// The simulated MBOX boxes (`port = "sim"`), each a box of one gateway, in
+    /// configuration order.
+    pub fn mbox_sims(&self) -> impl Iterator<Item = &MboxBoxes> {
+        self.inner.mbox_sims.iter()
     }
 
     /// The player: Start, E-stop, Reset.

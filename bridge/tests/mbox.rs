@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use common::process::{Process, links_up};
 use common::{Ws, send_text};
-use floatball_shared::api::{PlayerState, ServerMessage, SimBox, Status};
+use floatball_shared::api::{PlayerState, ServerMessage, SimBox, SimPositions, Status};
 use floatball_shared::mbox::register::FN_ESTOP;
 use floatball_shared::mbox::{
     Datagram, Encode, ReadBank, RegisterRange, RegisterRead, Route, WriteBank,
@@ -174,11 +174,11 @@ async fn until(
     }
 }
 
-async fn operator_ws(bridge: &Process) -> Ws {
+async fn operator_ws(bridge: &Process) -> (Ws, String) {
     let token = bridge.prepare_show("ramp", &show(), false).await;
     let mut ws = bridge.ws(&token).await;
     assert!(links_up(&mut ws).await, "{}", bridge.log());
-    ws
+    (ws, token)
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -189,7 +189,7 @@ async fn mbox_boxes_play_stop_and_reset_like_a_matrix() {
         .map(|socket| format!("address = \"{socket}\""))
         .collect();
     let bridge = Process::start(&config(&gateways));
-    let mut ws = operator_ws(&bridge).await;
+    let (mut ws, _token) = operator_ws(&bridge).await;
 
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let (states, _) = until(&mut ws, Duration::from_secs(20), |status| {
@@ -258,7 +258,7 @@ async fn a_lossy_network_still_ends_at_the_last_positions_and_counts_missed_repl
         .map(|socket| format!("address = \"{socket}\""))
         .collect();
     let bridge = Process::start(&config(&gateways));
-    let mut ws = operator_ws(&bridge).await;
+    let (mut ws, _token) = operator_ws(&bridge).await;
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let (states, idle) = until(&mut ws, Duration::from_secs(20), |status| {
         status.state == PlayerState::Idle && status.progress >= 1.0
@@ -288,13 +288,25 @@ async fn a_lossy_network_still_ends_at_the_last_positions_and_counts_missed_repl
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn simulated_boxes_in_the_bridge_play_the_show() {
     let bridge = Process::start(&config(&["port = \"sim\"".to_owned(), "port = \"sim\"".to_owned()]));
-    let mut ws = operator_ws(&bridge).await;
+    let (mut ws, token) = operator_ws(&bridge).await;
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let (states, _) = until(&mut ws, Duration::from_secs(20), |status| {
         status.state == PlayerState::Idle && status.progress >= 1.0
     })
     .await;
     assert!(states.contains(&PlayerState::Playing), "{states:?}");
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let reply = bridge
+        .request(axum::http::Method::GET, "/api/sim/positions", Some(&token), None)
+        .await;
+    let positions: SimPositions = reply.json();
+    assert!(positions.gateways.is_empty());
+    let reached: Vec<i32> = positions
+        .boxes
+        .iter()
+        .flat_map(|one| one.positions_pulses.clone())
+        .collect();
+    assert_eq!(reached, last_pulses());
 }
 
 /// WebSocket `estop` → the first e-stop datagram at a box: printed, not asserted (the

@@ -161,6 +161,10 @@ pub struct GatewayPlan {
 pub struct SimPositions {
     /// Every simulated gateway, in configuration order.
     pub gateways: Vec<SimGateway>,
+    /// Every simulated MBOX box in the bridge (`port = "sim"`), in configuration
+    /// order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub boxes: Vec<SimBox>,
 }
 
 /// One simulated gateway in [`SimPositions`].

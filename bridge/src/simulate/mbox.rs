@@ -17,7 +17,7 @@ use floatball_shared::api::SimBox;
 use floatball_shared::mbox::AxisCount;
 use floatball_shared::mbox::twin::{MboxTwin, TwinConfig};
 use tokio::net::UdpSocket;
-use tokio::sync::watch;
+use tokio::sync::{mpsc, oneshot, watch};
 use tokio::task::JoinHandle;
 
 /// The largest datagram a box takes (anything longer is cut and refused as malformed).
@@ -86,6 +86,8 @@ pub struct MboxBoxes {
     boxes: Vec<RunningBox>,
     stop: watch::Sender<bool>,
     tasks: Vec<JoinHandle<SimBox>>,
+    /// Per box: where to ask for its state now.
+    asks: Vec<mpsc::UnboundedSender<oneshot::Sender<SimBox>>>,
 }
 
 impl MboxBoxes {
@@ -106,6 +108,7 @@ impl MboxBoxes {
         let (stop, stopped) = watch::channel(false);
         let mut boxes = Vec::with_capacity(usize::from(options.boxes));
         let mut tasks = Vec::with_capacity(usize::from(options.boxes));
+        let mut asks = Vec::with_capacity(usize::from(options.boxes));
         for index in 0..options.boxes {
             let (listen, ip) = box_at(&options, index)?;
             let socket = std::net::UdpSocket::bind(listen)
@@ -120,9 +123,37 @@ impl MboxBoxes {
             let twin = MboxTwin::new(TwinConfig::new(ip, options.axes));
             boxes.push(RunningBox { socket: local, ip });
             let loss = Loss::new(options.drop_percent, options.seed.wrapping_add(u64::from(index)));
-            tasks.push(tokio::spawn(answer(socket, twin, loss, epoch, stopped.clone())));
+            let (ask, asked) = mpsc::unbounded_channel();
+            asks.push(ask);
+            tasks.push(tokio::spawn(answer(
+                socket,
+                twin,
+                loss,
+                epoch,
+                asked,
+                stopped.clone(),
+            )));
         }
-        Ok(Self { boxes, stop, tasks })
+        Ok(Self {
+            boxes,
+            stop,
+            tasks,
+            asks,
+        })
+    }
+
+    /// Every box's state now, in order (a box that stopped is left out).
+    pub async fn snapshots(&self) -> Vec<SimBox> {
+        let mut snapshots = Vec::with_capacity(self.asks.len());
+        for ask in &self.asks {
+            let (reply, answer) = oneshot::channel();
+            if ask.send(reply).is_ok()
+                && let Ok(snapshot) = answer.await
+            {
+                snapshots.push(snapshot);
+            }
+        }
+        snapshots
     }
 
     /// The boxes, in order.
@@ -177,6 +208,7 @@ async fn answer(
     mut twin: MboxTwin,
     mut loss: Loss,
     epoch: Instant,
+    mut asked: mpsc::UnboundedReceiver<oneshot::Sender<SimBox>>,
     mut stop: watch::Receiver<bool>,
 ) -> SimBox {
     let micros = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
@@ -200,6 +232,10 @@ async fn answer(
                 // here; the box carries on, as a real one does.
                 Err(err) => tracing::debug!("simulated MBOX: receive failed: {err}"),
             },
+            Some(reply) = asked.recv() => {
+                twin.advance(micros());
+                let _ = reply.send(twin.snapshot());
+            }
             _ = stop.changed() => break,
         }
     }

@@ -276,6 +276,16 @@ impl MboxPlayer {
             return Err(StartError::Busy);
         }
         Self::check(&self.config.installation, &entries)?;
+        self.start_checked(now_us, entries, loop_playlist);
+        Ok(())
+    }
+
+    /// Start with a playlist [`MboxPlayer::check`]ed already, unless a playlist runs.
+    /// Returns whether it started.
+    pub fn start_checked(&mut self, now_us: u64, entries: Vec<Entry>, loop_playlist: bool) -> bool {
+        if self.is_running() {
+            return false;
+        }
         self.samplers = entries.iter().map(|entry| Sampler::new(&entry.show)).collect();
         self.entries = entries;
         self.loop_playlist = loop_playlist;
@@ -286,7 +296,7 @@ impl MboxPlayer {
         } else {
             self.begin_entry(now_us, 0);
         }
-        Ok(())
+        true
     }
 
     /// E-stop: stops sending at once; positions become unknown.
@@ -306,12 +316,12 @@ impl MboxPlayer {
     pub fn reset(
         &mut self,
         now_us: u64,
-        entries: Vec<Entry>,
+        entries: Result<Vec<Entry>, StartError>,
         loop_playlist: bool,
     ) -> Result<(), StartError> {
         self.estop();
         self.step = Step::Stopped;
-        let result = self.start(now_us, entries, loop_playlist);
+        let result = entries.and_then(|entries| self.start(now_us, entries, loop_playlist));
         if let Err(error) = &result {
             self.last_error = Some(error.to_string());
         }
