@@ -531,9 +531,9 @@ fn handle(
                 admit(latch, generation, views, gateways).and_then(|()| player.home(now_us, views));
             (generation, reply, result)
         }
-        Request::MboxPlay { generation, reply, .. } => {
-            (generation, reply, Err(StartError::Busy))
-        }
+        Request::MboxPlay {
+            generation, reply, ..
+        } => (generation, reply, Err(StartError::Busy)),
         Request::Estop => return None,
     })
 }
@@ -661,8 +661,8 @@ fn handle_mbox(
             reset,
             reply,
         } => {
-            let admitted =
-                entries.and_then(|entries| admit(latch, generation, views, gateways).map(|()| entries));
+            let admitted = entries
+                .and_then(|entries| admit(latch, generation, views, gateways).map(|()| entries));
             let result = if reset {
                 player.reset(now_us, admitted, loop_playlist)
             } else {
@@ -680,9 +680,12 @@ fn handle_mbox(
             let result = admit(latch, generation, views, gateways).map(|()| player.home(now_us));
             (generation, reply, result)
         }
-        Request::Start { generation, reply, .. } | Request::Reset { generation, reply, .. } => {
-            (generation, reply, Err(StartError::Busy))
+        Request::Start {
+            generation, reply, ..
         }
+        | Request::Reset {
+            generation, reply, ..
+        } => (generation, reply, Err(StartError::Busy)),
         Request::Estop => return None,
     })
 }
@@ -734,9 +737,8 @@ async fn run_mbox(
             && let Some(down) = (0..boxes.len())
                 .find(|&index| boxes.state(index) == floatball_shared::api::LinkState::Down)
         {
-            let reason = format!(
-                "MBOX box {down} stopped answering; the show was stopped on every box"
-            );
+            let reason =
+                format!("MBOX box {down} stopped answering; the show was stopped on every box");
             tracing::error!("{reason}");
             estop::press(&latch, &[]);
             boxes.wake();

@@ -15,14 +15,14 @@ use crate::estop::Latch;
 
 use crate::auth::{Clock, LoginLimiter, Password, PasswordError, Tokens};
 use crate::config::{Config, MboxConfig, MboxTarget};
-use crate::mbox::MboxNet;
-use crate::simulate::mbox::{MboxBoxes, MboxOptions};
-use floatball_shared::plan::mbox::MboxPlayerConfig;
-use std::net::SocketAddr;
 use crate::gateways::Gateways;
+use crate::mbox::MboxNet;
 use crate::playback::Playback;
 use crate::playlist::{PlaylistError, PlaylistStore};
+use crate::simulate::mbox::{MboxBoxes, MboxOptions};
 use crate::store::{ShowStore, StoreError};
+use floatball_shared::plan::mbox::MboxPlayerConfig;
+use std::net::SocketAddr;
 
 /// Why the bridge cannot start with this data directory.
 #[derive(Debug, thiserror::Error)]

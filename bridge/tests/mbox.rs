@@ -220,7 +220,12 @@ async fn mbox_boxes_play_stop_and_reset_like_a_matrix() {
         status.state == PlayerState::Stopped
     })
     .await;
-    assert!(stopped.gateways.iter().all(|gateway| gateway.port.contains("127.0.0.1")));
+    assert!(
+        stopped
+            .gateways
+            .iter()
+            .all(|gateway| gateway.port.contains("127.0.0.1"))
+    );
     for &socket in &sockets {
         assert_eq!(estop_register(socket), 1, "box at {socket}");
     }
@@ -247,7 +252,11 @@ async fn mbox_boxes_play_stop_and_reset_like_a_matrix() {
         .collect();
     assert_eq!(reached, last_pulses());
     // Released; and no motion frame reached a box while its e-stop held.
-    assert!(boxes.iter().all(|one| !one.estop && one.counters.ignored_estop == 0));
+    assert!(
+        boxes
+            .iter()
+            .all(|one| !one.estop && one.counters.ignored_estop == 0)
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -287,7 +296,10 @@ async fn a_lossy_network_still_ends_at_the_last_positions_and_counts_missed_repl
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn simulated_boxes_in_the_bridge_play_the_show() {
-    let bridge = Process::start(&config(&["port = \"sim\"".to_owned(), "port = \"sim\"".to_owned()]));
+    let bridge = Process::start(&config(&[
+        "port = \"sim\"".to_owned(),
+        "port = \"sim\"".to_owned(),
+    ]));
     let (mut ws, token) = operator_ws(&bridge).await;
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let (states, _) = until(&mut ws, Duration::from_secs(20), |status| {
@@ -297,7 +309,12 @@ async fn simulated_boxes_in_the_bridge_play_the_show() {
     assert!(states.contains(&PlayerState::Playing), "{states:?}");
     tokio::time::sleep(Duration::from_millis(200)).await;
     let reply = bridge
-        .request(axum::http::Method::GET, "/api/sim/positions", Some(&token), None)
+        .request(
+            axum::http::Method::GET,
+            "/api/sim/positions",
+            Some(&token),
+            None,
+        )
         .await;
     let positions: SimPositions = reply.json();
     assert!(positions.gateways.is_empty());

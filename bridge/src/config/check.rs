@@ -7,11 +7,11 @@ use std::ops::Range;
 use std::path::Path;
 
 use floatball_shared::ascii::{Form, Instruction, parse_script};
+use floatball_shared::mbox::{AxisCount, TimeMode};
 use floatball_shared::plan::installation::{
     AllocationError, DEFAULT_PITCH_MM, DriveKind, GatewaySpec, Installation, MAX_UNITS_PER_GATEWAY,
     SIM_PORT, Stations, UnitAddress, allocate,
 };
-use floatball_shared::mbox::{AxisCount, TimeMode};
 use floatball_shared::plan::mbox::BoxCalibration;
 use floatball_shared::show::Limits;
 use std::time::Duration;
@@ -32,6 +32,10 @@ pub(super) struct Checker<'a> {
     /// Its text, to turn byte spans into lines and columns.
     pub(super) text: &'a str,
 }
+
+/// The gateways' lines, every unit's address, and the MBOX boxes (empty for UIM2503
+/// gateways).
+type CheckedGateways = (Vec<GatewaySpec>, Vec<UnitAddress>, Vec<MboxBox>);
 
 /// A value and where it came from (`None`: the default).
 type Located<T> = (T, Option<Range<usize>>);
@@ -393,7 +397,7 @@ impl Checker<'_> {
         raw: &[Spanned<RawGateway>],
         matrix: &Matrix,
         overrides: &Overrides,
-    ) -> Result<(Vec<GatewaySpec>, Vec<UnitAddress>, Vec<MboxBox>), ConfigError> {
+    ) -> Result<CheckedGateways, ConfigError> {
         let limits = &matrix.limits;
         let default_gateway = [Spanned::new(
             0..0,
@@ -507,9 +511,15 @@ impl Checker<'_> {
             for (key, value) in [
                 ("address", gateway.address.as_ref().map(Spanned::span)),
                 ("axes", gateway.axes.as_ref().map(Spanned::span)),
-                ("pulses_per_mm", gateway.pulses_per_mm.as_ref().map(Spanned::span)),
+                (
+                    "pulses_per_mm",
+                    gateway.pulses_per_mm.as_ref().map(Spanned::span),
+                ),
                 ("sign", gateway.sign.as_ref().map(Spanned::span)),
-                ("offset_pulses", gateway.offset_pulses.as_ref().map(Spanned::span)),
+                (
+                    "offset_pulses",
+                    gateway.offset_pulses.as_ref().map(Spanned::span),
+                ),
             ] {
                 if let Some(span) = value {
                     return Err(self.at(

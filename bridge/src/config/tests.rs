@@ -385,7 +385,12 @@ fn mbox_boxes_are_gateways_whose_units_are_axes() {
     // The matrix's calibration unless configured.
     assert_eq!(mbox.boxes[1].calibration.pulses_per_mm, 100.0);
     let installation = &config.installation;
-    assert!(installation.gateways.iter().all(|g| g.kind == DriveKind::Mbox));
+    assert!(
+        installation
+            .gateways
+            .iter()
+            .all(|g| g.kind == DriveKind::Mbox)
+    );
     assert_eq!(installation.stations_on(1), (1..=10).collect::<Vec<u8>>());
     assert!(parse("").expect("defaults").mbox.is_none());
     let defaults = parse("[[gateway]]\nkind = \"mbox\"\nport = \"sim\"\n[matrix]\nrows = 1\n")
@@ -431,9 +436,11 @@ fn mbox_mistakes_are_named_with_their_place() {
          `port`, `address`, `axes`, `pulses_per_mm`, `sign`, `offset_pulses`, `baud`, \
          `first_station`, `units`, `stations`"
     );
-    let mixed = parse(&format!("{MBOX}[[gateway]]\nkind = \"uim2503\"\nport = \"sim\"\n"))
-        .expect_err("mixed")
-        .to_string();
+    let mixed = parse(&format!(
+        "{MBOX}[[gateway]]\nkind = \"uim2503\"\nport = \"sim\"\n"
+    ))
+    .expect_err("mixed")
+    .to_string();
     assert_eq!(
         mixed,
         "data/floatball.toml line 19, column 8: gateway 3: kind \"uim2503\" after \"mbox\" \

@@ -122,7 +122,10 @@ impl MboxBoxes {
                 .map_err(|err| format!("cannot read the address of UDP {listen}: {err}"))?;
             let twin = MboxTwin::new(TwinConfig::new(ip, options.axes));
             boxes.push(RunningBox { socket: local, ip });
-            let loss = Loss::new(options.drop_percent, options.seed.wrapping_add(u64::from(index)));
+            let loss = Loss::new(
+                options.drop_percent,
+                options.seed.wrapping_add(u64::from(index)),
+            );
             let (ask, asked) = mpsc::unbounded_channel();
             asks.push(ask);
             tasks.push(tokio::spawn(answer(

@@ -50,8 +50,7 @@ impl BoxCalibration {
     /// `mm` in pulses, rounded and clamped to the wire's `i32`.
     #[must_use]
     pub fn pulses(&self, mm: f64) -> i32 {
-        let pulses =
-            f64::from(self.offset_pulses) + f64::from(self.sign) * mm * self.pulses_per_mm;
+        let pulses = f64::from(self.offset_pulses) + f64::from(self.sign) * mm * self.pulses_per_mm;
         // `as` saturates, and NaN (never produced from finite values) becomes 0.
         pulses.round() as i32
     }
@@ -99,7 +98,9 @@ enum AfterMove {
 #[derive(Debug, Clone)]
 enum Step {
     Idle,
-    Waiting { until_us: u64 },
+    Waiting {
+        until_us: u64,
+    },
     Moving {
         kind: MoveKind,
         targets_mm: Vec<f64>,
@@ -107,7 +108,9 @@ enum Step {
         arrive_us: u64,
         after: AfterMove,
     },
-    Playing { start_us: u64 },
+    Playing {
+        start_us: u64,
+    },
     Stopped,
     Failed,
 }
@@ -227,7 +230,11 @@ impl MboxPlayer {
             state,
             entry: entry.map(|_| self.entry),
             show: entry.map(|entry| entry.show.name.clone()),
-            show_time_ms: if entry.is_some() { self.show_time_ms } else { 0 },
+            show_time_ms: if entry.is_some() {
+                self.show_time_ms
+            } else {
+                0
+            },
             show_duration_ms: entry.map_or(0, |entry| entry.show.duration_ms()),
             cycle: if entry.is_some() { self.cycle } else { 0 },
             progress: self.progress,
@@ -286,7 +293,10 @@ impl MboxPlayer {
         if self.is_running() {
             return false;
         }
-        self.samplers = entries.iter().map(|entry| Sampler::new(&entry.show)).collect();
+        self.samplers = entries
+            .iter()
+            .map(|entry| Sampler::new(&entry.show))
+            .collect();
         self.entries = entries;
         self.loop_playlist = loop_playlist;
         self.last_error = None;
@@ -415,7 +425,11 @@ impl MboxPlayer {
                 let last = self.entry + 1 == self.entries.len()
                     && self.cycle >= self.entries[self.entry].cycles.max(1)
                     && !self.loop_playlist;
-                let settle_ms = if last { SETTLE_FRAMES * period / 1_000 } else { 0 };
+                let settle_ms = if last {
+                    SETTLE_FRAMES * period / 1_000
+                } else {
+                    0
+                };
                 if t_ms + period / 1_000 >= duration_ms + settle_ms {
                     self.believed_mm = Some(targets_mm);
                     self.next_run(slot_us + period);
@@ -427,7 +441,10 @@ impl MboxPlayer {
 
     /// After a show's cycle: the next cycle, entry, the playlist again, or rest.
     fn next_run(&mut self, now_us: u64) {
-        let cycles = self.entries.get(self.entry).map_or(1, |entry| entry.cycles.max(1));
+        let cycles = self
+            .entries
+            .get(self.entry)
+            .map_or(1, |entry| entry.cycles.max(1));
         if self.cycle < cycles {
             self.cycle += 1;
             self.begin_approach(now_us);

@@ -104,7 +104,10 @@ fn last_positions(show: &crate::show::Show) -> Vec<i32> {
     show.tracks
         .iter()
         .map(|track| {
-            let mm = track.rows.last().map_or(track.start_mm, |row| row.position_mm);
+            let mm = track
+                .rows
+                .last()
+                .map_or(track.start_mm, |row| row.position_mm);
             CALIBRATION.pulses(mm)
         })
         .collect()
@@ -116,7 +119,10 @@ fn a_playlist_homes_approaches_plays_and_ends_at_the_last_positions() {
     let mut twins = twins();
     let mut now = 0;
     player.start(now, vec![entry(2, 50)], false).unwrap();
-    assert_eq!(player.start(now, vec![entry(1, 0)], false), Err(StartError::Busy));
+    assert_eq!(
+        player.start(now, vec![entry(1, 0)], false),
+        Err(StartError::Busy)
+    );
     let states = run(&mut player, &mut twins, &mut now);
     assert_eq!(
         states,
