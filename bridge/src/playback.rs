@@ -617,15 +617,19 @@ async fn run(
             // A stop the player asked for is not news to it (it failed, and stays so).
             seen_generation = latch.generation();
         }
-        let current = status_of(&player, &links);
-        status.send_if_modified(|published| {
-            let changed = *published != current;
-            if changed {
-                *published = current;
-            }
-            changed
-        });
+        publish(&status, status_of(&player, &links));
     }
+}
+
+/// Publishes `current` if it differs from what the clients saw last.
+fn publish(status: &watch::Sender<Status>, current: Status) {
+    status.send_if_modified(|published| {
+        let changed = *published != current;
+        if changed {
+            *published = current;
+        }
+        changed
+    });
 }
 
 fn mbox_status(player: &MboxPlayer, boxes: &MboxNet) -> Status {
@@ -750,13 +754,6 @@ async fn run_mbox(
             let slot = epoch + Duration::from_micros(frame.slot_us);
             boxes.send(frame, slot, run_generation);
         }
-        let current = mbox_status(&player, &boxes);
-        status.send_if_modified(|published| {
-            let changed = *published != current;
-            if changed {
-                *published = current;
-            }
-            changed
-        });
+        publish(&status, mbox_status(&player, &boxes));
     }
 }

@@ -4,11 +4,10 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader, Read};
 use std::net::{SocketAddr, UdpSocket};
-use std::process::{Child, ChildStdout, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use common::mbox_sim::Simulator;
 use common::process::{Process, links_up};
 use common::{Ws, send_text};
 use floatball_shared::api::{PlayerState, ServerMessage, SimBox, SimPositions, Status};
@@ -20,56 +19,6 @@ use futures_util::StreamExt;
 
 const PULSES_PER_MM: f64 = 10.0;
 const OFFSET_PULSES: i32 = 1_000;
-
-/// `floatball simulate --kind mbox` boxes; killed when dropped.
-struct Simulator {
-    child: Child,
-    stdout: BufReader<ChildStdout>,
-}
-
-impl Drop for Simulator {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Simulator {
-    /// `boxes` 3-axis boxes on free ports, losing `drop_percent` of datagrams.
-    fn start(boxes: usize, drop_percent: u8) -> (Self, Vec<SocketAddr>) {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_floatball"))
-            .args(["simulate", "--kind", "mbox", "--listen", "127.0.0.1:0"])
-            .args(["--axes", "3", "--boxes", &boxes.to_string()])
-            .args(["--drop-percent", &drop_percent.to_string(), "--seed", "7"])
-            .stdout(Stdio::piped())
-            .spawn()
-            .expect("start floatball simulate --kind mbox");
-        let mut stdout = BufReader::new(child.stdout.take().unwrap());
-        let sockets = (0..boxes)
-            .map(|_| {
-                let mut line = String::new();
-                stdout.read_line(&mut line).expect("a banner line a box");
-                line.split_whitespace().last().unwrap().parse().unwrap()
-            })
-            .collect();
-        (Self { child, stdout }, sockets)
-    }
-
-    /// Stops the boxes (SIGTERM); returns each one's final state.
-    fn stop(mut self) -> Vec<SimBox> {
-        let status = Command::new("kill")
-            .args(["-TERM", &self.child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(status.success());
-        let mut rest = String::new();
-        self.stdout.read_to_string(&mut rest).unwrap();
-        assert!(self.child.wait().unwrap().success());
-        rest.lines()
-            .map(|line| serde_json::from_str(line).unwrap())
-            .collect()
-    }
-}
 
 /// The e-stop register of the box at `to`, read over UDP (retried: the box may lose
 /// datagrams).
@@ -174,6 +123,39 @@ async fn until(
     }
 }
 
+/// Sends `message` (`start` or `reset`) and reads statuses until the playlist has
+/// played to its end; returns the states seen on the way.
+async fn play_to_end(ws: &mut Ws, message: &str) -> Vec<PlayerState> {
+    send_text(ws, &format!(r#"{{"type":"{message}"}}"#)).await;
+    let (states, _) = until(ws, Duration::from_secs(20), |status| {
+        status.state == PlayerState::Idle && status.progress >= 1.0
+    })
+    .await;
+    assert!(states.contains(&PlayerState::Playing), "{states:?}");
+    states
+}
+
+/// Every axis's position, box by box.
+fn reached(boxes: &[SimBox]) -> Vec<i32> {
+    boxes
+        .iter()
+        .flat_map(|one| one.positions_pulses.clone())
+        .collect()
+}
+
+/// Two 3-axis twins in a process of their own, and a bridge driving them with the
+/// show uploaded as its playlist.
+async fn bridge_on_twins(drop_percent: u8) -> (Simulator, Vec<SocketAddr>, Process, Ws) {
+    let (simulator, sockets) = Simulator::start(3, 2, drop_percent);
+    let gateways: Vec<String> = sockets
+        .iter()
+        .map(|socket| format!("address = \"{socket}\""))
+        .collect();
+    let bridge = Process::start(&config(&gateways));
+    let (ws, _) = operator_ws(&bridge).await;
+    (simulator, sockets, bridge, ws)
+}
+
 async fn operator_ws(bridge: &Process) -> (Ws, String) {
     let token = bridge.prepare_show("ramp", &show(), false).await;
     let mut ws = bridge.ws(&token).await;
@@ -183,20 +165,9 @@ async fn operator_ws(bridge: &Process) -> (Ws, String) {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn mbox_boxes_play_stop_and_reset_like_a_matrix() {
-    let (simulator, sockets) = Simulator::start(2, 0);
-    let gateways: Vec<String> = sockets
-        .iter()
-        .map(|socket| format!("address = \"{socket}\""))
-        .collect();
-    let bridge = Process::start(&config(&gateways));
-    let (mut ws, _token) = operator_ws(&bridge).await;
-
-    send_text(&mut ws, r#"{"type":"start"}"#).await;
-    let (states, _) = until(&mut ws, Duration::from_secs(20), |status| {
-        status.state == PlayerState::Idle && status.progress >= 1.0
-    })
-    .await;
-    let played: Vec<PlayerState> = states
+    let (simulator, sockets, _bridge, mut ws) = bridge_on_twins(0).await;
+    let played: Vec<PlayerState> = play_to_end(&mut ws, "start")
+        .await
         .into_iter()
         .filter(|state| *state != PlayerState::Idle)
         .collect();
@@ -220,37 +191,21 @@ async fn mbox_boxes_play_stop_and_reset_like_a_matrix() {
         status.state == PlayerState::Stopped
     })
     .await;
-    assert!(
-        stopped
-            .gateways
-            .iter()
-            .all(|gateway| gateway.port.contains("127.0.0.1"))
-    );
-    for &socket in &sockets {
-        assert_eq!(estop_register(socket), 1, "box at {socket}");
+    for (gateway, socket) in stopped.gateways.iter().zip(&sockets) {
+        assert_eq!(gateway.port, socket.to_string());
+        assert!(gateway.packets_per_s.is_some() && gateway.late_frames.is_some());
+        assert_eq!(estop_register(*socket), 1, "box at {socket}");
     }
 
     // Reset: released, homed, and the playlist played to its end.
-    send_text(&mut ws, r#"{"type":"reset"}"#).await;
-    let (states, idle) = until(&mut ws, Duration::from_secs(20), |status| {
-        status.state == PlayerState::Idle && status.progress >= 1.0
-    })
-    .await;
+    let states = play_to_end(&mut ws, "reset").await;
     assert!(states.contains(&PlayerState::Homing), "{states:?}");
-    assert!(states.contains(&PlayerState::Playing), "{states:?}");
     for &socket in &sockets {
         assert_eq!(estop_register(socket), 0, "box at {socket}");
     }
-    for gateway in &idle.gateways {
-        assert!(gateway.packets_per_s.is_some() && gateway.late_frames.is_some());
-    }
     tokio::time::sleep(Duration::from_millis(200)).await;
     let boxes = simulator.stop();
-    let reached: Vec<i32> = boxes
-        .iter()
-        .flat_map(|one| one.positions_pulses.clone())
-        .collect();
-    assert_eq!(reached, last_pulses());
+    assert_eq!(reached(&boxes), last_pulses());
     // Released; and no motion frame reached a box while its e-stop held.
     assert!(
         boxes
@@ -261,20 +216,9 @@ async fn mbox_boxes_play_stop_and_reset_like_a_matrix() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_lossy_network_still_ends_at_the_last_positions_and_counts_missed_replies() {
-    let (simulator, sockets) = Simulator::start(2, 5);
-    let gateways: Vec<String> = sockets
-        .iter()
-        .map(|socket| format!("address = \"{socket}\""))
-        .collect();
-    let bridge = Process::start(&config(&gateways));
-    let (mut ws, _token) = operator_ws(&bridge).await;
-    send_text(&mut ws, r#"{"type":"start"}"#).await;
-    let (states, idle) = until(&mut ws, Duration::from_secs(20), |status| {
-        status.state == PlayerState::Idle && status.progress >= 1.0
-    })
-    .await;
-    assert!(states.contains(&PlayerState::Playing), "{states:?}");
-    // Polls go on every 500 ms: wait for a few more, some of which are lost.
+    let (simulator, _sockets, _bridge, mut ws) = bridge_on_twins(5).await;
+    play_to_end(&mut ws, "start").await;
+    // Polls go on every 500 ms: wait until the status counts a lost one.
     let (_, later) = until(&mut ws, Duration::from_secs(30), |status| {
         status
             .gateways
@@ -284,29 +228,16 @@ async fn a_lossy_network_still_ends_at_the_last_positions_and_counts_missed_repl
             > 0
     })
     .await;
-    println!("missed replies: {:?}", later.gateways);
-    drop(idle);
-    let boxes = simulator.stop();
-    let reached: Vec<i32> = boxes
-        .iter()
-        .flat_map(|one| one.positions_pulses.clone())
-        .collect();
-    assert_eq!(reached, last_pulses());
+    println!("after a 5 % loss run: {:?}", later.gateways);
+    assert_eq!(reached(&simulator.stop()), last_pulses());
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn simulated_boxes_in_the_bridge_play_the_show() {
-    let bridge = Process::start(&config(&[
-        "port = \"sim\"".to_owned(),
-        "port = \"sim\"".to_owned(),
-    ]));
+    let sim = "port = \"sim\"".to_owned();
+    let bridge = Process::start(&config(&[sim.clone(), sim]));
     let (mut ws, token) = operator_ws(&bridge).await;
-    send_text(&mut ws, r#"{"type":"start"}"#).await;
-    let (states, _) = until(&mut ws, Duration::from_secs(20), |status| {
-        status.state == PlayerState::Idle && status.progress >= 1.0
-    })
-    .await;
-    assert!(states.contains(&PlayerState::Playing), "{states:?}");
+    play_to_end(&mut ws, "start").await;
     tokio::time::sleep(Duration::from_millis(200)).await;
     let reply = bridge
         .request(
@@ -318,12 +249,7 @@ async fn simulated_boxes_in_the_bridge_play_the_show() {
         .await;
     let positions: SimPositions = reply.json();
     assert!(positions.gateways.is_empty());
-    let reached: Vec<i32> = positions
-        .boxes
-        .iter()
-        .flat_map(|one| one.positions_pulses.clone())
-        .collect();
-    assert_eq!(reached, last_pulses());
+    assert_eq!(reached(&positions.boxes), last_pulses());
 }
 
 /// WebSocket `estop` → the first e-stop datagram at a box: printed, not asserted (the

@@ -23,7 +23,7 @@
 //!   **Home** stops, homes and stays idle.
 
 use super::installation::Installation;
-use super::player::{Entry, StartError};
+use super::player::{Entry, NextRun, PlaylistProgress, StartError, next_run};
 use crate::api::{PlayerState, Status};
 use crate::show::{Sampler, validate};
 
@@ -80,12 +80,6 @@ pub struct MboxFrame {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum MoveKind {
-    Approach,
-    Home,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum AfterMove {
     /// Play the current entry.
     Play,
@@ -102,7 +96,8 @@ enum Step {
         until_us: u64,
     },
     Moving {
-        kind: MoveKind,
+        /// Approaching or Homing.
+        kind: PlayerState,
         targets_mm: Vec<f64>,
         began_us: u64,
         arrive_us: u64,
@@ -205,14 +200,7 @@ impl MboxPlayer {
         let state = match &self.step {
             Step::Idle => PlayerState::Idle,
             Step::Waiting { .. } => PlayerState::Waiting,
-            Step::Moving {
-                kind: MoveKind::Approach,
-                ..
-            } => PlayerState::Approaching,
-            Step::Moving {
-                kind: MoveKind::Home,
-                ..
-            } => PlayerState::Homing,
+            Step::Moving { kind, .. } => *kind,
             Step::Playing { .. } => PlayerState::Playing,
             Step::Stopped => PlayerState::Stopped,
             Step::Failed => PlayerState::Error,
@@ -226,21 +214,21 @@ impl MboxPlayer {
         );
         let active = self.is_running() && !homing_to_rest;
         let entry = active.then(|| self.entries.get(self.entry)).flatten();
-        Status {
+        PlaylistProgress {
             state,
-            entry: entry.map(|_| self.entry),
-            show: entry.map(|entry| entry.show.name.clone()),
-            show_time_ms: if entry.is_some() {
-                self.show_time_ms
-            } else {
-                0
-            },
-            show_duration_ms: entry.map_or(0, |entry| entry.show.duration_ms()),
-            cycle: if entry.is_some() { self.cycle } else { 0 },
+            playing: entry.map(|entry| {
+                (
+                    self.entry,
+                    entry.show.name.clone(),
+                    entry.show.duration_ms(),
+                )
+            }),
+            show_time_ms: self.show_time_ms,
+            cycle: self.cycle,
             progress: self.progress,
-            gateways: Vec::new(),
             last_error: self.last_error.clone(),
         }
+        .status()
     }
 
     /// Whether a playlist runs (waiting, moving or playing).
@@ -441,20 +429,18 @@ impl MboxPlayer {
 
     /// After a show's cycle: the next cycle, entry, the playlist again, or rest.
     fn next_run(&mut self, now_us: u64) {
-        let cycles = self
-            .entries
-            .get(self.entry)
-            .map_or(1, |entry| entry.cycles.max(1));
-        if self.cycle < cycles {
-            self.cycle += 1;
-            self.begin_approach(now_us);
-        } else if self.entry + 1 < self.entries.len() {
-            self.begin_entry(now_us, self.entry + 1);
-        } else if self.loop_playlist {
-            self.begin_entry(now_us, 0);
-        } else {
-            self.step = Step::Idle;
-            self.progress = 1.0;
+        match next_run(
+            &self.entries,
+            self.entry,
+            &mut self.cycle,
+            self.loop_playlist,
+        ) {
+            NextRun::Cycle => self.begin_approach(now_us),
+            NextRun::Entry(entry) => self.begin_entry(now_us, entry),
+            NextRun::Rest => {
+                self.step = Step::Idle;
+                self.progress = 1.0;
+            }
         }
     }
 
@@ -484,16 +470,22 @@ impl MboxPlayer {
         sampler.sample(0.0, &mut self.samples, None);
         let targets: Vec<f64> = self.samples.iter().map(|&mm| f64::from(mm)).collect();
         self.show_time_ms = 0;
-        self.begin_move(now_us, MoveKind::Approach, targets, AfterMove::Play);
+        self.begin_move(now_us, PlayerState::Approaching, targets, AfterMove::Play);
     }
 
     fn begin_home(&mut self, now_us: u64, after: AfterMove) {
         let installation = &self.config.installation;
         let targets = vec![installation.home_mm; installation.units.len()];
-        self.begin_move(now_us, MoveKind::Home, targets, after);
+        self.begin_move(now_us, PlayerState::Homing, targets, after);
     }
 
-    fn begin_move(&mut self, now_us: u64, kind: MoveKind, targets_mm: Vec<f64>, after: AfterMove) {
+    fn begin_move(
+        &mut self,
+        now_us: u64,
+        kind: PlayerState,
+        targets_mm: Vec<f64>,
+        after: AfterMove,
+    ) {
         let installation = &self.config.installation;
         let speed = installation.approach_speed_mm_s.max(f64::MIN_POSITIVE);
         let distance_mm = match &self.believed_mm {
