@@ -296,3 +296,49 @@ async fn estop_latency_is_measured() {
         figures[figures.len() - 1]
     );
 }
+
+/// A box that does not answer is `down` with an error, Start is refused, the bridge
+/// keeps serving, and the box is `up` again once it answers the polls.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_silent_box_is_down_and_comes_back_when_it_answers() {
+    let silent = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let address = silent.local_addr().unwrap();
+    let bridge = Process::start(&config(&[
+        format!("address = \"{address}\""),
+        "port = \"sim\"".to_owned(),
+    ]));
+    let token = bridge.prepare_show("ramp", &show(), false).await;
+    let mut ws = bridge.ws(&token).await;
+    let (_, down) = until(&mut ws, Duration::from_secs(10), |status| {
+        status
+            .gateways
+            .first()
+            .is_some_and(|gateway| gateway.link == floatball_shared::api::LinkState::Down)
+    })
+    .await;
+    let error = down.gateways[0].error.clone().unwrap_or_default();
+    assert!(error.contains("does not answer"), "{error}");
+    assert_eq!(down.gateways[1].link, floatball_shared::api::LinkState::Up);
+    send_text(&mut ws, r#"{"type":"start"}"#).await;
+    let refused = common::next_reply(&mut ws).await;
+    assert!(
+        matches!(&refused, ServerMessage::Error { message } if message.contains("gateway 0 is not connected")),
+        "{refused:?}"
+    );
+    // The box wakes up: it answers every poll with its e-stop register at 0.
+    std::thread::spawn(move || {
+        let mut buffer = [0u8; 512];
+        while let Ok((len, from)) = silent.recv_from(&mut buffer) {
+            if let Ok(Datagram::Read(read)) = Datagram::decode(&buffer[..len]) {
+                let reply = floatball_shared::mbox::RegisterReply {
+                    bank: read.bank,
+                    route: Route::REPLY,
+                    block: floatball_shared::mbox::RegisterBlock::new(read.range.start(), vec![0])
+                        .unwrap(),
+                };
+                let _ = silent.send_to(&reply.encode(), from);
+            }
+        }
+    });
+    assert!(links_up(&mut ws).await, "{}", bridge.log());
+}
