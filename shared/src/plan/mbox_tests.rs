@@ -191,3 +191,27 @@ fn calibration_maps_millimetres_to_pulses() {
     };
     assert_eq!(up.pulses(1e12), i32::MAX);
 }
+
+#[test]
+fn reset_homes_and_plays_and_a_refused_reset_stays_stopped() {
+    let mut player = player();
+    let mut now = 0;
+    let refused = player.reset(now, Err(StartError::Empty), false);
+    assert_eq!(refused, Err(StartError::Empty));
+    let status = player.status();
+    assert_eq!(status.state, PlayerState::Stopped);
+    assert_eq!(status.last_error, Some(StartError::Empty.to_string()));
+    player.reset(now, Ok(vec![entry(1, 0)]), false).unwrap();
+    let mut twins = twins();
+    let states = run(&mut player, &mut twins, &mut now);
+    assert_eq!(
+        states,
+        [
+            PlayerState::Homing,
+            PlayerState::Approaching,
+            PlayerState::Playing,
+            PlayerState::Idle
+        ]
+    );
+    assert_eq!(player.status().last_error, None);
+}
