@@ -101,9 +101,13 @@ pub struct SimulateArgs {
     /// Every unit answers on station 5, as delivered from the factory.
     #[arg(long)]
     pub factory_fresh: bool,
-    /// Seed of the units' serial numbers.
+    /// Seed of the units' serial numbers (uim2503), of the datagram losses (mbox).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// (mbox) Per cent of datagrams each box loses, on the way in and of its replies on
+    /// the way out (a lossy network, for tests).
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=100))]
+    pub drop_percent: u8,
     /// Calibration: encoder counts per mm.
     #[arg(long, default_value_t = sim::DEFAULT_COUNTS_PER_MM)]
     pub counts_per_mm: f64,
@@ -282,6 +286,8 @@ async fn simulate_mbox(args: &SimulateArgs) -> anyhow::Result<()> {
         boxes: args.boxes,
         axes,
         ip: args.ip,
+        drop_percent: args.drop_percent,
+        seed: args.seed,
     })
     .await
     .map_err(anyhow::Error::msg)?;

@@ -7,6 +7,10 @@
 //! slow client does can hold it up. Each writer notices the new generation before its
 //! next instruction, drops everything queued, and writes its gateway's stop first.
 //!
+//! MBOX boxes are not on a link: [`crate::playback::Playback::estop`] wakes their
+//! sender ([`crate::mbox::MboxNet::wake`]) right after pressing, in the same way — no
+//! lock, no await — and the sender writes the boxes' e-stop register before any frame.
+//!
 //! The latch stays set until a Start, Reset or Home issued *after* the e-stop is
 //! accepted ([`Latch::release`] with the generation that request saw). While it is set,
 //! the writers let only inert instructions through (queries, station selections, motor

@@ -13,6 +13,7 @@ use std::sync::Arc;
 
 use floatball_shared::api::FeedbackFrame;
 use floatball_shared::ascii::{Batch, EncodeError, Form};
+use floatball_shared::plan::DriveKind;
 use floatball_shared::sim::GatewayConfig;
 use tokio::sync::broadcast;
 
@@ -46,6 +47,8 @@ impl Gateways {
             .gateways
             .iter()
             .enumerate()
+            // MBOX boxes are not on a line: they are `crate::mbox`'s.
+            .filter(|(_, gateway)| gateway.kind == DriveKind::Uim2503)
             .map(|(index, gateway)| {
                 let mut link = LinkConfig::new(gateway.port.clone(), gateway.baud);
                 link.estop = estop.clone();

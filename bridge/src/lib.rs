@@ -30,6 +30,8 @@
 //! - [`durable`]: atomic, durable file writes.
 //! - [`link`]: the links to the gateways (serial ports, the simulated gateway) with
 //!   their e-stop lane.
+//! - [`mbox`]: the MBOX boxes of an installation on one UDP socket, with their e-stop
+//!   (the sender is woken by the e-stop like a link's writer).
 //! - [`estop`]: the e-stop latch and the one path that presses it.
 //! - [`gateways`]: every link together: console lines and feedback for the clients.
 //! - [`simulate`]: `floatball simulate`, the simulated gateway on a real serial device,
@@ -58,6 +60,7 @@ pub mod estop;
 pub mod gateways;
 pub mod http;
 pub mod link;
+pub mod mbox;
 pub mod origin;
 pub mod playback;
 pub mod playlist;

@@ -23,6 +23,7 @@ use std::time::{Duration, Instant};
 
 use floatball_shared::api::{GatewayStatus, Status};
 use floatball_shared::plan::Installation;
+use floatball_shared::plan::mbox::{MboxPlayer, MboxPlayerConfig};
 use floatball_shared::plan::player::{
     Command, Entry, LinkView, Player, PlayerConfig, Prepared, StartError, TICK_US, prepare,
 };
@@ -30,6 +31,7 @@ use tokio::sync::{mpsc, oneshot, watch};
 
 use crate::estop::{self, Latch};
 use crate::link::Link;
+use crate::mbox::MboxNet;
 
 type Reply = oneshot::Sender<Result<(), StartError>>;
 
@@ -48,6 +50,15 @@ enum Request {
         generation: u64,
         reply: Reply,
     },
+    /// Start or Reset on MBOX boxes: the playlist checked (not planned: the boxes
+    /// take positions, not a line's instructions).
+    MboxPlay {
+        generation: u64,
+        entries: Result<Vec<Entry>, StartError>,
+        loop_playlist: bool,
+        reset: bool,
+        reply: Reply,
+    },
     /// Look at the latch now (the e-stop was pressed).
     Estop,
 }
@@ -58,6 +69,8 @@ impl std::fmt::Debug for Request {
             Request::Start { .. } => "Start",
             Request::Reset { .. } => "Reset",
             Request::Home { .. } => "Home",
+            Request::MboxPlay { reset: true, .. } => "Reset (MBOX)",
+            Request::MboxPlay { .. } => "Start (MBOX)",
             Request::Estop => "Estop",
         })
     }
@@ -71,6 +84,8 @@ pub struct Playback {
     links: Arc<Vec<Link>>,
     latch: Arc<Latch>,
     installation: Arc<Installation>,
+    /// The MBOX boxes, when the installation's gateways are MBOX boxes.
+    boxes: Option<MboxNet>,
 }
 
 /// Why a request could not be handled.
@@ -111,6 +126,32 @@ impl Playback {
             links,
             latch,
             installation,
+            boxes: None,
+        }
+    }
+
+    /// Starts the playback task for an installation of MBOX boxes: `config` for the
+    /// player, `boxes` on their socket, obeying `latch` (the one the boxes' sender
+    /// obeys). Must run inside the async runtime.
+    pub fn spawn_mbox(config: MboxPlayerConfig, boxes: MboxNet, latch: Arc<Latch>) -> Self {
+        let installation = Arc::new(config.installation.clone());
+        let player = MboxPlayer::new(config);
+        let (requests, inbox) = mpsc::unbounded_channel();
+        let (status_tx, status) = watch::channel(mbox_status(&player, &boxes));
+        tokio::spawn(run_mbox(
+            player,
+            boxes.clone(),
+            Arc::clone(&latch),
+            inbox,
+            status_tx,
+        ));
+        Self {
+            requests,
+            status,
+            links: Arc::new(Vec::new()),
+            latch,
+            installation,
+            boxes: Some(boxes),
         }
     }
 
@@ -133,9 +174,18 @@ impl Playback {
     /// queued (which is dropped) — then tells the player. Takes no lock and waits for
     /// nothing. Returns the gateways the stop cannot reach now, each with the reason.
     pub fn estop(&self) -> Vec<String> {
-        let failures = estop::press(&self.latch, &self.links);
+        let mut failures = estop::press(&self.latch, &self.links);
+        if let Some(boxes) = &self.boxes {
+            boxes.wake();
+            failures.extend(boxes.unreachable());
+        }
         let _ = self.requests.send(Request::Estop);
         failures
+    }
+
+    /// The MBOX boxes, when the installation's gateways are MBOX boxes.
+    pub fn boxes(&self) -> Option<&MboxNet> {
+        self.boxes.as_ref()
     }
 
     /// Start the playlist, as a request issued now.
@@ -200,6 +250,23 @@ impl Playback {
         generation: u64,
         reset: bool,
     ) -> Result<(), PlaybackError> {
+        if self.boxes.is_some() {
+            let installation = Arc::clone(&self.installation);
+            let entries = tokio::task::spawn_blocking(move || {
+                MboxPlayer::check(&installation, &entries).map(|()| entries)
+            })
+            .await
+            .map_err(|_| PlaybackError::Gone)?;
+            return self
+                .ask(|reply| Request::MboxPlay {
+                    generation,
+                    entries,
+                    loop_playlist,
+                    reset,
+                    reply,
+                })
+                .await;
+        }
         let prepared = self.prepare(entries, loop_playlist).await?;
         self.ask(|reply| {
             if reset {
@@ -301,6 +368,9 @@ fn status_of(player: &Player, links: &[Link]) -> Status {
                     floatball_shared::api::LinkState::Up => None,
                     _ => link_status.error,
                 },
+                packets_per_s: None,
+                late_frames: None,
+                missed_replies: None,
             }
         })
         .collect();
@@ -461,6 +531,9 @@ fn handle(
                 admit(latch, generation, views, gateways).and_then(|()| player.home(now_us, views));
             (generation, reply, result)
         }
+        Request::MboxPlay {
+            generation, reply, ..
+        } => (generation, reply, Err(StartError::Busy)),
         Request::Estop => return None,
     })
 }
@@ -544,13 +617,143 @@ async fn run(
             // A stop the player asked for is not news to it (it failed, and stays so).
             seen_generation = latch.generation();
         }
-        let current = status_of(&player, &links);
-        status.send_if_modified(|published| {
-            let changed = *published != current;
-            if changed {
-                *published = current;
+        publish(&status, status_of(&player, &links));
+    }
+}
+
+/// Publishes `current` if it differs from what the clients saw last.
+fn publish(status: &watch::Sender<Status>, current: Status) {
+    status.send_if_modified(|published| {
+        let changed = *published != current;
+        if changed {
+            *published = current;
+        }
+        changed
+    });
+}
+
+fn mbox_status(player: &MboxPlayer, boxes: &MboxNet) -> Status {
+    let mut status = player.status();
+    status.gateways = boxes.statuses();
+    status
+}
+
+fn mbox_views(boxes: &MboxNet) -> Vec<LinkView> {
+    (0..boxes.len())
+        .map(|index| LinkView {
+            up: boxes.state(index) == floatball_shared::api::LinkState::Up,
+            queued_bytes: 0,
+        })
+        .collect()
+}
+
+/// Carries out a Start, Reset or Home on the MBOX player, if no e-stop came since it
+/// was issued and every box answers.
+fn handle_mbox(
+    player: &mut MboxPlayer,
+    latch: &Latch,
+    request: Request,
+    now_us: u64,
+    views: &[LinkView],
+) -> Option<(u64, Reply, Result<(), StartError>)> {
+    let gateways = views.len();
+    Some(match request {
+        Request::MboxPlay {
+            generation,
+            entries,
+            loop_playlist,
+            reset,
+            reply,
+        } => {
+            let admitted = entries
+                .and_then(|entries| admit(latch, generation, views, gateways).map(|()| entries));
+            let result = if reset {
+                player.reset(now_us, admitted, loop_playlist)
+            } else {
+                admitted.and_then(|entries| {
+                    if player.start_checked(now_us, entries, loop_playlist) {
+                        Ok(())
+                    } else {
+                        Err(StartError::Busy)
+                    }
+                })
+            };
+            (generation, reply, result)
+        }
+        Request::Home { generation, reply } => {
+            let result = admit(latch, generation, views, gateways).map(|()| player.home(now_us));
+            (generation, reply, result)
+        }
+        Request::Start {
+            generation, reply, ..
+        }
+        | Request::Reset {
+            generation, reply, ..
+        } => (generation, reply, Err(StartError::Busy)),
+        Request::Estop => return None,
+    })
+}
+
+/// The playback task of an installation of MBOX boxes: the MBOX player on the clock,
+/// its frames handed to the boxes' sender, the status from the player and the boxes.
+async fn run_mbox(
+    mut player: MboxPlayer,
+    boxes: MboxNet,
+    latch: Arc<Latch>,
+    mut inbox: mpsc::UnboundedReceiver<Request>,
+    status: watch::Sender<Status>,
+) {
+    let epoch = Instant::now();
+    let now_us = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
+    let mut seen_generation = latch.generation();
+    let mut run_generation = seen_generation;
+    loop {
+        let now = now_us();
+        // Idle, it still looks at the boxes ten times a second for the status.
+        let wake_us = player
+            .next_wakeup_us(now)
+            .unwrap_or(now + 100_000)
+            .min(now + 100_000);
+        let sleep = tokio::time::sleep_until((epoch + Duration::from_micros(wake_us)).into());
+        let mut request = None;
+        tokio::select! {
+            received = inbox.recv() => {
+                let Some(received) = received else { return };
+                request = Some(received);
             }
-            changed
-        });
+            () = sleep => {}
+        }
+        let generation = latch.generation();
+        if generation != seen_generation {
+            seen_generation = generation;
+            player.estop();
+        }
+        if let Some(request) = request
+            && let Some((generation, reply, result)) =
+                handle_mbox(&mut player, &latch, request, now_us(), &mbox_views(&boxes))
+        {
+            if result.is_ok() {
+                run_generation = generation;
+            }
+            let _ = reply.send(result);
+        }
+        if player.is_running()
+            && let Some(down) = (0..boxes.len())
+                .find(|&index| boxes.state(index) == floatball_shared::api::LinkState::Down)
+        {
+            let reason =
+                format!("MBOX box {down} stopped answering; the show was stopped on every box");
+            tracing::error!("{reason}");
+            estop::press(&latch, &[]);
+            boxes.wake();
+            seen_generation = latch.generation();
+            player.fail_with(reason);
+        }
+        player.poll(now_us());
+        for frame in player.take_frames() {
+            let slot = epoch + Duration::from_micros(frame.slot_us);
+            boxes.send(frame, slot, run_generation);
+        }
+        publish(&status, mbox_status(&player, &boxes));
     }
 }

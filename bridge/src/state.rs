@@ -14,11 +14,15 @@ use tokio::sync::{Mutex, watch};
 use crate::estop::Latch;
 
 use crate::auth::{Clock, LoginLimiter, Password, PasswordError, Tokens};
-use crate::config::Config;
+use crate::config::{Config, MboxConfig, MboxTarget};
 use crate::gateways::Gateways;
+use crate::mbox::MboxNet;
 use crate::playback::Playback;
 use crate::playlist::{PlaylistError, PlaylistStore};
+use crate::simulate::mbox::{MboxBoxes, MboxOptions};
 use crate::store::{ShowStore, StoreError};
+use floatball_shared::plan::mbox::MboxPlayerConfig;
+use std::net::SocketAddr;
 
 /// Why the bridge cannot start with this data directory.
 #[derive(Debug, thiserror::Error)]
@@ -43,6 +47,9 @@ pub enum OpenError {
     /// The e-stop instruction cannot be encoded.
     #[error("the e-stop instruction cannot be sent: {0}")]
     Estop(#[from] EncodeError),
+    /// The MBOX boxes' socket, or a simulated box, cannot be opened.
+    #[error("{0}")]
+    Mbox(String),
 }
 
 /// Where the bridge keeps and finds its files.
@@ -73,7 +80,51 @@ struct Inner {
     catalogue: Mutex<()>,
     gateways: Gateways,
     playback: Playback,
+    /// The simulated MBOX boxes (`port = "sim"`), one per such gateway, in order.
+    mbox_sims: Vec<MboxBoxes>,
     stopping: watch::Sender<bool>,
+}
+
+/// Opens the MBOX boxes' socket, starting a simulated box on loopback for each
+/// `port = "sim"` gateway first; returns the boxes and the simulated ones.
+fn open_boxes(
+    mbox: &MboxConfig,
+    latch: &Arc<Latch>,
+) -> Result<(MboxNet, Vec<MboxBoxes>), OpenError> {
+    let mut sims = Vec::new();
+    let mut addresses = Vec::with_capacity(mbox.boxes.len());
+    for (index, one) in mbox.boxes.iter().enumerate() {
+        match one.target {
+            MboxTarget::Address(address) => addresses.push(address),
+            MboxTarget::Sim => {
+                let ip = u32::from(floatball_shared::mbox::FACTORY_IP)
+                    .wrapping_add(u32::try_from(index).unwrap_or(0));
+                let sim = MboxBoxes::spawn(MboxOptions {
+                    listen: SocketAddr::from(([127, 0, 0, 1], 0)),
+                    boxes: 1,
+                    axes: one.axes,
+                    ip: ip.into(),
+                    drop_percent: 0,
+                    seed: 0,
+                })
+                .map_err(OpenError::Mbox)?;
+                let socket = sim.boxes().first().map(|running| running.socket);
+                addresses.push(socket.ok_or_else(|| {
+                    OpenError::Mbox(format!("simulated MBOX box {index} did not start"))
+                })?);
+                sims.push(sim);
+            }
+        }
+    }
+    let boxes = MboxNet::open(
+        mbox.host_port,
+        &addresses,
+        mbox.frame_period,
+        mbox.time,
+        Arc::clone(latch),
+    )
+    .map_err(OpenError::Mbox)?;
+    Ok((boxes, sims))
 }
 
 impl AppState {
@@ -94,7 +145,24 @@ impl AppState {
         let tokens = Tokens::open(&paths.data_dir, clock.now());
         let latch = Arc::new(Latch::new());
         let gateways = Gateways::open(&config, &latch)?;
-        let playback = Playback::spawn(config.installation.clone(), gateways.links().to_vec());
+        let (playback, mbox_sims) = match &config.mbox {
+            Some(mbox) => {
+                let (boxes, sims) = open_boxes(mbox, &latch)?;
+                let player = MboxPlayerConfig {
+                    installation: config.installation.clone(),
+                    boxes: mbox.boxes.iter().map(|one| one.calibration).collect(),
+                    period_us: u64::try_from(mbox.frame_period.as_micros()).unwrap_or(20_000),
+                };
+                (
+                    Playback::spawn_mbox(player, boxes, Arc::clone(&latch)),
+                    sims,
+                )
+            }
+            None => (
+                Playback::spawn(config.installation.clone(), gateways.links().to_vec()),
+                Vec::new(),
+            ),
+        };
         Ok(Self {
             inner: Arc::new(Inner {
                 config,
@@ -108,6 +176,7 @@ impl AppState {
                 catalogue: Mutex::new(()),
                 gateways,
                 playback,
+                mbox_sims,
                 stopping: watch::channel(false).0,
             }),
         })
@@ -162,6 +231,12 @@ impl AppState {
     /// The links to the gateways.
     pub fn gateways(&self) -> &Gateways {
         &self.inner.gateways
+    }
+
+    /// The simulated MBOX boxes (`port = "sim"`), each a box of one gateway, in
+    /// configuration order.
+    pub fn mbox_sims(&self) -> impl Iterator<Item = &MboxBoxes> {
+        self.inner.mbox_sims.iter()
     }
 
     /// The player: Start, E-stop, Reset.

@@ -4,12 +4,12 @@
 //! axis's position, so positions are checked in the final state the process prints
 //! when it is stopped.
 
-use std::io::{BufRead, BufReader, Read};
+mod common;
+
 use std::net::{SocketAddr, UdpSocket};
-use std::process::{Child, ChildStdout, Command, Stdio};
 use std::time::Duration;
 
-use floatball_shared::api::SimBox;
+use common::mbox_sim::Simulator;
 use floatball_shared::mbox::{
     AxisCount, AxisPositions, BoxAddress, Datagram, DigitalOutputs, Encode, MotionFrame, ReadBank,
     RegisterRange, RegisterRead, RegisterWrite, Route, TimeCode, TimeMode,
@@ -19,56 +19,6 @@ use floatball_shared::mbox::{
 const FN_ESTOP: u16 = 0x0090;
 const FIRST: BoxAddress = BoxAddress(0x0FC9);
 const SECOND: BoxAddress = BoxAddress(0x0FCA);
-
-struct Simulator {
-    child: Child,
-    stdout: BufReader<ChildStdout>,
-}
-
-impl Drop for Simulator {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Simulator {
-    /// Starts `boxes` 10-axis boxes, each on a free port; returns their sockets.
-    fn start(boxes: usize) -> (Self, Vec<SocketAddr>) {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_floatball"))
-            .args(["simulate", "--kind", "mbox", "--listen", "127.0.0.1:0"])
-            .args(["--axes", "10", "--boxes", &boxes.to_string()])
-            .stdout(Stdio::piped())
-            .spawn()
-            .expect("start floatball simulate --kind mbox");
-        let mut stdout = BufReader::new(child.stdout.take().unwrap());
-        let sockets = (0..boxes)
-            .map(|_| {
-                let mut line = String::new();
-                stdout.read_line(&mut line).expect("a banner line a box");
-                assert!(line.contains("10 axes"), "{line}");
-                line.split_whitespace().last().unwrap().parse().unwrap()
-            })
-            .collect();
-        (Self { child, stdout }, sockets)
-    }
-
-    /// Stops it with SIGTERM, as an operator's Ctrl-C would; returns every box's final
-    /// state.
-    fn stop(mut self) -> Vec<SimBox> {
-        let status = Command::new("kill")
-            .args(["-TERM", &self.child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(status.success());
-        let mut rest = String::new();
-        self.stdout.read_to_string(&mut rest).unwrap();
-        assert!(self.child.wait().unwrap().success());
-        rest.lines()
-            .map(|line| serde_json::from_str(line).unwrap())
-            .collect()
-    }
-}
 
 fn host() -> UdpSocket {
     let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
@@ -122,7 +72,7 @@ fn frame(route: Route, sequence: u32, time_ms: u32, pulses: i32) -> Vec<u8> {
 
 #[test]
 fn mbox_twins_on_loopback_answer_reads_move_and_hold_an_estop() {
-    let (simulator, sockets) = Simulator::start(2);
+    let (simulator, sockets) = Simulator::start(10, 2, 0);
     let [first, second] = sockets[..] else {
         panic!("two boxes")
     };

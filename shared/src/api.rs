@@ -161,6 +161,10 @@ pub struct GatewayPlan {
 pub struct SimPositions {
     /// Every simulated gateway, in configuration order.
     pub gateways: Vec<SimGateway>,
+    /// Every simulated MBOX box in the bridge (`port = "sim"`), in configuration
+    /// order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub boxes: Vec<SimBox>,
 }
 
 /// One simulated gateway in [`SimPositions`].
@@ -429,6 +433,16 @@ pub struct GatewayStatus {
     /// Why the link is down, if it is.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+    /// MBOX boxes: datagrams sent to the box per second, over the last second.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub packets_per_s: Option<f64>,
+    /// MBOX boxes: motion frames sent more than half a frame period after their slot.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub late_frames: Option<u64>,
+    /// MBOX boxes: register reads (polls) the box left unanswered: lost datagrams,
+    /// either way, or a box that is down.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub missed_replies: Option<u64>,
 }
 
 /// The `status` message.

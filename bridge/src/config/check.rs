@@ -7,17 +7,21 @@ use std::ops::Range;
 use std::path::Path;
 
 use floatball_shared::ascii::{Form, Instruction, parse_script};
+use floatball_shared::mbox::{AxisCount, TimeMode};
 use floatball_shared::plan::installation::{
     AllocationError, DEFAULT_PITCH_MM, DriveKind, GatewaySpec, Installation, MAX_UNITS_PER_GATEWAY,
     SIM_PORT, Stations, UnitAddress, allocate,
 };
+use floatball_shared::plan::mbox::BoxCalibration;
 use floatball_shared::show::Limits;
+use std::time::Duration;
 use toml::Spanned;
 
-use super::raw::{RawConfig, RawGateway, RawMatrix, RawSafety};
+use super::raw::{RawConfig, RawGateway, RawMatrix, RawMbox, RawSafety};
 use super::{
-    BAUD_RANGE, Config, ConfigError, DEFAULT_MAX_DURATION, DEFAULT_SERIAL_BAUD, DEFAULT_SIM_BAUD,
-    MAX_DURATION_RANGE, Overrides, Uploads,
+    BAUD_RANGE, Config, ConfigError, DEFAULT_MAX_DURATION, DEFAULT_MBOX_HOST_PORT,
+    DEFAULT_MBOX_PERIOD, DEFAULT_SERIAL_BAUD, DEFAULT_SIM_BAUD, MAX_DURATION_RANGE, MboxBox,
+    MboxConfig, MboxTarget, Overrides, Uploads,
 };
 use crate::origin::normalise_origin;
 
@@ -28,6 +32,10 @@ pub(super) struct Checker<'a> {
     /// Its text, to turn byte spans into lines and columns.
     pub(super) text: &'a str,
 }
+
+/// The gateways' lines, every unit's address, and the MBOX boxes (empty for UIM2503
+/// gateways).
+type CheckedGateways = (Vec<GatewaySpec>, Vec<UnitAddress>, Vec<MboxBox>);
 
 /// A value and where it came from (`None`: the default).
 type Located<T> = (T, Option<Range<usize>>);
@@ -127,7 +135,12 @@ impl Checker<'_> {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let matrix = self.matrix(&raw.matrix)?;
-        let (gateways, units) = self.gateways(&raw.gateways, &matrix.limits, overrides)?;
+        let (gateways, units, boxes) = self.gateways(&raw.gateways, &matrix, overrides)?;
+        let mbox = if boxes.is_empty() {
+            None
+        } else {
+            Some(self.mbox(&raw.mbox, boxes)?)
+        };
         let (estop, approach_speed_mm_s) = self.safety(&raw.safety, &matrix.limits)?;
         let installation = Installation {
             limits: matrix.limits,
@@ -170,6 +183,136 @@ impl Checker<'_> {
             uploads: Uploads {
                 max_bytes,
                 max_duration,
+            },
+            mbox,
+        })
+    }
+
+    /// `[mbox]`, for an installation of MBOX `boxes`.
+    fn mbox(&self, raw: &RawMbox, boxes: Vec<MboxBox>) -> Result<MboxConfig, ConfigError> {
+        let host_port = raw
+            .host_port
+            .as_ref()
+            .map_or(DEFAULT_MBOX_HOST_PORT, |port| *port.get_ref());
+        let (period_ms, span) = located(
+            raw.frame_period_ms.as_ref(),
+            u32::try_from(DEFAULT_MBOX_PERIOD.as_millis()).unwrap_or(20),
+        );
+        if !(5..=1000).contains(&period_ms) {
+            return Err(self.wrong(
+                span.as_ref(),
+                format!("frame_period_ms = {period_ms} must be from 5 to 1000"),
+            ));
+        }
+        let time = match raw.time.as_ref() {
+            None => TimeMode::Relative,
+            Some(text) => match text.get_ref().as_str() {
+                "relative" => TimeMode::Relative,
+                "absolute" => TimeMode::Absolute,
+                other => {
+                    return Err(self.at(
+                        &text.span(),
+                        format!("time = {other:?} must be \"relative\" or \"absolute\""),
+                    ));
+                }
+            },
+        };
+        Ok(MboxConfig {
+            host_port,
+            frame_period: Duration::from_millis(u64::from(period_ms)),
+            time,
+            boxes,
+        })
+    }
+
+    /// An MBOX gateway's box: where it is, its axes and calibration.
+    fn mbox_box(
+        &self,
+        number: usize,
+        gateway: &RawGateway,
+        table: &Range<usize>,
+        override_port: Option<&String>,
+        counts_per_mm: f64,
+    ) -> Result<MboxBox, ConfigError> {
+        if let Some(baud) = &gateway.baud {
+            return Err(self.at(
+                &baud.span(),
+                format!("gateway {number}: baud is for serial gateways; an MBOX box is on UDP"),
+            ));
+        }
+        let (text, span) = match (override_port, &gateway.address, &gateway.port) {
+            (Some(port), _, _) => (port.clone(), None),
+            (None, Some(address), None) => (address.get_ref().clone(), Some(address.span())),
+            (None, None, Some(port)) => (port.get_ref().clone(), Some(port.span())),
+            (None, Some(_), Some(port)) => {
+                return Err(self.at(
+                    &port.span(),
+                    format!(
+                        "gateway {number}: give an MBOX box either address = \"IP:port\" or \
+                         port = \"sim\", not both"
+                    ),
+                ));
+            }
+            (None, None, None) => {
+                return Err(self.at(
+                    table,
+                    format!(
+                        "gateway {number}: an MBOX box needs address = \"192.168.15.201:7408\" \
+                         (its IP address and UDP port) or port = \"sim\" (a simulated box)"
+                    ),
+                ));
+            }
+        };
+        let target = if text == SIM_PORT {
+            MboxTarget::Sim
+        } else {
+            MboxTarget::Address(text.parse().map_err(|_| {
+                self.wrong(
+                    span.as_ref(),
+                    format!(
+                        "gateway {number}: {text:?} is not an MBOX box's address and UDP port \
+                         such as \"192.168.15.201:7408\", nor \"sim\""
+                    ),
+                )
+            })?)
+        };
+        let (axes_count, axes_span) = located(gateway.axes.as_ref(), 10);
+        let axes = AxisCount::ALL
+            .into_iter()
+            .find(|axes| axes.count() as u32 == axes_count)
+            .ok_or_else(|| {
+                self.wrong(
+                    axes_span.as_ref(),
+                    format!("gateway {number}: axes = {axes_count} must be 3, 6 or 10"),
+                )
+            })?;
+        let pulses_per_mm = self.positive(
+            located(gateway.pulses_per_mm.as_ref(), counts_per_mm),
+            "pulses_per_mm",
+            100_000.0,
+        )?;
+        let (sign, sign_span) = located(gateway.sign.as_ref(), 1);
+        if sign != 1 && sign != -1 {
+            return Err(self.wrong(
+                sign_span.as_ref(),
+                format!("gateway {number}: sign = {sign} must be 1 or -1"),
+            ));
+        }
+        let (offset, offset_span) = located(gateway.offset_pulses.as_ref(), 0);
+        let offset_pulses = i32::try_from(offset).map_err(|_| {
+            self.wrong(
+                offset_span.as_ref(),
+                format!("gateway {number}: offset_pulses = {offset} does not fit a position"),
+            )
+        })?;
+        Ok(MboxBox {
+            target,
+            axes,
+            calibration: BoxCalibration {
+                axes: axes.count(),
+                pulses_per_mm,
+                sign: if sign < 0 { -1 } else { 1 },
+                offset_pulses,
             },
         })
     }
@@ -252,14 +395,20 @@ impl Checker<'_> {
     fn gateways(
         &self,
         raw: &[Spanned<RawGateway>],
-        limits: &Limits,
+        matrix: &Matrix,
         overrides: &Overrides,
-    ) -> Result<(Vec<GatewaySpec>, Vec<UnitAddress>), ConfigError> {
+    ) -> Result<CheckedGateways, ConfigError> {
+        let limits = &matrix.limits;
         let default_gateway = [Spanned::new(
             0..0,
             RawGateway {
                 kind: None,
-                port: Spanned::new(0..0, SIM_PORT.to_owned()),
+                port: Some(Spanned::new(0..0, SIM_PORT.to_owned())),
+                address: None,
+                axes: None,
+                pulses_per_mm: None,
+                sign: None,
+                offset_pulses: None,
                 baud: None,
                 first_station: None,
                 units: None,
@@ -277,24 +426,11 @@ impl Checker<'_> {
                 raw.len()
             )));
         }
-        let mut specs = Vec::with_capacity(raw.len());
+        let mut specs: Vec<GatewaySpec> = Vec::with_capacity(raw.len());
         let mut wanted = Vec::with_capacity(raw.len());
+        let mut boxes = Vec::new();
         for (index, spanned) in raw.iter().enumerate() {
             let gateway = spanned.get_ref();
-            let (port, port_span) = match overrides.gateway_ports.get(index) {
-                Some(port) => (port.clone(), None),
-                None => (gateway.port.get_ref().clone(), Some(gateway.port.span())),
-            };
-            if port.is_empty() || port.chars().any(char::is_control) {
-                return Err(self.wrong(
-                    port_span.as_ref(),
-                    format!(
-                        "gateway {}: port {port:?} must be \"sim\" or a device path such as \
-                         \"/dev/ttyUSB0\"",
-                        index + 1
-                    ),
-                ));
-            }
             let kind = match &gateway.kind {
                 None => DriveKind::default(),
                 Some(name) => DriveKind::from_name(name.get_ref()).ok_or_else(|| {
@@ -314,6 +450,98 @@ impl Checker<'_> {
                     )
                 })?,
             };
+            if let (Some(first), Some(name)) = (specs.first(), &gateway.kind)
+                && kind != first.kind
+            {
+                return Err(self.at(
+                    &name.span(),
+                    format!(
+                        "gateway {}: kind {:?} after {:?} gateways: an installation is either \
+                         all UIM2503 gateways or all MBOX boxes",
+                        index + 1,
+                        kind.name(),
+                        first.kind.name()
+                    ),
+                ));
+            }
+            let stations = match &gateway.stations {
+                Some(list) => {
+                    Stations::Listed(list.get_ref().iter().map(|s| *s.get_ref()).collect())
+                }
+                None => Stations::Consecutive {
+                    first: located(gateway.first_station.as_ref(), 1).0,
+                    units: gateway.units.as_ref().map(|units| *units.get_ref()),
+                },
+            };
+            if kind == DriveKind::Mbox {
+                let found = self.mbox_box(
+                    index + 1,
+                    gateway,
+                    &spanned.span(),
+                    overrides.gateway_ports.get(index),
+                    matrix.counts_per_mm,
+                )?;
+                let port = match found.target {
+                    MboxTarget::Sim => SIM_PORT.to_owned(),
+                    MboxTarget::Address(address) => address.to_string(),
+                };
+                specs.push(GatewaySpec {
+                    port,
+                    baud: 0,
+                    kind,
+                });
+                boxes.push(found);
+                wanted.push((kind, stations));
+                continue;
+            }
+            let (port, port_span) = match (overrides.gateway_ports.get(index), &gateway.port) {
+                (Some(port), _) => (port.clone(), None),
+                (None, Some(port)) => (port.get_ref().clone(), Some(port.span())),
+                (None, None) => {
+                    return Err(self.at(
+                        &spanned.span(),
+                        format!(
+                            "gateway {}: port is missing: \"sim\" or a device path such as \
+                             \"/dev/ttyUSB0\"",
+                            index + 1
+                        ),
+                    ));
+                }
+            };
+            for (key, value) in [
+                ("address", gateway.address.as_ref().map(Spanned::span)),
+                ("axes", gateway.axes.as_ref().map(Spanned::span)),
+                (
+                    "pulses_per_mm",
+                    gateway.pulses_per_mm.as_ref().map(Spanned::span),
+                ),
+                ("sign", gateway.sign.as_ref().map(Spanned::span)),
+                (
+                    "offset_pulses",
+                    gateway.offset_pulses.as_ref().map(Spanned::span),
+                ),
+            ] {
+                if let Some(span) = value {
+                    return Err(self.at(
+                        &span,
+                        format!(
+                            "gateway {}: {key} is for MBOX boxes (kind = \"mbox\")",
+                            index + 1
+                        ),
+                    ));
+                }
+            }
+
+            if port.is_empty() || port.chars().any(char::is_control) {
+                return Err(self.wrong(
+                    port_span.as_ref(),
+                    format!(
+                        "gateway {}: port {port:?} must be \"sim\" or a device path such as \
+                         \"/dev/ttyUSB0\"",
+                        index + 1
+                    ),
+                ));
+            }
             let default_baud = if port == SIM_PORT {
                 DEFAULT_SIM_BAUD
             } else {
@@ -330,21 +558,39 @@ impl Checker<'_> {
                     ),
                 ));
             }
-            let stations = match &gateway.stations {
-                Some(list) => {
-                    Stations::Listed(list.get_ref().iter().map(|s| *s.get_ref()).collect())
-                }
-                None => Stations::Consecutive {
-                    first: located(gateway.first_station.as_ref(), 1).0,
-                    units: gateway.units.as_ref().map(|units| *units.get_ref()),
-                },
-            };
             specs.push(GatewaySpec { port, baud, kind });
             wanted.push((kind, stations));
         }
         let units = allocate(limits.rows as usize * limits.cols as usize, &wanted)
             .map_err(|error| self.allocation(error, raw, implicit, limits))?;
-        Ok((specs, units))
+        // An MBOX unit's station is its axis: within the box's axes.
+        for (gateway, found) in boxes.iter().enumerate() {
+            let axes = found.axes.count();
+            if let Some(axis) = units
+                .iter()
+                .filter(|unit| unit.gateway == gateway)
+                .map(|unit| unit.station)
+                .find(|&station| usize::from(station) > axes)
+            {
+                let table = &raw[gateway];
+                let span = table
+                    .get_ref()
+                    .stations
+                    .as_ref()
+                    .map(Spanned::span)
+                    .or_else(|| table.get_ref().units.as_ref().map(Spanned::span))
+                    .unwrap_or_else(|| table.span());
+                return Err(self.at(
+                    &span,
+                    format!(
+                        "gateway {}: axis {axis} is beyond the box's {axes} axes; give it at \
+                         most {axes} units (or add a box)",
+                        gateway + 1
+                    ),
+                ));
+            }
+        }
+        Ok((specs, units, boxes))
     }
 
     /// Where an allocation problem sits in the file, in the file's words.

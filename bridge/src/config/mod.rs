@@ -61,7 +61,50 @@ pub struct Config {
     pub estop: Vec<Instruction>,
     /// Show uploads.
     pub uploads: Uploads,
+    /// The MBOX boxes and their UDP settings, when the gateways are MBOX boxes
+    /// (`kind = "mbox"`); `None` for a UIM2503 installation.
+    pub mbox: Option<MboxConfig>,
 }
+
+/// An installation of MBOX boxes: the host's UDP socket, the frame period and every
+/// box (in gateway order, as [`Installation::gateways`] lists them).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MboxConfig {
+    /// The host's UDP port every box is sent from and answers to (`0`: any free port).
+    pub host_port: u16,
+    /// The time between two motion frames.
+    pub frame_period: Duration,
+    /// Relative-time frames (`0x1401`) or absolute time codes (`0x1301`).
+    pub time: floatball_shared::mbox::TimeMode,
+    /// Every box, in gateway order.
+    pub boxes: Vec<MboxBox>,
+}
+
+/// Where an MBOX box is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MboxTarget {
+    /// A simulated box in the bridge, on a loopback UDP socket (`port = "sim"`).
+    Sim,
+    /// A box at this UDP address and port.
+    Address(SocketAddr),
+}
+
+/// One `kind = "mbox"` gateway.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MboxBox {
+    /// Where it is.
+    pub target: MboxTarget,
+    /// 3, 6 or 10 axes.
+    pub axes: floatball_shared::mbox::AxisCount,
+    /// Millimetres to pulses.
+    pub calibration: floatball_shared::plan::mbox::BoxCalibration,
+}
+
+/// The host's UDP port unless configured (the box's factory setting).
+pub const DEFAULT_MBOX_HOST_PORT: u16 = floatball_shared::mbox::HOST_PORT;
+
+/// The frame period unless configured.
+pub const DEFAULT_MBOX_PERIOD: Duration = Duration::from_millis(20);
 
 /// Upload settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

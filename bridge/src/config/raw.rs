@@ -21,6 +21,8 @@ pub(super) struct RawConfig {
     pub(super) safety: RawSafety,
     #[serde(default)]
     pub(super) uploads: RawUploads,
+    #[serde(default)]
+    pub(super) mbox: RawMbox,
 }
 
 /// `[matrix]`.
@@ -42,7 +44,12 @@ pub(super) struct RawMatrix {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawGateway {
     pub(super) kind: Option<Spanned<String>>,
-    pub(super) port: Spanned<String>,
+    pub(super) port: Option<Spanned<String>>,
+    pub(super) address: Option<Spanned<String>>,
+    pub(super) axes: Option<Spanned<u32>>,
+    pub(super) pulses_per_mm: Option<Spanned<f64>>,
+    pub(super) sign: Option<Spanned<i64>>,
+    pub(super) offset_pulses: Option<Spanned<i64>>,
     pub(super) baud: Option<Spanned<u32>>,
     pub(super) first_station: Option<Spanned<u8>>,
     pub(super) units: Option<Spanned<usize>>,
@@ -63,4 +70,13 @@ pub(super) struct RawSafety {
 pub(super) struct RawUploads {
     pub(super) max_bytes: Option<Spanned<usize>>,
     pub(super) max_duration: Option<Spanned<String>>,
+}
+
+/// `[mbox]`: settings for every MBOX box of the installation.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawMbox {
+    pub(super) host_port: Option<Spanned<u16>>,
+    pub(super) frame_period_ms: Option<Spanned<u32>>,
+    pub(super) time: Option<Spanned<String>>,
 }

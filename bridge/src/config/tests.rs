@@ -351,12 +351,106 @@ fn a_gateway_kind_defaults_to_the_uim2503_and_unknown_kinds_are_refused() {
     assert_eq!(config.installation.gateways[0].kind, DriveKind::Uim2503);
     let named = parse("[[gateway]]\nkind = \"uim2503\"\nport = \"sim\"\n").expect("kind");
     assert_eq!(named, config);
-    let message = parse("[[gateway]]\nport = \"sim\"\nkind = \"mbox\"\n")
+    let message = parse("[[gateway]]\nport = \"sim\"\nkind = \"uim342\"\n")
         .expect_err("unknown kind")
         .to_string();
     assert_eq!(
         message,
-        "data/floatball.toml line 3, column 8: gateway 1: kind \"mbox\" is not a known kind \
-         of drive; the known kinds are \"uim2503\""
+        "data/floatball.toml line 3, column 8: gateway 1: kind \"uim342\" is not a known kind \
+         of drive; the known kinds are \"uim2503\", \"mbox\""
+    );
+}
+
+const MBOX: &str = "[matrix]\nrows = 2\ncols = 10\n\
+                    [mbox]\nhost_port = 0\nframe_period_ms = 10\ntime = \"absolute\"\n\
+                    [[gateway]]\nkind = \"mbox\"\naddress = \"192.168.15.201:7408\"\n\
+                    pulses_per_mm = 20.0\nsign = -1\noffset_pulses = 500\n\
+                    [[gateway]]\nkind = \"mbox\"\nport = \"sim\"\naxes = 10\n";
+
+#[test]
+fn mbox_boxes_are_gateways_whose_units_are_axes() {
+    let config = parse(MBOX).expect("mbox");
+    let mbox = config.mbox.as_ref().expect("an MBOX installation");
+    assert_eq!(mbox.host_port, 0);
+    assert_eq!(mbox.frame_period, Duration::from_millis(10));
+    assert_eq!(mbox.time, floatball_shared::mbox::TimeMode::Absolute);
+    assert_eq!(
+        mbox.boxes[0].target,
+        MboxTarget::Address("192.168.15.201:7408".parse().expect("addr"))
+    );
+    assert_eq!(mbox.boxes[1].target, MboxTarget::Sim);
+    let first = mbox.boxes[0].calibration;
+    assert_eq!((first.axes, first.sign, first.offset_pulses), (10, -1, 500));
+    assert_eq!(first.pulses_per_mm, 20.0);
+    // The matrix's calibration unless configured.
+    assert_eq!(mbox.boxes[1].calibration.pulses_per_mm, 100.0);
+    let installation = &config.installation;
+    assert!(
+        installation
+            .gateways
+            .iter()
+            .all(|g| g.kind == DriveKind::Mbox)
+    );
+    assert_eq!(installation.stations_on(1), (1..=10).collect::<Vec<u8>>());
+    assert!(parse("").expect("defaults").mbox.is_none());
+    let defaults = parse("[[gateway]]\nkind = \"mbox\"\nport = \"sim\"\n[matrix]\nrows = 1\n")
+        .expect("defaults");
+    let mbox = defaults.mbox.expect("mbox");
+    assert_eq!(mbox.host_port, DEFAULT_MBOX_HOST_PORT);
+    assert_eq!(mbox.frame_period, DEFAULT_MBOX_PERIOD);
+    assert_eq!(mbox.time, floatball_shared::mbox::TimeMode::Relative);
+}
+
+#[test]
+fn mbox_mistakes_are_named_with_their_place() {
+    let wrong = |from: &str, to: &str| {
+        parse(&MBOX.replacen(from, to, 1))
+            .expect_err(to)
+            .to_string()
+    };
+    assert_eq!(
+        wrong("axes = 10", "axes = 4"),
+        "data/floatball.toml line 17, column 8: gateway 2: axes = 4 must be 3, 6 or 10"
+    );
+    assert_eq!(
+        wrong("sign = -1", "sign = 2"),
+        "data/floatball.toml line 12, column 8: gateway 1: sign = 2 must be 1 or -1"
+    );
+    assert_eq!(
+        wrong("time = \"absolute\"", "time = \"later\""),
+        "data/floatball.toml line 7, column 8: time = \"later\" must be \"relative\" or \"absolute\""
+    );
+    assert_eq!(
+        wrong("192.168.15.201:7408", "box-one"),
+        "data/floatball.toml line 10, column 11: gateway 1: \"box-one\" is not an MBOX box's \
+         address and UDP port such as \"192.168.15.201:7408\", nor \"sim\""
+    );
+    assert_eq!(
+        wrong("axes = 10", "axes = 3"),
+        "data/floatball.toml line 14, column 1: gateway 2: axis 4 is beyond the box's 3 axes; \
+         give it at most 3 units (or add a box)"
+    );
+    assert_eq!(
+        wrong("port = \"sim\"\naxes", "kind2 = 1\naxes"),
+        "data/floatball.toml line 16, column 1: unknown field `kind2`, expected one of `kind`, \
+         `port`, `address`, `axes`, `pulses_per_mm`, `sign`, `offset_pulses`, `baud`, \
+         `first_station`, `units`, `stations`"
+    );
+    let mixed = parse(&format!(
+        "{MBOX}[[gateway]]\nkind = \"uim2503\"\nport = \"sim\"\n"
+    ))
+    .expect_err("mixed")
+    .to_string();
+    assert_eq!(
+        mixed,
+        "data/floatball.toml line 19, column 8: gateway 3: kind \"uim2503\" after \"mbox\" \
+         gateways: an installation is either all UIM2503 gateways or all MBOX boxes"
+    );
+    let serial = parse("[[gateway]]\nport = \"sim\"\naxes = 3\n")
+        .expect_err("axes on a uim2503")
+        .to_string();
+    assert_eq!(
+        serial,
+        "data/floatball.toml line 3, column 8: gateway 1: axes is for MBOX boxes (kind = \"mbox\")"
     );
 }

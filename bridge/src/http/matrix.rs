@@ -4,7 +4,8 @@
 //! - `GET /api/plan/{name}`: 200 the bandwidth / feasibility report
 //!   ([`PlanReport`]) of a stored show on this installation; 404.
 //! - `GET /api/sim/positions`: 200 every simulated gateway's units with their true
-//!   positions ([`SimPositions`]; empty when no gateway is simulated).
+//!   positions ([`SimPositions`]; empty when no gateway is simulated), and those of
+//!   the simulated MBOX boxes (`port = "sim"`).
 //!
 //! Both need a [`Session`].
 
@@ -43,5 +44,9 @@ pub async fn sim_positions(State(state): State<AppState>, _session: Session) -> 
         .iter()
         .filter_map(|link| link.sim_view().map(|view| view.positions(link.index())))
         .collect();
-    Json(SimPositions { gateways })
+    let mut boxes = Vec::new();
+    for sim in state.mbox_sims() {
+        boxes.extend(sim.snapshots().await);
+    }
+    Json(SimPositions { gateways, boxes })
 }

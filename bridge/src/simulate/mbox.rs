@@ -17,7 +17,7 @@ use floatball_shared::api::SimBox;
 use floatball_shared::mbox::AxisCount;
 use floatball_shared::mbox::twin::{MboxTwin, TwinConfig};
 use tokio::net::UdpSocket;
-use tokio::sync::watch;
+use tokio::sync::{mpsc, oneshot, watch};
 use tokio::task::JoinHandle;
 
 /// The largest datagram a box takes (anything longer is cut and refused as malformed).
@@ -35,6 +35,40 @@ pub struct MboxOptions {
     pub axes: AxisCount,
     /// The first box's IP address; box `i` has this + `i`.
     pub ip: Ipv4Addr,
+    /// Per cent of datagrams lost on the way in and of replies lost on the way out,
+    /// each box drawing from its own generator seeded with `seed` + its index (a lossy
+    /// network, for tests).
+    pub drop_percent: u8,
+    /// The seed of the losses.
+    pub seed: u64,
+}
+
+/// A lossy network for one box: a seeded xorshift generator.
+#[derive(Debug, Clone, Copy)]
+struct Loss {
+    percent: u64,
+    state: u64,
+}
+
+impl Loss {
+    fn new(percent: u8, seed: u64) -> Self {
+        Self {
+            percent: u64::from(percent.min(100)),
+            // xorshift must not start at 0.
+            state: seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
+        }
+    }
+
+    /// Whether the next datagram is lost.
+    fn drops(&mut self) -> bool {
+        if self.percent == 0 {
+            return false;
+        }
+        self.state ^= self.state << 13;
+        self.state ^= self.state >> 7;
+        self.state ^= self.state << 17;
+        self.state % 100 < self.percent
+    }
 }
 
 /// One running box, as [`MboxBoxes::boxes`] lists it.
@@ -52,6 +86,8 @@ pub struct MboxBoxes {
     boxes: Vec<RunningBox>,
     stop: watch::Sender<bool>,
     tasks: Vec<JoinHandle<SimBox>>,
+    /// Per box: where to ask for its state now.
+    asks: Vec<mpsc::UnboundedSender<oneshot::Sender<SimBox>>>,
 }
 
 impl MboxBoxes {
@@ -60,23 +96,67 @@ impl MboxBoxes {
     /// # Errors
     /// A port or IP address past the last one, or a socket that cannot be bound.
     pub async fn start(options: MboxOptions) -> Result<Self, String> {
+        Self::spawn(options)
+    }
+
+    /// As [`Self::start`], from code that is not async (inside the runtime).
+    ///
+    /// # Errors
+    /// As [`Self::start`].
+    pub fn spawn(options: MboxOptions) -> Result<Self, String> {
         let epoch = Instant::now();
         let (stop, stopped) = watch::channel(false);
         let mut boxes = Vec::with_capacity(usize::from(options.boxes));
         let mut tasks = Vec::with_capacity(usize::from(options.boxes));
+        let mut asks = Vec::with_capacity(usize::from(options.boxes));
         for index in 0..options.boxes {
             let (listen, ip) = box_at(&options, index)?;
-            let socket = UdpSocket::bind(listen)
-                .await
+            let socket = std::net::UdpSocket::bind(listen)
+                .and_then(|socket| {
+                    socket.set_nonblocking(true)?;
+                    UdpSocket::from_std(socket)
+                })
                 .map_err(|err| format!("cannot listen on UDP {listen}: {err}"))?;
             let local = socket
                 .local_addr()
                 .map_err(|err| format!("cannot read the address of UDP {listen}: {err}"))?;
             let twin = MboxTwin::new(TwinConfig::new(ip, options.axes));
             boxes.push(RunningBox { socket: local, ip });
-            tasks.push(tokio::spawn(answer(socket, twin, epoch, stopped.clone())));
+            let loss = Loss::new(
+                options.drop_percent,
+                options.seed.wrapping_add(u64::from(index)),
+            );
+            let (ask, asked) = mpsc::unbounded_channel();
+            asks.push(ask);
+            tasks.push(tokio::spawn(answer(
+                socket,
+                twin,
+                loss,
+                epoch,
+                asked,
+                stopped.clone(),
+            )));
         }
-        Ok(Self { boxes, stop, tasks })
+        Ok(Self {
+            boxes,
+            stop,
+            tasks,
+            asks,
+        })
+    }
+
+    /// Every box's state now, in order (a box that stopped is left out).
+    pub async fn snapshots(&self) -> Vec<SimBox> {
+        let mut snapshots = Vec::with_capacity(self.asks.len());
+        for ask in &self.asks {
+            let (reply, answer) = oneshot::channel();
+            if ask.send(reply).is_ok()
+                && let Ok(snapshot) = answer.await
+            {
+                snapshots.push(snapshot);
+            }
+        }
+        snapshots
     }
 
     /// The boxes, in order.
@@ -129,7 +209,9 @@ fn box_at(options: &MboxOptions, index: u16) -> Result<(SocketAddr, Ipv4Addr), S
 async fn answer(
     socket: UdpSocket,
     mut twin: MboxTwin,
+    mut loss: Loss,
     epoch: Instant,
+    mut asked: mpsc::UnboundedReceiver<oneshot::Sender<SimBox>>,
     mut stop: watch::Receiver<bool>,
 ) -> SimBox {
     let micros = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
@@ -139,7 +221,11 @@ async fn answer(
             received = socket.recv_from(&mut buffer) => match received {
                 Ok((len, sender)) => {
                     let datagram = buffer.get(..len).unwrap_or_default();
+                    if loss.drops() {
+                        continue;
+                    }
                     if let Some(reply) = twin.receive(micros(), datagram)
+                        && !loss.drops()
                         && let Err(err) = socket.send_to(&reply, sender).await
                     {
                         tracing::warn!("simulated MBOX {}: cannot reply to {sender}: {err}", twin.snapshot().ip);
@@ -149,6 +235,10 @@ async fn answer(
                 // here; the box carries on, as a real one does.
                 Err(err) => tracing::debug!("simulated MBOX: receive failed: {err}"),
             },
+            Some(reply) = asked.recv() => {
+                twin.advance(micros());
+                let _ = reply.send(twin.snapshot());
+            }
             _ = stop.changed() => break,
         }
     }

@@ -2,6 +2,7 @@
 //! client that speaks to it over real sockets.
 #![allow(dead_code)] // Each test binary uses its own part of this.
 
+pub mod mbox_sim;
 pub mod process;
 
 use std::net::{IpAddr, SocketAddr};

@@ -28,24 +28,31 @@ pub const STATIONS: RangeInclusive<u8> = 1..=127;
 /// when its installation is not known.
 pub use crate::show::DEFAULT_PITCH_MM;
 
+/// The most axes one MBOX box drives (its 10-axis model).
+pub const MAX_MBOX_AXES: usize = 10;
+
 /// The family of drives behind a gateway: its instruction language, feedback and
-/// limits. Only the UIM2503 exists today; a new family is a new variant here, and the
-/// planner's callers do not change.
+/// limits. A new family is a new variant here, and the planner's callers do not
+/// change.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum DriveKind {
     /// A UIM2503 CAN gateway with its UIM342 units (PROTOCOL).
     #[default]
     Uim2503,
+    /// An MBOX motion controller on UDP driving 3, 6 or 10 axes (`crate::mbox`); a
+    /// unit's station is its axis number, 1 to the box's axes.
+    Mbox,
 }
 
 impl DriveKind {
     /// Every kind, in the order they are listed to people.
-    pub const ALL: [DriveKind; 1] = [DriveKind::Uim2503];
+    pub const ALL: [DriveKind; 2] = [DriveKind::Uim2503, DriveKind::Mbox];
 
     /// Its name in `floatball.toml` (`kind = "uim2503"`).
     pub fn name(self) -> &'static str {
         match self {
             DriveKind::Uim2503 => "uim2503",
+            DriveKind::Mbox => "mbox",
         }
     }
 
@@ -58,6 +65,7 @@ impl DriveKind {
     pub fn max_units(self) -> usize {
         match self {
             DriveKind::Uim2503 => MAX_UNITS_PER_GATEWAY,
+            DriveKind::Mbox => MAX_MBOX_AXES,
         }
     }
 }
@@ -538,7 +546,9 @@ mod tests {
             assert_eq!(kind.to_string(), kind.name());
         }
         assert_eq!(DriveKind::from_name("uim2503"), Some(DriveKind::Uim2503));
-        assert_eq!(DriveKind::from_name("mbox"), None);
+        assert_eq!(DriveKind::from_name("mbox"), Some(DriveKind::Mbox));
+        assert_eq!(DriveKind::Mbox.max_units(), MAX_MBOX_AXES);
+        assert_eq!(DriveKind::from_name("uim342"), None);
         assert_eq!(DriveKind::default(), DriveKind::Uim2503);
     }
 }

@@ -40,6 +40,7 @@
 //! ```
 
 pub mod installation;
+pub mod mbox;
 pub mod player;
 pub mod report;
 pub mod schedule;
@@ -51,7 +52,8 @@ mod player_tests;
 use thiserror::Error;
 
 pub use installation::{
-    AllocationError, DriveKind, GatewaySpec, Installation, MAX_UNITS_PER_GATEWAY, UnitAddress,
+    AllocationError, DriveKind, GatewaySpec, Installation, MAX_MBOX_AXES, MAX_UNITS_PER_GATEWAY,
+    UnitAddress,
 };
 
 use crate::line::Line;

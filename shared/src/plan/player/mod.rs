@@ -54,6 +54,74 @@ pub const REFILL_LOW_BYTES: usize = 256;
 /// How often the player wants to be polled while something is under way, µs.
 pub const TICK_US: u64 = 10_000;
 
+/// Where a player is in its playlist, as the status shows it: the one place both
+/// players (this one and [`super::mbox::MboxPlayer`]) turn it into a [`Status`].
+#[derive(Debug, Clone)]
+pub(crate) struct PlaylistProgress {
+    pub(crate) state: PlayerState,
+    /// The entry being played, its show's name and duration, ms; `None` when no
+    /// entry is (idle, stopped, homing to rest).
+    pub(crate) playing: Option<(usize, String, u64)>,
+    pub(crate) show_time_ms: u64,
+    pub(crate) cycle: u32,
+    pub(crate) progress: f64,
+    pub(crate) last_error: Option<String>,
+}
+
+impl PlaylistProgress {
+    /// The status (the bridge adds the gateways).
+    pub(crate) fn status(self) -> Status {
+        let playing = self.playing.is_some();
+        let (entry, show, show_duration_ms) = match self.playing {
+            Some((entry, show, duration_ms)) => (Some(entry), Some(show), duration_ms),
+            None => (None, None, 0),
+        };
+        Status {
+            state: self.state,
+            entry,
+            show,
+            show_time_ms: if playing { self.show_time_ms } else { 0 },
+            show_duration_ms,
+            cycle: if playing { self.cycle } else { 0 },
+            progress: self.progress,
+            gateways: Vec::new(),
+            last_error: self.last_error,
+        }
+    }
+}
+
+/// What follows a show's cycle: another cycle, the next entry, the playlist again, or
+/// rest — the same for both players.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum NextRun {
+    /// The same entry again (`cycle` was counted up).
+    Cycle,
+    /// This entry from its start.
+    Entry(usize),
+    /// The playlist is over.
+    Rest,
+}
+
+/// What follows cycle `cycle` of entry `entry` (of `entries`, each with its cycles).
+pub(crate) fn next_run(
+    entries: &[Entry],
+    entry: usize,
+    cycle: &mut u32,
+    loop_playlist: bool,
+) -> NextRun {
+    let cycles = entries.get(entry).map_or(1, |entry| entry.cycles.max(1));
+    if *cycle < cycles {
+        *cycle += 1;
+        NextRun::Cycle
+    } else if entry + 1 < entries.len() {
+        NextRun::Entry(entry + 1)
+    } else if loop_playlist {
+        NextRun::Entry(0)
+    } else {
+        NextRun::Rest
+    }
+}
+
 /// What the player needs to know about the machine.
 #[derive(Debug, Clone)]
 pub struct PlayerConfig {
@@ -244,17 +312,15 @@ impl Player {
         ) && self.after_home == AfterHome::Rest;
         let active = self.is_active() && !homing_to_rest;
         let plan = active.then(|| self.plans.get(self.entry)).flatten();
-        Status {
+        PlaylistProgress {
             state,
-            entry: plan.map(|_| self.entry),
-            show: plan.map(|plan| plan.show.clone()),
-            show_time_ms: if plan.is_some() { self.show_time_ms } else { 0 },
-            show_duration_ms: plan.map_or(0, |plan| plan.duration_ms),
-            cycle: if plan.is_some() { self.cycle } else { 0 },
+            playing: plan.map(|plan| (self.entry, plan.show.clone(), plan.duration_ms)),
+            show_time_ms: self.show_time_ms,
+            cycle: self.cycle,
             progress: self.progress,
-            gateways: Vec::new(),
             last_error: self.last_error.clone(),
         }
+        .status()
     }
 
     /// The lowest FIFO water level of each gateway during the current show (modelled

@@ -3,7 +3,7 @@
 //! [`schedule`](crate::plan::schedule), and, when a show ends, the next cycle, the
 //! next entry, or the end of the playlist (or its start again, looping).
 
-use super::{Command, LinkView, Player, REFILL_LOW_BYTES, Step};
+use super::{Command, LinkView, NextRun, Player, REFILL_LOW_BYTES, Step, next_run};
 use crate::plan::{RunMode, schedule, stream};
 
 /// Time after the last row for the last ball to settle, µs.
@@ -37,20 +37,18 @@ impl Player {
                     .map_or(unit.start_counts, |row| row.position_counts),
             );
         }
-        let cycles = self
-            .entries
-            .get(self.entry)
-            .map_or(1, |entry| entry.cycles.max(1));
-        if self.cycle < cycles {
-            self.cycle += 1;
-            self.begin_approach(now_us);
-        } else if self.entry + 1 < self.plans.len() {
-            self.begin_entry(now_us, self.entry + 1);
-        } else if self.loop_playlist {
-            self.begin_entry(now_us, 0);
-        } else {
-            self.step = Step::Idle;
-            self.progress = 1.0;
+        match next_run(
+            &self.entries,
+            self.entry,
+            &mut self.cycle,
+            self.loop_playlist,
+        ) {
+            NextRun::Cycle => self.begin_approach(now_us),
+            NextRun::Entry(entry) => self.begin_entry(now_us, entry),
+            NextRun::Rest => {
+                self.step = Step::Idle;
+                self.progress = 1.0;
+            }
         }
     }
 

@@ -1,0 +1,532 @@
+//! The MBOX boxes of an installation on one UDP socket ([`MboxNet`]).
+//!
+//! **One socket, one owner.** The host's socket is bound once (the `[mbox]` host port)
+//! and shared by two threads: the **sender** owns the send side, the motion frames
+//! waiting to go, the e-stop and release repeats, the poll schedule and the
+//! per-box counters it writes (atomics the status reads); the **receiver** matches
+//! replies to boxes by their source address and records them (atomics too). Only the
+//! configured addresses are ever sent to.
+//!
+//! **Polling.** Every [`POLL_INTERVAL`] each box is asked for its e-stop register
+//! (FN `0x0090`). A box that has not answered for [`DOWN_AFTER`] is `down` in the
+//! status, with an error saying so; it is polled on, and comes back `up` with its next
+//! answer. Every unanswered poll is counted. An answer that disagrees with the latch
+//! (a box still stopped after a release, or running while the e-stop is latched) gets
+//! the register written again: a lost release or e-stop datagram is made good.
+//!
+//! **The e-stop waits on nothing.** [`crate::estop::press`] bumps the latch's
+//! generation and [`MboxNet::wake`] unparks the sender, which before anything else
+//! drops every queued frame, writes FN `0x0090` = 1 to every box, and repeats it
+//! [`ESTOP_REPEATS`] times [`ESTOP_REPEAT_INTERVAL`] apart (UDP may lose a datagram).
+//! While the latch is set no motion frame is sent; frames issued before the e-stop are
+//! void. The first frame after a release (Start, Reset or Home) is preceded by FN
+//! `0x0090` = 0 to every box, repeated the same way.
+//!
+//! A box's datagrams name every box as receiver (`0xFFFF`): each is sent to one box's
+//! own address and port, so the box need not know its configured address.
+
+use std::net::{SocketAddr, UdpSocket};
+use std::sync::atomic::{AtomicBool, AtomicU16, AtomicU64, Ordering};
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::sync::{Arc, OnceLock};
+use std::thread::Thread;
+use std::time::{Duration, Instant};
+
+use floatball_shared::api::{GatewayStatus, LinkState};
+use floatball_shared::mbox::register::FN_ESTOP;
+use floatball_shared::mbox::{
+    AxisPositions, BoxAddress, Datagram, DigitalOutputs, Encode, MotionFrame, ReadBank,
+    RegisterRange, RegisterRead, RegisterWrite, Route, TimeCode, TimeMode,
+};
+use floatball_shared::plan::mbox::MboxFrame;
+
+use crate::estop::Latch;
+
+/// How often each box is asked for its e-stop register.
+pub const POLL_INTERVAL: Duration = Duration::from_millis(500);
+/// How long a box may leave polls unanswered before it is `down`.
+pub const DOWN_AFTER: Duration = Duration::from_millis(1_600);
+/// How many times the e-stop (and its release) is sent again after the first.
+pub const ESTOP_REPEATS: u32 = 3;
+/// The time between two repeats of the e-stop or its release.
+pub const ESTOP_REPEAT_INTERVAL: Duration = Duration::from_millis(10);
+
+/// One box's counters and last answer: written by the sender and the receiver,
+/// read by anyone.
+#[derive(Debug)]
+struct BoxShared {
+    address: SocketAddr,
+    /// Datagrams sent to it.
+    sent: AtomicU64,
+    /// Motion frames sent more than half a period after their slot.
+    late_frames: AtomicU64,
+    /// Polls it left unanswered.
+    missed_replies: AtomicU64,
+    /// Poll answers.
+    replies: AtomicU64,
+    /// µs since the epoch of its last answer + 1 (0: never answered).
+    answered_us: AtomicU64,
+    /// Its e-stop register as last read (`u16::MAX`: never read).
+    estop_register: AtomicU16,
+    /// Datagrams a second over the last second, as `f64` bits.
+    packets_per_s: AtomicU64,
+}
+
+#[derive(Debug)]
+struct Shared {
+    boxes: Vec<BoxShared>,
+    latch: Arc<Latch>,
+    sender: OnceLock<Thread>,
+    closed: AtomicBool,
+    epoch: Instant,
+    period: Duration,
+    time: TimeMode,
+    /// Datagrams from addresses that are not configured, or that are not poll answers.
+    unexpected: AtomicU64,
+}
+
+impl Shared {
+    fn micros(&self) -> u64 {
+        u64::try_from(self.epoch.elapsed().as_micros()).unwrap_or(u64::MAX)
+    }
+}
+
+/// A frame handed to the sender: issued at an e-stop generation, for a slot.
+#[derive(Debug)]
+struct Outgoing {
+    generation: u64,
+    slot: Instant,
+    frame: MboxFrame,
+}
+
+/// The boxes of an installation; see the [module documentation](self). Cheap to
+/// clone; the threads stop when the last handle is dropped.
+#[derive(Debug, Clone)]
+pub struct MboxNet {
+    shared: Arc<Shared>,
+    frames: Sender<Outgoing>,
+    _close: Arc<CloseOnDrop>,
+}
+
+#[derive(Debug)]
+struct CloseOnDrop(Arc<Shared>);
+
+impl Drop for CloseOnDrop {
+    fn drop(&mut self) {
+        self.0.closed.store(true, Ordering::Release);
+        if let Some(sender) = self.0.sender.get() {
+            sender.unpark();
+        }
+    }
+}
+
+impl MboxNet {
+    /// Binds the host's UDP socket on `host_port` (0: any free port) and starts the
+    /// sender and the receiver for the boxes at `addresses`, obeying `latch`.
+    ///
+    /// # Errors
+    /// The socket cannot be bound, or a thread cannot start.
+    pub fn open(
+        host_port: u16,
+        addresses: &[SocketAddr],
+        period: Duration,
+        time: TimeMode,
+        latch: Arc<Latch>,
+    ) -> Result<Self, String> {
+        let socket = UdpSocket::bind(("0.0.0.0", host_port))
+            .map_err(|err| format!("cannot bind the MBOX host port UDP {host_port}: {err}"))?;
+        let receiving = socket
+            .try_clone()
+            .map_err(|err| format!("cannot share the MBOX socket: {err}"))?;
+        receiving
+            .set_read_timeout(Some(Duration::from_millis(100)))
+            .map_err(|err| format!("cannot set the MBOX socket's timeout: {err}"))?;
+        let shared = Arc::new(Shared {
+            boxes: addresses
+                .iter()
+                .map(|&address| BoxShared {
+                    address,
+                    sent: AtomicU64::new(0),
+                    late_frames: AtomicU64::new(0),
+                    missed_replies: AtomicU64::new(0),
+                    replies: AtomicU64::new(0),
+                    answered_us: AtomicU64::new(0),
+                    estop_register: AtomicU16::new(u16::MAX),
+                    packets_per_s: AtomicU64::new(0),
+                })
+                .collect(),
+            latch,
+            sender: OnceLock::new(),
+            closed: AtomicBool::new(false),
+            epoch: Instant::now(),
+            period,
+            time,
+            unexpected: AtomicU64::new(0),
+        });
+        let (frames, inbox) = channel();
+        let sending = Arc::clone(&shared);
+        let sender = std::thread::Builder::new()
+            .name("mbox-send".to_owned())
+            .spawn(move || Outbox::new(&sending, socket).run(&inbox))
+            .map_err(|err| format!("cannot start the MBOX sender: {err}"))?;
+        let _ = shared.sender.set(sender.thread().clone());
+        let receiver_shared = Arc::clone(&shared);
+        std::thread::Builder::new()
+            .name("mbox-receive".to_owned())
+            .spawn(move || receive(&receiver_shared, &receiving))
+            .map_err(|err| format!("cannot start the MBOX receiver: {err}"))?;
+        Ok(Self {
+            _close: Arc::new(CloseOnDrop(Arc::clone(&shared))),
+            shared,
+            frames,
+        })
+    }
+
+    /// Wakes the sender: it looks at the latch at once (the e-stop path).
+    pub fn wake(&self) {
+        if let Some(sender) = self.shared.sender.get() {
+            sender.unpark();
+        }
+    }
+
+    /// The boxes the e-stop cannot be confirmed to reach now (down), with the reason.
+    pub fn unreachable(&self) -> Vec<String> {
+        (0..self.shared.boxes.len())
+            .filter(|&index| self.state(index) == LinkState::Down)
+            .map(|index| {
+                format!(
+                    "MBOX box {index} ({}) does not answer",
+                    self.shared.boxes[index].address
+                )
+            })
+            .collect()
+    }
+
+    /// Hands `frame`, issued at e-stop `generation`, to the sender for its slot.
+    pub fn send(&self, frame: MboxFrame, slot: Instant, generation: u64) {
+        if self
+            .frames
+            .send(Outgoing {
+                generation,
+                slot,
+                frame,
+            })
+            .is_ok()
+        {
+            self.wake();
+        }
+    }
+
+    /// How many boxes.
+    pub fn len(&self) -> usize {
+        self.shared.boxes.len()
+    }
+
+    /// Whether there is no box.
+    pub fn is_empty(&self) -> bool {
+        self.shared.boxes.is_empty()
+    }
+
+    /// Box `index`'s link state: up while it answers polls.
+    pub fn state(&self, index: usize) -> LinkState {
+        let Some(one) = self.shared.boxes.get(index) else {
+            return LinkState::Down;
+        };
+        let now = self.shared.micros();
+        let limit = u64::try_from(DOWN_AFTER.as_micros()).unwrap_or(u64::MAX);
+        match one.answered_us.load(Ordering::Acquire) {
+            0 if now < limit => LinkState::Connecting,
+            0 => LinkState::Down,
+            answered if now.saturating_sub(answered - 1) <= limit => LinkState::Up,
+            _ => LinkState::Down,
+        }
+    }
+
+    /// Whether every box answers.
+    pub fn all_up(&self) -> bool {
+        (0..self.len()).all(|index| self.state(index) == LinkState::Up)
+    }
+
+    /// Every box's status, in gateway order.
+    pub fn statuses(&self) -> Vec<GatewayStatus> {
+        self.shared
+            .boxes
+            .iter()
+            .enumerate()
+            .map(|(index, one)| {
+                let link = self.state(index);
+                GatewayStatus {
+                    port: one.address.to_string(),
+                    link,
+                    bytes_per_s: 0.0,
+                    lowest_water_level: None,
+                    error: (link == LinkState::Down).then(|| {
+                        format!(
+                            "MBOX box at {} does not answer its register reads; retrying",
+                            one.address
+                        )
+                    }),
+                    packets_per_s: Some(f64::from_bits(one.packets_per_s.load(Ordering::Acquire))),
+                    late_frames: Some(one.late_frames.load(Ordering::Acquire)),
+                    missed_replies: Some(one.missed_replies.load(Ordering::Acquire)),
+                }
+            })
+            .collect()
+    }
+
+    /// Datagrams sent to box `index` so far.
+    pub fn sent(&self, index: usize) -> u64 {
+        self.shared
+            .boxes
+            .get(index)
+            .map_or(0, |one| one.sent.load(Ordering::Acquire))
+    }
+}
+
+/// The sender thread's own state.
+struct Outbox<'a> {
+    shared: &'a Shared,
+    socket: UdpSocket,
+    seen_generation: u64,
+    /// The register value being repeated (1 e-stop, 0 release), and how often still.
+    repeating: Option<(u16, u32)>,
+    next_repeat: Instant,
+    /// A release must go before the next motion frame.
+    needs_release: bool,
+    next_poll: Instant,
+    /// Per box: a poll is unanswered (replies count when it was sent).
+    polled: Vec<Option<u64>>,
+    sequence: Vec<u32>,
+    meter_since: Instant,
+    meter_sent: Vec<u64>,
+}
+
+impl<'a> Outbox<'a> {
+    fn new(shared: &'a Shared, socket: UdpSocket) -> Self {
+        let now = Instant::now();
+        let boxes = shared.boxes.len();
+        Self {
+            shared,
+            socket,
+            seen_generation: shared.latch.generation(),
+            repeating: None,
+            next_repeat: now,
+            needs_release: true,
+            next_poll: now,
+            polled: vec![None; boxes],
+            sequence: vec![0; boxes],
+            meter_since: now,
+            meter_sent: vec![0; boxes],
+        }
+    }
+
+    fn send_to(&self, index: usize, datagram: &[u8]) {
+        let Some(one) = self.shared.boxes.get(index) else {
+            return;
+        };
+        match self.socket.send_to(datagram, one.address) {
+            Ok(_) => {
+                one.sent.fetch_add(1, Ordering::AcqRel);
+            }
+            Err(err) => tracing::debug!("MBOX box {index} ({}): send failed: {err}", one.address),
+        }
+    }
+
+    /// Writes FN `0x0090` = `value` to every box.
+    fn write_estop(&self, value: u16) {
+        let write = if value == 0 {
+            RegisterWrite::release_estop(Route::BROADCAST_SILENT)
+        } else {
+            RegisterWrite::estop(Route::BROADCAST_SILENT)
+        };
+        let bytes = write.encode();
+        for index in 0..self.shared.boxes.len() {
+            self.send_to(index, &bytes);
+        }
+    }
+
+    /// Acts on a new e-stop generation: the stop goes out before anything else.
+    fn observe_latch(&mut self, inbox: &Receiver<Outgoing>) {
+        let generation = self.shared.latch.generation();
+        if generation == self.seen_generation {
+            return;
+        }
+        self.seen_generation = generation;
+        self.write_estop(1);
+        self.repeating = Some((1, ESTOP_REPEATS));
+        self.next_repeat = Instant::now() + ESTOP_REPEAT_INTERVAL;
+        self.needs_release = true;
+        while inbox.try_recv().is_ok() {}
+    }
+
+    fn frame(&mut self, outgoing: Outgoing) {
+        if outgoing.generation != self.seen_generation || self.shared.latch.is_latched() {
+            return;
+        }
+        if self.needs_release {
+            self.needs_release = false;
+            self.write_estop(0);
+            self.repeating = Some((0, ESTOP_REPEATS));
+            self.next_repeat = Instant::now() + ESTOP_REPEAT_INTERVAL;
+        }
+        let MboxFrame {
+            slot_us,
+            time_ms,
+            positions_pulses,
+        } = outgoing.frame;
+        let time_code = match self.shared.time {
+            TimeMode::Relative => TimeCode::from_ms(time_ms),
+            // The moment to arrive, ms on the player's clock (never 0).
+            TimeMode::Absolute => TimeCode::from_ms(
+                u32::try_from(slot_us / 1_000)
+                    .unwrap_or(u32::MAX)
+                    .saturating_add(time_ms)
+                    .max(1),
+            ),
+        };
+        for (index, positions) in positions_pulses.iter().enumerate() {
+            let Ok(positions_pulses) = AxisPositions::from_slice(positions) else {
+                continue;
+            };
+            let Some(sequence) = self.sequence.get_mut(index) else {
+                continue;
+            };
+            *sequence = sequence.wrapping_add(1).max(1);
+            let datagram = MotionFrame {
+                mode: self.shared.time,
+                route: Route::BROADCAST_SILENT,
+                sequence: *sequence,
+                time_code,
+                positions_pulses,
+                digital: DigitalOutputs::NONE,
+                analog: [0, 0],
+            };
+            self.send_to(index, &datagram.encode());
+        }
+        let late = Instant::now().saturating_duration_since(outgoing.slot) > self.shared.period / 2;
+        if late {
+            for one in &self.shared.boxes {
+                one.late_frames.fetch_add(1, Ordering::AcqRel);
+            }
+        }
+    }
+
+    /// Polls every box's e-stop register; counts the polls left unanswered; writes
+    /// the register again where the answer disagrees with the latch.
+    fn poll(&mut self) {
+        let read = RegisterRead {
+            bank: ReadBank::Fn,
+            route: Route {
+                receiver: BoxAddress::ALL,
+                replier: BoxAddress::ALL,
+            },
+            range: match RegisterRange::new(FN_ESTOP, 1) {
+                Ok(range) => range,
+                Err(_) => return,
+            },
+        }
+        .encode();
+        let latched = self.shared.latch.is_latched();
+        for index in 0..self.shared.boxes.len() {
+            let one = &self.shared.boxes[index];
+            let replies = one.replies.load(Ordering::Acquire);
+            if let Some(sent_at) = self.polled[index]
+                && replies == sent_at
+            {
+                one.missed_replies.fetch_add(1, Ordering::AcqRel);
+            }
+            let register = one.estop_register.load(Ordering::Acquire);
+            let wanted = if latched {
+                Some(1)
+            } else if self.needs_release {
+                None
+            } else {
+                Some(0)
+            };
+            if let Some(wanted) = wanted
+                && register != u16::MAX
+                && register != wanted
+            {
+                let write = if wanted == 0 {
+                    RegisterWrite::release_estop(Route::BROADCAST_SILENT)
+                } else {
+                    RegisterWrite::estop(Route::BROADCAST_SILENT)
+                };
+                self.send_to(index, &write.encode());
+            }
+            self.polled[index] = Some(replies);
+            self.send_to(index, &read);
+        }
+    }
+
+    fn meter(&mut self, now: Instant) {
+        let elapsed = now.saturating_duration_since(self.meter_since);
+        if elapsed < Duration::from_secs(1) {
+            return;
+        }
+        for (one, last) in self.shared.boxes.iter().zip(&mut self.meter_sent) {
+            let sent = one.sent.load(Ordering::Acquire);
+            let rate = (sent - *last) as f64 / elapsed.as_secs_f64();
+            one.packets_per_s.store(rate.to_bits(), Ordering::Release);
+            *last = sent;
+        }
+        self.meter_since = now;
+    }
+
+    fn run(mut self, inbox: &Receiver<Outgoing>) {
+        while !self.shared.closed.load(Ordering::Acquire) {
+            self.observe_latch(inbox);
+            while let Ok(outgoing) = inbox.try_recv() {
+                self.observe_latch(inbox);
+                self.frame(outgoing);
+            }
+            let now = Instant::now();
+            if let Some((value, left)) = self.repeating
+                && now >= self.next_repeat
+            {
+                self.write_estop(value);
+                self.repeating = (left > 1).then_some((value, left - 1));
+                self.next_repeat = now + ESTOP_REPEAT_INTERVAL;
+            }
+            if now >= self.next_poll {
+                self.poll();
+                self.next_poll = now + POLL_INTERVAL;
+            }
+            self.meter(now);
+            let mut wake = self.next_poll;
+            if self.repeating.is_some() {
+                wake = wake.min(self.next_repeat);
+            }
+            std::thread::park_timeout(wake.saturating_duration_since(Instant::now()));
+        }
+    }
+}
+
+/// The receiver thread: matches answers to boxes by source address.
+fn receive(shared: &Shared, socket: &UdpSocket) {
+    let mut buffer = vec![0u8; 2048];
+    while !shared.closed.load(Ordering::Acquire) {
+        let (len, from) = match socket.recv_from(&mut buffer) {
+            Ok(received) => received,
+            // Timeouts, and ICMP "port unreachable" from a box that is not there.
+            Err(_) => continue,
+        };
+        let Some(one) = shared.boxes.iter().find(|one| one.address == from) else {
+            shared.unexpected.fetch_add(1, Ordering::Relaxed);
+            continue;
+        };
+        match Datagram::decode(buffer.get(..len).unwrap_or_default()) {
+            Ok(Datagram::ReadReply(reply)) if reply.bank == ReadBank::Fn => {
+                if let Some(value) = reply.block.get(FN_ESTOP) {
+                    one.estop_register.store(value, Ordering::Release);
+                }
+                one.answered_us
+                    .store(shared.micros().saturating_add(1), Ordering::Release);
+                one.replies.fetch_add(1, Ordering::AcqRel);
+            }
+            _ => {
+                shared.unexpected.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+}
