@@ -83,6 +83,117 @@ struct Shared {
     time: TimeMode,
     /// Datagrams from addresses that are not configured, or that are not poll answers.
     unexpected: AtomicU64,
+    timing: Timing,
+}
+
+/// Width of one bucket of the send-lateness histogram.
+const LATENESS_BUCKET_US: u64 = 50;
+/// Buckets of the histogram: 0–12.8 ms by 50 µs, the last one for anything later.
+const LATENESS_BUCKETS: usize = 257;
+
+/// How late the motion frames left: counters and a histogram the sender writes with
+/// relaxed atomic adds (no lock on the send path), read by [`MboxNet::timing`].
+#[derive(Debug)]
+struct Timing {
+    /// Motion frames sent (one per frame period, to every box).
+    frames: AtomicU64,
+    /// Of them, sent more than half a period after their slot.
+    late: AtomicU64,
+    /// Per bucket of [`LATENESS_BUCKET_US`]: frames whose first datagram left that late.
+    lateness: [AtomicU64; LATENESS_BUCKETS],
+    /// The latest a frame's first datagram left, µs after its slot.
+    max_lateness_us: AtomicU64,
+    /// The longest a frame took from its first datagram to its last, µs.
+    max_spread_us: AtomicU64,
+}
+
+impl Timing {
+    fn new() -> Self {
+        Self {
+            frames: AtomicU64::new(0),
+            late: AtomicU64::new(0),
+            lateness: std::array::from_fn(|_| AtomicU64::new(0)),
+            max_lateness_us: AtomicU64::new(0),
+            max_spread_us: AtomicU64::new(0),
+        }
+    }
+
+    fn record(&self, lateness: Duration, spread: Duration, late: bool) {
+        let lateness_us = u64::try_from(lateness.as_micros()).unwrap_or(u64::MAX);
+        let spread_us = u64::try_from(spread.as_micros()).unwrap_or(u64::MAX);
+        let bucket = usize::try_from(lateness_us / LATENESS_BUCKET_US)
+            .unwrap_or(usize::MAX)
+            .min(LATENESS_BUCKETS - 1);
+        self.lateness[bucket].fetch_add(1, Ordering::Relaxed);
+        self.max_lateness_us
+            .fetch_max(lateness_us, Ordering::Relaxed);
+        self.max_spread_us.fetch_max(spread_us, Ordering::Relaxed);
+        self.late.fetch_add(u64::from(late), Ordering::Relaxed);
+        self.frames.fetch_add(1, Ordering::Release);
+    }
+
+    fn snapshot(&self, boxes: &[BoxShared]) -> MboxTiming {
+        let lateness: Vec<u64> = self
+            .lateness
+            .iter()
+            .map(|bucket| bucket.load(Ordering::Relaxed))
+            .collect();
+        MboxTiming {
+            frames_sent: self.frames.load(Ordering::Acquire),
+            late_frames: self.late.load(Ordering::Relaxed),
+            datagrams_sent: boxes
+                .iter()
+                .map(|one| one.sent.load(Ordering::Relaxed))
+                .sum(),
+            lateness_bucket_us: LATENESS_BUCKET_US,
+            lateness,
+            max_lateness_us: self.max_lateness_us.load(Ordering::Relaxed),
+            max_spread_us: self.max_spread_us.load(Ordering::Relaxed),
+        }
+    }
+}
+
+/// How the motion frames left, since the boxes were opened (`GET /api/mbox/timing`).
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct MboxTiming {
+    /// Motion frames sent (each to every box).
+    pub frames_sent: u64,
+    /// Of them, sent more than half a frame period after their slot.
+    pub late_frames: u64,
+    /// Datagrams sent to all boxes: motion frames, polls, e-stops and releases.
+    pub datagrams_sent: u64,
+    /// The width of one bucket of `lateness`.
+    pub lateness_bucket_us: u64,
+    /// How many frames' first datagram left `i × lateness_bucket_us` µs (up to the
+    /// next bucket) after their slot; the last bucket holds anything later.
+    pub lateness: Vec<u64>,
+    /// The latest a frame's first datagram left after its slot, µs.
+    pub max_lateness_us: u64,
+    /// The longest a frame took from its first datagram to its last, µs.
+    pub max_spread_us: u64,
+}
+
+impl MboxTiming {
+    /// The lateness (µs, the upper edge of its bucket) that `fraction` (0–1) of the
+    /// frames left within, from the frames counted in `self` and not in `before`.
+    pub fn lateness_quantile_us(&self, before: &Self, fraction: f64) -> u64 {
+        let counts: Vec<u64> = self
+            .lateness
+            .iter()
+            .enumerate()
+            .map(|(index, count)| count - before.lateness.get(index).copied().unwrap_or(0))
+            .collect();
+        let total: u64 = counts.iter().sum();
+        let wanted = (fraction * total as f64).ceil().max(1.0) as u64;
+        let mut seen = 0;
+        for (index, count) in counts.iter().enumerate() {
+            seen += count;
+            if seen >= wanted {
+                return (index as u64 + 1) * self.lateness_bucket_us;
+            }
+        }
+        0
+    }
 }
 
 impl Shared {
@@ -162,6 +273,7 @@ impl MboxNet {
             period,
             time,
             unexpected: AtomicU64::new(0),
+            timing: Timing::new(),
         });
         let (frames, inbox) = channel();
         let sending = Arc::clone(&shared);
@@ -274,6 +386,11 @@ impl MboxNet {
             .collect()
     }
 
+    /// How the motion frames left so far.
+    pub fn timing(&self) -> MboxTiming {
+        self.shared.timing.snapshot(&self.shared.boxes)
+    }
+
     /// Datagrams sent to box `index` so far.
     pub fn sent(&self, index: usize) -> u64 {
         self.shared
@@ -384,6 +501,7 @@ impl<'a> Outbox<'a> {
                     .max(1),
             ),
         };
+        let started = Instant::now();
         for (index, positions) in positions_pulses.iter().enumerate() {
             let Ok(positions_pulses) = AxisPositions::from_slice(positions) else {
                 continue;
@@ -403,7 +521,13 @@ impl<'a> Outbox<'a> {
             };
             self.send_to(index, &datagram.encode());
         }
-        let late = Instant::now().saturating_duration_since(outgoing.slot) > self.shared.period / 2;
+        let finished = Instant::now();
+        let late = finished.saturating_duration_since(outgoing.slot) > self.shared.period / 2;
+        self.shared.timing.record(
+            started.saturating_duration_since(outgoing.slot),
+            finished.saturating_duration_since(started),
+            late,
+        );
         if late {
             for one in &self.shared.boxes {
                 one.late_frames.fetch_add(1, Ordering::AcqRel);

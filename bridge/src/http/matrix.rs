@@ -6,8 +6,11 @@
 //! - `GET /api/sim/positions`: 200 every simulated gateway's units with their true
 //!   positions ([`SimPositions`]; empty when no gateway is simulated), and those of
 //!   the simulated MBOX boxes (`port = "sim"`).
+//! - `GET /api/mbox/timing`: 200 how the motion frames left for the MBOX boxes
+//!   ([`MboxTiming`]: frames sent, late frames, a histogram of how late each left
+//!   after its slot); 404 when the installation has no MBOX boxes.
 //!
-//! Both need a [`Session`].
+//! All need a [`Session`].
 
 use axum::Json;
 use axum::extract::State;
@@ -18,6 +21,7 @@ use floatball_shared::plan::report::report;
 use super::library::{NameParam, store_failure};
 use super::session::Session;
 use super::{Failure, blocking};
+use crate::mbox::MboxTiming;
 use crate::state::AppState;
 
 /// `GET /api/plan/{name}`.
@@ -49,4 +53,21 @@ pub async fn sim_positions(State(state): State<AppState>, _session: Session) -> 
         boxes.extend(sim.snapshots().await);
     }
     Json(SimPositions { gateways, boxes })
+}
+
+/// `GET /api/mbox/timing`.
+pub async fn mbox_timing(
+    State(state): State<AppState>,
+    _session: Session,
+) -> Result<Json<MboxTiming>, Failure> {
+    state
+        .playback()
+        .boxes()
+        .map(|boxes| Json(boxes.timing()))
+        .ok_or_else(|| {
+            Failure::new(
+                axum::http::StatusCode::NOT_FOUND,
+                "this installation has no MBOX boxes",
+            )
+        })
 }

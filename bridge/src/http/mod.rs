@@ -53,6 +53,7 @@ pub fn router(state: &AppState) -> Router<AppState> {
         )
         .route("/plan/{name}", get(matrix::plan))
         .route("/sim/positions", get(matrix::sim_positions))
+        .route("/mbox/timing", get(matrix::mbox_timing))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(map_response(json_errors))
