@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use common::mbox_sim::Simulator;
 use common::process::{Process, links_up};
-use common::{Ws, send_text};
+use common::{Ws, send_text, until};
 use floatball_shared::api::{PlayerState, ServerMessage, SimBox, SimPositions, Status};
 use floatball_shared::mbox::register::FN_ESTOP;
 use floatball_shared::mbox::{
@@ -88,39 +88,6 @@ fn config(gateways: &[String]) -> String {
         ));
     }
     text
-}
-
-/// Reads statuses until `wanted` holds, within `limit`; returns every state seen
-/// on the way and the matching status.
-async fn until(
-    ws: &mut Ws,
-    limit: Duration,
-    wanted: impl Fn(&Status) -> bool,
-) -> (Vec<PlayerState>, Status) {
-    let deadline = tokio::time::Instant::now() + limit;
-    let mut states = Vec::new();
-    loop {
-        let frame = tokio::time::timeout_at(deadline, ws.next())
-            .await
-            .unwrap_or_else(|_| panic!("no such status within {limit:?}; seen {states:?}"))
-            .expect("open")
-            .expect("frame");
-        let tokio_tungstenite::tungstenite::Message::Text(text) = frame else {
-            continue;
-        };
-        match serde_json::from_str(text.as_str()) {
-            Ok(ServerMessage::Status(status)) => {
-                if states.last() != Some(&status.state) {
-                    states.push(status.state);
-                }
-                if wanted(&status) {
-                    return (states, status);
-                }
-            }
-            Ok(ServerMessage::Error { message }) => panic!("error: {message}"),
-            _ => {}
-        }
-    }
 }
 
 /// Sends `message` (`start` or `reset`) and reads statuses until the playlist has

@@ -46,6 +46,11 @@ impl Simulator {
         (Self { child, stdout }, sockets)
     }
 
+    /// Its process id.
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
     /// Stops it with SIGTERM, as an operator's Ctrl-C would; returns every box's final
     /// state.
     pub fn stop(mut self) -> Vec<SimBox> {

@@ -370,3 +370,41 @@ pub fn static_dir(data: &Path) -> std::path::PathBuf {
     .expect("index");
     static_dir
 }
+
+/// Reads statuses until `wanted` holds, within `limit`; returns every state seen
+/// on the way and the matching status.
+pub async fn until(
+    ws: &mut Ws,
+    limit: Duration,
+    wanted: impl Fn(&floatball_shared::api::Status) -> bool,
+) -> (
+    Vec<floatball_shared::api::PlayerState>,
+    floatball_shared::api::Status,
+) {
+    let deadline = tokio::time::Instant::now() + limit;
+    let mut states = Vec::new();
+    loop {
+        let frame = tokio::time::timeout_at(deadline, futures_util::StreamExt::next(ws))
+            .await
+            .unwrap_or_else(|_| panic!("no such status within {limit:?}; seen {states:?}"))
+            .expect("open")
+            .expect("frame");
+        let tokio_tungstenite::tungstenite::Message::Text(text) = frame else {
+            continue;
+        };
+        match serde_json::from_str(text.as_str()) {
+            Ok(floatball_shared::api::ServerMessage::Status(status)) => {
+                if states.last() != Some(&status.state) {
+                    states.push(status.state);
+                }
+                if wanted(&status) {
+                    return (states, status);
+                }
+            }
+            Ok(floatball_shared::api::ServerMessage::Error { message }) => {
+                panic!("error: {message}")
+            }
+            _ => {}
+        }
+    }
+}

@@ -70,6 +70,11 @@ impl Process {
         std::fs::read_to_string(self.data.path().join("floatball.log")).unwrap_or_default()
     }
 
+    /// Its process id.
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
     /// Whether the process still runs.
     pub fn is_running(&mut self) -> bool {
         matches!(self.child.try_wait(), Ok(None))
@@ -230,8 +235,20 @@ impl Remote {
     /// Changes the initial password, uploads `show` as `name` and makes it the whole
     /// playlist; returns the operator's token.
     pub async fn prepare_show(&self, name: &str, show: &[u8], loop_playlist: bool) -> String {
+        self.prepare_upload(name, "application/json", show, loop_playlist)
+            .await
+    }
+
+    /// As [`Remote::prepare_show`], for a show file of any type (a CSV: `text/csv`).
+    pub async fn prepare_upload(
+        &self,
+        name: &str,
+        content_type: &str,
+        show: &[u8],
+        loop_playlist: bool,
+    ) -> String {
         let token = self.operator().await;
-        let upload = self.upload(&token, name, "application/json", show).await;
+        let upload = self.upload(&token, name, content_type, show).await;
         assert_eq!(
             upload.status,
             StatusCode::CREATED,
