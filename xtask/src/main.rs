@@ -11,9 +11,11 @@
 //! - [`stages`]: the test stages and their summary.
 //! - [`fuzz`]: `cargo xtask fuzz`, the fuzz targets at length.
 //! - [`stress`]: the engine's race and load tests, many times in a row.
+//! - [`mbox_bench`]: one bridge streaming to many simulated MBOX boxes, with figures.
 
 mod app;
 mod fuzz;
+mod mbox_bench;
 mod stages;
 mod stress;
 mod tools;
@@ -33,6 +35,9 @@ commands:
          options: --bytes N (per target, default 10000000)  --target NAME  --seed S
   stress run the e-stop race and load tests many times in a row, with figures
          options: --runs N (default 50)
+  mbox-bench  stream a show to simulated MBOX boxes on loopback at 20 ms; print the
+         bridge's CPU use, frames/s, send lateness p50/p99 and late frames
+         options: --boxes N (default 1000)  --seconds S (default 30)
 ";
 
 fn main() -> ExitCode {
@@ -42,6 +47,7 @@ fn main() -> ExitCode {
         Some("test") => stages::test(),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("stress") => stress::stress(&args[1..]),
+        Some("mbox-bench") => mbox_bench::mbox_bench(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())
