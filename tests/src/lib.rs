@@ -17,6 +17,38 @@ use tokio::process::{Child, Command};
 /// How long a page may take to show what a test waits for.
 pub const UI_TIMEOUT: Duration = Duration::from_secs(20);
 
+/// The connection indicator in the top bar.
+pub const INDICATOR: &str = "[data-testid=connection]";
+
+/// How long homing, the approach and the preload may take before the show plays.
+pub const PLAY_TIMEOUT: Duration = Duration::from_secs(90);
+
+/// A gentle wave over a 10 × 10 installation: every ball swings ±300 mm around 1 m,
+/// fading in and out over 2 s so it starts and ends at rest; 8 s long.
+pub fn wave_csv() -> String {
+    use std::fmt::Write as _;
+    let mut csv = String::from("# rows=10 cols=10 pitch_mm=500\ntime_ms");
+    for unit in 0..100 {
+        write!(csv, ",u{unit}").expect("write to a string");
+    }
+    csv.push('\n');
+    for step in 0..=32 {
+        let t_ms = f64::from(step) * 250.0;
+        let ramp = (t_ms / 2000.0)
+            .min((8000.0 - t_ms) / 2000.0)
+            .clamp(0.0, 1.0);
+        let ramp = ramp * ramp * (3.0 - 2.0 * ramp);
+        write!(csv, "{t_ms}").expect("write to a string");
+        for unit in 0..100 {
+            let phase = f64::from(unit % 10) * 0.5 + f64::from(unit / 10) * 0.3;
+            let angle = std::f64::consts::TAU * t_ms / 8000.0 + phase;
+            write!(csv, ",{:.0}", 1000.0 + 300.0 * ramp * angle.sin()).expect("write to a string");
+        }
+        csv.push('\n');
+    }
+    csv
+}
+
 fn workspace_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .parent()
@@ -64,8 +96,21 @@ pub struct Bridge {
 impl Bridge {
     /// Starts the bridge on a free port with a fresh data directory.
     pub async fn start() -> Self {
+        Self::start_with(None).await
+    }
+
+    /// Starts the bridge on a free port with a fresh data directory whose
+    /// `floatball.toml` is `config`.
+    pub async fn start_with_config(config: &str) -> Self {
+        Self::start_with(Some(config)).await
+    }
+
+    async fn start_with(config: Option<&str>) -> Self {
         let temp = tempfile::tempdir().expect("temp dir");
         let data_dir = temp.path().to_path_buf();
+        if let Some(config) = config {
+            std::fs::write(data_dir.join("floatball.toml"), config).expect("write the config");
+        }
         let (child, addr) = spawn_bridge("127.0.0.1:0", &data_dir).await;
         Self {
             child,
@@ -291,5 +336,98 @@ impl Browser {
         self.type_into("[data-testid=login-password]", password)
             .await;
         self.click("[data-testid=login-submit]").await;
+    }
+
+    /// The operator's first login: with the factory password `1234`, then the new
+    /// `password` the app insists on; returns on the Files page, connected.
+    pub async fn first_login(&self, password: &str) {
+        self.log_in("1234").await;
+        self.wait_for("[data-testid=password-form]").await;
+        self.type_into("[data-testid=password-new]", password).await;
+        self.type_into("[data-testid=password-confirm]", password)
+            .await;
+        self.click("[data-testid=password-submit]").await;
+        self.wait_for("[data-testid=page-files]").await;
+        self.wait_for_attribute(INDICATOR, "data-state", "connected", UI_TIMEOUT)
+            .await;
+    }
+
+    /// Adds the CSV at `path` (named `name.csv`) from the device, uploads it, and
+    /// waits for it among the controller's files; returns the text of its row.
+    pub async fn upload_csv(&self, path: &std::path::Path, name: &str) -> String {
+        self.pick_file("[data-testid=file-picker]", path).await;
+        self.wait_for(&format!("[data-testid=local-file][data-name='{name}.csv']"))
+            .await;
+        self.click("[data-testid=upload]").await;
+        self.wait_for_text("[data-testid=files-message]", &format!("已上传: {name}"))
+            .await;
+        self.click("[data-testid=tab-controller]").await;
+        let row = self
+            .wait_for(&format!("[data-testid=controller-file][data-name={name}]"))
+            .await;
+        row.text().await.expect("row text")
+    }
+
+    /// Puts the show `name` in the playlist from the Control page.
+    pub async fn queue_show(&self, name: &str) {
+        self.click("[data-testid=nav-control]").await;
+        self.click("[data-testid=add]").await;
+        self.click(&format!("[data-testid=pick-show][data-name={name}]"))
+            .await;
+        self.wait_for(&format!("[data-testid=entry][data-show={name}]"))
+            .await;
+    }
+
+    /// From the Control page: the bandwidth report says the playlist can run, Start
+    /// plays the show `name`, and one press of the top bar's E-stop stops it — the
+    /// button acknowledges it and the bridge reports the matrix stopped.
+    pub async fn play_then_estop(&self, name: &str) {
+        self.click("[data-testid=nav-control]").await;
+        self.wait_for_attribute(
+            "[data-testid=verdict]",
+            "data-verdict",
+            "feasible",
+            UI_TIMEOUT,
+        )
+        .await;
+        self.click("[data-testid=start]").await;
+        self.wait_for_attribute(
+            "[data-testid=status-state]",
+            "data-state",
+            "playing",
+            PLAY_TIMEOUT,
+        )
+        .await;
+        assert_eq!(self.text("[data-testid=status-show]").await, name);
+        self.click(".topbar [data-testid=estop]").await;
+        self.wait_for_attribute(
+            "[data-testid=status-state]",
+            "data-state",
+            "stopped",
+            UI_TIMEOUT,
+        )
+        .await;
+        self.wait_for_attribute(
+            ".topbar [data-testid=estop]",
+            "data-ack",
+            "stopped",
+            UI_TIMEOUT,
+        )
+        .await;
+    }
+
+    /// `GET path` on the bridge from the page, with the page's login; the JSON answer.
+    pub async fn get_json(&self, path: &str) -> serde_json::Value {
+        let script = r"
+            const [path, done] = arguments;
+            const session = JSON.parse(localStorage.getItem('floatball.session'));
+            fetch(path, { headers: { Authorization: 'Bearer ' + session.token } })
+                .then((reply) => reply.json())
+                .then(done, (error) => done({ error: String(error) }));
+        ";
+        self.client
+            .execute_async(script, vec![serde_json::Value::from(path)])
+            .await
+            .unwrap_or_else(|err| panic!("GET {path} from the page: {err}"))
     }
 }
