@@ -338,6 +338,17 @@ impl Browser {
         self.click("[data-testid=login-submit]").await;
     }
 
+    /// A phone-sized (360 × 740) Chromium with the app of `bridge` open.
+    pub async fn open(bridge: &Bridge) -> Self {
+        let browser = Self::start(360, 740).await;
+        browser
+            .client
+            .goto(&bridge.url())
+            .await
+            .expect("open the app");
+        browser
+    }
+
     /// The operator's first login: with the factory password `1234`, then the new
     /// `password` the app insists on; returns on the Files page, connected.
     pub async fn first_login(&self, password: &str) {
@@ -366,6 +377,16 @@ impl Browser {
             .wait_for(&format!("[data-testid=controller-file][data-name={name}]"))
             .await;
         row.text().await.expect("row text")
+    }
+
+    /// Uploads [`wave_csv`] as `wave.csv` from the device and checks its row among
+    /// the controller's files: 100 units, 8 s.
+    pub async fn upload_wave(&self) {
+        let folder = tempfile::tempdir().expect("temp dir");
+        let path = folder.path().join("wave.csv");
+        std::fs::write(&path, wave_csv()).expect("write the CSV");
+        let row = self.upload_csv(&path, "wave").await;
+        assert!(row.contains("100") && row.contains("0:08.0"), "{row}");
     }
 
     /// Puts the show `name` in the playlist from the Control page.

@@ -7,19 +7,12 @@
 
 use std::time::{Duration, Instant};
 
-use floatball_e2e::{Bridge, Browser, UI_TIMEOUT};
-
-const INDICATOR: &str = "[data-testid=connection]";
+use floatball_e2e::{Bridge, Browser, INDICATOR, UI_TIMEOUT};
 
 #[tokio::test]
 async fn app_shows_connected_and_follows_a_bridge_restart() {
     let mut bridge = Bridge::start().await;
-    let browser = Browser::start(360, 740).await;
-    browser
-        .client
-        .goto(&bridge.url())
-        .await
-        .expect("open the app");
+    let browser = Browser::open(&bridge).await;
     browser
         .wait_for_attribute(INDICATOR, "data-state", "disconnected", UI_TIMEOUT)
         .await;

@@ -4,27 +4,18 @@
 //! press E-stop and see it stop — in the real app against the real bridge and its
 //! simulated gateway.
 
-use floatball_e2e::{Bridge, Browser, INDICATOR, UI_TIMEOUT, wave_csv};
+use floatball_e2e::{Bridge, Browser, INDICATOR, UI_TIMEOUT};
 
 #[tokio::test]
 async fn operator_logs_in_uploads_plays_and_stops() {
     let bridge = Bridge::start().await;
-    let browser = Browser::start(360, 740).await;
-    browser
-        .client
-        .goto(&bridge.url())
-        .await
-        .expect("open the app");
+    let browser = Browser::open(&bridge).await;
 
     // Log in with the factory password; the app insists on a new one.
     browser.first_login("night-show-7").await;
 
     // Add a CSV from the device and upload it.
-    let folder = tempfile::tempdir().expect("temp dir");
-    let path = folder.path().join("wave.csv");
-    std::fs::write(&path, wave_csv()).expect("write the CSV");
-    let row = browser.upload_csv(&path, "wave").await;
-    assert!(row.contains("100") && row.contains("0:08.0"), "{row}");
+    browser.upload_wave().await;
 
     // Put it in the playlist; it is stored on the bridge, so a reload shows it again
     // (and the login survives the reload).

@@ -4,7 +4,7 @@
 //! it play, press E-stop and see it stop — and every box got the e-stop (its FN
 //! `0x0090` register is 1, read through `GET /api/sim/positions`).
 
-use floatball_e2e::{Bridge, Browser, wave_csv};
+use floatball_e2e::{Bridge, Browser};
 
 /// Ten simulated 10-axis boxes, one row of the matrix each.
 fn config() -> String {
@@ -18,19 +18,10 @@ fn config() -> String {
 #[tokio::test]
 async fn operator_plays_and_stops_ten_mbox_boxes() {
     let bridge = Bridge::start_with_config(&config()).await;
-    let browser = Browser::start(360, 740).await;
-    browser
-        .client
-        .goto(&bridge.url())
-        .await
-        .expect("open the app");
+    let browser = Browser::open(&bridge).await;
 
     browser.first_login("night-show-7").await;
-    let folder = tempfile::tempdir().expect("temp dir");
-    let path = folder.path().join("wave.csv");
-    std::fs::write(&path, wave_csv()).expect("write the CSV");
-    let row = browser.upload_csv(&path, "wave").await;
-    assert!(row.contains("100") && row.contains("0:08.0"), "{row}");
+    browser.upload_wave().await;
     browser.queue_show("wave").await;
     browser.play_then_estop("wave").await;
 
