@@ -8,7 +8,9 @@
 //! configured addresses are ever sent to.
 //!
 //! **Polling.** Every [`POLL_INTERVAL`] each box is asked for its e-stop register
-//! (FN `0x0090`). A box that has not answered for [`DOWN_AFTER`] is `down` in the
+//! (FN `0x0090`), at most [`POLL_BATCH`] boxes at a time spread over the interval: the
+//! answers of a thousand boxes at once would overflow the host socket's receive
+//! buffer, and the same last boxes would lose theirs every time. A box that has not answered for [`DOWN_AFTER`] is `down` in the
 //! status, with an error saying so; it is polled on, and comes back `up` with its next
 //! answer. Every unanswered poll is counted. An answer that disagrees with the latch
 //! (a box still stopped after a release, or running while the e-stop is latched) gets
@@ -44,6 +46,8 @@ use crate::estop::Latch;
 
 /// How often each box is asked for its e-stop register.
 pub const POLL_INTERVAL: Duration = Duration::from_millis(500);
+/// The most boxes polled at once; more are polled in turn over [`POLL_INTERVAL`].
+pub const POLL_BATCH: usize = 50;
 /// How long a box may leave polls unanswered before it is `down`.
 pub const DOWN_AFTER: Duration = Duration::from_millis(1_600);
 /// How many times the e-stop (and its release) is sent again after the first.
@@ -411,6 +415,8 @@ struct Outbox<'a> {
     /// A release must go before the next motion frame.
     needs_release: bool,
     next_poll: Instant,
+    /// The first box of the next batch of polls.
+    poll_cursor: usize,
     /// Per box: a poll is unanswered (replies count when it was sent).
     polled: Vec<Option<u64>>,
     sequence: Vec<u32>,
@@ -430,6 +436,7 @@ impl<'a> Outbox<'a> {
             next_repeat: now,
             needs_release: true,
             next_poll: now,
+            poll_cursor: 0,
             polled: vec![None; boxes],
             sequence: vec![0; boxes],
             meter_since: now,
@@ -535,8 +542,15 @@ impl<'a> Outbox<'a> {
         }
     }
 
-    /// Polls every box's e-stop register; counts the polls left unanswered; writes
-    /// the register again where the answer disagrees with the latch.
+    /// The time between two batches of polls: every box once in [`POLL_INTERVAL`].
+    fn poll_step(&self) -> Duration {
+        let batches = self.shared.boxes.len().div_ceil(POLL_BATCH).max(1);
+        POLL_INTERVAL / u32::try_from(batches).unwrap_or(u32::MAX)
+    }
+
+    /// Polls the e-stop register of the next [`POLL_BATCH`] boxes; counts the polls
+    /// they left unanswered; writes the register again where the answer disagrees
+    /// with the latch.
     fn poll(&mut self) {
         let read = RegisterRead {
             bank: ReadBank::Fn,
@@ -551,7 +565,10 @@ impl<'a> Outbox<'a> {
         }
         .encode();
         let latched = self.shared.latch.is_latched();
-        for index in 0..self.shared.boxes.len() {
+        let boxes = self.shared.boxes.len();
+        let batch = self.poll_cursor.min(boxes)..(self.poll_cursor + POLL_BATCH).min(boxes);
+        self.poll_cursor = if batch.end >= boxes { 0 } else { batch.end };
+        for index in batch {
             let one = &self.shared.boxes[index];
             let replies = one.replies.load(Ordering::Acquire);
             if let Some(sent_at) = self.polled[index]
@@ -614,7 +631,7 @@ impl<'a> Outbox<'a> {
             }
             if now >= self.next_poll {
                 self.poll();
-                self.next_poll = now + POLL_INTERVAL;
+                self.next_poll = now + self.poll_step();
             }
             self.meter(now);
             let mut wake = self.next_poll;

@@ -117,10 +117,16 @@ async fn bench(boxes: usize, seconds: u64) -> (u64, Vec<u64>) {
         started.elapsed().as_secs_f64()
     );
     send_text(&mut ws, r#"{"type":"start"}"#).await;
-    until(&mut ws, Duration::from_secs(120), |status| {
-        status.state == PlayerState::Playing
+    let (_, playing) = until(&mut ws, Duration::from_secs(120), |status| {
+        matches!(status.state, PlayerState::Playing | PlayerState::Error)
     })
     .await;
+    assert_eq!(
+        playing.state,
+        PlayerState::Playing,
+        "{:?}",
+        playing.last_error
+    );
     drop(ws);
     // Let the first frames of the show go out, then measure.
     tokio::time::sleep(Duration::from_millis(500)).await;
