@@ -10,12 +10,11 @@ use std::time::{Duration, Instant};
 use common::mbox_sim::Simulator;
 use common::process::{Process, links_up};
 use common::{Ws, send_text, until};
-use floatball_shared::api::{PlayerState, ServerMessage, SimBox, SimPositions, Status};
+use floatball_shared::api::{PlayerState, ServerMessage, SimBox, SimPositions};
 use floatball_shared::mbox::register::FN_ESTOP;
 use floatball_shared::mbox::{
     Datagram, Encode, ReadBank, RegisterRange, RegisterRead, Route, WriteBank,
 };
-use futures_util::StreamExt;
 
 const PULSES_PER_MM: f64 = 10.0;
 const OFFSET_PULSES: i32 = 1_000;
