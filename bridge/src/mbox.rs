@@ -46,6 +46,10 @@ use crate::estop::Latch;
 
 /// How often each box is asked for its e-stop register.
 pub const POLL_INTERVAL: Duration = Duration::from_millis(500);
+/// How long before its slot the player hands a motion frame to the sender, which
+/// holds it and sends it at its slot: the player's work and the wake-up of its task
+/// (a timer of millisecond grain) are then not in the frame's lateness.
+pub const FRAME_LEAD: Duration = Duration::from_millis(5);
 /// The most boxes polled at once; more are polled in turn over [`POLL_INTERVAL`].
 pub const POLL_BATCH: usize = 50;
 /// How long a box may leave polls unanswered before it is `down`.
@@ -417,6 +421,8 @@ struct Outbox<'a> {
     next_poll: Instant,
     /// The first box of the next batch of polls.
     poll_cursor: usize,
+    /// Motion frames handed over ahead of their slot, in slot order.
+    pending: std::collections::VecDeque<Outgoing>,
     /// Per box: a poll is unanswered (replies count when it was sent).
     polled: Vec<Option<u64>>,
     sequence: Vec<u32>,
@@ -437,6 +443,7 @@ impl<'a> Outbox<'a> {
             needs_release: true,
             next_poll: now,
             poll_cursor: 0,
+            pending: std::collections::VecDeque::new(),
             polled: vec![None; boxes],
             sequence: vec![0; boxes],
             meter_since: now,
@@ -481,6 +488,7 @@ impl<'a> Outbox<'a> {
         self.next_repeat = Instant::now() + ESTOP_REPEAT_INTERVAL;
         self.needs_release = true;
         while inbox.try_recv().is_ok() {}
+        self.pending.clear();
     }
 
     fn frame(&mut self, outgoing: Outgoing) {
@@ -618,8 +626,17 @@ impl<'a> Outbox<'a> {
         while !self.shared.closed.load(Ordering::Acquire) {
             self.observe_latch(inbox);
             while let Ok(outgoing) = inbox.try_recv() {
+                self.pending.push_back(outgoing);
+            }
+            while self
+                .pending
+                .front()
+                .is_some_and(|outgoing| outgoing.slot <= Instant::now())
+            {
                 self.observe_latch(inbox);
-                self.frame(outgoing);
+                if let Some(outgoing) = self.pending.pop_front() {
+                    self.frame(outgoing);
+                }
             }
             let now = Instant::now();
             if let Some((value, left)) = self.repeating
@@ -637,6 +654,9 @@ impl<'a> Outbox<'a> {
             let mut wake = self.next_poll;
             if self.repeating.is_some() {
                 wake = wake.min(self.next_repeat);
+            }
+            if let Some(outgoing) = self.pending.front() {
+                wake = wake.min(outgoing.slot);
             }
             std::thread::park_timeout(wake.saturating_duration_since(Instant::now()));
         }

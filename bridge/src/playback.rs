@@ -714,7 +714,12 @@ async fn run_mbox(
             .next_wakeup_us(now)
             .unwrap_or(now + 100_000)
             .min(now + 100_000);
-        let sleep = tokio::time::sleep_until((epoch + Duration::from_micros(wake_us)).into());
+        // Frames are handed to the sender FRAME_LEAD ahead of their slot; it sends
+        // them at their slot.
+        let lead_us = u64::try_from(crate::mbox::FRAME_LEAD.as_micros()).unwrap_or(0);
+        let sleep = tokio::time::sleep_until(
+            (epoch + Duration::from_micros(wake_us.saturating_sub(lead_us))).into(),
+        );
         let mut request = None;
         tokio::select! {
             received = inbox.recv() => {
@@ -749,7 +754,7 @@ async fn run_mbox(
             seen_generation = latch.generation();
             player.fail_with(reason);
         }
-        player.poll(now_us());
+        player.poll(now_us() + lead_us);
         for frame in player.take_frames() {
             let slot = epoch + Duration::from_micros(frame.slot_us);
             boxes.send(frame, slot, run_generation);
