@@ -1068,6 +1068,7 @@ fn two_ball_show() -> Show {
         colours: Vec::new(),
     };
     Show {
+        outputs: Vec::new(),
         name: "two".into(),
         layout: Layout {
             rows: 1,

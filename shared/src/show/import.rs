@@ -414,6 +414,7 @@ mod tests {
             colours: Vec::new(),
         };
         Show {
+            outputs: Vec::new(),
             name: "in the file".into(),
             layout: ONE_BY_TWO,
             tracks: vec![track.clone(), track],
