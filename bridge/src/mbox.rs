@@ -373,6 +373,7 @@ impl<'a> Outbox<'a> {
             slot_us,
             time_ms,
             positions_pulses,
+            outputs,
         } = outgoing.frame;
         let time_code = match self.shared.time {
             TimeMode::Relative => TimeCode::from_ms(time_ms),
@@ -392,14 +393,15 @@ impl<'a> Outbox<'a> {
                 continue;
             };
             *sequence = sequence.wrapping_add(1).max(1);
+            let output = outputs.get(index).copied().unwrap_or_default();
             let datagram = MotionFrame {
                 mode: self.shared.time,
                 route: Route::BROADCAST_SILENT,
                 sequence: *sequence,
                 time_code,
                 positions_pulses,
-                digital: DigitalOutputs::NONE,
-                analog: [0, 0],
+                digital: DigitalOutputs::from_bits(output.digital_bits),
+                analog: output.analog,
             };
             self.send_to(index, &datagram.encode());
         }
