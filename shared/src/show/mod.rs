@@ -7,6 +7,8 @@
 //! is the ball's start position (at rest) and a list of PVT rows, each "be at
 //! `position_mm` moving at `velocity_mm_s` after `duration_ms`", evaluated with the
 //! same [`Segment`] as the units run; plus optional colour keyframes for the preview.
+//! A show may also carry output tracks for MBOX boxes' digital and analog outputs
+//! ([`mod@outputs`]; UIM2503 installations ignore them).
 //!
 //! - this module: the model and the native file format (JSON, `docs/show-format.md`);
 //! - [`mod@import`]: the one way a file (native JSON or CSV) becomes a show, refused
@@ -14,6 +16,7 @@
 //!   stored;
 //! - [`csv`]: keyframe import from 3D tools;
 //! - [`demo`]: the demo show (a travelling wave) the tests and benches share;
+//! - [`mod@outputs`]: MBOX output tracks and their values at any time;
 //! - [`mod@validate`]: checks against an installation's limits;
 //! - [`sample`]: positions and colours of every ball at any time, for the preview.
 //!
@@ -750,6 +753,17 @@ mod tests {
         let show = import_csv("doc", documented("```text\n"), installation).unwrap();
         assert_eq!(show.layout.unit_count(), 3);
         assert_eq!(show.tracks[2].rows[2].position_mm, 950.0);
+        let show = Show::from_json(documented("<!-- outputs example -->\n```json\n")).unwrap();
+        assert_eq!(show.duration_ms(), 500);
+        assert_eq!(show.outputs[0].analog.len(), 3);
+        let at = |t_ms| {
+            let sample = show.outputs_at(0, t_ms);
+            (sample.digital_bits, sample.analog)
+        };
+        assert_eq!(at(0), (1, [0, 0]));
+        assert_eq!(at(250), (4095, [32768, 32768]));
+        assert_eq!(at(500), (0, [0, 0]));
+        assert_eq!(validate(&show, &Limits::for_layout(1, 1)), []);
     }
 
     #[test]
