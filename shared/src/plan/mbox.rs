@@ -34,7 +34,7 @@ use super::installation::DriveKind;
 use super::installation::Installation;
 use super::player::{Entry, NextRun, PlaylistProgress, StartError, next_run};
 use crate::api::{PlayerState, Status};
-use crate::show::{OutputSample, Sampler, validate};
+use crate::show::{OutputSample, Sampler, Show, validate};
 
 /// Frames sent after a move or the playlist's end, holding the final positions.
 pub const SETTLE_FRAMES: u64 = 5;
@@ -191,19 +191,8 @@ impl MboxPlayer {
                     "the show has {} balls but the installation has {units}",
                     entry.show.tracks.len()
                 ))
-            } else if let Some(output) = entry.show.outputs.iter().find(|output| {
-                installation
-                    .gateways
-                    .get(output.box_index)
-                    .is_none_or(|gateway| gateway.kind != DriveKind::Mbox)
-            }) {
-                Some(format!(
-                    "the show has outputs for box {} but the installation's MBOX boxes are 0–{}",
-                    output.box_index,
-                    installation.gateways.len().saturating_sub(1)
-                ))
             } else {
-                None
+                unknown_output_box(installation, &entry.show)
             };
             if let Some(reason) = reason {
                 return Err(StartError::Invalid {
@@ -576,6 +565,21 @@ impl MboxPlayer {
             outputs,
         });
     }
+}
+
+/// Why `show`'s outputs cannot play on `installation`: a track for a box it lacks.
+fn unknown_output_box(installation: &Installation, show: &Show) -> Option<String> {
+    let output = show.outputs.iter().find(|output| {
+        installation
+            .gateways
+            .get(output.box_index)
+            .is_none_or(|gateway| gateway.kind != DriveKind::Mbox)
+    })?;
+    Some(format!(
+        "the show has outputs for box {} but the installation's MBOX boxes are 0–{}",
+        output.box_index,
+        installation.gateways.len().saturating_sub(1)
+    ))
 }
 
 #[cfg(test)]
