@@ -30,11 +30,10 @@
 //!   stay whatever the boxes keep from the last frame until the next frame (homing
 //!   sends 0).
 
-use super::installation::DriveKind;
 use super::installation::Installation;
 use super::player::{Entry, NextRun, PlaylistProgress, StartError, next_run};
 use crate::api::{PlayerState, Status};
-use crate::show::{OutputSample, Sampler, Show, validate};
+use crate::show::{OutputSample, Sampler, Show, output_box_message, validate};
 
 /// Frames sent after a move or the playlist's end, holding the final positions.
 pub const SETTLE_FRAMES: u64 = 5;
@@ -569,17 +568,9 @@ impl MboxPlayer {
 
 /// Why `show`'s outputs cannot play on `installation`: a track for a box it lacks.
 fn unknown_output_box(installation: &Installation, show: &Show) -> Option<String> {
-    let output = show.outputs.iter().find(|output| {
-        installation
-            .gateways
-            .get(output.box_index)
-            .is_none_or(|gateway| gateway.kind != DriveKind::Mbox)
-    })?;
-    Some(format!(
-        "the show has outputs for box {} but the installation's MBOX boxes are 0–{}",
-        output.box_index,
-        installation.gateways.len().saturating_sub(1)
-    ))
+    let boxes = installation.mbox_boxes().unwrap_or(0);
+    let box_index = show.output_box_beyond(boxes)?;
+    Some(output_box_message(box_index, boxes))
 }
 
 #[cfg(test)]

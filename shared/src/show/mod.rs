@@ -426,6 +426,16 @@ impl Show {
         Ok(())
     }
 
+    /// The first box an output track names that an installation with `boxes` MBOX
+    /// boxes lacks.
+    #[must_use]
+    pub fn output_box_beyond(&self, boxes: usize) -> Option<usize> {
+        self.outputs
+            .iter()
+            .map(|output| output.box_index)
+            .find(|&box_index| box_index >= boxes)
+    }
+
     /// The outputs of box `box_index` at show time `t_ms`: 0 without a track for it,
     /// and at and after the show's end.
     #[must_use]
@@ -466,6 +476,18 @@ pub(crate) fn json_len(value: &impl serde::Serialize) -> usize {
     // Shows are numbers, strings and arrays of them: writing them cannot fail.
     let _ = serde_json::to_writer(&mut count, value);
     count.0
+}
+
+/// Why a show's output track for `box_index` cannot play on `boxes` MBOX boxes.
+pub(crate) fn output_box_message(box_index: usize, boxes: usize) -> String {
+    if boxes == 0 {
+        format!("the show has outputs for box {box_index} but the installation has no MBOX boxes")
+    } else {
+        format!(
+            "the show has outputs for box {box_index} but the installation's MBOX boxes are 0–{}",
+            boxes - 1
+        )
+    }
 }
 
 fn output_message(box_index: usize, key: Option<(bool, usize)>, problem: OutputProblem) -> String {
