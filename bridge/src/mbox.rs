@@ -46,8 +46,8 @@ use floatball_shared::mbox::{
     AxisPositions, BoxAddress, Datagram, DigitalOutputs, Encode, MotionFrame, ReadBank,
     RegisterRange, RegisterRead, RegisterReply, RegisterWrite, Route, TimeCode, TimeMode,
 };
-use tokio::sync::broadcast;
 use floatball_shared::plan::mbox::MboxFrame;
+use tokio::sync::broadcast;
 
 use crate::estop::Latch;
 
@@ -472,9 +472,14 @@ impl<'a> Outbox<'a> {
     /// e-stop write itself excepted.
     fn console(&self, out: ConsoleOut) {
         let is_poll = match &out.operation {
-            Operation::Read(read) => is_poll_shaped(read.bank, read.range.start(), usize::from(read.range.count())),
+            Operation::Read(read) => is_poll_shaped(
+                read.bank,
+                read.range.start(),
+                usize::from(read.range.count()),
+            ),
             Operation::Write(write) => {
-                if out.generation != self.seen_generation && *write != RegisterWrite::estop(write.route)
+                if out.generation != self.seen_generation
+                    && *write != RegisterWrite::estop(write.route)
                 {
                     return;
                 }
@@ -601,7 +606,9 @@ fn relay(shared: &Shared, index: usize, one: &BoxShared, reply: &RegisterReply) 
     if is_poll_shaped(reply.bank, reply.block.start(), values.len())
         && one
             .console_polls
-            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |owed| owed.checked_sub(1))
+            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |owed| {
+                owed.checked_sub(1)
+            })
             .is_err()
     {
         return;

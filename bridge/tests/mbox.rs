@@ -408,7 +408,11 @@ async fn the_console_reads_registers_refuses_bad_lines_and_obeys_the_latch() {
     send_text(&mut ws, r#"{"type":"raw","line":"estop","gateway":0}"#).await;
     // The e-stop register, read by the console while the bridge polls it too: one
     // reply, 1 (the latch wrote it), from box 0.
-    send_text(&mut ws, r#"{"type":"raw","line":"read FN 0x90 1","gateway":0}"#).await;
+    send_text(
+        &mut ws,
+        r#"{"type":"raw","line":"read FN 0x90 1","gateway":0}"#,
+    )
+    .await;
     let ServerMessage::MboxReply(reply) = console_answer(&mut ws).await else {
         panic!("no reply to the read");
     };

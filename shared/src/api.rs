@@ -605,7 +605,12 @@ mod tests {
         let uim: GatewayStatus =
             serde_json::from_str(r#"{"port":"sim","link":"up","bytes_per_s":0.0}"#).expect("uim");
         assert_eq!(uim.kind, GatewayKind::Uim2503);
-        assert!(serde_json::to_value(&uim).expect("json").get("kind").is_none());
+        assert!(
+            serde_json::to_value(&uim)
+                .expect("json")
+                .get("kind")
+                .is_none()
+        );
         let mbox = GatewayStatus {
             kind: GatewayKind::Mbox,
             ..uim
