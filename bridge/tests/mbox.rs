@@ -346,11 +346,9 @@ async fn a_silent_box_is_down_and_comes_back_when_it_answers() {
 /// The next `mbox_reply` or `error` within 5 s, skipping statuses; fails on anything
 /// else.
 async fn console_answer(ws: &mut Ws) -> ServerMessage {
-    loop {
-        match next_reply(ws).await {
-            reply @ (ServerMessage::MboxReply(_) | ServerMessage::Error { .. }) => return reply,
-            other => panic!("unexpected message: {other:?}"),
-        }
+    match next_reply(ws).await {
+        reply @ (ServerMessage::MboxReply(_) | ServerMessage::Error { .. }) => reply,
+        other => panic!("unexpected message: {other:?}"),
     }
 }
 

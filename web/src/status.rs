@@ -127,7 +127,6 @@ mod tests {
             packets_per_s: Some(52.0),
             late_frames: Some(1),
             missed_replies: Some(3),
-            ..uim
         };
         assert_eq!(
             gateway_text(Lang::En, &mbox),
