@@ -171,6 +171,26 @@ fn context(bridge: &Rc<FakeBridge>, socket: &Rc<FakeSocket>, database: &str) -> 
     Ctx::new(services, origin, Lang::En)
 }
 
+/// `page`, mounted logged in and connected with a bridge that answers every request
+/// 500 (it stays mounted for the rest of the test run); the socket and the bridge
+/// record what it sends.
+fn mount_online<V: IntoView + 'static>(
+    database: &str,
+    page: fn() -> V,
+) -> (web_sys::HtmlElement, Ctx, Rc<FakeSocket>, Rc<FakeBridge>) {
+    let container = fresh_container();
+    let bridge = FakeBridge::new(|_| response(500, ""));
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, database);
+    online(ctx);
+    let mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        page()
+    });
+    std::mem::forget(mounted);
+    (container, ctx, socket, bridge)
+}
+
 /// Logged in and connected.
 fn online(ctx: Ctx) {
     ctx.session.set(Some(Session {
@@ -191,21 +211,7 @@ fn disabled(container: &web_sys::HtmlElement, test_id: &str) -> bool {
 
 /// Types `value` into an input or textarea as a user would (an `input` event).
 fn type_into(container: &web_sys::HtmlElement, test_id: &str, value: &str) {
-    let field = element(container, test_id);
-    if let Some(input) = field.dyn_ref::<web_sys::HtmlInputElement>() {
-        input.set_value(value);
-    } else {
-        field
-            .unchecked_ref::<web_sys::HtmlTextAreaElement>()
-            .set_value(value);
-    }
-    let event = web_sys::Event::new_with_event_init_dict("input", &{
-        let init = web_sys::EventInit::new();
-        init.set_bubbles(true);
-        init
-    })
-    .unwrap();
-    field.dispatch_event(&event).unwrap();
+    set_value(container, test_id, value, "input");
 }
 
 fn summary(name: &str) -> ShowSummary {
@@ -277,15 +283,7 @@ async fn language_switch_toggles() {
 
 #[wasm_bindgen_test]
 async fn estop_sends_exactly_one_estop_per_press_and_is_acknowledged() {
-    let container = fresh_container();
-    let bridge = FakeBridge::new(|_| response(500, ""));
-    let socket = Rc::new(FakeSocket::default());
-    let ctx = context(&bridge, &socket, "test-estop");
-    online(ctx);
-    let _mounted = mount_to(container.clone(), move || {
-        provide_context(ctx);
-        view! { <EstopButton /> }
-    });
+    let (container, ctx, socket, bridge) = mount_online("test-estop", || view! { <EstopButton /> });
     let estop = element(&container, "estop");
     assert_eq!(estop.get_attribute("data-ack").as_deref(), Some("ready"));
     assert_eq!(text(&container, "estop-ack"), "");
@@ -1000,15 +998,7 @@ async fn settings_store_the_defaults_and_the_loop_flag() {
 
 #[wasm_bindgen_test]
 async fn console_checks_before_sending_and_decodes_feedback() {
-    let container = fresh_container();
-    let bridge = FakeBridge::new(|_| response(500, ""));
-    let socket = Rc::new(FakeSocket::default());
-    let ctx = context(&bridge, &socket, "test-console");
-    online(ctx);
-    let _mounted = mount_to(container.clone(), move || {
-        provide_context(ctx);
-        view! { <ConsolePage /> }
-    });
+    let (container, ctx, socket, _) = mount_online("test-console", || view! { <ConsolePage /> });
     type_into(&container, "console-input", "*5;\nQT[3]=0;");
     tick().await;
     let check = element(&container, "console-check");
@@ -1077,15 +1067,8 @@ fn mbox_status() -> Status {
 
 #[wasm_bindgen_test]
 async fn console_on_mbox_boxes_checks_box_commands_helps_and_shows_replies() {
-    let container = fresh_container();
-    let bridge = FakeBridge::new(|_| response(500, ""));
-    let socket = Rc::new(FakeSocket::default());
-    let ctx = context(&bridge, &socket, "test-console-mbox");
-    online(ctx);
-    let _mounted = mount_to(container.clone(), move || {
-        provide_context(ctx);
-        view! { <ConsolePage /> }
-    });
+    let (container, ctx, socket, _) =
+        mount_online("test-console-mbox", || view! { <ConsolePage /> });
     tick().await;
     assert!(
         all(&container, "console-help").is_empty(),
