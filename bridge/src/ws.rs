@@ -26,8 +26,9 @@
 //!
 //! On an MBOX installation a `raw` line is MBOX console text
 //! (`floatball_shared::mbox::console`, docs/gateways.md §7), parsed with the selected
-//! box's route (the last two octets of gateway N's configured IP address; every box
-//! when no gateway is given) and handed to
+//! box's route (the last two octets of gateway N's configured IP address, sent as
+//! every box since only that box's socket receives it; every box when no gateway is
+//! given) and handed to
 //! [`crate::mbox::MboxNet::console`]. While the e-stop is latched only reads and the
 //! e-stop write (`estop`) go; `release` and every other write are refused: releasing is
 //! Start, Reset or Home. The console's `estop` is a register write only — it does not
