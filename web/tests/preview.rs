@@ -116,22 +116,6 @@ fn shown_ms(container: &web_sys::HtmlElement) -> f64 {
         .unwrap()
 }
 
-/// Sets an input's value and sends the event a user's change would.
-fn set_value(container: &web_sys::HtmlElement, test_id: &str, value: &str, event: &str) {
-    let field = element(container, test_id);
-    if let Some(input) = field.dyn_ref::<web_sys::HtmlInputElement>() {
-        input.set_value(value);
-    } else {
-        field
-            .unchecked_ref::<web_sys::HtmlSelectElement>()
-            .set_value(value);
-    }
-    let init = web_sys::EventInit::new();
-    init.set_bubbles(true);
-    let event = web_sys::Event::new_with_event_init_dict(event, &init).unwrap();
-    field.dispatch_event(&event).unwrap();
-}
-
 /// A pointer event at `at` (CSS pixels from the canvas's top-left corner).
 fn pointer(canvas: &HtmlCanvasElement, kind: &str, id: i32, at: Vec2, button: i16) {
     let rect = canvas.get_bounding_client_rect();
