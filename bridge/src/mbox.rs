@@ -24,23 +24,32 @@
 //! void. The first frame after a release (Start, Reset or Home) is preceded by FN
 //! `0x0090` = 0 to every box, repeated the same way.
 //!
+//! **The console.** [`MboxNet::console`] hands a parsed console operation to the same
+//! sender thread, for one box or every box; a write issued before an e-stop is void
+//! (the e-stop write itself excepted). The receiver relays every read reply that is
+//! not a poll answer to [`MboxNet::subscribe_replies`]; a reply shaped like a poll
+//! (FN `0x0090`, one register) is relayed only while the box owes a console read of
+//! that shape. The bridge's own polls are never relayed.
+//!
 //! A box's datagrams name every box as receiver (`0xFFFF`): each is sent to one box's
 //! own address and port, so the box need not know its configured address.
 
 use std::net::{SocketAddr, UdpSocket};
-use std::sync::atomic::{AtomicBool, AtomicU16, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU16, AtomicU32, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::sync::{Arc, OnceLock};
 use std::thread::Thread;
 use std::time::{Duration, Instant};
 
-use floatball_shared::api::{GatewayStatus, LinkState};
+use floatball_shared::api::{GatewayKind, GatewayStatus, LinkState, MboxRegisters, MboxReply};
+use floatball_shared::mbox::console::{Operation, ReplyLayout, render_reply};
 use floatball_shared::mbox::register::FN_ESTOP;
 use floatball_shared::mbox::{
     AxisPositions, BoxAddress, Datagram, DigitalOutputs, Encode, MotionFrame, ReadBank,
-    RegisterRange, RegisterRead, RegisterWrite, Route, TimeCode, TimeMode,
+    RegisterRange, RegisterRead, RegisterReply, RegisterWrite, Route, TimeCode, TimeMode,
 };
 use floatball_shared::plan::mbox::MboxFrame;
+use tokio::sync::broadcast;
 
 use crate::estop::Latch;
 
@@ -78,6 +87,8 @@ struct BoxShared {
     estop_register: AtomicU16,
     /// Datagrams a second over the last second, as `f64` bits.
     packets_per_s: AtomicU64,
+    /// Console reads shaped like a poll that the box has not answered yet.
+    console_polls: AtomicU32,
 }
 
 #[derive(Debug)]
@@ -92,6 +103,8 @@ struct Shared {
     /// Datagrams from addresses that are not configured, or that are not poll answers.
     unexpected: AtomicU64,
     timing: Timing,
+    /// Replies to console reads, for every WebSocket session.
+    replies: broadcast::Sender<MboxReply>,
 }
 
 /// Width of one bucket of the send-lateness histogram.
@@ -218,12 +231,25 @@ struct Outgoing {
     frame: MboxFrame,
 }
 
+/// A console operation handed to the sender: for one box (all when `None`), issued at
+/// an e-stop generation.
+#[derive(Debug)]
+struct ConsoleOut {
+    target: Option<usize>,
+    operation: Operation,
+    generation: u64,
+}
+
+/// Replies to console reads one slow session may have waiting.
+const REPLY_BACKLOG: usize = 64;
+
 /// The boxes of an installation; see the [module documentation](self). Cheap to
 /// clone; the threads stop when the last handle is dropped.
 #[derive(Debug, Clone)]
 pub struct MboxNet {
     shared: Arc<Shared>,
     frames: Sender<Outgoing>,
+    console: Sender<ConsoleOut>,
     _close: Arc<CloseOnDrop>,
 }
 
@@ -272,6 +298,7 @@ impl MboxNet {
                     answered_us: AtomicU64::new(0),
                     estop_register: AtomicU16::new(u16::MAX),
                     packets_per_s: AtomicU64::new(0),
+                    console_polls: AtomicU32::new(0),
                 })
                 .collect(),
             latch,
@@ -282,12 +309,14 @@ impl MboxNet {
             time,
             unexpected: AtomicU64::new(0),
             timing: Timing::new(),
+            replies: broadcast::channel(REPLY_BACKLOG).0,
         });
         let (frames, inbox) = channel();
+        let (console, console_inbox) = channel();
         let sending = Arc::clone(&shared);
         let sender = std::thread::Builder::new()
             .name("mbox-send".to_owned())
-            .spawn(move || Outbox::new(&sending, socket).run(&inbox))
+            .spawn(move || Outbox::new(&sending, socket).run(&inbox, &console_inbox))
             .map_err(|err| format!("cannot start the MBOX sender: {err}"))?;
         let _ = shared.sender.set(sender.thread().clone());
         let receiver_shared = Arc::clone(&shared);
@@ -299,7 +328,29 @@ impl MboxNet {
             _close: Arc::new(CloseOnDrop(Arc::clone(&shared))),
             shared,
             frames,
+            console,
         })
+    }
+
+    /// Hands a console `operation`, issued at e-stop `generation`, to the sender for
+    /// box `target` (every box when `None`; a box that is not configured gets nothing).
+    pub fn console(&self, target: Option<usize>, operation: Operation, generation: u64) {
+        if self
+            .console
+            .send(ConsoleOut {
+                target,
+                operation,
+                generation,
+            })
+            .is_ok()
+        {
+            self.wake();
+        }
+    }
+
+    /// The boxes' replies to console reads from now on.
+    pub fn subscribe_replies(&self) -> broadcast::Receiver<MboxReply> {
+        self.shared.replies.subscribe()
     }
 
     /// Wakes the sender: it looks at the latch at once (the e-stop path).
@@ -376,6 +427,7 @@ impl MboxNet {
             .map(|(index, one)| {
                 let link = self.state(index);
                 GatewayStatus {
+                    kind: GatewayKind::Mbox,
                     port: one.address.to_string(),
                     link,
                     bytes_per_s: 0.0,
@@ -397,6 +449,11 @@ impl MboxNet {
     /// How the motion frames left so far.
     pub fn timing(&self) -> MboxTiming {
         self.shared.timing.snapshot(&self.shared.boxes)
+    }
+
+    /// Box `index`'s configured address and port.
+    pub fn address(&self, index: usize) -> Option<SocketAddr> {
+        self.shared.boxes.get(index).map(|one| one.address)
     }
 
     /// Datagrams sent to box `index` so far.
@@ -505,6 +562,7 @@ impl<'a> Outbox<'a> {
             slot_us,
             time_ms,
             positions_pulses,
+            outputs,
         } = outgoing.frame;
         let time_code = match self.shared.time {
             TimeMode::Relative => TimeCode::from_ms(time_ms),
@@ -525,14 +583,15 @@ impl<'a> Outbox<'a> {
                 continue;
             };
             *sequence = sequence.wrapping_add(1).max(1);
+            let output = outputs.get(index).copied().unwrap_or_default();
             let datagram = MotionFrame {
                 mode: self.shared.time,
                 route: Route::BROADCAST_SILENT,
                 sequence: *sequence,
                 time_code,
                 positions_pulses,
-                digital: DigitalOutputs::NONE,
-                analog: [0, 0],
+                digital: DigitalOutputs::from_bits(output.digital_bits),
+                analog: output.analog,
             };
             self.send_to(index, &datagram.encode());
         }
@@ -554,6 +613,38 @@ impl<'a> Outbox<'a> {
     fn poll_step(&self) -> Duration {
         let batches = self.shared.boxes.len().div_ceil(POLL_BATCH).max(1);
         POLL_INTERVAL / u32::try_from(batches).unwrap_or(u32::MAX)
+    }
+
+    /// Sends a console operation; a write issued before the last e-stop is void, the
+    /// e-stop write itself excepted.
+    fn console(&self, out: ConsoleOut) {
+        let is_poll = match &out.operation {
+            Operation::Read(read) => is_poll_shaped(
+                read.bank,
+                read.range.start(),
+                usize::from(read.range.count()),
+            ),
+            Operation::Write(write) => {
+                if out.generation != self.seen_generation
+                    && *write != RegisterWrite::estop(write.route)
+                {
+                    return;
+                }
+                false
+            }
+        };
+        let bytes = Datagram::from(out.operation).encode();
+        for index in 0..self.shared.boxes.len() {
+            if out.target.is_some_and(|target| target != index) {
+                continue;
+            }
+            if is_poll {
+                self.shared.boxes[index]
+                    .console_polls
+                    .fetch_add(1, Ordering::AcqRel);
+            }
+            self.send_to(index, &bytes);
+        }
     }
 
     /// Polls the e-stop register of the next [`POLL_BATCH`] boxes; counts the polls
@@ -622,7 +713,7 @@ impl<'a> Outbox<'a> {
         self.meter_since = now;
     }
 
-    fn run(mut self, inbox: &Receiver<Outgoing>) {
+    fn run(mut self, inbox: &Receiver<Outgoing>, console: &Receiver<ConsoleOut>) {
         while !self.shared.closed.load(Ordering::Acquire) {
             self.observe_latch(inbox);
             while let Ok(outgoing) = inbox.try_recv() {
@@ -637,6 +728,10 @@ impl<'a> Outbox<'a> {
                 if let Some(outgoing) = self.pending.pop_front() {
                     self.frame(outgoing);
                 }
+            }
+            while let Ok(out) = console.try_recv() {
+                self.observe_latch(inbox);
+                self.console(out);
             }
             let now = Instant::now();
             if let Some((value, left)) = self.repeating
@@ -663,6 +758,40 @@ impl<'a> Outbox<'a> {
     }
 }
 
+/// Whether a read has the shape of the bridge's poll: FN `0x0090`, one register.
+fn is_poll_shaped(bank: ReadBank, start: u16, count: usize) -> bool {
+    bank == ReadBank::Fn && start == FN_ESTOP && count == 1
+}
+
+/// Relays `reply` from box `index` to the console when it answers a console read.
+fn relay(shared: &Shared, index: usize, one: &BoxShared, reply: &RegisterReply) {
+    let values = reply.block.values();
+    if is_poll_shaped(reply.bank, reply.block.start(), values.len())
+        && one
+            .console_polls
+            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |owed| {
+                owed.checked_sub(1)
+            })
+            .is_err()
+    {
+        return;
+    }
+    // No session listening is not a failure.
+    let _ = shared.replies.send(MboxReply {
+        gateway: index,
+        text: render_reply(reply, ReplyLayout::Line),
+        registers: MboxRegisters {
+            bank: match reply.bank {
+                ReadBank::Fn => "FN",
+                ReadBank::Dn => "DN",
+            }
+            .to_owned(),
+            start: reply.block.start(),
+            values: values.to_vec(),
+        },
+    });
+}
+
 /// The receiver thread: matches answers to boxes by source address.
 fn receive(shared: &Shared, socket: &UdpSocket) {
     let mut buffer = vec![0u8; 2048];
@@ -672,18 +801,26 @@ fn receive(shared: &Shared, socket: &UdpSocket) {
             // Timeouts, and ICMP "port unreachable" from a box that is not there.
             Err(_) => continue,
         };
-        let Some(one) = shared.boxes.iter().find(|one| one.address == from) else {
+        let Some((index, one)) = shared
+            .boxes
+            .iter()
+            .enumerate()
+            .find(|(_, one)| one.address == from)
+        else {
             shared.unexpected.fetch_add(1, Ordering::Relaxed);
             continue;
         };
         match Datagram::decode(buffer.get(..len).unwrap_or_default()) {
-            Ok(Datagram::ReadReply(reply)) if reply.bank == ReadBank::Fn => {
-                if let Some(value) = reply.block.get(FN_ESTOP) {
-                    one.estop_register.store(value, Ordering::Release);
+            Ok(Datagram::ReadReply(reply)) => {
+                relay(shared, index, one, &reply);
+                if reply.bank == ReadBank::Fn {
+                    if let Some(value) = reply.block.get(FN_ESTOP) {
+                        one.estop_register.store(value, Ordering::Release);
+                    }
+                    one.answered_us
+                        .store(shared.micros().saturating_add(1), Ordering::Release);
+                    one.replies.fetch_add(1, Ordering::AcqRel);
                 }
-                one.answered_us
-                    .store(shared.micros().saturating_add(1), Ordering::Release);
-                one.replies.fetch_add(1, Ordering::AcqRel);
             }
             _ => {
                 shared.unexpected.fetch_add(1, Ordering::Relaxed);

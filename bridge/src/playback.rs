@@ -21,7 +21,7 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use floatball_shared::api::{GatewayStatus, Status};
+use floatball_shared::api::{GatewayKind, GatewayStatus, Status};
 use floatball_shared::plan::Installation;
 use floatball_shared::plan::mbox::{MboxPlayer, MboxPlayerConfig};
 use floatball_shared::plan::player::{
@@ -360,6 +360,7 @@ fn status_of(player: &Player, links: &[Link]) -> Status {
         .map(|(gateway, link)| {
             let link_status = link.snapshot();
             GatewayStatus {
+                kind: GatewayKind::Uim2503,
                 port: link.port().to_owned(),
                 link: link_status.state,
                 bytes_per_s: link_status.bytes_per_s,

@@ -414,6 +414,7 @@ pub(crate) mod tests {
     /// A show of `rows` × `cols` balls, each 40 mm down and back in 500 ms.
     pub(crate) fn show(rows: u32, cols: u32) -> Show {
         Show {
+            outputs: Vec::new(),
             name: "whatever".into(),
             layout: Layout {
                 rows,

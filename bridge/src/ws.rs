@@ -23,8 +23,20 @@
 //! bulk lane of its gateway (or of all), by a task of the session so that a full lane
 //! never holds up status and feedback. While the e-stop is latched, a line that could
 //! move a ball is refused (queries still go).
+//!
+//! On an MBOX installation a `raw` line is MBOX console text
+//! (`floatball_shared::mbox::console`, docs/gateways.md §7), parsed with the selected
+//! box's route (the last two octets of gateway N's configured IP address, sent as
+//! every box since only that box's socket receives it; every box when no gateway is
+//! given) and handed to
+//! [`crate::mbox::MboxNet::console`]. While the e-stop is latched only reads and the
+//! e-stop write (`estop`) go; `release` and every other write are refused: releasing is
+//! Start, Reset or Home. The console's `estop` is a register write only — it does not
+//! set the bridge's latch (the `estop` message does). Replies to console reads reach
+//! every session as `mbox_reply`.
 
 use std::collections::HashMap;
+use std::net::SocketAddr;
 use std::time::Duration;
 
 use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade, close_code};
@@ -33,12 +45,15 @@ use axum::http::{HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{ClientMessage, ServerMessage};
 use floatball_shared::ascii::{Batch, Form, parse_script};
+use floatball_shared::mbox::console::{self as mbox_console, Operation};
+use floatball_shared::mbox::{BoxAddress, RegisterWrite, Route};
 use futures_util::{SinkExt, StreamExt};
 use tokio::sync::{broadcast, mpsc};
 use tokio::time::Instant;
 
 use crate::control::{self, Control};
 use crate::http::Failure;
+use crate::mbox::MboxNet;
 use crate::origin::origin_allowed;
 use crate::state::AppState;
 
@@ -129,6 +144,7 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
     let (mut sink, stream) = socket.split();
     let mut status = state.subscribe_status();
     let mut feedback = state.gateways().subscribe_feedback();
+    let mut mbox_replies = state.playback().boxes().map(MboxNet::subscribe_replies);
     let (console_lines, waiting_lines) = mpsc::channel(CONSOLE_QUEUE);
     let (console_errors, mut console_failures) = mpsc::channel(CONSOLE_QUEUE);
     let replies = console_errors.clone();
@@ -194,6 +210,13 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
                     Step::Continue
                 }
             },
+            reply = mbox_reply(mbox_replies.as_mut()) => match reply {
+                Some(reply) => sent(send(&mut sink, &ServerMessage::MboxReply(reply)).await),
+                None => {
+                    mbox_replies = None;
+                    Step::Continue
+                }
+            },
             Some(failure) = console_failures.recv() => sent(send(&mut sink, &failure).await),
             _ = token_check.tick() => {
                 if state.tokens().is_valid(&token, state.clock().now()) {
@@ -214,6 +237,23 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
         };
         if let Step::Close = step {
             return;
+        }
+    }
+}
+
+/// The next reply to a console read; `None` when there will be none; never when
+/// there are no boxes.
+async fn mbox_reply(
+    replies: Option<&mut broadcast::Receiver<floatball_shared::api::MboxReply>>,
+) -> Option<floatball_shared::api::MboxReply> {
+    let Some(replies) = replies else {
+        return std::future::pending().await;
+    };
+    loop {
+        match replies.recv().await {
+            Ok(reply) => return Some(reply),
+            Err(broadcast::error::RecvError::Lagged(_)) => {}
+            Err(broadcast::error::RecvError::Closed) => return None,
         }
     }
 }
@@ -398,6 +438,9 @@ fn answer(
             "change the initial password (1234) before sending instructions",
         )),
         ClientMessage::Raw { line, gateway } => {
+            if let Some(boxes) = state.playback().boxes() {
+                return mbox_line(state, boxes, &line, gateway);
+            }
             let count = state.gateways().links().len();
             if let Some(index) = gateway.filter(|index| *index >= count) {
                 return Some(error(format!(
@@ -439,6 +482,66 @@ fn answer(
             }
         }
     }
+}
+
+/// An MBOX console line: parsed, checked against the e-stop latch, handed to the
+/// boxes' sender; the answer when it is refused.
+fn mbox_line(
+    state: &AppState,
+    boxes: &MboxNet,
+    line: &str,
+    gateway: Option<usize>,
+) -> Option<ServerMessage> {
+    if let Some(index) = gateway.filter(|index| *index >= boxes.len()) {
+        return Some(error(format!(
+            "there is no gateway {index}; gateways are numbered 0 to {}",
+            boxes.len().saturating_sub(1)
+        )));
+    }
+    let selected = match gateway.and_then(|index| boxes.address(index)) {
+        Some(SocketAddr::V4(address)) => Route::to(BoxAddress::of_ip(*address.ip())),
+        _ => Route::BROADCAST,
+    };
+    let operations = match mbox_console::parse(line, selected) {
+        Ok(operations) if operations.is_empty() => {
+            return Some(error("the line holds no command"));
+        }
+        // The datagram goes to the selected box's socket only: addressed to every box,
+        // so a box whose IP registers differ from its configured address (behind NAT,
+        // a twin on loopback) executes and answers too.
+        Ok(operations) => operations
+            .into_iter()
+            .map(|operation| match operation {
+                Operation::Read(mut read) if read.route == selected => {
+                    read.route = Route::BROADCAST;
+                    Operation::Read(read)
+                }
+                Operation::Write(mut write) if write.route == selected => {
+                    write.route = Route::BROADCAST;
+                    Operation::Write(write)
+                }
+                other => other,
+            })
+            .collect::<Vec<_>>(),
+        Err(parse_error) => return Some(error(format!("the line is not valid: {parse_error}"))),
+    };
+    let latch = state.playback().latch();
+    if latch.is_latched()
+        && !operations.iter().all(|operation| match operation {
+            Operation::Read(_) => true,
+            Operation::Write(write) => *write == RegisterWrite::estop(write.route),
+        })
+    {
+        return Some(error(
+            "the e-stop is latched: only reads and estop can be sent until Start, Reset or \
+             Home (which release the boxes); this line was not sent",
+        ));
+    }
+    let generation = latch.generation();
+    for operation in operations {
+        boxes.console(gateway, operation, generation);
+    }
+    None
 }
 
 async fn send(sink: &mut Sink, message: &ServerMessage) -> Result<(), axum::Error> {

@@ -9,12 +9,13 @@ use std::time::{Duration, Instant};
 
 use common::mbox_sim::Simulator;
 use common::process::{Process, links_up};
-use common::{Ws, send_text, until};
+use common::{Ws, next_reply, send_text, until};
 use floatball_shared::api::{PlayerState, ServerMessage, SimBox, SimPositions};
 use floatball_shared::mbox::register::FN_ESTOP;
 use floatball_shared::mbox::{
     Datagram, Encode, ReadBank, RegisterRange, RegisterRead, Route, WriteBank,
 };
+use futures_util::StreamExt;
 
 const PULSES_PER_MM: f64 = 10.0;
 const OFFSET_PULSES: i32 = 1_000;
@@ -307,4 +308,100 @@ async fn a_silent_box_is_down_and_comes_back_when_it_answers() {
         }
     });
     assert!(links_up(&mut ws).await, "{}", bridge.log());
+}
+
+/// The next `mbox_reply` or `error` within 5 s, skipping statuses; fails on anything
+/// else.
+async fn console_answer(ws: &mut Ws) -> ServerMessage {
+    match next_reply(ws).await {
+        reply @ (ServerMessage::MboxReply(_) | ServerMessage::Error { .. }) => reply,
+        other => panic!("unexpected message: {other:?}"),
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_console_reads_registers_refuses_bad_lines_and_obeys_the_latch() {
+    let (simulator, _sockets, _bridge, mut ws) = bridge_on_twins(0).await;
+
+    // A read of the IP registers of box 1 comes back as its reply, and only box 1's.
+    send_text(
+        &mut ws,
+        r#"{"type":"raw","line":"read FN 0x20 4  # the IP","gateway":1}"#,
+    )
+    .await;
+    let ServerMessage::MboxReply(reply) = console_answer(&mut ws).await else {
+        panic!("no reply to the read");
+    };
+    assert_eq!(reply.gateway, 1);
+    assert_eq!(reply.registers.bank, "FN");
+    assert_eq!(reply.registers.start, 0x20);
+    let ip: Vec<u16> = reply.registers.values.clone();
+    assert_eq!(ip.len(), 4);
+    assert_eq!(
+        reply.text,
+        format!("FN0020..FN0023 = {} {} {} {}", ip[0], ip[1], ip[2], ip[3])
+    );
+
+    // A parse error comes back with its line and column; nothing is sent.
+    send_text(
+        &mut ws,
+        r#"{"type":"raw","line":"read FN 0x20 4\nread FX 0x20 4"}"#,
+    )
+    .await;
+    let ServerMessage::Error { message } = console_answer(&mut ws).await else {
+        panic!("a bad line was accepted");
+    };
+    assert!(message.contains("line 2, column 6"), "{message}");
+
+    // While the e-stop is latched: reads and estop go, release and other writes do not.
+    send_text(&mut ws, r#"{"type":"estop"}"#).await;
+    assert!(matches!(
+        next_reply(&mut ws).await,
+        ServerMessage::EstopSent { .. }
+    ));
+    for line in ["release", "write CX 1 0xFFFF", "read FN 0x90 1; reset"] {
+        send_text(
+            &mut ws,
+            &serde_json::json!({"type": "raw", "line": line}).to_string(),
+        )
+        .await;
+        let ServerMessage::Error { message } = console_answer(&mut ws).await else {
+            panic!("`{line}` was sent while the e-stop is latched");
+        };
+        assert!(message.contains("latched"), "{message}");
+    }
+    send_text(&mut ws, r#"{"type":"raw","line":"estop","gateway":0}"#).await;
+    // The e-stop register, read by the console while the bridge polls it too: one
+    // reply, 1 (the latch wrote it), from box 0.
+    send_text(
+        &mut ws,
+        r#"{"type":"raw","line":"read FN 0x90 1","gateway":0}"#,
+    )
+    .await;
+    let ServerMessage::MboxReply(reply) = console_answer(&mut ws).await else {
+        panic!("no reply to the read");
+    };
+    assert_eq!((reply.gateway, reply.text.as_str()), (0, "FN0090 = 1"));
+
+    // The bridge's own polls (every 0.5 s) are never relayed.
+    let quiet_until = tokio::time::Instant::now() + Duration::from_millis(1_500);
+    while let Ok(frame) = tokio::time::timeout_at(quiet_until, ws.next()).await {
+        let tokio_tungstenite::tungstenite::Message::Text(text) = frame.unwrap().unwrap() else {
+            continue;
+        };
+        let message: ServerMessage = serde_json::from_str(text.as_str()).unwrap();
+        assert!(
+            matches!(message, ServerMessage::Status(_)),
+            "only statuses while the console is quiet: {message:?}"
+        );
+    }
+    let boxes = simulator.stop();
+    let octets: Vec<u16> = boxes[1]
+        .ip
+        .parse::<std::net::Ipv4Addr>()
+        .unwrap()
+        .octets()
+        .map(u16::from)
+        .to_vec();
+    assert_eq!(ip, octets);
 }

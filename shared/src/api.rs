@@ -362,11 +362,36 @@ pub enum ServerMessage {
         /// reason; they get it first thing when they come back.
         unreached: Vec<String>,
     },
+    /// An MBOX box's answer to a register read sent from the console (the bridge's
+    /// own polls are not relayed); sent to every client.
+    MboxReply(MboxReply),
     /// A request was refused; the connection stays open.
     Error {
         /// What was wrong, in words an operator can act on.
         message: String,
     },
+}
+
+/// An MBOX box's reply to a console read, in [`ServerMessage::MboxReply`].
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MboxReply {
+    /// Index of the box's gateway entry in the configuration.
+    pub gateway: usize,
+    /// The reply as the console prints it: `FN0020..FN0023 = 192 168 15 201`.
+    pub text: String,
+    /// The registers it carries.
+    pub registers: MboxRegisters,
+}
+
+/// A block of consecutive MBOX registers, in [`MboxReply`].
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MboxRegisters {
+    /// The bank: `FN` or `DN`.
+    pub bank: String,
+    /// The first register's address (FN020 is 32).
+    pub start: u16,
+    /// One value a register from `start` on.
+    pub values: Vec<u16>,
 }
 
 /// A decoded feedback frame, as relayed to clients (bit 7 of the data restored).
@@ -417,10 +442,33 @@ pub enum LinkState {
     Down,
 }
 
+/// Which drive family a gateway entry is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GatewayKind {
+    /// A UIM2503 gateway on a serial line (the default).
+    #[default]
+    Uim2503,
+    /// An MBOX motion controller over UDP.
+    Mbox,
+}
+
+impl GatewayKind {
+    /// Whether it is the default, [`Self::Uim2503`] (left out of the JSON).
+    #[must_use]
+    pub fn is_uim2503(&self) -> bool {
+        *self == Self::Uim2503
+    }
+}
+
 /// One gateway as shown in the status.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct GatewayStatus {
-    /// The configured port (`sim` for the simulated gateway).
+    /// Its drive family; `uim2503` when absent.
+    #[serde(default, skip_serializing_if = "GatewayKind::is_uim2503")]
+    pub kind: GatewayKind,
+    /// The configured port (`sim` for the simulated gateway); an MBOX box's address
+    /// and port.
     pub port: String,
     /// Whether the link is up.
     pub link: LinkState,
@@ -537,6 +585,37 @@ mod tests {
         })
         .expect("json");
         assert_eq!(json, r#"{"error":"bad name"}"#);
+    }
+
+    #[test]
+    fn mbox_replies_and_kinds_use_the_documented_json() {
+        let message = ServerMessage::MboxReply(MboxReply {
+            gateway: 1,
+            text: "FN0090 = 1".into(),
+            registers: MboxRegisters {
+                bank: "FN".into(),
+                start: 0x90,
+                values: vec![1],
+            },
+        });
+        assert_eq!(
+            serde_json::to_string(&message).expect("json"),
+            r#"{"type":"mbox_reply","gateway":1,"text":"FN0090 = 1","registers":{"bank":"FN","start":144,"values":[1]}}"#
+        );
+        let uim: GatewayStatus =
+            serde_json::from_str(r#"{"port":"sim","link":"up","bytes_per_s":0.0}"#).expect("uim");
+        assert_eq!(uim.kind, GatewayKind::Uim2503);
+        assert!(
+            serde_json::to_value(&uim)
+                .expect("json")
+                .get("kind")
+                .is_none()
+        );
+        let mbox = GatewayStatus {
+            kind: GatewayKind::Mbox,
+            ..uim
+        };
+        assert_eq!(serde_json::to_value(&mbox).expect("json")["kind"], "mbox");
     }
 
     #[test]

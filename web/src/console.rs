@@ -1,15 +1,21 @@
 //! The engineers' console as plain logic: typed instruction lines checked by the
 //! shared parser before anything is sent, and feedback frames decoded into the
-//! protocol's notation as they arrive.
+//! protocol's notation as they arrive. On an MBOX installation the lines are MBOX
+//! console text, checked by `floatball_shared::mbox::console` (the parser the bridge
+//! uses), and the boxes' replies to reads join the same log.
 //!
 //! The decoded notation (`QP[3] = 1000`, `ER …`) is the manual's, the same in both
 //! languages; error sentences come from the shared codec (English).
 
 use std::collections::VecDeque;
 
-use floatball_shared::api::FeedbackFrame;
+use std::net::SocketAddr;
+
+use floatball_shared::api::{FeedbackFrame, GatewayKind, MboxReply, Status};
 use floatball_shared::ascii::parse_script;
 use floatball_shared::feedback::{Ack, Feedback, Frame, code};
+use floatball_shared::mbox::console as mbox_console;
+use floatball_shared::mbox::{BoxAddress, Route};
 
 /// How many feedback lines the console keeps.
 pub const FEEDBACK_LINES: usize = 200;
@@ -32,17 +38,48 @@ pub enum Check {
 
 /// Checks the console's text with the shared parser (the same the bridge uses).
 pub fn check(text: &str) -> Check {
-    match parse_script(text) {
+    check_with(text, parse_script)
+}
+
+/// Checks MBOX console text with the shared MBOX parser, commands without a box of
+/// their own going to `selected` (see [`mbox_route`]).
+pub fn check_mbox(text: &str, selected: Route) -> Check {
+    check_with(text, |text| mbox_console::parse(text, selected))
+}
+
+/// Checks `text` with `parse`; each line that holds something is sent on its own.
+fn check_with<T, E: ToString>(text: &str, parse: impl Fn(&str) -> Result<Vec<T>, E>) -> Check {
+    match parse(text) {
         Err(error) => Check::Invalid(error.to_string()),
         Ok(instructions) if instructions.is_empty() => Check::Empty,
         Ok(instructions) => Check::Ready {
             lines: text
                 .lines()
-                .filter(|line| !matches!(parse_script(line), Ok(parsed) if parsed.is_empty()))
+                .filter(|line| !matches!(parse(line), Ok(parsed) if parsed.is_empty()))
                 .map(|line| line.trim().to_owned())
                 .collect(),
             instructions: instructions.len(),
         },
+    }
+}
+
+/// Whether the installation's gateways are MBOX boxes.
+pub fn is_mbox(status: &Status) -> bool {
+    status
+        .gateways
+        .iter()
+        .any(|gateway| gateway.kind == GatewayKind::Mbox)
+}
+
+/// The route the bridge gives a command without a box of its own: the selected box
+/// (the last two octets of its configured IP address), or every box.
+pub fn mbox_route(status: Option<&Status>, gateway: Option<usize>) -> Route {
+    let address = gateway
+        .and_then(|index| status?.gateways.get(index))
+        .and_then(|gateway| gateway.port.parse::<SocketAddr>().ok());
+    match address {
+        Some(SocketAddr::V4(address)) => Route::to(BoxAddress::of_ip(*address.ip())),
+        _ => Route::BROADCAST,
     }
 }
 
@@ -53,8 +90,8 @@ pub struct FeedbackLine {
     pub id: u64,
     /// The gateway it came from.
     pub gateway: usize,
-    /// The unit's station.
-    pub station: u8,
+    /// The unit's station (none for an MBOX box's reply).
+    pub station: Option<u8>,
     /// The meaning, in the protocol's notation.
     pub text: String,
     /// The restored data bytes in hex.
@@ -68,21 +105,47 @@ pub struct FeedbackLog {
     next_id: u64,
 }
 
+impl FeedbackLine {
+    /// Where it came from: `gw0 #5` (gateway and station), `gw1` (an MBOX box).
+    pub fn source(&self) -> String {
+        match self.station {
+            Some(station) => format!("gw{} #{station}", self.gateway),
+            None => format!("gw{}", self.gateway),
+        }
+    }
+}
+
 impl FeedbackLog {
     /// Decodes `frame` and puts it first, dropping the oldest beyond
     /// [`FEEDBACK_LINES`].
     pub fn push(&mut self, frame: &FeedbackFrame) {
+        let hex = frame.data.iter().map(|byte| format!("{byte:02X}"));
+        self.push_line(frame.gateway, Some(frame.station), describe(frame), hex);
+    }
+
+    /// Puts an MBOX box's reply to a console read first, its registers in hex.
+    pub fn push_mbox(&mut self, reply: &MboxReply) {
+        let hex = reply
+            .registers
+            .values
+            .iter()
+            .map(|value| format!("{value:04X}"));
+        self.push_line(reply.gateway, None, reply.text.clone(), hex);
+    }
+
+    fn push_line(
+        &mut self,
+        gateway: usize,
+        station: Option<u8>,
+        text: String,
+        hex: impl Iterator<Item = String>,
+    ) {
         let line = FeedbackLine {
             id: self.next_id,
-            gateway: frame.gateway,
-            station: frame.station,
-            text: describe(frame),
-            hex: frame
-                .data
-                .iter()
-                .map(|byte| format!("{byte:02X}"))
-                .collect::<Vec<_>>()
-                .join(" "),
+            gateway,
+            station,
+            text,
+            hex: hex.collect::<Vec<_>>().join(" "),
         };
         self.next_id += 1;
         self.lines.push_front(line);
@@ -189,6 +252,67 @@ mod tests {
             panic!("missing ;");
         };
         assert!(error.contains("`;`"), "{error}");
+    }
+
+    #[test]
+    fn mbox_text_is_checked_with_the_mbox_parser_and_the_selected_box() {
+        let every = Route::BROADCAST;
+        assert_eq!(check_mbox(" # nothing\n", every), Check::Empty);
+        assert_eq!(
+            check_mbox("read FN 0x20 4\n\n@all/none estop; release", every),
+            Check::Ready {
+                lines: vec!["read FN 0x20 4".into(), "@all/none estop; release".into()],
+                instructions: 3
+            }
+        );
+        let Check::Invalid(error) = check_mbox("reset\nread FX 0x20 4", every) else {
+            panic!("FX must be refused");
+        };
+        assert!(error.starts_with("line 2, column 6"), "{error}");
+        // `@201` needs a selected box's subnet.
+        assert!(matches!(check_mbox("@201 reset", every), Check::Invalid(_)));
+        let status = Status {
+            gateways: vec![floatball_shared::api::GatewayStatus {
+                kind: GatewayKind::Mbox,
+                port: "192.168.15.201:7408".into(),
+                link: floatball_shared::api::LinkState::Up,
+                bytes_per_s: 0.0,
+                lowest_water_level: None,
+                error: None,
+                packets_per_s: Some(50.0),
+                late_frames: Some(0),
+                missed_replies: Some(0),
+            }],
+            ..Status::default()
+        };
+        assert!(is_mbox(&status));
+        assert!(!is_mbox(&Status::default()));
+        let selected = mbox_route(Some(&status), Some(0));
+        assert_eq!(selected, Route::to(BoxAddress::from_octets(15, 201)));
+        assert_eq!(mbox_route(Some(&status), None), every);
+        assert!(matches!(
+            check_mbox("@202 reset", selected),
+            Check::Ready { .. }
+        ));
+    }
+
+    #[test]
+    fn mbox_replies_join_the_log() {
+        let mut log = FeedbackLog::default();
+        log.push_mbox(&MboxReply {
+            gateway: 1,
+            text: "FN0090 = 1".into(),
+            registers: floatball_shared::api::MboxRegisters {
+                bank: "FN".into(),
+                start: 0x90,
+                values: vec![1, 0xC0],
+            },
+        });
+        let line = log.lines().next().unwrap();
+        assert_eq!(
+            (line.source(), line.text.as_str(), line.hex.as_str()),
+            ("gw1".into(), "FN0090 = 1", "0001 00C0")
+        );
     }
 
     #[test]

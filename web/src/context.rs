@@ -175,6 +175,7 @@ impl Ctx {
         match message {
             ServerMessage::Status(status) => self.status.set(Some(status)),
             ServerMessage::Feedback(frame) => self.feedback.update(|log| log.push(&frame)),
+            ServerMessage::MboxReply(reply) => self.feedback.update(|log| log.push_mbox(&reply)),
             ServerMessage::Error { message } => self.bridge_error.set(Some(message)),
             ServerMessage::EstopSent { unreached } if !unreached.is_empty() => {
                 self.bridge_error

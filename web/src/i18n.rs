@@ -291,6 +291,22 @@ texts! {
     SentLines => "已发送", "Sent";
     /// Console: the instruction syntax hint.
     ConsoleHint => "每行一条或多条指令，例如 *5;PV; 。# 之后为注释。", "One or more instructions per line, e.g. *5;PV; — # starts a comment.";
+    /// Console on MBOX boxes: the syntax hint.
+    MboxConsoleHint => "每行一条或多条（以 ; 分隔）控制盒命令，例如 read FN 0x20 4 。# 之后为注释。", "One or more box commands per line (separated by ;), e.g. read FN 0x20 4 — # starts a comment.";
+    /// Console on MBOX boxes: the help's title.
+    MboxHelpTitle => "控制盒命令", "Box commands";
+    /// Console on MBOX boxes: the help (one command a line).
+    MboxHelp => "read FN|DN 起始 数量 — 读寄存器（地址按十六进制，FN020 = 0x20）\nwrite FN|CX 起始 值… — 写寄存器（FN 不保存）\nsave FN 起始 值… — 写并保存 FN 参数\nestop / release — FN 0x0090 = 1 / 0（急停锁定时 release 被拒绝：请用复位、启动或回零）\nreset — CX 0 = 0；effects 掩码 — CX 1 = 掩码\nip A.B.C.D — 设置控制盒的 IP（保存）\n@201、@15.201、@all、@all/none — 指定执行与应答的控制盒", "read FN|DN start count — read registers (addresses in hex: FN020 = 0x20)\nwrite FN|CX start value… — write registers (FN not saved)\nsave FN start value… — write FN parameters, saved\nestop / release — FN 0x0090 = 1 / 0 (release is refused while the E-stop is latched: use Reset, Start or Home)\nreset — CX 0 = 0; effects mask — CX 1 = mask\nip A.B.C.D — set the box's IP address (saved)\n@201, @15.201, @all, @all/none — the box that executes and the one that replies";
+    /// Console on MBOX boxes: replies heading.
+    MboxReplies => "控制盒应答", "Box replies";
+    /// Console on MBOX boxes: no replies yet.
+    NoMboxReplies => "还没有收到控制盒应答。", "No replies from the boxes yet.";
+    /// Gateway status of an MBOX box: datagrams a second.
+    PacketsPerS => "包/秒", "packets/s";
+    /// Gateway status of an MBOX box: motion frames sent late.
+    LateFrames => "迟发帧", "late frames";
+    /// Gateway status of an MBOX box: polls left unanswered.
+    MissedReplies => "未应答", "missed replies";
     /// Player state: idle.
     StateIdle => "空闲", "idle";
     /// Player state: waiting out an entry's delay.

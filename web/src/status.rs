@@ -1,9 +1,41 @@
 //! Reading the bridge's `status` message for the Control page: the state's stable
-//! key (for `data-state` and styling), the show time and the progress bar.
+//! key (for `data-state` and styling), the show time, the progress bar and each
+//! gateway's line.
 
-use floatball_shared::api::{PlayerState, Status};
+use floatball_shared::api::{GatewayKind, GatewayStatus, PlayerState, Status};
 
 use crate::files::format_duration_ms;
+use crate::i18n::{Lang, Text};
+
+/// One gateway's line in the status: a UIM2503 gateway's port, link, bytes/s and
+/// lowest FIFO water level; an MBOX box's address, link, packets/s, late frames and
+/// missed replies; then the error, if any.
+pub fn gateway_text(lang: Lang, gateway: &GatewayStatus) -> String {
+    let mut text = format!("{}: {}", gateway.port, lang.link_state(gateway.link));
+    match gateway.kind {
+        GatewayKind::Uim2503 => {
+            text.push_str(&format!(" · {:.0} B/s", gateway.bytes_per_s));
+            if let Some(level) = gateway.lowest_water_level {
+                text.push_str(&format!(" · FIFO ≥ {level}"));
+            }
+        }
+        GatewayKind::Mbox => {
+            let packets = gateway.packets_per_s.unwrap_or_default();
+            text.push_str(&format!(" · {packets:.0} {}", lang.t(Text::PacketsPerS)));
+            for (label, count) in [
+                (Text::LateFrames, gateway.late_frames),
+                (Text::MissedReplies, gateway.missed_replies),
+            ] {
+                let count = count.unwrap_or_default();
+                text.push_str(&format!(" · {} {count}", lang.t(label)));
+            }
+        }
+    }
+    if let Some(error) = &gateway.error {
+        text.push_str(&format!(" · {error}"));
+    }
+    text
+}
 
 /// The state's name in the API (`playing`), the same in every language.
 pub fn state_key(state: PlayerState) -> &'static str {
@@ -66,6 +98,44 @@ mod tests {
         }
         assert!(shows_progress(PlayerState::Loading));
         assert!(!shows_progress(PlayerState::Stopped));
+    }
+
+    #[test]
+    fn gateway_lines_by_kind() {
+        let uim = GatewayStatus {
+            kind: GatewayKind::Uim2503,
+            port: "/dev/ttyUSB0".into(),
+            link: floatball_shared::api::LinkState::Up,
+            bytes_per_s: 1234.4,
+            lowest_water_level: Some(12),
+            error: None,
+            packets_per_s: None,
+            late_frames: None,
+            missed_replies: None,
+        };
+        assert_eq!(
+            gateway_text(Lang::En, &uim),
+            "/dev/ttyUSB0: up · 1234 B/s · FIFO ≥ 12"
+        );
+        let mbox = GatewayStatus {
+            kind: GatewayKind::Mbox,
+            port: "192.168.15.201:7408".into(),
+            link: floatball_shared::api::LinkState::Down,
+            bytes_per_s: 0.0,
+            lowest_water_level: None,
+            error: Some("no answer".into()),
+            packets_per_s: Some(52.0),
+            late_frames: Some(1),
+            missed_replies: Some(3),
+        };
+        assert_eq!(
+            gateway_text(Lang::En, &mbox),
+            format!(
+                "192.168.15.201:7408: {} · 52 packets/s · late frames 1 · missed replies 3 · no answer",
+                Lang::En.link_state(floatball_shared::api::LinkState::Down)
+            )
+        );
+        assert!(gateway_text(Lang::Zh, &mbox).contains("迟发帧 1 · 未应答 3"));
     }
 
     #[test]

@@ -66,6 +66,7 @@ fn coloured_show() -> Show {
         [40, 220, 220],
     ];
     Show {
+        outputs: Vec::new(),
         name: "colours".into(),
         layout: layout(2, 3),
         tracks: colours
@@ -79,6 +80,7 @@ fn coloured_show() -> Show {
 /// Ball 0 hangs high, ball 1 low, both white.
 fn high_and_low_show() -> Show {
     Show {
+        outputs: Vec::new(),
         name: "two".into(),
         layout: layout(1, 2),
         tracks: vec![still(100.0, None), still(7000.0, None)],
@@ -92,6 +94,7 @@ fn speeding_show() -> Show {
     fast.rows[2] = TrackRow::new(3000.0, 0.0, 250);
     fast.rows[3] = TrackRow::new(3000.0, 0.0, 250);
     Show {
+        outputs: Vec::new(),
         name: "speeding".into(),
         layout: layout(1, 2),
         tracks: vec![still(1000.0, Some([40, 200, 60])), fast],
@@ -111,22 +114,6 @@ fn shown_ms(container: &web_sys::HtmlElement) -> f64 {
     attribute(container, "preview-time", "data-t-ms")
         .parse()
         .unwrap()
-}
-
-/// Sets an input's value and sends the event a user's change would.
-fn set_value(container: &web_sys::HtmlElement, test_id: &str, value: &str, event: &str) {
-    let field = element(container, test_id);
-    if let Some(input) = field.dyn_ref::<web_sys::HtmlInputElement>() {
-        input.set_value(value);
-    } else {
-        field
-            .unchecked_ref::<web_sys::HtmlSelectElement>()
-            .set_value(value);
-    }
-    let init = web_sys::EventInit::new();
-    init.set_bubbles(true);
-    let event = web_sys::Event::new_with_event_init_dict(event, &init).unwrap();
-    field.dispatch_event(&event).unwrap();
 }
 
 /// A pointer event at `at` (CSS pixels from the canvas's top-left corner).

@@ -10,7 +10,8 @@ use std::collections::VecDeque;
 use std::rc::Rc;
 
 use floatball_shared::api::{
-    ClientMessage, FeedbackFrame, PlayerState, Playlist, ServerMessage, ShowSummary, Status,
+    ClientMessage, FeedbackFrame, GatewayKind, GatewayStatus, LinkState, MboxRegisters, MboxReply,
+    PlayerState, Playlist, ServerMessage, ShowSummary, Status,
 };
 use floatball_shared::show::{Layout, Show, Track, TrackRow};
 use floatball_web::client::{
@@ -170,6 +171,26 @@ fn context(bridge: &Rc<FakeBridge>, socket: &Rc<FakeSocket>, database: &str) -> 
     Ctx::new(services, origin, Lang::En)
 }
 
+/// `page`, mounted logged in and connected with a bridge that answers every request
+/// 500 (it stays mounted for the rest of the test run); the socket and the bridge
+/// record what it sends.
+fn mount_online<V: IntoView + 'static>(
+    database: &str,
+    page: fn() -> V,
+) -> (web_sys::HtmlElement, Ctx, Rc<FakeSocket>, Rc<FakeBridge>) {
+    let container = fresh_container();
+    let bridge = FakeBridge::new(|_| response(500, ""));
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, database);
+    online(ctx);
+    let mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        page()
+    });
+    std::mem::forget(mounted);
+    (container, ctx, socket, bridge)
+}
+
 /// Logged in and connected.
 fn online(ctx: Ctx) {
     ctx.session.set(Some(Session {
@@ -190,21 +211,7 @@ fn disabled(container: &web_sys::HtmlElement, test_id: &str) -> bool {
 
 /// Types `value` into an input or textarea as a user would (an `input` event).
 fn type_into(container: &web_sys::HtmlElement, test_id: &str, value: &str) {
-    let field = element(container, test_id);
-    if let Some(input) = field.dyn_ref::<web_sys::HtmlInputElement>() {
-        input.set_value(value);
-    } else {
-        field
-            .unchecked_ref::<web_sys::HtmlTextAreaElement>()
-            .set_value(value);
-    }
-    let event = web_sys::Event::new_with_event_init_dict("input", &{
-        let init = web_sys::EventInit::new();
-        init.set_bubbles(true);
-        init
-    })
-    .unwrap();
-    field.dispatch_event(&event).unwrap();
+    set_value(container, test_id, value, "input");
 }
 
 fn summary(name: &str) -> ShowSummary {
@@ -276,15 +283,7 @@ async fn language_switch_toggles() {
 
 #[wasm_bindgen_test]
 async fn estop_sends_exactly_one_estop_per_press_and_is_acknowledged() {
-    let container = fresh_container();
-    let bridge = FakeBridge::new(|_| response(500, ""));
-    let socket = Rc::new(FakeSocket::default());
-    let ctx = context(&bridge, &socket, "test-estop");
-    online(ctx);
-    let _mounted = mount_to(container.clone(), move || {
-        provide_context(ctx);
-        view! { <EstopButton /> }
-    });
+    let (container, ctx, socket, bridge) = mount_online("test-estop", || view! { <EstopButton /> });
     let estop = element(&container, "estop");
     assert_eq!(estop.get_attribute("data-ack").as_deref(), Some("ready"));
     assert_eq!(text(&container, "estop-ack"), "");
@@ -999,15 +998,7 @@ async fn settings_store_the_defaults_and_the_loop_flag() {
 
 #[wasm_bindgen_test]
 async fn console_checks_before_sending_and_decodes_feedback() {
-    let container = fresh_container();
-    let bridge = FakeBridge::new(|_| response(500, ""));
-    let socket = Rc::new(FakeSocket::default());
-    let ctx = context(&bridge, &socket, "test-console");
-    online(ctx);
-    let _mounted = mount_to(container.clone(), move || {
-        provide_context(ctx);
-        view! { <ConsolePage /> }
-    });
+    let (container, ctx, socket, _) = mount_online("test-console", || view! { <ConsolePage /> });
     type_into(&container, "console-input", "*5;\nQT[3]=0;");
     tick().await;
     let check = element(&container, "console-check");
@@ -1052,6 +1043,150 @@ async fn console_checks_before_sending_and_decodes_feedback() {
     assert!(line.contains("gw0 #5") && line.contains("PV = 3"), "{line}");
 }
 
+/// A status of two MBOX boxes: .201 up, .202 down with counts.
+fn mbox_status() -> Status {
+    let mbox = |port: &str, link, packets, late, missed| GatewayStatus {
+        kind: GatewayKind::Mbox,
+        port: port.into(),
+        link,
+        bytes_per_s: 0.0,
+        lowest_water_level: None,
+        error: None,
+        packets_per_s: Some(packets),
+        late_frames: Some(late),
+        missed_replies: Some(missed),
+    };
+    Status {
+        gateways: vec![
+            mbox("192.168.15.201:7408", LinkState::Up, 52.0, 0, 1),
+            mbox("192.168.15.202:7408", LinkState::Down, 2.0, 4, 7),
+        ],
+        ..Status::default()
+    }
+}
+
+#[wasm_bindgen_test]
+async fn console_on_mbox_boxes_checks_box_commands_helps_and_shows_replies() {
+    let (container, ctx, socket, _) =
+        mount_online("test-console-mbox", || view! { <ConsolePage /> });
+    tick().await;
+    assert!(
+        all(&container, "console-help").is_empty(),
+        "no MBOX help on UIM2503"
+    );
+    ctx.receive(ServerMessage::Status(mbox_status()));
+    tick().await;
+    let help = text(&container, "console-help");
+    assert!(
+        help.contains("Box commands") && help.contains("read FN|DN"),
+        "{help}"
+    );
+    assert!(text(&container, "console-check").contains("read FN 0x20 4"));
+
+    // The MBOX parser, with its line and column; UIM2503 text is not box text.
+    type_into(&container, "console-input", "reset\nread FX 0x20 4");
+    tick().await;
+    assert_eq!(
+        attribute(&container, "console-check", "data-state"),
+        "error"
+    );
+    assert!(text(&container, "console-check").starts_with("line 2, column 6"));
+    assert!(disabled(&container, "console-send"));
+    type_into(&container, "console-input", "*5;PV;");
+    tick().await;
+    assert_eq!(
+        attribute(&container, "console-check", "data-state"),
+        "error"
+    );
+    // `@201` needs the selected box's subnet: refused for every box, fine for box 0.
+    type_into(&container, "console-input", "@201 reset");
+    tick().await;
+    assert_eq!(
+        attribute(&container, "console-check", "data-state"),
+        "error"
+    );
+    set_value(&container, "console-gateway", "0", "change");
+    tick().await;
+    assert_eq!(attribute(&container, "console-check", "data-state"), "ok");
+
+    type_into(
+        &container,
+        "console-input",
+        "read FN 0x20 4 # the IP\n\n@all/none estop",
+    );
+    tick().await;
+    assert_eq!(attribute(&container, "console-check", "data-state"), "ok");
+    element(&container, "console-send").click();
+    tick().await;
+    assert_eq!(
+        *socket.sent.borrow(),
+        [
+            ClientMessage::Raw {
+                line: "read FN 0x20 4 # the IP".into(),
+                gateway: Some(0)
+            },
+            ClientMessage::Raw {
+                line: "@all/none estop".into(),
+                gateway: Some(0)
+            }
+        ]
+    );
+
+    assert!(text(&container, "feedback-list").contains("No replies from the boxes yet."));
+    ctx.receive(ServerMessage::MboxReply(MboxReply {
+        gateway: 0,
+        text: "FN0020..FN0023 = 192 168 15 201".into(),
+        registers: MboxRegisters {
+            bank: "FN".into(),
+            start: 0x20,
+            values: vec![192, 168, 15, 201],
+        },
+    }));
+    tick().await;
+    let lines = all(&container, "feedback-line");
+    assert_eq!(lines.len(), 1);
+    let line = lines[0].text_content().unwrap();
+    assert!(
+        line.contains("gw0")
+            && line.contains("FN0020..FN0023 = 192 168 15 201")
+            && line.contains("00C0 00A8 000F 00C9"),
+        "{line}"
+    );
+    ctx.lang.set(Lang::Zh);
+    tick().await;
+    assert!(text(&container, "console-help").contains("控制盒命令"));
+}
+
+#[wasm_bindgen_test]
+async fn the_status_shows_mbox_boxes_with_packets_late_frames_and_missed_replies() {
+    let bridge = playlist_bridge();
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-status-mbox").await;
+    ctx.receive(ServerMessage::Status(mbox_status()));
+    tick().await;
+    let boxes: Vec<String> = all(&container, "gateway")
+        .iter()
+        .map(|gateway| gateway.text_content().unwrap())
+        .collect();
+    assert_eq!(
+        boxes,
+        [
+            "192.168.15.201:7408: up · 52 packets/s · late frames 0 · missed replies 1",
+            "192.168.15.202:7408: down · 2 packets/s · late frames 4 · missed replies 7",
+        ]
+    );
+    assert_eq!(
+        all(&container, "gateway")[1]
+            .get_attribute("data-link")
+            .as_deref(),
+        Some("down")
+    );
+    ctx.lang.set(Lang::Zh);
+    tick().await;
+    let first = all(&container, "gateway")[0].text_content().unwrap();
+    assert!(first.contains("52 包/秒 · 迟发帧 0 · 未应答 1"), "{first}");
+}
+
 // ----------------------------------------------------------------------------------
 // A show for the file tests (the preview's own tests are in tests/preview.rs)
 // ----------------------------------------------------------------------------------
@@ -1068,6 +1203,7 @@ fn two_ball_show() -> Show {
         colours: Vec::new(),
     };
     Show {
+        outputs: Vec::new(),
         name: "two".into(),
         layout: Layout {
             rows: 1,

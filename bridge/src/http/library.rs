@@ -102,6 +102,7 @@ fn upload_limits(config: &Config) -> UploadLimits {
         motion: config.installation.limits,
         max_duration_ms: u64::try_from(config.uploads.max_duration.as_millis()).unwrap_or(u64::MAX),
         max_json_bytes: config.uploads.max_bytes,
+        mbox_boxes: config.installation.mbox_boxes(),
     }
 }
 

@@ -129,6 +129,18 @@ pub struct Installation {
 }
 
 impl Installation {
+    /// How many MBOX boxes drive it (its gateways, in order), if it is an MBOX
+    /// installation; output tracks are for them.
+    #[must_use]
+    pub fn mbox_boxes(&self) -> Option<usize> {
+        let mbox = !self.gateways.is_empty()
+            && self
+                .gateways
+                .iter()
+                .all(|gateway| gateway.kind == DriveKind::Mbox);
+        mbox.then_some(self.gateways.len())
+    }
+
     /// An installation whose units are shared evenly among `gateways` by [`allocate`]
     /// (row-major, gateway by gateway), each gateway on consecutive stations from
     /// `first_station`; the pitch is [`DEFAULT_PITCH_MM`], the approach 300 mm/s, home

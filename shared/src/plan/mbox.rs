@@ -18,14 +18,22 @@
 //! - A move, and the last show of a playlist, end with [`SETTLE_FRAMES`] more frames
 //!   holding the final positions: positions are absolute, so a lost last frame is
 //!   repeated.
+//! - **Outputs**: while a show plays, each frame carries every box's digital and
+//!   analog outputs sampled from the show's output tracks at the frame's show time
+//!   (the clock of the positions; a box sets its outputs when the frame arrives).
+//!   Frames of moves (approach, homing for Start, Reset or Home) and the settle frames
+//!   after the last show carry 0, so the outputs are off when a show ends and while
+//!   homing. A show without output tracks plays with every output 0.
 //! - **E-stop** stops sending at once (the bridge sends the boxes' e-stop); the next
 //!   Start homes first. **Reset** stops, homes and plays from the first entry;
-//!   **Home** stops, homes and stays idle.
+//!   **Home** stops, homes and stays idle. No frame follows an e-stop, so the outputs
+//!   stay whatever the boxes keep from the last frame until the next frame (homing
+//!   sends 0).
 
 use super::installation::Installation;
 use super::player::{Entry, NextRun, PlaylistProgress, StartError, next_run};
 use crate::api::{PlayerState, Status};
-use crate::show::{Sampler, validate};
+use crate::show::{OutputSample, Sampler, Show, output_box_message, validate};
 
 /// Frames sent after a move or the playlist's end, holding the final positions.
 pub const SETTLE_FRAMES: u64 = 5;
@@ -77,6 +85,8 @@ pub struct MboxFrame {
     /// Per box (gateway order), per axis: the target, pulses. Axes no unit uses hold
     /// their calibrated 0 mm.
     pub positions_pulses: Vec<Vec<i32>>,
+    /// Per box (gateway order): its digital and analog outputs.
+    pub outputs: Vec<OutputSample>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -181,7 +191,7 @@ impl MboxPlayer {
                     entry.show.tracks.len()
                 ))
             } else {
-                None
+                unknown_output_box(installation, &entry.show)
             };
             if let Some(reason) = reason {
                 return Err(StartError::Invalid {
@@ -377,7 +387,7 @@ impl MboxPlayer {
                 let (targets_mm, began_us, arrive_us, after) =
                     (targets_mm.clone(), *began_us, *arrive_us, *after);
                 let left_us = arrive_us.saturating_sub(slot_us).max(period);
-                self.push_frame(slot_us, left_us, &targets_mm);
+                self.push_frame(slot_us, left_us, &targets_mm, None);
                 if slot_us >= arrive_us + SETTLE_FRAMES * period {
                     self.believed_mm = Some(targets_mm);
                     self.progress = 1.0;
@@ -409,7 +419,7 @@ impl MboxPlayer {
                 } else {
                     (self.show_time_ms as f64 / duration_ms as f64).min(1.0)
                 };
-                self.push_frame(slot_us, period, &targets_mm);
+                self.push_frame(slot_us, period, &targets_mm, Some(t_ms));
                 let last = self.entry + 1 == self.entries.len()
                     && self.cycle >= self.entries[self.entry].cycles.max(1)
                     && !self.loop_playlist;
@@ -513,9 +523,23 @@ impl MboxPlayer {
         self.step = Step::Playing { start_us: now_us };
     }
 
-    /// Turns every unit's target into each box's frame.
-    fn push_frame(&mut self, slot_us: u64, time_us: u64, targets_mm: &[f64]) {
+    /// Turns every unit's target into each box's frame, with the outputs of the
+    /// current show at `show_t_ms` (0 without).
+    fn push_frame(
+        &mut self,
+        slot_us: u64,
+        time_us: u64,
+        targets_mm: &[f64],
+        show_t_ms: Option<u64>,
+    ) {
         let installation = &self.config.installation;
+        let show = self.entries.get(self.entry).map(|entry| &entry.show);
+        let outputs = (0..self.config.boxes.len())
+            .map(|box_index| match (show, show_t_ms) {
+                (Some(show), Some(t_ms)) => show.outputs_at(box_index, t_ms),
+                _ => OutputSample::default(),
+            })
+            .collect();
         let mut positions: Vec<Vec<i32>> = self
             .config
             .boxes
@@ -537,8 +561,16 @@ impl MboxPlayer {
             slot_us,
             time_ms: u32::try_from(time_us / 1_000).unwrap_or(u32::MAX).max(1),
             positions_pulses: positions,
+            outputs,
         });
     }
+}
+
+/// Why `show`'s outputs cannot play on `installation`: a track for a box it lacks.
+fn unknown_output_box(installation: &Installation, show: &Show) -> Option<String> {
+    let boxes = installation.mbox_boxes().unwrap_or(0);
+    let box_index = show.output_box_beyond(boxes)?;
+    Some(output_box_message(box_index, boxes))
 }
 
 #[cfg(test)]

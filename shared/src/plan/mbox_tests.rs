@@ -4,13 +4,13 @@
 use wasm_bindgen_test::wasm_bindgen_test as test;
 
 use super::*;
-use crate::api::PlayerState;
+use crate::api::{PlayerState, Status};
 use crate::mbox::twin::{MboxTwin, TwinConfig};
 use crate::mbox::{
     AxisCount, AxisPositions, DigitalOutputs, Encode, MotionFrame, Route, TimeCode, TimeMode,
 };
 use crate::plan::installation::{DriveKind, GatewaySpec, Stations, allocate};
-use crate::show::{Limits, demo};
+use crate::show::{AnalogKey, DigitalKey, Limits, OutputTrack, demo};
 
 const CALIBRATION: BoxCalibration = BoxCalibration {
     axes: 3,
@@ -64,23 +64,37 @@ fn entry(cycles: u32, delay_ms: u64) -> Entry {
 /// Runs the player until it rests, feeding every frame to the twins; returns the
 /// states it went through.
 fn run(player: &mut MboxPlayer, twins: &mut [MboxTwin], now_us: &mut u64) -> Vec<PlayerState> {
+    run_logged(player, twins, now_us, &mut |_, _, _| {})
+}
+
+/// [`run`], telling `log` each frame with the player's state and show time after the
+/// poll that made it and the twins' snapshots once they received it.
+fn run_logged(
+    player: &mut MboxPlayer,
+    twins: &mut [MboxTwin],
+    now_us: &mut u64,
+    log: &mut dyn FnMut(&Status, &MboxFrame, &[MboxTwin]),
+) -> Vec<PlayerState> {
     let mut states = vec![player.status().state];
     while let Some(wake) = player.next_wakeup_us(*now_us) {
         *now_us = wake.max(*now_us);
         player.poll(*now_us);
+        let status = player.status();
         for frame in player.take_frames() {
-            for (twin, positions) in twins.iter_mut().zip(&frame.positions_pulses) {
+            let boxes = frame.positions_pulses.iter().zip(&frame.outputs);
+            for (twin, (positions, outputs)) in twins.iter_mut().zip(boxes) {
                 let datagram = MotionFrame {
                     mode: TimeMode::Relative,
                     route: Route::BROADCAST_SILENT,
                     sequence: 0,
                     time_code: TimeCode::from_ms(frame.time_ms),
                     positions_pulses: AxisPositions::from_slice(positions).unwrap(),
-                    digital: DigitalOutputs::NONE,
-                    analog: [0, 0],
+                    digital: DigitalOutputs::from_bits(outputs.digital_bits),
+                    analog: outputs.analog,
                 };
                 twin.receive(frame.slot_us, &datagram.encode());
             }
+            log(&status, &frame, twins);
         }
         let state = player.status().state;
         if states.last() != Some(&state) {
@@ -214,4 +228,150 @@ fn reset_homes_and_plays_and_a_refused_reset_stays_stopped() {
         ]
     );
     assert_eq!(player.status().last_error, None);
+}
+
+/// `entry(1, 0)` with outputs: box 0 switches outputs 1 and 3 on at 0 and only output
+/// 12 from 500 ms, and ramps analog channel 0 from 0 to 1000 over the show; box 1
+/// switches every output on at 200 ms.
+fn entry_with_outputs() -> Entry {
+    let mut entry = entry(1, 0);
+    entry.show.outputs = vec![
+        OutputTrack {
+            box_index: 0,
+            digital: vec![
+                DigitalKey {
+                    time_ms: 0,
+                    bits: 0b101,
+                },
+                DigitalKey {
+                    time_ms: 500,
+                    bits: 0x0800,
+                },
+            ],
+            analog: vec![
+                AnalogKey {
+                    time_ms: 0,
+                    channel: 0,
+                    value: 0,
+                },
+                AnalogKey {
+                    time_ms: 1_000,
+                    channel: 0,
+                    value: 1_000,
+                },
+            ],
+        },
+        OutputTrack {
+            box_index: 1,
+            digital: vec![DigitalKey {
+                time_ms: 200,
+                bits: 0x0FFF,
+            }],
+            analog: Vec::new(),
+        },
+    ];
+    entry.show.check().unwrap();
+    entry
+}
+
+#[test]
+fn frames_carry_the_outputs_at_their_show_time_and_0_outside_the_show() {
+    let mut player = player();
+    let mut twins = twins();
+    let mut now = 0;
+    let entry = entry_with_outputs();
+    let duration_ms = entry.show.duration_ms();
+    assert_eq!(duration_ms, 1_000);
+    player.start(now, vec![entry], false).unwrap();
+    let mut played = Vec::new();
+    let mut log = |status: &Status, frame: &MboxFrame, twins: &[MboxTwin]| {
+        let snapshots: Vec<_> = twins
+            .iter()
+            .map(|twin| {
+                let snapshot = twin.snapshot();
+                (snapshot.digital, snapshot.analog)
+            })
+            .collect();
+        let sent: Vec<_> = frame
+            .outputs
+            .iter()
+            .map(|one| (one.digital_bits, one.analog))
+            .collect();
+        // The twins keep what the frame carried.
+        assert_eq!(snapshots, sent);
+        if status.state == PlayerState::Playing {
+            played.push((status.show_time_ms, sent));
+        } else {
+            // Homing and approaching: every output 0.
+            assert_eq!(sent, vec![(0, [0, 0]); 2], "{:?}", status.state);
+        }
+    };
+    run_logged(&mut player, &mut twins, &mut now, &mut log);
+    let at = |t_ms: u64| {
+        played
+            .iter()
+            .find(|(time, _)| *time == t_ms)
+            .map(|(_, sent)| sent.clone())
+            .unwrap()
+    };
+    // The approach's last frame (at the show's first positions, outputs 0) leaves
+    // the player playing at 0 ms; the show's first frame is one period later.
+    assert_eq!(at(0), vec![(0, [0, 0]); 2]);
+    assert_eq!(at(20), vec![(0b101, [20, 0]), (0, [0, 0])]);
+    assert_eq!(at(180), vec![(0b101, [180, 0]), (0, [0, 0])]);
+    assert_eq!(at(200), vec![(0b101, [200, 0]), (0x0FFF, [0, 0])]);
+    assert_eq!(at(480), vec![(0b101, [480, 0]), (0x0FFF, [0, 0])]);
+    assert_eq!(at(500), vec![(0x0800, [500, 0]), (0x0FFF, [0, 0])]);
+    assert_eq!(at(980), vec![(0x0800, [980, 0]), (0x0FFF, [0, 0])]);
+    // The settle frames after the show's end switch everything off.
+    let (end_ms, last) = played.last().unwrap();
+    assert_eq!(*end_ms, duration_ms);
+    assert_eq!(*last, vec![(0, [0, 0]); 2]);
+    for twin in &twins {
+        let snapshot = twin.snapshot();
+        assert_eq!((snapshot.digital, snapshot.analog), (0, [0, 0]));
+    }
+}
+
+#[test]
+fn home_switches_the_outputs_off_and_an_estop_leaves_them() {
+    let mut player = player();
+    let mut now = 0;
+    player
+        .start(now, vec![entry_with_outputs()], false)
+        .unwrap();
+    let mut last_sent = None;
+    while player.status().show_time_ms < 600 || player.status().state != PlayerState::Playing {
+        now = player.next_wakeup_us(now).unwrap();
+        player.poll(now);
+        if let Some(frame) = player.take_frames().pop() {
+            last_sent = Some(frame.outputs);
+        }
+    }
+    let sent = last_sent.unwrap();
+    assert_eq!(sent[0].digital_bits, 0x0800);
+    // An e-stop sends nothing more: the boxes keep the last frame's outputs.
+    player.estop();
+    player.poll(now + 100_000);
+    assert!(player.take_frames().is_empty());
+    // Homing carries 0 from its first frame.
+    player.home(now + 100_000);
+    player.poll(now + 100_000);
+    let frames = player.take_frames();
+    assert_eq!(frames.len(), 1);
+    assert_eq!(frames[0].outputs, vec![OutputSample::default(); 2]);
+}
+
+#[test]
+fn outputs_for_a_box_the_installation_lacks_are_refused() {
+    let mut player = player();
+    let mut entry = entry_with_outputs();
+    entry.show.outputs[1].box_index = 2;
+    let error = player.start(0, vec![entry], false).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("outputs for box 2 but the installation's MBOX boxes are 0–1"),
+        "{error}"
+    );
 }

@@ -33,7 +33,7 @@
 //!     rows: vec![TrackRow::new(to_mm, 0.0, 200), TrackRow::new(1000.0, 0.0, 200)],
 //!     colours: Vec::new(),
 //! };
-//! let show = Show { name: "bob".into(), layout, tracks: vec![track(1010.0), track(1020.0)] };
+//! let show = Show { name: "bob".into(), layout, tracks: vec![track(1010.0), track(1020.0)], outputs: Vec::new() };
 //! let plan = Plan::new(&show, &installation, PlanOptions::default()).unwrap();
 //! assert_eq!(plan.units[1].rows[0].position_counts, 102_000);
 //! assert_eq!(plan.gateways[0].mode, RunMode::Single);

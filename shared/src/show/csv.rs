@@ -272,6 +272,7 @@ pub(super) fn convert(
 ) -> Result<Show, CsvError> {
     let (layout, keyframes) = read(text, installation, MAX_TIME_MS as u64)?;
     Ok(Show {
+        outputs: Vec::new(),
         name: name.to_owned(),
         layout,
         tracks: keyframes.tracks(),
@@ -293,6 +294,7 @@ pub(super) fn convert_within(
         exact,
     };
     let header = Show {
+        outputs: Vec::new(),
         name: name.to_owned(),
         layout,
         tracks: Vec::new(),
@@ -314,6 +316,7 @@ pub(super) fn convert_within(
         return Err(too_large(bytes, true));
     }
     Ok(Show {
+        outputs: Vec::new(),
         name: name.to_owned(),
         layout,
         tracks: keyframes.tracks(),

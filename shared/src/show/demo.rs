@@ -97,6 +97,7 @@ impl Wave {
             }
         }
         Show {
+            outputs: Vec::new(),
             name: "wave".into(),
             layout: Layout {
                 rows: self.rows,

@@ -30,7 +30,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::csv::{self, CsvError, CsvProblem, ImportError, ImportLimits};
-use super::{Layout, Limits, Show, ShowError, Violation, validate};
+use super::{Layout, Limits, Show, ShowError, Violation, output_box_message, validate};
 
 /// Most problems [`Refused::details`] lists; the rest are counted.
 pub const MAX_LISTED_PROBLEMS: usize = 10_000;
@@ -96,6 +96,9 @@ pub struct UploadLimits {
     /// Largest native show file as stored ([`Show::to_json`]), bytes (`[uploads]
     /// max_bytes`).
     pub max_json_bytes: usize,
+    /// The installation's MBOX boxes, which output tracks must name; `None` where
+    /// outputs are ignored (UIM2503).
+    pub mbox_boxes: Option<usize>,
 }
 
 /// Why a show file is refused.
@@ -170,6 +173,14 @@ pub enum Refused {
         if .0.len() == 1 { "" } else { "s" }
     )]
     Unfit(Vec<Violation>),
+    /// An output track for a box the installation lacks.
+    #[error("{}", output_box_message(*box_index, *boxes))]
+    OutputBox {
+        /// The box the track names.
+        box_index: usize,
+        /// The installation's MBOX boxes.
+        boxes: usize,
+    },
 }
 
 impl Refused {
@@ -179,7 +190,9 @@ impl Refused {
     #[must_use]
     pub fn details(&self) -> Vec<String> {
         match self {
-            Self::NotUtf8 { .. } | Self::Unreadable(_) | Self::Csv(_) => vec![self.reason()],
+            Self::NotUtf8 { .. } | Self::Unreadable(_) | Self::Csv(_) | Self::OutputBox { .. } => {
+                vec![self.reason()]
+            }
             Self::KeyframeTooLate { error, .. } => vec![error.to_string()],
             Self::Empty(ShowFormat::Csv) => {
                 vec!["a CSV show needs at least two keyframes, the last after 0 ms".to_owned()]
@@ -235,6 +248,7 @@ impl Refused {
                 "the show as stored is larger than [uploads] max_bytes".to_owned()
             }
             Self::Unfit(_) => "the show does not fit this installation".to_owned(),
+            Self::OutputBox { .. } => self.to_string(),
         }
     }
 
@@ -337,6 +351,11 @@ fn admit(
     if !violations.is_empty() {
         return Err(Refused::Unfit(violations));
     }
+    if let Some(boxes) = limits.mbox_boxes
+        && let Some(box_index) = show.output_box_beyond(boxes)
+    {
+        return Err(Refused::OutputBox { box_index, boxes });
+    }
     let bytes = show.json_bytes();
     if bytes > limits.max_json_bytes {
         return Err(Refused::TooLarge {
@@ -404,6 +423,7 @@ mod tests {
             motion: Limits::for_layout(1, 2),
             max_duration_ms: 30 * 60 * 1000,
             max_json_bytes: 1 << 20,
+            mbox_boxes: None,
         }
     }
 
@@ -414,6 +434,7 @@ mod tests {
             colours: Vec::new(),
         };
         Show {
+            outputs: Vec::new(),
             name: "in the file".into(),
             layout: ONE_BY_TWO,
             tracks: vec![track.clone(), track],
@@ -550,6 +571,49 @@ mod tests {
         let error = refused(json.as_bytes(), ShowFormat::Json, &limits());
         assert_eq!(error, Refused::Empty(ShowFormat::Json));
         assert!(error.details()[0].contains("\"rows\" is empty"));
+    }
+
+    #[test]
+    fn outputs_for_a_box_an_mbox_installation_lacks_are_refused() {
+        let mut show = down_and_up();
+        show.outputs = vec![super::super::OutputTrack {
+            box_index: 2,
+            digital: Vec::new(),
+            analog: Vec::new(),
+        }];
+        let json = show.to_json().unwrap();
+        // Where outputs are ignored (UIM2503), or with a third box, it is taken.
+        assert!(
+            import(
+                "o",
+                json.as_bytes(),
+                ShowFormat::Json,
+                None,
+                Some(&limits())
+            )
+            .is_ok()
+        );
+        let three = UploadLimits {
+            mbox_boxes: Some(3),
+            ..limits()
+        };
+        assert!(import("o", json.as_bytes(), ShowFormat::Json, None, Some(&three)).is_ok());
+        let two = UploadLimits {
+            mbox_boxes: Some(2),
+            ..limits()
+        };
+        let error = refused(json.as_bytes(), ShowFormat::Json, &two);
+        assert_eq!(
+            error,
+            Refused::OutputBox {
+                box_index: 2,
+                boxes: 2
+            }
+        );
+        assert_eq!(
+            error.details(),
+            ["the show has outputs for box 2 but the installation's MBOX boxes are 0–1"]
+        );
     }
 
     #[test]

@@ -7,6 +7,8 @@
 //! is the ball's start position (at rest) and a list of PVT rows, each "be at
 //! `position_mm` moving at `velocity_mm_s` after `duration_ms`", evaluated with the
 //! same [`Segment`] as the units run; plus optional colour keyframes for the preview.
+//! A show may also carry output tracks for MBOX boxes' digital and analog outputs
+//! ([`mod@outputs`]; UIM2503 installations ignore them).
 //!
 //! - this module: the model and the native file format (JSON, `docs/show-format.md`);
 //! - [`mod@import`]: the one way a file (native JSON or CSV) becomes a show, refused
@@ -14,6 +16,7 @@
 //!   stored;
 //! - [`csv`]: keyframe import from 3D tools;
 //! - [`demo`]: the demo show (a travelling wave) the tests and benches share;
+//! - [`mod@outputs`]: MBOX output tracks and their values at any time;
 //! - [`mod@validate`]: checks against an installation's limits;
 //! - [`sample`]: positions and colours of every ball at any time, for the preview.
 //!
@@ -27,6 +30,7 @@
 //!     colours: Vec::new(),
 //! };
 //! let show = Show {
+//!     outputs: Vec::new(),
 //!     name: "drop".into(),
 //!     layout: Layout { rows: 1, cols: 1, pitch_mm: 500.0 },
 //!     tracks: vec![track],
@@ -41,6 +45,7 @@
 pub mod csv;
 pub mod demo;
 pub mod import;
+pub mod outputs;
 pub mod sample;
 pub mod validate;
 
@@ -51,6 +56,7 @@ use crate::pvt::Segment;
 
 pub use csv::{CsvError, CsvProblem, ImportError, ImportLimits, import_csv, import_csv_within};
 pub use import::{Refused, ShowFormat, UploadLimits, import};
+pub use outputs::{AnalogKey, DigitalKey, OutputProblem, OutputSample, OutputTrack};
 pub use sample::Sampler;
 pub use validate::{Limits, UnitRef, Violation, ViolationKind, validate};
 
@@ -198,6 +204,8 @@ pub struct Show {
     pub layout: Layout,
     /// One track per ball, row-major (`tracks[row * cols + col]`).
     pub tracks: Vec<Track>,
+    /// The MBOX boxes' output tracks, at most one per box (may be empty: outputs 0).
+    pub outputs: Vec<OutputTrack>,
 }
 
 /// A show file that cannot be read.
@@ -243,6 +251,16 @@ pub enum ShowError {
         /// The track's index.
         unit: usize,
     },
+    /// An output track that cannot be played.
+    #[error("{}", output_message(*box_index, *key, *problem))]
+    Output {
+        /// The box of the track.
+        box_index: usize,
+        /// The keyframe: whether analog, and its index; `None` for the whole track.
+        key: Option<(bool, usize)>,
+        /// What is wrong.
+        problem: OutputProblem,
+    },
     /// Colour keyframes out of order.
     #[error("track {unit}: colour keyframe {index} is not later than the one before")]
     ColourOrder {
@@ -262,6 +280,8 @@ struct FileIn {
     name: String,
     layout: Layout,
     units: Vec<Track>,
+    #[serde(default)]
+    outputs: Vec<OutputTrack>,
 }
 
 /// The file as written, borrowing the show.
@@ -272,6 +292,8 @@ struct FileOut<'a> {
     name: &'a str,
     layout: &'a Layout,
     units: &'a [Track],
+    #[serde(skip_serializing_if = "<[OutputTrack]>::is_empty")]
+    outputs: &'a [OutputTrack],
 }
 
 /// Just the identifying fields, to explain why a file does not read as this version.
@@ -305,6 +327,7 @@ impl Show {
             name: file.name,
             layout: file.layout,
             tracks: file.units,
+            outputs: file.outputs,
         };
         show.check()?;
         Ok(show)
@@ -334,6 +357,7 @@ impl Show {
             name: &self.name,
             layout: &self.layout,
             units: &self.tracks,
+            outputs: &self.outputs,
         }
     }
 
@@ -380,7 +404,49 @@ impl Show {
                 });
             }
         }
+        let duration_ms = self.duration_ms();
+        for (index, output) in self.outputs.iter().enumerate() {
+            let box_index = output.box_index;
+            let found = if self.outputs[..index]
+                .iter()
+                .any(|other| other.box_index == box_index)
+            {
+                Some((None, OutputProblem::BoxTwice))
+            } else {
+                output.problem(duration_ms)
+            };
+            if let Some((key, problem)) = found {
+                return Err(ShowError::Output {
+                    box_index,
+                    key,
+                    problem,
+                });
+            }
+        }
         Ok(())
+    }
+
+    /// The first box an output track names that an installation with `boxes` MBOX
+    /// boxes lacks.
+    #[must_use]
+    pub fn output_box_beyond(&self, boxes: usize) -> Option<usize> {
+        self.outputs
+            .iter()
+            .map(|output| output.box_index)
+            .find(|&box_index| box_index >= boxes)
+    }
+
+    /// The outputs of box `box_index` at show time `t_ms`: 0 without a track for it,
+    /// and at and after the show's end.
+    #[must_use]
+    pub fn outputs_at(&self, box_index: usize, t_ms: u64) -> OutputSample {
+        if t_ms >= self.duration_ms() {
+            return OutputSample::default();
+        }
+        self.outputs
+            .iter()
+            .find(|output| output.box_index == box_index)
+            .map_or_else(OutputSample::default, |output| output.sample(t_ms))
     }
 
     /// The longest track's duration, ms.
@@ -410,6 +476,46 @@ pub(crate) fn json_len(value: &impl serde::Serialize) -> usize {
     // Shows are numbers, strings and arrays of them: writing them cannot fail.
     let _ = serde_json::to_writer(&mut count, value);
     count.0
+}
+
+/// Why a show's output track for `box_index` cannot play on `boxes` MBOX boxes.
+pub(crate) fn output_box_message(box_index: usize, boxes: usize) -> String {
+    if boxes == 0 {
+        format!("the show has outputs for box {box_index} but the installation has no MBOX boxes")
+    } else {
+        format!(
+            "the show has outputs for box {box_index} but the installation's MBOX boxes are 0–{}",
+            boxes - 1
+        )
+    }
+}
+
+fn output_message(box_index: usize, key: Option<(bool, usize)>, problem: OutputProblem) -> String {
+    let place = match key {
+        None => format!("outputs of box {box_index}"),
+        Some((analog, index)) => format!(
+            "outputs of box {box_index}, {} keyframe {index}",
+            if analog { "analog" } else { "digital" }
+        ),
+    };
+    let what = match problem {
+        OutputProblem::BoxTwice => "the box has more than one output track".to_owned(),
+        OutputProblem::ReservedBits { bits } => format!(
+            "bits {bits:#06x} set reserved bits; only outputs 1–12 (bits 0x0001–0x0800, \
+             at most 4095) exist"
+        ),
+        OutputProblem::Channel { channel } => {
+            format!("analog channel {channel} does not exist; a box has channels 0 and 1")
+        }
+        OutputProblem::Order => {
+            "time_ms is not later than the keyframe before (of the same channel)".to_owned()
+        }
+        OutputProblem::AfterEnd {
+            time_ms,
+            duration_ms,
+        } => format!("time_ms {time_ms} is after the show's end at {duration_ms} ms"),
+    };
+    format!("{place}: {what}")
 }
 
 fn check_header(format: Option<&str>, version: Option<u64>) -> Result<(), ShowError> {
@@ -535,6 +641,118 @@ mod tests {
         assert_eq!(show.check(), Err(ShowError::NotFinite { unit: 1 }));
     }
 
+    /// `EXAMPLE` (500 ms long) with output tracks.
+    fn with_outputs(outputs: &str) -> String {
+        EXAMPLE.replace(
+            r#""name": "two balls","#,
+            &format!(r#""name": "two balls", "outputs": {outputs},"#),
+        )
+    }
+
+    #[test]
+    fn files_without_outputs_read_and_write_exactly_as_before() {
+        let old = concat!(
+            r#"{"format":"floatball-show","version":1,"name":"one","#,
+            r#""layout":{"rows":1,"cols":1,"pitch_mm":500.0},"#,
+            r#""units":[{"start_mm":1000.0,"rows":[[1500.0,0.0,250]]}]}"#
+        );
+        let show = Show::from_json(old).unwrap();
+        assert!(show.outputs.is_empty());
+        assert_eq!(show.to_json().unwrap(), old);
+        assert_eq!(show.json_bytes(), old.len());
+        assert!(
+            !Show::from_json(EXAMPLE)
+                .unwrap()
+                .to_json()
+                .unwrap()
+                .contains("outputs")
+        );
+    }
+
+    #[test]
+    fn output_tracks_round_trip() {
+        let text = with_outputs(
+            r#"[{"box": 1, "digital": [{"time_ms": 0, "bits": 4095}, {"time_ms": 250, "bits": 0}],
+                 "analog": [{"time_ms": 0, "channel": 1, "value": 65535}]},
+                {"box": 0, "analog": [{"time_ms": 100, "channel": 0, "value": 7}]}]"#,
+        );
+        let show = Show::from_json(&text).unwrap();
+        assert_eq!(show.outputs.len(), 2);
+        assert_eq!(
+            show.outputs[0].digital[0],
+            DigitalKey {
+                time_ms: 0,
+                bits: 4095
+            }
+        );
+        assert!(show.outputs[1].digital.is_empty());
+        let json = show.to_json().unwrap();
+        assert!(json.contains(r#""outputs":[{"box":1,"digital":[{"time_ms":0,"bits":4095}"#));
+        assert!(json.contains(r#"{"box":0,"analog":[{"time_ms":100,"channel":0,"value":7}]}"#));
+        assert_eq!(Show::from_json(&json).unwrap(), show);
+        assert_eq!(show.json_bytes(), json.len());
+    }
+
+    #[test]
+    fn unplayable_output_tracks_are_refused_with_what_is_wrong() {
+        let refused = |outputs: &str| Show::from_json(&with_outputs(outputs)).unwrap_err();
+        let error = refused(r#"[{"box": 0, "digital": [{"time_ms": 0, "bits": 4096}]}]"#);
+        assert_eq!(
+            error,
+            ShowError::Output {
+                box_index: 0,
+                key: Some((false, 0)),
+                problem: OutputProblem::ReservedBits { bits: 4096 }
+            }
+        );
+        assert!(error.to_string().contains("reserved bits"), "{error}");
+        let error = refused(
+            r#"[{"box": 0, "digital": [{"time_ms": 10, "bits": 1}, {"time_ms": 10, "bits": 0}]}]"#,
+        );
+        assert_eq!(
+            error.to_string(),
+            "outputs of box 0, digital keyframe 1: time_ms is not later than the keyframe \
+             before (of the same channel)"
+        );
+        // Each analog channel has its own order.
+        let both = r#"[{"box": 0, "analog": [{"time_ms": 10, "channel": 0, "value": 1},
+                        {"time_ms": 5, "channel": 1, "value": 1}]}]"#;
+        assert!(Show::from_json(&with_outputs(both)).is_ok());
+        let error = refused(&both.replace(r#""channel": 1"#, r#""channel": 0"#));
+        assert!(matches!(
+            error,
+            ShowError::Output {
+                key: Some((true, 1)),
+                problem: OutputProblem::Order,
+                ..
+            }
+        ));
+        let error =
+            refused(r#"[{"box": 3, "analog": [{"time_ms": 0, "channel": 2, "value": 1}]}]"#);
+        assert_eq!(
+            error.to_string(),
+            "outputs of box 3, analog keyframe 0: analog channel 2 does not exist; a box has \
+             channels 0 and 1"
+        );
+        let error = refused(r#"[{"box": 0, "digital": [{"time_ms": 501, "bits": 1}]}]"#);
+        assert_eq!(
+            error.to_string(),
+            "outputs of box 0, digital keyframe 0: time_ms 501 is after the show's end at \
+             500 ms"
+        );
+        let error = refused(r#"[{"box": 1}, {"box": 1}]"#);
+        assert_eq!(
+            error.to_string(),
+            "outputs of box 1: the box has more than one output track"
+        );
+        let error =
+            refused(r#"[{"box": 0, "analog": [{"time_ms": 0, "channel": 0, "value": 65536}]}]"#);
+        assert!(matches!(error, ShowError::Invalid { .. }));
+        assert!(error.to_string().contains("u16"), "{error}");
+        let error = refused(r#"[{"box": 0, "digital": [{"at_ms": 0, "bits": 1}]}]"#);
+        assert!(error.to_string().contains("at_ms"), "{error}");
+    }
+
     /// The fenced block after `opening` in the format's documentation.
     fn documented(opening: &str) -> &'static str {
         let doc = include_str!("../../../docs/show-format.md");
@@ -557,6 +775,17 @@ mod tests {
         let show = import_csv("doc", documented("```text\n"), installation).unwrap();
         assert_eq!(show.layout.unit_count(), 3);
         assert_eq!(show.tracks[2].rows[2].position_mm, 950.0);
+        let show = Show::from_json(documented("<!-- outputs example -->\n```json\n")).unwrap();
+        assert_eq!(show.duration_ms(), 500);
+        assert_eq!(show.outputs[0].analog.len(), 3);
+        let at = |t_ms| {
+            let sample = show.outputs_at(0, t_ms);
+            (sample.digital_bits, sample.analog)
+        };
+        assert_eq!(at(0), (1, [0, 0]));
+        assert_eq!(at(250), (4095, [32768, 32768]));
+        assert_eq!(at(500), (0, [0, 0]));
+        assert_eq!(validate(&show, &Limits::for_layout(1, 1)), []);
     }
 
     #[test]

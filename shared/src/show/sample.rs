@@ -16,6 +16,7 @@
 //! use floatball_shared::show::{Layout, Sampler, Show, Track, TrackRow};
 //!
 //! let show = Show {
+//!     outputs: Vec::new(),
 //!     name: "one".into(),
 //!     layout: Layout { rows: 1, cols: 1, pitch_mm: 500.0 },
 //!     tracks: vec![Track {
@@ -483,6 +484,7 @@ mod tests {
     fn show() -> Show {
         let rows = |rows: &[(f64, f64, u32)]| rows.iter().copied().map(TrackRow::from).collect();
         Show {
+            outputs: Vec::new(),
             name: "sampler".into(),
             layout: Layout {
                 rows: 1,
@@ -672,6 +674,7 @@ mod proptests {
             times in proptest::collection::vec(-100.0..8000.0f64, 1..40),
         ) {
             let show = Show {
+                outputs: Vec::new(),
                 name: "p".into(),
                 layout: Layout { rows: 1, cols: u32::try_from(tracks.len()).unwrap(), pitch_mm: 1.0 },
                 tracks,

@@ -8,6 +8,7 @@
 //! use floatball_shared::show::{Layout, Limits, Show, Track, TrackRow, validate};
 //!
 //! let show = Show {
+//!     outputs: Vec::new(),
 //!     name: "too fast".into(),
 //!     layout: Layout { rows: 1, cols: 1, pitch_mm: 500.0 },
 //!     tracks: vec![Track {
@@ -378,6 +379,7 @@ mod tests {
 
     fn show(tracks: Vec<Track>, rows: u32, cols: u32) -> Show {
         Show {
+            outputs: Vec::new(),
             name: "test".into(),
             layout: Layout {
                 rows,

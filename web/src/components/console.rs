@@ -1,11 +1,13 @@
 //! The Console page (for engineers): instruction lines checked by the parser before
-//! they are sent, and the feedback frames decoded as they arrive.
+//! they are sent, and the feedback frames decoded as they arrive. On an MBOX
+//! installation: box commands checked by the MBOX parser, their help, and the boxes'
+//! replies to reads.
 
 use floatball_shared::api::ClientMessage;
 use leptos::prelude::*;
 
 use crate::components::widgets::{BridgeError, Field};
-use crate::console::{Check, check};
+use crate::console::{Check, check, check_mbox, is_mbox, mbox_route};
 use crate::context::Ctx;
 use crate::i18n::Text;
 
@@ -19,7 +21,20 @@ pub fn ConsolePage() -> impl IntoView {
     let text = RwSignal::new(String::new());
     let gateway = RwSignal::new(None::<usize>);
     let sent = RwSignal::new(Vec::<String>::new());
-    let checked = Memo::new(move |_| text.with(|text| check(text)));
+    let mbox = Memo::new(move |_| {
+        ctx.status
+            .with(|status| status.as_ref().is_some_and(is_mbox))
+    });
+    let checked = Memo::new(move |_| {
+        if mbox.get() {
+            let selected = ctx
+                .status
+                .with(|status| mbox_route(status.as_ref(), gateway.get()));
+            text.with(|text| check_mbox(text, selected))
+        } else {
+            text.with(|text| check(text))
+        }
+    });
     let ready = move || matches!(checked.get(), Check::Ready { .. }) && ctx.connected();
     let send = move |_| {
         let Check::Ready { lines, .. } = checked.get_untracked() else {
@@ -42,7 +57,7 @@ pub fn ConsolePage() -> impl IntoView {
     let verdict = move || match checked.get() {
         Check::Empty => view! {
             <p class="muted" data-testid="console-check" data-state="empty">
-                {move || ctx.t(Text::ConsoleHint)}
+                {move || ctx.t(if mbox.get() { Text::MboxConsoleHint } else { Text::ConsoleHint })}
             </p>
         }
         .into_any(),
@@ -90,6 +105,12 @@ pub fn ConsolePage() -> impl IntoView {
                 ></textarea>
             </Field>
             {verdict}
+            <Show when=move || mbox.get()>
+                <details class="help" data-testid="console-help">
+                    <summary>{move || ctx.t(Text::MboxHelpTitle)}</summary>
+                    <pre class="mono">{move || ctx.t(Text::MboxHelp)}</pre>
+                </details>
+            </Show>
             <div class="toolbar">
                 <Field label=Text::Gateway class="inline">
                     <select
@@ -117,7 +138,7 @@ pub fn ConsolePage() -> impl IntoView {
                 </ul>
             </Show>
             <div class="heading-row">
-                <h3>{move || ctx.t(Text::Feedback)}</h3>
+                <h3>{move || ctx.t(if mbox.get() { Text::MboxReplies } else { Text::Feedback })}</h3>
                 <button data-testid="feedback-clear" on:click=move |_| ctx.feedback.update(|log| log.clear())>
                     {move || ctx.t(Text::Clear)}
                 </button>
@@ -126,13 +147,14 @@ pub fn ConsolePage() -> impl IntoView {
                 {move || {
                     let log = ctx.feedback.get();
                     if log.is_empty() {
-                        return view! { <li class="muted">{move || ctx.t(Text::NoFeedback)}</li> }.into_any();
+                        let empty = move || ctx.t(if mbox.get() { Text::NoMboxReplies } else { Text::NoFeedback });
+                        return view! { <li class="muted">{empty}</li> }.into_any();
                     }
                     log.lines()
                         .map(|line| {
                             view! {
                                 <li data-testid="feedback-line">
-                                    <span class="where">{format!("gw{} #{}", line.gateway, line.station)}</span>
+                                    <span class="where">{line.source()}</span>
                                     <span class="what">{line.text.clone()}</span>
                                     <span class="hex muted">{line.hex.clone()}</span>
                                 </li>

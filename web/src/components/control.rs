@@ -21,7 +21,7 @@ use crate::files::format_duration_ms;
 use crate::i18n::Text;
 use crate::page::Page;
 use crate::playlist::{PlaylistEditor, Verdict, format_delay_s};
-use crate::status::{progress, shows_progress, state_key, time_text};
+use crate::status::{gateway_text, progress, shows_progress, state_key, time_text};
 
 /// Applies `edit` to the playlist and stores the result on the bridge; `note` gets
 /// the bridge's refusal, if any (then the bridge's playlist is fetched again).
@@ -446,18 +446,7 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
         .gateways
         .iter()
         .map(|gateway| {
-            let mut text = format!(
-                "{}: {} · {:.0} B/s",
-                gateway.port,
-                lang.link_state(gateway.link),
-                gateway.bytes_per_s
-            );
-            if let Some(level) = gateway.lowest_water_level {
-                text.push_str(&format!(" · FIFO ≥ {level}"));
-            }
-            if let Some(error) = &gateway.error {
-                text.push_str(&format!(" · {error}"));
-            }
+            let text = gateway_text(lang, gateway);
             let link = format!("{:?}", gateway.link).to_lowercase();
             view! {
                 <li class=format!("link {link}") data-testid="gateway" data-link=link>

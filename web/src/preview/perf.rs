@@ -102,6 +102,7 @@ pub fn synthetic_show(balls: usize) -> Show {
         })
         .collect();
     Show {
+        outputs: Vec::new(),
         name: format!("synthetic {balls}"),
         layout,
         tracks,

@@ -434,6 +434,7 @@ mod tests {
             colours: Vec::new(),
         };
         Show {
+            outputs: Vec::new(),
             name: "plot".into(),
             layout: Layout {
                 rows: 1,

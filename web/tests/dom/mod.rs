@@ -76,3 +76,22 @@ pub async fn until_within(what: &str, within_ms: i32, condition: impl Fn() -> bo
 pub async fn until(what: &str, condition: impl Fn() -> bool) {
     until_within(what, 3000, condition).await;
 }
+
+/// Sets an input's, a textarea's or a select's value and sends the event a user's
+/// change would.
+pub fn set_value(container: &web_sys::HtmlElement, test_id: &str, value: &str, event: &str) {
+    let field = element(container, test_id);
+    if let Some(input) = field.dyn_ref::<web_sys::HtmlInputElement>() {
+        input.set_value(value);
+    } else if let Some(text) = field.dyn_ref::<web_sys::HtmlTextAreaElement>() {
+        text.set_value(value);
+    } else {
+        field
+            .unchecked_ref::<web_sys::HtmlSelectElement>()
+            .set_value(value);
+    }
+    let init = web_sys::EventInit::new();
+    init.set_bubbles(true);
+    let event = web_sys::Event::new_with_event_init_dict(event, &init).unwrap();
+    field.dispatch_event(&event).unwrap();
+}
