@@ -534,12 +534,11 @@ impl MboxPlayer {
     ) {
         let installation = &self.config.installation;
         let show = self.entries.get(self.entry).map(|entry| &entry.show);
-        let outputs = (0..self.config.boxes.len())
-            .map(|box_index| match (show, show_t_ms) {
-                (Some(show), Some(t_ms)) => show.outputs_at(box_index, t_ms),
-                _ => OutputSample::default(),
-            })
-            .collect();
+        let boxes = self.config.boxes.len();
+        let outputs = match (show, show_t_ms) {
+            (Some(show), Some(t_ms)) => show.outputs_of_boxes(boxes, t_ms),
+            _ => vec![OutputSample::default(); boxes],
+        };
         let mut positions: Vec<Vec<i32>> = self
             .config
             .boxes

@@ -443,6 +443,24 @@ impl Show {
         if t_ms >= self.duration_ms() {
             return OutputSample::default();
         }
+        self.output_sample(box_index, t_ms)
+    }
+
+    /// The outputs of boxes `0..boxes` at `t_ms`, as [`Show::outputs_at`] gives each:
+    /// the show's duration (every row of every track) is worked out once, and not at
+    /// all without output tracks — a frame of a thousand boxes must not sum it a
+    /// thousand times.
+    #[must_use]
+    pub fn outputs_of_boxes(&self, boxes: usize, t_ms: u64) -> Vec<OutputSample> {
+        if self.outputs.is_empty() || t_ms >= self.duration_ms() {
+            return vec![OutputSample::default(); boxes];
+        }
+        (0..boxes)
+            .map(|box_index| self.output_sample(box_index, t_ms))
+            .collect()
+    }
+
+    fn output_sample(&self, box_index: usize, t_ms: u64) -> OutputSample {
         self.outputs
             .iter()
             .find(|output| output.box_index == box_index)
