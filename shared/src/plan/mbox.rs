@@ -32,7 +32,7 @@
 
 use super::installation::Installation;
 use super::player::{Entry, NextRun, PlaylistProgress, StartError, next_run};
-use crate::api::{PlayerState, Status};
+use crate::api::{PlanReport, PlayerState, Status};
 use crate::show::{OutputSample, Sampler, Show, output_box_message, validate};
 
 /// Frames sent after a move or the playlist's end, holding the final positions.
@@ -177,23 +177,7 @@ impl MboxPlayer {
             return Err(StartError::Empty);
         }
         for (index, entry) in entries.iter().enumerate() {
-            let violations = validate(&entry.show, &installation.limits);
-            let units = installation.units.len();
-            let reason = if let Some(first) = violations.first() {
-                Some(if violations.len() > 1 {
-                    format!("{first} (and {} more problems)", violations.len() - 1)
-                } else {
-                    first.to_string()
-                })
-            } else if entry.show.tracks.len() != units {
-                Some(format!(
-                    "the show has {} balls but the installation has {units}",
-                    entry.show.tracks.len()
-                ))
-            } else {
-                unknown_output_box(installation, &entry.show)
-            };
-            if let Some(reason) = reason {
+            if let Some(reason) = unfit(installation, &entry.show) {
                 return Err(StartError::Invalid {
                     entry: index + 1,
                     show: entry.show.name.clone(),
@@ -562,6 +546,45 @@ impl MboxPlayer {
             positions_pulses: positions,
             outputs,
         });
+    }
+}
+
+/// Why `show` cannot play on the MBOX `installation`, in one sentence: the first
+/// violation of its limits (and how many more), a ball count that differs, or an
+/// output track for a box it lacks. `None` when it can.
+fn unfit(installation: &Installation, show: &Show) -> Option<String> {
+    let violations = validate(show, &installation.limits);
+    let units = installation.units.len();
+    if let Some(first) = violations.first() {
+        Some(if violations.len() > 1 {
+            format!("{first} (and {} more problems)", violations.len() - 1)
+        } else {
+            first.to_string()
+        })
+    } else if show.tracks.len() != units {
+        Some(format!(
+            "the show has {} balls but the installation has {units}",
+            show.tracks.len()
+        ))
+    } else {
+        unknown_output_box(installation, show)
+    }
+}
+
+/// The verdict on `show` for an MBOX installation (`GET /api/plan/{name}`, shown before
+/// Start). Boxes take one frame per period over Ethernet — 66 bytes per 10-axis box
+/// every 20 ms is 3.3 kB/s — so no line limits a show as a UIM2503's serial line does:
+/// it can run when it fits the installation, by the same check as Start. The report
+/// has no per-gateway line figures (those describe serial lines).
+#[must_use]
+pub fn report(show: &Show, installation: &Installation) -> PlanReport {
+    let reason = unfit(installation, show);
+    PlanReport {
+        show: show.name.clone(),
+        feasible: reason.is_none(),
+        reason,
+        fixes: Vec::new(),
+        gateways: Vec::new(),
     }
 }
 

@@ -10,6 +10,7 @@ use crate::mbox::{
     AxisCount, AxisPositions, DigitalOutputs, Encode, MotionFrame, Route, TimeCode, TimeMode,
 };
 use crate::plan::installation::{DriveKind, GatewaySpec, Stations, allocate};
+use crate::plan::{PlanOptions, report};
 use crate::show::{AnalogKey, DigitalKey, Limits, OutputTrack, demo};
 
 const CALIBRATION: BoxCalibration = BoxCalibration {
@@ -374,4 +375,36 @@ fn outputs_for_a_box_the_installation_lacks_are_refused() {
             .contains("outputs for box 2 but the installation's MBOX boxes are 0–1"),
         "{error}"
     );
+}
+
+#[test]
+fn the_report_says_a_valid_show_can_run_however_long_it_is() {
+    let mut installation = player().config.installation;
+    for gateway in &mut installation.gateways {
+        gateway.baud = 0; // as the configuration gives a box: it has no serial line
+    }
+    // Ten minutes of 100 ms rows: far more than a 256-row preload, which no serial
+    // line would carry at 0 baud; an MBOX frame stream has no such limit.
+    let long = demo::wave(2, 3, 6_000, 100);
+    let verdict = report::report(&long, &installation, PlanOptions::default());
+    assert!(verdict.feasible, "{:?}", verdict.reason);
+    assert_eq!(verdict.reason, None);
+    assert!(verdict.gateways.is_empty(), "{:?}", verdict.gateways);
+
+    let wrong_size = demo::wave(1, 3, 10, 100);
+    let verdict = report::report(&wrong_size, &installation, PlanOptions::default());
+    assert!(!verdict.feasible);
+    assert_eq!(
+        verdict.reason.as_deref(),
+        Some(
+            "the show is made for 1 rows × 3 columns of balls but the installation has 2 \
+             rows × 3 columns"
+        )
+    );
+
+    let mut too_deep = demo::wave(2, 3, 10, 100);
+    too_deep.tracks[4].start_mm = installation.limits.travel_mm + 100.0;
+    let verdict = report::report(&too_deep, &installation, PlanOptions::default());
+    assert!(!verdict.feasible);
+    assert!(verdict.reason.is_some_and(|reason| !reason.is_empty()));
 }

@@ -13,7 +13,12 @@ use crate::show::Show;
 pub const GATEWAY_BAUDS: [u32; 5] = [9600, 19_200, 38_400, 57_600, 115_200];
 
 /// The report for `show` on `installation`. An invalid show gets a report saying so.
+/// An installation of MBOX boxes gets [`super::mbox::report`]: no serial line limits
+/// its shows.
 pub fn report(show: &Show, installation: &Installation, options: PlanOptions) -> PlanReport {
+    if installation.mbox_boxes().is_some() {
+        return super::mbox::report(show, installation);
+    }
     match Plan::new(show, installation, options) {
         Ok(plan) => report_for(&plan, installation),
         Err(error) => refused(&show.name, &error),
