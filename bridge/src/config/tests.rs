@@ -44,6 +44,13 @@ fn the_default_file_gives_the_defaults() {
         (1..=100).collect::<Vec<u8>>()
     );
     assert_eq!(estop_bytes(&config), b"*0;MO=0;");
+    // A link opened without a configuration stops the same way.
+    assert_eq!(
+        crate::link::LinkConfig::new("sim", DEFAULT_SIM_BAUD)
+            .estop
+            .as_bytes(),
+        estop_bytes(&config)
+    );
     assert_eq!(config.uploads.max_bytes, 32 * 1024 * 1024);
     assert_eq!(config.uploads.max_duration, Duration::from_secs(30 * 60));
     assert_eq!(config.installation.limits, Limits::for_layout(10, 10));

@@ -57,8 +57,9 @@ pub const BULK_CAPACITY_BYTES: usize = 64 * 1024;
 /// How many decoded frames a slow feedback subscriber may fall behind.
 const FEEDBACK_CAPACITY: usize = 4096;
 
-/// The stop a link writes when the e-stop is pressed, unless configured otherwise.
-pub const DEFAULT_ESTOP: &str = "*0;MO=0;";
+/// The stop instructions of the e-stop unless `[safety] estop` says otherwise; a link
+/// writes them after `*0;` (every unit), so the default e-stop is `*0;MO=0;`.
+pub const DEFAULT_STOP: &str = "MO=0;";
 
 /// What a link connects to.
 #[derive(Debug, Clone)]
@@ -79,7 +80,7 @@ impl LinkConfig {
     /// A link to `port` at `baud` with a latch of its own and the default stop
     /// (`*0;MO=0;`); a simulated gateway gets the default 100 units.
     pub fn new(port: impl Into<String>, baud: u32) -> Self {
-        let estop = parse_script(DEFAULT_ESTOP)
+        let estop = parse_script(&format!("*0;{DEFAULT_STOP}"))
             .ok()
             .and_then(|stop| Batch::encode(&stop, Form::Standard).ok())
             .unwrap_or_default();
