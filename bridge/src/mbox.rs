@@ -615,8 +615,9 @@ impl<'a> Outbox<'a> {
         POLL_INTERVAL / u32::try_from(batches).unwrap_or(u32::MAX)
     }
 
-    /// Sends a console operation; a write issued before the last e-stop is void, the
-    /// e-stop write itself excepted.
+    /// Sends a console operation; a write issued before the last e-stop, or arriving
+    /// while the e-stop is latched (the session's check may have raced the press), is
+    /// void — the e-stop write itself excepted.
     fn console(&self, out: ConsoleOut) {
         let is_poll = match &out.operation {
             Operation::Read(read) => is_poll_shaped(
@@ -625,7 +626,7 @@ impl<'a> Outbox<'a> {
                 usize::from(read.range.count()),
             ),
             Operation::Write(write) => {
-                if out.generation != self.seen_generation
+                if (out.generation != self.seen_generation || self.shared.latch.is_latched())
                     && *write != RegisterWrite::estop(write.route)
                 {
                     return;
