@@ -441,6 +441,7 @@ impl MboxNet {
                     packets_per_s: Some(f64::from_bits(one.packets_per_s.load(Ordering::Acquire))),
                     late_frames: Some(one.late_frames.load(Ordering::Acquire)),
                     missed_replies: Some(one.missed_replies.load(Ordering::Acquire)),
+                    drives: Vec::new(),
                 }
             })
             .collect()
