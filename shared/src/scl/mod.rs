@@ -20,6 +20,9 @@
 //! - eSCL: [`Request::to_escl`], [`Reply::from_escl`], … with the header
 //!   [`escl::HEADER`] and the port [`escl::UDP_PORT`] ([`escl`]).
 //!
+//! - [`qprogram`]: a show's track compiled to a Q program a drive stores and runs
+//!   (segments of `FP` moves, `WT` rests, the start input), with its deviation report.
+//!
 //! Every refusal is typed and says where ([`ParseError`]: line and column;
 //! [`EsclError`]); no input panics a parser; whatever is accepted prints back exactly
 //! as it was read (numbers have one canonical form: no `+`, no leading zeros, no `-0`).
@@ -53,6 +56,7 @@ pub mod command;
 mod error;
 pub mod escl;
 pub mod parse;
+pub mod qprogram;
 pub mod response;
 #[cfg(test)]
 mod tests;

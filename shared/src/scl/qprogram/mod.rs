@@ -1,0 +1,672 @@
+//! Q programs from shows: one ball's [`Track`] compiled to the program a MOONS' drive
+//! stores and runs without a host (issue 15, item 2; the layout is
+//! `docs/protocol-notes.md` §8 and the user's view `docs/moons.md`).
+//!
+//! This module owns the API ([`QProgramConfig`], [`compile`], [`QProgram`] and its
+//! listing [`QProgram::text`], [`Keyframe`], [`Reduction`], [`QProgramError`]) and the
+//! layout of the segments; [`mod@keyframes`] samples the show and finds the candidate
+//! keyframes, [`mod@reduce`] chooses the moves, [`mod@moves`] is the drive's trapezoid.
+//!
+//! What a program is:
+//! - every move is an absolute `FP` (`DI` = mm × `counts_per_mm`) **from rest to
+//!   rest**, a trapezoid at one acceleration (`AC` = `DE`, written once in the setup,
+//!   rev/s² with 3 decimals) whose cruise speed (`VE`, rev/s, 4 decimals) is solved so
+//!   the move ends at its keyframe's time; where the ball rests, `WT` (s, 3 decimals:
+//!   whole milliseconds);
+//! - the compiler keeps the drive's clock: it times every move from the rounded values
+//!   it writes, as the drive computes the trapezoid, and gives the next move what is
+//!   left to its keyframe, so rounding never accumulates: every move ends within a
+//!   millisecond or two of its keyframe (always within [`crate::plan::player::TICK_US`])
+//!   at exactly its count; a move so slow that rounding `VE` could miss by more runs at
+//!   the rounded-up speed and a `WT` makes up the rest;
+//! - `MT0` (moves block the program); time 0 is when the program starts, or when the
+//!   start input meets its condition (`WI`, line 1) if one is configured; the drive
+//!   must stand at the track's start position then (the bridge brings it there);
+//! - segment 1 is the main program: `[WI]`, `MT0`, `AC`, `DE`, then `QC2`, `QC3`, …
+//!   one call per segment of moves and, looping, `QG` back to the first call; segments
+//!   2..=12 hold at most 61 move lines each and end with `QC` (return). A program whose
+//!   moves fit in segment 1 keeps them there (and loops to its first move). At most
+//!   12 segments of at most 62 lines;
+//! - when the show's moves do not fit, fewer, longer moves are chosen so that the
+//!   largest |show − program| is smallest ([`mod@reduce`]); the [`Reduction`] says how
+//!   far and where, reduced or not, and a program deviating more than
+//!   `tolerance_mm` is refused ([`QProgramError::TooFar`]).
+
+mod keyframes;
+mod moves;
+mod reduce;
+#[cfg(test)]
+mod tests;
+
+use std::fmt::Write as _;
+
+use thiserror::Error;
+
+use super::command::{Command, Decimal, InputCondition, IoPoint, QLine, Segment};
+use crate::show::Track;
+use keyframes::Samples;
+use moves::{Trapezoid, solve_speed};
+use reduce::{Edge, Limits, Step};
+
+/// Decimals written in `VE` (rev/s): 0.0001 rev/s is 2 counts/s at 20 000 steps/rev.
+pub const VE_DECIMALS: u8 = 4;
+/// Decimals written in `AC` and `DE` (rev/s²).
+pub const AC_DECIMALS: u8 = 3;
+/// Decimals written in `WT` (s): whole milliseconds.
+pub const WT_DECIMALS: u8 = 3;
+/// Lines of a segment (the drive's limit).
+pub const SEGMENT_LINES: usize = QLine::MAX as usize;
+/// Segments of a program (the drive's limit).
+pub const SEGMENTS: usize = Segment::MAX as usize;
+/// The most move lines a program holds: 11 segments of 61 lines and their `QC`.
+pub const MOVE_LINES: usize = (SEGMENTS - 1) * (SEGMENT_LINES - 1);
+
+/// How a track is compiled: the drive's scale and limits, the start input, looping and
+/// the tolerance. Built for an installation by the bridge (`bridge::http::qprogram`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct QProgramConfig {
+    /// Drive counts per mm of ball travel (`DI` = mm × this).
+    pub counts_per_mm: f64,
+    /// Counts per motor revolution (`EG`): the unit of `VE` and `AC`/`DE`.
+    pub steps_per_rev: u32,
+    /// The input every drive waits on before it starts (`WI`), or `None` to start at
+    /// once when the program is executed.
+    pub start: Option<(IoPoint, InputCondition)>,
+    /// Run the show again and again (`QG`); the ball returns to its start first.
+    pub loop_show: bool,
+    /// The largest deviation from the show accepted, mm.
+    pub tolerance_mm: f64,
+    /// The highest speed a move may cruise at, mm/s.
+    pub max_speed_mm_s: f64,
+    /// The highest acceleration (and deceleration), mm/s².
+    pub max_accel_mm_s2: f64,
+}
+
+impl Default for QProgramConfig {
+    /// 100 counts/mm, 20 000 steps/rev, start on a falling edge of input 3, no loop,
+    /// 10 mm tolerance, 2000 mm/s, 4000 mm/s².
+    fn default() -> Self {
+        Self {
+            counts_per_mm: 100.0,
+            steps_per_rev: 20_000,
+            start: match IoPoint::new(3) {
+                Some(input) => Some((input, InputCondition::Falling)),
+                None => None,
+            },
+            loop_show: false,
+            tolerance_mm: 10.0,
+            max_speed_mm_s: 2000.0,
+            max_accel_mm_s2: 4000.0,
+        }
+    }
+}
+
+/// Where and when one move of the program ends: the position it stops at (exactly
+/// its count) and the show time it must be there by.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Keyframe {
+    /// Show time, ms (from the start).
+    pub time_ms: u64,
+    /// Position, mm below the top (the count the move ends at, in mm).
+    pub position_mm: f64,
+}
+
+/// What the compiler did to the show: how many rows it had, how many moves and lines
+/// the program keeps, and the largest |show − program| and when (sampled every 5 ms).
+/// Given whether or not the show was reduced: unreduced, it is what moving from rest to
+/// rest costs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reduction {
+    /// PVT rows of the track.
+    pub track_rows: usize,
+    /// `FP` moves in the program.
+    pub moves: usize,
+    /// Lines of every segment together.
+    pub lines: usize,
+    /// The largest |show − program| position, mm.
+    pub max_deviation_mm: f64,
+    /// When it happens, ms of show time.
+    pub at_ms: u64,
+}
+
+/// A compiled program: its segments in order (segment 1 the main program), where each
+/// move ends, and the report.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QProgram {
+    /// The stored segments, each at most 62 commands.
+    pub segments: Vec<(Segment, Vec<Command>)>,
+    /// Where each `FP` move ends, in order.
+    pub keyframes: Vec<Keyframe>,
+    /// What the compiler did to the show.
+    pub report: Reduction,
+}
+
+impl QProgram {
+    /// The listing: a header line per segment (`[segment 1: main, 17 lines]`, never a
+    /// command), then one command per line, LF-separated.
+    #[must_use]
+    pub fn text(&self) -> String {
+        let mut text = String::new();
+        for (segment, commands) in &self.segments {
+            let role = if segment.get() == 1 { "main" } else { "moves" };
+            let _ = writeln!(
+                text,
+                "[segment {segment}: {role}, {} lines]",
+                commands.len()
+            );
+            for command in commands {
+                let _ = writeln!(text, "{command}");
+            }
+        }
+        text
+    }
+
+    /// Lines of every segment together.
+    #[must_use]
+    pub fn lines(&self) -> usize {
+        self.segments
+            .iter()
+            .map(|(_, commands)| commands.len())
+            .sum()
+    }
+}
+
+/// Why a track was not compiled.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum QProgramError {
+    /// The program that fits deviates from the show more than the tolerance.
+    #[error(
+        "the program would be {deviation_mm:.1} mm off the show at {at_ms} ms, more than the \
+         tolerance of {tolerance_mm} mm (the show has too many moves for a drive's 12 segments \
+         of 62 lines, or moves that a rest-to-rest move cannot follow closely)"
+    )]
+    TooFar {
+        /// The deviation, mm.
+        deviation_mm: f64,
+        /// When, ms of show time.
+        at_ms: u64,
+        /// The configured tolerance, mm.
+        tolerance_mm: f64,
+    },
+    /// No rest-to-rest move within the limits reaches the ball's position in time.
+    #[error(
+        "the ball cannot be at its position at {at_ms} ms: a move from rest to rest would need \
+         more than {max_speed_mm_s} mm/s or {max_accel_mm_s2} mm/s²"
+    )]
+    TooFast {
+        /// Show time of the position that cannot be reached, ms.
+        at_ms: u64,
+        /// The speed limit, mm/s.
+        max_speed_mm_s: f64,
+        /// The acceleration limit, mm/s².
+        max_accel_mm_s2: f64,
+    },
+    /// A position is not a number or out of the drive's 32-bit range.
+    #[error("the position {position_mm} mm at {at_ms} ms is out of the drive's range")]
+    OutOfRange {
+        /// Show time, ms.
+        at_ms: u64,
+        /// The position, mm.
+        position_mm: f64,
+    },
+    /// The moves need more lines than a drive holds.
+    #[error("the program needs {lines} lines, more than a drive's {limit}")]
+    TooManyLines {
+        /// Lines needed.
+        lines: usize,
+        /// Lines available.
+        limit: usize,
+    },
+    /// A setting of the configuration cannot be used.
+    #[error("the Q program setting {field} must be {must}")]
+    InvalidConfig {
+        /// The setting.
+        field: &'static str,
+        /// What it must be.
+        must: &'static str,
+    },
+}
+
+/// Compiles one ball's track.
+///
+/// # Errors
+/// [`QProgramError::TooFar`] when the program that fits deviates more than the
+/// tolerance (with the figure and where); [`QProgramError::TooFast`] when the show
+/// asks for more than the limits; the others for a bad configuration or positions.
+pub fn compile(track: &Track, config: &QProgramConfig) -> Result<QProgram, QProgramError> {
+    compile_within(track, config, MOVE_LINES)
+}
+
+/// [`compile`] with at most `budget_lines` move lines (tests give it less room).
+pub(crate) fn compile_within(
+    track: &Track,
+    config: &QProgramConfig,
+    budget_lines: usize,
+) -> Result<QProgram, QProgramError> {
+    check(config)?;
+    let samples = keyframes::sample(track);
+    let candidates = keyframes::candidates(&samples);
+    let counts = candidates
+        .iter()
+        .map(|&k| to_counts(samples.positions_mm[k], samples.times_ms[k], config))
+        .collect::<Result<Vec<_>, _>>()?;
+    let steps_per_rev = f64::from(config.steps_per_rev);
+    let max_speed_counts_s = config.max_speed_mm_s * config.counts_per_mm;
+    let window = ((candidates.len() * 3 * 5).div_ceil(2 * budget_lines.max(1))).clamp(6, 48);
+
+    let mut best: Option<(f64, Limits, Vec<Vec<Edge>>)> = None;
+    let mut fastest: Option<Vec<Vec<Edge>>> = None;
+    for accel_rev_s2 in accelerations(&samples, &candidates, &counts, config) {
+        let limits = Limits {
+            accel_counts_s2: accel_rev_s2.to_f64() * steps_per_rev,
+            max_speed_counts_s,
+            steps_per_rev,
+            counts_per_mm: config.counts_per_mm,
+        };
+        let incoming = reduce::edges(&samples, &candidates, &counts, &limits, window, 2);
+        if let Some(deviation_mm) = reduce::bottleneck(&incoming, budget_lines) {
+            if best
+                .as_ref()
+                .is_none_or(|(least, ..)| deviation_mm < *least)
+            {
+                best = Some((deviation_mm, limits, incoming));
+                continue;
+            }
+        }
+        if fastest.is_none() {
+            fastest = Some(incoming);
+        }
+    }
+    let Some((threshold_mm, limits, incoming)) = best else {
+        let at = fastest
+            .as_deref()
+            .and_then(reduce::unreachable)
+            .unwrap_or(0);
+        return Err(QProgramError::TooFast {
+            at_ms: candidates.get(at).map_or(0, |&k| samples.times_ms[k]),
+            max_speed_mm_s: config.max_speed_mm_s,
+            max_accel_mm_s2: config.max_accel_mm_s2,
+        });
+    };
+    let path = reduce::refine(&incoming, &samples, &candidates, threshold_mm, budget_lines).ok_or(
+        QProgramError::TooManyLines {
+            lines: budget_lines + 1,
+            limit: budget_lines,
+        },
+    )?;
+    let writer = Writer::new(config, limits, counts.first().copied().unwrap_or(0));
+    let program = writer.write(&path, &samples, &candidates, &counts, track)?;
+    if program.report.max_deviation_mm > config.tolerance_mm {
+        return Err(QProgramError::TooFar {
+            deviation_mm: program.report.max_deviation_mm,
+            at_ms: program.report.at_ms,
+            tolerance_mm: config.tolerance_mm,
+        });
+    }
+    Ok(program)
+}
+
+/// Refuses settings the compiler cannot work with.
+fn check(config: &QProgramConfig) -> Result<(), QProgramError> {
+    let positive = |value: f64| value.is_finite() && value > 0.0;
+    let refuse = |field, must| Err(QProgramError::InvalidConfig { field, must });
+    if !positive(config.counts_per_mm) {
+        return refuse("counts_per_mm", "a number above 0");
+    }
+    if config.steps_per_rev == 0 {
+        return refuse("steps_per_rev", "above 0");
+    }
+    if !positive(config.max_speed_mm_s) {
+        return refuse("max_speed_mm_s", "a number above 0");
+    }
+    if !positive(config.max_accel_mm_s2) {
+        return refuse("max_accel_mm_s2", "a number above 0");
+    }
+    if !(config.tolerance_mm >= 0.0) {
+        return refuse("tolerance_mm", "a number, 0 or more");
+    }
+    Ok(())
+}
+
+/// A position in counts, within the drive's 32 bits.
+fn to_counts(position_mm: f64, at_ms: u64, config: &QProgramConfig) -> Result<i64, QProgramError> {
+    let counts = (position_mm * config.counts_per_mm).round();
+    if counts.is_finite() && counts.abs() <= f64::from(i32::MAX) {
+        Ok(counts as i64)
+    } else {
+        Err(QProgramError::OutOfRange { at_ms, position_mm })
+    }
+}
+
+/// The accelerations tried, as `AC` writes them (rev/s²), highest first: the limit,
+/// the limit / √2, / 2, … / 8√2, and the one that suits the show's typical move (a
+/// third of the time accelerating, a third cruising, a third braking: 4.5 d / t², the
+/// median over the moves between neighbouring candidates).
+fn accelerations(
+    samples: &Samples,
+    candidates: &[usize],
+    counts: &[i64],
+    config: &QProgramConfig,
+) -> Vec<Decimal> {
+    let scale = config.counts_per_mm / f64::from(config.steps_per_rev);
+    let max_rev_s2 = config.max_accel_mm_s2 * scale;
+    let mut natural: Vec<f64> = candidates
+        .windows(2)
+        .zip(counts.windows(2))
+        .filter(|(_, c)| c[0] != c[1])
+        .map(|(k, c)| {
+            let t_s = (samples.times_ms[k[1]] - samples.times_ms[k[0]]) as f64 / 1000.0;
+            4.5 * (c[1] - c[0]).abs() as f64 / (t_s * t_s) / f64::from(config.steps_per_rev)
+        })
+        .collect();
+    natural.sort_by(f64::total_cmp);
+    let mut rev_s2: Vec<f64> = (0..8)
+        .map(|halvings| max_rev_s2 / 2_f64.powf(f64::from(halvings) / 2.0))
+        .collect();
+    if let Some(&median) = natural.get(natural.len() / 2) {
+        rev_s2.push(median.min(max_rev_s2));
+    }
+    let mut written: Vec<Decimal> = rev_s2
+        .into_iter()
+        .filter_map(|value| {
+            // Round down, so the limit is never exceeded; at least the smallest step.
+            let mantissa = (value * 10_f64.powi(i32::from(AC_DECIMALS)))
+                .floor()
+                .max(1.0);
+            Decimal::new(mantissa as i64, AC_DECIMALS)
+        })
+        .collect();
+    written.dedup();
+    written
+}
+
+/// A move the program makes, for the deviation: it starts at `start_s` from `from`.
+#[derive(Debug, Clone, Copy)]
+struct Timed {
+    start_s: f64,
+    from_counts: i64,
+    to_counts: i64,
+    trapezoid: Trapezoid,
+}
+
+/// Writes the chosen path as commands, keeping the drive's clock.
+#[derive(Debug)]
+struct Writer<'a> {
+    config: &'a QProgramConfig,
+    limits: Limits,
+    /// The drive's clock: when the last command written ends, s.
+    now_s: f64,
+    /// Where the drive stands, counts.
+    at_counts: i64,
+    /// The last `VE` written.
+    speed: Option<Decimal>,
+    lines: Vec<Command>,
+    timed: Vec<Timed>,
+    keyframes: Vec<Keyframe>,
+}
+
+impl<'a> Writer<'a> {
+    fn new(config: &'a QProgramConfig, limits: Limits, start_counts: i64) -> Self {
+        Self {
+            config,
+            limits,
+            now_s: 0.0,
+            at_counts: start_counts,
+            speed: None,
+            lines: Vec::new(),
+            timed: Vec::new(),
+            keyframes: Vec::new(),
+        }
+    }
+
+    /// `WT` for `seconds` rounded to the millisecond, if that is any time.
+    fn wait(&mut self, seconds: f64) {
+        let ms = (seconds * 1000.0).round();
+        if ms >= 1.0 {
+            if let Some(s) = Decimal::new(ms as i64, WT_DECIMALS) {
+                self.lines.push(Command::WaitTime { s });
+                self.now_s += ms / 1000.0;
+            }
+        }
+    }
+
+    /// The trapezoid the drive runs for `distance` counts at `VE` `speed`.
+    fn trapezoid(&self, distance: f64, speed: Decimal) -> Trapezoid {
+        Trapezoid {
+            distance,
+            speed: speed.to_f64() * self.limits.steps_per_rev,
+            accel: self.limits.accel_counts_s2,
+            decel: self.limits.accel_counts_s2,
+        }
+    }
+
+    /// `DI`, `VE` (if it changed) and `FP` to `to_counts` at `speed`.
+    fn feed(&mut self, to_counts: i64, speed: Decimal, at_ms: u64) -> Result<(), QProgramError> {
+        let distance = (to_counts - self.at_counts).abs() as f64;
+        let trapezoid = self.trapezoid(distance, speed);
+        let counts = i32::try_from(to_counts).map_err(|_| QProgramError::OutOfRange {
+            at_ms,
+            position_mm: to_counts as f64 / self.config.counts_per_mm,
+        })?;
+        self.lines.push(Command::Distance {
+            counts: Some(counts),
+        });
+        if self.speed != Some(speed) {
+            self.lines.push(Command::Velocity { rev_s: Some(speed) });
+            self.speed = Some(speed);
+        }
+        self.lines.push(Command::FeedToPosition);
+        self.timed.push(Timed {
+            start_s: self.now_s,
+            from_counts: self.at_counts,
+            to_counts,
+            trapezoid,
+        });
+        self.now_s += trapezoid.duration_s();
+        self.at_counts = to_counts;
+        Ok(())
+    }
+
+    /// The move to `to_counts` ending at `target_ms`, `then_wait` if it is slow.
+    fn feed_by(
+        &mut self,
+        to_counts: i64,
+        target_ms: u64,
+        then_wait: bool,
+    ) -> Result<(), QProgramError> {
+        let too_fast = QProgramError::TooFast {
+            at_ms: target_ms,
+            max_speed_mm_s: self.config.max_speed_mm_s,
+            max_accel_mm_s2: self.config.max_accel_mm_s2,
+        };
+        let target_s = target_ms as f64 / 1000.0;
+        let distance = (to_counts - self.at_counts).abs() as f64;
+        let duration_s = target_s - self.now_s;
+        let speed = solve_speed(distance, duration_s, self.limits.accel_counts_s2)
+            .ok_or(too_fast.clone())?;
+        let exact = speed / self.limits.steps_per_rev * 10_f64.powi(i32::from(VE_DECIMALS));
+        let up = Decimal::new(exact.ceil().max(1.0) as i64, VE_DECIMALS).ok_or(too_fast)?;
+        let down = Decimal::new(exact.floor().max(1.0) as i64, VE_DECIMALS).unwrap_or(up);
+        let off =
+            |speed: Decimal| (self.trapezoid(distance, speed).duration_s() - duration_s).abs();
+        let mut closer = if off(down) < off(up) { down } else { up };
+        // The `VE` already set saves a line if it ends the move as well (within 1 ms).
+        if let Some(previous) = self.speed.filter(|&previous| off(previous) <= 0.001) {
+            closer = previous;
+        }
+        if then_wait || off(closer) > 0.002 {
+            self.feed(to_counts, up, target_ms)?;
+            self.keyframes.push(Keyframe {
+                time_ms: target_ms,
+                position_mm: to_counts as f64 / self.config.counts_per_mm,
+            });
+            self.wait(target_s - self.now_s);
+        } else {
+            self.feed(to_counts, closer, target_ms)?;
+            self.keyframes.push(Keyframe {
+                time_ms: target_ms,
+                position_mm: to_counts as f64 / self.config.counts_per_mm,
+            });
+        }
+        Ok(())
+    }
+
+    /// The whole program.
+    fn write(
+        mut self,
+        path: &[Edge],
+        samples: &Samples,
+        candidates: &[usize],
+        counts: &[i64],
+        track: &Track,
+    ) -> Result<QProgram, QProgramError> {
+        let start_counts = self.at_counts;
+        for edge in path {
+            let target_ms = samples.times_ms[candidates[edge.to]];
+            match edge.step {
+                Step::Wait => self.wait(target_ms as f64 / 1000.0 - self.now_s),
+                Step::Move { then_wait, .. } => {
+                    self.feed_by(counts[edge.to], target_ms, then_wait)?;
+                }
+            }
+        }
+        let (max_deviation_mm, at_ms) = self.deviation(samples);
+        if self.config.loop_show && self.at_counts != start_counts {
+            // Home stretch: back to the start at the speed limit, before `QG`.
+            let top = self.limits.max_speed_counts_s / self.limits.steps_per_rev
+                * 10_f64.powi(i32::from(VE_DECIMALS));
+            let speed = Decimal::new(top.floor().max(1.0) as i64, VE_DECIMALS).ok_or(
+                QProgramError::OutOfRange {
+                    at_ms: track.duration_ms(),
+                    position_mm: track.start_mm,
+                },
+            )?;
+            let end_ms = (self.now_s * 1000.0).round() as u64;
+            self.feed(start_counts, speed, end_ms)?;
+            self.keyframes.push(Keyframe {
+                time_ms: (self.now_s * 1000.0).round() as u64,
+                position_mm: start_counts as f64 / self.config.counts_per_mm,
+            });
+        }
+        let segments = self.layout()?;
+        let lines = segments.iter().map(|(_, commands)| commands.len()).sum();
+        Ok(QProgram {
+            segments,
+            keyframes: self.keyframes,
+            report: Reduction {
+                track_rows: track.rows.len(),
+                moves: self.timed.len(),
+                lines,
+                max_deviation_mm,
+                at_ms,
+            },
+        })
+    }
+
+    /// The largest |show − program| over the show's grid, and when (ms).
+    fn deviation(&self, samples: &Samples) -> (f64, u64) {
+        let per_mm = self.config.counts_per_mm;
+        let start_counts = self
+            .timed
+            .first()
+            .map_or(self.at_counts, |timed| timed.from_counts);
+        let mut next = 0;
+        let mut worst = (0.0, 0);
+        for (&t_ms, &show_mm) in samples.times_ms.iter().zip(&samples.positions_mm) {
+            let t_s = t_ms as f64 / 1000.0;
+            while next < self.timed.len() && self.timed[next].start_s <= t_s {
+                next += 1;
+            }
+            let program_counts = match next.checked_sub(1).map(|index| self.timed[index]) {
+                None => start_counts as f64,
+                Some(timed) => {
+                    let sign = if timed.to_counts >= timed.from_counts {
+                        1.0
+                    } else {
+                        -1.0
+                    };
+                    timed.from_counts as f64 + sign * timed.trapezoid.travelled(t_s - timed.start_s)
+                }
+            };
+            let off = (show_mm - program_counts / per_mm).abs();
+            if off > worst.0 {
+                worst = (off, t_ms);
+            }
+        }
+        worst
+    }
+
+    /// The setup lines of segment 1.
+    fn setup(&self) -> Vec<Command> {
+        let mut setup = Vec::new();
+        if let Some((input, condition)) = self.config.start {
+            setup.push(Command::WaitForInput { input, condition });
+        }
+        setup.push(Command::Multitasking { on: Some(false) });
+        let per_rev = self.limits.accel_counts_s2 / self.limits.steps_per_rev;
+        let mantissa = (per_rev * 10_f64.powi(i32::from(AC_DECIMALS))).round() as i64;
+        if let Some(rev_s2) = Decimal::new(mantissa, AC_DECIMALS) {
+            setup.push(Command::Acceleration {
+                rev_s2: Some(rev_s2),
+            });
+            setup.push(Command::Deceleration {
+                rev_s2: Some(rev_s2),
+            });
+        }
+        setup
+    }
+
+    /// The segments: all in segment 1 if they fit, else the moves in 2..=12.
+    fn layout(&self) -> Result<Vec<(Segment, Vec<Command>)>, QProgramError> {
+        let mut main = self.setup();
+        let looping = self.config.loop_show && !self.lines.is_empty();
+        let first_line = main.len() + 1;
+        let too_many = QProgramError::TooManyLines {
+            lines: main.len() + self.lines.len(),
+            limit: SEGMENT_LINES + MOVE_LINES,
+        };
+        let goto = |line: usize| {
+            u8::try_from(line)
+                .ok()
+                .and_then(QLine::new)
+                .map(|line| Command::QueueGoto { line })
+        };
+        if main.len() + self.lines.len() + usize::from(looping) <= SEGMENT_LINES {
+            main.extend_from_slice(&self.lines);
+            if looping {
+                main.push(goto(first_line).ok_or(too_many)?);
+            }
+            return Ok(one(main));
+        }
+        let mut segments = Vec::new();
+        for (index, chunk) in self.lines.chunks(SEGMENT_LINES - 1).enumerate() {
+            let segment = u8::try_from(index + 2)
+                .ok()
+                .and_then(Segment::new)
+                .ok_or(too_many.clone())?;
+            let mut commands = chunk.to_vec();
+            commands.push(Command::QueueCall { segment: None });
+            main.push(Command::QueueCall {
+                segment: Some(segment),
+            });
+            segments.push((segment, commands));
+        }
+        if looping {
+            main.push(goto(first_line).ok_or(too_many.clone())?);
+        }
+        if main.len() > SEGMENT_LINES {
+            return Err(too_many);
+        }
+        let mut all = one(main);
+        all.extend(segments);
+        Ok(all)
+    }
+}
+
+/// Segment 1 alone.
+fn one(main: Vec<Command>) -> Vec<(Segment, Vec<Command>)> {
+    Segment::new(1)
+        .map(|segment| (segment, main))
+        .into_iter()
+        .collect()
+}

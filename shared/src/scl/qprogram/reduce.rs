@@ -1,0 +1,296 @@
+//! Choosing the moves: which candidate keyframes the program stops at, so that it fits
+//! its lines and deviates from the show as little as possible.
+//!
+//! Every pair of candidates at most a window apart is an [`Edge`]: a rest-to-rest
+//! move (or a wait, when both are at the same count) from the one to the other, with
+//! its lines and its **cost**, the largest |show − program| over the edge's time,
+//! sampled on the show's grid. A program is a path from the first candidate to the
+//! last; its deviation is its costliest edge. [`bottleneck`] finds the smallest
+//! deviation any path within the line budget reaches (a binary search over the edge
+//! costs; the fewest lines a path under a threshold needs is a shortest path, and it
+//! only falls as the threshold rises, so the search is exact for the edges it has);
+//! [`refine`] then picks, among the paths under that deviation and within the budget,
+//! the one closest to the show over its whole length (least Σ cost × duration), so a
+//! show with room to spare keeps all its keyframes.
+
+use super::keyframes::Samples;
+use super::moves::{Trapezoid, solve_speed};
+
+/// What the drive does along an edge.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Step {
+    /// Stay (`WT`): the two keyframes are at the same count.
+    Wait,
+    /// An `FP` move whose cruise speed is `speed_counts_s` (before rounding);
+    /// `then_wait` when it is so slow that rounding `VE` could miss its time by more
+    /// than a millisecond: it then runs at the rounded-up speed and a `WT` makes up the
+    /// difference.
+    Move {
+        /// The exact cruise speed, counts/s.
+        speed_counts_s: f64,
+        /// Whether a `WT` follows.
+        then_wait: bool,
+    },
+}
+
+impl Step {
+    /// The lines the step writes at most: `WT`; or `DI`, `VE`, `FP` (and `WT`).
+    pub fn lines(self) -> usize {
+        match self {
+            Self::Wait => 1,
+            Self::Move {
+                then_wait: false, ..
+            } => 3,
+            Self::Move {
+                then_wait: true, ..
+            } => 4,
+        }
+    }
+}
+
+/// One possible move, from candidate `from` to candidate `to` (indices into the
+/// candidate list).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Edge {
+    /// The candidate it starts at.
+    pub from: usize,
+    /// The candidate it ends at.
+    pub to: usize,
+    /// What the drive does.
+    pub step: Step,
+    /// The largest |show − program| along it, mm.
+    pub cost_mm: f64,
+}
+
+/// The drive's limits for a trial: one acceleration (`AC` = `DE`) for the program.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Limits {
+    /// `AC` and `DE`, counts/s².
+    pub accel_counts_s2: f64,
+    /// The highest `VE`, counts/s.
+    pub max_speed_counts_s: f64,
+    /// Counts per revolution (`EG`): the unit of `VE`.
+    pub steps_per_rev: f64,
+    /// Counts per mm.
+    pub counts_per_mm: f64,
+}
+
+/// A `VE` written with [`super::VE_DECIMALS`] decimals is at most half this from the
+/// exact speed, rev/s.
+const VE_STEP_REV_S: f64 = 1e-4;
+
+/// A move whose speed is below `duration_s × this` (rev/s) could end more than about
+/// half a millisecond off its time once `VE` is rounded: it gets a `WT` after it.
+const SLOW_REV_S_PER_S: f64 = 0.1;
+
+/// The step from one keyframe to another, or `None` when no move within the limits
+/// makes it: `distance_counts` (not negative) in `duration_s`.
+pub(crate) fn plan_step(distance_counts: f64, duration_s: f64, limits: &Limits) -> Option<Step> {
+    if distance_counts == 0.0 {
+        return (duration_s >= 0.0).then_some(Step::Wait);
+    }
+    // Keep 0.5 % of the time in hand: the compiler's clock may run a millisecond late
+    // by the time it writes the move.
+    let speed = solve_speed(distance_counts, duration_s * 0.995, limits.accel_counts_s2)?;
+    if speed > limits.max_speed_counts_s {
+        return None;
+    }
+    let speed = solve_speed(distance_counts, duration_s, limits.accel_counts_s2)?;
+    let rev_s = speed / limits.steps_per_rev;
+    let then_wait = rev_s < (duration_s * SLOW_REV_S_PER_S).max(100.0 * VE_STEP_REV_S);
+    Some(Step::Move {
+        speed_counts_s: speed,
+        then_wait,
+    })
+}
+
+/// Every edge at most `window` candidates long, grouped by the candidate they end at
+/// (`result[to]`). `counts[i]` is candidate `i`'s position in counts; edges are costed
+/// on every `stride`-th grid sample (and the edge's last one).
+pub(crate) fn edges(
+    samples: &Samples,
+    candidates: &[usize],
+    counts: &[i64],
+    limits: &Limits,
+    window: usize,
+    stride: usize,
+) -> Vec<Vec<Edge>> {
+    let mut incoming = vec![Vec::new(); candidates.len()];
+    for to in 1..candidates.len() {
+        for from in to.saturating_sub(window)..to {
+            let (k0, k1) = (candidates[from], candidates[to]);
+            let duration_s = (samples.times_ms[k1] - samples.times_ms[k0]) as f64 / 1000.0;
+            let distance = (counts[to] - counts[from]).abs() as f64;
+            let Some(step) = plan_step(distance, duration_s, limits) else {
+                continue;
+            };
+            let cost_mm = cost(
+                samples,
+                (k0, k1),
+                (counts[from], counts[to]),
+                step,
+                limits,
+                stride,
+            );
+            incoming[to].push(Edge {
+                from,
+                to,
+                step,
+                cost_mm,
+            });
+        }
+    }
+    incoming
+}
+
+/// The largest |show − program| from grid sample `k0` to `k1`, the program moving
+/// from `c0` to `c1` counts as `step` says, starting at sample `k0`'s time.
+fn cost(
+    samples: &Samples,
+    (k0, k1): (usize, usize),
+    (c0, c1): (i64, i64),
+    step: Step,
+    limits: &Limits,
+    stride: usize,
+) -> f64 {
+    let from_mm = c0 as f64 / limits.counts_per_mm;
+    let sign = if c1 >= c0 { 1.0 } else { -1.0 };
+    let trapezoid = match step {
+        Step::Wait => None,
+        Step::Move { speed_counts_s, .. } => Some(Trapezoid {
+            distance: (c1 - c0).abs() as f64,
+            speed: speed_counts_s,
+            accel: limits.accel_counts_s2,
+            decel: limits.accel_counts_s2,
+        }),
+    };
+    let t0_ms = samples.times_ms[k0];
+    let mut worst: f64 = 0.0;
+    let mut k = k0;
+    loop {
+        let program_mm = trapezoid.map_or(from_mm, |trapezoid| {
+            let t_s = (samples.times_ms[k] - t0_ms) as f64 / 1000.0;
+            from_mm + sign * trapezoid.travelled(t_s) / limits.counts_per_mm
+        });
+        worst = worst.max((samples.positions_mm[k] - program_mm).abs());
+        if k >= k1 {
+            break;
+        }
+        k = (k + stride).min(k1);
+    }
+    worst
+}
+
+/// The fewest lines of a path from candidate 0 to `to` using only edges costing at
+/// most `threshold_mm` (`None` where no path reaches).
+fn fewest_lines(incoming: &[Vec<Edge>], threshold_mm: f64) -> Vec<Option<usize>> {
+    let mut lines = vec![None; incoming.len()];
+    if let Some(first) = lines.first_mut() {
+        *first = Some(0);
+    }
+    for to in 1..incoming.len() {
+        lines[to] = incoming[to]
+            .iter()
+            .filter(|edge| edge.cost_mm <= threshold_mm)
+            .filter_map(|edge| lines[edge.from].map(|before: usize| before + edge.step.lines()))
+            .min();
+    }
+    lines
+}
+
+/// The first candidate that no path reaches at all, if any (the show asks for more
+/// than the limits allow there).
+pub(crate) fn unreachable(incoming: &[Vec<Edge>]) -> Option<usize> {
+    fewest_lines(incoming, f64::INFINITY)
+        .iter()
+        .position(Option::is_none)
+}
+
+/// The smallest deviation (mm) of a path to the last candidate within `budget_lines`,
+/// or `None` when no path fits.
+pub(crate) fn bottleneck(incoming: &[Vec<Edge>], budget_lines: usize) -> Option<f64> {
+    let fits = |threshold: f64| {
+        fewest_lines(incoming, threshold)
+            .last()
+            .copied()
+            .flatten()
+            .is_some_and(|lines| lines <= budget_lines)
+    };
+    let mut costs: Vec<f64> = incoming.iter().flatten().map(|edge| edge.cost_mm).collect();
+    if incoming.len() <= 1 {
+        return Some(0.0);
+    }
+    costs.sort_by(f64::total_cmp);
+    costs.dedup();
+    // The smallest cost that fits: fits() only turns true as the threshold rises.
+    let (mut low, mut high) = (0, costs.len());
+    while low < high {
+        let middle = low + (high - low) / 2;
+        if fits(costs[middle]) {
+            high = middle;
+        } else {
+            low = middle + 1;
+        }
+    }
+    costs.get(low).copied()
+}
+
+/// Among the paths whose every edge costs at most `threshold_mm` and that fit
+/// `budget_lines`, the one with the least Σ cost × duration (the closest to the show
+/// over its length); its edges in order.
+pub(crate) fn refine(
+    incoming: &[Vec<Edge>],
+    samples: &Samples,
+    candidates: &[usize],
+    threshold_mm: f64,
+    budget_lines: usize,
+) -> Option<Vec<Edge>> {
+    let nodes = incoming.len();
+    if nodes <= 1 {
+        return Some(Vec::new());
+    }
+    let width = budget_lines + 1;
+    // best[node * width + lines]: the least score of a path to `node` with exactly
+    // `lines` lines, and the edge that ends it.
+    let mut best = vec![f64::INFINITY; nodes * width];
+    // via[node * width + lines]: which of `incoming[node]` ends that path.
+    let mut via = vec![u32::MAX; nodes * width];
+    best[0] = 0.0;
+    for to in 1..nodes {
+        for (index, edge) in incoming[to].iter().enumerate() {
+            if edge.cost_mm > threshold_mm {
+                continue;
+            }
+            let index = u32::try_from(index).unwrap_or(u32::MAX);
+            let step_lines = edge.step.lines();
+            let duration_ms = (samples.times_ms[candidates[edge.to]]
+                - samples.times_ms[candidates[edge.from]]) as f64;
+            let score = edge.cost_mm * duration_ms;
+            for before in 0..width.saturating_sub(step_lines) {
+                let start = best[edge.from * width + before];
+                if start.is_finite() {
+                    let slot = to * width + before + step_lines;
+                    if start + score < best[slot] {
+                        best[slot] = start + score;
+                        via[slot] = index;
+                    }
+                }
+            }
+        }
+    }
+    let last = nodes - 1;
+    let (mut lines, _) = (0..width)
+        .map(|lines| (lines, best[last * width + lines]))
+        .filter(|(_, score)| score.is_finite())
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let mut path = Vec::new();
+    let mut node = last;
+    while node != 0 {
+        let edge = *incoming[node].get(via[node * width + lines] as usize)?;
+        path.push(edge);
+        lines -= edge.step.lines();
+        node = edge.from;
+    }
+    path.reverse();
+    Some(path)
+}

@@ -1,0 +1,420 @@
+//! Tests of the Q program compiler: the trapezoid, the layout and its limits, the
+//! start line, looping, a golden listing, the reduction and its refusal, the timing
+//! the listing gives a drive, and the round trip through the codec.
+
+use super::moves::{Trapezoid, solve_speed};
+use super::*;
+use crate::plan::player::TICK_US;
+use crate::scl::parse_script;
+use crate::show::demo::Wave;
+use crate::show::{Track, TrackRow};
+
+/// Down 100 mm in 1 s, rest 0.5 s, back up in 1 s.
+fn tiny() -> Track {
+    Track {
+        start_mm: 1000.0,
+        rows: vec![
+            TrackRow::new(1100.0, 0.0, 1000),
+            TrackRow::new(1100.0, 0.0, 500),
+            TrackRow::new(1000.0, 0.0, 1000),
+        ],
+        colours: Vec::new(),
+    }
+}
+
+/// One ball of the demo wave, `seconds` long, one wave every `period_s`.
+fn wave(seconds: usize, period_s: f64) -> Track {
+    let show = Wave {
+        period_s,
+        ..Wave::new(1, 1, seconds * 5, 200)
+    }
+    .show();
+    show.tracks[0].clone()
+}
+
+fn lenient() -> QProgramConfig {
+    QProgramConfig {
+        tolerance_mm: f64::INFINITY,
+        ..QProgramConfig::default()
+    }
+}
+
+/// Runs the listing's commands as a drive with `MT0` would (moves block, `WT` waits),
+/// from `start_counts`: the time (s) and position (counts) at which every `FP` ends.
+fn run(program: &QProgram, config: &QProgramConfig, start_counts: f64) -> Vec<(f64, f64)> {
+    let steps = f64::from(config.steps_per_rev);
+    let segment = |number: u8| {
+        program
+            .segments
+            .iter()
+            .find(|(segment, _)| segment.get() == number)
+            .map(|(_, commands)| commands.clone())
+            .unwrap()
+    };
+    let mut order = Vec::new();
+    for command in segment(1) {
+        match command {
+            Command::QueueCall {
+                segment: Some(called),
+            } => order.extend(segment(called.get())),
+            Command::QueueGoto { .. } => break,
+            other => order.push(other),
+        }
+    }
+    let (mut now_s, mut at, mut target, mut speed, mut accel, mut decel) =
+        (0.0, start_counts, 0.0, 0.0, 0.0, 0.0);
+    let mut ends = Vec::new();
+    for command in order {
+        match command {
+            Command::Distance { counts: Some(c) } => target = f64::from(c),
+            Command::Velocity { rev_s: Some(v) } => speed = v.to_f64() * steps,
+            Command::Acceleration { rev_s2: Some(a) } => accel = a.to_f64() * steps,
+            Command::Deceleration { rev_s2: Some(d) } => decel = d.to_f64() * steps,
+            Command::WaitTime { s } => now_s += s.to_f64(),
+            Command::FeedToPosition => {
+                let trapezoid = Trapezoid {
+                    distance: (target - at).abs(),
+                    speed,
+                    accel,
+                    decel,
+                };
+                now_s += trapezoid.duration_s();
+                at = target;
+                ends.push((now_s, at));
+            }
+            Command::QueueCall { segment: None }
+            | Command::Multitasking { on: Some(false) }
+            | Command::WaitForInput { .. } => {}
+            other => panic!("unexpected {other}"),
+        }
+    }
+    ends
+}
+
+#[test]
+fn the_solved_speed_ends_the_move_at_its_time_and_position() {
+    for (distance, duration_s, accel) in [
+        (10_000.0, 1.0, 100_000.0),
+        (1.0, 0.05, 20_000.0),
+        (250_000.0, 2.0, 400_000.0),
+        (40_000.0, 0.4, 1_000_000.0),
+    ] {
+        let speed = solve_speed(distance, duration_s, accel).unwrap();
+        let trapezoid = Trapezoid {
+            distance,
+            speed,
+            accel,
+            decel: accel,
+        };
+        assert!(
+            (trapezoid.duration_s() - duration_s).abs() < 1e-9,
+            "{distance} {duration_s}"
+        );
+        assert!((trapezoid.travelled(duration_s) - distance).abs() < 1e-6);
+        assert_eq!(trapezoid.travelled(duration_s + 1.0), distance);
+        assert_eq!(trapezoid.travelled(0.0), 0.0);
+        // Halfway through a symmetric move, half the way.
+        assert!((trapezoid.travelled(duration_s / 2.0) - distance / 2.0).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn the_solver_refuses_a_move_the_acceleration_cannot_make() {
+    // a T² = 4 D is the triangle: the limit.
+    assert!(solve_speed(10_000.0, 1.0, 40_000.0).is_some());
+    assert_eq!(solve_speed(10_000.0, 1.0, 39_000.0), None);
+    assert_eq!(solve_speed(10_000.0, 0.0, 40_000.0), None);
+    assert_eq!(solve_speed(0.0, 1.0, 40_000.0), None);
+    // A triangle's time as the drive counts it.
+    let triangle = Trapezoid {
+        distance: 10_000.0,
+        speed: 1e9,
+        accel: 40_000.0,
+        decel: 40_000.0,
+    };
+    assert!((triangle.duration_s() - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn a_move_too_fast_for_the_limits_is_refused_with_its_time() {
+    let track = Track {
+        start_mm: 0.0,
+        rows: vec![TrackRow::new(1000.0, 0.0, 100)],
+        colours: Vec::new(),
+    };
+    let error = compile(&track, &QProgramConfig::default()).unwrap_err();
+    assert_eq!(
+        error,
+        QProgramError::TooFast {
+            at_ms: 100,
+            max_speed_mm_s: 2000.0,
+            max_accel_mm_s2: 4000.0
+        }
+    );
+    assert!(error.to_string().contains("100 ms"), "{error}");
+}
+
+#[test]
+fn a_tiny_show_compiles_to_the_expected_listing() {
+    let program = compile(&tiny(), &QProgramConfig::default()).unwrap();
+    assert_eq!(
+        program.text(),
+        "[segment 1: main, 10 lines]\nWI3F\nMT0\nAC2.500\nDE2.500\nDI110000\nVE0.6910\nFP\n\
+         WT0.500\nDI100000\nFP\n"
+    );
+}
+
+#[test]
+fn every_listing_line_parses_back_as_the_command_written() {
+    for track in [tiny(), wave(120, 4.0)] {
+        let program = compile(&track, &lenient()).unwrap();
+        let text = program.text();
+        let commands: Vec<Command> = program
+            .segments
+            .iter()
+            .flat_map(|(_, commands)| commands.iter().copied())
+            .collect();
+        let listing: String = text
+            .lines()
+            .filter(|line| !line.starts_with('['))
+            .map(|line| format!("{line}\r"))
+            .collect();
+        let parsed = parse_script(&listing).unwrap();
+        assert_eq!(
+            parsed.iter().map(|r| r.command).collect::<Vec<_>>(),
+            commands
+        );
+        assert!(parsed.iter().all(|request| request.address.is_none()));
+        assert_eq!(
+            text.lines().filter(|line| line.starts_with('[')).count(),
+            program.segments.len()
+        );
+    }
+}
+
+#[test]
+fn the_start_line_waits_on_the_configured_input_or_is_left_out() {
+    let start = QProgramConfig {
+        start: Some((IoPoint::new(5).unwrap(), InputCondition::Rising)),
+        ..QProgramConfig::default()
+    };
+    let program = compile(&tiny(), &start).unwrap();
+    assert_eq!(program.segments[0].1[0].to_string(), "WI5R");
+    let none = QProgramConfig {
+        start: None,
+        ..QProgramConfig::default()
+    };
+    let program = compile(&tiny(), &none).unwrap();
+    assert_eq!(
+        program.segments[0].1[0],
+        Command::Multitasking { on: Some(false) }
+    );
+    assert!(
+        program
+            .segments
+            .iter()
+            .flat_map(|(_, commands)| commands)
+            .all(|command| !matches!(command, Command::WaitForInput { .. }))
+    );
+}
+
+#[test]
+fn every_move_ends_at_its_keyframe_within_a_tick_and_exactly_at_its_count() {
+    for track in [tiny(), wave(60, 4.0), wave(600, 12.0)] {
+        let config = lenient();
+        let program = compile(&track, &config).unwrap();
+        let ends = run(
+            &program,
+            &config,
+            (track.start_mm * config.counts_per_mm).round(),
+        );
+        assert_eq!(ends.len(), program.keyframes.len());
+        assert_eq!(ends.len(), program.report.moves);
+        for ((end_s, end_counts), keyframe) in ends.iter().zip(&program.keyframes) {
+            let late_us = (end_s * 1e6 - keyframe.time_ms as f64 * 1000.0).abs();
+            assert!(
+                late_us <= TICK_US as f64,
+                "{late_us} µs off at {} ms",
+                keyframe.time_ms
+            );
+            assert_eq!(
+                *end_counts,
+                (keyframe.position_mm * config.counts_per_mm).round()
+            );
+        }
+    }
+}
+
+#[test]
+fn a_long_show_stays_within_twelve_segments_of_sixty_two_lines() {
+    let program = compile(&wave(600, 4.0), &lenient()).unwrap();
+    assert!(program.segments.len() <= 12);
+    assert!(program.segments.len() > 1);
+    for (index, (segment, commands)) in program.segments.iter().enumerate() {
+        assert_eq!(usize::from(segment.get()), index + 1);
+        assert!(
+            commands.len() <= 62,
+            "segment {segment}: {} lines",
+            commands.len()
+        );
+        if segment.get() > 1 {
+            assert_eq!(commands.last(), Some(&Command::QueueCall { segment: None }));
+        }
+    }
+    // Segment 1 calls every other one, in order.
+    let calls: Vec<u8> = program.segments[0]
+        .1
+        .iter()
+        .filter_map(|command| match command {
+            Command::QueueCall {
+                segment: Some(called),
+            } => Some(called.get()),
+            _ => None,
+        })
+        .collect();
+    let expected: Vec<u8> = (2..=u8::try_from(program.segments.len()).unwrap()).collect();
+    assert_eq!(calls, expected);
+    assert_eq!(program.report.lines, program.lines());
+    // The show has more turning points than 671 move lines hold: it was reduced.
+    assert!(program.report.moves < 300);
+    assert!(program.report.max_deviation_mm > 10.0);
+}
+
+#[test]
+fn a_loop_goes_back_to_the_first_call_after_returning_to_the_start() {
+    let config = QProgramConfig {
+        loop_show: true,
+        ..lenient()
+    };
+    let program = compile(&wave(301, 8.0), &config).unwrap();
+    let main = &program.segments[0].1;
+    assert!(program.segments.len() > 1);
+    let first_call = main
+        .iter()
+        .position(|command| matches!(command, Command::QueueCall { segment: Some(_) }))
+        .unwrap();
+    assert_eq!(
+        main.last().unwrap().to_string(),
+        format!("QG{}", first_call + 1)
+    );
+    // A wave ends away from its start: the last move goes back there.
+    let track = wave(301, 8.0);
+    let last = program.keyframes.last().unwrap();
+    assert_eq!(last.position_mm, track.start_mm);
+    assert!(last.time_ms > track.duration_ms());
+    // A small program loops within segment 1, to its first move.
+    let tiny_loop = compile(
+        &tiny(),
+        &QProgramConfig {
+            loop_show: true,
+            ..QProgramConfig::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(tiny_loop.segments.len(), 1);
+    let main = &tiny_loop.segments[0].1;
+    assert_eq!(main.last().unwrap().to_string(), "QG5");
+    assert_eq!(main[4].to_string(), "DI110000");
+    // The tiny show ends where it started: no move back.
+    assert_eq!(tiny_loop.keyframes.len(), 2);
+}
+
+#[test]
+fn more_room_never_means_a_larger_deviation() {
+    let track = wave(60, 4.0);
+    let mut previous = f64::INFINITY;
+    for budget in [6, 12, 24, 48, 96, 192] {
+        let program = compile_within(&track, &lenient(), budget).unwrap();
+        let deviation = program.report.max_deviation_mm;
+        assert!(
+            program.lines() <= budget + 16,
+            "{budget}: {} lines",
+            program.lines()
+        );
+        assert!(
+            deviation <= previous + 0.5,
+            "{budget} lines: {deviation} mm, less room gave {previous} mm"
+        );
+        previous = deviation;
+    }
+    // 30 half waves of 2 s fit in 192 lines: every turning point is kept, and what is
+    // left is at the ends (the wave sets off at full speed and stops dead in its last
+    // row of 200 ms; a drive moves from rest to rest).
+    let program = compile_within(&track, &lenient(), 192).unwrap();
+    let report = program.report;
+    assert!(report.moves >= 30, "{report:?}");
+    assert!(report.at_ms < 1000 || report.at_ms > 59_000, "{report:?}");
+}
+
+#[test]
+fn a_program_over_the_tolerance_is_refused_with_the_figure() {
+    let track = wave(600, 4.0);
+    let report = compile(&track, &lenient()).unwrap().report;
+    let strict = QProgramConfig {
+        tolerance_mm: 5.0,
+        ..QProgramConfig::default()
+    };
+    let error = compile(&track, &strict).unwrap_err();
+    assert_eq!(
+        error,
+        QProgramError::TooFar {
+            deviation_mm: report.max_deviation_mm,
+            at_ms: report.at_ms,
+            tolerance_mm: 5.0
+        }
+    );
+    assert!(
+        error
+            .to_string()
+            .contains(&format!("{:.1} mm", report.max_deviation_mm))
+    );
+}
+
+#[test]
+fn an_unreduced_show_reports_its_rest_to_rest_error() {
+    let program = compile(&tiny(), &QProgramConfig::default()).unwrap();
+    let report = program.report;
+    assert_eq!(report.track_rows, 3);
+    assert_eq!(report.moves, 2);
+    assert_eq!(report.lines, program.lines());
+    // A smoothstep of 100 mm against a trapezoid: a few mm, never 0.
+    assert!(
+        report.max_deviation_mm > 0.1 && report.max_deviation_mm < 10.0,
+        "{report:?}"
+    );
+    assert_eq!(
+        program.keyframes,
+        vec![
+            Keyframe {
+                time_ms: 1000,
+                position_mm: 1100.0
+            },
+            Keyframe {
+                time_ms: 2500,
+                position_mm: 1000.0
+            }
+        ]
+    );
+}
+
+#[test]
+fn a_bad_configuration_is_refused_by_name() {
+    let config = QProgramConfig {
+        counts_per_mm: 0.0,
+        ..QProgramConfig::default()
+    };
+    assert!(matches!(
+        compile(&tiny(), &config),
+        Err(QProgramError::InvalidConfig {
+            field: "counts_per_mm",
+            ..
+        })
+    ));
+    let empty = Track {
+        start_mm: 10.0,
+        rows: Vec::new(),
+        colours: Vec::new(),
+    };
+    let program = compile(&empty, &QProgramConfig::default()).unwrap();
+    assert_eq!(program.report.moves, 0);
+}
