@@ -14,6 +14,11 @@
 //! batch the player queues carries the generation of the request that started the
 //! run, so nothing planned before an e-stop reaches a line after it.
 //!
+//! The MBOX boxes ([`Playback::spawn_mbox`]) and the MOONS' drives
+//! ([`Playback::spawn_scl`]) have their own task loops with the same requests, the
+//! same admission ([`admit`]: no e-stop since, every gateway up) and the same status
+//! and its publication; the drives' runs are [`crate::scl::player`]'s.
+//!
 //! **A stalled link is a fault.** While a playlist runs, a link that has bytes queued
 //! and writes nothing for [`stall_limit`] stops the show on every gateway and sets the
 //! state `error`, naming the gateway.
@@ -29,9 +34,12 @@ use floatball_shared::plan::player::{
 };
 use tokio::sync::{mpsc, oneshot, watch};
 
+use crate::config::SclConfig;
 use crate::estop::{self, Latch};
 use crate::link::Link;
 use crate::mbox::MboxNet;
+use crate::scl::SclNet;
+use crate::scl::player::{self as scl_player, Progress as RunProgress};
 
 type Reply = oneshot::Sender<Result<(), StartError>>;
 
@@ -50,9 +58,10 @@ enum Request {
         generation: u64,
         reply: Reply,
     },
-    /// Start or Reset on MBOX boxes: the playlist checked (not planned: the boxes
-    /// take positions, not a line's instructions).
-    MboxPlay {
+    /// Start or Reset on MBOX boxes or MOONS' drives: the playlist checked (not
+    /// planned: boxes take positions, drives run Q programs, not a line's
+    /// instructions).
+    Play {
         generation: u64,
         entries: Result<Vec<Entry>, StartError>,
         loop_playlist: bool,
@@ -69,8 +78,8 @@ impl std::fmt::Debug for Request {
             Request::Start { .. } => "Start",
             Request::Reset { .. } => "Reset",
             Request::Home { .. } => "Home",
-            Request::MboxPlay { reset: true, .. } => "Reset (MBOX)",
-            Request::MboxPlay { .. } => "Start (MBOX)",
+            Request::Play { reset: true, .. } => "Reset (MBOX or SCL)",
+            Request::Play { .. } => "Start (MBOX or SCL)",
             Request::Estop => "Estop",
         })
     }
@@ -86,6 +95,8 @@ pub struct Playback {
     installation: Arc<Installation>,
     /// The MBOX boxes, when the installation's gateways are MBOX boxes.
     boxes: Option<MboxNet>,
+    /// The MOONS' drives, when the installation's gateways are SCL gateway entries.
+    scl: Option<SclNet>,
 }
 
 /// Why a request could not be handled.
@@ -127,6 +138,7 @@ impl Playback {
             latch,
             installation,
             boxes: None,
+            scl: None,
         }
     }
 
@@ -152,6 +164,38 @@ impl Playback {
             latch,
             installation,
             boxes: Some(boxes),
+            scl: None,
+        }
+    }
+
+    /// Starts the playback task for an installation of MOONS' drives: `drives` on
+    /// their links with their settings `scl`, obeying `latch` (the one their owners
+    /// obey). Must run inside the async runtime.
+    pub fn spawn_scl(
+        installation: Installation,
+        scl: SclConfig,
+        drives: SclNet,
+        latch: Arc<Latch>,
+    ) -> Self {
+        let installation = Arc::new(installation);
+        let (requests, inbox) = mpsc::unbounded_channel();
+        let (status_tx, status) = watch::channel(SclStatus::default().status(&drives));
+        tokio::spawn(run_scl(
+            drives.clone(),
+            Arc::clone(&installation),
+            Arc::new(scl),
+            Arc::clone(&latch),
+            inbox,
+            status_tx,
+        ));
+        Self {
+            requests,
+            status,
+            links: Arc::new(Vec::new()),
+            latch,
+            installation,
+            boxes: None,
+            scl: Some(drives),
         }
     }
 
@@ -179,6 +223,10 @@ impl Playback {
             boxes.wake();
             failures.extend(boxes.unreachable());
         }
+        if let Some(drives) = &self.scl {
+            drives.wake();
+            failures.extend(drives.unreachable());
+        }
         let _ = self.requests.send(Request::Estop);
         failures
     }
@@ -186,6 +234,11 @@ impl Playback {
     /// The MBOX boxes, when the installation's gateways are MBOX boxes.
     pub fn boxes(&self) -> Option<&MboxNet> {
         self.boxes.as_ref()
+    }
+
+    /// The MOONS' drives, when the installation's gateways are SCL gateway entries.
+    pub fn scl(&self) -> Option<&SclNet> {
+        self.scl.as_ref()
     }
 
     /// Start the playlist, as a request issued now.
@@ -250,15 +303,20 @@ impl Playback {
         generation: u64,
         reset: bool,
     ) -> Result<(), PlaybackError> {
-        if self.boxes.is_some() {
+        if self.boxes.is_some() || self.scl.is_some() {
             let installation = Arc::clone(&self.installation);
+            let scl = self.scl.is_some();
             let entries = tokio::task::spawn_blocking(move || {
-                MboxPlayer::check(&installation, &entries).map(|()| entries)
+                if scl {
+                    check_scl(&installation, &entries).map(|()| entries)
+                } else {
+                    MboxPlayer::check(&installation, &entries).map(|()| entries)
+                }
             })
             .await
             .map_err(|_| PlaybackError::Gone)?;
             return self
-                .ask(|reply| Request::MboxPlay {
+                .ask(|reply| Request::Play {
                     generation,
                     entries,
                     loop_playlist,
@@ -533,7 +591,7 @@ fn handle(
                 admit(latch, generation, views, gateways).and_then(|()| player.home(now_us, views));
             (generation, reply, result)
         }
-        Request::MboxPlay {
+        Request::Play {
             generation, reply, ..
         } => (generation, reply, Err(StartError::Busy)),
         Request::Estop => return None,
@@ -660,7 +718,7 @@ fn handle_mbox(
 ) -> Option<(u64, Reply, Result<(), StartError>)> {
     let gateways = views.len();
     Some(match request {
-        Request::MboxPlay {
+        Request::Play {
             generation,
             entries,
             loop_playlist,
@@ -762,5 +820,262 @@ async fn run_mbox(
             boxes.send(frame, slot, run_generation);
         }
         publish(&status, mbox_status(&player, &boxes));
+    }
+}
+
+/// Whether `entries` can play on MOONS' drives: a playlist, every show valid for the
+/// installation with a track per drive.
+fn check_scl(installation: &Installation, entries: &[Entry]) -> Result<(), StartError> {
+    if entries.is_empty() {
+        return Err(StartError::Empty);
+    }
+    let units = installation.units.len();
+    for (index, entry) in entries.iter().enumerate() {
+        let violations = floatball_shared::show::validate(&entry.show, &installation.limits);
+        let reason = if let Some(first) = violations.first() {
+            Some(first.to_string())
+        } else if entry.show.tracks.len() != units {
+            Some(format!(
+                "the show has {} balls but the installation has {units} drives",
+                entry.show.tracks.len()
+            ))
+        } else {
+            None
+        };
+        if let Some(reason) = reason {
+            return Err(StartError::Invalid {
+                entry: index + 1,
+                show: entry.show.name.clone(),
+                reason,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The player's part of an SCL installation's status, kept by its playback task.
+#[derive(Debug, Default)]
+struct SclStatus {
+    state: floatball_shared::api::PlayerState,
+    entry: Option<usize>,
+    show: Option<String>,
+    cycle: u32,
+    /// When the show started and how long it is, while playing.
+    playing: Option<(Instant, u64)>,
+    /// Loading: programs written of all.
+    loading: Option<(usize, usize)>,
+    last_error: Option<String>,
+}
+
+impl SclStatus {
+    fn apply(&mut self, progress: RunProgress) {
+        use floatball_shared::api::PlayerState;
+        self.playing = None;
+        self.loading = None;
+        match progress {
+            RunProgress::Homing => self.state = PlayerState::Homing,
+            RunProgress::Waiting { entry, show } => {
+                self.state = PlayerState::Waiting;
+                (self.entry, self.show) = (Some(entry), Some(show));
+            }
+            RunProgress::Approaching { entry, show, cycle } => {
+                self.state = PlayerState::Approaching;
+                (self.entry, self.show, self.cycle) = (Some(entry), Some(show), cycle);
+            }
+            RunProgress::Loading {
+                entry,
+                done,
+                drives,
+            } => {
+                self.state = PlayerState::Loading;
+                self.entry = Some(entry);
+                self.loading = Some((done, drives));
+            }
+            RunProgress::Playing {
+                entry,
+                show,
+                cycle,
+                started,
+                duration_ms,
+            } => {
+                self.state = PlayerState::Playing;
+                (self.entry, self.show, self.cycle) = (Some(entry), Some(show), cycle);
+                self.playing = Some((started, duration_ms));
+            }
+            RunProgress::Done => {
+                self.state = PlayerState::Idle;
+                (self.entry, self.show, self.cycle) = (None, None, 0);
+            }
+            RunProgress::Failed(reason) => {
+                self.state = PlayerState::Error;
+                self.last_error = Some(reason);
+            }
+        }
+    }
+
+    fn status(&self, drives: &SclNet) -> Status {
+        let (show_time_ms, show_duration_ms, progress) = match (self.playing, self.loading) {
+            (Some((started, duration_ms)), _) => {
+                let time_ms =
+                    u64::try_from(started.elapsed().as_millis()).map_or(duration_ms, |ms| ms.min(duration_ms));
+                let progress = if duration_ms == 0 {
+                    1.0
+                } else {
+                    time_ms as f64 / duration_ms as f64
+                };
+                (time_ms, duration_ms, progress)
+            }
+            (None, Some((done, drives))) => (0, 0, done as f64 / drives.max(1) as f64),
+            (None, None) => (0, 0, 0.0),
+        };
+        Status {
+            state: self.state,
+            entry: self.entry,
+            show: self.show.clone(),
+            show_time_ms,
+            show_duration_ms,
+            cycle: self.cycle,
+            progress,
+            gateways: drives.statuses(),
+            last_error: self.last_error.clone(),
+        }
+    }
+}
+
+/// The playback task of an installation of MOONS' drives: Start, Reset and Home
+/// admitted as for the other families and carried out by a run
+/// ([`crate::scl::player::run`]) whose progress it turns into the status; an e-stop
+/// ends the run (its requests are void already) and the state is `stopped`.
+async fn run_scl(
+    drives: SclNet,
+    installation: Arc<Installation>,
+    scl: Arc<SclConfig>,
+    latch: Arc<Latch>,
+    mut inbox: mpsc::UnboundedReceiver<Request>,
+    status: watch::Sender<Status>,
+) {
+    let mut state = SclStatus::default();
+    let mut seen_generation = latch.generation();
+    let mut running: Option<(tokio::task::JoinHandle<()>, mpsc::UnboundedReceiver<RunProgress>)> =
+        None;
+    let views = |drives: &SclNet| -> Vec<LinkView> {
+        drives
+            .links()
+            .iter()
+            .map(|link| LinkView {
+                up: link.is_up(),
+                queued_bytes: 0,
+            })
+            .collect()
+    };
+    loop {
+        let mut request = None;
+        let mut progress = None;
+        {
+            let next_progress = async {
+                match running.as_mut() {
+                    Some((_, progress)) => progress.recv().await,
+                    None => std::future::pending().await,
+                }
+            };
+            tokio::select! {
+                received = inbox.recv() => {
+                    let Some(received) = received else { return };
+                    request = Some(received);
+                }
+                Some(received) = next_progress => progress = Some(received),
+                () = tokio::time::sleep(Duration::from_millis(100)) => {}
+            }
+        }
+        let generation = latch.generation();
+        if generation != seen_generation {
+            seen_generation = generation;
+            if let Some((task, _)) = running.take() {
+                task.abort();
+            }
+            progress = None;
+            state.apply(RunProgress::Done);
+            state.state = floatball_shared::api::PlayerState::Stopped;
+        }
+        if let Some(progress) = progress {
+            let ended = matches!(progress, RunProgress::Done | RunProgress::Failed(_));
+            if let RunProgress::Failed(reason) = &progress {
+                tracing::error!("{reason}");
+                // Whatever the drives were doing, they stop.
+                estop::press(&latch, &[]);
+                drives.wake();
+                seen_generation = latch.generation();
+            }
+            state.apply(progress);
+            if ended {
+                running = None;
+            }
+        }
+        if let Some(request) = request {
+            let (generation, reply, run) = match request {
+                Request::Play {
+                    generation,
+                    entries,
+                    loop_playlist,
+                    reset,
+                    reply,
+                } => {
+                    let busy = running.is_some() && !reset;
+                    let run = entries.and_then(|entries| {
+                        if busy {
+                            Err(StartError::Busy)
+                        } else {
+                            Ok(scl_player::Run {
+                                entries,
+                                loop_playlist,
+                                home_first: reset,
+                            })
+                        }
+                    });
+                    (generation, reply, run)
+                }
+                Request::Home { generation, reply } => (
+                    generation,
+                    reply,
+                    Ok(scl_player::Run {
+                        entries: Vec::new(),
+                        loop_playlist: false,
+                        home_first: true,
+                    }),
+                ),
+                Request::Start {
+                    generation, reply, ..
+                }
+                | Request::Reset {
+                    generation, reply, ..
+                } => (generation, reply, Err(StartError::Busy)),
+                Request::Estop => {
+                    publish(&status, state.status(&drives));
+                    continue;
+                }
+            };
+            let views = views(&drives);
+            let result = run.and_then(|run| {
+                admit(&latch, generation, &views, views.len()).map(|()| run)
+            });
+            let result = result.map(|run| {
+                if let Some((task, _)) = running.take() {
+                    task.abort();
+                }
+                let (progress_tx, progress_rx) = mpsc::unbounded_channel();
+                let task = tokio::spawn(scl_player::run(
+                    drives.clone(),
+                    Arc::clone(&installation),
+                    Arc::clone(&scl),
+                    run,
+                    generation,
+                    progress_tx,
+                ));
+                running = Some((task, progress_rx));
+                state.last_error = None;
+            });
+            let _ = reply.send(result);
+        }
+        publish(&status, state.status(&drives));
     }
 }

@@ -18,6 +18,7 @@ use crate::config::{Config, MboxConfig, MboxTarget};
 use crate::gateways::Gateways;
 use crate::mbox::MboxNet;
 use crate::playback::Playback;
+use crate::scl::SclNet;
 use crate::playlist::{PlaylistError, PlaylistStore};
 use crate::simulate::mbox::{MboxBoxes, MboxOptions};
 use crate::store::{ShowStore, StoreError};
@@ -50,6 +51,9 @@ pub enum OpenError {
     /// The MBOX boxes' socket, or a simulated box, cannot be opened.
     #[error("{0}")]
     Mbox(String),
+    /// An SCL link cannot start.
+    #[error("{0}")]
+    Scl(String),
 }
 
 /// Where the bridge keeps and finds its files.
@@ -145,8 +149,20 @@ impl AppState {
         let tokens = Tokens::open(&paths.data_dir, clock.now());
         let latch = Arc::new(Latch::new());
         let gateways = Gateways::open(&config, &latch)?;
-        let (playback, mbox_sims) = match &config.mbox {
-            Some(mbox) => {
+        let (playback, mbox_sims) = match (&config.mbox, &config.scl) {
+            (_, Some(scl)) => {
+                let drives = SclNet::open(scl, &latch).map_err(OpenError::Scl)?;
+                (
+                    Playback::spawn_scl(
+                        config.installation.clone(),
+                        scl.clone(),
+                        drives,
+                        Arc::clone(&latch),
+                    ),
+                    Vec::new(),
+                )
+            }
+            (Some(mbox), None) => {
                 let (boxes, sims) = open_boxes(mbox, &latch)?;
                 let player = MboxPlayerConfig {
                     installation: config.installation.clone(),
@@ -158,7 +174,7 @@ impl AppState {
                     sims,
                 )
             }
-            None => (
+            (None, None) => (
                 Playback::spawn(config.installation.clone(), gateways.links().to_vec()),
                 Vec::new(),
             ),

@@ -34,6 +34,13 @@
 //! Start, Reset or Home. The console's `estop` is a register write only — it does not
 //! set the bridge's latch (the `estop` message does). Replies to console reads reach
 //! every session as `mbox_reply`.
+//!
+//! On an installation of MOONS' drives a `raw` line is SCL (one command a line,
+//! `floatball_shared::scl::parse_script`; a refusal names its line and column): each
+//! command goes to the drive its address character names on gateway N (0 when no
+//! gateway is given; no address: the entry's only drive), by
+//! [`crate::scl::program::console`]. While the e-stop is latched only queries and
+//! stops go. Every drive's decoded answer reaches every session as `scl_reply`.
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
@@ -55,6 +62,7 @@ use crate::control::{self, Control};
 use crate::http::Failure;
 use crate::mbox::MboxNet;
 use crate::origin::origin_allowed;
+use crate::scl::SclNet;
 use crate::state::AppState;
 
 /// Most `status` messages per second to one client.
@@ -145,6 +153,7 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
     let mut status = state.subscribe_status();
     let mut feedback = state.gateways().subscribe_feedback();
     let mut mbox_replies = state.playback().boxes().map(MboxNet::subscribe_replies);
+    let mut scl_replies = state.playback().scl().map(SclNet::subscribe_replies);
     let (console_lines, waiting_lines) = mpsc::channel(CONSOLE_QUEUE);
     let (console_errors, mut console_failures) = mpsc::channel(CONSOLE_QUEUE);
     let replies = console_errors.clone();
@@ -210,10 +219,17 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
                     Step::Continue
                 }
             },
-            reply = mbox_reply(mbox_replies.as_mut()) => match reply {
+            reply = next_reply(mbox_replies.as_mut()) => match reply {
                 Some(reply) => sent(send(&mut sink, &ServerMessage::MboxReply(reply)).await),
                 None => {
                     mbox_replies = None;
+                    Step::Continue
+                }
+            },
+            reply = next_reply(scl_replies.as_mut()) => match reply {
+                Some(reply) => sent(send(&mut sink, &ServerMessage::SclReply(reply)).await),
+                None => {
+                    scl_replies = None;
                     Step::Continue
                 }
             },
@@ -241,11 +257,9 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
     }
 }
 
-/// The next reply to a console read; `None` when there will be none; never when
-/// there are no boxes.
-async fn mbox_reply(
-    replies: Option<&mut broadcast::Receiver<floatball_shared::api::MboxReply>>,
-) -> Option<floatball_shared::api::MboxReply> {
+/// The next answer to a console line (an MBOX box's to a read, a MOONS' drive's);
+/// `None` when there will be none; never when the installation has no such family.
+async fn next_reply<T: Clone>(replies: Option<&mut broadcast::Receiver<T>>) -> Option<T> {
     let Some(replies) = replies else {
         return std::future::pending().await;
     };
@@ -440,6 +454,18 @@ fn answer(
         ClientMessage::Raw { line, gateway } => {
             if let Some(boxes) = state.playback().boxes() {
                 return mbox_line(state, boxes, &line, gateway);
+            }
+            if let Some(drives) = state.playback().scl() {
+                let latch = state.playback().latch();
+                return crate::scl::program::console(
+                    drives,
+                    &line,
+                    gateway,
+                    latch.is_latched(),
+                    latch.generation(),
+                )
+                .err()
+                .map(error);
             }
             let count = state.gateways().links().len();
             if let Some(index) = gateway.filter(|index| *index >= count) {

@@ -27,12 +27,12 @@
 //! when it has nothing else waiting (five times less often while programs are being
 //! uploaded); the answers fill [`GatewayStatus::drives`].
 
+pub mod player;
 pub mod program;
 pub mod serial;
 pub mod udp;
 
 use std::collections::VecDeque;
-use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
 use std::sync::{Arc, Mutex};
