@@ -864,14 +864,17 @@ struct SclStatus {
     playing: Option<(Instant, u64)>,
     /// Loading: programs written of all.
     loading: Option<(usize, usize)>,
+    /// The playlist played to its end: the last show's length.
+    ended_ms: Option<u64>,
     last_error: Option<String>,
 }
 
 impl SclStatus {
     fn apply(&mut self, progress: RunProgress) {
         use floatball_shared::api::PlayerState;
-        self.playing = None;
+        let played = self.playing.take();
         self.loading = None;
+        self.ended_ms = None;
         match progress {
             RunProgress::Homing => self.state = PlayerState::Homing,
             RunProgress::Waiting { entry, show } => {
@@ -904,7 +907,11 @@ impl SclStatus {
             }
             RunProgress::Done => {
                 self.state = PlayerState::Idle;
-                (self.entry, self.show, self.cycle) = (None, None, 0);
+                // As the other players: idle at the end of the show, progress full.
+                self.ended_ms = played.map(|(_, duration_ms)| duration_ms);
+                if self.ended_ms.is_none() {
+                    (self.entry, self.show, self.cycle) = (None, None, 0);
+                }
             }
             RunProgress::Failed(reason) => {
                 self.state = PlayerState::Error;
@@ -916,8 +923,8 @@ impl SclStatus {
     fn status(&self, drives: &SclNet) -> Status {
         let (show_time_ms, show_duration_ms, progress) = match (self.playing, self.loading) {
             (Some((started, duration_ms)), _) => {
-                let time_ms =
-                    u64::try_from(started.elapsed().as_millis()).map_or(duration_ms, |ms| ms.min(duration_ms));
+                let time_ms = u64::try_from(started.elapsed().as_millis())
+                    .map_or(duration_ms, |ms| ms.min(duration_ms));
                 let progress = if duration_ms == 0 {
                     1.0
                 } else {
@@ -926,7 +933,10 @@ impl SclStatus {
                 (time_ms, duration_ms, progress)
             }
             (None, Some((done, drives))) => (0, 0, done as f64 / drives.max(1) as f64),
-            (None, None) => (0, 0, 0.0),
+            (None, None) => match self.ended_ms {
+                Some(duration_ms) => (duration_ms, duration_ms, 1.0),
+                None => (0, 0, 0.0),
+            },
         };
         Status {
             state: self.state,
@@ -956,8 +966,10 @@ async fn run_scl(
 ) {
     let mut state = SclStatus::default();
     let mut seen_generation = latch.generation();
-    let mut running: Option<(tokio::task::JoinHandle<()>, mpsc::UnboundedReceiver<RunProgress>)> =
-        None;
+    let mut running: Option<(
+        tokio::task::JoinHandle<()>,
+        mpsc::UnboundedReceiver<RunProgress>,
+    )> = None;
     let views = |drives: &SclNet| -> Vec<LinkView> {
         drives
             .links()
@@ -995,6 +1007,7 @@ async fn run_scl(
             }
             progress = None;
             state.apply(RunProgress::Done);
+            state.ended_ms = None;
             state.state = floatball_shared::api::PlayerState::Stopped;
         }
         if let Some(progress) = progress {
@@ -1055,9 +1068,8 @@ async fn run_scl(
                 }
             };
             let views = views(&drives);
-            let result = run.and_then(|run| {
-                admit(&latch, generation, &views, views.len()).map(|()| run)
-            });
+            let result =
+                run.and_then(|run| admit(&latch, generation, &views, views.len()).map(|()| run));
             let result = result.map(|run| {
                 if let Some((task, _)) = running.take() {
                     task.abort();

@@ -31,7 +31,9 @@ use floatball_shared::scl::qprogram::{QProgram, compile};
 use tokio::sync::mpsc;
 
 use super::SclNet;
-use super::program::{drives_of, fire, move_all, qprogram_config, upload, wait_ended, wait_positions};
+use super::program::{
+    drives_of, fire, move_all, qprogram_config, upload, wait_ended, wait_positions,
+};
 use crate::config::{SclConfig, SclPrograms};
 
 /// Where a run is, for the status.
@@ -163,7 +165,14 @@ async fn home(
         generation,
     )
     .await?;
-    wait_positions(net, installation, &home, travel_limit(installation), generation).await
+    wait_positions(
+        net,
+        installation,
+        &home,
+        travel_limit(installation),
+        generation,
+    )
+    .await
 }
 
 /// Carries out `run` at e-stop `generation`, reporting to `progress`; ends with
@@ -225,8 +234,14 @@ async fn play(
                     generation,
                 )
                 .await?;
-                wait_positions(net, installation, &start, travel_limit(installation), generation)
-                    .await?;
+                wait_positions(
+                    net,
+                    installation,
+                    &start,
+                    travel_limit(installation),
+                    generation,
+                )
+                .await?;
                 if let Some(programs) = programs.as_ref().filter(|_| cycle == 1) {
                     for (done, (drive, program)) in drives.iter().zip(programs).enumerate() {
                         let _ = progress.send(Progress::Loading {
@@ -247,10 +262,8 @@ async fn play(
                     started,
                     duration_ms,
                 });
-                tokio::time::sleep_until(
-                    (started + Duration::from_millis(duration_ms)).into(),
-                )
-                .await;
+                tokio::time::sleep_until((started + Duration::from_millis(duration_ms)).into())
+                    .await;
                 let limit = Instant::now() + Duration::from_secs(10);
                 wait_ended(net, installation, limit, generation).await?;
             }

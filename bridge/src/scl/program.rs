@@ -102,7 +102,8 @@ impl SclNet {
             return Err(format!(
                 "{} refused {command}{}",
                 self.name(drive),
-                code.map(|code| format!(" (code {code})")).unwrap_or_default()
+                code.map(|code| format!(" (code {code})"))
+                    .unwrap_or_default()
             ));
         }
         Ok(lines)
@@ -120,7 +121,12 @@ impl SclNet {
     }
 
     /// Asks `drive` for a value (`IP`, `SC`, `AL`).
-    async fn value(&self, drive: DriveRef, command: Command, generation: u64) -> Result<Answer, String> {
+    async fn value(
+        &self,
+        drive: DriveRef,
+        command: Command,
+        generation: u64,
+    ) -> Result<Answer, String> {
         let lines = self.ask(drive, command, generation).await?;
         match lines.first().map(|line| Reply::parse(line)) {
             Some(Ok(reply)) => Ok(reply.answer),
@@ -221,7 +227,9 @@ pub async fn wait_positions(
     for (unit, &drive) in drives.iter().enumerate() {
         let target = i64::from(targets_counts.get(unit).copied().unwrap_or(0));
         loop {
-            let answer = net.value(drive, Command::ImmediatePosition, generation).await?;
+            let answer = net
+                .value(drive, Command::ImmediatePosition, generation)
+                .await?;
             let at = answer.value_i64();
             if at == Some(target) {
                 break;
@@ -260,7 +268,11 @@ pub async fn upload(
         let lines = lines.map_err(|error| error.to_string())?;
         match lines.first().map(|line| Reply::parse(line)) {
             Some(Ok(reply)) => Ok(reply.answer),
-            _ => Err(format!("{} answered {:?}", net.name(drive), lines.join(" "))),
+            _ => Err(format!(
+                "{} answered {:?}",
+                net.name(drive),
+                lines.join(" ")
+            )),
         }
     };
     for (segment, commands) in segments {
@@ -296,7 +308,10 @@ pub async fn upload(
                 }
             }
         }
-        match answer(link.request(drive.drive, String::new(), Expect::One, generation).await)? {
+        match answer(
+            link.request(drive.drive, String::new(), Expect::One, generation)
+                .await,
+        )? {
             Answer::Executed => {}
             other => {
                 return Err(format!(
@@ -462,9 +477,11 @@ pub fn console(
             }
         };
         if latched && !super::is_inert(&request.command) {
-            return Err("the e-stop is latched: only queries and stops can be sent until \
+            return Err(
+                "the e-stop is latched: only queries and stops can be sent until \
                         Start, Reset or Home; this line was not sent"
-                .to_owned());
+                    .to_owned(),
+            );
         }
         targets.push((drive, request));
     }

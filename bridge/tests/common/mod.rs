@@ -4,6 +4,7 @@
 
 pub mod mbox_sim;
 pub mod process;
+pub mod scl_peer;
 
 use std::net::{IpAddr, SocketAddr};
 use std::path::Path;

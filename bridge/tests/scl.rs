@@ -1,0 +1,246 @@
+//! MOONS' drives through the real `floatball` binary: an RS-485 line of three drives
+//! on a pseudo-terminal and three eSCL drives on loopback UDP, played by scripted
+//! drives (`common::scl_peer`): console lines and their decoded answers, the status
+//! polls, the e-stop (`SK` to every drive before anything else), Start playing a show
+//! from uploaded Q programs to its end, and a drive that refuses `QW`.
+
+mod common;
+
+use std::time::{Duration, Instant};
+
+use common::process::{Process, links_up};
+use common::scl_peer::Peer;
+use common::{Ws, native_show, next_reply, send_text, until};
+use floatball_shared::api::{PlayerState, ServerMessage};
+
+/// The show's end positions, mm: ball i ends at 5 × (i + 1) mm.
+fn end_mm(ball: usize) -> f64 {
+    5.0 * (ball as f64 + 1.0)
+}
+
+/// Three balls that each go down 20 mm and come up to their end position, in 1 s.
+fn show() -> Vec<u8> {
+    let units = (0..3)
+        .map(|ball| {
+            serde_json::json!({
+                "start_mm": 0.0,
+                "rows": [[10.0, 0.0, 250], [20.0, 0.0, 250], [10.0, 0.0, 250], [end_mm(ball), 0.0, 250]],
+            })
+        })
+        .collect();
+    native_show("drop", 1, 3, units)
+}
+
+fn config(gateway: &str, scl: &str) -> String {
+    format!(
+        "[matrix]\nrows = 1\ncols = 3\n[safety]\napproach_speed_mm_s = 1000.0\n\
+         [scl]\npoll_ms = 50\ntolerance_mm = 20.0\n{scl}\n[[gateway]]\nkind = \"scl\"\n{gateway}\n"
+    )
+}
+
+fn serial_config(peer: &Peer, scl: &str) -> String {
+    config(
+        &format!(
+            "port = \"{}\"\nbaud = 115200\naddresses = \"123\"",
+            peer.path.display()
+        ),
+        scl,
+    )
+}
+
+fn udp_config(peer: &Peer, scl: &str) -> String {
+    let list: Vec<String> = peer.sockets.iter().map(|s| format!("\"{s}\"")).collect();
+    config(&format!("escl = [{}]", list.join(", ")), scl)
+}
+
+async fn operator(bridge: &Process) -> Ws {
+    let token = bridge.prepare_show("drop", &show(), false).await;
+    let mut ws = bridge.ws(&token).await;
+    assert!(links_up(&mut ws).await, "{}", bridge.log());
+    ws
+}
+
+/// Presses the e-stop while the drives are polled, and returns what reached them
+/// from just before the press.
+async fn press(ws: &mut Ws, peer: &Peer) -> Vec<common::scl_peer::Received> {
+    tokio::time::sleep(Duration::from_millis(150)).await;
+    let pressed = Instant::now();
+    send_text(ws, r#"{"type":"estop"}"#).await;
+    assert!(matches!(
+        next_reply(ws).await,
+        ServerMessage::EstopSent { .. }
+    ));
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    peer.since(pressed)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_rs485_line_answers_the_console_and_stops_every_drive_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::serial(dir.path(), "rs485", "123", 0);
+    let bridge = Process::start(&serial_config(&peer, ""));
+    let mut ws = operator(&bridge).await;
+    peer.drives.lock().unwrap()[1].position_counts = 1200;
+
+    // The polls put every drive's position and codes in the status.
+    let (_, status) = until(&mut ws, Duration::from_secs(5), |status| {
+        status.gateways[0].drives.len() == 3
+            && status.gateways[0].drives[1].position_counts == Some(1200)
+            && status.gateways[0].drives[2].alarm_code == Some(0)
+    })
+    .await;
+    assert_eq!(status.gateways[0].drives[0].address, "1");
+
+    send_text(&mut ws, r#"{"type":"raw","line":"2IP","gateway":0}"#).await;
+    let ServerMessage::SclReply(reply) = next_reply(&mut ws).await else {
+        panic!("an scl_reply");
+    };
+    assert_eq!(
+        (
+            reply.drive.as_str(),
+            reply.request.as_str(),
+            reply.text.as_str()
+        ),
+        ("2", "2IP", "IP = 1200")
+    );
+    assert_eq!(reply.raw, "IP=1200");
+    send_text(&mut ws, r#"{"type":"raw","line":"3DI5000\n3FP"}"#).await;
+    for _ in 0..2 {
+        let ServerMessage::SclReply(reply) = next_reply(&mut ws).await else {
+            panic!("an scl_reply");
+        };
+        assert_eq!(reply.text, "executed", "{reply:?}");
+    }
+    assert_eq!(peer.drive(2).position_counts, 5000);
+    // A refusal names its line and column; nothing is sent.
+    send_text(&mut ws, r#"{"type":"raw","line":"2IP\n2XX"}"#).await;
+    let ServerMessage::Error { message } = next_reply(&mut ws).await else {
+        panic!("an error");
+    };
+    assert!(message.contains("line 2, column 2"), "{message}");
+    send_text(&mut ws, r#"{"type":"raw","line":"IP"}"#).await;
+    let ServerMessage::Error { message } = next_reply(&mut ws).await else {
+        panic!("an error");
+    };
+    assert!(
+        message.contains("put the drive's address first"),
+        "{message}"
+    );
+
+    // The e-stop: SK to every drive, back to back, before any other request.
+    let lines = press(&mut ws, &peer).await;
+    let texts: Vec<&str> = lines.iter().map(|line| line.text.as_str()).collect();
+    let first = texts
+        .iter()
+        .position(|text| text.ends_with("SK"))
+        .expect("a stop");
+    assert_eq!(&texts[first..first + 3], ["1SK", "2SK", "3SK"], "{texts:?}");
+    // While latched, a move is refused at the console; a query still goes.
+    send_text(&mut ws, r#"{"type":"raw","line":"1FP"}"#).await;
+    let ServerMessage::Error { message } = next_reply(&mut ws).await else {
+        panic!("an error");
+    };
+    assert!(message.contains("latched"), "{message}");
+    send_text(&mut ws, r#"{"type":"raw","line":"1SC"}"#).await;
+    let ServerMessage::SclReply(reply) = next_reply(&mut ws).await else {
+        panic!("an scl_reply");
+    };
+    assert_eq!(reply.text, "SC = 0001");
+}
+
+/// Starts the playlist and reads statuses until it has played to its end.
+async fn play_to_end(ws: &mut Ws) -> Vec<PlayerState> {
+    send_text(ws, r#"{"type":"start"}"#).await;
+    let (states, _) = until(ws, Duration::from_secs(10), |status| {
+        status.state == PlayerState::Idle && status.progress >= 1.0
+    })
+    .await;
+    states
+}
+
+fn assert_played(states: &[PlayerState], peer: &Peer) {
+    // (Approaching and Loading take a few ms here: the status may not show them.)
+    assert!(states.contains(&PlayerState::Playing), "{states:?}");
+    for ball in 0..3 {
+        let drive = peer.drive(ball);
+        // 100 counts/mm: where the show ends.
+        assert_eq!(drive.position_counts, (end_mm(ball) * 100.0) as i64);
+        assert!(!drive.segments.is_empty());
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn start_uploads_programs_fires_the_trigger_and_plays_to_the_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::serial(dir.path(), "rs485", "123", 0);
+    let bridge = Process::start(&serial_config(&peer, "trigger = \"1:2\""));
+    let mut ws = operator(&bridge).await;
+    let states = play_to_end(&mut ws).await;
+    assert_played(&states, &peer);
+    // Program 1 waits for the start input (3, falling edge); the trigger output went
+    // low, then high again.
+    let first = &peer.drive(0).segments[&1];
+    assert_eq!(first[0].to_string(), "WI3F");
+    assert_eq!(peer.drive(0).outputs.get(&2), Some(&'H'));
+    let wire: Vec<String> = peer
+        .received
+        .lock()
+        .unwrap()
+        .iter()
+        .map(|line| line.text.clone())
+        .collect();
+    let low = wire.iter().position(|line| line == "1SO2L").expect("low");
+    let high = wire.iter().position(|line| line == "1SO2H").expect("high");
+    assert!(low < high);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn escl_drives_play_to_the_end_and_each_gets_the_stop() {
+    let peer = Peer::udp(3);
+    let bridge = Process::start(&udp_config(&peer, ""));
+    let mut ws = operator(&bridge).await;
+    let states = play_to_end(&mut ws).await;
+    assert_played(&states, &peer);
+    // No trigger: QX1 to every drive, and no WI in the program.
+    assert_ne!(peer.drive(0).segments[&1][0].to_string(), "WI3F");
+
+    // eSCL drives take the address characters in listed order: "0" is the first.
+    send_text(&mut ws, r#"{"type":"raw","line":"1IP","gateway":0}"#).await;
+    let ServerMessage::SclReply(reply) = next_reply(&mut ws).await else {
+        panic!("an scl_reply");
+    };
+    assert_eq!(reply.text, "IP = 1000");
+    assert_eq!(reply.drive, peer.sockets[1].to_string());
+
+    let lines = press(&mut ws, &peer).await;
+    for drive in 0..3 {
+        let stops = lines
+            .iter()
+            .filter(|line| line.drive == Some(drive) && line.text == "SK")
+            .count();
+        // The stop and its three repeats.
+        assert_eq!(stops, 4, "drive {drive}: {lines:?}");
+    }
+    let (_, stopped) = until(&mut ws, Duration::from_secs(5), |status| {
+        status.state == PlayerState::Stopped
+    })
+    .await;
+    assert_eq!(stopped.gateways[0].drives.len(), 3);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drive_that_refuses_qw_is_named_with_what_to_do() {
+    let peer = Peer::udp(3);
+    peer.drives.lock().unwrap()[1].refuse_qw = true;
+    let bridge = Process::start(&udp_config(&peer, ""));
+    let mut ws = operator(&bridge).await;
+    send_text(&mut ws, r#"{"type":"start"}"#).await;
+    let (_, failed) = until(&mut ws, Duration::from_secs(10), |status| {
+        status.state == PlayerState::Error
+    })
+    .await;
+    let error = failed.last_error.unwrap_or_default();
+    assert!(error.contains("refused QW1"), "{error}");
+    assert!(error.contains("Q Programmer"), "{error}");
+    assert!(error.contains("programs = \"stored\""), "{error}");
+}
