@@ -192,6 +192,25 @@ async fn start_uploads_programs_fires_the_trigger_and_plays_to_the_end() {
     let low = wire.iter().position(|line| line == "1SO2L").expect("low");
     let high = wire.iter().position(|line| line == "1SO2H").expect("high");
     assert!(low < high);
+
+    // Again, and the e-stop during the program: SK to every drive, back to back.
+    send_text(&mut ws, r#"{"type":"start"}"#).await;
+    until(&mut ws, Duration::from_secs(10), |status| {
+        status.state == PlayerState::Playing
+    })
+    .await;
+    let lines = press(&mut ws, &peer).await;
+    let texts: Vec<&str> = lines.iter().map(|line| line.text.as_str()).collect();
+    let first = texts
+        .iter()
+        .position(|text| text.ends_with("SK"))
+        .expect("a stop");
+    assert_eq!(&texts[first..first + 3], ["1SK", "2SK", "3SK"], "{texts:?}");
+    let (_, stopped) = until(&mut ws, Duration::from_secs(5), |status| {
+        status.state == PlayerState::Stopped
+    })
+    .await;
+    assert_eq!(stopped.last_error, None);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

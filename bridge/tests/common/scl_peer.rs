@@ -195,6 +195,29 @@ impl Peer {
         std::os::unix::fs::symlink(slave_path, &path).expect("symlink");
         let addresses: Vec<char> = addresses.chars().collect();
         let (drives, received, stop) = Self::new(addresses.len());
+        // The reader stamps every chunk as it arrives; the drives answer in another
+        // thread, so their (timed) answers never delay a stamp.
+        let (chunks_tx, chunks) = std::sync::mpsc::channel::<(Instant, Vec<u8>)>();
+        let mut writer = master.try_clone().expect("clone the master");
+        let reading = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            let mut buffer = [0u8; 512];
+            while !reading.load(Ordering::Acquire) {
+                match master.read(&mut buffer) {
+                    Ok(count) => {
+                        if chunks_tx
+                            .send((Instant::now(), buffer[..count].to_vec()))
+                            .is_err()
+                        {
+                            return;
+                        }
+                    }
+                    Err(err) if err.kind() == std::io::ErrorKind::TimedOut => {}
+                    // No slave open yet (EIO): the bridge opens it soon.
+                    Err(_) => std::thread::sleep(Duration::from_millis(5)),
+                }
+            }
+        });
         let (d, r, s) = (
             Arc::clone(&drives),
             Arc::clone(&received),
@@ -206,24 +229,17 @@ impl Peer {
             } else {
                 Duration::from_nanos(10_000_000_000 / u64::from(baud))
             };
-            // When the emulated UART has received every byte so far.
+            // When the emulated UART has received every byte from the host so far (a
+            // 4-wire line: the drives answer on their own pair).
             let mut line_free = Instant::now();
             let mut line = Vec::new();
             let mut first_at: Option<Instant> = None;
-            let mut buffer = [0u8; 512];
             while !s.load(Ordering::Acquire) {
-                let count = match master.read(&mut buffer) {
-                    Ok(count) => count,
-                    Err(err) if err.kind() == std::io::ErrorKind::TimedOut => continue,
-                    // No slave open yet (EIO): the bridge opens it soon.
-                    Err(_) => {
-                        std::thread::sleep(Duration::from_millis(5));
-                        continue;
-                    }
+                let Ok((arrived, chunk)) = chunks.recv_timeout(Duration::from_millis(20)) else {
+                    continue;
                 };
-                let now = Instant::now();
-                for &byte in &buffer[..count] {
-                    let start = line_free.max(now);
+                for byte in chunk {
+                    let start = line_free.max(arrived);
                     line_free = start + byte_time;
                     first_at.get_or_insert(start);
                     if byte != b'\r' {
@@ -232,7 +248,7 @@ impl Peer {
                     }
                     let text = String::from_utf8_lossy(&line).into_owned();
                     line.clear();
-                    let at = first_at.take().unwrap_or(now);
+                    let at = first_at.take().unwrap_or(arrived);
                     r.lock().unwrap().push(Received {
                         at,
                         text: text.clone(),
@@ -250,7 +266,11 @@ impl Peer {
                     for answer in answers {
                         bytes.extend(format!("{address}{answer}\r").into_bytes());
                     }
-                    let _ = master.write_all(&bytes);
+                    // The answer is whole once the request is in and its own bytes
+                    // have crossed the line.
+                    let whole = line_free + byte_time * u32::try_from(bytes.len()).unwrap_or(0);
+                    std::thread::sleep(whole.saturating_duration_since(Instant::now()));
+                    let _ = writer.write_all(&bytes);
                 }
             }
         });
