@@ -666,6 +666,48 @@ mod tests {
     }
 
     #[test]
+    fn scl_replies_and_drives_use_the_documented_json() {
+        let message = ServerMessage::SclReply(SclReply {
+            gateway: 0,
+            drive: "2".into(),
+            request: "2IP".into(),
+            text: "IP = 1200".into(),
+            raw: "IP=1200".into(),
+        });
+        assert_eq!(
+            serde_json::to_string(&message).expect("json"),
+            r#"{"type":"scl_reply","gateway":0,"drive":"2","request":"2IP","text":"IP = 1200","raw":"IP=1200"}"#
+        );
+        let status = GatewayStatus {
+            kind: GatewayKind::Scl,
+            port: "/dev/ttyUSB0".into(),
+            link: LinkState::Up,
+            bytes_per_s: 0.0,
+            lowest_water_level: None,
+            error: None,
+            packets_per_s: None,
+            late_frames: None,
+            missed_replies: Some(1),
+            drives: vec![SclDriveStatus {
+                address: "1".into(),
+                position_counts: Some(-1200),
+                status_code: Some(0x4001),
+                alarm_code: Some(0),
+                missed_replies: 1,
+                error: None,
+            }],
+        };
+        let json = serde_json::to_value(&status).expect("json");
+        assert_eq!(json["kind"], "scl");
+        assert_eq!(
+            json["drives"][0],
+            serde_json::json!({"address": "1", "position_counts": -1200, "status_code": 16385, "alarm_code": 0, "missed_replies": 1})
+        );
+        let back: GatewayStatus = serde_json::from_value(json).expect("back");
+        assert_eq!(back, status);
+    }
+
+    #[test]
     fn unknown_types_are_refused() {
         assert!(serde_json::from_str::<ClientMessage>(r#"{"type":"dance"}"#).is_err());
     }

@@ -616,11 +616,11 @@ fn scl_mistakes_are_named_with_their_place() {
          leave units out"
     );
     let many = parse(
-        "[matrix]\nrows = 1\ncols = 29\n[[gateway]]\nkind = \"scl\"\nport = \"/dev/ttyS0\"\n",
+        "[matrix]\nrows = 1\ncols = 28\n[[gateway]]\nkind = \"scl\"\nport = \"/dev/ttyS0\"\n",
     )
-    .expect_err("29 drives on a line")
+    .expect_err("28 drives on a line")
     .to_string();
-    assert!(many.contains("28"), "{many}");
+    assert!(many.contains("27"), "{many}");
     let on_uim = parse("[[gateway]]\nport = \"sim\"\naddresses = \"12\"\n")
         .expect_err("addresses on a uim2503")
         .to_string();

@@ -3,7 +3,7 @@
 //! **Which way shows play, and why.** Start plays each show from **Q programs stored
 //! on the drives**, not by streaming moves: a drive runs its program on its own clock
 //! and the bridge's only timing-critical act is the common start, so neither a busy
-//! RS-485 line at 9600 baud (28 drives share ~960 bytes/s: one `FP` each per ~0.15 s
+//! RS-485 line at 9600 baud (27 drives share ~960 bytes/s: one `FP` each per ~0.15 s
 //! at best) nor a lost datagram can bend the show; the drives play it as compiled,
 //! and the compiler's report says how far that is from the show.
 //!

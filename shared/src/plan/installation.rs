@@ -33,7 +33,7 @@ pub const MAX_MBOX_AXES: usize = 10;
 
 /// The most MOONS' drives on one SCL gateway entry: the RS-485 address characters
 /// there are (`crate::scl::Address::CHARACTERS`).
-pub const MAX_SCL_DRIVES: usize = 28;
+pub const MAX_SCL_DRIVES: usize = 27;
 
 /// The family of drives behind a gateway: its instruction language, feedback and
 /// limits. A new family is a new variant here, and the planner's callers do not
