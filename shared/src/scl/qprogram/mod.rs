@@ -46,7 +46,7 @@ use super::command::{Command, Decimal, InputCondition, IoPoint, QLine, Segment};
 use crate::show::Track;
 use keyframes::Samples;
 use moves::{Trapezoid, solve_speed};
-use reduce::{Edge, Limits, Step};
+use reduce::{Count, Edge, Limits, Step};
 
 /// Decimals written in `VE` (rev/s): 0.0001 rev/s is 2 counts/s at 20 000 steps/rev.
 pub const VE_DECIMALS: u8 = 4;
@@ -254,33 +254,35 @@ pub(crate) fn compile_within(
     let max_speed_counts_s = config.max_speed_mm_s * config.counts_per_mm;
     let window = ((candidates.len() * 3 * 5).div_ceil(2 * budget_lines.max(1))).clamp(6, 48);
 
-    let mut best: Option<(f64, Limits, Vec<Vec<Edge>>)> = None;
-    let mut fastest: Option<Vec<Vec<Edge>>> = None;
-    for accel_rev_s2 in accelerations(&samples, &candidates, &counts, config) {
-        let limits = Limits {
-            accel_counts_s2: accel_rev_s2.to_f64() * steps_per_rev,
-            max_speed_counts_s,
-            steps_per_rev,
-            counts_per_mm: config.counts_per_mm,
-        };
-        let incoming = reduce::edges(&samples, &candidates, &counts, &limits, window, 2);
-        if let Some(deviation_mm) = reduce::bottleneck(&incoming, budget_lines) {
-            if best
-                .as_ref()
-                .is_none_or(|(least, ..)| deviation_mm < *least)
-            {
-                best = Some((deviation_mm, limits, incoming));
-                continue;
-            }
-        }
-        if fastest.is_none() {
-            fastest = Some(incoming);
-        }
-    }
-    let Some((threshold_mm, limits, incoming)) = best else {
-        let at = fastest
-            .as_deref()
-            .and_then(reduce::unreachable)
+    let levels: Vec<(Limits, Vec<Vec<Edge>>)> =
+        accelerations(&samples, &candidates, &counts, config)
+            .into_iter()
+            .map(|accel_rev_s2| {
+                let limits = Limits {
+                    accel_counts_s2: accel_rev_s2.to_f64() * steps_per_rev,
+                    max_speed_counts_s,
+                    steps_per_rev,
+                    counts_per_mm: config.counts_per_mm,
+                };
+                let incoming = reduce::edges(&samples, &candidates, &counts, &limits, window, 2);
+                (limits, incoming)
+            })
+            .collect();
+    // Room for the move back to the start of a loop.
+    let room = budget_lines.saturating_sub(if config.loop_show { 3 } else { 0 });
+    let write = |level: usize, path: &[Edge]| {
+        Writer::new(
+            config,
+            levels[level].0,
+            counts.first().copied().unwrap_or(0),
+        )
+        .write(path, &samples, &candidates, &counts, track, budget_lines)
+    };
+    // First with every move's lines counted in full: a program that surely fits.
+    let Some((level, threshold_mm)) = best_level(&levels, room, Count::Surely) else {
+        let at = levels
+            .first()
+            .and_then(|(_, incoming)| reduce::unreachable(incoming))
             .unwrap_or(0);
         return Err(QProgramError::TooFast {
             at_ms: candidates.get(at).map_or(0, |&k| samples.times_ms[k]),
@@ -288,14 +290,53 @@ pub(crate) fn compile_within(
             max_accel_mm_s2: config.max_accel_mm_s2,
         });
     };
-    let path = reduce::refine(&incoming, &samples, &candidates, threshold_mm, budget_lines).ok_or(
-        QProgramError::TooManyLines {
-            lines: budget_lines + 1,
-            limit: budget_lines,
-        },
-    )?;
-    let writer = Writer::new(config, limits, counts.first().copied().unwrap_or(0));
-    let program = writer.write(&path, &samples, &candidates, &counts, track)?;
+    let too_many = QProgramError::TooManyLines {
+        lines: room + 1,
+        limit: room,
+    };
+    let path = reduce::refine(
+        &levels[level].1,
+        &samples,
+        &candidates,
+        threshold_mm,
+        room,
+        Count::Surely,
+    )
+    .ok_or(too_many)?;
+    let mut program = write(level, &path)?;
+    // Then hoping that moves keep the speed of the one before (a `VE` saved a move):
+    // taken if it fits after all and comes closer to the show.
+    let mut hope = room;
+    for _ in 0..4 {
+        let Some((level, hoped_mm)) = best_level(&levels, hope, Count::Hopefully) else {
+            break;
+        };
+        if hoped_mm >= threshold_mm {
+            break;
+        }
+        let Some(path) = reduce::refine(
+            &levels[level].1,
+            &samples,
+            &candidates,
+            hoped_mm,
+            hope,
+            Count::Hopefully,
+        ) else {
+            break;
+        };
+        match write(level, &path) {
+            Ok(hoped) => {
+                if hoped.report.max_deviation_mm < program.report.max_deviation_mm {
+                    program = hoped;
+                }
+                break;
+            }
+            Err(QProgramError::TooManyLines { lines, .. }) => {
+                hope = (hope * room / lines.max(1)).min(hope.saturating_sub(1));
+            }
+            Err(_) => break,
+        }
+    }
     if program.report.max_deviation_mm > config.tolerance_mm {
         return Err(QProgramError::TooFar {
             deviation_mm: program.report.max_deviation_mm,
@@ -304,6 +345,24 @@ pub(crate) fn compile_within(
         });
     }
     Ok(program)
+}
+
+/// The acceleration (index into `levels`) whose path within `budget_lines` deviates
+/// least, and that deviation (the first of equals: the highest acceleration).
+fn best_level(
+    levels: &[(Limits, Vec<Vec<Edge>>)],
+    budget_lines: usize,
+    count: Count,
+) -> Option<(usize, f64)> {
+    let mut best: Option<(usize, f64)> = None;
+    for (index, (_, incoming)) in levels.iter().enumerate() {
+        if let Some(deviation_mm) = reduce::bottleneck(incoming, budget_lines, count) {
+            if best.is_none_or(|(_, least)| deviation_mm < least) {
+                best = Some((index, deviation_mm));
+            }
+        }
+    }
+    best
 }
 
 /// Refuses settings the compiler cannot work with.
@@ -519,6 +578,7 @@ impl<'a> Writer<'a> {
         candidates: &[usize],
         counts: &[i64],
         track: &Track,
+        budget_lines: usize,
     ) -> Result<QProgram, QProgramError> {
         let start_counts = self.at_counts;
         for edge in path {
@@ -546,6 +606,12 @@ impl<'a> Writer<'a> {
             self.keyframes.push(Keyframe {
                 time_ms: (self.now_s * 1000.0).round() as u64,
                 position_mm: start_counts as f64 / self.config.counts_per_mm,
+            });
+        }
+        if self.lines.len() > budget_lines {
+            return Err(QProgramError::TooManyLines {
+                lines: self.lines.len(),
+                limit: budget_lines,
             });
         }
         let segments = self.layout()?;
