@@ -15,10 +15,12 @@
 //!   whole milliseconds);
 //! - the compiler keeps the drive's clock: it times every move from the rounded values
 //!   it writes, as the drive computes the trapezoid, and gives the next move what is
-//!   left to its keyframe, so rounding never accumulates: every move ends within a
-//!   millisecond or two of its keyframe (always within [`crate::plan::player::TICK_US`])
-//!   at exactly its count; a move so slow that rounding `VE` could miss by more runs at
-//!   the rounded-up speed and a `WT` makes up the rest;
+//!   left to its keyframe, so rounding never accumulates: every move ends within
+//!   [`KEEP_SPEED_S`] (4 ms) of its keyframe (so within a player's tick,
+//!   [`crate::plan::player::TICK_US`]) at exactly its count. A move keeps the `VE` of
+//!   the one before when that ends it within those 4 ms (a line saved: a periodic show
+//!   needs `DI` and `FP` alone); a move that no rounded `VE` ends that close (a very
+//!   slow one) runs at the rounded-up speed and a `WT` makes up the rest;
 //! - `MT0` (moves block the program); time 0 is when the program starts, or when the
 //!   start input meets its condition (`WI`, line 1) if one is configured; the drive
 //!   must stand at the track's start position then (the bridge brings it there);
@@ -54,6 +56,12 @@ pub const VE_DECIMALS: u8 = 4;
 pub const AC_DECIMALS: u8 = 3;
 /// Decimals written in `WT` (s): whole milliseconds.
 pub const WT_DECIMALS: u8 = 3;
+/// A move keeps the `VE` of the one before (a line saved) when that ends it at most
+/// this far from its keyframe's time, s.
+pub const KEEP_SPEED_S: f64 = 0.004;
+/// While choosing moves, an edge's deviation is measured every this many grid samples
+/// (10 ms); the report measures it on every sample (1 ms).
+const COST_STRIDE: usize = 10;
 /// Lines of a segment (the drive's limit).
 pub const SEGMENT_LINES: usize = QLine::MAX as usize;
 /// Segments of a program (the drive's limit).
@@ -112,7 +120,7 @@ pub struct Keyframe {
 }
 
 /// What the compiler did to the show: how many rows it had, how many moves and lines
-/// the program keeps, and the largest |show − program| and when (sampled every 5 ms).
+/// the program keeps, and the largest |show − program| and when (sampled every 1 ms).
 /// Given whether or not the show was reduced: unreduced, it is what moving from rest to
 /// rest costs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -264,7 +272,8 @@ pub(crate) fn compile_within(
                     steps_per_rev,
                     counts_per_mm: config.counts_per_mm,
                 };
-                let incoming = reduce::edges(&samples, &candidates, &counts, &limits, window, 2);
+                let incoming =
+                    reduce::edges(&samples, &candidates, &counts, &limits, window, COST_STRIDE);
                 (limits, incoming)
             })
             .collect();
@@ -526,11 +535,13 @@ impl<'a> Writer<'a> {
         Ok(())
     }
 
-    /// The move to `to_counts` ending at `target_ms`, `then_wait` if it is slow.
+    /// The move to `to_counts` ending at `target_ms`, `then_wait` if it is slow;
+    /// `ideal_s` is its time from keyframe to keyframe.
     fn feed_by(
         &mut self,
         to_counts: i64,
         target_ms: u64,
+        ideal_s: f64,
         then_wait: bool,
     ) -> Result<(), QProgramError> {
         let too_fast = QProgramError::TooFast {
@@ -549,11 +560,21 @@ impl<'a> Writer<'a> {
         let off =
             |speed: Decimal| (self.trapezoid(distance, speed).duration_s() - duration_s).abs();
         let mut closer = if off(down) < off(up) { down } else { up };
-        // The `VE` already set saves a line if it ends the move as well (within 1 ms).
-        if let Some(previous) = self.speed.filter(|&previous| off(previous) <= 0.001) {
+        // The speed of the keyframe-to-keyframe move, if it ends this one close enough
+        // (when the last move kept an earlier speed and ended a little off, taking
+        // that back in this one's speed would make the next need a new one again) …
+        let ideal = solve_speed(distance, ideal_s, self.limits.accel_counts_s2).and_then(|speed| {
+            let exact = speed / self.limits.steps_per_rev * 10_f64.powi(i32::from(VE_DECIMALS));
+            Decimal::new(exact.round().max(1.0) as i64, VE_DECIMALS)
+        });
+        if let Some(ideal) = ideal.filter(|&ideal| off(ideal) <= KEEP_SPEED_S) {
+            closer = ideal;
+        }
+        // … and better, the `VE` already set: a line saved.
+        if let Some(previous) = self.speed.filter(|&previous| off(previous) <= KEEP_SPEED_S) {
             closer = previous;
         }
-        if then_wait || off(closer) > 0.002 {
+        if then_wait || off(closer) > KEEP_SPEED_S {
             self.feed(to_counts, up, target_ms)?;
             self.keyframes.push(Keyframe {
                 time_ms: target_ms,
@@ -586,7 +607,9 @@ impl<'a> Writer<'a> {
             match edge.step {
                 Step::Wait => self.wait(target_ms as f64 / 1000.0 - self.now_s),
                 Step::Move { then_wait, .. } => {
-                    self.feed_by(counts[edge.to], target_ms, then_wait)?;
+                    let from_ms = samples.times_ms[candidates[edge.from]];
+                    let ideal_s = (target_ms - from_ms) as f64 / 1000.0;
+                    self.feed_by(counts[edge.to], target_ms, ideal_s, then_wait)?;
                 }
             }
         }
