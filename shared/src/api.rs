@@ -131,6 +131,28 @@ pub struct PlanReport {
     pub gateways: Vec<GatewayPlan>,
 }
 
+/// One ball's Q program for MOONS' drives (`GET /api/qprogram/{show}?unit=N`): the
+/// listing and what the compiler did to the show (`scl::qprogram`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct QProgramListing {
+    /// The ball: its row-major index (the `u` number of a CSV column).
+    pub unit: usize,
+    /// The show's name.
+    pub show: String,
+    /// The listing: a `[segment n: …]` header per segment, then one command a line.
+    pub text: String,
+    /// Segments used (1–12).
+    pub segments: usize,
+    /// Lines of every segment together.
+    pub lines: usize,
+    /// `FP` moves kept.
+    pub moves: usize,
+    /// The largest |show − program| position, mm.
+    pub max_deviation_mm: f64,
+    /// When it happens, ms of show time.
+    pub at_ms: u64,
+}
+
 /// The bandwidth figures of one gateway in a [`PlanReport`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct GatewayPlan {

@@ -12,10 +12,12 @@
 //! - [`fuzz`]: `cargo xtask fuzz`, the fuzz targets at length.
 //! - [`stress`]: the engine's race and load tests, many times in a row.
 //! - [`mbox_bench`]: one bridge streaming to many simulated MBOX boxes, with figures.
+//! - [`qprogram_report`]: the Q program compiler on a 10-minute show, with figures.
 
 mod app;
 mod fuzz;
 mod mbox_bench;
+mod qprogram_report;
 mod stages;
 mod stress;
 mod tools;
@@ -38,6 +40,10 @@ commands:
   mbox-bench  stream a show to simulated MBOX boxes on loopback at 20 ms; print the
          bridge's CPU use, frames/s, send lateness p50/p99 and late frames
          options: --boxes N (default 1000)  --seconds S (default 30)
+  qprogram-report  compile a 10-minute demo wave to MOONS' Q programs for every ball;
+         print moves kept, lines/segments, max deviation mm and where, compile ms
+         options: --rows R --cols C (default 10 x 10)  --minutes M (default 10)
+                  --period-s P (default 4)  --row-ms MS (default 200)
 ";
 
 fn main() -> ExitCode {
@@ -48,6 +54,7 @@ fn main() -> ExitCode {
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("stress") => stress::stress(&args[1..]),
         Some("mbox-bench") => mbox_bench::mbox_bench(&args[1..]),
+        Some("qprogram-report") => qprogram_report::qprogram_report(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())

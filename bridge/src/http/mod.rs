@@ -5,6 +5,7 @@
 //!   initial password is changed ([`session::Operator`]);
 //! - [`library`]: the show files and the playlist;
 //! - [`matrix`]: the feasibility report of a show, and the simulated balls' positions;
+//! - [`qprogram`]: one ball's Q program for MOONS' drives, compiled from a show;
 //!
 //! Every error answer is an [`ApiError`] JSON body with the right status code
 //! ([`Failure`]); so are unknown `/api` paths (404) and methods (405), and the
@@ -13,6 +14,7 @@
 
 pub mod library;
 pub mod matrix;
+pub mod qprogram;
 pub mod session;
 
 use axum::Router;
@@ -54,6 +56,7 @@ pub fn router(state: &AppState) -> Router<AppState> {
         .route("/plan/{name}", get(matrix::plan))
         .route("/sim/positions", get(matrix::sim_positions))
         .route("/mbox/timing", get(matrix::mbox_timing))
+        .route("/qprogram/{name}", get(qprogram::qprogram))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(map_response(json_errors))

@@ -7,7 +7,7 @@
 use crate::show::Track;
 
 /// The time grid the show is sampled on, and the deviation measured, ms.
-pub(crate) const GRID_MS: u64 = 5;
+pub(crate) const GRID_MS: u64 = 1;
 
 /// Along a long stretch without a turning point, a candidate keyframe at least this
 /// often, ms.

@@ -15,10 +15,12 @@
 //!   whole milliseconds);
 //! - the compiler keeps the drive's clock: it times every move from the rounded values
 //!   it writes, as the drive computes the trapezoid, and gives the next move what is
-//!   left to its keyframe, so rounding never accumulates: every move ends within a
-//!   millisecond or two of its keyframe (always within [`crate::plan::player::TICK_US`])
-//!   at exactly its count; a move so slow that rounding `VE` could miss by more runs at
-//!   the rounded-up speed and a `WT` makes up the rest;
+//!   left to its keyframe, so rounding never accumulates: every move ends within
+//!   [`KEEP_SPEED_S`] (4 ms) of its keyframe (so within a player's tick,
+//!   [`crate::plan::player::TICK_US`]) at exactly its count. A move keeps the `VE` of
+//!   the one before when that ends it within those 4 ms (a line saved: a periodic show
+//!   needs `DI` and `FP` alone); a move that no rounded `VE` ends that close (a very
+//!   slow one) runs at the rounded-up speed and a `WT` makes up the rest;
 //! - `MT0` (moves block the program); time 0 is when the program starts, or when the
 //!   start input meets its condition (`WI`, line 1) if one is configured; the drive
 //!   must stand at the track's start position then (the bridge brings it there);
@@ -46,7 +48,7 @@ use super::command::{Command, Decimal, InputCondition, IoPoint, QLine, Segment};
 use crate::show::Track;
 use keyframes::Samples;
 use moves::{Trapezoid, solve_speed};
-use reduce::{Edge, Limits, Step};
+use reduce::{Count, Edge, Limits, Step};
 
 /// Decimals written in `VE` (rev/s): 0.0001 rev/s is 2 counts/s at 20 000 steps/rev.
 pub const VE_DECIMALS: u8 = 4;
@@ -54,6 +56,12 @@ pub const VE_DECIMALS: u8 = 4;
 pub const AC_DECIMALS: u8 = 3;
 /// Decimals written in `WT` (s): whole milliseconds.
 pub const WT_DECIMALS: u8 = 3;
+/// A move keeps the `VE` of the one before (a line saved) when that ends it at most
+/// this far from its keyframe's time, s.
+pub const KEEP_SPEED_S: f64 = 0.004;
+/// While choosing moves, an edge's deviation is measured every this many grid samples
+/// (10 ms); the report measures it on every sample (1 ms).
+const COST_STRIDE: usize = 10;
 /// Lines of a segment (the drive's limit).
 pub const SEGMENT_LINES: usize = QLine::MAX as usize;
 /// Segments of a program (the drive's limit).
@@ -112,7 +120,7 @@ pub struct Keyframe {
 }
 
 /// What the compiler did to the show: how many rows it had, how many moves and lines
-/// the program keeps, and the largest |show − program| and when (sampled every 5 ms).
+/// the program keeps, and the largest |show − program| and when (sampled every 1 ms).
 /// Given whether or not the show was reduced: unreduced, it is what moving from rest to
 /// rest costs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -254,33 +262,36 @@ pub(crate) fn compile_within(
     let max_speed_counts_s = config.max_speed_mm_s * config.counts_per_mm;
     let window = ((candidates.len() * 3 * 5).div_ceil(2 * budget_lines.max(1))).clamp(6, 48);
 
-    let mut best: Option<(f64, Limits, Vec<Vec<Edge>>)> = None;
-    let mut fastest: Option<Vec<Vec<Edge>>> = None;
-    for accel_rev_s2 in accelerations(&samples, &candidates, &counts, config) {
-        let limits = Limits {
-            accel_counts_s2: accel_rev_s2.to_f64() * steps_per_rev,
-            max_speed_counts_s,
-            steps_per_rev,
-            counts_per_mm: config.counts_per_mm,
-        };
-        let incoming = reduce::edges(&samples, &candidates, &counts, &limits, window, 2);
-        if let Some(deviation_mm) = reduce::bottleneck(&incoming, budget_lines) {
-            if best
-                .as_ref()
-                .is_none_or(|(least, ..)| deviation_mm < *least)
-            {
-                best = Some((deviation_mm, limits, incoming));
-                continue;
-            }
-        }
-        if fastest.is_none() {
-            fastest = Some(incoming);
-        }
-    }
-    let Some((threshold_mm, limits, incoming)) = best else {
-        let at = fastest
-            .as_deref()
-            .and_then(reduce::unreachable)
+    let levels: Vec<(Limits, Vec<Vec<Edge>>)> =
+        accelerations(&samples, &candidates, &counts, config)
+            .into_iter()
+            .map(|accel_rev_s2| {
+                let limits = Limits {
+                    accel_counts_s2: accel_rev_s2.to_f64() * steps_per_rev,
+                    max_speed_counts_s,
+                    steps_per_rev,
+                    counts_per_mm: config.counts_per_mm,
+                };
+                let incoming =
+                    reduce::edges(&samples, &candidates, &counts, &limits, window, COST_STRIDE);
+                (limits, incoming)
+            })
+            .collect();
+    // Room for the move back to the start of a loop.
+    let room = budget_lines.saturating_sub(if config.loop_show { 3 } else { 0 });
+    let write = |level: usize, path: &[Edge]| {
+        Writer::new(
+            config,
+            levels[level].0,
+            counts.first().copied().unwrap_or(0),
+        )
+        .write(path, &samples, &candidates, &counts, track, budget_lines)
+    };
+    // First with every move's lines counted in full: a program that surely fits.
+    let Some((level, threshold_mm)) = best_level(&levels, room, Count::Surely) else {
+        let at = levels
+            .first()
+            .and_then(|(_, incoming)| reduce::unreachable(incoming))
             .unwrap_or(0);
         return Err(QProgramError::TooFast {
             at_ms: candidates.get(at).map_or(0, |&k| samples.times_ms[k]),
@@ -288,14 +299,53 @@ pub(crate) fn compile_within(
             max_accel_mm_s2: config.max_accel_mm_s2,
         });
     };
-    let path = reduce::refine(&incoming, &samples, &candidates, threshold_mm, budget_lines).ok_or(
-        QProgramError::TooManyLines {
-            lines: budget_lines + 1,
-            limit: budget_lines,
-        },
-    )?;
-    let writer = Writer::new(config, limits, counts.first().copied().unwrap_or(0));
-    let program = writer.write(&path, &samples, &candidates, &counts, track)?;
+    let too_many = QProgramError::TooManyLines {
+        lines: room + 1,
+        limit: room,
+    };
+    let path = reduce::refine(
+        &levels[level].1,
+        &samples,
+        &candidates,
+        threshold_mm,
+        room,
+        Count::Surely,
+    )
+    .ok_or(too_many)?;
+    let mut program = write(level, &path)?;
+    // Then hoping that moves keep the speed of the one before (a `VE` saved a move):
+    // taken if it fits after all and comes closer to the show.
+    let mut hope = room;
+    for _ in 0..4 {
+        let Some((level, hoped_mm)) = best_level(&levels, hope, Count::Hopefully) else {
+            break;
+        };
+        if hoped_mm >= threshold_mm {
+            break;
+        }
+        let Some(path) = reduce::refine(
+            &levels[level].1,
+            &samples,
+            &candidates,
+            hoped_mm,
+            hope,
+            Count::Hopefully,
+        ) else {
+            break;
+        };
+        match write(level, &path) {
+            Ok(hoped) => {
+                if hoped.report.max_deviation_mm < program.report.max_deviation_mm {
+                    program = hoped;
+                }
+                break;
+            }
+            Err(QProgramError::TooManyLines { lines, .. }) => {
+                hope = (hope * room / lines.max(1)).min(hope.saturating_sub(1));
+            }
+            Err(_) => break,
+        }
+    }
     if program.report.max_deviation_mm > config.tolerance_mm {
         return Err(QProgramError::TooFar {
             deviation_mm: program.report.max_deviation_mm,
@@ -304,6 +354,24 @@ pub(crate) fn compile_within(
         });
     }
     Ok(program)
+}
+
+/// The acceleration (index into `levels`) whose path within `budget_lines` deviates
+/// least, and that deviation (the first of equals: the highest acceleration).
+fn best_level(
+    levels: &[(Limits, Vec<Vec<Edge>>)],
+    budget_lines: usize,
+    count: Count,
+) -> Option<(usize, f64)> {
+    let mut best: Option<(usize, f64)> = None;
+    for (index, (_, incoming)) in levels.iter().enumerate() {
+        if let Some(deviation_mm) = reduce::bottleneck(incoming, budget_lines, count) {
+            if best.is_none_or(|(_, least)| deviation_mm < least) {
+                best = Some((index, deviation_mm));
+            }
+        }
+    }
+    best
 }
 
 /// Refuses settings the compiler cannot work with.
@@ -467,11 +535,13 @@ impl<'a> Writer<'a> {
         Ok(())
     }
 
-    /// The move to `to_counts` ending at `target_ms`, `then_wait` if it is slow.
+    /// The move to `to_counts` ending at `target_ms`, `then_wait` if it is slow;
+    /// `ideal_s` is its time from keyframe to keyframe.
     fn feed_by(
         &mut self,
         to_counts: i64,
         target_ms: u64,
+        ideal_s: f64,
         then_wait: bool,
     ) -> Result<(), QProgramError> {
         let too_fast = QProgramError::TooFast {
@@ -490,11 +560,21 @@ impl<'a> Writer<'a> {
         let off =
             |speed: Decimal| (self.trapezoid(distance, speed).duration_s() - duration_s).abs();
         let mut closer = if off(down) < off(up) { down } else { up };
-        // The `VE` already set saves a line if it ends the move as well (within 1 ms).
-        if let Some(previous) = self.speed.filter(|&previous| off(previous) <= 0.001) {
+        // The speed of the keyframe-to-keyframe move, if it ends this one close enough
+        // (when the last move kept an earlier speed and ended a little off, taking
+        // that back in this one's speed would make the next need a new one again) …
+        let ideal = solve_speed(distance, ideal_s, self.limits.accel_counts_s2).and_then(|speed| {
+            let exact = speed / self.limits.steps_per_rev * 10_f64.powi(i32::from(VE_DECIMALS));
+            Decimal::new(exact.round().max(1.0) as i64, VE_DECIMALS)
+        });
+        if let Some(ideal) = ideal.filter(|&ideal| off(ideal) <= KEEP_SPEED_S) {
+            closer = ideal;
+        }
+        // … and better, the `VE` already set: a line saved.
+        if let Some(previous) = self.speed.filter(|&previous| off(previous) <= KEEP_SPEED_S) {
             closer = previous;
         }
-        if then_wait || off(closer) > 0.002 {
+        if then_wait || off(closer) > KEEP_SPEED_S {
             self.feed(to_counts, up, target_ms)?;
             self.keyframes.push(Keyframe {
                 time_ms: target_ms,
@@ -519,6 +599,7 @@ impl<'a> Writer<'a> {
         candidates: &[usize],
         counts: &[i64],
         track: &Track,
+        budget_lines: usize,
     ) -> Result<QProgram, QProgramError> {
         let start_counts = self.at_counts;
         for edge in path {
@@ -526,7 +607,9 @@ impl<'a> Writer<'a> {
             match edge.step {
                 Step::Wait => self.wait(target_ms as f64 / 1000.0 - self.now_s),
                 Step::Move { then_wait, .. } => {
-                    self.feed_by(counts[edge.to], target_ms, then_wait)?;
+                    let from_ms = samples.times_ms[candidates[edge.from]];
+                    let ideal_s = (target_ms - from_ms) as f64 / 1000.0;
+                    self.feed_by(counts[edge.to], target_ms, ideal_s, then_wait)?;
                 }
             }
         }
@@ -546,6 +629,12 @@ impl<'a> Writer<'a> {
             self.keyframes.push(Keyframe {
                 time_ms: (self.now_s * 1000.0).round() as u64,
                 position_mm: start_counts as f64 / self.config.counts_per_mm,
+            });
+        }
+        if self.lines.len() > budget_lines {
+            return Err(QProgramError::TooManyLines {
+                lines: self.lines.len(),
+                limit: budget_lines,
             });
         }
         let segments = self.layout()?;

@@ -33,17 +33,24 @@ pub(crate) enum Step {
     },
 }
 
+/// How the lines of a move are counted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Count {
+    /// Every move writes its `VE`: what the writer writes at most.
+    Surely,
+    /// No move writes `VE`: what the writer writes when every move can keep the speed
+    /// of the one before (a periodic show); the writer's count must be checked.
+    Hopefully,
+}
+
 impl Step {
-    /// The lines the step writes at most: `WT`; or `DI`, `VE`, `FP` (and `WT`).
-    pub fn lines(self) -> usize {
+    /// The lines the step writes: `WT`; or `DI`, `VE` (if `count` says so), `FP`
+    /// (and `WT`).
+    pub fn lines(self, count: Count) -> usize {
+        let speed = usize::from(count == Count::Surely);
         match self {
             Self::Wait => 1,
-            Self::Move {
-                then_wait: false, ..
-            } => 3,
-            Self::Move {
-                then_wait: true, ..
-            } => 4,
+            Self::Move { then_wait, .. } => 2 + speed + usize::from(then_wait),
         }
     }
 }
@@ -183,7 +190,7 @@ fn cost(
 
 /// The fewest lines of a path from candidate 0 to `to` using only edges costing at
 /// most `threshold_mm` (`None` where no path reaches).
-fn fewest_lines(incoming: &[Vec<Edge>], threshold_mm: f64) -> Vec<Option<usize>> {
+fn fewest_lines(incoming: &[Vec<Edge>], threshold_mm: f64, count: Count) -> Vec<Option<usize>> {
     let mut lines = vec![None; incoming.len()];
     if let Some(first) = lines.first_mut() {
         *first = Some(0);
@@ -192,7 +199,9 @@ fn fewest_lines(incoming: &[Vec<Edge>], threshold_mm: f64) -> Vec<Option<usize>>
         lines[to] = incoming[to]
             .iter()
             .filter(|edge| edge.cost_mm <= threshold_mm)
-            .filter_map(|edge| lines[edge.from].map(|before: usize| before + edge.step.lines()))
+            .filter_map(|edge| {
+                lines[edge.from].map(|before: usize| before + edge.step.lines(count))
+            })
             .min();
     }
     lines
@@ -201,16 +210,16 @@ fn fewest_lines(incoming: &[Vec<Edge>], threshold_mm: f64) -> Vec<Option<usize>>
 /// The first candidate that no path reaches at all, if any (the show asks for more
 /// than the limits allow there).
 pub(crate) fn unreachable(incoming: &[Vec<Edge>]) -> Option<usize> {
-    fewest_lines(incoming, f64::INFINITY)
+    fewest_lines(incoming, f64::INFINITY, Count::Surely)
         .iter()
         .position(Option::is_none)
 }
 
 /// The smallest deviation (mm) of a path to the last candidate within `budget_lines`,
 /// or `None` when no path fits.
-pub(crate) fn bottleneck(incoming: &[Vec<Edge>], budget_lines: usize) -> Option<f64> {
+pub(crate) fn bottleneck(incoming: &[Vec<Edge>], budget_lines: usize, count: Count) -> Option<f64> {
     let fits = |threshold: f64| {
-        fewest_lines(incoming, threshold)
+        fewest_lines(incoming, threshold, count)
             .last()
             .copied()
             .flatten()
@@ -244,6 +253,7 @@ pub(crate) fn refine(
     candidates: &[usize],
     threshold_mm: f64,
     budget_lines: usize,
+    count: Count,
 ) -> Option<Vec<Edge>> {
     let nodes = incoming.len();
     if nodes <= 1 {
@@ -262,7 +272,7 @@ pub(crate) fn refine(
                 continue;
             }
             let index = u32::try_from(index).unwrap_or(u32::MAX);
-            let step_lines = edge.step.lines();
+            let step_lines = edge.step.lines(count);
             let duration_ms = (samples.times_ms[candidates[edge.to]]
                 - samples.times_ms[candidates[edge.from]]) as f64;
             let score = edge.cost_mm * duration_ms;
@@ -288,7 +298,7 @@ pub(crate) fn refine(
     while node != 0 {
         let edge = *incoming[node].get(via[node * width + lines] as usize)?;
         path.push(edge);
-        lines -= edge.step.lines();
+        lines -= edge.step.lines(count);
         node = edge.from;
     }
     path.reverse();

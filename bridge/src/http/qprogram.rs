@@ -1,0 +1,224 @@
+//! One ball's Q program for MOONS' drives over HTTP (`docs/api.md`, "Q programs").
+//!
+//! - `GET /api/qprogram/{show}?unit=N`: 200 [`QProgramListing`] (the listing and the
+//!   compiler's report) for ball `N` (row-major, as the CSV's `uN`);
+//!   `&format=text` answers the listing alone as `text/plain`, with a
+//!   `Content-Disposition` naming the file `<show>-unit<N>.q` for download. 400 without
+//!   a unit or with a bad query, 404 for an unknown show or a unit the show does not
+//!   have, 422 when the show cannot be compiled (over the tolerance, with the figure;
+//!   a move faster than the limits, with its time).
+//!
+//! Needs a [`Session`]. The compiling runs on a blocking thread. The compiler's
+//! settings come from the installation through [`qprogram_config`], the one place
+//! that builds them.
+
+use axum::extract::{RawQuery, State};
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use floatball_shared::api::QProgramListing;
+use floatball_shared::plan::Installation;
+use floatball_shared::scl::qprogram::{QProgramConfig, QProgramError, compile};
+use floatball_shared::scl::{InputCondition, IoPoint};
+
+use super::library::{NameParam, store_failure};
+use super::session::Session;
+use super::{Failure, blocking};
+use crate::config::Config;
+use crate::state::AppState;
+
+/// What an installation may set beyond its calibration and limits; `None` keeps the
+/// compiler's default ([`QProgramConfig::default`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct QProgramOverrides {
+    /// The common start input (`Some(None)`: no `WI`, the program starts at once).
+    pub start: Option<Option<(IoPoint, InputCondition)>>,
+    /// The largest deviation accepted, mm.
+    pub tolerance_mm: Option<f64>,
+    /// Counts per motor revolution (`EG`).
+    pub steps_per_rev: Option<u32>,
+    /// Run the show again and again.
+    pub loop_show: Option<bool>,
+}
+
+/// The compiler's settings for `installation`: its calibration (`counts_per_mm`) and
+/// limits (top speed and acceleration), then `overrides`, then the defaults.
+#[must_use]
+pub fn qprogram_config(
+    installation: &Installation,
+    overrides: &QProgramOverrides,
+) -> QProgramConfig {
+    let defaults = QProgramConfig::default();
+    QProgramConfig {
+        counts_per_mm: installation.counts_per_mm,
+        steps_per_rev: overrides.steps_per_rev.unwrap_or(defaults.steps_per_rev),
+        start: overrides.start.unwrap_or(defaults.start),
+        loop_show: overrides.loop_show.unwrap_or(defaults.loop_show),
+        tolerance_mm: overrides.tolerance_mm.unwrap_or(defaults.tolerance_mm),
+        max_speed_mm_s: installation.limits.max_speed_mm_s,
+        max_accel_mm_s2: installation.limits.max_accel_mm_s2,
+    }
+}
+
+/// The overrides a configuration sets. The configuration has no `[scl]` section of
+/// its own yet, so every setting is the compiler's default.
+#[must_use]
+pub fn overrides(_config: &Config) -> QProgramOverrides {
+    QProgramOverrides::default()
+}
+
+/// The query: the ball and whether to answer text.
+fn parse_query(query: Option<&str>) -> Result<(usize, bool), Failure> {
+    let bad = |message: String| Failure::new(StatusCode::BAD_REQUEST, message);
+    let mut unit = None;
+    let mut text = false;
+    for pair in query
+        .unwrap_or_default()
+        .split('&')
+        .filter(|pair| !pair.is_empty())
+    {
+        let (key, value) = pair.split_once('=').unwrap_or((pair, ""));
+        match key {
+            "unit" => {
+                unit = Some(value.parse::<usize>().map_err(|_| {
+                    bad(format!(
+                        "unit must be a ball's number (0, 1, …), not \"{value}\""
+                    ))
+                })?);
+            }
+            "format" => match value {
+                "text" => text = true,
+                "json" => text = false,
+                _ => return Err(bad(format!("format must be text or json, not \"{value}\""))),
+            },
+            _ => return Err(bad(format!("unknown query parameter \"{key}\""))),
+        }
+    }
+    let unit = unit.ok_or_else(|| bad("say which ball: ?unit=N (0 is the first)".to_owned()))?;
+    Ok((unit, text))
+}
+
+/// 422 for a show the compiler refuses (500 for settings it cannot use).
+fn compile_failure(error: QProgramError) -> Failure {
+    match error {
+        QProgramError::InvalidConfig { .. } => {
+            Failure::internal("the Q program settings are invalid", &error)
+        }
+        other => Failure::new(StatusCode::UNPROCESSABLE_ENTITY, other.to_string()),
+    }
+}
+
+/// A file name for the download: the show's name with anything but letters, digits,
+/// `.`, `-` and `_` made `_`.
+fn file_name(show: &str, unit: usize) -> String {
+    let safe: String = show
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | '_') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    format!("{safe}-unit{unit}.q")
+}
+
+/// `GET /api/qprogram/{show}?unit=N[&format=text]`.
+pub async fn qprogram(
+    State(state): State<AppState>,
+    _session: Session,
+    NameParam(name): NameParam,
+    RawQuery(query): RawQuery,
+) -> Result<Response, Failure> {
+    let (unit, text) = parse_query(query.as_deref())?;
+    let compiling = state.clone();
+    let listing = blocking(move || {
+        let show = compiling.shows().load(&name).map_err(store_failure)?;
+        let track = show.tracks.get(unit).ok_or_else(|| {
+            Failure::new(
+                StatusCode::NOT_FOUND,
+                format!(
+                    "the show \"{name}\" has {} balls: no unit {unit} (the first is 0)",
+                    show.tracks.len()
+                ),
+            )
+        })?;
+        let config = compiling.config();
+        let settings = qprogram_config(&config.installation, &overrides(config));
+        let program = compile(track, &settings).map_err(compile_failure)?;
+        Ok::<_, Failure>(QProgramListing {
+            unit,
+            show: show.name.clone(),
+            text: program.text(),
+            segments: program.segments.len(),
+            lines: program.lines(),
+            moves: program.report.moves,
+            max_deviation_mm: program.report.max_deviation_mm,
+            at_ms: program.report.at_ms,
+        })
+    })
+    .await??;
+    if text {
+        let disposition = format!(
+            "attachment; filename=\"{}\"",
+            file_name(&listing.show, unit)
+        );
+        Ok((
+            [
+                (header::CONTENT_TYPE, "text/plain; charset=utf-8".to_owned()),
+                (header::CONTENT_DISPOSITION, disposition),
+            ],
+            listing.text,
+        )
+            .into_response())
+    } else {
+        Ok(axum::Json(listing).into_response())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_query_names_a_unit_and_maybe_text() {
+        assert_eq!(parse_query(Some("unit=3")).unwrap(), (3, false));
+        assert_eq!(parse_query(Some("unit=0&format=text")).unwrap(), (0, true));
+        for bad in [
+            None,
+            Some(""),
+            Some("unit=x"),
+            Some("unit=1&format=pdf"),
+            Some("u=1"),
+        ] {
+            assert_eq!(
+                parse_query(bad).unwrap_err().status,
+                StatusCode::BAD_REQUEST
+            );
+        }
+    }
+
+    #[test]
+    fn the_download_name_is_safe() {
+        assert_eq!(file_name("wave", 7), "wave-unit7.q");
+        assert_eq!(file_name("a \"b\"/ç", 0), "a__b___-unit0.q");
+    }
+
+    #[test]
+    fn the_settings_come_from_the_installation_then_the_overrides() {
+        let installation = Installation::demo(1, 1, &[9600]).unwrap();
+        let config = qprogram_config(&installation, &QProgramOverrides::default());
+        assert_eq!(config.counts_per_mm, installation.counts_per_mm);
+        assert_eq!(config.max_speed_mm_s, installation.limits.max_speed_mm_s);
+        assert_eq!(config.start, QProgramConfig::default().start);
+        let config = qprogram_config(
+            &installation,
+            &QProgramOverrides {
+                start: Some(None),
+                tolerance_mm: Some(2.5),
+                ..QProgramOverrides::default()
+            },
+        );
+        assert_eq!((config.start, config.tolerance_mm), (None, 2.5));
+    }
+}
