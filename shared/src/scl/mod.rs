@@ -17,6 +17,7 @@
 //!   address a drive on a shared line puts first, and [`QueueUpload`], the lines after
 //!   the `%` of a `QU` ([`response`]). `QW` (queue write) is Floatball's own command for
 //!   downloading a segment (see `docs/protocol-notes.md` §8).
+//! - [`twin`]: a simulated drive and a bus of them (the drive twin).
 //! - eSCL: [`Request::to_escl`], [`Reply::from_escl`], … with the header
 //!   [`escl::HEADER`] and the port [`escl::UDP_PORT`] ([`escl`]).
 //!
@@ -60,6 +61,7 @@ pub mod qprogram;
 pub mod response;
 #[cfg(test)]
 mod tests;
+pub mod twin;
 
 pub use command::{
     Address, Command, Decimal, InputCondition, IoPoint, JumpCondition, Level, MathOp, QLine,

@@ -9,7 +9,7 @@ use super::*;
 /// The seed's example programs, as far as its text gives them (its listings are
 /// pictures): feed to length, feed to position, feed to sensor, the two loops, the
 /// jump, the call between segments and multitasking.
-const SEED_PROGRAMS: [&str; 9] = [
+pub(super) const SEED_PROGRAMS: [&str; 9] = [
     // Feed to length: wait for a falling edge on input 3, then 4 turns at 20 rev/s.
     "WI3F\nAC25\nDE25\nVE20\nDI80000\nFL",
     // Feed to position: the same, wait 1 s, back to absolute 0 at 20 rev/s.
