@@ -59,11 +59,26 @@ pub fn qprogram_config(
     }
 }
 
-/// The overrides a configuration sets. The configuration has no `[scl]` section of
-/// its own yet, so every setting is the compiler's default.
+/// The overrides a configuration sets: its `[scl]` table (start input only with a
+/// trigger, tolerance, steps per revolution) when the gateways are MOONS' drives;
+/// otherwise every setting is the compiler's default.
 #[must_use]
-pub fn overrides(_config: &Config) -> QProgramOverrides {
-    QProgramOverrides::default()
+pub fn overrides(config: &Config) -> QProgramOverrides {
+    config
+        .scl
+        .as_ref()
+        .map_or_else(QProgramOverrides::default, scl_overrides)
+}
+
+/// The overrides of an SCL installation's `[scl]` table (the player's too).
+#[must_use]
+pub fn scl_overrides(scl: &crate::config::SclConfig) -> QProgramOverrides {
+    QProgramOverrides {
+        start: Some(scl.start),
+        tolerance_mm: Some(scl.tolerance_mm),
+        steps_per_rev: Some(scl.steps_per_rev),
+        loop_show: Some(false),
+    }
 }
 
 /// The query: the ball and whether to answer text.

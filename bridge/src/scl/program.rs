@@ -54,17 +54,14 @@ pub fn drives_of(installation: &Installation) -> Vec<DriveRef> {
         .collect()
 }
 
-/// The compiler's settings for this installation.
+/// The compiler's settings for this installation: the same as `GET /api/qprogram`
+/// uses ([`crate::http::qprogram::qprogram_config`]), so a program downloaded for Q
+/// Programmer is the one Start would upload.
 pub fn qprogram_config(installation: &Installation, scl: &SclConfig) -> QProgramConfig {
-    QProgramConfig {
-        counts_per_mm: installation.counts_per_mm,
-        steps_per_rev: scl.steps_per_rev,
-        start: scl.start,
-        loop_show: false,
-        tolerance_mm: scl.tolerance_mm,
-        max_speed_mm_s: installation.limits.max_speed_mm_s,
-        max_accel_mm_s2: installation.limits.max_accel_mm_s2,
-    }
+    crate::http::qprogram::qprogram_config(
+        installation,
+        &crate::http::qprogram::scl_overrides(scl),
+    )
 }
 
 /// `value` with `scale` decimals, as a parameter.

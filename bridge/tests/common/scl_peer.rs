@@ -152,6 +152,13 @@ pub struct Received {
     pub drive: Option<usize>,
 }
 
+/// The drives, what they received, and the stop flag, shared with the threads.
+type Shared = (
+    Arc<Mutex<Vec<Drive>>>,
+    Arc<Mutex<Vec<Received>>>,
+    Arc<AtomicBool>,
+);
+
 /// Drives on a pseudo-terminal or on UDP sockets.
 pub struct Peer {
     pub drives: Arc<Mutex<Vec<Drive>>>,
@@ -168,13 +175,7 @@ impl Drop for Peer {
 }
 
 impl Peer {
-    fn new(
-        count: usize,
-    ) -> (
-        Arc<Mutex<Vec<Drive>>>,
-        Arc<Mutex<Vec<Received>>>,
-        Arc<AtomicBool>,
-    ) {
+    fn shared(count: usize) -> Shared {
         (
             Arc::new(Mutex::new(vec![Drive::default(); count])),
             Arc::new(Mutex::new(Vec::new())),
@@ -194,7 +195,7 @@ impl Peer {
         let path = dir.join(name);
         std::os::unix::fs::symlink(slave_path, &path).expect("symlink");
         let addresses: Vec<char> = addresses.chars().collect();
-        let (drives, received, stop) = Self::new(addresses.len());
+        let (drives, received, stop) = Self::shared(addresses.len());
         // The reader stamps every chunk as it arrives; the drives answer in another
         // thread, so their (timed) answers never delay a stamp.
         let (chunks_tx, chunks) = std::sync::mpsc::channel::<(Instant, Vec<u8>)>();
@@ -285,7 +286,7 @@ impl Peer {
 
     /// `count` eSCL drives, each on a loopback UDP socket.
     pub fn udp(count: usize) -> Self {
-        let (drives, received, stop) = Self::new(count);
+        let (drives, received, stop) = Self::shared(count);
         let mut sockets = Vec::new();
         for index in 0..count {
             let socket = UdpSocket::bind("127.0.0.1:0").expect("bind");
