@@ -1,6 +1,6 @@
 //! MOONS' drives through the real `floatball` binary: an RS-485 line of three drives
-//! on a pseudo-terminal and three eSCL drives on loopback UDP, played by scripted
-//! drives (`common::scl_peer`): console lines and their decoded answers, the status
+//! on a pseudo-terminal and three eSCL drives on loopback UDP, played by the drive
+//! twin (`common::scl_peer`): console lines and their decoded answers, the status
 //! polls, the e-stop (`SK` to every drive before anything else), Start playing a show
 //! from uploaded Q programs to its end, and a drive that refuses `QW`.
 
@@ -12,6 +12,7 @@ use common::process::{Process, links_up};
 use common::scl_peer::Peer;
 use common::{Ws, native_show, next_reply, send_text, until};
 use floatball_shared::api::{PlayerState, ServerMessage};
+use floatball_shared::scl::{IoPoint, Level, Segment};
 
 /// The show's end positions, mm: ball i ends at 5 × (i + 1) mm.
 fn end_mm(ball: usize) -> f64 {
@@ -77,10 +78,15 @@ async fn press(ws: &mut Ws, peer: &Peer) -> Vec<common::scl_peer::Received> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_rs485_line_answers_the_console_and_stops_every_drive_first() {
     let dir = tempfile::tempdir().unwrap();
-    let peer = Peer::serial(dir.path(), "rs485", "123", 0);
+    let peer = Peer::serial(dir.path(), "rs485", "123", 0, false);
     let bridge = Process::start(&serial_config(&peer, ""));
     let mut ws = operator(&bridge).await;
-    peer.drives.lock().unwrap()[1].position_counts = 1200;
+    send_text(&mut ws, r#"{"type":"raw","line":"2SP1200"}"#).await;
+    let ServerMessage::SclReply(reply) = next_reply(&mut ws).await else {
+        panic!("an scl_reply");
+    };
+    // A buffered command: the drive answers `*`.
+    assert_eq!((reply.text.as_str(), reply.raw.as_str()), ("buffered", "*"));
 
     // The polls put every drive's position and codes in the status.
     let (_, status) = until(&mut ws, Duration::from_secs(5), |status| {
@@ -109,9 +115,13 @@ async fn an_rs485_line_answers_the_console_and_stops_every_drive_first() {
         let ServerMessage::SclReply(reply) = next_reply(&mut ws).await else {
             panic!("an scl_reply");
         };
-        assert_eq!(reply.text, "executed", "{reply:?}");
+        assert!(
+            ["executed", "buffered"].contains(&reply.text.as_str()),
+            "{reply:?}"
+        );
     }
-    assert_eq!(peer.drive(2).position_counts, 5000);
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert_eq!(peer.positions()[2], 5000);
     // A refusal names its line and column; nothing is sent.
     send_text(&mut ws, r#"{"type":"raw","line":"2IP\n2XX"}"#).await;
     let ServerMessage::Error { message } = next_reply(&mut ws).await else {
@@ -145,7 +155,7 @@ async fn an_rs485_line_answers_the_console_and_stops_every_drive_first() {
     let ServerMessage::SclReply(reply) = next_reply(&mut ws).await else {
         panic!("an scl_reply");
     };
-    assert_eq!(reply.text, "SC = 0001");
+    assert!(reply.text.starts_with("SC = "), "{reply:?}");
 }
 
 /// Starts the playlist and reads statuses until it has played to its end.
@@ -161,27 +171,39 @@ async fn play_to_end(ws: &mut Ws) -> Vec<PlayerState> {
 fn assert_played(states: &[PlayerState], peer: &Peer) {
     // (Approaching and Loading take a few ms here: the status may not show them.)
     assert!(states.contains(&PlayerState::Playing), "{states:?}");
+    // 100 counts/mm: where the show ends.
+    let ends: Vec<i64> = (0..3).map(|ball| (end_mm(ball) * 100.0) as i64).collect();
+    assert_eq!(peer.positions(), ends);
     for ball in 0..3 {
-        let drive = peer.drive(ball);
-        // 100 counts/mm: where the show ends.
-        assert_eq!(drive.position_counts, (end_mm(ball) * 100.0) as i64);
-        assert!(!drive.segments.is_empty());
+        assert!(peer.with_drive(ball, |drive| {
+            drive.segment(Segment::new(1).unwrap()).is_some()
+        }));
     }
+}
+
+/// The first line of drive `ball`'s program.
+fn first_line(peer: &Peer, ball: usize) -> String {
+    peer.with_drive(ball, |drive| {
+        drive.segment(Segment::new(1).unwrap()).unwrap()[0].to_string()
+    })
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn start_uploads_programs_fires_the_trigger_and_plays_to_the_end() {
     let dir = tempfile::tempdir().unwrap();
-    let peer = Peer::serial(dir.path(), "rs485", "123", 0);
+    let peer = Peer::serial(dir.path(), "rs485", "123", 0, true);
     let bridge = Process::start(&serial_config(&peer, "trigger = \"1:2\""));
     let mut ws = operator(&bridge).await;
     let states = play_to_end(&mut ws).await;
     assert_played(&states, &peer);
     // Program 1 waits for the start input (3, falling edge); the trigger output went
     // low, then high again.
-    let first = &peer.drive(0).segments[&1];
-    assert_eq!(first[0].to_string(), "WI3F");
-    assert_eq!(peer.drive(0).outputs.get(&2), Some(&'H'));
+    assert_eq!(first_line(&peer, 0), "WI3F");
+    let output = IoPoint::new(2).unwrap();
+    assert_eq!(
+        peer.with_drive(0, |drive| drive.output(output)),
+        Level::High
+    );
     let wire: Vec<String> = peer
         .received
         .lock()
@@ -221,7 +243,7 @@ async fn escl_drives_play_to_the_end_and_each_gets_the_stop() {
     let states = play_to_end(&mut ws).await;
     assert_played(&states, &peer);
     // No trigger: QX1 to every drive, and no WI in the program.
-    assert_ne!(peer.drive(0).segments[&1][0].to_string(), "WI3F");
+    assert_ne!(first_line(&peer, 0), "WI3F");
 
     // eSCL drives take the address characters in listed order: "0" is the first.
     send_text(&mut ws, r#"{"type":"raw","line":"1IP","gateway":0}"#).await;
@@ -250,7 +272,7 @@ async fn escl_drives_play_to_the_end_and_each_gets_the_stop() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_drive_that_refuses_qw_is_named_with_what_to_do() {
     let peer = Peer::udp(3);
-    peer.drives.lock().unwrap()[1].refuse_qw = true;
+    peer.refuse_qw.lock().unwrap().push(1);
     let bridge = Process::start(&udp_config(&peer, ""));
     let mut ws = operator(&bridge).await;
     send_text(&mut ws, r#"{"type":"start"}"#).await;

@@ -3,7 +3,7 @@
 //! and 115200 baud and to 8 eSCL drives over loopback UDP, with the drives polled
 //! every 20 ms (the line is busy).
 //!
-//! A pseudo-terminal carries bytes at once, so the scripted drives time the line as a
+//! A pseudo-terminal carries bytes at once, so the twins' peer times the line as a
 //! UART would (`common::scl_peer`: ten bits a byte, one byte after the other; the
 //! answers are delayed by their own time on the line): a stop that waits behind a
 //! request already written waits as long as on a real line.
@@ -82,7 +82,7 @@ async fn scl_estop_latency() {
         .unwrap_or(50);
     for baud in [9600, 115_200] {
         let dir = tempfile::tempdir().unwrap();
-        let peer = Peer::serial(dir.path(), "rs485", DRIVES, baud);
+        let peer = Peer::serial(dir.path(), "rs485", DRIVES, baud, false);
         let bridge = Process::start(&config(&format!(
             "port = \"{}\"\nbaud = {baud}\naddresses = \"{DRIVES}\"",
             peer.path.display()

@@ -58,10 +58,7 @@ pub fn drives_of(installation: &Installation) -> Vec<DriveRef> {
 /// uses ([`crate::http::qprogram::qprogram_config`]), so a program downloaded for Q
 /// Programmer is the one Start would upload.
 pub fn qprogram_config(installation: &Installation, scl: &SclConfig) -> QProgramConfig {
-    crate::http::qprogram::qprogram_config(
-        installation,
-        &crate::http::qprogram::scl_overrides(scl),
-    )
+    crate::http::qprogram::qprogram_config(installation, &crate::http::qprogram::scl_overrides(scl))
 }
 
 /// `value` with `scale` decimals, as a parameter.
