@@ -829,19 +829,8 @@ fn check_scl(installation: &Installation, entries: &[Entry]) -> Result<(), Start
     if entries.is_empty() {
         return Err(StartError::Empty);
     }
-    let units = installation.units.len();
     for (index, entry) in entries.iter().enumerate() {
-        let violations = floatball_shared::show::validate(&entry.show, &installation.limits);
-        let reason = if let Some(first) = violations.first() {
-            Some(first.to_string())
-        } else if entry.show.tracks.len() != units {
-            Some(format!(
-                "the show has {} balls but the installation has {units} drives",
-                entry.show.tracks.len()
-            ))
-        } else {
-            None
-        };
+        let reason = floatball_shared::plan::report::unfit_without_lines(installation, &entry.show);
         if let Some(reason) = reason {
             return Err(StartError::Invalid {
                 entry: index + 1,

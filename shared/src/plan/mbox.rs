@@ -33,7 +33,7 @@
 use super::installation::Installation;
 use super::player::{Entry, NextRun, PlaylistProgress, StartError, next_run};
 use crate::api::{PlanReport, PlayerState, Status};
-use crate::show::{OutputSample, Sampler, Show, output_box_message, validate};
+use crate::show::{OutputSample, Sampler, Show, output_box_message};
 
 /// Frames sent after a move or the playlist's end, holding the final positions.
 pub const SETTLE_FRAMES: u64 = 5;
@@ -553,22 +553,8 @@ impl MboxPlayer {
 /// violation of its limits (and how many more), a ball count that differs, or an
 /// output track for a box it lacks. `None` when it can.
 fn unfit(installation: &Installation, show: &Show) -> Option<String> {
-    let violations = validate(show, &installation.limits);
-    let units = installation.units.len();
-    if let Some(first) = violations.first() {
-        Some(if violations.len() > 1 {
-            format!("{first} (and {} more problems)", violations.len() - 1)
-        } else {
-            first.to_string()
-        })
-    } else if show.tracks.len() != units {
-        Some(format!(
-            "the show has {} balls but the installation has {units}",
-            show.tracks.len()
-        ))
-    } else {
-        unknown_output_box(installation, show)
-    }
+    super::report::unfit_without_lines(installation, show)
+        .or_else(|| unknown_output_box(installation, show))
 }
 
 /// The verdict on `show` for an MBOX installation (`GET /api/plan/{name}`, shown before

@@ -14,14 +14,53 @@ pub const GATEWAY_BAUDS: [u32; 5] = [9600, 19_200, 38_400, 57_600, 115_200];
 
 /// The report for `show` on `installation`. An invalid show gets a report saying so.
 /// An installation of MBOX boxes gets [`super::mbox::report`]: no serial line limits
-/// its shows.
+/// its shows. Nor do MOONS' drives, which play their Q programs themselves: their
+/// verdict is the Start check ([`unfit_without_lines`]); how far each ball's program
+/// is from the show is `GET /api/qprogram`'s.
 pub fn report(show: &Show, installation: &Installation, options: PlanOptions) -> PlanReport {
     if installation.mbox_boxes().is_some() {
         return super::mbox::report(show, installation);
     }
+    if !installation.gateways.is_empty()
+        && installation
+            .gateways
+            .iter()
+            .all(|gateway| gateway.kind == super::DriveKind::Scl)
+    {
+        let reason = unfit_without_lines(installation, show);
+        return PlanReport {
+            show: show.name.clone(),
+            feasible: reason.is_none(),
+            reason,
+            fixes: Vec::new(),
+            gateways: Vec::new(),
+        };
+    }
     match Plan::new(show, installation, options) {
         Ok(plan) => report_for(&plan, installation),
         Err(error) => refused(&show.name, &error),
+    }
+}
+
+/// Why `show` cannot play on `installation` when no serial line carries it (MBOX
+/// boxes, MOONS' drives), in one sentence: the first violation of its limits (and how
+/// many more), or a ball count that differs. `None` when it can.
+pub fn unfit_without_lines(installation: &Installation, show: &Show) -> Option<String> {
+    let violations = crate::show::validate(show, &installation.limits);
+    let units = installation.units.len();
+    if let Some(first) = violations.first() {
+        Some(if violations.len() > 1 {
+            format!("{first} (and {} more problems)", violations.len() - 1)
+        } else {
+            first.to_string()
+        })
+    } else if show.tracks.len() != units {
+        Some(format!(
+            "the show has {} balls but the installation has {units}",
+            show.tracks.len()
+        ))
+    } else {
+        None
     }
 }
 
@@ -187,6 +226,28 @@ mod tests {
 
     use super::*;
     use crate::plan::tests::{installation, wave};
+
+    #[test]
+    fn moons_drives_get_the_start_check_without_line_figures() {
+        let mut scl = installation(10, 10, 9600);
+        for gateway in &mut scl.gateways {
+            gateway.kind = crate::plan::DriveKind::Scl;
+        }
+        // Far more than a 9600-baud line carries: drives play programs, not a stream.
+        let show = wave(10, 10, 600, 250);
+        assert!(!report(&show, &installation(10, 10, 9600), PlanOptions::default()).feasible);
+        let verdict = report(&show, &scl, PlanOptions::default());
+        assert!(verdict.feasible, "{verdict:?}");
+        assert!(verdict.gateways.is_empty());
+        let wrong = report(&wave(1, 2, 10, 250), &scl, PlanOptions::default());
+        assert_eq!(
+            wrong.reason.as_deref(),
+            Some(
+                "the show is made for 1 rows × 2 columns of balls but the installation has 10 \
+                 rows × 10 columns"
+            )
+        );
+    }
 
     #[test]
     fn an_infeasible_show_says_why_with_numbers_and_how_to_fix_it() {
