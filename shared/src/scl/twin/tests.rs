@@ -302,6 +302,10 @@ fn calls_nest_five_deep_and_a_sixth_is_ignored() {
     }
     assert_eq!(d.output(point(7)), Level::High);
     assert!(!d.is_executing());
+    // A QJ to its own line or past the end is ignored (HCR p. 167).
+    store(&mut d, 10, "TI0H\nQJT2\nQJT9\nSO9L", 0);
+    run(&mut d, 10, 0);
+    assert_eq!(d.output(point(9)), Level::Low);
     // Calling a segment never written raises Blank Q Segment.
     store(&mut d, 8, "QC9\nSO8L", S);
     run(&mut d, 8, S);
