@@ -700,5 +700,38 @@ mod proptests {
             d.advance(now + 10 * S);
             prop_assert!(d.position_counts().is_finite());
         }
+
+        #[test]
+        fn random_bytes_on_a_bus_never_panic_and_only_addressed_drives_answer(
+            chunks in proptest::collection::vec(
+                (proptest::collection::vec(prop_oneof![
+                    3 => any::<u8>(),
+                    2 => Just(b'\r'),
+                    2 => proptest::sample::select(b"01".to_vec()),
+                    4 => proptest::sample::select(b"FLPSIDQXWUEVTCRMK0123456789-.".to_vec()),
+                ], 0..24), 0..100_000_u64),
+                1..40,
+            ),
+        ) {
+            let drives = "01".chars().map(|c| Drive::new(DriveConfig {
+                address: Address::new(c),
+                ..DriveConfig::default()
+            })).collect();
+            let mut bus = Bus::new(drives);
+            bus.wire(StartWire {
+                from: Address::new('0').unwrap(),
+                output: point(2),
+                input: point(3),
+            });
+            let mut now = 0;
+            for (bytes, dt) in chunks {
+                now += dt;
+                let answers = bus.receive(&bytes, now);
+                for line in String::from_utf8_lossy(&answers).split_terminator('\r') {
+                    prop_assert!(line.starts_with('0') || line.starts_with('1'), "{line:?}");
+                }
+            }
+            bus.advance(now + 10 * S);
+        }
     }
 }
