@@ -169,6 +169,23 @@ fn feed_to_sensor_never_stops_sooner_than_de_allows() {
 }
 
 #[test]
+fn set_position_names_where_the_motor_stands() {
+    // The seed: SP0 makes here the zero, SP5000 makes here 2.5 turns of a 2000-count
+    // encoder; DI only sets the distance (nothing moves).
+    let mut d = drive();
+    store(&mut d, 1, SEED_PROGRAMS[3], 0);
+    run(&mut d, 1, 0);
+    d.advance(S);
+    assert_eq!(d.receive_line("IP", S).as_deref(), Some("IP=5000\r"));
+    assert_eq!(d.receive_line("DI", S).as_deref(), Some("DI=-8000\r"));
+    assert!(d.move_ends().is_empty());
+    // A move from there ends relative to the new zero.
+    d.receive_line("FL", S);
+    d.advance(2 * S);
+    assert_eq!(d.position_counts(), -3_000.0);
+}
+
+#[test]
 fn a_qg_loop_moves_waits_half_a_second_and_goes_round_for_ever() {
     let mut d = drive();
     assert_eq!(d.receive_line("DI1000", 0).as_deref(), Some("%\r"));
