@@ -1,8 +1,9 @@
 //! The queue, the stored segments and the program flow: `QL QS QX QE` load, save and
 //! run; `QG` goes to a line, `QR` repeats, `QJ` jumps on the condition code, `QC`
 //! calls a segment (at most [`MAX_CALL_DEPTH`] deep; a deeper call is ignored, a
-//! return without a call too — HCR p. 163) and returns. The end of the queue ends the
-//! program, in a called segment too.
+//! return without a call too — HCR p. 163) and returns. A `QJ` to its own line or
+//! past the end of the queue is ignored (HCR p. 167). The end of the queue ends the
+//! program, in a called segment too (HCR p. 309: a program stops at a blank line).
 
 use super::drive::{Drive, Step};
 use crate::scl::command::{Command, Segment};
@@ -136,8 +137,12 @@ impl Drive {
         match command {
             Command::QueueGoto { line } => Step::Goto(usize::from(line.get()) - 1),
             Command::QueueJump { condition, line } => {
-                if self.condition.meets(condition) {
-                    Step::Goto(usize::from(line.get()) - 1)
+                let to = usize::from(line.get()) - 1;
+                let here = self.program.as_ref().map(|p| p.index);
+                // HCR p. 167: a jump to its own line or past the end of the queue is
+                // ignored.
+                if self.condition.meets(condition) && Some(to) != here && to < self.queue.len() {
+                    Step::Goto(to)
                 } else {
                     Step::Next
                 }

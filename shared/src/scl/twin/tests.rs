@@ -169,6 +169,23 @@ fn feed_to_sensor_never_stops_sooner_than_de_allows() {
 }
 
 #[test]
+fn set_position_names_where_the_motor_stands() {
+    // The seed: SP0 makes here the zero, SP5000 makes here 2.5 turns of a 2000-count
+    // encoder; DI only sets the distance (nothing moves).
+    let mut d = drive();
+    store(&mut d, 1, SEED_PROGRAMS[3], 0);
+    run(&mut d, 1, 0);
+    d.advance(S);
+    assert_eq!(d.receive_line("IP", S).as_deref(), Some("IP=5000\r"));
+    assert_eq!(d.receive_line("DI", S).as_deref(), Some("DI=-8000\r"));
+    assert!(d.move_ends().is_empty());
+    // A move from there ends relative to the new zero.
+    d.receive_line("FL", S);
+    d.advance(2 * S);
+    assert_eq!(d.position_counts(), -3_000.0);
+}
+
+#[test]
 fn a_qg_loop_moves_waits_half_a_second_and_goes_round_for_ever() {
     let mut d = drive();
     assert_eq!(d.receive_line("DI1000", 0).as_deref(), Some("%\r"));
@@ -302,6 +319,10 @@ fn calls_nest_five_deep_and_a_sixth_is_ignored() {
     }
     assert_eq!(d.output(point(7)), Level::High);
     assert!(!d.is_executing());
+    // A QJ to its own line or past the end is ignored (HCR p. 167).
+    store(&mut d, 10, "TI0H\nQJT2\nQJT9\nSO9L", 0);
+    run(&mut d, 10, 0);
+    assert_eq!(d.output(point(9)), Level::Low);
     // Calling a segment never written raises Blank Q Segment.
     store(&mut d, 8, "QC9\nSO8L", S);
     run(&mut d, 8, S);
@@ -695,6 +716,39 @@ mod proptests {
             }
             d.advance(now + 10 * S);
             prop_assert!(d.position_counts().is_finite());
+        }
+
+        #[test]
+        fn random_bytes_on_a_bus_never_panic_and_only_addressed_drives_answer(
+            chunks in proptest::collection::vec(
+                (proptest::collection::vec(prop_oneof![
+                    3 => any::<u8>(),
+                    2 => Just(b'\r'),
+                    2 => proptest::sample::select(b"01".to_vec()),
+                    4 => proptest::sample::select(b"FLPSIDQXWUEVTCRMK0123456789-.".to_vec()),
+                ], 0..24), 0..100_000_u64),
+                1..40,
+            ),
+        ) {
+            let drives = "01".chars().map(|c| Drive::new(DriveConfig {
+                address: Address::new(c),
+                ..DriveConfig::default()
+            })).collect();
+            let mut bus = Bus::new(drives);
+            bus.wire(StartWire {
+                from: Address::new('0').unwrap(),
+                output: point(2),
+                input: point(3),
+            });
+            let mut now = 0;
+            for (bytes, dt) in chunks {
+                now += dt;
+                let answers = bus.receive(&bytes, now);
+                for line in String::from_utf8_lossy(&answers).split_terminator('\r') {
+                    prop_assert!(line.starts_with('0') || line.starts_with('1'), "{line:?}");
+                }
+            }
+            bus.advance(now + 10 * S);
         }
     }
 }
