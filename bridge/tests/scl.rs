@@ -9,7 +9,7 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::process::{Process, links_up};
-use common::scl_peer::Peer;
+use common::scl_peer::{Peer, Simulator};
 use common::{Ws, native_show, next_reply, send_text, until};
 use floatball_shared::api::{PlayerState, ServerMessage};
 use floatball_shared::scl::{IoPoint, Level, Segment};
@@ -284,4 +284,93 @@ async fn a_drive_that_refuses_qw_is_named_with_what_to_do() {
     assert!(error.contains("refused QW1"), "{error}");
     assert!(error.contains("Q Programmer"), "{error}");
     assert!(error.contains("programs = \"stored\""), "{error}");
+}
+
+/// The polled positions of every drive, in unit order.
+fn polled(status: &floatball_shared::api::Status) -> Vec<Option<i64>> {
+    status.gateways[0]
+        .drives
+        .iter()
+        .map(|drive| drive.position_counts)
+        .collect()
+}
+
+/// Plays the show on drives the real simulator runs, and reads their positions from
+/// the bridge's status.
+async fn play_on_simulated_drives(ws: &mut Ws) {
+    let ends: Vec<Option<i64>> = (0..3)
+        .map(|ball| Some((end_mm(ball) * 100.0) as i64))
+        .collect();
+    send_text(ws, r#"{"type":"start"}"#).await;
+    let (states, _) = until(ws, Duration::from_secs(10), |status| {
+        status.state == PlayerState::Idle && status.progress >= 1.0 && polled(status) == ends
+    })
+    .await;
+    assert!(states.contains(&PlayerState::Playing), "{states:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_simulator_on_a_line_plays_the_show_and_takes_the_stop_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let wire = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let _drives = Simulator::serial(
+        dir.path(),
+        "rs485",
+        3,
+        115_200,
+        std::sync::Arc::clone(&wire),
+    );
+    let path = dir.path().join("rs485");
+    let bridge = Process::start(&config(
+        &format!("port = \"{}\"\nbaud = 115200", path.display()),
+        "trigger = \"0:2\"",
+    ));
+    let mut ws = operator(&bridge).await;
+    play_on_simulated_drives(&mut ws).await;
+
+    // Again, and the e-stop while the programs run.
+    send_text(&mut ws, r#"{"type":"start"}"#).await;
+    until(&mut ws, Duration::from_secs(10), |status| {
+        status.state == PlayerState::Playing
+    })
+    .await;
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let pressed = Instant::now();
+    send_text(&mut ws, r#"{"type":"estop"}"#).await;
+    let (_, stopped) = until(&mut ws, Duration::from_secs(5), |status| {
+        status.state == PlayerState::Stopped
+    })
+    .await;
+    assert_eq!(stopped.last_error, None);
+    let lines: Vec<String> = wire
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|line| line.at >= pressed)
+        .map(|line| line.text.clone())
+        .collect();
+    let first = lines
+        .iter()
+        .position(|line| line.ends_with("SK"))
+        .expect("a stop");
+    assert_eq!(&lines[first..first + 3], ["0SK", "1SK", "2SK"], "{lines:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_simulator_over_escl_plays_the_show_and_stops() {
+    let drives = Simulator::udp(3);
+    let list: Vec<String> = drives.sockets.iter().map(|s| format!("\"{s}\"")).collect();
+    let bridge = Process::start(&config(&format!("escl = [{}]", list.join(", ")), ""));
+    let mut ws = operator(&bridge).await;
+    play_on_simulated_drives(&mut ws).await;
+    send_text(&mut ws, r#"{"type":"raw","line":"2IP"}"#).await;
+    let ServerMessage::SclReply(reply) = next_reply(&mut ws).await else {
+        panic!("an scl_reply");
+    };
+    assert_eq!(reply.text, "IP = 1500");
+    send_text(&mut ws, r#"{"type":"estop"}"#).await;
+    until(&mut ws, Duration::from_secs(5), |status| {
+        status.state == PlayerState::Stopped
+    })
+    .await;
 }

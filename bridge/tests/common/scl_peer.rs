@@ -281,3 +281,147 @@ impl Peer {
         with(&mut bus.drives_mut()[index])
     }
 }
+
+/// `floatball simulate --kind scl` as a child process; killed when dropped.
+pub struct Simulator {
+    child: std::process::Child,
+    /// Its eSCL sockets (UDP), in drive order.
+    pub sockets: Vec<SocketAddr>,
+    _relay: Option<Relay>,
+}
+
+impl Drop for Simulator {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Two pseudo-terminal pairs and a tap between their masters: the simulator opens one
+/// slave, the bridge the other (by a symlink); every line the bridge writes is
+/// recorded with the time it crossed.
+pub struct Relay {
+    stop: Arc<AtomicBool>,
+}
+
+impl Drop for Relay {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+    }
+}
+
+fn pump(
+    mut from: Box<dyn SerialPort>,
+    mut to: Box<dyn SerialPort>,
+    stop: Arc<AtomicBool>,
+    record: Option<Arc<Mutex<Vec<Received>>>>,
+) {
+    std::thread::spawn(move || {
+        let mut buffer = [0u8; 512];
+        let mut line = Vec::new();
+        let mut first_at = None;
+        while !stop.load(Ordering::Acquire) {
+            let count = match from.read(&mut buffer) {
+                Ok(count) => count,
+                Err(err) if err.kind() == std::io::ErrorKind::TimedOut => continue,
+                Err(_) => {
+                    std::thread::sleep(Duration::from_millis(5));
+                    continue;
+                }
+            };
+            let now = Instant::now();
+            let _ = to.write_all(&buffer[..count]);
+            let Some(record) = &record else { continue };
+            for &byte in &buffer[..count] {
+                first_at.get_or_insert(now);
+                if byte == b'\r' {
+                    record.lock().unwrap().push(Received {
+                        at: first_at.take().unwrap_or(now),
+                        text: String::from_utf8_lossy(&line).into_owned(),
+                        drive: None,
+                    });
+                    line.clear();
+                } else {
+                    line.push(byte);
+                }
+            }
+        }
+    });
+}
+
+impl Simulator {
+    /// `drives` simulated drives on an RS-485 line at `baud` (addresses `0`, `1`, …;
+    /// drive `0`'s output 2 wired to input 3 of every drive), reached by the bridge at
+    /// `dir/name`; what the bridge writes is recorded in `received`.
+    pub fn serial(
+        dir: &std::path::Path,
+        name: &str,
+        drives: usize,
+        baud: u32,
+        received: Arc<Mutex<Vec<Received>>>,
+    ) -> Self {
+        let (mut sim_master, sim_slave) = TTYPort::pair().expect("pty pair");
+        let (mut bridge_master, bridge_slave) = TTYPort::pair().expect("pty pair");
+        let sim_path = sim_slave.name().expect("slave name");
+        let bridge_path = bridge_slave.name().expect("slave name");
+        drop(bridge_slave);
+        for master in [&mut sim_master, &mut bridge_master] {
+            master
+                .set_timeout(Duration::from_millis(10))
+                .expect("timeout");
+        }
+        std::os::unix::fs::symlink(bridge_path, dir.join(name)).expect("symlink");
+        let child = std::process::Command::new(env!("CARGO_BIN_EXE_floatball"))
+            .args(["simulate", "--kind", "scl", "--port", &sim_path])
+            .args(["--baud", &baud.to_string(), "--drives", &drives.to_string()])
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .expect("start floatball simulate --kind scl");
+        // Held until the simulator has the port open: a pty without a slave open
+        // cannot be read.
+        drop(sim_slave);
+        let stop = Arc::new(AtomicBool::new(false));
+        let sim_reader = sim_master.try_clone().expect("clone");
+        let bridge_reader = bridge_master.try_clone().expect("clone");
+        pump(
+            bridge_reader,
+            Box::new(sim_master),
+            Arc::clone(&stop),
+            Some(received),
+        );
+        pump(sim_reader, Box::new(bridge_master), Arc::clone(&stop), None);
+        Self {
+            child,
+            sockets: Vec::new(),
+            _relay: Some(Relay { stop }),
+        }
+    }
+
+    /// `drives` simulated eSCL drives on loopback UDP.
+    pub fn udp(drives: usize) -> Self {
+        use std::io::BufRead;
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_floatball"))
+            .args(["simulate", "--kind", "scl", "--listen", "127.0.0.1:0"])
+            .args(["--drives", &drives.to_string()])
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .expect("start floatball simulate --kind scl");
+        let mut stdout = std::io::BufReader::new(child.stdout.take().expect("stdout"));
+        let sockets = (0..drives)
+            .map(|_| {
+                let mut line = String::new();
+                stdout.read_line(&mut line).expect("a line a drive");
+                line.split_whitespace()
+                    .last()
+                    .and_then(|socket| socket.parse().ok())
+                    .unwrap_or_else(|| panic!("no socket in {line:?}"))
+            })
+            .collect();
+        std::thread::spawn(move || for _ in stdout.lines() {});
+        Self {
+            child,
+            sockets,
+            _relay: None,
+        }
+    }
+}
