@@ -157,6 +157,29 @@ mod tests {
             )
         );
         assert!(gateway_text(Lang::Zh, &mbox).contains("迟发帧 1 · 未应答 3"));
+        let drive = |alarm_code, missed_replies| floatball_shared::api::SclDriveStatus {
+            address: "1".into(),
+            position_counts: Some(0),
+            status_code: Some(1),
+            alarm_code: Some(alarm_code),
+            missed_replies,
+            error: None,
+        };
+        let scl = GatewayStatus {
+            kind: GatewayKind::Scl,
+            port: "/dev/ttyUSB0".into(),
+            link: floatball_shared::api::LinkState::Up,
+            missed_replies: Some(2),
+            drives: vec![drive(0, 0), drive(2, 2)],
+            ..mbox
+        };
+        assert_eq!(
+            gateway_text(Lang::En, &scl),
+            format!(
+                "/dev/ttyUSB0: {} · SCL × 2 · alarms 1 · missed replies 2 · no answer",
+                Lang::En.link_state(floatball_shared::api::LinkState::Up)
+            )
+        );
     }
 
     #[test]
