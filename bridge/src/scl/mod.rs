@@ -1120,3 +1120,6 @@ impl SclNet {
         self.replies.subscribe()
     }
 }
+
+#[cfg(test)]
+mod tests;

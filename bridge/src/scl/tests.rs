@@ -1,0 +1,162 @@
+//! The owner's queue on a real pseudo-terminal, the test playing the drives: one
+//! request at a time on a line, a timeout that names the drive, and the e-stop that
+//! writes `SK` to every drive and voids what was queued.
+
+use std::io::{Read, Write};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use serialport::{SerialPort, TTYPort};
+
+use super::*;
+use crate::config::{SclConfig, SclGateway, SclPrograms, default_addresses};
+
+/// Three drives `0 1 2` on a pty at 115200 baud; the test holds the master.
+fn line(latch: &Arc<Latch>) -> (SclNet, TTYPort) {
+    let (mut master, slave) = TTYPort::pair().expect("pty pair");
+    master
+        .set_timeout(Duration::from_millis(10))
+        .expect("timeout");
+    let config = SclConfig {
+        gateways: vec![SclGateway::Serial {
+            port: slave.name().expect("slave name"),
+            baud: 115_200,
+            addresses: default_addresses(3),
+        }],
+        start: None,
+        trigger: None,
+        programs: SclPrograms::Upload,
+        steps_per_rev: 20_000,
+        tolerance_mm: 10.0,
+        // Long: the polls stay out of the way.
+        poll: Duration::from_secs(10),
+    };
+    let net = SclNet::open(&config, latch).expect("open");
+    // The slave is the link's now; the first poll round goes out at once.
+    drop(slave);
+    (net, master)
+}
+
+/// Lines the master receives within `wait`, with when.
+fn read_lines(master: &mut TTYPort, wait: Duration) -> Vec<(Instant, String)> {
+    let until = Instant::now() + wait;
+    let mut lines = Vec::new();
+    let mut line = Vec::new();
+    let mut buffer = [0u8; 256];
+    while Instant::now() < until {
+        if let Ok(count) = master.read(&mut buffer) {
+            for &byte in &buffer[..count] {
+                if byte == b'\r' {
+                    lines.push((Instant::now(), String::from_utf8_lossy(&line).into_owned()));
+                    line.clear();
+                } else {
+                    line.push(byte);
+                }
+            }
+        }
+    }
+    lines
+}
+
+async fn until_up(net: &SclNet) {
+    for _ in 0..200 {
+        if net.links()[0].is_up() {
+            return;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    panic!("the line never came up");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_silent_drive_times_out_with_its_name_and_counts_a_missed_reply() {
+    let latch = Arc::new(Latch::new());
+    let (net, mut master) = line(&latch);
+    until_up(&net).await;
+    let link = net.links()[0].clone();
+    let asked = Instant::now();
+    let answer = link
+        .request(1, "IP".to_owned(), Expect::One, latch.generation())
+        .await;
+    let Err(SclError::Timeout {
+        drive,
+        request,
+        timeout_ms,
+    }) = answer
+    else {
+        panic!("a timeout: {answer:?}");
+    };
+    assert_eq!(
+        (drive.as_str(), request.as_str()),
+        ("\"1\" on SCL gateway 0", "IP")
+    );
+    assert!(asked.elapsed() >= Duration::from_millis(timeout_ms));
+    let status = link.drive(1).expect("drive 1");
+    assert!(status.missed_replies >= 1);
+    assert!(
+        status
+            .error
+            .expect("an error")
+            .contains("did not answer IP")
+    );
+    // The polls went one at a time too: every line the link wrote was a whole request.
+    let lines = read_lines(&mut master, Duration::from_millis(50));
+    assert!(lines.iter().all(|(_, text)| text.len() >= 3), "{lines:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_line_carries_one_request_at_a_time_and_the_estop_goes_first() {
+    let latch = Arc::new(Latch::new());
+    let (net, mut master) = line(&latch);
+    until_up(&net).await;
+    // Let the first poll round time out (nobody answers) so the line is quiet.
+    let link = net.links()[0].clone();
+    tokio::time::sleep(Duration::from_millis(1200)).await;
+    let _ = read_lines(&mut master, Duration::from_millis(20));
+    let generation = latch.generation();
+    // The drives' side, on a thread of its own while the requests wait.
+    let script = tokio::task::spawn_blocking({
+        let (latch, net) = (Arc::clone(&latch), net.clone());
+        move || {
+            let texts = |lines: Vec<(Instant, String)>| -> Vec<String> {
+                lines.into_iter().map(|(_, text)| text).collect()
+            };
+            // Only the first is on the line until it is answered.
+            let first = texts(read_lines(&mut master, Duration::from_millis(40)));
+            master.write_all(b"0%\r").expect("answer");
+            let second = texts(read_lines(&mut master, Duration::from_millis(40)));
+            // The e-stop while 1DI200 waits for its answer and 2DI300 is queued.
+            let pressed = Instant::now();
+            crate::estop::press(&latch, &[]);
+            net.wake();
+            let stops = read_lines(&mut master, Duration::from_millis(40));
+            let after = stops.first().map(|(at, _)| *at - pressed);
+            (first, second, texts(stops), after)
+        }
+    });
+    // Queued in this order (join! polls them in order).
+    let answers = tokio::join!(
+        link.request(0, "DI100".to_owned(), Expect::One, generation),
+        link.request(1, "DI200".to_owned(), Expect::One, generation),
+        link.request(2, "DI300".to_owned(), Expect::One, generation),
+    );
+    let (first, second, stops, after) = script.await.expect("the drives' side");
+    assert_eq!(first, ["0DI100"]);
+    assert_eq!(second, ["1DI200"]);
+    // SK to every drive, back to back, and both requests left are void.
+    assert_eq!(stops, ["0SK", "1SK", "2SK"]);
+    assert!(after.expect("a stop") < Duration::from_millis(20));
+    assert_eq!(answers.0, Ok(vec!["%".to_owned()]));
+    assert_eq!(answers.1, Err(SclError::Void));
+    assert_eq!(answers.2, Err(SclError::Void));
+    // Latched: a move is refused, a query goes.
+    let refused = link
+        .request(0, "FP".to_owned(), Expect::One, latch.generation())
+        .await;
+    assert_eq!(refused, Err(SclError::Latched));
+    // Issued before the e-stop: void.
+    let stale = link
+        .request(0, "IP".to_owned(), Expect::One, generation)
+        .await;
+    assert_eq!(stale, Err(SclError::Void));
+}
