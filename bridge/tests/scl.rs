@@ -373,4 +373,53 @@ async fn the_simulator_over_escl_plays_the_show_and_stops() {
         status.state == PlayerState::Stopped
     })
     .await;
+    // Home: every drive back to the top (0 mm), then idle.
+    send_text(&mut ws, r#"{"type":"home"}"#).await;
+    until(&mut ws, Duration::from_secs(10), |status| {
+        status.state == PlayerState::Idle && polled(status) == [Some(0); 3]
+    })
+    .await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn stored_programs_are_started_without_an_upload() {
+    use floatball_bridge::config::{Config, Overrides};
+    let peer = Peer::udp(3);
+    let text = udp_config(&peer, "programs = \"stored\"");
+    // The programs an installer loaded with Q Programmer: the app's downloads.
+    let config = Config::parse(
+        std::path::Path::new("floatball.toml"),
+        &text,
+        &Overrides::default(),
+    )
+    .expect("valid");
+    let scl = config.scl.as_ref().expect("scl");
+    let compiler = floatball_bridge::scl::program::qprogram_config(&config.installation, scl);
+    let show = floatball_shared::show::Show::from_json(std::str::from_utf8(&show()).unwrap())
+        .expect("show");
+    for (ball, track) in show.tracks.iter().enumerate() {
+        let program = floatball_shared::scl::qprogram::compile(track, &compiler).expect("fits");
+        peer.with_drive(ball, |drive| {
+            for (segment, lines) in &program.segments {
+                drive.receive_line(&format!("QW{segment}"), 0);
+                for line in lines {
+                    drive.receive_line(&line.to_string(), 0);
+                }
+                drive.receive_line("", 0);
+            }
+        });
+    }
+    let bridge = Process::start(&text);
+    let mut ws = operator(&bridge).await;
+    let started = Instant::now();
+    let states = play_to_end(&mut ws).await;
+    assert!(states.contains(&PlayerState::Playing), "{states:?}");
+    let ends: Vec<i64> = (0..3).map(|ball| (end_mm(ball) * 100.0) as i64).collect();
+    assert_eq!(peer.positions(), ends);
+    let sent = peer.since(started);
+    assert!(
+        sent.iter().all(|line| !line.text.starts_with("QW")),
+        "{sent:?}"
+    );
+    assert!(sent.iter().any(|line| line.text == "QX1"), "{sent:?}");
 }
