@@ -8,7 +8,8 @@
 //! answers are delayed by their own time on the line): a stop that waits behind a
 //! request already written waits as long as on a real line.
 //!
-//! `cargo test -p floatball-bridge --release --test scl_bench -- --ignored --nocapture`
+//! `cargo xtask scl-bench [--presses N]` (or `cargo test -p floatball-bridge --release
+//! --test scl_bench -- --ignored --nocapture`)
 //! (`SCL_BENCH_PRESSES`, default 50) prints the median and the maximum of each.
 
 mod common;

@@ -13,11 +13,13 @@
 //! - [`stress`]: the engine's race and load tests, many times in a row.
 //! - [`mbox_bench`]: one bridge streaming to many simulated MBOX boxes, with figures.
 //! - [`qprogram_report`]: the Q program compiler on a 10-minute show, with figures.
+//! - [`scl_bench`]: the SCL e-stop's latency on RS-485 lines and eSCL, with figures.
 
 mod app;
 mod fuzz;
 mod mbox_bench;
 mod qprogram_report;
+mod scl_bench;
 mod stages;
 mod stress;
 mod tools;
@@ -44,6 +46,9 @@ commands:
          print moves kept, lines/segments, max deviation mm and where, compile ms
          options: --rows R --cols C (default 10 x 10)  --minutes M (default 10)
                   --period-s P (default 4)  --row-ms MS (default 200)
+  scl-bench  press the e-stop on 8 simulated MOONS' drives polled every 20 ms: RS-485
+         at 9600 and 115200 baud, and eSCL; print WebSocket -> first SK byte median/max
+         options: --presses N (default 50)
 ";
 
 fn main() -> ExitCode {
@@ -55,6 +60,7 @@ fn main() -> ExitCode {
         Some("stress") => stress::stress(&args[1..]),
         Some("mbox-bench") => mbox_bench::mbox_bench(&args[1..]),
         Some("qprogram-report") => qprogram_report::qprogram_report(&args[1..]),
+        Some("scl-bench") => scl_bench::scl_bench(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())
