@@ -252,8 +252,7 @@ async fn play(
                         upload(net, *drive, &program.segments, generation).await?;
                     }
                 }
-                fire(net, installation, scl, generation).await?;
-                let started = Instant::now();
+                let started = fire(net, installation, scl, generation).await?;
                 let duration_ms = entry.show.duration_ms();
                 let _ = progress.send(Progress::Playing {
                     entry: index,

@@ -354,7 +354,8 @@ pub async fn upload(
 
 /// Starts every drive's program 1 together: the trigger output low, then high after
 /// [`TRIGGER_PULSE`] (every drive waits for that edge on its start input), or `QX1`
-/// to every drive when no trigger is configured.
+/// to every drive when no trigger is configured. Returns when the show's time 0 was:
+/// when the trigger drive confirmed the edge, or when the first `QX1` went.
 ///
 /// # Errors
 /// A refusal or a missed answer; void after an e-stop.
@@ -363,15 +364,17 @@ pub async fn fire(
     installation: &Installation,
     scl: &SclConfig,
     generation: u64,
-) -> Result<(), String> {
+) -> Result<Instant, String> {
     let Some((address, output)) = scl.trigger else {
-        return each_drive(net, &drives_of(installation), generation, |_| {
+        let started = Instant::now();
+        each_drive(net, &drives_of(installation), generation, |_| {
             Segment::new(1)
                 .map(|segment| Command::QueueExecute { segment })
                 .into_iter()
                 .collect()
         })
-        .await;
+        .await?;
+        return Ok(started);
     };
     let trigger = net
         .links()
@@ -389,9 +392,10 @@ pub async fn fire(
     .await?;
     let set = |level| Command::SetOutput { output, level };
     net.ask(trigger, set(Level::Low), generation).await?;
+    let started = Instant::now();
     tokio::time::sleep(TRIGGER_PULSE).await;
     net.ask(trigger, set(Level::High), generation).await?;
-    Ok(())
+    Ok(started)
 }
 
 /// Waits until no drive runs its program any more (`SC` without
