@@ -38,8 +38,9 @@ pub(crate) enum Step {
 pub(crate) enum Count {
     /// Every move writes its `VE`: what the writer writes at most.
     Surely,
-    /// No move writes `VE`: what the writer writes when every move can keep the speed
-    /// of the one before (a periodic show); the writer's count must be checked.
+    /// No move writes `VE` (nor `AC`, `DE`): what the writer writes when every move can
+    /// keep the speed and acceleration of the one before (a periodic show); the
+    /// writer's count must be checked.
     Hopefully,
 }
 
@@ -65,6 +66,8 @@ pub(crate) struct Edge {
     pub to: usize,
     /// What the drive does.
     pub step: Step,
+    /// The acceleration it moves at (an index into the accelerations tried).
+    pub level: usize,
     /// The largest |show − program| along it, mm.
     pub cost_mm: f64,
 }
@@ -111,15 +114,15 @@ pub(crate) fn plan_step(distance_counts: f64, duration_s: f64, limits: &Limits) 
     })
 }
 
-/// Every edge at most `window` candidates long, grouped by the candidate they end at
-/// (`result[to]`). `counts[i]` is candidate `i`'s position in counts; edges are costed
+/// Every edge at most `window` candidates long at the acceleration of `level`, grouped
+/// by the candidate they end at (`result[to]`). `counts[i]` is candidate `i`'s position in counts; edges are costed
 /// on every `stride`-th grid sample (and the edge's last one).
 pub(crate) fn edges(
     samples: &Samples,
     candidates: &[usize],
     counts: &[i64],
     limits: &Limits,
-    window: usize,
+    (level, window): (usize, usize),
     stride: usize,
 ) -> Vec<Vec<Edge>> {
     let mut incoming = vec![Vec::new(); candidates.len()];
@@ -143,6 +146,7 @@ pub(crate) fn edges(
                 from,
                 to,
                 step,
+                level,
                 cost_mm,
             });
         }
