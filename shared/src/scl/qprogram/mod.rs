@@ -103,10 +103,7 @@ impl Default for QProgramConfig {
         Self {
             counts_per_mm: 100.0,
             steps_per_rev: 20_000,
-            start: match IoPoint::new(3) {
-                Some(input) => Some((input, InputCondition::Falling)),
-                None => None,
-            },
+            start: IoPoint::new(3).map(|input| (input, InputCondition::Falling)),
             loop_show: false,
             tolerance_mm: 10.0,
             max_speed_mm_s: 2000.0,
@@ -412,10 +409,10 @@ fn keep_accelerations(path: &mut [Edge], levels: &[(Limits, Vec<Vec<Edge>>)], th
 fn best_set(sets: &[&[Vec<Edge>]], budget_lines: usize, count: Count) -> Option<(usize, f64)> {
     let mut best: Option<(usize, f64)> = None;
     for (index, incoming) in sets.iter().enumerate() {
-        if let Some(deviation_mm) = reduce::bottleneck(incoming, budget_lines, count) {
-            if best.is_none_or(|(_, least)| deviation_mm < least) {
-                best = Some((index, deviation_mm));
-            }
+        if let Some(deviation_mm) = reduce::bottleneck(incoming, budget_lines, count)
+            && best.is_none_or(|(_, least)| deviation_mm < least)
+        {
+            best = Some((index, deviation_mm));
         }
     }
     best
@@ -437,7 +434,7 @@ fn check(config: &QProgramConfig) -> Result<(), QProgramError> {
     if !positive(config.max_accel_mm_s2) {
         return refuse("max_accel_mm_s2", "a number above 0");
     }
-    if !(config.tolerance_mm >= 0.0) {
+    if config.tolerance_mm.is_nan() || config.tolerance_mm < 0.0 {
         return refuse("tolerance_mm", "a number, 0 or more");
     }
     Ok(())
@@ -555,15 +552,15 @@ impl<'a> Writer<'a> {
         };
         if self.first.is_none() {
             self.first = Some(limits);
-        } else if limits.accel_counts_s2 != self.limits.accel_counts_s2 {
-            if let Some(rev_s2) = accel_decimal(&limits) {
-                self.lines.push(Command::Acceleration {
-                    rev_s2: Some(rev_s2),
-                });
-                self.lines.push(Command::Deceleration {
-                    rev_s2: Some(rev_s2),
-                });
-            }
+        } else if limits.accel_counts_s2 != self.limits.accel_counts_s2
+            && let Some(rev_s2) = accel_decimal(&limits)
+        {
+            self.lines.push(Command::Acceleration {
+                rev_s2: Some(rev_s2),
+            });
+            self.lines.push(Command::Deceleration {
+                rev_s2: Some(rev_s2),
+            });
         }
         self.limits = limits;
     }
@@ -571,11 +568,11 @@ impl<'a> Writer<'a> {
     /// `WT` for `seconds` rounded to the millisecond, if that is any time.
     fn wait(&mut self, seconds: f64) {
         let ms = (seconds * 1000.0).round();
-        if ms >= 1.0 {
-            if let Some(s) = Decimal::new(ms as i64, WT_DECIMALS) {
-                self.lines.push(Command::WaitTime { s });
-                self.now_s += ms / 1000.0;
-            }
+        if ms >= 1.0
+            && let Some(s) = Decimal::new(ms as i64, WT_DECIMALS)
+        {
+            self.lines.push(Command::WaitTime { s });
+            self.now_s += ms / 1000.0;
         }
     }
 

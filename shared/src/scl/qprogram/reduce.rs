@@ -270,8 +270,8 @@ pub(crate) fn refine(
     // via[node * width + lines]: which of `incoming[node]` ends that path.
     let mut via = vec![u32::MAX; nodes * width];
     best[0] = 0.0;
-    for to in 1..nodes {
-        for (index, edge) in incoming[to].iter().enumerate() {
+    for (to, edges) in incoming.iter().enumerate().skip(1) {
+        for (index, edge) in edges.iter().enumerate() {
             if edge.cost_mm > threshold_mm {
                 continue;
             }
