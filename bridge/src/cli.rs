@@ -2,8 +2,9 @@
 //!
 //! `floatball` with no subcommand serves the app and the API with the installation in
 //! `--data-dir`; `floatball check` only reads and checks the configuration;
-//! `floatball simulate` answers as a simulated UIM2503 gateway on a serial device, or
-//! (`--kind mbox`) as simulated MBOX boxes on UDP sockets. Every
+//! `floatball simulate` answers as a simulated UIM2503 gateway on a serial device,
+//! (`--kind mbox`) as simulated MBOX boxes on UDP sockets, or (`--kind scl`) as
+//! simulated MOONS' drives on a serial device (RS-485) or UDP sockets (eSCL). Every
 //! subcommand is listed by `floatball --help`.
 
 use std::net::{Ipv4Addr, SocketAddr};
@@ -14,6 +15,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use floatball_shared::mbox::{self, AxisCount};
+use floatball_shared::scl::{escl, twin::StartWire};
 use floatball_shared::sim::{self, GatewayConfig};
 
 use crate::auth::Clock;
@@ -67,6 +69,9 @@ pub enum SimulateKind {
     Uim2503,
     /// MBOX boxes on UDP sockets (`--listen`, `--axes`, `--boxes`, `--ip`).
     Mbox,
+    /// MOONS' drives: on a serial device as an RS-485 line (`--port`, `--baud`), or on
+    /// UDP sockets as eSCL (`--listen`); `--drives`, `--start-wire`.
+    Scl,
 }
 
 /// Options of `floatball simulate`.
@@ -75,13 +80,22 @@ pub struct SimulateArgs {
     /// What to simulate.
     #[arg(long, value_enum, default_value_t = SimulateKind::Uim2503)]
     pub kind: SimulateKind,
-    /// (uim2503) The serial device to answer on, e.g. /dev/pts/3 or /dev/ttyUSB1.
+    /// (uim2503, scl) The serial device to answer on, e.g. /dev/pts/3 or /dev/ttyUSB1.
     #[arg(long)]
     pub port: Option<String>,
-    /// (mbox) The first box's UDP address; box i listens on its port + i (port 0: each
-    /// box on a free port).
-    #[arg(long, default_value_t = SocketAddr::from(([127, 0, 0, 1], mbox::BOX_PORT)))]
-    pub listen: SocketAddr,
+    /// (mbox, scl) The first box's or drive's UDP address; box or drive i listens on
+    /// its port + i (port 0: each on a free port). Default: 127.0.0.1 on port 7408
+    /// (mbox) or 7775 (scl, eSCL).
+    #[arg(long)]
+    pub listen: Option<SocketAddr>,
+    /// (scl) Number of drives (addresses 0, 1, … 9, then " # $ & ' ( ) + , - . / : ; <
+    /// = >).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u8).range(1..=crate::simulate::scl::MAX_DRIVES as i64))]
+    pub drives: u8,
+    /// (scl) The start wire, drive:output:input: that drive's output drives that input
+    /// of every drive.
+    #[arg(long, default_value = crate::simulate::scl::DEFAULT_START_WIRE, value_parser = crate::simulate::scl::parse_start_wire)]
+    pub start_wire: StartWire,
     /// (mbox) Axes of every box: 3, 6 or 10.
     #[arg(long, default_value_t = 10, value_parser = parse_axes_count)]
     pub axes: u8,
@@ -233,6 +247,7 @@ async fn shutdown_signal() {
 /// `floatball simulate`: runs until Ctrl-C or SIGTERM.
 async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     let port = match (args.kind, args.port.clone()) {
+        (SimulateKind::Scl, port) => return simulate_scl(&args, port).await,
         (SimulateKind::Mbox, None) => return simulate_mbox(&args).await,
         (SimulateKind::Mbox, Some(_)) => {
             anyhow::bail!("--port is the serial device of --kind uim2503; MBOX boxes take --listen")
@@ -282,7 +297,9 @@ async fn simulate_mbox(args: &SimulateArgs) -> anyhow::Result<()> {
         .find(|axes| axes.count() == usize::from(args.axes))
         .context("an MBOX drives 3, 6 or 10 axes")?;
     let boxes = crate::simulate::mbox::MboxBoxes::start(crate::simulate::mbox::MboxOptions {
-        listen: args.listen,
+        listen: args
+            .listen
+            .unwrap_or_else(|| SocketAddr::from(([127, 0, 0, 1], mbox::BOX_PORT))),
         boxes: args.boxes,
         axes,
         ip: args.ip,
@@ -304,6 +321,62 @@ async fn simulate_mbox(args: &SimulateArgs) -> anyhow::Result<()> {
     shutdown_signal().await;
     for snapshot in boxes.stop().await {
         println!("{}", serde_json::to_string(&snapshot)?);
+    }
+    Ok(())
+}
+
+/// `floatball simulate --kind scl`: the drives on `--port` (RS-485) or, without it, on
+/// UDP from `--listen` (eSCL); one banner line once they answer (a line a drive on
+/// UDP, its socket the last word); on Ctrl-C or SIGTERM, one line a drive with its
+/// position.
+async fn simulate_scl(args: &SimulateArgs, port: Option<String>) -> anyhow::Result<()> {
+    use crate::simulate::scl;
+    let drives = usize::from(args.drives);
+    let bus = scl::bus(drives, port.is_some(), args.start_wire).map_err(anyhow::Error::msg)?;
+    let wire = args.start_wire;
+    let wire_text = format!(
+        "drive {}'s Y{} wired to X{} of every drive",
+        wire.from, wire.output, wire.input
+    );
+    let bus = if let Some(port) = port {
+        let stop = Arc::new(AtomicBool::new(false));
+        let worker_stop = Arc::clone(&stop);
+        let baud = args.baud;
+        let banner = format!(
+            "floatball simulating {drives} MOONS' drives ({wire_text}) on {port} at {baud} baud"
+        );
+        let mut worker = tokio::task::spawn_blocking(move || {
+            scl::run_serial(&port, baud, bus, &worker_stop, || println!("{banner}"))
+        });
+        let joined = tokio::select! {
+            result = &mut worker => result,
+            () = shutdown_signal() => {
+                stop.store(true, Ordering::Release);
+                worker.await
+            }
+        };
+        joined
+            .context("the simulator stopped unexpectedly")?
+            .map_err(anyhow::Error::msg)?
+    } else {
+        let listen = args
+            .listen
+            .unwrap_or_else(|| SocketAddr::from(([127, 0, 0, 1], escl::UDP_PORT)));
+        let running = scl::UdpDrives::spawn(listen, bus).map_err(anyhow::Error::msg)?;
+        // People read these lines, and tests parse them: the socket is the last word.
+        for (name, socket) in floatball_shared::scl::Address::CHARACTERS
+            .chars()
+            .zip(running.sockets())
+        {
+            println!(
+                "floatball simulating MOONS' drive {name} of {drives} ({wire_text}) on eSCL UDP {socket}"
+            );
+        }
+        shutdown_signal().await;
+        running.stop().await
+    };
+    for line in scl::positions(&bus) {
+        println!("{line}");
     }
     Ok(())
 }

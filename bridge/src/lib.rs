@@ -35,7 +35,8 @@
 //! - [`estop`]: the e-stop latch and the one path that presses it.
 //! - [`gateways`]: every link together: console lines and feedback for the clients.
 //! - [`simulate`]: `floatball simulate`, the simulated gateway on a real serial device,
-//!   and ([`simulate::mbox`]) simulated MBOX boxes on real UDP sockets.
+//!   and ([`simulate::mbox`]) simulated MBOX boxes on real UDP sockets, and
+//!   ([`simulate::scl`]) simulated MOONS' drives on a serial device or eSCL UDP.
 //! - [`playback`]: the player driven by the clock and the links, the owner of the
 //!   status, and the link watchdog.
 //! - [`control`]: Start, Reset and Home as the WebSocket asks for them.

@@ -19,12 +19,14 @@
 //! that cannot be written are lost too, as on a real line nobody listens to; they are
 //! counted and logged, and the simulator carries on.
 //!
-//! MBOX boxes on UDP sockets (`--kind mbox`) are [`mbox`].
+//! MBOX boxes on UDP sockets (`--kind mbox`) are [`mbox`]; MOONS' drives on a serial
+//! device or on UDP (`--kind scl`) are [`scl`].
 //!
 //! [`RX_FIFO_BYTES`]: floatball_shared::sim::RX_FIFO_BYTES
 //! [`TX_QUEUE_BYTES`]: floatball_shared::sim::TX_QUEUE_BYTES
 
 pub mod mbox;
+pub mod scl;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -35,7 +35,9 @@
 //!   single-sequence and loop runs, `MP` parameters, watermark) driven by time.
 //! - [`scl`]: MOONS' drives' serial command language: typed commands with units and
 //!   their text, the drives' answers (`%`, `*`, `?code`, `XX=value`), RS-485 address
-//!   characters, eSCL datagrams (UDP), and the parser for command lines and answers.
+//!   characters, eSCL datagrams (UDP), and the parser for command lines and answers;
+//!   and [`scl::twin`], a simulated drive (queue, segments, trapezoid moves, I/O,
+//!   registers, alarms) and a bus of them with the start wire.
 //! - [`show`]: the show model and its native file format, CSV keyframe import,
 //!   validation against an installation's limits, sampling for the preview, and the
 //!   demo wave the tests and benches share ([`show::demo`]).

@@ -49,6 +49,11 @@ proptest! {
     fn the_scl_parsers_survive_noise_and_print_back_what_they_accept(seed in any::<u64>()) {
         targets::scl(seed, CASE_BYTES);
     }
+
+    #[test]
+    fn the_scl_twin_survives_noise_and_answers_its_roll_calls(seed in any::<u64>()) {
+        targets::scl_twin(seed, CASE_BYTES / 4);
+    }
 }
 
 /// The SCL target accepts and refuses scripts, answers and datagrams alike, so that
@@ -65,6 +70,15 @@ fn the_scl_target_reaches_acceptance_and_refusal() {
             "datagrams accepted",
             "datagrams refused",
         ],
+    );
+}
+
+/// The twin target reaches answers and roll calls.
+#[test]
+fn the_scl_twin_target_answers_and_rolls_calls() {
+    assert_reaches(
+        &targets::scl_twin(1, CASE_BYTES / 4),
+        &["answer lines", "roll calls"],
     );
 }
 

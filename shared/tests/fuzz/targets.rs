@@ -22,7 +22,8 @@ use floatball_shared::mbox::{
     RegisterWrite, Route, TimeCode, TimeMode, WriteBank,
 };
 use floatball_shared::scl;
-use floatball_shared::scl::{Reply, Request};
+use floatball_shared::scl::twin::{Bus, Drive, DriveConfig, StartWire};
+use floatball_shared::scl::{Address, IoPoint, Reply, Request};
 use floatball_shared::sim::noise::{LineNoise, SplitMix};
 use floatball_shared::sim::{GatewayConfig, TX_QUEUE_BYTES, Uart};
 
@@ -56,7 +57,7 @@ impl Report {
 pub type Target = fn(u64, usize) -> Report;
 
 /// Every target, by name.
-pub const TARGETS: [(&str, Target); 7] = [
+pub const TARGETS: [(&str, Target); 8] = [
     ("reader", reader),
     ("gateway", gateway),
     ("decoder", decoder),
@@ -64,6 +65,7 @@ pub const TARGETS: [(&str, Target); 7] = [
     ("mbox", mbox),
     ("mbox-console", mbox_console),
     ("scl", scl),
+    ("scl-twin", scl_twin),
 ];
 
 /// The roll call the liveness property sends after the noise: end whatever
@@ -636,6 +638,9 @@ const SCL_FORMS: &[&str] = &[
     "{a}IP",
     "{a}WT{d}",
     "{a}QG{q}",
+    "{a}QW{s}",
+    "{a}QU{s}",
+    "{a}QU0",
     "{a}QR{r}{q}",
     "{a}QJ{j}{q}",
     "{a}QC{s}",
@@ -819,6 +824,66 @@ pub fn scl(seed: u64, bytes: usize) -> Report {
                 report.count("datagrams refused", 1);
             }
         }
+    })
+}
+
+/// The SCL drive twin: a bus of three addressed drives (and the start wire) fed the
+/// SCL target's scripts — valid lines, values out of range, noise — in chunks at
+/// advancing times. Nothing panics, every answer line starts with an address of the
+/// bus, positions stay finite; after any noise, a roll call (a CR, then `SK`, `AR` and
+/// `IP` to each drive) is answered by every drive.
+pub fn scl_twin(seed: u64, bytes: usize) -> Report {
+    let drives = "012"
+        .chars()
+        .map(|c| {
+            Drive::new(DriveConfig {
+                address: Address::new(c),
+                ..DriveConfig::default()
+            })
+        })
+        .collect();
+    let mut bus = Bus::new(drives);
+    bus.wire(StartWire {
+        from: Address::new('0').unwrap(),
+        output: IoPoint::new(2).unwrap(),
+        input: IoPoint::new(3).unwrap(),
+    });
+    let mut now_us = 0_u64;
+    on_texts(seed, bytes, scl_script, |noise, text, report| {
+        let mut rest = text.as_bytes();
+        while !rest.is_empty() {
+            let take = (1 + noise.rng().below(32) as usize).min(rest.len());
+            let (chunk, after) = rest.split_at(take);
+            rest = after;
+            now_us += noise.rng().below(50_000);
+            let answers = bus.receive(chunk, now_us);
+            for line in String::from_utf8_lossy(&answers).split_terminator('\r') {
+                assert!(line.starts_with(['0', '1', '2']), "seed {seed}: {line:?}");
+                report.count("answer lines", 1);
+            }
+        }
+        now_us += 1;
+        let answers = bus.receive(b"\r0SK\r1SK\r2SK\r0AR\r1AR\r2AR\r0IP\r1IP\r2IP\r", now_us);
+        let answers = String::from_utf8_lossy(&answers).into_owned();
+        let lines: Vec<&str> = answers.split_terminator('\r').collect();
+        assert!(lines.len() >= 9, "seed {seed}: {answers:?}");
+        let roll_call = &lines[lines.len() - 9..];
+        assert_eq!(
+            roll_call[..6],
+            ["0%", "1%", "2%", "0%", "1%", "2%"],
+            "seed {seed}"
+        );
+        for (line, c) in roll_call[6..].iter().zip(['0', '1', '2']) {
+            assert!(
+                line.starts_with(&format!("{c}IP=")),
+                "seed {seed}: {line:?}"
+            );
+        }
+        for drive in bus.drives() {
+            assert!(drive.position_counts().is_finite(), "seed {seed}");
+            assert!(!drive.is_executing(), "seed {seed}: SK ends programs");
+        }
+        report.count("roll calls", 1);
     })
 }
 

@@ -1,0 +1,294 @@
+//! `floatball simulate --kind scl`: simulated MOONS' drives ([`Bus`] of [`Drive`]s, the
+//! sans-IO twin in `floatball_shared::scl::twin`) on a real serial device — an RS-485
+//! line, every drive addressed by one of [`Address::CHARACTERS`] — or on loopback / LAN
+//! UDP as eSCL, one socket a drive on consecutive ports.
+//!
+//! Either way the drives share one [`Bus`], so the start wire (one drive's output wired
+//! to an input of every drive, [`StartWire`]) reaches them all at the instant the
+//! output changes. Time is µs since the drives started.
+//!
+//! On the serial device the line is paced at its baud rate (10 bit times a byte,
+//! [`Line`]): a line's bytes are handed to the drives when its last byte would have
+//! arrived, and the device is read no faster; answers are written no faster than the
+//! line carries them. Over UDP every datagram is answered to its sender, one datagram
+//! an answer line.
+
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
+
+use floatball_shared::line::Line;
+use floatball_shared::scl::twin::{Bus, Drive, DriveConfig, StartWire};
+use floatball_shared::scl::{Address, IoPoint};
+use tokio::net::UdpSocket;
+use tokio::sync::watch;
+use tokio::task::JoinHandle;
+
+use crate::link::serial::open_port;
+
+/// The most drives on one line: one per address character.
+pub const MAX_DRIVES: usize = Address::CHARACTERS.len();
+/// The largest datagram a drive takes.
+const MAX_DATAGRAM: usize = 2048;
+
+/// The default `--start-wire`: the first drive's output 2 drives input 3 of every
+/// drive.
+pub const DEFAULT_START_WIRE: &str = "0:2:3";
+
+/// Reads `--start-wire`: `drive:output:input`, e.g. `1:2:3` — drive '1''s output Y2
+/// drives input X3 of every drive.
+///
+/// # Errors
+/// Not three parts, an address that is not one, or a point that is not one digit.
+pub fn parse_start_wire(text: &str) -> Result<StartWire, String> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let [from, output, input] = parts[..] else {
+        return Err(format!(
+            "{text:?}: a start wire is drive:output:input, e.g. 1:2:3"
+        ));
+    };
+    let mut chars = from.chars();
+    let from = match (chars.next(), chars.next()) {
+        (Some(c), None) => Address::new(c),
+        _ => None,
+    }
+    .ok_or_else(|| {
+        format!(
+            "{from:?} is not a drive address (one of {})",
+            Address::CHARACTERS
+        )
+    })?;
+    let point = |text: &str| {
+        text.parse::<u8>()
+            .ok()
+            .and_then(IoPoint::new)
+            .ok_or_else(|| format!("{text:?} is not an I/O point (0 to 9)"))
+    };
+    Ok(StartWire {
+        from,
+        output: point(output)?,
+        input: point(input)?,
+    })
+}
+
+/// `count` drives, addressed `0`, `1`, … on a line (`addressed`), or without
+/// addresses (eSCL), with `wire`.
+///
+/// # Errors
+/// No drive, or more than [`MAX_DRIVES`].
+pub fn bus(count: usize, addressed: bool, wire: StartWire) -> Result<Bus, String> {
+    if count == 0 || count > MAX_DRIVES {
+        return Err(format!(
+            "{count} drives: a line has 1 to {MAX_DRIVES} (one a address character)"
+        ));
+    }
+    let drives = Address::CHARACTERS
+        .chars()
+        .take(count)
+        .map(|c| {
+            Drive::new(DriveConfig {
+                address: if addressed { Address::new(c) } else { None },
+                ..DriveConfig::default()
+            })
+        })
+        .collect();
+    let mut bus = Bus::new(drives);
+    bus.wire(wire);
+    Ok(bus)
+}
+
+/// One line a drive: its name (address character) and its position, for the operator
+/// and the tests when the simulator stops.
+#[must_use]
+pub fn positions(bus: &Bus) -> Vec<String> {
+    bus.drives()
+        .iter()
+        .zip(Address::CHARACTERS.chars())
+        .map(|(drive, c)| format!("drive {c} position {} counts", drive.position_integer()))
+        .collect()
+}
+
+fn micros(epoch: Instant, at: Instant) -> u64 {
+    u64::try_from(at.saturating_duration_since(epoch).as_micros()).unwrap_or(u64::MAX)
+}
+
+/// The drives on `port` at `baud` until `stop` is set or the port fails; `ready` is
+/// called once the port is open. Returns the bus as it ends (run to the last moment).
+///
+/// # Errors
+/// The port cannot be opened, or reading or writing it fails.
+pub fn run_serial(
+    port_name: &str,
+    baud: u32,
+    mut bus: Bus,
+    stop: &AtomicBool,
+    ready: impl FnOnce(),
+) -> Result<Bus, String> {
+    let mut port = open_port(port_name, baud)?;
+    let line = Line::new(baud);
+    let epoch = Instant::now();
+    let mut line_free = epoch;
+    let mut buffer = [0u8; 64];
+    ready();
+    while !stop.load(Ordering::Acquire) {
+        match port.read(&mut buffer) {
+            Ok(0) => {}
+            Ok(n) => {
+                // The last byte of these arrives `n` byte times after the line is free.
+                let arrived =
+                    Instant::now().max(line_free) + Duration::from_micros(line.time_us(n));
+                std::thread::sleep(arrived.saturating_duration_since(Instant::now()));
+                line_free = arrived;
+                let answers =
+                    bus.receive(buffer.get(..n).unwrap_or_default(), micros(epoch, arrived));
+                if !answers.is_empty() {
+                    write_all(&mut *port, &answers)?;
+                    // The answer holds the line (RS-485 is half duplex).
+                    line_free = Instant::now().max(line_free)
+                        + Duration::from_micros(line.time_us(answers.len()));
+                    std::thread::sleep(line_free.saturating_duration_since(Instant::now()));
+                }
+            }
+            Err(err)
+                if matches!(
+                    err.kind(),
+                    std::io::ErrorKind::TimedOut | std::io::ErrorKind::Interrupted
+                ) => {}
+            Err(err) => return Err(format!("read failed: {err}")),
+        }
+        bus.advance(micros(epoch, Instant::now()));
+    }
+    bus.advance(micros(epoch, Instant::now()));
+    Ok(bus)
+}
+
+fn write_all(port: &mut dyn serialport::SerialPort, bytes: &[u8]) -> Result<(), String> {
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        match port.write(rest) {
+            Ok(0) => break,
+            Ok(n) => rest = rest.get(n..).unwrap_or_default(),
+            Err(err) if err.kind() == std::io::ErrorKind::Interrupted => {}
+            // Nobody reads the line: the answer is lost, as on a real line.
+            Err(err) if err.kind() == std::io::ErrorKind::TimedOut => break,
+            Err(err) => return Err(format!("write failed: {err}")),
+        }
+    }
+    Ok(())
+}
+
+/// Drives answering eSCL on UDP sockets until [`Self::stop`].
+#[derive(Debug)]
+pub struct UdpDrives {
+    sockets: Vec<SocketAddr>,
+    bus: Arc<Mutex<Bus>>,
+    epoch: Instant,
+    stop: watch::Sender<bool>,
+    tasks: Vec<JoinHandle<()>>,
+}
+
+impl UdpDrives {
+    /// Binds one socket a drive of `bus` (drive `i` on `listen`'s port + `i`; port 0:
+    /// each on a free port) and starts answering.
+    ///
+    /// # Errors
+    /// A port past 65535, or a socket that cannot be bound.
+    pub fn spawn(listen: SocketAddr, bus: Bus) -> Result<Self, String> {
+        let count = bus.drives().len();
+        let bus = Arc::new(Mutex::new(bus));
+        let epoch = Instant::now();
+        let (stop, stopped) = watch::channel(false);
+        let mut sockets = Vec::with_capacity(count);
+        let mut tasks = Vec::with_capacity(count);
+        for index in 0..count {
+            let mut at = listen;
+            if at.port() != 0 {
+                let offset = u16::try_from(index).map_err(|_| "too many drives".to_owned())?;
+                at.set_port(at.port().checked_add(offset).ok_or_else(|| {
+                    format!("{count} drives from port {} run past 65535", listen.port())
+                })?);
+            }
+            let socket = std::net::UdpSocket::bind(at)
+                .and_then(|socket| {
+                    socket.set_nonblocking(true)?;
+                    UdpSocket::from_std(socket)
+                })
+                .map_err(|err| format!("cannot listen on UDP {at}: {err}"))?;
+            sockets.push(
+                socket
+                    .local_addr()
+                    .map_err(|err| format!("cannot read the address of UDP {at}: {err}"))?,
+            );
+            tasks.push(tokio::spawn(answer(
+                socket,
+                index,
+                Arc::clone(&bus),
+                epoch,
+                stopped.clone(),
+            )));
+        }
+        Ok(Self {
+            sockets,
+            bus,
+            epoch,
+            stop,
+            tasks,
+        })
+    }
+
+    /// Each drive's socket, in order.
+    #[must_use]
+    pub fn sockets(&self) -> &[SocketAddr] {
+        &self.sockets
+    }
+
+    /// Stops every drive; returns the bus run to now.
+    pub async fn stop(self) -> Bus {
+        let _ = self.stop.send(true);
+        for task in self.tasks {
+            if let Err(err) = task.await {
+                tracing::error!("a simulated MOONS' drive stopped unexpectedly: {err}");
+            }
+        }
+        let mut bus = self
+            .bus
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone();
+        bus.advance(micros(self.epoch, Instant::now()));
+        bus
+    }
+}
+
+/// One drive's socket: each datagram goes to the drive, each answer line back to the
+/// sender.
+async fn answer(
+    socket: UdpSocket,
+    index: usize,
+    bus: Arc<Mutex<Bus>>,
+    epoch: Instant,
+    mut stop: watch::Receiver<bool>,
+) {
+    let mut buffer = vec![0u8; MAX_DATAGRAM];
+    loop {
+        tokio::select! {
+            received = socket.recv_from(&mut buffer) => match received {
+                Ok((len, sender)) => {
+                    let datagram = buffer.get(..len).unwrap_or_default();
+                    let answers = bus
+                        .lock()
+                        .unwrap_or_else(PoisonError::into_inner)
+                        .receive_escl(index, datagram, micros(epoch, Instant::now()));
+                    for answer in answers {
+                        if let Err(err) = socket.send_to(&answer, sender).await {
+                            tracing::warn!("simulated MOONS' drive {index}: cannot answer {sender}: {err}");
+                        }
+                    }
+                }
+                Err(err) => tracing::debug!("simulated MOONS' drive {index}: receive failed: {err}"),
+            },
+            _ = stop.changed() => break,
+        }
+    }
+}

@@ -1,0 +1,1227 @@
+//! One simulated drive: its parameters, I/O, registers, motion and the task that runs
+//! buffered commands (from the host, or from the queue when a program runs), and its
+//! answers. The queue, the segments and the program flow are in [`super::program`].
+
+use std::collections::VecDeque;
+
+use super::profile::Profile;
+use super::program::Program;
+use crate::scl::command::{
+    Address, Command, Decimal, InputCondition, IoPoint, JumpCondition, Level, MathOp, Register,
+    Request, Segment,
+};
+use crate::scl::escl;
+use crate::scl::response::{Answer, QueueUpload, Reply};
+
+/// Alarm code bits the twin raises (HCR p. 27, `AL`).
+pub mod alarm {
+    /// `0001` Position Limit: a move whose target is beyond a soft limit.
+    pub const POSITION_LIMIT: u16 = 0x0001;
+    /// `4000` Blank Q Segment: `QX`, `QL` or `QC` of a segment that holds nothing.
+    pub const BLANK_Q_SEGMENT: u16 = 0x4000;
+    /// `8000` No Move: a move while the motor is disabled or an alarm is present.
+    pub const NO_MOVE: u16 = 0x8000;
+}
+
+/// Status word bits the twin reports (HCR p. 195, `SC`).
+pub mod status {
+    /// `0001` Motor Enabled.
+    pub const MOTOR_ENABLED: u16 = 0x0001;
+    /// `0008` In Position: not moving.
+    pub const IN_POSITION: u16 = 0x0008;
+    /// `0010` Moving.
+    pub const MOVING: u16 = 0x0010;
+    /// `0040` Stopping (after `ST` or `SK`).
+    pub const STOPPING: u16 = 0x0040;
+    /// `0080` Waiting for an input (`WI`).
+    pub const WAITING_INPUT: u16 = 0x0080;
+    /// `0200` Alarm present.
+    pub const ALARM: u16 = 0x0200;
+    /// `0800` Waiting for time (`WT`).
+    pub const WAITING_TIME: u16 = 0x0800;
+    /// `4000` Q program running.
+    pub const Q_RUNNING: u16 = 0x4000;
+}
+
+/// How a simulated drive is set up.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DriveConfig {
+    /// Its RS-485 address; `None`: it takes every line and answers without one
+    /// (RS-232, or eSCL).
+    pub address: Option<Address>,
+    /// `EG` at power-up: steps per revolution.
+    pub steps_per_rev: u32,
+    /// `VE` at power-up, rev/s.
+    pub velocity_rev_s: Decimal,
+    /// `AC` at power-up, rev/s².
+    pub accel_rev_s2: Decimal,
+    /// `DE` at power-up, rev/s².
+    pub decel_rev_s2: Decimal,
+    /// Soft limits `(lowest, highest)`, counts: a move whose target is outside them is
+    /// not started and raises [`alarm::POSITION_LIMIT`].
+    pub soft_limits_counts: Option<(i32, i32)>,
+}
+
+impl Default for DriveConfig {
+    fn default() -> Self {
+        Self {
+            address: None,
+            steps_per_rev: 20_000,
+            velocity_rev_s: Decimal::from_int(10),
+            accel_rev_s2: Decimal::from_int(100),
+            decel_rev_s2: Decimal::from_int(100),
+            soft_limits_counts: None,
+        }
+    }
+}
+
+/// An output changing level, as the twin logged it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OutputChange {
+    /// When, s since the twin's clock 0.
+    pub at_s: f64,
+    /// The output.
+    pub output: IoPoint,
+    /// Its new level.
+    pub level: Level,
+}
+
+/// A move coming to rest, as the twin logged it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MoveEnd {
+    /// When, s since the twin's clock 0.
+    pub at_s: f64,
+    /// Where, counts.
+    pub position_counts: f64,
+}
+
+/// The most entries each log keeps (the oldest half goes when it is full).
+const LOG_CAPACITY: usize = 8192;
+/// The most program lines run at one instant before the program is taken for a loop
+/// that never waits: it then pauses [`PAUSE_S`] while the motor moves (it may be
+/// polling the position), or until an input changes or a host line arrives (nothing
+/// else can change what it does). A loop must not hang the caller.
+const STEPS_PER_INSTANT: u32 = 200;
+/// The pause of a program that ran [`STEPS_PER_INSTANT`] lines at one instant.
+const PAUSE_S: f64 = 0.001;
+/// Time within which two instants are the same (float rounding).
+pub(super) const EPSILON_S: f64 = 1e-9;
+/// The refusal code for a value out of range (HCR p. 251: `?5`).
+const OUT_OF_RANGE: u16 = 5;
+/// Highest `VE`, rev/s; highest `AC`/`DE`, rev/s²; `EG` range (the twin's limits).
+const MAX_VELOCITY_REV_S: f64 = 100.0;
+const MAX_ACCEL_REV_S2: f64 = 5000.0;
+const STEPS_PER_REV_RANGE: std::ops::RangeInclusive<u32> = 200..=51_200;
+/// Registers `'0'` to `'z'`.
+const REGISTERS: usize = (b'z' - b'0' + 1) as usize;
+
+/// What the task waits for before its next command.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Wait {
+    /// Nothing: it runs.
+    Nothing,
+    /// The clock to reach this time, s (`WT`, or a pause).
+    Until { at_s: f64, wt: bool },
+    /// An input to meet a condition (`WI`).
+    Input {
+        input: IoPoint,
+        condition: InputCondition,
+    },
+    /// The motion to end (a move with `MT0`, or a move waiting for the one before).
+    Motion,
+    /// An input change or a host line (a program looping without waiting).
+    Spin,
+}
+
+/// What a motion is doing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum MotionKind {
+    /// A move to rest (`FL`, `FP`, an `FS` past its sensor).
+    Move,
+    /// `FS` looking for its sensor; then `distance_counts` (unsigned) more.
+    Seek {
+        input: IoPoint,
+        condition: InputCondition,
+        distance_counts: f64,
+        decel_counts_s2: f64,
+        speed_counts_s: f64,
+        accel_counts_s2: f64,
+    },
+    /// Slowing down after `ST` or `SK`.
+    Stopping,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+struct Motion {
+    start_s: f64,
+    profile: Profile,
+    kind: MotionKind,
+    /// Added to the profile's positions (`SP` during a move).
+    offset_counts: f64,
+}
+
+impl Motion {
+    fn at(&self, clock_s: f64) -> (f64, f64) {
+        let (x, v) = self.profile.at(clock_s - self.start_s);
+        (x + self.offset_counts, v)
+    }
+
+    fn end_s(&self) -> f64 {
+        self.start_s + self.profile.duration_s()
+    }
+}
+
+/// The condition code the last test or math command left (`QJ` reads it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(super) struct ConditionCode {
+    /// `TI`: the input was at the level; `TR`/`CR`: equal; math: a result not zero.
+    pub truth: bool,
+    /// `TR`/`CR`: first − second; math: the result; `TI`: 1 or 0.
+    pub value: i64,
+}
+
+impl ConditionCode {
+    pub(super) fn meets(self, condition: JumpCondition) -> bool {
+        match condition {
+            JumpCondition::True => self.truth,
+            JumpCondition::False => !self.truth,
+            JumpCondition::Positive | JumpCondition::Greater => self.value > 0,
+            JumpCondition::Less => self.value < 0,
+            JumpCondition::Equal | JumpCondition::Zero => self.value == 0,
+            JumpCondition::Unequal => self.value != 0,
+        }
+    }
+}
+
+/// Where a host's command goes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Class {
+    /// Executed at once, answered `%` (or its value).
+    Immediate,
+    /// Put in the command buffer, answered `*`.
+    Buffered,
+    /// Only means something in a program (`QG QR QJ QC`): refused from a host.
+    ProgramOnly,
+}
+
+fn class(command: &Command) -> Class {
+    use Command as C;
+    if command.is_query() {
+        return Class::Immediate;
+    }
+    match command {
+        C::Distance { .. }
+        | C::ImmediatePosition
+        | C::StatusCode
+        | C::AlarmCode
+        | C::AlarmReset
+        | C::StopKill
+        | C::Stop
+        | C::MotorEnable
+        | C::MotorDisable
+        | C::QueueLoad { .. }
+        | C::QueueSave { .. }
+        | C::QueueExecute { .. }
+        | C::QueueExecuteLoaded
+        | C::QueueWrite { .. }
+        | C::QueueUpload { .. } => Class::Immediate,
+        C::QueueGoto { .. } | C::QueueRepeat { .. } | C::QueueJump { .. } | C::QueueCall { .. } => {
+            Class::ProgramOnly
+        }
+        _ => Class::Buffered,
+    }
+}
+
+/// Whether a command's values are in the twin's ranges (else `?5`).
+fn in_range(command: &Command) -> bool {
+    let rate = |value: Option<Decimal>, max: f64| {
+        value.is_none_or(|v| v.to_f64() > 0.0 && v.to_f64() <= max)
+    };
+    match *command {
+        Command::Velocity { rev_s } => rate(rev_s, MAX_VELOCITY_REV_S),
+        Command::Acceleration { rev_s2 } | Command::Deceleration { rev_s2 } => {
+            rate(rev_s2, MAX_ACCEL_REV_S2)
+        }
+        Command::ElectronicGearing { steps_per_rev } => {
+            steps_per_rev.is_none_or(|s| STEPS_PER_REV_RANGE.contains(&s))
+        }
+        Command::RegisterLoad { register, .. }
+        | Command::RegisterMove {
+            destination: register,
+            ..
+        } => !register.is_read_only(),
+        _ => true,
+    }
+}
+
+/// Whether a buffered command can take time (a move or a wait).
+fn takes_time(command: &Command) -> bool {
+    matches!(
+        command,
+        Command::FeedToLength
+            | Command::FeedToPosition
+            | Command::FeedToSensor { .. }
+            | Command::WaitTime { .. }
+            | Command::WaitForInput { .. }
+    )
+}
+
+/// Whether a line may be stored in a segment by `QW`: not a query, not `QW`/`QU`.
+pub(super) fn storable(command: &Command) -> bool {
+    !command.is_query()
+        && !matches!(
+            command,
+            Command::QueueWrite { .. } | Command::QueueUpload { .. }
+        )
+        && in_range(command)
+}
+
+/// A simulated MOONS' drive. See the [module](super) and `docs/protocol-notes.md` §8.
+#[derive(Debug, Clone)]
+pub struct Drive {
+    config: DriveConfig,
+    pub(super) clock_s: f64,
+    distance_counts: i32,
+    velocity_rev_s: Decimal,
+    accel_rev_s2: Decimal,
+    decel_rev_s2: Decimal,
+    steps_per_rev: u32,
+    pub(super) multitasking: bool,
+    enabled: bool,
+    alarm: u16,
+    registers: [i32; REGISTERS],
+    pub(super) condition: ConditionCode,
+    inputs: [Level; 10],
+    outputs: [Level; 10],
+    motion: Option<Motion>,
+    rest_counts: f64,
+    encoder_offset_counts: i64,
+    pub(super) segments: [Option<Vec<Command>>; 12],
+    pub(super) queue: Vec<Command>,
+    pub(super) program: Option<Program>,
+    host: VecDeque<Command>,
+    pub(super) wait: Wait,
+    /// `QW` in progress: the segment and the lines so far.
+    pub(super) writing: Option<(Segment, Vec<Command>)>,
+    steps_at_instant: u32,
+    output_log: Vec<OutputChange>,
+    move_log: Vec<MoveEnd>,
+}
+
+/// What one step of the task did.
+pub(super) enum Step {
+    /// Go on with the next command.
+    Next,
+    /// Try the same command again later (a wait was set).
+    Again,
+    /// Go on at this index of the queue.
+    Goto(usize),
+    /// Nothing more to do (the program ended or was killed).
+    Stop,
+}
+
+impl Drive {
+    /// A drive at power-up: enabled, at 0, no alarm, inputs and outputs high, no
+    /// segment stored.
+    #[must_use]
+    pub fn new(config: DriveConfig) -> Self {
+        Self {
+            distance_counts: 0,
+            velocity_rev_s: config.velocity_rev_s,
+            accel_rev_s2: config.accel_rev_s2,
+            decel_rev_s2: config.decel_rev_s2,
+            steps_per_rev: config.steps_per_rev,
+            config,
+            clock_s: 0.0,
+            multitasking: false,
+            enabled: true,
+            alarm: 0,
+            registers: [0; REGISTERS],
+            condition: ConditionCode::default(),
+            inputs: [Level::High; 10],
+            outputs: [Level::High; 10],
+            motion: None,
+            rest_counts: 0.0,
+            encoder_offset_counts: 0,
+            segments: Default::default(),
+            queue: Vec::new(),
+            program: None,
+            host: VecDeque::new(),
+            wait: Wait::Nothing,
+            writing: None,
+            steps_at_instant: 0,
+            output_log: Vec::new(),
+            move_log: Vec::new(),
+        }
+    }
+
+    /// Its configuration.
+    #[must_use]
+    pub fn config(&self) -> &DriveConfig {
+        &self.config
+    }
+
+    /// Its RS-485 address.
+    #[must_use]
+    pub fn address(&self) -> Option<Address> {
+        self.config.address
+    }
+
+    /// Its clock, µs (the latest `now_us` it was given).
+    #[must_use]
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    pub fn now_us(&self) -> u64 {
+        (self.clock_s * 1e6).round() as u64
+    }
+
+    // ----- the host's side ------------------------------------------------------------
+
+    /// One line from the host (a trailing CR allowed), at `now_us`: the drive's whole
+    /// answer, every line ended by CR, or `None` when it says nothing (a line for
+    /// another drive; an empty line outside a `QW`).
+    pub fn receive_line(&mut self, line: &str, now_us: u64) -> Option<String> {
+        self.advance(now_us);
+        let line = line.strip_suffix('\r').unwrap_or(line);
+        let prefix = self
+            .config
+            .address
+            .map(|a| a.to_string())
+            .unwrap_or_default();
+        let body = match self.config.address {
+            Some(address) => {
+                // Only lines that start with its address are for it.
+                line.strip_prefix(address.character())?
+            }
+            None => line,
+        };
+        if body.trim_matches([' ', '\t']).is_empty() {
+            return self.end_queue_write().then(|| format!("{prefix}%\r"));
+        }
+        let text = if self.config.address.is_some() {
+            line
+        } else {
+            body
+        };
+        let Ok(request) = Request::parse(text) else {
+            return Some(format!("{prefix}?\r"));
+        };
+        if let Command::QueueUpload { segment } = request.command
+            && self.writing.is_none()
+        {
+            let upload = self.queue_upload(segment);
+            let mut text = format!("{prefix}%\r");
+            for line in upload.lines() {
+                text.push_str(&format!("{prefix}{line}\r"));
+            }
+            return Some(text);
+        }
+        let replies = self.execute_request(request.command);
+        let mut text = String::new();
+        for answer in replies {
+            text.push_str(&format!("{prefix}{answer}\r"));
+        }
+        Some(text)
+    }
+
+    /// One eSCL datagram (header `00 07`, the text, CR): the answer's datagrams, one a
+    /// line. A datagram without the header says nothing.
+    pub fn receive_escl(&mut self, datagram: &[u8], now_us: u64) -> Vec<Vec<u8>> {
+        let Some(text) = datagram
+            .strip_prefix(&escl::HEADER[..])
+            .and_then(|rest| std::str::from_utf8(rest).ok())
+        else {
+            return Vec::new();
+        };
+        let Some(answer) = self.receive_line(text, now_us) else {
+            return Vec::new();
+        };
+        answer
+            .split_inclusive('\r')
+            .map(|line| {
+                let mut datagram = escl::HEADER.to_vec();
+                datagram.extend_from_slice(line.as_bytes());
+                datagram
+            })
+            .collect()
+    }
+
+    /// A typed command from the host at `now_us`, and the drive's answers (with its
+    /// address). `QU` answers only its `%` here: its lines are
+    /// [`Drive::queue_upload`]. Lines for another drive are the caller's business.
+    pub fn command(&mut self, request: &Request, now_us: u64) -> Vec<Reply> {
+        self.advance(now_us);
+        self.execute_request(request.command)
+            .into_iter()
+            .map(|answer| Reply {
+                address: self.config.address,
+                answer,
+            })
+            .collect()
+    }
+
+    /// Ends a `QW`: stores its lines; `false` if no write was open.
+    pub fn end_queue_write(&mut self) -> bool {
+        match self.writing.take() {
+            Some((segment, lines)) => {
+                self.segments[usize::from(segment.get() - 1)] = Some(lines);
+                true
+            }
+            None => false,
+        }
+    }
+
+    fn execute_request(&mut self, command: Command) -> Vec<Answer> {
+        let refused = |code| vec![Answer::Refused { code }];
+        if self.wait == Wait::Spin {
+            self.wake();
+        }
+        if let Some((_, lines)) = &mut self.writing {
+            if command == Command::StopKill {
+                // An e-stop is never stored: it ends the write unsaved and stops.
+                self.writing = None;
+                self.stop_and_kill();
+                return vec![Answer::Executed];
+            }
+            if !storable(&command) || lines.len() >= QueueUpload::MAX_LINES {
+                return refused(None);
+            }
+            lines.push(command);
+            return vec![Answer::Buffered];
+        }
+        if !in_range(&command) {
+            return refused(Some(OUT_OF_RANGE));
+        }
+        match class(&command) {
+            Class::ProgramOnly => refused(None),
+            Class::Buffered => {
+                if self.program.is_some() {
+                    // Between two program lines: what takes no time is done at once;
+                    // moves and waits are the program's.
+                    if takes_time(&command) {
+                        return refused(None);
+                    }
+                    self.apply(command);
+                    self.run();
+                    return vec![Answer::Buffered];
+                }
+                self.host.push_back(command);
+                self.run();
+                vec![Answer::Buffered]
+            }
+            Class::Immediate => self.immediate(command),
+        }
+    }
+
+    fn immediate(&mut self, command: Command) -> Vec<Answer> {
+        let value = |name: &str, value: String| {
+            vec![Answer::Value {
+                name: name.to_owned(),
+                value,
+            }]
+        };
+        let ok = vec![Answer::Executed];
+        match command {
+            Command::Distance { counts: None } => value("DI", self.distance_counts.to_string()),
+            Command::Velocity { rev_s: None } => value("VE", self.velocity_rev_s.to_string()),
+            Command::Acceleration { rev_s2: None } => value("AC", self.accel_rev_s2.to_string()),
+            Command::Deceleration { rev_s2: None } => value("DE", self.decel_rev_s2.to_string()),
+            Command::ElectronicGearing {
+                steps_per_rev: None,
+            } => value("EG", self.steps_per_rev.to_string()),
+            Command::SetPosition { counts: None } | Command::ImmediatePosition => {
+                value(command.mnemonic(), self.position_integer().to_string())
+            }
+            Command::EncoderPosition { counts: None } => value(
+                "EP",
+                (self.position_integer() + self.encoder_offset_counts).to_string(),
+            ),
+            Command::Multitasking { on: None } => {
+                value("MT", u8::from(self.multitasking).to_string())
+            }
+            Command::StatusCode => value("SC", format!("{:04X}", self.status_code())),
+            Command::AlarmCode => value("AL", format!("{:04X}", self.alarm)),
+            Command::QueueWrite { segment } => {
+                if self.program.is_some() {
+                    return vec![Answer::Refused { code: None }];
+                }
+                self.writing = Some((segment, Vec::new()));
+                ok
+            }
+            Command::QueueLoad { .. }
+            | Command::QueueSave { .. }
+            | Command::QueueExecute { .. }
+            | Command::QueueExecuteLoaded => {
+                if self.program.is_some() || !self.host.is_empty() {
+                    return vec![Answer::Refused { code: None }];
+                }
+                if !self.queue_command(command) {
+                    return vec![Answer::Refused { code: None }];
+                }
+                self.run();
+                ok
+            }
+            Command::QueueUpload { .. } => ok,
+            _ => {
+                self.apply(command);
+                self.run();
+                ok
+            }
+        }
+    }
+
+    // ----- time and inputs --------------------------------------------------------------
+
+    /// Runs programs and moves to exactly `now_us` (a time before the drive's clock is
+    /// taken as its clock).
+    pub fn advance(&mut self, now_us: u64) {
+        #[allow(clippy::cast_precision_loss)]
+        let now_s = now_us as f64 / 1e6;
+        self.advance_to(now_s);
+    }
+
+    /// Runs to `t_s`, event by event.
+    pub(super) fn advance_to(&mut self, t_s: f64) {
+        loop {
+            self.run();
+            match self.next_event_s() {
+                Some(at_s) if at_s <= t_s + EPSILON_S => self.set_clock(at_s.max(self.clock_s)),
+                _ => {
+                    self.set_clock(t_s.max(self.clock_s));
+                    self.run();
+                    return;
+                }
+            }
+        }
+    }
+
+    /// The next time something happens by itself (a move ends, a wait ends), if any.
+    pub(super) fn next_event_s(&self) -> Option<f64> {
+        let motion = self
+            .motion
+            .as_ref()
+            .map(Motion::end_s)
+            .filter(|t| t.is_finite());
+        let wait = match self.wait {
+            Wait::Until { at_s, .. } => Some(at_s),
+            _ => None,
+        };
+        match (motion, wait) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    fn set_clock(&mut self, t_s: f64) {
+        if t_s > self.clock_s + EPSILON_S {
+            self.steps_at_instant = 0;
+        }
+        self.clock_s = t_s;
+        if let Some(motion) = &self.motion
+            && self.clock_s + EPSILON_S >= motion.end_s()
+        {
+            let (end, _) = motion.at(f64::INFINITY);
+            let end_s = motion.end_s();
+            self.rest_counts = end;
+            self.motion = None;
+            log(
+                &mut self.move_log,
+                MoveEnd {
+                    at_s: end_s,
+                    position_counts: end,
+                },
+            );
+        }
+        if let Wait::Until { at_s, .. } = self.wait
+            && self.clock_s + EPSILON_S >= at_s
+        {
+            self.wait = Wait::Nothing;
+        }
+    }
+
+    /// Sets an input at `now_us` (what a sensor, a switch or the start wire does); an
+    /// edge or level a `WI` or an `FS` waits for takes effect at once.
+    pub fn set_input(&mut self, input: IoPoint, level: Level, now_us: u64) {
+        self.advance(now_us);
+        self.set_input_now(input, level);
+    }
+
+    /// Sets an input at the drive's clock.
+    pub(super) fn set_input_now(&mut self, input: IoPoint, level: Level) {
+        let index = usize::from(input.get());
+        let old = self.inputs[index];
+        if old == level {
+            return;
+        }
+        self.inputs[index] = level;
+        let edge = match level {
+            Level::Low => InputCondition::Falling,
+            Level::High => InputCondition::Rising,
+        };
+        let meets =
+            |condition: InputCondition| condition == edge || condition == level_condition(level);
+        if self.wait == Wait::Spin {
+            self.wake();
+        }
+        if let Wait::Input {
+            input: waited,
+            condition,
+        } = self.wait
+            && waited == input
+            && meets(condition)
+        {
+            self.wait = Wait::Nothing;
+        }
+        if let Some(Motion {
+            kind:
+                MotionKind::Seek {
+                    input: sensor,
+                    condition,
+                    ..
+                },
+            ..
+        }) = self.motion
+            && sensor == input
+            && meets(condition)
+        {
+            self.sensor_found();
+        }
+        self.run();
+    }
+
+    /// An input's level.
+    #[must_use]
+    pub fn input(&self, input: IoPoint) -> Level {
+        self.inputs[usize::from(input.get())]
+    }
+
+    /// An output's level.
+    #[must_use]
+    pub fn output(&self, output: IoPoint) -> Level {
+        self.outputs[usize::from(output.get())]
+    }
+
+    // ----- what the drive shows ---------------------------------------------------------
+
+    /// The position at the drive's clock, counts, exact on the profile.
+    #[must_use]
+    pub fn position_counts(&self) -> f64 {
+        self.motion
+            .as_ref()
+            .map_or(self.rest_counts, |m| m.at(self.clock_s).0)
+    }
+
+    /// The velocity at the drive's clock, counts/s.
+    #[must_use]
+    pub fn velocity_counts_s(&self) -> f64 {
+        self.motion.as_ref().map_or(0.0, |m| m.at(self.clock_s).1)
+    }
+
+    /// The position `IP` reports: the nearest whole count.
+    #[must_use]
+    #[allow(clippy::cast_possible_truncation)]
+    pub fn position_integer(&self) -> i64 {
+        self.position_counts().round() as i64
+    }
+
+    /// Where the current motion ends (where the drive rests when it does not move);
+    /// `None` while an `FS` looks for its sensor.
+    #[must_use]
+    pub fn target_counts(&self) -> Option<f64> {
+        match &self.motion {
+            Some(motion) => motion
+                .profile
+                .end_counts()
+                .map(|end| end + motion.offset_counts),
+            None => Some(self.rest_counts),
+        }
+    }
+
+    /// Whether the motor moves.
+    #[must_use]
+    pub fn is_moving(&self) -> bool {
+        self.motion.is_some()
+    }
+
+    /// Whether a program runs or buffered commands wait to run.
+    #[must_use]
+    pub fn is_executing(&self) -> bool {
+        self.program.is_some() || !self.host.is_empty()
+    }
+
+    /// Whether the motor is enabled.
+    #[must_use]
+    pub fn is_enabled(&self) -> bool {
+        self.enabled
+    }
+
+    /// The alarm code (`AL`).
+    #[must_use]
+    pub fn alarm_code(&self) -> u16 {
+        self.alarm
+    }
+
+    /// The status word (`SC`), with the bits in [`status`].
+    #[must_use]
+    pub fn status_code(&self) -> u16 {
+        let mut code = 0;
+        if self.enabled {
+            code |= status::MOTOR_ENABLED;
+        }
+        match &self.motion {
+            None => code |= status::IN_POSITION,
+            Some(motion) => {
+                code |= status::MOVING;
+                if motion.kind == MotionKind::Stopping {
+                    code |= status::STOPPING;
+                }
+            }
+        }
+        match self.wait {
+            Wait::Input { .. } => code |= status::WAITING_INPUT,
+            Wait::Until { wt: true, .. } => code |= status::WAITING_TIME,
+            _ => {}
+        }
+        if self.alarm != 0 {
+            code |= status::ALARM;
+        }
+        if self.program.is_some() {
+            code |= status::Q_RUNNING;
+        }
+        code
+    }
+
+    /// A register's value.
+    #[must_use]
+    pub fn register(&self, register: Register) -> i32 {
+        let index = usize::from(register.character() as u8 - b'0');
+        match register.character() {
+            'e' => i32::try_from(self.position_integer() + self.encoder_offset_counts)
+                .unwrap_or(i32::MAX),
+            'f' => i32::from(self.alarm),
+            'h' => i32::try_from(self.condition.value).unwrap_or(i32::MAX),
+            _ => self.registers.get(index).copied().unwrap_or(0),
+        }
+    }
+
+    /// The outputs' changes so far (the latest [`LOG_CAPACITY`] at most).
+    #[must_use]
+    pub fn output_changes(&self) -> &[OutputChange] {
+        &self.output_log
+    }
+
+    /// The moves' ends so far (the latest [`LOG_CAPACITY`] at most).
+    #[must_use]
+    pub fn move_ends(&self) -> &[MoveEnd] {
+        &self.move_log
+    }
+
+    // ----- the task ---------------------------------------------------------------------
+
+    /// Runs the task at the drive's clock until it waits or has nothing to do.
+    pub(super) fn run(&mut self) {
+        loop {
+            match self.wait {
+                Wait::Nothing => {}
+                Wait::Input { input, condition } => {
+                    if level_condition(self.input(input)) == condition {
+                        self.wait = Wait::Nothing;
+                    } else {
+                        return;
+                    }
+                }
+                Wait::Motion => {
+                    if self.motion.is_some() {
+                        return;
+                    }
+                    self.wait = Wait::Nothing;
+                }
+                Wait::Until { .. } | Wait::Spin => return,
+            }
+            if self.program.is_some() {
+                if self.steps_at_instant >= STEPS_PER_INSTANT {
+                    self.wait = if self.motion.is_some() {
+                        Wait::Until {
+                            at_s: self.clock_s + PAUSE_S,
+                            wt: false,
+                        }
+                    } else {
+                        Wait::Spin
+                    };
+                    return;
+                }
+                self.steps_at_instant += 1;
+                self.program_step();
+            } else if let Some(&command) = self.host.front() {
+                match self.execute(command) {
+                    Step::Again => {}
+                    _ => {
+                        self.host.pop_front();
+                    }
+                }
+            } else {
+                return;
+            }
+        }
+    }
+
+    /// Executes one buffered command (from the host or the queue).
+    pub(super) fn execute(&mut self, command: Command) -> Step {
+        match command {
+            Command::FeedToLength | Command::FeedToPosition | Command::FeedToSensor { .. } => {
+                if self.motion.is_some() {
+                    self.wait = Wait::Motion;
+                    return Step::Again;
+                }
+                if !self.start_move(command) {
+                    return Step::Stop;
+                }
+                if !self.multitasking {
+                    self.wait = Wait::Motion;
+                }
+                Step::Next
+            }
+            Command::WaitTime { s } => {
+                self.wait = Wait::Until {
+                    at_s: self.clock_s + s.to_f64(),
+                    wt: true,
+                };
+                Step::Next
+            }
+            Command::WaitForInput { input, condition } => {
+                let level = self.input(input);
+                if condition != level_condition(level) {
+                    self.wait = Wait::Input { input, condition };
+                }
+                Step::Next
+            }
+            Command::QueueGoto { .. }
+            | Command::QueueRepeat { .. }
+            | Command::QueueJump { .. }
+            | Command::QueueCall { .. }
+            | Command::QueueLoad { .. }
+            | Command::QueueSave { .. }
+            | Command::QueueExecute { .. }
+            | Command::QueueExecuteLoaded => self.flow(command),
+            Command::StopKill => {
+                self.stop_and_kill();
+                Step::Stop
+            }
+            Command::MotorDisable => {
+                self.apply(command);
+                Step::Stop
+            }
+            other => {
+                self.apply(other);
+                Step::Next
+            }
+        }
+    }
+
+    /// Applies a command that takes no time and does not move the program.
+    fn apply(&mut self, command: Command) {
+        match command {
+            Command::Distance {
+                counts: Some(counts),
+            } => self.distance_counts = counts,
+            Command::Velocity { rev_s: Some(v) } => self.velocity_rev_s = v,
+            Command::Acceleration { rev_s2: Some(a) } => self.accel_rev_s2 = a,
+            Command::Deceleration { rev_s2: Some(d) } => self.decel_rev_s2 = d,
+            Command::ElectronicGearing {
+                steps_per_rev: Some(s),
+            } => self.steps_per_rev = s,
+            Command::SetPosition {
+                counts: Some(counts),
+            } => {
+                let shift = f64::from(counts) - self.position_counts();
+                self.rest_counts += shift;
+                if let Some(motion) = &mut self.motion {
+                    motion.offset_counts += shift;
+                }
+            }
+            Command::EncoderPosition {
+                counts: Some(counts),
+            } => self.encoder_offset_counts = i64::from(counts) - self.position_integer(),
+            Command::Multitasking { on: Some(on) } => self.multitasking = on,
+            Command::SetOutput { output, level } => {
+                let index = usize::from(output.get());
+                if self.outputs[index] != level {
+                    self.outputs[index] = level;
+                    log(
+                        &mut self.output_log,
+                        OutputChange {
+                            at_s: self.clock_s,
+                            output,
+                            level,
+                        },
+                    );
+                }
+            }
+            Command::TestInput { input, level } => {
+                let truth = self.input(input) == level;
+                self.condition = ConditionCode {
+                    truth,
+                    value: i64::from(truth),
+                };
+            }
+            Command::TestRegister { register, value } => {
+                self.compare(i64::from(self.register(register)), i64::from(value));
+            }
+            Command::CompareRegisters { first, second } => {
+                self.compare(
+                    i64::from(self.register(first)),
+                    i64::from(self.register(second)),
+                );
+            }
+            Command::RegisterLoad { register, value } => self.write_register(register, value),
+            Command::RegisterMove {
+                destination,
+                source,
+            } => self.write_register(destination, self.register(source)),
+            Command::RegisterMath { op, first, second } => {
+                let (a, b) = (self.register(first), self.register(second));
+                let result = match op {
+                    MathOp::Add => a.wrapping_add(b),
+                    MathOp::Subtract => a.wrapping_sub(b),
+                    MathOp::Multiply => a.wrapping_mul(b),
+                    MathOp::Divide => a.checked_div(b).unwrap_or(0),
+                    MathOp::Or => a | b,
+                    MathOp::And => a & b,
+                };
+                self.write_register(Register::ACCUMULATOR, result);
+                self.condition = ConditionCode {
+                    truth: result != 0,
+                    value: i64::from(result),
+                };
+            }
+            Command::StopKill => self.stop_and_kill(),
+            Command::Stop => self.stop_motion(),
+            Command::MotorEnable => self.enabled = true,
+            Command::MotorDisable => {
+                // The motor lets go where it is; nothing runs any more.
+                self.rest_counts = self.position_counts();
+                self.motion = None;
+                self.enabled = false;
+                self.kill();
+            }
+            Command::AlarmReset => self.alarm = 0,
+            _ => {}
+        }
+    }
+
+    /// Ends a [`Wait::Spin`]: the looping program goes on.
+    fn wake(&mut self) {
+        self.wait = Wait::Nothing;
+        self.steps_at_instant = 0;
+    }
+
+    fn compare(&mut self, first: i64, second: i64) {
+        let value = first - second;
+        self.condition = ConditionCode {
+            truth: value == 0,
+            value,
+        };
+    }
+
+    fn write_register(&mut self, register: Register, value: i32) {
+        if register.is_read_only() {
+            return;
+        }
+        let index = usize::from(register.character() as u8 - b'0');
+        if let Some(slot) = self.registers.get_mut(index) {
+            *slot = value;
+        }
+    }
+
+    /// Empties the command buffer and ends the program; nothing waits.
+    pub(super) fn kill(&mut self) {
+        self.host.clear();
+        self.program = None;
+        self.wait = Wait::Nothing;
+    }
+
+    fn stop_and_kill(&mut self) {
+        self.stop_motion();
+        self.kill();
+    }
+
+    /// Slows the motion down to rest at `DE`.
+    fn stop_motion(&mut self) {
+        let decel = self.counts(self.decel_rev_s2);
+        if let Some(motion) = &self.motion
+            && motion.kind != MotionKind::Stopping
+        {
+            let (x, v) = motion.at(self.clock_s);
+            self.motion = Some(Motion {
+                start_s: self.clock_s,
+                profile: Profile::stop(x, v, decel),
+                kind: MotionKind::Stopping,
+                offset_counts: 0.0,
+            });
+            // A stop that takes no time ends the motion now.
+            self.set_clock(self.clock_s);
+        }
+    }
+
+    /// A rev/s (or rev/s²) value in counts/s (counts/s²).
+    fn counts(&self, rev: Decimal) -> f64 {
+        rev.to_f64() * f64::from(self.steps_per_rev)
+    }
+
+    /// Raises an alarm: the move is not made, the buffer and the program are killed.
+    fn fault(&mut self, bits: u16) -> bool {
+        self.alarm |= bits;
+        self.kill();
+        false
+    }
+
+    /// Starts `FL`, `FP` or `FS`; `false` (and an alarm) if the drive may not move.
+    fn start_move(&mut self, command: Command) -> bool {
+        if !self.enabled || self.alarm != 0 {
+            return self.fault(alarm::NO_MOVE);
+        }
+        let here = self.rest_counts;
+        let (speed, accel, decel) = (
+            self.counts(self.velocity_rev_s),
+            self.counts(self.accel_rev_s2),
+            self.counts(self.decel_rev_s2),
+        );
+        let distance = f64::from(self.distance_counts);
+        let (profile, kind) = match command {
+            Command::FeedToSensor { input, condition } => {
+                let direction = if self.distance_counts < 0 { -1.0 } else { 1.0 };
+                (
+                    Profile::run(here, 0.0, direction * speed, accel, decel),
+                    MotionKind::Seek {
+                        input,
+                        condition,
+                        distance_counts: distance.abs(),
+                        decel_counts_s2: decel,
+                        speed_counts_s: speed,
+                        accel_counts_s2: accel,
+                    },
+                )
+            }
+            _ => {
+                let target = if command == Command::FeedToLength {
+                    here + distance
+                } else {
+                    distance
+                };
+                if let Some((low, high)) = self.config.soft_limits_counts
+                    && (target < f64::from(low) || target > f64::from(high))
+                {
+                    return self.fault(alarm::POSITION_LIMIT);
+                }
+                (
+                    Profile::to_rest(here, 0.0, target, speed, accel, decel),
+                    MotionKind::Move,
+                )
+            }
+        };
+        self.motion = Some(Motion {
+            start_s: self.clock_s,
+            profile,
+            kind,
+            offset_counts: 0.0,
+        });
+        if let MotionKind::Seek {
+            input, condition, ..
+        } = kind
+        {
+            // A level already met is found at once.
+            if level_condition(self.input(input)) == condition {
+                self.sensor_found();
+            }
+        }
+        // A move of no length ends now.
+        self.set_clock(self.clock_s);
+        true
+    }
+
+    /// `FS` met its sensor: go on at the speed it has, then slow down at `DE` to stop
+    /// `DI` past the sensor — or, when `DI` is shorter than the distance `DE` needs to
+    /// stop from that speed, that distance.
+    fn sensor_found(&mut self) {
+        let Some(motion) = &self.motion else {
+            return;
+        };
+        let MotionKind::Seek {
+            distance_counts,
+            decel_counts_s2,
+            speed_counts_s,
+            accel_counts_s2,
+            ..
+        } = motion.kind
+        else {
+            return;
+        };
+        let (x, v) = motion.at(self.clock_s);
+        let direction = if v < 0.0 { -1.0 } else { 1.0 };
+        let stopping = v * v / (2.0 * decel_counts_s2);
+        let target = x + direction * distance_counts.max(stopping);
+        self.motion = Some(Motion {
+            start_s: self.clock_s,
+            profile: Profile::to_rest(
+                x,
+                v,
+                target,
+                speed_counts_s.max(v.abs()),
+                accel_counts_s2,
+                decel_counts_s2,
+            ),
+            kind: MotionKind::Move,
+            offset_counts: 0.0,
+        });
+        self.set_clock(self.clock_s);
+    }
+
+    /// The lines `QU` sends for `segment` (`None`: the queue).
+    #[must_use]
+    pub fn queue_upload(&self, segment: Option<Segment>) -> QueueUpload {
+        if self.program.is_some() {
+            return QueueUpload::ProgramRunning;
+        }
+        match segment {
+            None => QueueUpload::Lines(self.queue.clone()),
+            Some(segment) => self
+                .segment(segment)
+                .map_or(QueueUpload::NoSegment, |lines| {
+                    QueueUpload::Lines(lines.to_vec())
+                }),
+        }
+    }
+
+    /// A stored segment's lines, if it was written.
+    #[must_use]
+    pub fn segment(&self, segment: Segment) -> Option<&[Command]> {
+        self.segments
+            .get(usize::from(segment.get()) - 1)
+            .and_then(|s| s.as_deref())
+    }
+
+    /// The queue's lines.
+    #[must_use]
+    pub fn queue(&self) -> &[Command] {
+        &self.queue
+    }
+
+    /// Raises the Blank Q Segment alarm and kills (a call or load of nothing).
+    pub(super) fn blank_segment(&mut self) {
+        self.fault(alarm::BLANK_Q_SEGMENT);
+    }
+}
+
+/// The condition a level meets.
+fn level_condition(level: Level) -> InputCondition {
+    match level {
+        Level::High => InputCondition::High,
+        Level::Low => InputCondition::Low,
+    }
+}
+
+fn log<T>(log: &mut Vec<T>, entry: T) {
+    if log.len() >= LOG_CAPACITY {
+        log.drain(..LOG_CAPACITY / 2);
+    }
+    log.push(entry);
+}
