@@ -5,7 +5,8 @@
 use super::moves::{Trapezoid, solve_speed};
 use super::*;
 use crate::plan::player::TICK_US;
-use crate::scl::parse_script;
+use crate::scl::twin::{Drive, DriveConfig};
+use crate::scl::{Level, parse_script};
 use crate::show::demo::Wave;
 use crate::show::{Track, TrackRow};
 
@@ -425,4 +426,91 @@ fn a_bad_configuration_is_refused_by_name() {
     };
     let program = compile(&empty, &QProgramConfig::default()).unwrap();
     assert_eq!(program.report.moves, 0);
+}
+
+/// Loads `program` into a twin standing at `start_counts` (`SP`, then `QW` per
+/// segment), starts it with `QX1` and fires the start input at `start_us`.
+fn load(program: &QProgram, start_counts: i64, start_us: u64) -> Drive {
+    let mut drive = Drive::new(DriveConfig::default());
+    let mut say = |line: String| drive.receive_line(&line, 0);
+    say(format!("SP{start_counts}"));
+    for (segment, commands) in &program.segments {
+        assert_eq!(say(format!("QW{segment}")).as_deref(), Some("%\r"));
+        for command in commands {
+            assert_eq!(
+                say(command.to_string()).as_deref(),
+                Some("*\r"),
+                "{command}"
+            );
+        }
+        assert_eq!(say(String::new()).as_deref(), Some("%\r"));
+    }
+    assert_eq!(say("QX1".to_owned()).as_deref(), Some("%\r"));
+    drive.set_input(IoPoint::new(3).unwrap(), Level::Low, start_us);
+    drive
+}
+
+#[test]
+fn a_compiled_show_on_a_hundred_twins_ends_every_move_at_its_keyframe() {
+    // 30 s of the demo wave on 10 × 10 balls, the default settings (all fit).
+    let show = Wave::new(10, 10, 150, 200).show();
+    let config = lenient();
+    let start_us = 1_000_000;
+    let end_us = start_us + show.duration_ms() * 1000 + 1_000_000;
+    for (ball, track) in show.tracks.iter().enumerate() {
+        let program = compile(track, &config).unwrap();
+        let start_counts = (track.start_mm * config.counts_per_mm).round() as i64;
+        let mut drive = load(&program, start_counts, start_us);
+        drive.advance(end_us);
+        let ends = drive.move_ends();
+        assert_eq!(ends.len(), program.keyframes.len(), "ball {ball}");
+        for (end, keyframe) in ends.iter().zip(&program.keyframes) {
+            let at_us = end.at_s * 1e6 - start_us as f64;
+            let late_us = (at_us - keyframe.time_ms as f64 * 1000.0).abs();
+            assert!(
+                late_us <= TICK_US as f64,
+                "ball {ball}: {late_us} µs off {keyframe:?}"
+            );
+            let off_mm = (end.position_counts / config.counts_per_mm - keyframe.position_mm).abs();
+            assert!(off_mm <= 1.0, "ball {ball}: {off_mm} mm off {keyframe:?}");
+            // In fact: exactly its count, within the compiler's 4 ms.
+            let counts = (keyframe.position_mm * config.counts_per_mm).round();
+            assert!(
+                (end.position_counts - counts).abs() < 1e-6,
+                "ball {ball}: {end:?}"
+            );
+            assert!(
+                late_us <= KEEP_SPEED_S * 1e6 + 1.0,
+                "ball {ball}: {late_us} µs"
+            );
+        }
+        assert!(!drive.is_moving() && !drive.is_executing(), "ball {ball}");
+    }
+}
+
+#[test]
+fn reduced_resting_and_looping_programs_run_on_a_twin_as_compiled() {
+    let looping = QProgramConfig {
+        loop_show: true,
+        ..lenient()
+    };
+    let cases = [
+        (compile(&tiny(), &lenient()).unwrap(), tiny()),
+        (
+            compile_within(&wave(60, 4.0), &lenient(), 24).unwrap(),
+            wave(60, 4.0),
+        ),
+        (compile(&wave(61, 8.0), &looping).unwrap(), wave(61, 8.0)),
+    ];
+    for (program, track) in cases {
+        let start_counts = (track.start_mm * 100.0).round() as i64;
+        let mut drive = load(&program, start_counts, 0);
+        drive.advance(track.duration_ms() * 1000 + 5_000_000);
+        for (end, keyframe) in drive.move_ends().iter().zip(&program.keyframes) {
+            let late_us = (end.at_s * 1e6 - keyframe.time_ms as f64 * 1000.0).abs();
+            assert!(late_us <= TICK_US as f64, "{late_us} µs off {keyframe:?}");
+            assert!((end.position_counts / 100.0 - keyframe.position_mm).abs() < 1e-6);
+        }
+        assert!(drive.move_ends().len() >= program.keyframes.len());
+    }
 }
