@@ -221,7 +221,7 @@ fn the_start_line_waits_on_the_configured_input_or_is_left_out() {
 
 #[test]
 fn every_move_ends_at_its_keyframe_within_a_tick_and_exactly_at_its_count() {
-    for track in [tiny(), wave(60, 4.0), wave(600, 12.0)] {
+    for track in [tiny(), wave(60, 4.0), wave(120, 12.0)] {
         let config = lenient();
         let program = compile(&track, &config).unwrap();
         let ends = run(
@@ -357,13 +357,15 @@ fn more_room_never_means_a_larger_deviation() {
 
 #[test]
 fn a_program_over_the_tolerance_is_refused_with_the_figure() {
-    let track = wave(600, 3.0);
-    let report = compile(&track, &lenient()).unwrap().report;
+    // A minute of waves in 24 lines: swings are dropped.
+    let track = wave(60, 4.0);
+    let report = compile_within(&track, &lenient(), 24).unwrap().report;
+    assert!(report.max_deviation_mm > 100.0, "{report:?}");
     let strict = QProgramConfig {
         tolerance_mm: 5.0,
         ..QProgramConfig::default()
     };
-    let error = compile(&track, &strict).unwrap_err();
+    let error = compile_within(&track, &strict, 24).unwrap_err();
     assert_eq!(
         error,
         QProgramError::TooFar {
@@ -377,6 +379,12 @@ fn a_program_over_the_tolerance_is_refused_with_the_figure() {
             .to_string()
             .contains(&format!("{:.1} mm", report.max_deviation_mm))
     );
+    // At a tolerance of exactly the figure, it is accepted.
+    let loose = QProgramConfig {
+        tolerance_mm: report.max_deviation_mm,
+        ..QProgramConfig::default()
+    };
+    assert!(compile_within(&track, &loose, 24).is_ok());
 }
 
 #[test]
@@ -513,4 +521,17 @@ fn reduced_resting_and_looping_programs_run_on_a_twin_as_compiled() {
         }
         assert!(drive.move_ends().len() >= program.keyframes.len());
     }
+}
+
+#[test]
+fn a_show_of_hours_is_compiled_in_bounded_memory_and_time() {
+    // An hour and a half of waves: a coarser grid (5 ms), at most 1200 candidates of
+    // its 2700 turning points; it does not fit a drive and is reduced hard, but it is
+    // answered.
+    let track = wave(5400, 4.0);
+    let started = std::time::Instant::now();
+    let program = compile(&track, &lenient()).unwrap();
+    assert!(program.lines() <= 12 * 62);
+    assert!(program.report.max_deviation_mm > 100.0);
+    assert!(started.elapsed().as_secs() < 10, "{:?}", started.elapsed());
 }
