@@ -85,6 +85,11 @@ pub(crate) struct Limits {
     pub counts_per_mm: f64,
 }
 
+/// A move is planned to be made this much quicker than its keyframes are apart, s: the
+/// compiler's clock may be up to [`super::KEEP_SPEED_S`] late when it writes it (and
+/// half a millisecond of `WT` rounding).
+const CLOCK_SLACK_S: f64 = 0.005;
+
 /// A `VE` written with [`super::VE_DECIMALS`] decimals is at most half this from the
 /// exact speed, rev/s.
 const VE_STEP_REV_S: f64 = 1e-4;
@@ -99,9 +104,13 @@ pub(crate) fn plan_step(distance_counts: f64, duration_s: f64, limits: &Limits) 
     if distance_counts == 0.0 {
         return (duration_s >= 0.0).then_some(Step::Wait);
     }
-    // Keep 0.5 % of the time in hand: the compiler's clock may run a millisecond late
-    // by the time it writes the move.
-    let speed = solve_speed(distance_counts, duration_s * 0.995, limits.accel_counts_s2)?;
+    // Keep time in hand: the move before may have ended up to 4 ms late
+    // (`KEEP_SPEED_S`), and the move must still be made in what is left.
+    let speed = solve_speed(
+        distance_counts,
+        duration_s - CLOCK_SLACK_S,
+        limits.accel_counts_s2,
+    )?;
     if speed > limits.max_speed_counts_s {
         return None;
     }

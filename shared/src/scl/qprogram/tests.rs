@@ -502,7 +502,18 @@ fn reduced_resting_and_looping_programs_run_on_a_twin_as_compiled() {
         loop_show: true,
         ..lenient()
     };
+    // 20 mm there and back every 150 ms: close to 4000 mm/s² from rest to rest.
+    let zigzag = Track {
+        start_mm: 100.0,
+        rows: (0..40)
+            .map(|row| TrackRow::new(if row % 2 == 0 { 120.0 } else { 100.0 }, 0.0, 150))
+            .collect(),
+        colours: Vec::new(),
+    };
+    let fast = compile(&zigzag, &lenient()).unwrap();
+    assert_eq!(fast.report.moves, 40, "{:?}", fast.report);
     let cases = [
+        (fast, zigzag),
         (compile(&tiny(), &lenient()).unwrap(), tiny()),
         (
             compile_within(&wave(60, 4.0), &lenient(), 24).unwrap(),
@@ -511,6 +522,7 @@ fn reduced_resting_and_looping_programs_run_on_a_twin_as_compiled() {
         (compile(&wave(61, 8.0), &looping).unwrap(), wave(61, 8.0)),
     ];
     for (program, track) in cases {
+        assert!(program.keyframes.len() >= 2, "{:?}", program.report);
         let start_counts = (track.start_mm * 100.0).round() as i64;
         let mut drive = load(&program, start_counts, 0);
         drive.advance(track.duration_ms() * 1000 + 5_000_000);
