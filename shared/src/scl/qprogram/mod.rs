@@ -289,8 +289,8 @@ pub(crate) fn compile_within(
             })
             .collect();
     let all_limits: Vec<Limits> = levels.iter().map(|(limits, _)| *limits).collect();
-    // Room for the move back to the start of a loop.
-    let room = budget_lines.saturating_sub(if config.loop_show { 3 } else { 0 });
+    // Room for the first move's acceleration and the move back to the start of a loop.
+    let room = budget_lines.saturating_sub(if config.loop_show { 5 } else { 0 });
     let write = |path: &[Edge]| {
         Writer::new(config, &all_limits, counts.first().copied().unwrap_or(0)).write(
             path,
@@ -694,6 +694,20 @@ impl<'a> Writer<'a> {
             }
         }
         let (max_deviation_mm, at_ms) = self.deviation(samples);
+        // A loop goes back past segment 1's `AC` and `DE`: the first move's
+        // acceleration is set again before the show repeats.
+        if self.config.loop_show
+            && let Some(first) = self.first
+            && first.accel_counts_s2 != self.limits.accel_counts_s2
+        {
+            let level = self
+                .levels
+                .iter()
+                .position(|limits| limits.accel_counts_s2 == first.accel_counts_s2);
+            if let Some(level) = level {
+                self.accelerate(level);
+            }
+        }
         if self.config.loop_show && self.at_counts != start_counts {
             // Home stretch: back to the start at the speed limit, before `QG`.
             let top = self.limits.max_speed_counts_s / self.limits.steps_per_rev

@@ -536,6 +536,50 @@ fn reduced_resting_and_looping_programs_run_on_a_twin_as_compiled() {
 }
 
 #[test]
+fn a_looping_program_plays_the_show_again_with_the_same_timing() {
+    let config = QProgramConfig {
+        loop_show: true,
+        ..lenient()
+    };
+    // A quick drop, a rest, then slow swings: the first move wants a higher
+    // acceleration than the last, so the loop must set the first move's again.
+    let mut rows = vec![
+        TrackRow::new(500.0, 0.0, 800),
+        TrackRow::new(500.0, 0.0, 1000),
+    ];
+    for swing in 0..4 {
+        let to_mm = if swing % 2 == 0 { 100.0 } else { 500.0 };
+        rows.push(TrackRow::new(to_mm, 0.0, 3000));
+    }
+    let track = Track {
+        start_mm: 0.0,
+        rows,
+        colours: Vec::new(),
+    };
+    let program = compile(&track, &config).unwrap();
+    let accelerations = program
+        .segments
+        .iter()
+        .flat_map(|(_, commands)| commands)
+        .filter(|command| matches!(command, Command::Acceleration { .. }))
+        .count();
+    assert!(accelerations > 1, "{}", program.text());
+    let start_counts = (track.start_mm * 100.0).round() as i64;
+    let mut drive = load(&program, start_counts, 0);
+    let period_ms = program.keyframes.last().unwrap().time_ms;
+    drive.advance((2 * period_ms + 1000) * 1000);
+    let ends = drive.move_ends();
+    let moves = program.keyframes.len();
+    assert!(ends.len() >= 2 * moves);
+    for (end, keyframe) in ends[moves..2 * moves].iter().zip(&program.keyframes) {
+        let at_us = end.at_s * 1e6 - period_ms as f64 * 1000.0;
+        let late_us = (at_us - keyframe.time_ms as f64 * 1000.0).abs();
+        assert!(late_us <= TICK_US as f64, "{late_us} µs off {keyframe:?}");
+        assert!((end.position_counts / 100.0 - keyframe.position_mm).abs() < 1e-6);
+    }
+}
+
+#[test]
 fn a_show_of_hours_is_compiled_in_bounded_memory_and_time() {
     // An hour and a half of waves: a coarser grid (5 ms), at most 1200 candidates of
     // its 2700 turning points; it does not fit a drive and is reduced hard, but it is
