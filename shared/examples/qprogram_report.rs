@@ -56,6 +56,7 @@ fn main() {
     let mut worst = (0.0_f64, 0_usize, 0_u64);
     let (mut least_moves, mut most_moves) = (usize::MAX, 0);
     let (mut least_lines, mut most_lines) = (usize::MAX, 0);
+    let (mut least_segments, mut most_segments) = (usize::MAX, 0);
     for (ball, track) in show.tracks.iter().enumerate() {
         let started = Instant::now();
         let result = compile(track, &config);
@@ -83,12 +84,15 @@ fn main() {
                 most_moves = most_moves.max(report.moves);
                 least_lines = least_lines.min(report.lines);
                 most_lines = most_lines.max(report.lines);
+                least_segments = least_segments.min(program.segments.len());
+                most_segments = most_segments.max(program.segments.len());
             }
             Err(error) => println!("{ball:>4}  refused: {error}"),
         }
     }
     println!(
-        "all {} balls: moves {least_moves}..={most_moves}, lines {least_lines}..={most_lines}; \
+        "all {} balls: moves {least_moves}..={most_moves}, lines {least_lines}..={most_lines}, \
+         segments {least_segments}..={most_segments}; \
          largest deviation {:.1} mm (ball {}, at {} ms); compile {:.0} ms in all, \
          {:.1} ms a ball on average, {slowest_ms:.1} ms the slowest",
         show.tracks.len(),

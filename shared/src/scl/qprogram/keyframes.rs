@@ -6,8 +6,17 @@
 
 use crate::show::Track;
 
-/// The time grid the show is sampled on, and the deviation measured, ms.
+/// The time grid the show is sampled on, and the deviation measured, ms (coarser for
+/// a show so long that it would take more than [`MAX_SAMPLES`]).
 pub(crate) const GRID_MS: u64 = 1;
+
+/// The most samples of a show (20 MB): a show longer than 20 minutes is sampled every
+/// 2 ms or more.
+const MAX_SAMPLES: u64 = 1_200_000;
+
+/// The most candidate keyframes: a drive holds at most 335 moves, and the choice costs
+/// memory and time as their square. Beyond, every k-th is kept.
+const MAX_CANDIDATES: usize = 1200;
 
 /// Along a long stretch without a turning point, a candidate keyframe at least this
 /// often, ms.
@@ -28,7 +37,8 @@ pub(crate) struct Samples {
 /// Samples `track` on the grid.
 pub(crate) fn sample(track: &Track) -> Samples {
     let duration_ms = track.duration_ms();
-    let count = usize::try_from(duration_ms / GRID_MS).unwrap_or(usize::MAX / 2) + 2;
+    let grid_ms = GRID_MS.max(duration_ms.div_ceil(MAX_SAMPLES));
+    let count = usize::try_from(duration_ms / grid_ms).unwrap_or(0) + 2;
     let mut times_ms = Vec::with_capacity(count);
     let mut positions_mm = Vec::with_capacity(count);
     let mut rows = track.segments().peekable();
@@ -62,7 +72,7 @@ pub(crate) fn sample(track: &Track) -> Samples {
         if t_ms >= duration_ms {
             break;
         }
-        t_ms = (t_ms + GRID_MS).min(duration_ms);
+        t_ms = (t_ms + grid_ms).min(duration_ms);
     }
     Samples {
         times_ms,
@@ -85,20 +95,33 @@ fn direction(positions_mm: &[f64], k: usize) -> i8 {
 /// The indices (into `samples`) of the candidate keyframes, in order: the first and
 /// the last sample, every sample where the direction of travel changes (a turning
 /// point, or a rest that starts or ends), and along the way one at least every
-/// [`SAMPLE_EVERY_MS`].
+/// [`SAMPLE_EVERY_MS`]. Beyond [`MAX_CANDIDATES`], the ones along the way go first,
+/// then every k-th of the others is kept.
 pub(crate) fn candidates(samples: &Samples) -> Vec<usize> {
     let positions = &samples.positions_mm;
     let last = positions.len().saturating_sub(1);
-    let mut chosen = vec![0];
+    // (sample, whether it turns)
+    let mut chosen = vec![(0, true)];
+    let mut since = 0;
     for k in 1..last {
         let turns = direction(positions, k - 1) != direction(positions, k);
-        let since_ms = samples.times_ms[k] - samples.times_ms[chosen[chosen.len() - 1]];
-        if turns || since_ms >= SAMPLE_EVERY_MS {
-            chosen.push(k);
+        if turns || samples.times_ms[k] - samples.times_ms[since] >= SAMPLE_EVERY_MS {
+            chosen.push((k, turns));
+            since = k;
         }
     }
     if last > 0 {
-        chosen.push(last);
+        chosen.push((last, true));
     }
+    if chosen.len() > MAX_CANDIDATES {
+        chosen.retain(|&(_, turns)| turns);
+    }
+    let every = chosen.len().div_ceil(MAX_CANDIDATES);
+    let end = chosen.len().saturating_sub(1);
     chosen
+        .iter()
+        .enumerate()
+        .filter(|&(index, _)| every <= 1 || index % every == 0 || index == end)
+        .map(|(_, &(k, _))| k)
+        .collect()
 }

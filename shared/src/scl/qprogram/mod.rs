@@ -9,10 +9,11 @@
 //!
 //! What a program is:
 //! - every move is an absolute `FP` (`DI` = mm × `counts_per_mm`) **from rest to
-//!   rest**, a trapezoid at one acceleration (`AC` = `DE`, written once in the setup,
-//!   rev/s² with 3 decimals) whose cruise speed (`VE`, rev/s, 4 decimals) is solved so
-//!   the move ends at its keyframe's time; where the ball rests, `WT` (s, 3 decimals:
-//!   whole milliseconds);
+//!   rest**, a trapezoid (`AC` = `DE`, rev/s² with 3 decimals, from a ladder: the limit,
+//!   the limit / √2, / 2, … and the one that suits the show's typical move; set in
+//!   segment 1 for the first move, written again only when it changes) whose cruise
+//!   speed (`VE`, rev/s, 4 decimals) is solved so the move ends at its keyframe's time;
+//!   where the ball rests, `WT` (s, 3 decimals: whole milliseconds);
 //! - the compiler keeps the drive's clock: it times every move from the rounded values
 //!   it writes, as the drive computes the trapezoid, and gives the next move what is
 //!   left to its keyframe, so rounding never accumulates: every move ends within
@@ -32,7 +33,12 @@
 //! - when the show's moves do not fit, fewer, longer moves are chosen so that the
 //!   largest |show − program| is smallest ([`mod@reduce`]); the [`Reduction`] says how
 //!   far and where, reduced or not, and a program deviating more than
-//!   `tolerance_mm` is refused ([`QProgramError::TooFar`]).
+//!   `tolerance_mm` is refused ([`QProgramError::TooFar`]). Three choices are made and
+//!   the closest to the show that fits is kept: one acceleration for all moves with
+//!   every `VE` counted (it surely fits); each move at the acceleration that suits it,
+//!   counting moves that keep the speed and acceleration before them (`DI`, `FP`); one
+//!   acceleration, counted so. The hopeful ones are written out and kept only if they
+//!   fit (asked again with less room, up to 8 times, when they do not).
 
 mod keyframes;
 mod moves;
@@ -97,10 +103,7 @@ impl Default for QProgramConfig {
         Self {
             counts_per_mm: 100.0,
             steps_per_rev: 20_000,
-            start: match IoPoint::new(3) {
-                Some(input) => Some((input, InputCondition::Falling)),
-                None => None,
-            },
+            start: IoPoint::new(3).map(|input| (input, InputCondition::Falling)),
             loop_show: false,
             tolerance_mm: 10.0,
             max_speed_mm_s: 2000.0,
@@ -120,7 +123,8 @@ pub struct Keyframe {
 }
 
 /// What the compiler did to the show: how many rows it had, how many moves and lines
-/// the program keeps, and the largest |show − program| and when (sampled every 1 ms).
+/// the program keeps, and the largest |show − program| and when (sampled every 1 ms;
+/// a show longer than 20 minutes more coarsely, at most 1.2 million samples).
 /// Given whether or not the show was reduced: unreduced, it is what moving from rest to
 /// rest costs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -265,30 +269,42 @@ pub(crate) fn compile_within(
     let levels: Vec<(Limits, Vec<Vec<Edge>>)> =
         accelerations(&samples, &candidates, &counts, config)
             .into_iter()
-            .map(|accel_rev_s2| {
+            .enumerate()
+            .map(|(level, accel_rev_s2)| {
                 let limits = Limits {
                     accel_counts_s2: accel_rev_s2.to_f64() * steps_per_rev,
                     max_speed_counts_s,
                     steps_per_rev,
                     counts_per_mm: config.counts_per_mm,
                 };
-                let incoming =
-                    reduce::edges(&samples, &candidates, &counts, &limits, window, COST_STRIDE);
+                let incoming = reduce::edges(
+                    &samples,
+                    &candidates,
+                    &counts,
+                    &limits,
+                    (level, window),
+                    COST_STRIDE,
+                );
                 (limits, incoming)
             })
             .collect();
-    // Room for the move back to the start of a loop.
-    let room = budget_lines.saturating_sub(if config.loop_show { 3 } else { 0 });
-    let write = |level: usize, path: &[Edge]| {
-        Writer::new(
-            config,
-            levels[level].0,
-            counts.first().copied().unwrap_or(0),
+    let all_limits: Vec<Limits> = levels.iter().map(|(limits, _)| *limits).collect();
+    // Room for the first move's acceleration and the move back to the start of a loop.
+    let room = budget_lines.saturating_sub(if config.loop_show { 5 } else { 0 });
+    let write = |path: &[Edge]| {
+        Writer::new(config, &all_limits, counts.first().copied().unwrap_or(0)).write(
+            path,
+            &samples,
+            &candidates,
+            &counts,
+            track,
+            budget_lines,
         )
-        .write(path, &samples, &candidates, &counts, track, budget_lines)
     };
-    // First with every move's lines counted in full: a program that surely fits.
-    let Some((level, threshold_mm)) = best_level(&levels, room, Count::Surely) else {
+    let one_each: Vec<&[Vec<Edge>]> = levels.iter().map(|(_, incoming)| &incoming[..]).collect();
+    // First one acceleration for every move, every move's lines counted in full: a
+    // program that surely fits.
+    let Some((set, threshold_mm)) = best_set(&one_each, room, Count::Surely) else {
         let at = levels
             .first()
             .and_then(|(_, incoming)| reduce::unreachable(incoming))
@@ -304,7 +320,7 @@ pub(crate) fn compile_within(
         limit: room,
     };
     let path = reduce::refine(
-        &levels[level].1,
+        one_each[set],
         &samples,
         &candidates,
         threshold_mm,
@@ -312,38 +328,48 @@ pub(crate) fn compile_within(
         Count::Surely,
     )
     .ok_or(too_many)?;
-    let mut program = write(level, &path)?;
-    // Then hoping that moves keep the speed of the one before (a `VE` saved a move):
-    // taken if it fits after all and comes closer to the show.
-    let mut hope = room;
-    for _ in 0..4 {
-        let Some((level, hoped_mm)) = best_level(&levels, hope, Count::Hopefully) else {
-            break;
-        };
-        if hoped_mm >= threshold_mm {
-            break;
-        }
-        let Some(path) = reduce::refine(
-            &levels[level].1,
-            &samples,
-            &candidates,
-            hoped_mm,
-            hope,
-            Count::Hopefully,
-        ) else {
-            break;
-        };
-        match write(level, &path) {
-            Ok(hoped) => {
-                if hoped.report.max_deviation_mm < program.report.max_deviation_mm {
-                    program = hoped;
-                }
+    let mut program = write(&path)?;
+    // Then hoping that moves keep the speed (and the acceleration) of the one before,
+    // a `VE` (`AC`, `DE`) saved a move: first each move at the acceleration that suits
+    // it, then one for all. Taken if it fits after all and comes closer to the show.
+    let mixed: Vec<Vec<Edge>> = (0..candidates.len())
+        .map(|to| {
+            levels
+                .iter()
+                .flat_map(|(_, incoming)| incoming[to].iter().copied())
+                .collect()
+        })
+        .collect();
+    for sets in [vec![&mixed[..]], one_each] {
+        let mut hope = room;
+        for _ in 0..8 {
+            let Some((set, hoped_mm)) = best_set(&sets, hope, Count::Hopefully) else {
                 break;
+            };
+            let Some(mut path) = reduce::refine(
+                sets[set],
+                &samples,
+                &candidates,
+                hoped_mm,
+                hope,
+                Count::Hopefully,
+            ) else {
+                break;
+            };
+            keep_accelerations(&mut path, &levels, hoped_mm);
+            match write(&path) {
+                Ok(hoped) => {
+                    if hoped.report.max_deviation_mm < program.report.max_deviation_mm {
+                        program = hoped;
+                    }
+                    break;
+                }
+                Err(QProgramError::TooManyLines { lines, .. }) => {
+                    // Ask for what was over, and 3 % more.
+                    hope = (hope * room * 97 / 100 / lines.max(1)).min(hope.saturating_sub(1));
+                }
+                Err(_) => break,
             }
-            Err(QProgramError::TooManyLines { lines, .. }) => {
-                hope = (hope * room / lines.max(1)).min(hope.saturating_sub(1));
-            }
-            Err(_) => break,
         }
     }
     if program.report.max_deviation_mm > config.tolerance_mm {
@@ -356,19 +382,38 @@ pub(crate) fn compile_within(
     Ok(program)
 }
 
-/// The acceleration (index into `levels`) whose path within `budget_lines` deviates
-/// least, and that deviation (the first of equals: the highest acceleration).
-fn best_level(
-    levels: &[(Limits, Vec<Vec<Edge>>)],
-    budget_lines: usize,
-    count: Count,
-) -> Option<(usize, f64)> {
-    let mut best: Option<(usize, f64)> = None;
-    for (index, (_, incoming)) in levels.iter().enumerate() {
-        if let Some(deviation_mm) = reduce::bottleneck(incoming, budget_lines, count) {
-            if best.is_none_or(|(_, least)| deviation_mm < least) {
-                best = Some((index, deviation_mm));
+/// Moves `path`'s edges to the acceleration of the move before them where that keeps
+/// them within `threshold_mm` (an `AC` and a `DE` saved each time).
+fn keep_accelerations(path: &mut [Edge], levels: &[(Limits, Vec<Vec<Edge>>)], threshold_mm: f64) {
+    let mut level: Option<usize> = None;
+    for edge in path.iter_mut() {
+        if !matches!(edge.step, Step::Move { .. }) {
+            continue;
+        }
+        if let Some(before) = level.filter(|&before| before != edge.level) {
+            let same = levels.get(before).and_then(|(_, incoming)| {
+                incoming
+                    .get(edge.to)?
+                    .iter()
+                    .find(|other| other.from == edge.from && other.cost_mm <= threshold_mm)
+            });
+            if let Some(same) = same {
+                *edge = *same;
             }
+        }
+        level = Some(edge.level);
+    }
+}
+
+/// The set of edges (index into `sets`) whose path within `budget_lines` deviates
+/// least, and that deviation (the first of equals: the highest acceleration).
+fn best_set(sets: &[&[Vec<Edge>]], budget_lines: usize, count: Count) -> Option<(usize, f64)> {
+    let mut best: Option<(usize, f64)> = None;
+    for (index, incoming) in sets.iter().enumerate() {
+        if let Some(deviation_mm) = reduce::bottleneck(incoming, budget_lines, count)
+            && best.is_none_or(|(_, least)| deviation_mm < least)
+        {
+            best = Some((index, deviation_mm));
         }
     }
     best
@@ -390,7 +435,7 @@ fn check(config: &QProgramConfig) -> Result<(), QProgramError> {
     if !positive(config.max_accel_mm_s2) {
         return refuse("max_accel_mm_s2", "a number above 0");
     }
-    if !(config.tolerance_mm >= 0.0) {
+    if config.tolerance_mm.is_nan() || config.tolerance_mm < 0.0 {
         return refuse("tolerance_mm", "a number, 0 or more");
     }
     Ok(())
@@ -461,7 +506,12 @@ struct Timed {
 #[derive(Debug)]
 struct Writer<'a> {
     config: &'a QProgramConfig,
+    /// The accelerations an edge's `level` names.
+    levels: &'a [Limits],
+    /// The acceleration of the move being written.
     limits: Limits,
+    /// The acceleration of the first move: the one segment 1 sets.
+    first: Option<Limits>,
     /// The drive's clock: when the last command written ends, s.
     now_s: f64,
     /// Where the drive stands, counts.
@@ -474,10 +524,18 @@ struct Writer<'a> {
 }
 
 impl<'a> Writer<'a> {
-    fn new(config: &'a QProgramConfig, limits: Limits, start_counts: i64) -> Self {
+    fn new(config: &'a QProgramConfig, levels: &'a [Limits], start_counts: i64) -> Self {
+        let limits = levels.first().copied().unwrap_or(Limits {
+            accel_counts_s2: config.max_accel_mm_s2 * config.counts_per_mm,
+            max_speed_counts_s: config.max_speed_mm_s * config.counts_per_mm,
+            steps_per_rev: f64::from(config.steps_per_rev),
+            counts_per_mm: config.counts_per_mm,
+        });
         Self {
             config,
+            levels,
             limits,
+            first: None,
             now_s: 0.0,
             at_counts: start_counts,
             speed: None,
@@ -487,14 +545,35 @@ impl<'a> Writer<'a> {
         }
     }
 
+    /// The acceleration of `level` for the next move: set by segment 1 for the first
+    /// move, by `AC` and `DE` when it changes.
+    fn accelerate(&mut self, level: usize) {
+        let Some(&limits) = self.levels.get(level) else {
+            return;
+        };
+        if self.first.is_none() {
+            self.first = Some(limits);
+        } else if limits.accel_counts_s2 != self.limits.accel_counts_s2
+            && let Some(rev_s2) = accel_decimal(&limits)
+        {
+            self.lines.push(Command::Acceleration {
+                rev_s2: Some(rev_s2),
+            });
+            self.lines.push(Command::Deceleration {
+                rev_s2: Some(rev_s2),
+            });
+        }
+        self.limits = limits;
+    }
+
     /// `WT` for `seconds` rounded to the millisecond, if that is any time.
     fn wait(&mut self, seconds: f64) {
         let ms = (seconds * 1000.0).round();
-        if ms >= 1.0 {
-            if let Some(s) = Decimal::new(ms as i64, WT_DECIMALS) {
-                self.lines.push(Command::WaitTime { s });
-                self.now_s += ms / 1000.0;
-            }
+        if ms >= 1.0
+            && let Some(s) = Decimal::new(ms as i64, WT_DECIMALS)
+        {
+            self.lines.push(Command::WaitTime { s });
+            self.now_s += ms / 1000.0;
         }
     }
 
@@ -607,6 +686,7 @@ impl<'a> Writer<'a> {
             match edge.step {
                 Step::Wait => self.wait(target_ms as f64 / 1000.0 - self.now_s),
                 Step::Move { then_wait, .. } => {
+                    self.accelerate(edge.level);
                     let from_ms = samples.times_ms[candidates[edge.from]];
                     let ideal_s = (target_ms - from_ms) as f64 / 1000.0;
                     self.feed_by(counts[edge.to], target_ms, ideal_s, then_wait)?;
@@ -614,6 +694,20 @@ impl<'a> Writer<'a> {
             }
         }
         let (max_deviation_mm, at_ms) = self.deviation(samples);
+        // A loop goes back past segment 1's `AC` and `DE`: the first move's
+        // acceleration is set again before the show repeats.
+        if self.config.loop_show
+            && let Some(first) = self.first
+            && first.accel_counts_s2 != self.limits.accel_counts_s2
+        {
+            let level = self
+                .levels
+                .iter()
+                .position(|limits| limits.accel_counts_s2 == first.accel_counts_s2);
+            if let Some(level) = level {
+                self.accelerate(level);
+            }
+        }
         if self.config.loop_show && self.at_counts != start_counts {
             // Home stretch: back to the start at the speed limit, before `QG`.
             let top = self.limits.max_speed_counts_s / self.limits.steps_per_rev
@@ -692,9 +786,7 @@ impl<'a> Writer<'a> {
             setup.push(Command::WaitForInput { input, condition });
         }
         setup.push(Command::Multitasking { on: Some(false) });
-        let per_rev = self.limits.accel_counts_s2 / self.limits.steps_per_rev;
-        let mantissa = (per_rev * 10_f64.powi(i32::from(AC_DECIMALS))).round() as i64;
-        if let Some(rev_s2) = Decimal::new(mantissa, AC_DECIMALS) {
+        if let Some(rev_s2) = accel_decimal(&self.first.unwrap_or(self.limits)) {
             setup.push(Command::Acceleration {
                 rev_s2: Some(rev_s2),
             });
@@ -750,6 +842,15 @@ impl<'a> Writer<'a> {
         all.extend(segments);
         Ok(all)
     }
+}
+
+/// `AC` (and `DE`) for an acceleration, rev/s².
+fn accel_decimal(limits: &Limits) -> Option<Decimal> {
+    let per_rev = limits.accel_counts_s2 / limits.steps_per_rev;
+    Decimal::new(
+        (per_rev * 10_f64.powi(i32::from(AC_DECIMALS))).round() as i64,
+        AC_DECIMALS,
+    )
 }
 
 /// Segment 1 alone.

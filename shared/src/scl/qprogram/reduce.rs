@@ -38,8 +38,9 @@ pub(crate) enum Step {
 pub(crate) enum Count {
     /// Every move writes its `VE`: what the writer writes at most.
     Surely,
-    /// No move writes `VE`: what the writer writes when every move can keep the speed
-    /// of the one before (a periodic show); the writer's count must be checked.
+    /// No move writes `VE` (nor `AC`, `DE`): what the writer writes when every move can
+    /// keep the speed and acceleration of the one before (a periodic show); the
+    /// writer's count must be checked.
     Hopefully,
 }
 
@@ -65,6 +66,8 @@ pub(crate) struct Edge {
     pub to: usize,
     /// What the drive does.
     pub step: Step,
+    /// The acceleration it moves at (an index into the accelerations tried).
+    pub level: usize,
     /// The largest |show − program| along it, mm.
     pub cost_mm: f64,
 }
@@ -82,6 +85,11 @@ pub(crate) struct Limits {
     pub counts_per_mm: f64,
 }
 
+/// A move is planned to be made this much quicker than its keyframes are apart, s: the
+/// compiler's clock may be up to [`super::KEEP_SPEED_S`] late when it writes it (and
+/// half a millisecond of `WT` rounding).
+const CLOCK_SLACK_S: f64 = 0.005;
+
 /// A `VE` written with [`super::VE_DECIMALS`] decimals is at most half this from the
 /// exact speed, rev/s.
 const VE_STEP_REV_S: f64 = 1e-4;
@@ -96,9 +104,13 @@ pub(crate) fn plan_step(distance_counts: f64, duration_s: f64, limits: &Limits) 
     if distance_counts == 0.0 {
         return (duration_s >= 0.0).then_some(Step::Wait);
     }
-    // Keep 0.5 % of the time in hand: the compiler's clock may run a millisecond late
-    // by the time it writes the move.
-    let speed = solve_speed(distance_counts, duration_s * 0.995, limits.accel_counts_s2)?;
+    // Keep time in hand: the move before may have ended up to 4 ms late
+    // (`KEEP_SPEED_S`), and the move must still be made in what is left.
+    let speed = solve_speed(
+        distance_counts,
+        duration_s - CLOCK_SLACK_S,
+        limits.accel_counts_s2,
+    )?;
     if speed > limits.max_speed_counts_s {
         return None;
     }
@@ -111,15 +123,15 @@ pub(crate) fn plan_step(distance_counts: f64, duration_s: f64, limits: &Limits) 
     })
 }
 
-/// Every edge at most `window` candidates long, grouped by the candidate they end at
-/// (`result[to]`). `counts[i]` is candidate `i`'s position in counts; edges are costed
+/// Every edge at most `window` candidates long at the acceleration of `level`, grouped
+/// by the candidate they end at (`result[to]`). `counts[i]` is candidate `i`'s position in counts; edges are costed
 /// on every `stride`-th grid sample (and the edge's last one).
 pub(crate) fn edges(
     samples: &Samples,
     candidates: &[usize],
     counts: &[i64],
     limits: &Limits,
-    window: usize,
+    (level, window): (usize, usize),
     stride: usize,
 ) -> Vec<Vec<Edge>> {
     let mut incoming = vec![Vec::new(); candidates.len()];
@@ -143,6 +155,7 @@ pub(crate) fn edges(
                 from,
                 to,
                 step,
+                level,
                 cost_mm,
             });
         }
@@ -266,8 +279,8 @@ pub(crate) fn refine(
     // via[node * width + lines]: which of `incoming[node]` ends that path.
     let mut via = vec![u32::MAX; nodes * width];
     best[0] = 0.0;
-    for to in 1..nodes {
-        for (index, edge) in incoming[to].iter().enumerate() {
+    for (to, edges) in incoming.iter().enumerate().skip(1) {
+        for (index, edge) in edges.iter().enumerate() {
             if edge.cost_mm > threshold_mm {
                 continue;
             }
