@@ -35,7 +35,7 @@ fn show() -> Vec<u8> {
 fn config(gateway: &str, scl: &str) -> String {
     format!(
         "[matrix]\nrows = 1\ncols = 3\n[safety]\napproach_speed_mm_s = 1000.0\n\
-         [scl]\npoll_ms = 50\ntolerance_mm = 20.0\n{scl}\n[[gateway]]\nkind = \"scl\"\n{gateway}\n"
+         [scl]\npoll_ms = 50\ntolerance_mm = 20.0\nhost_port = 0\n{scl}\n[[gateway]]\nkind = \"scl\"\n{gateway}\n"
     )
 }
 

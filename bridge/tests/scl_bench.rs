@@ -25,7 +25,7 @@ const DRIVES: &str = "12345678";
 
 fn config(gateway: &str) -> String {
     format!(
-        "[matrix]\nrows = 1\ncols = {}\n[scl]\npoll_ms = 20\n[[gateway]]\nkind = \"scl\"\n{gateway}\n",
+        "[matrix]\nrows = 1\ncols = {}\n[scl]\npoll_ms = 20\nhost_port = 0\n[[gateway]]\nkind = \"scl\"\n{gateway}\n",
         DRIVES.len()
     )
 }

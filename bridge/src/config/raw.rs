@@ -96,4 +96,5 @@ pub(super) struct RawScl {
     pub(super) steps_per_rev: Option<Spanned<u32>>,
     pub(super) tolerance_mm: Option<Spanned<f64>>,
     pub(super) poll_ms: Option<Spanned<u32>>,
+    pub(super) host_port: Option<Spanned<u16>>,
 }

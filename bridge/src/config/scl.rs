@@ -25,6 +25,11 @@ pub const DEFAULT_STEPS_PER_REV: u32 = 20_000;
 /// configured, mm.
 pub const DEFAULT_TOLERANCE_MM: f64 = 10.0;
 
+/// The host's UDP port for eSCL unless configured: the drives' own port. An eSCL drive
+/// answers only the address and port of the first host that spoke to it until it is
+/// powered down, so the bridge sends from the same port every time it starts.
+pub const DEFAULT_SCL_HOST_PORT: u16 = escl::UDP_PORT;
+
 /// The start input unless configured (`WI3F`).
 pub const DEFAULT_START_INPUT: u8 = 3;
 
@@ -50,6 +55,9 @@ pub struct SclConfig {
     /// How often each drive is asked for `IP`, `SC` and `AL` while nothing else is
     /// waiting (less often while programs are uploaded).
     pub poll: Duration,
+    /// The host's UDP port for the first eSCL gateway entry (the n-th entry's is this
+    /// + n); `0`: any free port (tests).
+    pub host_port: u16,
 }
 
 /// Where Start finds the drives' Q programs.
@@ -411,7 +419,12 @@ impl Checker<'_> {
                 format!("poll_ms = {poll_ms} must be from 20 to 10000"),
             ));
         }
+        let host_port = raw
+            .host_port
+            .as_ref()
+            .map_or(DEFAULT_SCL_HOST_PORT, |port| *port.get_ref());
         Ok(SclConfig {
+            host_port,
             gateways,
             start: trigger.map(|_| (input, condition)),
             trigger,

@@ -515,6 +515,7 @@ fn scl_gateways_and_their_settings() {
     assert_eq!(scl.steps_per_rev, DEFAULT_STEPS_PER_REV);
     assert_eq!(scl.tolerance_mm, DEFAULT_TOLERANCE_MM);
     assert_eq!(scl.poll, Duration::from_millis(100));
+    assert_eq!(scl.host_port, DEFAULT_SCL_HOST_PORT);
     let installation = &config.installation;
     assert!(
         installation

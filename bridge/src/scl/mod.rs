@@ -273,6 +273,7 @@ impl SclLink {
     fn open(
         index: usize,
         gateway: &SclGateway,
+        host_port: u16,
         poll: Duration,
         latch: Arc<Latch>,
         replies: broadcast::Sender<SclReply>,
@@ -306,7 +307,7 @@ impl SclLink {
                     .map(|&socket| drive(socket.to_string(), None))
                     .collect(),
                 0,
-                udp::opener(sockets.clone()),
+                udp::opener(sockets.clone(), host_port),
             ),
         };
         Self::start(
@@ -1071,9 +1072,15 @@ impl SclNet {
             .iter()
             .enumerate()
             .map(|(index, gateway)| {
+                // Each eSCL entry sends from its own port, the same at every start.
+                let host_port = match config.host_port {
+                    0 => 0,
+                    port => port.saturating_add(u16::try_from(index).unwrap_or(u16::MAX)),
+                };
                 SclLink::open(
                     index,
                     gateway,
+                    host_port,
                     config.poll,
                     Arc::clone(latch),
                     replies.clone(),

@@ -30,6 +30,7 @@ fn line(latch: &Arc<Latch>) -> (SclNet, TTYPort) {
         tolerance_mm: 10.0,
         // Long: the polls stay out of the way.
         poll: Duration::from_secs(10),
+        host_port: 0,
     };
     let net = SclNet::open(&config, latch).expect("open");
     // The slave is the link's now; the first poll round goes out at once.

@@ -52,16 +52,18 @@ impl Transport for EsclSocket {
     }
 }
 
-/// Binds a socket on any free port for the drives at `drives`, with a receiver.
-pub(super) fn opener(drives: Vec<SocketAddr>) -> Opener {
+/// Binds a socket on `host_port` (0: any free port) for the drives at `drives`, with
+/// a receiver. An eSCL drive answers only the first host address and port that spoke
+/// to it until it is powered down: a fixed port keeps it answering after a restart.
+pub(super) fn opener(drives: Vec<SocketAddr>, host_port: u16) -> Opener {
     Box::new(move |connection, events: Sender<Event>| {
         let any: SocketAddr = if drives.first().is_some_and(SocketAddr::is_ipv6) {
-            (std::net::Ipv6Addr::UNSPECIFIED, 0).into()
+            (std::net::Ipv6Addr::UNSPECIFIED, host_port).into()
         } else {
-            (std::net::Ipv4Addr::UNSPECIFIED, 0).into()
+            (std::net::Ipv4Addr::UNSPECIFIED, host_port).into()
         };
-        let socket =
-            UdpSocket::bind(any).map_err(|err| format!("cannot bind a UDP socket: {err}"))?;
+        let socket = UdpSocket::bind(any)
+            .map_err(|err| format!("cannot bind the eSCL host port UDP {host_port}: {err}"))?;
         let receiving = socket
             .try_clone()
             .map_err(|err| format!("cannot share the eSCL socket: {err}"))?;
