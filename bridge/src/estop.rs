@@ -7,6 +7,9 @@
 //! slow client does can hold it up. Each writer notices the new generation before its
 //! next instruction, drops everything queued, and writes its gateway's stop first.
 //!
+//! Stops sent as datagrams (MBOX boxes, eSCL drives) are repeated [`REPEATS`] times
+//! [`REPEAT_INTERVAL`] apart ([`Repeats`], owned by each sender).
+//!
 //! MBOX boxes are not on a link: [`crate::playback::Playback::estop`] wakes their
 //! sender ([`crate::mbox::MboxNet::wake`]) right after pressing, in the same way — no
 //! lock, no await — and the sender writes the boxes' e-stop register before any frame.
@@ -20,8 +23,63 @@
 //! generation and is void.
 
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
 
 use crate::link::Link;
+
+/// How many times a stop (or its release) sent as a datagram is sent again after the
+/// first: UDP may lose one (MBOX boxes, eSCL drives).
+pub const REPEATS: u32 = 3;
+/// The time between two repeats of a stop sent as a datagram.
+pub const REPEAT_INTERVAL: Duration = Duration::from_millis(10);
+
+/// The repeats of a stop sent as datagrams: what is repeated (`T`: MBOX's register
+/// value; `()` for eSCL's `SK`), how often still, and when next. Owned by the sender
+/// that writes the stop.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Repeats<T = ()> {
+    pending: Option<(T, u32, Instant)>,
+}
+
+impl<T: Copy> Repeats<T> {
+    /// `value` was just sent at `now`: send it [`REPEATS`] times more,
+    /// [`REPEAT_INTERVAL`] apart (replacing any repeats still pending).
+    pub fn start_with(&mut self, value: T, now: Instant) {
+        self.pending = Some((value, REPEATS, now + REPEAT_INTERVAL));
+    }
+
+    /// The value to send again now, if a repeat is due at `now`.
+    pub fn due_value(&mut self, now: Instant) -> Option<T> {
+        let (value, left, at) = self.pending?;
+        if now < at {
+            return None;
+        }
+        self.pending = (left > 1).then_some((value, left - 1, now + REPEAT_INTERVAL));
+        Some(value)
+    }
+
+    /// When the next repeat is due, if one is.
+    pub fn next(&self) -> Option<Instant> {
+        self.pending.map(|(_, _, at)| at)
+    }
+
+    /// The value being repeated, if any.
+    pub fn value(&self) -> Option<T> {
+        self.pending.map(|(value, _, _)| value)
+    }
+}
+
+impl Repeats<()> {
+    /// The stop was just sent at `now`: repeat it.
+    pub fn start(&mut self, now: Instant) {
+        self.start_with((), now);
+    }
+
+    /// Whether a repeat is due at `now` (and counts it as sent).
+    pub fn due(&mut self, now: Instant) -> bool {
+        self.due_value(now).is_some()
+    }
+}
 
 /// The e-stop generation and the last generation released by a Start, Reset or Home.
 #[derive(Debug, Default)]
@@ -91,6 +149,25 @@ pub fn press(latch: &Latch, links: &[Link]) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_stop_is_repeated_three_times_ten_ms_apart() {
+        let start = Instant::now();
+        let mut repeats = Repeats::<u16>::default();
+        assert_eq!(repeats.next(), None);
+        repeats.start_with(1, start);
+        assert_eq!(repeats.due_value(start), None, "not before its interval");
+        let mut now = start;
+        let mut sent = 0;
+        while let Some(at) = repeats.next() {
+            now = at;
+            assert_eq!(repeats.due_value(now), Some(1));
+            sent += 1;
+        }
+        assert_eq!(sent, REPEATS);
+        assert_eq!(now - start, REPEAT_INTERVAL * REPEATS);
+        assert_eq!(repeats.value(), None);
+    }
 
     #[test]
     fn a_release_only_holds_for_the_current_generation() {

@@ -32,6 +32,9 @@
 //!   their e-stop lane.
 //! - [`mbox`]: the MBOX boxes of an installation on one UDP socket, with their e-stop
 //!   (the sender is woken by the e-stop like a link's writer).
+//! - [`scl`]: the links to MOONS' drives in SCL (an RS-485 line or eSCL on UDP), one
+//!   owner thread each, with their e-stop (`SK` to every drive), status polls, console
+//!   and Q program upload.
 //! - [`estop`]: the e-stop latch and the one path that presses it.
 //! - [`gateways`]: every link together: console lines and feedback for the clients.
 //! - [`simulate`]: `floatball simulate`, the simulated gateway on a real serial device,
@@ -64,6 +67,7 @@ pub mod mbox;
 pub mod origin;
 pub mod playback;
 pub mod playlist;
+pub mod scl;
 pub mod server;
 pub mod simulate;
 pub mod state;

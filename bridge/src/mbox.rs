@@ -63,10 +63,11 @@ pub const FRAME_LEAD: Duration = Duration::from_millis(5);
 pub const POLL_BATCH: usize = 50;
 /// How long a box may leave polls unanswered before it is `down`.
 pub const DOWN_AFTER: Duration = Duration::from_millis(1_600);
-/// How many times the e-stop (and its release) is sent again after the first.
-pub const ESTOP_REPEATS: u32 = 3;
+/// How many times the e-stop (and its release) is sent again after the first (the
+/// repeats every datagram stop has, [`crate::estop::REPEATS`]).
+pub const ESTOP_REPEATS: u32 = crate::estop::REPEATS;
 /// The time between two repeats of the e-stop or its release.
-pub const ESTOP_REPEAT_INTERVAL: Duration = Duration::from_millis(10);
+pub const ESTOP_REPEAT_INTERVAL: Duration = crate::estop::REPEAT_INTERVAL;
 
 /// One box's counters and last answer: written by the sender and the receiver,
 /// read by anyone.
@@ -441,6 +442,7 @@ impl MboxNet {
                     packets_per_s: Some(f64::from_bits(one.packets_per_s.load(Ordering::Acquire))),
                     late_frames: Some(one.late_frames.load(Ordering::Acquire)),
                     missed_replies: Some(one.missed_replies.load(Ordering::Acquire)),
+                    drives: Vec::new(),
                 }
             })
             .collect()
@@ -470,9 +472,8 @@ struct Outbox<'a> {
     shared: &'a Shared,
     socket: UdpSocket,
     seen_generation: u64,
-    /// The register value being repeated (1 e-stop, 0 release), and how often still.
-    repeating: Option<(u16, u32)>,
-    next_repeat: Instant,
+    /// The register value being repeated (1 e-stop, 0 release), how often still, when.
+    repeats: crate::estop::Repeats<u16>,
     /// A release must go before the next motion frame.
     needs_release: bool,
     next_poll: Instant,
@@ -495,8 +496,7 @@ impl<'a> Outbox<'a> {
             shared,
             socket,
             seen_generation: shared.latch.generation(),
-            repeating: None,
-            next_repeat: now,
+            repeats: crate::estop::Repeats::default(),
             needs_release: true,
             next_poll: now,
             poll_cursor: 0,
@@ -541,8 +541,7 @@ impl<'a> Outbox<'a> {
         }
         self.seen_generation = generation;
         self.write_estop(1);
-        self.repeating = Some((1, ESTOP_REPEATS));
-        self.next_repeat = Instant::now() + ESTOP_REPEAT_INTERVAL;
+        self.repeats.start_with(1, Instant::now());
         self.needs_release = true;
         while inbox.try_recv().is_ok() {}
         self.pending.clear();
@@ -555,8 +554,7 @@ impl<'a> Outbox<'a> {
         if self.needs_release {
             self.needs_release = false;
             self.write_estop(0);
-            self.repeating = Some((0, ESTOP_REPEATS));
-            self.next_repeat = Instant::now() + ESTOP_REPEAT_INTERVAL;
+            self.repeats.start_with(0, Instant::now());
         }
         let MboxFrame {
             slot_us,
@@ -735,12 +733,8 @@ impl<'a> Outbox<'a> {
                 self.console(out);
             }
             let now = Instant::now();
-            if let Some((value, left)) = self.repeating
-                && now >= self.next_repeat
-            {
+            if let Some(value) = self.repeats.due_value(now) {
                 self.write_estop(value);
-                self.repeating = (left > 1).then_some((value, left - 1));
-                self.next_repeat = now + ESTOP_REPEAT_INTERVAL;
             }
             if now >= self.next_poll {
                 self.poll();
@@ -748,8 +742,8 @@ impl<'a> Outbox<'a> {
             }
             self.meter(now);
             let mut wake = self.next_poll;
-            if self.repeating.is_some() {
-                wake = wake.min(self.next_repeat);
+            if let Some(at) = self.repeats.next() {
+                wake = wake.min(at);
             }
             if let Some(outgoing) = self.pending.front() {
                 wake = wake.min(outgoing.slot);

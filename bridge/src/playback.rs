@@ -372,6 +372,7 @@ fn status_of(player: &Player, links: &[Link]) -> Status {
                 packets_per_s: None,
                 late_frames: None,
                 missed_replies: None,
+                drives: Vec::new(),
             }
         })
         .collect();

@@ -387,6 +387,8 @@ pub enum ServerMessage {
     /// An MBOX box's answer to a register read sent from the console (the bridge's
     /// own polls are not relayed); sent to every client.
     MboxReply(MboxReply),
+    /// A MOONS' drive's answer to a console line (SCL installations).
+    SclReply(SclReply),
     /// A request was refused; the connection stays open.
     Error {
         /// What was wrong, in words an operator can act on.
@@ -403,6 +405,23 @@ pub struct MboxReply {
     pub text: String,
     /// The registers it carries.
     pub registers: MboxRegisters,
+}
+
+/// A MOONS' drive's answer to an SCL console line, in [`ServerMessage::SclReply`].
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SclReply {
+    /// Index of the drive's gateway entry in the configuration.
+    pub gateway: usize,
+    /// The drive: its RS-485 address character, or its eSCL address and port.
+    pub drive: String,
+    /// The line as sent (`1IP`).
+    pub request: String,
+    /// The answer decoded: `executed`, `buffered`, `refused (code 5)`, `IP = -1200`,
+    /// or why there is none (`no answer within 200 ms`).
+    pub text: String,
+    /// The answer as received, without its carriage return (`1IP=-1200`); empty when
+    /// none came.
+    pub raw: String,
 }
 
 /// A block of consecutive MBOX registers, in [`MboxReply`].
@@ -473,6 +492,8 @@ pub enum GatewayKind {
     Uim2503,
     /// An MBOX motion controller over UDP.
     Mbox,
+    /// MOONS' drives commanded in SCL: an RS-485 line, or eSCL drives over UDP.
+    Scl,
 }
 
 impl GatewayKind {
@@ -513,6 +534,32 @@ pub struct GatewayStatus {
     /// either way, or a box that is down.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub missed_replies: Option<u64>,
+    /// SCL gateways: every drive on the line (or every eSCL drive of the entry), in
+    /// unit order, as the last status poll found it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub drives: Vec<SclDriveStatus>,
+}
+
+/// One MOONS' drive as the bridge's status poll (`IP`, `SC`, `AL`) last found it, in
+/// [`GatewayStatus::drives`].
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct SclDriveStatus {
+    /// Its RS-485 address character, or its eSCL address and port.
+    pub address: String,
+    /// Its immediate (commanded) position, counts (`IP`); absent until it answered.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_counts: Option<i64>,
+    /// Its status code word (`SC`, bit 4 = a program is executing); absent until read.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub status_code: Option<u16>,
+    /// Its alarm code word (`AL`, 0 = no alarm); absent until read.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alarm_code: Option<u16>,
+    /// Requests it left unanswered within the timeout.
+    pub missed_replies: u64,
+    /// Its last refusal or missed answer, in words, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
 }
 
 /// The `status` message.

@@ -11,7 +11,7 @@ use std::collections::VecDeque;
 
 use std::net::SocketAddr;
 
-use floatball_shared::api::{FeedbackFrame, GatewayKind, MboxReply, Status};
+use floatball_shared::api::{FeedbackFrame, GatewayKind, MboxReply, SclReply, Status};
 use floatball_shared::ascii::parse_script;
 use floatball_shared::feedback::{Ack, Feedback, Frame, code};
 use floatball_shared::mbox::console as mbox_console;
@@ -131,6 +131,13 @@ impl FeedbackLog {
             .iter()
             .map(|value| format!("{value:04X}"));
         self.push_line(reply.gateway, None, reply.text.clone(), hex);
+    }
+
+    /// A MOONS' drive's answer to an SCL console line: the line sent and the answer
+    /// decoded, under its gateway.
+    pub fn push_scl(&mut self, reply: &SclReply) {
+        let text = format!("{} → {}", reply.request, reply.text);
+        self.push_line(reply.gateway, None, text, std::iter::once(reply.raw.clone()));
     }
 
     fn push_line(
@@ -282,6 +289,7 @@ mod tests {
                 packets_per_s: Some(50.0),
                 late_frames: Some(0),
                 missed_replies: Some(0),
+                drives: Vec::new(),
             }],
             ..Status::default()
         };

@@ -30,6 +30,21 @@ pub fn gateway_text(lang: Lang, gateway: &GatewayStatus) -> String {
                 text.push_str(&format!(" · {} {count}", lang.t(label)));
             }
         }
+        // MOONS' drives: how many, their alarms and the polls they missed (the SCL
+        // pages of the app are still to come).
+        GatewayKind::Scl => {
+            let alarms = gateway
+                .drives
+                .iter()
+                .filter(|drive| drive.alarm_code.is_some_and(|code| code != 0))
+                .count();
+            let missed: u64 = gateway.drives.iter().map(|drive| drive.missed_replies).sum();
+            text.push_str(&format!(
+                " · SCL × {} · alarms {alarms} · {} {missed}",
+                gateway.drives.len(),
+                lang.t(Text::MissedReplies)
+            ));
+        }
     }
     if let Some(error) = &gateway.error {
         text.push_str(&format!(" · {error}"));
@@ -112,6 +127,7 @@ mod tests {
             packets_per_s: None,
             late_frames: None,
             missed_replies: None,
+            drives: Vec::new(),
         };
         assert_eq!(
             gateway_text(Lang::En, &uim),
@@ -127,6 +143,7 @@ mod tests {
             packets_per_s: Some(52.0),
             late_frames: Some(1),
             missed_replies: Some(3),
+            drives: Vec::new(),
         };
         assert_eq!(
             gateway_text(Lang::En, &mbox),

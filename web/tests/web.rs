@@ -1055,6 +1055,7 @@ fn mbox_status() -> Status {
         packets_per_s: Some(packets),
         late_frames: Some(late),
         missed_replies: Some(missed),
+        drives: Vec::new(),
     };
     Status {
         gateways: vec![

@@ -18,6 +18,7 @@ use std::time::Duration;
 use toml::Spanned;
 
 use super::raw::{RawConfig, RawGateway, RawMatrix, RawMbox, RawSafety};
+use super::scl::{SclEntry, SclGateway, default_addresses};
 use super::{
     BAUD_RANGE, Config, ConfigError, DEFAULT_MAX_DURATION, DEFAULT_MBOX_HOST_PORT,
     DEFAULT_MBOX_PERIOD, DEFAULT_SERIAL_BAUD, DEFAULT_SIM_BAUD, MAX_DURATION_RANGE, MboxBox,
@@ -33,9 +34,14 @@ pub(super) struct Checker<'a> {
     pub(super) text: &'a str,
 }
 
-/// The gateways' lines, every unit's address, and the MBOX boxes (empty for UIM2503
-/// gateways).
-type CheckedGateways = (Vec<GatewaySpec>, Vec<UnitAddress>, Vec<MboxBox>);
+/// The gateways' lines, every unit's address, the MBOX boxes and the MOONS' drives'
+/// gateway entries (each empty for the other kinds).
+type CheckedGateways = (
+    Vec<GatewaySpec>,
+    Vec<UnitAddress>,
+    Vec<MboxBox>,
+    Vec<SclGateway>,
+);
 
 /// A value and where it came from (`None`: the default).
 type Located<T> = (T, Option<Range<usize>>);
@@ -75,7 +81,7 @@ impl Checker<'_> {
 
     /// An error at `span`, or for the whole file when the value is a default (a default
     /// can only be wrong together with another value, which the reason names).
-    fn wrong(&self, span: Option<&Range<usize>>, reason: String) -> ConfigError {
+    pub(super) fn wrong(&self, span: Option<&Range<usize>>, reason: String) -> ConfigError {
         match span {
             Some(span) => self.at(span, reason),
             None => self.file(reason),
@@ -135,11 +141,16 @@ impl Checker<'_> {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let matrix = self.matrix(&raw.matrix)?;
-        let (gateways, units, boxes) = self.gateways(&raw.gateways, &matrix, overrides)?;
+        let (gateways, units, boxes, drives) = self.gateways(&raw.gateways, &matrix, overrides)?;
         let mbox = if boxes.is_empty() {
             None
         } else {
             Some(self.mbox(&raw.mbox, boxes)?)
+        };
+        let scl = if drives.is_empty() {
+            None
+        } else {
+            Some(self.scl(&raw.scl, drives)?)
         };
         let (estop, approach_speed_mm_s) = self.safety(&raw.safety, &matrix.limits)?;
         let installation = Installation {
@@ -185,6 +196,7 @@ impl Checker<'_> {
                 max_duration,
             },
             mbox,
+            scl,
         })
     }
 
@@ -413,6 +425,8 @@ impl Checker<'_> {
                 first_station: None,
                 units: None,
                 stations: None,
+                addresses: None,
+                escl: None,
             },
         )];
         // Without a [[gateway]] table there is no place in the file to point at.
@@ -429,6 +443,7 @@ impl Checker<'_> {
         let mut specs: Vec<GatewaySpec> = Vec::with_capacity(raw.len());
         let mut wanted = Vec::with_capacity(raw.len());
         let mut boxes = Vec::new();
+        let mut lines: Vec<SclEntry> = Vec::new();
         for (index, spanned) in raw.iter().enumerate() {
             let gateway = spanned.get_ref();
             let kind = match &gateway.kind {
@@ -456,8 +471,8 @@ impl Checker<'_> {
                 return Err(self.at(
                     &name.span(),
                     format!(
-                        "gateway {}: kind {:?} after {:?} gateways: an installation is either \
-                         all UIM2503 gateways or all MBOX boxes",
+                        "gateway {}: kind {:?} after {:?} gateways: an installation is all \
+                         UIM2503 gateways, all MBOX boxes or all MOONS' (SCL) drives",
                         index + 1,
                         kind.name(),
                         first.kind.name()
@@ -473,6 +488,41 @@ impl Checker<'_> {
                     units: gateway.units.as_ref().map(|units| *units.get_ref()),
                 },
             };
+            if kind == DriveKind::Scl {
+                let found = self.scl_gateway(
+                    index + 1,
+                    gateway,
+                    &spanned.span(),
+                    overrides.gateway_ports.get(index),
+                )?;
+                let (port, baud) = match &found.gateway {
+                    SclGateway::Serial { port, baud, .. } => (port.clone(), *baud),
+                    SclGateway::Escl(_) => (found.gateway.port(), 0),
+                };
+                let units = if found.listed {
+                    Some(found.gateway.drives())
+                } else {
+                    gateway.units.as_ref().map(|units| *units.get_ref())
+                };
+                specs.push(GatewaySpec { port, baud, kind });
+                wanted.push((kind, Stations::Consecutive { first: 1, units }));
+                lines.push(found);
+                continue;
+            }
+            if let Some(span) = gateway
+                .addresses
+                .as_ref()
+                .map(Spanned::span)
+                .or_else(|| gateway.escl.as_ref().map(Spanned::span))
+            {
+                return Err(self.at(
+                    &span,
+                    format!(
+                        "gateway {}: addresses and escl are for MOONS' drives (kind = \"scl\")",
+                        index + 1
+                    ),
+                ));
+            }
             if kind == DriveKind::Mbox {
                 let found = self.mbox_box(
                     index + 1,
@@ -590,7 +640,30 @@ impl Checker<'_> {
                 ));
             }
         }
-        Ok((specs, units, boxes))
+        // A line whose addresses were not listed: the first characters, one a unit.
+        let drives = lines
+            .into_iter()
+            .enumerate()
+            .map(|(gateway, entry)| match entry.gateway {
+                SclGateway::Serial {
+                    port,
+                    baud,
+                    addresses,
+                } if !entry.listed => SclGateway::Serial {
+                    port,
+                    baud,
+                    addresses: if addresses.is_empty() {
+                        default_addresses(
+                            units.iter().filter(|unit| unit.gateway == gateway).count(),
+                        )
+                    } else {
+                        addresses
+                    },
+                },
+                other => other,
+            })
+            .collect();
+        Ok((specs, units, boxes, drives))
     }
 
     /// Where an allocation problem sits in the file, in the file's words.

@@ -10,6 +10,7 @@
 //!   settings, together a [`Config`]. Every mistake stops the start with the file, the
 //!   line, the column and the reason, e.g.
 //!   `data/floatball.toml line 12, column 8: baud 300 is out of range (1200 to 921600)`.
+//! - `scl`: the MOONS' drives' gateway entries and the `[scl]` table.
 //!
 //! Two command-line flags override the file without editing it ([`Overrides`]):
 //! `--listen` and `--gateway PORT` (repeatable, the n-th flag replaces the n-th
@@ -17,8 +18,14 @@
 
 mod check;
 mod raw;
+mod scl;
 #[cfg(test)]
 mod tests;
+
+pub use scl::{
+    DEFAULT_SCL_POLL, DEFAULT_START_INPUT, DEFAULT_STEPS_PER_REV, DEFAULT_TOLERANCE_MM,
+    SclConfig, SclGateway, SclPrograms, default_addresses,
+};
 
 use std::io;
 use std::net::SocketAddr;
@@ -64,6 +71,9 @@ pub struct Config {
     /// The MBOX boxes and their UDP settings, when the gateways are MBOX boxes
     /// (`kind = "mbox"`); `None` for a UIM2503 installation.
     pub mbox: Option<MboxConfig>,
+    /// The MOONS' drives and their settings, when the gateways are SCL gateway entries
+    /// (`kind = "scl"`); `None` otherwise.
+    pub scl: Option<SclConfig>,
 }
 
 /// An installation of MBOX boxes: the host's UDP socket, the frame period and every

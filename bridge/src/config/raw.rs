@@ -23,6 +23,8 @@ pub(super) struct RawConfig {
     pub(super) uploads: RawUploads,
     #[serde(default)]
     pub(super) mbox: RawMbox,
+    #[serde(default)]
+    pub(super) scl: RawScl,
 }
 
 /// `[matrix]`.
@@ -54,6 +56,8 @@ pub(super) struct RawGateway {
     pub(super) first_station: Option<Spanned<u8>>,
     pub(super) units: Option<Spanned<usize>>,
     pub(super) stations: Option<Spanned<Vec<Spanned<u8>>>>,
+    pub(super) addresses: Option<Spanned<String>>,
+    pub(super) escl: Option<Spanned<Vec<Spanned<String>>>>,
 }
 
 /// `[safety]`.
@@ -79,4 +83,17 @@ pub(super) struct RawMbox {
     pub(super) host_port: Option<Spanned<u16>>,
     pub(super) frame_period_ms: Option<Spanned<u32>>,
     pub(super) time: Option<Spanned<String>>,
+}
+
+/// `[scl]`: settings for every MOONS' drive of the installation.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawScl {
+    pub(super) start_input: Option<Spanned<u8>>,
+    pub(super) start_condition: Option<Spanned<String>>,
+    pub(super) trigger: Option<Spanned<String>>,
+    pub(super) programs: Option<Spanned<String>>,
+    pub(super) steps_per_rev: Option<Spanned<u32>>,
+    pub(super) tolerance_mm: Option<Spanned<f64>>,
+    pub(super) poll_ms: Option<Spanned<u32>>,
 }

@@ -364,7 +364,7 @@ fn a_gateway_kind_defaults_to_the_uim2503_and_unknown_kinds_are_refused() {
     assert_eq!(
         message,
         "data/floatball.toml line 3, column 8: gateway 1: kind \"uim342\" is not a known kind \
-         of drive; the known kinds are \"uim2503\", \"mbox\""
+         of drive; the known kinds are \"uim2503\", \"mbox\", \"scl\""
     );
 }
 
@@ -441,7 +441,7 @@ fn mbox_mistakes_are_named_with_their_place() {
         wrong("port = \"sim\"\naxes", "kind2 = 1\naxes"),
         "data/floatball.toml line 16, column 1: unknown field `kind2`, expected one of `kind`, \
          `port`, `address`, `axes`, `pulses_per_mm`, `sign`, `offset_pulses`, `baud`, \
-         `first_station`, `units`, `stations`"
+         `first_station`, `units`, `stations`, `addresses`, `escl`"
     );
     let mixed = parse(&format!(
         "{MBOX}[[gateway]]\nkind = \"uim2503\"\nport = \"sim\"\n"
@@ -451,7 +451,8 @@ fn mbox_mistakes_are_named_with_their_place() {
     assert_eq!(
         mixed,
         "data/floatball.toml line 19, column 8: gateway 3: kind \"uim2503\" after \"mbox\" \
-         gateways: an installation is either all UIM2503 gateways or all MBOX boxes"
+         gateways: an installation is all UIM2503 gateways, all MBOX boxes or all MOONS' (SCL) \
+         drives"
     );
     let serial = parse("[[gateway]]\nport = \"sim\"\naxes = 3\n")
         .expect_err("axes on a uim2503")
@@ -459,5 +460,167 @@ fn mbox_mistakes_are_named_with_their_place() {
     assert_eq!(
         serial,
         "data/floatball.toml line 3, column 8: gateway 1: axes is for MBOX boxes (kind = \"mbox\")"
+    );
+}
+
+/// MOONS' drives: an RS-485 line of three listed drives and two eSCL drives.
+const SCL: &str = "\
+[matrix]
+rows = 1
+cols = 5
+[scl]
+trigger = \"1:2\"
+programs = \"stored\"
+poll_ms = 100
+[[gateway]]
+kind = \"scl\"
+port = \"/dev/ttyUSB0\"
+baud = 115200
+addresses = \"123\"
+[[gateway]]
+kind = \"scl\"
+escl = [\"192.168.0.11\", \"192.168.0.12:7000\"]
+";
+
+#[test]
+fn scl_gateways_and_their_settings() {
+    use floatball_shared::scl::{Address, InputCondition, IoPoint};
+    let config = parse(SCL).expect("valid");
+    assert!(config.mbox.is_none());
+    let scl = config.scl.expect("an SCL installation");
+    let address = |c| Address::new(c).expect("address");
+    assert_eq!(
+        scl.gateways,
+        vec![
+            SclGateway::Serial {
+                port: "/dev/ttyUSB0".into(),
+                baud: 115_200,
+                addresses: vec![address('1'), address('2'), address('3')],
+            },
+            SclGateway::Escl(vec![
+                "192.168.0.11:7775".parse().expect("addr"),
+                "192.168.0.12:7000".parse().expect("addr"),
+            ]),
+        ]
+    );
+    assert_eq!(scl.trigger, Some((address('1'), IoPoint::new(2).expect("io"))));
+    assert_eq!(
+        scl.start,
+        Some((IoPoint::new(3).expect("io"), InputCondition::Falling))
+    );
+    assert_eq!(scl.programs, SclPrograms::Stored);
+    assert_eq!(scl.steps_per_rev, DEFAULT_STEPS_PER_REV);
+    assert_eq!(scl.tolerance_mm, DEFAULT_TOLERANCE_MM);
+    assert_eq!(scl.poll, Duration::from_millis(100));
+    let installation = &config.installation;
+    assert!(installation.gateways.iter().all(|g| g.kind == DriveKind::Scl));
+    assert_eq!(installation.stations_on(0), vec![1, 2, 3]);
+    assert_eq!(installation.stations_on(1), vec![1, 2]);
+    assert_eq!(installation.gateways[0].baud, 115_200);
+
+    // Without addresses a line's drives take the characters in order, at 9600 baud;
+    // without a trigger nothing waits for a start input (QX1 starts every drive).
+    let plain = parse(
+        "[matrix]\nrows = 2\ncols = 2\n[[gateway]]\nkind = \"scl\"\nport = \"/dev/ttyS0\"\n",
+    )
+    .expect("valid");
+    let scl = plain.scl.expect("scl");
+    assert_eq!(
+        scl.gateways,
+        vec![SclGateway::Serial {
+            port: "/dev/ttyS0".into(),
+            baud: 9600,
+            addresses: default_addresses(4),
+        }]
+    );
+    assert_eq!(default_addresses(4), vec![address('0'), address('1'), address('2'), address('3')]);
+    assert_eq!((scl.trigger, scl.start), (None, None));
+    assert_eq!(scl.programs, SclPrograms::Upload);
+    assert_eq!(scl.poll, DEFAULT_SCL_POLL);
+}
+
+#[test]
+fn scl_mistakes_are_named_with_their_place() {
+    let wrong = |from: &str, to: &str| {
+        parse(&SCL.replacen(from, to, 1))
+            .expect_err(to)
+            .to_string()
+    };
+    assert_eq!(
+        wrong("addresses = \"123\"", "addresses = \"12a\""),
+        "data/floatball.toml line 12, column 16: gateway 1: 'a' is not a drive address; the \
+         address characters are 0123456789\"#$&'()+,-./:;<=>"
+    );
+    assert_eq!(
+        wrong("addresses = \"123\"", "addresses = \"121\""),
+        "data/floatball.toml line 12, column 16: gateway 1: address '1' is given twice"
+    );
+    assert_eq!(
+        wrong("trigger = \"1:2\"", "trigger = \"9:2\""),
+        "data/floatball.toml line 5, column 11: trigger = \"9:2\": there is no drive '9' on \
+         the first gateway entry"
+    );
+    assert_eq!(
+        wrong("trigger = \"1:2\"", "trigger = \"1-2\""),
+        "data/floatball.toml line 5, column 11: trigger = \"1-2\" must be a drive's address \
+         character and one of its outputs, such as \"1:2\" (drive 1, output 2)"
+    );
+    assert_eq!(
+        wrong("programs = \"stored\"", "programs = \"flash\""),
+        "data/floatball.toml line 6, column 12: programs = \"flash\" must be \"upload\" \
+         (Start writes the compiled programs) or \"stored\" (loaded with Q Programmer)"
+    );
+    assert_eq!(
+        wrong("poll_ms = 100", "poll_ms = 5"),
+        "data/floatball.toml line 7, column 11: poll_ms = 5 must be from 20 to 10000"
+    );
+    assert_eq!(
+        wrong("poll_ms = 100", "start_condition = \"X\""),
+        "data/floatball.toml line 7, column 19: start_condition = \"X\" must be \"H\" (high), \
+         \"L\" (low), \"R\" (rising edge) or \"F\" (falling edge)"
+    );
+    assert_eq!(
+        wrong("poll_ms = 100", "start_input = 12"),
+        "data/floatball.toml line 7, column 15: start_input = 12 must be an input from 0 to 9"
+    );
+    assert_eq!(
+        wrong("\"192.168.0.11\",", "\"drive-one\","),
+        "data/floatball.toml line 15, column 9: gateway 2: \"drive-one\" is not a drive's IP \
+         address such as \"192.168.0.11\" or \"192.168.0.11:7775\""
+    );
+    assert_eq!(
+        wrong("baud = 115200", "baud = 115200\nescl = [\"10.0.0.1\"]"),
+        "data/floatball.toml line 10, column 8: gateway 1: give MOONS' drives either port (an \
+         RS-485 line) or escl (drives on UDP), not both"
+    );
+    assert_eq!(
+        wrong("baud = 115200", "axes = 3"),
+        "data/floatball.toml line 11, column 8: gateway 1: axes is not for MOONS' drives (kind = \
+         \"scl\"); give port and addresses, or escl"
+    );
+    assert_eq!(
+        wrong("port = \"/dev/ttyUSB0\"", "port = \"sim\""),
+        "data/floatball.toml line 10, column 8: gateway 1: port \"sim\" must be a serial device \
+         such as \"/dev/ttyUSB0\" (simulated drives: `floatball simulate --kind scl` on a \
+         serial device or UDP)"
+    );
+    assert_eq!(
+        wrong("baud = 115200", "units = 4"),
+        "data/floatball.toml line 11, column 9: gateway 1: units = 4 but 3 drives are listed; \
+         leave units out"
+    );
+    let many = parse(
+        "[matrix]\nrows = 1\ncols = 29\n[[gateway]]\nkind = \"scl\"\nport = \"/dev/ttyS0\"\n",
+    )
+    .expect_err("29 drives on a line")
+    .to_string();
+    assert!(many.contains("28"), "{many}");
+    let on_uim = parse("[[gateway]]\nport = \"sim\"\naddresses = \"12\"\n")
+        .expect_err("addresses on a uim2503")
+        .to_string();
+    assert_eq!(
+        on_uim,
+        "data/floatball.toml line 3, column 13: gateway 1: addresses and escl are for MOONS' \
+         drives (kind = \"scl\")"
     );
 }

@@ -644,7 +644,7 @@ fn run_writer(
 
 /// Retry delays after a lost or failed connection: 250 ms doubling up to 5 s.
 #[derive(Debug, Clone)]
-struct Backoff {
+pub(crate) struct Backoff {
     next: Duration,
 }
 
@@ -652,15 +652,15 @@ impl Backoff {
     const FIRST: Duration = Duration::from_millis(250);
     const MAX: Duration = Duration::from_secs(5);
 
-    fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self { next: Self::FIRST }
     }
 
-    fn reset(&mut self) {
+    pub(crate) fn reset(&mut self) {
         self.next = Self::FIRST;
     }
 
-    fn next_delay(&mut self) -> Duration {
+    pub(crate) fn next_delay(&mut self) -> Duration {
         let delay = self.next;
         self.next = (self.next * 2).min(Self::MAX);
         delay

@@ -31,6 +31,10 @@ pub use crate::show::DEFAULT_PITCH_MM;
 /// The most axes one MBOX box drives (its 10-axis model).
 pub const MAX_MBOX_AXES: usize = 10;
 
+/// The most MOONS' drives on one SCL gateway entry: the RS-485 address characters
+/// there are (`crate::scl::Address::CHARACTERS`).
+pub const MAX_SCL_DRIVES: usize = 28;
+
 /// The family of drives behind a gateway: its instruction language, feedback and
 /// limits. A new family is a new variant here, and the planner's callers do not
 /// change.
@@ -42,17 +46,23 @@ pub enum DriveKind {
     /// An MBOX motion controller on UDP driving 3, 6 or 10 axes (`crate::mbox`); a
     /// unit's station is its axis number, 1 to the box's axes.
     Mbox,
+    /// MOONS' stepper or servo drives commanded in SCL (`crate::scl`), one drive per
+    /// unit, on an RS-485 line or over eSCL (UDP); a unit's station is its drive's place
+    /// on the gateway entry, 1 to [`MAX_SCL_DRIVES`] (its RS-485 address character is
+    /// the station-th of the configured addresses).
+    Scl,
 }
 
 impl DriveKind {
     /// Every kind, in the order they are listed to people.
-    pub const ALL: [DriveKind; 2] = [DriveKind::Uim2503, DriveKind::Mbox];
+    pub const ALL: [DriveKind; 3] = [DriveKind::Uim2503, DriveKind::Mbox, DriveKind::Scl];
 
     /// Its name in `floatball.toml` (`kind = "uim2503"`).
     pub fn name(self) -> &'static str {
         match self {
             DriveKind::Uim2503 => "uim2503",
             DriveKind::Mbox => "mbox",
+            DriveKind::Scl => "scl",
         }
     }
 
@@ -66,6 +76,7 @@ impl DriveKind {
         match self {
             DriveKind::Uim2503 => MAX_UNITS_PER_GATEWAY,
             DriveKind::Mbox => MAX_MBOX_AXES,
+            DriveKind::Scl => MAX_SCL_DRIVES,
         }
     }
 }
@@ -560,6 +571,11 @@ mod tests {
         assert_eq!(DriveKind::from_name("uim2503"), Some(DriveKind::Uim2503));
         assert_eq!(DriveKind::from_name("mbox"), Some(DriveKind::Mbox));
         assert_eq!(DriveKind::Mbox.max_units(), MAX_MBOX_AXES);
+        assert_eq!(DriveKind::from_name("scl"), Some(DriveKind::Scl));
+        assert_eq!(
+            DriveKind::Scl.max_units(),
+            crate::scl::Address::CHARACTERS.len()
+        );
         assert_eq!(DriveKind::from_name("uim342"), None);
         assert_eq!(DriveKind::default(), DriveKind::Uim2503);
     }

@@ -480,6 +480,21 @@ pub enum Command {
     },
     /// `QE`: execute the queue.
     QueueExecuteLoaded,
+    /// `QW`: Floatball's "queue write" (no MOONS' page describes how a host writes a
+    /// segment): the drive answers `%`, stores every following command line as the
+    /// next line of `segment` (answering `*`) until an empty line, then answers `%`.
+    /// A real drive refuses it (`?`); see `docs/protocol-notes.md` §8.
+    QueueWrite {
+        /// The segment written.
+        segment: Segment,
+    },
+    /// `QU`: upload a stored segment, or with `None` (`QU0`) the queue; the drive
+    /// answers `%`, then `QU{lines + 1}` and each line (see
+    /// [`QueueUpload`](super::response::QueueUpload)).
+    QueueUpload {
+        /// The segment read, or `None` for the queue.
+        segment: Option<Segment>,
+    },
     /// `TI`: test an input for a level (sets the condition code).
     TestInput {
         /// The input.
@@ -554,10 +569,10 @@ pub enum Command {
 
 impl Command {
     /// Every mnemonic, for error messages and tests (the math commands as `R+` … `R&`).
-    pub const MNEMONICS: [&'static str; 41] = [
+    pub const MNEMONICS: [&'static str; 43] = [
         "FL", "FP", "FS", "DI", "VE", "AC", "DE", "EG", "SP", "EP", "IP", "WI", "WT", "QG", "QR",
-        "QJ", "QC", "QL", "QS", "QX", "QE", "TI", "TR", "CR", "MT", "SO", "R+", "R-", "R*", "R/",
-        "R|", "R&", "RX", "RM", "SK", "ST", "ME", "MD", "SC", "AL", "AR",
+        "QJ", "QC", "QL", "QS", "QX", "QE", "QW", "QU", "TI", "TR", "CR", "MT", "SO", "R+", "R-",
+        "R*", "R/", "R|", "R&", "RX", "RM", "SK", "ST", "ME", "MD", "SC", "AL", "AR",
     ];
 
     /// The mnemonic.
@@ -585,6 +600,8 @@ impl Command {
             Self::QueueSave { .. } => "QS",
             Self::QueueExecute { .. } => "QX",
             Self::QueueExecuteLoaded => "QE",
+            Self::QueueWrite { .. } => "QW",
+            Self::QueueUpload { .. } => "QU",
             Self::TestInput { .. } => "TI",
             Self::TestRegister { .. } => "TR",
             Self::CompareRegisters { .. } => "CR",
@@ -663,7 +680,13 @@ impl fmt::Display for Command {
             Self::QueueCall { segment } => optional(f, segment),
             Self::QueueLoad { segment }
             | Self::QueueSave { segment }
-            | Self::QueueExecute { segment } => write!(f, "{segment}"),
+            | Self::QueueExecute { segment }
+            | Self::QueueWrite { segment } => write!(f, "{segment}"),
+            // The queue is segment 0 on the wire.
+            Self::QueueUpload { segment } => match segment {
+                Some(segment) => write!(f, "{segment}"),
+                None => f.write_str("0"),
+            },
             Self::TestInput { input, level } => write!(f, "{input}{}", level.letter()),
             Self::SetOutput { output, level } => write!(f, "{output}{}", level.letter()),
             Self::TestRegister { register, value } | Self::RegisterLoad { register, value } => {

@@ -79,6 +79,14 @@ pub enum ParseErrorKind {
         /// The rest of the line.
         found: String,
     },
+    /// A queue upload whose number of lines is not the one its header announces.
+    #[error("queue upload: the header announces {announced} lines, {found} follow")]
+    UploadLength {
+        /// The lines announced (the header's number − 1).
+        announced: usize,
+        /// The lines found.
+        found: usize,
+    },
     /// An answer that is none of `%`, `*`, `?code` or `XX=value`.
     #[error("not a drive answer: expected %, *, ? (with its code) or a reply such as IP=1000")]
     BadAnswer,

@@ -7,14 +7,16 @@
 //! This module owns:
 //! - [`Command`]: every command the seed's Q programs use (`FL FP FS DI VE AC DE EG SP
 //!   WI WT QG QR QJ TI TR CR QC MT SO`, `R+ R- R* R/ R| R&`, `RX RM`) and what a host
-//!   needs to run drives safely (`SK ST ME MD IP EP SC AL AR QL QS QX QE`), typed with
+//!   needs to run drives safely (`SK ST ME MD IP EP SC AL AR QL QS QX QE QW QU`), typed with
 //!   units (`DI` counts, `VE` rev/s, `AC`/`DE` rev/s², `WT` s); a value of `None` is
 //!   the query form (`VE` alone asks). Its text is `Display` ([`command`]).
 //! - [`Request`]: a command with the optional RS-485 [`Address`] before it, its wire
 //!   form with the carriage return ([`Request::to_wire`]), and [`parse_script`] /
 //!   [`Request::parse`] for command lines ([`parse`]).
 //! - [`Reply`] and [`Answer`]: the drive's `%`, `*`, `?code` and `XX=value`, with the
-//!   address a drive on a shared line puts first ([`response`]).
+//!   address a drive on a shared line puts first, and [`QueueUpload`], the lines after
+//!   the `%` of a `QU` ([`response`]). `QW` (queue write) is Floatball's own command for
+//!   downloading a segment (see `docs/protocol-notes.md` §8).
 //! - eSCL: [`Request::to_escl`], [`Reply::from_escl`], … with the header
 //!   [`escl::HEADER`] and the port [`escl::UDP_PORT`] ([`escl`]).
 //!
@@ -65,7 +67,7 @@ pub use command::{
 };
 pub use error::{EsclError, ParseError, ParseErrorKind};
 pub use parse::parse_script;
-pub use response::{Answer, Reply};
+pub use response::{Answer, QueueUpload, Reply, UploadHeader};
 
 /// The carriage return that ends every command and answer.
 pub const CR: u8 = b'\r';

@@ -10,7 +10,7 @@ use super::command::{
     Register, Request, Segment,
 };
 use super::error::{ParseError, ParseErrorKind};
-use super::response::{Answer, Reply};
+use super::response::{Answer, QueueUpload, Reply, UploadHeader};
 
 /// Reads a script: one command per line (lines end with CR, LF or CR LF), spaces and
 /// tabs around a command ignored, blank lines skipped.
@@ -75,6 +75,103 @@ impl Reply {
             },
         };
         Ok(Self { address, answer })
+    }
+}
+
+impl QueueUpload {
+    /// Reads the header line of an upload (`QU5`, `1QU0`, `QU-1`; a carriage return at
+    /// its end allowed): the drive's address, and how many command lines follow.
+    ///
+    /// # Errors
+    /// A line that is not `QU` and a number from −3 to 63, with its column.
+    pub fn parse_header(text: &str) -> Result<(Option<Address>, UploadHeader), ParseError> {
+        const RANGE: &str = "-3 to 63";
+        let text = text.strip_suffix('\r').unwrap_or(text);
+        let mut cursor = Cursor::new(text, 1, 0)?;
+        let address = cursor.address()?;
+        if !cursor.rest().starts_with("QU") {
+            return Err(cursor.error(ParseErrorKind::BadAnswer));
+        }
+        cursor.pos += 2;
+        let start = cursor.pos;
+        let number: i64 = cursor.number("QU", "the number of lines + 1", RANGE)?;
+        let lines = usize::try_from(number)
+            .ok()
+            .filter(|&n| n <= Self::MAX_LINES + 1);
+        let header = match (number, lines) {
+            (-3..=0, _) => UploadHeader::Nothing,
+            (_, Some(n)) => UploadHeader::Lines(n - 1),
+            _ => return Err(cursor.out_of_range(start, "QU", RANGE)),
+        };
+        Ok((address, header))
+    }
+
+    /// Reads the lines after the `%`: the header, then as many command lines as it
+    /// announces, every one after the header's address (if it has one). Lines may end
+    /// with a carriage return.
+    ///
+    /// # Errors
+    /// A bad header or command (its line is its index + 1), a command with another
+    /// address, or a line count that is not the header's.
+    pub fn parse(lines: &[&str]) -> Result<(Option<Address>, Self), ParseError> {
+        let Some((header, rest)) = lines.split_first() else {
+            return Err(ParseError {
+                line: 1,
+                column: 1,
+                kind: ParseErrorKind::BadAnswer,
+            });
+        };
+        let (address, announced) = Self::parse_header(header)?;
+        let upload = match announced {
+            UploadHeader::Lines(count) => {
+                if rest.len() != count {
+                    return Err(ParseError {
+                        line: to_u32(lines.len().min(count + 1) + 1),
+                        column: 1,
+                        kind: ParseErrorKind::UploadLength {
+                            announced: count,
+                            found: rest.len(),
+                        },
+                    });
+                }
+                let mut commands = Vec::with_capacity(count);
+                for (index, text) in rest.iter().enumerate() {
+                    let line = to_u32(index + 2);
+                    let text = text.strip_suffix('\r').unwrap_or(text);
+                    let request = parse_request(text, line, 0)?;
+                    if request.address != address {
+                        return Err(ParseError {
+                            line,
+                            column: 1,
+                            kind: ParseErrorKind::BadAnswer,
+                        });
+                    }
+                    commands.push(request.command);
+                }
+                Self::Lines(commands)
+            }
+            UploadHeader::Nothing => {
+                if !rest.is_empty() {
+                    return Err(ParseError {
+                        line: 2,
+                        column: 1,
+                        kind: ParseErrorKind::UploadLength {
+                            announced: 0,
+                            found: rest.len(),
+                        },
+                    });
+                }
+                // The header was read: its number is one of 0, -1, -2, -3.
+                let text = header.strip_suffix('\r').unwrap_or(header);
+                match text.rsplit("QU").next() {
+                    Some("-1") => Self::ProgramRunning,
+                    Some("-2") => Self::UploadInProgress,
+                    Some("-3") => Self::PasswordProtected,
+                    _ => Self::NoSegment,
+                }
+            }
+        };
+        Ok((address, upload))
     }
 }
 
@@ -293,6 +390,12 @@ impl<'a> Cursor<'a> {
                 segment: self.segment(mnemonic)?,
             },
             "QE" => Command::QueueExecuteLoaded,
+            "QW" => Command::QueueWrite {
+                segment: self.segment(mnemonic)?,
+            },
+            "QU" => Command::QueueUpload {
+                segment: self.upload_segment(mnemonic)?,
+            },
             "TI" => Command::TestInput {
                 input: self.io_point(mnemonic)?,
                 level: self.level(mnemonic)?,
@@ -427,6 +530,19 @@ impl<'a> Cursor<'a> {
         let start = self.pos;
         let value: u8 = self.number(mnemonic, "a segment number", Segment::RANGE)?;
         Segment::new(value).ok_or_else(|| self.out_of_range(start, mnemonic, Segment::RANGE))
+    }
+
+    /// `QU`'s parameter: `0` (the queue, `None`) or a segment.
+    fn upload_segment(&mut self, mnemonic: &'static str) -> Result<Option<Segment>, ParseError> {
+        const RANGE: &str = "0 (the queue) or 1 to 12";
+        let start = self.pos;
+        let value: u8 = self.number(mnemonic, "a segment number or 0", RANGE)?;
+        if value == 0 {
+            return Ok(None);
+        }
+        Segment::new(value)
+            .map(Some)
+            .ok_or_else(|| self.out_of_range(start, mnemonic, RANGE))
     }
 
     fn out_of_range(

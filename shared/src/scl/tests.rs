@@ -354,6 +354,105 @@ fn escl_datagrams_carry_the_header_the_text_and_a_carriage_return() {
 }
 
 #[test]
+fn queue_write_and_upload_name_a_segment_and_upload_zero_is_the_queue() {
+    assert_eq!(
+        command("QW3"),
+        Command::QueueWrite {
+            segment: Segment::new(3).unwrap()
+        }
+    );
+    assert_eq!(command("QU0"), Command::QueueUpload { segment: None });
+    assert_eq!(
+        command("QU12"),
+        Command::QueueUpload {
+            segment: Segment::new(12).unwrap().into()
+        }
+    );
+    for line in ["QW1", "QW12", "QU0", "QU1", "QU12", "1QW2", "=QU0"] {
+        assert_eq!(Request::parse(line).unwrap().to_string(), line);
+    }
+    assert!(!command("QU0").is_query());
+    use ParseErrorKind as K;
+    refused("QW0", 1, 3, |k| matches!(k, K::OutOfRange { .. }));
+    refused("QW13", 1, 3, |k| matches!(k, K::OutOfRange { .. }));
+    refused("QW", 1, 3, |k| matches!(k, K::MissingParameter { .. }));
+    refused("QU13", 1, 3, |k| matches!(k, K::OutOfRange { .. }));
+    refused("QU", 1, 3, |k| matches!(k, K::MissingParameter { .. }));
+    refused("QU00", 1, 3, |k| matches!(k, K::BadParameter { .. }));
+    refused("QU-1", 1, 3, |k| matches!(k, K::OutOfRange { .. }));
+}
+
+#[test]
+fn a_queue_upload_is_a_header_with_lines_plus_one_then_the_lines() {
+    // HCR p. 172: "QU##" where ## = the number of lines in the segment + 1.
+    let program = parse_script("WI3F\nVE20\nDI80000\nFL").unwrap();
+    let upload = QueueUpload::Lines(program.iter().map(|r| r.command).collect());
+    assert_eq!(upload.lines(), ["QU5", "WI3F", "VE20", "DI80000", "FL"]);
+    assert_eq!(upload.to_wire(None), b"QU5\rWI3F\rVE20\rDI80000\rFL\r");
+    assert_eq!(
+        upload.to_wire(Address::new('2')),
+        b"2QU5\r2WI3F\r2VE20\r2DI80000\r2FL\r"
+    );
+    assert_eq!(
+        QueueUpload::parse(&["2QU5\r", "2WI3F", "2VE20", "2DI80000", "2FL\r"]),
+        Ok((Address::new('2'), upload.clone()))
+    );
+    assert_eq!(
+        QueueUpload::parse_header("QU5\r"),
+        Ok((None, UploadHeader::Lines(4)))
+    );
+    assert_eq!(
+        QueueUpload::parse(&["QU1"]),
+        Ok((None, QueueUpload::Lines(Vec::new())))
+    );
+    for (text, refusal) in [
+        ("QU0", QueueUpload::NoSegment),
+        ("QU-1", QueueUpload::ProgramRunning),
+        ("QU-2", QueueUpload::UploadInProgress),
+        ("QU-3", QueueUpload::PasswordProtected),
+    ] {
+        assert_eq!(
+            QueueUpload::parse_header(text),
+            Ok((None, UploadHeader::Nothing))
+        );
+        assert_eq!(QueueUpload::parse(&[text]), Ok((None, refusal.clone())));
+        assert_eq!(refusal.lines(), [text]);
+    }
+    use ParseErrorKind as K;
+    for (lines, line, is) in [
+        (
+            &["QU-4"][..],
+            1,
+            (|k| matches!(k, K::OutOfRange { .. })) as fn(&K) -> bool,
+        ),
+        (&["QU64"], 1, |k| matches!(k, K::OutOfRange { .. })),
+        (&["QV3"], 1, |k| matches!(k, K::BadAnswer)),
+        (&[], 1, |k| matches!(k, K::BadAnswer)),
+        (&["QU3", "FL"], 3, |k| {
+            matches!(
+                k,
+                K::UploadLength {
+                    announced: 2,
+                    found: 1
+                }
+            )
+        }),
+        (&["QU2", "FL", "FP"], 3, |k| {
+            matches!(k, K::UploadLength { .. })
+        }),
+        (&["QU0", "FL"], 2, |k| matches!(k, K::UploadLength { .. })),
+        (&["1QU2", "2FL"], 2, |k| matches!(k, K::BadAnswer)),
+        (&["QU2", "XX"], 2, |k| {
+            matches!(k, K::UnknownMnemonic { .. })
+        }),
+    ] {
+        let error = QueueUpload::parse(lines).unwrap_err();
+        assert_eq!(error.line, line, "{lines:?}: {error}");
+        assert!(is(&error.kind), "{lines:?}: {error}");
+    }
+}
+
+#[test]
 fn decimals_print_as_scl_writes_them() {
     for (mantissa, scale, text) in [
         (5, 1, "0.5"),
@@ -454,6 +553,8 @@ mod proptests {
             segment().prop_map(|segment| Command::QueueLoad { segment }),
             segment().prop_map(|segment| Command::QueueSave { segment }),
             segment().prop_map(|segment| Command::QueueExecute { segment }),
+            segment().prop_map(|segment| Command::QueueWrite { segment }),
+            proptest::option::of(segment()).prop_map(|segment| Command::QueueUpload { segment }),
             (point(), level()).prop_map(|(input, level)| Command::TestInput { input, level }),
             (point(), level()).prop_map(|(output, level)| Command::SetOutput { output, level }),
             (register(), any::<i32>())
@@ -522,6 +623,24 @@ mod proptests {
         fn a_script_of_requests_reads_back(requests in proptest::collection::vec(request(), 0..20)) {
             let text: Vec<String> = requests.iter().map(ToString::to_string).collect();
             prop_assert_eq!(parse_script(&text.join("\r\n")), Ok(requests));
+        }
+
+        #[test]
+        fn every_queue_upload_reads_back_from_its_wire_form(
+            address in address(),
+            commands in proptest::collection::vec(command(), 0..=62),
+            refusal in 0..5_u8,
+        ) {
+            let upload = match refusal {
+                1 => QueueUpload::NoSegment,
+                2 => QueueUpload::ProgramRunning,
+                3 => QueueUpload::UploadInProgress,
+                4 => QueueUpload::PasswordProtected,
+                _ => QueueUpload::Lines(commands),
+            };
+            let wire = String::from_utf8(upload.to_wire(address)).unwrap();
+            let lines: Vec<&str> = wire.split_inclusive('\r').collect();
+            prop_assert_eq!(QueueUpload::parse(&lines), Ok((address, upload)));
         }
 
         #[test]
