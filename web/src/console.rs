@@ -137,7 +137,12 @@ impl FeedbackLog {
     /// decoded, under its gateway.
     pub fn push_scl(&mut self, reply: &SclReply) {
         let text = format!("{} → {}", reply.request, reply.text);
-        self.push_line(reply.gateway, None, text, std::iter::once(reply.raw.clone()));
+        self.push_line(
+            reply.gateway,
+            None,
+            text,
+            std::iter::once(reply.raw.clone()),
+        );
     }
 
     fn push_line(

@@ -38,7 +38,11 @@ pub fn gateway_text(lang: Lang, gateway: &GatewayStatus) -> String {
                 .iter()
                 .filter(|drive| drive.alarm_code.is_some_and(|code| code != 0))
                 .count();
-            let missed: u64 = gateway.drives.iter().map(|drive| drive.missed_replies).sum();
+            let missed: u64 = gateway
+                .drives
+                .iter()
+                .map(|drive| drive.missed_replies)
+                .sum();
             text.push_str(&format!(
                 " · SCL × {} · alarms {alarms} · {} {missed}",
                 gateway.drives.len(),
