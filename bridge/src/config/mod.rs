@@ -23,8 +23,8 @@ mod scl;
 mod tests;
 
 pub use scl::{
-    DEFAULT_SCL_POLL, DEFAULT_START_INPUT, DEFAULT_STEPS_PER_REV, DEFAULT_TOLERANCE_MM,
-    SclConfig, SclGateway, SclPrograms, default_addresses,
+    DEFAULT_SCL_POLL, DEFAULT_START_INPUT, DEFAULT_STEPS_PER_REV, DEFAULT_TOLERANCE_MM, SclConfig,
+    SclGateway, SclPrograms, default_addresses,
 };
 
 use std::io;

@@ -503,7 +503,10 @@ fn scl_gateways_and_their_settings() {
             ]),
         ]
     );
-    assert_eq!(scl.trigger, Some((address('1'), IoPoint::new(2).expect("io"))));
+    assert_eq!(
+        scl.trigger,
+        Some((address('1'), IoPoint::new(2).expect("io")))
+    );
     assert_eq!(
         scl.start,
         Some((IoPoint::new(3).expect("io"), InputCondition::Falling))
@@ -513,17 +516,21 @@ fn scl_gateways_and_their_settings() {
     assert_eq!(scl.tolerance_mm, DEFAULT_TOLERANCE_MM);
     assert_eq!(scl.poll, Duration::from_millis(100));
     let installation = &config.installation;
-    assert!(installation.gateways.iter().all(|g| g.kind == DriveKind::Scl));
+    assert!(
+        installation
+            .gateways
+            .iter()
+            .all(|g| g.kind == DriveKind::Scl)
+    );
     assert_eq!(installation.stations_on(0), vec![1, 2, 3]);
     assert_eq!(installation.stations_on(1), vec![1, 2]);
     assert_eq!(installation.gateways[0].baud, 115_200);
 
     // Without addresses a line's drives take the characters in order, at 9600 baud;
     // without a trigger nothing waits for a start input (QX1 starts every drive).
-    let plain = parse(
-        "[matrix]\nrows = 2\ncols = 2\n[[gateway]]\nkind = \"scl\"\nport = \"/dev/ttyS0\"\n",
-    )
-    .expect("valid");
+    let plain =
+        parse("[matrix]\nrows = 2\ncols = 2\n[[gateway]]\nkind = \"scl\"\nport = \"/dev/ttyS0\"\n")
+            .expect("valid");
     let scl = plain.scl.expect("scl");
     assert_eq!(
         scl.gateways,
@@ -533,7 +540,10 @@ fn scl_gateways_and_their_settings() {
             addresses: default_addresses(4),
         }]
     );
-    assert_eq!(default_addresses(4), vec![address('0'), address('1'), address('2'), address('3')]);
+    assert_eq!(
+        default_addresses(4),
+        vec![address('0'), address('1'), address('2'), address('3')]
+    );
     assert_eq!((scl.trigger, scl.start), (None, None));
     assert_eq!(scl.programs, SclPrograms::Upload);
     assert_eq!(scl.poll, DEFAULT_SCL_POLL);
@@ -541,11 +551,7 @@ fn scl_gateways_and_their_settings() {
 
 #[test]
 fn scl_mistakes_are_named_with_their_place() {
-    let wrong = |from: &str, to: &str| {
-        parse(&SCL.replacen(from, to, 1))
-            .expect_err(to)
-            .to_string()
-    };
+    let wrong = |from: &str, to: &str| parse(&SCL.replacen(from, to, 1)).expect_err(to).to_string();
     assert_eq!(
         wrong("addresses = \"123\"", "addresses = \"12a\""),
         "data/floatball.toml line 12, column 16: gateway 1: 'a' is not a drive address; the \

@@ -91,9 +91,7 @@ pub enum SclError {
     #[error("void: the e-stop was pressed")]
     Void,
     /// The e-stop is latched and the request could move a drive.
-    #[error(
-        "the e-stop is latched: only queries and stops can be sent until Start, Reset or Home"
-    )]
+    #[error("the e-stop is latched: only queries and stops can be sent until Start, Reset or Home")]
     Latched,
     /// The drive did not answer in time.
     #[error("drive {drive} did not answer {request} within {timeout_ms} ms")]
@@ -167,8 +165,7 @@ impl DriveShared {
         let known = self.known.load(Ordering::Acquire);
         SclDriveStatus {
             address: self.name.clone(),
-            position_counts: (known & 1 != 0)
-                .then(|| self.position_counts.load(Ordering::Acquire)),
+            position_counts: (known & 1 != 0).then(|| self.position_counts.load(Ordering::Acquire)),
             status_code: (known & 2 != 0)
                 .then(|| u16::try_from(self.status_code.load(Ordering::Acquire)).unwrap_or(0)),
             alarm_code: (known & 4 != 0)
@@ -212,7 +209,9 @@ impl LinkShared {
             return Duration::ZERO;
         }
         // 8N1: ten bits a byte.
-        Duration::from_micros(u64::try_from(bytes).unwrap_or(u64::MAX) * 10_000_000 / u64::from(self.baud))
+        Duration::from_micros(
+            u64::try_from(bytes).unwrap_or(u64::MAX) * 10_000_000 / u64::from(self.baud),
+        )
     }
 }
 
@@ -278,17 +277,15 @@ impl SclLink {
         latch: Arc<Latch>,
         replies: broadcast::Sender<SclReply>,
     ) -> Result<Self, String> {
-        let drive = |name: String, address: Option<Address>| {
-            DriveShared {
-                name,
-                address,
-                position_counts: AtomicI64::new(0),
-                known: AtomicU32::new(0),
-                status_code: AtomicU32::new(0),
-                alarm_code: AtomicU32::new(0),
-                missed_replies: AtomicU64::new(0),
-                error: Mutex::new(None),
-            }
+        let drive = |name: String, address: Option<Address>| DriveShared {
+            name,
+            address,
+            position_counts: AtomicI64::new(0),
+            known: AtomicU32::new(0),
+            status_code: AtomicU32::new(0),
+            alarm_code: AtomicU32::new(0),
+            missed_replies: AtomicU64::new(0),
+            error: Mutex::new(None),
         };
         let (drives, baud, opener): (Vec<DriveShared>, u32, Opener) = match gateway {
             SclGateway::Serial {
@@ -425,7 +422,11 @@ impl SclLink {
         if let Err(err) = self.events.send(Event::Job(job))
             && let Event::Job(job) = err.0
         {
-            finish(&self.shared, job, Err(SclError::Gone("the SCL link is closed".to_owned())));
+            finish(
+                &self.shared,
+                job,
+                Err(SclError::Gone("the SCL link is closed".to_owned())),
+            );
         }
         answer
     }
@@ -600,9 +601,10 @@ impl InFlight {
                     if first.starts_with('?') {
                         return true;
                     }
-                    match rest.first().map(|header| {
-                        floatball_shared::scl::QueueUpload::parse_header(header)
-                    }) {
+                    match rest
+                        .first()
+                        .map(|header| floatball_shared::scl::QueueUpload::parse_header(header))
+                    {
                         None => false,
                         Some(Ok((_, floatball_shared::scl::UploadHeader::Lines(count)))) => {
                             rest.len() > count
@@ -685,7 +687,11 @@ impl<'a> Owner<'a> {
                 self.in_flight = (0..channels).map(|_| None).collect();
                 self.backoff.reset();
                 self.shared.set_up(true, None);
-                tracing::info!("SCL gateway {} ({}): open", self.shared.index, self.shared.port);
+                tracing::info!(
+                    "SCL gateway {} ({}): open",
+                    self.shared.index,
+                    self.shared.port
+                );
                 if self.stop_owed || self.shared.latch.is_latched() {
                     self.stop_owed = false;
                     self.write_stop();
@@ -700,7 +706,11 @@ impl<'a> Owner<'a> {
     }
 
     fn lose(&mut self, reason: String) {
-        tracing::warn!("SCL gateway {} ({}): {reason}", self.shared.index, self.shared.port);
+        tracing::warn!(
+            "SCL gateway {} ({}): {reason}",
+            self.shared.index,
+            self.shared.port
+        );
         self.transport = None;
         self.shared.set_up(false, Some(reason.clone()));
         self.retry_at = Instant::now() + self.backoff.next_delay();
@@ -732,7 +742,9 @@ impl<'a> Owner<'a> {
             self.lose(format!("the stop could not be written: {err}"));
             return;
         }
-        let answers = self.shared.line_time(ANSWER_BYTES * self.shared.drives.len());
+        let answers = self
+            .shared
+            .line_time(ANSWER_BYTES * self.shared.drives.len());
         self.settle_until = Instant::now() + SETTLE + answers;
         if !transport.per_drive() {
             return;
@@ -896,7 +908,8 @@ impl<'a> Owner<'a> {
                 Expect::One => ANSWER_BYTES,
                 Expect::Upload => ANSWER_BYTES * 64,
             };
-            let timeout = ANSWER_TIMEOUT + self.shared.line_time(job.text.len() + 2 + answer_bytes) * 2;
+            let timeout =
+                ANSWER_TIMEOUT + self.shared.line_time(job.text.len() + 2 + answer_bytes) * 2;
             if let Some(slot) = self.in_flight.get_mut(channel) {
                 *slot = Some(InFlight {
                     job,
@@ -948,16 +961,27 @@ impl<'a> Owner<'a> {
             return;
         }
         let slow = self.shared.program_jobs.load(Ordering::Acquire) > 0;
-        self.next_poll = now + if slow { self.shared.poll * 5 } else { self.shared.poll };
+        self.next_poll = now
+            + if slow {
+                self.shared.poll * 5
+            } else {
+                self.shared.poll
+            };
         for drive in 0..self.shared.drives.len() {
             let channel = self.channel_of(drive);
             let busy = self.queues.get(channel).is_some_and(|queue| {
-                queue.iter().any(|job| job.drive == drive && job.purpose == Purpose::Poll)
+                queue
+                    .iter()
+                    .any(|job| job.drive == drive && job.purpose == Purpose::Poll)
             });
             if busy {
                 continue;
             }
-            for command in [Command::ImmediatePosition, Command::StatusCode, Command::AlarmCode] {
+            for command in [
+                Command::ImmediatePosition,
+                Command::StatusCode,
+                Command::AlarmCode,
+            ] {
                 let job = Job {
                     drive,
                     text: command.to_string(),
@@ -1000,12 +1024,17 @@ impl<'a> Owner<'a> {
                 && let Some(transport) = self.transport.as_mut()
                 && let Err(err) = transport.stop_all(self.shared)
             {
-                tracing::debug!("SCL gateway {}: a repeated stop failed: {err}", self.shared.index);
+                tracing::debug!(
+                    "SCL gateway {}: a repeated stop failed: {err}",
+                    self.shared.index
+                );
             }
             self.expire();
             self.poll();
             self.dispatch();
-            let wait = self.next_deadline().saturating_duration_since(Instant::now());
+            let wait = self
+                .next_deadline()
+                .saturating_duration_since(Instant::now());
             match inbox.recv_timeout(wait) {
                 Ok(event) => {
                     // The latch first: an e-stop overtakes whatever came with it.
@@ -1042,7 +1071,13 @@ impl SclNet {
             .iter()
             .enumerate()
             .map(|(index, gateway)| {
-                SclLink::open(index, gateway, config.poll, Arc::clone(latch), replies.clone())
+                SclLink::open(
+                    index,
+                    gateway,
+                    config.poll,
+                    Arc::clone(latch),
+                    replies.clone(),
+                )
             })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(Self { links, replies })
@@ -1065,7 +1100,13 @@ impl SclNet {
         self.links
             .iter()
             .filter(|link| !link.is_up())
-            .map(|link| format!("SCL gateway {} ({}) is not connected", link.index(), link.port()))
+            .map(|link| {
+                format!(
+                    "SCL gateway {} ({}) is not connected",
+                    link.index(),
+                    link.port()
+                )
+            })
             .collect()
     }
 
