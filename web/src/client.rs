@@ -11,7 +11,8 @@ use std::pin::Pin;
 use std::rc::Rc;
 
 use floatball_shared::api::{
-    ApiError, LoginRequest, LoginResponse, PasswordChange, PlanReport, Playlist, ShowSummary,
+    ApiError, LoginRequest, LoginResponse, PasswordChange, PlanReport, Playlist, QProgramListing,
+    ShowSummary,
 };
 use floatball_shared::show::ShowFormat;
 use serde::Serialize;
@@ -361,6 +362,17 @@ impl Client {
         } else {
             parse(&response)
         }
+    }
+
+    /// `GET /api/qprogram/{name}?unit=N`: ball `unit`'s Q program for MOONS' drives
+    /// (the listing and the compiler's report).
+    ///
+    /// # Errors
+    /// [`Failure`] as the bridge answered (a show over the tolerance is
+    /// [`Failure::Rejected`] with the figure).
+    pub async fn qprogram(&self, name: &str, unit: usize) -> Result<QProgramListing, Failure> {
+        let path = format!("/api/qprogram/{}?unit={unit}", encode_path_segment(name));
+        self.call_json(Method::Get, &path, None).await
     }
 
     /// `GET /api/plan/{name}`; `None` when this bridge has no planner yet (404).

@@ -186,6 +186,22 @@ pub fn format_duration_ms(ms: u64) -> String {
     format!("{}:{:02}.{}", tenths / 600, tenths / 10 % 60, tenths % 10)
 }
 
+/// A ball number as typed (the CSV's `uN`, from 0): digits, spaces around allowed.
+#[must_use]
+pub fn parse_ball(text: &str) -> Option<usize> {
+    let text = text.trim();
+    if text.is_empty() || !text.bytes().all(|byte| byte.is_ascii_digit()) {
+        return None;
+    }
+    text.parse().ok()
+}
+
+/// The file a ball's Q program is saved as: `<show>-unit<N>.q`.
+#[must_use]
+pub fn qprogram_file_name(show: &str, unit: usize) -> String {
+    format!("{show}-unit{unit}.q")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -295,6 +311,16 @@ mod tests {
         let error = preview("bad.json", "{").unwrap_err();
         assert!(matches!(error, Refused::Unreadable(_)), "{error:?}");
         assert!(error.details()[0].contains("not valid"), "{error:?}");
+    }
+
+    #[test]
+    fn ball_numbers_are_plain_digits() {
+        assert_eq!(parse_ball("0"), Some(0));
+        assert_eq!(parse_ball(" 42 "), Some(42));
+        for bad in ["", " ", "-1", "+3", "1.5", "u3", "9999999999999999999999"] {
+            assert_eq!(parse_ball(bad), None, "{bad:?}");
+        }
+        assert_eq!(qprogram_file_name("wave", 7), "wave-unit7.q");
     }
 
     #[test]

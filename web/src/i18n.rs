@@ -4,7 +4,7 @@
 //! value in them are methods of [`Lang`]. Messages that come from elsewhere (the
 //! bridge's validation details, the shared parser's errors) are shown as they come.
 
-use floatball_shared::api::{LinkState, PlayerState};
+use floatball_shared::api::{LinkState, PlayerState, QProgramListing};
 
 use crate::client::Failure;
 use crate::playlist::InputError;
@@ -119,6 +119,14 @@ texts! {
     ConfirmDelete => "确认删除？", "Really delete?";
     /// Save a local file to the device.
     SaveToDevice => "保存到设备", "Save to device";
+    /// Heading: a ball's Q program (MOONS' drives).
+    QProgram => "Q 程序（鸣志驱动器）", "Q program (MOONS' drives)";
+    /// Field: which ball.
+    Ball => "球号 (uN)", "Ball (uN)";
+    /// Compile and show one ball's Q program.
+    ShowQProgram => "查看程序", "Show program";
+    /// The ball field holds no number.
+    BallNumberWanted => "请输入球号：0 或更大的整数", "Enter a ball number: a whole number from 0";
     /// Reload the list.
     Refresh => "刷新", "Refresh";
     /// Column: name.
@@ -417,6 +425,22 @@ impl Lang {
         })
     }
 
+    /// A Q program's report: moves, segments and lines, and the largest deviation from
+    /// the show with its show time.
+    pub fn qprogram_summary(self, listing: &QProgramListing) -> String {
+        let at = crate::files::format_duration_ms(listing.at_ms);
+        let deviation = listing.max_deviation_mm;
+        let (moves, segments, lines) = (listing.moves, listing.segments, listing.lines);
+        match self {
+            Lang::Zh => format!(
+                "{moves} 段移动，{segments} 个程序段，共 {lines} 行；与动作的最大偏差 {deviation:.1} 毫米，在 {at}"
+            ),
+            Lang::En => format!(
+                "{moves} moves in {segments} segments, {lines} lines; largest deviation from the show {deviation:.1} mm, at {at}"
+            ),
+        }
+    }
+
     /// The player's state.
     pub fn player_state(self, state: PlayerState) -> &'static str {
         self.t(match state {
@@ -523,6 +547,29 @@ mod tests {
             assert!(!zh.is_empty() && !en.is_empty(), "{text:?}");
             assert_ne!(zh, en, "{text:?} is not translated");
         }
+    }
+
+    #[test]
+    fn a_q_program_report_names_its_deviation_and_when() {
+        let listing = QProgramListing {
+            unit: 3,
+            show: "wave".into(),
+            text: String::new(),
+            segments: 4,
+            lines: 180,
+            moves: 55,
+            max_deviation_mm: 12.34,
+            at_ms: 61_500,
+        };
+        assert_eq!(
+            Lang::En.qprogram_summary(&listing),
+            "55 moves in 4 segments, 180 lines; largest deviation from the show 12.3 mm, at 1:01.5"
+        );
+        assert!(
+            Lang::Zh
+                .qprogram_summary(&listing)
+                .contains("12.3 毫米，在 1:01.5")
+        );
     }
 
     #[test]

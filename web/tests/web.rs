@@ -11,7 +11,7 @@ use std::rc::Rc;
 
 use floatball_shared::api::{
     ClientMessage, FeedbackFrame, GatewayKind, GatewayStatus, LinkState, MboxRegisters, MboxReply,
-    PlayerState, Playlist, ServerMessage, ShowSummary, Status,
+    PlayerState, Playlist, QProgramListing, ServerMessage, ShowSummary, Status,
 };
 use floatball_shared::show::{Layout, Show, Track, TrackRow};
 use floatball_web::client::{
@@ -678,6 +678,91 @@ async fn controller_files_download_to_the_device_and_preview() {
             .iter()
             .all(|r| r.bearer.as_deref() == Some("tok"))
     );
+}
+
+#[wasm_bindgen_test]
+async fn a_balls_q_program_shows_on_installations_of_moons_drives() {
+    let container = fresh_container();
+    let listing = QProgramListing {
+        unit: 3,
+        show: "two".into(),
+        text: "[segment 1: main]\nWI3F\nQC2\n[segment 2]\nDI5000\nVE2.5\nFP\nQC\n".into(),
+        segments: 2,
+        lines: 6,
+        moves: 1,
+        max_deviation_mm: 0.4,
+        at_ms: 1500,
+    };
+    let json = serde_json::to_string(&listing).unwrap();
+    let bridge = FakeBridge::new(move |request| match request.url.as_str() {
+        "/api/qprogram/two?unit=3" => response(200, &json),
+        "/api/qprogram/two?unit=9" => response(
+            422,
+            r#"{"error":"the program would deviate 41.2 mm from the show at 12.0 s (tolerance 10 mm)","details":[]}"#,
+        ),
+        _ => response(404, ""),
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-qprogram");
+    online(ctx);
+    ctx.controller_files.update(|list| {
+        list.replace(vec![summary("two")]);
+        list.select("two");
+    });
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <FilesPage /> }
+    });
+    element(&container, "tab-controller").click();
+    tick().await;
+    assert!(
+        all(&container, "qprogram").is_empty(),
+        "no Q programs without MOONS' drives"
+    );
+    let scl = GatewayStatus {
+        kind: GatewayKind::Scl,
+        port: "/dev/ttyUSB0".into(),
+        link: LinkState::Up,
+        bytes_per_s: 0.0,
+        lowest_water_level: None,
+        error: None,
+        packets_per_s: None,
+        late_frames: None,
+        missed_replies: None,
+        drives: Vec::new(),
+    };
+    ctx.receive(ServerMessage::Status(Status {
+        gateways: vec![scl],
+        ..Status::default()
+    }));
+    tick().await;
+    set_value(&container, "qprogram-ball", "3", "input");
+    element(&container, "qprogram-show").click();
+    until("the program is shown", || {
+        !all(&container, "qprogram-text").is_empty()
+    })
+    .await;
+    assert_eq!(
+        text(&container, "qprogram-summary"),
+        "1 moves in 2 segments, 6 lines; largest deviation from the show 0.4 mm, at 0:01.5"
+    );
+    assert!(text(&container, "qprogram-text").contains("WI3F"));
+
+    // A ball whose program would stray too far: the bridge's figure, no listing.
+    set_value(&container, "qprogram-ball", "9", "input");
+    tick().await;
+    assert!(all(&container, "qprogram-text").is_empty(), "stale listing");
+    element(&container, "qprogram-show").click();
+    until("the refusal is shown", || {
+        text(&container, "qprogram-error").contains("41.2 mm")
+    })
+    .await;
+    // Not a number: said at once, nothing asked.
+    set_value(&container, "qprogram-ball", "u3", "input");
+    element(&container, "qprogram-show").click();
+    tick().await;
+    assert!(text(&container, "qprogram-error").contains("whole number"));
+    assert_eq!(bridge.requests_to(Method::Get, "/api/qprogram/").len(), 2);
 }
 
 #[wasm_bindgen_test]

@@ -1,5 +1,6 @@
 //! The Files page: local files (in the browser) and controller files, with Upload,
-//! Download, Preview, Save to device and Delete (PROTOCOL §1.7).
+//! Download, Preview, Save to device and Delete (PROTOCOL §1.7); on installations of
+//! MOONS' drives, each ball's Q program ([`super::qprogram`]).
 
 use std::rc::Rc;
 
@@ -10,6 +11,7 @@ use wasm_bindgen::JsCast;
 use wasm_bindgen_futures::JsFuture;
 
 use crate::client::{Failure, OnProgress, UploadProgress};
+use crate::components::qprogram::{QProgramPanel, has_scl_drives};
 use crate::components::widgets::{ActionButton, ConfirmButton, EmptyItem, RowButton, TabButton};
 use crate::context::Ctx;
 use crate::files::{LocalFile, format_bytes, format_duration_ms};
@@ -317,9 +319,17 @@ async fn add_files(ctx: Ctx, files: Vec<web_sys::File>, message: RwSignal<Option
 
 /// Offers `file` to the device as a download.
 fn save_to_device(file: &LocalFile) -> Result<(), String> {
-    let parts = js_sys::Array::of1(&file.text.as_str().into());
+    save_text(&file.name, &file.text, file.kind.content_type())
+}
+
+/// Offers `text` to the device as a download named `name`.
+///
+/// # Errors
+/// The browser's reason, when it cannot make the file.
+pub fn save_text(name: &str, text: &str, content_type: &str) -> Result<(), String> {
+    let parts = js_sys::Array::of1(&text.into());
     let options = web_sys::BlobPropertyBag::new();
-    options.set_type(file.kind.content_type());
+    options.set_type(content_type);
     let blob = web_sys::Blob::new_with_str_sequence_and_options(&parts, &options)
         .map_err(crate::http::describe_js_error)?;
     let url =
@@ -329,7 +339,7 @@ fn save_to_device(file: &LocalFile) -> Result<(), String> {
         .map_err(crate::http::describe_js_error)?
         .unchecked_into();
     anchor.set_href(&url);
-    anchor.set_download(&file.name);
+    anchor.set_download(name);
     anchor.click();
     // Cannot fail for a URL made just above.
     let _ = web_sys::Url::revoke_object_url(&url);
@@ -452,6 +462,9 @@ fn ControllerTab(message: RwSignal<Option<Message>>) -> impl IntoView {
                 }}
             </tbody>
         </table>
+        <Show when=move || has_scl_drives(ctx)>
+            <QProgramPanel selected=Signal::derive(selected) />
+        </Show>
     }
 }
 
