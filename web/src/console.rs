@@ -63,12 +63,41 @@ fn check_with<T, E: ToString>(text: &str, parse: impl Fn(&str) -> Result<Vec<T>,
     }
 }
 
+/// Checks SCL console text for MOONS' drives with the shared SCL parser (the one the
+/// bridge uses): one command a line, the drive's address character first (`0IP`).
+pub fn check_scl(text: &str) -> Check {
+    check_with(text, floatball_shared::scl::parse_script)
+}
+
+/// The family of drives the console talks to: what its lines are written in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Family {
+    /// UIM2503 gateways: the ASCII instructions (`*5;PV;`).
+    #[default]
+    Uim2503,
+    /// MBOX boxes: the box commands.
+    Mbox,
+    /// MOONS' drives: SCL lines.
+    Scl,
+}
+
+impl Family {
+    /// The family of an installation's gateways (an installation has one).
+    pub fn of(status: &Status) -> Self {
+        let has = |kind| status.gateways.iter().any(|gateway| gateway.kind == kind);
+        if has(GatewayKind::Mbox) {
+            Self::Mbox
+        } else if has(GatewayKind::Scl) {
+            Self::Scl
+        } else {
+            Self::Uim2503
+        }
+    }
+}
+
 /// Whether the installation's gateways are MBOX boxes.
 pub fn is_mbox(status: &Status) -> bool {
-    status
-        .gateways
-        .iter()
-        .any(|gateway| gateway.kind == GatewayKind::Mbox)
+    Family::of(status) == Family::Mbox
 }
 
 /// The route the bridge gives a command without a box of its own: the selected box
@@ -307,6 +336,42 @@ mod tests {
             check_mbox("@202 reset", selected),
             Check::Ready { .. }
         ));
+    }
+
+    #[test]
+    fn scl_text_is_checked_with_the_scl_parser() {
+        assert_eq!(check_scl("  \n"), Check::Empty);
+        assert_eq!(
+            check_scl("0IP\n\n1VE2.5\n1FL"),
+            Check::Ready {
+                lines: vec!["0IP".into(), "1VE2.5".into(), "1FL".into()],
+                instructions: 3,
+            }
+        );
+        let Check::Invalid(error) = check_scl("0IP\n1XX5") else {
+            panic!("an unknown mnemonic passed");
+        };
+        assert!(error.contains("line 2"), "{error}");
+        // UIM2503 text is not SCL, and SCL is not UIM2503 text.
+        assert!(matches!(check_scl("*5;PV;"), Check::Invalid(_)));
+        let scl = Status {
+            gateways: vec![floatball_shared::api::GatewayStatus {
+                kind: GatewayKind::Scl,
+                port: "/dev/ttyUSB0".into(),
+                link: floatball_shared::api::LinkState::Up,
+                bytes_per_s: 0.0,
+                lowest_water_level: None,
+                error: None,
+                packets_per_s: None,
+                late_frames: None,
+                missed_replies: None,
+                drives: Vec::new(),
+            }],
+            ..Status::default()
+        };
+        assert_eq!(Family::of(&scl), Family::Scl);
+        assert_eq!(Family::of(&Status::default()), Family::Uim2503);
+        assert!(!is_mbox(&scl));
     }
 
     #[test]

@@ -301,20 +301,32 @@ texts! {
     ConsoleHint => "每行一条或多条指令，例如 *5;PV; 。# 之后为注释。", "One or more instructions per line, e.g. *5;PV; — # starts a comment.";
     /// Console on MBOX boxes: the syntax hint.
     MboxConsoleHint => "每行一条或多条（以 ; 分隔）控制盒命令，例如 read FN 0x20 4 。# 之后为注释。", "One or more box commands per line (separated by ;), e.g. read FN 0x20 4 — # starts a comment.";
+    /// What to type on MOONS' drives.
+    SclConsoleHint => "每行一条 SCL 指令，驱动器地址在前，例如 0IP （问 0 号驱动器的位置）。", "One SCL command per line, the drive's address first, e.g. 0IP (ask drive 0 its position).";
     /// Console on MBOX boxes: the help's title.
     MboxHelpTitle => "控制盒命令", "Box commands";
     /// Console on MBOX boxes: the help (one command a line).
     MboxHelp => "read FN|DN 起始 数量 — 读寄存器（地址按十六进制，FN020 = 0x20）\nwrite FN|CX 起始 值… — 写寄存器（FN 不保存）\nsave FN 起始 值… — 写并保存 FN 参数\nestop / release — FN 0x0090 = 1 / 0（急停锁定时 release 被拒绝：请用复位、启动或回零）\nreset — CX 0 = 0；effects 掩码 — CX 1 = 掩码\nip A.B.C.D — 设置控制盒的 IP（保存）\n@201、@15.201、@all、@all/none — 指定执行与应答的控制盒", "read FN|DN start count — read registers (addresses in hex: FN020 = 0x20)\nwrite FN|CX start value… — write registers (FN not saved)\nsave FN start value… — write FN parameters, saved\nestop / release — FN 0x0090 = 1 / 0 (release is refused while the E-stop is latched: use Reset, Start or Home)\nreset — CX 0 = 0; effects mask — CX 1 = mask\nip A.B.C.D — set the box's IP address (saved)\n@201, @15.201, @all, @all/none — the box that executes and the one that replies";
+    /// Title of the SCL help.
+    SclHelpTitle => "SCL 指令（鸣志驱动器）", "SCL commands (MOONS' drives)";
+    /// The SCL commands a commissioning engineer needs, one a line.
+    SclHelp => "0IP、0SC、0AL — 问 0 号驱动器的位置、状态字、报警字\n0ME / 0MD — 使能 / 断开电机；0AR — 复位报警\n0SP0 — 把当前位置设为 0（计数）\n0VE2.5、0AC10、0DE10、0DI20000、0FL — 以 2.5 转/秒 相对移动 20000 计数；FP 为绝对移动\n0SK — 停止并清空缓存；0ST — 停止运动\n0QX1 — 执行已存的第 1 段程序；0QU1 — 读回第 1 段\n地址：0–9 及 \" # $ & ' ( ) + , - . / : ; < = >（按配置）；网关选择决定发往哪条线", "0IP, 0SC, 0AL — ask drive 0 its position, status word, alarm word\n0ME / 0MD — enable / disable the motor; 0AR — reset the alarm\n0SP0 — call the present position 0 (counts)\n0VE2.5, 0AC10, 0DE10, 0DI20000, 0FL — move 20000 counts from here at 2.5 rev/s; FP moves to an absolute position\n0SK — stop and empty the buffer; 0ST — stop the motion\n0QX1 — run stored segment 1; 0QU1 — read segment 1 back\nAddresses: 0–9 and \" # $ & ' ( ) + , - . / : ; < = > (as configured); the gateway picked is the line it goes to";
     /// Console on MBOX boxes: replies heading.
     MboxReplies => "控制盒应答", "Box replies";
     /// Console on MBOX boxes: no replies yet.
     NoMboxReplies => "还没有收到控制盒应答。", "No replies from the boxes yet.";
+    /// Heading of the drives' answers to console lines (MOONS' drives).
+    SclAnswers => "驱动器应答", "Drive answers";
+    /// No answers yet (MOONS' drives).
+    NoSclAnswers => "还没有应答。发送一条指令，例如 0IP 。", "No answers yet. Send a command, e.g. 0IP.";
     /// Gateway status of an MBOX box: datagrams a second.
     PacketsPerS => "包/秒", "packets/s";
     /// Gateway status of an MBOX box: motion frames sent late.
     LateFrames => "迟发帧", "late frames";
     /// Gateway status of an MBOX box: polls left unanswered.
     MissedReplies => "未应答", "missed replies";
+    /// Status: drives reporting an alarm (MOONS' drives).
+    Alarms => "报警", "alarms";
     /// Player state: idle.
     StateIdle => "空闲", "idle";
     /// Player state: waiting out an entry's delay.

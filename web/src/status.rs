@@ -30,8 +30,8 @@ pub fn gateway_text(lang: Lang, gateway: &GatewayStatus) -> String {
                 text.push_str(&format!(" · {} {count}", lang.t(label)));
             }
         }
-        // MOONS' drives: how many, their alarms and the polls they missed (the SCL
-        // pages of the app are still to come).
+        // MOONS' drives: how many, how many report an alarm and the polls they
+        // missed (each drive's answers are on the Console page).
         GatewayKind::Scl => {
             let alarms = gateway
                 .drives
@@ -44,8 +44,9 @@ pub fn gateway_text(lang: Lang, gateway: &GatewayStatus) -> String {
                 .map(|drive| drive.missed_replies)
                 .sum();
             text.push_str(&format!(
-                " · SCL × {} · alarms {alarms} · {} {missed}",
+                " · SCL × {} · {} {alarms} · {} {missed}",
                 gateway.drives.len(),
+                lang.t(Text::Alarms),
                 lang.t(Text::MissedReplies)
             ));
         }
@@ -180,6 +181,7 @@ mod tests {
                 Lang::En.link_state(floatball_shared::api::LinkState::Up)
             )
         );
+        assert!(gateway_text(Lang::Zh, &scl).contains("报警 1 · 未应答 2"));
     }
 
     #[test]

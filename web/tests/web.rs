@@ -11,7 +11,7 @@ use std::rc::Rc;
 
 use floatball_shared::api::{
     ClientMessage, FeedbackFrame, GatewayKind, GatewayStatus, LinkState, MboxRegisters, MboxReply,
-    PlayerState, Playlist, QProgramListing, ServerMessage, ShowSummary, Status,
+    PlayerState, Playlist, QProgramListing, SclReply, ServerMessage, ShowSummary, Status,
 };
 use floatball_shared::show::{Layout, Show, Track, TrackRow};
 use floatball_web::client::{
@@ -1241,6 +1241,98 @@ async fn console_on_mbox_boxes_checks_box_commands_helps_and_shows_replies() {
     ctx.lang.set(Lang::Zh);
     tick().await;
     assert!(text(&container, "console-help").contains("控制盒命令"));
+}
+
+/// A status of one RS-485 line of MOONS' drives.
+fn scl_status() -> Status {
+    Status {
+        gateways: vec![GatewayStatus {
+            kind: GatewayKind::Scl,
+            port: "/dev/ttyUSB0".into(),
+            link: LinkState::Up,
+            bytes_per_s: 0.0,
+            lowest_water_level: None,
+            error: None,
+            packets_per_s: None,
+            late_frames: None,
+            missed_replies: None,
+            drives: Vec::new(),
+        }],
+        ..Status::default()
+    }
+}
+
+#[wasm_bindgen_test]
+async fn console_on_moons_drives_checks_scl_lines_helps_and_shows_answers() {
+    let (container, ctx, socket, _) =
+        mount_online("test-console-scl", || view! { <ConsolePage /> });
+    ctx.receive(ServerMessage::Status(scl_status()));
+    tick().await;
+    let help = text(&container, "console-help");
+    assert!(
+        help.contains("SCL commands") && help.contains("0IP"),
+        "{help}"
+    );
+    assert!(text(&container, "console-check").contains("0IP"));
+
+    // The SCL parser, with its line and column; UIM2503 text is not SCL.
+    type_into(&container, "console-input", "0IP\n0XX5");
+    tick().await;
+    assert_eq!(
+        attribute(&container, "console-check", "data-state"),
+        "error"
+    );
+    assert!(
+        text(&container, "console-check").starts_with("line 2"),
+        "{}",
+        text(&container, "console-check")
+    );
+    assert!(disabled(&container, "console-send"));
+    type_into(&container, "console-input", "*5;PV;");
+    tick().await;
+    assert_eq!(
+        attribute(&container, "console-check", "data-state"),
+        "error"
+    );
+
+    type_into(&container, "console-input", "0VE2.5\n\n0IP");
+    tick().await;
+    assert_eq!(attribute(&container, "console-check", "data-state"), "ok");
+    element(&container, "console-send").click();
+    tick().await;
+    assert_eq!(
+        *socket.sent.borrow(),
+        [
+            ClientMessage::Raw {
+                line: "0VE2.5".into(),
+                gateway: None
+            },
+            ClientMessage::Raw {
+                line: "0IP".into(),
+                gateway: None
+            }
+        ]
+    );
+
+    assert!(text(&container, "feedback-list").contains("No answers yet"));
+    ctx.receive(ServerMessage::SclReply(SclReply {
+        gateway: 0,
+        drive: "0".into(),
+        request: "0IP".into(),
+        text: "IP = -1200".into(),
+        raw: "0IP=-1200".into(),
+    }));
+    tick().await;
+    let lines = all(&container, "feedback-line");
+    assert_eq!(lines.len(), 1);
+    let line = lines[0].text_content().unwrap();
+    assert!(
+        line.contains("gw0") && line.contains("0IP → IP = -1200") && line.contains("0IP=-1200"),
+        "{line}"
+    );
+    ctx.lang.set(Lang::Zh);
+    tick().await;
+    assert!(text(&container, "console-help").contains("鸣志驱动器"));
 }
 
 #[wasm_bindgen_test]

@@ -1,13 +1,14 @@
 //! The Console page (for engineers): instruction lines checked by the parser before
 //! they are sent, and the feedback frames decoded as they arrive. On an MBOX
 //! installation: box commands checked by the MBOX parser, their help, and the boxes'
-//! replies to reads.
+//! replies to reads; on MOONS' drives: SCL lines checked by the SCL parser, their
+//! help, and the drives' answers.
 
 use floatball_shared::api::ClientMessage;
 use leptos::prelude::*;
 
 use crate::components::widgets::{BridgeError, Field};
-use crate::console::{Check, check, check_mbox, is_mbox, mbox_route};
+use crate::console::{Check, Family, check, check_mbox, check_scl, mbox_route};
 use crate::context::Ctx;
 use crate::i18n::Text;
 
@@ -21,19 +22,19 @@ pub fn ConsolePage() -> impl IntoView {
     let text = RwSignal::new(String::new());
     let gateway = RwSignal::new(None::<usize>);
     let sent = RwSignal::new(Vec::<String>::new());
-    let mbox = Memo::new(move |_| {
+    let family = Memo::new(move |_| {
         ctx.status
-            .with(|status| status.as_ref().is_some_and(is_mbox))
+            .with(|status| status.as_ref().map(Family::of).unwrap_or_default())
     });
-    let checked = Memo::new(move |_| {
-        if mbox.get() {
+    let checked = Memo::new(move |_| match family.get() {
+        Family::Mbox => {
             let selected = ctx
                 .status
                 .with(|status| mbox_route(status.as_ref(), gateway.get()));
             text.with(|text| check_mbox(text, selected))
-        } else {
-            text.with(|text| check(text))
         }
+        Family::Scl => text.with(|text| check_scl(text)),
+        Family::Uim2503 => text.with(|text| check(text)),
     });
     let ready = move || matches!(checked.get(), Check::Ready { .. }) && ctx.connected();
     let send = move |_| {
@@ -57,7 +58,15 @@ pub fn ConsolePage() -> impl IntoView {
     let verdict = move || match checked.get() {
         Check::Empty => view! {
             <p class="muted" data-testid="console-check" data-state="empty">
-                {move || ctx.t(if mbox.get() { Text::MboxConsoleHint } else { Text::ConsoleHint })}
+                {move || {
+                    ctx.t(
+                        match family.get() {
+                            Family::Mbox => Text::MboxConsoleHint,
+                            Family::Scl => Text::SclConsoleHint,
+                            Family::Uim2503 => Text::ConsoleHint,
+                        },
+                    )
+                }}
             </p>
         }
         .into_any(),
@@ -105,12 +114,21 @@ pub fn ConsolePage() -> impl IntoView {
                 ></textarea>
             </Field>
             {verdict}
-            <Show when=move || mbox.get()>
-                <details class="help" data-testid="console-help">
-                    <summary>{move || ctx.t(Text::MboxHelpTitle)}</summary>
-                    <pre class="mono">{move || ctx.t(Text::MboxHelp)}</pre>
-                </details>
-            </Show>
+            {move || {
+                let (title, help) = match family.get() {
+                    Family::Mbox => (Text::MboxHelpTitle, Text::MboxHelp),
+                    Family::Scl => (Text::SclHelpTitle, Text::SclHelp),
+                    Family::Uim2503 => return None,
+                };
+                Some(
+                    view! {
+                        <details class="help" data-testid="console-help">
+                            <summary>{move || ctx.t(title)}</summary>
+                            <pre class="mono">{move || ctx.t(help)}</pre>
+                        </details>
+                    },
+                )
+            }}
             <div class="toolbar">
                 <Field label=Text::Gateway class="inline">
                     <select
@@ -138,7 +156,15 @@ pub fn ConsolePage() -> impl IntoView {
                 </ul>
             </Show>
             <div class="heading-row">
-                <h3>{move || ctx.t(if mbox.get() { Text::MboxReplies } else { Text::Feedback })}</h3>
+                <h3>{move || {
+                    ctx.t(
+                        match family.get() {
+                            Family::Mbox => Text::MboxReplies,
+                            Family::Scl => Text::SclAnswers,
+                            Family::Uim2503 => Text::Feedback,
+                        },
+                    )
+                }}</h3>
                 <button data-testid="feedback-clear" on:click=move |_| ctx.feedback.update(|log| log.clear())>
                     {move || ctx.t(Text::Clear)}
                 </button>
@@ -147,7 +173,15 @@ pub fn ConsolePage() -> impl IntoView {
                 {move || {
                     let log = ctx.feedback.get();
                     if log.is_empty() {
-                        let empty = move || ctx.t(if mbox.get() { Text::NoMboxReplies } else { Text::NoFeedback });
+                        let empty = move || {
+                            ctx.t(
+                                match family.get() {
+                                    Family::Mbox => Text::NoMboxReplies,
+                                    Family::Scl => Text::NoSclAnswers,
+                                    Family::Uim2503 => Text::NoFeedback,
+                                },
+                            )
+                        };
                         return view! { <li class="muted">{empty}</li> }.into_any();
                     }
                     log.lines()
