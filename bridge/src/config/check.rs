@@ -558,19 +558,7 @@ impl Checker<'_> {
                     ));
                 }
             };
-            for (key, value) in [
-                ("address", gateway.address.as_ref().map(Spanned::span)),
-                ("axes", gateway.axes.as_ref().map(Spanned::span)),
-                (
-                    "pulses_per_mm",
-                    gateway.pulses_per_mm.as_ref().map(Spanned::span),
-                ),
-                ("sign", gateway.sign.as_ref().map(Spanned::span)),
-                (
-                    "offset_pulses",
-                    gateway.offset_pulses.as_ref().map(Spanned::span),
-                ),
-            ] {
+            for (key, value) in gateway.mbox_keys() {
                 if let Some(span) = value {
                     return Err(self.at(
                         &span,

@@ -60,6 +60,25 @@ pub(super) struct RawGateway {
     pub(super) escl: Option<Spanned<Vec<Spanned<String>>>>,
 }
 
+impl RawGateway {
+    /// The keys only an MBOX box takes, each with where it stands if it is given.
+    pub(super) fn mbox_keys(&self) -> [(&'static str, Option<std::ops::Range<usize>>); 5] {
+        [
+            ("address", self.address.as_ref().map(Spanned::span)),
+            ("axes", self.axes.as_ref().map(Spanned::span)),
+            (
+                "pulses_per_mm",
+                self.pulses_per_mm.as_ref().map(Spanned::span),
+            ),
+            ("sign", self.sign.as_ref().map(Spanned::span)),
+            (
+                "offset_pulses",
+                self.offset_pulses.as_ref().map(Spanned::span),
+            ),
+        ]
+    }
+}
+
 /// `[safety]`.
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -127,24 +127,14 @@ impl Checker<'_> {
         table: &Range<usize>,
         override_port: Option<&String>,
     ) -> Result<SclEntry, ConfigError> {
-        for (key, value) in [
-            ("address", gateway.address.as_ref().map(Spanned::span)),
-            ("axes", gateway.axes.as_ref().map(Spanned::span)),
-            (
-                "pulses_per_mm",
-                gateway.pulses_per_mm.as_ref().map(Spanned::span),
-            ),
-            ("sign", gateway.sign.as_ref().map(Spanned::span)),
-            (
-                "offset_pulses",
-                gateway.offset_pulses.as_ref().map(Spanned::span),
-            ),
+        let stations = [
             (
                 "first_station",
                 gateway.first_station.as_ref().map(Spanned::span),
             ),
             ("stations", gateway.stations.as_ref().map(Spanned::span)),
-        ] {
+        ];
+        for (key, value) in gateway.mbox_keys().into_iter().chain(stations) {
             if let Some(span) = value {
                 return Err(self.at(
                     &span,
