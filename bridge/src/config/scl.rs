@@ -18,20 +18,14 @@ use super::{BAUD_RANGE, ConfigError, DEFAULT_SERIAL_BAUD};
 /// The status poll period unless configured.
 pub const DEFAULT_SCL_POLL: Duration = Duration::from_millis(200);
 
-/// The drives' steps per revolution unless configured (`EG`, the factory setting).
-pub const DEFAULT_STEPS_PER_REV: u32 = 20_000;
-
-/// The largest deviation from the show a reduced Q program may have unless
-/// configured, mm.
-pub const DEFAULT_TOLERANCE_MM: f64 = 10.0;
+pub use floatball_shared::scl::qprogram::{
+    DEFAULT_START_INPUT, DEFAULT_STEPS_PER_REV, DEFAULT_TOLERANCE_MM,
+};
 
 /// The host's UDP port for eSCL unless configured: the drives' own port. An eSCL drive
 /// answers only the address and port of the first host that spoke to it until it is
 /// powered down, so the bridge sends from the same port every time it starts.
 pub const DEFAULT_SCL_HOST_PORT: u16 = escl::UDP_PORT;
-
-/// The start input unless configured (`WI3F`).
-pub const DEFAULT_START_INPUT: u8 = 3;
 
 /// An installation of MOONS' drives: every gateway entry's drives and the `[scl]`
 /// settings.

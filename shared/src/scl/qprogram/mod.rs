@@ -96,16 +96,25 @@ pub struct QProgramConfig {
     pub max_accel_mm_s2: f64,
 }
 
+/// A drive's steps per revolution unless configured (`EG`, the factory setting).
+pub const DEFAULT_STEPS_PER_REV: u32 = 20_000;
+
+/// The largest deviation from the show a program may have unless configured, mm.
+pub const DEFAULT_TOLERANCE_MM: f64 = 10.0;
+
+/// The common start input unless configured (`WI3F`: input 3, a falling edge).
+pub const DEFAULT_START_INPUT: u8 = 3;
+
 impl Default for QProgramConfig {
     /// 100 counts/mm, 20 000 steps/rev, start on a falling edge of input 3, no loop,
     /// 10 mm tolerance, 2000 mm/s, 4000 mm/s².
     fn default() -> Self {
         Self {
             counts_per_mm: 100.0,
-            steps_per_rev: 20_000,
-            start: IoPoint::new(3).map(|input| (input, InputCondition::Falling)),
+            steps_per_rev: DEFAULT_STEPS_PER_REV,
+            start: IoPoint::new(DEFAULT_START_INPUT).map(|input| (input, InputCondition::Falling)),
             loop_show: false,
-            tolerance_mm: 10.0,
+            tolerance_mm: DEFAULT_TOLERANCE_MM,
             max_speed_mm_s: 2000.0,
             max_accel_mm_s2: 4000.0,
         }

@@ -66,7 +66,7 @@ impl Default for DriveConfig {
     fn default() -> Self {
         Self {
             address: None,
-            steps_per_rev: 20_000,
+            steps_per_rev: crate::scl::qprogram::DEFAULT_STEPS_PER_REV,
             velocity_rev_s: Decimal::from_int(10),
             accel_rev_s2: Decimal::from_int(100),
             decel_rev_s2: Decimal::from_int(100),
