@@ -53,19 +53,34 @@ async fn measured_rate(baud: u32, window: Duration) -> f64 {
     (end_bytes - start_bytes) as f64 / (end - start).as_secs_f64()
 }
 
+/// Checks the line's pace at `baud`: never faster than baud/10 + 5 %, and within 5 %
+/// of it in one of three measurements — a machine busy with other work can only
+/// starve the writer (slower), so a slow window is measured again, never a fast one.
+async fn assert_paced(baud: u32, window: Duration) {
+    let expected = f64::from(baud) / 10.0;
+    let mut rates = Vec::new();
+    for _ in 0..3 {
+        let rate = measured_rate(baud, window).await;
+        assert!(
+            rate <= expected * 1.05,
+            "{rate:.1} B/s at {baud} baud: faster than the line"
+        );
+        rates.push(rate);
+        if rate >= expected * 0.95 {
+            return;
+        }
+    }
+    panic!("{rates:.1?} B/s at {baud} baud: slower than the line three times");
+}
+
 #[tokio::test]
 async fn throughput_at_9600_baud_is_within_five_percent_of_baud_over_ten() {
-    let rate = measured_rate(9600, Duration::from_secs(3)).await;
-    assert!((rate - 960.0).abs() <= 48.0, "{rate:.1} B/s at 9600 baud");
+    assert_paced(9600, Duration::from_secs(3)).await;
 }
 
 #[tokio::test]
 async fn throughput_at_115200_baud_is_within_five_percent_of_baud_over_ten() {
-    let rate = measured_rate(115_200, Duration::from_secs(2)).await;
-    assert!(
-        (rate - 11_520.0).abs() <= 576.0,
-        "{rate:.1} B/s at 115200 baud"
-    );
+    assert_paced(115_200, Duration::from_secs(2)).await;
 }
 
 #[tokio::test]
