@@ -5,7 +5,7 @@
 //!   ([`PlanReport`]) of a stored show on this installation; 404.
 //! - `GET /api/sim/positions`: 200 every simulated gateway's units with their true
 //!   positions ([`SimPositions`]; empty when no gateway is simulated), and those of
-//!   the simulated MBOX boxes (`port = "sim"`).
+//!   the simulated MBOX boxes and MOONS' drives (`port = "sim"`).
 //! - `GET /api/mbox/timing`: 200 how the motion frames left for the MBOX boxes
 //!   ([`MboxTiming`]: frames sent, late frames, a histogram of how late each left
 //!   after its slot); 404 when the installation has no MBOX boxes.
@@ -52,7 +52,15 @@ pub async fn sim_positions(State(state): State<AppState>, _session: Session) -> 
     for sim in state.mbox_sims() {
         boxes.extend(sim.snapshots().await);
     }
-    Json(SimPositions { gateways, boxes })
+    let drives = state
+        .scl_sims()
+        .map(crate::simulate::scl::SimDrives::snapshots)
+        .unwrap_or_default();
+    Json(SimPositions {
+        gateways,
+        boxes,
+        drives,
+    })
 }
 
 /// `GET /api/mbox/timing`.
