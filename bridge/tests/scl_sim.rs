@@ -2,7 +2,8 @@
 //! the real `floatball` binary: two gateway entries of three drives each, on one start
 //! wire, on loopback eSCL. Start uploads every drive's Q program and fires the common
 //! start, the show plays to its end, `GET /api/sim/positions` shows every drive's
-//! stored program and end position, and the e-stop stops them all.
+//! stored program and end position, and the e-stop stops them all. The verdict
+//! (`GET /api/plan`) compiles the programs as Start does.
 
 mod common;
 
@@ -10,7 +11,7 @@ use std::time::Duration;
 
 use common::process::{Process, links_up};
 use common::{Ws, native_show, send_text, until};
-use floatball_shared::api::{PlayerState, SimDrive, SimPositions};
+use floatball_shared::api::{PlanReport, PlayerState, SimDrive, SimPositions};
 
 /// Ball `ball`'s end position, mm.
 fn end_mm(ball: usize) -> f64 {
@@ -34,7 +35,7 @@ fn config(scl: &str) -> String {
     let sim = "[[gateway]]\nkind = \"scl\"\nport = \"sim\"\nunits = 3\n";
     format!(
         "[matrix]\nrows = 2\ncols = 3\n[safety]\napproach_speed_mm_s = 1000.0\n\
-         [scl]\npoll_ms = 50\ntolerance_mm = 20.0\n{scl}\n{sim}{sim}"
+         [scl]\npoll_ms = 50\n{scl}\n{sim}{sim}"
     )
 }
 
@@ -110,7 +111,7 @@ async fn estop_stops_every_drive(bridge: &Process, ws: &mut Ws, token: &str) {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn simulated_drives_on_one_start_wire_play_and_stop() {
     // The trigger drive's output is wired to input 3 of every drive on both entries.
-    let bridge = Process::start(&config("trigger = \"0:2\""));
+    let bridge = Process::start(&config("trigger = \"0:2\"\ntolerance_mm = 20.0"));
     let (mut ws, token) = operator(&bridge).await;
     plays_to_the_end(&bridge, &mut ws, &token).await;
     estop_stops_every_drive(&bridge, &mut ws, &token).await;
@@ -118,7 +119,40 @@ async fn simulated_drives_on_one_start_wire_play_and_stop() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn simulated_drives_without_a_trigger_are_started_each_by_qx() {
-    let bridge = Process::start(&config(""));
+    let bridge = Process::start(&config("tolerance_mm = 20.0"));
     let (mut ws, token) = operator(&bridge).await;
     plays_to_the_end(&bridge, &mut ws, &token).await;
+}
+
+async fn plan(bridge: &Process, token: &str) -> PlanReport {
+    bridge
+        .request(axum::http::Method::GET, "/api/plan/drop", Some(token), None)
+        .await
+        .json()
+}
+
+/// The verdict before Start compiles every ball's program: a show Start would refuse
+/// (here: over a tolerance no rest-to-rest move meets) is not feasible, with the ball,
+/// the figure and the tolerance that would take it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_verdict_refuses_a_show_over_the_tolerance() {
+    let bridge = Process::start(&config("tolerance_mm = 0.001"));
+    let (_, token) = operator(&bridge).await;
+    let report = plan(&bridge, &token).await;
+    assert!(!report.feasible, "{report:?}");
+    let reason = report.reason.clone().unwrap_or_default();
+    assert!(
+        reason.starts_with("ball 1: the program would be")
+            && reason.contains("tolerance of 0.001 mm"),
+        "{report:?}"
+    );
+    assert!(
+        report.fixes[0].starts_with("raise [scl] tolerance_mm to"),
+        "{report:?}"
+    );
+
+    let bridge = Process::start(&config("tolerance_mm = 20.0"));
+    let (_, token) = operator(&bridge).await;
+    let report = plan(&bridge, &token).await;
+    assert!(report.feasible, "{report:?}");
 }
