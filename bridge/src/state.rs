@@ -14,13 +14,14 @@ use tokio::sync::{Mutex, watch};
 use crate::estop::Latch;
 
 use crate::auth::{Clock, LoginLimiter, Password, PasswordError, Tokens};
-use crate::config::{Config, MboxConfig, MboxTarget};
+use crate::config::{Config, MboxConfig, MboxTarget, SclConfig, SclGateway};
 use crate::gateways::Gateways;
 use crate::mbox::MboxNet;
 use crate::playback::Playback;
 use crate::playlist::{PlaylistError, PlaylistStore};
 use crate::scl::SclNet;
 use crate::simulate::mbox::{MboxBoxes, MboxOptions};
+use crate::simulate::scl::{DEFAULT_START_WIRE, SimDrives, parse_start_wire};
 use crate::store::{ShowStore, StoreError};
 use floatball_shared::plan::mbox::MboxPlayerConfig;
 use std::net::SocketAddr;
@@ -86,6 +87,8 @@ struct Inner {
     playback: Playback,
     /// The simulated MBOX boxes (`port = "sim"`), one per such gateway, in order.
     mbox_sims: Vec<MboxBoxes>,
+    /// The simulated MOONS' drives of every `kind = "scl"`, `port = "sim"` entry.
+    scl_sims: Option<SimDrives>,
     stopping: watch::Sender<bool>,
 }
 
@@ -131,6 +134,53 @@ fn open_boxes(
     Ok((boxes, sims))
 }
 
+/// Starts the simulated MOONS' drives of every `port = "sim"` entry of `scl` (one bus,
+/// one start wire) and returns the configuration the links and the player use: each
+/// such entry an eSCL entry with its drives' loopback sockets.
+///
+/// The wire runs from the configured trigger (`[scl] trigger`, to `start_input`) when
+/// the first gateway entry is simulated, else from the simulator's default
+/// ([`DEFAULT_START_WIRE`], the same as `trigger = "0:2"` with the default start input
+/// 3). Without a trigger the programs wait for no input and the wire is unused. When
+/// every entry is simulated the bridge sends from any free port (no drive remembers
+/// an earlier host).
+fn open_drives(scl: &SclConfig) -> Result<(SclConfig, Option<SimDrives>), OpenError> {
+    let entries: Vec<(usize, usize)> = scl
+        .gateways
+        .iter()
+        .enumerate()
+        .filter_map(|(index, gateway)| match gateway {
+            SclGateway::Sim { drives } => Some((index, *drives)),
+            _ => None,
+        })
+        .collect();
+    if entries.is_empty() {
+        return Ok((scl.clone(), None));
+    }
+    let first_simulated = matches!(scl.gateways.first(), Some(SclGateway::Sim { .. }));
+    let wire = match (scl.trigger, scl.start) {
+        (Some((from, output)), Some((input, _))) if first_simulated => {
+            floatball_shared::scl::twin::StartWire {
+                from,
+                output,
+                input,
+            }
+        }
+        _ => parse_start_wire(DEFAULT_START_WIRE).map_err(OpenError::Scl)?,
+    };
+    let sims = SimDrives::spawn(&entries, scl.steps_per_rev, wire).map_err(OpenError::Scl)?;
+    let mut resolved = scl.clone();
+    for (index, gateway) in resolved.gateways.iter_mut().enumerate() {
+        if matches!(gateway, SclGateway::Sim { .. }) {
+            *gateway = SclGateway::Escl(sims.sockets(index));
+        }
+    }
+    if entries.len() == scl.gateways.len() {
+        resolved.host_port = 0;
+    }
+    Ok((resolved, Some(sims)))
+}
+
 impl AppState {
     /// Opens the data directory (creating what is missing) for a bridge with `config`,
     /// reading time from `clock`, and opens the links to the gateways. Must run inside
@@ -149,13 +199,16 @@ impl AppState {
         let tokens = Tokens::open(&paths.data_dir, clock.now());
         let latch = Arc::new(Latch::new());
         let gateways = Gateways::open(&config, &latch)?;
+        let mut scl_sims = None;
         let (playback, mbox_sims) = match (&config.mbox, &config.scl) {
             (_, Some(scl)) => {
-                let drives = SclNet::open(scl, &latch).map_err(OpenError::Scl)?;
+                let (scl, sims) = open_drives(scl)?;
+                scl_sims = sims;
+                let drives = SclNet::open(&scl, &latch).map_err(OpenError::Scl)?;
                 (
                     Playback::spawn_scl(
                         config.installation.clone(),
-                        scl.clone(),
+                        scl,
                         drives,
                         Arc::clone(&latch),
                     ),
@@ -193,6 +246,7 @@ impl AppState {
                 gateways,
                 playback,
                 mbox_sims,
+                scl_sims,
                 stopping: watch::channel(false).0,
             }),
         })
@@ -253,6 +307,11 @@ impl AppState {
     /// configuration order.
     pub fn mbox_sims(&self) -> impl Iterator<Item = &MboxBoxes> {
         self.inner.mbox_sims.iter()
+    }
+
+    /// The simulated MOONS' drives (`kind = "scl"`, `port = "sim"`), if any.
+    pub fn scl_sims(&self) -> Option<&SimDrives> {
+        self.inner.scl_sims.as_ref()
     }
 
     /// The player: Start, E-stop, Reset.

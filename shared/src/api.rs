@@ -187,6 +187,35 @@ pub struct SimPositions {
     /// order.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub boxes: Vec<SimBox>,
+    /// Every simulated MOONS' drive in the bridge (`kind = "scl"`, `port = "sim"`),
+    /// in gateway and unit order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub drives: Vec<SimDrive>,
+}
+
+/// One simulated MOONS' drive in [`SimPositions`], at the simulated drives' clock.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SimDrive {
+    /// Index of its gateway entry in the configuration.
+    pub gateway: usize,
+    /// Its place on that entry (0 = the first unit).
+    pub unit: usize,
+    /// Its address character (eSCL drives take them in order: `'0'` the first).
+    pub address: char,
+    /// Position, counts.
+    pub position_counts: f64,
+    /// The motor moves.
+    pub moving: bool,
+    /// A program runs or buffered commands wait to run.
+    pub executing: bool,
+    /// The program waits for an input (`WI`): not started by the common start.
+    pub waiting_input: bool,
+    /// How many of the 12 Q segments hold a program.
+    pub segments_stored: usize,
+    /// How many moves it ended since it was switched on.
+    pub moves_ended: usize,
+    /// The alarm code (`AL`); 0 = none.
+    pub alarm_code: u16,
 }
 
 /// One simulated gateway in [`SimPositions`].

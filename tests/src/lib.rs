@@ -403,6 +403,13 @@ impl Browser {
     /// plays the show `name`, and one press of the top bar's E-stop stops it — the
     /// button acknowledges it and the bridge reports the matrix stopped.
     pub async fn play_then_estop(&self, name: &str) {
+        self.play(name).await;
+        self.estop().await;
+    }
+
+    /// From the Control page: the bandwidth report says the playlist can run, and
+    /// Start plays the show `name` (the status says `playing` and names it).
+    pub async fn play(&self, name: &str) {
         self.click("[data-testid=nav-control]").await;
         self.wait_for_attribute(
             "[data-testid=verdict]",
@@ -420,6 +427,11 @@ impl Browser {
         )
         .await;
         assert_eq!(self.text("[data-testid=status-show]").await, name);
+    }
+
+    /// One press of the top bar's E-stop: the button acknowledges it and the bridge
+    /// reports the matrix stopped.
+    pub async fn estop(&self) {
         self.click(".topbar [data-testid=estop]").await;
         self.wait_for_attribute(
             "[data-testid=status-state]",

@@ -497,7 +497,7 @@ impl Checker<'_> {
                 )?;
                 let (port, baud) = match &found.gateway {
                     SclGateway::Serial { port, baud, .. } => (port.clone(), *baud),
-                    SclGateway::Escl(_) => (found.gateway.port(), 0),
+                    SclGateway::Escl(_) | SclGateway::Sim { .. } => (found.gateway.port(), 0),
                 };
                 let units = if found.listed {
                     Some(found.gateway.drives())
@@ -628,7 +628,8 @@ impl Checker<'_> {
                 ));
             }
         }
-        // A line whose addresses were not listed: the first characters, one a unit.
+        // A line whose addresses were not listed: the first characters, one a unit;
+        // simulated drives: one a unit.
         let drives = lines
             .into_iter()
             .enumerate()
@@ -647,6 +648,9 @@ impl Checker<'_> {
                     } else {
                         addresses
                     },
+                },
+                SclGateway::Sim { .. } => SclGateway::Sim {
+                    drives: units.iter().filter(|unit| unit.gateway == gateway).count(),
                 },
                 other => other,
             })

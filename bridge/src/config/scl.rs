@@ -78,6 +78,12 @@ pub enum SclGateway {
     },
     /// eSCL drives, one per unit, each at its UDP address and port.
     Escl(Vec<SocketAddr>),
+    /// `port = "sim"`: simulated drives the bridge starts on loopback UDP (eSCL), one
+    /// per unit, all on one start wire (see `crate::state`).
+    Sim {
+        /// How many drives (units).
+        drives: usize,
+    },
 }
 
 impl SclGateway {
@@ -86,6 +92,7 @@ impl SclGateway {
         match self {
             Self::Serial { addresses, .. } => addresses.len(),
             Self::Escl(addresses) => addresses.len(),
+            Self::Sim { drives } => *drives,
         }
     }
 
@@ -98,6 +105,7 @@ impl SclGateway {
                 .map(ToString::to_string)
                 .collect::<Vec<_>>()
                 .join(" "),
+            Self::Sim { .. } => SIM_PORT.to_owned(),
         }
     }
 }
@@ -223,13 +231,33 @@ impl Checker<'_> {
                 ));
             }
         };
-        if port == SIM_PORT || port.is_empty() || port.chars().any(char::is_control) {
+        if port == SIM_PORT {
+            for (key, value) in [
+                ("baud", gateway.baud.as_ref().map(Spanned::span)),
+                ("addresses", gateway.addresses.as_ref().map(Spanned::span)),
+            ] {
+                if let Some(span) = value {
+                    return Err(self.at(
+                        &span,
+                        format!(
+                            "gateway {number}: {key} is not for simulated drives (port = \
+                             \"sim\"); give units"
+                        ),
+                    ));
+                }
+            }
+            // The count comes from the units, once they are allocated.
+            return Ok(SclEntry {
+                gateway: SclGateway::Sim { drives: 0 },
+                listed: false,
+            });
+        }
+        if port.is_empty() || port.chars().any(char::is_control) {
             return Err(self.wrong(
                 port_span.as_ref(),
                 format!(
                     "gateway {number}: port {port:?} must be a serial device such as \
-                     \"/dev/ttyUSB0\" (simulated drives: `floatball simulate --kind scl` on a \
-                     serial device or UDP)"
+                     \"/dev/ttyUSB0\", or \"sim\" (simulated drives)"
                 ),
             ));
         }
@@ -452,10 +480,10 @@ impl Checker<'_> {
             .ok_or_else(shape)?;
         let known = match first {
             Some(SclGateway::Serial { addresses, .. }) => addresses.contains(&address),
-            // eSCL drives take the address characters in the order they are listed.
-            Some(SclGateway::Escl(drives)) => Address::CHARACTERS
+            // eSCL and simulated drives take the address characters in their order.
+            Some(gateway @ (SclGateway::Escl(_) | SclGateway::Sim { .. })) => Address::CHARACTERS
                 .chars()
-                .take(drives.len())
+                .take(gateway.drives())
                 .any(|character| character == address.character()),
             None => false,
         };

@@ -606,10 +606,15 @@ fn scl_mistakes_are_named_with_their_place() {
          \"scl\"); give port and addresses, or escl"
     );
     assert_eq!(
+        wrong("port = \"/dev/ttyUSB0\"", "port = \"\""),
+        "data/floatball.toml line 10, column 8: gateway 1: port \"\" must be a serial device \
+         such as \"/dev/ttyUSB0\", or \"sim\" (simulated drives)"
+    );
+    // Simulated drives take neither a speed nor addresses.
+    assert_eq!(
         wrong("port = \"/dev/ttyUSB0\"", "port = \"sim\""),
-        "data/floatball.toml line 10, column 8: gateway 1: port \"sim\" must be a serial device \
-         such as \"/dev/ttyUSB0\" (simulated drives: `floatball simulate --kind scl` on a \
-         serial device or UDP)"
+        "data/floatball.toml line 11, column 8: gateway 1: baud is not for simulated drives \
+         (port = \"sim\"); give units"
     );
     assert_eq!(
         wrong("baud = 115200", "units = 4"),
@@ -629,5 +634,52 @@ fn scl_mistakes_are_named_with_their_place() {
         on_uim,
         "data/floatball.toml line 3, column 13: gateway 1: addresses and escl are for MOONS' \
          drives (kind = \"scl\")"
+    );
+}
+
+#[test]
+fn simulated_scl_drives_count_their_units() {
+    let sim = "[[gateway]]\nkind = \"scl\"\nport = \"sim\"\nunits = 3\n";
+    let config = parse(&format!(
+        "[matrix]\nrows = 2\ncols = 3\n[scl]\ntrigger = \"0:2\"\n{sim}{sim}"
+    ))
+    .expect("valid");
+    let scl = config.scl.expect("scl");
+    assert_eq!(
+        scl.gateways,
+        vec![SclGateway::Sim { drives: 3 }, SclGateway::Sim { drives: 3 }]
+    );
+    assert_eq!(config.installation.gateways[1].port, "sim");
+    assert_eq!(config.installation.stations_on(1), vec![1, 2, 3]);
+    // The trigger names a simulated drive of the first entry; the start input is the
+    // one the simulator's default wire drives.
+    let wire = crate::simulate::scl::parse_start_wire(crate::simulate::scl::DEFAULT_START_WIRE)
+        .expect("the default wire");
+    assert_eq!(scl.trigger, Some((wire.from, wire.output)));
+    assert_eq!(scl.start.map(|(input, _)| input), Some(wire.input));
+
+    let wrong = |extra: &str| {
+        parse(&format!(
+            "[matrix]\nrows = 1\ncols = 3\n[[gateway]]\nkind = \"scl\"\nport = \"sim\"\n{extra}\n"
+        ))
+        .expect_err(extra)
+        .to_string()
+    };
+    assert_eq!(
+        wrong("addresses = \"123\""),
+        "data/floatball.toml line 7, column 13: gateway 1: addresses is not for simulated \
+         drives (port = \"sim\"); give units"
+    );
+    assert_eq!(
+        wrong("baud = 115200"),
+        "data/floatball.toml line 7, column 8: gateway 1: baud is not for simulated drives \
+         (port = \"sim\"); give units"
+    );
+    assert!(wrong("escl = [\"127.0.0.1\"]").contains("either port"));
+    assert!(
+        parse("[matrix]\nrows = 1\ncols = 3\n[scl]\ntrigger = \"3:2\"\n[[gateway]]\nkind = \"scl\"\nport = \"sim\"\n")
+            .expect_err("no drive 3")
+            .to_string()
+            .contains("there is no drive '3'")
     );
 }

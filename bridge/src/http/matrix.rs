@@ -2,10 +2,13 @@
 //! really are.
 //!
 //! - `GET /api/plan/{name}`: 200 the bandwidth / feasibility report
-//!   ([`PlanReport`]) of a stored show on this installation; 404.
+//!   ([`PlanReport`]) of a stored show on this installation; 404. On MOONS' drives
+//!   that Start gives compiled programs (`[scl] programs = "upload"`) every ball's Q
+//!   program is compiled too: a show Start would refuse (over `tolerance_mm`, too
+//!   fast) is not feasible, with the ball and the figure.
 //! - `GET /api/sim/positions`: 200 every simulated gateway's units with their true
 //!   positions ([`SimPositions`]; empty when no gateway is simulated), and those of
-//!   the simulated MBOX boxes (`port = "sim"`).
+//!   the simulated MBOX boxes and MOONS' drives (`port = "sim"`).
 //! - `GET /api/mbox/timing`: 200 how the motion frames left for the MBOX boxes
 //!   ([`MboxTiming`]: frames sent, late frames, a histogram of how late each left
 //!   after its slot); 404 when the installation has no MBOX boxes.
@@ -15,13 +18,17 @@
 use axum::Json;
 use axum::extract::State;
 use floatball_shared::api::{PlanReport, SimPositions};
-use floatball_shared::plan::PlanOptions;
 use floatball_shared::plan::report::report;
+use floatball_shared::plan::{Installation, PlanOptions};
+use floatball_shared::scl::qprogram::{QProgramError, compile};
+use floatball_shared::show::Show;
 
 use super::library::{NameParam, store_failure};
 use super::session::Session;
 use super::{Failure, blocking};
+use crate::config::{SclConfig, SclPrograms};
 use crate::mbox::MboxTiming;
+use crate::scl::program::qprogram_config;
 use crate::state::AppState;
 
 /// `GET /api/plan/{name}`.
@@ -33,11 +40,53 @@ pub async fn plan(
     let planning = state.clone();
     let result = blocking(move || {
         let show = planning.shows().load(&name).map_err(store_failure)?;
-        let installation = &planning.config().installation;
-        Ok(report(&show, installation, PlanOptions::default()))
+        let config = planning.config();
+        let mut plan = report(&show, &config.installation, PlanOptions::default());
+        if let Some(scl) = config
+            .scl
+            .as_ref()
+            .filter(|scl| scl.programs == SclPrograms::Upload)
+            && plan.feasible
+        {
+            refuse_uncompilable(&mut plan, &show, &config.installation, scl);
+        }
+        Ok(plan)
     })
     .await?;
     result.map(Json)
+}
+
+/// Compiles every ball's Q program as Start would; when one cannot be, `plan` is not
+/// feasible: the first such ball and why, and — when balls are over the tolerance —
+/// the tolerance that would take them all.
+fn refuse_uncompilable(
+    plan: &mut PlanReport,
+    show: &Show,
+    installation: &Installation,
+    scl: &SclConfig,
+) {
+    let settings = qprogram_config(installation, scl);
+    let mut first = None;
+    let mut largest_mm: Option<f64> = None;
+    for (ball, track) in show.tracks.iter().enumerate() {
+        if let Err(error) = compile(track, &settings) {
+            if let QProgramError::TooFar { deviation_mm, .. } = error {
+                largest_mm = Some(largest_mm.map_or(deviation_mm, |mm| mm.max(deviation_mm)));
+            }
+            first.get_or_insert_with(|| format!("ball {}: {error}", ball + 1));
+        }
+    }
+    if let Some(reason) = first {
+        plan.feasible = false;
+        plan.reason = Some(reason);
+        if let Some(mm) = largest_mm {
+            plan.fixes.push(format!(
+                "raise [scl] tolerance_mm to {:.0} mm or more (the largest deviation of any \
+                 ball is {mm:.1} mm), or give the show fewer, gentler moves",
+                mm.ceil()
+            ));
+        }
+    }
 }
 
 /// `GET /api/sim/positions`.
@@ -52,7 +101,15 @@ pub async fn sim_positions(State(state): State<AppState>, _session: Session) -> 
     for sim in state.mbox_sims() {
         boxes.extend(sim.snapshots().await);
     }
-    Json(SimPositions { gateways, boxes })
+    let drives = state
+        .scl_sims()
+        .map(crate::simulate::scl::SimDrives::snapshots)
+        .unwrap_or_default();
+    Json(SimPositions {
+        gateways,
+        boxes,
+        drives,
+    })
 }
 
 /// `GET /api/mbox/timing`.

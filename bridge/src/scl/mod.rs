@@ -309,6 +309,12 @@ impl SclLink {
                 0,
                 udp::opener(sockets.clone(), host_port),
             ),
+            // `crate::state` starts them and hands their sockets over as eSCL.
+            SclGateway::Sim { .. } => {
+                return Err(format!(
+                    "SCL gateway {index}: its simulated drives were not started"
+                ));
+            }
         };
         Self::start(
             LinkShared {

@@ -12,15 +12,20 @@
 //! arrived, and the device is read no faster; answers are written no faster than the
 //! line carries them. Over UDP every datagram is answered to its sender, one datagram
 //! an answer line.
+//!
+//! [`SimDrives`] are the bridge's own simulated installation (`kind = "scl"`,
+//! `port = "sim"`): every such entry's drives on one bus and one start wire, on
+//! loopback UDP.
 
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
+use floatball_shared::api::SimDrive;
 use floatball_shared::line::Line;
-use floatball_shared::scl::twin::{Bus, Drive, DriveConfig, StartWire};
-use floatball_shared::scl::{Address, IoPoint};
+use floatball_shared::scl::twin::{Bus, Drive, DriveConfig, StartWire, status};
+use floatball_shared::scl::{Address, IoPoint, Segment};
 use tokio::net::UdpSocket;
 use tokio::sync::watch;
 use tokio::task::JoinHandle;
@@ -178,7 +183,93 @@ fn write_all(port: &mut dyn serialport::SerialPort, bytes: &[u8]) -> Result<(), 
     Ok(())
 }
 
-/// Drives answering eSCL on UDP sockets until [`Self::stop`].
+/// The simulated drives of an installation's `port = "sim"` gateway entries: all on
+/// one [`Bus`] — one start wire reaches every one of them, as the wire of a real
+/// installation runs to every drive — each on its own loopback eSCL socket.
+#[derive(Debug)]
+pub struct SimDrives {
+    drives: UdpDrives,
+    /// Each simulated entry: its gateway index and its drives' places on the bus.
+    entries: Vec<(usize, std::ops::Range<usize>)>,
+}
+
+impl SimDrives {
+    /// `entries` (gateway index, drives) on one bus wired by `wire`, each drive
+    /// `steps_per_rev` (`EG`), on loopback UDP; the drives' places on the bus follow
+    /// the entries' order.
+    ///
+    /// # Errors
+    /// No drive, or a socket that cannot be bound.
+    pub fn spawn(
+        entries: &[(usize, usize)],
+        steps_per_rev: u32,
+        wire: StartWire,
+    ) -> Result<Self, String> {
+        let mut places = Vec::with_capacity(entries.len());
+        let mut count = 0;
+        for &(gateway, drives) in entries {
+            places.push((gateway, count..count + drives));
+            count += drives;
+        }
+        if count == 0 {
+            return Err("no simulated MOONS' drive to start".to_owned());
+        }
+        let config = DriveConfig {
+            steps_per_rev,
+            ..DriveConfig::default()
+        };
+        let mut bus = Bus::new((0..count).map(|_| Drive::new(config.clone())).collect());
+        bus.wire(wire);
+        let drives = UdpDrives::spawn(SocketAddr::from(([127, 0, 0, 1], 0)), bus)?;
+        Ok(Self {
+            drives,
+            entries: places,
+        })
+    }
+
+    /// The sockets of gateway `gateway`'s drives, in unit order (empty: not simulated).
+    #[must_use]
+    pub fn sockets(&self, gateway: usize) -> Vec<SocketAddr> {
+        self.entries
+            .iter()
+            .find(|(index, _)| *index == gateway)
+            .and_then(|(_, places)| self.drives.sockets().get(places.clone()))
+            .map(<[SocketAddr]>::to_vec)
+            .unwrap_or_default()
+    }
+
+    /// Every drive as it is now, in gateway and unit order.
+    #[must_use]
+    pub fn snapshots(&self) -> Vec<SimDrive> {
+        self.drives.with_bus(|bus| {
+            self.entries
+                .iter()
+                .flat_map(|(gateway, places)| {
+                    places.clone().enumerate().filter_map(move |(unit, place)| {
+                        let drive = bus.drives().get(place)?;
+                        Some(SimDrive {
+                            gateway: *gateway,
+                            unit,
+                            address: Address::CHARACTERS.chars().nth(unit).unwrap_or('?'),
+                            position_counts: drive.position_counts(),
+                            moving: drive.is_moving(),
+                            executing: drive.is_executing(),
+                            waiting_input: drive.status_code() & status::WAITING_INPUT != 0,
+                            segments_stored: (Segment::MIN..=Segment::MAX)
+                                .filter_map(Segment::new)
+                                .filter(|&segment| drive.segment(segment).is_some())
+                                .count(),
+                            moves_ended: drive.move_ends().len(),
+                            alarm_code: drive.alarm_code(),
+                        })
+                    })
+                })
+                .collect()
+        })
+    }
+}
+
+/// Drives answering eSCL on UDP sockets until [`Self::stop`] (or until dropped).
 #[derive(Debug)]
 pub struct UdpDrives {
     sockets: Vec<SocketAddr>,
@@ -243,10 +334,17 @@ impl UdpDrives {
         &self.sockets
     }
 
+    /// `read` on the bus run to now.
+    pub fn with_bus<R>(&self, read: impl FnOnce(&Bus) -> R) -> R {
+        let mut bus = self.bus.lock().unwrap_or_else(PoisonError::into_inner);
+        bus.advance(micros(self.epoch, Instant::now()));
+        read(&bus)
+    }
+
     /// Stops every drive; returns the bus run to now.
-    pub async fn stop(self) -> Bus {
+    pub async fn stop(mut self) -> Bus {
         let _ = self.stop.send(true);
-        for task in self.tasks {
+        for task in std::mem::take(&mut self.tasks) {
             if let Err(err) = task.await {
                 tracing::error!("a simulated MOONS' drive stopped unexpectedly: {err}");
             }
@@ -258,6 +356,13 @@ impl UdpDrives {
             .clone();
         bus.advance(micros(self.epoch, Instant::now()));
         bus
+    }
+}
+
+impl Drop for UdpDrives {
+    /// The drives stop answering (their sockets close when their tasks see it).
+    fn drop(&mut self) {
+        let _ = self.stop.send(true);
     }
 }
 
