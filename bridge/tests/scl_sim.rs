@@ -142,7 +142,7 @@ async fn the_verdict_refuses_a_show_over_the_tolerance() {
     assert!(!report.feasible, "{report:?}");
     let reason = report.reason.clone().unwrap_or_default();
     assert!(
-        reason.starts_with("ball 1: the program would be")
+        reason.starts_with("ball u0: the program would be")
             && reason.contains("tolerance of 0.001 mm"),
         "{report:?}"
     );

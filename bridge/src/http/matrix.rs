@@ -73,7 +73,7 @@ fn refuse_uncompilable(
             if let QProgramError::TooFar { deviation_mm, .. } = error {
                 largest_mm = Some(largest_mm.map_or(deviation_mm, |mm| mm.max(deviation_mm)));
             }
-            first.get_or_insert_with(|| format!("ball {}: {error}", ball + 1));
+            first.get_or_insert_with(|| format!("ball u{ball}: {error}"));
         }
     }
     if let Some(reason) = first {

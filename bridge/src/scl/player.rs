@@ -133,10 +133,10 @@ async fn compile_all(
             .map(|(ball, track)| {
                 compile(track, &config).map_err(|error| {
                     format!(
-                        "entry {} (\"{}\"), ball {}: {error}",
+                        "entry {} (\"{}\"), ball u{}: {error}",
                         entry_index + 1,
                         show.name,
-                        ball + 1
+                        ball
                     )
                 })
             })
