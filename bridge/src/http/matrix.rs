@@ -20,7 +20,7 @@ use axum::extract::State;
 use floatball_shared::api::{PlanReport, SimPositions};
 use floatball_shared::plan::report::report;
 use floatball_shared::plan::{Installation, PlanOptions};
-use floatball_shared::scl::qprogram::{QProgramError, compile};
+use floatball_shared::scl::qprogram::QProgramError;
 use floatball_shared::show::Show;
 
 use super::library::{NameParam, store_failure};
@@ -28,7 +28,7 @@ use super::session::Session;
 use super::{Failure, blocking};
 use crate::config::{SclConfig, SclPrograms};
 use crate::mbox::MboxTiming;
-use crate::scl::program::qprogram_config;
+use crate::scl::program::{compile_every_ball, qprogram_config};
 use crate::state::AppState;
 
 /// `GET /api/plan/{name}`.
@@ -68,8 +68,8 @@ fn refuse_uncompilable(
     let settings = qprogram_config(installation, scl);
     let mut first = None;
     let mut largest_mm: Option<f64> = None;
-    for (ball, track) in show.tracks.iter().enumerate() {
-        if let Err(error) = compile(track, &settings) {
+    for (ball, program) in compile_every_ball(show, &settings).into_iter().enumerate() {
+        if let Err(error) = program {
             if let QProgramError::TooFar { deviation_mm, .. } = error {
                 largest_mm = Some(largest_mm.map_or(deviation_mm, |mm| mm.max(deviation_mm)));
             }

@@ -11,7 +11,7 @@
 //! 1. **approach**: every drive to its track's start position (`VE AC DE DI FP` at
 //!    the installation's approach speed), then wait until every `IP` is there;
 //! 2. **load** (first cycle, `programs = "upload"`): compile each ball's track
-//!    ([`floatball_shared::scl::qprogram::compile`]), write every segment (`QW`) and
+//!    ([`floatball_shared::scl::qprogram::compile`], every core at once), write every segment (`QW`) and
 //!    read it back (`QU`); with `programs = "stored"` the drives' own programs run;
 //! 3. **start**: `QX1` to every drive, then the trigger output low and high again
 //!    after 100 ms when a trigger is configured ([`super::program::fire`]);
@@ -27,12 +27,13 @@ use std::time::{Duration, Instant};
 
 use floatball_shared::plan::Installation;
 use floatball_shared::plan::player::Entry;
-use floatball_shared::scl::qprogram::{QProgram, compile};
+use floatball_shared::scl::qprogram::QProgram;
 use tokio::sync::mpsc;
 
 use super::SclNet;
 use super::program::{
-    drives_of, fire, move_all, qprogram_config, upload, wait_ended, wait_positions,
+    compile_every_ball, drives_of, fire, move_all, qprogram_config, upload, wait_ended,
+    wait_positions,
 };
 use crate::config::{SclConfig, SclPrograms};
 
@@ -127,11 +128,11 @@ async fn compile_all(
     let config = qprogram_config(installation, scl);
     let show = entry.show.clone();
     tokio::task::spawn_blocking(move || {
-        show.tracks
-            .iter()
+        compile_every_ball(&show, &config)
+            .into_iter()
             .enumerate()
-            .map(|(ball, track)| {
-                compile(track, &config).map_err(|error| {
+            .map(|(ball, program)| {
+                program.map_err(|error| {
                     format!(
                         "entry {} (\"{}\"), ball u{}: {error}",
                         entry_index + 1,

@@ -12,10 +12,11 @@
 use std::time::{Duration, Instant};
 
 use floatball_shared::plan::Installation;
-use floatball_shared::scl::qprogram::QProgramConfig;
+use floatball_shared::scl::qprogram::{QProgram, QProgramConfig, QProgramError, compile};
 use floatball_shared::scl::{
     Answer, Command, Decimal, Level, QueueUpload, Reply, Request, Segment, parse_script,
 };
+use floatball_shared::show::Show;
 
 use super::{Expect, SclError, SclNet};
 use crate::config::SclConfig;
@@ -59,6 +60,43 @@ pub fn drives_of(installation: &Installation) -> Vec<DriveRef> {
 /// Programmer is the one Start would upload.
 pub fn qprogram_config(installation: &Installation, scl: &SclConfig) -> QProgramConfig {
     crate::http::qprogram::qprogram_config(installation, &crate::http::qprogram::scl_overrides(scl))
+}
+
+/// Compiles every ball's track of `show` with `settings`, in ball order, on as many
+/// threads as the machine has cores (each ball is independent; a 10-minute show takes
+/// about 0.1–0.3 s a ball). Blocking: call it from a blocking thread.
+pub fn compile_every_ball(
+    show: &Show,
+    settings: &QProgramConfig,
+) -> Vec<Result<QProgram, QProgramError>> {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, std::num::NonZeroUsize::get)
+        .clamp(1, show.tracks.len().max(1));
+    let share = show.tracks.len().div_ceil(threads).max(1);
+    std::thread::scope(|scope| {
+        let workers: Vec<_> = show
+            .tracks
+            .chunks(share)
+            .map(|tracks| {
+                scope.spawn(move || {
+                    tracks
+                        .iter()
+                        .map(|track| compile(track, settings))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            // A panic in the compiler (a bug) goes on to the caller's blocking thread,
+            // which reports that the compiler stopped.
+            .flat_map(|worker| {
+                worker
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+            })
+            .collect()
+    })
 }
 
 /// `value` with `scale` decimals, as a parameter.
@@ -487,4 +525,45 @@ pub fn console(
         link.console(drive, &request, generation);
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use floatball_shared::show::demo::wave;
+
+    use super::*;
+
+    #[test]
+    fn every_ball_is_compiled_in_ball_order_as_one_at_a_time_would() {
+        // 7 balls: shares of unequal length on any number of cores.
+        let show = wave(1, 7, 40, 200);
+        let settings = QProgramConfig {
+            tolerance_mm: 1000.0,
+            ..QProgramConfig::default()
+        };
+        let together = compile_every_ball(&show, &settings);
+        assert_eq!(together.len(), 7);
+        for (ball, (program, track)) in together.iter().zip(&show.tracks).enumerate() {
+            let alone = compile(track, &settings);
+            assert_eq!(
+                program.as_ref().map(QProgram::text).ok(),
+                alone.as_ref().map(QProgram::text).ok(),
+                "ball u{ball}"
+            );
+            assert!(program.is_ok(), "ball u{ball}: {program:?}");
+        }
+        // Errors stay with their ball.
+        let strict = QProgramConfig {
+            tolerance_mm: 0.001,
+            ..settings
+        };
+        let refused = compile_every_ball(&show, &strict);
+        assert_eq!(refused.len(), 7);
+        assert!(
+            refused
+                .iter()
+                .all(|program| matches!(program, Err(QProgramError::TooFar { .. })))
+        );
+        assert!(compile_every_ball(&wave(1, 1, 1, 200), &settings).len() == 1);
+    }
 }
