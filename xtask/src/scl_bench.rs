@@ -1,6 +1,6 @@
 //! `cargo xtask scl-bench [--presses N]`: the SCL e-stop's latency, with figures.
 //!
-//! Runs the ignored bridge test `bridge/tests/scl_bench.rs` in a release build with
+//! Runs the bridge test `bridge/tests/scl_bench.rs` in a release build with
 //! `SCL_BENCH_PRESSES` = N (default 50): the real `floatball` binary with 8 MOONS'
 //! drive twins polled every 20 ms, on an RS-485 line at 9600 and at 115200 baud (a
 //! pseudo-terminal timed as a UART) and over loopback UDP (eSCL); it prints the median
@@ -34,7 +34,7 @@ pub fn scl_bench(args: &[String]) -> Result<(), String> {
     tools::run_command(
         tools::cargo(&env)
             .args(["test", "--release", "--package", "floatball-bridge"])
-            .args(["--test", "scl_bench", "--", "--ignored", "--nocapture"])
+            .args(["--test", "scl_bench", "--", "--nocapture"])
             .env("SCL_BENCH_PRESSES", presses.to_string()),
     )
 }
