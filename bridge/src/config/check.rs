@@ -46,7 +46,7 @@ type CheckedGateways = (
 /// A value and where it came from (`None`: the default).
 type Located<T> = (T, Option<Range<usize>>);
 
-fn located<T: Clone>(value: Option<&Spanned<T>>, default: T) -> Located<T> {
+pub(super) fn located<T: Clone>(value: Option<&Spanned<T>>, default: T) -> Located<T> {
     match value {
         Some(spanned) => (spanned.get_ref().clone(), Some(spanned.span())),
         None => (default, None),
@@ -86,6 +86,27 @@ impl Checker<'_> {
             Some(span) => self.at(span, reason),
             None => self.file(reason),
         }
+    }
+
+    /// A gateway's line speed: `value`, or `default` when it is left out, within
+    /// [`BAUD_RANGE`].
+    pub(super) fn baud(
+        &self,
+        value: Option<&Spanned<u32>>,
+        default: u32,
+    ) -> Result<u32, ConfigError> {
+        let (baud, span) = located(value, default);
+        if BAUD_RANGE.contains(&baud) {
+            return Ok(baud);
+        }
+        Err(self.wrong(
+            span.as_ref(),
+            format!(
+                "baud {baud} is out of range ({} to {})",
+                BAUD_RANGE.start(),
+                BAUD_RANGE.end()
+            ),
+        ))
     }
 
     fn positive(
@@ -585,17 +606,7 @@ impl Checker<'_> {
             } else {
                 DEFAULT_SERIAL_BAUD
             };
-            let (baud, baud_span) = located(gateway.baud.as_ref(), default_baud);
-            if !BAUD_RANGE.contains(&baud) {
-                return Err(self.wrong(
-                    baud_span.as_ref(),
-                    format!(
-                        "baud {baud} is out of range ({} to {})",
-                        BAUD_RANGE.start(),
-                        BAUD_RANGE.end()
-                    ),
-                ));
-            }
+            let baud = self.baud(gateway.baud.as_ref(), default_baud)?;
             specs.push(GatewaySpec { port, baud, kind });
             wanted.push((kind, stations));
         }

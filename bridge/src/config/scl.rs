@@ -11,9 +11,9 @@ use floatball_shared::plan::installation::{MAX_SCL_DRIVES, SIM_PORT};
 use floatball_shared::scl::{Address, InputCondition, IoPoint, escl};
 use toml::Spanned;
 
-use super::check::Checker;
+use super::check::{Checker, located};
 use super::raw::{RawGateway, RawScl};
-use super::{BAUD_RANGE, ConfigError, DEFAULT_SERIAL_BAUD};
+use super::{ConfigError, DEFAULT_SERIAL_BAUD};
 
 /// The status poll period unless configured.
 pub const DEFAULT_SCL_POLL: Duration = Duration::from_millis(200);
@@ -261,20 +261,7 @@ impl Checker<'_> {
                 ),
             ));
         }
-        let (baud, baud_span) = match &gateway.baud {
-            Some(baud) => (*baud.get_ref(), Some(baud.span())),
-            None => (DEFAULT_SERIAL_BAUD, None),
-        };
-        if !BAUD_RANGE.contains(&baud) {
-            return Err(self.wrong(
-                baud_span.as_ref(),
-                format!(
-                    "baud {baud} is out of range ({} to {})",
-                    BAUD_RANGE.start(),
-                    BAUD_RANGE.end()
-                ),
-            ));
-        }
+        let baud = self.baud(gateway.baud.as_ref(), DEFAULT_SERIAL_BAUD)?;
         let mut addresses = Vec::new();
         let listed = gateway.addresses.is_some();
         if let Some(text) = &gateway.addresses {
@@ -348,10 +335,7 @@ impl Checker<'_> {
         raw: &RawScl,
         gateways: Vec<SclGateway>,
     ) -> Result<SclConfig, ConfigError> {
-        let (input, input_span) = match &raw.start_input {
-            Some(value) => (*value.get_ref(), Some(value.span())),
-            None => (DEFAULT_START_INPUT, None),
-        };
+        let (input, input_span) = located(raw.start_input.as_ref(), DEFAULT_START_INPUT);
         let input = IoPoint::new(input).ok_or_else(|| {
             self.wrong(
                 input_span.as_ref(),
@@ -398,33 +382,26 @@ impl Checker<'_> {
                 }
             },
         };
-        let (steps_per_rev, steps_span) = match &raw.steps_per_rev {
-            Some(value) => (*value.get_ref(), Some(value.span())),
-            None => (DEFAULT_STEPS_PER_REV, None),
-        };
+        let (steps_per_rev, steps_span) =
+            located(raw.steps_per_rev.as_ref(), DEFAULT_STEPS_PER_REV);
         if !(200..=51_200).contains(&steps_per_rev) {
             return Err(self.wrong(
                 steps_span.as_ref(),
                 format!("steps_per_rev = {steps_per_rev} must be from 200 to 51200"),
             ));
         }
-        let (tolerance_mm, tolerance_span) = match &raw.tolerance_mm {
-            Some(value) => (*value.get_ref(), Some(value.span())),
-            None => (DEFAULT_TOLERANCE_MM, None),
-        };
+        let (tolerance_mm, tolerance_span) =
+            located(raw.tolerance_mm.as_ref(), DEFAULT_TOLERANCE_MM);
         if !(tolerance_mm.is_finite() && tolerance_mm > 0.0 && tolerance_mm <= 1000.0) {
             return Err(self.wrong(
                 tolerance_span.as_ref(),
                 format!("tolerance_mm = {tolerance_mm} must be a number above 0 and at most 1000"),
             ));
         }
-        let (poll_ms, poll_span) = match &raw.poll_ms {
-            Some(value) => (*value.get_ref(), Some(value.span())),
-            None => (
-                u32::try_from(DEFAULT_SCL_POLL.as_millis()).unwrap_or(200),
-                None,
-            ),
-        };
+        let (poll_ms, poll_span) = located(
+            raw.poll_ms.as_ref(),
+            u32::try_from(DEFAULT_SCL_POLL.as_millis()).unwrap_or(200),
+        );
         if !(20..=10_000).contains(&poll_ms) {
             return Err(self.wrong(
                 poll_span.as_ref(),
