@@ -132,9 +132,23 @@ impl Playback {
             status_tx,
         ));
         Self {
+            links,
+            ..Self::started(requests, status, installation, latch)
+        }
+    }
+
+    /// The handle of a task just spawned, with its inbox and status: no links, boxes or
+    /// drives until the caller names its own.
+    fn started(
+        requests: mpsc::UnboundedSender<Request>,
+        status: watch::Receiver<Status>,
+        installation: Arc<Installation>,
+        latch: Arc<Latch>,
+    ) -> Self {
+        Self {
             requests,
             status,
-            links,
+            links: Arc::new(Vec::new()),
             latch,
             installation,
             boxes: None,
@@ -158,13 +172,8 @@ impl Playback {
             status_tx,
         ));
         Self {
-            requests,
-            status,
-            links: Arc::new(Vec::new()),
-            latch,
-            installation,
             boxes: Some(boxes),
-            scl: None,
+            ..Self::started(requests, status, installation, latch)
         }
     }
 
@@ -189,13 +198,8 @@ impl Playback {
             status_tx,
         ));
         Self {
-            requests,
-            status,
-            links: Arc::new(Vec::new()),
-            latch,
-            installation,
-            boxes: None,
             scl: Some(drives),
+            ..Self::started(requests, status, installation, latch)
         }
     }
 
