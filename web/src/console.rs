@@ -95,11 +95,6 @@ impl Family {
     }
 }
 
-/// Whether the installation's gateways are MBOX boxes.
-pub fn is_mbox(status: &Status) -> bool {
-    Family::of(status) == Family::Mbox
-}
-
 /// The route the bridge gives a command without a box of its own: the selected box
 /// (the last two octets of its configured IP address), or every box.
 pub fn mbox_route(status: Option<&Status>, gateway: Option<usize>) -> Route {
@@ -327,8 +322,8 @@ mod tests {
             }],
             ..Status::default()
         };
-        assert!(is_mbox(&status));
-        assert!(!is_mbox(&Status::default()));
+        assert_eq!(Family::of(&status), Family::Mbox);
+        assert_ne!(Family::of(&Status::default()), Family::Mbox);
         let selected = mbox_route(Some(&status), Some(0));
         assert_eq!(selected, Route::to(BoxAddress::from_octets(15, 201)));
         assert_eq!(mbox_route(Some(&status), None), every);
@@ -371,7 +366,6 @@ mod tests {
         };
         assert_eq!(Family::of(&scl), Family::Scl);
         assert_eq!(Family::of(&Status::default()), Family::Uim2503);
-        assert!(!is_mbox(&scl));
     }
 
     #[test]
