@@ -1,7 +1,14 @@
-// Loads the web app (static/pkg/, built by `cargo xtask`). A file rather than an
-// inline script, so the bridge's Content-Security-Policy can forbid inline scripts.
+// Loads the web app. A file rather than an inline script, so the bridge's
+// Content-Security-Policy can forbid inline scripts. `cargo xtask` builds the app into
+// static/pkg/ under content-hashed names and writes the page static/pkg/index.html,
+// whose modulepreload link names the app's js (and a preload fetches its wasm); the
+// js loads the wasm by its hashed name.
 try {
-  const app = await import('/pkg/floatball.js');
+  const link = document.querySelector('link[rel="modulepreload"]');
+  if (!link) {
+    throw new Error('no app in the page: static/pkg/index.html is not built');
+  }
+  const app = await import(link.href);
   await app.default();
   app.start();
 } catch (err) {

@@ -205,7 +205,11 @@ fn the_app_page_has_no_inline_script() {
     }
     assert!(!page.contains(" style="), "no style attributes in the page");
     let boot = std::fs::read_to_string(root.join("boot.js")).expect("boot.js");
-    assert!(boot.contains("/pkg/floatball.js"), "{boot}");
+    // The built page (static/pkg/index.html, see xtask/src/app.rs) names the app's
+    // hashed js in a modulepreload link; boot.js imports what that link names.
+    assert!(boot.contains(r#"link[rel="modulepreload"]"#), "{boot}");
+    assert!(boot.contains("import(link.href)"), "{boot}");
+    assert!(page.contains(r#"<link rel="stylesheet" href="/style.css">"#));
 }
 
 #[tokio::test]

@@ -75,7 +75,7 @@ pub fn static_dir() -> PathBuf {
         .map(PathBuf::from)
         .unwrap_or_else(|| workspace_root().join("static"));
     assert!(
-        dir.join("pkg/floatball.js").is_file(),
+        dir.join("pkg/index.html").is_file(),
         "{} has no built app: run `cargo xtask test` (or `cargo xtask run`)",
         dir.display()
     );

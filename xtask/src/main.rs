@@ -6,17 +6,21 @@
 //!
 //! # Layout
 //! - [`tools`]: finding and installing the toolchain pieces (wasm32 target,
-//!   wasm-bindgen-cli, wasm-pack, Chromium and ChromeDriver).
-//! - [`app`]: building the web app into `static/pkg/`.
+//!   wasm-bindgen-cli, wasm-pack, wasm-opt, Chromium and ChromeDriver).
+//! - [`app`]: building the web app into `static/pkg/` (hashed names, wasm-opt,
+//!   brotli and gzip copies, the page that loads them).
 //! - [`stages`]: the test stages and their summary.
 //! - [`fuzz`]: `cargo xtask fuzz`, the fuzz targets at length.
 //! - [`stress`]: the engine's race and load tests, many times in a row.
 //! - [`mbox_bench`]: one bridge streaming to many simulated MBOX boxes, with figures.
 //! - [`qprogram_report`]: the Q program compiler on a 10-minute show, with figures.
 //! - [`scl_bench`]: the SCL e-stop's latency on RS-485 lines and eSCL, with figures.
+//! - [`load_bench`]: the release app's compressed sizes and its cold load time in
+//!   Chromium on throttled links, with figures.
 
 mod app;
 mod fuzz;
+mod load_bench;
 mod mbox_bench;
 mod qprogram_report;
 mod scl_bench;
@@ -49,6 +53,10 @@ commands:
   scl-bench  press the e-stop on 8 simulated MOONS' drives polled every 20 ms: RS-485
          at 9600 and 115200 baud, and eSCL; print WebSocket -> first SK byte median/max
          options: --presses N (default 50)
+  load-bench  build the release app; print the raw/gzip/brotli sizes of its wasm, js
+         and css, and the median time to a usable app on cold loads in headless
+         Chromium throttled to 20 Mbit/s 30 ms and 9 Mbit/s 60 ms
+         options: --runs N (default 5)  --no-build (measure what static/pkg/ holds)
 ";
 
 fn main() -> ExitCode {
@@ -61,6 +69,7 @@ fn main() -> ExitCode {
         Some("mbox-bench") => mbox_bench::mbox_bench(&args[1..]),
         Some("qprogram-report") => qprogram_report::qprogram_report(&args[1..]),
         Some("scl-bench") => scl_bench::scl_bench(&args[1..]),
+        Some("load-bench") => load_bench::load_bench(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())

@@ -2,7 +2,8 @@
 //!
 //! Every install says what it installs and why before it starts. Nothing is
 //! downloaded outside the package registries: Rust tools come from crates.io through
-//! `cargo install`, the browser from Debian's packages through `apt-get`.
+//! `cargo install`, the browser from Debian's packages through `apt-get`, `wasm-opt`
+//! from npm's `binaryen` package into the target directory.
 
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
@@ -232,6 +233,56 @@ pub fn ensure_wasm_pack(env: &Env) -> Result<(), String> {
     }
     println!("xtask: installing wasm-pack (it runs the web app's tests in headless Chromium)");
     cargo_install(env, "wasm-pack", None)
+}
+
+/// The version of npm's `binaryen` package whose `wasm-opt` shrinks the release app.
+pub const BINARYEN_VERSION: &str = "132.0.0";
+
+/// The WebAssembly features rustc enables for `wasm32-unknown-unknown` (and every
+/// browser the app supports has), which `wasm-opt` must be told to accept.
+pub const WASM_FEATURES: [&str; 6] = [
+    "--enable-bulk-memory",
+    "--enable-mutable-globals",
+    "--enable-nontrapping-float-to-int",
+    "--enable-sign-ext",
+    "--enable-reference-types",
+    "--enable-multivalue",
+];
+
+/// The path of `wasm-opt`, installing npm's `binaryen` package at
+/// [`BINARYEN_VERSION`] under `<target>/xtask-tools/binaryen` if it is not there.
+pub fn ensure_wasm_opt(env: &Env) -> Result<PathBuf, String> {
+    let prefix = env.target_dir.join("xtask-tools").join("binaryen");
+    let wasm_opt = prefix.join("node_modules").join(".bin").join("wasm-opt");
+    let major = BINARYEN_VERSION
+        .split('.')
+        .next()
+        .unwrap_or(BINARYEN_VERSION);
+    let have = output_of(program(env, &wasm_opt.to_string_lossy()).arg("--version"));
+    if have.is_some_and(|text| text.contains(&format!("version {major} "))) {
+        return Ok(wasm_opt);
+    }
+    if output_of(program(env, "npm").arg("--version")).is_none() {
+        return Err(
+            "npm is needed to install wasm-opt (the release app is shrunk with it); install Node.js, e.g.\n\n    sudo apt-get install -y nodejs npm\n"
+                .to_owned(),
+        );
+    }
+    println!(
+        "xtask: installing wasm-opt (npm package binaryen {BINARYEN_VERSION}) into {}; it shrinks the release app",
+        prefix.display()
+    );
+    std::fs::create_dir_all(&prefix)
+        .map_err(|err| format!("cannot create {}: {err}", prefix.display()))?;
+    run_command(
+        program(env, "npm")
+            .arg("install")
+            .arg("--prefix")
+            .arg(&prefix)
+            .args(["--no-audit", "--no-fund"])
+            .arg(format!("binaryen@{BINARYEN_VERSION}")),
+    )?;
+    Ok(wasm_opt)
 }
 
 /// The path of ChromeDriver.
