@@ -47,13 +47,28 @@ impl Build {
         }
     }
 
-    /// The brotli quality of the `.br` copies (0–11).
-    fn brotli_quality(self) -> u32 {
+    /// How hard the `.br` and `.gz` copies are compressed.
+    fn levels(self) -> Levels {
         match self {
-            Build::Release => 11,
-            Build::Test => 4,
+            Build::Release => Levels {
+                brotli_quality: 11,
+                gzip_level: 9,
+            },
+            Build::Test => Levels {
+                brotli_quality: 4,
+                gzip_level: 6,
+            },
         }
     }
+}
+
+/// Compression levels of the copies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Levels {
+    /// Brotli quality, 0–11.
+    pub brotli_quality: u32,
+    /// Gzip level, 0–9.
+    pub gzip_level: u32,
 }
 
 /// The hashed names and contents of one build, before compression.
@@ -128,7 +143,7 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
         &read_text(&static_dir.join("index.html"))?,
     )?;
     let pkg = static_dir.join("pkg");
-    write_pkg(&pkg, &packaged, build.brotli_quality())?;
+    write_pkg(&pkg, &packaged, build.levels())?;
     println!(
         "xtask: wrote {} with {}, {} and {} (and .br/.gz copies)",
         pkg.join("index.html").display(),
@@ -231,9 +246,9 @@ pub fn brotli(content: &[u8], quality: u32) -> Result<Vec<u8>, String> {
     Ok(out)
 }
 
-/// The gzip copy of `content` at the best compression.
-pub fn gzip(content: &[u8]) -> Result<Vec<u8>, String> {
-    let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+/// The gzip copy of `content` at `level` (0–9).
+pub fn gzip(content: &[u8], level: u32) -> Result<Vec<u8>, String> {
+    let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::new(level));
     encoder
         .write_all(content)
         .map_err(|err| format!("gzip: {err}"))?;
@@ -242,7 +257,7 @@ pub fn gzip(content: &[u8]) -> Result<Vec<u8>, String> {
 
 /// Replaces `pkg` (build output only) with the packaged files and their `.br` and
 /// `.gz` copies, compressing the files in parallel.
-pub fn write_pkg(pkg: &Path, packaged: &Packaged, brotli_quality: u32) -> Result<(), String> {
+pub fn write_pkg(pkg: &Path, packaged: &Packaged, levels: Levels) -> Result<(), String> {
     if pkg.exists() {
         std::fs::remove_dir_all(pkg)
             .map_err(|err| format!("cannot clear {}: {err}", pkg.display()))?;
@@ -261,8 +276,11 @@ pub fn write_pkg(pkg: &Path, packaged: &Packaged, brotli_quality: u32) -> Result
             .map(|(name, content)| {
                 scope.spawn(move || -> Result<(), String> {
                     write(name, content)?;
-                    write(&format!("{name}.br"), &brotli(content, brotli_quality)?)?;
-                    write(&format!("{name}.gz"), &gzip(content)?)
+                    write(
+                        &format!("{name}.br"),
+                        &brotli(content, levels.brotli_quality)?,
+                    )?;
+                    write(&format!("{name}.gz"), &gzip(content, levels.gzip_level)?)
                 })
             })
             .collect();
@@ -368,7 +386,7 @@ mod tests {
             .flat_map(|n| (n % 251).to_le_bytes())
             .collect();
         let packaged = package(content.clone(), GLUE, b"body{}".to_vec(), TEMPLATE).unwrap();
-        write_pkg(&pkg, &packaged, 4).unwrap();
+        write_pkg(&pkg, &packaged, Build::Test.levels()).unwrap();
         let mut names: Vec<String> = std::fs::read_dir(&pkg)
             .unwrap()
             .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())

@@ -38,6 +38,8 @@ commands:
   run    build the web app and start the bridge with a simulated matrix
          options: --listen ADDR (default 0.0.0.0:8080)  --data-dir DIR (default ./data)
                   anything after `--` is passed to `floatball` unchanged
+  build  build the web app into static/pkg/ (hashed names, .br/.gz copies, the page)
+         options: --test (the quick dev build the end-to-end tests use: no wasm-opt)
   test   install what is missing, then run every check and test
   fuzz   run the fuzz targets (readers of untrusted bytes) in an optimised build
          options: --bytes N (per target, default 10000000)  --target NAME  --seed S
@@ -63,6 +65,7 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("run") => run(&args[1..]),
+        Some("build") => build(&args[1..]),
         Some("test") => stages::test(),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("stress") => stress::stress(&args[1..]),
@@ -143,6 +146,19 @@ fn run(args: &[String]) -> Result<(), String> {
         .args(["--static-dir", &path_string(root.join("static"))])
         .args(&options.passthrough);
     tools::run_command(&mut command)
+}
+
+/// `cargo xtask build [--test]`: the web app alone, as `run` (or the tests) build it.
+fn build(args: &[String]) -> Result<(), String> {
+    let build = match args {
+        [] => app::Build::Release,
+        [flag] if flag == "--test" => app::Build::Test,
+        _ => return Err(format!("unknown options {args:?}\n\n{USAGE}")),
+    };
+    let env = tools::Env::discover(&tools::workspace_root())?;
+    tools::ensure_wasm_target(&env)?;
+    tools::ensure_wasm_bindgen_cli(&env)?;
+    app::build_web(&env, build)
 }
 
 fn path_string(path: PathBuf) -> String {
