@@ -373,14 +373,37 @@ fn webdriver(
         body.len()
     )
     .map_err(|err| format!("ChromeDriver: {err}"))?;
+    // ChromeDriver keeps the connection open: read the head, then as much body as it
+    // announces (or chunks up to the last one).
     let mut answer = Vec::new();
-    stream
-        .read_to_end(&mut answer)
-        .map_err(|err| format!("ChromeDriver: {err}"))?;
-    let split = answer
-        .windows(4)
-        .position(|window| window == b"\r\n\r\n")
-        .ok_or("ChromeDriver sent no HTTP answer")?;
+    let mut buffer = [0_u8; 16 * 1024];
+    let complete = |answer: &[u8]| -> Option<usize> {
+        let split = answer.windows(4).position(|window| window == b"\r\n\r\n")?;
+        let head = String::from_utf8_lossy(&answer[..split]).to_ascii_lowercase();
+        let body = &answer[split + 4..];
+        if head.contains("transfer-encoding: chunked") {
+            body.ends_with(b"0\r\n\r\n").then_some(split)
+        } else {
+            let length: usize = head
+                .lines()
+                .find_map(|line| line.strip_prefix("content-length:"))
+                .and_then(|value| value.trim().parse().ok())
+                .unwrap_or(0);
+            (body.len() >= length).then_some(split)
+        }
+    };
+    let split = loop {
+        if let Some(split) = complete(&answer) {
+            break split;
+        }
+        let read = stream
+            .read(&mut buffer)
+            .map_err(|err| format!("ChromeDriver: {err}"))?;
+        if read == 0 {
+            return Err("ChromeDriver closed the connection mid-answer".to_owned());
+        }
+        answer.extend_from_slice(&buffer[..read]);
+    };
     let head = String::from_utf8_lossy(&answer[..split]).to_ascii_lowercase();
     let payload = &answer[split + 4..];
     let payload = if head.contains("transfer-encoding: chunked") {
