@@ -76,7 +76,7 @@ pub fn static_dir() -> PathBuf {
         .unwrap_or_else(|| workspace_root().join("static"));
     assert!(
         dir.join("pkg/index.html").is_file(),
-        "{} has no built app: run `cargo xtask test` (or `cargo xtask run`)",
+        "{} has no built app (pkg/index.html): run `cargo xtask build --test` (or `cargo xtask test`)",
         dir.display()
     );
     dir

@@ -52,10 +52,11 @@ const LINKS: [Link; 2] = [
 /// indicator (`tests/src/lib.rs` waits for the same).
 const USABLE_SELECTOR: &str = "[data-testid=connection]";
 
-/// Runs the benchmark; `args` are its options (`--runs N`, `--no-build`).
+/// Runs the benchmark; `args` are its options (`--runs N`, `--no-build`, `--host IP`).
 pub fn load_bench(args: &[String]) -> Result<(), String> {
     let mut runs = 5_usize;
     let mut build = true;
+    let mut host = "127.0.0.1".to_owned();
     let mut iter = args.iter();
     while let Some(arg) = iter.next() {
         match arg.as_str() {
@@ -67,6 +68,7 @@ pub fn load_bench(args: &[String]) -> Result<(), String> {
                     .ok_or("--runs needs a positive number")?;
             }
             "--no-build" => build = false,
+            "--host" => host = iter.next().ok_or("--host needs an address")?.clone(),
             other => return Err(format!("unknown option {other}")),
         }
     }
@@ -95,7 +97,9 @@ pub fn load_bench(args: &[String]) -> Result<(), String> {
     let result = (|| {
         let mut bridge = Guard(
             Command::new(env.target_dir.join("release").join("floatball"))
-                .args(["--listen", "127.0.0.1:0", "--data-dir"])
+                .arg("--listen")
+                .arg(format!("{host}:0"))
+                .arg("--data-dir")
                 .arg(&data)
                 .arg("--static-dir")
                 .arg(&static_dir)

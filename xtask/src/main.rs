@@ -59,6 +59,8 @@ commands:
          and css, and the median time to a usable app on cold loads in headless
          Chromium throttled to 20 Mbit/s 30 ms and 9 Mbit/s 60 ms
          options: --runs N (default 5)  --no-build (measure what static/pkg/ holds)
+                  --host IP (default 127.0.0.1; Chromium offers brotli to loopback
+                  and https only, so a LAN address shows the gzip case)
 ";
 
 fn main() -> ExitCode {
