@@ -94,6 +94,12 @@ impl Answer {
 
 /// `GET path` with `Accept-Encoding: accept` (none if empty), over a fresh connection.
 fn get(addr: SocketAddr, path: &str, accept: &str) -> Answer {
+    get_with(addr, path, accept, "")
+}
+
+/// `GET path` with `Accept-Encoding: accept` and `extra` header lines (each ending in
+/// CRLF).
+fn get_with(addr: SocketAddr, path: &str, accept: &str, extra: &str) -> Answer {
     let mut stream = TcpStream::connect(addr).expect("connect");
     stream
         .set_read_timeout(Some(Duration::from_secs(10)))
@@ -105,7 +111,7 @@ fn get(addr: SocketAddr, path: &str, accept: &str) -> Answer {
     };
     write!(
         stream,
-        "GET {path} HTTP/1.1\r\nHost: {addr}\r\n{accept}Connection: close\r\n\r\n"
+        "GET {path} HTTP/1.1\r\nHost: {addr}\r\n{accept}{extra}Connection: close\r\n\r\n"
     )
     .expect("send");
     let mut raw = Vec::new();
@@ -182,6 +188,22 @@ fn the_page_and_unhashed_files_are_revalidated() {
     let notes = get(served.addr, "/pkg/notes.txt", "");
     assert_eq!(notes.body, b"unhashed");
     assert_eq!(notes.header("cache-control"), Some("no-cache"));
+}
+
+#[test]
+fn revalidating_an_unchanged_page_is_a_304() {
+    let served = serve(true);
+    let first = get(served.addr, "/", "br");
+    let modified = first.header("last-modified").expect("last-modified");
+    let again = get_with(
+        served.addr,
+        "/",
+        "br",
+        &format!("If-Modified-Since: {modified}\r\n"),
+    );
+    assert_eq!(again.status, 304);
+    assert!(again.body.is_empty());
+    assert_eq!(again.header("cache-control"), Some("no-cache"));
 }
 
 #[test]
