@@ -123,6 +123,21 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
                 "--no-typescript",
             ]),
     )?;
+    // Only the js and the wasm are packaged: glue with JS snippets (`inline_js`,
+    // `module = …`) would import files that never reach static/pkg/.
+    let entries = std::fs::read_dir(&staging)
+        .map_err(|err| format!("cannot list {}: {err}", staging.display()))?;
+    for entry in entries {
+        let name = entry
+            .map_err(|err| format!("cannot list {}: {err}", staging.display()))?
+            .file_name();
+        if name != "floatball.js" && name != "floatball_bg.wasm" {
+            return Err(format!(
+                "wasm-bindgen wrote {} besides the js and the wasm; xtask/src/app.rs does not package it yet",
+                name.to_string_lossy()
+            ));
+        }
+    }
     let bindgen_wasm = staging.join("floatball_bg.wasm");
     if build == Build::Release {
         let wasm_opt = tools::ensure_wasm_opt(env)?;
@@ -372,6 +387,11 @@ mod tests {
             std::fs::read_to_string(tools::workspace_root().join("static/index.html")).unwrap();
         let page = render_page(&template, "f-0.js", "g-0.wasm", "s-0.css").unwrap();
         assert!(page.contains(r#"href="/pkg/s-0.css""#), "{page}");
+        // The Content-Security-Policy forbids inline scripts: the page adds none.
+        assert_eq!(
+            page.matches("<script").count(),
+            template.matches("<script").count()
+        );
         let boot = std::fs::read_to_string(tools::workspace_root().join("static/boot.js")).unwrap();
         assert!(boot.contains("link[rel=\"modulepreload\"]"), "{boot}");
     }
