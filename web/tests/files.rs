@@ -32,9 +32,13 @@ use dom::*;
 
 wasm_bindgen_test_configure!(run_in_browser);
 
-/// A bridge that answers every request at once as `route` says, and records them.
+/// How the fake bridge answers: given the request and how many came before it.
+type Route = Box<dyn Fn(&Request, usize) -> Response>;
+
+/// A bridge that answers every request at once as its [`Route`] says, and records
+/// them.
 struct FakeBridge {
-    route: Box<dyn Fn(&Request, usize) -> Response>,
+    route: Route,
     requests: RefCell<Vec<Request>>,
 }
 
@@ -406,7 +410,7 @@ async fn settings_change_the_password_and_confirm_it() {
             answer(403, r#"{"error":"the current password is wrong"}"#)
         }
         "/api/password" => answer(204, ""),
-        "/api/playlist" => answer(200, "{}"),
+        "/api/playlist" => answer(204, ""),
         _ => answer(404, ""),
     });
     let ctx = context(&bridge, "files-password", true);
@@ -446,6 +450,16 @@ async fn settings_change_the_password_and_confirm_it() {
         let input = element(&container, field).unchecked_into::<web_sys::HtmlInputElement>();
         assert_eq!(input.value(), "", "{field} is emptied");
     }
+
+    // The playlist's settings, stored, are confirmed with a toast too.
+    element(&container, "settings-apply").click();
+    until("the playlist is confirmed", || {
+        all(&container, "toast")
+            .first()
+            .is_some_and(|toast| toast.text_content().as_deref() == Some("Playlist saved"))
+    })
+    .await;
+    assert_eq!(bridge.requests_to(Method::Put, "/api/playlist").len(), 1);
 }
 
 fn disabled(container: &web_sys::HtmlElement, test_id: &str) -> bool {
