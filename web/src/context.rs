@@ -22,6 +22,9 @@ use crate::playlist::PlaylistEditor;
 use crate::session::{Origin, Session};
 use crate::store::LocalStore;
 
+/// How long a success toast stays, ms.
+pub const TOAST_MS: u64 = 4_000;
+
 /// Sends messages to the bridge over the WebSocket.
 pub trait Sender {
     /// Sends `message` now; returns whether it was handed to an open socket.
@@ -97,6 +100,9 @@ pub struct Ctx {
     /// The last E-stop press (its number and outcome), shown on every E-stop button
     /// until it times out.
     pub estop_ack: RwSignal<Option<(u32, EstopAck)>>,
+    /// The success toast shown now (its number and text), cleared after a few
+    /// seconds ([`Ctx::notify`]).
+    pub toast: RwSignal<Option<(u32, String)>>,
     origin: StoredValue<Origin>,
     services: StoredValue<Services, LocalStorage>,
 }
@@ -118,6 +124,7 @@ impl Ctx {
             feedback: RwSignal::new(FeedbackLog::default()),
             preview: RwSignal::new(None),
             estop_ack: RwSignal::new(None),
+            toast: RwSignal::new(None),
             origin: StoredValue::new(origin),
             services: StoredValue::new_local(services),
         }
@@ -204,6 +211,22 @@ impl Ctx {
             _ => {}
         }
         self.lang.get_untracked().failure(failure)
+    }
+
+    /// Shows `text` as a success toast for [`TOAST_MS`]; a later toast replaces it
+    /// (and is not cleared by the earlier one's timer).
+    pub fn notify(&self, text: impl Into<String>) {
+        let toast = self.toast;
+        let number = toast.get_untracked().map_or(1, |(n, _)| n.wrapping_add(1));
+        toast.set(Some((number, text.into())));
+        set_timeout(
+            move || {
+                if toast.get_untracked().map(|(n, _)| n) == Some(number) {
+                    toast.set(None);
+                }
+            },
+            std::time::Duration::from_millis(TOAST_MS),
+        );
     }
 
     /// Drops the login and goes to Login, saying why.

@@ -154,6 +154,12 @@ impl<T: Named> Listing<T> {
             .then(|| name.to_owned());
     }
 
+    /// Selects nothing (after a pick that added nothing, so that Upload does not act
+    /// on a file the operator no longer looks at).
+    pub fn clear_selection(&mut self) {
+        self.selected = None;
+    }
+
     /// The selected entry's name.
     pub fn selected_name(&self) -> Option<&str> {
         self.selected.as_deref()
@@ -169,6 +175,30 @@ impl<T: Named> Listing<T> {
     pub fn get(&self, name: &str) -> Option<&T> {
         self.items.iter().find(|item| item.name() == name)
     }
+}
+
+/// How many problems a list shows before "show all" (an invalid 10-minute show has
+/// thousands).
+pub const SHOWN_PROBLEMS: usize = 20;
+
+/// Most characters one message shows: a binary file read as CSV repeats its bytes.
+pub const MAX_MESSAGE_CHARS: usize = 400;
+
+/// `text`, cut to [`MAX_MESSAGE_CHARS`] characters with `…` when longer.
+#[must_use]
+pub fn clip_message(text: &str) -> String {
+    match text.char_indices().nth(MAX_MESSAGE_CHARS) {
+        Some((end, _)) => format!("{}…", &text[..end]),
+        None => text.to_owned(),
+    }
+}
+
+/// The file extensions the app and the bridge accept, for people: `.csv, .json`.
+#[must_use]
+pub fn supported_extensions() -> String {
+    ShowFormat::ALL
+        .map(|format| format!(".{}", format.extension()))
+        .join(", ")
 }
 
 /// A size for people: `512 B`, `1.5 kB`, `2.3 MB`.
@@ -321,6 +351,31 @@ mod tests {
             assert_eq!(parse_ball(bad), None, "{bad:?}");
         }
         assert_eq!(qprogram_file_name("wave", 7), "wave-unit7.q");
+    }
+
+    #[test]
+    fn long_messages_are_clipped_on_a_character_boundary() {
+        assert_eq!(clip_message("short"), "short");
+        let long = "é".repeat(MAX_MESSAGE_CHARS + 5);
+        let clipped = clip_message(&long);
+        assert_eq!(clipped.chars().count(), MAX_MESSAGE_CHARS + 1);
+        assert!(clipped.ends_with('…'));
+        let exact = "x".repeat(MAX_MESSAGE_CHARS);
+        assert_eq!(clip_message(&exact), exact);
+    }
+
+    #[test]
+    fn supported_extensions_name_every_format() {
+        assert_eq!(supported_extensions(), ".csv, .json");
+    }
+
+    #[test]
+    fn the_selection_can_be_cleared() {
+        let mut list = Listing::default();
+        list.upsert(local("a.csv"));
+        list.clear_selection();
+        assert_eq!(list.selected_name(), None);
+        assert_eq!(list.items().len(), 1);
     }
 
     #[test]

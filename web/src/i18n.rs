@@ -151,8 +151,6 @@ texts! {
     UploadRefused => "控制器拒绝了这个文件：", "The controller refused this file:";
     /// 413.
     TooLarge => "文件超过了控制器的大小限制", "The file is over the controller's size limit";
-    /// A picked file is not CSV or JSON.
-    NotAShowFile => "不是 CSV 或 JSON 文件，已跳过", "is not a CSV or JSON file; skipped";
     /// Local storage failed.
     StorageFailed => "浏览器存储出错", "The browser's storage failed";
     /// Preview: pick a show.
@@ -355,6 +353,25 @@ texts! {
     BadCycles => "周期必须是 1 到 1000000 之间的整数", "Cycles must be a whole number from 1 to 1000000";
     /// 404.
     NotFound => "控制器上没有这个文件", "The controller has no such file";
+    // ---- files ----
+    /// Files: picked files that were not added; one line each follows.
+    FilesNotAdded => "以下文件没有添加：", "These files were not added:";
+    /// A long problem list: show every problem.
+    ShowAll => "全部显示", "Show all";
+    /// A long problem list: back to the first few.
+    ShowFewer => "收起", "Show fewer";
+    /// A file was deleted; its name follows.
+    Deleted => "已删除", "Deleted";
+    /// The password was changed.
+    PasswordChanged => "密码已修改", "The password was changed";
+    /// Settings: what a password change does to other logins.
+    PasswordChangeNote => "修改后，其他设备上的登录将失效，需要用新密码重新登录。", "Logins on other devices end; they log in again with the new password.";
+    /// The playlist was stored on the controller.
+    PlaylistSaved => "配置已保存", "Playlist saved";
+    /// Login: the app logs in by itself when the wait is over.
+    LoginWhenWaitEnds => "等待结束后将自动登录。", "The app logs in by itself when the wait is over.";
+    /// The success toasts' region, for screen readers.
+    Notifications => "通知", "Notifications";
 }
 
 impl Lang {
@@ -400,6 +417,23 @@ impl Lang {
                 format!("Too many failed logins; try again in {s} s")
             }
             (Lang::En, None) => "Too many failed logins; try again later".into(),
+        }
+    }
+
+    /// A picked file that is not a show file, and what is.
+    pub fn unsupported_file(self, name: &str) -> String {
+        let supported = crate::files::supported_extensions();
+        match self {
+            Lang::Zh => format!("{name}：不支持这种文件，支持的格式：{supported}"),
+            Lang::En => format!("{name}: not a supported show file; supported: {supported}"),
+        }
+    }
+
+    /// A long problem list, cut: how many are not shown, of how many.
+    pub fn more_problems(self, hidden: usize, total: usize) -> String {
+        match self {
+            Lang::Zh => format!("另有 {hidden} 条未显示（共 {total} 条）"),
+            Lang::En => format!("{hidden} more not shown ({total} in all)"),
         }
     }
 
@@ -603,6 +637,19 @@ mod tests {
             assert_eq!(Lang::from_code(lang.code()), lang);
         }
         assert_eq!(Lang::from_code("fr"), Lang::Zh);
+    }
+
+    #[test]
+    fn unsupported_files_are_named_with_what_is_supported() {
+        assert_eq!(
+            Lang::En.unsupported_file("a.bin"),
+            "a.bin: not a supported show file; supported: .csv, .json"
+        );
+        assert!(Lang::Zh.unsupported_file("a.bin").contains(".csv, .json"));
+        assert_eq!(
+            Lang::En.more_problems(9_981, 10_001),
+            "9981 more not shown (10001 in all)"
+        );
     }
 
     #[test]

@@ -44,9 +44,12 @@ fn edit_and_save(
             settled = settle_save(editor, answer);
             settled.is_ok()
         });
-        if let Err(failure) = settled {
-            note.set(Some(ctx.failed(&failure)));
-            ctx.refresh();
+        match settled {
+            Ok(()) => ctx.notify(ctx.lang.get_untracked().t(Text::PlaylistSaved)),
+            Err(failure) => {
+                note.set(Some(ctx.failed(&failure)));
+                ctx.refresh();
+            }
         }
     });
 }
@@ -571,6 +574,7 @@ pub fn SettingsPage() -> impl IntoView {
                         .then(|| view! { <p class="note done" data-testid="settings-saved">{move || ctx.t(Text::Saved)}</p> })
                 }}
             </form>
+            <crate::components::password::PasswordForm />
         </section>
     }
 }

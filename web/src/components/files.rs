@@ -5,6 +5,7 @@
 use std::rc::Rc;
 
 use floatball_shared::api::ShowSummary;
+use floatball_shared::show::ShowFormat;
 use leptos::prelude::*;
 use leptos::task::spawn_local;
 use wasm_bindgen::JsCast;
@@ -12,10 +13,13 @@ use wasm_bindgen_futures::JsFuture;
 
 use crate::client::{Failure, OnProgress, UploadProgress};
 use crate::components::qprogram::{QProgramPanel, has_scl_drives};
-use crate::components::widgets::{ActionButton, ConfirmButton, EmptyItem, RowButton, TabButton};
+use crate::components::widgets::{
+    ActionButton, ConfirmButton, EmptyItem, ProblemList, RowButton, TabButton,
+};
 use crate::context::Ctx;
-use crate::files::{LocalFile, format_bytes, format_duration_ms};
+use crate::files::{LocalFile, clip_message, format_bytes, format_duration_ms};
 use crate::i18n::Text;
+use crate::page::Page;
 
 /// Which list the page shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,9 +81,18 @@ pub fn FilesPage() -> impl IntoView {
                 {tab_button(Tab::Controller, Text::ControllerFiles, "tab-controller")}
             </div>
             <Show when=move || !online()>
-                <p class="note muted" data-testid="offline-hint">
-                    {move || ctx.t(Text::OfflineHint)}
-                </p>
+                <div class="note muted offline-hint" data-testid="offline-hint">
+                    <p>{move || ctx.t(Text::OfflineHint)}</p>
+                    <Show when=move || !ctx.logged_in()>
+                        <button
+                            class="primary"
+                            data-testid="files-login"
+                            on:click=move |_| ctx.page.set(Page::Login)
+                        >
+                            {move || ctx.t(Text::LoginButton)}
+                        </button>
+                    </Show>
+                </div>
             </Show>
             {move || match tab.get() {
                 Tab::Local => view! { <LocalTab message=message /> }.into_any(),
@@ -98,19 +111,9 @@ fn message_view(message: Message) -> impl IntoView {
     };
     view! {
         <div class=class data-testid="files-message" role="status">
-            <p>{message.text}</p>
+            <p>{clip_message(&message.text)}</p>
             {(!message.details.is_empty())
-                .then(|| {
-                    view! {
-                        <ul data-testid="upload-details">
-                            {message
-                                .details
-                                .into_iter()
-                                .map(|detail| view! { <li>{detail}</li> })
-                                .collect_view()}
-                        </ul>
-                    }
-                })}
+                .then(|| view! { <ProblemList problems=message.details test_id="upload-details" /> })}
         </div>
     }
 }
@@ -156,6 +159,7 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
                 Ok(summary) => {
                     let text = format!("{}: {}", lang.t(Text::Uploaded), summary.name);
                     ctx.controller_files.update(|list| list.upsert(summary));
+                    ctx.notify(text.clone());
                     Message::done(text)
                 }
                 Err(Failure::Rejected(error)) => Message {
@@ -184,9 +188,13 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
         let store = ctx.store();
         spawn_local(async move {
             match store.delete(&file.name).await {
-                Ok(()) => ctx.local_files.update(|list| {
-                    list.remove(&file.name);
-                }),
+                Ok(()) => {
+                    ctx.local_files.update(|list| {
+                        list.remove(&file.name);
+                    });
+                    let lang = ctx.lang.get_untracked();
+                    ctx.notify(format!("{}: {}", lang.t(Text::Deleted), file.name));
+                }
                 Err(error) => message.set(Some(Message::error(format!(
                     "{}: {error}",
                     ctx.lang.get_untracked().t(Text::StorageFailed)
@@ -287,33 +295,55 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
     }
 }
 
-/// Reads picked files and keeps the CSV and JSON ones.
+/// Reads picked files and keeps the show files (CSV and JSON). Others are refused
+/// by name, with what is supported, before they are read; a pick that adds nothing
+/// leaves nothing selected, so Upload cannot act on a file picked earlier.
 async fn add_files(ctx: Ctx, files: Vec<web_sys::File>, message: RwSignal<Option<Message>>) {
     let lang = ctx.lang.get_untracked();
     let store = ctx.store();
-    let mut problems = Vec::new();
+    let mut refused = Vec::new();
+    let mut storage_failed = false;
+    let mut added = false;
     for picked in files {
         let name = picked.name();
+        if ShowFormat::from_file_name(&name).is_none() {
+            refused.push(lang.unsupported_file(&name));
+            continue;
+        }
         let text = match JsFuture::from(picked.text()).await {
             Ok(text) => text.as_string().unwrap_or_default(),
             Err(error) => {
-                problems.push(format!("{name}: {error:?}"));
+                refused.push(format!("{name}: {}", crate::http::describe_js_error(error)));
                 continue;
             }
         };
         let Some(file) = LocalFile::new(&name, text, js_sys::Date::now()) else {
-            problems.push(format!("{name} {}", lang.t(Text::NotAShowFile)));
+            refused.push(lang.unsupported_file(&name));
             continue;
         };
         match store.put(&file).await {
-            Ok(()) => ctx.local_files.update(|list| list.upsert(file)),
-            Err(error) => problems.push(format!("{name}: {error}")),
+            Ok(()) => {
+                ctx.local_files.update(|list| list.upsert(file));
+                added = true;
+            }
+            Err(error) => {
+                storage_failed = true;
+                refused.push(format!("{name}: {error}"));
+            }
         }
     }
-    message.set((!problems.is_empty()).then(|| Message {
+    if !added && !refused.is_empty() {
+        ctx.local_files.update(|list| list.clear_selection());
+    }
+    let heading = if storage_failed {
+        Text::StorageFailed
+    } else {
+        Text::FilesNotAdded
+    };
+    message.set((!refused.is_empty()).then(|| Message {
         error: true,
-        text: lang.t(Text::StorageFailed).into(),
-        details: problems,
+        text: lang.t(heading).into(),
+        details: refused,
     }));
 }
 
@@ -396,9 +426,13 @@ fn ControllerTab(message: RwSignal<Option<Message>>) -> impl IntoView {
         };
         spawn_local(async move {
             match client.delete_show(&name).await {
-                Ok(()) => ctx.controller_files.update(|list| {
-                    list.remove(&name);
-                }),
+                Ok(()) => {
+                    ctx.controller_files.update(|list| {
+                        list.remove(&name);
+                    });
+                    let lang = ctx.lang.get_untracked();
+                    ctx.notify(format!("{}: {name}", lang.t(Text::Deleted)));
+                }
                 Err(failure) => message.set(Some(Message::error(ctx.failed(&failure)))),
             }
         });

@@ -1,10 +1,15 @@
 //! The Login page: controller address and password; the forced change of the factory
-//! password; logout.
+//! password ([`super::password`]); logout.
+//!
+//! After too many wrong passwords the bridge names a wait (429, `Retry-After`): the
+//! page counts it down every second and logs in by itself when it is over, with the
+//! password still in the field.
 
 use leptos::prelude::*;
 use leptos::task::spawn_local;
 
 use crate::client::Failure;
+use crate::components::password::PasswordForm;
 use crate::components::widgets::{ErrorNote, TextField};
 use crate::context::Ctx;
 use crate::i18n::Text;
@@ -27,7 +32,7 @@ pub fn LoginPage() -> impl IntoView {
             {move || match ctx.session.get() {
                 None => view! { <LoginForm remembered=remembered /> }.into_any(),
                 Some(session) if session.must_change_password => {
-                    view! { <PasswordForm remembered=remembered /> }.into_any()
+                    view! { <PasswordForm forced=true remembered=remembered /> }.into_any()
                 }
                 Some(session) => view! { <LoggedIn address=session.address /> }.into_any(),
             }}
@@ -42,6 +47,8 @@ fn LoginForm(remembered: RwSignal<Option<String>>) -> impl IntoView {
     let password = RwSignal::new(String::new());
     let busy = RwSignal::new(false);
     let note = RwSignal::new(None::<String>);
+    // Seconds left of the bridge's wait after too many wrong passwords.
+    let wait_s = RwSignal::new(None::<u64>);
     let submit = move |event: leptos::ev::SubmitEvent| {
         event.prevent_default();
         if busy.get_untracked() {
@@ -49,32 +56,61 @@ fn LoginForm(remembered: RwSignal<Option<String>>) -> impl IntoView {
         }
         busy.set(true);
         note.set(None);
-        let address = address.get_untracked().trim().to_owned();
-        let typed = password.get_untracked();
-        let client = ctx.client_for(&address);
         spawn_local(async move {
-            let lang = ctx.lang.get_untracked();
-            match client.login(&typed).await {
-                Ok(answer) => {
-                    ctx.login_notice.set(None);
-                    remembered.set(answer.must_change_password.then_some(typed));
-                    ctx.session.set(Some(Session {
-                        address,
-                        token: answer.token,
-                        must_change_password: answer.must_change_password,
-                    }));
-                    if !answer.must_change_password {
-                        ctx.page.set(Page::Files);
+            // One pass a try: a wait the bridge names is counted down, then the
+            // login is tried again with what the fields hold then.
+            loop {
+                let (Some(typed), Some(typed_address)) =
+                    (password.try_get_untracked(), address.try_get_untracked())
+                else {
+                    return; // The page is gone.
+                };
+                let address = typed_address.trim().to_owned();
+                let client = ctx.client_for(&address);
+                let lang = ctx.lang.get_untracked();
+                match client.login(&typed).await {
+                    Ok(answer) => {
+                        ctx.login_notice.set(None);
+                        let _ = remembered.try_set(answer.must_change_password.then_some(typed));
+                        ctx.session.set(Some(Session {
+                            address,
+                            token: answer.token,
+                            must_change_password: answer.must_change_password,
+                        }));
+                        if !answer.must_change_password {
+                            ctx.page.set(Page::Files);
+                        }
+                    }
+                    Err(Failure::Unauthorized) => {
+                        let _ = note.try_set(Some(lang.t(Text::WrongPassword).into()));
+                    }
+                    Err(Failure::TooManyAttempts {
+                        retry_after_s: Some(wait),
+                    }) if wait > 0 => {
+                        if !count_down(wait_s, wait).await {
+                            return;
+                        }
+                        let still_typed = password
+                            .try_with_untracked(|typed| !typed.is_empty())
+                            .unwrap_or(false);
+                        if still_typed {
+                            continue;
+                        }
+                    }
+                    Err(failure) => {
+                        let _ = note.try_set(Some(lang.failure(&failure)));
                     }
                 }
-                Err(Failure::Unauthorized) => {
-                    note.set(Some(lang.t(Text::WrongPassword).into()));
-                }
-                Err(failure) => note.set(Some(lang.failure(&failure))),
+                break;
             }
-            busy.set(false);
+            let _ = busy.try_set(false);
         });
     };
+    let wait_note = Signal::derive(move || {
+        wait_s
+            .get()
+            .map(|left| ctx.lang.get().too_many_attempts(Some(left)))
+    });
     view! {
         <form class="card form" on:submit=submit data-testid="login-form">
             <h2>{move || ctx.t(Text::LoginTitle)}</h2>
@@ -93,92 +129,23 @@ fn LoginForm(remembered: RwSignal<Option<String>>) -> impl IntoView {
                 autocomplete="current-password"
             />
             <button type="submit" class="primary" data-testid="login-submit" disabled=busy>
-                {move || ctx.t(if busy.get() { Text::Working } else { Text::LoginButton })}
+                {move || {
+                    ctx.t(
+                        if busy.get() && wait_s.with(Option::is_none) {
+                            Text::Working
+                        } else {
+                            Text::LoginButton
+                        },
+                    )
+                }}
             </button>
             <ErrorNote text=note test_id="login-error" alert=true />
-        </form>
-    }
-}
-
-#[component]
-fn PasswordForm(remembered: RwSignal<Option<String>>) -> impl IntoView {
-    let ctx = expect_context::<Ctx>();
-    let current = RwSignal::new(String::new());
-    let new = RwSignal::new(String::new());
-    let confirm = RwSignal::new(String::new());
-    let busy = RwSignal::new(false);
-    let note = RwSignal::new(None::<String>);
-    let submit = move |event: leptos::ev::SubmitEvent| {
-        event.prevent_default();
-        let lang = ctx.lang.get_untracked();
-        if new.get_untracked() != confirm.get_untracked() {
-            note.set(Some(lang.t(Text::PasswordsDiffer).into()));
-            return;
-        }
-        let Some(client) = ctx.client() else { return };
-        let old = remembered
-            .get_untracked()
-            .unwrap_or_else(|| current.get_untracked());
-        let new = new.get_untracked();
-        busy.set(true);
-        note.set(None);
-        spawn_local(async move {
-            match client.change_password(&old, &new).await {
-                Ok(()) => {
-                    remembered.set(None);
-                    ctx.login_notice.set(None);
-                    ctx.session.update(|session| {
-                        if let Some(session) = session {
-                            session.must_change_password = false;
-                        }
-                    });
-                    ctx.page.set(Page::Files);
-                }
-                Err(Failure::Unauthorized) => {
-                    // A wrong current password; the app may have remembered a stale one.
-                    remembered.set(None);
-                    note.set(Some(lang.t(Text::WrongCurrentPassword).into()));
-                }
-                Err(Failure::Rejected(error)) => {
-                    let details = error.details.join(" ");
-                    note.set(Some(format!("{} {details}", error.error)));
-                }
-                Err(failure) => note.set(Some(ctx.failed(&failure))),
-            }
-            busy.set(false);
-        });
-    };
-    view! {
-        <form class="card form" on:submit=submit data-testid="password-form">
-            <h2>{move || ctx.t(Text::ChangePasswordTitle)}</h2>
-            <p class="muted">{move || ctx.t(Text::ChangePasswordNote)}</p>
-            <Show when=move || remembered.with(Option::is_none)>
-                <TextField
-                    label=Text::CurrentPassword
-                    value=current
-                    test_id="password-current"
-                    kind="password"
-                    autocomplete="current-password"
-                />
+            <ErrorNote text=wait_note test_id="login-error" />
+            <Show when=move || wait_s.with(Option::is_some)>
+                <p class="muted" data-testid="login-wait-note">
+                    {move || ctx.t(Text::LoginWhenWaitEnds)}
+                </p>
             </Show>
-            <TextField
-                label=Text::NewPassword
-                value=new
-                test_id="password-new"
-                kind="password"
-                autocomplete="new-password"
-            />
-            <TextField
-                label=Text::ConfirmPassword
-                value=confirm
-                test_id="password-confirm"
-                kind="password"
-                autocomplete="new-password"
-            />
-            <button type="submit" class="primary" data-testid="password-submit" disabled=busy>
-                {move || ctx.t(Text::ChangePasswordButton)}
-            </button>
-            <ErrorNote text=note test_id="password-error" alert=true />
         </form>
     }
 }
@@ -214,4 +181,30 @@ fn LoggedIn(address: String) -> impl IntoView {
             </button>
         </div>
     }
+}
+
+/// Counts `wait_s` down from `seconds` to nothing, one step a second; `false` when
+/// the page went away meanwhile.
+async fn count_down(wait_s: RwSignal<Option<u64>>, seconds: u64) -> bool {
+    for left in (1..=seconds).rev() {
+        if wait_s.try_set(Some(left)).is_some() {
+            return false;
+        }
+        sleep_ms(1_000).await;
+    }
+    wait_s.try_set(None).is_none()
+}
+
+/// Lets `ms` of the browser's time pass.
+async fn sleep_ms(ms: i32) {
+    let promise = js_sys::Promise::new(&mut |resolve, _| {
+        // Without a window there is no page to wait for: resolve at once.
+        if window()
+            .set_timeout_with_callback_and_timeout_and_arguments_0(&resolve, ms)
+            .is_err()
+        {
+            let _ = resolve.call0(&wasm_bindgen::JsValue::NULL);
+        }
+    });
+    let _ = wasm_bindgen_futures::JsFuture::from(promise).await;
 }

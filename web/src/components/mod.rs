@@ -3,7 +3,8 @@
 //!
 //! - [`App`]: the real app: browser services, the WebSocket, storage, the URL;
 //! - [`Shell`]: the top bar and the current page (mounted by tests with fakes);
-//! - one module per page ([`qprogram`] is a part of the Files page), [`topbar`] for the bar on every page, and [`widgets`] for
+//! - one module per page ([`qprogram`] is a part of the Files page, [`password`] of
+//!   Login and Settings), [`topbar`] for the bar on every page, and [`widgets`] for
 //!   the small views several pages share (labelled fields, notes, the two-press
 //!   Delete, tabs, list rows).
 
@@ -11,6 +12,7 @@ pub mod console;
 pub mod control;
 pub mod files;
 pub mod login;
+pub mod password;
 pub mod preview;
 pub mod qprogram;
 pub mod topbar;
@@ -220,5 +222,6 @@ pub fn Shell() -> impl IntoView {
                 Page::Console => view! { <console::ConsolePage /> }.into_any(),
             }}
         </main>
+        <widgets::ToastArea />
     }
 }

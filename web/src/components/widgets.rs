@@ -7,13 +7,16 @@
 //!   second press;
 //! - [`TabButton`]: a tab of the top bar or of a page;
 //! - [`RowButton`]: a pickable row of a list (a file, a show); [`EmptyItem`]: what an
-//!   empty list says.
+//!   empty list says;
+//! - [`ProblemList`]: a list of problems, the first [`SHOWN_PROBLEMS`] and "show
+//!   all"; [`ToastArea`]: the success toast of [`Ctx::notify`].
 //!
 //! They need the app's [`Ctx`] for the language.
 
 use leptos::prelude::*;
 
 use crate::context::Ctx;
+use crate::files::{SHOWN_PROBLEMS, clip_message};
 use crate::i18n::Text;
 
 /// A label (in the current language) over `children`, the control it names.
@@ -231,6 +234,7 @@ pub fn RowButton(
             <button
                 class="row"
                 class:selected=selected
+                aria-pressed=selected.to_string()
                 disabled=disabled
                 data-testid=test_id
                 data-name=name
@@ -250,4 +254,89 @@ pub fn EmptyItem(
 ) -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     view! { <li class="empty muted">{move || ctx.t(text)}</li> }
+}
+
+/// Problems (a refused upload's, a file that cannot be read): the first
+/// [`SHOWN_PROBLEMS`], how many more there are and a "show all" toggle; each one cut
+/// to a readable length ([`clip_message`]).
+#[component]
+pub fn ProblemList(
+    /// Every problem.
+    problems: Vec<String>,
+    /// The list's `data-testid`.
+    test_id: &'static str,
+) -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    let total = problems.len();
+    let all_shown = RwSignal::new(false);
+    let problems = StoredValue::new(problems);
+    let items = move || {
+        let shown = if all_shown.get() {
+            total
+        } else {
+            total.min(SHOWN_PROBLEMS)
+        };
+        problems.with_value(|problems| {
+            problems[..shown]
+                .iter()
+                .map(|problem| view! { <li>{clip_message(problem)}</li> })
+                .collect_view()
+        })
+    };
+    let hidden = move || {
+        total
+            - if all_shown.get() {
+                total
+            } else {
+                total.min(SHOWN_PROBLEMS)
+            }
+    };
+    view! {
+        <ul class="problems" data-testid=test_id data-total=total>
+            {items}
+        </ul>
+        {(total > SHOWN_PROBLEMS)
+            .then(|| {
+                view! {
+                    <p class="more-problems">
+                        <span data-testid="problems-more">
+                            {move || {
+                                let hidden = hidden();
+                                (hidden > 0).then(|| ctx.lang.get().more_problems(hidden, total))
+                            }}
+                        </span>
+                        " "
+                        <button
+                            class="link-button"
+                            data-testid="problems-toggle"
+                            aria-expanded=move || all_shown.get().to_string()
+                            on:click=move |_| all_shown.update(|all| *all = !*all)
+                        >
+                            {move || ctx.t(if all_shown.get() { Text::ShowFewer } else { Text::ShowAll })}
+                        </button>
+                    </p>
+                }
+            })}
+    }
+}
+
+/// The success toast of [`Ctx::notify`], while there is one: polite for screen
+/// readers, gone after a few seconds.
+#[component]
+pub fn ToastArea() -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    view! {
+        <div
+            class="toasts"
+            role="status"
+            aria-live="polite"
+            aria-label=move || ctx.t(Text::Notifications)
+        >
+            {move || {
+                ctx.toast
+                    .get()
+                    .map(|(_, text)| view! { <p class="toast" data-testid="toast">{text}</p> })
+            }}
+        </div>
+    }
 }
