@@ -355,6 +355,11 @@ texts! {
     BadCycles => "周期必须是 1 到 1000000 之间的整数", "Cycles must be a whole number from 1 to 1000000";
     /// 404.
     NotFound => "控制器上没有这个文件", "The controller has no such file";
+    // ---- layout ----
+    /// The compact status line's tooltip: a tap opens Control.
+    StatusBarHint => "点按打开控制页", "Tap to open Control";
+    /// Reopens the Preview's file list once a show is chosen.
+    ChooseAnotherShow => "选择其他节目", "Choose another show";
 }
 
 impl Lang {
