@@ -92,8 +92,8 @@ pub struct Ctx {
     pub playlist: RwSignal<PlaylistEditor>,
     /// Decoded feedback frames for the console.
     pub feedback: RwSignal<FeedbackLog>,
-    /// The installation's calibration and stations, once the Console fetched them
-    /// (positions in counts are shown in mm beside them).
+    /// The installation's calibration and stations, fetched on every connection (the
+    /// console shows positions in counts in mm beside them).
     pub installation: RwSignal<Option<InstallationInfo>>,
     /// What the Preview page shows.
     pub preview: RwSignal<Option<PreviewItem>>,

@@ -3,7 +3,7 @@
 //! installation: box commands checked by the MBOX parser, their help, and the boxes'
 //! replies to reads; on MOONS' drives: SCL lines checked by the SCL parser, their
 //! help, and the drives' answers. Positions in counts are also shown in mm once the
-//! installation's calibration is fetched (on every connection).
+//! installation's calibration is known (`Ctx::load_installation`).
 
 use floatball_shared::api::ClientMessage;
 use leptos::prelude::*;
@@ -23,9 +23,10 @@ pub fn ConsolePage() -> impl IntoView {
     let text = RwSignal::new(String::new());
     let gateway = RwSignal::new(None::<usize>);
     let sent = RwSignal::new(Vec::<String>::new());
-    // The calibration for the mm beside counts, again on every (re)connection.
+    // The calibration for the mm beside counts (the app fetches it on every
+    // connection; a page mounted without the app fetches it here).
     Effect::new(move |_| {
-        if ctx.connected() {
+        if ctx.connected() && ctx.installation.with_untracked(Option::is_none) {
             ctx.load_installation();
         }
     });
