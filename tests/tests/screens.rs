@@ -13,7 +13,6 @@
 //! Every failure names the page, the size and the language.
 
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 use floatball_e2e::{Bridge, Browser, INDICATOR, UI_TIMEOUT, wave_csv};
 use serde_json::Value;
@@ -38,6 +37,13 @@ fn screens_dir() -> PathBuf {
     std::fs::create_dir_all(&dir).expect("create the screenshot directory");
     dir
 }
+
+/// Calls back once the fonts are loaded and two more frames are drawn.
+const SETTLED: &str = r"
+    const done = arguments[arguments.length - 1];
+    document.fonts.ready.then(() =>
+        requestAnimationFrame(() => requestAnimationFrame(() => done(true))));
+";
 
 /// What one look at the page found: the layout's measures, read in the page.
 const MEASURE: &str = r"
@@ -96,8 +102,12 @@ impl Tour<'_> {
         browser
             .wait_for(&format!("[data-testid=page-{page}]"))
             .await;
-        // Layout, fonts and the first frames of the preview settle.
-        tokio::time::sleep(Duration::from_millis(250)).await;
+        // Fonts loaded and two frames drawn: what a user would see.
+        browser
+            .client
+            .execute_async(SETTLED, Vec::new())
+            .await
+            .expect("wait for the page to settle");
         let (width, height) = self.size;
         let name = format!("{width}x{height}-{lang}-{page}.png");
         let png = browser.client.screenshot().await.expect("screenshot");

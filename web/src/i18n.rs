@@ -359,7 +359,7 @@ texts! {
     /// The compact status line's tooltip: a tap opens Control.
     StatusBarHint => "点按打开控制页", "Tap to open Control";
     /// Reopens the Preview's file list once a show is chosen.
-    ChooseAnotherShow => "选择其他节目", "Choose another show";
+    ChooseAnotherShow => "选择其他动作文件", "Choose another show";
 }
 
 impl Lang {
