@@ -127,11 +127,13 @@ pub struct FeedbackLine {
     pub hex: String,
 }
 
-/// The most recent feedback frames, newest first.
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
+/// The most recent feedback frames, newest first, and the installation that gives
+/// their positions in mm.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct FeedbackLog {
     lines: VecDeque<FeedbackLine>,
     next_id: u64,
+    installation: Option<InstallationInfo>,
 }
 
 impl FeedbackLine {
@@ -146,17 +148,28 @@ impl FeedbackLine {
 
 impl FeedbackLog {
     /// Decodes `frame` and puts it first, dropping the oldest beyond
-    /// [`FEEDBACK_LINES`].
+    /// [`FEEDBACK_LINES`]; a position also in mm when the installation is known
+    /// ([`describe_scaled`]).
     pub fn push(&mut self, frame: &FeedbackFrame) {
-        self.push_scaled(frame, None);
+        let hex = frame.data.iter().map(|byte| format!("{byte:02X}"));
+        let scale = counts_per_mm(
+            self.installation.as_ref(),
+            frame.gateway,
+            Some(frame.station),
+        );
+        let text = describe_scaled(frame, scale);
+        self.push_line(frame.gateway, Some(frame.station), text, hex);
     }
 
-    /// [`Self::push`], with positions also in mm when `counts_per_mm` is known
-    /// ([`describe_scaled`]).
-    pub fn push_scaled(&mut self, frame: &FeedbackFrame, counts_per_mm: Option<f64>) {
-        let hex = frame.data.iter().map(|byte| format!("{byte:02X}"));
-        let text = describe_scaled(frame, counts_per_mm);
-        self.push_line(frame.gateway, Some(frame.station), text, hex);
+    /// Takes the installation's calibration and stations: from now on positions in
+    /// counts are also given in mm ([`counts_per_mm`]).
+    pub fn set_installation(&mut self, installation: InstallationInfo) {
+        self.installation = Some(installation);
+    }
+
+    /// The installation, once known.
+    pub fn installation(&self) -> Option<&InstallationInfo> {
+        self.installation.as_ref()
     }
 
     /// Puts an MBOX box's reply to a console read first, its registers in hex.
@@ -170,14 +183,10 @@ impl FeedbackLog {
     }
 
     /// A MOONS' drive's answer to an SCL console line: the line sent and the answer
-    /// decoded, under its gateway.
+    /// decoded, under its gateway; a position answer (`IP`, `EP`, `SP`, in counts)
+    /// also in mm when the installation is known: `1IP → IP = 200000 (400.0 mm)`.
     pub fn push_scl(&mut self, reply: &SclReply) {
-        self.push_scl_scaled(reply, None);
-    }
-
-    /// [`Self::push_scl`], with a position answer (`IP`, `EP`, `SP`, in counts) also
-    /// in mm when `counts_per_mm` is known: `1IP → IP = 200000 (400.0 mm)`.
-    pub fn push_scl_scaled(&mut self, reply: &SclReply, counts_per_mm: Option<f64>) {
+        let scale = counts_per_mm(self.installation.as_ref(), reply.gateway, None);
         let position = Reply::parse(&reply.raw)
             .ok()
             .filter(|answer| {
@@ -186,7 +195,7 @@ impl FeedbackLog {
             .and_then(|answer| answer.answer.value_i64());
         let mut text = format!("{} → {}", reply.request, reply.text);
         if let Some(counts) = position {
-            text.push_str(&in_mm(counts, counts_per_mm));
+            text.push_str(&in_mm(counts, scale));
         }
         self.push_line(
             reply.gateway,
@@ -526,6 +535,13 @@ mod tests {
         );
 
         let mut log = FeedbackLog::default();
+        log.push(&pa);
+        log.set_installation(installation.clone());
+        log.push(&pa);
+        let texts: Vec<_> = log.lines().map(|line| line.text.clone()).collect();
+        assert_eq!(texts, ["PA = 200000 (400.0 mm)", "PA = 200000"]);
+
+        let mut log = FeedbackLog::default();
         let reply = |request: &str, text: &str, raw: &str| SclReply {
             gateway: 2,
             drive: "1".into(),
@@ -533,16 +549,17 @@ mod tests {
             text: text.into(),
             raw: raw.into(),
         };
-        log.push_scl_scaled(&reply("1IP", "IP = -1200", "1IP=-1200"), Some(500.0));
-        log.push_scl_scaled(&reply("1VE", "VE = 20.0", "1VE=20.0"), Some(500.0));
-        log.push_scl_scaled(&reply("1EP", "EP = 1000", "1EP=1000"), None);
+        log.push_scl(&reply("1EP", "EP = 1000", "1EP=1000"));
+        log.set_installation(installation);
+        log.push_scl(&reply("1IP", "IP = -1200", "1IP=-1200"));
+        log.push_scl(&reply("1VE", "VE = 20.0", "1VE=20.0"));
         let texts: Vec<_> = log.lines().map(|line| line.text.clone()).collect();
         assert_eq!(
             texts,
             [
-                "1EP → EP = 1000",
                 "1VE → VE = 20.0",
-                "1IP → IP = -1200 (-2.4 mm)"
+                "1IP → IP = -1200 (-2.4 mm)",
+                "1EP → EP = 1000"
             ]
         );
     }

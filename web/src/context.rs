@@ -7,7 +7,7 @@
 
 use std::rc::Rc;
 
-use floatball_shared::api::{ClientMessage, InstallationInfo, ServerMessage, ShowSummary, Status};
+use floatball_shared::api::{ClientMessage, ServerMessage, ShowSummary, Status};
 use floatball_shared::show::{Show, ShowFormat, import};
 use leptos::prelude::*;
 use leptos::task::spawn_local;
@@ -92,9 +92,6 @@ pub struct Ctx {
     pub playlist: RwSignal<PlaylistEditor>,
     /// Decoded feedback frames for the console.
     pub feedback: RwSignal<FeedbackLog>,
-    /// The installation's calibration and stations, fetched on every connection (the
-    /// console shows positions in counts in mm beside them).
-    pub installation: RwSignal<Option<InstallationInfo>>,
     /// What the Preview page shows.
     pub preview: RwSignal<Option<PreviewItem>>,
     /// The last E-stop press (its number and outcome), shown on every E-stop button
@@ -119,7 +116,6 @@ impl Ctx {
             controller_files: RwSignal::new(Listing::default()),
             playlist: RwSignal::new(PlaylistEditor::default()),
             feedback: RwSignal::new(FeedbackLog::default()),
-            installation: RwSignal::new(None),
             preview: RwSignal::new(None),
             estop_ack: RwSignal::new(None),
             origin: StoredValue::new(origin),
@@ -178,16 +174,9 @@ impl Ctx {
     pub fn receive(&self, message: ServerMessage) {
         match message {
             ServerMessage::Status(status) => self.status.set(Some(status)),
-            ServerMessage::Feedback(frame) => {
-                let scale = self.counts_per_mm(frame.gateway, Some(frame.station));
-                self.feedback.update(|log| log.push_scaled(&frame, scale));
-            }
+            ServerMessage::Feedback(frame) => self.feedback.update(|log| log.push(&frame)),
             ServerMessage::MboxReply(reply) => self.feedback.update(|log| log.push_mbox(&reply)),
-            ServerMessage::SclReply(reply) => {
-                let scale = self.counts_per_mm(reply.gateway, None);
-                self.feedback
-                    .update(|log| log.push_scl_scaled(&reply, scale));
-            }
+            ServerMessage::SclReply(reply) => self.feedback.update(|log| log.push_scl(&reply)),
             ServerMessage::Error { message } => self.bridge_error.set(Some(message)),
             ServerMessage::EstopSent { unreached } if !unreached.is_empty() => {
                 self.bridge_error
@@ -197,22 +186,15 @@ impl Ctx {
         }
     }
 
-    /// The calibration that turns positions from `station` on `gateway` into mm, when
-    /// the installation is known ([`crate::console::counts_per_mm`]).
-    fn counts_per_mm(&self, gateway: usize, station: Option<u8>) -> Option<f64> {
-        self.installation.with_untracked(|installation| {
-            crate::console::counts_per_mm(installation.as_ref(), gateway, station)
-        })
-    }
-
-    /// Fetches the installation's calibration and stations (for the console's mm);
-    /// a bridge without the call leaves the positions in counts only.
+    /// Fetches the installation's calibration and stations for the console's mm
+    /// ([`FeedbackLog::set_installation`]); a bridge without the call leaves the
+    /// positions in counts only.
     pub fn load_installation(&self) {
         let Some(client) = self.client() else { return };
         let ctx = *self;
         spawn_local(async move {
             if let Ok(info) = client.installation().await {
-                ctx.installation.set(Some(info));
+                ctx.feedback.update(|log| log.set_installation(info));
             }
         });
     }

@@ -1484,7 +1484,8 @@ async fn the_console_gives_positions_in_mm_once_the_installation_is_known() {
         view! { <ConsolePage /> }
     });
     until("the installation", || {
-        ctx.installation.with_untracked(Option::is_some)
+        ctx.feedback
+            .with_untracked(|log| log.installation().is_some())
     })
     .await;
     let pa = |station| {

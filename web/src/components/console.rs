@@ -26,7 +26,11 @@ pub fn ConsolePage() -> impl IntoView {
     // The calibration for the mm beside counts (the app fetches it on every
     // connection; a page mounted without the app fetches it here).
     Effect::new(move |_| {
-        if ctx.connected() && ctx.installation.with_untracked(Option::is_none) {
+        if ctx.connected()
+            && ctx
+                .feedback
+                .with_untracked(|log| log.installation().is_none())
+        {
             ctx.load_installation();
         }
     });
