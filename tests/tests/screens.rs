@@ -96,7 +96,8 @@ impl Tour<'_> {
             .await;
     }
 
-    /// Takes the screenshot of `page` and checks what is in view.
+    /// Takes the screenshot of `page` (named `page`, and `-offline` before the login)
+    /// and checks what is in view.
     async fn shoot(&mut self, page: &str, lang: &str, connected: bool) {
         let browser = self.browser;
         browser
@@ -109,7 +110,8 @@ impl Tour<'_> {
             .await
             .expect("wait for the page to settle");
         let (width, height) = self.size;
-        let name = format!("{width}x{height}-{lang}-{page}.png");
+        let offline = if connected { "" } else { "-offline" };
+        let name = format!("{width}x{height}-{lang}-{page}{offline}.png");
         let png = browser.client.screenshot().await.expect("screenshot");
         std::fs::write(self.dir.join(&name), png).expect("write the screenshot");
         let seen = browser
