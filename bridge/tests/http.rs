@@ -7,7 +7,10 @@ use std::time::Duration;
 
 use axum::http::{Method, StatusCode, header};
 use common::{Bridge, PASSWORD, encode_path, show_json};
-use floatball_shared::api::{LoginResponse, Playlist, PlaylistEntry, ShowSummary};
+use floatball_shared::api::{
+    GatewayKind, InstallationGateway, InstallationInfo, LoginResponse, Playlist, PlaylistEntry,
+    ShowSummary,
+};
 use sha2::{Digest, Sha256};
 use tokio::io::AsyncWriteExt;
 
@@ -131,6 +134,7 @@ async fn every_call_but_login_needs_a_valid_token() {
         (Method::DELETE, "/api/shows/a"),
         (Method::GET, "/api/playlist"),
         (Method::PUT, "/api/playlist"),
+        (Method::GET, "/api/installation"),
     ] {
         for token in [None, Some("0123abcd")] {
             let reply = bridge.request(method.clone(), path, token, None).await;
@@ -794,4 +798,23 @@ async fn the_app_is_served_and_unknown_paths_fall_back_to_index() {
         assert_eq!(reply.status, StatusCode::OK, "{path}");
         assert!(String::from_utf8_lossy(&reply.body).contains("<title>t</title>"));
     }
+}
+
+#[tokio::test]
+async fn the_installation_gives_its_calibration_and_stations() {
+    let config = "[matrix]\nrows = 2\ncols = 2\ncounts_per_mm = 500\n\n[[gateway]]\nport = \"sim\"\nbaud = 115200\n";
+    let bridge = Bridge::start_with(config).await;
+    let path = "/api/installation";
+    let token = bridge.token().await;
+    let reply = bridge.request(Method::GET, path, Some(&token), None).await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    let info: InstallationInfo = reply.json();
+    assert_eq!(info.counts_per_mm, 500.0);
+    assert_eq!(
+        info.gateways,
+        vec![InstallationGateway {
+            kind: GatewayKind::Uim2503,
+            stations: vec![1, 2, 3, 4],
+        }]
+    );
 }

@@ -153,6 +153,30 @@ pub struct QProgramListing {
     pub at_ms: u64,
 }
 
+/// The installation as the app needs it (`GET /api/installation`): the calibration
+/// that turns the drives' positions in counts into mm (the console shows both), and
+/// the stations of each gateway's balls.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InstallationInfo {
+    /// Counts per mm of ball travel of the UIM2503 units and MOONS' drives (`[matrix]
+    /// counts_per_mm`); an MBOX box's pulses are its own (`pulses_per_mm`, an offset
+    /// and a sign) and are not converted.
+    pub counts_per_mm: f64,
+    /// Every gateway, in configuration order.
+    pub gateways: Vec<InstallationGateway>,
+}
+
+/// One gateway in [`InstallationInfo`].
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct InstallationGateway {
+    /// Its drive family; `uim2503` when absent.
+    #[serde(default, skip_serializing_if = "GatewayKind::is_uim2503")]
+    pub kind: GatewayKind,
+    /// The stations of its balls, in unit order: UIM2503 stations, MBOX axes, the
+    /// places of MOONS' drives on the entry.
+    pub stations: Vec<u8>,
+}
+
 /// The bandwidth figures of one gateway in a [`PlanReport`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct GatewayPlan {

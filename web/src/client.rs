@@ -11,8 +11,8 @@ use std::pin::Pin;
 use std::rc::Rc;
 
 use floatball_shared::api::{
-    ApiError, LoginRequest, LoginResponse, PasswordChange, PlanReport, Playlist, QProgramListing,
-    ShowSummary,
+    ApiError, InstallationInfo, LoginRequest, LoginResponse, PasswordChange, PlanReport, Playlist,
+    QProgramListing, ShowSummary,
 };
 use floatball_shared::show::ShowFormat;
 use serde::Serialize;
@@ -386,6 +386,14 @@ impl Client {
             Err(Failure::NotFound) => Ok(None),
             Err(failure) => Err(failure),
         }
+    }
+
+    /// `GET /api/installation`: the calibration and the gateways' stations.
+    ///
+    /// # Errors
+    /// [`Failure`] as the bridge answered (a bridge older than the call: not found).
+    pub async fn installation(&self) -> Result<InstallationInfo, Failure> {
+        self.call_json(Method::Get, "/api/installation", None).await
     }
 }
 

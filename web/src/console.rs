@@ -5,17 +5,22 @@
 //! uses), and the boxes' replies to reads join the same log.
 //!
 //! The decoded notation (`QP[3] = 1000`, `ER …`) is the manual's, the same in both
-//! languages; error sentences come from the shared codec (English).
+//! languages; error sentences come from the shared codec (English). Positions in
+//! counts (UIM2503 `PA`, `QP`; MOONS' `IP`, `EP`, `SP`) are also given in mm once the
+//! installation's calibration is known ([`counts_per_mm`]).
 
 use std::collections::VecDeque;
 
 use std::net::SocketAddr;
 
-use floatball_shared::api::{FeedbackFrame, GatewayKind, MboxReply, SclReply, Status};
+use floatball_shared::api::{
+    FeedbackFrame, GatewayKind, InstallationInfo, MboxReply, SclReply, Status,
+};
 use floatball_shared::ascii::parse_script;
 use floatball_shared::feedback::{Ack, Feedback, Frame, code};
 use floatball_shared::mbox::console as mbox_console;
 use floatball_shared::mbox::{BoxAddress, Route};
+use floatball_shared::scl::{Answer, Reply};
 
 /// How many feedback lines the console keeps.
 pub const FEEDBACK_LINES: usize = 200;
@@ -122,11 +127,13 @@ pub struct FeedbackLine {
     pub hex: String,
 }
 
-/// The most recent feedback frames, newest first.
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
+/// The most recent feedback frames, newest first, and the installation that gives
+/// their positions in mm.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct FeedbackLog {
     lines: VecDeque<FeedbackLine>,
     next_id: u64,
+    installation: Option<InstallationInfo>,
 }
 
 impl FeedbackLine {
@@ -141,10 +148,28 @@ impl FeedbackLine {
 
 impl FeedbackLog {
     /// Decodes `frame` and puts it first, dropping the oldest beyond
-    /// [`FEEDBACK_LINES`].
+    /// [`FEEDBACK_LINES`]; a position also in mm when the installation is known
+    /// ([`describe_scaled`]).
     pub fn push(&mut self, frame: &FeedbackFrame) {
         let hex = frame.data.iter().map(|byte| format!("{byte:02X}"));
-        self.push_line(frame.gateway, Some(frame.station), describe(frame), hex);
+        let scale = counts_per_mm(
+            self.installation.as_ref(),
+            frame.gateway,
+            Some(frame.station),
+        );
+        let text = describe_scaled(frame, scale);
+        self.push_line(frame.gateway, Some(frame.station), text, hex);
+    }
+
+    /// Takes the installation's calibration and stations: from now on positions in
+    /// counts are also given in mm ([`counts_per_mm`]).
+    pub fn set_installation(&mut self, installation: InstallationInfo) {
+        self.installation = Some(installation);
+    }
+
+    /// The installation, once known.
+    pub fn installation(&self) -> Option<&InstallationInfo> {
+        self.installation.as_ref()
     }
 
     /// Puts an MBOX box's reply to a console read first, its registers in hex.
@@ -158,9 +183,20 @@ impl FeedbackLog {
     }
 
     /// A MOONS' drive's answer to an SCL console line: the line sent and the answer
-    /// decoded, under its gateway.
+    /// decoded, under its gateway; a position answer (`IP`, `EP`, `SP`, in counts)
+    /// also in mm when the installation is known: `1IP → IP = 200000 (400.0 mm)`.
     pub fn push_scl(&mut self, reply: &SclReply) {
-        let text = format!("{} → {}", reply.request, reply.text);
+        let scale = counts_per_mm(self.installation.as_ref(), reply.gateway, None);
+        let position = Reply::parse(&reply.raw)
+            .ok()
+            .filter(|answer| {
+                matches!(&answer.answer, Answer::Value { name, .. } if SCL_POSITIONS.contains(&name.as_str()))
+            })
+            .and_then(|answer| answer.answer.value_i64());
+        let mut text = format!("{} → {}", reply.request, reply.text);
+        if let Some(counts) = position {
+            text.push_str(&in_mm(counts, scale));
+        }
         self.push_line(
             reply.gateway,
             None,
@@ -209,15 +245,65 @@ impl FeedbackLog {
     }
 }
 
+/// The answers of MOONS' drives that are positions in counts.
+const SCL_POSITIONS: [&str; 3] = ["IP", "EP", "SP"];
+
+/// The calibration that turns positions in counts from `station` on `gateway` into
+/// mm: the installation's `counts_per_mm` for one of a UIM2503 gateway's stations
+/// and for MOONS' drives; none for an MBOX box (its pulses have an offset and a sign
+/// of their own, and its replies are registers), an unknown gateway or station, or
+/// before the installation is known.
+pub fn counts_per_mm(
+    installation: Option<&InstallationInfo>,
+    gateway: usize,
+    station: Option<u8>,
+) -> Option<f64> {
+    let installation = installation?;
+    let entry = installation.gateways.get(gateway)?;
+    let known = match entry.kind {
+        GatewayKind::Uim2503 => station.is_some_and(|station| entry.stations.contains(&station)),
+        GatewayKind::Scl => true,
+        GatewayKind::Mbox => false,
+    };
+    let scale = installation.counts_per_mm;
+    (known && scale.is_finite() && scale > 0.0).then_some(scale)
+}
+
+/// ` (400.0 mm)` for `counts` at `counts_per_mm`; nothing when that is unknown.
+fn in_mm(counts: i64, counts_per_mm: Option<f64>) -> String {
+    counts_per_mm
+        .map(|scale| format!(" ({:.1} mm)", counts as f64 / scale))
+        .unwrap_or_default()
+}
+
 /// A frame's meaning in the protocol's notation: `PV = 3`, `QP[3] = 1000`,
 /// `ER: value out of range … (error 0x33, QT (0x27), index 3)`.
 pub fn describe(frame: &FeedbackFrame) -> String {
+    describe_scaled(frame, None)
+}
+
+/// [`describe`], with a position (`PA`, `QP`, in counts) also in mm when
+/// `counts_per_mm` is known: `PA = 200000 (400.0 mm)`.
+pub fn describe_scaled(frame: &FeedbackFrame, counts_per_mm: Option<f64>) -> String {
     let decoded = Frame::new(frame.station, frame.code, &frame.data)
         .map_err(|err| err.to_string())
         .and_then(|frame| Feedback::from_frame(&frame).map_err(|err| err.to_string()));
     match decoded {
         Err(error) => format!("? code {:#04x}: {error}", frame.code),
-        Ok(Feedback::Ack(ack)) => describe_ack(ack),
+        Ok(Feedback::Ack(ack)) => {
+            let position = match ack {
+                Ack::PtpPosition { position_counts }
+                | Ack::PvtPosition {
+                    position_counts, ..
+                } => Some(i64::from(position_counts)),
+                _ => None,
+            };
+            let text = describe_ack(ack);
+            match position {
+                Some(counts) => text + &in_mm(counts, counts_per_mm),
+                None => text,
+            }
+        }
         Ok(Feedback::Notification(notice)) => {
             if notice.kind == code::notification::PVT_WATERMARK {
                 format!("RTCN {} (PVT watermark)", notice.kind)
@@ -406,6 +492,76 @@ mod tests {
         assert!(bad.starts_with("? code 0x23"), "{bad}");
         let bad = describe(&frame(200, code::PV, &[3, 0]));
         assert!(bad.contains("station 200"), "{bad}");
+    }
+
+    #[test]
+    fn positions_are_also_in_mm_on_known_stations() {
+        let installation = InstallationInfo {
+            counts_per_mm: 500.0,
+            gateways: vec![
+                floatball_shared::api::InstallationGateway {
+                    kind: GatewayKind::Uim2503,
+                    stations: vec![5, 6],
+                },
+                floatball_shared::api::InstallationGateway {
+                    kind: GatewayKind::Mbox,
+                    stations: vec![1, 2, 3],
+                },
+                floatball_shared::api::InstallationGateway {
+                    kind: GatewayKind::Scl,
+                    stations: vec![1],
+                },
+            ],
+        };
+        let known = Some(&installation);
+        assert_eq!(counts_per_mm(known, 0, Some(5)), Some(500.0));
+        // A station that is none of the installation's balls, an MBOX box, a gateway
+        // the installation does not have, or no installation yet: counts only.
+        assert_eq!(counts_per_mm(known, 0, Some(9)), None);
+        assert_eq!(counts_per_mm(known, 1, Some(1)), None);
+        assert_eq!(counts_per_mm(known, 7, Some(5)), None);
+        assert_eq!(counts_per_mm(None, 0, Some(5)), None);
+        assert_eq!(counts_per_mm(known, 2, None), Some(500.0));
+
+        let pa = frame(5, code::PA, &200_000_i32.to_le_bytes());
+        assert_eq!(describe_scaled(&pa, Some(500.0)), "PA = 200000 (400.0 mm)");
+        assert_eq!(describe_scaled(&pa, None), "PA = 200000");
+        let qp = frame(5, code::QP, &[3, 0, 0x30, 0xF8, 0xFF, 0xFF]);
+        assert_eq!(describe_scaled(&qp, Some(500.0)), "QP[3] = -2000 (-4.0 mm)");
+        // Not a position: no mm.
+        assert_eq!(
+            describe_scaled(&frame(5, code::PV, &[3, 0]), Some(500.0)),
+            "PV = 3"
+        );
+
+        let mut log = FeedbackLog::default();
+        log.push(&pa);
+        log.set_installation(installation.clone());
+        log.push(&pa);
+        let texts: Vec<_> = log.lines().map(|line| line.text.clone()).collect();
+        assert_eq!(texts, ["PA = 200000 (400.0 mm)", "PA = 200000"]);
+
+        let mut log = FeedbackLog::default();
+        let reply = |request: &str, text: &str, raw: &str| SclReply {
+            gateway: 2,
+            drive: "1".into(),
+            request: request.into(),
+            text: text.into(),
+            raw: raw.into(),
+        };
+        log.push_scl(&reply("1EP", "EP = 1000", "1EP=1000"));
+        log.set_installation(installation);
+        log.push_scl(&reply("1IP", "IP = -1200", "1IP=-1200"));
+        log.push_scl(&reply("1VE", "VE = 20.0", "1VE=20.0"));
+        let texts: Vec<_> = log.lines().map(|line| line.text.clone()).collect();
+        assert_eq!(
+            texts,
+            [
+                "1VE → VE = 20.0",
+                "1IP → IP = -1200 (-2.4 mm)",
+                "1EP → EP = 1000"
+            ]
+        );
     }
 
     #[test]

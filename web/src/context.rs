@@ -193,6 +193,19 @@ impl Ctx {
         }
     }
 
+    /// Fetches the installation's calibration and stations for the console's mm
+    /// ([`FeedbackLog::set_installation`]); a bridge without the call leaves the
+    /// positions in counts only.
+    pub fn load_installation(&self) {
+        let Some(client) = self.client() else { return };
+        let ctx = *self;
+        spawn_local(async move {
+            if let Ok(info) = client.installation().await {
+                ctx.feedback.update(|log| log.set_installation(info));
+            }
+        });
+    }
+
     /// Reacts to a failure every page treats alike: an expired login goes back to
     /// Login, a refused control call asks for the password change. Returns the
     /// sentence to show.

@@ -372,6 +372,11 @@ texts! {
     LoginWhenWaitEnds => "等待结束后将自动登录。", "The app logs in by itself when the wait is over.";
     /// The success toasts' region, for screen readers.
     Notifications => "通知", "Notifications";
+    // ---- layout ----
+    /// The compact status line's tooltip: a tap opens Control.
+    StatusBarHint => "点按打开控制页", "Tap to open Control";
+    /// Reopens the Preview's file list once a show is chosen.
+    ChooseAnotherShow => "选择其他动作文件", "Choose another show";
 }
 
 impl Lang {

@@ -22,6 +22,8 @@ use floatball_web::components::console::ConsolePage;
 use floatball_web::components::control::{ControlPage, SettingsPage};
 use floatball_web::components::files::FilesPage;
 use floatball_web::components::login::LoginPage;
+use floatball_web::components::preview::PreviewScreen;
+use floatball_web::components::topbar::StatusBar;
 use floatball_web::components::{ConnectionIndicator, EstopButton, LanguageSwitch};
 use floatball_web::connection::Link;
 use floatball_web::context::{Ctx, PreviewItem, Sender, Services};
@@ -1390,4 +1392,120 @@ fn two_ball_show() -> Show {
         },
         tracks: vec![track(100.0), track(7000.0)],
     }
+}
+
+// ----------------------------------------------------------------------------------
+// Layout: the compact status line, the Preview's folding lists, mm in the console
+// ----------------------------------------------------------------------------------
+
+#[wasm_bindgen_test]
+async fn the_status_line_shows_state_show_time_and_progress_and_opens_control() {
+    let (container, ctx, _, _) = mount_online("test-statusbar", || view! { <StatusBar /> });
+    tick().await;
+    assert!(all(&container, "statusbar").is_empty(), "no status yet");
+    ctx.receive(ServerMessage::Status(Status {
+        state: PlayerState::Playing,
+        show: Some("wave".into()),
+        show_time_ms: 2_000,
+        show_duration_ms: 8_000,
+        progress: 0.25,
+        ..Status::default()
+    }));
+    tick().await;
+    assert_eq!(
+        attribute(&container, "statusbar-state", "data-state"),
+        "playing"
+    );
+    assert_eq!(text(&container, "statusbar-state"), "playing");
+    assert_eq!(text(&container, "statusbar-show"), "wave");
+    assert_eq!(text(&container, "statusbar-time"), "0:02.0 / 0:08.0");
+    let fill = element(&container, "statusbar-progress")
+        .first_element_child()
+        .expect("the bar's fill");
+    assert_eq!(fill.get_attribute("style").as_deref(), Some("width: 25.0%"));
+    ctx.lang.set(Lang::Zh);
+    tick().await;
+    assert_eq!(text(&container, "statusbar-state"), "运行中");
+
+    element(&container, "statusbar").click();
+    tick().await;
+    assert_eq!(ctx.page.get_untracked(), Page::Control);
+
+    // Idle: no progress; gone when the link is.
+    ctx.receive(ServerMessage::Status(Status::default()));
+    tick().await;
+    assert!(all(&container, "statusbar-progress").is_empty());
+    ctx.link.set(Link::Disconnected);
+    tick().await;
+    assert!(all(&container, "statusbar").is_empty());
+}
+
+#[wasm_bindgen_test]
+async fn the_preview_folds_its_lists_once_a_show_is_chosen() {
+    let (container, ctx, _, _) = mount_online("test-preview-fold", || view! { <PreviewScreen /> });
+    with_local_file(ctx);
+    tick().await;
+    let folded = || {
+        element(&container, "preview-chooser")
+            .class_list()
+            .contains("collapsed")
+    };
+    assert!(!folded(), "nothing chosen: the lists are open");
+    element(&container, "preview-pick-local").click();
+    tick().await;
+    assert!(folded(), "a show chosen: the lists fold away");
+    assert_eq!(text(&container, "preview-name"), "wave.csv");
+    element(&container, "preview-choose-another").click();
+    tick().await;
+    assert!(!folded(), "Choose another show opens them again");
+    element(&container, "preview-pick-local").click();
+    tick().await;
+    assert!(folded());
+}
+
+#[wasm_bindgen_test]
+async fn the_console_gives_positions_in_mm_once_the_installation_is_known() {
+    let container = fresh_container();
+    let bridge = FakeBridge::new(|request| {
+        if request.url.ends_with("/api/installation") {
+            response(
+                200,
+                r#"{"counts_per_mm": 500.0, "gateways": [{"stations": [5, 6]}]}"#,
+            )
+        } else {
+            response(500, "")
+        }
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-console-mm");
+    online(ctx);
+    let _mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <ConsolePage /> }
+    });
+    until("the installation", || {
+        ctx.feedback
+            .with_untracked(|log| log.installation().is_some())
+    })
+    .await;
+    let pa = |station| {
+        ServerMessage::Feedback(FeedbackFrame {
+            gateway: 0,
+            station,
+            code: 0x20,
+            data: 200_000_i32.to_le_bytes().to_vec(),
+        })
+    };
+    ctx.receive(pa(5));
+    ctx.receive(pa(9));
+    tick().await;
+    let lines: Vec<_> = all(&container, "feedback-line")
+        .iter()
+        .map(|line| line.text_content().unwrap_or_default())
+        .collect();
+    assert!(
+        lines[0].contains("PA = 200000") && !lines[0].contains("mm"),
+        "{lines:?}"
+    );
+    assert!(lines[1].contains("PA = 200000 (400.0 mm)"), "{lines:?}");
 }

@@ -290,21 +290,37 @@ pub const CHROMEDRIVER: &str = "/usr/bin/chromedriver";
 /// The path of Chromium.
 pub const CHROMIUM: &str = "/usr/bin/chromium";
 
-/// Installs Debian's Chromium and ChromeDriver when running as root; otherwise stops
-/// with the command to run.
+/// The Debian package with Chinese glyphs for the browser tests' screenshots
+/// (`tests/tests/screens.rs` shows every page in 中文), installed only when no font
+/// for Chinese is there.
+pub const CJK_FONT_PACKAGE: &str = "fonts-wqy-microhei";
+
+/// Installs Debian's Chromium and ChromeDriver, and a font with Chinese glyphs, when
+/// running as root; otherwise stops with the command to run.
 pub fn ensure_chromium(env: &Env) -> Result<(), String> {
-    if Path::new(CHROMIUM).is_file() && Path::new(CHROMEDRIVER).is_file() {
+    let mut missing = Vec::new();
+    if !(Path::new(CHROMIUM).is_file() && Path::new(CHROMEDRIVER).is_file()) {
+        missing.extend(["chromium", "chromium-driver"]);
+    }
+    // `fc-list :lang=zh` lists the fonts that cover Chinese (none: empty).
+    let cjk_font = output_of(program(env, "fc-list").arg(":lang=zh"))
+        .is_some_and(|fonts| !fonts.trim().is_empty());
+    if !cjk_font {
+        missing.push(CJK_FONT_PACKAGE);
+    }
+    if missing.is_empty() {
         return Ok(());
     }
-    const INSTALL: &str = "apt-get install -y chromium chromium-driver";
+    let install = format!("apt-get install -y {}", missing.join(" "));
     let uid = output_of(program(env, "id").arg("-u")).unwrap_or_default();
     if uid.trim() != "0" {
         return Err(format!(
-            "Chromium and ChromeDriver are needed for the browser tests; install them with:\n\n    sudo apt-get update && sudo {INSTALL}\n"
+            "Chromium, ChromeDriver and a font for Chinese are needed for the browser tests; install them with:\n\n    sudo apt-get update && sudo {install}\n"
         ));
     }
     println!(
-        "xtask: installing Debian's chromium and chromium-driver (the browser tests run in headless Chromium)"
+        "xtask: installing Debian's {} (the browser tests run in headless Chromium and take screenshots in 中文 and English)",
+        missing.join(", ")
     );
     run_command(
         program(env, "apt-get")
@@ -313,13 +329,8 @@ pub fn ensure_chromium(env: &Env) -> Result<(), String> {
     )?;
     run_command(
         program(env, "apt-get")
-            .args([
-                "install",
-                "-y",
-                "--no-install-recommends",
-                "chromium",
-                "chromium-driver",
-            ])
+            .args(["install", "-y", "--no-install-recommends"])
+            .args(&missing)
             .env("DEBIAN_FRONTEND", "noninteractive"),
     )
 }

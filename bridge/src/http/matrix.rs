@@ -1,6 +1,9 @@
-//! The matrix over HTTP: whether a show can run here, and where the simulated balls
-//! really are.
+//! The matrix over HTTP: what the installation is, whether a show can run here, and
+//! where the simulated balls really are.
 //!
+//! - `GET /api/installation`: 200 the calibration (`counts_per_mm`) and every
+//!   gateway's family and stations ([`InstallationInfo`]), so that the app can show
+//!   the drives' positions in mm beside their counts.
 //! - `GET /api/plan/{name}`: 200 the bandwidth / feasibility report
 //!   ([`PlanReport`]) of a stored show on this installation; 404. On MOONS' drives
 //!   that Start gives compiled programs (`[scl] programs = "upload"`) every ball's Q
@@ -17,9 +20,11 @@
 
 use axum::Json;
 use axum::extract::State;
-use floatball_shared::api::{PlanReport, SimPositions};
+use floatball_shared::api::{
+    GatewayKind, InstallationGateway, InstallationInfo, PlanReport, SimPositions,
+};
 use floatball_shared::plan::report::report;
-use floatball_shared::plan::{Installation, PlanOptions};
+use floatball_shared::plan::{DriveKind, Installation, PlanOptions};
 use floatball_shared::scl::qprogram::QProgramError;
 use floatball_shared::show::Show;
 
@@ -30,6 +35,35 @@ use crate::config::{SclConfig, SclPrograms};
 use crate::mbox::MboxTiming;
 use crate::scl::program::{compile_every_ball, qprogram_config};
 use crate::state::AppState;
+
+/// `GET /api/installation`.
+pub async fn installation(
+    State(state): State<AppState>,
+    _session: Session,
+) -> Json<InstallationInfo> {
+    Json(installation_info(&state.config().installation))
+}
+
+/// What `GET /api/installation` says about `installation`.
+fn installation_info(installation: &Installation) -> InstallationInfo {
+    let gateways = installation
+        .gateways
+        .iter()
+        .enumerate()
+        .map(|(index, gateway)| InstallationGateway {
+            kind: match gateway.kind {
+                DriveKind::Uim2503 => GatewayKind::Uim2503,
+                DriveKind::Mbox => GatewayKind::Mbox,
+                DriveKind::Scl => GatewayKind::Scl,
+            },
+            stations: installation.stations_on(index),
+        })
+        .collect();
+    InstallationInfo {
+        counts_per_mm: installation.counts_per_mm,
+        gateways,
+    }
+}
 
 /// `GET /api/plan/{name}`.
 pub async fn plan(

@@ -4,7 +4,8 @@
 //!   handler run only for a logged-in client ([`session::Session`]) or only once the
 //!   initial password is changed ([`session::Operator`]);
 //! - [`library`]: the show files and the playlist;
-//! - [`matrix`]: the feasibility report of a show, and the simulated balls' positions;
+//! - [`matrix`]: the installation's calibration and stations, the feasibility report
+//!   of a show, and the simulated balls' positions;
 //! - [`qprogram`]: one ball's Q program for MOONS' drives, compiled from a show;
 //!
 //! Every error answer is an [`ApiError`] JSON body with the right status code
@@ -53,6 +54,7 @@ pub fn router(state: &AppState) -> Router<AppState> {
             "/playlist",
             get(library::get_playlist).put(library::put_playlist),
         )
+        .route("/installation", get(matrix::installation))
         .route("/plan/{name}", get(matrix::plan))
         .route("/sim/positions", get(matrix::sim_positions))
         .route("/mbox/timing", get(matrix::mbox_timing))

@@ -2,7 +2,8 @@
 //! they are sent, and the feedback frames decoded as they arrive. On an MBOX
 //! installation: box commands checked by the MBOX parser, their help, and the boxes'
 //! replies to reads; on MOONS' drives: SCL lines checked by the SCL parser, their
-//! help, and the drives' answers.
+//! help, and the drives' answers. Positions in counts are also shown in mm once the
+//! installation's calibration is known (`Ctx::load_installation`).
 
 use floatball_shared::api::ClientMessage;
 use leptos::prelude::*;
@@ -22,6 +23,17 @@ pub fn ConsolePage() -> impl IntoView {
     let text = RwSignal::new(String::new());
     let gateway = RwSignal::new(None::<usize>);
     let sent = RwSignal::new(Vec::<String>::new());
+    // The calibration for the mm beside counts (the app fetches it on every
+    // connection; a page mounted without the app fetches it here).
+    Effect::new(move |_| {
+        if ctx.connected()
+            && ctx
+                .feedback
+                .with_untracked(|log| log.installation().is_none())
+        {
+            ctx.load_installation();
+        }
+    });
     let family = Memo::new(move |_| {
         ctx.status
             .with(|status| status.as_ref().map(Family::of).unwrap_or_default())

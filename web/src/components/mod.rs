@@ -163,7 +163,10 @@ pub fn App() -> impl IntoView {
         let link = ctx.link.get();
         match (previous, link) {
             (Some(Link::Connected), Link::Connected) => {}
-            (_, Link::Connected) => ctx.refresh(),
+            (_, Link::Connected) => {
+                ctx.refresh();
+                ctx.load_installation();
+            }
             (Some(Link::Connecting | Link::Connected), Link::Disconnected) => {
                 if let Some(client) = ctx.client() {
                     leptos::task::spawn_local(async move {

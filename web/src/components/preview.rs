@@ -1,6 +1,10 @@
 //! The Preview page: the show files on one side (local, and the controller's when
 //! logged in), the chosen one playing on the other ([`crate::preview::PreviewPage`],
 //! given the file's name and the bridge's status for its live mode).
+//!
+//! Once a show is chosen the file lists fold away on a phone, so the picture is
+//! above the fold; "Choose another show" opens them again. Wide screens keep them
+//! beside the picture.
 
 use leptos::prelude::*;
 
@@ -13,6 +17,9 @@ use crate::preview::PreviewPage;
 #[component]
 pub fn PreviewScreen() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
+    // Whether the operator asked for the lists again after choosing a show.
+    let picking = RwSignal::new(false);
+    let collapsed = move || !picking.get() && ctx.preview.with(Option::is_some);
     let show = Memo::new(move |_| match ctx.preview.get() {
         Some(PreviewItem::Ready(_, show)) => Some(show),
         _ => None,
@@ -37,6 +44,7 @@ pub fn PreviewScreen() -> impl IntoView {
                     let pick = Callback::new(move |()| {
                         let file = ctx.local_files.with_untracked(|list| list.get(&name).cloned());
                         if let Some(file) = file {
+                            picking.set(false);
                             ctx.preview_local(&file);
                         }
                     });
@@ -55,7 +63,10 @@ pub fn PreviewScreen() -> impl IntoView {
                 .map(|summary| {
                     let name = summary.name.clone();
                     let active = current().as_deref() == Some(name.as_str());
-                    let pick = Callback::new(move |()| ctx.preview_controller(&name));
+                    let pick = Callback::new(move |()| {
+                        picking.set(false);
+                        ctx.preview_controller(&name);
+                    });
                     view! {
                         <RowButton
                             name=summary.name.clone()
@@ -71,14 +82,19 @@ pub fn PreviewScreen() -> impl IntoView {
     };
     view! {
         <section class="preview-screen">
-            <aside class="chooser">
-                <h2>{move || ctx.t(Text::ChooseShow)}</h2>
-                <h3>{move || ctx.t(Text::LocalFiles)}</h3>
-                <ul class="list">{local}</ul>
-                <Show when=move || ctx.logged_in()>
-                    <h3>{move || ctx.t(Text::ControllerFiles)}</h3>
-                    <ul class="list">{controller}</ul>
-                </Show>
+            <aside class="chooser" class:collapsed=collapsed data-testid="preview-chooser">
+                <button class="reopen" data-testid="preview-choose-another" on:click=move |_| picking.set(true)>
+                    {move || ctx.t(Text::ChooseAnotherShow)}
+                </button>
+                <div class="pick">
+                    <h2>{move || ctx.t(Text::ChooseShow)}</h2>
+                    <h3>{move || ctx.t(Text::LocalFiles)}</h3>
+                    <ul class="list">{local}</ul>
+                    <Show when=move || ctx.logged_in()>
+                        <h3>{move || ctx.t(Text::ControllerFiles)}</h3>
+                        <ul class="list">{controller}</ul>
+                    </Show>
+                </div>
             </aside>
             <div class="viewer">
                 {move || match ctx.preview.get() {

@@ -1,5 +1,7 @@
 //! The bar on every page: the E-stop (when connected), the language switch, the
-//! connection button (tap → Login) and the page tabs.
+//! connection button (tap → Login), the page tabs, and the compact status line
+//! ([`StatusBar`]: state, show, time and progress, from the same status the Control
+//! page shows) — so a phone always sees what the matrix does.
 
 use floatball_shared::api::{ClientMessage, PlayerState};
 use leptos::prelude::*;
@@ -9,6 +11,7 @@ use crate::connection::Link;
 use crate::context::{Ctx, EstopAck};
 use crate::i18n::{Lang, Text};
 use crate::page::Page;
+use crate::status::{progress, shows_progress, state_key, time_text};
 
 /// How long the E-stop's acknowledgement stays after a press, ms.
 const ESTOP_ACK_MS: u64 = 8_000;
@@ -33,7 +36,7 @@ pub fn TopBar() -> impl IntoView {
         }
     };
     view! {
-        <header class="topbar">
+        <header class="topbar" data-page=move || ctx.page.get().key()>
             <div class="bar">
                 {move || {
                     if ctx.connected() {
@@ -42,12 +45,54 @@ pub fn TopBar() -> impl IntoView {
                         view! { <span class="brand">"Floatball"</span> }.into_any()
                     }
                 }}
+                <StatusBar />
                 <span class="spacer"></span>
                 <LanguageSwitch lang=ctx.lang />
                 <ConnectionIndicator link=ctx.link lang=ctx.lang />
             </div>
             <nav class="tabs">{Page::NAV.map(tab).into_iter().collect_view()}</nav>
         </header>
+    }
+}
+
+/// One line in the top bar while the bridge reports a status: the state, the show
+/// and its time, and a thin progress bar when the state has one. A tap opens
+/// Control. (On wide screens the Control page's own status card replaces it there.)
+#[component]
+pub fn StatusBar() -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    move || {
+        let status = ctx.status.get().filter(|_| ctx.connected())?;
+        let lang = ctx.lang.get();
+        let key = state_key(status.state);
+        let meter = shows_progress(status.state).then(|| {
+            let width = format!("width: {:.1}%", progress(&status) * 100.0);
+            view! {
+                <span class="meter" data-testid="statusbar-progress">
+                    <span class="fill" style=width></span>
+                </span>
+            }
+        });
+        Some(view! {
+            <button
+                class="statusbar"
+                data-testid="statusbar"
+                data-state=key
+                title=lang.t(Text::StatusBarHint)
+                on:click=move |_| ctx.page.set(Page::Control)
+            >
+                <span class=format!("state {key}") data-testid="statusbar-state" data-state=key>
+                    {lang.player_state(status.state)}
+                </span>
+                <span class="show" data-testid="statusbar-show">
+                    {status.show.clone().unwrap_or_default()}
+                </span>
+                <span class="time mono" data-testid="statusbar-time">
+                    {time_text(&status)}
+                </span>
+                {meter}
+            </button>
+        })
     }
 }
 
