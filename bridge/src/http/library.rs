@@ -11,7 +11,9 @@
 //! - `GET /api/shows/{name}`: 200 the stored native JSON; 404.
 //! - `DELETE /api/shows/{name}`: 204; 404; 409 while the playlist plays it.
 //! - `GET /api/playlist`: 200. `PUT /api/playlist`: 200 with the stored playlist; 400
-//!   not a playlist; 422 every problem (unknown shows, zero cycles…).
+//!   not a playlist; 409 `playlist_locked` when it changes the entries while a show
+//!   plays or the balls move ([`playlist::locked`]; loop and defaults may change);
+//!   422 every problem (unknown shows, zero cycles…).
 //!
 //! An upload's format is taken from its `Content-Type` here (or, without one, from its
 //! first character); the show is then imported and checked against this installation
@@ -218,6 +220,21 @@ pub async fn get_playlist(State(state): State<AppState>, _session: Session) -> J
     Json(state.playlist().get())
 }
 
+/// 409 `playlist_locked`: the entries cannot change while the matrix is in `running`.
+fn playlist_locked(running: floatball_shared::api::PlayerState) -> Failure {
+    let state = serde_json::to_value(running)
+        .ok()
+        .and_then(|value| value.as_str().map(str::to_owned))
+        .unwrap_or_default();
+    Failure::new(
+        StatusCode::CONFLICT,
+        format!(
+            "the playlist cannot change while the matrix is {state}; \
+             press E-stop or wait until it is idle (loop and defaults may change)"
+        ),
+    )
+}
+
 /// `PUT /api/playlist`.
 pub async fn put_playlist(
     State(state): State<AppState>,
@@ -226,6 +243,10 @@ pub async fn put_playlist(
 ) -> Result<Json<Playlist>, Failure> {
     let new: Playlist = json_body(&body, "playlist")?;
     let _catalogue = state.lock_catalogue().await;
+    let running = state.subscribe_status().borrow().state;
+    if playlist::locked(running) && playlist::changes_what_plays(&state.playlist().get(), &new) {
+        return Err(playlist_locked(running));
+    }
     playlist::check(&new, |show| state.shows().contains(show)).map_err(unprocessable)?;
     let storing = state.clone();
     let stored = new.clone();
