@@ -84,7 +84,11 @@ async fn the_entries_are_locked_while_a_show_plays_and_home_stays_idle() {
         let error = reply.error();
         assert!(error.error.contains("cannot change"), "{error:?}");
     }
-    assert_eq!(get_playlist(&bridge, &token).await, stored, "nothing stored");
+    assert_eq!(
+        get_playlist(&bridge, &token).await,
+        stored,
+        "nothing stored"
+    );
 
     // Loop and the defaults are not what plays now: they may change.
     let mut settings = stored.clone();
