@@ -396,6 +396,8 @@ async fn end_session(sink: &mut Sink, inbound: &mut mpsc::Receiver<Inbound>) -> 
 fn error(message: impl Into<String>) -> ServerMessage {
     ServerMessage::Error {
         message: message.into(),
+        code: String::new(),
+        params: floatball_shared::codes::Params::new(),
     }
 }
 

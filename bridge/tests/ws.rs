@@ -31,7 +31,7 @@ async fn refused_status(bridge: &Bridge, query: &str, origin: Option<&str>) -> O
 
 fn expect_error(message: ServerMessage) -> String {
     match message {
-        ServerMessage::Error { message } => message,
+        ServerMessage::Error { message, .. } => message,
         other => panic!("expected an error, got {other:?}"),
     }
 }

@@ -984,6 +984,8 @@ async fn start_and_reset_ignore_the_checkboxes_and_status_is_live() {
 
     ctx.receive(ServerMessage::Error {
         message: "change the password first".into(),
+        code: String::new(),
+        params: Default::default(),
     });
     tick().await;
     assert!(text(&container, "bridge-error").contains("change the password first"));

@@ -23,7 +23,8 @@ use axum::http::{HeaderValue, StatusCode, header};
 use axum::middleware::map_response;
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
-use floatball_shared::api::ApiError;
+use floatball_shared::api::{ApiError, Problem};
+use floatball_shared::codes::{Code, Coded};
 use serde::de::DeserializeOwned;
 
 use crate::state::AppState;
@@ -138,33 +139,67 @@ pub struct Failure {
 }
 
 impl Failure {
-    /// An answer with `status` and one sentence.
-    pub fn new(status: StatusCode, error: impl Into<String>) -> Self {
+    /// An answer with `status`, a stable `code` and its English sentence; add the
+    /// code's parameters with [`Failure::param`].
+    pub fn coded(status: StatusCode, code: Code, error: impl Into<String>) -> Self {
         Self {
             status,
-            body: ApiError {
-                error: error.into(),
-                details: Vec::new(),
-            },
+            body: ApiError::coded(code, error),
             retry_after_s: None,
         }
     }
 
-    /// The same answer listing `details`.
+    /// An answer for a typed error: its code, parameters and English text.
+    pub fn of(status: StatusCode, error: &(impl Coded + std::fmt::Display)) -> Self {
+        let mut failure = Self::coded(status, error.code(), error.to_string());
+        failure.body.params = error.params();
+        failure
+    }
+
+    /// An answer with `status` and one sentence, coded `request_refused` (the
+    /// framework's refusals without a code of their own).
+    pub fn new(status: StatusCode, error: impl Into<String>) -> Self {
+        Self::coded(status, Code::RequestRefused, error).param("status", status.as_u16())
+    }
+
+    /// The same answer with the parameter `name` = `value`.
+    #[must_use]
+    pub fn param(mut self, name: &str, value: impl std::fmt::Display) -> Self {
+        self.body.params.insert(name.to_owned(), value.to_string());
+        self
+    }
+
+    /// The same answer listing `details` (English).
     #[must_use]
     pub fn with_details(mut self, details: Vec<String>) -> Self {
         self.body.details = details;
         self
     }
 
+    /// The same answer listing every problem of `problems`: their English texts in
+    /// `details`, their codes and parameters in `problems`.
+    #[must_use]
+    pub fn with_problems<'a, E: Coded + std::fmt::Display + 'a>(
+        mut self,
+        problems: impl IntoIterator<Item = &'a E>,
+    ) -> Self {
+        for problem in problems {
+            self.body.details.push(problem.to_string());
+            self.body.problems.push(Problem::of(problem));
+        }
+        self
+    }
+
     /// A 500 for something that should not fail: logged here, reported in general
-    /// words.
+    /// words (code `internal`, parameter `what`).
     pub fn internal(what: &str, error: &dyn std::fmt::Display) -> Self {
         tracing::error!("{what}: {error}");
-        Self::new(
+        Self::coded(
             StatusCode::INTERNAL_SERVER_ERROR,
+            Code::Internal,
             format!("{what}: {error}"),
         )
+        .param("what", what)
     }
 }
 
