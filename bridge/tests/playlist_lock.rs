@@ -83,6 +83,7 @@ async fn the_entries_are_locked_while_a_show_plays_and_home_stays_idle() {
         assert_eq!(reply.status, StatusCode::CONFLICT, "{:?}", reply.body);
         let error = reply.error();
         assert!(error.error.contains("cannot change"), "{error:?}");
+        assert_eq!(error.code, "playlist_locked", "{error:?}");
     }
     assert_eq!(
         get_playlist(&bridge, &token).await,

@@ -15,7 +15,8 @@
 //!   after an E-stop ask for a one-tap confirmation that says what will move
 //!   ([`Action`]); the E-stop never asks.
 
-use floatball_shared::api::{ClientMessage, PlayerState, Playlist, PlaylistEntry};
+use floatball_shared::api::{ApiError, ClientMessage, PlayerState, Playlist, PlaylistEntry};
+use floatball_shared::codes::Code;
 
 use crate::client::Failure;
 use crate::i18n::Text;
@@ -186,6 +187,19 @@ pub fn settle_save(
 ) -> Result<(), Failure> {
     editor.replace(answer?);
     Ok(())
+}
+
+/// Whether `failure` is the bridge's `playlist_locked` refusal (409): the matrix
+/// started running meanwhile; the page then says so in its own words.
+pub fn is_locked_refusal(failure: &Failure) -> bool {
+    let code = Code::PlaylistLocked.as_str();
+    match failure {
+        Failure::Rejected(error) => error.code == code,
+        Failure::Unexpected { status: 409, body } => {
+            serde_json::from_str::<ApiError>(body).is_ok_and(|error| error.code == code)
+        }
+        _ => false,
+    }
 }
 
 /// Whether the matrix runs the playlist or moves its balls in `state`: a show waits,
@@ -377,6 +391,26 @@ mod tests {
             start_block(true, Some(PlayerState::Idle), false),
             Some(Text::StartNeedsPlayableList)
         );
+    }
+
+    #[test]
+    fn the_bridges_lock_refusal_is_recognised() {
+        let body = serde_json::to_string(&ApiError::coded(
+            Code::PlaylistLocked,
+            "the playlist cannot change while the matrix is playing",
+        ))
+        .unwrap();
+        assert!(is_locked_refusal(&Failure::Unexpected {
+            status: 409,
+            body: body.clone()
+        }));
+        let error: ApiError = serde_json::from_str(&body).unwrap();
+        assert!(is_locked_refusal(&Failure::Rejected(error)));
+        assert!(!is_locked_refusal(&Failure::Unexpected {
+            status: 409,
+            body: r#"{"error":"\"a\" is in the playlist"}"#.into()
+        }));
+        assert!(!is_locked_refusal(&Failure::NotFound));
     }
 
     #[test]

@@ -29,6 +29,7 @@ use axum::http::request::Parts;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{Playlist, ShowSummary};
+use floatball_shared::codes::Code;
 use floatball_shared::show::{self, ShowFormat, UploadLimits};
 
 use super::session::{Operator, Session};
@@ -226,8 +227,9 @@ fn playlist_locked(running: floatball_shared::api::PlayerState) -> Failure {
         .ok()
         .and_then(|value| value.as_str().map(str::to_owned))
         .unwrap_or_default();
-    Failure::new(
+    Failure::coded(
         StatusCode::CONFLICT,
+        Code::PlaylistLocked,
         format!(
             "the playlist cannot change while the matrix is {state}; \
              press E-stop or wait until it is idle (loop and defaults may change)"

@@ -22,8 +22,8 @@ use crate::components::widgets::{
 };
 use crate::context::Ctx;
 use crate::control::{
-    Action, Panel, PlanVerdicts, TimingForm, begin_save, edit_lock, is_running, needs_checks,
-    settle_save, start_block,
+    Action, Panel, PlanVerdicts, TimingForm, begin_save, edit_lock, is_locked_refusal, is_running,
+    needs_checks, settle_save, start_block,
 };
 use crate::files::format_duration_ms;
 use crate::i18n::Text;
@@ -55,7 +55,12 @@ fn edit_and_save(
             settled.is_ok()
         });
         if let Err(failure) = settled {
-            note.set(Some(ctx.failed(&failure)));
+            let said = if is_locked_refusal(&failure) {
+                ctx.lang.get_untracked().t(Text::PlaylistLocked).to_owned()
+            } else {
+                ctx.failed(&failure)
+            };
+            note.set(Some(said));
             ctx.refresh();
         }
     });
