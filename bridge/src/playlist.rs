@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Mutex, PoisonError};
 
 use floatball_shared::api::{PlayerState, Playlist};
+use floatball_shared::codes::Code;
 use floatball_shared::playlist::problems;
 
 use crate::durable;
@@ -110,11 +111,15 @@ impl PlaylistStore {
 /// # Errors
 /// [`Refused`] listing every problem, entries numbered from 1.
 pub fn check(playlist: &Playlist, show_exists: impl Fn(&str) -> bool) -> Result<(), Refused> {
-    let details = problems(playlist, show_exists);
-    if details.is_empty() {
+    let problems = problems(playlist, show_exists);
+    if problems.is_empty() {
         Ok(())
     } else {
-        Err(Refused::invalid("the playlist is not valid", details))
+        Err(Refused::invalid(
+            Code::PlaylistInvalid,
+            "the playlist is not valid",
+            &problems,
+        ))
     }
 }
 

@@ -150,7 +150,8 @@ async fn start_needs_the_password_changed_and_a_playlist() {
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let reply = common::next_reply(&mut ws).await;
     assert!(
-        matches!(&reply, ServerMessage::Error { message, .. } if message.contains("playlist is empty")),
+        matches!(&reply, ServerMessage::Error { message, code, .. }
+            if message.contains("playlist is empty") && code == "playlist_empty"),
         "{reply:?}"
     );
 }

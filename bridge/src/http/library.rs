@@ -37,7 +37,7 @@ use super::{Failure, blocking, json_body};
 use crate::config::Config;
 use crate::playlist;
 use crate::state::AppState;
-use crate::store::{Refused, ShowName, StoreError};
+use crate::store::{NameError, Refused, ShowName, StoreError};
 
 /// The `{name}` of a show route, checked.
 #[derive(Debug, Clone)]
@@ -50,15 +50,25 @@ impl FromRequestParts<AppState> for NameParam {
         let Path(name) = Path::<String>::from_request_parts(parts, state)
             .await
             .map_err(|rejection| {
-                Failure::new(
+                Failure::coded(
                     StatusCode::BAD_REQUEST,
+                    Code::BadShowName,
                     format!("bad show name: {rejection}"),
                 )
+                .param("reason", rejection)
             })?;
-        ShowName::parse(&name)
-            .map(Self)
-            .map_err(|error| Failure::new(StatusCode::BAD_REQUEST, error.to_string()))
+        ShowName::parse(&name).map(Self).map_err(bad_name)
     }
+}
+
+/// 400 for a show name that is not allowed.
+fn bad_name(error: NameError) -> Failure {
+    Failure::coded(
+        StatusCode::BAD_REQUEST,
+        Code::BadShowName,
+        error.to_string(),
+    )
+    .param("reason", error)
 }
 
 /// 422 for an invalid show or playlist, 413 for a show too large once converted.
@@ -68,16 +78,27 @@ fn unprocessable(refused: Refused) -> Failure {
     } else {
         StatusCode::UNPROCESSABLE_ENTITY
     };
-    Failure::new(status, refused.error).with_details(refused.details)
+    let mut failure = Failure::coded(status, refused.code, refused.error);
+    failure.body.params = refused.params;
+    failure.body.details = refused.details;
+    failure.body.problems = refused.problems;
+    failure
 }
 
 pub(crate) fn store_failure(error: StoreError) -> Failure {
-    match error {
-        StoreError::NotFound(_) => Failure::new(StatusCode::NOT_FOUND, error.to_string()),
-        StoreError::Unreadable { .. } => {
-            Failure::new(StatusCode::UNPROCESSABLE_ENTITY, error.to_string())
+    match &error {
+        StoreError::NotFound(name) => {
+            Failure::coded(StatusCode::NOT_FOUND, Code::ShowNotFound, error.to_string())
+                .param("name", name)
         }
-        other => Failure::internal("the show store failed", &other),
+        StoreError::Unreadable { name, .. } => Failure::coded(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            Code::ShowUnreadable,
+            error.to_string(),
+        )
+        .param("name", name)
+        .param("reason", &error),
+        other => Failure::internal("the show store failed", other),
     }
 }
 
@@ -154,21 +175,23 @@ pub async fn put_show(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Response, Failure> {
-    let name = ShowName::parse_new(name.as_str())
-        .map_err(|error| Failure::new(StatusCode::BAD_REQUEST, error.to_string()))?;
+    let name = ShowName::parse_new(name.as_str()).map_err(bad_name)?;
     let body = body.map_err(|rejection| {
         let status = rejection.status();
         if status == StatusCode::PAYLOAD_TOO_LARGE {
-            Failure::new(
+            Failure::coded(
                 status,
+                Code::ShowTooLarge,
                 format!(
                     "the show file is larger than the limit of {} bytes ([uploads] max_bytes)",
                     state.config().uploads.max_bytes
                 ),
             )
+            .param("limit_bytes", state.config().uploads.max_bytes)
         } else {
-            Failure::new(
+            Failure::coded(
                 status,
+                Code::UploadIncomplete,
                 format!("the upload was not received whole: {rejection}"),
             )
         }
@@ -204,10 +227,12 @@ pub async fn delete_show(
 ) -> Result<StatusCode, Failure> {
     let _catalogue = state.lock_catalogue().await;
     if state.playlist().uses(name.as_str()) {
-        return Err(Failure::new(
+        return Err(Failure::coded(
             StatusCode::CONFLICT,
+            Code::ShowInPlaylist,
             format!("\"{name}\" is in the playlist; remove it from the playlist first"),
-        ));
+        )
+        .param("name", &name));
     }
     let deleting = state.clone();
     blocking(move || deleting.shows().delete(&name))

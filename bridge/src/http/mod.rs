@@ -84,27 +84,35 @@ pub async fn json_errors(response: Response) -> Response {
         .await
         .map(|bytes| String::from_utf8_lossy(&bytes).trim().to_owned())
         .unwrap_or_default();
-    let error = match status {
-        StatusCode::PAYLOAD_TOO_LARGE => format!(
-            "the request body is too large: this call accepts at most {MAX_JSON_BYTES} bytes"
+    let failure = match status {
+        StatusCode::PAYLOAD_TOO_LARGE => Failure::coded(
+            status,
+            Code::BodyTooLarge,
+            format!(
+                "the request body is too large: this call accepts at most {MAX_JSON_BYTES} bytes"
+            ),
+        )
+        .param("limit_bytes", MAX_JSON_BYTES),
+        StatusCode::UNSUPPORTED_MEDIA_TYPE => Failure::coded(
+            status,
+            Code::UnsupportedMediaType,
+            "the request's Content-Type is not one this call accepts",
         ),
-        StatusCode::UNSUPPORTED_MEDIA_TYPE => {
-            "the request's Content-Type is not one this call accepts".to_owned()
-        }
-        _ if !text.is_empty() => text.clone(),
-        _ => format!(
-            "the request was refused ({})",
-            status.canonical_reason().unwrap_or("error")
+        _ if !text.is_empty() => Failure::refused(status, text.clone()),
+        _ => Failure::refused(
+            status,
+            format!(
+                "the request was refused ({})",
+                status.canonical_reason().unwrap_or("error")
+            ),
         ),
     };
-    let details = if text.is_empty() || text == error {
+    let details = if text.is_empty() || text == failure.body.error {
         Vec::new()
     } else {
         vec![text]
     };
-    let mut rewritten = Failure::new(status, error)
-        .with_details(details)
-        .into_response();
+    let mut rewritten = failure.with_details(details).into_response();
     let own = rewritten.headers().clone();
     for (name, value) in &parts.headers {
         if name != header::CONTENT_TYPE && name != header::CONTENT_LENGTH && !own.contains_key(name)
@@ -116,12 +124,17 @@ pub async fn json_errors(response: Response) -> Response {
 }
 
 async fn not_found() -> Failure {
-    Failure::new(StatusCode::NOT_FOUND, "there is no such API call")
+    Failure::coded(
+        StatusCode::NOT_FOUND,
+        Code::NotFound,
+        "there is no such API call",
+    )
 }
 
 async fn method_not_allowed() -> Failure {
-    Failure::new(
+    Failure::coded(
         StatusCode::METHOD_NOT_ALLOWED,
+        Code::MethodNotAllowed,
         "this API call does not take that method",
     )
 }
@@ -156,9 +169,9 @@ impl Failure {
         failure
     }
 
-    /// An answer with `status` and one sentence, coded `request_refused` (the
-    /// framework's refusals without a code of their own).
-    pub fn new(status: StatusCode, error: impl Into<String>) -> Self {
+    /// A refusal of the framework's without a code of its own: code
+    /// `request_refused`, parameter `status`.
+    fn refused(status: StatusCode, error: impl Into<String>) -> Self {
         Self::coded(status, Code::RequestRefused, error).param("status", status.as_u16())
     }
 
@@ -224,10 +237,13 @@ impl IntoResponse for Failure {
 /// what serde found.
 fn json_body<T: DeserializeOwned>(body: &[u8], what: &str) -> Result<T, Failure> {
     serde_json::from_slice(body).map_err(|error| {
-        Failure::new(
+        Failure::coded(
             StatusCode::BAD_REQUEST,
+            Code::BadJson,
             format!("the body is not a valid {what}: {error}"),
         )
+        .param("what", what)
+        .param("reason", error)
     })
 }
 
