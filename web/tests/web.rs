@@ -1106,6 +1106,32 @@ async fn while_a_show_plays_the_playlist_is_locked_and_start_says_why() {
 }
 
 #[wasm_bindgen_test]
+async fn an_edit_the_bridge_refuses_as_locked_says_so_in_the_chosen_language() {
+    let bridge = FakeBridge::new(|request| match (request.method, request.url.as_str()) {
+        (Method::Put, "/api/playlist") => response(
+            409,
+            r#"{"error":"the playlist cannot change while the matrix is playing; press E-stop or wait until it is idle (loop and defaults may change)","code":"playlist_locked"}"#,
+        ),
+        _ => response(404, ""),
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-locked-refusal").await;
+    ctx.lang.set(Lang::Zh);
+    check_entry(&container, 0);
+    element(&container, "delete").click();
+    until("the refusal shows", || {
+        !all(&container, "control-note").is_empty()
+    })
+    .await;
+    assert!(
+        text(&container, "control-note").contains("不能修改配置"),
+        "{}",
+        text(&container, "control-note")
+    );
+    ctx.lang.set(Lang::En);
+}
+
+#[wasm_bindgen_test]
 async fn reset_home_and_start_after_an_estop_ask_first_and_homing_shows_its_progress() {
     let bridge = playlist_bridge();
     let socket = Rc::new(FakeSocket::default());
@@ -1163,6 +1189,22 @@ async fn reset_home_and_start_after_an_estop_ask_first_and_homing_shows_its_prog
     );
     element(&container, "confirm-cancel").click();
     tick().await;
+    // Asked after a stop, a Start confirmation goes once the matrix is idle again.
+    element(&container, "start").click();
+    tick().await;
+    ctx.receive(ServerMessage::Status(Status::default()));
+    tick().await;
+    assert!(all(&container, "confirm").is_empty());
+    ctx.receive(ServerMessage::Status(Status {
+        state: PlayerState::Stopped,
+        ..Status::default()
+    }));
+    tick().await;
+    assert!(
+        all(&container, "confirm").is_empty(),
+        "it does not come back"
+    );
+    assert_eq!(socket.sent.borrow().len(), 2);
 
     // Home: every ball home, then idle.
     element(&container, "home").click();

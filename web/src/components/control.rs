@@ -179,6 +179,15 @@ pub fn ControlPage() -> impl IntoView {
             send(action.message());
         }
     };
+    // A confirmation that no longer applies (Start once the matrix is idle again)
+    // is dropped, so it cannot come back later by itself.
+    Effect::new(move |_| {
+        if let Some(action) = asking.get()
+            && action.confirmation(state()).is_none()
+        {
+            asking.set(None);
+        }
+    });
     let enabled = move |action: Action| match action {
         Action::Start => start_reason().is_none(),
         Action::Reset | Action::Home => ctx.connected(),
