@@ -25,6 +25,7 @@ use std::time::{Duration, Instant};
 
 use argon2::password_hash::phc::{Output, ParamsString, PasswordHash, Salt};
 use argon2::{Algorithm, Argon2, Block, Params, Version};
+use floatball_shared::codes::{self, Code, Coded};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};
@@ -147,7 +148,41 @@ pub enum PasswordError {
     WrongPassword,
     /// The new password is not acceptable.
     #[error("{0}")]
-    Unacceptable(&'static str),
+    Unacceptable(PasswordRule),
+}
+
+/// The rule a new password breaks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum PasswordRule {
+    /// Fewer than [`MIN_PASSWORD_CHARS`] characters.
+    #[error("the new password must have at least {MIN_PASSWORD_CHARS} characters")]
+    TooShort,
+    /// More than [`MAX_PASSWORD_BYTES`] bytes.
+    #[error("the new password must have at most {MAX_PASSWORD_BYTES} bytes")]
+    TooLong,
+    /// The initial password.
+    #[error("the new password must not be the initial password {DEFAULT_PASSWORD}")]
+    IsDefault,
+}
+
+impl Coded for PasswordRule {
+    fn code(&self) -> Code {
+        match self {
+            Self::TooShort => Code::PasswordTooShort,
+            Self::TooLong => Code::PasswordTooLong,
+            Self::IsDefault => Code::PasswordIsDefault,
+        }
+    }
+
+    fn params(&self) -> codes::Params {
+        let mut params = codes::Params::new();
+        match self {
+            Self::TooShort => params.insert("min".into(), MIN_PASSWORD_CHARS.to_string()),
+            Self::TooLong => params.insert("max_bytes".into(), MAX_PASSWORD_BYTES.to_string()),
+            Self::IsDefault => params.insert("default".into(), DEFAULT_PASSWORD.to_owned()),
+        };
+        params
+    }
 }
 
 /// The password file's content.
@@ -342,19 +377,13 @@ impl Password {
             return Err(PasswordError::WrongPassword);
         }
         if new.chars().count() < MIN_PASSWORD_CHARS {
-            return Err(PasswordError::Unacceptable(
-                "the new password must have at least 4 characters",
-            ));
+            return Err(PasswordError::Unacceptable(PasswordRule::TooShort));
         }
         if new.len() > MAX_PASSWORD_BYTES {
-            return Err(PasswordError::Unacceptable(
-                "the new password must have at most 1024 bytes",
-            ));
+            return Err(PasswordError::Unacceptable(PasswordRule::TooLong));
         }
         if new == DEFAULT_PASSWORD {
-            return Err(PasswordError::Unacceptable(
-                "the new password must not be the initial password 1234",
-            ));
+            return Err(PasswordError::Unacceptable(PasswordRule::IsDefault));
         }
         let changed = Record {
             argon2id: hash(permit, new)?,

@@ -3,6 +3,9 @@
 //! generation the request was issued at. Every refusal comes back as a sentence an
 //! operator can act on (which entry, why, and what would make it run).
 
+use floatball_shared::api::ServerMessage;
+use floatball_shared::codes::{Code, Coded, Params};
+use floatball_shared::params;
 use floatball_shared::plan::player::{Entry, StartError};
 
 use crate::playback::PlaybackError;
@@ -24,7 +27,7 @@ pub enum Control {
 ///
 /// # Errors
 /// A show the playlist names cannot be read.
-pub fn playlist_entries(state: &AppState) -> Result<(Vec<Entry>, bool), String> {
+pub fn playlist_entries(state: &AppState) -> Result<(Vec<Entry>, bool), ServerMessage> {
     let playlist = state.playlist().get();
     let mut entries = Vec::with_capacity(playlist.entries.len());
     for (index, entry) in playlist.entries.iter().enumerate() {
@@ -32,10 +35,14 @@ pub fn playlist_entries(state: &AppState) -> Result<(Vec<Entry>, bool), String> 
             .map_err(|error| error.to_string())
             .and_then(|name| state.shows().load(&name).map_err(|error| error.to_string()))
             .map_err(|reason| {
-                format!(
-                    "playlist entry {} (\"{}\") cannot be read: {reason}",
-                    index + 1,
-                    entry.show
+                ServerMessage::error(
+                    Code::EntryUnreadable,
+                    format!(
+                        "playlist entry {} (\"{}\") cannot be read: {reason}",
+                        index + 1,
+                        entry.show
+                    ),
+                    params! {"entry" => index + 1, "show" => entry.show, "reason" => reason},
                 )
             })?;
         entries.push(Entry {
@@ -51,9 +58,10 @@ pub fn playlist_entries(state: &AppState) -> Result<(Vec<Entry>, bool), String> 
 /// Home, after their own stop was pressed).
 ///
 /// # Errors
-/// Why the matrix did not start, in words (it did not move; after a refused Reset or
-/// Home it stays stopped).
-pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<(), String> {
+/// Why the matrix did not start, as the [`ServerMessage::Error`] to send: a code, its
+/// parameters and the English words (it did not move; after a refused Reset or Home it
+/// stays stopped).
+pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<(), ServerMessage> {
     let playback = state.playback();
     let result = match control {
         Control::Home => playback.home_issued(generation).await,
@@ -62,7 +70,13 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
             let (entries, loop_playlist) =
                 tokio::task::spawn_blocking(move || playlist_entries(&reading))
                     .await
-                    .map_err(|error| format!("the playlist cannot be read: {error}"))??;
+                    .map_err(|error| {
+                        ServerMessage::error(
+                            Code::Internal,
+                            format!("the playlist cannot be read: {error}"),
+                            params! {"what" => "the playlist cannot be read"},
+                        )
+                    })??;
             if control == Control::Start {
                 playback
                     .start_issued(entries, loop_playlist, generation)
@@ -74,7 +88,7 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
             }
         }
     };
-    result.map_err(|error| describe(&error))
+    result.map_err(|error| refusal(&error))
 }
 
 fn describe(error: &PlaybackError) -> String {
@@ -84,4 +98,13 @@ fn describe(error: &PlaybackError) -> String {
         }
         other => other.to_string(),
     }
+}
+
+/// The refusal of a request the player did not carry out.
+fn refusal(error: &PlaybackError) -> ServerMessage {
+    let (code, params) = match error {
+        PlaybackError::Refused(refused) => (refused.code(), refused.params()),
+        PlaybackError::Gone => (Code::PlayerGone, Params::new()),
+    };
+    ServerMessage::error(code, describe(error), params)
 }

@@ -869,7 +869,11 @@ impl SclStatus {
         self.loading = None;
         self.ended_ms = None;
         match progress {
-            RunProgress::Homing => self.state = PlayerState::Homing,
+            // Homing names no show: the status must not carry the last one's.
+            RunProgress::Homing => {
+                self.state = PlayerState::Homing;
+                (self.entry, self.show, self.cycle) = (None, None, 0);
+            }
             RunProgress::Waiting { entry, show } => {
                 self.state = PlayerState::Waiting;
                 (self.entry, self.show) = (Some(entry), Some(show));

@@ -4,12 +4,18 @@
 //! A new playlist is checked as a whole ([`check`]) — every show must be stored, every
 //! count within the limits the app shares (`floatball_shared::playlist`) — and written atomically, so a restart finds exactly the last
 //! playlist accepted.
+//!
+//! While the matrix runs the playlist or moves its balls ([`locked`]), the entries
+//! cannot change ([`changes_what_plays`]): the bridge refuses such an edit with 409
+//! `playlist_locked`, so what plays and what the status's `entry` points at stay the
+//! list the operator sees. Loop and the defaults for new entries may still change.
 
 use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, PoisonError};
 
-use floatball_shared::api::Playlist;
+use floatball_shared::api::{PlayerState, Playlist};
+use floatball_shared::codes::Code;
 use floatball_shared::playlist::problems;
 
 use crate::durable;
@@ -105,12 +111,35 @@ impl PlaylistStore {
 /// # Errors
 /// [`Refused`] listing every problem, entries numbered from 1.
 pub fn check(playlist: &Playlist, show_exists: impl Fn(&str) -> bool) -> Result<(), Refused> {
-    let details = problems(playlist, show_exists);
-    if details.is_empty() {
+    let problems = problems(playlist, show_exists);
+    if problems.is_empty() {
         Ok(())
     } else {
-        Err(Refused::invalid("the playlist is not valid", details))
+        Err(Refused::invalid(
+            Code::PlaylistInvalid,
+            "the playlist is not valid",
+            &problems,
+        ))
     }
+}
+
+/// Whether the playlist's entries are locked in player state `state`: while a show
+/// waits, approaches, loads or plays, and while the balls home.
+pub fn locked(state: PlayerState) -> bool {
+    matches!(
+        state,
+        PlayerState::Waiting
+            | PlayerState::Approaching
+            | PlayerState::Loading
+            | PlayerState::Playing
+            | PlayerState::Homing
+    )
+}
+
+/// Whether `new` changes what plays compared with `current`: an entry added, deleted,
+/// moved, or its delay or cycles edited. Loop and the defaults do not.
+pub fn changes_what_plays(current: &Playlist, new: &Playlist) -> bool {
+    current.entries != new.entries
 }
 
 #[cfg(test)]
@@ -167,6 +196,41 @@ mod tests {
             ]
         );
         assert_eq!(check(&Playlist::default(), |_| false), Ok(()));
+    }
+
+    #[test]
+    fn only_entries_are_locked_and_only_while_the_matrix_runs() {
+        let running = [
+            PlayerState::Waiting,
+            PlayerState::Approaching,
+            PlayerState::Loading,
+            PlayerState::Playing,
+            PlayerState::Homing,
+        ];
+        assert!(running.into_iter().all(locked));
+        for calm in [PlayerState::Idle, PlayerState::Stopped, PlayerState::Error] {
+            assert!(!locked(calm), "{calm:?}");
+        }
+        let current = Playlist {
+            entries: vec![entry("rain", 0, 1), entry("snow", 500, 2)],
+            ..Playlist::default()
+        };
+        let mut settings = current.clone();
+        settings.loop_playlist = true;
+        settings.default_delay_ms = 2000;
+        settings.default_cycles = 3;
+        assert!(!changes_what_plays(&current, &settings));
+        let mut reordered = current.clone();
+        reordered.entries.swap(0, 1);
+        let mut cycles = current.clone();
+        cycles.entries[1].cycles = 3;
+        let mut deleted = current.clone();
+        deleted.entries.pop();
+        let mut added = current.clone();
+        added.entries.push(entry("rain", 0, 1));
+        for edit in [reordered, cycles, deleted, added] {
+            assert!(changes_what_plays(&current, &edit), "{edit:?}");
+        }
     }
 
     #[test]

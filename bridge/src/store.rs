@@ -22,7 +22,8 @@ use std::path::{Path, PathBuf};
 use std::sync::{Mutex, PoisonError};
 use std::time::SystemTime;
 
-use floatball_shared::api::ShowSummary;
+use floatball_shared::api::{Problem, ShowSummary};
+use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::show::{self, Show, ShowFormat};
 use sha2::{Digest, Sha256};
 
@@ -164,24 +165,37 @@ impl fmt::Display for ShowName {
 }
 
 /// A show or playlist this installation refuses, as the HTTP API answers it: what is
-/// wrong, and every problem.
+/// wrong (code, parameters, sentence), and every problem.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{error}")]
 pub struct Refused {
+    /// The refusal's code.
+    pub code: Code,
+    /// Its parameters.
+    pub params: Params,
     /// One sentence.
     pub error: String,
-    /// Each problem.
+    /// Each problem, in English.
     pub details: Vec<String>,
+    /// Each problem as a code and parameters, one for one with `details`.
+    pub problems: Vec<Problem>,
     /// Refused for its size (`max_bytes`, 413) rather than its content (422).
     pub too_large: bool,
 }
 
 impl Refused {
-    /// Refused for its content, with `details`.
-    pub fn invalid(error: impl Into<String>, details: Vec<String>) -> Self {
+    /// Refused for its content with `code`, listing every problem of `problems`.
+    pub fn invalid<E: Coded + fmt::Display>(
+        code: Code,
+        error: impl Into<String>,
+        problems: &[E],
+    ) -> Self {
         Self {
+            code,
+            params: Params::new(),
             error: error.into(),
-            details,
+            details: problems.iter().map(ToString::to_string).collect(),
+            problems: problems.iter().map(Problem::of).collect(),
             too_large: false,
         }
     }
@@ -190,8 +204,11 @@ impl Refused {
 impl From<show::Refused> for Refused {
     fn from(refused: show::Refused) -> Self {
         Self {
+            code: refused.code(),
+            params: refused.params(),
             error: refused.to_string(),
             details: refused.details(),
+            problems: refused.problems(),
             too_large: refused.too_large(),
         }
     }

@@ -52,8 +52,10 @@ use axum::http::{HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{ClientMessage, ServerMessage};
 use floatball_shared::ascii::{Batch, Form, parse_script};
+use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::mbox::console::{self as mbox_console, Operation};
 use floatball_shared::mbox::{BoxAddress, RegisterWrite, Route};
+use floatball_shared::params;
 use futures_util::{SinkExt, StreamExt};
 use tokio::sync::{broadcast, mpsc};
 use tokio::time::Instant;
@@ -92,23 +94,26 @@ pub async fn upgrade(
     upgrade: WebSocketUpgrade,
 ) -> Response {
     if !origin_allowed(&headers, &state.config().allowed_origins) {
-        return Failure::new(
+        return Failure::coded(
             StatusCode::FORBIDDEN,
+            Code::OriginNotAllowed,
             "this page's origin may not open the bridge's WebSocket; add it to \
              allowed_origins in floatball.toml",
         )
         .into_response();
     }
     let Some(token) = query.get("token").cloned() else {
-        return Failure::new(
+        return Failure::coded(
             StatusCode::UNAUTHORIZED,
+            Code::LoginRequired,
             "log in first: open /ws?token=<token from POST /api/login>",
         )
         .into_response();
     };
     if !state.tokens().touch(&token, state.clock().now()) {
-        return Failure::new(
+        return Failure::coded(
             StatusCode::UNAUTHORIZED,
+            Code::SessionExpired,
             "the session has expired or ended; log in again",
         )
         .into_response();
@@ -209,9 +214,13 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
             frame = feedback.recv(), if feedback_open => match frame {
                 Ok(frame) => sent(send(&mut sink, &ServerMessage::Feedback(frame)).await),
                 Err(broadcast::error::RecvError::Lagged(missed)) => {
-                    let message = error(format!(
-                        "{missed} feedback frames were dropped: this client reads too slowly"
-                    ));
+                    let message = ServerMessage::error(
+                        Code::FeedbackDropped,
+                        format!(
+                            "{missed} feedback frames were dropped: this client reads too slowly"
+                        ),
+                        params! {"count" => missed},
+                    );
                     sent(send(&mut sink, &message).await)
                 }
                 Err(broadcast::error::RecvError::Closed) => {
@@ -302,6 +311,7 @@ async fn read_messages(
                 answer(&state, &console_lines, &replies, text.as_str())
             }
             Some(Ok(Message::Binary(_))) => Some(error(
+                Code::BinaryFrame,
                 "only text frames holding JSON messages are understood",
             )),
             Some(Ok(Message::Ping(_) | Message::Pong(_))) => None,
@@ -334,7 +344,11 @@ async fn console(
     while let Some((gateway, batch, generation)) = lines.recv().await {
         if let Err(reason) = state.gateways().send(gateway, batch, generation).await
             && failures
-                .send(error(format!("the line was not sent: {reason}")))
+                .send(ServerMessage::error(
+                    Code::LineNotSent,
+                    format!("the line was not sent: {reason}"),
+                    params! {"reason" => reason},
+                ))
                 .await
                 .is_err()
         {
@@ -371,7 +385,10 @@ fn receive_failed(error: &axum::Error) -> Option<CloseFrame> {
 async fn end_session(sink: &mut Sink, inbound: &mut mpsc::Receiver<Inbound>) -> Step {
     let _ = send(
         sink,
-        &error("the session has expired or ended; log in again"),
+        &error(
+            Code::SessionExpired,
+            "the session has expired or ended; log in again",
+        ),
     )
     .await;
     let closing = sink
@@ -393,10 +410,29 @@ async fn end_session(sink: &mut Sink, inbound: &mut mpsc::Receiver<Inbound>) -> 
     Step::Close
 }
 
-fn error(message: impl Into<String>) -> ServerMessage {
-    ServerMessage::Error {
-        message: message.into(),
-    }
+/// A refusal with `code` and no parameters.
+fn error(code: Code, message: impl Into<String>) -> ServerMessage {
+    ServerMessage::error(code, message, Params::new())
+}
+
+/// The refusal of a console line that does not parse: its code and parameters (line,
+/// column…), and the parser's words.
+fn invalid_line(parse_error: &(impl Coded + std::fmt::Display)) -> ServerMessage {
+    ServerMessage::error(
+        parse_error.code(),
+        format!("the line is not valid: {parse_error}"),
+        parse_error.params(),
+    )
+}
+
+/// The refusal of a gateway number past the last.
+fn no_such_gateway(index: usize, count: usize) -> ServerMessage {
+    let last = count.saturating_sub(1);
+    ServerMessage::error(
+        Code::NoSuchGateway,
+        format!("there is no gateway {index}; gateways are numbered 0 to {last}"),
+        params! {"gateway" => index, "last" => last},
+    )
 }
 
 /// The reply to one text frame from a client, if it needs one. Replies that take time
@@ -409,7 +445,13 @@ fn answer(
 ) -> Option<ServerMessage> {
     let message = match serde_json::from_str::<ClientMessage>(text) {
         Ok(message) => message,
-        Err(err) => return Some(error(format!("not a valid message: {err}"))),
+        Err(err) => {
+            return Some(ServerMessage::error(
+                Code::BadMessage,
+                format!("not a valid message: {err}"),
+                params! {"reason" => err},
+            ));
+        }
     };
     match message {
         ClientMessage::Ping => Some(ServerMessage::Pong),
@@ -425,6 +467,7 @@ fn answer(
             if state.password().is_default() =>
         {
             Some(error(
+                Code::MustChangePasswordFirst,
                 "change the initial password (1234) before controlling the matrix",
             ))
         }
@@ -441,14 +484,17 @@ fn answer(
             let generation = state.playback().latch().generation();
             let (state, replies) = (state.clone(), replies.clone());
             tokio::spawn(async move {
-                if let Err(reason) = control::run(&state, control, generation).await {
-                    tracing::warn!("{control:?} refused: {reason}");
-                    let _ = replies.send(error(reason)).await;
+                if let Err(refusal) = control::run(&state, control, generation).await {
+                    if let ServerMessage::Error { message, .. } = &refusal {
+                        tracing::warn!("{control:?} refused: {message}");
+                    }
+                    let _ = replies.send(refusal).await;
                 }
             });
             None
         }
         ClientMessage::Raw { .. } if state.password().is_default() => Some(error(
+            Code::MustChangePasswordFirst,
             "change the initial password (1234) before sending instructions",
         )),
         ClientMessage::Raw { line, gateway } => {
@@ -464,24 +510,18 @@ fn answer(
                     latch.is_latched(),
                     latch.generation(),
                 )
-                .err()
-                .map(error);
+                .err();
             }
             let count = state.gateways().links().len();
             if let Some(index) = gateway.filter(|index| *index >= count) {
-                return Some(error(format!(
-                    "there is no gateway {index}; gateways are numbered 0 to {}",
-                    count.saturating_sub(1)
-                )));
+                return Some(no_such_gateway(index, count));
             }
             let instructions = match parse_script(&line) {
                 Ok(instructions) if instructions.is_empty() => {
-                    return Some(error("the line holds no instruction"));
+                    return Some(error(Code::EmptyLine, "the line holds no instruction"));
                 }
                 Ok(instructions) => instructions,
-                Err(parse_error) => {
-                    return Some(error(format!("the line is not valid: {parse_error}")));
-                }
+                Err(parse_error) => return Some(invalid_line(&parse_error)),
             };
             if state.playback().latch().is_latched()
                 && !instructions
@@ -489,6 +529,7 @@ fn answer(
                     .all(|instruction| instruction.is_inert())
             {
                 return Some(error(
+                    Code::EstopLatched,
                     "the e-stop is latched: only queries can be sent until Start, Reset or \
                      Home; this line was not sent",
                 ));
@@ -497,12 +538,17 @@ fn answer(
             let batch = match Batch::encode(&instructions, Form::Standard) {
                 Ok(batch) => batch,
                 Err(encode_error) => {
-                    return Some(error(format!("the line is not valid: {encode_error}")));
+                    return Some(ServerMessage::error(
+                        Code::AsciiNotEncodable,
+                        format!("the line is not valid: {encode_error}"),
+                        params! {"reason" => encode_error},
+                    ));
                 }
             };
             match console_lines.try_send((gateway, batch, generation)) {
                 Ok(()) => None,
                 Err(_) => Some(error(
+                    Code::ConsoleBusy,
                     "too many console lines are waiting for the gateway; this one was not sent",
                 )),
             }
@@ -519,10 +565,7 @@ fn mbox_line(
     gateway: Option<usize>,
 ) -> Option<ServerMessage> {
     if let Some(index) = gateway.filter(|index| *index >= boxes.len()) {
-        return Some(error(format!(
-            "there is no gateway {index}; gateways are numbered 0 to {}",
-            boxes.len().saturating_sub(1)
-        )));
+        return Some(no_such_gateway(index, boxes.len()));
     }
     let selected = match gateway.and_then(|index| boxes.address(index)) {
         Some(SocketAddr::V4(address)) => Route::to(BoxAddress::of_ip(*address.ip())),
@@ -530,7 +573,7 @@ fn mbox_line(
     };
     let operations = match mbox_console::parse(line, selected) {
         Ok(operations) if operations.is_empty() => {
-            return Some(error("the line holds no command"));
+            return Some(error(Code::EmptyLine, "the line holds no command"));
         }
         // The datagram goes to the selected box's socket only: addressed to every box,
         // so a box whose IP registers differ from its configured address (behind NAT,
@@ -549,7 +592,7 @@ fn mbox_line(
                 other => other,
             })
             .collect::<Vec<_>>(),
-        Err(parse_error) => return Some(error(format!("the line is not valid: {parse_error}"))),
+        Err(parse_error) => return Some(invalid_line(&parse_error)),
     };
     let latch = state.playback().latch();
     if latch.is_latched()
@@ -559,6 +602,7 @@ fn mbox_line(
         })
     {
         return Some(error(
+            Code::EstopLatched,
             "the e-stop is latched: only reads and estop can be sent until Start, Reset or \
              Home (which release the boxes); this line was not sent",
         ));

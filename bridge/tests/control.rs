@@ -135,7 +135,7 @@ async fn start_needs_the_password_changed_and_a_playlist() {
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let reply = common::next_reply(&mut ws).await;
     assert!(
-        matches!(&reply, ServerMessage::Error { message } if message.contains("initial password")),
+        matches!(&reply, ServerMessage::Error { message, .. } if message.contains("initial password")),
         "{reply:?}"
     );
     let token = {
@@ -150,7 +150,8 @@ async fn start_needs_the_password_changed_and_a_playlist() {
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let reply = common::next_reply(&mut ws).await;
     assert!(
-        matches!(&reply, ServerMessage::Error { message } if message.contains("playlist is empty")),
+        matches!(&reply, ServerMessage::Error { message, code, .. }
+            if message.contains("playlist is empty") && code == "playlist_empty"),
         "{reply:?}"
     );
 }
@@ -181,7 +182,7 @@ async fn an_infeasible_show_is_refused_with_numbers() {
     let mut ws = bridge.ws(&token).await;
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let reply = common::next_reply(&mut ws).await;
-    let ServerMessage::Error { message } = reply else {
+    let ServerMessage::Error { message, .. } = reply else {
         panic!("expected a refusal, got {reply:?}");
     };
     assert!(

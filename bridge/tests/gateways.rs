@@ -125,7 +125,7 @@ async fn next_feedback(ws: &mut Ws) -> FeedbackFrame {
 async fn next_error(ws: &mut Ws) -> String {
     loop {
         match next_message(ws).await {
-            ServerMessage::Error { message } => return message,
+            ServerMessage::Error { message, .. } => return message,
             ServerMessage::Status(_) => {}
             other => panic!("expected an error, got {other:?}"),
         }

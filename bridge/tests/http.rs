@@ -56,6 +56,7 @@ async fn login_answers_a_token_or_401_or_400() {
     let wrong = bridge.login("4321").await;
     assert_eq!(wrong.status, StatusCode::UNAUTHORIZED);
     assert_eq!(wrong.error().error, "wrong password");
+    assert_eq!(wrong.error().code, "wrong_password");
 
     let bad = bridge
         .request(
@@ -87,6 +88,11 @@ async fn five_wrong_passwords_in_a_minute_get_429_with_retry_after() {
         .parse()
         .expect("seconds");
     assert!((1..=60).contains(&retry_after), "{retry_after}");
+    assert_eq!(refused.error().code, "too_many_attempts");
+    assert_eq!(
+        refused.error().params["retry_after_s"],
+        retry_after.to_string()
+    );
 
     // Another address is not held back.
     let other = bridge
@@ -212,10 +218,14 @@ async fn the_password_change_checks_both_passwords_and_ends_other_sessions() {
     let wrong = bridge.change_password(&token, "9999", PASSWORD).await;
     assert_eq!(wrong.status, StatusCode::FORBIDDEN);
     assert_eq!(wrong.error().error, "the current password is wrong");
+    assert_eq!(wrong.error().code, "wrong_current_password");
     let short = bridge.change_password(&token, "1234", "abc").await;
     assert_eq!(short.status, StatusCode::BAD_REQUEST);
+    assert_eq!(short.error().code, "password_too_short");
+    assert_eq!(short.error().params["min"], "4");
     let same = bridge.change_password(&token, "1234", "1234").await;
     assert_eq!(same.status, StatusCode::BAD_REQUEST);
+    assert_eq!(same.error().code, "password_is_default");
     let garbage = bridge
         .request(
             Method::POST,
@@ -480,6 +490,14 @@ async fn invalid_shows_get_422_listing_every_problem() {
             .iter()
             .any(|d| d.contains("below the lowest point"))
     );
+    assert_eq!(error.code, "show_unfit");
+    assert_eq!(error.problems.len(), error.details.len());
+    let below = error
+        .problems
+        .iter()
+        .find(|problem| problem.code == "below_travel")
+        .expect("a coded violation");
+    assert!(below.params.contains_key("unit") && below.params.contains_key("travel_mm"));
 
     let reply = bridge
         .upload(
@@ -506,7 +524,10 @@ async fn invalid_shows_get_422_listing_every_problem() {
             StatusCode::UNPROCESSABLE_ENTITY,
             "{content_type}"
         );
-        assert!(!reply.error().details.is_empty());
+        let error = reply.error();
+        assert!(!error.details.is_empty());
+        assert_eq!(error.problems.len(), error.details.len(), "{error:?}");
+        assert!(!error.code.is_empty() && !error.problems[0].code.is_empty());
     }
     let list: Vec<ShowSummary> = bridge
         .request(Method::GET, "/api/shows", Some(&token), None)
@@ -525,6 +546,8 @@ async fn uploads_over_the_limit_get_413_as_json() {
     assert_eq!(reply.status, StatusCode::PAYLOAD_TOO_LARGE);
     let error = reply.error();
     assert!(error.error.contains("2048"), "{error:?}");
+    assert_eq!(error.code, "show_too_large");
+    assert_eq!(error.params["limit_bytes"], "2048");
     let list: Vec<ShowSummary> = bridge
         .request(Method::GET, "/api/shows", Some(&token), None)
         .await
@@ -650,6 +673,13 @@ async fn the_playlist_is_checked_and_stored() {
             "entry 2: cycles is 0; it must be from 1 to 1000000"
         ]
     );
+    let codes: Vec<String> = refused
+        .error()
+        .problems
+        .into_iter()
+        .map(|problem| problem.code)
+        .collect();
+    assert_eq!(codes, ["playlist_unknown_show", "entry_cycles"]);
     let bad = bridge
         .request(
             Method::PUT,

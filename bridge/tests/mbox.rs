@@ -289,7 +289,7 @@ async fn a_silent_box_is_down_and_comes_back_when_it_answers() {
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let refused = common::next_reply(&mut ws).await;
     assert!(
-        matches!(&refused, ServerMessage::Error { message } if message.contains("gateway 0 is not connected")),
+        matches!(&refused, ServerMessage::Error { message, .. } if message.contains("gateway 0 is not connected")),
         "{refused:?}"
     );
     // The box wakes up: it answers every poll with its e-stop register at 0.
@@ -348,7 +348,7 @@ async fn the_console_reads_registers_refuses_bad_lines_and_obeys_the_latch() {
         r#"{"type":"raw","line":"read FN 0x20 4\nread FX 0x20 4"}"#,
     )
     .await;
-    let ServerMessage::Error { message } = console_answer(&mut ws).await else {
+    let ServerMessage::Error { message, .. } = console_answer(&mut ws).await else {
         panic!("a bad line was accepted");
     };
     assert!(message.contains("line 2, column 6"), "{message}");
@@ -365,7 +365,7 @@ async fn the_console_reads_registers_refuses_bad_lines_and_obeys_the_latch() {
             &serde_json::json!({"type": "raw", "line": line}).to_string(),
         )
         .await;
-        let ServerMessage::Error { message } = console_answer(&mut ws).await else {
+        let ServerMessage::Error { message, .. } = console_answer(&mut ws).await else {
             panic!("`{line}` was sent while the e-stop is latched");
         };
         assert!(message.contains("latched"), "{message}");

@@ -124,12 +124,12 @@ async fn an_rs485_line_answers_the_console_and_stops_every_drive_first() {
     assert_eq!(peer.positions()[2], 5000);
     // A refusal names its line and column; nothing is sent.
     send_text(&mut ws, r#"{"type":"raw","line":"2IP\n2XX"}"#).await;
-    let ServerMessage::Error { message } = next_reply(&mut ws).await else {
+    let ServerMessage::Error { message, .. } = next_reply(&mut ws).await else {
         panic!("an error");
     };
     assert!(message.contains("line 2, column 2"), "{message}");
     send_text(&mut ws, r#"{"type":"raw","line":"IP"}"#).await;
-    let ServerMessage::Error { message } = next_reply(&mut ws).await else {
+    let ServerMessage::Error { message, .. } = next_reply(&mut ws).await else {
         panic!("an error");
     };
     assert!(
@@ -147,7 +147,7 @@ async fn an_rs485_line_answers_the_console_and_stops_every_drive_first() {
     assert_eq!(&texts[first..first + 3], ["1SK", "2SK", "3SK"], "{texts:?}");
     // While latched, a move is refused at the console; a query still goes.
     send_text(&mut ws, r#"{"type":"raw","line":"1FP"}"#).await;
-    let ServerMessage::Error { message } = next_reply(&mut ws).await else {
+    let ServerMessage::Error { message, .. } = next_reply(&mut ws).await else {
         panic!("an error");
     };
     assert!(message.contains("latched"), "{message}");

@@ -31,7 +31,7 @@ async fn refused_status(bridge: &Bridge, query: &str, origin: Option<&str>) -> O
 
 fn expect_error(message: ServerMessage) -> String {
     match message {
-        ServerMessage::Error { message } => message,
+        ServerMessage::Error { message, .. } => message,
         other => panic!("expected an error, got {other:?}"),
     }
 }
@@ -221,7 +221,16 @@ async fn invalid_console_lines_are_refused_with_the_parsers_message() {
         r#"{"type":"raw","line":"*20;QP[3]=1000 QV[3]=0;"}"#,
     )
     .await;
-    let error = expect_error(next_reply(&mut ws).await);
+    let reply = next_reply(&mut ws).await;
+    let ServerMessage::Error { code, params, .. } = &reply else {
+        panic!("expected an error, got {reply:?}");
+    };
+    assert_eq!(code, "ascii_unexpected");
+    assert_eq!(
+        (params["line"].as_str(), params["column"].as_str()),
+        ("1", "16")
+    );
+    let error = expect_error(reply);
     assert_eq!(
         error,
         "the line is not valid: line 1, column 16: expected `;` after the operand of QP[3], \

@@ -12,14 +12,20 @@
 //!
 //! let raw: ClientMessage = serde_json::from_str(r#"{"type":"raw","line":"*5;PV;"}"#).unwrap();
 //! assert_eq!(raw, ClientMessage::Raw { line: "*5;PV;".into(), gateway: None });
-//! let error = ServerMessage::Error { message: "no such show".into() };
+//! let error = ServerMessage::Error {
+//!     message: "no such show".into(),
+//!     code: "show_not_found".into(),
+//!     params: [("name".to_owned(), "波浪".to_owned())].into(),
+//! };
 //! assert_eq!(
 //!     serde_json::to_string(&error).unwrap(),
-//!     r#"{"type":"error","message":"no such show"}"#
+//!     r#"{"type":"error","message":"no such show","code":"show_not_found","params":{"name":"波浪"}}"#
 //! );
 //! ```
 
 use serde::{Deserialize, Serialize};
+
+use crate::codes::{Code, Coded, Params};
 
 // ----------------------------------------------------------------------------------
 // HTTP
@@ -51,14 +57,64 @@ pub struct PasswordChange {
     pub new: String,
 }
 
-/// The body of every HTTP error answer: `{"error": "...", "details": [...]}`.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+/// The body of every HTTP error answer:
+/// `{"error": "...", "code": "...", "params": {...}, "details": [...], "problems": [...]}`.
+///
+/// `code` and `params` say what went wrong for the app, which renders them in the
+/// operator's language ([`crate::codes`]); `error` and `details` say the same in
+/// English for API clients and logs.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct ApiError {
-    /// What went wrong, in one sentence an operator can act on.
+    /// What went wrong, in one English sentence an operator can act on.
     pub error: String,
-    /// Every individual problem (e.g. each validation violation of a show), if any.
+    /// The stable code of the refusal (`snake_case`, [`Code::as_str`]); empty from a
+    /// bridge older than the codes.
+    #[serde(default)]
+    pub code: String,
+    /// The code's parameters (`retry_after_s`, `limit_bytes`…).
+    #[serde(default, skip_serializing_if = "Params::is_empty")]
+    pub params: Params,
+    /// Every individual problem (e.g. each validation violation of a show) in English,
+    /// if any.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub details: Vec<String>,
+    /// The same problems as codes and parameters, in the same order as `details`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub problems: Vec<Problem>,
+}
+
+impl ApiError {
+    /// An error with `code`, its English sentence and no parameters.
+    pub fn coded(code: Code, error: impl Into<String>) -> Self {
+        Self {
+            error: error.into(),
+            code: code.as_str().to_owned(),
+            params: Params::new(),
+            details: Vec::new(),
+            problems: Vec::new(),
+        }
+    }
+}
+
+/// One individual problem of an [`ApiError`] (a validation violation, a CSV problem…):
+/// its code and parameters.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Problem {
+    /// The stable code ([`Code::as_str`]).
+    pub code: String,
+    /// The code's parameters.
+    #[serde(default, skip_serializing_if = "Params::is_empty")]
+    pub params: Params,
+}
+
+impl Problem {
+    /// The problem of a typed error.
+    pub fn of(error: &impl Coded) -> Self {
+        Self {
+            code: error.code().as_str().to_owned(),
+            params: error.params(),
+        }
+    }
 }
 
 /// One show in `GET /api/shows` and the answer to a successful upload (201).
@@ -444,9 +500,27 @@ pub enum ServerMessage {
     SclReply(SclReply),
     /// A request was refused; the connection stays open.
     Error {
-        /// What was wrong, in words an operator can act on.
+        /// What was wrong, in English words an operator can act on.
         message: String,
+        /// The stable code ([`crate::codes::Code::as_str`]); empty from a bridge older
+        /// than the codes.
+        #[serde(default)]
+        code: String,
+        /// The code's parameters.
+        #[serde(default, skip_serializing_if = "Params::is_empty")]
+        params: Params,
     },
+}
+
+impl ServerMessage {
+    /// A [`ServerMessage::Error`] with `code`, its English `message` and `params`.
+    pub fn error(code: Code, message: impl Into<String>, params: Params) -> Self {
+        Self::Error {
+            message: message.into(),
+            code: code.as_str().to_owned(),
+            params,
+        }
+    }
 }
 
 /// An MBOX box's reply to a console read, in [`ServerMessage::MboxReply`].
@@ -701,12 +775,39 @@ mod tests {
 
     #[test]
     fn api_errors_omit_empty_details() {
-        let json = serde_json::to_string(&ApiError {
-            error: "bad name".into(),
-            details: Vec::new(),
-        })
-        .expect("json");
-        assert_eq!(json, r#"{"error":"bad name"}"#);
+        let json =
+            serde_json::to_string(&ApiError::coded(Code::NotFound, "no such call")).expect("json");
+        assert_eq!(json, r#"{"error":"no such call","code":"not_found"}"#);
+    }
+
+    #[test]
+    fn api_errors_from_older_bridges_still_parse() {
+        let old: ApiError =
+            serde_json::from_str(r#"{"error":"bad name","details":["x"]}"#).expect("old");
+        assert_eq!(old.code, "");
+        assert!(old.params.is_empty() && old.problems.is_empty());
+        let message: ServerMessage =
+            serde_json::from_str(r#"{"type":"error","message":"no"}"#).expect("old message");
+        assert!(matches!(message, ServerMessage::Error { code, .. } if code.is_empty()));
+    }
+
+    #[test]
+    fn api_errors_carry_params_and_problems() {
+        let mut error = ApiError::coded(Code::TooManyAttempts, "wait");
+        error.params.insert("retry_after_s".into(), "53".into());
+        error.problems.push(Problem {
+            code: "wrong_password".into(),
+            params: Params::new(),
+        });
+        let json = serde_json::to_string(&error).expect("json");
+        assert_eq!(
+            json,
+            r#"{"error":"wait","code":"too_many_attempts","params":{"retry_after_s":"53"},"problems":[{"code":"wrong_password"}]}"#
+        );
+        assert_eq!(
+            serde_json::from_str::<ApiError>(&json).expect("back"),
+            error
+        );
     }
 
     #[test]

@@ -8,6 +8,8 @@
 //! # Layout
 //! - [`api`]: the JSON messages of the HTTP and WebSocket API (DESIGN §4), shared by the
 //!   bridge and the app so both sides agree on every field.
+//! - [`codes`]: the stable error codes (and their parameters) of every refusal,
+//!   validation problem and parse error, enumerable for the translation tests.
 //! - [`ascii`]: the UIM2503 instruction language (host → gateway): typed instructions, the
 //!   encoder (20-character rule, compact form), the script parser and the gateway-side
 //!   byte reader.
@@ -52,6 +54,7 @@
 
 pub mod api;
 pub mod ascii;
+pub mod codes;
 pub mod feedback;
 pub mod line;
 pub mod mbox;

@@ -2,7 +2,11 @@
 //! playlist (`PUT /api/playlist`) and what the web app refuses as the operator types.
 //! The playlist itself is [`crate::api::Playlist`].
 
+use std::fmt;
+
 use crate::api::Playlist;
+use crate::codes::{Code, Coded, Params};
+use crate::params;
 
 /// Most entries a playlist holds.
 pub const MAX_ENTRIES: usize = 1000;
@@ -23,38 +27,134 @@ pub fn cycles_in_range(cycles: u32) -> bool {
     (1..=MAX_CYCLES).contains(&cycles)
 }
 
-/// Every problem of `playlist`, in words, entries numbered from 1: more than
-/// [`MAX_ENTRIES`] entries, a show `show_exists` does not know, cycles or delays out of
-/// range (for the entries and for the defaults). Empty when it is valid.
-pub fn problems(playlist: &Playlist, show_exists: impl Fn(&str) -> bool) -> Vec<String> {
+/// One problem of a playlist; its `Display` is the English sentence, entries numbered
+/// from 1.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum PlaylistProblem {
+    /// More than [`MAX_ENTRIES`] entries.
+    TooManyEntries {
+        /// Entries in the playlist.
+        entries: usize,
+    },
+    /// An entry names a show that is not stored.
+    UnknownShow {
+        /// The entry, from 1.
+        entry: usize,
+        /// The show's name.
+        show: String,
+    },
+    /// Cycles out of range: of an entry (from 1), or the default (`None`).
+    Cycles {
+        /// The entry, from 1; `None` for `default_cycles`.
+        entry: Option<usize>,
+        /// The cycles given.
+        cycles: u32,
+    },
+    /// A delay out of range: of an entry (from 1), or the default (`None`).
+    Delay {
+        /// The entry, from 1; `None` for `default_delay_ms`.
+        entry: Option<usize>,
+        /// The delay given, ms.
+        delay_ms: u64,
+    },
+}
+
+impl fmt::Display for PlaylistProblem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::TooManyEntries { entries } => write!(
+                f,
+                "the playlist has {entries} entries; at most {MAX_ENTRIES} are allowed"
+            ),
+            Self::UnknownShow { entry, show } => {
+                write!(f, "entry {entry}: there is no show named \"{show}\"")
+            }
+            Self::Cycles { entry, cycles } => {
+                match entry {
+                    Some(entry) => write!(f, "entry {entry}: cycles")?,
+                    None => f.write_str("default_cycles")?,
+                }
+                write!(f, " is {cycles}; it must be from 1 to {MAX_CYCLES}")
+            }
+            Self::Delay { entry, delay_ms } => {
+                match entry {
+                    Some(entry) => write!(f, "entry {entry}: delay_ms")?,
+                    None => f.write_str("default_delay_ms")?,
+                }
+                write!(
+                    f,
+                    " is {delay_ms}; it must be at most {MAX_DELAY_MS} (one day)"
+                )
+            }
+        }
+    }
+}
+
+impl Coded for PlaylistProblem {
+    fn code(&self) -> Code {
+        match self {
+            Self::TooManyEntries { .. } => Code::PlaylistTooManyEntries,
+            Self::UnknownShow { .. } => Code::PlaylistUnknownShow,
+            Self::Cycles { entry: Some(_), .. } => Code::EntryCycles,
+            Self::Cycles { entry: None, .. } => Code::DefaultCycles,
+            Self::Delay { entry: Some(_), .. } => Code::EntryDelay,
+            Self::Delay { entry: None, .. } => Code::DefaultDelay,
+        }
+    }
+
+    fn params(&self) -> Params {
+        let mut params = match self {
+            Self::TooManyEntries { entries } => {
+                params! {"entries" => entries, "max" => MAX_ENTRIES}
+            }
+            Self::UnknownShow { entry, show } => params! {"entry" => entry, "show" => show},
+            Self::Cycles { cycles, .. } => params! {"cycles" => cycles, "max" => MAX_CYCLES},
+            Self::Delay { delay_ms, .. } => {
+                params! {"delay_ms" => delay_ms, "max_ms" => MAX_DELAY_MS}
+            }
+        };
+        if let Self::Cycles {
+            entry: Some(entry), ..
+        }
+        | Self::Delay {
+            entry: Some(entry), ..
+        } = self
+        {
+            params.insert("entry".into(), entry.to_string());
+        }
+        params
+    }
+}
+
+/// Every problem of `playlist`, entries numbered from 1: more than [`MAX_ENTRIES`]
+/// entries, a show `show_exists` does not know, cycles or delays out of range (for the
+/// entries and for the defaults). Empty when it is valid.
+pub fn problems(playlist: &Playlist, show_exists: impl Fn(&str) -> bool) -> Vec<PlaylistProblem> {
     let mut problems = Vec::new();
     if playlist.entries.len() > MAX_ENTRIES {
-        problems.push(format!(
-            "the playlist has {} entries; at most {MAX_ENTRIES} are allowed",
-            playlist.entries.len()
-        ));
+        problems.push(PlaylistProblem::TooManyEntries {
+            entries: playlist.entries.len(),
+        });
     }
-    let cycles = |what: &str, cycles: u32| {
-        (!cycles_in_range(cycles))
-            .then(|| format!("{what} is {cycles}; it must be from 1 to {MAX_CYCLES}"))
+    let cycles = |entry, cycles| {
+        (!cycles_in_range(cycles)).then_some(PlaylistProblem::Cycles { entry, cycles })
     };
-    let delay = |what: &str, delay_ms: u64| {
-        (!delay_in_range(delay_ms))
-            .then(|| format!("{what} is {delay_ms}; it must be at most {MAX_DELAY_MS} (one day)"))
+    let delay = |entry, delay_ms| {
+        (!delay_in_range(delay_ms)).then_some(PlaylistProblem::Delay { entry, delay_ms })
     };
     for (index, entry) in playlist.entries.iter().enumerate().take(MAX_ENTRIES) {
         let number = index + 1;
         if !show_exists(&entry.show) {
-            problems.push(format!(
-                "entry {number}: there is no show named \"{}\"",
-                entry.show
-            ));
+            problems.push(PlaylistProblem::UnknownShow {
+                entry: number,
+                show: entry.show.clone(),
+            });
         }
-        problems.extend(cycles(&format!("entry {number}: cycles"), entry.cycles));
-        problems.extend(delay(&format!("entry {number}: delay_ms"), entry.delay_ms));
+        problems.extend(cycles(Some(number), entry.cycles));
+        problems.extend(delay(Some(number), entry.delay_ms));
     }
-    problems.extend(cycles("default_cycles", playlist.default_cycles));
-    problems.extend(delay("default_delay_ms", playlist.default_delay_ms));
+    problems.extend(cycles(None, playlist.default_cycles));
+    problems.extend(delay(None, playlist.default_delay_ms));
     problems
 }
 
@@ -93,8 +193,20 @@ mod tests {
             default_delay_ms: MAX_DELAY_MS + 1,
             default_cycles: 0,
         };
+        let found = problems(&playlist, |show| show == "rain");
         assert_eq!(
-            problems(&playlist, |show| show == "rain"),
+            found.iter().map(Code::of).collect::<Vec<_>>(),
+            [
+                Code::PlaylistUnknownShow,
+                Code::EntryCycles,
+                Code::EntryDelay,
+                Code::DefaultCycles,
+                Code::DefaultDelay
+            ]
+        );
+        assert_eq!(found[1].params()["entry"], "2");
+        assert_eq!(
+            found.iter().map(ToString::to_string).collect::<Vec<_>>(),
             [
                 "entry 2: there is no show named \"snow\"",
                 "entry 2: cycles is 0; it must be from 1 to 1000000",
@@ -109,7 +221,10 @@ mod tests {
             ..Playlist::default()
         };
         assert_eq!(
-            problems(&long, |_| true),
+            problems(&long, |_| true)
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>(),
             ["the playlist has 1001 entries; at most 1000 are allowed"]
         );
     }

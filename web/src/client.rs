@@ -156,7 +156,7 @@ pub fn failure_of(response: &Response) -> Failure {
         },
         400 | 422 => Failure::Rejected(api_error().unwrap_or_else(|| ApiError {
             error: response.body.trim().to_owned(),
-            details: Vec::new(),
+            ..ApiError::default()
         })),
         status => Failure::Unexpected {
             status,
@@ -584,7 +584,7 @@ mod tests {
             failure_of(&response(400, "bad name")),
             Failure::Rejected(ApiError {
                 error: "bad name".into(),
-                details: Vec::new()
+                ..ApiError::default()
             })
         );
         assert_eq!(

@@ -184,7 +184,7 @@ impl Ctx {
             ServerMessage::Feedback(frame) => self.feedback.update(|log| log.push(&frame)),
             ServerMessage::MboxReply(reply) => self.feedback.update(|log| log.push_mbox(&reply)),
             ServerMessage::SclReply(reply) => self.feedback.update(|log| log.push_scl(&reply)),
-            ServerMessage::Error { message } => self.bridge_error.set(Some(message)),
+            ServerMessage::Error { message, .. } => self.bridge_error.set(Some(message)),
             ServerMessage::EstopSent { unreached } if !unreached.is_empty() => {
                 self.bridge_error
                     .set(Some(format!("E-stop: {}", unreached.join("; "))));

@@ -8,9 +8,15 @@
 //! - [`TimingForm`]: the delay and cycles typed in the edit and settings forms;
 //! - [`begin_save`] / [`settle_save`]: an edit is applied to the playlist, stored on
 //!   the bridge, and the bridge's answer taken; a refusal leaves the edit to be rolled
-//!   back by fetching the bridge's playlist again.
+//!   back by fetching the bridge's playlist again;
+//! - what the matrix's state allows: the playlist is locked while it runs
+//!   ([`edit_lock`], as the bridge refuses such edits with `playlist_locked`), Start
+//!   says why it cannot be pressed ([`start_block`]), and Reset, Home and a Start
+//!   after an E-stop ask for a one-tap confirmation that says what will move
+//!   ([`Action`]); the E-stop never asks.
 
-use floatball_shared::api::{Playlist, PlaylistEntry};
+use floatball_shared::api::{ApiError, ClientMessage, PlayerState, Playlist, PlaylistEntry};
+use floatball_shared::codes::Code;
 
 use crate::client::Failure;
 use crate::i18n::Text;
@@ -183,6 +189,99 @@ pub fn settle_save(
     Ok(())
 }
 
+/// Whether `failure` is the bridge's `playlist_locked` refusal (409): the matrix
+/// started running meanwhile; the page then says so in its own words.
+pub fn is_locked_refusal(failure: &Failure) -> bool {
+    let code = Code::PlaylistLocked.as_str();
+    match failure {
+        Failure::Rejected(error) => error.code == code,
+        Failure::Unexpected { status: 409, body } => {
+            serde_json::from_str::<ApiError>(body).is_ok_and(|error| error.code == code)
+        }
+        _ => false,
+    }
+}
+
+/// Whether the matrix runs the playlist or moves its balls in `state`: a show waits,
+/// approaches, loads or plays, or the balls home. The bridge locks the playlist's
+/// entries then.
+pub fn is_running(state: Option<PlayerState>) -> bool {
+    matches!(
+        state,
+        Some(
+            PlayerState::Waiting
+                | PlayerState::Approaching
+                | PlayerState::Loading
+                | PlayerState::Playing
+                | PlayerState::Homing
+        )
+    )
+}
+
+/// Why the playlist's entries cannot be edited (add, move, delete, edit) in `state`,
+/// if they cannot: while the matrix runs. Checking entries stays possible.
+pub fn edit_lock(state: Option<PlayerState>) -> Option<Text> {
+    is_running(state).then_some(Text::PlaylistLocked)
+}
+
+/// Why Start cannot be pressed, if it cannot: no link to the bridge, the matrix runs,
+/// the playlist is empty, or a show cannot run (`allowed` is
+/// [`PlanVerdicts::allow_start`]'s answer).
+pub fn start_block(connected: bool, state: Option<PlayerState>, allowed: bool) -> Option<Text> {
+    if !connected {
+        Some(Text::StartNeedsConnection)
+    } else if is_running(state) {
+        Some(Text::StartWhileRunning)
+    } else if !allowed {
+        Some(Text::StartNeedsPlayableList)
+    } else {
+        None
+    }
+}
+
+/// A control button that moves the balls (the E-stop is not one: it never asks).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Action {
+    /// Play the playlist from its first entry.
+    Start,
+    /// Stop, home every ball, and play the playlist again.
+    Reset,
+    /// Stop, home every ball, and stay idle.
+    Home,
+}
+
+impl Action {
+    /// What the button sends.
+    pub fn message(self) -> ClientMessage {
+        match self {
+            Action::Start => ClientMessage::Start,
+            Action::Reset => ClientMessage::Reset,
+            Action::Home => ClientMessage::Home,
+        }
+    }
+
+    /// A word for tests and styling.
+    pub fn key(self) -> &'static str {
+        match self {
+            Action::Start => "start",
+            Action::Reset => "reset",
+            Action::Home => "home",
+        }
+    }
+
+    /// What the confirmation says will move, if this press needs one in `state`:
+    /// Reset and Home always; Start only after an E-stop or an error (the balls home
+    /// first, from wherever they stopped).
+    pub fn confirmation(self, state: Option<PlayerState>) -> Option<Text> {
+        match self {
+            Action::Reset => Some(Text::ConfirmReset),
+            Action::Home => Some(Text::ConfirmHome),
+            Action::Start => matches!(state, Some(PlayerState::Stopped | PlayerState::Error))
+                .then_some(Text::ConfirmStartAfterStop),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use floatball_shared::api::PlanReport;
@@ -261,6 +360,76 @@ mod tests {
         assert_eq!(Panel::Edit.pressed(Panel::Edit, 1), Ok(Panel::None));
         assert_eq!(needs_checks(0), Err(Text::CheckFirst));
         assert_eq!(needs_checks(1), Ok(()));
+    }
+
+    #[test]
+    fn the_playlist_is_locked_and_start_blocked_while_the_matrix_runs() {
+        let running = [
+            PlayerState::Waiting,
+            PlayerState::Approaching,
+            PlayerState::Loading,
+            PlayerState::Playing,
+            PlayerState::Homing,
+        ];
+        for state in running {
+            assert_eq!(edit_lock(Some(state)), Some(Text::PlaylistLocked));
+            assert_eq!(
+                start_block(true, Some(state), true),
+                Some(Text::StartWhileRunning)
+            );
+        }
+        for state in [PlayerState::Idle, PlayerState::Stopped, PlayerState::Error] {
+            assert_eq!(edit_lock(Some(state)), None, "{state:?}");
+            assert_eq!(start_block(true, Some(state), true), None, "{state:?}");
+        }
+        assert_eq!(edit_lock(None), None);
+        assert_eq!(
+            start_block(false, Some(PlayerState::Idle), true),
+            Some(Text::StartNeedsConnection)
+        );
+        assert_eq!(
+            start_block(true, Some(PlayerState::Idle), false),
+            Some(Text::StartNeedsPlayableList)
+        );
+    }
+
+    #[test]
+    fn the_bridges_lock_refusal_is_recognised() {
+        let body = serde_json::to_string(&ApiError::coded(
+            Code::PlaylistLocked,
+            "the playlist cannot change while the matrix is playing",
+        ))
+        .unwrap();
+        assert!(is_locked_refusal(&Failure::Unexpected {
+            status: 409,
+            body: body.clone()
+        }));
+        let error: ApiError = serde_json::from_str(&body).unwrap();
+        assert!(is_locked_refusal(&Failure::Rejected(error)));
+        assert!(!is_locked_refusal(&Failure::Unexpected {
+            status: 409,
+            body: r#"{"error":"\"a\" is in the playlist"}"#.into()
+        }));
+        assert!(!is_locked_refusal(&Failure::NotFound));
+    }
+
+    #[test]
+    fn reset_and_home_always_ask_and_start_only_after_a_stop() {
+        for state in [None, Some(PlayerState::Idle), Some(PlayerState::Playing)] {
+            assert_eq!(Action::Start.confirmation(state), None);
+            assert_eq!(Action::Reset.confirmation(state), Some(Text::ConfirmReset));
+            assert_eq!(Action::Home.confirmation(state), Some(Text::ConfirmHome));
+        }
+        for state in [PlayerState::Stopped, PlayerState::Error] {
+            assert_eq!(
+                Action::Start.confirmation(Some(state)),
+                Some(Text::ConfirmStartAfterStop)
+            );
+        }
+        assert_eq!(Action::Home.message(), ClientMessage::Home);
+        assert_eq!(Action::Reset.message(), ClientMessage::Reset);
+        assert_eq!(Action::Start.message(), ClientMessage::Start);
+        assert_eq!(Action::Home.key(), "home");
     }
 
     #[test]

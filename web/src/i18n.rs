@@ -377,6 +377,30 @@ texts! {
     StatusBarHint => "点按打开控制页", "Tap to open Control";
     /// Reopens the Preview's file list once a show is chosen.
     ChooseAnotherShow => "选择其他动作文件", "Choose another show";
+    // ---- controls ----
+    /// Why the playlist's icons are disabled while the matrix runs.
+    PlaylistLocked => "演出运行或浮球移动时不能修改配置（勾选仍可用）。按急停或等待结束后再编辑。", "The playlist cannot change while a show plays or balls move (checking entries still works). Press E-stop or wait until it is over to edit it.";
+    /// Why Start is disabled: no link to the bridge.
+    StartNeedsConnection => "未连接控制器，不能开始", "Start needs the connection to the controller";
+    /// Why Start is disabled: the matrix runs.
+    StartWhileRunning => "演出正在运行或浮球正在移动：结束或急停后才能再次开始", "A show is playing or balls are moving: Start works again once it is over or after E-stop";
+    /// Why Start is disabled: nothing to play, or a show cannot run.
+    StartNeedsPlayableList => "配置为空，或有动作无法运行（见带宽检查）", "The playlist is empty or a show cannot run (see the bandwidth check)";
+    /// The Home button: every ball home, then idle.
+    Home => "回原点", "Home";
+    /// Reset's confirmation: what will move.
+    ConfirmReset => "确认：所有浮球回原点，然后从头播放配置", "Confirm: every ball moves home, then the playlist starts again";
+    /// Home's confirmation: what will move.
+    ConfirmHome => "确认：所有浮球回原点并停在那里", "Confirm: every ball moves home and stays there";
+    /// Start's confirmation after an E-stop or an error: what will move.
+    ConfirmStartAfterStop => "确认：所有浮球先回原点，再移到第一个动作的起点并开始播放", "Confirm: every ball moves home, then to the first show's start, and the playlist plays";
+    /// The status while the balls home, before its percentage.
+    Homing => "回原点中…", "Homing…";
+    /// A gateway's line while a show streams: the fewest rows its units had buffered
+    /// ahead (before the number).
+    BufferAtLeast => "控制器缓冲至少", "buffered ahead: at least";
+    /// … after the number.
+    BufferRows => "行", "rows";
 }
 
 impl Lang {

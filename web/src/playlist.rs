@@ -7,7 +7,7 @@
 //! Also here: reading the delay and cycles typed in the edit and settings forms, and
 //! the verdict of the bandwidth reports before Start.
 
-use floatball_shared::api::{PlanReport, Playlist, PlaylistEntry};
+use floatball_shared::api::{PlanReport, Playlist, PlaylistEntry, Status};
 use floatball_shared::playlist::{cycles_in_range, delay_in_range};
 
 /// A playlist being edited, with one checkbox per entry.
@@ -146,6 +146,15 @@ impl PlaylistEditor {
         self.playlist.default_delay_ms = default_delay_ms;
         self.playlist.default_cycles = default_cycles;
         self.playlist.loop_playlist = looped;
+    }
+
+    /// The entry the status says plays, for the highlight: its index, and only when
+    /// the entry at that index here is the show the status names (a playlist this
+    /// page has not fetched yet never gets the wrong show marked).
+    pub fn playing_entry(&self, status: &Status) -> Option<usize> {
+        let index = status.entry?;
+        let show = status.show.as_deref()?;
+        (self.playlist.entries.get(index)?.show == show).then_some(index)
     }
 
     /// Each show of the playlist once, in order of first appearance.
@@ -363,6 +372,26 @@ mod tests {
         assert!(!editor.is_checked(1), "changed under the operator");
         assert!(!editor.is_checked(3));
         assert_eq!(editor.entries().len(), 4);
+    }
+
+    #[test]
+    fn the_highlight_marks_only_the_entry_that_plays() {
+        let editor = editor(&["a", "b", "a"]);
+        let status = |entry, show: &str| Status {
+            entry,
+            show: Some(show.into()),
+            ..Status::default()
+        };
+        assert_eq!(editor.playing_entry(&status(Some(2), "a")), Some(2));
+        assert_eq!(editor.playing_entry(&status(Some(1), "b")), Some(1));
+        assert_eq!(
+            editor.playing_entry(&status(Some(1), "a")),
+            None,
+            "the list here differs from the one that plays"
+        );
+        assert_eq!(editor.playing_entry(&status(Some(3), "a")), None);
+        assert_eq!(editor.playing_entry(&status(None, "a")), None);
+        assert_eq!(editor.playing_entry(&Status::default()), None);
     }
 
     #[test]

@@ -1,22 +1,28 @@
 //! Reading the bridge's `status` message for the Control page: the state's stable
-//! key (for `data-state` and styling), the show time, the progress bar and each
-//! gateway's line.
+//! key (for `data-state` and styling), the show time, the progress bar (homing shows
+//! its own, never the previous show's time) and each gateway's line (the buffer's
+//! level in words, only while a show streams).
 
 use floatball_shared::api::{GatewayKind, GatewayStatus, PlayerState, Status};
 
 use crate::files::format_duration_ms;
 use crate::i18n::{Lang, Text};
 
-/// One gateway's line in the status: a UIM2503 gateway's port, link, bytes/s and
-/// lowest FIFO water level; an MBOX box's address, link, packets/s, late frames and
-/// missed replies; then the error, if any.
-pub fn gateway_text(lang: Lang, gateway: &GatewayStatus) -> String {
+/// One gateway's line in the status: a UIM2503 gateway's port, link, bytes/s and,
+/// while a show `streaming`, how many rows its units had buffered ahead at the least
+/// (the lowest FIFO water level); an MBOX box's address, link, packets/s, late frames
+/// and missed replies; then the error, if any.
+pub fn gateway_text(lang: Lang, gateway: &GatewayStatus, streaming: bool) -> String {
     let mut text = format!("{}: {}", gateway.port, lang.link_state(gateway.link));
     match gateway.kind {
         GatewayKind::Uim2503 => {
             text.push_str(&format!(" · {:.0} B/s", gateway.bytes_per_s));
-            if let Some(level) = gateway.lowest_water_level {
-                text.push_str(&format!(" · FIFO ≥ {level}"));
+            if let Some(level) = gateway.lowest_water_level.filter(|_| streaming) {
+                text.push_str(&format!(
+                    " · {} {level} {}",
+                    lang.t(Text::BufferAtLeast),
+                    lang.t(Text::BufferRows)
+                ));
             }
         }
         GatewayKind::Mbox => {
@@ -71,9 +77,27 @@ pub fn state_key(state: PlayerState) -> &'static str {
     }
 }
 
-/// Whether the progress bar means something in this state (loading or playback).
+/// Whether the progress bar means something in this state (loading, playback, or
+/// homing: its own progress).
 pub fn shows_progress(state: PlayerState) -> bool {
+    matches!(
+        state,
+        PlayerState::Loading | PlayerState::Playing | PlayerState::Homing
+    )
+}
+
+/// Whether rows stream to the units in this state (the buffer's level means
+/// something): loading and playback.
+pub fn streams(state: PlayerState) -> bool {
     matches!(state, PlayerState::Loading | PlayerState::Playing)
+}
+
+/// `Homing… 42 %` while the balls home (their own progress), else `None`.
+pub fn homing_text(lang: Lang, status: &Status) -> Option<String> {
+    (status.state == PlayerState::Homing).then(|| {
+        let percent = (progress(status) * 100.0).round();
+        format!("{} {percent:.0} %", lang.t(Text::Homing))
+    })
 }
 
 /// The progress of the current phase, clamped to 0.0–1.0 (0 for nonsense).
@@ -85,9 +109,10 @@ pub fn progress(status: &Status) -> f64 {
     }
 }
 
-/// `show time / length`, e.g. `0:12.5 / 1:00.0`; empty when no show runs.
+/// `show time / length`, e.g. `0:12.5 / 1:00.0`; empty when no show runs (also
+/// while homing, whatever an older bridge still sends).
 pub fn time_text(status: &Status) -> String {
-    if status.show.is_none() {
+    if status.show.is_none() || status.state == PlayerState::Homing {
         return String::new();
     }
     format!(
@@ -117,7 +142,10 @@ mod tests {
             assert_eq!(json, state_key(state));
         }
         assert!(shows_progress(PlayerState::Loading));
+        assert!(shows_progress(PlayerState::Homing));
         assert!(!shows_progress(PlayerState::Stopped));
+        assert!(streams(PlayerState::Playing) && streams(PlayerState::Loading));
+        assert!(!streams(PlayerState::Homing) && !streams(PlayerState::Idle));
     }
 
     #[test]
@@ -135,8 +163,14 @@ mod tests {
             drives: Vec::new(),
         };
         assert_eq!(
-            gateway_text(Lang::En, &uim),
-            "/dev/ttyUSB0: up · 1234 B/s · FIFO ≥ 12"
+            gateway_text(Lang::En, &uim, true),
+            "/dev/ttyUSB0: up · 1234 B/s · buffered ahead: at least 12 rows"
+        );
+        assert!(gateway_text(Lang::Zh, &uim, true).contains("控制器缓冲至少 12 行"));
+        assert_eq!(
+            gateway_text(Lang::En, &uim, false),
+            "/dev/ttyUSB0: up · 1234 B/s",
+            "the buffer only while a show streams"
         );
         let mbox = GatewayStatus {
             kind: GatewayKind::Mbox,
@@ -151,13 +185,13 @@ mod tests {
             drives: Vec::new(),
         };
         assert_eq!(
-            gateway_text(Lang::En, &mbox),
+            gateway_text(Lang::En, &mbox, true),
             format!(
                 "192.168.15.201:7408: {} · 52 packets/s · late frames 1 · missed replies 3 · no answer",
                 Lang::En.link_state(floatball_shared::api::LinkState::Down)
             )
         );
-        assert!(gateway_text(Lang::Zh, &mbox).contains("迟发帧 1 · 未应答 3"));
+        assert!(gateway_text(Lang::Zh, &mbox, true).contains("迟发帧 1 · 未应答 3"));
         let drive = |alarm_code, missed_replies| floatball_shared::api::SclDriveStatus {
             address: "1".into(),
             position_counts: Some(0),
@@ -175,13 +209,13 @@ mod tests {
             ..mbox
         };
         assert_eq!(
-            gateway_text(Lang::En, &scl),
+            gateway_text(Lang::En, &scl, true),
             format!(
                 "/dev/ttyUSB0: {} · SCL × 2 · alarms 1 · missed replies 2 · no answer",
                 Lang::En.link_state(floatball_shared::api::LinkState::Up)
             )
         );
-        assert!(gateway_text(Lang::Zh, &scl).contains("报警 1 · 未应答 2"));
+        assert!(gateway_text(Lang::Zh, &scl, true).contains("报警 1 · 未应答 2"));
     }
 
     #[test]
@@ -198,5 +232,20 @@ mod tests {
         assert_eq!(progress(&status), 1.0);
         status.progress = f64::NAN;
         assert_eq!(progress(&status), 0.0);
+        assert_eq!(homing_text(Lang::En, &status), None);
+
+        // Homing: its own progress, never a show's time (even from an older bridge
+        // that still names the last show).
+        status.state = PlayerState::Homing;
+        status.progress = 0.416;
+        assert_eq!(time_text(&status), "");
+        assert_eq!(
+            homing_text(Lang::En, &status).as_deref(),
+            Some("Homing… 42 %")
+        );
+        assert_eq!(
+            homing_text(Lang::Zh, &status).as_deref(),
+            Some("回原点中… 42 %")
+        );
     }
 }

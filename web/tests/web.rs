@@ -946,6 +946,13 @@ async fn start_and_reset_ignore_the_checkboxes_and_status_is_live() {
     tick().await;
     assert_eq!(
         *socket.sent.borrow(),
+        [ClientMessage::Start],
+        "Reset asks first"
+    );
+    element(&container, "confirm-yes").click();
+    tick().await;
+    assert_eq!(
+        *socket.sent.borrow(),
         [ClientMessage::Start, ClientMessage::Reset]
     );
 
@@ -969,10 +976,18 @@ async fn start_and_reset_ignore_the_checkboxes_and_status_is_live() {
     assert_eq!(text(&container, "status-time"), "0:01.5 / 0:02.5");
     let bar =
         element(&container, "status-progress").unchecked_into::<web_sys::HtmlProgressElement>();
-    assert!((bar.value() - 0.6).abs() < 1e-9);
+    assert!(
+        (bar.value() - 0.6).abs() < 1e-9,
+        "{} of {} {}",
+        bar.value(),
+        bar.max(),
+        bar.outer_html()
+    );
 
     ctx.receive(ServerMessage::Error {
         message: "change the password first".into(),
+        code: String::new(),
+        params: Default::default(),
     });
     tick().await;
     assert!(text(&container, "bridge-error").contains("change the password first"));
@@ -987,6 +1002,248 @@ async fn start_and_reset_ignore_the_checkboxes_and_status_is_live() {
         "no stale status"
     );
     assert!(disabled(&container, "start"));
+}
+
+fn uim_gateway(level: u16) -> GatewayStatus {
+    GatewayStatus {
+        kind: GatewayKind::Uim2503,
+        port: "sim".into(),
+        link: LinkState::Up,
+        bytes_per_s: 100.0,
+        lowest_water_level: Some(level),
+        error: None,
+        packets_per_s: None,
+        late_frames: None,
+        missed_replies: None,
+        drives: Vec::new(),
+    }
+}
+
+fn is_playing(entry: &web_sys::HtmlElement) -> bool {
+    entry.class_list().contains("playing")
+}
+
+#[wasm_bindgen_test]
+async fn while_a_show_plays_the_playlist_is_locked_and_start_says_why() {
+    let bridge = playlist_bridge();
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-locked").await;
+    let icons = ["add", "move-up", "move-down", "delete", "edit"];
+    assert!(icons.iter().all(|icon| !disabled(&container, icon)));
+    assert!(all(&container, "playlist-locked").is_empty());
+    element(&container, "add").click();
+    tick().await;
+    assert_eq!(all(&container, "add-panel").len(), 1);
+
+    ctx.receive(ServerMessage::Status(Status {
+        state: PlayerState::Playing,
+        entry: Some(1),
+        show: Some("b".into()),
+        gateways: vec![uim_gateway(12)],
+        ..Status::default()
+    }));
+    tick().await;
+    for icon in icons {
+        assert!(disabled(&container, icon), "{icon}");
+    }
+    assert!(
+        all(&container, "add-panel").is_empty(),
+        "the open panel closed"
+    );
+    assert!(text(&container, "playlist-locked").contains("cannot change while a show plays"));
+    assert!(disabled(&container, "start"));
+    assert!(text(&container, "start-reason").starts_with("A show is playing"));
+    let entries = all(&container, "entry");
+    assert_eq!(
+        entries.iter().map(is_playing).collect::<Vec<_>>(),
+        [false, true, false]
+    );
+    assert!(
+        text(&container, "gateway").contains("buffered ahead: at least 12 rows"),
+        "{}",
+        text(&container, "gateway")
+    );
+
+    // A status naming another show at that place marks nothing.
+    ctx.receive(ServerMessage::Status(Status {
+        state: PlayerState::Playing,
+        entry: Some(1),
+        show: Some("c".into()),
+        ..Status::default()
+    }));
+    tick().await;
+    assert!(
+        all(&container, "entry")
+            .iter()
+            .all(|entry| !is_playing(entry))
+    );
+
+    // In Chinese too.
+    ctx.lang.set(Lang::Zh);
+    tick().await;
+    assert!(text(&container, "start-reason").contains("演出正在运行"));
+    assert!(text(&container, "playlist-locked").contains("不能修改配置"));
+    ctx.lang.set(Lang::En);
+
+    ctx.receive(ServerMessage::Status(Status {
+        gateways: vec![uim_gateway(12)],
+        ..Status::default()
+    }));
+    tick().await;
+    assert!(icons.iter().all(|icon| !disabled(&container, icon)));
+    assert!(all(&container, "playlist-locked").is_empty());
+    assert!(!disabled(&container, "start"));
+    assert!(all(&container, "start-reason").is_empty());
+    assert!(
+        all(&container, "entry")
+            .iter()
+            .all(|entry| !is_playing(entry))
+    );
+    assert!(
+        !text(&container, "gateway").contains("buffered"),
+        "the buffer only while a show streams"
+    );
+    assert!(socket.sent.borrow().is_empty());
+    assert!(bridge.requests_to(Method::Put, "/api/playlist").is_empty());
+}
+
+#[wasm_bindgen_test]
+async fn an_edit_the_bridge_refuses_as_locked_says_so_in_the_chosen_language() {
+    let bridge = FakeBridge::new(|request| match (request.method, request.url.as_str()) {
+        (Method::Put, "/api/playlist") => response(
+            409,
+            r#"{"error":"the playlist cannot change while the matrix is playing; press E-stop or wait until it is idle (loop and defaults may change)","code":"playlist_locked"}"#,
+        ),
+        _ => response(404, ""),
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-locked-refusal").await;
+    ctx.lang.set(Lang::Zh);
+    check_entry(&container, 0);
+    element(&container, "delete").click();
+    until("the refusal shows", || {
+        !all(&container, "control-note").is_empty()
+    })
+    .await;
+    assert!(
+        text(&container, "control-note").contains("不能修改配置"),
+        "{}",
+        text(&container, "control-note")
+    );
+    ctx.lang.set(Lang::En);
+}
+
+#[wasm_bindgen_test]
+async fn reset_home_and_start_after_an_estop_ask_first_and_homing_shows_its_progress() {
+    let bridge = playlist_bridge();
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-confirm").await;
+    ctx.receive(ServerMessage::Status(Status {
+        state: PlayerState::Playing,
+        entry: Some(0),
+        show: Some("a".into()),
+        ..Status::default()
+    }));
+    tick().await;
+
+    // Reset: the confirmation says what moves; Cancel sends nothing.
+    element(&container, "reset").click();
+    tick().await;
+    assert_eq!(attribute(&container, "confirm", "data-action"), "reset");
+    assert_eq!(
+        text(&container, "confirm-yes"),
+        "Confirm: every ball moves home, then the playlist starts again"
+    );
+    element(&container, "confirm-cancel").click();
+    tick().await;
+    assert!(all(&container, "confirm").is_empty());
+    assert!(socket.sent.borrow().is_empty());
+    element(&container, "reset").click();
+    tick().await;
+    element(&container, "confirm-yes").click();
+    tick().await;
+    assert_eq!(*socket.sent.borrow(), [ClientMessage::Reset]);
+    assert!(all(&container, "confirm").is_empty());
+
+    // The E-stop never asks; its badge clears once the matrix leaves `stopped`.
+    element(&container, "estop").click();
+    tick().await;
+    assert_eq!(
+        *socket.sent.borrow(),
+        [ClientMessage::Reset, ClientMessage::Estop]
+    );
+    assert!(all(&container, "confirm").is_empty());
+    assert_eq!(text(&container, "estop-ack"), "E-stop sent");
+    ctx.receive(ServerMessage::Status(Status {
+        state: PlayerState::Stopped,
+        ..Status::default()
+    }));
+    tick().await;
+    assert_eq!(text(&container, "estop-ack"), "Stopped");
+
+    // Start after an E-stop: the balls home first, and the confirmation says so.
+    element(&container, "start").click();
+    tick().await;
+    assert_eq!(socket.sent.borrow().len(), 2);
+    assert_eq!(
+        text(&container, "confirm-yes"),
+        "Confirm: every ball moves home, then to the first show's start, and the playlist plays"
+    );
+    element(&container, "confirm-cancel").click();
+    tick().await;
+    // Asked after a stop, a Start confirmation goes once the matrix is idle again.
+    element(&container, "start").click();
+    tick().await;
+    ctx.receive(ServerMessage::Status(Status::default()));
+    tick().await;
+    assert!(all(&container, "confirm").is_empty());
+    ctx.receive(ServerMessage::Status(Status {
+        state: PlayerState::Stopped,
+        ..Status::default()
+    }));
+    tick().await;
+    assert!(
+        all(&container, "confirm").is_empty(),
+        "it does not come back"
+    );
+    assert_eq!(socket.sent.borrow().len(), 2);
+
+    // Home: every ball home, then idle.
+    element(&container, "home").click();
+    tick().await;
+    assert_eq!(
+        text(&container, "confirm-yes"),
+        "Confirm: every ball moves home and stays there"
+    );
+    element(&container, "confirm-yes").click();
+    tick().await;
+    assert_eq!(socket.sent.borrow().last(), Some(&ClientMessage::Home));
+
+    ctx.receive(ServerMessage::Status(Status {
+        state: PlayerState::Homing,
+        progress: 0.5,
+        ..Status::default()
+    }));
+    tick().await;
+    assert_eq!(
+        text(&container, "status-time"),
+        "Homing… 50 %",
+        "not a show's time"
+    );
+    let bar =
+        element(&container, "status-progress").unchecked_into::<web_sys::HtmlProgressElement>();
+    assert!((bar.value() - 0.5).abs() < 1e-9);
+    assert_eq!(text(&container, "estop-ack"), "", "the badge cleared");
+    assert_eq!(attribute(&container, "estop", "data-ack"), "ready");
+
+    // Idle again: Start plays without asking.
+    ctx.receive(ServerMessage::Status(Status::default()));
+    tick().await;
+    assert_eq!(text(&container, "status-time"), "");
+    element(&container, "start").click();
+    tick().await;
+    assert_eq!(socket.sent.borrow().last(), Some(&ClientMessage::Start));
+    assert!(all(&container, "confirm").is_empty());
 }
 
 #[wasm_bindgen_test]

@@ -11,7 +11,9 @@
 //! - `GET /api/shows/{name}`: 200 the stored native JSON; 404.
 //! - `DELETE /api/shows/{name}`: 204; 404; 409 while the playlist plays it.
 //! - `GET /api/playlist`: 200. `PUT /api/playlist`: 200 with the stored playlist; 400
-//!   not a playlist; 422 every problem (unknown shows, zero cycles…).
+//!   not a playlist; 409 `playlist_locked` when it changes the entries while a show
+//!   plays or the balls move ([`playlist::locked`]; loop and defaults may change);
+//!   422 every problem (unknown shows, zero cycles…).
 //!
 //! An upload's format is taken from its `Content-Type` here (or, without one, from its
 //! first character); the show is then imported and checked against this installation
@@ -27,6 +29,7 @@ use axum::http::request::Parts;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{Playlist, ShowSummary};
+use floatball_shared::codes::Code;
 use floatball_shared::show::{self, ShowFormat, UploadLimits};
 
 use super::session::{Operator, Session};
@@ -34,7 +37,7 @@ use super::{Failure, blocking, json_body};
 use crate::config::Config;
 use crate::playlist;
 use crate::state::AppState;
-use crate::store::{Refused, ShowName, StoreError};
+use crate::store::{NameError, Refused, ShowName, StoreError};
 
 /// The `{name}` of a show route, checked.
 #[derive(Debug, Clone)]
@@ -47,15 +50,25 @@ impl FromRequestParts<AppState> for NameParam {
         let Path(name) = Path::<String>::from_request_parts(parts, state)
             .await
             .map_err(|rejection| {
-                Failure::new(
+                Failure::coded(
                     StatusCode::BAD_REQUEST,
+                    Code::BadShowName,
                     format!("bad show name: {rejection}"),
                 )
+                .param("reason", rejection)
             })?;
-        ShowName::parse(&name)
-            .map(Self)
-            .map_err(|error| Failure::new(StatusCode::BAD_REQUEST, error.to_string()))
+        ShowName::parse(&name).map(Self).map_err(bad_name)
     }
+}
+
+/// 400 for a show name that is not allowed.
+fn bad_name(error: NameError) -> Failure {
+    Failure::coded(
+        StatusCode::BAD_REQUEST,
+        Code::BadShowName,
+        error.to_string(),
+    )
+    .param("reason", error)
 }
 
 /// 422 for an invalid show or playlist, 413 for a show too large once converted.
@@ -65,16 +78,27 @@ fn unprocessable(refused: Refused) -> Failure {
     } else {
         StatusCode::UNPROCESSABLE_ENTITY
     };
-    Failure::new(status, refused.error).with_details(refused.details)
+    let mut failure = Failure::coded(status, refused.code, refused.error);
+    failure.body.params = refused.params;
+    failure.body.details = refused.details;
+    failure.body.problems = refused.problems;
+    failure
 }
 
 pub(crate) fn store_failure(error: StoreError) -> Failure {
-    match error {
-        StoreError::NotFound(_) => Failure::new(StatusCode::NOT_FOUND, error.to_string()),
-        StoreError::Unreadable { .. } => {
-            Failure::new(StatusCode::UNPROCESSABLE_ENTITY, error.to_string())
+    match &error {
+        StoreError::NotFound(name) => {
+            Failure::coded(StatusCode::NOT_FOUND, Code::ShowNotFound, error.to_string())
+                .param("name", name)
         }
-        other => Failure::internal("the show store failed", &other),
+        StoreError::Unreadable { name, .. } => Failure::coded(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            Code::ShowUnreadable,
+            error.to_string(),
+        )
+        .param("name", name)
+        .param("reason", &error),
+        other => Failure::internal("the show store failed", other),
     }
 }
 
@@ -151,21 +175,23 @@ pub async fn put_show(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Response, Failure> {
-    let name = ShowName::parse_new(name.as_str())
-        .map_err(|error| Failure::new(StatusCode::BAD_REQUEST, error.to_string()))?;
+    let name = ShowName::parse_new(name.as_str()).map_err(bad_name)?;
     let body = body.map_err(|rejection| {
         let status = rejection.status();
         if status == StatusCode::PAYLOAD_TOO_LARGE {
-            Failure::new(
+            Failure::coded(
                 status,
+                Code::ShowTooLarge,
                 format!(
                     "the show file is larger than the limit of {} bytes ([uploads] max_bytes)",
                     state.config().uploads.max_bytes
                 ),
             )
+            .param("limit_bytes", state.config().uploads.max_bytes)
         } else {
-            Failure::new(
+            Failure::coded(
                 status,
+                Code::UploadIncomplete,
                 format!("the upload was not received whole: {rejection}"),
             )
         }
@@ -201,10 +227,12 @@ pub async fn delete_show(
 ) -> Result<StatusCode, Failure> {
     let _catalogue = state.lock_catalogue().await;
     if state.playlist().uses(name.as_str()) {
-        return Err(Failure::new(
+        return Err(Failure::coded(
             StatusCode::CONFLICT,
+            Code::ShowInPlaylist,
             format!("\"{name}\" is in the playlist; remove it from the playlist first"),
-        ));
+        )
+        .param("name", &name));
     }
     let deleting = state.clone();
     blocking(move || deleting.shows().delete(&name))
@@ -218,6 +246,22 @@ pub async fn get_playlist(State(state): State<AppState>, _session: Session) -> J
     Json(state.playlist().get())
 }
 
+/// 409 `playlist_locked`: the entries cannot change while the matrix is in `running`.
+fn playlist_locked(running: floatball_shared::api::PlayerState) -> Failure {
+    let state = serde_json::to_value(running)
+        .ok()
+        .and_then(|value| value.as_str().map(str::to_owned))
+        .unwrap_or_default();
+    Failure::coded(
+        StatusCode::CONFLICT,
+        Code::PlaylistLocked,
+        format!(
+            "the playlist cannot change while the matrix is {state}; \
+             press E-stop or wait until it is idle (loop and defaults may change)"
+        ),
+    )
+}
+
 /// `PUT /api/playlist`.
 pub async fn put_playlist(
     State(state): State<AppState>,
@@ -226,6 +270,10 @@ pub async fn put_playlist(
 ) -> Result<Json<Playlist>, Failure> {
     let new: Playlist = json_body(&body, "playlist")?;
     let _catalogue = state.lock_catalogue().await;
+    let running = state.subscribe_status().borrow().state;
+    if playlist::locked(running) && playlist::changes_what_plays(&state.playlist().get(), &new) {
+        return Err(playlist_locked(running));
+    }
     playlist::check(&new, |show| state.shows().contains(show)).map_err(unprocessable)?;
     let storing = state.clone();
     let stored = new.clone();

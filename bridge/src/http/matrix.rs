@@ -156,8 +156,9 @@ pub async fn mbox_timing(
         .boxes()
         .map(|boxes| Json(boxes.timing()))
         .ok_or_else(|| {
-            Failure::new(
+            Failure::coded(
                 axum::http::StatusCode::NOT_FOUND,
+                floatball_shared::codes::Code::NoMboxBoxes,
                 "this installation has no MBOX boxes",
             )
         })

@@ -24,7 +24,8 @@ use axum::http::{HeaderValue, StatusCode, header};
 use axum::middleware::map_response;
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
-use floatball_shared::api::ApiError;
+use floatball_shared::api::{ApiError, Problem};
+use floatball_shared::codes::{Code, Coded};
 use serde::de::DeserializeOwned;
 
 use crate::state::AppState;
@@ -85,27 +86,35 @@ pub async fn json_errors(response: Response) -> Response {
         .await
         .map(|bytes| String::from_utf8_lossy(&bytes).trim().to_owned())
         .unwrap_or_default();
-    let error = match status {
-        StatusCode::PAYLOAD_TOO_LARGE => format!(
-            "the request body is too large: this call accepts at most {MAX_JSON_BYTES} bytes"
+    let failure = match status {
+        StatusCode::PAYLOAD_TOO_LARGE => Failure::coded(
+            status,
+            Code::BodyTooLarge,
+            format!(
+                "the request body is too large: this call accepts at most {MAX_JSON_BYTES} bytes"
+            ),
+        )
+        .param("limit_bytes", MAX_JSON_BYTES),
+        StatusCode::UNSUPPORTED_MEDIA_TYPE => Failure::coded(
+            status,
+            Code::UnsupportedMediaType,
+            "the request's Content-Type is not one this call accepts",
         ),
-        StatusCode::UNSUPPORTED_MEDIA_TYPE => {
-            "the request's Content-Type is not one this call accepts".to_owned()
-        }
-        _ if !text.is_empty() => text.clone(),
-        _ => format!(
-            "the request was refused ({})",
-            status.canonical_reason().unwrap_or("error")
+        _ if !text.is_empty() => Failure::refused(status, text.clone()),
+        _ => Failure::refused(
+            status,
+            format!(
+                "the request was refused ({})",
+                status.canonical_reason().unwrap_or("error")
+            ),
         ),
     };
-    let details = if text.is_empty() || text == error {
+    let details = if text.is_empty() || text == failure.body.error {
         Vec::new()
     } else {
         vec![text]
     };
-    let mut rewritten = Failure::new(status, error)
-        .with_details(details)
-        .into_response();
+    let mut rewritten = failure.with_details(details).into_response();
     let own = rewritten.headers().clone();
     for (name, value) in &parts.headers {
         if name != header::CONTENT_TYPE && name != header::CONTENT_LENGTH && !own.contains_key(name)
@@ -117,12 +126,17 @@ pub async fn json_errors(response: Response) -> Response {
 }
 
 async fn not_found() -> Failure {
-    Failure::new(StatusCode::NOT_FOUND, "there is no such API call")
+    Failure::coded(
+        StatusCode::NOT_FOUND,
+        Code::NotFound,
+        "there is no such API call",
+    )
 }
 
 async fn method_not_allowed() -> Failure {
-    Failure::new(
+    Failure::coded(
         StatusCode::METHOD_NOT_ALLOWED,
+        Code::MethodNotAllowed,
         "this API call does not take that method",
     )
 }
@@ -140,33 +154,67 @@ pub struct Failure {
 }
 
 impl Failure {
-    /// An answer with `status` and one sentence.
-    pub fn new(status: StatusCode, error: impl Into<String>) -> Self {
+    /// An answer with `status`, a stable `code` and its English sentence; add the
+    /// code's parameters with [`Failure::param`].
+    pub fn coded(status: StatusCode, code: Code, error: impl Into<String>) -> Self {
         Self {
             status,
-            body: ApiError {
-                error: error.into(),
-                details: Vec::new(),
-            },
+            body: ApiError::coded(code, error),
             retry_after_s: None,
         }
     }
 
-    /// The same answer listing `details`.
+    /// An answer for a typed error: its code, parameters and English text.
+    pub fn of(status: StatusCode, error: &(impl Coded + std::fmt::Display)) -> Self {
+        let mut failure = Self::coded(status, error.code(), error.to_string());
+        failure.body.params = error.params();
+        failure
+    }
+
+    /// A refusal of the framework's without a code of its own: code
+    /// `request_refused`, parameter `status`.
+    fn refused(status: StatusCode, error: impl Into<String>) -> Self {
+        Self::coded(status, Code::RequestRefused, error).param("status", status.as_u16())
+    }
+
+    /// The same answer with the parameter `name` = `value`.
+    #[must_use]
+    pub fn param(mut self, name: &str, value: impl std::fmt::Display) -> Self {
+        self.body.params.insert(name.to_owned(), value.to_string());
+        self
+    }
+
+    /// The same answer listing `details` (English).
     #[must_use]
     pub fn with_details(mut self, details: Vec<String>) -> Self {
         self.body.details = details;
         self
     }
 
+    /// The same answer listing every problem of `problems`: their English texts in
+    /// `details`, their codes and parameters in `problems`.
+    #[must_use]
+    pub fn with_problems<'a, E: Coded + std::fmt::Display + 'a>(
+        mut self,
+        problems: impl IntoIterator<Item = &'a E>,
+    ) -> Self {
+        for problem in problems {
+            self.body.details.push(problem.to_string());
+            self.body.problems.push(Problem::of(problem));
+        }
+        self
+    }
+
     /// A 500 for something that should not fail: logged here, reported in general
-    /// words.
+    /// words (code `internal`, parameter `what`).
     pub fn internal(what: &str, error: &dyn std::fmt::Display) -> Self {
         tracing::error!("{what}: {error}");
-        Self::new(
+        Self::coded(
             StatusCode::INTERNAL_SERVER_ERROR,
+            Code::Internal,
             format!("{what}: {error}"),
         )
+        .param("what", what)
     }
 }
 
@@ -191,10 +239,13 @@ impl IntoResponse for Failure {
 /// what serde found.
 fn json_body<T: DeserializeOwned>(body: &[u8], what: &str) -> Result<T, Failure> {
     serde_json::from_slice(body).map_err(|error| {
-        Failure::new(
+        Failure::coded(
             StatusCode::BAD_REQUEST,
+            Code::BadJson,
             format!("the body is not a valid {what}: {error}"),
         )
+        .param("what", what)
+        .param("reason", error)
     })
 }
 

@@ -16,6 +16,7 @@ use axum::extract::{RawQuery, State};
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::QProgramListing;
+use floatball_shared::codes::Code;
 use floatball_shared::plan::Installation;
 use floatball_shared::scl::qprogram::{QProgramConfig, QProgramError, compile};
 use floatball_shared::scl::{InputCondition, IoPoint};
@@ -83,7 +84,10 @@ pub fn scl_overrides(scl: &crate::config::SclConfig) -> QProgramOverrides {
 
 /// The query: the ball and whether to answer text.
 fn parse_query(query: Option<&str>) -> Result<(usize, bool), Failure> {
-    let bad = |message: String| Failure::new(StatusCode::BAD_REQUEST, message);
+    let bad = |message: String| {
+        Failure::coded(StatusCode::BAD_REQUEST, Code::BadQuery, message.clone())
+            .param("reason", message)
+    };
     let mut unit = None;
     let mut text = false;
     for pair in query
@@ -118,7 +122,12 @@ fn compile_failure(error: QProgramError) -> Failure {
         QProgramError::InvalidConfig { .. } => {
             Failure::internal("the Q program settings are invalid", &error)
         }
-        other => Failure::new(StatusCode::UNPROCESSABLE_ENTITY, other.to_string()),
+        other => Failure::coded(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            Code::QprogramRefused,
+            other.to_string(),
+        )
+        .param("reason", other),
     }
 }
 
@@ -150,13 +159,17 @@ pub async fn qprogram(
     let listing = blocking(move || {
         let show = compiling.shows().load(&name).map_err(store_failure)?;
         let track = show.tracks.get(unit).ok_or_else(|| {
-            Failure::new(
+            Failure::coded(
                 StatusCode::NOT_FOUND,
+                Code::NoSuchUnit,
                 format!(
                     "the show \"{name}\" has {} balls: no unit {unit} (the first is 0)",
                     show.tracks.len()
                 ),
             )
+            .param("name", &name)
+            .param("unit", unit)
+            .param("units", show.tracks.len())
         })?;
         let config = compiling.config();
         let settings = qprogram_config(&config.installation, &overrides(config));

@@ -23,6 +23,7 @@ use axum::http::request::Parts;
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{LoginRequest, LoginResponse, PasswordChange};
+use floatball_shared::codes::Code;
 
 use super::{Failure, blocking, json_body};
 use crate::auth::{Busy, CHECK_QUEUE_WAIT, PasswordError};
@@ -46,8 +47,9 @@ impl FromRequestParts<AppState> for Session {
             .and_then(|value| value.strip_prefix("Bearer "))
             .map(str::trim)
             .ok_or_else(|| {
-                Failure::new(
+                Failure::coded(
                     StatusCode::UNAUTHORIZED,
+                    Code::LoginRequired,
                     "log in first: this call needs an `Authorization: Bearer <token>` header",
                 )
             })?;
@@ -56,8 +58,9 @@ impl FromRequestParts<AppState> for Session {
                 token: token.to_owned(),
             })
         } else {
-            Err(Failure::new(
+            Err(Failure::coded(
                 StatusCode::UNAUTHORIZED,
+                Code::SessionExpired,
                 "the session has expired or ended; log in again",
             ))
         }
@@ -82,8 +85,9 @@ impl FromRequestParts<AppState> for Operator {
 
 /// The 403 for a call refused while the password is the initial one.
 pub fn must_change_password() -> Failure {
-    Failure::new(
+    Failure::coded(
         StatusCode::FORBIDDEN,
+        Code::MustChangePassword,
         "change the initial password (1234) first: POST /api/password",
     )
 }
@@ -93,13 +97,15 @@ fn too_many(wait: std::time::Duration) -> Failure {
     let seconds = wait.as_secs() + u64::from(wait.subsec_nanos() > 0);
     Failure {
         retry_after_s: Some(seconds.max(1)),
-        ..Failure::new(
+        ..Failure::coded(
             StatusCode::TOO_MANY_REQUESTS,
+            Code::TooManyAttempts,
             format!(
                 "too many wrong passwords; try again in {} s",
                 seconds.max(1)
             ),
         )
+        .param("retry_after_s", seconds.max(1))
     }
 }
 
@@ -110,13 +116,15 @@ const BUSY_RETRY_AFTER_S: u64 = 5;
 fn busy(_: Busy) -> Failure {
     Failure {
         retry_after_s: Some(BUSY_RETRY_AFTER_S),
-        ..Failure::new(
+        ..Failure::coded(
             StatusCode::SERVICE_UNAVAILABLE,
+            Code::LoginBusy,
             format!(
                 "the bridge is busy checking other passwords; try again in \
                  {BUSY_RETRY_AFTER_S} s"
             ),
         )
+        .param("retry_after_s", BUSY_RETRY_AFTER_S)
     }
 }
 
@@ -145,7 +153,11 @@ pub async fn login(
         blocking(move || checking.password().verify(&mut permit, &request.password)).await?;
     if !right {
         tracing::warn!("wrong password from {}", client.ip());
-        return Err(Failure::new(StatusCode::UNAUTHORIZED, "wrong password"));
+        return Err(Failure::coded(
+            StatusCode::UNAUTHORIZED,
+            Code::WrongPassword,
+            "wrong password",
+        ));
     }
     state.login_limiter().forgive(client.ip(), started);
     let token = state
@@ -199,13 +211,14 @@ pub async fn change_password(
             tracing::info!("the operator password was changed from {}", client.ip());
             Ok(StatusCode::NO_CONTENT.into_response())
         }
-        Err(PasswordError::WrongPassword) => Err(Failure::new(
+        Err(PasswordError::WrongPassword) => Err(Failure::coded(
             StatusCode::FORBIDDEN,
+            Code::WrongCurrentPassword,
             "the current password is wrong",
         )),
-        Err(PasswordError::Unacceptable(reason)) => {
+        Err(PasswordError::Unacceptable(rule)) => {
             state.login_limiter().forgive(client.ip(), started);
-            Err(Failure::new(StatusCode::BAD_REQUEST, reason))
+            Err(Failure::of(StatusCode::BAD_REQUEST, &rule))
         }
         Err(error) => {
             state.login_limiter().forgive(client.ip(), started);

@@ -11,6 +11,9 @@
 
 use std::time::{Duration, Instant};
 
+use floatball_shared::api::ServerMessage;
+use floatball_shared::codes::{Code, Coded, Params};
+use floatball_shared::params;
 use floatball_shared::plan::Installation;
 use floatball_shared::scl::qprogram::{QProgram, QProgramConfig, QProgramError, compile};
 use floatball_shared::scl::{
@@ -483,41 +486,62 @@ pub fn console(
     gateway: Option<usize>,
     latched: bool,
     generation: u64,
-) -> Result<(), String> {
-    let requests = parse_script(line).map_err(|error| format!("the line is not valid: {error}"))?;
+) -> Result<(), ServerMessage> {
+    let requests = parse_script(line).map_err(|error| {
+        ServerMessage::error(
+            error.code(),
+            format!("the line is not valid: {error}"),
+            error.params(),
+        )
+    })?;
     if requests.is_empty() {
-        return Err("the line holds no command".to_owned());
+        return Err(ServerMessage::error(
+            Code::EmptyLine,
+            "the line holds no command",
+            Params::new(),
+        ));
     }
     let index = gateway.unwrap_or(0);
     let link = net.links().get(index).ok_or_else(|| {
-        format!(
-            "there is no gateway {index}; gateways are numbered 0 to {}",
-            net.links().len().saturating_sub(1)
+        let last = net.links().len().saturating_sub(1);
+        ServerMessage::error(
+            Code::NoSuchGateway,
+            format!("there is no gateway {index}; gateways are numbered 0 to {last}"),
+            params! {"gateway" => index, "last" => last},
         )
     })?;
     let mut targets: Vec<(usize, Request)> = Vec::with_capacity(requests.len());
     for request in requests {
         let drive = match request.address {
             Some(address) => link.drive_of(address).ok_or_else(|| {
-                format!(
-                    "there is no drive {:?} on gateway {index}",
-                    address.character()
+                ServerMessage::error(
+                    Code::NoSuchDrive,
+                    format!(
+                        "there is no drive {:?} on gateway {index}",
+                        address.character()
+                    ),
+                    params! {"drive" => address.character(), "gateway" => index},
                 )
             })?,
             None if link.drives() == 1 => 0,
             None => {
-                return Err(format!(
-                    "{request}: put the drive's address first (gateway {index} has {} drives)",
-                    link.drives()
+                return Err(ServerMessage::error(
+                    Code::DriveAddressNeeded,
+                    format!(
+                        "{request}: put the drive's address first (gateway {index} has {} drives)",
+                        link.drives()
+                    ),
+                    params! {"request" => &request, "gateway" => index, "drives" => link.drives()},
                 ));
             }
         };
         if latched && !super::is_inert(&request.command) {
-            return Err(
+            return Err(ServerMessage::error(
+                Code::EstopLatched,
                 "the e-stop is latched: only queries and stops can be sent until \
-                        Start, Reset or Home; this line was not sent"
-                    .to_owned(),
-            );
+                        Start, Reset or Home; this line was not sent",
+                Params::new(),
+            ));
         }
         targets.push((drive, request));
     }

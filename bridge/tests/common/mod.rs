@@ -402,7 +402,7 @@ pub async fn until(
                     return (states, status);
                 }
             }
-            Ok(floatball_shared::api::ServerMessage::Error { message }) => {
+            Ok(floatball_shared::api::ServerMessage::Error { message, .. }) => {
                 panic!("error: {message}")
             }
             _ => {}

@@ -24,6 +24,9 @@
 
 use std::fmt;
 
+use crate::codes::{Code, Coded, Params};
+use crate::params;
+
 use super::{
     BYTE, FLAG, Field, Form, Generic, I32, I64, INDEX, Instruction, MAX_LEN, MP_PARAM, Mnemonic,
     MpParam, Operand, QT_MS, Range, RangeError, SN_STATION, STATION, U32, U64, takes_index,
@@ -727,6 +730,63 @@ fn build(parsed: Parsed) -> Result<Instruction, ParseError> {
             },
         }),
     })
+}
+
+impl Coded for ParseError {
+    fn code(&self) -> Code {
+        self.kind.code()
+    }
+
+    /// The kind's parameters, and where: `line` and `column`.
+    fn params(&self) -> Params {
+        let mut params = self.kind.params();
+        params.insert("line".into(), self.line.to_string());
+        params.insert("column".into(), self.column.to_string());
+        params
+    }
+}
+
+impl Coded for ParseErrorKind {
+    fn code(&self) -> Code {
+        match self {
+            Self::NotAscii { .. } => Code::AsciiNotAscii,
+            Self::Brace { .. } => Code::AsciiBrace,
+            Self::Unexpected { .. } => Code::AsciiUnexpected,
+            Self::OddHexDigits { .. } => Code::AsciiOddHexDigits,
+            Self::NumberTooLarge { .. } => Code::AsciiNumberTooLarge,
+            Self::OutOfRange(_) => Code::AsciiOutOfRange,
+            Self::UnexpectedIndex { .. } => Code::AsciiUnexpectedIndex,
+            Self::MissingIndex { .. } => Code::AsciiMissingIndex,
+            Self::OperandWithoutIndex { .. } => Code::AsciiOperandWithoutIndex,
+            Self::MissingOperand { .. } => Code::AsciiMissingOperand,
+            Self::TooLong { .. } => Code::AsciiTooLong,
+        }
+    }
+
+    fn params(&self) -> Params {
+        match *self {
+            Self::NotAscii { found } => params! {"found" => found},
+            Self::Brace { found } => params! {"found" => found},
+            Self::Unexpected { expected, found } => {
+                params! {"expected" => expected, "found" => found}
+            }
+            Self::OddHexDigits { head, digits } => {
+                params! {"instruction" => head, "digits" => digits}
+            }
+            Self::NumberTooLarge { field } => params! {"field" => field},
+            Self::OutOfRange(error) => params! {
+                "field" => error.field,
+                "value" => error.value,
+                "min" => error.min,
+                "max" => error.max,
+            },
+            Self::UnexpectedIndex { mnemonic }
+            | Self::MissingIndex { mnemonic }
+            | Self::OperandWithoutIndex { mnemonic } => params! {"mnemonic" => mnemonic},
+            Self::MissingOperand { head } => params! {"instruction" => head},
+            Self::TooLong { length } => params! {"length" => length, "max" => 20},
+        }
+    }
 }
 
 #[cfg(test)]

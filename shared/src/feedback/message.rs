@@ -22,6 +22,9 @@
 
 use std::fmt;
 
+use crate::codes::{Code, Coded, Params};
+use crate::params;
+
 use super::{Frame, FrameError, Payload, code};
 
 /// The meaning of one feedback frame.
@@ -386,6 +389,32 @@ fn flag(code: u8, value: u16) -> Result<bool, FeedbackError> {
         0 => Ok(false),
         1 => Ok(true),
         _ => Err(FeedbackError::Flag { code, value }),
+    }
+}
+
+impl Coded for UnitError {
+    fn code(&self) -> Code {
+        match self.error {
+            code::error::SYNTAX => Code::UnitSyntax,
+            code::error::DATA => Code::UnitData,
+            code::error::INDEX => Code::UnitIndex,
+            code::error::WHILE_MOVING => Code::UnitWhileMoving,
+            code::error::MOTOR_OFF => Code::UnitMotorOff,
+            code::error::OVERLOAD => Code::UnitOverload,
+            code::error::LIMIT => Code::UnitLimit,
+            _ => Code::UnitUnknown,
+        }
+    }
+
+    /// `error` (`0x32`), and when the unit names the instruction it refused,
+    /// `instruction` (`QT (0x27)`) and `index`.
+    fn params(&self) -> Params {
+        let mut params = params! {"error" => format!("{:#04x}", self.error)};
+        if self.code != 0 {
+            params.insert("instruction".into(), Label(self.code).to_string());
+            params.insert("index".into(), self.index.to_string());
+        }
+        params
     }
 }
 

@@ -64,6 +64,9 @@ use std::net::Ipv4Addr;
 
 use thiserror::Error;
 
+use crate::codes::{Code, Coded, Params};
+use crate::params;
+
 use super::error::RangeError;
 use super::register::{CX_EFFECTS, FN_IP, MAX_REGISTERS};
 use super::{
@@ -750,6 +753,65 @@ pub fn render_reply(reply: &RegisterReply, layout: ReplyLayout) -> String {
         }
     }
     out
+}
+
+impl Coded for ConsoleError {
+    fn code(&self) -> Code {
+        self.kind.code()
+    }
+
+    /// The kind's parameters, and where: `line` and `column`.
+    fn params(&self) -> Params {
+        let mut params = self.kind.params();
+        params.insert("line".into(), self.line.to_string());
+        params.insert("column".into(), self.column.to_string());
+        params
+    }
+}
+
+impl Coded for ConsoleErrorKind {
+    fn code(&self) -> Code {
+        match self {
+            Self::UnknownCommand { .. } => Code::MboxUnknownCommand,
+            Self::MissingCommand { .. } => Code::MboxMissingCommand,
+            Self::Missing { .. } => Code::MboxMissing,
+            Self::NotABank { .. } => Code::MboxNotABank,
+            Self::WrongBank { .. } => Code::MboxWrongBank,
+            Self::NotANumber { .. } => Code::MboxNotANumber,
+            Self::OutOfRange { .. } => Code::MboxOutOfRange,
+            Self::ZeroCount => Code::MboxZeroCount,
+            Self::Range { .. } => Code::MboxRange,
+            Self::Trailing { .. } => Code::MboxTrailing,
+            Self::NotAnIp { .. } => Code::MboxNotAnIp,
+            Self::BadTarget { .. } => Code::MboxBadTarget,
+            Self::NoSubnet { .. } => Code::MboxNoSubnet,
+        }
+    }
+
+    fn params(&self) -> Params {
+        match self {
+            Self::UnknownCommand { found }
+            | Self::NotABank { found }
+            | Self::NotAnIp { found }
+            | Self::BadTarget { found } => params! {"found" => found},
+            Self::MissingCommand { target } => params! {"target" => target},
+            Self::Missing { command, operand } => {
+                params! {"command" => command, "operand" => operand}
+            }
+            Self::WrongBank {
+                command,
+                bank,
+                reason,
+            } => params! {"command" => command, "bank" => bank, "reason" => reason},
+            Self::NotANumber { operand, found } | Self::OutOfRange { operand, found } => {
+                params! {"operand" => operand, "found" => found}
+            }
+            Self::ZeroCount => Params::new(),
+            Self::Range { source } => params! {"reason" => source},
+            Self::Trailing { command, found } => params! {"command" => command, "found" => found},
+            Self::NoSubnet { octet } => params! {"octet" => octet},
+        }
+    }
 }
 
 #[cfg(test)]

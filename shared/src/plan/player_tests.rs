@@ -427,10 +427,26 @@ fn reset_stops_homes_and_restarts_from_the_first_entry() {
         .unwrap();
     rig.carry_out();
     assert_eq!(rig.state(), PlayerState::Homing);
+    // Homing shows its own progress, not the stopped show's time.
+    let homing = rig.player.status();
+    assert_eq!(
+        (homing.entry, homing.show.as_deref(), homing.show_time_ms),
+        (None, None, 0)
+    );
+    assert_eq!((homing.show_duration_ms, homing.cycle), (0, 0));
+    rig.run_until(30_000_000, |rig| {
+        let status = rig.player.status();
+        status.state != PlayerState::Homing || status.progress > 0.3
+    });
+    let halfway = rig.player.status();
+    assert_eq!(halfway.state, PlayerState::Homing);
+    assert!(halfway.progress < 1.0, "{halfway:?}");
+    assert_eq!((halfway.show, halfway.show_time_ms), (None, 0));
     rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Approaching);
     for position in rig.positions_mm() {
         assert!(position.abs() < 0.01, "homed to {position}");
     }
+    assert_eq!(rig.player.status().show_time_ms, 0, "no stale time");
     rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
     assert_eq!(rig.player.status().entry, Some(0));
     assert_eq!(rig.player.status().show.as_deref(), Some("wave"));

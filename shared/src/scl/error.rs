@@ -2,6 +2,9 @@
 
 use thiserror::Error;
 
+use crate::codes::{Code, Coded, Params};
+use crate::params;
+
 /// Why a line of SCL text is refused, and where: 1-based line and column (in
 /// characters) of the first character that is wrong.
 #[derive(Debug, Clone, PartialEq, Eq, Hash, Error)]
@@ -118,4 +121,64 @@ pub enum EsclError {
     /// The SCL text is refused.
     #[error("eSCL datagram: {0}")]
     Text(#[from] ParseError),
+}
+
+impl Coded for ParseError {
+    fn code(&self) -> Code {
+        self.kind.code()
+    }
+
+    /// The kind's parameters, and where: `line` and `column`.
+    fn params(&self) -> Params {
+        let mut params = self.kind.params();
+        params.insert("line".into(), self.line.to_string());
+        params.insert("column".into(), self.column.to_string());
+        params
+    }
+}
+
+impl Coded for ParseErrorKind {
+    fn code(&self) -> Code {
+        match self {
+            Self::NotAscii { .. } => Code::SclNotAscii,
+            Self::MissingMnemonic => Code::SclMissingMnemonic,
+            Self::UnknownMnemonic { .. } => Code::SclUnknownMnemonic,
+            Self::BadAddress { .. } => Code::SclBadAddress,
+            Self::MissingParameter { .. } => Code::SclMissingParameter,
+            Self::BadParameter { .. } => Code::SclBadParameter,
+            Self::OutOfRange { .. } => Code::SclOutOfRange,
+            Self::Trailing { .. } => Code::SclTrailing,
+            Self::UploadLength { .. } => Code::SclUploadLength,
+            Self::BadAnswer => Code::SclBadAnswer,
+        }
+    }
+
+    fn params(&self) -> Params {
+        match self {
+            Self::NotAscii { found } | Self::BadAddress { found } => {
+                params! {"found" => found.escape_debug()}
+            }
+            Self::MissingMnemonic | Self::BadAnswer => Params::new(),
+            Self::UnknownMnemonic { mnemonic } => params! {"mnemonic" => mnemonic},
+            Self::MissingParameter { mnemonic, expected } => {
+                params! {"mnemonic" => mnemonic, "expected" => expected}
+            }
+            Self::BadParameter {
+                mnemonic,
+                expected,
+                found,
+            } => params! {"mnemonic" => mnemonic, "expected" => expected, "found" => found},
+            Self::OutOfRange {
+                mnemonic,
+                range,
+                found,
+            } => params! {"mnemonic" => mnemonic, "range" => range, "found" => found},
+            Self::Trailing { mnemonic, found } => {
+                params! {"mnemonic" => mnemonic, "found" => found}
+            }
+            Self::UploadLength { announced, found } => {
+                params! {"announced" => announced, "found" => found}
+            }
+        }
+    }
 }

@@ -41,6 +41,9 @@
 
 use thiserror::Error;
 
+use crate::codes::{Code, Coded, Params};
+use crate::params;
+
 use super::{DEFAULT_PITCH_MM, Layout, Show, Track, TrackRow, json_len};
 use crate::pvt::{ROW_MAX_MS, ROW_MIN_MS, Segment};
 
@@ -734,6 +737,107 @@ fn monotone_velocities(times_ms: &[u64], positions_mm: &[f64], velocities_mm_s: 
             let w0 = 2.0 * h1 + h0;
             let w1 = h1 + 2.0 * h0;
             velocities_mm_s[i] = (w0 + w1) / (w0 / d0 + w1 / d1);
+        }
+    }
+}
+
+impl Coded for CsvError {
+    fn code(&self) -> Code {
+        self.problem.code()
+    }
+
+    /// The problem's parameters, and where: `line` and `column`.
+    fn params(&self) -> Params {
+        let mut params = self.problem.params();
+        params.insert("line".into(), self.line.to_string());
+        params.insert("column".into(), self.column.to_string());
+        params
+    }
+}
+
+impl Coded for CsvProblem {
+    fn code(&self) -> Code {
+        match self {
+            Self::Empty => Code::CsvEmpty,
+            Self::NoHeader => Code::CsvNoHeader,
+            Self::MisplacedComment => Code::CsvMisplacedComment,
+            Self::LayoutWord { .. } => Code::CsvLayoutWord,
+            Self::LayoutValue { .. } => Code::CsvLayoutValue,
+            Self::LayoutMissing { .. } => Code::CsvLayoutMissing,
+            Self::HeaderName { .. } => Code::CsvHeaderName,
+            Self::NoUnits => Code::CsvNoUnits,
+            Self::LayoutMismatch { .. } => Code::CsvLayoutMismatch,
+            Self::FieldCount { .. } => Code::CsvFieldCount,
+            Self::NotANumber { .. } => Code::CsvNotANumber,
+            Self::NoKeyframes => Code::CsvNoKeyframes,
+            Self::FirstTimeNotZero { .. } => Code::CsvFirstTimeNotZero,
+            Self::TimeNotIncreasing { .. } => Code::CsvTimeNotIncreasing,
+            Self::GapTooShort { .. } => Code::CsvGapTooShort,
+            Self::TooLate { .. } => Code::CsvTooLate,
+            Self::TooLong { .. } => Code::CsvTooLong,
+            Self::TooManyRows { .. } => Code::CsvTooManyRows,
+        }
+    }
+
+    fn params(&self) -> Params {
+        match self {
+            Self::Empty
+            | Self::NoHeader
+            | Self::MisplacedComment
+            | Self::NoUnits
+            | Self::NoKeyframes => Params::new(),
+            Self::LayoutWord { text } | Self::NotANumber { text } => params! {"text" => text},
+            Self::LayoutValue { key, text, .. } => params! {"key" => key, "text" => text},
+            Self::LayoutMissing { key } => params! {"key" => key},
+            Self::HeaderName { found, expected } => {
+                params! {"found" => found, "expected" => expected}
+            }
+            Self::LayoutMismatch {
+                units, rows, cols, ..
+            } => params! {"units" => units, "rows" => rows, "cols" => cols},
+            Self::FieldCount { found, expected } => {
+                params! {"found" => found, "expected" => expected}
+            }
+            Self::FirstTimeNotZero { time_ms } | Self::TooLate { time_ms } => {
+                params! {"time_ms" => time_ms}
+            }
+            Self::TimeNotIncreasing {
+                time_ms,
+                previous_ms,
+                previous_line,
+            } => params! {
+                "time_ms" => time_ms,
+                "previous_ms" => previous_ms,
+                "previous_line" => previous_line,
+            },
+            Self::GapTooShort {
+                gap_ms,
+                previous_line,
+            } => params! {
+                "gap_ms" => gap_ms,
+                "previous_line" => previous_line,
+                "min_ms" => ROW_MIN_MS,
+            },
+            Self::TooLong { time_ms, max_ms } => params! {"time_ms" => time_ms, "max_ms" => max_ms},
+            Self::TooManyRows { rows } => params! {"rows" => rows, "max_rows" => MAX_TOTAL_ROWS},
+        }
+    }
+}
+
+impl Coded for ImportError {
+    fn code(&self) -> Code {
+        match self {
+            Self::Csv(error) => error.code(),
+            Self::TooLarge { .. } => Code::CsvConvertedTooLarge,
+        }
+    }
+
+    fn params(&self) -> Params {
+        match self {
+            Self::Csv(error) => error.params(),
+            Self::TooLarge {
+                bytes, max_bytes, ..
+            } => params! {"bytes" => bytes, "max_bytes" => max_bytes},
         }
     }
 }

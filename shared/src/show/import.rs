@@ -29,6 +29,10 @@ use std::fmt::Write as _;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::api::Problem;
+use crate::codes::{Code, Coded, Params};
+use crate::params;
+
 use super::csv::{self, CsvError, CsvProblem, ImportError, ImportLimits};
 use super::{Layout, Limits, Show, ShowError, Violation, output_box_message, validate};
 
@@ -407,6 +411,89 @@ pub fn human_duration(duration_ms: u64) -> String {
         text.push_str("0s");
     }
     text
+}
+
+impl Coded for Refused {
+    fn code(&self) -> Code {
+        match self {
+            Self::NotUtf8 { .. } => Code::NotUtf8,
+            Self::Unreadable(_) => Code::ShowFileUnreadable,
+            Self::Csv(_) => Code::CsvUnreadable,
+            Self::Empty(_) => Code::ShowEmpty,
+            Self::KeyframeTooLate { .. } | Self::TooLong { .. } => Code::ShowTooLong,
+            Self::ConvertedTooLarge { .. } | Self::TooLarge { .. } => Code::ShowTooLarge,
+            Self::Unfit(_) => Code::ShowUnfit,
+            Self::OutputBox { .. } => Code::OutputBox,
+        }
+    }
+
+    fn params(&self) -> Params {
+        match self {
+            Self::NotUtf8 { byte } => params! {"byte" => byte},
+            Self::Unreadable(_) | Self::Csv(_) | Self::Empty(_) => Params::new(),
+            Self::KeyframeTooLate {
+                max_duration_ms, ..
+            }
+            | Self::TooLong {
+                max_duration_ms, ..
+            } => params! {"limit_ms" => max_duration_ms},
+            Self::ConvertedTooLarge { max_bytes, .. } | Self::TooLarge { max_bytes, .. } => {
+                params! {"limit_bytes" => max_bytes}
+            }
+            Self::Unfit(violations) => params! {"count" => violations.len()},
+            Self::OutputBox { box_index, boxes } => params! {"box" => box_index, "boxes" => boxes},
+        }
+    }
+}
+
+impl Refused {
+    /// The [`details`](Self::details) as codes and parameters, one for one.
+    #[must_use]
+    pub fn problems(&self) -> Vec<Problem> {
+        let coded = |code: Code, params: Params| Problem {
+            code: code.as_str().to_owned(),
+            params,
+        };
+        match self {
+            Self::NotUtf8 { .. } | Self::OutputBox { .. } => vec![Problem::of(self)],
+            Self::Unreadable(error) => vec![Problem::of(error)],
+            Self::Csv(error) | Self::KeyframeTooLate { error, .. } => vec![Problem::of(error)],
+            Self::Empty(ShowFormat::Csv) => vec![coded(Code::CsvNeedsMotion, Params::new())],
+            Self::Empty(ShowFormat::Json) => vec![coded(Code::JsonNeedsMotion, Params::new())],
+            Self::TooLong { duration_ms, .. } => {
+                vec![coded(
+                    Code::ShowLasts,
+                    params! {"duration_ms" => duration_ms},
+                )]
+            }
+            Self::ConvertedTooLarge {
+                bytes,
+                max_bytes,
+                exact,
+            } => vec![Problem::of(&ImportError::TooLarge {
+                bytes: *bytes,
+                max_bytes: *max_bytes,
+                exact: *exact,
+            })],
+            Self::TooLarge { bytes, .. } => {
+                vec![coded(Code::ShowTakes, params! {"bytes" => bytes})]
+            }
+            Self::Unfit(violations) => {
+                let mut problems: Vec<Problem> = violations
+                    .iter()
+                    .take(MAX_LISTED_PROBLEMS)
+                    .map(Problem::of)
+                    .collect();
+                if violations.len() > MAX_LISTED_PROBLEMS {
+                    problems.push(coded(
+                        Code::MoreProblems,
+                        params! {"count" => violations.len() - MAX_LISTED_PROBLEMS},
+                    ));
+                }
+                problems
+            }
+        }
+    }
 }
 
 #[cfg(test)]

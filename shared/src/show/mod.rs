@@ -52,6 +52,8 @@ pub mod validate;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::codes::{Code, Coded, Params};
+use crate::params;
 use crate::pvt::Segment;
 
 pub use csv::{CsvError, CsvProblem, ImportError, ImportLimits, import_csv, import_csv_within};
@@ -543,6 +545,43 @@ fn check_header(format: Option<&str>, version: Option<u64>) -> Result<(), ShowEr
         (found, _) => Err(ShowError::WrongFormat {
             found: found.unwrap_or_default().to_owned(),
         }),
+    }
+}
+
+impl Coded for ShowError {
+    fn code(&self) -> Code {
+        match self {
+            Self::Invalid { .. } => Code::ShowInvalid,
+            Self::WrongFormat { .. } => Code::ShowWrongFormat,
+            Self::UnsupportedVersion { .. } => Code::ShowUnsupportedVersion,
+            Self::EmptyLayout => Code::ShowEmptyLayout,
+            Self::TrackCount { .. } => Code::ShowTrackCount,
+            Self::NotFinite { .. } => Code::ShowNotFinite,
+            Self::Output { .. } => Code::ShowOutput,
+            Self::ColourOrder { .. } => Code::ShowColourOrder,
+        }
+    }
+
+    fn params(&self) -> Params {
+        match self {
+            Self::Invalid { message } => params! {"message" => message},
+            Self::WrongFormat { found } => params! {"found" => found},
+            Self::UnsupportedVersion { found } => params! {"found" => found, "version" => VERSION},
+            Self::EmptyLayout => Params::new(),
+            Self::TrackCount { tracks, rows, cols } => {
+                params! {"tracks" => tracks, "rows" => rows, "cols" => cols}
+            }
+            Self::NotFinite { unit } => params! {"track" => unit},
+            Self::Output {
+                box_index,
+                key,
+                problem,
+            } => params! {
+                "box" => box_index,
+                "detail" => output_message(*box_index, *key, *problem),
+            },
+            Self::ColourOrder { unit, index } => params! {"track" => unit, "index" => index},
+        }
     }
 }
 

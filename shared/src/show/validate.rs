@@ -31,6 +31,8 @@
 use std::fmt;
 
 use super::{DEFAULT_TRAVEL_MM, Show};
+use crate::codes::{Code, Coded, Params};
+use crate::params;
 use crate::pvt::{ROW_MAX_MS, ROW_MIN_MS};
 
 /// Default top speed of a ball, mm/s (the manual: "over 2 m/s").
@@ -366,6 +368,88 @@ fn check_position(
                 travel_mm: limits.travel_mm,
             },
         );
+    }
+}
+
+impl Coded for Violation {
+    fn code(&self) -> Code {
+        match self.kind {
+            ViolationKind::AboveTop { .. } => Code::AboveTop,
+            ViolationKind::BelowTravel { .. } => Code::BelowTravel,
+            ViolationKind::Speed { .. } => Code::TooFast,
+            ViolationKind::Acceleration { .. } => Code::TooHardAcceleration,
+            ViolationKind::RowDuration { .. } => Code::RowDuration,
+            ViolationKind::TrackDuration { .. } => Code::TrackDuration,
+            ViolationKind::EndsMoving { .. } => Code::EndsMoving,
+            ViolationKind::Layout { .. } => Code::WrongLayout,
+        }
+    }
+
+    /// The kind's figures (mm with one decimal, s with three), and where: `unit`
+    /// (`u3`), `unit_row` and `unit_col` (from 1) and `time_s` when known.
+    fn params(&self) -> Params {
+        let mut params = match self.kind {
+            ViolationKind::AboveTop { position_mm } => {
+                params! {"position_mm" => format!("{position_mm:.1}")}
+            }
+            ViolationKind::BelowTravel {
+                position_mm,
+                travel_mm,
+            } => params! {
+                "position_mm" => format!("{position_mm:.1}"),
+                "travel_mm" => format!("{travel_mm:.1}"),
+            },
+            ViolationKind::Speed {
+                speed_mm_s,
+                limit_mm_s,
+            } => params! {
+                "speed_mm_s" => format!("{speed_mm_s:.1}"),
+                "limit_mm_s" => format!("{limit_mm_s:.1}"),
+            },
+            ViolationKind::Acceleration {
+                accel_mm_s2,
+                limit_mm_s2,
+            } => params! {
+                "accel_mm_s2" => format!("{accel_mm_s2:.1}"),
+                "limit_mm_s2" => format!("{limit_mm_s2:.1}"),
+            },
+            ViolationKind::RowDuration { duration_ms } => params! {
+                "row" => self.row.map_or(0, |row| row + 1),
+                "duration_ms" => duration_ms,
+                "min_ms" => ROW_MIN_MS,
+                "max_ms" => ROW_MAX_MS,
+            },
+            ViolationKind::TrackDuration {
+                duration_ms,
+                show_duration_ms,
+            } => params! {
+                "duration_s" => format!("{:.3}", duration_ms as f64 / 1000.0),
+                "show_duration_s" => format!("{:.3}", show_duration_ms as f64 / 1000.0),
+            },
+            ViolationKind::EndsMoving { velocity_mm_s } => {
+                params! {"velocity_mm_s" => format!("{velocity_mm_s:.1}")}
+            }
+            ViolationKind::Layout {
+                show_rows,
+                show_cols,
+                rows,
+                cols,
+            } => params! {
+                "show_rows" => show_rows,
+                "show_cols" => show_cols,
+                "rows" => rows,
+                "cols" => cols,
+            },
+        };
+        if let Some(unit) = self.unit {
+            params.insert("unit".into(), format!("u{}", unit.index));
+            params.insert("unit_row".into(), (u64::from(unit.row) + 1).to_string());
+            params.insert("unit_col".into(), (u64::from(unit.col) + 1).to_string());
+            if let Some(time_ms) = self.time_ms {
+                params.insert("time_s".into(), format!("{:.2}", time_ms / 1000.0));
+            }
+        }
+        params
     }
 }
 

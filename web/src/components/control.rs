@@ -1,6 +1,11 @@
 //! The Control and Settings pages: the playlist with its checkboxes and icons (add,
-//! move up, move down, delete, edit), Start / E-stop / Reset, the bandwidth verdict
-//! and the live status (PROTOCOL §1.7).
+//! move up, move down, delete, edit), Start / E-stop / Reset / Home, the bandwidth
+//! verdict and the live status (PROTOCOL §1.7).
+//!
+//! While the matrix runs, the icons are disabled with the reason beside them (the
+//! bridge refuses such edits too) and Start says why it cannot be pressed. Reset,
+//! Home and a Start after an E-stop turn into a one-tap confirmation that says what
+//! will move, with Cancel beside it; the E-stop never asks.
 //!
 //! Every edit is applied to [`crate::playlist::PlaylistEditor`] and then stored on
 //! the bridge (`PUT /api/playlist`); what the bridge answers is what the page shows.
@@ -16,12 +21,17 @@ use crate::components::widgets::{
     BridgeError, EmptyItem, ErrorNote, RowButton, TabButton, TextField,
 };
 use crate::context::Ctx;
-use crate::control::{Panel, PlanVerdicts, TimingForm, begin_save, needs_checks, settle_save};
+use crate::control::{
+    Action, Panel, PlanVerdicts, TimingForm, begin_save, edit_lock, is_locked_refusal, is_running,
+    needs_checks, settle_save, start_block,
+};
 use crate::files::format_duration_ms;
 use crate::i18n::Text;
 use crate::page::Page;
 use crate::playlist::{PlaylistEditor, Verdict, format_delay_s};
-use crate::status::{gateway_text, progress, shows_progress, state_key, time_text};
+use crate::status::{
+    gateway_text, homing_text, progress, shows_progress, state_key, streams, time_text,
+};
 
 /// Applies `edit` to the playlist and stores the result on the bridge; `note` gets
 /// the bridge's refusal, if any (then the bridge's playlist is fetched again).
@@ -47,7 +57,12 @@ fn edit_and_save(
         match settled {
             Ok(()) => ctx.notify(ctx.lang.get_untracked().t(Text::PlaylistSaved)),
             Err(failure) => {
-                note.set(Some(ctx.failed(&failure)));
+                let said = if is_locked_refusal(&failure) {
+                    ctx.lang.get_untracked().t(Text::PlaylistLocked).to_owned()
+                } else {
+                    ctx.failed(&failure)
+                };
+                note.set(Some(said));
                 ctx.refresh();
             }
         }
@@ -106,6 +121,14 @@ pub fn ControlPage() -> impl IntoView {
         }
     });
 
+    let state = move || ctx.status.with(|status| status.as_ref().map(|s| s.state));
+    let locked = move || ctx.connected() && edit_lock(state()).is_some();
+    // An open panel closes when the playlist locks (its edit would be refused).
+    Effect::new(move |_| {
+        if locked() && panel.get_untracked() != Panel::None {
+            panel.set(Panel::None);
+        }
+    });
     let icon = move |test_id: &'static str,
                      symbol: &'static str,
                      text: Text,
@@ -115,6 +138,7 @@ pub fn ControlPage() -> impl IntoView {
                 class="icon"
                 data-testid=test_id
                 title=move || ctx.t(text)
+                disabled=locked
                 on:click=move |_| action()
             >
                 <span class="symbol" aria-hidden="true">
@@ -141,13 +165,49 @@ pub fn ControlPage() -> impl IntoView {
             Err(why) => refuse(why),
         }
     };
-    let start_allowed = move || {
-        ctx.connected() && plans.with(|plans| ctx.playlist.with(|editor| plans.allow_start(editor)))
+    let start_reason = move || {
+        let allowed = plans.with(|plans| ctx.playlist.with(|editor| plans.allow_start(editor)));
+        start_block(ctx.connected(), state(), allowed)
     };
     let send = move |message: ClientMessage| {
         ctx.bridge_error.set(None);
         ctx.send(&message);
     };
+    // The action waiting for its confirmation, if any.
+    let asking = RwSignal::new(None::<Action>);
+    let press = move |action: Action| match action.confirmation(state()) {
+        Some(_) => asking.set(Some(action)),
+        None => {
+            asking.set(None);
+            send(action.message());
+        }
+    };
+    // A confirmation that no longer applies (Start once the matrix is idle again)
+    // is dropped, so it cannot come back later by itself.
+    Effect::new(move |_| {
+        if let Some(action) = asking.get()
+            && action.confirmation(state()).is_none()
+        {
+            asking.set(None);
+        }
+    });
+    let enabled = move |action: Action| match action {
+        Action::Start => start_reason().is_none(),
+        Action::Reset | Action::Home => ctx.connected(),
+    };
+    let action_button = move |action: Action, class: &'static str, text: Text| {
+        view! {
+            <button
+                class=class
+                data-testid=action.key()
+                disabled=move || !enabled(action)
+                on:click=move |_| press(action)
+            >
+                {move || ctx.t(text)}
+            </button>
+        }
+    };
+    let locked_reason = move || locked().then(|| edit_lock(state())).flatten();
     view! {
         <section class="control">
             <ControlTabs />
@@ -171,6 +231,16 @@ pub fn ControlPage() -> impl IntoView {
                 {icon("edit", "✎", Text::Edit, Box::new(toggle_panel(Panel::Edit)))}
             </div>
             <ErrorNote text=note test_id="control-note" />
+            {move || {
+                locked_reason()
+                    .map(|why| {
+                        view! {
+                            <p class="note locked" data-testid="playlist-locked">
+                                {move || ctx.t(why)}
+                            </p>
+                        }
+                    })
+            }}
             {move || match panel.get() {
                 Panel::None => ().into_any(),
                 Panel::Add => view! { <AddPanel panel=panel note=note /> }.into_any(),
@@ -178,24 +248,50 @@ pub fn ControlPage() -> impl IntoView {
             }}
             <PlaylistView />
             <div class="actions">
-                <button
-                    class="start primary"
-                    data-testid="start"
-                    disabled=move || !start_allowed()
-                    on:click=move |_| send(ClientMessage::Start)
-                >
-                    {move || ctx.t(Text::Start)}
-                </button>
+                {action_button(Action::Start, "start primary", Text::Start)}
                 <EstopButton />
-                <button
-                    class="reset"
-                    data-testid="reset"
-                    disabled=move || !ctx.connected()
-                    on:click=move |_| send(ClientMessage::Reset)
-                >
-                    {move || ctx.t(Text::Reset)}
-                </button>
+                {action_button(Action::Reset, "reset", Text::Reset)}
+                {action_button(Action::Home, "home", Text::Home)}
             </div>
+            {move || {
+                asking
+                    .get()
+                    .and_then(|action| Some((action, action.confirmation(state())?)))
+                    .map(|(action, text)| {
+                        view! {
+                            <div class="confirm" data-testid="confirm" data-action=action.key()>
+                                <button
+                                    class="confirm-yes primary"
+                                    data-testid="confirm-yes"
+                                    disabled=move || !enabled(action)
+                                    on:click=move |_| {
+                                        asking.set(None);
+                                        send(action.message());
+                                    }
+                                >
+                                    {move || ctx.t(text)}
+                                </button>
+                                <button
+                                    class="confirm-cancel"
+                                    data-testid="confirm-cancel"
+                                    on:click=move |_| asking.set(None)
+                                >
+                                    {move || ctx.t(Text::Cancel)}
+                                </button>
+                            </div>
+                        }
+                    })
+            }}
+            {move || {
+                start_reason()
+                    .map(|why| {
+                        view! {
+                            <p class="note muted" data-testid="start-reason" data-reason=format!("{why:?}")>
+                                {move || ctx.t(why)}
+                            </p>
+                        }
+                    })
+            }}
             <BridgeError />
             </div>
             <div class="control-side">
@@ -219,7 +315,14 @@ fn PlaylistView() -> impl IntoView {
                 if editor.entries().is_empty() {
                     return view! { <EmptyItem text=Text::EmptyPlaylist /> }.into_any();
                 }
-                let playing = ctx.status.with(|status| status.as_ref().and_then(|s| s.entry));
+                // The entry that plays, only while the matrix runs and only if it is
+                // the show the status names.
+                let playing = ctx.status.with(|status| {
+                    status
+                        .as_ref()
+                        .filter(|status| is_running(Some(status.state)))
+                        .and_then(|status| editor.playing_entry(status))
+                });
                 editor
                     .entries()
                     .iter()
@@ -440,6 +543,8 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
         .entry
         .map(|entry| (entry + 1).to_string())
         .unwrap_or_default();
+    // Homing shows its own progress where a show's time would be.
+    let time = homing_text(lang, &status).unwrap_or_else(|| time_text(&status));
     let cycle = if status.cycle > 0 {
         status.cycle.to_string()
     } else {
@@ -449,7 +554,7 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
         .gateways
         .iter()
         .map(|gateway| {
-            let text = gateway_text(lang, gateway);
+            let text = gateway_text(lang, gateway, streams(state));
             let link = format!("{:?}", gateway.link).to_lowercase();
             view! {
                 <li class=format!("link {link}") data-testid="gateway" data-link=link>
@@ -468,7 +573,7 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
             </dd>
             {row(Text::Entry, entry, "status-entry")}
             {row(Text::ShowLabel, status.show.clone().unwrap_or_default(), "status-show")}
-            {row(Text::ShowTime, time_text(&status), "status-time")}
+            {row(Text::ShowTime, time, "status-time")}
             {row(Text::Cycle, cycle, "status-cycle")}
         </dl>
         {shows_progress(state)
@@ -478,7 +583,7 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
                         class="wide"
                         data-testid="status-progress"
                         max="1"
-                        prop:value=fraction
+                        value=fraction.to_string()
                     ></progress>
                 }
             })}

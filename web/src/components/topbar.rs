@@ -198,6 +198,15 @@ pub fn EstopButton() -> impl IntoView {
         ctx.status
             .with(|status| status.as_ref().map(|s| s.state) == Some(PlayerState::Stopped))
     };
+    // The acknowledgement ends once the matrix leaves `stopped` (homing, playing…):
+    // it no longer describes the matrix.
+    Effect::new(move |was_stopped: Option<bool>| {
+        let now_stopped = stopped();
+        if was_stopped == Some(true) && !now_stopped {
+            ack.set(None);
+        }
+        now_stopped
+    });
     let ack_text = move || {
         let text = match ack.get()?.1 {
             EstopAck::NotSent => Text::EstopNotSent,

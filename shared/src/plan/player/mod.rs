@@ -69,10 +69,15 @@ pub(crate) struct PlaylistProgress {
 }
 
 impl PlaylistProgress {
-    /// The status (the bridge adds the gateways).
+    /// The status (the bridge adds the gateways). Homing names no show and no time
+    /// (its progress is the homing's own, not the previous show's); the show time is
+    /// only counted while a show plays, so no state carries a stale one.
     pub(crate) fn status(self) -> Status {
-        let playing = self.playing.is_some();
-        let (entry, show, show_duration_ms) = match self.playing {
+        let homing = self.state == PlayerState::Homing;
+        let current = self.playing.filter(|_| !homing);
+        let playing = current.is_some();
+        let counting = playing && self.state == PlayerState::Playing;
+        let (entry, show, show_duration_ms) = match current {
             Some((entry, show, duration_ms)) => (Some(entry), Some(show), duration_ms),
             None => (None, None, 0),
         };
@@ -80,7 +85,7 @@ impl PlaylistProgress {
             state: self.state,
             entry,
             show,
-            show_time_ms: if playing { self.show_time_ms } else { 0 },
+            show_time_ms: if counting { self.show_time_ms } else { 0 },
             show_duration_ms,
             cycle: if playing { self.cycle } else { 0 },
             progress: self.progress,

@@ -3,6 +3,8 @@
 //! a [`StartError`] saying why.
 
 use super::{Entry, LinkView};
+use crate::codes::{Code, Coded, Params};
+use crate::params;
 use crate::plan::report::report_for;
 use crate::plan::{Installation, Plan, PlanOptions};
 
@@ -112,4 +114,40 @@ pub enum StartError {
     /// the matrix stays stopped.
     #[error("the E-stop was pressed after this request was made; the matrix stays stopped")]
     Superseded,
+}
+
+impl Coded for StartError {
+    fn code(&self) -> Code {
+        match self {
+            Self::Empty => Code::PlaylistEmpty,
+            Self::Invalid { .. } => Code::EntryInvalid,
+            Self::Infeasible { .. } => Code::EntryInfeasible,
+            Self::NotConnected { .. } => Code::GatewayNotConnected,
+            Self::Busy => Code::PlayerBusy,
+            Self::Superseded => Code::Superseded,
+        }
+    }
+
+    fn params(&self) -> Params {
+        match self {
+            Self::Empty | Self::Busy | Self::Superseded => Params::new(),
+            Self::Invalid {
+                entry,
+                show,
+                reason,
+            } => params! {"entry" => entry, "show" => show, "reason" => reason},
+            Self::Infeasible {
+                entry,
+                show,
+                reason,
+                fixes,
+            } => params! {
+                "entry" => entry,
+                "show" => show,
+                "reason" => reason,
+                "fixes" => fixes.join("; "),
+            },
+            Self::NotConnected { gateway } => params! {"gateway" => gateway},
+        }
+    }
 }

@@ -1,0 +1,180 @@
+//! Safe controls during a show, end to end in the real app against the real bridge
+//! and its simulated gateway: while the show plays the playlist is locked (its icons
+//! disabled with the reason, the bridge refuses an edit with `playlist_locked`), the
+//! playing entry is marked and Start says why it cannot be pressed; Reset asks first
+//! (Cancel leaves the show playing, Confirm homes the balls, with the homing's own
+//! progress instead of a show time); after an E-stop Start asks too; Home brings
+//! every ball home and the matrix stays idle, and the E-stop badge clears once the
+//! matrix leaves `stopped`.
+//!
+//! The checks read `data-*` attributes, not words: the app's language follows the
+//! browser's.
+
+use std::time::Duration;
+
+use fantoccini::Locator;
+use floatball_e2e::{Bridge, Browser, PLAY_TIMEOUT, UI_TIMEOUT};
+
+const STATE: &str = "[data-testid=status-state]";
+const BADGE: &str = ".topbar [data-testid=estop]";
+
+async fn enabled(browser: &Browser, css: &str) -> bool {
+    browser
+        .wait_for(css)
+        .await
+        .is_enabled()
+        .await
+        .expect("enabled state")
+}
+
+async fn count(browser: &Browser, css: &str) -> usize {
+    browser
+        .client
+        .find_all(Locator::Css(css))
+        .await
+        .expect("find elements")
+        .len()
+}
+
+/// `PUT /api/playlist` from the page with `playlist`; the status and the JSON answer.
+async fn put_playlist(browser: &Browser, playlist: serde_json::Value) -> serde_json::Value {
+    let script = r"
+        const [body, done] = arguments;
+        const session = JSON.parse(localStorage.getItem('floatball.session'));
+        fetch('/api/playlist', {
+            method: 'PUT',
+            headers: { Authorization: 'Bearer ' + session.token, 'Content-Type': 'application/json' },
+            body: JSON.stringify(body),
+        })
+            .then(async (reply) => done({ status: reply.status, body: await reply.json() }))
+            .catch((error) => done({ error: String(error) }));
+    ";
+    browser
+        .client
+        .execute_async(script, vec![playlist])
+        .await
+        .expect("PUT /api/playlist from the page")
+}
+
+#[tokio::test]
+async fn the_playlist_locks_while_playing_reset_and_home_ask_first_and_home_stays_idle() {
+    let bridge = Bridge::start().await;
+    let browser = Browser::open(&bridge).await;
+    browser.first_login("night-show-7").await;
+    browser.upload_wave().await;
+    browser.queue_show("wave").await;
+    browser.play("wave").await;
+
+    // Locked while playing: the icons, with the reason; the bridge refuses too.
+    for icon in ["add", "move-up", "move-down", "delete", "edit"] {
+        assert!(
+            !enabled(&browser, &format!("[data-testid={icon}]")).await,
+            "{icon}"
+        );
+    }
+    browser.wait_for("[data-testid=playlist-locked]").await;
+    assert!(!enabled(&browser, "[data-testid=start]").await);
+    browser
+        .wait_for_attribute(
+            "[data-testid=start-reason]",
+            "data-reason",
+            "StartWhileRunning",
+            UI_TIMEOUT,
+        )
+        .await;
+    assert_eq!(
+        count(&browser, "[data-testid=entry][data-show=wave].playing").await,
+        1,
+        "the playing entry is marked"
+    );
+    let mut playlist = browser.get_json("/api/playlist").await;
+    playlist["entries"][0]["cycles"] = 3.into();
+    let refused = put_playlist(&browser, playlist).await;
+    assert_eq!(refused["status"], 409, "{refused}");
+    assert_eq!(refused["body"]["code"], "playlist_locked", "{refused}");
+
+    // Reset asks first; Cancel leaves the show playing.
+    browser.click("[data-testid=reset]").await;
+    browser
+        .wait_for_attribute("[data-testid=confirm]", "data-action", "reset", UI_TIMEOUT)
+        .await;
+    browser.click("[data-testid=confirm-cancel]").await;
+    assert_eq!(count(&browser, "[data-testid=confirm]").await, 0);
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert_eq!(
+        browser
+            .wait_for(STATE)
+            .await
+            .attr("data-state")
+            .await
+            .unwrap()
+            .as_deref(),
+        Some("playing"),
+        "Cancel moved nothing"
+    );
+    // Confirmed, the balls home: the homing's own progress, not a show time.
+    browser.click("[data-testid=reset]").await;
+    browser.click("[data-testid=confirm-yes]").await;
+    browser
+        .wait_for_attribute(STATE, "data-state", "homing", UI_TIMEOUT)
+        .await;
+    let time = browser.text("[data-testid=status-time]").await;
+    assert!(time.contains('%') && !time.contains('/'), "{time}");
+
+    // E-stop never asks; after it, Start asks (the balls home first).
+    browser.estop().await;
+    browser.click("[data-testid=start]").await;
+    browser
+        .wait_for_attribute("[data-testid=confirm]", "data-action", "start", UI_TIMEOUT)
+        .await;
+    browser.click("[data-testid=confirm-cancel]").await;
+
+    // Home: asks, every ball goes home, the badge clears, the matrix stays idle.
+    browser.click("[data-testid=home]").await;
+    browser
+        .wait_for_attribute("[data-testid=confirm]", "data-action", "home", UI_TIMEOUT)
+        .await;
+    browser.click("[data-testid=confirm-yes]").await;
+    browser
+        .wait_for_attribute(STATE, "data-state", "homing", UI_TIMEOUT)
+        .await;
+    let badge = browser
+        .wait_for(BADGE)
+        .await
+        .attr("data-ack")
+        .await
+        .unwrap();
+    assert_eq!(
+        badge.as_deref(),
+        Some("ready"),
+        "the badge cleared when homing began"
+    );
+    browser
+        .wait_for_attribute(STATE, "data-state", "idle", PLAY_TIMEOUT)
+        .await;
+    let positions = browser.get_json("/api/sim/positions").await;
+    let units = positions["gateways"][0]["units"]
+        .as_array()
+        .unwrap_or_else(|| panic!("{positions}"));
+    assert_eq!(units.len(), 100, "{positions}");
+    for unit in units {
+        let counts = unit["position_counts"].as_f64().expect("position");
+        assert!(counts.abs() < 1.0 && unit["moving"] == false, "{unit}");
+    }
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    assert_eq!(
+        browser
+            .wait_for(STATE)
+            .await
+            .attr("data-state")
+            .await
+            .unwrap()
+            .as_deref(),
+        Some("idle"),
+        "Home stays idle"
+    );
+    assert!(enabled(&browser, "[data-testid=delete]").await, "unlocked");
+    assert_eq!(count(&browser, "[data-testid=playlist-locked]").await, 0);
+
+    browser.client.close().await.expect("close the browser");
+}
