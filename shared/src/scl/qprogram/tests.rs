@@ -584,10 +584,13 @@ fn a_show_of_hours_is_compiled_in_bounded_memory_and_time() {
     // An hour and a half of waves: a coarser grid (5 ms), at most 1200 candidates of
     // its 2700 turning points; it does not fit a drive and is reduced hard, but it is
     // answered.
+    // What bounds the work is the number of candidates the reduction searches over,
+    // not a clock (a wall-clock limit flakes on a loaded machine; `cargo xtask
+    // qprogram-report` prints the compile time).
     let track = wave(5400, 4.0);
-    let started = std::time::Instant::now();
+    let candidates = super::keyframes::candidates(&super::keyframes::sample(&track));
+    assert!(candidates.len() <= 1200, "{} candidates", candidates.len());
     let program = compile(&track, &lenient()).unwrap();
     assert!(program.lines() <= 12 * 62);
     assert!(program.report.max_deviation_mm > 100.0);
-    assert!(started.elapsed().as_secs() < 10, "{:?}", started.elapsed());
 }
