@@ -101,7 +101,7 @@ codes! {
     /// The request's Content-Type is not one the call accepts.
     UnsupportedMediaType = "unsupported_media_type" [];
     /// The request body is not the JSON the call expects.
-    BadJson = "bad_json" ["what"];
+    BadJson = "bad_json" ["what", "reason"];
     /// The framework refused the request for another reason (`status`).
     RequestRefused = "request_refused" ["status"];
     /// Something failed inside the bridge (logged there).

@@ -13,9 +13,12 @@ use std::net::SocketAddr;
 
 use floatball_shared::api::{FeedbackFrame, GatewayKind, MboxReply, SclReply, Status};
 use floatball_shared::ascii::parse_script;
+use floatball_shared::codes::Coded;
 use floatball_shared::feedback::{Ack, Feedback, Frame, code};
 use floatball_shared::mbox::console as mbox_console;
 use floatball_shared::mbox::{BoxAddress, Route};
+
+use crate::context::Refusal;
 
 /// How many feedback lines the console keeps.
 pub const FEEDBACK_LINES: usize = 200;
@@ -32,8 +35,8 @@ pub enum Check {
         /// The number of instructions in them.
         instructions: usize,
     },
-    /// The parser's error, with line and column.
-    Invalid(String),
+    /// The parser's error, with line and column (shown in the current language).
+    Invalid(Refusal),
 }
 
 /// Checks the console's text with the shared parser (the same the bridge uses).
@@ -48,9 +51,12 @@ pub fn check_mbox(text: &str, selected: Route) -> Check {
 }
 
 /// Checks `text` with `parse`; each line that holds something is sent on its own.
-fn check_with<T, E: ToString>(text: &str, parse: impl Fn(&str) -> Result<Vec<T>, E>) -> Check {
+fn check_with<T, E: Coded + std::fmt::Display>(
+    text: &str,
+    parse: impl Fn(&str) -> Result<Vec<T>, E>,
+) -> Check {
     match parse(text) {
-        Err(error) => Check::Invalid(error.to_string()),
+        Err(error) => Check::Invalid(Refusal::of(&error)),
         Ok(instructions) if instructions.is_empty() => Check::Empty,
         Ok(instructions) => Check::Ready {
             lines: text
@@ -256,6 +262,7 @@ fn describe_ack(ack: Ack) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::i18n::Lang;
 
     fn frame(station: u8, code: u8, data: &[u8]) -> FeedbackFrame {
         FeedbackFrame {
@@ -283,11 +290,13 @@ mod tests {
         let Check::Invalid(error) = check("*5;\nQT[3]=0;") else {
             panic!("QT=0 must be refused");
         };
-        assert!(error.starts_with("line 2, column"), "{error}");
+        assert!(error.message.starts_with("line 2, column"), "{error:?}");
+        assert_eq!(error.code, "ascii_out_of_range");
+        assert!(error.text(Lang::Zh).starts_with("第 2 行第"), "{error:?}");
         let Check::Invalid(error) = check("PV") else {
             panic!("missing ;");
         };
-        assert!(error.contains("`;`"), "{error}");
+        assert!(error.message.contains("`;`"), "{error:?}");
     }
 
     #[test]
@@ -304,7 +313,8 @@ mod tests {
         let Check::Invalid(error) = check_mbox("reset\nread FX 0x20 4", every) else {
             panic!("FX must be refused");
         };
-        assert!(error.starts_with("line 2, column 6"), "{error}");
+        assert!(error.message.starts_with("line 2, column 6"), "{error:?}");
+        assert_eq!(error.code, "mbox_not_a_bank");
         // `@201` needs a selected box's subnet.
         assert!(matches!(check_mbox("@201 reset", every), Check::Invalid(_)));
         let status = Status {
@@ -346,7 +356,7 @@ mod tests {
         let Check::Invalid(error) = check_scl("0IP\n1XX5") else {
             panic!("an unknown mnemonic passed");
         };
-        assert!(error.contains("line 2"), "{error}");
+        assert!(error.message.contains("line 2"), "{error:?}");
         // UIM2503 text is not SCL, and SCL is not UIM2503 text.
         assert!(matches!(check_scl("*5;PV;"), Check::Invalid(_)));
         let scl = Status {

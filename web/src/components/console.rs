@@ -78,7 +78,7 @@ pub fn ConsolePage() -> impl IntoView {
         .into_any(),
         Check::Invalid(error) => view! {
             <p class="note error" data-testid="console-check" data-state="error">
-                {error}
+                {move || error.text(ctx.lang.get())}
             </p>
         }
         .into_any(),

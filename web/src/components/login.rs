@@ -140,8 +140,12 @@ fn PasswordForm(remembered: RwSignal<Option<String>>) -> impl IntoView {
                     note.set(Some(lang.t(Text::WrongCurrentPassword).into()));
                 }
                 Err(Failure::Rejected(error)) => {
-                    let details = error.details.join(" ");
-                    note.set(Some(format!("{} {details}", error.error)));
+                    let details = lang.problems(&error).join(" ");
+                    note.set(Some(
+                        format!("{} {details}", lang.api_error(&error))
+                            .trim_end()
+                            .to_owned(),
+                    ));
                 }
                 Err(failure) => note.set(Some(ctx.failed(&failure))),
             }
