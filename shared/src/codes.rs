@@ -424,6 +424,17 @@ mod tests {
     }
 
     #[test]
+    fn the_docs_list_every_code() {
+        let docs = include_str!("../../docs/errors.md");
+        for &code in Code::ALL {
+            assert!(
+                docs.contains(&format!("| `{code}` |")),
+                "docs/errors.md does not list {code}"
+            );
+        }
+    }
+
+    #[test]
     fn typed_errors_carry_every_parameter_their_code_names() {
         use crate::show::{self, ShowFormat};
         let csv = "time_ms,u0\n0,0\n50,x\n";
