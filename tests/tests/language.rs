@@ -64,7 +64,7 @@ async fn the_bridges_refusals_read_in_chinese() {
     browser.wait_for("[data-testid=page-files]").await;
     let folder = tempfile::tempdir().expect("temp dir");
     let path = folder.path().join("bad.csv");
-    std::fs::write(&path, "time_ms,u0\n0,0\n50,x\n").expect("write the CSV");
+    std::fs::write(&path, "# rows=1 cols=1\ntime_ms,u0\n0,0\n50,x\n").expect("write the CSV");
     browser.pick_file("[data-testid=file-picker]", &path).await;
     browser
         .wait_for("[data-testid=local-file][data-name='bad.csv']")
@@ -76,7 +76,7 @@ async fn the_bridges_refusals_read_in_chinese() {
     browser
         .wait_for_text(
             "[data-testid=upload-details]",
-            "第 3 行第 2 列：“x”不是数字",
+            "第 4 行第 2 列：“x”不是数字",
         )
         .await;
     let message = browser.text("[data-testid=files-message]").await;
