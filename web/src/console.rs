@@ -19,6 +19,7 @@ use floatball_shared::mbox::console as mbox_console;
 use floatball_shared::mbox::{BoxAddress, Route};
 
 use crate::context::Refusal;
+use crate::i18n::Lang;
 
 /// How many feedback lines the console keeps.
 pub const FEEDBACK_LINES: usize = 200;
@@ -126,6 +127,29 @@ pub struct FeedbackLine {
     pub text: String,
     /// The restored data bytes in hex.
     pub hex: String,
+    /// A unit's error report (`ER`) as a code and parameters, shown in the current
+    /// language by [`FeedbackLine::text_in`].
+    pub unit_error: Option<Refusal>,
+}
+
+impl FeedbackLine {
+    /// The meaning in `lang`: a unit's error report translated, with the instruction
+    /// and index it names; any other frame in the protocol's notation.
+    pub fn text_in(&self, lang: Lang) -> String {
+        let Some(error) = &self.unit_error else {
+            return self.text.clone();
+        };
+        let mut text = format!("ER: {}", error.text(lang));
+        if let (Some(instruction), Some(index)) =
+            (error.params.get("instruction"), error.params.get("index"))
+        {
+            text.push_str(&match lang {
+                Lang::Zh => format!("（{instruction}，下标 {index}）"),
+                Lang::En => format!(" ({instruction}, index {index})"),
+            });
+        }
+        text
+    }
 }
 
 /// The most recent feedback frames, newest first.
@@ -151,6 +175,12 @@ impl FeedbackLog {
     pub fn push(&mut self, frame: &FeedbackFrame) {
         let hex = frame.data.iter().map(|byte| format!("{byte:02X}"));
         self.push_line(frame.gateway, Some(frame.station), describe(frame), hex);
+        let decoded = Frame::new(frame.station, frame.code, &frame.data)
+            .ok()
+            .and_then(|frame| Feedback::from_frame(&frame).ok());
+        if let (Some(Feedback::Error(error)), Some(line)) = (decoded, self.lines.front_mut()) {
+            line.unit_error = Some(Refusal::of(&error));
+        }
     }
 
     /// Puts an MBOX box's reply to a console read first, its registers in hex.
@@ -188,6 +218,7 @@ impl FeedbackLog {
             station,
             text,
             hex: hex.collect::<Vec<_>>().join(" "),
+            unit_error: None,
         };
         self.next_id += 1;
         self.lines.push_front(line);
@@ -262,7 +293,6 @@ fn describe_ack(ack: Ack) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::i18n::Lang;
 
     fn frame(station: u8, code: u8, data: &[u8]) -> FeedbackFrame {
         FeedbackFrame {
@@ -411,6 +441,28 @@ mod tests {
         );
         let error = describe(&frame(9, code::ER, &[0x33, code::QT, 3]));
         assert!(error.starts_with("ER: value out of range"), "{error}");
+        let mut log = FeedbackLog::default();
+        log.push(&frame(9, code::ER, &[0x32, 0, 0]));
+        let line = log.lines().next().expect("a line");
+        assert_eq!(
+            line.text_in(Lang::Zh),
+            "ER: 网关无法读取这条指令（错误 0x32）"
+        );
+        assert_eq!(
+            line.text_in(Lang::En),
+            "ER: the gateway could not read the instruction (error 0x32)"
+        );
+        log.push(&frame(9, code::ER, &[0x33, code::QT, 3]));
+        let line = log.lines().next().expect("a line");
+        assert_eq!(
+            line.text_in(Lang::Zh),
+            "ER: 数值超出范围或不一致（错误 0x33）（QT (0x27)，下标 3）"
+        );
+        log.push(&frame(9, code::PV, &[3, 0]));
+        assert_eq!(
+            log.lines().next().expect("a line").text_in(Lang::Zh),
+            "PV = 3"
+        );
         assert_eq!(describe(&frame(5, 0x70, &[])), "code 0x70");
         let bad = describe(&frame(5, code::PV, &[3]));
         assert!(bad.starts_with("? code 0x23"), "{bad}");

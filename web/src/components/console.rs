@@ -189,7 +189,7 @@ pub fn ConsolePage() -> impl IntoView {
                             view! {
                                 <li data-testid="feedback-line">
                                     <span class="where">{line.source()}</span>
-                                    <span class="what">{line.text.clone()}</span>
+                                    <span class="what">{line.text_in(ctx.lang.get())}</span>
                                     <span class="hex muted">{line.hex.clone()}</span>
                                 </li>
                             }
