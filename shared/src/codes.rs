@@ -275,6 +275,9 @@ codes! {
     ConsoleBusy = "console_busy" [];
     /// The console line could not be sent (`reason` in English).
     LineNotSent = "line_not_sent" ["reason"];
+    /// The E-stop could not reach these gateways now (`estop_sent` with `unreached`;
+    /// they get it first thing when they come back).
+    EstopUnreached = "estop_unreached" ["gateways"];
     /// No drive with that address on the gateway.
     NoSuchDrive = "no_such_drive" ["drive", "gateway"];
     /// A line without a drive address on a gateway with several drives.

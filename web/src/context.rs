@@ -4,11 +4,15 @@
 //! Components reach the bridge only through [`Services`]: a [`Transport`] for HTTP and
 //! a [`Sender`] for WebSocket messages. The app passes the real ones; component tests
 //! pass a fake bridge and count what was sent.
+//!
+//! Also here: a refusal of the bridge as it is kept for display ([`Refusal`], shown in
+//! the current language), and the browser's side of the language: its preferred
+//! languages at start ([`browser_languages`]) and `<html lang>` ([`set_document_lang`]).
 
 use std::rc::Rc;
 
 use floatball_shared::api::{ClientMessage, ServerMessage, ShowSummary, Status};
-use floatball_shared::codes::{Coded, Params};
+use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::show::{Show, ShowFormat, import};
 use leptos::prelude::*;
 use leptos::task::spawn_local;
@@ -254,10 +258,13 @@ impl Ctx {
                 params,
             })),
             ServerMessage::EstopSent { unreached } if !unreached.is_empty() => {
+                let gateways = unreached.join("; ");
+                let mut params = Params::new();
+                params.insert("gateways".into(), gateways.clone());
                 self.bridge_error.set(Some(Refusal {
-                    message: format!("E-stop: {}", unreached.join("; ")),
-                    code: String::new(),
-                    params: Params::new(),
+                    message: format!("E-stop: {gateways}"),
+                    code: Code::EstopUnreached.as_str().to_owned(),
+                    params,
                 }));
             }
             ServerMessage::Pong | ServerMessage::EstopSent { .. } => {}

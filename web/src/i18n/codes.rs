@@ -460,6 +460,11 @@ pub(super) const ERROR_TEXTS: &[(Code, &str, &str)] = &[
         "{request}：请在前面写驱动器地址（网关 {gateway} 有 {drives} 个驱动器）",
         "{request}: put the drive's address first (gateway {gateway} has {drives} drives)",
     ),
+    (
+        Code::EstopUnreached,
+        "急停暂未送达：{gateways}（连接恢复后立即发送）",
+        "The E-stop did not reach: {gateways} (it is sent first thing when they come back)",
+    ),
     // ---- UIM2503 instructions ----
     (
         Code::AsciiNotAscii,
