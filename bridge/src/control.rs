@@ -1,7 +1,8 @@
 //! Start, Reset and Home as the WebSocket asks for them: the stored playlist, its shows
 //! read from the store (on a blocking thread), handed to the player with the e-stop
-//! generation the request was issued at. Every refusal comes back as a sentence an
-//! operator can act on (which entry, why, and what would make it run).
+//! generation the request was issued at. Every refusal comes back as a coded
+//! [`ServerMessage::Error`]: its code and parameters (which entry, why, and what would
+//! make it run) and the same as an English sentence.
 
 use floatball_shared::api::ServerMessage;
 use floatball_shared::codes::{Code, Coded, Params};

@@ -101,7 +101,7 @@ codes! {
     /// The request's Content-Type is not one the call accepts.
     UnsupportedMediaType = "unsupported_media_type" [];
     /// The request body is not the JSON the call expects.
-    BadJson = "bad_json" ["what"];
+    BadJson = "bad_json" ["what", "reason"];
     /// The framework refused the request for another reason (`status`).
     RequestRefused = "request_refused" ["status"];
     /// Something failed inside the bridge (logged there).
@@ -275,6 +275,9 @@ codes! {
     ConsoleBusy = "console_busy" [];
     /// The console line could not be sent (`reason` in English).
     LineNotSent = "line_not_sent" ["reason"];
+    /// The E-stop could not reach these gateways now (`estop_sent` with `unreached`;
+    /// they get it first thing when they come back).
+    EstopUnreached = "estop_unreached" ["gateways"];
     /// No drive with that address on the gateway.
     NoSuchDrive = "no_such_drive" ["drive", "gateway"];
     /// A line without a drive address on a gateway with several drives.
@@ -421,6 +424,17 @@ mod tests {
             assert_eq!(Code::parse(text), Some(code));
         }
         assert_eq!(Code::parse("no_such_code"), None);
+    }
+
+    #[test]
+    fn the_docs_list_every_code() {
+        let docs = include_str!("../../docs/errors.md");
+        for &code in Code::ALL {
+            assert!(
+                docs.contains(&format!("| `{code}` |")),
+                "docs/errors.md does not list {code}"
+            );
+        }
     }
 
     #[test]

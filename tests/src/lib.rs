@@ -179,8 +179,15 @@ pub struct Browser {
 
 impl Browser {
     /// Starts ChromeDriver on a free port and opens a headless Chromium window of
-    /// `width` × `height` CSS pixels.
+    /// `width` × `height` CSS pixels, its language 中文 (`zh-CN`): the app then starts
+    /// in 中文, as the tests that read its texts expect.
     pub async fn start(width: u32, height: u32) -> Self {
+        Self::start_in(width, height, "zh-CN").await
+    }
+
+    /// [`Browser::start`] with the browser's language `lang` (a BCP 47 tag such as
+    /// `en-US`): `navigator.language(s)` and `Accept-Language` say it.
+    pub async fn start_in(width: u32, height: u32, lang: &str) -> Self {
         let chromedriver = std::env::var("CHROMEDRIVER").unwrap_or("/usr/bin/chromedriver".into());
         let port = std::net::TcpListener::bind("127.0.0.1:0")
             .and_then(|listener| listener.local_addr())
@@ -203,6 +210,7 @@ impl Browser {
                 "mobileEmulation": {
                     "deviceMetrics": { "width": width, "height": height, "pixelRatio": 1.0 }
                 },
+                "prefs": { "intl.accept_languages": lang },
                 "args": [
                     "--headless=new",
                     "--no-sandbox",
@@ -213,6 +221,8 @@ impl Browser {
                     "--disable-sync",
                     "--disable-quic",
                     "--no-first-run",
+                    format!("--lang={lang}"),
+                    format!("--accept-lang={lang}"),
                     format!("--window-size={},{height}", width.max(500)),
                     format!("--user-data-dir={}", profile.path().display()),
                 ]
@@ -338,9 +348,14 @@ impl Browser {
         self.click("[data-testid=login-submit]").await;
     }
 
-    /// A phone-sized (360 × 740) Chromium with the app of `bridge` open.
+    /// A phone-sized (360 × 740) Chromium with the app of `bridge` open, in 中文.
     pub async fn open(bridge: &Bridge) -> Self {
-        let browser = Self::start(360, 740).await;
+        Self::open_in(bridge, "zh-CN").await
+    }
+
+    /// [`Browser::open`] in a browser whose language is `lang` (`en-US`, `zh-CN`…).
+    pub async fn open_in(bridge: &Bridge, lang: &str) -> Self {
+        let browser = Self::start_in(360, 740, lang).await;
         browser
             .client
             .goto(&bridge.url())
@@ -447,6 +462,17 @@ impl Browser {
             UI_TIMEOUT,
         )
         .await;
+    }
+
+    /// The page's `<html lang>`.
+    pub async fn document_lang(&self) -> String {
+        self.client
+            .execute("return document.documentElement.lang;", Vec::new())
+            .await
+            .expect("read <html lang>")
+            .as_str()
+            .unwrap_or_default()
+            .to_owned()
     }
 
     /// `GET path` on the bridge from the page, with the page's login; the JSON answer.

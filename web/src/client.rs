@@ -126,7 +126,8 @@ pub enum Failure {
     NotFound,
     /// 413: the file is over the bridge's size limit.
     TooLarge,
-    /// 400 or 422: the bridge refused the request and said why.
+    /// 400, 409 or 422, or any refusal with a code: the bridge refused the request and
+    /// said why (rendered by [`crate::i18n::Lang::api_error`]).
     Rejected(ApiError),
     /// Any other status.
     Unexpected {
@@ -148,19 +149,29 @@ pub fn failure_of(response: &Response) -> Failure {
     let api_error = || serde_json::from_str::<ApiError>(&response.body).ok();
     match response.status {
         401 => Failure::Unauthorized,
-        403 => Failure::MustChangePassword,
+        // A 403 other than "change the password first" (a wrong current password).
+        403 => match api_error() {
+            Some(error) if !error.code.is_empty() && error.code != "must_change_password" => {
+                Failure::Rejected(error)
+            }
+            _ => Failure::MustChangePassword,
+        },
         404 => Failure::NotFound,
         413 => Failure::TooLarge,
         429 => Failure::TooManyAttempts {
             retry_after_s: response.retry_after.as_deref().and_then(parse_retry_after),
         },
-        400 | 422 => Failure::Rejected(api_error().unwrap_or_else(|| ApiError {
+        400 | 409 | 422 => Failure::Rejected(api_error().unwrap_or_else(|| ApiError {
             error: response.body.trim().to_owned(),
             ..ApiError::default()
         })),
-        status => Failure::Unexpected {
-            status,
-            body: response.body.clone(),
+        status => match api_error() {
+            // Any other refusal the bridge explains with a code.
+            Some(error) if !error.code.is_empty() => Failure::Rejected(error),
+            _ => Failure::Unexpected {
+                status,
+                body: response.body.clone(),
+            },
         },
     }
 }
@@ -596,6 +607,20 @@ mod tests {
         assert!(matches!(
             failure_of(&response(500, "boom")),
             Failure::Unexpected { status: 500, .. }
+        ));
+        let locked = r#"{"error":"locked","code":"playlist_locked"}"#;
+        assert!(
+            matches!(failure_of(&response(409, locked)), Failure::Rejected(error) if error.code == "playlist_locked")
+        );
+        let wrong = r#"{"error":"wrong","code":"wrong_current_password"}"#;
+        assert!(matches!(
+            failure_of(&response(403, wrong)),
+            Failure::Rejected(_)
+        ));
+        let busy = r#"{"error":"busy","code":"login_busy","params":{"retry_after_s":"5"}}"#;
+        assert!(matches!(
+            failure_of(&response(503, busy)),
+            Failure::Rejected(_)
         ));
         assert_eq!(parse_retry_after("Wed, 21 Oct 2015 07:28:00 GMT"), None);
     }

@@ -17,10 +17,14 @@ use floatball_shared::api::{
     FeedbackFrame, GatewayKind, InstallationInfo, MboxReply, SclReply, Status,
 };
 use floatball_shared::ascii::parse_script;
+use floatball_shared::codes::Coded;
 use floatball_shared::feedback::{Ack, Feedback, Frame, code};
 use floatball_shared::mbox::console as mbox_console;
 use floatball_shared::mbox::{BoxAddress, Route};
 use floatball_shared::scl::{Answer, Reply};
+
+use crate::context::Refusal;
+use crate::i18n::Lang;
 
 /// How many feedback lines the console keeps.
 pub const FEEDBACK_LINES: usize = 200;
@@ -37,8 +41,8 @@ pub enum Check {
         /// The number of instructions in them.
         instructions: usize,
     },
-    /// The parser's error, with line and column.
-    Invalid(String),
+    /// The parser's error, with line and column (shown in the current language).
+    Invalid(Refusal),
 }
 
 /// Checks the console's text with the shared parser (the same the bridge uses).
@@ -53,9 +57,12 @@ pub fn check_mbox(text: &str, selected: Route) -> Check {
 }
 
 /// Checks `text` with `parse`; each line that holds something is sent on its own.
-fn check_with<T, E: ToString>(text: &str, parse: impl Fn(&str) -> Result<Vec<T>, E>) -> Check {
+fn check_with<T, E: Coded + std::fmt::Display>(
+    text: &str,
+    parse: impl Fn(&str) -> Result<Vec<T>, E>,
+) -> Check {
     match parse(text) {
-        Err(error) => Check::Invalid(error.to_string()),
+        Err(error) => Check::Invalid(Refusal::of(&error)),
         Ok(instructions) if instructions.is_empty() => Check::Empty,
         Ok(instructions) => Check::Ready {
             lines: text
@@ -125,6 +132,29 @@ pub struct FeedbackLine {
     pub text: String,
     /// The restored data bytes in hex.
     pub hex: String,
+    /// A unit's error report (`ER`) as a code and parameters, shown in the current
+    /// language by [`FeedbackLine::text_in`].
+    pub unit_error: Option<Refusal>,
+}
+
+impl FeedbackLine {
+    /// The meaning in `lang`: a unit's error report translated, with the instruction
+    /// and index it names; any other frame in the protocol's notation.
+    pub fn text_in(&self, lang: Lang) -> String {
+        let Some(error) = &self.unit_error else {
+            return self.text.clone();
+        };
+        let mut text = format!("ER: {}", error.text(lang));
+        if let (Some(instruction), Some(index)) =
+            (error.params.get("instruction"), error.params.get("index"))
+        {
+            text.push_str(&match lang {
+                Lang::Zh => format!("（{instruction}，下标 {index}）"),
+                Lang::En => format!(" ({instruction}, index {index})"),
+            });
+        }
+        text
+    }
 }
 
 /// The most recent feedback frames, newest first, and the installation that gives
@@ -159,6 +189,12 @@ impl FeedbackLog {
         );
         let text = describe_scaled(frame, scale);
         self.push_line(frame.gateway, Some(frame.station), text, hex);
+        let decoded = Frame::new(frame.station, frame.code, &frame.data)
+            .ok()
+            .and_then(|frame| Feedback::from_frame(&frame).ok());
+        if let (Some(Feedback::Error(error)), Some(line)) = (decoded, self.lines.front_mut()) {
+            line.unit_error = Some(Refusal::of(&error));
+        }
     }
 
     /// Takes the installation's calibration and stations: from now on positions in
@@ -218,6 +254,7 @@ impl FeedbackLog {
             station,
             text,
             hex: hex.collect::<Vec<_>>().join(" "),
+            unit_error: None,
         };
         self.next_id += 1;
         self.lines.push_front(line);
@@ -369,11 +406,13 @@ mod tests {
         let Check::Invalid(error) = check("*5;\nQT[3]=0;") else {
             panic!("QT=0 must be refused");
         };
-        assert!(error.starts_with("line 2, column"), "{error}");
+        assert!(error.message.starts_with("line 2, column"), "{error:?}");
+        assert_eq!(error.code, "ascii_out_of_range");
+        assert!(error.text(Lang::Zh).starts_with("第 2 行第"), "{error:?}");
         let Check::Invalid(error) = check("PV") else {
             panic!("missing ;");
         };
-        assert!(error.contains("`;`"), "{error}");
+        assert!(error.message.contains("`;`"), "{error:?}");
     }
 
     #[test]
@@ -390,7 +429,8 @@ mod tests {
         let Check::Invalid(error) = check_mbox("reset\nread FX 0x20 4", every) else {
             panic!("FX must be refused");
         };
-        assert!(error.starts_with("line 2, column 6"), "{error}");
+        assert!(error.message.starts_with("line 2, column 6"), "{error:?}");
+        assert_eq!(error.code, "mbox_not_a_bank");
         // `@201` needs a selected box's subnet.
         assert!(matches!(check_mbox("@201 reset", every), Check::Invalid(_)));
         let status = Status {
@@ -432,7 +472,7 @@ mod tests {
         let Check::Invalid(error) = check_scl("0IP\n1XX5") else {
             panic!("an unknown mnemonic passed");
         };
-        assert!(error.contains("line 2"), "{error}");
+        assert!(error.message.contains("line 2"), "{error:?}");
         // UIM2503 text is not SCL, and SCL is not UIM2503 text.
         assert!(matches!(check_scl("*5;PV;"), Check::Invalid(_)));
         let scl = Status {
@@ -487,6 +527,28 @@ mod tests {
         );
         let error = describe(&frame(9, code::ER, &[0x33, code::QT, 3]));
         assert!(error.starts_with("ER: value out of range"), "{error}");
+        let mut log = FeedbackLog::default();
+        log.push(&frame(9, code::ER, &[0x32, 0, 0]));
+        let line = log.lines().next().expect("a line");
+        assert_eq!(
+            line.text_in(Lang::Zh),
+            "ER: 网关无法读取这条指令（错误 0x32）"
+        );
+        assert_eq!(
+            line.text_in(Lang::En),
+            "ER: the gateway could not read the instruction (error 0x32)"
+        );
+        log.push(&frame(9, code::ER, &[0x33, code::QT, 3]));
+        let line = log.lines().next().expect("a line");
+        assert_eq!(
+            line.text_in(Lang::Zh),
+            "ER: 数值超出范围或不一致（错误 0x33）（QT (0x27)，下标 3）"
+        );
+        log.push(&frame(9, code::PV, &[3, 0]));
+        assert_eq!(
+            log.lines().next().expect("a line").text_in(Lang::Zh),
+            "PV = 3"
+        );
         assert_eq!(describe(&frame(5, 0x70, &[])), "code 0x70");
         let bad = describe(&frame(5, code::PV, &[3]));
         assert!(bad.starts_with("? code 0x23"), "{bad}");

@@ -4,10 +4,15 @@
 //! Components reach the bridge only through [`Services`]: a [`Transport`] for HTTP and
 //! a [`Sender`] for WebSocket messages. The app passes the real ones; component tests
 //! pass a fake bridge and count what was sent.
+//!
+//! Also here: a refusal of the bridge as it is kept for display ([`Refusal`], shown in
+//! the current language), and the browser's side of the language: its preferred
+//! languages at start ([`browser_languages`]) and `<html lang>` ([`set_document_lang`]).
 
 use std::rc::Rc;
 
 use floatball_shared::api::{ClientMessage, ServerMessage, ShowSummary, Status};
+use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::show::{Show, ShowFormat, import};
 use leptos::prelude::*;
 use leptos::task::spawn_local;
@@ -86,7 +91,7 @@ pub struct Ctx {
     /// The latest status from the bridge.
     pub status: RwSignal<Option<Status>>,
     /// The latest request the bridge refused over the WebSocket.
-    pub bridge_error: RwSignal<Option<String>>,
+    pub bridge_error: RwSignal<Option<Refusal>>,
     /// Local files.
     pub local_files: RwSignal<Listing<LocalFile>>,
     /// Controller files.
@@ -105,6 +110,72 @@ pub struct Ctx {
     pub toast: RwSignal<Option<(u32, String)>>,
     origin: StoredValue<Origin>,
     services: StoredValue<Services, LocalStorage>,
+}
+
+/// A request the bridge refused over the WebSocket: its code and parameters, shown
+/// in the current language ([`Lang::coded`]), and its English words for a code the
+/// app does not know.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Refusal {
+    /// The bridge's English sentence.
+    pub message: String,
+    /// The stable code (empty from an older bridge).
+    pub code: String,
+    /// The code's parameters.
+    pub params: Params,
+}
+
+impl Refusal {
+    /// A typed error of the shared code (a parse error found before sending).
+    pub fn of(error: &(impl Coded + std::fmt::Display)) -> Self {
+        Self {
+            message: error.to_string(),
+            code: error.code().as_str().to_owned(),
+            params: error.params(),
+        }
+    }
+
+    /// The refusal in `lang`.
+    pub fn text(&self, lang: Lang) -> String {
+        lang.coded(&self.code, &self.params, &self.message)
+    }
+}
+
+/// The browser's preferred languages (`navigator.languages`, else
+/// `navigator.language`), first first. Read through `Reflect`, so no web-sys feature
+/// is needed for a list of strings.
+pub fn browser_languages() -> Vec<String> {
+    let get = |target: &wasm_bindgen::JsValue, name: &str| {
+        js_sys::Reflect::get(target, &wasm_bindgen::JsValue::from_str(name)).ok()
+    };
+    let Some(navigator) = get(&leptos::prelude::window(), "navigator") else {
+        return Vec::new();
+    };
+    let listed: Vec<String> = get(&navigator, "languages")
+        .filter(js_sys::Array::is_array)
+        .map(|list| {
+            js_sys::Array::from(&list)
+                .iter()
+                .filter_map(|tag| tag.as_string())
+                .collect()
+        })
+        .unwrap_or_default();
+    if listed.is_empty() {
+        get(&navigator, "language")
+            .and_then(|tag| tag.as_string())
+            .into_iter()
+            .collect()
+    } else {
+        listed
+    }
+}
+
+/// Says the page's language to the browser and to assistive technology:
+/// `<html lang="zh">` or `<html lang="en">`.
+pub fn set_document_lang(lang: Lang) {
+    if let Some(root) = leptos::prelude::document().document_element() {
+        let _ = root.set_attribute("lang", lang.code());
+    }
 }
 
 impl Ctx {
@@ -184,10 +255,24 @@ impl Ctx {
             ServerMessage::Feedback(frame) => self.feedback.update(|log| log.push(&frame)),
             ServerMessage::MboxReply(reply) => self.feedback.update(|log| log.push_mbox(&reply)),
             ServerMessage::SclReply(reply) => self.feedback.update(|log| log.push_scl(&reply)),
-            ServerMessage::Error { message, .. } => self.bridge_error.set(Some(message)),
+            ServerMessage::Error {
+                message,
+                code,
+                params,
+            } => self.bridge_error.set(Some(Refusal {
+                message,
+                code,
+                params,
+            })),
             ServerMessage::EstopSent { unreached } if !unreached.is_empty() => {
-                self.bridge_error
-                    .set(Some(format!("E-stop: {}", unreached.join("; "))));
+                let gateways = unreached.join("; ");
+                let mut params = Params::new();
+                params.insert("gateways".into(), gateways.clone());
+                self.bridge_error.set(Some(Refusal {
+                    message: format!("E-stop: {gateways}"),
+                    code: Code::EstopUnreached.as_str().to_owned(),
+                    params,
+                }));
             }
             ServerMessage::Pong | ServerMessage::EstopSent { .. } => {}
         }
@@ -288,7 +373,10 @@ impl Ctx {
     pub fn preview_local(&self, file: &LocalFile) {
         let item = match file.to_show() {
             Ok(show) => PreviewItem::Ready(file.name.clone(), show),
-            Err(refused) => PreviewItem::Failed(file.name.clone(), refused.reason()),
+            Err(refused) => PreviewItem::Failed(
+                file.name.clone(),
+                self.lang.get_untracked().refused(&refused),
+            ),
         };
         self.preview.set(Some(item));
         self.page.set(Page::Preview);
@@ -305,7 +393,10 @@ impl Ctx {
             let item = match client.download(&name).await {
                 Ok(json) => match import(&name, json.as_bytes(), ShowFormat::Json, None, None) {
                     Ok(show) => PreviewItem::Ready(name.clone(), show),
-                    Err(refused) => PreviewItem::Failed(name.clone(), refused.reason()),
+                    Err(refused) => PreviewItem::Failed(
+                        name.clone(),
+                        ctx.lang.get_untracked().refused(&refused),
+                    ),
                 },
                 Err(failure) => PreviewItem::Failed(name.clone(), ctx.failed(&failure)),
             };

@@ -1,10 +1,15 @@
 //! The app's two languages and every string a user sees.
 //!
 //! Fixed strings are [`Text`] variants, translated by [`Lang::t`]; strings with a
-//! value in them are methods of [`Lang`]. Messages that come from elsewhere (the
-//! bridge's validation details, the shared parser's errors) are shown as they come.
+//! value in them are methods of [`Lang`]. Errors from the bridge and from the shared
+//! parsers come as a code and parameters ([`floatball_shared::codes`]) and are
+//! rendered by [`Lang::coded`] from the templates in [`codes`]; the bridge's English
+//! text is shown only for a code this app does not know (a newer or older bridge).
 
-use floatball_shared::api::{LinkState, PlayerState, QProgramListing};
+mod codes;
+
+use floatball_shared::api::{ApiError, LinkState, PlayerState, Problem, QProgramListing};
+use floatball_shared::codes::{Code, Coded, Params};
 
 use crate::client::Failure;
 use crate::playlist::InputError;
@@ -420,6 +425,134 @@ impl Lang {
         }
     }
 
+    /// The language to start in: the stored choice (`zh` / `en`) if there is one,
+    /// else the browser's preferred language (`navigator.languages`, first first):
+    /// 中文 for any `zh…`, English for anything else.
+    pub fn at_start(stored: Option<&str>, browser: &[String]) -> Self {
+        match stored {
+            Some("zh") => Lang::Zh,
+            Some("en") => Lang::En,
+            _ => match browser.first() {
+                Some(tag) if tag.to_ascii_lowercase().starts_with("zh") => Lang::Zh,
+                _ => Lang::En,
+            },
+        }
+    }
+
+    /// The template of `code` in this language, if this app knows the code.
+    pub fn template(self, code: Code) -> Option<&'static str> {
+        codes::ERROR_TEXTS
+            .iter()
+            .find(|(known, _, _)| *known == code)
+            .map(|&(_, zh, en)| match self {
+                Lang::Zh => zh,
+                Lang::En => en,
+            })
+    }
+
+    /// An error given by code and parameters, in this language: where it happened
+    /// (line and column, or ball and time) and then the code's template with its
+    /// parameters; `english` (the bridge's own text) for a code this app does not know.
+    pub fn coded(self, code: &str, params: &Params, english: &str) -> String {
+        let Some(template) = Code::parse(code).and_then(|code| self.template(code)) else {
+            return english.to_owned();
+        };
+        let mut text = self.place(params);
+        let mut rest = template;
+        while let Some(open) = rest.find('{') {
+            text.push_str(&rest[..open]);
+            let after = &rest[open + 1..];
+            match after.find('}') {
+                Some(close) if params.contains_key(&after[..close]) => {
+                    text.push_str(&params[&after[..close]]);
+                    rest = &after[close + 1..];
+                }
+                _ => {
+                    text.push('{');
+                    rest = after;
+                }
+            }
+        }
+        text.push_str(rest);
+        text
+    }
+
+    /// Where an error happened, from its parameters, as a prefix: `line`/`column`, or
+    /// `unit` (with `unit_row`, `unit_col`) and `time_s`; empty when neither.
+    fn place(self, params: &Params) -> String {
+        let get = |name: &str| params.get(name).map(String::as_str);
+        match (get("line"), get("column"), get("unit")) {
+            (Some(line), Some(column), _) => match self {
+                Lang::Zh => format!("第 {line} 行第 {column} 列："),
+                Lang::En => format!("line {line}, column {column}: "),
+            },
+            (_, _, Some(unit)) => {
+                let cell = get("unit_row").zip(get("unit_col"));
+                let mut place = match (self, cell) {
+                    (Lang::Zh, Some((row, col))) => {
+                        format!("球 {unit}（第 {row} 行，第 {col} 列）")
+                    }
+                    (Lang::Zh, None) => format!("球 {unit}"),
+                    (Lang::En, Some((row, col))) => format!("ball {unit} (row {row}, col {col})"),
+                    (Lang::En, None) => format!("ball {unit}"),
+                };
+                if let Some(time_s) = get("time_s") {
+                    place.push_str(&match self {
+                        Lang::Zh => format!("在 {time_s} 秒"),
+                        Lang::En => format!(" at {time_s} s"),
+                    });
+                }
+                place.push_str(match self {
+                    Lang::Zh => "：",
+                    Lang::En => ": ",
+                });
+                place
+            }
+            _ => String::new(),
+        }
+    }
+
+    /// A typed error of the shared code (a parse error, a validation problem…).
+    pub fn error_of(self, error: &(impl Coded + std::fmt::Display)) -> String {
+        self.coded(error.code().as_str(), &error.params(), &error.to_string())
+    }
+
+    /// Why a show file cannot be read or is refused, as the preview says it: the
+    /// parser's problem (with its line and column) when the file does not read.
+    pub fn refused(self, refused: &floatball_shared::show::Refused) -> String {
+        use floatball_shared::show::Refused;
+        match refused {
+            Refused::Csv(error) | Refused::KeyframeTooLate { error, .. } => self.error_of(error),
+            Refused::Unreadable(error) => self.error_of(error),
+            other => self.error_of(other),
+        }
+    }
+
+    /// The sentence of an HTTP error body.
+    pub fn api_error(self, error: &ApiError) -> String {
+        self.coded(&error.code, &error.params, &error.error)
+    }
+
+    /// Every problem of an HTTP error body: the coded problems when the bridge sent
+    /// them (each falling back to its English detail), else the English details.
+    pub fn problems(self, error: &ApiError) -> Vec<String> {
+        if error.problems.is_empty() {
+            return error.details.clone();
+        }
+        error
+            .problems
+            .iter()
+            .enumerate()
+            .map(|(index, Problem { code, params })| {
+                let english = error
+                    .details
+                    .get(index)
+                    .map_or(code.as_str(), String::as_str);
+                self.coded(code, params, english)
+            })
+            .collect()
+    }
+
     /// The other language (what the switch changes to).
     pub fn other(self) -> Self {
         match self {
@@ -484,7 +617,7 @@ impl Lang {
             Failure::TooManyAttempts { retry_after_s } => self.too_many_attempts(*retry_after_s),
             Failure::NotFound => self.t(Text::NotFound).into(),
             Failure::TooLarge => self.t(Text::TooLarge).into(),
-            Failure::Rejected(error) => error.error.clone(),
+            Failure::Rejected(error) => self.api_error(error),
             Failure::Unexpected { status, body } => match self {
                 Lang::Zh => format!("控制器出错（HTTP {status}）：{body}"),
                 Lang::En => format!("The controller failed (HTTP {status}): {body}"),
@@ -658,6 +791,119 @@ mod tests {
         );
         assert_eq!(Lang::En.measuring(2500), "Measuring 2500 balls…");
         assert!(Lang::Zh.drawn_by(false, 640, 480).contains("640×480"));
+    }
+
+    #[test]
+    fn every_error_code_has_a_text_in_both_languages() {
+        for &code in Code::ALL {
+            let (Some(zh), Some(en)) = (Lang::Zh.template(code), Lang::En.template(code)) else {
+                panic!("{code} has no text in one of the languages");
+            };
+            assert!(!zh.trim().is_empty() && !en.trim().is_empty(), "{code}");
+            assert_ne!(zh, en, "{code} is not translated");
+            // Every parameter the code always carries is said in English (where the
+            // 中文 text may leave out English-only words), and no template asks for a
+            // parameter the code does not carry.
+            for name in code.params() {
+                assert!(
+                    en.contains(&format!("{{{name}}}")),
+                    "{code}: English lacks {{{name}}}"
+                );
+            }
+            for template in [zh, en] {
+                let mut rest = template;
+                while let Some(open) = rest.find('{') {
+                    let after = &rest[open + 1..];
+                    let close = after.find('}').unwrap_or(after.len());
+                    let name = &after[..close];
+                    assert!(
+                        code.params().contains(&name),
+                        "{code}: unknown parameter {{{name}}}"
+                    );
+                    rest = &after[close.min(after.len())..];
+                }
+            }
+        }
+        let listed: Vec<Code> = codes::ERROR_TEXTS
+            .iter()
+            .map(|(code, _, _)| *code)
+            .collect();
+        let mut unique = listed.clone();
+        unique.sort();
+        unique.dedup();
+        assert_eq!(unique.len(), listed.len(), "a code is listed twice");
+    }
+
+    #[test]
+    fn coded_errors_read_in_the_chosen_language() {
+        let mut params = Params::new();
+        params.insert("min".into(), "4".into());
+        assert_eq!(
+            Lang::Zh.coded("password_too_short", &params, "too short"),
+            "新密码太短：至少 4 个字符"
+        );
+        assert_eq!(
+            Lang::En.coded("password_too_short", &params, "too short"),
+            "The new password is too short: at least 4 characters"
+        );
+        // A code this app does not know: the bridge's English words.
+        assert_eq!(Lang::Zh.coded("from_the_future", &params, "later"), "later");
+        assert_eq!(
+            Lang::Zh.coded("", &Params::new(), "old bridge"),
+            "old bridge"
+        );
+        let error = floatball_shared::ascii::parse_script("*5;PV[1]=3;").expect_err("index");
+        assert_eq!(Lang::Zh.error_of(&error), "第 1 行第 6 列：PV 不带下标");
+        let body = ApiError {
+            error: "the show does not fit".into(),
+            code: "show_unfit".into(),
+            params: [("count".to_owned(), "2".to_owned())].into(),
+            details: vec!["x".into(), "english only".into()],
+            problems: vec![
+                Problem {
+                    code: "too_fast".into(),
+                    params: [
+                        ("unit", "u3"),
+                        ("unit_row", "1"),
+                        ("unit_col", "4"),
+                        ("time_s", "1.50"),
+                        ("speed_mm_s", "900.0"),
+                        ("limit_mm_s", "800.0"),
+                    ]
+                    .into_iter()
+                    .map(|(k, v)| (k.to_owned(), v.to_owned()))
+                    .collect(),
+                },
+                Problem {
+                    code: "unknown_problem".into(),
+                    params: Params::new(),
+                },
+            ],
+        };
+        assert_eq!(Lang::Zh.api_error(&body), "动作不适合本装置：2 个问题");
+        assert_eq!(
+            Lang::Zh.problems(&body),
+            [
+                "球 u3（第 1 行，第 4 列）在 1.50 秒：速度 900.0 毫米/秒超过上限 800.0 毫米/秒",
+                "english only"
+            ]
+        );
+        assert_eq!(
+            Lang::En.problems(&body)[0],
+            "ball u3 (row 1, col 4) at 1.50 s: speed 900.0 mm/s exceeds the limit of 800.0 mm/s"
+        );
+    }
+
+    #[test]
+    fn the_app_starts_in_the_stored_or_the_browsers_language() {
+        let tags = |list: &[&str]| list.iter().map(|tag| (*tag).to_owned()).collect::<Vec<_>>();
+        assert_eq!(Lang::at_start(None, &tags(&["zh-CN", "en"])), Lang::Zh);
+        assert_eq!(Lang::at_start(None, &tags(&["zh-Hant-TW"])), Lang::Zh);
+        assert_eq!(Lang::at_start(None, &tags(&["en-US", "zh-CN"])), Lang::En);
+        assert_eq!(Lang::at_start(None, &tags(&["de"])), Lang::En);
+        assert_eq!(Lang::at_start(None, &[]), Lang::En);
+        assert_eq!(Lang::at_start(Some("zh"), &tags(&["en-US"])), Lang::Zh);
+        assert_eq!(Lang::at_start(Some("en"), &tags(&["zh-CN"])), Lang::En);
     }
 
     #[test]

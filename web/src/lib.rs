@@ -12,7 +12,8 @@
 //! - [`control`]: the Control and Settings pages' decisions: plan verdicts by round,
 //!   panels, the delay-and-cycles forms, saving an edit;
 //! - [`files`]: local and controller file lists, formats, CSV preview layout;
-//! - [`i18n`]: the two languages (中文 / English) and every user-visible string;
+//! - [`i18n`]: the two languages (中文 / English) and every user-visible string,
+//!   including a text for every error code of the bridge and the shared parsers;
 //! - [`page`]: the pages and their URL fragments;
 //! - [`playlist`]: playlist editing (check, move, delete, edit), form input, Start verdict;
 //! - [`session`]: the controller's address, base and WebSocket URLs, the stored login;

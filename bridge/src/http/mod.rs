@@ -147,8 +147,8 @@ async fn method_not_allowed() -> Failure {
 pub struct Failure {
     /// The status code.
     pub status: StatusCode,
-    /// The body.
-    pub body: ApiError,
+    /// The body (boxed: it is large, and every handler returns `Result<_, Failure>`).
+    pub body: Box<ApiError>,
     /// `Retry-After`, seconds.
     pub retry_after_s: Option<u64>,
 }
@@ -159,7 +159,7 @@ impl Failure {
     pub fn coded(status: StatusCode, code: Code, error: impl Into<String>) -> Self {
         Self {
             status,
-            body: ApiError::coded(code, error),
+            body: Box::new(ApiError::coded(code, error)),
             retry_after_s: None,
         }
     }
@@ -220,7 +220,7 @@ impl Failure {
 
 impl IntoResponse for Failure {
     fn into_response(self) -> Response {
-        let mut response = (self.status, axum::Json(self.body)).into_response();
+        let mut response = (self.status, axum::Json(*self.body)).into_response();
         if let Some(seconds) = self.retry_after_s {
             response
                 .headers_mut()

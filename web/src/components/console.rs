@@ -90,7 +90,7 @@ pub fn ConsolePage() -> impl IntoView {
         .into_any(),
         Check::Invalid(error) => view! {
             <p class="note error" data-testid="console-check" data-state="error">
-                {error}
+                {move || error.text(ctx.lang.get())}
             </p>
         }
         .into_any(),
@@ -201,7 +201,7 @@ pub fn ConsolePage() -> impl IntoView {
                             view! {
                                 <li data-testid="feedback-line">
                                     <span class="where">{line.source()}</span>
-                                    <span class="what">{line.text.clone()}</span>
+                                    <span class="what">{line.text_in(ctx.lang.get())}</span>
                                     <span class="hex muted">{line.hex.clone()}</span>
                                 </li>
                             }

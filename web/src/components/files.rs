@@ -164,8 +164,8 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
                 }
                 Err(Failure::Rejected(error)) => Message {
                     error: true,
-                    text: format!("{} {}", lang.t(Text::UploadRefused), error.error),
-                    details: error.details,
+                    text: format!("{} {}", lang.t(Text::UploadRefused), lang.api_error(&error)),
+                    details: lang.problems(&error),
                 },
                 Err(failure) => Message::error(ctx.failed(&failure)),
             }));

@@ -100,9 +100,10 @@ pub fn App() -> impl IntoView {
         protocol: location.protocol().unwrap_or_else(|_| "http:".into()),
         host: location.host().unwrap_or_default(),
     };
-    let lang = stored(LANG_KEY)
-        .map(|code| Lang::from_code(&code))
-        .unwrap_or_default();
+    let lang = Lang::at_start(
+        stored(LANG_KEY).as_deref(),
+        &crate::context::browser_languages(),
+    );
     let slot = SocketSlot::default();
     let services = Services {
         transport: Rc::new(XhrTransport),
@@ -116,7 +117,16 @@ pub fn App() -> impl IntoView {
         .set(Page::from_hash(&location.hash().unwrap_or_default()));
     provide_context(ctx);
 
-    Effect::new(move |_| store(LANG_KEY, Some(ctx.lang.get().code())));
+    // The language is stored only once the operator chose one, so that a browser in
+    // another language starts in its own; `<html lang>` follows every switch.
+    let started_in = lang;
+    Effect::new(move |_| {
+        let lang = ctx.lang.get();
+        crate::context::set_document_lang(lang);
+        if lang != started_in || stored(LANG_KEY).is_some() {
+            store(LANG_KEY, Some(lang.code()));
+        }
+    });
     Effect::new(move |_| {
         let text = ctx
             .session

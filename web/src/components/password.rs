@@ -68,16 +68,21 @@ pub fn PasswordForm(
                 }
                 // The bridge answers a wrong current password with 403; the app may
                 // have remembered a stale one, so the field shows from now on.
+                // (An older bridge answers it without a code: MustChangePassword.)
                 Err(Failure::MustChangePassword) => {
+                    remembered.set(None);
+                    note.set(Some(lang.t(Text::WrongCurrentPassword).into()));
+                }
+                Err(Failure::Rejected(error)) if error.code == "wrong_current_password" => {
                     remembered.set(None);
                     note.set(Some(lang.t(Text::WrongCurrentPassword).into()));
                 }
                 Err(failure) => {
                     let mut text = ctx.failed(&failure);
                     if let Failure::Rejected(error) = &failure {
-                        for detail in &error.details {
+                        for detail in lang.problems(error) {
                             text.push(' ');
-                            text.push_str(detail);
+                            text.push_str(&detail);
                         }
                     }
                     note.set(Some(text));

@@ -109,10 +109,10 @@ pub fn ErrorNote(
 pub fn BridgeError() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     move || {
-        ctx.bridge_error.get().map(|message| {
+        ctx.bridge_error.get().map(|refusal| {
             view! {
                 <p class="note error" data-testid="bridge-error">
-                    {move || ctx.t(Text::BridgeSays)} " " {message}
+                    {move || ctx.t(Text::BridgeSays)} " " {move || refusal.text(ctx.lang.get())}
                 </p>
             }
         })

@@ -394,10 +394,11 @@ fn problems_view(checked: Option<&Checked>, lang: Signal<Lang>) -> AnyView {
         return view! { <p class="note done" data-testid="preview-valid">{move || lang.get().t(Text::WithinLimits)}</p> }
             .into_any();
     }
+    let in_lang = lang.get();
     let shown: Vec<String> = violations
         .iter()
         .take(PROBLEMS_SHOWN)
-        .map(ToString::to_string)
+        .map(|violation| in_lang.error_of(violation))
         .collect();
     let more = count.saturating_sub(shown.len());
     view! {
@@ -621,10 +622,7 @@ fn PlotPanel(
             plot.unit.row,
             plot.unit.col,
             (highest, lowest, plot.peak_speed_mm_s()),
-            plot.violations
-                .iter()
-                .map(ToString::to_string)
-                .collect::<Vec<_>>(),
+            plot.violations.clone(),
         )
     });
     let count = problems.len();
@@ -646,7 +644,10 @@ fn PlotPanel(
             } else {
                 view! {
                     <ul class="note error" data-testid="preview-plot-problems">
-                        {problems.into_iter().map(|problem| view! { <li>{problem}</li> }).collect_view()}
+                        {problems
+                            .into_iter()
+                            .map(|problem| view! { <li>{move || lang.get().error_of(&problem)}</li> })
+                            .collect_view()}
                     </ul>
                 }
                     .into_any()
