@@ -183,6 +183,14 @@ pub struct PlanReport {
     /// What would make it run (higher baud, fewer units per gateway, longer rows…).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub fixes: Vec<String>,
+    /// `reason` as a code and parameters, for the app to say in the operator's
+    /// language (absent when feasible, and from a bridge older than the codes). When
+    /// its parameters have `more`, that many more problems follow the first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason_problem: Option<Problem>,
+    /// `fixes` as codes and parameters, in the same order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fix_problems: Vec<Problem>,
     /// The figures per gateway.
     pub gateways: Vec<GatewayPlan>,
 }

@@ -399,6 +399,41 @@ codes! {
     QprogramRefused = "qprogram_refused" ["reason"];
     /// The installation has no MBOX boxes.
     NoMboxBoxes = "no_mbox_boxes" [];
+    // ---- plan verdicts (`GET /api/plan/{name}`, shown beside Start) ----
+    /// A gateway's line cannot keep its units fed; their buffers run dry `dry_at_s`
+    /// into the show.
+    LineStarved = "line_starved" ["gateway", "baud", "units", "show", "needed_bytes_per_s", "available_bytes_per_s", "dry_at_s", "preload_rows"];
+    /// [`Code::LineStarved`] when the simulation does not say when.
+    LineStarvedDuring = "line_starved_during" ["gateway", "baud", "units", "show", "needed_bytes_per_s", "available_bytes_per_s", "preload_rows"];
+    /// The show has more or fewer balls than the installation.
+    BallCount = "ball_count" ["show_balls", "units"];
+    /// A position or speed does not fit the units' 32-bit counters (`unit` says which).
+    OutOfCounts = "out_of_counts" ["value_mm", "counts_per_mm"];
+    /// The installation lists more or fewer units than its matrix has.
+    UnitCount = "unit_count" ["listed", "expected"];
+    /// Fix: a faster line is enough.
+    FixFasterLine = "fix_faster_line" ["baud"];
+    /// Fix: no baud rate is enough on its own.
+    FixNoBaudEnough = "fix_no_baud_enough" ["max_baud"];
+    /// Fix: fewer units on each gateway.
+    FixFewerUnits = "fix_fewer_units" ["units_per_gateway", "baud", "gateways", "units"];
+    /// Fix: longer rows.
+    FixLongerRows = "fix_longer_rows" ["row_ms", "mean_row_ms"];
+    /// Fix: few enough rows to load the show before it starts.
+    FixFewerRows = "fix_fewer_rows" ["rows"];
+    /// Fix: a larger `[scl] tolerance_mm`, or gentler moves.
+    FixTolerance = "fix_tolerance" ["tolerance_mm", "deviation_mm"];
+    // ---- Q programs of MOONS' drives (each with `unit`, and `time_s` when known) ----
+    /// The program that fits is further off the show than the tolerance.
+    QprogramTooFar = "qprogram_too_far" ["deviation_mm", "tolerance_mm"];
+    /// No rest-to-rest move within the limits reaches the position in time.
+    QprogramTooFast = "qprogram_too_fast" ["max_speed_mm_s", "max_accel_mm_s2"];
+    /// A position out of the drive's range.
+    QprogramOutOfRange = "qprogram_out_of_range" ["position_mm"];
+    /// More lines than a drive holds.
+    QprogramTooManyLines = "qprogram_too_many_lines" ["lines", "limit"];
+    /// A `[scl]` setting that cannot be used (`must` in English).
+    QprogramSetting = "qprogram_setting" ["field", "must"];
 }
 
 #[cfg(test)]

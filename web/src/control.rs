@@ -294,6 +294,8 @@ mod tests {
             feasible,
             reason: None,
             fixes: Vec::new(),
+            reason_problem: None,
+            fix_problems: Vec::new(),
             gateways: Vec::new(),
         }
     }

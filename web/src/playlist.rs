@@ -431,6 +431,8 @@ mod tests {
             feasible,
             reason: (!feasible).then(|| "9600 baud cannot carry 100 units".into()),
             fixes: Vec::new(),
+            reason_problem: None,
+            fix_problems: Vec::new(),
             gateways: Vec::new(),
         };
         assert!(!can_start(&editor(&[]), &[]));

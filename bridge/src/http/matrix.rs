@@ -24,6 +24,7 @@ use floatball_shared::api::{
     GatewayKind, InstallationGateway, InstallationInfo, PlanReport, SimPositions,
 };
 use floatball_shared::plan::report::report;
+use floatball_shared::plan::verdict::{Fix, Why, refuse};
 use floatball_shared::plan::{DriveKind, Installation, PlanOptions};
 use floatball_shared::scl::qprogram::QProgramError;
 use floatball_shared::show::Show;
@@ -107,19 +108,18 @@ fn refuse_uncompilable(
             if let QProgramError::TooFar { deviation_mm, .. } = error {
                 largest_mm = Some(largest_mm.map_or(deviation_mm, |mm| mm.max(deviation_mm)));
             }
-            first.get_or_insert_with(|| format!("ball u{ball}: {error}"));
+            first.get_or_insert(Why::Program { ball, error });
         }
     }
-    if let Some(reason) = first {
-        plan.feasible = false;
-        plan.reason = Some(reason);
-        if let Some(mm) = largest_mm {
-            plan.fixes.push(format!(
-                "raise [scl] tolerance_mm to {:.0} mm or more (the largest deviation of any \
-                 ball is {mm:.1} mm), or give the show fewer, gentler moves",
-                mm.ceil()
-            ));
-        }
+    if let Some(why) = first {
+        let fixes: Vec<Fix> = largest_mm
+            .map(|mm| Fix::Tolerance {
+                tolerance_mm: mm.ceil(),
+                deviation_mm: mm,
+            })
+            .into_iter()
+            .collect();
+        refuse(plan, &why, &fixes);
     }
 }
 

@@ -18,6 +18,7 @@ use axum::response::{IntoResponse, Response};
 use floatball_shared::api::QProgramListing;
 use floatball_shared::codes::Code;
 use floatball_shared::plan::Installation;
+use floatball_shared::plan::verdict::Why;
 use floatball_shared::scl::qprogram::{QProgramConfig, QProgramError, compile};
 use floatball_shared::scl::{InputCondition, IoPoint};
 
@@ -117,7 +118,7 @@ fn parse_query(query: Option<&str>) -> Result<(usize, bool), Failure> {
 }
 
 /// 422 for a show the compiler refuses (500 for settings it cannot use).
-fn compile_failure(error: QProgramError) -> Failure {
+fn compile_failure(error: QProgramError, ball: usize) -> Failure {
     match error {
         QProgramError::InvalidConfig { .. } => {
             Failure::internal("the Q program settings are invalid", &error)
@@ -127,7 +128,8 @@ fn compile_failure(error: QProgramError) -> Failure {
             Code::QprogramRefused,
             other.to_string(),
         )
-        .param("reason", other),
+        .param("reason", &other)
+        .with_problems([&Why::Program { ball, error: other }]),
     }
 }
 
@@ -173,7 +175,7 @@ pub async fn qprogram(
         })?;
         let config = compiling.config();
         let settings = qprogram_config(&config.installation, &overrides(config));
-        let program = compile(track, &settings).map_err(compile_failure)?;
+        let program = compile(track, &settings).map_err(|error| compile_failure(error, unit))?;
         Ok::<_, Failure>(QProgramListing {
             unit,
             show: show.name.clone(),

@@ -33,7 +33,8 @@
 use super::installation::Installation;
 use super::player::{Entry, NextRun, PlaylistProgress, StartError, next_run};
 use crate::api::{PlanReport, PlayerState, Status};
-use crate::show::{OutputSample, Sampler, Show, output_box_message};
+use super::verdict::{Why, verdict_report};
+use crate::show::{OutputSample, Sampler, Show};
 
 /// Frames sent after a move or the playlist's end, holding the final positions.
 pub const SETTLE_FRAMES: u64 = 5;
@@ -553,7 +554,12 @@ impl MboxPlayer {
 /// violation of its limits (and how many more), a ball count that differs, or an
 /// output track for a box it lacks. `None` when it can.
 fn unfit(installation: &Installation, show: &Show) -> Option<String> {
-    super::report::unfit_without_lines(installation, show)
+    unfit_verdict(installation, show).map(|why| why.to_string())
+}
+
+/// [`unfit`] as a typed [`Why`].
+fn unfit_verdict(installation: &Installation, show: &Show) -> Option<Why> {
+    super::report::unfit_verdict(installation, show)
         .or_else(|| unknown_output_box(installation, show))
 }
 
@@ -564,21 +570,15 @@ fn unfit(installation: &Installation, show: &Show) -> Option<String> {
 /// has no per-gateway line figures (those describe serial lines).
 #[must_use]
 pub fn report(show: &Show, installation: &Installation) -> PlanReport {
-    let reason = unfit(installation, show);
-    PlanReport {
-        show: show.name.clone(),
-        feasible: reason.is_none(),
-        reason,
-        fixes: Vec::new(),
-        gateways: Vec::new(),
-    }
+    let why = unfit_verdict(installation, show);
+    verdict_report(show.name.clone(), why.as_ref(), &[], Vec::new())
 }
 
 /// Why `show`'s outputs cannot play on `installation`: a track for a box it lacks.
-fn unknown_output_box(installation: &Installation, show: &Show) -> Option<String> {
+fn unknown_output_box(installation: &Installation, show: &Show) -> Option<Why> {
     let boxes = installation.mbox_boxes().unwrap_or(0);
     let box_index = show.output_box_beyond(boxes)?;
-    Some(output_box_message(box_index, boxes))
+    Some(Why::OutputBox { box_index, boxes })
 }
 
 #[cfg(test)]

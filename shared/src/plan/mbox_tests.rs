@@ -407,4 +407,27 @@ fn the_report_says_a_valid_show_can_run_however_long_it_is() {
     let verdict = report::report(&too_deep, &installation, PlanOptions::default());
     assert!(!verdict.feasible);
     assert!(verdict.reason.is_some_and(|reason| !reason.is_empty()));
+    let reason = verdict.reason_problem.expect("coded");
+    assert_eq!(reason.code, "below_travel");
+    assert_eq!(reason.params["unit"], "u4");
+}
+
+#[test]
+fn the_report_codes_outputs_for_a_box_the_installation_lacks() {
+    let installation = player().config.installation;
+    let mut show = entry_with_outputs().show;
+    show.outputs[1].box_index = 2;
+    let verdict = report::report(&show, &installation, PlanOptions::default());
+    assert!(!verdict.feasible);
+    assert!(
+        verdict
+            .reason
+            .as_deref()
+            .is_some_and(|reason| reason.contains("outputs for box 2")),
+        "{verdict:?}"
+    );
+    let reason = verdict.reason_problem.expect("coded");
+    assert_eq!(reason.code, "output_box");
+    assert_eq!(reason.params["box"], "2");
+    assert_eq!(reason.params["boxes"], "2");
 }

@@ -12,7 +12,9 @@
 //!   levels that leaves — used by the report and by the player alike;
 //! - [`player`]: Start / E-stop / Reset — the playlist played on the matrix, as a state
 //!   machine driven by time, the links' state and feedback;
-//! - [`report`]: the bandwidth / feasibility report served at `GET /api/plan/{name}`.
+//! - [`report`]: the bandwidth / feasibility report served at `GET /api/plan/{name}`;
+//! - [`verdict`]: the report's verdict as typed values — why a show cannot run and what
+//!   would make it run — each giving its English sentence and its code.
 //!
 //! Positions are converted from absolute millimetres, each rounded on its own, so the
 //! rounding error stays below half a count and never accumulates along a track.
@@ -45,6 +47,7 @@ pub mod player;
 pub mod report;
 pub mod schedule;
 pub mod stream;
+pub mod verdict;
 
 #[cfg(test)]
 mod player_tests;
@@ -56,7 +59,9 @@ pub use installation::{
     UnitAddress,
 };
 
+use crate::codes::{Code, Coded, Params};
 use crate::line::Line;
+use crate::params;
 use crate::pvt::{ROW_MAX_MS, ROW_MIN_MS, Row, TABLE_ROWS};
 use crate::show::{Show, Violation, validate};
 
@@ -191,6 +196,48 @@ pub enum PlanError {
         /// rows × cols.
         expected: usize,
     },
+}
+
+impl Coded for PlanError {
+    fn code(&self) -> Code {
+        match self {
+            Self::LayoutMismatch { .. } => Code::WrongLayout,
+            Self::Invalid { .. } => Code::ShowUnfit,
+            Self::OutOfCounts { .. } => Code::OutOfCounts,
+            Self::UnitCount { .. } => Code::UnitCount,
+        }
+    }
+
+    /// The figures; `unit` (`u3`) for a value out of counts. An invalid show's
+    /// problems are the report's fixes ([`report::refused`]).
+    fn params(&self) -> Params {
+        match self {
+            Self::LayoutMismatch {
+                show_rows,
+                show_cols,
+                rows,
+                cols,
+            } => params! {
+                "show_rows" => show_rows,
+                "show_cols" => show_cols,
+                "rows" => rows,
+                "cols" => cols,
+            },
+            Self::Invalid { violations } => params! {"count" => violations.len()},
+            Self::OutOfCounts {
+                unit,
+                value_mm,
+                counts_per_mm,
+            } => params! {
+                "unit" => format!("u{unit}"),
+                "value_mm" => value_mm,
+                "counts_per_mm" => counts_per_mm,
+            },
+            Self::UnitCount { listed, expected } => {
+                params! {"listed" => listed, "expected" => expected}
+            }
+        }
+    }
 }
 
 impl Plan {

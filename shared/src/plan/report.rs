@@ -4,6 +4,7 @@
 //! when a show cannot run, why and what would make it run.
 
 use super::schedule::{self, Simulation};
+use super::verdict::{Fix, Why, verdict_report};
 use super::{Installation, Plan, PlanError, PlanOptions, RunMode};
 use crate::api::{GatewayPlan, PlanReport};
 use crate::line::Line;
@@ -27,14 +28,8 @@ pub fn report(show: &Show, installation: &Installation, options: PlanOptions) ->
             .iter()
             .all(|gateway| gateway.kind == super::DriveKind::Scl)
     {
-        let reason = unfit_without_lines(installation, show);
-        return PlanReport {
-            show: show.name.clone(),
-            feasible: reason.is_none(),
-            reason,
-            fixes: Vec::new(),
-            gateways: Vec::new(),
-        };
+        let why = unfit_verdict(installation, show);
+        return verdict_report(show.name.clone(), why.as_ref(), &[], Vec::new());
     }
     match Plan::new(show, installation, options) {
         Ok(plan) => report_for(&plan, installation),
@@ -46,19 +41,24 @@ pub fn report(show: &Show, installation: &Installation, options: PlanOptions) ->
 /// boxes, MOONS' drives), in one sentence: the first violation of its limits (and how
 /// many more), or a ball count that differs. `None` when it can.
 pub fn unfit_without_lines(installation: &Installation, show: &Show) -> Option<String> {
-    let violations = crate::show::validate(show, &installation.limits);
+    unfit_verdict(installation, show).map(|why| why.to_string())
+}
+
+/// [`unfit_without_lines`] as a typed [`Why`].
+pub fn unfit_verdict(installation: &Installation, show: &Show) -> Option<Why> {
+    let mut violations = crate::show::validate(show, &installation.limits);
     let units = installation.units.len();
-    if let Some(first) = violations.first() {
-        Some(if violations.len() > 1 {
-            format!("{first} (and {} more problems)", violations.len() - 1)
-        } else {
-            first.to_string()
+    if !violations.is_empty() {
+        let more = violations.len() - 1;
+        Some(Why::Violations {
+            first: violations.swap_remove(0),
+            more,
         })
     } else if show.tracks.len() != units {
-        Some(format!(
-            "the show has {} balls but the installation has {units}",
-            show.tracks.len()
-        ))
+        Some(Why::BallCount {
+            show_balls: show.tracks.len(),
+            units,
+        })
     } else {
         None
     }
@@ -66,28 +66,25 @@ pub fn unfit_without_lines(installation: &Installation, show: &Show) -> Option<S
 
 /// A report for a show that cannot be planned at all.
 pub fn refused(show: &str, error: &PlanError) -> PlanReport {
-    let fixes = match error {
-        PlanError::Invalid { violations } => violations
-            .iter()
-            .take(20)
-            .map(ToString::to_string)
-            .collect(),
+    let fixes: Vec<Fix> = match error {
+        PlanError::Invalid { violations } => {
+            violations.iter().take(20).cloned().map(Fix::Problem).collect()
+        }
         _ => Vec::new(),
     };
-    PlanReport {
-        show: show.to_owned(),
-        feasible: false,
-        reason: Some(error.to_string()),
-        fixes,
-        gateways: Vec::new(),
-    }
+    verdict_report(
+        show.to_owned(),
+        Some(&Why::Refused(error.clone())),
+        &fixes,
+        Vec::new(),
+    )
 }
 
 /// The report for a plan.
 pub fn report_for(plan: &Plan, installation: &Installation) -> PlanReport {
     let duration_s = (plan.duration_ms as f64 / 1000.0).max(1e-3);
     let mut gateways = Vec::with_capacity(plan.gateways.len());
-    let mut reason = None;
+    let mut why = None;
     let mut fixes = Vec::new();
     for (index, run) in plan.gateways.iter().enumerate() {
         let Some(spec) = installation.gateways.get(run.gateway) else {
@@ -109,8 +106,8 @@ pub fn report_for(plan: &Plan, installation: &Installation) -> PlanReport {
                 .lowest_level
                 .map(|level| u16::try_from(level.max(0)).unwrap_or(u16::MAX)),
         });
-        if reason.is_none() && !simulation.keeps_margin() {
-            reason = Some(starved(
+        if why.is_none() && !simulation.keeps_margin() {
+            why = Some(starved(
                 plan,
                 run.units.len(),
                 spec,
@@ -121,13 +118,7 @@ pub fn report_for(plan: &Plan, installation: &Installation) -> PlanReport {
             fixes = remedies(plan, index, run.line, needed, available);
         }
     }
-    PlanReport {
-        show: plan.show.clone(),
-        feasible: reason.is_none(),
-        reason,
-        fixes,
-        gateways,
-    }
+    verdict_report(plan.show.clone(), why.as_ref(), &fixes, gateways)
 }
 
 fn starved(
@@ -137,22 +128,22 @@ fn starved(
     simulation: &Simulation,
     needed: f64,
     available: f64,
-) -> String {
-    let when = simulation
-        .underrun_at_ms
-        .map(|ms| format!("{:.1} s into the show", ms / 1000.0))
-        .unwrap_or_else(|| "during the show".to_owned());
-    format!(
-        "gateway {} ({} baud) cannot keep its {units} units fed: \"{}\" streams {needed:.0} B/s \
-         while the line carries {available:.0} B/s, so the units' row buffers run dry {when} \
-         even with a full {}-row preload",
-        spec.port, spec.baud, plan.show, simulation.preload_rows
-    )
+) -> Why {
+    Why::Starved {
+        gateway: spec.port.clone(),
+        baud: spec.baud,
+        units,
+        show: plan.show.clone(),
+        needed_bytes_per_s: needed,
+        available_bytes_per_s: available,
+        dry_at_ms: simulation.underrun_at_ms,
+        preload_rows: simulation.preload_rows,
+    }
 }
 
 /// What would make run `index` feasible: a faster line, fewer units per gateway,
 /// longer rows.
-fn remedies(plan: &Plan, index: usize, line: Line, needed: f64, available: f64) -> Vec<String> {
+fn remedies(plan: &Plan, index: usize, line: Line, needed: f64, available: f64) -> Vec<Fix> {
     let baud = line.baud();
     let mut fixes = Vec::new();
     match GATEWAY_BAUDS
@@ -161,17 +152,20 @@ fn remedies(plan: &Plan, index: usize, line: Line, needed: f64, available: f64) 
         .filter(|&faster| faster > baud)
         .find(|&faster| schedule::choose_preload(plan, index, Line::new(faster)).keeps_margin())
     {
-        Some(faster) => fixes.push(format!(
-            "raise the line to {faster} baud (BDR={faster}; on the gateway, then `baud = {faster}` in floatball.toml)"
-        )),
-        None => fixes.push("no baud rate up to 115200 is enough on its own".to_owned()),
+        Some(faster) => fixes.push(Fix::FasterLine { baud: faster }),
+        None => fixes.push(Fix::NoBaudEnough {
+            max_baud: GATEWAY_BAUDS[GATEWAY_BAUDS.len() - 1],
+        }),
     }
     let units = plan.gateways[index].units.len();
     if let Some(fit) = most_units_that_fit(plan, index, line) {
         let gateways = units.div_ceil(fit.max(1));
-        fixes.push(format!(
-            "put at most {fit} of these units on each gateway at {baud} baud ({gateways} gateways for these {units})"
-        ));
+        fixes.push(Fix::FewerUnits {
+            units_per_gateway: fit,
+            baud,
+            gateways,
+            units,
+        });
     }
     let unit_rows: usize = plan.gateways[index]
         .units
@@ -182,16 +176,16 @@ fn remedies(plan: &Plan, index: usize, line: Line, needed: f64, available: f64) 
         let mean_row_ms = plan.duration_ms as f64 * units as f64 / unit_rows as f64;
         let wanted_ms = (mean_row_ms * needed / (available * schedule::LINE_UTILISATION)).ceil();
         if wanted_ms <= 255.0 {
-            fixes.push(format!(
-                "use rows of at least {wanted_ms:.0} ms (this show's rows last {mean_row_ms:.0} ms on average)"
-            ));
+            fixes.push(Fix::LongerRows {
+                row_ms: wanted_ms,
+                mean_row_ms,
+            });
         }
     }
     if plan.gateways[index].mode == RunMode::Fifo {
-        fixes.push(format!(
-            "or shorten the show to at most {} rows per ball so it loads completely before it starts",
-            crate::pvt::TABLE_ROWS
-        ));
+        fixes.push(Fix::FewerRows {
+            rows: crate::pvt::TABLE_ROWS,
+        });
     }
     fixes
 }
@@ -247,6 +241,10 @@ mod tests {
                  rows × 10 columns"
             )
         );
+        let reason = wrong.reason_problem.expect("coded");
+        assert_eq!(reason.code, "wrong_layout");
+        assert_eq!(reason.params["show_cols"], "2");
+        assert_eq!(reason.params["rows"], "10");
     }
 
     #[test]
@@ -272,11 +270,191 @@ mod tests {
     }
 
     #[test]
+    fn a_starved_line_and_its_fixes_carry_codes_and_plain_numbers() {
+        let show = wave(10, 10, 600, 250);
+        let report = report(&show, &installation(10, 10, 9600), PlanOptions::default());
+        let reason = report.reason_problem.as_ref().expect("coded");
+        assert!(
+            reason.code == "line_starved" || reason.code == "line_starved_during",
+            "{reason:?}"
+        );
+        assert_eq!(reason.params["gateway"], "sim");
+        assert_eq!(reason.params["baud"], "9600");
+        assert_eq!(reason.params["units"], "100");
+        assert_eq!(reason.params["available_bytes_per_s"], "960");
+        let english = report.reason.as_deref().unwrap();
+        if let Some(dry_at_s) = reason.params.get("dry_at_s") {
+            assert!(english.contains(&format!("{dry_at_s} s into the show")), "{english}");
+        }
+        let needed = &reason.params["needed_bytes_per_s"];
+        assert!(english.contains(&format!("streams {needed} B/s")), "{english}");
+        assert_eq!(report.fix_problems.len(), report.fixes.len());
+        let codes: Vec<&str> = report.fix_problems.iter().map(|p| p.code.as_str()).collect();
+        assert!(codes.contains(&"fix_fewer_units"), "{codes:?}");
+        let fewer = &report.fix_problems[codes.iter().position(|c| *c == "fix_fewer_units").unwrap()];
+        assert_eq!(fewer.params["baud"], "9600");
+        assert_eq!(fewer.params["units"], "100");
+        assert!(fewer.params["units_per_gateway"].parse::<usize>().is_ok());
+
+        let faster = super::report(
+            &wave(5, 10, 600, 250),
+            &installation(5, 10, 9600),
+            PlanOptions::default(),
+        );
+        assert_eq!(faster.fix_problems[0].code, "fix_faster_line");
+        assert_eq!(faster.fix_problems[0].params["baud"], "38400");
+    }
+
+    #[test]
+    fn every_verdict_carries_every_parameter_its_code_names() {
+        use crate::codes::Coded;
+        use crate::plan::verdict::{Fix, Why};
+        use crate::scl::qprogram::QProgramError;
+        let mut show = wave(1, 2, 20, 200);
+        show.tracks[1].rows[5].position_mm = -50.0;
+        let violations = crate::show::validate(&show, &installation(1, 2, 9600).limits);
+        let first = violations[0].clone();
+        let whys = [
+            Why::Starved {
+                gateway: "g".into(),
+                baud: 9600,
+                units: 3,
+                show: "s".into(),
+                needed_bytes_per_s: 1.0,
+                available_bytes_per_s: 2.0,
+                dry_at_ms: Some(1500.0),
+                preload_rows: 256,
+            },
+            Why::Starved {
+                gateway: "g".into(),
+                baud: 9600,
+                units: 3,
+                show: "s".into(),
+                needed_bytes_per_s: 1.0,
+                available_bytes_per_s: 2.0,
+                dry_at_ms: None,
+                preload_rows: 256,
+            },
+            Why::Violations {
+                first: first.clone(),
+                more: 2,
+            },
+            Why::BallCount {
+                show_balls: 2,
+                units: 4,
+            },
+            Why::OutputBox {
+                box_index: 3,
+                boxes: 1,
+            },
+            Why::Refused(PlanError::Invalid {
+                violations: violations.clone(),
+            }),
+            Why::Refused(PlanError::LayoutMismatch {
+                show_rows: 1,
+                show_cols: 2,
+                rows: 3,
+                cols: 4,
+            }),
+            Why::Refused(PlanError::OutOfCounts {
+                unit: 1,
+                value_mm: 1e12,
+                counts_per_mm: 100.0,
+            }),
+            Why::Refused(PlanError::UnitCount {
+                listed: 1,
+                expected: 2,
+            }),
+            Why::Program {
+                ball: 7,
+                error: QProgramError::TooFar {
+                    deviation_mm: 12.34,
+                    at_ms: 1500,
+                    tolerance_mm: 10.0,
+                },
+            },
+            Why::Program {
+                ball: 7,
+                error: QProgramError::TooFast {
+                    at_ms: 1500,
+                    max_speed_mm_s: 800.0,
+                    max_accel_mm_s2: 4000.0,
+                },
+            },
+            Why::Program {
+                ball: 7,
+                error: QProgramError::OutOfRange {
+                    at_ms: 1500,
+                    position_mm: f64::NAN,
+                },
+            },
+            Why::Program {
+                ball: 7,
+                error: QProgramError::TooManyLines {
+                    lines: 900,
+                    limit: 744,
+                },
+            },
+            Why::Program {
+                ball: 7,
+                error: QProgramError::InvalidConfig {
+                    field: "steps_per_rev",
+                    must: "at least 200",
+                },
+            },
+        ];
+        let fixes = [
+            Fix::FasterLine { baud: 38_400 },
+            Fix::NoBaudEnough { max_baud: 115_200 },
+            Fix::FewerUnits {
+                units_per_gateway: 20,
+                baud: 9600,
+                gateways: 5,
+                units: 100,
+            },
+            Fix::LongerRows {
+                row_ms: 120.0,
+                mean_row_ms: 50.0,
+            },
+            Fix::FewerRows { rows: 256 },
+            Fix::Problem(first),
+            Fix::Tolerance {
+                tolerance_mm: 13.0,
+                deviation_mm: 12.34,
+            },
+        ];
+        let coded: Vec<&dyn Coded> = whys
+            .iter()
+            .map(|why| why as &dyn Coded)
+            .chain(fixes.iter().map(|fix| fix as &dyn Coded))
+            .collect();
+        for error in coded {
+            let params = error.params();
+            for name in error.code().params() {
+                assert!(params.contains_key(*name), "{} lacks {name}", error.code());
+            }
+        }
+        assert_eq!(whys[0].code(), crate::codes::Code::LineStarved);
+        assert_eq!(whys[0].params()["dry_at_s"], "1.5");
+        assert_eq!(whys[1].code(), crate::codes::Code::LineStarvedDuring);
+        assert_eq!(whys[2].params()["more"], "2");
+        assert!(whys[2].to_string().ends_with("(and 2 more problems)"));
+        assert_eq!(whys[5].code(), crate::codes::Code::ShowUnfit);
+        assert_eq!(whys[9].params()["unit"], "u7");
+        assert_eq!(whys[9].params()["deviation_mm"], "12.3");
+        assert_eq!(whys[9].params()["time_s"], "1.500");
+        assert!(whys[9].to_string().starts_with("ball u7: the program would be 12.3 mm off"));
+        assert_eq!(fixes[6].params()["tolerance_mm"], "13");
+        assert!(fixes[6].to_string().starts_with("raise [scl] tolerance_mm to 13 mm or more"));
+    }
+
+    #[test]
     fn a_feasible_show_has_figures_and_no_reason() {
         let show = wave(2, 5, 600, 250);
         let report = report(&show, &installation(2, 5, 115_200), PlanOptions::default());
         assert!(report.feasible, "{:?}", report.reason);
         assert!(report.reason.is_none() && report.fixes.is_empty());
+        assert!(report.reason_problem.is_none() && report.fix_problems.is_empty());
         let gateway = &report.gateways[0];
         assert_eq!(gateway.units, 10);
         assert!(gateway.lowest_water_level.unwrap() >= 2);
@@ -304,5 +482,11 @@ mod tests {
         assert!(!report.feasible);
         assert!(report.reason.unwrap().contains("not valid"));
         assert!(!report.fixes.is_empty());
+        let reason = report.reason_problem.expect("coded");
+        assert_eq!(reason.code, "show_unfit");
+        assert_eq!(reason.params["count"], report.fixes.len().to_string());
+        assert_eq!(report.fix_problems.len(), report.fixes.len());
+        assert_eq!(report.fix_problems[0].code, "above_top");
+        assert_eq!(report.fix_problems[0].params["unit"], "u1");
     }
 }

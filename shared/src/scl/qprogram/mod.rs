@@ -51,6 +51,8 @@ use std::fmt::Write as _;
 use thiserror::Error;
 
 use super::command::{Command, Decimal, InputCondition, IoPoint, QLine, Segment};
+use crate::codes::{Code, Coded, Params};
+use crate::params;
 use crate::show::Track;
 use keyframes::Samples;
 use moves::{Trapezoid, solve_speed};
@@ -246,6 +248,50 @@ pub enum QProgramError {
         /// What it must be.
         must: &'static str,
     },
+}
+
+impl Coded for QProgramError {
+    fn code(&self) -> Code {
+        match self {
+            Self::TooFar { .. } => Code::QprogramTooFar,
+            Self::TooFast { .. } => Code::QprogramTooFast,
+            Self::OutOfRange { .. } => Code::QprogramOutOfRange,
+            Self::TooManyLines { .. } => Code::QprogramTooManyLines,
+            Self::InvalidConfig { .. } => Code::QprogramSetting,
+        }
+    }
+
+    /// The figures (mm with one decimal), and `time_s` (three decimals) when the
+    /// error happens at a moment of the show.
+    fn params(&self) -> Params {
+        let time_s = |at_ms: u64| format!("{:.3}", at_ms as f64 / 1000.0);
+        match self {
+            Self::TooFar {
+                deviation_mm,
+                at_ms,
+                tolerance_mm,
+            } => params! {
+                "deviation_mm" => format!("{deviation_mm:.1}"),
+                "tolerance_mm" => tolerance_mm,
+                "time_s" => time_s(*at_ms),
+            },
+            Self::TooFast {
+                at_ms,
+                max_speed_mm_s,
+                max_accel_mm_s2,
+            } => params! {
+                "max_speed_mm_s" => max_speed_mm_s,
+                "max_accel_mm_s2" => max_accel_mm_s2,
+                "time_s" => time_s(*at_ms),
+            },
+            Self::OutOfRange { at_ms, position_mm } => params! {
+                "position_mm" => position_mm,
+                "time_s" => time_s(*at_ms),
+            },
+            Self::TooManyLines { lines, limit } => params! {"lines" => lines, "limit" => limit},
+            Self::InvalidConfig { field, must } => params! {"field" => field, "must" => must},
+        }
+    }
 }
 
 /// Compiles one ball's track.
