@@ -8,7 +8,9 @@
 
 mod codes;
 
-use floatball_shared::api::{ApiError, LinkState, PlayerState, Problem, QProgramListing};
+use floatball_shared::api::{
+    ApiError, LinkState, PlanReport, PlayerState, Problem, QProgramListing,
+};
 use floatball_shared::codes::{Code, Coded, Params};
 
 use crate::client::Failure;
@@ -528,9 +530,60 @@ impl Lang {
         }
     }
 
-    /// The sentence of an HTTP error body.
+    /// The sentence of an HTTP error body. A `reason` parameter (English) is replaced
+    /// by the error's one coded problem when the bridge sent it (a Q program's).
     pub fn api_error(self, error: &ApiError) -> String {
+        let reason_is_coded = Code::parse(&error.code)
+            .is_some_and(|code| code.params().contains(&"reason"))
+            && error.problems.len() == 1
+            && self.knows(&error.problems[0].code);
+        if reason_is_coded {
+            let mut params = error.params.clone();
+            params.insert("reason".to_owned(), self.problems(error).remove(0));
+            return self.coded(&error.code, &params, &error.error);
+        }
         self.coded(&error.code, &error.params, &error.error)
+    }
+
+    /// This app has a text for `code`.
+    fn knows(self, code: &str) -> bool {
+        Code::parse(code)
+            .and_then(|code| self.template(code))
+            .is_some()
+    }
+
+    /// Why a show cannot run (a plan report's verdict), in this language: its coded
+    /// reason, followed by "… and N more problems" when it has `more`; the English
+    /// `reason` from a bridge without the code or with a code this app does not know.
+    pub fn plan_reason(self, report: &PlanReport) -> Option<String> {
+        let english = report.reason.as_deref().unwrap_or_default();
+        let Some(Problem { code, params }) = &report.reason_problem else {
+            return report.reason.clone();
+        };
+        if !self.knows(code) {
+            return report.reason.clone();
+        }
+        let mut text = self.coded(code, params, english);
+        if let Some(more) = params.get("more") {
+            let count: Params = [("count".to_owned(), more.clone())].into();
+            text.push(' ');
+            text.push_str(&self.coded(Code::MoreProblems.as_str(), &count, ""));
+        }
+        Some(text)
+    }
+
+    /// What would make a show run (a plan report's fixes), in this language; each
+    /// fix the app has no text for in the bridge's English.
+    pub fn plan_fixes(self, report: &PlanReport) -> Vec<String> {
+        if report.fix_problems.len() != report.fixes.len() {
+            return report.fixes.clone();
+        }
+        report
+            .fix_problems
+            .iter()
+            .zip(&report.fixes)
+            .map(|(Problem { code, params }, english)| self.coded(code, params, english))
+            .collect()
     }
 
     /// Every problem of an HTTP error body: the coded problems when the bridge sent
@@ -892,6 +945,121 @@ mod tests {
             Lang::En.problems(&body)[0],
             "ball u3 (row 1, col 4) at 1.50 s: speed 900.0 mm/s exceeds the limit of 800.0 mm/s"
         );
+    }
+
+    #[test]
+    fn plan_verdicts_read_in_the_chosen_language() {
+        let params = |pairs: &[(&str, &str)]| -> Params {
+            pairs
+                .iter()
+                .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+                .collect()
+        };
+        let mut report = PlanReport {
+            show: "wave".into(),
+            feasible: false,
+            reason: Some("english reason".into()),
+            fixes: vec!["english fix".into(), "english other".into()],
+            reason_problem: Some(Problem {
+                code: "line_starved".into(),
+                params: params(&[
+                    ("gateway", "sim"),
+                    ("baud", "9600"),
+                    ("units", "100"),
+                    ("show", "wave"),
+                    ("needed_bytes_per_s", "2400"),
+                    ("available_bytes_per_s", "960"),
+                    ("dry_at_s", "1.5"),
+                    ("preload_rows", "256"),
+                ]),
+            }),
+            fix_problems: vec![
+                Problem {
+                    code: "fix_faster_line".into(),
+                    params: params(&[("baud", "38400")]),
+                },
+                Problem {
+                    code: "fix_from_the_future".into(),
+                    params: Params::new(),
+                },
+            ],
+            gateways: Vec::new(),
+        };
+        assert_eq!(
+            Lang::Zh.plan_reason(&report).unwrap(),
+            "网关 sim（9600 波特）供不上它的 100 个单元：“wave”每秒需要 2400 字节，线路只能传 960 \
+             字节，即使预载满 256 行，单元的行缓冲也会在动作开始 1.5 秒后用尽"
+        );
+        assert!(
+            Lang::En
+                .plan_reason(&report)
+                .unwrap()
+                .starts_with("gateway sim (9600 baud) cannot keep its 100 units fed")
+        );
+        assert_eq!(
+            Lang::Zh.plan_fixes(&report),
+            [
+                "把线路提高到 38400 波特（在网关上设 BDR=38400;，再在 floatball.toml 中设 `baud = 38400`）",
+                "english other"
+            ]
+        );
+        // A show's first problem and how many more.
+        report.reason_problem = Some(Problem {
+            code: "above_top".into(),
+            params: params(&[("unit", "u1"), ("position_mm", "-50.0"), ("more", "3")]),
+        });
+        let zh = Lang::Zh.plan_reason(&report).unwrap();
+        assert!(
+            zh.starts_with("球 u1：") && zh.ends_with("3 个问题"),
+            "{zh}"
+        );
+        // A code this app does not know, or no code (an older bridge): the English.
+        report.reason_problem = Some(Problem {
+            code: "from_the_future".into(),
+            params: Params::new(),
+        });
+        assert_eq!(Lang::Zh.plan_reason(&report).unwrap(), "english reason");
+        report.reason_problem = None;
+        report.fix_problems.clear();
+        assert_eq!(Lang::Zh.plan_reason(&report).unwrap(), "english reason");
+        assert_eq!(
+            Lang::Zh.plan_fixes(&report),
+            ["english fix", "english other"]
+        );
+    }
+
+    #[test]
+    fn a_refused_q_program_reads_its_coded_reason() {
+        let body = ApiError {
+            error: "the program would be 12.3 mm off…".into(),
+            code: "qprogram_refused".into(),
+            params: [(
+                "reason".to_owned(),
+                "the program would be 12.3 mm off…".to_owned(),
+            )]
+            .into(),
+            details: vec!["ball u7: the program would be 12.3 mm off…".into()],
+            problems: vec![Problem {
+                code: "qprogram_too_far".into(),
+                params: [
+                    ("unit", "u7"),
+                    ("time_s", "1.500"),
+                    ("deviation_mm", "12.3"),
+                    ("tolerance_mm", "10"),
+                ]
+                .into_iter()
+                .map(|(k, v)| (k.to_owned(), v.to_owned()))
+                .collect(),
+            }],
+        };
+        let zh = Lang::Zh.api_error(&body);
+        assert!(
+            zh.starts_with(
+                "无法编译 Q 程序：球 u7在 1.500 秒：程序会偏离动作 12.3 毫米，超过容差 10 毫米"
+            ),
+            "{zh}"
+        );
+        assert!(!zh.contains("the program"), "{zh}");
     }
 
     #[test]

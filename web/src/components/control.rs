@@ -467,11 +467,16 @@ fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
                             .into_iter()
                             .map(|(show, verdict)| {
                                 let key = verdict.key();
+                                let lang = ctx.lang.get();
                                 let (word, reason, fixes) = match verdict {
                                     Verdict::Pending => (Text::PlanPending, None, Vec::new()),
                                     Verdict::Feasible(_) => (Text::PlanFeasible, None, Vec::new()),
                                     Verdict::Infeasible(report) => {
-                                        (Text::PlanInfeasible, report.reason, report.fixes)
+                                        (
+                                            Text::PlanInfeasible,
+                                            lang.plan_reason(&report),
+                                            lang.plan_fixes(&report),
+                                        )
                                     }
                                     Verdict::Unavailable => (Text::PlanUnavailable, None, Vec::new()),
                                     Verdict::Failed(message) => {

@@ -746,4 +746,86 @@ pub(super) const ERROR_TEXTS: &[(Code, &str, &str)] = &[
         "本装置没有 MBOX 控制盒",
         "This installation has no MBOX boxes",
     ),
+    // ---- plan verdicts ----
+    (
+        Code::LineStarved,
+        "网关 {gateway}（{baud} 波特）供不上它的 {units} 个单元：“{show}”每秒需要 {needed_bytes_per_s} 字节，线路只能传 {available_bytes_per_s} 字节，即使预载满 {preload_rows} 行，单元的行缓冲也会在动作开始 {dry_at_s} 秒后用尽",
+        "gateway {gateway} ({baud} baud) cannot keep its {units} units fed: \"{show}\" streams {needed_bytes_per_s} B/s while the line carries {available_bytes_per_s} B/s, so the units' row buffers run dry {dry_at_s} s into the show even with a full {preload_rows}-row preload",
+    ),
+    (
+        Code::LineStarvedDuring,
+        "网关 {gateway}（{baud} 波特）供不上它的 {units} 个单元：“{show}”每秒需要 {needed_bytes_per_s} 字节，线路只能传 {available_bytes_per_s} 字节，即使预载满 {preload_rows} 行，单元的行缓冲也会在动作中用尽",
+        "gateway {gateway} ({baud} baud) cannot keep its {units} units fed: \"{show}\" streams {needed_bytes_per_s} B/s while the line carries {available_bytes_per_s} B/s, so the units' row buffers run dry during the show even with a full {preload_rows}-row preload",
+    ),
+    (
+        Code::BallCount,
+        "动作有 {show_balls} 个球，但本装置有 {units} 个",
+        "the show has {show_balls} balls but the installation has {units}",
+    ),
+    (
+        Code::OutOfCounts,
+        "{value_mm} 毫米在 {counts_per_mm} 计数/毫米下超出单元的计数范围",
+        "{value_mm} mm does not fit in counts at {counts_per_mm} counts/mm",
+    ),
+    (
+        Code::UnitCount,
+        "装置列出 {listed} 个单元，但矩阵有 {expected} 个",
+        "the installation lists {listed} units for a matrix of {expected}",
+    ),
+    (
+        Code::FixFasterLine,
+        "把线路提高到 {baud} 波特（在网关上设 BDR={baud};，再在 floatball.toml 中设 `baud = {baud}`）",
+        "raise the line to {baud} baud (BDR={baud}; on the gateway, then `baud = {baud}` in floatball.toml)",
+    ),
+    (
+        Code::FixNoBaudEnough,
+        "单靠提高波特率（最高 {max_baud}）不够",
+        "no baud rate up to {max_baud} is enough on its own",
+    ),
+    (
+        Code::FixFewerUnits,
+        "在 {baud} 波特下每个网关最多接 {units_per_gateway} 个单元（这 {units} 个需要 {gateways} 个网关）",
+        "put at most {units_per_gateway} of these units on each gateway at {baud} baud ({gateways} gateways for these {units})",
+    ),
+    (
+        Code::FixLongerRows,
+        "每行至少 {row_ms} 毫秒（这个动作的行平均 {mean_row_ms} 毫秒）",
+        "use rows of at least {row_ms} ms (this show's rows last {mean_row_ms} ms on average)",
+    ),
+    (
+        Code::FixFewerRows,
+        "或把动作缩短到每个球最多 {rows} 行，使它在开始前完全载入",
+        "or shorten the show to at most {rows} rows per ball so it loads completely before it starts",
+    ),
+    (
+        Code::FixTolerance,
+        "把 [scl] tolerance_mm 提高到至少 {tolerance_mm} 毫米（各球最大偏差为 {deviation_mm} 毫米），或让动作的移动更少、更平缓",
+        "raise [scl] tolerance_mm to {tolerance_mm} mm or more (the largest deviation of any ball is {deviation_mm} mm), or give the show fewer, gentler moves",
+    ),
+    // ---- Q programs ----
+    (
+        Code::QprogramTooFar,
+        "程序会偏离动作 {deviation_mm} 毫米，超过容差 {tolerance_mm} 毫米（动作的移动太多，驱动器的 12 段各 62 行装不下，或有点到点移动跟不紧的移动）",
+        "the program would be {deviation_mm} mm off the show, more than the tolerance of {tolerance_mm} mm (the show has too many moves for a drive's 12 segments of 62 lines, or moves that a rest-to-rest move cannot follow closely)",
+    ),
+    (
+        Code::QprogramTooFast,
+        "球到不了它的位置：点到点移动需要超过 {max_speed_mm_s} 毫米/秒或 {max_accel_mm_s2} 毫米/秒²",
+        "the ball cannot be at its position: a move from rest to rest would need more than {max_speed_mm_s} mm/s or {max_accel_mm_s2} mm/s²",
+    ),
+    (
+        Code::QprogramOutOfRange,
+        "位置 {position_mm} 毫米超出驱动器的范围",
+        "the position {position_mm} mm is out of the drive's range",
+    ),
+    (
+        Code::QprogramTooManyLines,
+        "程序需要 {lines} 行，超过驱动器的 {limit} 行",
+        "the program needs {lines} lines, more than a drive's {limit}",
+    ),
+    (
+        Code::QprogramSetting,
+        "Q 程序设置 {field} 必须为 {must}",
+        "the Q program setting {field} must be {must}",
+    ),
 ];
