@@ -32,8 +32,8 @@
 
 use super::installation::Installation;
 use super::player::{Entry, NextRun, PlaylistProgress, StartError, next_run};
-use crate::api::{PlanReport, PlayerState, Status};
 use super::verdict::{Why, verdict_report};
+use crate::api::{PlanReport, PlayerState, Status};
 use crate::show::{OutputSample, Sampler, Show};
 
 /// Frames sent after a move or the playlist's end, holding the final positions.

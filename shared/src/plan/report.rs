@@ -67,9 +67,12 @@ pub fn unfit_verdict(installation: &Installation, show: &Show) -> Option<Why> {
 /// A report for a show that cannot be planned at all.
 pub fn refused(show: &str, error: &PlanError) -> PlanReport {
     let fixes: Vec<Fix> = match error {
-        PlanError::Invalid { violations } => {
-            violations.iter().take(20).cloned().map(Fix::Problem).collect()
-        }
+        PlanError::Invalid { violations } => violations
+            .iter()
+            .take(20)
+            .cloned()
+            .map(Fix::Problem)
+            .collect(),
         _ => Vec::new(),
     };
     verdict_report(
@@ -284,14 +287,25 @@ mod tests {
         assert_eq!(reason.params["available_bytes_per_s"], "960");
         let english = report.reason.as_deref().unwrap();
         if let Some(dry_at_s) = reason.params.get("dry_at_s") {
-            assert!(english.contains(&format!("{dry_at_s} s into the show")), "{english}");
+            assert!(
+                english.contains(&format!("{dry_at_s} s into the show")),
+                "{english}"
+            );
         }
         let needed = &reason.params["needed_bytes_per_s"];
-        assert!(english.contains(&format!("streams {needed} B/s")), "{english}");
+        assert!(
+            english.contains(&format!("streams {needed} B/s")),
+            "{english}"
+        );
         assert_eq!(report.fix_problems.len(), report.fixes.len());
-        let codes: Vec<&str> = report.fix_problems.iter().map(|p| p.code.as_str()).collect();
+        let codes: Vec<&str> = report
+            .fix_problems
+            .iter()
+            .map(|p| p.code.as_str())
+            .collect();
         assert!(codes.contains(&"fix_fewer_units"), "{codes:?}");
-        let fewer = &report.fix_problems[codes.iter().position(|c| *c == "fix_fewer_units").unwrap()];
+        let fewer =
+            &report.fix_problems[codes.iter().position(|c| *c == "fix_fewer_units").unwrap()];
         assert_eq!(fewer.params["baud"], "9600");
         assert_eq!(fewer.params["units"], "100");
         assert!(fewer.params["units_per_gateway"].parse::<usize>().is_ok());
@@ -443,9 +457,17 @@ mod tests {
         assert_eq!(whys[9].params()["unit"], "u7");
         assert_eq!(whys[9].params()["deviation_mm"], "12.3");
         assert_eq!(whys[9].params()["time_s"], "1.500");
-        assert!(whys[9].to_string().starts_with("ball u7: the program would be 12.3 mm off"));
+        assert!(
+            whys[9]
+                .to_string()
+                .starts_with("ball u7: the program would be 12.3 mm off")
+        );
         assert_eq!(fixes[6].params()["tolerance_mm"], "13");
-        assert!(fixes[6].to_string().starts_with("raise [scl] tolerance_mm to 13 mm or more"));
+        assert!(
+            fixes[6]
+                .to_string()
+                .starts_with("raise [scl] tolerance_mm to 13 mm or more")
+        );
     }
 
     #[test]
