@@ -1289,6 +1289,55 @@ async fn an_infeasible_show_blocks_start_and_says_why() {
 }
 
 #[wasm_bindgen_test]
+async fn a_chinese_ui_says_why_a_show_cannot_run_in_chinese() {
+    let bridge = FakeBridge::new(|request| {
+        if request.url.starts_with("/api/plan/") {
+            response(
+                200,
+                &serde_json::json!({
+                    "show": "x",
+                    "feasible": false,
+                    "reason": "gateway sim (9600 baud) cannot keep its 100 units fed",
+                    "fixes": ["raise the line to 38400 baud"],
+                    "reason_problem": {"code": "line_starved", "params": {
+                        "gateway": "sim", "baud": "9600", "units": "100", "show": "x",
+                        "needed_bytes_per_s": "2400", "available_bytes_per_s": "960",
+                        "dry_at_s": "1.5", "preload_rows": "256"}},
+                    "fix_problems": [{"code": "fix_faster_line", "params": {"baud": "38400"}}],
+                    "gateways": []
+                })
+                .to_string(),
+            )
+        } else {
+            response(204, "")
+        }
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-plan-zh").await;
+    ctx.lang.set(Lang::Zh);
+    let infeasible = || {
+        all(&container, "verdict")
+            .into_iter()
+            .find(|v| v.get_attribute("data-verdict").as_deref() == Some("infeasible"))
+            .and_then(|v| v.text_content())
+    };
+    until("the verdicts arrive", || infeasible().is_some()).await;
+    let zh = infeasible().unwrap();
+    assert!(
+        zh.contains("网关 sim（9600 波特）供不上它的 100 个单元")
+            && zh.contains("1.5 秒后用尽")
+            && zh.contains("把线路提高到 38400 波特"),
+        "{zh}"
+    );
+    assert!(!zh.contains("cannot keep") && !zh.contains("raise the line"), "{zh}");
+    ctx.lang.set(Lang::En);
+    until("the verdict reads in English", || {
+        infeasible().is_some_and(|en| en.contains("cannot keep its 100 units fed"))
+    })
+    .await;
+}
+
+#[wasm_bindgen_test]
 async fn settings_store_the_defaults_and_the_loop_flag() {
     let container = fresh_container();
     let bridge = playlist_bridge();
