@@ -107,9 +107,20 @@ async fn a_ball_s_program_is_listed_downloaded_or_refused() {
         )
         .await;
     assert_eq!(reply.status, StatusCode::UNPROCESSABLE_ENTITY);
-    let error = reply.error().error;
+    let body = reply.error();
+    let error = &body.error;
     assert!(
         error.contains("mm off the show at") && error.contains("tolerance of 10 mm"),
         "{error}"
+    );
+    // The reason as a code too, for the app to say in the operator's language.
+    assert_eq!(body.code, "qprogram_refused");
+    assert_eq!(body.problems.len(), 1, "{body:?}");
+    assert_eq!(body.problems[0].code, "qprogram_too_far");
+    assert_eq!(body.problems[0].params["unit"], "u3");
+    assert_eq!(body.problems[0].params["tolerance_mm"], "10");
+    assert!(
+        body.details[0].starts_with("ball u3: the program would be"),
+        "{body:?}"
     );
 }

@@ -150,6 +150,19 @@ async fn the_verdict_refuses_a_show_over_the_tolerance() {
         report.fixes[0].starts_with("raise [scl] tolerance_mm to"),
         "{report:?}"
     );
+    // The same verdict as codes, for the app to say in the operator's language.
+    let coded = report.reason_problem.as_ref().expect("a coded reason");
+    assert_eq!(coded.code, "qprogram_too_far", "{report:?}");
+    assert_eq!(coded.params["unit"], "u0");
+    assert_eq!(coded.params["tolerance_mm"], "0.001");
+    assert_eq!(report.fix_problems[0].code, "fix_tolerance", "{report:?}");
+    assert!(
+        report.fixes[0].contains(&format!(
+            "to {} mm or more",
+            report.fix_problems[0].params["tolerance_mm"]
+        )),
+        "{report:?}"
+    );
 
     let bridge = Process::start(&config("tolerance_mm = 20.0"));
     let (_, token) = operator(&bridge).await;
