@@ -1329,7 +1329,10 @@ async fn a_chinese_ui_says_why_a_show_cannot_run_in_chinese() {
             && zh.contains("把线路提高到 38400 波特"),
         "{zh}"
     );
-    assert!(!zh.contains("cannot keep") && !zh.contains("raise the line"), "{zh}");
+    assert!(
+        !zh.contains("cannot keep") && !zh.contains("raise the line"),
+        "{zh}"
+    );
     ctx.lang.set(Lang::En);
     until("the verdict reads in English", || {
         infeasible().is_some_and(|en| en.contains("cannot keep its 100 units fed"))

@@ -46,13 +46,12 @@ pub fn unfit_without_lines(installation: &Installation, show: &Show) -> Option<S
 
 /// [`unfit_without_lines`] as a typed [`Why`].
 pub fn unfit_verdict(installation: &Installation, show: &Show) -> Option<Why> {
-    let mut violations = crate::show::validate(show, &installation.limits);
+    let violations = crate::show::validate(show, &installation.limits);
     let units = installation.units.len();
-    if !violations.is_empty() {
-        let more = violations.len() - 1;
+    if let Some(&first) = violations.first() {
         Some(Why::Violations {
-            first: violations.swap_remove(0),
-            more,
+            first,
+            more: violations.len() - 1,
         })
     } else if show.tracks.len() != units {
         Some(Why::BallCount {
@@ -327,7 +326,7 @@ mod tests {
         let mut show = wave(1, 2, 20, 200);
         show.tracks[1].rows[5].position_mm = -50.0;
         let violations = crate::show::validate(&show, &installation(1, 2, 9600).limits);
-        let first = violations[0].clone();
+        let first = violations[0];
         let whys = [
             Why::Starved {
                 gateway: "g".into(),
@@ -349,10 +348,7 @@ mod tests {
                 dry_at_ms: None,
                 preload_rows: 256,
             },
-            Why::Violations {
-                first: first.clone(),
-                more: 2,
-            },
+            Why::Violations { first, more: 2 },
             Why::BallCount {
                 show_balls: 2,
                 units: 4,
