@@ -29,8 +29,9 @@
 //!   ([`motion::Trapezoid`]) and braking — used by the player's timing and the simulator.
 //! - [`plan`]: the installation (gateways, kinds of drive, which unit hangs where) and,
 //!   from a show and an installation, each gateway's instruction stream in the fewest
-//!   bytes, the FIFO refill schedule, the bandwidth / feasibility report and the player
-//!   (Start / E-stop / Reset as a state machine, split by phase).
+//!   bytes, the FIFO refill schedule, the bandwidth / feasibility report with its coded
+//!   verdict (why a show cannot run, what would make it run) and the player (Start /
+//!   E-stop / Reset as a state machine, split by phase).
 //! - [`playlist`]: the playlist's limits and the one check of its ranges, used by the
 //!   bridge and the app alike.
 //! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
