@@ -263,10 +263,11 @@ pub fn ensure_wasm_opt(env: &Env) -> Result<PathBuf, String> {
         return Ok(wasm_opt);
     }
     if output_of(program(env, "npm").arg("--version")).is_none() {
-        return Err(
-            "npm is needed to install wasm-opt (the release app is shrunk with it); install Node.js, e.g.\n\n    sudo apt-get install -y nodejs npm\n"
-                .to_owned(),
-        );
+        apt_install(
+            env,
+            &["nodejs", "npm"],
+            "Node.js and npm (wasm-opt, which shrinks the release app, comes from npm)",
+        )?;
     }
     println!(
         "xtask: installing wasm-opt (npm package binaryen {BINARYEN_VERSION}) into {}; it shrinks the release app",
@@ -311,17 +312,24 @@ pub fn ensure_chromium(env: &Env) -> Result<(), String> {
     if missing.is_empty() {
         return Ok(());
     }
-    let install = format!("apt-get install -y {}", missing.join(" "));
+    apt_install(
+        env,
+        &missing,
+        "Chromium, ChromeDriver and a font for Chinese (the browser tests run in headless Chromium and take screenshots in 中文 and English)",
+    )
+}
+
+/// Installs Debian `packages` (`why` says what they are for) when running as root;
+/// otherwise stops with the command to run.
+fn apt_install(env: &Env, packages: &[&str], why: &str) -> Result<(), String> {
+    let install = format!("apt-get install -y {}", packages.join(" "));
     let uid = output_of(program(env, "id").arg("-u")).unwrap_or_default();
     if uid.trim() != "0" {
         return Err(format!(
-            "Chromium, ChromeDriver and a font for Chinese are needed for the browser tests; install them with:\n\n    sudo apt-get update && sudo {install}\n"
+            "{why} are needed; install them with:\n\n    sudo apt-get update && sudo {install}\n"
         ));
     }
-    println!(
-        "xtask: installing Debian's {} (the browser tests run in headless Chromium and take screenshots in 中文 and English)",
-        missing.join(", ")
-    );
+    println!("xtask: installing Debian's {}: {why}", packages.join(", "));
     run_command(
         program(env, "apt-get")
             .arg("update")
@@ -330,7 +338,7 @@ pub fn ensure_chromium(env: &Env) -> Result<(), String> {
     run_command(
         program(env, "apt-get")
             .args(["install", "-y", "--no-install-recommends"])
-            .args(&missing)
+            .args(packages)
             .env("DEBIAN_FRONTEND", "noninteractive"),
     )
 }
