@@ -23,6 +23,15 @@ pub trait Coded {
     fn params(&self) -> Params;
 }
 
+/// The parameters of `kind` and where in the text it was found, `line` and `column`
+/// (1-based): the parse errors of the three console languages.
+pub fn located(kind: &impl Coded, line: u32, column: u32) -> Params {
+    let mut params = kind.params();
+    params.insert("line".into(), line.to_string());
+    params.insert("column".into(), column.to_string());
+    params
+}
+
 /// Builds [`Params`] from `name => value` pairs (values through `to_string`).
 #[macro_export]
 macro_rules! params {

@@ -762,10 +762,7 @@ impl Coded for ConsoleError {
 
     /// The kind's parameters, and where: `line` and `column`.
     fn params(&self) -> Params {
-        let mut params = self.kind.params();
-        params.insert("line".into(), self.line.to_string());
-        params.insert("column".into(), self.column.to_string());
-        params
+        crate::codes::located(&self.kind, self.line, self.column)
     }
 }
 
