@@ -7,8 +7,8 @@ mod common;
 use std::time::Duration;
 
 use axum::http::{Method, StatusCode};
-use common::{Bridge, Ws, next_message, send_text};
-use floatball_shared::api::{PlanReport, PlayerState, ServerMessage, SimPositions, Status};
+use common::{Bridge, send_text, status_until};
+use floatball_shared::api::{PlanReport, PlayerState, ServerMessage, SimPositions};
 
 /// A CSV show for a `units`-ball matrix: every ball goes down up to half a metre and back up, in
 /// `steps` keyframes 250 ms apart.
@@ -51,20 +51,6 @@ async fn playlist(bridge: &Bridge, token: &str, show: &str) {
         )
         .await;
     assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
-}
-
-async fn status_until(ws: &mut Ws, within: Duration, what: impl Fn(&Status) -> bool) -> Status {
-    tokio::time::timeout(within, async {
-        loop {
-            if let ServerMessage::Status(status) = next_message(ws).await
-                && what(&status)
-            {
-                return status;
-            }
-        }
-    })
-    .await
-    .expect("the status never matched")
 }
 
 async fn positions(bridge: &Bridge, token: &str) -> SimPositions {

@@ -11,25 +11,11 @@ use std::time::Duration;
 
 use axum::http::{Method, StatusCode};
 use common::process::{Process, wave_json};
-use common::{Remote, Ws, next_message, send_text};
-use floatball_shared::api::{PlayerState, Playlist, ServerMessage, SimPositions, Status};
+use common::{Remote, send_text, status_until};
+use floatball_shared::api::{PlayerState, Playlist, SimPositions};
 
 const SMALL: &str = "[matrix]\nrows = 2\ncols = 2\n\n[[gateway]]\nport = \"sim\"\nbaud = 115200\n\n\
                      [safety]\napproach_speed_mm_s = 2000.0\n";
-
-async fn status_until(ws: &mut Ws, within: Duration, what: impl Fn(&Status) -> bool) -> Status {
-    tokio::time::timeout(within, async {
-        loop {
-            if let ServerMessage::Status(status) = next_message(ws).await
-                && what(&status)
-            {
-                return status;
-            }
-        }
-    })
-    .await
-    .expect("the status never matched")
-}
 
 async fn get_playlist(bridge: &Remote, token: &str) -> Playlist {
     let reply = bridge

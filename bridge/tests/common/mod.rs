@@ -321,6 +321,25 @@ pub async fn next_reply(ws: &mut Ws) -> floatball_shared::api::ServerMessage {
     }
 }
 
+/// Reads statuses until one satisfies `what`; panics if none does within `within`.
+pub async fn status_until(
+    ws: &mut Ws,
+    within: Duration,
+    what: impl Fn(&floatball_shared::api::Status) -> bool,
+) -> floatball_shared::api::Status {
+    tokio::time::timeout(within, async {
+        loop {
+            if let floatball_shared::api::ServerMessage::Status(status) = next_message(ws).await
+                && what(&status)
+            {
+                return status;
+            }
+        }
+    })
+    .await
+    .expect("the status never matched")
+}
+
 /// Sends a text frame.
 pub async fn send_text(ws: &mut Ws, text: &str) {
     ws.send(Message::text(text)).await.expect("send");
