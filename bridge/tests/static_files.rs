@@ -3,7 +3,9 @@
 //! `/pkg/`, `no-cache` for the page and every other file, `Vary: Accept-Encoding`, and
 //! the built page (`pkg/index.html`) in place of the template.
 
-use std::io::{BufRead, BufReader, Read, Write};
+mod common;
+
+use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
@@ -58,17 +60,7 @@ fn serve(with_built_page: bool) -> Served {
         .stderr(Stdio::null())
         .spawn()
         .expect("start floatball");
-    let mut lines = BufReader::new(child.stdout.take().expect("stdout")).lines();
-    let addr = loop {
-        let line = lines
-            .next()
-            .expect("floatball said where it listens")
-            .expect("stdout line");
-        if let Some(url) = line.strip_prefix("floatball listening on http://") {
-            break url.trim().parse().expect("address");
-        }
-    };
-    std::thread::spawn(move || for _ in lines {});
+    let addr = common::process::listening_address(child.stdout.take().expect("stdout"));
     Served {
         child,
         addr,

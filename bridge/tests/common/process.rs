@@ -45,19 +45,7 @@ impl Process {
             .stderr(log)
             .spawn()
             .expect("start floatball");
-        let stdout = child.stdout.take().expect("stdout");
-        let mut lines = BufReader::new(stdout).lines();
-        let addr = loop {
-            let line = lines
-                .next()
-                .expect("floatball said where it listens")
-                .expect("stdout line");
-            if let Some(url) = line.strip_prefix("floatball listening on http://") {
-                break url.trim().parse().expect("address");
-            }
-        };
-        // Keep reading so the child never blocks on a full pipe.
-        std::thread::spawn(move || for _ in lines {});
+        let addr = listening_address(child.stdout.take().expect("stdout"));
         Self {
             child,
             remote: Remote { addr },
@@ -296,4 +284,22 @@ pub async fn links_up(ws: &mut super::Ws) -> bool {
             return true;
         }
     }
+}
+
+/// Where a starting `floatball` listens, read from its stdout (`floatball listening
+/// on http://…`); the rest of its stdout is read on and dropped, so the child never
+/// blocks on a full pipe.
+pub fn listening_address(stdout: std::process::ChildStdout) -> std::net::SocketAddr {
+    let mut lines = BufReader::new(stdout).lines();
+    let addr = loop {
+        let line = lines
+            .next()
+            .expect("floatball said where it listens")
+            .expect("stdout line");
+        if let Some(url) = line.strip_prefix("floatball listening on http://") {
+            break url.trim().parse().expect("address");
+        }
+    };
+    std::thread::spawn(move || for _ in lines {});
+    addr
 }
