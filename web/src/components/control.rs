@@ -560,7 +560,7 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
         .iter()
         .map(|gateway| {
             let text = gateway_text(lang, gateway, streams(state));
-            let link = format!("{:?}", gateway.link).to_lowercase();
+            let link = format!("{:?}", gateway.link).to_ascii_lowercase();
             view! {
                 <li class=format!("link {link}") data-testid="gateway" data-link=link>
                     {text}

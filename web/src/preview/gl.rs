@@ -546,7 +546,7 @@ fn software_renderer() -> bool {
     }
     .and_then(|name| name.as_string())
     .unwrap_or_default()
-    .to_lowercase();
+    .to_ascii_lowercase();
     if let Ok(Some(lose)) = gl.get_extension("WEBGL_lose_context") {
         // Gives the context back at once rather than at the next garbage collection.
         let _ = js_sys::Reflect::get(&lose, &"loseContext".into())
