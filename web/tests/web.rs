@@ -988,6 +988,8 @@ async fn start_and_reset_ignore_the_checkboxes_and_status_is_live() {
         message: "change the password first".into(),
         code: String::new(),
         params: Default::default(),
+        reason_problem: None,
+        fix_problems: Vec::new(),
     });
     tick().await;
     assert!(text(&container, "bridge-error").contains("change the password first"));
