@@ -839,7 +839,7 @@ fn check_scl(installation: &Installation, entries: &[Entry]) -> Result<(), Start
             return Err(StartError::Invalid {
                 entry: index + 1,
                 show: entry.show.name.clone(),
-                reason,
+                reason: Box::new(reason),
             });
         }
     }

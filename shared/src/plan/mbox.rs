@@ -182,7 +182,7 @@ impl MboxPlayer {
                 return Err(StartError::Invalid {
                     entry: index + 1,
                     show: entry.show.name.clone(),
-                    reason,
+                    reason: Box::new(reason),
                 });
             }
         }

@@ -43,13 +43,13 @@ pub fn prepare(
             Plan::new(&entry.show, installation, options).map_err(|error| StartError::Invalid {
                 entry: index + 1,
                 show: entry.show.name.clone(),
-                reason: Why::Refused(error),
+                reason: Box::new(Why::Refused(error)),
             })?;
         if let (_, Some(reason), fixes) = line_verdict(&plan, installation) {
             return Err(StartError::Infeasible {
                 entry: index + 1,
                 show: entry.show.name.clone(),
-                reason,
+                reason: Box::new(reason),
                 fixes,
             });
         }
@@ -89,7 +89,7 @@ pub enum StartError {
         show: String,
         /// Why: the plan's refusal, or (MBOX boxes, MOONS' drives) why the show does
         /// not fit the installation.
-        reason: Why,
+        reason: Box<Why>,
     },
     /// A show is valid but the lines cannot carry it.
     #[error("entry {entry} (\"{show}\") cannot run: {reason}")]
@@ -99,7 +99,7 @@ pub enum StartError {
         /// The show's name.
         show: String,
         /// Why, with the numbers.
-        reason: Why,
+        reason: Box<Why>,
         /// What would make it run.
         fixes: Vec<Fix>,
     },
@@ -161,7 +161,7 @@ impl StartError {
     pub fn reason_problem(&self) -> Option<Problem> {
         match self {
             Self::Invalid { reason, .. } | Self::Infeasible { reason, .. } => {
-                Some(Problem::of(reason))
+                Some(Problem::of(reason.as_ref()))
             }
             _ => None,
         }
