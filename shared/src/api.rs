@@ -520,9 +520,10 @@ pub enum ServerMessage {
         #[serde(default, skip_serializing_if = "Params::is_empty")]
         params: Params,
         /// The `reason` parameter (English) as a coded problem, when the bridge has
-        /// it typed (a refused Start: why the entry cannot run).
+        /// it typed (a refused Start: why the entry cannot run). Boxed: most errors
+        /// have none.
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        reason_problem: Option<Problem>,
+        reason_problem: Option<Box<Problem>>,
         /// The `fixes` parameter (English, joined by `; `) as coded problems, one per
         /// fix in the same order.
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -552,7 +553,7 @@ impl ServerMessage {
             ..
         } = &mut self
         {
-            *reason_problem = reason;
+            *reason_problem = reason.map(Box::new);
             *fix_problems = fixes;
         }
         self

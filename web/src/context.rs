@@ -277,7 +277,7 @@ impl Ctx {
                 message,
                 code,
                 params,
-                reason_problem,
+                reason_problem: reason_problem.map(|problem| *problem),
                 fix_problems,
             })),
             ServerMessage::EstopSent { unreached } if !unreached.is_empty() => {
