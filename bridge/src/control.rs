@@ -2,7 +2,8 @@
 //! read from the store (on a blocking thread), handed to the player with the e-stop
 //! generation the request was issued at. Every refusal comes back as a coded
 //! [`ServerMessage::Error`]: its code and parameters (which entry, why, and what would
-//! make it run) and the same as an English sentence.
+//! make it run — why and the fixes also as coded problems) and the same as an English
+//! sentence.
 
 use floatball_shared::api::ServerMessage;
 use floatball_shared::codes::{Code, Coded, Params};
@@ -94,18 +95,28 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
 
 fn describe(error: &PlaybackError) -> String {
     match error {
-        PlaybackError::Refused(StartError::Infeasible { fixes, .. }) if !fixes.is_empty() => {
-            format!("{error}. To make it run: {}", fixes.join("; "))
+        PlaybackError::Refused(refused @ StartError::Infeasible { fixes, .. })
+            if !fixes.is_empty() =>
+        {
+            format!(
+                "{error}. To make it run: {}",
+                refused.fix_sentences().join("; ")
+            )
         }
         other => other.to_string(),
     }
 }
 
-/// The refusal of a request the player did not carry out.
+/// The refusal of a request the player did not carry out, with why an entry cannot
+/// run and what would make it run also as coded problems.
 fn refusal(error: &PlaybackError) -> ServerMessage {
-    let (code, params) = match error {
-        PlaybackError::Refused(refused) => (refused.code(), refused.params()),
-        PlaybackError::Gone => (Code::PlayerGone, Params::new()),
-    };
-    ServerMessage::error(code, describe(error), params)
+    match error {
+        PlaybackError::Refused(refused) => {
+            ServerMessage::error(refused.code(), describe(error), refused.params())
+                .with_problems(refused.reason_problem(), refused.fix_problems())
+        }
+        PlaybackError::Gone => {
+            ServerMessage::error(Code::PlayerGone, describe(error), Params::new())
+        }
+    }
 }

@@ -834,12 +834,12 @@ fn check_scl(installation: &Installation, entries: &[Entry]) -> Result<(), Start
         return Err(StartError::Empty);
     }
     for (index, entry) in entries.iter().enumerate() {
-        let reason = floatball_shared::plan::report::unfit_without_lines(installation, &entry.show);
+        let reason = floatball_shared::plan::report::unfit_verdict(installation, &entry.show);
         if let Some(reason) = reason {
             return Err(StartError::Invalid {
                 entry: index + 1,
                 show: entry.show.name.clone(),
-                reason,
+                reason: Box::new(reason),
             });
         }
     }

@@ -168,7 +168,14 @@ async fn an_infeasible_show_is_refused_with_numbers() {
     let mut ws = bridge.ws(&token).await;
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let reply = common::next_reply(&mut ws).await;
-    let ServerMessage::Error { message, .. } = reply else {
+    let ServerMessage::Error {
+        message,
+        code,
+        params,
+        reason_problem,
+        fix_problems,
+    } = reply
+    else {
         panic!("expected a refusal, got {reply:?}");
     };
     assert!(
@@ -176,6 +183,31 @@ async fn an_infeasible_show_is_refused_with_numbers() {
         "{message}"
     );
     assert!(message.contains("To make it run"), "{message}");
+    // The same as codes for the app, the English params kept for API clients.
+    assert_eq!(code, "entry_infeasible");
+    assert_eq!(
+        (params["entry"].as_str(), params["show"].as_str()),
+        ("1", "long")
+    );
+    assert!(params["reason"].contains("960 B/s"), "{params:?}");
+    let reason = reason_problem.expect("the reason as a coded problem");
+    assert!(reason.code.starts_with("line_starved"), "{reason:?}");
+    assert_eq!(
+        (
+            reason.params["baud"].as_str(),
+            reason.params["available_bytes_per_s"].as_str()
+        ),
+        ("9600", "960")
+    );
+    // One coded fix per English one, in the same order.
+    let fixes: Vec<&str> = fix_problems.iter().map(|fix| fix.code.as_str()).collect();
+    assert_eq!(
+        fixes,
+        ["fix_faster_line", "fix_fewer_units", "fix_fewer_rows"],
+        "{params:?}"
+    );
+    assert_eq!(fix_problems[0].params["baud"], "19200");
+    assert!(params["fixes"].starts_with("raise the line to 19200 baud"));
     // Nothing moved.
     let still = positions(&bridge, &token).await;
     assert!(still.gateways[0].units.iter().all(|unit| !unit.moving));

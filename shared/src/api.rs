@@ -16,6 +16,8 @@
 //!     message: "no such show".into(),
 //!     code: "show_not_found".into(),
 //!     params: [("name".to_owned(), "波浪".to_owned())].into(),
+//!     reason_problem: None,
+//!     fix_problems: Vec::new(),
 //! };
 //! assert_eq!(
 //!     serde_json::to_string(&error).unwrap(),
@@ -517,6 +519,15 @@ pub enum ServerMessage {
         /// The code's parameters.
         #[serde(default, skip_serializing_if = "Params::is_empty")]
         params: Params,
+        /// The `reason` parameter (English) as a coded problem, when the bridge has
+        /// it typed (a refused Start: why the entry cannot run). Boxed: most errors
+        /// have none.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        reason_problem: Option<Box<Problem>>,
+        /// The `fixes` parameter (English, joined by `; `) as coded problems, one per
+        /// fix in the same order.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        fix_problems: Vec<Problem>,
     },
 }
 
@@ -527,7 +538,25 @@ impl ServerMessage {
             message: message.into(),
             code: code.as_str().to_owned(),
             params,
+            reason_problem: None,
+            fix_problems: Vec::new(),
         }
+    }
+
+    /// This message with the coded forms of its `reason` and `fixes` parameters (an
+    /// error only; any other message is returned as it is).
+    #[must_use]
+    pub fn with_problems(mut self, reason: Option<Problem>, fixes: Vec<Problem>) -> Self {
+        if let Self::Error {
+            reason_problem,
+            fix_problems,
+            ..
+        } = &mut self
+        {
+            *reason_problem = reason.map(Box::new);
+            *fix_problems = fixes;
+        }
+        self
     }
 }
 

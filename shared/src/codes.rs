@@ -253,9 +253,11 @@ codes! {
     PlaylistEmpty = "playlist_empty" [];
     /// A playlist entry's show cannot be read.
     EntryUnreadable = "entry_unreadable" ["entry", "show", "reason"];
-    /// A show cannot be planned (`reason` in English).
+    /// A show cannot be planned or does not fit (`reason` in English; coded in the
+    /// error's `reason_problem`).
     EntryInvalid = "entry_invalid" ["entry", "show", "reason"];
-    /// A show the lines cannot carry (`reason` and `fixes` in English).
+    /// A show the lines cannot carry (`reason` and `fixes` in English; coded in the
+    /// error's `reason_problem` and `fix_problems`).
     EntryInfeasible = "entry_infeasible" ["entry", "show", "reason", "fixes"];
     /// A gateway is not connected.
     GatewayNotConnected = "gateway_not_connected" ["gateway"];

@@ -11,7 +11,7 @@
 
 use std::rc::Rc;
 
-use floatball_shared::api::{ClientMessage, ServerMessage, ShowSummary, Status};
+use floatball_shared::api::{ClientMessage, Problem, ServerMessage, ShowSummary, Status};
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::show::{Show, ShowFormat, import};
 use leptos::prelude::*;
@@ -123,6 +123,10 @@ pub struct Refusal {
     pub code: String,
     /// The code's parameters.
     pub params: Params,
+    /// The `reason` parameter as a coded problem, if the bridge sent it.
+    pub reason_problem: Option<Problem>,
+    /// The `fixes` parameter as coded problems, if the bridge sent them.
+    pub fix_problems: Vec<Problem>,
 }
 
 impl Refusal {
@@ -132,12 +136,20 @@ impl Refusal {
             message: error.to_string(),
             code: error.code().as_str().to_owned(),
             params: error.params(),
+            reason_problem: None,
+            fix_problems: Vec::new(),
         }
     }
 
-    /// The refusal in `lang`.
+    /// The refusal in `lang` (rendered when shown, so it follows a language switch).
     pub fn text(&self, lang: Lang) -> String {
-        lang.coded(&self.code, &self.params, &self.message)
+        lang.refusal(
+            &self.code,
+            &self.params,
+            &self.message,
+            self.reason_problem.as_ref(),
+            &self.fix_problems,
+        )
     }
 }
 
@@ -259,10 +271,14 @@ impl Ctx {
                 message,
                 code,
                 params,
+                reason_problem,
+                fix_problems,
             } => self.bridge_error.set(Some(Refusal {
                 message,
                 code,
                 params,
+                reason_problem: reason_problem.map(|problem| *problem),
+                fix_problems,
             })),
             ServerMessage::EstopSent { unreached } if !unreached.is_empty() => {
                 let gateways = unreached.join("; ");
@@ -272,6 +288,8 @@ impl Ctx {
                     message: format!("E-stop: {gateways}"),
                     code: Code::EstopUnreached.as_str().to_owned(),
                     params,
+                    reason_problem: None,
+                    fix_problems: Vec::new(),
                 }));
             }
             ServerMessage::Pong | ServerMessage::EstopSent { .. } => {}

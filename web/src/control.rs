@@ -322,7 +322,7 @@ mod tests {
         let old = plans.begin(&shows(&["a"]), true).expect("connected");
         let new = plans.begin(&shows(&["a"]), true).expect("connected");
         assert_ne!(old, new);
-        assert!(!plans.answer(old, "a", Verdict::Failed("late".into())));
+        assert!(!plans.answer(old, "a", Verdict::Failed(Failure::NotFound)));
         assert_eq!(plans.verdicts()[0].1, Verdict::Pending);
         assert!(plans.answer(new, "a", Verdict::Unavailable));
         assert_eq!(plans.verdicts()[0].1, Verdict::Unavailable);

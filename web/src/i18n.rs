@@ -557,19 +557,56 @@ impl Lang {
     /// `reason` from a bridge without the code or with a code this app does not know.
     pub fn plan_reason(self, report: &PlanReport) -> Option<String> {
         let english = report.reason.as_deref().unwrap_or_default();
-        let Some(Problem { code, params }) = &report.reason_problem else {
+        let Some(problem) = &report.reason_problem else {
             return report.reason.clone();
         };
-        if !self.knows(code) {
+        if !self.knows(&problem.code) {
             return report.reason.clone();
         }
+        Some(self.reason(problem, english))
+    }
+
+    /// A coded reason (a [`Problem`] this app knows), followed by "… and N more
+    /// problems" when it has `more`.
+    fn reason(self, Problem { code, params }: &Problem, english: &str) -> String {
         let mut text = self.coded(code, params, english);
         if let Some(more) = params.get("more") {
             let count: Params = [("count".to_owned(), more.clone())].into();
             text.push(' ');
             text.push_str(&self.coded(Code::MoreProblems.as_str(), &count, ""));
         }
-        Some(text)
+        text
+    }
+
+    /// A refusal over the WebSocket in this language: its code's template, with the
+    /// `reason` and `fixes` parameters (English) replaced by their coded problems when
+    /// the bridge sent them and this app knows every code (a refused Start: why the
+    /// entry cannot run, what would make it run); `english` for an unknown code.
+    pub fn refusal(
+        self,
+        code: &str,
+        params: &Params,
+        english: &str,
+        reason: Option<&Problem>,
+        fixes: &[Problem],
+    ) -> String {
+        let mut params = params.clone();
+        if let Some(reason) = reason.filter(|reason| self.knows(&reason.code)) {
+            let english_reason = params.get("reason").cloned().unwrap_or_default();
+            params.insert("reason".to_owned(), self.reason(reason, &english_reason));
+        }
+        if !fixes.is_empty() && fixes.iter().all(|fix| self.knows(&fix.code)) {
+            let separator = match self {
+                Lang::Zh => "；",
+                Lang::En => "; ",
+            };
+            let fixes: Vec<String> = fixes
+                .iter()
+                .map(|fix| self.coded(&fix.code, &fix.params, ""))
+                .collect();
+            params.insert("fixes".to_owned(), fixes.join(separator));
+        }
+        self.coded(code, &params, english)
     }
 
     /// What would make a show run (a plan report's fixes), in this language; each
@@ -1025,6 +1062,116 @@ mod tests {
         assert_eq!(
             Lang::Zh.plan_fixes(&report),
             ["english fix", "english other"]
+        );
+    }
+
+    #[test]
+    fn a_refused_start_reads_its_coded_reason_and_fixes_in_the_chosen_language() {
+        let params = |pairs: &[(&str, &str)]| -> Params {
+            pairs
+                .iter()
+                .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+                .collect()
+        };
+        let english_reason = "gateway sim (9600 baud) cannot keep its 100 units fed: \"wave\" \
+             streams 2400 B/s while the line carries 960 B/s, so the units' row buffers run dry \
+             1.5 s into the show even with a full 256-row preload";
+        let english_fixes = "raise the line to 38400 baud (BDR=38400; on the gateway, then \
+             `baud = 38400` in floatball.toml); or shorten the show to at most 500 rows per \
+             ball so it loads completely before it starts";
+        let english = format!(
+            "entry 1 (\"wave\") cannot run: {english_reason}. To make it run: {english_fixes}"
+        );
+        let refusal_params = params(&[
+            ("entry", "1"),
+            ("show", "wave"),
+            ("reason", english_reason),
+            ("fixes", english_fixes),
+        ]);
+        let reason = Problem {
+            code: "line_starved".into(),
+            params: params(&[
+                ("gateway", "sim"),
+                ("baud", "9600"),
+                ("units", "100"),
+                ("show", "wave"),
+                ("needed_bytes_per_s", "2400"),
+                ("available_bytes_per_s", "960"),
+                ("dry_at_s", "1.5"),
+                ("preload_rows", "256"),
+            ]),
+        };
+        let fixes = [
+            Problem {
+                code: "fix_faster_line".into(),
+                params: params(&[("baud", "38400")]),
+            },
+            Problem {
+                code: "fix_fewer_rows".into(),
+                params: params(&[("rows", "500")]),
+            },
+        ];
+        let zh = Lang::Zh.refusal(
+            "entry_infeasible",
+            &refusal_params,
+            &english,
+            Some(&reason),
+            &fixes,
+        );
+        assert_eq!(
+            zh,
+            "第 1 项（“wave”）无法运行：网关 sim（9600 波特）供不上它的 100 个单元：“wave”每秒需要 \
+             2400 字节，线路只能传 960 字节，即使预载满 256 行，单元的行缓冲也会在动作开始 1.5 \
+             秒后用尽。建议：把线路提高到 38400 波特（在网关上设 BDR=38400;，再在 floatball.toml \
+             中设 `baud = 38400`）；或把动作缩短到每个球最多 500 行，使它在开始前完全载入"
+        );
+        assert!(
+            !zh.contains("baud)") && !zh.contains("To make it run"),
+            "{zh}"
+        );
+        // In English the coded sentence is the bridge's own.
+        let en = Lang::En.refusal(
+            "entry_infeasible",
+            &refusal_params,
+            &english,
+            Some(&reason),
+            &fixes,
+        );
+        assert_eq!(en.to_lowercase(), english.to_lowercase());
+        // An older bridge (no problems) or a fix this app does not know: its English.
+        let unknown = [Problem {
+            code: "fix_from_the_future".into(),
+            params: Params::new(),
+        }];
+        let older = Lang::Zh.refusal(
+            "entry_infeasible",
+            &refusal_params,
+            &english,
+            None,
+            &unknown,
+        );
+        assert!(
+            older.contains(english_reason) && older.contains(english_fixes),
+            "{older}"
+        );
+        // An MBOX show that does not fit, coded.
+        let invalid = Lang::Zh.refusal(
+            "entry_invalid",
+            &params(&[
+                ("entry", "2"),
+                ("show", "big"),
+                ("reason", "the show has 9 balls…"),
+            ]),
+            "entry 2 (\"big\") cannot run: the show has 9 balls…",
+            Some(&Problem {
+                code: "ball_count".into(),
+                params: params(&[("show_balls", "9"), ("units", "6")]),
+            }),
+            &[],
+        );
+        assert_eq!(
+            invalid,
+            "第 2 项（“big”）无法运行：动作有 9 个球，但本装置有 6 个"
         );
     }
 

@@ -10,6 +10,8 @@
 use floatball_shared::api::{PlanReport, Playlist, PlaylistEntry, Status};
 use floatball_shared::playlist::{cycles_in_range, delay_in_range};
 
+use crate::client::Failure;
+
 /// A playlist being edited, with one checkbox per entry.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct PlaylistEditor {
@@ -226,8 +228,9 @@ pub enum Verdict {
     Infeasible(PlanReport),
     /// This bridge has no planner yet.
     Unavailable,
-    /// The report could not be fetched.
-    Failed(String),
+    /// The report could not be fetched: why, rendered when shown (so it follows a
+    /// language switch).
+    Failed(Failure),
 }
 
 impl Verdict {

@@ -11,7 +11,7 @@ use std::rc::Rc;
 
 use floatball_shared::api::{
     ClientMessage, FeedbackFrame, GatewayKind, GatewayStatus, LinkState, MboxRegisters, MboxReply,
-    PlayerState, Playlist, QProgramListing, SclReply, ServerMessage, ShowSummary, Status,
+    PlayerState, Playlist, Problem, QProgramListing, SclReply, ServerMessage, ShowSummary, Status,
 };
 use floatball_shared::show::{Layout, Show, Track, TrackRow};
 use floatball_web::client::{
@@ -988,6 +988,8 @@ async fn start_and_reset_ignore_the_checkboxes_and_status_is_live() {
         message: "change the password first".into(),
         code: String::new(),
         params: Default::default(),
+        reason_problem: None,
+        fix_problems: Vec::new(),
     });
     tick().await;
     assert!(text(&container, "bridge-error").contains("change the password first"));
@@ -1131,6 +1133,93 @@ async fn an_edit_the_bridge_refuses_as_locked_says_so_in_the_chosen_language() {
         text(&container, "control-note")
     );
     ctx.lang.set(Lang::En);
+}
+
+#[wasm_bindgen_test]
+async fn a_refused_start_and_a_failed_verdict_read_in_the_chosen_language() {
+    let bridge = FakeBridge::new(|request| match (request.method, request.url.as_str()) {
+        (Method::Get, url) if url.starts_with("/api/plan/") => response(500, "boom"),
+        _ => response(404, ""),
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-refused-start").await;
+    until("the verdicts fail", || {
+        let verdicts = all(&container, "verdict");
+        !verdicts.is_empty()
+            && verdicts
+                .iter()
+                .all(|v| v.get_attribute("data-verdict").as_deref() == Some("failed"))
+    })
+    .await;
+    assert!(text(&container, "verdict").contains("The controller failed (HTTP 500)"));
+    // The failure is worded when shown: it follows a language switch.
+    ctx.lang.set(Lang::Zh);
+    tick().await;
+    assert!(
+        text(&container, "verdict").contains("控制器出错（HTTP 500）"),
+        "{}",
+        text(&container, "verdict")
+    );
+
+    element(&container, "start").click();
+    tick().await;
+    assert_eq!(*socket.sent.borrow(), [ClientMessage::Start]);
+    let param = |pairs: &[(&str, &str)]| {
+        pairs
+            .iter()
+            .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+            .collect()
+    };
+    ctx.receive(ServerMessage::Error {
+        message: "entry 1 (\"a\") cannot run: gateway sim (9600 baud) cannot keep its 100 \
+                  units fed. To make it run: raise the line to 19200 baud"
+            .into(),
+        code: "entry_infeasible".into(),
+        params: param(&[
+            ("entry", "1"),
+            ("show", "a"),
+            (
+                "reason",
+                "gateway sim (9600 baud) cannot keep its 100 units fed",
+            ),
+            ("fixes", "raise the line to 19200 baud"),
+        ]),
+        reason_problem: Some(Box::new(Problem {
+            code: "line_starved_during".into(),
+            params: param(&[
+                ("gateway", "sim"),
+                ("baud", "9600"),
+                ("units", "100"),
+                ("show", "a"),
+                ("needed_bytes_per_s", "1342"),
+                ("available_bytes_per_s", "960"),
+                ("preload_rows", "255"),
+            ]),
+        })),
+        fix_problems: vec![Problem {
+            code: "fix_faster_line".into(),
+            params: param(&[("baud", "19200")]),
+        }],
+    });
+    tick().await;
+    let refusal = text(&container, "bridge-error");
+    assert!(
+        refusal.contains("第 1 项（“a”）无法运行：网关 sim（9600 波特）供不上它的 100 个单元")
+            && refusal.contains("建议：把线路提高到 19200 波特"),
+        "{refusal}"
+    );
+    assert!(
+        !refusal.contains("baud)") && !refusal.contains("To make it run"),
+        "{refusal}"
+    );
+    ctx.lang.set(Lang::En);
+    tick().await;
+    let refusal = text(&container, "bridge-error");
+    assert!(
+        refusal.contains("Entry 1 (\"a\") cannot run: gateway sim (9600 baud)")
+            && refusal.contains("To make it run: raise the line to 19200 baud"),
+        "{refusal}"
+    );
 }
 
 #[wasm_bindgen_test]

@@ -178,11 +178,11 @@ impl MboxPlayer {
             return Err(StartError::Empty);
         }
         for (index, entry) in entries.iter().enumerate() {
-            if let Some(reason) = unfit(installation, &entry.show) {
+            if let Some(reason) = unfit_verdict(installation, &entry.show) {
                 return Err(StartError::Invalid {
                     entry: index + 1,
                     show: entry.show.name.clone(),
-                    reason,
+                    reason: Box::new(reason),
                 });
             }
         }
@@ -550,14 +550,9 @@ impl MboxPlayer {
     }
 }
 
-/// Why `show` cannot play on the MBOX `installation`, in one sentence: the first
-/// violation of its limits (and how many more), a ball count that differs, or an
-/// output track for a box it lacks. `None` when it can.
-fn unfit(installation: &Installation, show: &Show) -> Option<String> {
-    unfit_verdict(installation, show).map(|why| why.to_string())
-}
-
-/// [`unfit`] as a typed [`Why`].
+/// Why `show` cannot play on the MBOX `installation`: the first violation of its
+/// limits (and how many more), a ball count that differs, or an output track for a box
+/// it lacks. `None` when it can.
 fn unfit_verdict(installation: &Installation, show: &Show) -> Option<Why> {
     super::report::unfit_verdict(installation, show)
         .or_else(|| unknown_output_box(installation, show))

@@ -187,10 +187,18 @@ fn invalid_shows_are_refused_before_anything_moves() {
         delay_ms: 0,
         cycles: 1,
     };
-    assert!(matches!(
-        player.start(0, vec![wrong], false),
-        Err(StartError::Invalid { entry: 1, .. })
-    ));
+    let refused = player.start(0, vec![wrong], false);
+    assert!(
+        matches!(refused, Err(StartError::Invalid { entry: 1, .. })),
+        "{refused:?}"
+    );
+    // Why, also coded for the app: a 3 × 3 show on the 2 × 3 installation.
+    let reason = refused
+        .unwrap_err()
+        .reason_problem()
+        .expect("a coded reason");
+    assert_eq!(reason.code, "wrong_layout", "{reason:?}");
+    assert_eq!(reason.params["show_rows"], "3");
     assert_eq!(player.start(0, Vec::new(), false), Err(StartError::Empty));
     assert_eq!(player.status().state, PlayerState::Idle);
     assert!(player.take_frames().is_empty());

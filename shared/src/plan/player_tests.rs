@@ -369,10 +369,34 @@ fn an_infeasible_show_is_refused_with_numbers_before_anything_moves() {
     let StartError::Infeasible { reason, fixes, .. } = &error else {
         panic!("expected an infeasible show, got {error}");
     };
-    assert!(reason.contains("960 B/s"), "{reason}");
+    assert!(reason.to_string().contains("960 B/s"), "{reason}");
     assert!(!fixes.is_empty());
     assert!(rig.player.take_commands().is_empty(), "nothing may be sent");
     assert_eq!(rig.state(), PlayerState::Idle);
+}
+
+#[test]
+fn an_infeasible_start_carries_its_reason_and_fixes_as_codes_beside_the_english() {
+    use crate::codes::Coded;
+    let show = wave(10, 10, 600, 250);
+    let mut rig = Rig::new(installation(10, 10, &[9600]));
+    let error = rig.start(vec![entry(show, 0, 1)], false).unwrap_err();
+    let params = error.params();
+    let reason = error.reason_problem().expect("a coded reason");
+    assert!(
+        reason.code == "line_starved" || reason.code == "line_starved_during",
+        "{reason:?}"
+    );
+    assert_eq!(reason.params["available_bytes_per_s"], "960");
+    assert_eq!(reason.params["baud"], "9600");
+    assert!(params["reason"].contains("960 B/s"), "{params:?}");
+    let fixes = error.fix_problems();
+    assert_eq!(fixes.len(), error.fix_sentences().len());
+    assert!(
+        fixes.iter().any(|fix| fix.code == "fix_faster_line"),
+        "{fixes:?}"
+    );
+    assert_eq!(params["fixes"], error.fix_sentences().join("; "));
 }
 
 #[test]

@@ -16,7 +16,7 @@ pub const GATEWAY_BAUDS: [u32; 5] = [9600, 19_200, 38_400, 57_600, 115_200];
 /// The report for `show` on `installation`. An invalid show gets a report saying so.
 /// An installation of MBOX boxes gets [`super::mbox::report`]: no serial line limits
 /// its shows. Nor do MOONS' drives, which play their Q programs themselves: their
-/// verdict is the Start check ([`unfit_without_lines`]); how far each ball's program
+/// verdict is the Start check ([`unfit_verdict`]); how far each ball's program
 /// is from the show is `GET /api/qprogram`'s.
 pub fn report(show: &Show, installation: &Installation, options: PlanOptions) -> PlanReport {
     if installation.mbox_boxes().is_some() {
@@ -38,13 +38,8 @@ pub fn report(show: &Show, installation: &Installation, options: PlanOptions) ->
 }
 
 /// Why `show` cannot play on `installation` when no serial line carries it (MBOX
-/// boxes, MOONS' drives), in one sentence: the first violation of its limits (and how
-/// many more), or a ball count that differs. `None` when it can.
-pub fn unfit_without_lines(installation: &Installation, show: &Show) -> Option<String> {
-    unfit_verdict(installation, show).map(|why| why.to_string())
-}
-
-/// [`unfit_without_lines`] as a typed [`Why`].
+/// boxes, MOONS' drives): the first violation of its limits (and how many more), or a
+/// ball count that differs. `None` when it can.
 pub fn unfit_verdict(installation: &Installation, show: &Show) -> Option<Why> {
     let violations = crate::show::validate(show, &installation.limits);
     let units = installation.units.len();
@@ -84,6 +79,16 @@ pub fn refused(show: &str, error: &PlanError) -> PlanReport {
 
 /// The report for a plan.
 pub fn report_for(plan: &Plan, installation: &Installation) -> PlanReport {
+    let (gateways, why, fixes) = line_verdict(plan, installation);
+    verdict_report(plan.show.clone(), why.as_ref(), &fixes, gateways)
+}
+
+/// A plan's figures for each gateway, why its lines cannot carry it (none: they can)
+/// and what would make it run: [`report_for`]'s parts, typed, for the Start check.
+pub fn line_verdict(
+    plan: &Plan,
+    installation: &Installation,
+) -> (Vec<GatewayPlan>, Option<Why>, Vec<Fix>) {
     let duration_s = (plan.duration_ms as f64 / 1000.0).max(1e-3);
     let mut gateways = Vec::with_capacity(plan.gateways.len());
     let mut why = None;
@@ -120,7 +125,7 @@ pub fn report_for(plan: &Plan, installation: &Installation) -> PlanReport {
             fixes = remedies(plan, index, run.line, needed, available);
         }
     }
-    verdict_report(plan.show.clone(), why.as_ref(), &fixes, gateways)
+    (gateways, why, fixes)
 }
 
 fn starved(

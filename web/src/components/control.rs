@@ -114,7 +114,7 @@ pub fn ControlPage() -> impl IntoView {
             spawn_local(async move {
                 let verdict = match client.plan(&show).await {
                     Ok(report) => Verdict::of(report),
-                    Err(failure) => Verdict::Failed(ctx.lang.get_untracked().failure(&failure)),
+                    Err(failure) => Verdict::Failed(failure),
                 };
                 plans.maybe_update(|plans| plans.answer(round, &show, verdict));
             });
@@ -479,8 +479,8 @@ fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
                                         )
                                     }
                                     Verdict::Unavailable => (Text::PlanUnavailable, None, Vec::new()),
-                                    Verdict::Failed(message) => {
-                                        (Text::PlanUnavailable, Some(message), Vec::new())
+                                    Verdict::Failed(failure) => {
+                                        (Text::PlanUnavailable, Some(lang.failure(&failure)), Vec::new())
                                     }
                                 };
                                 view! {

@@ -381,7 +381,7 @@ pub(super) const ERROR_TEXTS: &[(Code, &str, &str)] = &[
     ),
     (
         Code::EntryInfeasible,
-        "第 {entry} 项（“{show}”）无法运行：线路带宽不足（{reason}）。建议：{fixes}",
+        "第 {entry} 项（“{show}”）无法运行：{reason}。建议：{fixes}",
         "Entry {entry} (\"{show}\") cannot run: {reason}. To make it run: {fixes}",
     ),
     (

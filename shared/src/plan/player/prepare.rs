@@ -3,9 +3,11 @@
 //! a [`StartError`] saying why.
 
 use super::{Entry, LinkView};
+use crate::api::Problem;
 use crate::codes::{Code, Coded, Params};
 use crate::params;
-use crate::plan::report::report_for;
+use crate::plan::report::line_verdict;
+use crate::plan::verdict::{Fix, Why};
 use crate::plan::{Installation, Plan, PlanOptions};
 
 /// A playlist planned and checked, ready to start: the slow part of Start, which the
@@ -41,15 +43,14 @@ pub fn prepare(
             Plan::new(&entry.show, installation, options).map_err(|error| StartError::Invalid {
                 entry: index + 1,
                 show: entry.show.name.clone(),
-                reason: error.to_string(),
+                reason: Box::new(Why::Refused(error)),
             })?;
-        let report = report_for(&plan, installation);
-        if !report.feasible {
+        if let (_, Some(reason), fixes) = line_verdict(&plan, installation) {
             return Err(StartError::Infeasible {
                 entry: index + 1,
                 show: entry.show.name.clone(),
-                reason: report.reason.unwrap_or_default(),
-                fixes: report.fixes,
+                reason: Box::new(reason),
+                fixes,
             });
         }
         plans.push(plan);
@@ -86,8 +87,9 @@ pub enum StartError {
         entry: usize,
         /// The show's name.
         show: String,
-        /// Why.
-        reason: String,
+        /// Why: the plan's refusal, or (MBOX boxes, MOONS' drives) why the show does
+        /// not fit the installation.
+        reason: Box<Why>,
     },
     /// A show is valid but the lines cannot carry it.
     #[error("entry {entry} (\"{show}\") cannot run: {reason}")]
@@ -97,9 +99,9 @@ pub enum StartError {
         /// The show's name.
         show: String,
         /// Why, with the numbers.
-        reason: String,
+        reason: Box<Why>,
         /// What would make it run.
-        fixes: Vec<String>,
+        fixes: Vec<Fix>,
     },
     /// A gateway is not connected.
     #[error("gateway {gateway} is not connected")]
@@ -145,9 +147,41 @@ impl Coded for StartError {
                 "entry" => entry,
                 "show" => show,
                 "reason" => reason,
-                "fixes" => fixes.join("; "),
+                "fixes" => fixes.iter().map(ToString::to_string).collect::<Vec<_>>().join("; "),
             },
             Self::NotConnected { gateway } => params! {"gateway" => gateway},
+        }
+    }
+}
+
+impl StartError {
+    /// The `reason` parameter as a coded problem, for the app to render in the
+    /// operator's language (the parameter stays English for API clients).
+    #[must_use]
+    pub fn reason_problem(&self) -> Option<Problem> {
+        match self {
+            Self::Invalid { reason, .. } | Self::Infeasible { reason, .. } => {
+                Some(Problem::of(reason.as_ref()))
+            }
+            _ => None,
+        }
+    }
+
+    /// The `fixes` parameter as coded problems, in the same order.
+    #[must_use]
+    pub fn fix_problems(&self) -> Vec<Problem> {
+        match self {
+            Self::Infeasible { fixes, .. } => fixes.iter().map(Problem::of).collect(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// What would make it run, in English (empty unless infeasible).
+    #[must_use]
+    pub fn fix_sentences(&self) -> Vec<String> {
+        match self {
+            Self::Infeasible { fixes, .. } => fixes.iter().map(ToString::to_string).collect(),
+            _ => Vec::new(),
         }
     }
 }
