@@ -635,6 +635,23 @@ pub enum PlayerState {
     Error,
 }
 
+impl PlayerState {
+    /// The state's name in the API (`playing`), the same in every language.
+    #[must_use]
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Idle => "idle",
+            Self::Waiting => "waiting",
+            Self::Approaching => "approaching",
+            Self::Loading => "loading",
+            Self::Playing => "playing",
+            Self::Stopped => "stopped",
+            Self::Homing => "homing",
+            Self::Error => "error",
+        }
+    }
+}
+
 /// The state of one gateway's serial link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

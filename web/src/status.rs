@@ -65,16 +65,7 @@ pub fn gateway_text(lang: Lang, gateway: &GatewayStatus, streaming: bool) -> Str
 
 /// The state's name in the API (`playing`), the same in every language.
 pub fn state_key(state: PlayerState) -> &'static str {
-    match state {
-        PlayerState::Idle => "idle",
-        PlayerState::Waiting => "waiting",
-        PlayerState::Approaching => "approaching",
-        PlayerState::Loading => "loading",
-        PlayerState::Playing => "playing",
-        PlayerState::Stopped => "stopped",
-        PlayerState::Homing => "homing",
-        PlayerState::Error => "error",
-    }
+    state.as_str()
 }
 
 /// Whether the progress bar means something in this state (loading, playback, or
