@@ -68,6 +68,8 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
     let result = match control {
         Control::Home => playback.home_issued(generation).await,
         Control::Start | Control::Reset => {
+            // The playlist is locked from this read on (PUT /api/playlist).
+            let _pending = state.start_pending().await;
             let reading = state.clone();
             let (entries, loop_playlist) =
                 tokio::task::spawn_blocking(move || playlist_entries(&reading))

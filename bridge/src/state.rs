@@ -6,6 +6,7 @@
 
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use floatball_shared::api::Status;
 use floatball_shared::ascii::EncodeError;
@@ -83,6 +84,8 @@ struct Inner {
     shows: ShowStore,
     playlist: PlaylistStore,
     catalogue: Mutex<()>,
+    /// Starts and Resets that read the playlist and are being planned ([`StartPending`]).
+    starts_pending: AtomicUsize,
     gateways: Gateways,
     playback: Playback,
     /// The simulated MBOX boxes (`port = "sim"`), one per such gateway, in order.
@@ -243,6 +246,7 @@ impl AppState {
                 shows,
                 playlist,
                 catalogue: Mutex::new(()),
+                starts_pending: AtomicUsize::new(0),
                 gateways,
                 playback,
                 mbox_sims,
@@ -298,6 +302,23 @@ impl AppState {
         self.inner.catalogue.lock().await
     }
 
+    /// Marks a Start or Reset as pending from the moment it reads the playlist until
+    /// the player has taken or refused it (the guard's drop): planning takes a while,
+    /// and all that time the status still says idle. Taken under the catalogue lock,
+    /// so a playlist change either lands before the read or sees the mark.
+    pub async fn start_pending(&self) -> StartPending {
+        let _catalogue = self.lock_catalogue().await;
+        self.inner.starts_pending.fetch_add(1, Ordering::SeqCst);
+        StartPending {
+            state: self.clone(),
+        }
+    }
+
+    /// Whether a Start or Reset is being prepared ([`AppState::start_pending`]).
+    pub fn starts_pending(&self) -> bool {
+        self.inner.starts_pending.load(Ordering::SeqCst) > 0
+    }
+
     /// The links to the gateways.
     pub fn gateways(&self) -> &Gateways {
         &self.inner.gateways
@@ -332,5 +353,20 @@ impl AppState {
     /// A receiver that sees every status change (the playback task owns the status).
     pub fn subscribe_status(&self) -> watch::Receiver<Status> {
         self.inner.playback.status()
+    }
+}
+
+/// A Start or Reset being prepared; see [`AppState::start_pending`].
+#[derive(Debug)]
+pub struct StartPending {
+    state: AppState,
+}
+
+impl Drop for StartPending {
+    fn drop(&mut self) {
+        self.state
+            .inner
+            .starts_pending
+            .fetch_sub(1, Ordering::SeqCst);
     }
 }

@@ -246,12 +246,9 @@ pub async fn get_playlist(State(state): State<AppState>, _session: Session) -> J
     Json(state.playlist().get())
 }
 
-/// 409 `playlist_locked`: the entries cannot change while the matrix is in `running`.
-fn playlist_locked(running: floatball_shared::api::PlayerState) -> Failure {
-    let state = serde_json::to_value(running)
-        .ok()
-        .and_then(|value| value.as_str().map(str::to_owned))
-        .unwrap_or_default();
+/// 409 `playlist_locked`: the entries cannot change while the matrix is `state`
+/// (`playing`…, or `starting` while a Start is prepared).
+fn playlist_locked(state: &str) -> Failure {
     Failure::coded(
         StatusCode::CONFLICT,
         Code::PlaylistLocked,
@@ -271,8 +268,15 @@ pub async fn put_playlist(
     let new: Playlist = json_body(&body, "playlist")?;
     let _catalogue = state.lock_catalogue().await;
     let running = state.subscribe_status().borrow().state;
-    if playlist::locked(running) && playlist::changes_what_plays(&state.playlist().get(), &new) {
-        return Err(playlist_locked(running));
+    let why = if state.starts_pending() {
+        Some("starting")
+    } else {
+        playlist::locked(running).then(|| running.as_str())
+    };
+    if let Some(why) = why
+        && playlist::changes_what_plays(&state.playlist().get(), &new)
+    {
+        return Err(playlist_locked(why));
     }
     playlist::check(&new, |show| state.shows().contains(show)).map_err(unprocessable)?;
     let storing = state.clone();
