@@ -86,13 +86,6 @@ impl Code {
     }
 }
 
-impl Code {
-    /// The code of a typed error (for `map(Code::of)`).
-    pub fn of(error: &impl Coded) -> Self {
-        error.code()
-    }
-}
-
 impl std::fmt::Display for Code {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.as_str())

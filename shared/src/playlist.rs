@@ -195,7 +195,7 @@ mod tests {
         };
         let found = problems(&playlist, |show| show == "rain");
         assert_eq!(
-            found.iter().map(Code::of).collect::<Vec<_>>(),
+            found.iter().map(Coded::code).collect::<Vec<_>>(),
             [
                 Code::PlaylistUnknownShow,
                 Code::EntryCycles,

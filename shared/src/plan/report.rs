@@ -33,7 +33,7 @@ pub fn report(show: &Show, installation: &Installation, options: PlanOptions) ->
     }
     match Plan::new(show, installation, options) {
         Ok(plan) => report_for(&plan, installation),
-        Err(error) => refused(&show.name, &error),
+        Err(error) => refused(&show.name, error),
     }
 }
 
@@ -59,8 +59,8 @@ pub fn unfit_verdict(installation: &Installation, show: &Show) -> Option<Why> {
 }
 
 /// A report for a show that cannot be planned at all.
-pub fn refused(show: &str, error: &PlanError) -> PlanReport {
-    let fixes: Vec<Fix> = match error {
+pub fn refused(show: &str, error: PlanError) -> PlanReport {
+    let fixes: Vec<Fix> = match &error {
         PlanError::Invalid { violations } => violations
             .iter()
             .take(20)
@@ -71,7 +71,7 @@ pub fn refused(show: &str, error: &PlanError) -> PlanReport {
     };
     verdict_report(
         show.to_owned(),
-        Some(&Why::Refused(error.clone())),
+        Some(&Why::Refused(error)),
         &fixes,
         Vec::new(),
     )

@@ -142,12 +142,12 @@ impl Coded for StartError {
                 entry,
                 show,
                 reason,
-                fixes,
+                ..
             } => params! {
                 "entry" => entry,
                 "show" => show,
                 "reason" => reason,
-                "fixes" => fixes.iter().map(ToString::to_string).collect::<Vec<_>>().join("; "),
+                "fixes" => self.fix_sentences().join("; "),
             },
             Self::NotConnected { gateway } => params! {"gateway" => gateway},
         }
