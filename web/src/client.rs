@@ -14,6 +14,7 @@ use floatball_shared::api::{
     ApiError, InstallationInfo, LoginRequest, LoginResponse, PasswordChange, PlanReport, Playlist,
     QProgramListing, ShowSummary,
 };
+use floatball_shared::codes::Code;
 use floatball_shared::show::ShowFormat;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
@@ -151,7 +152,9 @@ pub fn failure_of(response: &Response) -> Failure {
         401 => Failure::Unauthorized,
         // A 403 other than "change the password first" (a wrong current password).
         403 => match api_error() {
-            Some(error) if !error.code.is_empty() && error.code != "must_change_password" => {
+            Some(error)
+                if !error.code.is_empty() && error.code != Code::MustChangePassword.as_str() =>
+            {
                 Failure::Rejected(error)
             }
             _ => Failure::MustChangePassword,

@@ -2,6 +2,7 @@
 //! first login (on the Login page), and the change from Settings at any time later
 //! (`POST /api/password`, PROTOCOL §1.7). Both confirm a change with a toast.
 
+use floatball_shared::codes::Code;
 use leptos::prelude::*;
 use leptos::task::spawn_local;
 
@@ -73,7 +74,9 @@ pub fn PasswordForm(
                     remembered.set(None);
                     note.set(Some(lang.t(Text::WrongCurrentPassword).into()));
                 }
-                Err(Failure::Rejected(error)) if error.code == "wrong_current_password" => {
+                Err(Failure::Rejected(error))
+                    if error.code == Code::WrongCurrentPassword.as_str() =>
+                {
                     remembered.set(None);
                     note.set(Some(lang.t(Text::WrongCurrentPassword).into()));
                 }
