@@ -248,3 +248,46 @@ async fn the_example_show_in_the_docs_runs_on_the_default_matrix() {
     assert!(plan.feasible, "{plan:?}");
     assert_eq!(plan.gateways[0].units, 100);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_playlist_is_locked_while_a_start_is_planned() {
+    // Planning takes a while and the status still says idle all that time: a Start
+    // that has read the playlist locks it until the player took or refused it.
+    let bridge = Bridge::start_with(SMALL).await;
+    let token = bridge.operator().await;
+    for name in ["first", "second"] {
+        let upload = bridge
+            .upload(&token, name, "text/csv", csv(4, 25).as_bytes())
+            .await;
+        assert_eq!(upload.status, StatusCode::CREATED, "{:?}", upload.body);
+    }
+    playlist(&bridge, &token, "first").await;
+    let changed = serde_json::json!({
+        "entries": [{ "show": "second", "delay_ms": 0, "cycles": 1 }],
+        "loop": false,
+        "default_delay_ms": 0,
+        "default_cycles": 1,
+    });
+    let put = || {
+        bridge.request(
+            Method::PUT,
+            "/api/playlist",
+            Some(&token),
+            Some(("application/json", serde_json::to_vec(&changed).unwrap())),
+        )
+    };
+
+    let pending = bridge.state.start_pending().await;
+    let refused = put().await;
+    assert_eq!(refused.status, StatusCode::CONFLICT, "{:?}", refused.body);
+    assert_eq!(refused.error().code, "playlist_locked");
+    assert!(
+        refused.error().error.contains("starting"),
+        "{:?}",
+        refused.body
+    );
+
+    drop(pending);
+    let taken = put().await;
+    assert_eq!(taken.status, StatusCode::OK, "{:?}", taken.body);
+}
