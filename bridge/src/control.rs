@@ -11,8 +11,13 @@ use floatball_shared::params;
 use floatball_shared::plan::player::{Entry, StartError};
 
 use crate::playback::PlaybackError;
+use crate::playlist;
 use crate::state::AppState;
 use crate::store::ShowName;
+
+/// How long a taken Start or Reset keeps the playlist locked while waiting for the
+/// status to show the run (it is published within a player turn, 10 ms, normally).
+const RUN_SHOWN_WITHIN: std::time::Duration = std::time::Duration::from_secs(2);
 
 /// What the operator asked for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -81,7 +86,8 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
                             params! {"what" => "the playlist cannot be read"},
                         )
                     })??;
-            if control == Control::Start {
+            let mut status = state.subscribe_status();
+            let taken = if control == Control::Start {
                 playback
                     .start_issued(entries, loop_playlist, generation)
                     .await
@@ -89,7 +95,18 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
                 playback
                     .reset_issued(entries, loop_playlist, generation)
                     .await
+            };
+            if taken.is_ok() {
+                // The player answers before its next status is out (MOONS' drives
+                // report through their own task): the playlist stays locked until
+                // the status shows the run, or a moment has passed.
+                let _ = tokio::time::timeout(
+                    RUN_SHOWN_WITHIN,
+                    status.wait_for(|status| playlist::locked(status.state)),
+                )
+                .await;
             }
+            taken
         }
     };
     result.map_err(|error| refusal(&error))
