@@ -388,11 +388,11 @@ fn webdriver(
         if head.contains("transfer-encoding: chunked") {
             body.ends_with(b"0\r\n\r\n").then_some(split)
         } else {
+            // Without a length the body ends when the connection does.
             let length: usize = head
                 .lines()
                 .find_map(|line| line.strip_prefix("content-length:"))
-                .and_then(|value| value.trim().parse().ok())
-                .unwrap_or(0);
+                .and_then(|value| value.trim().parse().ok())?;
             (body.len() >= length).then_some(split)
         }
     };
@@ -404,7 +404,14 @@ fn webdriver(
             .read(&mut buffer)
             .map_err(|err| format!("ChromeDriver: {err}"))?;
         if read == 0 {
-            return Err("ChromeDriver closed the connection mid-answer".to_owned());
+            let head_end = answer.windows(4).position(|window| window == b"\r\n\r\n");
+            let chunked = String::from_utf8_lossy(&answer)
+                .to_ascii_lowercase()
+                .contains("transfer-encoding: chunked");
+            match head_end {
+                Some(split) if !chunked => break split,
+                _ => return Err("ChromeDriver closed the connection mid-answer".to_owned()),
+            }
         }
         answer.extend_from_slice(&buffer[..read]);
     };
@@ -458,6 +465,28 @@ mod tests {
     fn the_median_of_an_even_count_is_the_mean_of_the_middle_two() {
         assert_eq!(median(&[1.0, 2.0, 3.0]), 2.0);
         assert_eq!(median(&[1.0, 2.0, 4.0, 10.0]), 3.0);
+    }
+
+    /// A one-shot server that answers `answer` and closes the connection.
+    fn answering(answer: &'static [u8]) -> SocketAddr {
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = listener.local_addr().unwrap();
+        std::thread::spawn(move || {
+            let (mut stream, _) = listener.accept().unwrap();
+            let mut request = [0_u8; 1024];
+            let _ = stream.read(&mut request);
+            stream.write_all(answer).unwrap();
+        });
+        addr
+    }
+
+    #[test]
+    fn an_answer_without_a_length_ends_with_the_connection() {
+        let addr = answering(b"HTTP/1.1 200 OK\r\nContent-Type: application/json\r\n\r\n{\"value\":{\"ready\":true}}");
+        let value = webdriver(&addr, "GET", "/status", None).unwrap();
+        assert_eq!(value["ready"], true);
+        let addr = answering(b"HTTP/1.1 200 OK\r\nContent-Length: 12\r\n\r\n{\"value\":7}");
+        assert_eq!(webdriver(&addr, "GET", "/x", None).unwrap(), 7);
     }
 
     #[test]
