@@ -182,8 +182,7 @@ pub fn ConsolePage() -> impl IntoView {
                 </button>
             </div>
             <ul class="mono feedback" data-testid="feedback-list">
-                {move || {
-                    let log = ctx.feedback.get();
+                {move || ctx.feedback.with(|log| {
                     if log.is_empty() {
                         let empty = move || {
                             ctx.t(
@@ -208,7 +207,7 @@ pub fn ConsolePage() -> impl IntoView {
                         })
                         .collect_view()
                         .into_any()
-                }}
+                })}
             </ul>
         </section>
     }
