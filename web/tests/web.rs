@@ -1877,6 +1877,8 @@ async fn the_console_gives_positions_in_mm_once_the_installation_is_known() {
     let socket = Rc::new(FakeSocket::default());
     let ctx = context(&bridge, &socket, "test-console-mm");
     online(ctx);
+    // The app fetches the installation on every connection; here without the app.
+    ctx.load_installation();
     let _mounted = mount_to(container.clone(), move || {
         provide_context(ctx);
         view! { <ConsolePage /> }
