@@ -188,7 +188,8 @@ pub fn LanguageSwitch(
 }
 
 /// The E-stop: one press sends one `estop`, at once, without a confirmation; every
-/// E-stop button then says it was sent, and "stopped" once the bridge reports it.
+/// E-stop button then says it was sent, and "stopped" once the bridge reports it
+/// (until the matrix leaves `stopped`: [`Ctx::set_status`]).
 #[component]
 pub fn EstopButton() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
@@ -217,15 +218,6 @@ pub fn EstopButton() -> impl IntoView {
         ctx.status
             .with(|status| status.as_ref().map(|s| s.state) == Some(PlayerState::Stopped))
     };
-    // The acknowledgement ends once the matrix leaves `stopped` (homing, playing…):
-    // it no longer describes the matrix.
-    Effect::new(move |was_stopped: Option<bool>| {
-        let now_stopped = stopped();
-        if was_stopped == Some(true) && !now_stopped {
-            ack.set(None);
-        }
-        now_stopped
-    });
     let ack_text = move || {
         let text = match ack.get()?.1 {
             EstopAck::NotSent => Text::EstopNotSent,
