@@ -187,12 +187,10 @@ impl FeedbackLog {
             frame.gateway,
             Some(frame.station),
         );
-        let text = describe_scaled(frame, scale);
+        let decoded = decode(frame);
+        let text = describe_decoded(frame.code, &decoded, scale);
         self.push_line(frame.gateway, Some(frame.station), text, hex);
-        let decoded = Frame::new(frame.station, frame.code, &frame.data)
-            .ok()
-            .and_then(|frame| Feedback::from_frame(&frame).ok());
-        if let (Some(Feedback::Error(error)), Some(line)) = (decoded, self.lines.front_mut()) {
+        if let (Ok(Feedback::Error(error)), Some(line)) = (decoded, self.lines.front_mut()) {
             line.unit_error = Some(Refusal::of(&error));
         }
     }
@@ -322,11 +320,24 @@ pub fn describe(frame: &FeedbackFrame) -> String {
 /// [`describe`], with a position (`PA`, `QP`, in counts) also in mm when
 /// `counts_per_mm` is known: `PA = 200000 (400.0 mm)`.
 pub fn describe_scaled(frame: &FeedbackFrame, counts_per_mm: Option<f64>) -> String {
-    let decoded = Frame::new(frame.station, frame.code, &frame.data)
+    describe_decoded(frame.code, &decode(frame), counts_per_mm)
+}
+
+/// A frame's [`Feedback`], or why it has none.
+fn decode(frame: &FeedbackFrame) -> Result<Feedback, String> {
+    Frame::new(frame.station, frame.code, &frame.data)
         .map_err(|err| err.to_string())
-        .and_then(|frame| Feedback::from_frame(&frame).map_err(|err| err.to_string()));
-    match decoded {
-        Err(error) => format!("? code {:#04x}: {error}", frame.code),
+        .and_then(|frame| Feedback::from_frame(&frame).map_err(|err| err.to_string()))
+}
+
+/// [`describe_scaled`] of a frame with function code `code`, already decoded.
+fn describe_decoded(
+    code: u8,
+    decoded: &Result<Feedback, String>,
+    counts_per_mm: Option<f64>,
+) -> String {
+    match *decoded {
+        Err(ref error) => format!("? code {code:#04x}: {error}"),
         Ok(Feedback::Ack(ack)) => {
             let position = match ack {
                 Ack::PtpPosition { position_counts }

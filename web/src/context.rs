@@ -11,7 +11,9 @@
 
 use std::rc::Rc;
 
-use floatball_shared::api::{ClientMessage, Problem, ServerMessage, ShowSummary, Status};
+use floatball_shared::api::{
+    ClientMessage, PlayerState, Problem, ServerMessage, ShowSummary, Status,
+};
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::show::{Show, ShowFormat, import};
 use leptos::prelude::*;
@@ -260,10 +262,25 @@ impl Ctx {
             .send(message)
     }
 
+    /// Takes the matrix's status (`None`: none known). The E-stop acknowledgement
+    /// ends once the matrix leaves `stopped` (homing, playing…): it no longer
+    /// describes the matrix, whether or not an E-stop button is shown.
+    pub fn set_status(&self, status: Option<Status>) {
+        let stopped = |status: &Option<Status>| {
+            status.as_ref().map(|s| s.state) == Some(PlayerState::Stopped)
+        };
+        let was_stopped = self.status.with_untracked(stopped);
+        let now_stopped = stopped(&status);
+        self.status.set(status);
+        if was_stopped && !now_stopped {
+            self.estop_ack.set(None);
+        }
+    }
+
     /// Takes in one message from the bridge.
     pub fn receive(&self, message: ServerMessage) {
         match message {
-            ServerMessage::Status(status) => self.status.set(Some(status)),
+            ServerMessage::Status(status) => self.set_status(Some(status)),
             ServerMessage::Feedback(frame) => self.feedback.update(|log| log.push(&frame)),
             ServerMessage::MboxReply(reply) => self.feedback.update(|log| log.push_mbox(&reply)),
             ServerMessage::SclReply(reply) => self.feedback.update(|log| log.push_scl(&reply)),
@@ -348,7 +365,7 @@ impl Ctx {
     /// Drops the login and goes to Login, saying why.
     pub fn expire(&self, why: Text) {
         self.session.set(None);
-        self.status.set(None);
+        self.set_status(None);
         self.login_notice.set(Some(why));
         self.page.set(Page::Login);
     }

@@ -26,7 +26,7 @@ use floatball_web::components::preview::PreviewScreen;
 use floatball_web::components::topbar::StatusBar;
 use floatball_web::components::{ConnectionIndicator, EstopButton, LanguageSwitch};
 use floatball_web::connection::Link;
-use floatball_web::context::{Ctx, PreviewItem, Sender, Services};
+use floatball_web::context::{Ctx, EstopAck, PreviewItem, Sender, Services};
 use floatball_web::files::LocalFile;
 use floatball_web::i18n::Lang;
 use floatball_web::page::Page;
@@ -319,6 +319,38 @@ async fn estop_sends_exactly_one_estop_per_press_and_is_acknowledged() {
     tick().await;
     assert_eq!(socket.sent.borrow().len(), 2);
     assert_eq!(text(&container, "estop-ack"), "NOT sent: no connection");
+}
+
+#[wasm_bindgen_test]
+async fn the_estop_acknowledgement_ends_when_the_matrix_leaves_stopped_with_no_button_shown() {
+    let bridge = FakeBridge::new(|_| response(500, ""));
+    let socket = Rc::new(FakeSocket::default());
+    let ctx = context(&bridge, &socket, "test-estop-ack");
+    online(ctx);
+    let stopped = Status {
+        state: PlayerState::Stopped,
+        ..Status::default()
+    };
+    ctx.estop_ack.set(Some((1, EstopAck::Sent)));
+    ctx.receive(ServerMessage::Status(stopped.clone()));
+    ctx.receive(ServerMessage::Status(stopped));
+    tick().await;
+    assert_eq!(ctx.estop_ack.get_untracked(), Some((1, EstopAck::Sent)));
+    ctx.receive(ServerMessage::Status(Status::default()));
+    tick().await;
+    assert_eq!(
+        ctx.estop_ack.get_untracked(),
+        None,
+        "stopped → idle ends it"
+    );
+    ctx.estop_ack.set(Some((2, EstopAck::Sent)));
+    ctx.receive(ServerMessage::Status(Status::default()));
+    tick().await;
+    assert_eq!(
+        ctx.estop_ack.get_untracked(),
+        Some((2, EstopAck::Sent)),
+        "only leaving stopped ends it"
+    );
 }
 
 #[wasm_bindgen_test]
@@ -1877,6 +1909,8 @@ async fn the_console_gives_positions_in_mm_once_the_installation_is_known() {
     let socket = Rc::new(FakeSocket::default());
     let ctx = context(&bridge, &socket, "test-console-mm");
     online(ctx);
+    // The app fetches the installation on every connection; here without the app.
+    ctx.load_installation();
     let _mounted = mount_to(container.clone(), move || {
         provide_context(ctx);
         view! { <ConsolePage /> }

@@ -23,17 +23,6 @@ pub fn ConsolePage() -> impl IntoView {
     let text = RwSignal::new(String::new());
     let gateway = RwSignal::new(None::<usize>);
     let sent = RwSignal::new(Vec::<String>::new());
-    // The calibration for the mm beside counts (the app fetches it on every
-    // connection; a page mounted without the app fetches it here).
-    Effect::new(move |_| {
-        if ctx.connected()
-            && ctx
-                .feedback
-                .with_untracked(|log| log.installation().is_none())
-        {
-            ctx.load_installation();
-        }
-    });
     let family = Memo::new(move |_| {
         ctx.status
             .with(|status| status.as_ref().map(Family::of).unwrap_or_default())
@@ -182,8 +171,7 @@ pub fn ConsolePage() -> impl IntoView {
                 </button>
             </div>
             <ul class="mono feedback" data-testid="feedback-list">
-                {move || {
-                    let log = ctx.feedback.get();
+                {move || ctx.feedback.with(|log| {
                     if log.is_empty() {
                         let empty = move || {
                             ctx.t(
@@ -208,7 +196,7 @@ pub fn ConsolePage() -> impl IntoView {
                         })
                         .collect_view()
                         .into_any()
-                }}
+                })}
             </ul>
         </section>
     }

@@ -121,8 +121,17 @@ pub fn ControlPage() -> impl IntoView {
         }
     });
 
-    let state = move || ctx.status.with(|status| status.as_ref().map(|s| s.state));
-    let locked = move || ctx.connected() && edit_lock(state()).is_some();
+    // The matrix state, a Memo so that only a change of it (not every status)
+    // reaches what depends on it.
+    let state = Memo::new(move |_| ctx.status.with(|status| status.as_ref().map(|s| s.state)));
+    let locked_reason = Memo::new(move |_| {
+        if ctx.connected() {
+            edit_lock(state.get())
+        } else {
+            None
+        }
+    });
+    let locked = move || locked_reason.with(Option::is_some);
     // An open panel closes when the playlist locks (its edit would be refused).
     Effect::new(move |_| {
         if locked() && panel.get_untracked() != Panel::None {
@@ -165,17 +174,17 @@ pub fn ControlPage() -> impl IntoView {
             Err(why) => refuse(why),
         }
     };
-    let start_reason = move || {
+    let start_reason = Memo::new(move |_| {
         let allowed = plans.with(|plans| ctx.playlist.with(|editor| plans.allow_start(editor)));
-        start_block(ctx.connected(), state(), allowed)
-    };
+        start_block(ctx.connected(), state.get(), allowed)
+    });
     let send = move |message: ClientMessage| {
         ctx.bridge_error.set(None);
         ctx.send(&message);
     };
     // The action waiting for its confirmation, if any.
     let asking = RwSignal::new(None::<Action>);
-    let press = move |action: Action| match action.confirmation(state()) {
+    let press = move |action: Action| match action.confirmation(state.get_untracked()) {
         Some(_) => asking.set(Some(action)),
         None => {
             asking.set(None);
@@ -186,13 +195,13 @@ pub fn ControlPage() -> impl IntoView {
     // is dropped, so it cannot come back later by itself.
     Effect::new(move |_| {
         if let Some(action) = asking.get()
-            && action.confirmation(state()).is_none()
+            && action.confirmation(state.get()).is_none()
         {
             asking.set(None);
         }
     });
     let enabled = move |action: Action| match action {
-        Action::Start => start_reason().is_none(),
+        Action::Start => start_reason.with(Option::is_none),
         Action::Reset | Action::Home => ctx.connected(),
     };
     let action_button = move |action: Action, class: &'static str, text: Text| {
@@ -207,7 +216,12 @@ pub fn ControlPage() -> impl IntoView {
             </button>
         }
     };
-    let locked_reason = move || locked().then(|| edit_lock(state())).flatten();
+    // The confirmation shown: rebuilt only when it changes, not on every status.
+    let confirming = Memo::new(move |_| {
+        asking
+            .get()
+            .and_then(|action| Some((action, action.confirmation(state.get())?)))
+    });
     view! {
         <section class="control">
             <ControlTabs />
@@ -232,7 +246,8 @@ pub fn ControlPage() -> impl IntoView {
             </div>
             <ErrorNote text=note test_id="control-note" />
             {move || {
-                locked_reason()
+                locked_reason
+                    .get()
                     .map(|why| {
                         view! {
                             <p class="note locked" data-testid="playlist-locked">
@@ -254,9 +269,8 @@ pub fn ControlPage() -> impl IntoView {
                 {action_button(Action::Home, "home", Text::Home)}
             </div>
             {move || {
-                asking
+                confirming
                     .get()
-                    .and_then(|action| Some((action, action.confirmation(state())?)))
                     .map(|(action, text)| {
                         view! {
                             <div class="confirm" data-testid="confirm" data-action=action.key()>
@@ -283,7 +297,8 @@ pub fn ControlPage() -> impl IntoView {
                     })
             }}
             {move || {
-                start_reason()
+                start_reason
+                    .get()
                     .map(|why| {
                         view! {
                             <p class="note muted" data-testid="start-reason" data-reason=format!("{why:?}")>
@@ -307,6 +322,19 @@ pub fn ControlPage() -> impl IntoView {
 #[component]
 fn PlaylistView() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
+    // The entry that plays, only while the matrix runs and only if it is the show
+    // the status names. A Memo, so a status that leaves it alone changes nothing;
+    // the list itself is rebuilt only when the playlist changes.
+    let playing = Memo::new(move |_| {
+        ctx.playlist.with(|editor| {
+            ctx.status.with(|status| {
+                status
+                    .as_ref()
+                    .filter(|status| is_running(Some(status.state)))
+                    .and_then(|status| editor.playing_entry(status))
+            })
+        })
+    });
     view! {
         <h3>{move || ctx.t(Text::Playlist)}</h3>
         <ol class="list playlist" data-testid="playlist">
@@ -315,14 +343,6 @@ fn PlaylistView() -> impl IntoView {
                 if editor.entries().is_empty() {
                     return view! { <EmptyItem text=Text::EmptyPlaylist /> }.into_any();
                 }
-                // The entry that plays, only while the matrix runs and only if it is
-                // the show the status names.
-                let playing = ctx.status.with(|status| {
-                    status
-                        .as_ref()
-                        .filter(|status| is_running(Some(status.state)))
-                        .and_then(|status| editor.playing_entry(status))
-                });
                 editor
                     .entries()
                     .iter()
@@ -337,7 +357,7 @@ fn PlaylistView() -> impl IntoView {
                         view! {
                             <li
                                 class="entry"
-                                class:playing=playing == Some(index)
+                                class:playing=move || playing.get() == Some(index)
                                 data-testid="entry"
                                 data-show=entry.show.clone()
                             >

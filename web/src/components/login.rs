@@ -164,7 +164,7 @@ fn LoggedIn(address: String) -> impl IntoView {
             });
         }
         ctx.session.set(None);
-        ctx.status.set(None);
+        ctx.set_status(None);
     };
     let shown = if address.is_empty() {
         ctx.origin().host

@@ -77,7 +77,7 @@ impl SocketSlot {
         if let Some(socket) = self.0.borrow_mut().take() {
             socket.close();
         }
-        ctx.status.set(None);
+        ctx.set_status(None);
         if let Some((address, token)) = session {
             let url = ctx.origin().ws_url(&address, &token);
             let socket = Socket::connect(url, ctx.link, move |message| ctx.receive(message));

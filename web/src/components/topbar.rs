@@ -61,12 +61,31 @@ pub fn TopBar() -> impl IntoView {
 #[component]
 pub fn StatusBar() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
+    // The state and show: the button is rebuilt only when they change; the time
+    // and the meter follow every status by themselves.
+    let head = Memo::new(move |_| {
+        ctx.status.with(|status| {
+            status
+                .as_ref()
+                .filter(|_| ctx.connected())
+                .map(|status| (status.state, status.show.clone()))
+        })
+    });
+    let time = move || {
+        ctx.status
+            .with(|status| status.as_ref().map(time_text).unwrap_or_default())
+    };
+    let width = move || {
+        let progress = ctx
+            .status
+            .with(|status| status.as_ref().map_or(0.0, progress));
+        format!("width: {:.1}%", progress * 100.0)
+    };
     move || {
-        let status = ctx.status.get().filter(|_| ctx.connected())?;
+        let (state, show) = head.get()?;
         let lang = ctx.lang.get();
-        let key = state_key(status.state);
-        let meter = shows_progress(status.state).then(|| {
-            let width = format!("width: {:.1}%", progress(&status) * 100.0);
+        let key = state_key(state);
+        let meter = shows_progress(state).then(|| {
             view! {
                 <span class="meter" data-testid="statusbar-progress">
                     <span class="fill" style=width></span>
@@ -82,13 +101,13 @@ pub fn StatusBar() -> impl IntoView {
                 on:click=move |_| ctx.page.set(Page::Control)
             >
                 <span class=format!("state {key}") data-testid="statusbar-state" data-state=key>
-                    {lang.player_state(status.state)}
+                    {lang.player_state(state)}
                 </span>
                 <span class="show" data-testid="statusbar-show">
-                    {status.show.clone().unwrap_or_default()}
+                    {show.unwrap_or_default()}
                 </span>
                 <span class="time mono" data-testid="statusbar-time">
-                    {time_text(&status)}
+                    {time}
                 </span>
                 {meter}
             </button>
@@ -169,7 +188,8 @@ pub fn LanguageSwitch(
 }
 
 /// The E-stop: one press sends one `estop`, at once, without a confirmation; every
-/// E-stop button then says it was sent, and "stopped" once the bridge reports it.
+/// E-stop button then says it was sent, and "stopped" once the bridge reports it
+/// (until the matrix leaves `stopped`: [`Ctx::set_status`]).
 #[component]
 pub fn EstopButton() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
@@ -198,15 +218,6 @@ pub fn EstopButton() -> impl IntoView {
         ctx.status
             .with(|status| status.as_ref().map(|s| s.state) == Some(PlayerState::Stopped))
     };
-    // The acknowledgement ends once the matrix leaves `stopped` (homing, playing…):
-    // it no longer describes the matrix.
-    Effect::new(move |was_stopped: Option<bool>| {
-        let now_stopped = stopped();
-        if was_stopped == Some(true) && !now_stopped {
-            ack.set(None);
-        }
-        now_stopped
-    });
     let ack_text = move || {
         let text = match ack.get()?.1 {
             EstopAck::NotSent => Text::EstopNotSent,

@@ -270,26 +270,23 @@ pub fn ProblemList(
     let total = problems.len();
     let all_shown = RwSignal::new(false);
     let problems = StoredValue::new(problems);
-    let items = move || {
-        let shown = if all_shown.get() {
+    // How many are listed now; the rest are hidden behind "show all".
+    let shown = move || {
+        if all_shown.get() {
             total
         } else {
             total.min(SHOWN_PROBLEMS)
-        };
+        }
+    };
+    let hidden = move || total - shown();
+    let items = move || {
+        let shown = shown();
         problems.with_value(|problems| {
             problems[..shown]
                 .iter()
                 .map(|problem| view! { <li>{clip_message(problem)}</li> })
                 .collect_view()
         })
-    };
-    let hidden = move || {
-        total
-            - if all_shown.get() {
-                total
-            } else {
-                total.min(SHOWN_PROBLEMS)
-            }
     };
     view! {
         <ul class="problems" data-testid=test_id data-total=total>
