@@ -443,6 +443,8 @@ impl MboxNet {
                     late_frames: Some(one.late_frames.load(Ordering::Acquire)),
                     missed_replies: Some(one.missed_replies.load(Ordering::Acquire)),
                     drives: Vec::new(),
+                    baud: None,
+                    health: None,
                 }
             })
             .collect()

@@ -435,6 +435,8 @@ fn status_of(player: &Player, links: &[Link]) -> Status {
                 late_frames: None,
                 missed_replies: None,
                 drives: Vec::new(),
+                baud: Some(link.baud()),
+                health: None,
             }
         })
         .collect();
@@ -945,6 +947,7 @@ impl SclStatus {
             progress,
             gateways: drives.statuses(),
             last_error: self.last_error.clone(),
+            armed: None,
         }
     }
 }

@@ -844,7 +844,10 @@ async fn the_installation_gives_its_calibration_and_stations() {
         info.gateways,
         vec![InstallationGateway {
             kind: GatewayKind::Uim2503,
+            port: "sim".into(),
+            baud: Some(115_200),
             stations: vec![1, 2, 3, 4],
         }]
     );
+    assert_eq!((info.rows, info.cols, info.unit_count()), (2, 2, 4));
 }

@@ -193,6 +193,14 @@ pub struct PlanReport {
     /// `fixes` as codes and parameters, in the same order.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub fix_problems: Vec<Problem>,
+    /// How long the slowest gateway's preload takes before the show can start, ms
+    /// (the time Start waits in `loading` unless the show is armed).
+    #[serde(default)]
+    pub preload_ms: u64,
+    /// Advice for a show that runs but could start sooner (a long preload, and the
+    /// line speed that shortens it), as codes and parameters; empty when there is none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub advice: Vec<Problem>,
     /// The figures per gateway.
     pub gateways: Vec<GatewayPlan>,
 }
@@ -219,17 +227,53 @@ pub struct QProgramListing {
     pub at_ms: u64,
 }
 
-/// The installation as the app needs it (`GET /api/installation`): the calibration
-/// that turns the drives' positions in counts into mm (the console shows both), and
-/// the stations of each gateway's balls.
+/// The installation as the app needs it (`GET /api/installation`), and as the settings
+/// and commissioning pages send it back changed (`PUT /api/installation`): the matrix,
+/// its limits and calibration, and every gateway with its stations.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct InstallationInfo {
+    /// Rows of balls, as seen from below.
+    pub rows: u32,
+    /// Columns of balls.
+    pub cols: u32,
+    /// Distance between neighbouring balls, mm.
+    pub pitch_mm: f64,
+    /// Lowest position a ball may reach, mm below the top.
+    pub travel_mm: f64,
+    /// Top speed of a ball, mm/s.
+    pub max_speed_mm_s: f64,
+    /// Top acceleration of a ball, mm/s².
+    pub max_accel_mm_s2: f64,
+    /// Where balls go when homing, mm below the top.
+    pub home_mm: f64,
+    /// Speed of the move to a show's first position, mm/s.
+    pub approach_speed_mm_s: f64,
     /// Counts per mm of ball travel of the UIM2503 units and MOONS' drives (`[matrix]
     /// counts_per_mm`); an MBOX box's pulses are its own (`pulses_per_mm`, an offset
     /// and a sign) and are not converted.
     pub counts_per_mm: f64,
-    /// Every gateway, in configuration order.
+    /// Every gateway, in configuration order; the first takes the first units
+    /// (row-major), and so on.
     pub gateways: Vec<InstallationGateway>,
+}
+
+impl InstallationInfo {
+    /// The units of the matrix, rows × cols.
+    #[must_use]
+    pub fn unit_count(&self) -> usize {
+        self.rows as usize * self.cols as usize
+    }
+
+    /// The first cell (row-major index) of gateway `gateway`: the cells before it
+    /// belong to the gateways before it.
+    #[must_use]
+    pub fn first_cell(&self, gateway: usize) -> usize {
+        self.gateways
+            .iter()
+            .take(gateway)
+            .map(|one| one.stations.len())
+            .sum()
+    }
 }
 
 /// One gateway in [`InstallationInfo`].
@@ -238,9 +282,121 @@ pub struct InstallationGateway {
     /// Its drive family; `uim2503` when absent.
     #[serde(default, skip_serializing_if = "GatewayKind::is_uim2503")]
     pub kind: GatewayKind,
-    /// The stations of its balls, in unit order: UIM2503 stations, MBOX axes, the
-    /// places of MOONS' drives on the entry.
+    /// Its port: `sim`, a serial device, or an MBOX box's / eSCL drive's address.
+    #[serde(default)]
+    pub port: String,
+    /// The line's speed, baud (serial lines; absent for UDP).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baud: Option<u32>,
+    /// The stations of its balls, in unit order (its cells, row-major): UIM2503
+    /// stations, MBOX axes, the places of MOONS' drives on the entry.
     pub stations: Vec<u8>,
+}
+
+// ----------------------------------------------------------------------------------
+// Commissioning (`/api/gateways/{gateway}/…`, UIM2503 gateways)
+// ----------------------------------------------------------------------------------
+
+/// `POST /api/gateways/{gateway}/rollcall`, and the answer to an assignment: every unit
+/// that answered on the gateway, and what is wrong with the bus.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RollCall {
+    /// The gateway (0-based, as configured).
+    pub gateway: usize,
+    /// Every unit that answered, by serial number, ascending.
+    pub units: Vec<FoundUnit>,
+    /// Stations more than one unit answered on (factory-fresh units: all on 5).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub duplicated: Vec<u8>,
+    /// Configured stations nobody answered on.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub missing: Vec<u8>,
+    /// Stations that answered but are not configured on this gateway.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unexpected: Vec<u8>,
+    /// How long the roll call took, ms.
+    pub took_ms: u64,
+}
+
+/// One unit in a [`RollCall`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FoundUnit {
+    /// Its serial number (`SN`).
+    pub serial: u64,
+    /// The station it answers on.
+    pub station: u8,
+    /// Where it is, mm below the top; absent when its station is shared (the answers
+    /// cannot be told apart) or it did not answer the question.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_mm: Option<f64>,
+    /// How long before the end of the roll call it last answered, ms.
+    pub last_answer_age_ms: u64,
+    /// The last error it reported, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fault: Option<UnitFault>,
+    /// The cell (row-major index into the matrix) the installation gives its station
+    /// on this gateway; absent when the station is not configured or is shared.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cell: Option<usize>,
+}
+
+/// `POST /api/gateways/{gateway}/assign`: give units their stations by serial number
+/// (`*0;SN[X]=s/n;`, manual §6.0); answered with a new [`RollCall`].
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct AssignRequest {
+    /// Each unit's new station.
+    pub assignments: Vec<Assignment>,
+}
+
+/// One unit's new station in an [`AssignRequest`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Assignment {
+    /// The unit's serial number.
+    pub serial: u64,
+    /// Its new station, 1–127.
+    pub station: u8,
+}
+
+/// `POST /api/gateways/{gateway}/identify`: move one ball down and back so the
+/// installer sees which it is; the others stay still.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct IdentifyRequest {
+    /// The station of the ball to move.
+    pub station: u8,
+    /// How far down it moves, mm; the bridge's default when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distance_mm: Option<f64>,
+}
+
+/// The answer to an [`IdentifyRequest`]: the move has started.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Identifying {
+    /// The station that moves.
+    pub station: u8,
+    /// How far down it goes, mm.
+    pub distance_mm: f64,
+    /// When it will be back where it was, ms from now.
+    pub duration_ms: u64,
+}
+
+/// `POST /api/gateways/{gateway}/baud`: the guided line-speed change (`BDR`, then the
+/// gateway's restart, then a greeting at the new speed).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BaudRequest {
+    /// The new speed, one of the gateway's rates (9600 to 115200).
+    pub baud: u32,
+}
+
+/// The answer to a [`BaudRequest`] that succeeded: the gateway answered at the new
+/// speed and the configuration says so.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BaudChanged {
+    /// The speed before.
+    pub from_baud: u32,
+    /// The speed now.
+    pub baud: u32,
+    /// How long the gateway took to answer at the new speed, ms.
+    pub took_ms: u64,
 }
 
 /// The bandwidth figures of one gateway in a [`PlanReport`].
@@ -662,6 +818,10 @@ pub enum LinkState {
     Connecting,
     /// The link is lost; the bridge retries with backoff.
     Down,
+    /// The port is open but the gateway does not answer its greeting (`ABC;`, PROTOCOL
+    /// §1.2): unpowered, another line speed, a wrong cable, or it stopped answering.
+    /// Only the e-stop and the greeting are written; the bridge keeps greeting.
+    NotAnswering,
 }
 
 /// Which drive family a gateway entry is.
@@ -719,6 +879,64 @@ pub struct GatewayStatus {
     /// unit order, as the last status poll found it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub drives: Vec<SclDriveStatus>,
+    /// Serial lines (UIM2503, SCL on RS-485): the line's speed now, baud.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baud: Option<u32>,
+    /// UIM2503 gateways: how many of the configured units answer, and their faults;
+    /// absent until the bridge has asked (a roll call, or its idle checks).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub health: Option<UnitHealth>,
+}
+
+/// The units of one UIM2503 gateway as the bridge last heard them
+/// ([`GatewayStatus::health`]).
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct UnitHealth {
+    /// Stations the installation gives this gateway.
+    pub expected: u32,
+    /// Of those, how many answered when last asked (or sent anything since).
+    pub answering: u32,
+    /// Configured stations that did not answer when last asked, ascending.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub missing: Vec<u8>,
+    /// Stations that answered but are not configured on this gateway, ascending.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unexpected: Vec<u8>,
+    /// Stations more than one unit answers on (a bus fault: factory-fresh units all
+    /// answer on station 5), ascending.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub duplicated: Vec<u8>,
+    /// The last error each unit reported (one entry per station, the newest), by
+    /// station.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub faults: Vec<UnitFault>,
+}
+
+/// The last error a unit reported: an `ER` frame (PROTOCOL §1.4), as
+/// [`crate::feedback::UnitError`] decodes it; the app says it in words through its
+/// code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct UnitFault {
+    /// The unit's station.
+    pub station: u8,
+    /// The error number (0x32–0x41, [`crate::feedback::UnitError::error`]).
+    pub error: u8,
+    /// The code of the instruction it refused.
+    pub code: u8,
+    /// The instruction's index, if it has one (else 0).
+    pub index: u8,
+}
+
+/// A show loaded into the units while the matrix is idle ([`Status::armed`]): Start
+/// then needs only the approach.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ArmedShow {
+    /// The playlist entry (0-based) it was loaded for.
+    pub entry: usize,
+    /// The show's name.
+    pub show: String,
+    /// How much of its preload has reached the units, 0.0 to 1.0 (1.0: armed).
+    pub progress: f64,
 }
 
 /// One MOONS' drive as the bridge's status poll (`IP`, `SC`, `AL`) last found it, in
@@ -767,6 +985,10 @@ pub struct Status {
     /// The last error, if any, in words an operator can act on.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub last_error: Option<String>,
+    /// While idle: the first playlist entry's show being loaded or loaded ahead of
+    /// Start (nothing moves); absent when nothing is armed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub armed: Option<ArmedShow>,
 }
 
 #[cfg(test)]
@@ -889,6 +1111,8 @@ mod tests {
                 .is_none()
         );
         let mbox = GatewayStatus {
+            baud: None,
+            health: None,
             kind: GatewayKind::Mbox,
             ..uim
         };
@@ -926,6 +1150,8 @@ mod tests {
                 missed_replies: 1,
                 error: None,
             }],
+            baud: Some(9600),
+            health: None,
         };
         let json = serde_json::to_value(&status).expect("json");
         assert_eq!(json["kind"], "scl");

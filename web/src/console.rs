@@ -446,6 +446,8 @@ mod tests {
         assert!(matches!(check_mbox("@201 reset", every), Check::Invalid(_)));
         let status = Status {
             gateways: vec![floatball_shared::api::GatewayStatus {
+                baud: None,
+                health: None,
                 kind: GatewayKind::Mbox,
                 port: "192.168.15.201:7408".into(),
                 link: floatball_shared::api::LinkState::Up,
@@ -488,6 +490,8 @@ mod tests {
         assert!(matches!(check_scl("*5;PV;"), Check::Invalid(_)));
         let scl = Status {
             gateways: vec![floatball_shared::api::GatewayStatus {
+                baud: None,
+                health: None,
                 kind: GatewayKind::Scl,
                 port: "/dev/ttyUSB0".into(),
                 link: floatball_shared::api::LinkState::Up,
@@ -570,18 +574,32 @@ mod tests {
     #[test]
     fn positions_are_also_in_mm_on_known_stations() {
         let installation = InstallationInfo {
+            rows: 2,
+            cols: 3,
+            pitch_mm: 500.0,
+            travel_mm: 7500.0,
+            max_speed_mm_s: 2000.0,
+            max_accel_mm_s2: 4000.0,
+            home_mm: 0.0,
+            approach_speed_mm_s: 250.0,
             counts_per_mm: 500.0,
             gateways: vec![
                 floatball_shared::api::InstallationGateway {
                     kind: GatewayKind::Uim2503,
+                    port: "sim".into(),
+                    baud: None,
                     stations: vec![5, 6],
                 },
                 floatball_shared::api::InstallationGateway {
                     kind: GatewayKind::Mbox,
+                    port: "sim".into(),
+                    baud: None,
                     stations: vec![1, 2, 3],
                 },
                 floatball_shared::api::InstallationGateway {
                     kind: GatewayKind::Scl,
+                    port: "sim".into(),
+                    baud: None,
                     stations: vec![1],
                 },
             ],

@@ -354,6 +354,7 @@ texts! {
     LinkConnecting => "连接中", "connecting";
     /// Link state: down.
     LinkDown => "断开", "down";
+    LinkNotAnswering => "无应答", "not answering";
     /// A delay that cannot be used.
     BadDelay => "延时必须是 0 到 86400 之间的秒数", "The delay must be a number of seconds from 0 to 86400";
     /// Cycles that cannot be used.
@@ -759,6 +760,7 @@ impl Lang {
             LinkState::Up => Text::LinkUp,
             LinkState::Connecting => Text::LinkConnecting,
             LinkState::Down => Text::LinkDown,
+            LinkState::NotAnswering => Text::LinkNotAnswering,
         })
     }
 
@@ -993,6 +995,8 @@ mod tests {
                 .collect()
         };
         let mut report = PlanReport {
+            preload_ms: 0,
+            advice: Vec::new(),
             show: "wave".into(),
             feasible: false,
             reason: Some("english reason".into()),

@@ -436,6 +436,8 @@ mod tests {
             fixes: Vec::new(),
             reason_problem: None,
             fix_problems: Vec::new(),
+            preload_ms: 0,
+            advice: Vec::new(),
             gateways: Vec::new(),
         };
         assert!(!can_start(&editor(&[]), &[]));

@@ -142,6 +142,8 @@ mod tests {
     #[test]
     fn gateway_lines_by_kind() {
         let uim = GatewayStatus {
+            baud: None,
+            health: None,
             kind: GatewayKind::Uim2503,
             port: "/dev/ttyUSB0".into(),
             link: floatball_shared::api::LinkState::Up,
@@ -164,6 +166,8 @@ mod tests {
             "the buffer only while a show streams"
         );
         let mbox = GatewayStatus {
+            baud: None,
+            health: None,
             kind: GatewayKind::Mbox,
             port: "192.168.15.201:7408".into(),
             link: floatball_shared::api::LinkState::Down,
@@ -192,6 +196,8 @@ mod tests {
             error: None,
         };
         let scl = GatewayStatus {
+            baud: None,
+            health: None,
             kind: GatewayKind::Scl,
             port: "/dev/ttyUSB0".into(),
             link: floatball_shared::api::LinkState::Up,

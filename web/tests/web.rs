@@ -754,6 +754,8 @@ async fn a_balls_q_program_shows_on_installations_of_moons_drives() {
         "no Q programs without MOONS' drives"
     );
     let scl = GatewayStatus {
+        baud: None,
+        health: None,
         kind: GatewayKind::Scl,
         port: "/dev/ttyUSB0".into(),
         link: LinkState::Up,
@@ -1040,6 +1042,8 @@ async fn start_and_reset_ignore_the_checkboxes_and_status_is_live() {
 
 fn uim_gateway(level: u16) -> GatewayStatus {
     GatewayStatus {
+        baud: None,
+        health: None,
         kind: GatewayKind::Uim2503,
         port: "sim".into(),
         link: LinkState::Up,
@@ -1563,6 +1567,8 @@ async fn console_checks_before_sending_and_decodes_feedback() {
 /// A status of two MBOX boxes: .201 up, .202 down with counts.
 fn mbox_status() -> Status {
     let mbox = |port: &str, link, packets, late, missed| GatewayStatus {
+        baud: None,
+        health: None,
         kind: GatewayKind::Mbox,
         port: port.into(),
         link,
@@ -1679,6 +1685,8 @@ async fn console_on_mbox_boxes_checks_box_commands_helps_and_shows_replies() {
 fn scl_status() -> Status {
     Status {
         gateways: vec![GatewayStatus {
+            baud: None,
+            health: None,
             kind: GatewayKind::Scl,
             port: "/dev/ttyUSB0".into(),
             link: LinkState::Up,

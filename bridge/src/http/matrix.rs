@@ -57,10 +57,21 @@ fn installation_info(installation: &Installation) -> InstallationInfo {
                 DriveKind::Mbox => GatewayKind::Mbox,
                 DriveKind::Scl => GatewayKind::Scl,
             },
+            port: gateway.port.clone(),
+            baud: (gateway.kind != DriveKind::Mbox).then_some(gateway.baud),
             stations: installation.stations_on(index),
         })
         .collect();
+    let limits = &installation.limits;
     InstallationInfo {
+        rows: limits.rows,
+        cols: limits.cols,
+        pitch_mm: installation.pitch_mm,
+        travel_mm: limits.travel_mm,
+        max_speed_mm_s: limits.max_speed_mm_s,
+        max_accel_mm_s2: limits.max_accel_mm_s2,
+        home_mm: installation.home_mm,
+        approach_speed_mm_s: installation.approach_speed_mm_s,
         counts_per_mm: installation.counts_per_mm,
         gateways,
     }

@@ -138,6 +138,7 @@ fn state_code(state: LinkState) -> u8 {
         LinkState::Connecting => 0,
         LinkState::Up => 1,
         LinkState::Down => 2,
+        LinkState::NotAnswering => 3,
     }
 }
 

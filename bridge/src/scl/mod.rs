@@ -401,6 +401,8 @@ impl SclLink {
             late_frames: None,
             missed_replies: Some(missed),
             drives,
+            baud: None,
+            health: None,
         }
     }
 

@@ -331,6 +331,12 @@ pub fn verdict_report(
         fixes: Vec::new(),
         reason_problem: None,
         fix_problems: Vec::new(),
+        preload_ms: gateways
+            .iter()
+            .map(|gateway| gateway.preload_ms)
+            .max()
+            .unwrap_or(0),
+        advice: Vec::new(),
         gateways,
     };
     if let Some(why) = why {

@@ -83,6 +83,7 @@ pub(crate) mod tests {
             progress: 0.0,
             gateways: Vec::new(),
             last_error: None,
+            armed: None,
         }
     }
 

@@ -91,6 +91,7 @@ impl PlaylistProgress {
             progress: self.progress,
             gateways: Vec::new(),
             last_error: self.last_error,
+            armed: None,
         }
     }
 }
