@@ -409,8 +409,10 @@ impl Checker<'_> {
                 10
             }
         };
+        let problems = self.problems.borrow().len();
         let rows = size(raw.rows.as_ref(), "rows");
         let cols = size(raw.cols.as_ref(), "cols");
+        let sized = self.problems.borrow().len() == problems;
         let positive = |value: Option<&Spanned<f64>>, default: f64, key: &str, max: f64| {
             self.keep(self.positive(located(value, default), key, max))
                 .unwrap_or(default)
@@ -471,6 +473,7 @@ impl Checker<'_> {
             pitch_mm,
             counts_per_mm,
             home_mm,
+            sized,
         }
     }
 
@@ -535,8 +538,9 @@ impl Checker<'_> {
             boxes.extend(one.mbox);
             lines.extend(one.scl);
         }
-        if !complete {
-            // The units cannot be given to gateways that are not all known.
+        if !complete || !matrix.sized {
+            // The units cannot be given to gateways that are not all known, nor
+            // counted in a matrix of unknown size.
             return None;
         }
         let units = self.keep(
@@ -880,4 +884,7 @@ struct Matrix {
     pitch_mm: f64,
     counts_per_mm: f64,
     home_mm: f64,
+    /// Rows and cols are as configured (not defaults in place of wrong values): the
+    /// units can be given to the gateways.
+    sized: bool,
 }

@@ -718,7 +718,7 @@ fn every_problem_is_listed_not_only_the_first() {
     assert_eq!(error, all);
     assert_eq!(error.lines().count(), 7);
     // With every gateway known, an allocation problem is listed beside the others.
-    let text = "[matrix]\nrows = 0\n[[gateway]]\nport = \"sim\"\nstations = [1, 1]\n";
+    let text = "[matrix]\nmax_speed_mm_s = 0.0\n[[gateway]]\nport = \"sim\"\nstations = [1, 1]\n";
     let problems = Config::parse_all(Path::new("f.toml"), text, &Overrides::default())
         .expect_err("two problems");
     assert_eq!(problems.len(), 2, "{problems:?}");
