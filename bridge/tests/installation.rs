@@ -269,3 +269,55 @@ async fn stations_saved_as_a_list_are_used_by_the_next_show_and_refused_while_it
     assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
     assert!(!file(&bridge).contains("stations ="), "{}", file(&bridge));
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn gateways_are_added_reopened_at_a_new_speed_and_removed_without_a_restart() {
+    let bridge = Process::start(HALL);
+    let token = bridge.operator().await;
+    let before = get_installation(&bridge, &token).await;
+    let mut ws = bridge.ws(&token).await;
+    status_until(&mut ws, Duration::from_secs(10), |status| {
+        status.gateways.len() == 1
+            && status.gateways[0].link == floatball_shared::api::LinkState::Up
+    })
+    .await;
+
+    // Two gateways, one ball each; the first's line at another speed.
+    let mut two = before.clone();
+    two.gateways[0].stations = vec![1];
+    two.gateways[0].baud = Some(57_600);
+    let mut second = two.gateways[0].clone();
+    second.baud = Some(38_400);
+    second.stations = vec![5];
+    two.gateways.push(second);
+    let reply = put_installation(&bridge, Some(&token), &two).await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    let status = status_until(&mut ws, Duration::from_secs(10), |status| {
+        status.gateways.len() == 2
+            && status
+                .gateways
+                .iter()
+                .all(|gateway| gateway.link == floatball_shared::api::LinkState::Up)
+    })
+    .await;
+    let bauds: Vec<Option<u32>> = status.gateways.iter().map(|gateway| gateway.baud).collect();
+    assert_eq!(bauds, [Some(57_600), Some(38_400)]);
+    let sim = positions(&bridge, &token).await;
+    assert_eq!(sim.gateways.len(), 2);
+    assert_eq!(sim.gateways[1].units[0].station, 5);
+    let text = file(&bridge);
+    assert_eq!(text.matches("[[gateway]]").count(), 2, "{text}");
+    assert!(text.contains("baud = 57600"), "{text}");
+
+    // Back to one: the second gateway's link closes.
+    let reply = put_installation(&bridge, Some(&token), &before).await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    let status = status_until(&mut ws, Duration::from_secs(10), |status| {
+        status.gateways.len() == 1
+            && status.gateways[0].link == floatball_shared::api::LinkState::Up
+    })
+    .await;
+    assert_eq!(status.gateways[0].baud, Some(115_200));
+    assert_eq!(positions(&bridge, &token).await.gateways.len(), 1);
+    assert_eq!(get_installation(&bridge, &token).await, before);
+}
