@@ -24,10 +24,13 @@
 
 use std::time::Duration;
 
-use floatball_shared::api::{GatewayKind, InstallationGateway, InstallationInfo, PlayerState};
+use floatball_shared::api::{
+    BaudChanged, GatewayKind, InstallationGateway, InstallationInfo, PlayerState,
+};
 use floatball_shared::plan::{DriveKind, Installation};
 
 use crate::config::{self, Config, ConfigError, Overrides, edit};
+use crate::link::BaudError;
 use crate::playback::ReconfigureError;
 use crate::state::AppState;
 
@@ -71,15 +74,16 @@ pub enum InstallError {
         /// The speed asked for.
         baud: u32,
     },
-    /// The line's baud change failed; the line is back at its old speed.
-    #[error("gateway {gateway} did not answer at {baud} baud: {reason}")]
-    BaudFailed {
+    /// The link did not change its speed ([`Link::change_baud`]'s reason); the line
+    /// runs at its old speed.
+    #[error("gateway {gateway}: {error}")]
+    Baud {
         /// The gateway.
         gateway: usize,
         /// The speed asked for.
         baud: u32,
-        /// What the link said.
-        reason: String,
+        /// Why.
+        error: BaudError,
     },
 }
 
@@ -140,6 +144,49 @@ pub async fn put(
         edit::installation(text, &current_info, &new)
     })
     .await
+}
+
+/// `POST /api/gateways/{gateway}/baud`: the gateway's line to `baud` (the link sends
+/// `BDR`, waits for the gateway's restart and greets it at the new speed), then the
+/// new speed saved in `floatball.toml` and the configuration.
+///
+/// # Errors
+/// [`InstallError`]: not idle, no such UIM2503 gateway, a speed it does not take, the
+/// gateway silent at the new speed (the line is back at the old one), or the file.
+pub async fn change_baud(
+    state: &AppState,
+    gateway: usize,
+    baud: u32,
+) -> Result<BaudChanged, InstallError> {
+    let _catalogue = state.lock_catalogue().await;
+    idle(state)?;
+    let links = state.gateways().links();
+    let link = links.get(gateway).ok_or(InstallError::NoSuchGateway {
+        gateway,
+        links: links.len(),
+    })?;
+    if !floatball_shared::plan::report::GATEWAY_BAUDS.contains(&baud) {
+        return Err(InstallError::BaudNotAllowed { gateway, baud });
+    }
+    let changed = link
+        .change_baud(baud, BAUD_RESTART_WAIT)
+        .await
+        .map_err(|error| InstallError::Baud {
+            gateway,
+            baud,
+            error,
+        })?;
+    let current = state.config();
+    let current_info = info(&current.installation);
+    let mut new = current_info.clone();
+    if let Some(one) = new.gateways.get_mut(gateway) {
+        one.baud = Some(baud);
+    }
+    save_and_apply(state, &current, &new, |text| {
+        edit::baud(text, &current_info, gateway, baud)
+    })
+    .await?;
+    Ok(changed)
 }
 
 /// Refused unless the player is idle and no Start is pending.

@@ -321,3 +321,74 @@ async fn gateways_are_added_reopened_at_a_new_speed_and_removed_without_a_restar
     assert_eq!(positions(&bridge, &token).await.gateways.len(), 1);
     assert_eq!(get_installation(&bridge, &token).await, before);
 }
+
+async fn post_baud(remote: &Remote, token: &str, gateway: usize, baud: u32) -> common::Reply {
+    remote
+        .request(
+            Method::POST,
+            &format!("/api/gateways/{gateway}/baud"),
+            Some(token),
+            Some((
+                "application/json",
+                serde_json::to_vec(&floatball_shared::api::BaudRequest { baud }).expect("json"),
+            )),
+        )
+        .await
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_gateway_line_speed_changes_live_and_is_saved() {
+    let bridge = Process::start(HALL);
+    let token = bridge.operator().await;
+    let mut ws = bridge.ws(&token).await;
+    status_until(&mut ws, Duration::from_secs(10), |status| {
+        status.gateways.len() == 1
+            && status.gateways[0].link == floatball_shared::api::LinkState::Up
+    })
+    .await;
+
+    let refused = post_baud(&bridge, &token, 0, 300).await;
+    assert_eq!(refused.status, StatusCode::UNPROCESSABLE_ENTITY);
+    let error = refused.error();
+    assert_eq!(error.code, "baud_not_allowed");
+    assert_eq!(error.params["allowed"], "9600, 19200, 38400, 57600, 115200");
+    let missing = post_baud(&bridge, &token, 3, 9600).await;
+    assert_eq!(missing.status, StatusCode::NOT_FOUND);
+    assert_eq!(missing.error().code, "no_such_gateway");
+
+    let reply = post_baud(&bridge, &token, 0, 9600).await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    let changed: floatball_shared::api::BaudChanged = reply.json();
+    assert_eq!((changed.from_baud, changed.baud), (115_200, 9600));
+    let status = status_until(&mut ws, Duration::from_secs(10), |status| {
+        status.gateways[0].link == floatball_shared::api::LinkState::Up
+            && status.gateways[0].baud == Some(9600)
+    })
+    .await;
+    assert_eq!(status.gateways.len(), 1);
+    let text = file(&bridge);
+    assert!(text.contains("baud = 9600\n"), "{text}");
+    assert!(text.contains("# the built-in simulator\n"), "{text}");
+    assert_eq!(
+        get_installation(&bridge, &token).await.gateways[0].baud,
+        Some(9600)
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_mbox_installation_is_changed_only_in_the_file() {
+    let config =
+        "[matrix]\nrows = 1\ncols = 3\n[[gateway]]\nkind = \"mbox\"\nport = \"sim\"\naxes = 3\n";
+    let bridge = Process::start(config);
+    let token = bridge.operator().await;
+    let before = get_installation(&bridge, &token).await;
+    // The same installation: nothing to do.
+    let same = put_installation(&bridge, Some(&token), &before).await;
+    assert_eq!(same.status, StatusCode::OK, "{:?}", same.body);
+    let mut faster = before.clone();
+    faster.max_speed_mm_s = 1000.0;
+    let reply = put_installation(&bridge, Some(&token), &faster).await;
+    assert_eq!(reply.status, StatusCode::CONFLICT);
+    assert_eq!(reply.error().code, "installation_not_live");
+    assert_eq!(file(&bridge), config);
+}

@@ -9,7 +9,9 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
-use floatball_bridge::link::{ANSWER_TIMEOUT, Batch, GREETING_INTERVAL, Link, LinkConfig, LinkError};
+use floatball_bridge::link::{
+    ANSWER_TIMEOUT, Batch, GREETING_INTERVAL, Link, LinkConfig, LinkError,
+};
 use floatball_shared::api::LinkState;
 use floatball_shared::ascii::{Form, parse_script};
 use floatball_shared::feedback::Frame;
@@ -95,7 +97,10 @@ fn spawn_reader(
                 Ok(n) => {
                     let at = Instant::now();
                     partial.extend_from_slice(&buffer[..n]);
-                    let whole = partial.iter().rposition(|&b| b == b';').map_or(0, |i| i + 1);
+                    let whole = partial
+                        .iter()
+                        .rposition(|&b| b == b';')
+                        .map_or(0, |i| i + 1);
                     let mut chunk = Vec::new();
                     for instruction in partial[..whole].split_inclusive(|&b| b == b';') {
                         if instruction == b"ABC;" {

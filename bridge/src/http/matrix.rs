@@ -9,6 +9,12 @@
 //!   installation now; 422 `installation_invalid` listing every problem; 409
 //!   `installation_busy` (not idle, or a Start pending) or `installation_not_live`
 //!   (MBOX boxes, MOONS' drives); 500 `installation_not_saved`.
+//! - `POST /api/gateways/{gateway}/baud` (an [`Operator`]): body [`BaudRequest`]; a
+//!   UIM2503 gateway's line to another speed (9600 to 115200) through
+//!   [`crate::link::Link::change_baud`], then saved into `floatball.toml` like a
+//!   `PUT`; 200 [`BaudChanged`]; 404 `no_such_gateway`; 409 `installation_busy`,
+//!   `estop_latched` or `gateway_not_connected`; 422 `baud_not_allowed`; 502
+//!   `baud_change_failed` (the line is back at its old speed).
 //! - `GET /api/plan/{name}`: 200 the bandwidth / feasibility report
 //!   ([`PlanReport`]) of a stored show on this installation; 404. On MOONS' drives
 //!   that Start gives compiled programs (`[scl] programs = "upload"`) every ball's Q
@@ -25,9 +31,12 @@
 
 use axum::Json;
 use axum::body::Bytes;
+use axum::extract::Path as AxumPath;
 use axum::extract::State;
 use axum::http::StatusCode;
-use floatball_shared::api::{InstallationInfo, PlanReport, Problem, SimPositions};
+use floatball_shared::api::{
+    BaudChanged, BaudRequest, InstallationInfo, PlanReport, Problem, SimPositions,
+};
 use floatball_shared::codes::Code;
 use floatball_shared::plan::report::GATEWAY_BAUDS;
 use floatball_shared::plan::report::report;
@@ -41,6 +50,7 @@ use super::session::{Operator, Session};
 use super::{Failure, blocking, json_body};
 use crate::config::{ConfigError, SclConfig, SclPrograms};
 use crate::install::{self, InstallError};
+use crate::link::BaudError;
 use crate::mbox::MboxTiming;
 use crate::scl::program::{compile_every_ball, qprogram_config};
 use crate::state::AppState;
@@ -104,25 +114,56 @@ pub fn install_failure(error: &InstallError) -> Failure {
                 .param("gateway", gateway)
                 .param("last", links.saturating_sub(1))
         }
-        InstallError::BaudNotAllowed { baud, .. } => {
-            let allowed: Vec<String> = GATEWAY_BAUDS.iter().map(u32::to_string).collect();
-            Failure::coded(StatusCode::UNPROCESSABLE_ENTITY, Code::BaudNotAllowed, text)
-                .param("baud", baud)
-                .param("allowed", allowed.join(", "))
-        }
-        InstallError::BaudFailed {
+        InstallError::BaudNotAllowed { baud, .. } => baud_not_allowed(text, *baud),
+        InstallError::Baud {
             gateway,
             baud,
-            reason,
-        } => Failure::coded(
-            StatusCode::BAD_GATEWAY,
-            Code::BaudChangeFailed,
-            text.clone(),
-        )
+            error,
+        } => match error {
+            BaudError::OutOfRange { .. } => baud_not_allowed(text, *baud),
+            BaudError::EstopLatched => {
+                Failure::coded(StatusCode::CONFLICT, Code::EstopLatched, text)
+            }
+            BaudError::Link(_) => {
+                Failure::coded(StatusCode::CONFLICT, Code::GatewayNotConnected, text)
+                    .param("gateway", gateway)
+            }
+            BaudError::Port { reason, .. } => baud_failed(text.clone(), *gateway, *baud, reason),
+            BaudError::NotAnswering { .. } => {
+                baud_failed(text.clone(), *gateway, *baud, &error.to_string())
+            }
+        },
+    }
+}
+
+/// 422 `baud_not_allowed`: the speeds a gateway takes.
+fn baud_not_allowed(text: String, baud: u32) -> Failure {
+    let allowed: Vec<String> = GATEWAY_BAUDS.iter().map(u32::to_string).collect();
+    Failure::coded(StatusCode::UNPROCESSABLE_ENTITY, Code::BaudNotAllowed, text)
+        .param("baud", baud)
+        .param("allowed", allowed.join(", "))
+}
+
+/// 502 `baud_change_failed`: the line is back at its old speed.
+fn baud_failed(text: String, gateway: usize, baud: u32, reason: &str) -> Failure {
+    Failure::coded(StatusCode::BAD_GATEWAY, Code::BaudChangeFailed, text)
         .param("gateway", gateway)
         .param("baud", baud)
-        .param("reason", reason),
-    }
+        .param("reason", reason)
+}
+
+/// `POST /api/gateways/{gateway}/baud`.
+pub async fn change_baud(
+    State(state): State<AppState>,
+    Operator(_session): Operator,
+    AxumPath(gateway): AxumPath<usize>,
+    body: Bytes,
+) -> Result<Json<BaudChanged>, Failure> {
+    let request: BaudRequest = json_body(&body, "line speed")?;
+    install::change_baud(&state, gateway, request.baud)
+        .await
+        .map(Json)
+        .map_err(|error| install_failure(&error))
 }
 
 /// `GET /api/plan/{name}`.
