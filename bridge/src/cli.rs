@@ -278,7 +278,9 @@ async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
         args.units, options.port, options.baud
     );
     let worker = tokio::task::spawn_blocking(move || {
-        crate::simulate::run(&options, &worker_stop, &power_cycle, || println!("{banner}"))
+        crate::simulate::run(&options, &worker_stop, &power_cycle, || {
+            println!("{banner}")
+        })
     });
     tokio::select! {
         result = worker => {
@@ -295,9 +297,8 @@ async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
 fn watch_power_cycles(power_cycle: &Arc<AtomicBool>) -> anyhow::Result<()> {
     #[cfg(unix)]
     {
-        let mut hangups =
-            tokio::signal::unix::signal(tokio::signal::unix::SignalKind::hangup())
-                .context("cannot watch SIGHUP (the simulated gateway's power cycle)")?;
+        let mut hangups = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::hangup())
+            .context("cannot watch SIGHUP (the simulated gateway's power cycle)")?;
         let power_cycle = Arc::clone(power_cycle);
         tokio::spawn(async move {
             while hangups.recv().await.is_some() {

@@ -36,8 +36,8 @@
 pub mod mbox;
 pub mod scl;
 
-use std::sync::Arc;
 use std::io::Write as _;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, Sender, channel};
 use std::time::{Duration, Instant};
@@ -97,13 +97,16 @@ pub fn run(
             engine.restart(Instant::now());
             let now_baud = engine.baud();
             if now_baud != baud.load(Ordering::Acquire) {
-                port.set_baud_rate(now_baud)
-                    .map_err(|err| format!("cannot set {} to {now_baud} baud: {err}", options.port))?;
+                port.set_baud_rate(now_baud).map_err(|err| {
+                    format!("cannot set {} to {now_baud} baud: {err}", options.port)
+                })?;
                 // This end of the line follows the gateway; the far end is the host's.
                 engine.set_host_baud(now_baud);
                 baud.store(now_baud, Ordering::Release);
             }
-            say(&format!("the gateway restarted; the line runs at {now_baud} baud"));
+            say(&format!(
+                "the gateway restarted; the line runs at {now_baud} baud"
+            ));
         }
         let now = Instant::now();
         let wait = engine

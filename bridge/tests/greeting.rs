@@ -144,7 +144,10 @@ async fn the_greeting_marks_the_link_up_and_a_silent_gateway_not_answering() {
     // The far side closes (the gateway is switched off): not answering, not down.
     drop(simulator);
     wait_for_state(&link, LinkState::NotAnswering, SOON).await;
-    assert!(link.estop().is_some(), "the e-stop reports the silent gateway");
+    assert!(
+        link.estop().is_some(),
+        "the e-stop reports the silent gateway"
+    );
     // It comes back: the next greeting finds it.
     simulator = Simulator::start(&path_b, 9600);
     wait_for_state(&link, LinkState::Up, SOON).await;

@@ -463,7 +463,10 @@ enum Parts {
         operand: Option<Number>,
     },
     /// `XXX[=v];`, a command for the gateway itself.
-    Gateway { letters: [u8; 3], operand: Option<u32> },
+    Gateway {
+        letters: [u8; 3],
+        operand: Option<u32>,
+    },
 }
 
 /// An operand as written.

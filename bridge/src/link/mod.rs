@@ -51,9 +51,9 @@ use std::thread::Thread;
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::{BaudChanged, LinkState};
+use floatball_shared::ascii::GreetingWatch;
 use floatball_shared::ascii::gateway::{GREETING, MAX_BAUD, MIN_BAUD};
 use floatball_shared::ascii::{Form, GatewayCommand, Instruction, parse_script};
-use floatball_shared::ascii::GreetingWatch;
 use floatball_shared::feedback::{Frame, FrameDecoder};
 use floatball_shared::plan::installation::SIM_PORT;
 use floatball_shared::sim::GatewayConfig;

@@ -124,7 +124,9 @@ mod tests {
             [
                 Ok(Instruction::Select { station: 5 }),
                 Ok(greet),
-                Ok(Instruction::Gateway(GatewayCommand::SetBaud { baud: 38_400 })),
+                Ok(Instruction::Gateway(GatewayCommand::SetBaud {
+                    baud: 38_400
+                })),
                 Ok(Instruction::PvtStart { row: None }),
             ]
         );
@@ -140,7 +142,10 @@ mod tests {
     fn a_speed_outside_the_range_or_missing_is_refused_with_its_place() {
         let error = parse_script("ABC;\nBDR=4800;").unwrap_err();
         assert_eq!((error.line, error.column), (2, 5));
-        assert!(matches!(error.kind, ParseErrorKind::OutOfRange(_)), "{error}");
+        assert!(
+            matches!(error.kind, ParseErrorKind::OutOfRange(_)),
+            "{error}"
+        );
         assert_eq!(
             error.to_string(),
             "line 2, column 5: the line speed of BDR (baud) must be 9600–115200, found 4800"
