@@ -241,7 +241,9 @@ async fn save_and_apply(
     }
     write(&dir, text).await?;
     let before = state.gateways().links();
-    let (links, reopened) = state.gateways().reopen(&config.installation);
+    let (links, reopened) = state
+        .gateways()
+        .reopen(&current.installation, &config.installation);
     if let Err(error) = state
         .playback()
         .reconfigure(config.installation.clone(), links, reopened.opened)

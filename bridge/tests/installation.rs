@@ -100,6 +100,14 @@ async fn a_new_installation_is_saved_with_its_comments_applied_at_once_and_kept_
     assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
     assert_eq!(reply.json::<InstallationInfo>(), wanted);
     assert_eq!(get_installation(&bridge, &token).await, wanted);
+    // The simulated gateway has its third ball now.
+    let sim = positions(&bridge, &token).await;
+    let stations: Vec<u8> = sim.gateways[0]
+        .units
+        .iter()
+        .map(|unit| unit.station)
+        .collect();
+    assert_eq!(stations, [1, 2, 3]);
 
     let text = file(&bridge);
     for kept in [
