@@ -8,7 +8,8 @@
 //!   saved into `floatball.toml` and applied while idle ([`crate::install`]); 200 the
 //!   installation now; 422 `installation_invalid` listing every problem; 409
 //!   `installation_busy` (not idle, or a Start pending) or `installation_not_live`
-//!   (MBOX boxes, MOONS' drives); 500 `installation_not_saved`.
+//!   (a change to the gateways of MBOX boxes or MOONS' drives); 500
+//!   `installation_not_saved`.
 //! - `POST /api/gateways/{gateway}/baud` (an [`Operator`]): body [`BaudRequest`]; a
 //!   UIM2503 gateway's line to another speed (9600 to 115200) through
 //!   [`crate::link::Link::change_baud`], then saved into `floatball.toml` like a
