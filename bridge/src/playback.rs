@@ -77,8 +77,9 @@ enum Request {
     },
     /// Look at the latch now (the e-stop was pressed).
     Estop,
-    /// A new installation, taken only while idle ([`Playback::reconfigure`]).
-    Reconfigure(Reconfigure),
+    /// A new installation, taken only while idle ([`Playback::reconfigure`]); boxed:
+    /// it is much larger than the other requests.
+    Reconfigure(Box<Reconfigure>),
 }
 
 /// A new installation for the player, with its links (UIM2503) or its boxes'
@@ -487,13 +488,13 @@ impl Playback {
     ) -> Result<(), ReconfigureError> {
         let (reply, answer) = oneshot::channel();
         self.requests
-            .send(Request::Reconfigure(Reconfigure {
+            .send(Request::Reconfigure(Box::new(Reconfigure {
                 installation: installation.clone(),
                 mbox,
                 links: Arc::clone(&links),
                 opened,
                 reply,
-            }))
+            })))
             .map_err(|_| ReconfigureError::Gone)?;
         answer.await.map_err(|_| ReconfigureError::Gone)??;
         self.set_live(Some(Arc::new(installation)), Some(links));
@@ -551,7 +552,7 @@ fn reconfigure_player(
 
 /// A task's answer to a [`Playback::reconfigure`] it cannot take (a UIM2503 or SCL
 /// task's [`handle`] never sees one: they are taken before).
-fn refuse_reconfigure(change: Reconfigure) {
+fn refuse_reconfigure(change: Box<Reconfigure>) {
     let _ = change.reply.send(Err(ReconfigureError::NotLive));
 }
 
@@ -859,7 +860,7 @@ async fn run(
             player.estop();
         }
         if let Some(Request::Reconfigure(change)) = request {
-            reconfigure_player(&mut player, &mut links, &frames_tx, change);
+            reconfigure_player(&mut player, &mut links, &frames_tx, *change);
             watchdog = Watchdog::new(&links);
             request = None;
         }
@@ -1003,7 +1004,7 @@ async fn run_mbox(
             player.estop();
         }
         if let Some(Request::Reconfigure(change)) = request {
-            reconfigure_mbox(&mut player, change);
+            reconfigure_mbox(&mut player, *change);
             request = None;
         }
         if let Some(request) = request
@@ -1275,7 +1276,7 @@ async fn run_scl(
                 }
                 Request::Reconfigure(change) => {
                     let idle = status.borrow().state;
-                    reconfigure_scl(&mut installation, idle, running.is_some(), change);
+                    reconfigure_scl(&mut installation, idle, running.is_some(), *change);
                     continue;
                 }
             };
