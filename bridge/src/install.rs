@@ -134,6 +134,13 @@ pub async fn put(
     idle(state)?;
     let current = state.config();
     let current_info = info(&current.installation);
+    if new.gateways.is_empty() {
+        // The file would fall back to the one simulated gateway of a file without any.
+        return Err(InstallError::Invalid(vec![ConfigError::File {
+            path: state.data_dir().join(config::FILE_NAME),
+            reason: "there is no gateway: an installation needs at least one".to_owned(),
+        }]));
+    }
     if edit::gateways_changed(&current_info, &new) {
         return Err(InstallError::NotLive);
     }

@@ -207,6 +207,17 @@ async fn an_invalid_installation_lists_every_problem_and_changes_nothing() {
     let error = reply.error();
     assert!(error.details.join(" ").contains('7'), "{error:?}");
 
+    // No gateway at all.
+    let mut none = before.clone();
+    none.gateways.clear();
+    let reply = put_installation(&bridge, Some(&token), &none).await;
+    assert_eq!(reply.status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(
+        reply.error().details[0].contains("no gateway"),
+        "{:?}",
+        reply.error()
+    );
+
     // Not JSON of an installation: 400.
     let reply = bridge
         .request(
