@@ -438,6 +438,13 @@ codes! {
     QprogramTooManyLines = "qprogram_too_many_lines" ["lines", "limit"];
     /// A `[scl]` setting that cannot be used (`must` in English).
     QprogramSetting = "qprogram_setting" ["field", "must"];
+    // ---- line: the gateway's line speed (`POST /api/gateways/{g}/baud`) ----
+    /// A line speed `BDR=x;` does not take.
+    BaudOutOfRange = "baud_out_of_range" ["baud", "min", "max"];
+    /// The gateway did not answer at the new speed in time; the line is back at the old.
+    BaudNotAnswering = "baud_not_answering" ["gateway", "baud", "from_baud", "waited_ms"];
+    /// The serial port refused the new speed (`reason` in English).
+    BaudPortRefused = "baud_port_refused" ["gateway", "baud", "reason"];
 }
 
 #[cfg(test)]
