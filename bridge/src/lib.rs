@@ -29,7 +29,8 @@
 //! - [`playlist`]: the playlist Start plays, stored beside the shows.
 //! - [`durable`]: atomic, durable file writes.
 //! - [`link`]: the links to the gateways (serial ports, the simulated gateway) with
-//!   their e-stop lane.
+//!   their e-stop lane, the greeting that tells whether a gateway answers, and the
+//!   line-speed change.
 //! - [`mbox`]: the MBOX boxes of an installation on one UDP socket, with their e-stop
 //!   (the sender is woken by the e-stop like a link's writer).
 //! - [`scl`]: the links to MOONS' drives in SCL (an RS-485 line or eSCL on UDP), one
@@ -43,6 +44,9 @@
 //! - [`playback`]: the player driven by the clock and the links, the owner of the
 //!   status, and the link watchdog.
 //! - [`control`]: Start, Reset and Home as the WebSocket asks for them.
+//! - [`install`]: a new installation (`PUT /api/installation`, a gateway's line
+//!   speed) checked, saved into `floatball.toml` (`config/edit.rs`) and applied while
+//!   idle, without a restart.
 //! - [`http`]: the HTTP API under `/api`.
 //! - [`origin`]: which browser origins may call the API (CORS) and open the WebSocket;
 //!   the configuration's `allowed_origins` are normalised by it when checked.
@@ -63,6 +67,7 @@ pub mod durable;
 pub mod estop;
 pub mod gateways;
 pub mod http;
+pub mod install;
 pub mod link;
 pub mod mbox;
 pub mod origin;

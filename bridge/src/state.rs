@@ -3,6 +3,11 @@
 //!
 //! [`AppState::open`] builds it from the data directory at start; nothing in it is
 //! global, so tests run many bridges side by side.
+//!
+//! The configuration is a snapshot with one owner: readers get an `Arc<Config>`
+//! ([`AppState::config`]) and keep it as long as they like; a new installation
+//! (`crate::install`) replaces it whole ([`AppState::replace_config`]). The watch it
+//! lives in is only borrowed to copy the pointer, never across an await.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -24,6 +29,7 @@ use crate::scl::SclNet;
 use crate::simulate::mbox::{MboxBoxes, MboxOptions};
 use crate::simulate::scl::{DEFAULT_START_WIRE, SimDrives, parse_start_wire};
 use crate::store::{ShowStore, StoreError};
+use floatball_shared::plan::Installation;
 use floatball_shared::plan::mbox::MboxPlayerConfig;
 use std::net::SocketAddr;
 
@@ -75,7 +81,8 @@ pub struct AppState {
 
 #[derive(Debug)]
 struct Inner {
-    config: Config,
+    /// The configuration now; replaced whole, never changed in place.
+    config: watch::Sender<Arc<Config>>,
     paths: Paths,
     clock: Clock,
     password: Password,
@@ -184,6 +191,15 @@ fn open_drives(scl: &SclConfig) -> Result<(SclConfig, Option<SimDrives>), OpenEr
     Ok((resolved, Some(sims)))
 }
 
+/// The MBOX player's configuration for `installation` on the boxes of `mbox`.
+pub fn mbox_player_config(installation: &Installation, mbox: &MboxConfig) -> MboxPlayerConfig {
+    MboxPlayerConfig {
+        installation: installation.clone(),
+        boxes: mbox.boxes.iter().map(|one| one.calibration).collect(),
+        period_us: u64::try_from(mbox.frame_period.as_micros()).unwrap_or(20_000),
+    }
+}
+
 impl AppState {
     /// Opens the data directory (creating what is missing) for a bridge with `config`,
     /// reading time from `clock`, and opens the links to the gateways. Must run inside
@@ -220,11 +236,7 @@ impl AppState {
             }
             (Some(mbox), None) => {
                 let (boxes, sims) = open_boxes(mbox, &latch)?;
-                let player = MboxPlayerConfig {
-                    installation: config.installation.clone(),
-                    boxes: mbox.boxes.iter().map(|one| one.calibration).collect(),
-                    period_us: u64::try_from(mbox.frame_period.as_micros()).unwrap_or(20_000),
-                };
+                let player = mbox_player_config(&config.installation, mbox);
                 (
                     Playback::spawn_mbox(player, boxes, Arc::clone(&latch)),
                     sims,
@@ -237,7 +249,7 @@ impl AppState {
         };
         Ok(Self {
             inner: Arc::new(Inner {
-                config,
+                config: watch::channel(Arc::new(config)).0,
                 paths,
                 clock,
                 password,
@@ -256,9 +268,21 @@ impl AppState {
         })
     }
 
-    /// The installation's configuration.
-    pub fn config(&self) -> &Config {
-        &self.inner.config
+    /// The installation's configuration now: a snapshot, which a new installation
+    /// replaces but never changes.
+    pub fn config(&self) -> Arc<Config> {
+        Arc::clone(&self.inner.config.borrow())
+    }
+
+    /// Makes `config` the configuration every reader gets from now on (the one
+    /// writer: `crate::install`, under the catalogue lock).
+    pub fn replace_config(&self, config: Config) {
+        self.inner.config.send_replace(Arc::new(config));
+    }
+
+    /// The data directory (`floatball.toml`, the password, the shows).
+    pub fn data_dir(&self) -> &std::path::Path {
+        &self.inner.paths.data_dir
     }
 
     /// Where the web app's files are.

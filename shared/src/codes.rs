@@ -438,6 +438,28 @@ codes! {
     QprogramTooManyLines = "qprogram_too_many_lines" ["lines", "limit"];
     /// A `[scl]` setting that cannot be used (`must` in English).
     QprogramSetting = "qprogram_setting" ["field", "must"];
+    // ---- install ----
+    /// `PUT /api/installation` refused: `problems` problems, each in `problems[]`.
+    InstallationInvalid = "installation_invalid" ["problems"];
+    /// One problem of a new installation, as `floatball check` words it (`reason` in
+    /// English).
+    InstallationProblem = "installation_problem" ["reason"];
+    /// A new installation or line speed is applied only while the player is idle.
+    InstallationBusy = "installation_busy" ["state"];
+    /// The gateways of MBOX boxes and MOONS' drives change only in `floatball.toml`
+    /// and at a restart.
+    InstallationNotLive = "installation_not_live" [];
+    /// `floatball.toml` could not be read or written (`reason` in English).
+    InstallationNotSaved = "installation_not_saved" ["reason"];
+    /// A line speed a gateway does not take (`allowed`: the speeds it takes).
+    BaudNotAllowed = "baud_not_allowed" ["baud", "allowed"];
+    // ---- line: the gateway's line speed (`POST /api/gateways/{g}/baud`) ----
+    /// A line speed `BDR=x;` does not take.
+    BaudOutOfRange = "baud_out_of_range" ["baud", "min", "max"];
+    /// The gateway did not answer at the new speed in time; the line is back at the old.
+    BaudNotAnswering = "baud_not_answering" ["gateway", "baud", "from_baud", "waited_ms"];
+    /// The serial port refused the new speed (`reason` in English).
+    BaudPortRefused = "baud_port_refused" ["gateway", "baud", "reason"];
 }
 
 #[cfg(test)]

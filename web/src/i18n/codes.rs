@@ -828,4 +828,51 @@ pub(super) const ERROR_TEXTS: &[(Code, &str, &str)] = &[
         "Q 程序设置 {field} 必须为 {must}",
         "the Q program setting {field} must be {must}",
     ),
+    // ---- install ----
+    (
+        Code::InstallationInvalid,
+        "安装设置有 {problems} 个问题，未保存",
+        "The installation has {problems} problem(s) and was not saved",
+    ),
+    (
+        Code::InstallationProblem,
+        "安装设置：{reason}",
+        "Installation: {reason}",
+    ),
+    (
+        Code::InstallationBusy,
+        "矩阵正在{state}：只能在空闲时更改安装设置或线速",
+        "The matrix is {state}: the installation and line speeds change only while it is idle",
+    ),
+    (
+        Code::InstallationNotLive,
+        "MBOX 控制盒和 MOONS' 驱动器的网关只能在 floatball.toml 中更改，并在重启后生效",
+        "The gateways of MBOX boxes and MOONS' drives change only in floatball.toml, at a restart",
+    ),
+    (
+        Code::InstallationNotSaved,
+        "无法保存 floatball.toml：{reason}",
+        "floatball.toml could not be saved: {reason}",
+    ),
+    (
+        Code::BaudNotAllowed,
+        "网关不支持 {baud} 波特；可用：{allowed}",
+        "The gateway does not take {baud} baud; it takes {allowed}",
+    ),
+    // ---- line ----
+    (
+        Code::BaudOutOfRange,
+        "网关不支持 {baud} 波特的线路速度（{min}–{max}）",
+        "{baud} baud is not a line speed the gateway takes ({min}–{max})",
+    ),
+    (
+        Code::BaudNotAnswering,
+        "网关 {gateway} 在 {waited_ms} 毫秒内没有以 {baud} 波特应答；线路已恢复为 {from_baud} 波特",
+        "Gateway {gateway} did not answer at {baud} baud within {waited_ms} ms; the line is back at {from_baud} baud",
+    ),
+    (
+        Code::BaudPortRefused,
+        "网关 {gateway} 的串口无法以 {baud} 波特运行：{reason}",
+        "The port of gateway {gateway} cannot run at {baud} baud: {reason}",
+    ),
 ];
