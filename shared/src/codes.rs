@@ -438,6 +438,12 @@ codes! {
     QprogramTooManyLines = "qprogram_too_many_lines" ["lines", "limit"];
     /// A `[scl]` setting that cannot be used (`must` in English).
     QprogramSetting = "qprogram_setting" ["field", "must"];
+    // ---- arm ----
+    /// Advice: a gateway's preload is long at its rate; a faster rate shortens it
+    /// (`preload` and `faster_preload` spoken: `9.1 min`, `47 s`).
+    PreloadLong = "preload_long" ["gateway", "baud", "preload_bytes", "preload_s", "preload", "faster_baud", "faster_preload_s", "faster_preload"];
+    /// Advice: a gateway's preload is long even at the fastest rate.
+    PreloadLongFastest = "preload_long_fastest" ["gateway", "baud", "preload_bytes", "preload_s", "preload"];
 }
 
 #[cfg(test)]
