@@ -43,6 +43,8 @@
 //! - [`playback`]: the player driven by the clock and the links, the owner of the
 //!   status, and the link watchdog.
 //! - [`control`]: Start, Reset and Home as the WebSocket asks for them.
+//! - [`arming`]: while idle, the playlist's first entry loaded ahead of Start, and the
+//!   one `disarm` entry point.
 //! - [`http`]: the HTTP API under `/api`.
 //! - [`origin`]: which browser origins may call the API (CORS) and open the WebSocket;
 //!   the configuration's `allowed_origins` are normalised by it when checked.
@@ -55,6 +57,7 @@
     deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
 )]
 
+pub mod arming;
 pub mod auth;
 pub mod cli;
 pub mod config;

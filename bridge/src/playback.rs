@@ -19,11 +19,19 @@
 //! same admission ([`admit`]: no e-stop since, every gateway up) and the same status
 //! and its publication; the drives' runs are [`crate::scl::player`]'s.
 //!
+//! **Arming** (UIM2503 gateways): while the matrix is idle, [`crate::arming`] hands
+//! the task the playlist prepared as Start would prepare it ([`Playback::arm`]); the
+//! player loads the first entry's tables without moving anything and the status says
+//! `armed`. [`Playback::disarm`] drops it (a console line, a new playlist or
+//! installation, a commissioning command) and keeps arming away for [`ARM_QUIET`]; the
+//! e-stop, Reset, Home and a lost link drop it in the player.
+//!
 //! **A stalled link is a fault.** While a playlist runs, a link that has bytes queued
 //! and writes nothing for [`stall_limit`] stops the show on every gateway and sets the
 //! state `error`, naming the gateway.
 
-use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::{GatewayKind, GatewayStatus, Status};
@@ -70,6 +78,15 @@ enum Request {
     },
     /// Look at the latch now (the e-stop was pressed).
     Estop,
+    /// Arm the first entry of a playlist prepared while the matrix was idle, at the
+    /// player's disarm count `disarms` and e-stop `generation`.
+    Arm {
+        generation: u64,
+        disarms: u64,
+        prepared: Box<Prepared>,
+    },
+    /// Drop what is armed.
+    Disarm,
 }
 
 impl std::fmt::Debug for Request {
@@ -81,6 +98,8 @@ impl std::fmt::Debug for Request {
             Request::Play { reset: true, .. } => "Reset (MBOX or SCL)",
             Request::Play { .. } => "Start (MBOX or SCL)",
             Request::Estop => "Estop",
+            Request::Arm { .. } => "Arm",
+            Request::Disarm => "Disarm",
         })
     }
 }
@@ -97,6 +116,30 @@ pub struct Playback {
     boxes: Option<MboxNet>,
     /// The MOONS' drives, when the installation's gateways are SCL gateway entries.
     scl: Option<SclNet>,
+    /// Arming's side: the player's disarm count and the quiet time.
+    arming: Arc<ArmingShared>,
+}
+
+/// How long after [`Playback::disarm`] nothing is armed: a console session or a
+/// commissioning walk of several steps is not interleaved with loading tables.
+pub const ARM_QUIET: Duration = Duration::from_secs(3);
+
+/// What the handles and the playback task share about arming.
+#[derive(Debug)]
+struct ArmingShared {
+    /// The player's disarm count, as the task last saw it.
+    disarms: AtomicU64,
+    /// No arming before this.
+    quiet_until: Mutex<Instant>,
+}
+
+impl Default for ArmingShared {
+    fn default() -> Self {
+        Self {
+            disarms: AtomicU64::new(0),
+            quiet_until: Mutex::new(Instant::now() + ARM_QUIET),
+        }
+    }
 }
 
 /// Why a request could not be handled.
@@ -124,17 +167,16 @@ impl Playback {
         });
         let (requests, inbox) = mpsc::unbounded_channel();
         let (status_tx, status) = watch::channel(status_of(&player, &links));
+        let started = Self::started(requests, status, installation, latch);
         tokio::spawn(run(
             player,
             Arc::clone(&links),
-            Arc::clone(&latch),
+            Arc::clone(&started.latch),
             inbox,
             status_tx,
+            Arc::clone(&started.arming),
         ));
-        Self {
-            links,
-            ..Self::started(requests, status, installation, latch)
-        }
+        Self { links, ..started }
     }
 
     /// The handle of a task just spawned, with its inbox and status: no links, boxes or
@@ -153,6 +195,7 @@ impl Playback {
             installation,
             boxes: None,
             scl: None,
+            arming: Arc::new(ArmingShared::default()),
         }
     }
 
@@ -393,6 +436,100 @@ impl Playback {
     }
 }
 
+// ---- arm ----
+
+impl Playback {
+    /// Whether this installation arms shows while idle (UIM2503 gateways; MBOX boxes
+    /// take positions frame by frame, MOONS' drives load their programs at Start).
+    pub fn arms(&self) -> bool {
+        self.boxes.is_none() && self.scl.is_none() && !self.links.is_empty()
+    }
+
+    /// The player's disarm count as last published: an arming prepared at this count
+    /// is accepted only if no disarm came since.
+    pub fn disarms(&self) -> u64 {
+        self.arming.disarms.load(Ordering::Acquire)
+    }
+
+    /// Whether the quiet time after the last [`Playback::disarm`] is over.
+    pub fn arming_allowed(&self) -> bool {
+        Instant::now()
+            >= *self
+                .arming
+                .quiet_until
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Drops what is armed (or being armed): the next Start loads every table again,
+    /// and nothing is armed for [`ARM_QUIET`]. Call it before anything that could change
+    /// what the units hold or what the first entry is: a console line to a gateway, a
+    /// new playlist, a changed show of the playlist, a new installation, a
+    /// commissioning command. Takes no lock the task holds and waits for nothing.
+    pub fn disarm(&self) {
+        *self
+            .arming
+            .quiet_until
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner) = Instant::now() + ARM_QUIET;
+        let _ = self.requests.send(Request::Disarm);
+    }
+
+    /// Arms the first entry of the playlist `entries` (prepared as Start would prepare
+    /// it, on a blocking thread) if the player is still idle and nothing disarmed it
+    /// since `disarms` ([`Playback::disarms`] read before the playlist was). Returns
+    /// whether the request went to the player; a playlist Start would refuse is not
+    /// armed.
+    pub async fn arm(&self, entries: Vec<Entry>, loop_playlist: bool, disarms: u64) -> bool {
+        if !self.arms() {
+            return false;
+        }
+        let generation = self.latch.generation();
+        let Ok(Ok(prepared)) = self.prepare(entries, loop_playlist).await else {
+            return false;
+        };
+        self.requests
+            .send(Request::Arm {
+                generation,
+                disarms,
+                prepared: Box::new(prepared),
+            })
+            .is_ok()
+    }
+}
+
+/// Carries out an arming request on the idle player: arms only with no e-stop in force
+/// or since it was issued, and `run_generation` (what the player's batches are tagged
+/// with) current. Returns the request back when it is not about arming.
+fn handle_arming(
+    player: &mut Player,
+    latch: &Latch,
+    request: Request,
+    run_generation: u64,
+    views: &[LinkView],
+) -> Option<Request> {
+    match request {
+        Request::Arm {
+            generation,
+            disarms,
+            prepared,
+        } => {
+            if generation == latch.generation()
+                && generation == run_generation
+                && !latch.is_latched()
+            {
+                player.arm(*prepared, disarms, views);
+            }
+            None
+        }
+        Request::Disarm => {
+            player.disarm();
+            None
+        }
+        other => Some(other),
+    }
+}
+
 /// How long a link may hold queued bytes without writing any while a show runs
 /// before it counts as stalled: ten of the longest instructions on its line, and never
 /// less than half a second (threads are not scheduled to the millisecond).
@@ -600,7 +737,7 @@ fn handle(
         Request::Play {
             generation, reply, ..
         } => (generation, reply, Err(StartError::Busy)),
-        Request::Estop => return None,
+        Request::Estop | Request::Arm { .. } | Request::Disarm => return None,
     })
 }
 
@@ -610,6 +747,7 @@ async fn run(
     latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
     status: watch::Sender<Status>,
+    arming: Arc<ArmingShared>,
 ) {
     let epoch = Instant::now();
     let now_us = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
@@ -665,6 +803,15 @@ async fn run(
             player.estop();
         }
         let now = now_us();
+        let request = request.and_then(|request| {
+            handle_arming(
+                &mut player,
+                &latch,
+                request,
+                run_generation,
+                &link_views(&links),
+            )
+        });
         if let Some(request) = request
             && let Some((generation, reply, result)) =
                 handle(&mut player, &latch, request, now, &link_views(&links))
@@ -683,6 +830,7 @@ async fn run(
             // A stop the player asked for is not news to it (it failed, and stays so).
             seen_generation = latch.generation();
         }
+        arming.disarms.store(player.disarms(), Ordering::Release);
         publish(&status, status_of(&player, &links));
     }
 }
@@ -756,7 +904,7 @@ fn handle_mbox(
         | Request::Reset {
             generation, reply, ..
         } => (generation, reply, Err(StartError::Busy)),
-        Request::Estop => return None,
+        Request::Estop | Request::Arm { .. } | Request::Disarm => return None,
     })
 }
 
@@ -1062,7 +1210,7 @@ async fn run_scl(
                 | Request::Reset {
                     generation, reply, ..
                 } => (generation, reply, Err(StartError::Busy)),
-                Request::Estop => {
+                Request::Estop | Request::Arm { .. } | Request::Disarm => {
                     publish(&status, state.status(&drives));
                     continue;
                 }
