@@ -40,7 +40,12 @@ async fn armed(ws: &mut Ws, show: &str, within: Duration) -> bool {
         let Some(armed) = status.armed else {
             continue;
         };
-        assert_eq!(status.state, PlayerState::Idle, "armed while {:?}", status.state);
+        assert_eq!(
+            status.state,
+            PlayerState::Idle,
+            "armed while {:?}",
+            status.state
+        );
         if armed.show != show {
             continue;
         }
@@ -169,7 +174,12 @@ async fn an_estop_or_a_console_line_disarms_and_a_new_playlist_arms_its_first_en
         .prepare_show("wave", &wave_json("wave", 2, 2, 4000, 40.0), false)
         .await;
     let other = bridge
-        .upload(&token, "other", "application/json", &wave_json("other", 2, 2, 3000, 30.0))
+        .upload(
+            &token,
+            "other",
+            "application/json",
+            &wave_json("other", 2, 2, 3000, 30.0),
+        )
         .await;
     assert_eq!(other.status, StatusCode::CREATED);
     let mut ws = bridge.ws(&token).await;
@@ -191,12 +201,18 @@ async fn an_estop_or_a_console_line_disarms_and_a_new_playlist_arms_its_first_en
 
     // A console line (a query, even) disarms; arming waits for the quiet time.
     send_text(&mut ws, r#"{"type":"raw","line":"*1;PA;"}"#).await;
-    status_until(&mut ws, Duration::from_secs(2), |status| status.armed.is_none()).await;
+    status_until(&mut ws, Duration::from_secs(2), |status| {
+        status.armed.is_none()
+    })
+    .await;
     stays_disarmed(&mut ws, Duration::from_secs(2)).await;
     armed(&mut ws, "wave", Duration::from_secs(15)).await;
 
     // A new playlist: its first entry is armed.
     put_playlist(&bridge, &token, "other").await;
-    status_until(&mut ws, Duration::from_secs(2), |status| status.armed.is_none()).await;
+    status_until(&mut ws, Duration::from_secs(2), |status| {
+        status.armed.is_none()
+    })
+    .await;
     armed(&mut ws, "other", Duration::from_secs(15)).await;
 }

@@ -728,12 +728,19 @@ fn arm_fully(rig: &mut Rig, show: &Show) -> Vec<usize> {
     let before = rig.wire_marks();
     let positions = rig.positions_mm();
     assert!(rig.arm(vec![entry(show.clone(), 0, 1)], false));
-    let armed = rig.player.status().armed.expect("arming shows in the status");
+    let armed = rig
+        .player
+        .status()
+        .armed
+        .expect("arming shows in the status");
     assert_eq!((armed.entry, armed.show.as_str()), (0, show.name.as_str()));
     let mut last = 0.0;
     rig.run_until(60_000_000, |rig| {
         let progress = rig.armed_progress().expect("still arming");
-        assert!(progress >= last, "progress went back from {last} to {progress}");
+        assert!(
+            progress >= last,
+            "progress went back from {last} to {progress}"
+        );
         last = progress;
         progress == 1.0
     });
@@ -761,7 +768,11 @@ fn an_armed_show_starts_after_the_approach_alone_and_plays_as_written() {
     let marks = rig.wire_marks();
     rig.states.clear();
     rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
-    assert_eq!(rig.player.status().armed, None, "a running show is not armed");
+    assert_eq!(
+        rig.player.status().armed,
+        None,
+        "a running show is not armed"
+    );
     rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
     let start = rig.wire_since(&marks);
     assert!(!start.contains("QP"), "rows were loaded again:\n{start}");
@@ -819,9 +830,13 @@ fn an_estop_or_a_disarm_drops_the_arming_and_a_stale_one_is_refused() {
     let mut rig = Rig::new(installation(1, 2, &[115_200]));
     arm_fully(&mut rig, &show);
     let links = rig.links();
-    let prepared =
-        super::player::prepare(&rig.installation, vec![entry(show.clone(), 0, 1)], false, &links)
-            .unwrap();
+    let prepared = super::player::prepare(
+        &rig.installation,
+        vec![entry(show.clone(), 0, 1)],
+        false,
+        &links,
+    )
+    .unwrap();
     let stale = rig.player.disarms();
     rig.player.disarm();
     assert_eq!(rig.player.status().armed, None);
@@ -849,5 +864,8 @@ fn a_start_of_another_show_loads_it_in_full() {
     rig.start(vec![entry(other.clone(), 0, 1)], false).unwrap();
     let worst = follow(&mut rig, &other);
     assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
-    assert!(rig.wire_since(&marks).contains("MP[0]"), "the table was cleared");
+    assert!(
+        rig.wire_since(&marks).contains("MP[0]"),
+        "the table was cleared"
+    );
 }

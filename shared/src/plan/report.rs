@@ -628,7 +628,11 @@ mod tests {
         );
 
         // At 115200 the same show preloads in 49 s: still long, and no rate is faster.
-        let fast = report(&show, &installation(10, 10, 115_200), PlanOptions::default());
+        let fast = report(
+            &show,
+            &installation(10, 10, 115_200),
+            PlanOptions::default(),
+        );
         assert_eq!(fast.preload_ms, 48_619);
         assert_eq!(fast.advice.len(), 1);
         assert_eq!(fast.advice[0].code, "preload_long_fastest");
@@ -668,7 +672,12 @@ mod tests {
             starved.gateways.iter().map(|g| g.preload_ms).max().unwrap()
         );
         // A show that cannot be planned loads nothing.
-        let refused = refused("x", PlanError::Invalid { violations: Vec::new() });
+        let refused = refused(
+            "x",
+            PlanError::Invalid {
+                violations: Vec::new(),
+            },
+        );
         assert_eq!((refused.preload_ms, refused.advice.len()), (0, 0));
         // MOONS' drives: no line figures, no preload modelled.
         let mut scl = installation(2, 3, 9600);
