@@ -440,10 +440,10 @@ codes! {
     QprogramSetting = "qprogram_setting" ["field", "must"];
     // ---- arm ----
     /// Advice: a gateway's preload is long at its rate; a faster rate shortens it
-    /// (`preload` and `faster_preload` spoken: `9.1 min`, `47 s`).
-    PreloadLong = "preload_long" ["gateway", "baud", "preload_bytes", "preload_s", "preload", "faster_baud", "faster_preload_s", "faster_preload"];
+    /// (seconds rounded up; `preload_min` with one decimal).
+    PreloadLong = "preload_long" ["gateway", "baud", "preload_bytes", "preload_s", "preload_min", "faster_baud", "faster_preload_s"];
     /// Advice: a gateway's preload is long even at the fastest rate.
-    PreloadLongFastest = "preload_long_fastest" ["gateway", "baud", "preload_bytes", "preload_s", "preload"];
+    PreloadLongFastest = "preload_long_fastest" ["gateway", "baud", "preload_bytes", "preload_s", "preload_min"];
 }
 
 #[cfg(test)]

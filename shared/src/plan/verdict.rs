@@ -356,15 +356,14 @@ pub enum Advice {
     },
 }
 
-/// A duration as an operator reads it: whole seconds up to 90 s (`47 s`), minutes with
-/// one decimal beyond (`9.1 min`).
-#[must_use]
-pub fn spoken_duration(ms: u64) -> String {
-    if ms <= 90_000 {
-        format!("{} s", ms.div_ceil(1000))
-    } else {
-        format!("{:.1} min", ms as f64 / 60_000.0)
-    }
+/// A preload in whole seconds (rounded up), as the advice says it.
+fn seconds(ms: u64) -> u64 {
+    ms.div_ceil(1000)
+}
+
+/// A preload in minutes with one decimal, as the advice says it beside the seconds.
+fn minutes(ms: u64) -> String {
+    format!("{:.1}", ms as f64 / 60_000.0)
 }
 
 impl fmt::Display for Advice {
@@ -379,12 +378,13 @@ impl fmt::Display for Advice {
                 faster_preload_ms,
             } => write!(
                 f,
-                "gateway {gateway} preloads {preload_bytes} bytes in {} at {baud} baud before \
-                 the show can start; at {faster_baud} baud it takes {} (change the line \
-                 speed: BDR={faster_baud}; on the gateway, then `baud = {faster_baud}` in \
-                 floatball.toml)",
-                spoken_duration(*preload_ms),
-                spoken_duration(*faster_preload_ms)
+                "gateway {gateway} preloads {preload_bytes} bytes in {} s ({} min) at {baud} \
+                 baud before the show can start; at {faster_baud} baud it takes {} s (change \
+                 the line speed: BDR={faster_baud}; on the gateway, then `baud = \
+                 {faster_baud}` in floatball.toml)",
+                seconds(*preload_ms),
+                minutes(*preload_ms),
+                seconds(*faster_preload_ms)
             ),
             Self::LongPreloadFastest {
                 gateway,
@@ -393,10 +393,11 @@ impl fmt::Display for Advice {
                 preload_ms,
             } => write!(
                 f,
-                "gateway {gateway} preloads {preload_bytes} bytes in {} at {baud} baud before \
-                 the show can start, even at the fastest rate; as the playlist's first entry \
-                 it is loaded while the matrix is idle",
-                spoken_duration(*preload_ms)
+                "gateway {gateway} preloads {preload_bytes} bytes in {} s ({} min) at {baud} \
+                 baud before the show can start, even at the fastest rate; as the playlist's \
+                 first entry it is loaded while the matrix is idle",
+                seconds(*preload_ms),
+                minutes(*preload_ms)
             ),
         }
     }
@@ -410,8 +411,8 @@ impl Coded for Advice {
         }
     }
 
-    /// The times as the English says them (`preload`, `faster_preload`: `47 s`,
-    /// `9.1 min`) and as plain seconds (`preload_s`, `faster_preload_s`).
+    /// The times as the English says them: whole seconds rounded up (`preload_s`,
+    /// `faster_preload_s`) and minutes with one decimal (`preload_min`).
     fn params(&self) -> Params {
         match self {
             Self::LongPreload {
@@ -425,11 +426,10 @@ impl Coded for Advice {
                 "gateway" => gateway,
                 "baud" => baud,
                 "preload_bytes" => preload_bytes,
-                "preload_s" => preload_ms.div_ceil(1000),
-                "preload" => spoken_duration(*preload_ms),
+                "preload_s" => seconds(*preload_ms),
+                "preload_min" => minutes(*preload_ms),
                 "faster_baud" => faster_baud,
-                "faster_preload_s" => faster_preload_ms.div_ceil(1000),
-                "faster_preload" => spoken_duration(*faster_preload_ms),
+                "faster_preload_s" => seconds(*faster_preload_ms),
             },
             Self::LongPreloadFastest {
                 gateway,
@@ -440,8 +440,8 @@ impl Coded for Advice {
                 "gateway" => gateway,
                 "baud" => baud,
                 "preload_bytes" => preload_bytes,
-                "preload_s" => preload_ms.div_ceil(1000),
-                "preload" => spoken_duration(*preload_ms),
+                "preload_s" => seconds(*preload_ms),
+                "preload_min" => minutes(*preload_ms),
             },
         }
     }
