@@ -47,6 +47,8 @@
 //! - [`install`]: a new installation (`PUT /api/installation`, a gateway's line
 //!   speed) checked, saved into `floatball.toml` (`config/edit.rs`) and applied while
 //!   idle, without a restart.
+//! - [`arming`]: while idle, the playlist's first entry loaded ahead of Start, and the
+//!   one `disarm` entry point.
 //! - [`http`]: the HTTP API under `/api`.
 //! - [`origin`]: which browser origins may call the API (CORS) and open the WebSocket;
 //!   the configuration's `allowed_origins` are normalised by it when checked.
@@ -59,6 +61,7 @@
     deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
 )]
 
+pub mod arming;
 pub mod auth;
 pub mod cli;
 pub mod config;

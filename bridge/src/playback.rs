@@ -25,12 +25,19 @@
 //! matrix's limits change there). The task takes it only while the player is idle (a
 //! new player, the new links, their feedback relayed) and refuses it otherwise.
 //! The handle's installation and links are a snapshot the task's acceptance replaces.
+//! **Arming** (UIM2503 gateways): while the matrix is idle, [`crate::arming`] hands
+//! the task the playlist prepared as Start would prepare it ([`Playback::arm`]); the
+//! player loads the first entry's tables without moving anything and the status says
+//! `armed`. [`Playback::disarm`] drops it (a console line, a new playlist or
+//! installation, a commissioning command) and keeps arming away for [`ARM_QUIET`]; the
+//! e-stop, Reset, Home and a lost link drop it in the player.
 //!
 //! **A stalled link is a fault.** While a playlist runs, a link that has bytes queued
 //! and writes nothing for [`stall_limit`] stops the show on every gateway and sets the
 //! state `error`, naming the gateway.
 
-use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::{GatewayKind, GatewayStatus, Status};
@@ -80,6 +87,15 @@ enum Request {
     /// A new installation, taken only while idle ([`Playback::reconfigure`]); boxed:
     /// it is much larger than the other requests.
     Reconfigure(Box<Reconfigure>),
+    /// Arm the first entry of a playlist prepared while the matrix was idle, at the
+    /// player's disarm count `disarms` and e-stop `generation`.
+    Arm {
+        generation: u64,
+        disarms: u64,
+        prepared: Box<Prepared>,
+    },
+    /// Drop what is armed.
+    Disarm,
 }
 
 /// A new installation for the player, with its links (UIM2503) or its boxes'
@@ -122,6 +138,8 @@ impl std::fmt::Debug for Request {
             Request::Play { .. } => "Start (MBOX or SCL)",
             Request::Estop => "Estop",
             Request::Reconfigure(_) => "Reconfigure",
+            Request::Arm { .. } => "Arm",
+            Request::Disarm => "Disarm",
         })
     }
 }
@@ -139,6 +157,30 @@ pub struct Playback {
     boxes: Option<MboxNet>,
     /// The MOONS' drives, when the installation's gateways are SCL gateway entries.
     scl: Option<SclNet>,
+    /// Arming's side: the player's disarm count and the quiet time.
+    arming: Arc<ArmingShared>,
+}
+
+/// How long after [`Playback::disarm`] nothing is armed: a console session or a
+/// commissioning walk of several steps is not interleaved with loading tables.
+pub const ARM_QUIET: Duration = Duration::from_secs(3);
+
+/// What the handles and the playback task share about arming.
+#[derive(Debug)]
+struct ArmingShared {
+    /// The player's disarm count, as the task last saw it.
+    disarms: AtomicU64,
+    /// No arming before this.
+    quiet_until: Mutex<Instant>,
+}
+
+impl Default for ArmingShared {
+    fn default() -> Self {
+        Self {
+            disarms: AtomicU64::new(0),
+            quiet_until: Mutex::new(Instant::now() + ARM_QUIET),
+        }
+    }
 }
 
 /// The installation the player runs and its links.
@@ -173,14 +215,15 @@ impl Playback {
         });
         let (requests, inbox) = mpsc::unbounded_channel();
         let (status_tx, status) = watch::channel(status_of(&player, &links));
+        let started = Self::started(requests, status, installation, latch);
         tokio::spawn(run(
             player,
             Arc::clone(&links),
-            Arc::clone(&latch),
+            Arc::clone(&started.latch),
             inbox,
             status_tx,
+            Arc::clone(&started.arming),
         ));
-        let started = Self::started(requests, status, installation, latch);
         started.set_live(None, Some(links));
         started
     }
@@ -203,6 +246,7 @@ impl Playback {
             latch,
             boxes: None,
             scl: None,
+            arming: Arc::new(ArmingShared::default()),
         }
     }
 
@@ -602,6 +646,100 @@ fn reconfigure_scl(
     let _ = change.reply.send(result);
 }
 
+// ---- arm ----
+
+impl Playback {
+    /// Whether this installation arms shows while idle (UIM2503 gateways; MBOX boxes
+    /// take positions frame by frame, MOONS' drives load their programs at Start).
+    pub fn arms(&self) -> bool {
+        self.boxes.is_none() && self.scl.is_none() && !self.live().links.is_empty()
+    }
+
+    /// The player's disarm count as last published: an arming prepared at this count
+    /// is accepted only if no disarm came since.
+    pub fn disarms(&self) -> u64 {
+        self.arming.disarms.load(Ordering::Acquire)
+    }
+
+    /// Whether the quiet time after the last [`Playback::disarm`] is over.
+    pub fn arming_allowed(&self) -> bool {
+        Instant::now()
+            >= *self
+                .arming
+                .quiet_until
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Drops what is armed (or being armed): the next Start loads every table again,
+    /// and nothing is armed for [`ARM_QUIET`]. Call it before anything that could change
+    /// what the units hold or what the first entry is: a console line to a gateway, a
+    /// new playlist, a changed show of the playlist, a new installation, a
+    /// commissioning command. Takes no lock the task holds and waits for nothing.
+    pub fn disarm(&self) {
+        *self
+            .arming
+            .quiet_until
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner) = Instant::now() + ARM_QUIET;
+        let _ = self.requests.send(Request::Disarm);
+    }
+
+    /// Arms the first entry of the playlist `entries` (prepared as Start would prepare
+    /// it, on a blocking thread) if the player is still idle and nothing disarmed it
+    /// since `disarms` ([`Playback::disarms`] read before the playlist was). Returns
+    /// whether the request went to the player; a playlist Start would refuse is not
+    /// armed.
+    pub async fn arm(&self, entries: Vec<Entry>, loop_playlist: bool, disarms: u64) -> bool {
+        if !self.arms() {
+            return false;
+        }
+        let generation = self.latch.generation();
+        let Ok(Ok(prepared)) = self.prepare(entries, loop_playlist).await else {
+            return false;
+        };
+        self.requests
+            .send(Request::Arm {
+                generation,
+                disarms,
+                prepared: Box::new(prepared),
+            })
+            .is_ok()
+    }
+}
+
+/// Carries out an arming request on the idle player: arms only with no e-stop in force
+/// or since it was issued, and `run_generation` (what the player's batches are tagged
+/// with) current. Returns the request back when it is not about arming.
+fn handle_arming(
+    player: &mut Player,
+    latch: &Latch,
+    request: Request,
+    run_generation: u64,
+    views: &[LinkView],
+) -> Option<Request> {
+    match request {
+        Request::Arm {
+            generation,
+            disarms,
+            prepared,
+        } => {
+            if generation == latch.generation()
+                && generation == run_generation
+                && !latch.is_latched()
+            {
+                player.arm(*prepared, disarms, views);
+            }
+            None
+        }
+        Request::Disarm => {
+            player.disarm();
+            None
+        }
+        other => Some(other),
+    }
+}
+
 /// How long a link may hold queued bytes without writing any while a show runs
 /// before it counts as stalled: ten of the longest instructions on its line, and never
 /// less than half a second (threads are not scheduled to the millisecond).
@@ -809,7 +947,7 @@ fn handle(
         Request::Play {
             generation, reply, ..
         } => (generation, reply, Err(StartError::Busy)),
-        Request::Estop => return None,
+        Request::Estop | Request::Arm { .. } | Request::Disarm => return None,
         Request::Reconfigure(change) => {
             refuse_reconfigure(change);
             return None;
@@ -823,6 +961,7 @@ async fn run(
     latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
     status: watch::Sender<Status>,
+    arming: Arc<ArmingShared>,
 ) {
     let epoch = Instant::now();
     let now_us = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
@@ -865,6 +1004,15 @@ async fn run(
             request = None;
         }
         let now = now_us();
+        let request = request.and_then(|request| {
+            handle_arming(
+                &mut player,
+                &latch,
+                request,
+                run_generation,
+                &link_views(&links),
+            )
+        });
         if let Some(request) = request
             && let Some((generation, reply, result)) =
                 handle(&mut player, &latch, request, now, &link_views(&links))
@@ -883,6 +1031,7 @@ async fn run(
             // A stop the player asked for is not news to it (it failed, and stays so).
             seen_generation = latch.generation();
         }
+        arming.disarms.store(player.disarms(), Ordering::Release);
         publish(&status, status_of(&player, &links));
     }
 }
@@ -956,7 +1105,7 @@ fn handle_mbox(
         | Request::Reset {
             generation, reply, ..
         } => (generation, reply, Err(StartError::Busy)),
-        Request::Estop => return None,
+        Request::Estop | Request::Arm { .. } | Request::Disarm => return None,
         Request::Reconfigure(change) => {
             refuse_reconfigure(change);
             return None;
@@ -1270,7 +1419,7 @@ async fn run_scl(
                 | Request::Reset {
                     generation, reply, ..
                 } => (generation, reply, Err(StartError::Busy)),
-                Request::Estop => {
+                Request::Estop | Request::Arm { .. } | Request::Disarm => {
                     publish(&status, state.status(&drives));
                     continue;
                 }

@@ -149,7 +149,8 @@ pub fn is_hashed_asset(path: &str) -> bool {
             .all(|byte| byte.is_ascii_digit() || (b'a'..=b'f').contains(&byte))
 }
 
-/// Serves on `listener` until `shutdown` completes; then open WebSockets are closed
+/// Serves on `listener` until `shutdown` completes (and arms the playlist's first
+/// entry while the matrix is idle: [`crate::arming`]); then open WebSockets are closed
 /// and requests under way finish. Handlers see each client's address (for the login
 /// limit).
 ///
@@ -161,6 +162,7 @@ pub async fn run(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
     let stopping = state.clone();
+    crate::arming::spawn(state.clone());
     axum::serve(
         listener,
         router(state).into_make_service_with_connect_info::<SocketAddr>(),

@@ -545,6 +545,8 @@ fn answer(
                     ));
                 }
             };
+            // The line may change what the units hold: nothing stays armed.
+            crate::arming::disarm(state);
             match console_lines.try_send((gateway, batch, generation)) {
                 Ok(()) => None,
                 Err(_) => Some(error(

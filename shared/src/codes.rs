@@ -460,6 +460,12 @@ codes! {
     BaudNotAnswering = "baud_not_answering" ["gateway", "baud", "from_baud", "waited_ms"];
     /// The serial port refused the new speed (`reason` in English).
     BaudPortRefused = "baud_port_refused" ["gateway", "baud", "reason"];
+    // ---- arm ----
+    /// Advice: a gateway's preload is long at its rate; a faster rate shortens it
+    /// (seconds rounded up; `preload_min` with one decimal).
+    PreloadLong = "preload_long" ["gateway", "baud", "preload_bytes", "preload_s", "preload_min", "faster_baud", "faster_preload_s"];
+    /// Advice: a gateway's preload is long even at the fastest rate.
+    PreloadLongFastest = "preload_long_fastest" ["gateway", "baud", "preload_bytes", "preload_s", "preload_min"];
 }
 
 #[cfg(test)]

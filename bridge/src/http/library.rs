@@ -211,6 +211,10 @@ pub async fn put_show(
         .await?
         .map_err(store_failure)?;
     tracing::info!("stored show \"{}\" ({} bytes)", summary.name, summary.bytes);
+    if state.playlist().uses(&summary.name) {
+        // A show of the playlist changed: what was armed may be another show now.
+        crate::arming::disarm(&state);
+    }
     let status = if created {
         StatusCode::CREATED
     } else {
@@ -284,6 +288,9 @@ pub async fn put_playlist(
     blocking(move || storing.playlist().put(stored))
         .await?
         .map_err(|error| Failure::internal("cannot store the playlist", &error))?;
+    // The first entry (or how the playlist is planned) may have changed: re-armed
+    // after the quiet time.
+    crate::arming::disarm(&state);
     Ok(Json(new))
 }
 

@@ -398,6 +398,8 @@ fn the_report_says_a_valid_show_can_run_however_long_it_is() {
     assert!(verdict.feasible, "{:?}", verdict.reason);
     assert_eq!(verdict.reason, None);
     assert!(verdict.gateways.is_empty(), "{:?}", verdict.gateways);
+    // Nothing is preloaded: frames carry positions as the show plays.
+    assert_eq!((verdict.preload_ms, verdict.advice.len()), (0, 0));
 
     let wrong_size = demo::wave(1, 3, 10, 100);
     let verdict = report::report(&wrong_size, &installation, PlanOptions::default());

@@ -686,3 +686,186 @@ fn the_wire_carries_exactly_the_golden_stream_for_a_playlist() {
         &wire[1],
     );
 }
+
+// ---- arm ----
+
+impl Rig {
+    /// Arms `entries` as the bridge does while idle: prepared as Start would prepare
+    /// them, at the player's current disarm count.
+    fn arm(&mut self, entries: Vec<Entry>, loop_playlist: bool) -> bool {
+        let links = self.links();
+        let prepared =
+            super::player::prepare(&self.installation, entries, loop_playlist, &links).unwrap();
+        let disarms = self.player.disarms();
+        let armed = self.player.arm(prepared, disarms, &links);
+        self.carry_out();
+        armed
+    }
+
+    fn armed_progress(&self) -> Option<f64> {
+        self.player.armed().map(|armed| armed.progress)
+    }
+
+    /// Every instruction written to every gateway since `from` (per gateway, an index
+    /// into its wire), as text.
+    fn wire_since(&self, from: &[usize]) -> String {
+        self.lines
+            .iter()
+            .zip(from)
+            .flat_map(|(line, &from)| &line.wire[from..])
+            .map(|(_, bytes)| format!("{}\n", bytes.escape_ascii()))
+            .collect()
+    }
+
+    fn wire_marks(&self) -> Vec<usize> {
+        self.lines.iter().map(|line| line.wire.len()).collect()
+    }
+}
+
+/// Arms `show` on an idle rig until it is armed, checking that nothing moves and that
+/// only the table is written; returns the wire as it was before arming.
+fn arm_fully(rig: &mut Rig, show: &Show) -> Vec<usize> {
+    let before = rig.wire_marks();
+    let positions = rig.positions_mm();
+    assert!(rig.arm(vec![entry(show.clone(), 0, 1)], false));
+    let armed = rig
+        .player
+        .status()
+        .armed
+        .expect("arming shows in the status");
+    assert_eq!((armed.entry, armed.show.as_str()), (0, show.name.as_str()));
+    let mut last = 0.0;
+    rig.run_until(60_000_000, |rig| {
+        let progress = rig.armed_progress().expect("still arming");
+        assert!(
+            progress >= last,
+            "progress went back from {last} to {progress}"
+        );
+        last = progress;
+        progress == 1.0
+    });
+    assert_eq!(rig.state(), PlayerState::Idle);
+    assert!(!rig.anyone_moving());
+    assert_eq!(rig.positions_mm(), positions, "nothing moved while arming");
+    let written = rig.wire_since(&before);
+    assert!(written.contains("QP"), "{written}");
+    for forbidden in ["MO", "PA", "PV", "BG", "SP"] {
+        assert!(
+            !written.contains(forbidden),
+            "arming wrote {forbidden}:\n{written}"
+        );
+    }
+    before
+}
+
+#[test]
+fn an_armed_show_starts_after_the_approach_alone_and_plays_as_written() {
+    // 120 rows of 200 ms: the single-sequence table.
+    let show = wave(2, 3, 120, 200);
+    let mut rig = Rig::new(installation(2, 3, &[9600]));
+    arm_fully(&mut rig, &show);
+    // A Start of the same playlist takes the tables over: no row is sent again.
+    let marks = rig.wire_marks();
+    rig.states.clear();
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    assert_eq!(
+        rig.player.status().armed,
+        None,
+        "a running show is not armed"
+    );
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    let start = rig.wire_since(&marks);
+    assert!(!start.contains("QP"), "rows were loaded again:\n{start}");
+    assert!(start.contains("PV"), "{start}");
+    // The load phase only arms and confirms: a few bytes, not the show's table.
+    let loading_us: u64 = rig
+        .states
+        .windows(2)
+        .filter(|pair| pair[0].1 == PlayerState::Loading)
+        .map(|pair| pair[1].0 - pair[0].0)
+        .sum();
+    assert!(loading_us < 200_000, "loading took {loading_us} µs");
+    let start_us = rig.now_us;
+    let worst = compare_from(&mut rig, &show, start_us);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+}
+
+#[test]
+fn a_streamed_show_armed_or_half_armed_plays_as_written() {
+    // 600 rows: more than the table holds, streamed (FIFO) after its preload.
+    let show = wave(1, 2, 600, 200);
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    arm_fully(&mut rig, &show);
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &show);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+
+    // A Start while arming is under way takes over from where it got.
+    let mut rig = Rig::new(installation(1, 2, &[9600]));
+    assert!(rig.arm(vec![entry(show.clone(), 0, 1)], false));
+    rig.run_until(10_000_000, |rig| {
+        rig.armed_progress().is_some_and(|progress| progress > 0.3)
+    });
+    let progress = rig.armed_progress().unwrap();
+    assert!(progress < 1.0, "{progress}");
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &show);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+}
+
+#[test]
+fn an_estop_or_a_disarm_drops_the_arming_and_a_stale_one_is_refused() {
+    let show = wave(1, 2, 60, 200);
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    arm_fully(&mut rig, &show);
+    rig.estop();
+    assert_eq!(rig.player.status().armed, None);
+    // Stopped is not idle: nothing is armed until the matrix is idle again.
+    assert!(!rig.arm(vec![entry(show.clone(), 0, 1)], false));
+
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    arm_fully(&mut rig, &show);
+    let links = rig.links();
+    let prepared = super::player::prepare(
+        &rig.installation,
+        vec![entry(show.clone(), 0, 1)],
+        false,
+        &links,
+    )
+    .unwrap();
+    let stale = rig.player.disarms();
+    rig.player.disarm();
+    assert_eq!(rig.player.status().armed, None);
+    assert!(
+        !rig.player.arm(prepared, stale, &links),
+        "prepared before the disarm"
+    );
+    // A lost link drops it too.
+    assert!(rig.arm(vec![entry(show.clone(), 0, 1)], false));
+    let mut links = rig.links();
+    links[0].up = false;
+    rig.player.poll(rig.now_us, &links);
+    assert_eq!(rig.player.status().armed, None);
+    assert_eq!(rig.state(), PlayerState::Idle);
+}
+
+#[test]
+fn a_start_of_another_show_loads_it_in_full() {
+    let armed = wave(1, 2, 60, 200);
+    let mut other = wave(1, 2, 80, 200);
+    other.name = "other".into();
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    arm_fully(&mut rig, &armed);
+    let marks = rig.wire_marks();
+    rig.start(vec![entry(other.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &other);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+    assert!(
+        rig.wire_since(&marks).contains("MP[0]"),
+        "the table was cleared"
+    );
+}

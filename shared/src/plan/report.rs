@@ -1,10 +1,16 @@
 //! The bandwidth / feasibility report (`GET /api/plan/{name}`): for each gateway the
 //! bytes per row, the preload and how long it takes, the streaming rate needed against
 //! what the line carries and the lowest water level reached on paper; a verdict, and
-//! when a show cannot run, why and what would make it run.
+//! when a show cannot run, why and what would make it run; when it runs but its
+//! preload is long, the advice ([`preload_advice`]).
+//!
+//! `preload_ms` is the slowest gateway's preload. A show that cannot be planned, and
+//! installations no serial line feeds (MBOX boxes take positions frame by frame;
+//! MOONS' drives play Q programs, whose upload this report does not model), have no
+//! gateway figures, and their `preload_ms` is 0.
 
 use super::schedule::{self, Simulation};
-use super::verdict::{Fix, Why, verdict_report};
+use super::verdict::{Advice, Fix, LONG_PRELOAD_MS, Why, advise, verdict_report};
 use super::{Installation, Plan, PlanError, PlanOptions, RunMode};
 use crate::api::{GatewayPlan, PlanReport};
 use crate::line::Line;
@@ -80,7 +86,59 @@ pub fn refused(show: &str, error: PlanError) -> PlanReport {
 /// The report for a plan.
 pub fn report_for(plan: &Plan, installation: &Installation) -> PlanReport {
     let (gateways, why, fixes) = line_verdict(plan, installation);
-    verdict_report(plan.show.clone(), why.as_ref(), &fixes, gateways)
+    let advice = if why.is_none() {
+        preload_advice(plan, &gateways)
+    } else {
+        Vec::new()
+    };
+    let mut report = verdict_report(plan.show.clone(), why.as_ref(), &fixes, gateways);
+    advise(&mut report, &advice);
+    report
+}
+
+/// The advice for a plan that runs: for each gateway whose preload takes longer than
+/// [`LONG_PRELOAD_MS`], the slowest faster rate that brings it within (the fastest when
+/// none does) and its preload there, or, at the fastest rate already, that it stays
+/// long. `gateways` are [`line_verdict`]'s figures, in the plan's run order.
+pub fn preload_advice(plan: &Plan, gateways: &[GatewayPlan]) -> Vec<Advice> {
+    let mut advice = Vec::new();
+    for (index, (run, figures)) in plan.gateways.iter().zip(gateways).enumerate() {
+        if figures.preload_ms <= LONG_PRELOAD_MS {
+            continue;
+        }
+        let baud = run.line.baud();
+        let faster: Vec<(u32, u64)> = GATEWAY_BAUDS
+            .iter()
+            .copied()
+            .filter(|&faster| faster > baud)
+            .map(|faster| {
+                let simulation = schedule::choose_preload(plan, index, Line::new(faster));
+                (faster, simulation.preload_ms.ceil() as u64)
+            })
+            .collect();
+        let chosen = faster
+            .iter()
+            .find(|(_, preload_ms)| *preload_ms <= LONG_PRELOAD_MS)
+            .or_else(|| faster.last())
+            .copied();
+        advice.push(match chosen {
+            Some((faster_baud, faster_preload_ms)) => Advice::LongPreload {
+                gateway: figures.port.clone(),
+                baud: figures.baud,
+                preload_bytes: figures.preload_bytes,
+                preload_ms: figures.preload_ms,
+                faster_baud,
+                faster_preload_ms,
+            },
+            None => Advice::LongPreloadFastest {
+                gateway: figures.port.clone(),
+                baud: figures.baud,
+                preload_bytes: figures.preload_bytes,
+                preload_ms: figures.preload_ms,
+            },
+        });
+    }
+    advice
 }
 
 /// A plan's figures for each gateway, why its lines cannot carry it (none: they can)
@@ -511,5 +569,121 @@ mod tests {
         assert_eq!(report.fix_problems.len(), report.fixes.len());
         assert_eq!(report.fix_problems[0].code, "above_top");
         assert_eq!(report.fix_problems[0].params["unit"], "u1");
+    }
+
+    // ---- arm ----
+
+    /// The issue's story: a 20 s wave (200 rows of 100 ms) on 10 × 10 units behind one
+    /// gateway at the factory 9600 baud. The issue quotes 517,119 bytes in 9.1 min and
+    /// 47 s at 115200; this planner sends 532,083 bytes (configuration, the whole
+    /// single-sequence table, arming), 583.4 s at 9600 on its derated line (95 %) and
+    /// 48.6 s at 115200.
+    #[test]
+    fn a_long_preload_is_stated_with_the_faster_rate_that_shortens_it() {
+        use crate::codes::Coded;
+        use crate::plan::verdict::Advice;
+        let show = wave(10, 10, 200, 100);
+        let slow = report(&show, &installation(10, 10, 9600), PlanOptions::default());
+        assert!(slow.feasible, "{slow:?}");
+        assert_eq!(slow.gateways.len(), 1);
+        assert_eq!(slow.gateways[0].preload_bytes, 532_083);
+        assert_eq!(slow.preload_ms, 583_425);
+        assert_eq!(slow.preload_ms, slow.gateways[0].preload_ms);
+        assert_eq!(slow.advice.len(), 1, "{:?}", slow.advice);
+        let advice = &slow.advice[0];
+        assert_eq!(advice.code, "preload_long");
+        for (name, value) in [
+            ("gateway", "sim"),
+            ("baud", "9600"),
+            ("preload_bytes", "532083"),
+            ("preload_s", "584"),
+            ("preload_min", "9.7"),
+            // No rate brings it within 30 s: the fastest is named.
+            ("faster_baud", "115200"),
+            ("faster_preload_s", "49"),
+        ] {
+            assert_eq!(advice.params[name], value, "{name}");
+        }
+        let code = crate::codes::Code::parse(&advice.code).unwrap();
+        for name in code.params() {
+            assert!(advice.params.contains_key(*name), "{name}");
+        }
+        let english = Advice::LongPreload {
+            gateway: "sim".into(),
+            baud: 9600,
+            preload_bytes: 532_083,
+            preload_ms: 583_425,
+            faster_baud: 115_200,
+            faster_preload_ms: 48_619,
+        };
+        assert_eq!(crate::api::Problem::of(&english), *advice);
+        assert_eq!(english.code().as_str(), "preload_long");
+        assert!(
+            english.to_string().starts_with(
+                "gateway sim preloads 532083 bytes in 584 s (9.7 min) at 9600 baud before \
+                 the show can start; at 115200 baud it takes 49 s"
+            ),
+            "{english}"
+        );
+
+        // At 115200 the same show preloads in 49 s: still long, and no rate is faster.
+        let fast = report(
+            &show,
+            &installation(10, 10, 115_200),
+            PlanOptions::default(),
+        );
+        assert_eq!(fast.preload_ms, 48_619);
+        assert_eq!(fast.advice.len(), 1);
+        assert_eq!(fast.advice[0].code, "preload_long_fastest");
+        assert_eq!(fast.advice[0].params["preload_s"], "49");
+
+        // A rate that brings it within 30 s is named rather than the fastest.
+        let half = wave(5, 10, 100, 200);
+        let smaller = report(&half, &installation(5, 10, 9600), PlanOptions::default());
+        assert!(smaller.preload_ms > 30_000, "{}", smaller.preload_ms);
+        let advice = &smaller.advice[0];
+        assert_eq!(advice.code, "preload_long");
+        let faster_s: u64 = advice.params["faster_preload_s"].parse().unwrap();
+        assert!(faster_s <= 30, "{faster_s}");
+        assert!(advice.params["faster_baud"] != "115200", "{advice:?}");
+    }
+
+    #[test]
+    fn short_preloads_refusals_and_other_families_get_no_advice() {
+        let short = report(
+            &wave(2, 3, 50, 200),
+            &installation(2, 3, 115_200),
+            PlanOptions::default(),
+        );
+        assert!(short.feasible);
+        assert!(short.preload_ms > 0 && short.preload_ms <= 30_000);
+        assert!(short.advice.is_empty(), "{:?}", short.advice);
+        // An infeasible show gets fixes, not advice, and still states its preload.
+        let starved = report(
+            &wave(10, 10, 600, 250),
+            &installation(10, 10, 9600),
+            PlanOptions::default(),
+        );
+        assert!(!starved.feasible);
+        assert!(starved.advice.is_empty());
+        assert_eq!(
+            starved.preload_ms,
+            starved.gateways.iter().map(|g| g.preload_ms).max().unwrap()
+        );
+        // A show that cannot be planned loads nothing.
+        let refused = refused(
+            "x",
+            PlanError::Invalid {
+                violations: Vec::new(),
+            },
+        );
+        assert_eq!((refused.preload_ms, refused.advice.len()), (0, 0));
+        // MOONS' drives: no line figures, no preload modelled.
+        let mut scl = installation(2, 3, 9600);
+        for gateway in &mut scl.gateways {
+            gateway.kind = crate::plan::DriveKind::Scl;
+        }
+        let drives = report(&wave(2, 3, 50, 200), &scl, PlanOptions::default());
+        assert_eq!((drives.preload_ms, drives.advice.len()), (0, 0));
     }
 }

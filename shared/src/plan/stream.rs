@@ -149,9 +149,21 @@ pub fn arm_and_confirm(barrier_station: u8) -> Batch {
 /// cleared table, the sequence range (single and loop), the stop deceleration, and the
 /// watermark notice (FIFO).
 pub fn configure(plan: &Plan, run: &GatewayRun) -> Batch {
+    configure_with(plan, run, true)
+}
+
+/// [`configure`] without the motor on (`MO=1`): the table only, for arming a show
+/// while the matrix is idle (the approach turns the motors on before the start).
+pub fn configure_table(plan: &Plan, run: &GatewayRun) -> Batch {
+    configure_with(plan, run, false)
+}
+
+fn configure_with(plan: &Plan, run: &GatewayRun, motor_on: bool) -> Batch {
     let mut batch = Batch::new();
     select(&mut batch, 0);
-    push(&mut batch, Instruction::Motor { on: Some(true) });
+    if motor_on {
+        push(&mut batch, Instruction::Motor { on: Some(true) });
+    }
     mp(&mut batch, MpParam::Mode, run.mode.mp3());
     mp(&mut batch, MpParam::Clear, 1);
     push(
@@ -189,6 +201,15 @@ pub fn configure(plan: &Plan, run: &GatewayRun) -> Batch {
             }
         }
     }
+    batch
+}
+
+/// Every unit of the gateway's motor on (`*0;MO=1;`): before the start of tables that
+/// were loaded while the matrix was idle ([`configure_table`]).
+pub fn motor_on() -> Batch {
+    let mut batch = Batch::new();
+    select(&mut batch, 0);
+    push(&mut batch, Instruction::Motor { on: Some(true) });
     batch
 }
 

@@ -4,6 +4,9 @@
 //! its code with parameters ([`Coded`], the report's `reason_problem` and
 //! `fix_problems` the app renders in the operator's language), so the two cannot
 //! drift. [`verdict_report`] and [`refuse`] fill both from one value.
+//!
+//! A show that runs may still get [`Advice`] (the report's `advice`): a preload longer
+//! than [`LONG_PRELOAD_MS`], and the gateway rate that shortens it ([`advise`]).
 
 use std::fmt;
 
@@ -314,6 +317,140 @@ impl Coded for Fix {
             },
         }
     }
+}
+
+/// A preload longer than this is worth advice, ms: past half a minute an operator
+/// waits for the show in `loading` (unless it was armed while the matrix was idle).
+pub const LONG_PRELOAD_MS: u64 = 30_000;
+
+/// Advice for a show that runs but could start sooner.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Advice {
+    /// A gateway's preload takes longer than [`LONG_PRELOAD_MS`] at its rate, and a
+    /// faster rate shortens it.
+    LongPreload {
+        /// The gateway's port.
+        gateway: String,
+        /// Its baud rate.
+        baud: u32,
+        /// The bytes it sends before the start.
+        preload_bytes: u64,
+        /// How long they take at `baud`, ms.
+        preload_ms: u64,
+        /// The slowest rate that brings the preload within [`LONG_PRELOAD_MS`], or the
+        /// fastest rate when none does.
+        faster_baud: u32,
+        /// The preload at `faster_baud`, ms.
+        faster_preload_ms: u64,
+    },
+    /// A gateway's preload takes longer than [`LONG_PRELOAD_MS`] at the fastest rate.
+    LongPreloadFastest {
+        /// The gateway's port.
+        gateway: String,
+        /// Its baud rate (the fastest).
+        baud: u32,
+        /// The bytes it sends before the start.
+        preload_bytes: u64,
+        /// How long they take, ms.
+        preload_ms: u64,
+    },
+}
+
+/// A preload in whole seconds (rounded up), as the advice says it.
+fn seconds(ms: u64) -> u64 {
+    ms.div_ceil(1000)
+}
+
+/// A preload in minutes with one decimal, as the advice says it beside the seconds.
+fn minutes(ms: u64) -> String {
+    format!("{:.1}", ms as f64 / 60_000.0)
+}
+
+impl fmt::Display for Advice {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::LongPreload {
+                gateway,
+                baud,
+                preload_bytes,
+                preload_ms,
+                faster_baud,
+                faster_preload_ms,
+            } => write!(
+                f,
+                "gateway {gateway} preloads {preload_bytes} bytes in {} s ({} min) at {baud} \
+                 baud before the show can start; at {faster_baud} baud it takes {} s (change \
+                 the line speed: BDR={faster_baud}; on the gateway, then `baud = \
+                 {faster_baud}` in floatball.toml)",
+                seconds(*preload_ms),
+                minutes(*preload_ms),
+                seconds(*faster_preload_ms)
+            ),
+            Self::LongPreloadFastest {
+                gateway,
+                baud,
+                preload_bytes,
+                preload_ms,
+            } => write!(
+                f,
+                "gateway {gateway} preloads {preload_bytes} bytes in {} s ({} min) at {baud} \
+                 baud before the show can start, even at the fastest rate; as the playlist's \
+                 first entry it is loaded while the matrix is idle",
+                seconds(*preload_ms),
+                minutes(*preload_ms)
+            ),
+        }
+    }
+}
+
+impl Coded for Advice {
+    fn code(&self) -> Code {
+        match self {
+            Self::LongPreload { .. } => Code::PreloadLong,
+            Self::LongPreloadFastest { .. } => Code::PreloadLongFastest,
+        }
+    }
+
+    /// The times as the English says them: whole seconds rounded up (`preload_s`,
+    /// `faster_preload_s`) and minutes with one decimal (`preload_min`).
+    fn params(&self) -> Params {
+        match self {
+            Self::LongPreload {
+                gateway,
+                baud,
+                preload_bytes,
+                preload_ms,
+                faster_baud,
+                faster_preload_ms,
+            } => params! {
+                "gateway" => gateway,
+                "baud" => baud,
+                "preload_bytes" => preload_bytes,
+                "preload_s" => seconds(*preload_ms),
+                "preload_min" => minutes(*preload_ms),
+                "faster_baud" => faster_baud,
+                "faster_preload_s" => seconds(*faster_preload_ms),
+            },
+            Self::LongPreloadFastest {
+                gateway,
+                baud,
+                preload_bytes,
+                preload_ms,
+            } => params! {
+                "gateway" => gateway,
+                "baud" => baud,
+                "preload_bytes" => preload_bytes,
+                "preload_s" => seconds(*preload_ms),
+                "preload_min" => minutes(*preload_ms),
+            },
+        }
+    }
+}
+
+/// Adds `advice` to `report`'s advice, as codes (the English is each code's
+/// translation; [`Advice`]'s `Display` is the same sentence for logs and tests).
+pub fn advise(report: &mut PlanReport, advice: &[Advice]) {
+    report.advice.extend(advice.iter().map(Problem::of));
 }
 
 /// A report with `why` (none: feasible) and `fixes`, each in English and as codes.

@@ -874,5 +874,15 @@ pub(super) const ERROR_TEXTS: &[(Code, &str, &str)] = &[
         Code::BaudPortRefused,
         "网关 {gateway} 的串口无法以 {baud} 波特运行：{reason}",
         "The port of gateway {gateway} cannot run at {baud} baud: {reason}",
+    // ---- arm ----
+    (
+        Code::PreloadLong,
+        "网关 {gateway} 在 {baud} 波特下开始前要预载 {preload_bytes} 字节，需 {preload_s} 秒（{preload_min} 分钟）；在 {faster_baud} 波特下只需 {faster_preload_s} 秒（更改线路速度：在网关上设 BDR={faster_baud};，再在 floatball.toml 中设 `baud = {faster_baud}`）",
+        "gateway {gateway} preloads {preload_bytes} bytes in {preload_s} s ({preload_min} min) at {baud} baud before the show can start; at {faster_baud} baud it takes {faster_preload_s} s (change the line speed: BDR={faster_baud}; on the gateway, then `baud = {faster_baud}` in floatball.toml)",
+    ),
+    (
+        Code::PreloadLongFastest,
+        "网关 {gateway} 即使在最快的 {baud} 波特下，开始前也要预载 {preload_bytes} 字节，需 {preload_s} 秒（{preload_min} 分钟）；作为播放列表的第一项，它会在矩阵空闲时预先载入",
+        "gateway {gateway} preloads {preload_bytes} bytes in {preload_s} s ({preload_min} min) at {baud} baud before the show can start, even at the fastest rate; as the playlist's first entry it is loaded while the matrix is idle",
     ),
 ];

@@ -8,6 +8,10 @@ use crate::plan::{RunMode, stream};
 
 impl Player {
     pub(super) fn begin_load(&mut self) {
+        if self.begin_load_armed() {
+            self.poll_loading(&[]);
+            return;
+        }
         let Some(plan) = self.plans.get(self.entry) else {
             return;
         };

@@ -27,8 +27,11 @@
 //!   and confirming that every ball arrived;
 //! - `loading`: configuring the units, preloading rows and arming them;
 //! - `playing`: the synchronised start, refill rounds while a show runs, and moving on
-//!   through cycles and entries.
+//!   through cycles and entries;
+//! - `arming`: loading the first entry's tables while the matrix is idle, so that Start
+//!   needs only the approach ([`Player::arm`], [`Player::disarm`]).
 
+mod arming;
 mod loading;
 mod moving;
 mod playing;
@@ -255,6 +258,12 @@ pub struct Player {
     commands: Vec<Command>,
     show_time_ms: u64,
     progress: f64,
+    /// The first entry's tables being loaded while idle (`arming`).
+    arming: Option<arming::Arming>,
+    /// An arming a Start took over, for entry 0's first load.
+    preloaded: Option<arming::Arming>,
+    /// Disarms so far ([`Player::disarms`]).
+    disarms: u64,
 }
 
 impl Player {
@@ -288,6 +297,9 @@ impl Player {
             commands: Vec::new(),
             show_time_ms: 0,
             progress: 0.0,
+            arming: None,
+            preloaded: None,
+            disarms: 0,
         }
     }
 
@@ -318,7 +330,7 @@ impl Player {
         ) && self.after_home == AfterHome::Rest;
         let active = self.is_active() && !homing_to_rest;
         let plan = active.then(|| self.plans.get(self.entry)).flatten();
-        PlaylistProgress {
+        let mut status = PlaylistProgress {
             state,
             playing: plan.map(|plan| (self.entry, plan.show.clone(), plan.duration_ms)),
             show_time_ms: self.show_time_ms,
@@ -326,7 +338,9 @@ impl Player {
             progress: self.progress,
             last_error: self.last_error.clone(),
         }
-        .status()
+        .status();
+        status.armed = self.armed();
+        status
     }
 
     /// The lowest FIFO water level of each gateway during the current show (modelled
@@ -386,6 +400,7 @@ impl Player {
         self.last_error = None;
         self.loaded_entry = None;
         self.lowest_level.iter_mut().for_each(|level| *level = None);
+        self.take_arming_for();
         if self.needs_home {
             self.after_home = AfterHome::Play;
             self.begin_home(now_us);
@@ -409,6 +424,8 @@ impl Player {
         }
         self.needs_home = true;
         self.loaded_entry = None;
+        self.preloaded = None;
+        self.disarm();
         self.believed
             .iter_mut()
             .for_each(|position| *position = None);
@@ -486,6 +503,13 @@ impl Player {
                 };
                 self.fail(format!("{who}: {error}"));
             }
+            Feedback::Error(error) if self.arming.is_some() => {
+                let who = match unit {
+                    Some(unit) => self.describe_unit(unit),
+                    None => format!("gateway {gateway}, station {}", frame.station()),
+                };
+                self.arming_refused(who, error);
+            }
             Feedback::Notification(Notification::PVT_WATERMARK) => {
                 if let Some(level) = self.lowest_level.get_mut(gateway) {
                     let watermark = u16::from(WATERMARK_ROWS);
@@ -562,9 +586,11 @@ impl Player {
         self.is_active()
     }
 
-    /// When the player next needs to be polled, µs (`None` when idle).
+    /// When the player next needs to be polled, µs (`None` when idle with nothing
+    /// being armed).
     pub fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
         match &self.step {
+            Step::Idle if self.arming_under_way() => Some(now_us + TICK_US),
             Step::Idle | Step::Stopped | Step::Failed => None,
             Step::Waiting { until_us } => Some((*until_us).min(now_us + TICK_US)),
             _ => Some(now_us + TICK_US),
@@ -593,7 +619,8 @@ impl Player {
             Step::Moving { .. } => self.poll_moving(now_us),
             Step::Loading { .. } => self.poll_loading(links),
             Step::Playing { .. } => self.poll_playing(now_us, links),
-            Step::Idle | Step::Stopped | Step::Failed => {}
+            Step::Idle => self.poll_arming(links),
+            Step::Stopped | Step::Failed => {}
         }
     }
 }
