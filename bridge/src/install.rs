@@ -132,6 +132,8 @@ pub async fn put(
 ) -> Result<InstallationInfo, InstallError> {
     let _catalogue = state.lock_catalogue().await;
     idle(state)?;
+    // What the units hold may no longer fit the installation or the line.
+    crate::arming::disarm(state);
     let current = state.config();
     let current_info = info(&current.installation);
     if new.gateways.is_empty() {
@@ -164,6 +166,8 @@ pub async fn change_baud(
 ) -> Result<BaudChanged, InstallError> {
     let _catalogue = state.lock_catalogue().await;
     idle(state)?;
+    // What the units hold may no longer fit the installation or the line.
+    crate::arming::disarm(state);
     let links = state.gateways().links();
     let link = links.get(gateway).ok_or(InstallError::NoSuchGateway {
         gateway,
