@@ -239,6 +239,17 @@ pub fn start_block(connected: bool, state: Option<PlayerState>, allowed: bool) -
     }
 }
 
+/// The name of a [`start_block`] reason in the page's `data-reason` (the variant's
+/// name), spelled out so that the app carries no `Debug` names of every [`Text`].
+pub fn start_reason_key(why: Text) -> &'static str {
+    match why {
+        Text::StartNeedsConnection => "StartNeedsConnection",
+        Text::StartWhileRunning => "StartWhileRunning",
+        Text::StartNeedsPlayableList => "StartNeedsPlayableList",
+        _ => "Other",
+    }
+}
+
 /// A control button that moves the balls (the E-stop is not one: it never asks).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Action {

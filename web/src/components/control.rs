@@ -23,14 +23,14 @@ use crate::components::widgets::{
 use crate::context::Ctx;
 use crate::control::{
     Action, Panel, PlanVerdicts, TimingForm, begin_save, edit_lock, is_locked_refusal, is_running,
-    needs_checks, settle_save, start_block,
+    needs_checks, settle_save, start_block, start_reason_key,
 };
 use crate::files::format_duration_ms;
 use crate::i18n::Text;
 use crate::page::Page;
 use crate::playlist::{PlaylistEditor, Verdict, format_delay_s};
 use crate::status::{
-    gateway_text, homing_text, progress, shows_progress, state_key, streams, time_text,
+    gateway_text, homing_text, link_key, progress, shows_progress, state_key, streams, time_text,
 };
 
 /// Applies `edit` to the playlist and stores the result on the bridge; `note` gets
@@ -301,7 +301,7 @@ pub fn ControlPage() -> impl IntoView {
                     .get()
                     .map(|why| {
                         view! {
-                            <p class="note muted" data-testid="start-reason" data-reason=format!("{why:?}")>
+                            <p class="note muted" data-testid="start-reason" data-reason=start_reason_key(why)>
                                 {move || ctx.t(why)}
                             </p>
                         }
@@ -580,7 +580,7 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
         .iter()
         .map(|gateway| {
             let text = gateway_text(lang, gateway, streams(state));
-            let link = format!("{:?}", gateway.link).to_ascii_lowercase();
+            let link = link_key(gateway.link);
             view! {
                 <li class=format!("link {link}") data-testid="gateway" data-link=link>
                     {text}

@@ -12,7 +12,7 @@ use crate::client::Failure;
 use crate::components::password::PasswordForm;
 use crate::components::widgets::{ErrorNote, TextField};
 use crate::context::Ctx;
-use crate::i18n::Text;
+use crate::i18n::{Lang, Text};
 use crate::page::Page;
 use crate::session::Session;
 
@@ -159,7 +159,7 @@ fn LoggedIn(address: String) -> impl IntoView {
                 // The login ends here either way; a bridge that cannot be told keeps
                 // the token until it expires.
                 if let Err(failure) = client.logout().await {
-                    leptos::logging::warn!("logout: {failure:?}");
+                    leptos::logging::warn!("logout: {}", Lang::En.failure(&failure));
                 }
             });
         }
