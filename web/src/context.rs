@@ -192,6 +192,17 @@ pub fn set_document_lang(lang: Lang) {
     }
 }
 
+/// `text` in `lang` as a view or an attribute that follows a language switch. Every
+/// fixed string of the app goes through this one closure type, so Leptos builds its
+/// reactive text once instead of once per string (a closure written at each place is
+/// a type, and code, of its own).
+pub fn tr_in(
+    lang: Signal<Lang>,
+    text: Text,
+) -> impl Fn() -> &'static str + Copy + Send + Sync + 'static {
+    move || lang.get().t(text)
+}
+
 impl Ctx {
     /// Fresh state for a page loaded from `origin`.
     pub fn new(services: Services, origin: Origin, lang: Lang) -> Self {
@@ -218,6 +229,12 @@ impl Ctx {
     /// `text` in the current language (tracked).
     pub fn t(&self, text: Text) -> &'static str {
         self.lang.get().t(text)
+    }
+
+    /// `text` in the current language as a view or an attribute that follows a
+    /// language switch ([`tr_in`]).
+    pub fn tr(self, text: Text) -> impl Fn() -> &'static str + Copy + Send + Sync + 'static {
+        tr_in(self.lang.into(), text)
     }
 
     /// Where the page came from.

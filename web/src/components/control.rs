@@ -146,14 +146,14 @@ pub fn ControlPage() -> impl IntoView {
             <button
                 class="icon"
                 data-testid=test_id
-                title=move || ctx.t(text)
+                title=ctx.tr(text)
                 disabled=locked
                 on:click=move |_| action()
             >
                 <span class="symbol" aria-hidden="true">
                     {symbol}
                 </span>
-                <span class="caption">{move || ctx.t(text)}</span>
+                <span class="caption">{ctx.tr(text)}</span>
             </button>
         }
     };
@@ -212,7 +212,7 @@ pub fn ControlPage() -> impl IntoView {
                 disabled=move || !enabled(action)
                 on:click=move |_| press(action)
             >
-                {move || ctx.t(text)}
+                {ctx.tr(text)}
             </button>
         }
     };
@@ -251,7 +251,7 @@ pub fn ControlPage() -> impl IntoView {
                     .map(|why| {
                         view! {
                             <p class="note locked" data-testid="playlist-locked">
-                                {move || ctx.t(why)}
+                                {ctx.tr(why)}
                             </p>
                         }
                     })
@@ -283,14 +283,14 @@ pub fn ControlPage() -> impl IntoView {
                                         send(action.message());
                                     }
                                 >
-                                    {move || ctx.t(text)}
+                                    {ctx.tr(text)}
                                 </button>
                                 <button
                                     class="confirm-cancel"
                                     data-testid="confirm-cancel"
                                     on:click=move |_| asking.set(None)
                                 >
-                                    {move || ctx.t(Text::Cancel)}
+                                    {ctx.tr(Text::Cancel)}
                                 </button>
                             </div>
                         }
@@ -302,7 +302,7 @@ pub fn ControlPage() -> impl IntoView {
                     .map(|why| {
                         view! {
                             <p class="note muted" data-testid="start-reason" data-reason=start_reason_key(why)>
-                                {move || ctx.t(why)}
+                                {ctx.tr(why)}
                             </p>
                         }
                     })
@@ -336,7 +336,7 @@ fn PlaylistView() -> impl IntoView {
         })
     });
     view! {
-        <h3>{move || ctx.t(Text::Playlist)}</h3>
+        <h3>{ctx.tr(Text::Playlist)}</h3>
         <ol class="list playlist" data-testid="playlist">
             {move || {
                 let editor = ctx.playlist.get();
@@ -393,7 +393,7 @@ fn AddPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Into
     let ctx = expect_context::<Ctx>();
     view! {
         <div class="card panel" data-testid="add-panel">
-            <h3>{move || ctx.t(Text::PickShow)}</h3>
+            <h3>{ctx.tr(Text::PickShow)}</h3>
             <ul class="list">
                 {move || {
                     let files = ctx.controller_files.get();
@@ -426,7 +426,7 @@ fn AddPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Into
                         .into_any()
                 }}
             </ul>
-            <button on:click=move |_| panel.set(Panel::None)>{move || ctx.t(Text::Cancel)}</button>
+            <button on:click=move |_| panel.set(Panel::None)>{ctx.tr(Text::Cancel)}</button>
         </div>
     }
 }
@@ -462,10 +462,10 @@ fn EditPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Int
             <ErrorNote text=error test_id="edit-error" />
             <div class="row-buttons">
                 <button type="submit" class="primary" data-testid="edit-apply">
-                    {move || ctx.t(Text::Apply)}
+                    {ctx.tr(Text::Apply)}
                 </button>
                 <button type="button" on:click=move |_| panel.set(Panel::None)>
-                    {move || ctx.t(Text::Cancel)}
+                    {ctx.tr(Text::Cancel)}
                 </button>
             </div>
         </form>
@@ -479,7 +479,7 @@ fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
     view! {
         <Show when=move || plans.with(|plans| !plans.is_empty())>
             <div class="card" data-testid="plan">
-                <h3>{move || ctx.t(Text::PlanTitle)}</h3>
+                <h3>{ctx.tr(Text::PlanTitle)}</h3>
                 <ul class="verdicts">
                     {move || {
                         plans
@@ -507,13 +507,13 @@ fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
                                     <li class=format!("verdict {key}") data-testid="verdict" data-verdict=key>
                                         <strong>{show}</strong>
                                         ": "
-                                        {move || ctx.t(word)}
+                                        {ctx.tr(word)}
                                         {reason.map(|reason| view! { <p>{reason}</p> })}
                                         {(!fixes.is_empty())
                                             .then(|| {
                                                 view! {
                                                     <p class="muted">
-                                                        {move || ctx.t(Text::PlanFixes)} " "
+                                                        {ctx.tr(Text::PlanFixes)} " "
                                                         {fixes.join("; ")}
                                                     </p>
                                                 }
@@ -535,14 +535,14 @@ fn StatusView() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     view! {
         <div class="card status" data-testid="status">
-            <h3>{move || ctx.t(Text::StatusTitle)}</h3>
+            <h3>{ctx.tr(Text::StatusTitle)}</h3>
             {move || {
                 let status = ctx.status.get().filter(|_| ctx.connected());
                 match status {
                     None => {
                         view! {
                             <p class="muted" data-testid="status-state" data-state="unknown">
-                                {move || ctx.t(Text::StatusUnavailable)}
+                                {ctx.tr(Text::StatusUnavailable)}
                             </p>
                         }
                             .into_any()
@@ -693,15 +693,15 @@ pub fn SettingsPage() -> impl IntoView {
                             looped.set(event_target_checked(&ev));
                         }
                     />
-                    <span>{move || ctx.t(Text::LoopPlaylist)}</span>
+                    <span>{ctx.tr(Text::LoopPlaylist)}</span>
                 </label>
                 <button type="submit" class="primary" data-testid="settings-apply">
-                    {move || ctx.t(Text::Apply)}
+                    {ctx.tr(Text::Apply)}
                 </button>
                 <ErrorNote text=note test_id="settings-error" />
                 {move || {
                     (saved.get() && note.with(Option::is_none))
-                        .then(|| view! { <p class="note done" data-testid="settings-saved">{move || ctx.t(Text::Saved)}</p> })
+                        .then(|| view! { <p class="note done" data-testid="settings-saved">{ctx.tr(Text::Saved)}</p> })
                 }}
             </form>
             <crate::components::password::PasswordForm />

@@ -37,6 +37,8 @@ use floatball_shared::show::{Limits, Show, Violation, validate};
 use glam::Vec2;
 use leptos::html::Canvas;
 use leptos::prelude::*;
+
+use crate::context::tr_in;
 use wasm_bindgen::JsCast;
 
 use crate::files::format_duration_ms;
@@ -178,15 +180,15 @@ pub fn PreviewPage(
             <button
                 class="icon"
                 data-testid=test_id
-                title=move || lang.get().t(text)
-                aria-label=move || lang.get().t(text)
+                title=tr_in(lang, text)
+                aria-label=tr_in(lang, text)
                 disabled=move || show.with(Option::is_none)
                 on:click=move |_| clock.update(|clock| clock.control(action))
             >
                 <span class="symbol" aria-hidden="true">
                     {symbol}
                 </span>
-                <span class="caption">{move || lang.get().t(text)}</span>
+                <span class="caption">{tr_in(lang, text)}</span>
             </button>
         }
     };
@@ -208,7 +210,7 @@ pub fn PreviewPage(
         <div class="preview" data-testid="preview">
             <Show
                 when=move || show.with(Option::is_some)
-                fallback=move || view! { <p class="muted" data-testid="preview-empty">{move || lang.get().t(Text::NoShowSelected)}</p> }
+                fallback=move || view! { <p class="muted" data-testid="preview-empty">{tr_in(lang, Text::NoShowSelected)}</p> }
             >
                 <p class="muted" data-testid="preview-facts">
                     {move || {
@@ -231,7 +233,7 @@ pub fn PreviewPage(
                 </Show>
             </div>
             <Show when=move || view_choice.with(ViewChoice::explains_no_webgl)>
-                <p class="note" data-testid="preview-no-webgl">{move || lang.get().t(Text::NoWebGl)}</p>
+                <p class="note" data-testid="preview-no-webgl">{tr_in(lang, Text::NoWebGl)}</p>
             </Show>
             <div class="transport">
                 {button("preview-restart", "|◀", Text::Restart, Playback::restart)}
@@ -272,7 +274,7 @@ pub fn PreviewPage(
                 class="slider"
                 min="0"
                 step="10"
-                aria-label=move || lang.get().t(Text::ShowTime)
+                aria-label=tr_in(lang, Text::ShowTime)
                 data-testid="preview-slider"
                 prop:max=move || clock.with(|clock| clock.playback().duration_ms())
                 prop:value=t_ms
@@ -284,7 +286,7 @@ pub fn PreviewPage(
             />
             <div class="tools">
                 <label class="speed">
-                    <span>{move || lang.get().t(Text::PlaybackSpeed)}</span>
+                    <span>{tr_in(lang, Text::PlaybackSpeed)}</span>
                     <select
                         data-testid="preview-speed"
                         on:change=move |ev| {
@@ -314,11 +316,11 @@ pub fn PreviewPage(
                         class:on=move || live.get().0
                         data-testid="preview-live"
                         aria-pressed=move || live.get().0.to_string()
-                        title=move || lang.get().t(Text::LiveHint)
+                        title=tr_in(lang, Text::LiveHint)
                         disabled=move || !live.get().1
                         on:click=move |_| clock.update(Clock::toggle_live)
                     >
-                        {move || lang.get().t(Text::Live)}
+                        {tr_in(lang, Text::Live)}
                     </button>
                 </Show>
                 <div class="segmented" role="group">
@@ -328,14 +330,14 @@ pub fn PreviewPage(
                         disabled=move || !view_choice.with(ViewChoice::offers_3d)
                         on:click=move |_| view_choice.update(|view| view.choose(Mode::ThreeD))
                     >
-                        {move || lang.get().t(Text::View3d)}
+                        {tr_in(lang, Text::View3d)}
                     </button>
                     <button
                         data-testid="preview-mode-top"
                         aria-pressed=move || (renderer.get() == RendererKind::TopView).to_string()
                         on:click=move |_| view_choice.update(|view| view.choose(Mode::Top))
                     >
-                        {move || lang.get().t(Text::TopView)}
+                        {tr_in(lang, Text::TopView)}
                     </button>
                 </div>
                 <Show when=move || renderer.get() == RendererKind::WebGl2>
@@ -343,7 +345,7 @@ pub fn PreviewPage(
                         data-testid="preview-reset-view"
                         on:click=move |_| with_stage(stage, Stage::reset_view)
                     >
-                        {move || lang.get().t(Text::ResetView)}
+                        {tr_in(lang, Text::ResetView)}
                     </button>
                 </Show>
                 <button
@@ -359,14 +361,14 @@ pub fn PreviewPage(
                         }
                     }
                 >
-                    {move || lang.get().t(Text::Performance)}
+                    {tr_in(lang, Text::Performance)}
                 </button>
             </div>
             <Show when=move || status.with(Option::is_some) && !live.get().1>
-                <p class="muted small" data-testid="preview-live-hint">{move || lang.get().t(Text::LiveHint)}</p>
+                <p class="muted small" data-testid="preview-live-hint">{tr_in(lang, Text::LiveHint)}</p>
             </Show>
             <Show when=move || renderer.get() == RendererKind::WebGl2 && show.with(Option::is_some)>
-                <p class="muted small">{move || lang.get().t(Text::GestureHint)}</p>
+                <p class="muted small">{tr_in(lang, Text::GestureHint)}</p>
             </Show>
             {move || {
                 plot.get()
@@ -391,7 +393,7 @@ fn problems_view(checked: Option<&Checked>, lang: Signal<Lang>) -> AnyView {
     let violations = checked.map_or(&[][..], |c| &c.violations[..]);
     let count = violations.len();
     if count == 0 {
-        return view! { <p class="note done" data-testid="preview-valid">{move || lang.get().t(Text::WithinLimits)}</p> }
+        return view! { <p class="note done" data-testid="preview-valid">{tr_in(lang, Text::WithinLimits)}</p> }
             .into_any();
     }
     let in_lang = lang.get();
@@ -403,7 +405,7 @@ fn problems_view(checked: Option<&Checked>, lang: Signal<Lang>) -> AnyView {
     let more = count.saturating_sub(shown.len());
     view! {
         <div class="note error" data-testid="preview-problems">
-            <p>{move || lang.get().t(Text::BeyondLimits)} " " {count}</p>
+            <p>{tr_in(lang, Text::BeyondLimits)} " " {count}</p>
             <ul>
                 {shown.into_iter().map(|problem| view! { <li>{problem}</li> }).collect_view()}
                 {(more > 0).then(|| view! { <li>"…"</li> })}
@@ -631,7 +633,7 @@ fn PlotPanel(
             <div class="plot-head">
                 <h3 data-testid="preview-plot-title">{move || lang.get().ball_name(index, row, col)}</h3>
                 <button data-testid="preview-plot-close" on:click=move |_| on_close()>
-                    {move || lang.get().t(Text::Close)}
+                    {tr_in(lang, Text::Close)}
                 </button>
             </div>
             <p class="muted small">{move || lang.get().ball_facts(facts.0, facts.1, facts.2)}</p>
@@ -640,7 +642,7 @@ fn PlotPanel(
                 <div class="plot-cursor" data-testid="preview-plot-cursor" style=cursor></div>
             </div>
             {if count == 0 {
-                view! { <p class="note done">{move || lang.get().t(Text::BallWithinLimits)}</p> }.into_any()
+                view! { <p class="note done">{tr_in(lang, Text::BallWithinLimits)}</p> }.into_any()
             } else {
                 view! {
                     <ul class="note error" data-testid="preview-plot-problems">
