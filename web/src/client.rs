@@ -409,6 +409,20 @@ impl Client {
     pub async fn installation(&self) -> Result<InstallationInfo, Failure> {
         self.call_json(Method::Get, "/api/installation", None).await
     }
+
+    /// `PUT /api/installation`: the changed installation, checked by the bridge as
+    /// `floatball check` does, saved and applied; answers the installation now.
+    ///
+    /// # Errors
+    /// [`Failure::Rejected`] with every problem (422), or while the matrix is not
+    /// idle (409); [`Failure`] as the bridge answered otherwise.
+    pub async fn put_installation(
+        &self,
+        info: &InstallationInfo,
+    ) -> Result<InstallationInfo, Failure> {
+        self.call_json(Method::Put, "/api/installation", Some(json(info)?))
+            .await
+    }
 }
 
 fn json(value: &impl Serialize) -> Result<(&'static str, String), Failure> {

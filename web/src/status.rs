@@ -68,6 +68,15 @@ pub fn state_key(state: PlayerState) -> &'static str {
     state.as_str()
 }
 
+/// A gateway's drive family as the installation page names it.
+pub fn kind_key(kind: GatewayKind) -> &'static str {
+    match kind {
+        GatewayKind::Uim2503 => "UIM2503",
+        GatewayKind::Mbox => "MBOX",
+        GatewayKind::Scl => "SCL",
+    }
+}
+
 /// A link's state as the page's `data-link` and CSS class say it (the API's name:
 /// `up`, `connecting`, `down`, `not_answering`).
 pub fn link_key(link: LinkState) -> &'static str {

@@ -27,6 +27,7 @@ use crate::control::{
 };
 use crate::files::format_duration_ms;
 use crate::i18n::Text;
+use crate::installation::health_warnings;
 use crate::page::Page;
 use crate::playlist::{PlaylistEditor, Verdict, format_delay_s};
 use crate::status::{
@@ -262,6 +263,7 @@ pub fn ControlPage() -> impl IntoView {
                 Panel::Edit => view! { <EditPanel panel=panel note=note /> }.into_any(),
             }}
             <PlaylistView />
+            <UnitsWarning />
             <div class="actions">
                 {action_button(Action::Start, "start primary", Text::Start)}
                 <EstopButton />
@@ -315,6 +317,40 @@ pub fn ControlPage() -> impl IntoView {
             </div>
             </div>
         </section>
+    }
+}
+
+/// The warning before Start when units are missing, share a station or reported an
+/// error (the bridge's unit health per gateway); nothing while all is well or not
+/// yet known.
+#[component]
+fn UnitsWarning() -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    let warnings = Memo::new(move |_| {
+        ctx.status.with(|status| {
+            status
+                .as_ref()
+                .filter(|_| ctx.connected())
+                .map(|status| health_warnings(&status.gateways))
+                .unwrap_or_default()
+        })
+    });
+    move || {
+        let warnings = warnings.get();
+        (!warnings.is_empty()).then(|| {
+            let lang = ctx.lang.get();
+            view! {
+                <div class="note warn units-warning" data-testid="units-warning" role="status">
+                    <p>{lang.t(Text::UnitsWarning)}</p>
+                    <ul>
+                        {warnings
+                            .iter()
+                            .map(|warning| view! { <li data-testid="units-warning-gateway">{lang.health_warning(warning)}</li> })
+                            .collect_view()}
+                    </ul>
+                </div>
+            }
+        })
     }
 }
 
@@ -488,6 +524,14 @@ fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
                             .map(|(show, verdict)| {
                                 let key = verdict.key();
                                 let lang = ctx.lang.get();
+                                // The preload and the advice of a show that runs.
+                                let (preload, advice) = match &verdict {
+                                    Verdict::Feasible(report) => (
+                                        (report.preload_ms > 0).then(|| lang.preload(report.preload_ms)),
+                                        lang.plan_advice(report),
+                                    ),
+                                    _ => (None, Vec::new()),
+                                };
                                 let (word, reason, fixes) = match verdict {
                                     Verdict::Pending => (Text::PlanPending, None, Vec::new()),
                                     Verdict::Feasible(_) => (Text::PlanFeasible, None, Vec::new()),
@@ -508,7 +552,19 @@ fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
                                         <strong>{show}</strong>
                                         ": "
                                         {ctx.tr(word)}
+                                        {preload
+                                            .map(|preload| {
+                                                view! { <span class="muted" data-testid="verdict-preload">" · " {preload}</span> }
+                                            })}
                                         {reason.map(|reason| view! { <p>{reason}</p> })}
+                                        {(!advice.is_empty())
+                                            .then(|| {
+                                                view! {
+                                                    <p class="advice" data-testid="verdict-advice">
+                                                        {ctx.tr(Text::PlanAdvice)} " " {advice.join("; ")}
+                                                    </p>
+                                                }
+                                            })}
                                         {(!fixes.is_empty())
                                             .then(|| {
                                                 view! {
@@ -600,6 +656,10 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
             {row(Text::ShowLabel, status.show.clone().unwrap_or_default(), "status-show")}
             {row(Text::ShowTime, time, "status-time")}
             {row(Text::Cycle, cycle, "status-cycle")}
+            {status
+                .armed
+                .as_ref()
+                .map(|armed| row(Text::ArmedLabel, lang.armed(armed), "status-armed"))}
         </dl>
         {shows_progress(state)
             .then(|| {
@@ -704,6 +764,13 @@ pub fn SettingsPage() -> impl IntoView {
                         .then(|| view! { <p class="note done" data-testid="settings-saved">{ctx.tr(Text::Saved)}</p> })
                 }}
             </form>
+            <button
+                class="open-installation"
+                data-testid="open-installation"
+                on:click=move |_| ctx.page.set(Page::Installation)
+            >
+                {ctx.tr(Text::OpenInstallation)}
+            </button>
             <crate::components::password::PasswordForm />
         </section>
     }

@@ -111,7 +111,13 @@ pub fn PreviewScreen() -> impl IntoView {
                     Some(PreviewItem::Ready(name, _)) => Some(view! { <h2 data-testid="preview-name">{name}</h2> }.into_any()),
                     None => None,
                 }}
-                <PreviewPage show=show lang=ctx.lang name=Signal::derive(current) status=ctx.status />
+                <PreviewPage
+                    show=show
+                    lang=ctx.lang
+                    name=Signal::derive(current)
+                    status=ctx.status
+                    installation=Signal::derive(move || ctx.installation_now())
+                />
             </div>
         </section>
     }

@@ -126,6 +126,7 @@ pub fn page_name(page: Page) -> Text {
         Page::Control => Text::NavControl,
         Page::Settings => Text::NavSettings,
         Page::Console => Text::NavConsole,
+        Page::Installation => Text::InstallationTitle,
     }
 }
 

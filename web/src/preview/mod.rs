@@ -32,7 +32,7 @@ use std::rc::Rc;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use floatball_shared::api::Status;
+use floatball_shared::api::{InstallationInfo, Status};
 use floatball_shared::show::{Limits, Show, Violation, validate};
 use glam::Vec2;
 use leptos::html::Canvas;
@@ -48,23 +48,29 @@ use model::{Clock, Mode, ViewChoice};
 use perf::PerfPanel;
 use playback::{Playback, SPEEDS};
 use plot::BallPlot;
-use stage::{RendererKind, Stage, now_ms};
+use stage::{Matrix, RendererKind, Stage, now_ms};
 
 /// How many validation problems are listed.
 const PROBLEMS_SHOWN: usize = 10;
 
-/// A show checked against the default limits of its layout.
+/// A show checked against the installation's limits, or the default limits of its
+/// layout while the installation is not known.
 #[derive(Debug, Clone, PartialEq)]
 struct Checked {
     limits: Limits,
+    /// Whether `limits` are the installation's.
+    installed: bool,
     violations: Vec<Violation>,
     /// The balls with a violation, each once, in order.
     beyond: Vec<usize>,
 }
 
 impl Checked {
-    fn of(show: &Show) -> Self {
-        let limits = Limits::for_layout(show.layout.rows, show.layout.cols);
+    fn of(show: &Show, installation: Option<&InstallationInfo>) -> Self {
+        let limits = installation.map_or_else(
+            || Limits::for_layout(show.layout.rows, show.layout.cols),
+            crate::installation::limits_of,
+        );
         let violations = validate(show, &limits);
         let mut beyond: Vec<usize> = violations
             .iter()
@@ -74,6 +80,7 @@ impl Checked {
         beyond.dedup();
         Self {
             limits,
+            installed: installation.is_some(),
             violations,
             beyond,
         }
@@ -81,7 +88,8 @@ impl Checked {
 }
 
 /// The preview of `show`: the stage, the controls, the time, the tapped ball's plot,
-/// and the show's problems against the default limits.
+/// and the show's problems against the installation's limits (the defaults while
+/// it is not known); the 3D view uses its travel and pitch.
 ///
 /// What it shows is kept in two plain models ([`model`]): the [`Clock`], which
 /// moves every frame, and the [`ViewChoice`], which moves when the user asks.
@@ -99,10 +107,29 @@ pub fn PreviewPage(
     /// The bridge's latest status; none while not connected.
     #[prop(optional, into)]
     status: MaybeProp<Status>,
+    /// The installation (`GET /api/installation`) while connected: its limits, grid
+    /// and pitch; the defaults and the show's pitch without it.
+    #[prop(optional, into)]
+    installation: MaybeProp<InstallationInfo>,
 ) -> impl IntoView {
     let clock = RwSignal::new(Clock::new(now_ms()));
     let view_choice = RwSignal::new(ViewChoice::default());
-    let checked = Memo::new(move |_| show.with(|show| show.as_ref().map(Checked::of)));
+    let checked = Memo::new(move |_| {
+        installation.with(|installation| {
+            show.with(|show| {
+                show.as_ref()
+                    .map(|show| Checked::of(show, installation.as_ref()))
+            })
+        })
+    });
+    let matrix = Memo::new(move |_| {
+        installation.with(|installation| {
+            installation.as_ref().map(|info| Matrix {
+                travel_mm: info.travel_mm,
+                pitch_mm: info.pitch_mm,
+            })
+        })
+    });
     let stage = StoredValue::new_local(None::<Stage>);
     let renderer = Memo::new(move |_| view_choice.with(ViewChoice::renderer));
     let selected = Memo::new(move |_| view_choice.with(ViewChoice::selected));
@@ -128,6 +155,7 @@ pub fn PreviewPage(
         let kind = renderer.get();
         let canvas = parts.canvas.get();
         let beyond = checked.with(|checked| checked.as_ref().map(|c| c.beyond.clone()));
+        let matrix = matrix.get();
         show.with(|show| {
             let (Some(canvas), Some(show), Some(beyond)) = (canvas, show, beyond) else {
                 stage.set_value(None);
@@ -146,7 +174,13 @@ pub fn PreviewPage(
                 None => Stage::new(canvas, show, beyond, kind).map(|new| {
                     stage.set_value(Some(new));
                 }),
-            };
+            }
+            .and_then(|()| {
+                stage
+                    .try_update_value(|stage| stage.as_mut().map(|stage| stage.set_matrix(matrix)))
+                    .flatten()
+                    .unwrap_or(Ok(()))
+            });
             if let Err(why) = outcome {
                 stage.set_value(None);
                 if kind == RendererKind::WebGl2 {
@@ -388,14 +422,25 @@ pub fn PreviewPage(
     }
 }
 
-/// The show's problems against the default limits, or that it is within them.
+/// The show's problems against the limits, or that it is within them.
 fn problems_view(checked: Option<&Checked>, lang: Signal<Lang>) -> AnyView {
     let violations = checked.map_or(&[][..], |c| &c.violations[..]);
+    let installed = checked.is_some_and(|c| c.installed);
     let count = violations.len();
     if count == 0 {
-        return view! { <p class="note done" data-testid="preview-valid">{tr_in(lang, Text::WithinLimits)}</p> }
+        let within = if installed {
+            Text::WithinInstallationLimits
+        } else {
+            Text::WithinLimits
+        };
+        return view! { <p class="note done" data-testid="preview-valid">{tr_in(lang, within)}</p> }
             .into_any();
     }
+    let beyond = if installed {
+        Text::BeyondInstallationLimits
+    } else {
+        Text::BeyondLimits
+    };
     let in_lang = lang.get();
     let shown: Vec<String> = violations
         .iter()
@@ -404,8 +449,8 @@ fn problems_view(checked: Option<&Checked>, lang: Signal<Lang>) -> AnyView {
         .collect();
     let more = count.saturating_sub(shown.len());
     view! {
-        <div class="note error" data-testid="preview-problems">
-            <p>{tr_in(lang, Text::BeyondLimits)} " " {count}</p>
+        <div class="note error" data-testid="preview-problems" data-limits=if installed { "installation" } else { "default" }>
+            <p>{tr_in(lang, beyond)} " " {count}</p>
             <ul>
                 {shown.into_iter().map(|problem| view! { <li>{problem}</li> }).collect_view()}
                 {(more > 0).then(|| view! { <li>"…"</li> })}
