@@ -32,8 +32,24 @@ impl Process {
     pub fn start(config: &str) -> Self {
         let data = tempfile::tempdir().expect("temp dir");
         std::fs::write(data.path().join("floatball.toml"), config).expect("write config");
+        Self::start_in(data)
+    }
+
+    /// Stops this process and starts another on the same data directory.
+    pub fn restart(mut self) -> Self {
+        let data = std::mem::replace(&mut self.data, tempfile::tempdir().expect("temp dir"));
+        drop(self);
+        Self::start_in(data)
+    }
+
+    /// Starts `floatball` on an existing data directory (its log appended to).
+    pub fn start_in(data: TempDir) -> Self {
         let static_dir = super::static_dir(data.path());
-        let log = std::fs::File::create(data.path().join("floatball.log")).expect("log");
+        let log = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(data.path().join("floatball.log"))
+            .expect("log");
         let mut child = Command::new(env!("CARGO_BIN_EXE_floatball"))
             .arg("--data-dir")
             .arg(data.path())
