@@ -1909,7 +1909,10 @@ async fn the_console_gives_positions_in_mm_once_the_installation_is_known() {
         if request.url.ends_with("/api/installation") {
             response(
                 200,
-                r#"{"counts_per_mm": 500.0, "gateways": [{"stations": [5, 6]}]}"#,
+                r#"{"rows": 1, "cols": 2, "pitch_mm": 500.0, "travel_mm": 7500.0,
+                    "max_speed_mm_s": 2000.0, "max_accel_mm_s2": 4000.0, "home_mm": 0.0,
+                    "approach_speed_mm_s": 250.0, "counts_per_mm": 500.0,
+                    "gateways": [{"port": "sim", "stations": [5, 6]}]}"#,
             )
         } else {
             response(500, "")
