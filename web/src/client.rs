@@ -147,7 +147,7 @@ pub fn parse_retry_after(value: &str) -> Option<u64> {
 
 /// The failure an error status means.
 pub fn failure_of(response: &Response) -> Failure {
-    let api_error = || serde_json::from_str::<ApiError>(&response.body).ok();
+    let api_error = || crate::json::from_str::<ApiError>(&response.body).ok();
     match response.status {
         401 => Failure::Unauthorized,
         // A 403 other than "change the password first" (a wrong current password).
@@ -435,7 +435,7 @@ fn json(value: &impl Serialize) -> Result<(&'static str, String), Failure> {
 }
 
 fn parse<T: DeserializeOwned>(response: &Response) -> Result<T, Failure> {
-    serde_json::from_str(&response.body).map_err(|err| Failure::Unexpected {
+    crate::json::from_str(&response.body).map_err(|err| Failure::Unexpected {
         status: response.status,
         body: format!("unreadable answer ({err}): {}", response.body),
     })

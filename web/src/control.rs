@@ -196,7 +196,7 @@ pub fn is_locked_refusal(failure: &Failure) -> bool {
     match failure {
         Failure::Rejected(error) => error.code == code,
         Failure::Unexpected { status: 409, body } => {
-            serde_json::from_str::<ApiError>(body).is_ok_and(|error| error.code == code)
+            crate::json::from_str::<ApiError>(body).is_ok_and(|error| error.code == code)
         }
         _ => false,
     }

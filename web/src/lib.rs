@@ -14,6 +14,7 @@
 //! - [`files`]: local and controller file lists, formats, CSV preview layout;
 //! - [`installation`]: the installation's limits for the preview, its settings form,
 //!   stations as ranges, and the units' health warnings before Start;
+//! - [`json`]: the bridge's JSON read with structs as objects only (less code);
 //! - [`i18n`]: the two languages (中文 / English) and every user-visible string,
 //!   including a text for every error code of the bridge and the shared parsers;
 //! - [`page`]: the pages and their URL fragments;
@@ -42,6 +43,7 @@ pub mod files;
 pub mod http;
 pub mod i18n;
 pub mod installation;
+pub mod json;
 pub mod page;
 pub mod playlist;
 pub mod preview;

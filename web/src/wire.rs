@@ -11,11 +11,13 @@ use floatball_shared::api::{Problem, ServerMessage};
 use floatball_shared::codes::Params;
 use serde::Deserialize;
 
+use crate::json::from_str;
+
 /// The `"type"` field alone.
 #[derive(Deserialize)]
-struct Tag<'a> {
-    #[serde(rename = "type", borrow)]
-    kind: std::borrow::Cow<'a, str>,
+struct Tag {
+    #[serde(rename = "type")]
+    kind: String,
 }
 
 /// [`ServerMessage::EstopSent`]'s fields.
@@ -44,18 +46,18 @@ struct Refused {
 /// Not JSON, no `"type"`, a type this app does not know, or a variant's fields that
 /// do not read.
 pub fn decode(text: &str) -> Result<ServerMessage, serde_json::Error> {
-    let tag: Tag<'_> = serde_json::from_str(text)?;
-    Ok(match tag.kind.as_ref() {
-        "status" => ServerMessage::Status(serde_json::from_str(text)?),
-        "feedback" => ServerMessage::Feedback(serde_json::from_str(text)?),
+    let tag: Tag = from_str(text)?;
+    Ok(match tag.kind.as_str() {
+        "status" => ServerMessage::Status(from_str(text)?),
+        "feedback" => ServerMessage::Feedback(from_str(text)?),
         "pong" => ServerMessage::Pong,
         "estop_sent" => ServerMessage::EstopSent {
-            unreached: serde_json::from_str::<EstopSent>(text)?.unreached,
+            unreached: from_str::<EstopSent>(text)?.unreached,
         },
-        "mbox_reply" => ServerMessage::MboxReply(serde_json::from_str(text)?),
-        "scl_reply" => ServerMessage::SclReply(serde_json::from_str(text)?),
+        "mbox_reply" => ServerMessage::MboxReply(from_str(text)?),
+        "scl_reply" => ServerMessage::SclReply(from_str(text)?),
         "error" => {
-            let refused: Refused = serde_json::from_str(text)?;
+            let refused: Refused = from_str(text)?;
             ServerMessage::Error {
                 message: refused.message,
                 code: refused.code,

@@ -113,7 +113,7 @@ pub fn App() -> impl IntoView {
     };
     let ctx = Ctx::new(services, origin, lang);
     ctx.session
-        .set(stored(SESSION_KEY).and_then(|text| serde_json::from_str::<Session>(&text).ok()));
+        .set(stored(SESSION_KEY).and_then(|text| crate::json::from_str::<Session>(&text).ok()));
     ctx.page
         .set(Page::from_hash(&location.hash().unwrap_or_default()));
     provide_context(ctx);
