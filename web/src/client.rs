@@ -147,7 +147,7 @@ pub fn parse_retry_after(value: &str) -> Option<u64> {
 
 /// The failure an error status means.
 pub fn failure_of(response: &Response) -> Failure {
-    let api_error = || serde_json::from_str::<ApiError>(&response.body).ok();
+    let api_error = || crate::json::from_str::<ApiError>(&response.body).ok();
     match response.status {
         401 => Failure::Unauthorized,
         // A 403 other than "change the password first" (a wrong current password).
@@ -409,6 +409,20 @@ impl Client {
     pub async fn installation(&self) -> Result<InstallationInfo, Failure> {
         self.call_json(Method::Get, "/api/installation", None).await
     }
+
+    /// `PUT /api/installation`: the changed installation, checked by the bridge as
+    /// `floatball check` does, saved and applied; answers the installation now.
+    ///
+    /// # Errors
+    /// [`Failure::Rejected`] with every problem (422), or while the matrix is not
+    /// idle (409); [`Failure`] as the bridge answered otherwise.
+    pub async fn put_installation(
+        &self,
+        info: &InstallationInfo,
+    ) -> Result<InstallationInfo, Failure> {
+        self.call_json(Method::Put, "/api/installation", Some(json(info)?))
+            .await
+    }
 }
 
 fn json(value: &impl Serialize) -> Result<(&'static str, String), Failure> {
@@ -421,7 +435,7 @@ fn json(value: &impl Serialize) -> Result<(&'static str, String), Failure> {
 }
 
 fn parse<T: DeserializeOwned>(response: &Response) -> Result<T, Failure> {
-    serde_json::from_str(&response.body).map_err(|err| Failure::Unexpected {
+    crate::json::from_str(&response.body).map_err(|err| Failure::Unexpected {
         status: response.status,
         body: format!("unreadable answer ({err}): {}", response.body),
     })

@@ -12,7 +12,7 @@
 use std::rc::Rc;
 
 use floatball_shared::api::{
-    ClientMessage, PlayerState, Problem, ServerMessage, ShowSummary, Status,
+    ClientMessage, InstallationInfo, PlayerState, Problem, ServerMessage, ShowSummary, Status,
 };
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::show::{Show, ShowFormat, import};
@@ -110,6 +110,9 @@ pub struct Ctx {
     /// The success toast shown now (its number and text), cleared after a few
     /// seconds ([`Ctx::notify`]).
     pub toast: RwSignal<Option<(u32, String)>>,
+    /// The installation as the bridge last said it (`GET /api/installation`, and
+    /// the answer to a saved change); see [`Ctx::installation_now`].
+    pub installation: RwSignal<Option<InstallationInfo>>,
     origin: StoredValue<Origin>,
     services: StoredValue<Services, LocalStorage>,
 }
@@ -192,6 +195,17 @@ pub fn set_document_lang(lang: Lang) {
     }
 }
 
+/// `text` in `lang` as a view or an attribute that follows a language switch. Every
+/// fixed string of the app goes through this one closure type, so Leptos builds its
+/// reactive text once instead of once per string (a closure written at each place is
+/// a type, and code, of its own).
+pub fn tr_in(
+    lang: Signal<Lang>,
+    text: Text,
+) -> impl Fn() -> &'static str + Copy + Send + Sync + 'static {
+    move || lang.get().t(text)
+}
+
 impl Ctx {
     /// Fresh state for a page loaded from `origin`.
     pub fn new(services: Services, origin: Origin, lang: Lang) -> Self {
@@ -210,6 +224,7 @@ impl Ctx {
             preview: RwSignal::new(None),
             estop_ack: RwSignal::new(None),
             toast: RwSignal::new(None),
+            installation: RwSignal::new(None),
             origin: StoredValue::new(origin),
             services: StoredValue::new_local(services),
         }
@@ -218,6 +233,12 @@ impl Ctx {
     /// `text` in the current language (tracked).
     pub fn t(&self, text: Text) -> &'static str {
         self.lang.get().t(text)
+    }
+
+    /// `text` in the current language as a view or an attribute that follows a
+    /// language switch ([`tr_in`]).
+    pub fn tr(self, text: Text) -> impl Fn() -> &'static str + Copy + Send + Sync + 'static {
+        tr_in(self.lang.into(), text)
     }
 
     /// Where the page came from.
@@ -313,17 +334,35 @@ impl Ctx {
         }
     }
 
-    /// Fetches the installation's calibration and stations for the console's mm
-    /// ([`FeedbackLog::set_installation`]); a bridge without the call leaves the
-    /// positions in counts only.
+    /// Fetches the installation: its limits, grid and pitch for the preview and its
+    /// checks ([`Ctx::installation_now`]), its calibration and stations for the
+    /// console's mm ([`FeedbackLog::set_installation`]); a bridge without the call
+    /// leaves the defaults and the positions in counts only.
     pub fn load_installation(&self) {
         let Some(client) = self.client() else { return };
         let ctx = *self;
         spawn_local(async move {
             if let Ok(info) = client.installation().await {
-                ctx.feedback.update(|log| log.set_installation(info));
+                ctx.set_installation(info);
             }
         });
+    }
+
+    /// Takes the installation the bridge said (fetched, or answered to a save).
+    pub fn set_installation(&self, info: InstallationInfo) {
+        self.feedback
+            .update(|log| log.set_installation(info.clone()));
+        self.installation.set(Some(info));
+    }
+
+    /// The installation while connected to its bridge (tracked); `None` offline,
+    /// where the preview checks against the defaults.
+    pub fn installation_now(&self) -> Option<InstallationInfo> {
+        if self.connected() {
+            self.installation.get()
+        } else {
+            None
+        }
     }
 
     /// Reacts to a failure every page treats alike: an expired login goes back to

@@ -196,7 +196,7 @@ pub fn is_locked_refusal(failure: &Failure) -> bool {
     match failure {
         Failure::Rejected(error) => error.code == code,
         Failure::Unexpected { status: 409, body } => {
-            serde_json::from_str::<ApiError>(body).is_ok_and(|error| error.code == code)
+            crate::json::from_str::<ApiError>(body).is_ok_and(|error| error.code == code)
         }
         _ => false,
     }
@@ -236,6 +236,17 @@ pub fn start_block(connected: bool, state: Option<PlayerState>, allowed: bool) -
         Some(Text::StartNeedsPlayableList)
     } else {
         None
+    }
+}
+
+/// The name of a [`start_block`] reason in the page's `data-reason` (the variant's
+/// name), spelled out so that the app carries no `Debug` names of every [`Text`].
+pub fn start_reason_key(why: Text) -> &'static str {
+    match why {
+        Text::StartNeedsConnection => "StartNeedsConnection",
+        Text::StartWhileRunning => "StartWhileRunning",
+        Text::StartNeedsPlayableList => "StartNeedsPlayableList",
+        _ => "Other",
     }
 }
 

@@ -134,5 +134,6 @@ pub fn describe_js_error(error: wasm_bindgen::JsValue) -> String {
                 .dyn_ref::<js_sys::Error>()
                 .map(|error| String::from(error.message()))
         })
-        .unwrap_or_else(|| format!("{error:?}"))
+        .or_else(|| js_sys::JSON::stringify(&error).ok().map(String::from))
+        .unwrap_or_else(|| "?".into())
 }

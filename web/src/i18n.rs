@@ -409,6 +409,63 @@ texts! {
     BufferAtLeast => "控制器缓冲至少", "buffered ahead: at least";
     /// … after the number.
     BufferRows => "行", "rows";
+    // ---- app-install ----
+    /// The preview once the installation is known: the show keeps its limits.
+    WithinInstallationLimits => "在本装置的限制之内（行程、速度、加速度）", "Within the installation's limits (travel, speed, acceleration)";
+    /// The preview once the installation is known: how many problems follow.
+    BeyondInstallationLimits => "超出本装置的限制：", "Beyond the installation's limits:";
+    /// The installation page's title and navigation name.
+    InstallationTitle => "装置设置", "Installation";
+    /// Settings: the button that opens the installation page.
+    OpenInstallation => "装置设置（矩阵与网关）…", "Installation (matrix and gateways)…";
+    /// The installation page: the matrix's part.
+    MatrixTitle => "矩阵", "Matrix";
+    /// Field: rows of balls.
+    FieldRows => "行数", "Rows";
+    /// Field: columns of balls.
+    FieldCols => "列数", "Columns";
+    /// Field: distance between balls.
+    FieldPitch => "球距（毫米）", "Pitch (mm)";
+    /// Field: lowest position.
+    FieldTravel => "行程（毫米）", "Travel (mm)";
+    /// Field: calibration.
+    FieldCountsPerMm => "每毫米脉冲数", "Counts per mm";
+    /// Field: top speed.
+    FieldMaxSpeed => "最大速度（毫米/秒）", "Top speed (mm/s)";
+    /// Field: top acceleration.
+    FieldMaxAccel => "最大加速度（毫米/秒²）", "Top acceleration (mm/s²)";
+    /// Field: home position.
+    FieldHome => "原点位置（毫米）", "Home position (mm)";
+    /// Field: speed of the move to a show's start.
+    FieldApproachSpeed => "接近速度（毫米/秒）", "Approach speed (mm/s)";
+    /// Field: a gateway's port.
+    FieldPort => "端口", "Port";
+    /// Field: a gateway's line speed.
+    FieldBaud => "波特率", "Line speed (baud)";
+    /// Field: a gateway's stations, as ranges.
+    FieldStations => "站号（如 1-50, 52）", "Stations (e.g. 1-50, 52)";
+    /// The installation page's save button.
+    SaveInstallation => "保存并应用", "Save and apply";
+    /// The installation was saved and applied.
+    InstallationSaved => "装置设置已保存并生效", "Installation saved and applied";
+    /// The installation page: fields the app cannot read; one line each follows.
+    FieldsNotRead => "以下内容无法读取：", "These fields cannot be read:";
+    /// A field that is not a number or a list of stations.
+    FieldUnreadable => "无法读取", "cannot be read";
+    /// The installation page while the controller has not said its installation.
+    InstallationUnavailable => "控制器未提供装置设置", "The controller has not said its installation";
+    /// What saving does: checked as `floatball check` does, applied only while idle.
+    InstallationSaveNote => "保存时控制器会逐项检查（与 floatball check 相同）并列出所有问题；只有在矩阵空闲时才能应用。", "The controller checks every value as floatball check does and lists every problem; it applies the change only while the matrix is idle.";
+    /// Control: the warning before Start when units are missing or in error.
+    UnitsWarning => "注意：有单元缺失或报错，开始前请检查：", "Warning: units are missing or in error; check before Start:";
+    /// Status: the first entry's show is loaded ahead of Start.
+    Armed => "已预载", "Armed";
+    /// Status: the first entry's show is being loaded ahead of Start.
+    Arming => "预载中", "Loading ahead";
+    /// Status: the label of the armed show.
+    ArmedLabel => "预载", "Preloaded";
+    /// The plan: the label of its advice.
+    PlanAdvice => "建议：", "Advice:";
 }
 
 impl Lang {
@@ -817,6 +874,139 @@ impl Lang {
             (Lang::En, true) => format!("WebGL2 3D, {width}×{height} px"),
             (Lang::En, false) => format!("2D top view, {width}×{height} px"),
         }
+    }
+
+    // ---- app-install ----
+
+    /// A matrix field's name on the installation page.
+    pub fn field_name(self, field: crate::installation::Field) -> &'static str {
+        use crate::installation::Field;
+        self.t(match field {
+            Field::Rows => Text::FieldRows,
+            Field::Cols => Text::FieldCols,
+            Field::Pitch => Text::FieldPitch,
+            Field::Travel => Text::FieldTravel,
+            Field::CountsPerMm => Text::FieldCountsPerMm,
+            Field::MaxSpeed => Text::FieldMaxSpeed,
+            Field::MaxAccel => Text::FieldMaxAccel,
+            Field::Home => Text::FieldHome,
+            Field::ApproachSpeed => Text::FieldApproachSpeed,
+        })
+    }
+
+    /// A field of the installation page that cannot be read: `Gateway 2, Port: cannot be read`.
+    pub fn form_error(self, error: crate::installation::FormError) -> String {
+        use crate::installation::{FormError, GatewayField};
+        let cannot = self.t(Text::FieldUnreadable);
+        match error {
+            FormError::Matrix(field) => format!("{}: {cannot}", self.field_name(field)),
+            FormError::Gateway(index, field) => {
+                let name = self.t(match field {
+                    GatewayField::Port => Text::FieldPort,
+                    GatewayField::Baud => Text::FieldBaud,
+                    GatewayField::Stations => Text::FieldStations,
+                });
+                format!("{} {}, {name}: {cannot}", self.t(Text::Gateways), index + 1)
+            }
+        }
+    }
+
+    /// A gateway's stations in short: `100 units: 1-100`.
+    pub fn stations_summary(self, stations: &[u8]) -> String {
+        let ranges = crate::installation::format_stations(stations);
+        let count = stations.len();
+        match self {
+            Lang::Zh => format!("{count} 个单元：{ranges}"),
+            Lang::En => format!("{count} units: {ranges}"),
+        }
+    }
+
+    /// A gateway whose units are not all there or not all well, in one line: how
+    /// many answer, which stations are missing or shared, and each unit's last
+    /// error in words.
+    pub fn health_warning(self, warning: &crate::installation::HealthWarning) -> String {
+        let list = |stations: &[u8]| {
+            stations
+                .iter()
+                .map(u8::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let (answering, expected) = (warning.answering, warning.expected);
+        let mut parts = vec![match self {
+            Lang::Zh => format!("{}：{answering}/{expected} 个单元应答", warning.port),
+            Lang::En => format!("{}: {answering} of {expected} units answer", warning.port),
+        }];
+        if !warning.missing.is_empty() {
+            parts.push(match self {
+                Lang::Zh => format!("缺失站号 {}", list(&warning.missing)),
+                Lang::En => format!("missing stations {}", list(&warning.missing)),
+            });
+        }
+        if !warning.duplicated.is_empty() {
+            parts.push(match self {
+                Lang::Zh => format!("多个单元共用站号 {}", list(&warning.duplicated)),
+                Lang::En => format!(
+                    "stations shared by several units {}",
+                    list(&warning.duplicated)
+                ),
+            });
+        }
+        for fault in &warning.faults {
+            let error = floatball_shared::feedback::UnitError {
+                error: fault.error,
+                code: fault.code,
+                index: fault.index,
+            };
+            parts.push(match self {
+                Lang::Zh => format!("{} 号站：{}", fault.station, self.error_of(&error)),
+                Lang::En => format!("station {}: {}", fault.station, self.error_of(&error)),
+            });
+        }
+        parts.join(match self {
+            Lang::Zh => "；",
+            Lang::En => "; ",
+        })
+    }
+
+    /// How long a show's preload takes before it can start: `preload 9.1 min`.
+    pub fn preload(self, preload_ms: u64) -> String {
+        let seconds = preload_ms as f64 / 1000.0;
+        match (self, seconds >= 60.0) {
+            (Lang::Zh, true) => format!("预载 {:.1} 分钟", seconds / 60.0),
+            (Lang::Zh, false) => format!("预载 {seconds:.0} 秒"),
+            (Lang::En, true) => format!("preload {:.1} min", seconds / 60.0),
+            (Lang::En, false) => format!("preload {seconds:.0} s"),
+        }
+    }
+
+    /// The show armed (or being armed) ahead of Start: `wave: armed` or
+    /// `wave: loading ahead 45%`.
+    pub fn armed(self, armed: &floatball_shared::api::ArmedShow) -> String {
+        let separator = match self {
+            Lang::Zh => "：",
+            Lang::En => ": ",
+        };
+        if armed.progress >= 1.0 {
+            format!("{}{separator}{}", armed.show, self.t(Text::Armed))
+        } else {
+            format!(
+                "{}{separator}{} {:.0}%",
+                armed.show,
+                self.t(Text::Arming),
+                (armed.progress * 100.0).clamp(0.0, 100.0)
+            )
+        }
+    }
+
+    /// A plan's advice (a long preload and the line speed that shortens it), in this
+    /// language; the code itself for advice this app has no text for.
+    pub fn plan_advice(self, report: &PlanReport) -> Vec<String> {
+        report
+            .advice
+            .iter()
+            .map(|Problem { code, params }| self.coded(code, params, code))
+            .collect()
     }
 
     /// A show's size and length: `16 balls, 0:12.5`.

@@ -12,12 +12,16 @@
 //! - [`control`]: the Control and Settings pages' decisions: plan verdicts by round,
 //!   panels, the delay-and-cycles forms, saving an edit;
 //! - [`files`]: local and controller file lists, formats, CSV preview layout;
+//! - [`installation`]: the installation's limits for the preview, its settings form,
+//!   stations as ranges, and the units' health warnings before Start;
+//! - [`json`]: the bridge's JSON read with structs as objects only (less code);
 //! - [`i18n`]: the two languages (中文 / English) and every user-visible string,
 //!   including a text for every error code of the bridge and the shared parsers;
 //! - [`page`]: the pages and their URL fragments;
 //! - [`playlist`]: playlist editing (check, move, delete, edit), form input, Start verdict;
 //! - [`session`]: the controller's address, base and WebSocket URLs, the stored login;
 //! - [`status`]: reading the bridge's status;
+//! - [`wire`]: the bridge's WebSocket messages read without serde's buffering;
 //! - the preview's plain parts: [`preview::playback`] (the controls), [`preview::live`]
 //!   (the machine's clock), [`preview::model`] (the clock on screen, the renderer
 //!   chosen, the ball selected), [`preview::camera`], [`preview::scene`],
@@ -38,6 +42,8 @@ pub mod control;
 pub mod files;
 pub mod http;
 pub mod i18n;
+pub mod installation;
+pub mod json;
 pub mod page;
 pub mod playlist;
 pub mod preview;
@@ -45,6 +51,7 @@ pub mod session;
 pub mod socket;
 pub mod status;
 pub mod store;
+pub mod wire;
 
 use wasm_bindgen::prelude::wasm_bindgen;
 

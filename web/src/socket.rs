@@ -16,6 +16,7 @@ use wasm_bindgen::closure::Closure;
 use web_sys::{Event, MessageEvent, WebSocket};
 
 use crate::connection::{Connection, Link, PING_INTERVAL_MS, SILENCE_TIMEOUT_MS};
+use crate::wire::decode;
 
 /// A self-reconnecting WebSocket to the bridge. Dropping every clone does not close
 /// the socket; call [`Socket::close`] for that.
@@ -76,7 +77,10 @@ impl Socket {
             Duration::from_millis(u64::from(PING_INTERVAL_MS)),
         );
         if let Err(err) = interval {
-            leptos::logging::warn!("cannot start the connection watchdog: {err:?}");
+            leptos::logging::warn!(
+                "cannot start the connection watchdog: {}",
+                crate::http::describe_js_error(err)
+            );
         }
         Self { inner }
     }
@@ -154,7 +158,11 @@ fn open(this: &Rc<RefCell<Inner>>) {
     let ws = match WebSocket::new(&inner.url) {
         Ok(ws) => ws,
         Err(err) => {
-            leptos::logging::warn!("cannot open {}: {err:?}", inner.url);
+            leptos::logging::warn!(
+                "cannot open {}: {}",
+                inner.url,
+                crate::http::describe_js_error(err)
+            );
             drop(inner);
             lost(this, generation);
             return;
@@ -200,7 +208,7 @@ fn received(weak: &Weak<RefCell<Inner>>, generation: u64, event: &MessageEvent) 
     let Some(text) = event.data().as_string() else {
         return;
     };
-    match serde_json::from_str::<ServerMessage>(&text) {
+    match decode(&text) {
         Ok(message) => on_message(message),
         Err(err) => leptos::logging::warn!("ignoring a message the app does not understand: {err}"),
     }

@@ -3,7 +3,7 @@
 //! its own, never the previous show's time) and each gateway's line (the buffer's
 //! level in words, only while a show streams).
 
-use floatball_shared::api::{GatewayKind, GatewayStatus, PlayerState, Status};
+use floatball_shared::api::{GatewayKind, GatewayStatus, LinkState, PlayerState, Status};
 
 use crate::files::format_duration_ms;
 use crate::i18n::{Lang, Text};
@@ -66,6 +66,26 @@ pub fn gateway_text(lang: Lang, gateway: &GatewayStatus, streaming: bool) -> Str
 /// The state's name in the API (`playing`), the same in every language.
 pub fn state_key(state: PlayerState) -> &'static str {
     state.as_str()
+}
+
+/// A gateway's drive family as the installation page names it.
+pub fn kind_key(kind: GatewayKind) -> &'static str {
+    match kind {
+        GatewayKind::Uim2503 => "UIM2503",
+        GatewayKind::Mbox => "MBOX",
+        GatewayKind::Scl => "SCL",
+    }
+}
+
+/// A link's state as the page's `data-link` and CSS class say it (the API's name:
+/// `up`, `connecting`, `down`, `not_answering`).
+pub fn link_key(link: LinkState) -> &'static str {
+    match link {
+        LinkState::Up => "up",
+        LinkState::Connecting => "connecting",
+        LinkState::Down => "down",
+        LinkState::NotAnswering => "not_answering",
+    }
 }
 
 /// Whether the progress bar means something in this state (loading, playback, or

@@ -57,7 +57,10 @@ impl LocalStore {
                 && !database.object_store_names().contains(STORE)
                 && let Err(error) = database.create_object_store(STORE)
             {
-                leptos::logging::warn!("cannot create the file store: {error:?}");
+                leptos::logging::warn!(
+                    "cannot create the file store: {}",
+                    crate::http::describe_js_error(error)
+                );
             }
         });
         request.set_onupgradeneeded(Some(upgrade.as_ref().unchecked_ref()));

@@ -21,6 +21,7 @@ use floatball_web::components::Shell;
 use floatball_web::components::console::ConsolePage;
 use floatball_web::components::control::{ControlPage, SettingsPage};
 use floatball_web::components::files::FilesPage;
+use floatball_web::components::installation::InstallationPage;
 use floatball_web::components::login::LoginPage;
 use floatball_web::components::preview::PreviewScreen;
 use floatball_web::components::topbar::StatusBar;
@@ -1908,7 +1909,10 @@ async fn the_console_gives_positions_in_mm_once_the_installation_is_known() {
         if request.url.ends_with("/api/installation") {
             response(
                 200,
-                r#"{"counts_per_mm": 500.0, "gateways": [{"stations": [5, 6]}]}"#,
+                r#"{"rows": 1, "cols": 2, "pitch_mm": 500.0, "travel_mm": 7500.0,
+                    "max_speed_mm_s": 2000.0, "max_accel_mm_s2": 4000.0, "home_mm": 0.0,
+                    "approach_speed_mm_s": 250.0, "counts_per_mm": 500.0,
+                    "gateways": [{"port": "sim", "stations": [5, 6]}]}"#,
             )
         } else {
             response(500, "")
@@ -1948,4 +1952,235 @@ async fn the_console_gives_positions_in_mm_once_the_installation_is_known() {
         "{lines:?}"
     );
     assert!(lines[1].contains("PA = 200000 (400.0 mm)"), "{lines:?}");
+}
+
+// ---- app-install ----
+
+fn installation_json(max_speed_mm_s: f64) -> String {
+    serde_json::json!({
+        "rows": 10, "cols": 10, "pitch_mm": 500.0, "travel_mm": 7500.0,
+        "max_speed_mm_s": max_speed_mm_s, "max_accel_mm_s2": 4000.0, "home_mm": 0.0,
+        "approach_speed_mm_s": 250.0, "counts_per_mm": 100.0,
+        "gateways": [{"port": "sim", "baud": 115200, "stations": (1..=100).collect::<Vec<u32>>()}]
+    })
+    .to_string()
+}
+
+fn field_value(container: &web_sys::HtmlElement, test_id: &str) -> String {
+    element(container, test_id)
+        .unchecked_into::<web_sys::HtmlInputElement>()
+        .value()
+}
+
+#[wasm_bindgen_test]
+async fn the_installation_page_lists_every_problem_and_shows_what_was_saved() {
+    let puts = Rc::new(Cell::new(0));
+    let counted = Rc::clone(&puts);
+    let bridge = FakeBridge::new(
+        move |request| match (request.method, request.url.as_str()) {
+            (Method::Get, "/api/installation") => response(200, &installation_json(2000.0)),
+            (Method::Put, "/api/installation") => {
+                counted.set(counted.get() + 1);
+                if counted.get() == 1 {
+                    response(
+                    422,
+                    &serde_json::json!({
+                        "error": "the installation has 2 problems",
+                        "code": "installation_invalid",
+                        "params": {"problems": "2"},
+                        "details": ["pitch_mm = -1 must be a number above 0", "travel_mm = 0 must be a number above 0"],
+                        "problems": [
+                            {"code": "installation_problem", "params": {"reason": "pitch_mm = -1 must be a number above 0"}},
+                            {"code": "installation_problem", "params": {"reason": "travel_mm = 0 must be a number above 0"}}
+                        ]
+                    })
+                    .to_string(),
+                )
+                } else {
+                    response(200, &installation_json(1500.0))
+                }
+            }
+            _ => response(500, ""),
+        },
+    );
+    let socket = Rc::new(FakeSocket::default());
+    let container = fresh_container();
+    let ctx = context(&bridge, &socket, "test-installation");
+    online(ctx);
+    let mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <InstallationPage /> }
+    });
+    std::mem::forget(mounted);
+    until("the installation is shown", || {
+        !all(&container, "installation-form").is_empty()
+    })
+    .await;
+    assert_eq!(field_value(&container, "rows"), "10");
+    assert_eq!(field_value(&container, "max_speed_mm_s"), "2000");
+    assert_eq!(field_value(&container, "gateway-port"), "sim");
+    assert_eq!(field_value(&container, "gateway-stations"), "1-100");
+    assert_eq!(text(&container, "gateway-summary"), "100 units: 1-100");
+
+    // What cannot be read is listed, and nothing is sent.
+    type_into(&container, "pitch_mm", "wide");
+    type_into(&container, "gateway-baud", "fast");
+    element(&container, "installation-save").click();
+    tick().await;
+    assert_eq!(puts.get(), 0);
+    assert_eq!(
+        attribute(&container, "installation-problems", "data-total"),
+        "2"
+    );
+    let listed = text(&container, "installation-problems");
+    assert!(listed.contains("Pitch (mm): cannot be read"), "{listed}");
+    assert!(
+        listed.contains("Gateways 1, Line speed (baud): cannot be read"),
+        "{listed}"
+    );
+
+    // The bridge's 422: every problem listed.
+    type_into(&container, "pitch_mm", "-1");
+    type_into(&container, "gateway-baud", "115200");
+    type_into(&container, "travel_mm", "0");
+    element(&container, "installation-save").click();
+    until("the refusal is shown", || {
+        !all(&container, "installation-error").is_empty()
+    })
+    .await;
+    assert_eq!(puts.get(), 1);
+    assert_eq!(
+        attribute(&container, "installation-problems", "data-total"),
+        "2"
+    );
+    let listed = text(&container, "installation-problems");
+    assert!(
+        listed.contains("pitch_mm = -1") && listed.contains("travel_mm = 0"),
+        "{listed}"
+    );
+    let sent: serde_json::Value = serde_json::from_str(
+        bridge.requests_to(Method::Put, "/api/installation")[0]
+            .body
+            .as_deref()
+            .unwrap(),
+    )
+    .unwrap();
+    assert_eq!(sent["pitch_mm"], -1.0);
+    assert_eq!(
+        sent["gateways"][0]["stations"].as_array().map(Vec::len),
+        Some(100)
+    );
+
+    // A save that succeeds shows the bridge's answer and feeds the preview.
+    type_into(&container, "pitch_mm", "500");
+    type_into(&container, "travel_mm", "7500");
+    type_into(&container, "max_speed_mm_s", "1500");
+    element(&container, "installation-save").click();
+    until("the save is confirmed", || {
+        !all(&container, "installation-saved").is_empty()
+    })
+    .await;
+    assert_eq!(field_value(&container, "max_speed_mm_s"), "1500");
+    assert!(all(&container, "installation-problems").is_empty());
+    assert_eq!(
+        ctx.installation
+            .get_untracked()
+            .map(|info| info.max_speed_mm_s),
+        Some(1500.0)
+    );
+}
+
+#[wasm_bindgen_test]
+async fn control_warns_about_units_and_shows_armed_not_answering_and_the_preload() {
+    let bridge = FakeBridge::new(|request| {
+        if request.url.starts_with("/api/plan/") {
+            response(
+                200,
+                &serde_json::json!({
+                    "show": "x", "feasible": true, "fixes": [], "gateways": [],
+                    "preload_ms": 546_000,
+                    "advice": [{"code": "no_such_advice_code", "params": {}}]
+                })
+                .to_string(),
+            )
+        } else {
+            response(204, "")
+        }
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-health").await;
+    until("the verdicts arrive", || {
+        !all(&container, "verdict-preload").is_empty()
+    })
+    .await;
+    assert_eq!(text(&container, "verdict-preload"), " · preload 9.1 min");
+    assert!(text(&container, "verdict-advice").contains("no_such_advice_code"));
+    assert!(
+        all(&container, "units-warning").is_empty(),
+        "nothing known, no warning"
+    );
+
+    let gateway = GatewayStatus {
+        kind: GatewayKind::Uim2503,
+        port: "/dev/ttyUSB0".into(),
+        link: LinkState::NotAnswering,
+        bytes_per_s: 0.0,
+        lowest_water_level: None,
+        error: None,
+        packets_per_s: None,
+        late_frames: None,
+        missed_replies: None,
+        drives: Vec::new(),
+        baud: Some(9600),
+        health: Some(floatball_shared::api::UnitHealth {
+            expected: 100,
+            answering: 98,
+            missing: vec![4, 9],
+            faults: vec![floatball_shared::api::UnitFault {
+                station: 3,
+                error: 0x37,
+                code: 0,
+                index: 0,
+            }],
+            ..Default::default()
+        }),
+    };
+    ctx.receive(ServerMessage::Status(Status {
+        gateways: vec![gateway.clone()],
+        armed: Some(floatball_shared::api::ArmedShow {
+            entry: 0,
+            show: "a".into(),
+            progress: 0.5,
+        }),
+        ..Status::default()
+    }));
+    tick().await;
+    let warning = text(&container, "units-warning");
+    assert!(
+        warning.contains("98 of 100 units answer") && warning.contains("missing stations 4, 9"),
+        "{warning}"
+    );
+    assert!(warning.contains("station 3: "), "{warning}");
+    assert_eq!(
+        attribute(&container, "gateway", "data-link"),
+        "not_answering"
+    );
+    assert!(text(&container, "gateway").contains("not answering"));
+    assert_eq!(text(&container, "status-armed"), "a: Loading ahead 50%");
+
+    // All well: the warning goes.
+    let mut well = gateway;
+    well.link = LinkState::Up;
+    well.health = Some(floatball_shared::api::UnitHealth {
+        expected: 100,
+        answering: 100,
+        ..Default::default()
+    });
+    ctx.receive(ServerMessage::Status(Status {
+        gateways: vec![well],
+        ..Status::default()
+    }));
+    tick().await;
+    assert!(all(&container, "units-warning").is_empty());
+    assert!(all(&container, "status-armed").is_empty());
 }

@@ -124,8 +124,8 @@ pub fn ConsolePage() -> impl IntoView {
                 Some(
                     view! {
                         <details class="help" data-testid="console-help">
-                            <summary>{move || ctx.t(title)}</summary>
-                            <pre class="mono">{move || ctx.t(help)}</pre>
+                            <summary>{ctx.tr(title)}</summary>
+                            <pre class="mono">{ctx.tr(help)}</pre>
                         </details>
                     },
                 )
@@ -136,7 +136,7 @@ pub fn ConsolePage() -> impl IntoView {
                         data-testid="console-gateway"
                         on:change=move |ev| gateway.set(event_target_value(&ev).parse().ok())
                     >
-                        <option value="">{move || ctx.t(Text::AllGateways)}</option>
+                        <option value="">{ctx.tr(Text::AllGateways)}</option>
                         {gateways}
                     </select>
                 </Field>
@@ -146,12 +146,12 @@ pub fn ConsolePage() -> impl IntoView {
                     disabled=move || !ready()
                     on:click=send
                 >
-                    {move || ctx.t(Text::Send)}
+                    {ctx.tr(Text::Send)}
                 </button>
             </div>
             <BridgeError />
             <Show when=move || sent.with(|sent| !sent.is_empty())>
-                <h3>{move || ctx.t(Text::SentLines)}</h3>
+                <h3>{ctx.tr(Text::SentLines)}</h3>
                 <ul class="mono sent" data-testid="sent-lines">
                     {move || sent.get().into_iter().map(|line| view! { <li>{line}</li> }).collect_view()}
                 </ul>
@@ -167,7 +167,7 @@ pub fn ConsolePage() -> impl IntoView {
                     )
                 }}</h3>
                 <button data-testid="feedback-clear" on:click=move |_| ctx.feedback.update(|log| log.clear())>
-                    {move || ctx.t(Text::Clear)}
+                    {ctx.tr(Text::Clear)}
                 </button>
             </div>
             <ul class="mono feedback" data-testid="feedback-list">

@@ -23,14 +23,15 @@ use crate::components::widgets::{
 use crate::context::Ctx;
 use crate::control::{
     Action, Panel, PlanVerdicts, TimingForm, begin_save, edit_lock, is_locked_refusal, is_running,
-    needs_checks, settle_save, start_block,
+    needs_checks, settle_save, start_block, start_reason_key,
 };
 use crate::files::format_duration_ms;
 use crate::i18n::Text;
+use crate::installation::health_warnings;
 use crate::page::Page;
 use crate::playlist::{PlaylistEditor, Verdict, format_delay_s};
 use crate::status::{
-    gateway_text, homing_text, progress, shows_progress, state_key, streams, time_text,
+    gateway_text, homing_text, link_key, progress, shows_progress, state_key, streams, time_text,
 };
 
 /// Applies `edit` to the playlist and stores the result on the bridge; `note` gets
@@ -146,14 +147,14 @@ pub fn ControlPage() -> impl IntoView {
             <button
                 class="icon"
                 data-testid=test_id
-                title=move || ctx.t(text)
+                title=ctx.tr(text)
                 disabled=locked
                 on:click=move |_| action()
             >
                 <span class="symbol" aria-hidden="true">
                     {symbol}
                 </span>
-                <span class="caption">{move || ctx.t(text)}</span>
+                <span class="caption">{ctx.tr(text)}</span>
             </button>
         }
     };
@@ -212,7 +213,7 @@ pub fn ControlPage() -> impl IntoView {
                 disabled=move || !enabled(action)
                 on:click=move |_| press(action)
             >
-                {move || ctx.t(text)}
+                {ctx.tr(text)}
             </button>
         }
     };
@@ -251,7 +252,7 @@ pub fn ControlPage() -> impl IntoView {
                     .map(|why| {
                         view! {
                             <p class="note locked" data-testid="playlist-locked">
-                                {move || ctx.t(why)}
+                                {ctx.tr(why)}
                             </p>
                         }
                     })
@@ -262,6 +263,7 @@ pub fn ControlPage() -> impl IntoView {
                 Panel::Edit => view! { <EditPanel panel=panel note=note /> }.into_any(),
             }}
             <PlaylistView />
+            <UnitsWarning />
             <div class="actions">
                 {action_button(Action::Start, "start primary", Text::Start)}
                 <EstopButton />
@@ -283,14 +285,14 @@ pub fn ControlPage() -> impl IntoView {
                                         send(action.message());
                                     }
                                 >
-                                    {move || ctx.t(text)}
+                                    {ctx.tr(text)}
                                 </button>
                                 <button
                                     class="confirm-cancel"
                                     data-testid="confirm-cancel"
                                     on:click=move |_| asking.set(None)
                                 >
-                                    {move || ctx.t(Text::Cancel)}
+                                    {ctx.tr(Text::Cancel)}
                                 </button>
                             </div>
                         }
@@ -301,8 +303,8 @@ pub fn ControlPage() -> impl IntoView {
                     .get()
                     .map(|why| {
                         view! {
-                            <p class="note muted" data-testid="start-reason" data-reason=format!("{why:?}")>
-                                {move || ctx.t(why)}
+                            <p class="note muted" data-testid="start-reason" data-reason=start_reason_key(why)>
+                                {ctx.tr(why)}
                             </p>
                         }
                     })
@@ -315,6 +317,40 @@ pub fn ControlPage() -> impl IntoView {
             </div>
             </div>
         </section>
+    }
+}
+
+/// The warning before Start when units are missing, share a station or reported an
+/// error (the bridge's unit health per gateway); nothing while all is well or not
+/// yet known.
+#[component]
+fn UnitsWarning() -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    let warnings = Memo::new(move |_| {
+        ctx.status.with(|status| {
+            status
+                .as_ref()
+                .filter(|_| ctx.connected())
+                .map(|status| health_warnings(&status.gateways))
+                .unwrap_or_default()
+        })
+    });
+    move || {
+        let warnings = warnings.get();
+        (!warnings.is_empty()).then(|| {
+            let lang = ctx.lang.get();
+            view! {
+                <div class="note warn units-warning" data-testid="units-warning" role="status">
+                    <p>{lang.t(Text::UnitsWarning)}</p>
+                    <ul>
+                        {warnings
+                            .iter()
+                            .map(|warning| view! { <li data-testid="units-warning-gateway">{lang.health_warning(warning)}</li> })
+                            .collect_view()}
+                    </ul>
+                </div>
+            }
+        })
     }
 }
 
@@ -336,7 +372,7 @@ fn PlaylistView() -> impl IntoView {
         })
     });
     view! {
-        <h3>{move || ctx.t(Text::Playlist)}</h3>
+        <h3>{ctx.tr(Text::Playlist)}</h3>
         <ol class="list playlist" data-testid="playlist">
             {move || {
                 let editor = ctx.playlist.get();
@@ -393,7 +429,7 @@ fn AddPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Into
     let ctx = expect_context::<Ctx>();
     view! {
         <div class="card panel" data-testid="add-panel">
-            <h3>{move || ctx.t(Text::PickShow)}</h3>
+            <h3>{ctx.tr(Text::PickShow)}</h3>
             <ul class="list">
                 {move || {
                     let files = ctx.controller_files.get();
@@ -426,7 +462,7 @@ fn AddPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Into
                         .into_any()
                 }}
             </ul>
-            <button on:click=move |_| panel.set(Panel::None)>{move || ctx.t(Text::Cancel)}</button>
+            <button on:click=move |_| panel.set(Panel::None)>{ctx.tr(Text::Cancel)}</button>
         </div>
     }
 }
@@ -462,10 +498,10 @@ fn EditPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Int
             <ErrorNote text=error test_id="edit-error" />
             <div class="row-buttons">
                 <button type="submit" class="primary" data-testid="edit-apply">
-                    {move || ctx.t(Text::Apply)}
+                    {ctx.tr(Text::Apply)}
                 </button>
                 <button type="button" on:click=move |_| panel.set(Panel::None)>
-                    {move || ctx.t(Text::Cancel)}
+                    {ctx.tr(Text::Cancel)}
                 </button>
             </div>
         </form>
@@ -479,7 +515,7 @@ fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
     view! {
         <Show when=move || plans.with(|plans| !plans.is_empty())>
             <div class="card" data-testid="plan">
-                <h3>{move || ctx.t(Text::PlanTitle)}</h3>
+                <h3>{ctx.tr(Text::PlanTitle)}</h3>
                 <ul class="verdicts">
                     {move || {
                         plans
@@ -488,6 +524,14 @@ fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
                             .map(|(show, verdict)| {
                                 let key = verdict.key();
                                 let lang = ctx.lang.get();
+                                // The preload and the advice of a show that runs.
+                                let (preload, advice) = match &verdict {
+                                    Verdict::Feasible(report) => (
+                                        (report.preload_ms > 0).then(|| lang.preload(report.preload_ms)),
+                                        lang.plan_advice(report),
+                                    ),
+                                    _ => (None, Vec::new()),
+                                };
                                 let (word, reason, fixes) = match verdict {
                                     Verdict::Pending => (Text::PlanPending, None, Vec::new()),
                                     Verdict::Feasible(_) => (Text::PlanFeasible, None, Vec::new()),
@@ -507,13 +551,25 @@ fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
                                     <li class=format!("verdict {key}") data-testid="verdict" data-verdict=key>
                                         <strong>{show}</strong>
                                         ": "
-                                        {move || ctx.t(word)}
+                                        {ctx.tr(word)}
+                                        {preload
+                                            .map(|preload| {
+                                                view! { <span class="muted" data-testid="verdict-preload">" · " {preload}</span> }
+                                            })}
                                         {reason.map(|reason| view! { <p>{reason}</p> })}
+                                        {(!advice.is_empty())
+                                            .then(|| {
+                                                view! {
+                                                    <p class="advice" data-testid="verdict-advice">
+                                                        {ctx.tr(Text::PlanAdvice)} " " {advice.join("; ")}
+                                                    </p>
+                                                }
+                                            })}
                                         {(!fixes.is_empty())
                                             .then(|| {
                                                 view! {
                                                     <p class="muted">
-                                                        {move || ctx.t(Text::PlanFixes)} " "
+                                                        {ctx.tr(Text::PlanFixes)} " "
                                                         {fixes.join("; ")}
                                                     </p>
                                                 }
@@ -535,14 +591,14 @@ fn StatusView() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     view! {
         <div class="card status" data-testid="status">
-            <h3>{move || ctx.t(Text::StatusTitle)}</h3>
+            <h3>{ctx.tr(Text::StatusTitle)}</h3>
             {move || {
                 let status = ctx.status.get().filter(|_| ctx.connected());
                 match status {
                     None => {
                         view! {
                             <p class="muted" data-testid="status-state" data-state="unknown">
-                                {move || ctx.t(Text::StatusUnavailable)}
+                                {ctx.tr(Text::StatusUnavailable)}
                             </p>
                         }
                             .into_any()
@@ -580,7 +636,7 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
         .iter()
         .map(|gateway| {
             let text = gateway_text(lang, gateway, streams(state));
-            let link = format!("{:?}", gateway.link).to_ascii_lowercase();
+            let link = link_key(gateway.link);
             view! {
                 <li class=format!("link {link}") data-testid="gateway" data-link=link>
                     {text}
@@ -600,6 +656,10 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
             {row(Text::ShowLabel, status.show.clone().unwrap_or_default(), "status-show")}
             {row(Text::ShowTime, time, "status-time")}
             {row(Text::Cycle, cycle, "status-cycle")}
+            {status
+                .armed
+                .as_ref()
+                .map(|armed| row(Text::ArmedLabel, lang.armed(armed), "status-armed"))}
         </dl>
         {shows_progress(state)
             .then(|| {
@@ -693,17 +753,24 @@ pub fn SettingsPage() -> impl IntoView {
                             looped.set(event_target_checked(&ev));
                         }
                     />
-                    <span>{move || ctx.t(Text::LoopPlaylist)}</span>
+                    <span>{ctx.tr(Text::LoopPlaylist)}</span>
                 </label>
                 <button type="submit" class="primary" data-testid="settings-apply">
-                    {move || ctx.t(Text::Apply)}
+                    {ctx.tr(Text::Apply)}
                 </button>
                 <ErrorNote text=note test_id="settings-error" />
                 {move || {
                     (saved.get() && note.with(Option::is_none))
-                        .then(|| view! { <p class="note done" data-testid="settings-saved">{move || ctx.t(Text::Saved)}</p> })
+                        .then(|| view! { <p class="note done" data-testid="settings-saved">{ctx.tr(Text::Saved)}</p> })
                 }}
             </form>
+            <button
+                class="open-installation"
+                data-testid="open-installation"
+                on:click=move |_| ctx.page.set(Page::Installation)
+            >
+                {ctx.tr(Text::OpenInstallation)}
+            </button>
             <crate::components::password::PasswordForm />
         </section>
     }

@@ -82,14 +82,14 @@ pub fn FilesPage() -> impl IntoView {
             </div>
             <Show when=move || !online()>
                 <div class="note muted offline-hint" data-testid="offline-hint">
-                    <p>{move || ctx.t(Text::OfflineHint)}</p>
+                    <p>{ctx.tr(Text::OfflineHint)}</p>
                     <Show when=move || !ctx.logged_in()>
                         <button
                             class="primary"
                             data-testid="files-login"
                             on:click=move |_| ctx.page.set(Page::Login)
                         >
-                            {move || ctx.t(Text::LoginButton)}
+                            {ctx.tr(Text::LoginButton)}
                         </button>
                     </Show>
                 </div>
@@ -206,7 +206,7 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
     view! {
         <div class="toolbar">
             <label class="button" data-testid="add-files">
-                {move || ctx.t(Text::AddFiles)}
+                {ctx.tr(Text::AddFiles)}
                 <input
                     type="file"
                     class="hidden"
@@ -468,10 +468,10 @@ fn ControllerTab(message: RwSignal<Option<Message>>) -> impl IntoView {
         <table class="list table" data-testid="controller-list">
             <thead>
                 <tr>
-                    <th>{move || ctx.t(Text::Name)}</th>
-                    <th class="num">{move || ctx.t(Text::Units)}</th>
-                    <th class="num">{move || ctx.t(Text::Duration)}</th>
-                    <th class="num">{move || ctx.t(Text::Size)}</th>
+                    <th>{ctx.tr(Text::Name)}</th>
+                    <th class="num">{ctx.tr(Text::Units)}</th>
+                    <th class="num">{ctx.tr(Text::Duration)}</th>
+                    <th class="num">{ctx.tr(Text::Size)}</th>
                 </tr>
             </thead>
             <tbody>
@@ -481,7 +481,7 @@ fn ControllerTab(message: RwSignal<Option<Message>>) -> impl IntoView {
                         return view! {
                             <tr>
                                 <td colspan="4" class="empty muted">
-                                    {move || ctx.t(Text::NoControllerFiles)}
+                                    {ctx.tr(Text::NoControllerFiles)}
                                 </td>
                             </tr>
                         }

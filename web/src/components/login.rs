@@ -12,7 +12,7 @@ use crate::client::Failure;
 use crate::components::password::PasswordForm;
 use crate::components::widgets::{ErrorNote, TextField};
 use crate::context::Ctx;
-use crate::i18n::Text;
+use crate::i18n::{Lang, Text};
 use crate::page::Page;
 use crate::session::Session;
 
@@ -113,7 +113,7 @@ fn LoginForm(remembered: RwSignal<Option<String>>) -> impl IntoView {
     });
     view! {
         <form class="card form" on:submit=submit data-testid="login-form">
-            <h2>{move || ctx.t(Text::LoginTitle)}</h2>
+            <h2>{ctx.tr(Text::LoginTitle)}</h2>
             <TextField
                 label=Text::Address
                 value=address
@@ -143,7 +143,7 @@ fn LoginForm(remembered: RwSignal<Option<String>>) -> impl IntoView {
             <ErrorNote text=wait_note test_id="login-error" />
             <Show when=move || wait_s.with(Option::is_some)>
                 <p class="muted" data-testid="login-wait-note">
-                    {move || ctx.t(Text::LoginWhenWaitEnds)}
+                    {ctx.tr(Text::LoginWhenWaitEnds)}
                 </p>
             </Show>
         </form>
@@ -159,7 +159,7 @@ fn LoggedIn(address: String) -> impl IntoView {
                 // The login ends here either way; a bridge that cannot be told keeps
                 // the token until it expires.
                 if let Err(failure) = client.logout().await {
-                    leptos::logging::warn!("logout: {failure:?}");
+                    leptos::logging::warn!("logout: {}", Lang::En.failure(&failure));
                 }
             });
         }
@@ -174,10 +174,10 @@ fn LoggedIn(address: String) -> impl IntoView {
     view! {
         <div class="card form">
             <p data-testid="logged-in">
-                {move || ctx.t(Text::LoggedInTo)} " " <strong>{shown}</strong>
+                {ctx.tr(Text::LoggedInTo)} " " <strong>{shown}</strong>
             </p>
             <button data-testid="logout" on:click=logout>
-                {move || ctx.t(Text::Logout)}
+                {ctx.tr(Text::Logout)}
             </button>
         </div>
     }

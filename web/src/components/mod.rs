@@ -3,7 +3,7 @@
 //!
 //! - [`App`]: the real app: browser services, the WebSocket, storage, the URL;
 //! - [`Shell`]: the top bar and the current page (mounted by tests with fakes);
-//! - one module per page ([`qprogram`] is a part of the Files page, [`password`] of
+//! - one module per page ([`installation`] is reached from Settings) ([`qprogram`] is a part of the Files page, [`password`] of
 //!   Login and Settings), [`topbar`] for the bar on every page, and [`widgets`] for
 //!   the small views several pages share (labelled fields, notes, the two-press
 //!   Delete, tabs, list rows).
@@ -11,6 +11,7 @@
 pub mod console;
 pub mod control;
 pub mod files;
+pub mod installation;
 pub mod login;
 pub mod password;
 pub mod preview;
@@ -112,7 +113,7 @@ pub fn App() -> impl IntoView {
     };
     let ctx = Ctx::new(services, origin, lang);
     ctx.session
-        .set(stored(SESSION_KEY).and_then(|text| serde_json::from_str::<Session>(&text).ok()));
+        .set(stored(SESSION_KEY).and_then(|text| crate::json::from_str::<Session>(&text).ok()));
     ctx.page
         .set(Page::from_hash(&location.hash().unwrap_or_default()));
     provide_context(ctx);
@@ -233,6 +234,7 @@ pub fn Shell() -> impl IntoView {
                 Page::Control => view! { <control::ControlPage /> }.into_any(),
                 Page::Settings => view! { <control::SettingsPage /> }.into_any(),
                 Page::Console => view! { <console::ConsolePage /> }.into_any(),
+                Page::Installation => view! { <installation::InstallationPage /> }.into_any(),
             }}
         </main>
         <widgets::ToastArea />

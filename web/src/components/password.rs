@@ -101,7 +101,7 @@ pub fn PasswordForm(
     };
     view! {
         <form class="card form" on:submit=submit data-testid=form_id>
-            <h2>{move || ctx.t(title)}</h2>
+            <h2>{ctx.tr(title)}</h2>
             <p class="muted">
                 {move || {
                     ctx.t(if forced { Text::ChangePasswordNote } else { Text::PasswordChangeNote })
@@ -139,7 +139,7 @@ pub fn PasswordForm(
             <ErrorNote text=note test_id="password-error" alert=true />
             <Show when=move || done.get()>
                 <p class="note done" data-testid="password-done">
-                    {move || ctx.t(Text::PasswordChanged)}
+                    {ctx.tr(Text::PasswordChanged)}
                 </p>
             </Show>
         </form>

@@ -84,14 +84,14 @@ pub fn PreviewScreen() -> impl IntoView {
         <section class="preview-screen">
             <aside class="chooser" class:collapsed=collapsed data-testid="preview-chooser">
                 <button class="reopen" data-testid="preview-choose-another" on:click=move |_| picking.set(true)>
-                    {move || ctx.t(Text::ChooseAnotherShow)}
+                    {ctx.tr(Text::ChooseAnotherShow)}
                 </button>
                 <div class="pick">
-                    <h2>{move || ctx.t(Text::ChooseShow)}</h2>
-                    <h3>{move || ctx.t(Text::LocalFiles)}</h3>
+                    <h2>{ctx.tr(Text::ChooseShow)}</h2>
+                    <h3>{ctx.tr(Text::LocalFiles)}</h3>
                     <ul class="list">{local}</ul>
                     <Show when=move || ctx.logged_in()>
-                        <h3>{move || ctx.t(Text::ControllerFiles)}</h3>
+                        <h3>{ctx.tr(Text::ControllerFiles)}</h3>
                         <ul class="list">{controller}</ul>
                     </Show>
                 </div>
@@ -100,18 +100,24 @@ pub fn PreviewScreen() -> impl IntoView {
                 {move || match ctx.preview.get() {
                     Some(PreviewItem::Loading(name)) => Some(view! {
                         <h2>{name}</h2>
-                        <p class="muted" data-testid="preview-loading">{move || ctx.t(Text::Loading)}</p>
+                        <p class="muted" data-testid="preview-loading">{ctx.tr(Text::Loading)}</p>
                     }.into_any()),
                     Some(PreviewItem::Failed(name, error)) => Some(view! {
                         <h2>{name}</h2>
                         <p class="note error" data-testid="preview-error">
-                            {move || ctx.t(Text::CannotRead)} " " {error}
+                            {ctx.tr(Text::CannotRead)} " " {error}
                         </p>
                     }.into_any()),
                     Some(PreviewItem::Ready(name, _)) => Some(view! { <h2 data-testid="preview-name">{name}</h2> }.into_any()),
                     None => None,
                 }}
-                <PreviewPage show=show lang=ctx.lang name=Signal::derive(current) status=ctx.status />
+                <PreviewPage
+                    show=show
+                    lang=ctx.lang
+                    name=Signal::derive(current)
+                    status=ctx.status
+                    installation=Signal::derive(move || ctx.installation_now())
+                />
             </div>
         </section>
     }

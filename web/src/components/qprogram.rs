@@ -80,7 +80,7 @@ pub fn QProgramPanel(
     let online = move || ctx.connected() && ctx.logged_in();
     view! {
         <section class="qprogram" data-testid="qprogram">
-            <h3>{move || ctx.t(Text::QProgram)}</h3>
+            <h3>{ctx.tr(Text::QProgram)}</h3>
             <div class="toolbar">
                 <TextField
                     label=Text::Ball

@@ -6,6 +6,8 @@
 use floatball_shared::api::{ClientMessage, PlayerState};
 use leptos::prelude::*;
 
+use crate::context::tr_in;
+
 use crate::components::widgets::TabButton;
 use crate::connection::Link;
 use crate::context::{Ctx, EstopAck};
@@ -124,6 +126,7 @@ pub fn page_name(page: Page) -> Text {
         Page::Control => Text::NavControl,
         Page::Settings => Text::NavSettings,
         Page::Console => Text::NavConsole,
+        Page::Installation => Text::InstallationTitle,
     }
 }
 
@@ -182,7 +185,7 @@ pub fn LanguageSwitch(
             data-testid="lang"
             on:click=move |_| lang.update(|lang| *lang = lang.other())
         >
-            {move || lang.get().t(Text::SwitchLanguage)}
+            {tr_in(lang.into(), Text::SwitchLanguage)}
         </button>
     }
 }
@@ -240,7 +243,7 @@ pub fn EstopButton() -> impl IntoView {
             data-ack=ack_state
             on:click=press
         >
-            <span class="estop-label">{move || ctx.t(Text::Estop)}</span>
+            <span class="estop-label">{ctx.tr(Text::Estop)}</span>
             <span class="estop-ack" data-testid="estop-ack">
                 {ack_text}
             </span>

@@ -32,7 +32,7 @@ pub fn Field(
     let ctx = expect_context::<Ctx>();
     view! {
         <label class=class>
-            <span>{move || ctx.t(label)}</span>
+            <span>{ctx.tr(label)}</span>
             {children()}
         </label>
     }
@@ -112,7 +112,7 @@ pub fn BridgeError() -> impl IntoView {
         ctx.bridge_error.get().map(|refusal| {
             view! {
                 <p class="note error" data-testid="bridge-error">
-                    {move || ctx.t(Text::BridgeSays)} " " {move || refusal.text(ctx.lang.get())}
+                    {ctx.tr(Text::BridgeSays)} " " {move || refusal.text(ctx.lang.get())}
                 </p>
             }
         })
@@ -135,7 +135,7 @@ pub fn ActionButton(
     let ctx = expect_context::<Ctx>();
     view! {
         <button data-testid=test_id disabled=disabled on:click=move |_| on_click.run(())>
-            {move || ctx.t(text)}
+            {ctx.tr(text)}
         </button>
     }
 }
@@ -197,7 +197,7 @@ pub fn TabButton(
             data-testid=test_id
             on:click=move |_| on_click.run(())
         >
-            {move || ctx.t(text)}
+            {ctx.tr(text)}
         </button>
     }
 }
@@ -253,7 +253,7 @@ pub fn EmptyItem(
     text: Text,
 ) -> impl IntoView {
     let ctx = expect_context::<Ctx>();
-    view! { <li class="empty muted">{move || ctx.t(text)}</li> }
+    view! { <li class="empty muted">{ctx.tr(text)}</li> }
 }
 
 /// Problems (a refused upload's, a file that cannot be read): the first
@@ -327,7 +327,7 @@ pub fn ToastArea() -> impl IntoView {
             class="toasts"
             role="status"
             aria-live="polite"
-            aria-label=move || ctx.t(Text::Notifications)
+            aria-label=ctx.tr(Text::Notifications)
         >
             {move || {
                 ctx.toast

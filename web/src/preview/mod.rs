@@ -32,11 +32,13 @@ use std::rc::Rc;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use floatball_shared::api::Status;
+use floatball_shared::api::{InstallationInfo, Status};
 use floatball_shared::show::{Limits, Show, Violation, validate};
 use glam::Vec2;
 use leptos::html::Canvas;
 use leptos::prelude::*;
+
+use crate::context::tr_in;
 use wasm_bindgen::JsCast;
 
 use crate::files::format_duration_ms;
@@ -46,23 +48,29 @@ use model::{Clock, Mode, ViewChoice};
 use perf::PerfPanel;
 use playback::{Playback, SPEEDS};
 use plot::BallPlot;
-use stage::{RendererKind, Stage, now_ms};
+use stage::{Matrix, RendererKind, Stage, now_ms};
 
 /// How many validation problems are listed.
 const PROBLEMS_SHOWN: usize = 10;
 
-/// A show checked against the default limits of its layout.
+/// A show checked against the installation's limits, or the default limits of its
+/// layout while the installation is not known.
 #[derive(Debug, Clone, PartialEq)]
 struct Checked {
     limits: Limits,
+    /// Whether `limits` are the installation's.
+    installed: bool,
     violations: Vec<Violation>,
     /// The balls with a violation, each once, in order.
     beyond: Vec<usize>,
 }
 
 impl Checked {
-    fn of(show: &Show) -> Self {
-        let limits = Limits::for_layout(show.layout.rows, show.layout.cols);
+    fn of(show: &Show, installation: Option<&InstallationInfo>) -> Self {
+        let limits = installation.map_or_else(
+            || Limits::for_layout(show.layout.rows, show.layout.cols),
+            crate::installation::limits_of,
+        );
         let violations = validate(show, &limits);
         let mut beyond: Vec<usize> = violations
             .iter()
@@ -72,6 +80,7 @@ impl Checked {
         beyond.dedup();
         Self {
             limits,
+            installed: installation.is_some(),
             violations,
             beyond,
         }
@@ -79,7 +88,8 @@ impl Checked {
 }
 
 /// The preview of `show`: the stage, the controls, the time, the tapped ball's plot,
-/// and the show's problems against the default limits.
+/// and the show's problems against the installation's limits (the defaults while
+/// it is not known); the 3D view uses its travel and pitch.
 ///
 /// What it shows is kept in two plain models ([`model`]): the [`Clock`], which
 /// moves every frame, and the [`ViewChoice`], which moves when the user asks.
@@ -97,10 +107,29 @@ pub fn PreviewPage(
     /// The bridge's latest status; none while not connected.
     #[prop(optional, into)]
     status: MaybeProp<Status>,
+    /// The installation (`GET /api/installation`) while connected: its limits, grid
+    /// and pitch; the defaults and the show's pitch without it.
+    #[prop(optional, into)]
+    installation: MaybeProp<InstallationInfo>,
 ) -> impl IntoView {
     let clock = RwSignal::new(Clock::new(now_ms()));
     let view_choice = RwSignal::new(ViewChoice::default());
-    let checked = Memo::new(move |_| show.with(|show| show.as_ref().map(Checked::of)));
+    let checked = Memo::new(move |_| {
+        installation.with(|installation| {
+            show.with(|show| {
+                show.as_ref()
+                    .map(|show| Checked::of(show, installation.as_ref()))
+            })
+        })
+    });
+    let matrix = Memo::new(move |_| {
+        installation.with(|installation| {
+            installation.as_ref().map(|info| Matrix {
+                travel_mm: info.travel_mm,
+                pitch_mm: info.pitch_mm,
+            })
+        })
+    });
     let stage = StoredValue::new_local(None::<Stage>);
     let renderer = Memo::new(move |_| view_choice.with(ViewChoice::renderer));
     let selected = Memo::new(move |_| view_choice.with(ViewChoice::selected));
@@ -126,6 +155,7 @@ pub fn PreviewPage(
         let kind = renderer.get();
         let canvas = parts.canvas.get();
         let beyond = checked.with(|checked| checked.as_ref().map(|c| c.beyond.clone()));
+        let matrix = matrix.get();
         show.with(|show| {
             let (Some(canvas), Some(show), Some(beyond)) = (canvas, show, beyond) else {
                 stage.set_value(None);
@@ -144,7 +174,13 @@ pub fn PreviewPage(
                 None => Stage::new(canvas, show, beyond, kind).map(|new| {
                     stage.set_value(Some(new));
                 }),
-            };
+            }
+            .and_then(|()| {
+                stage
+                    .try_update_value(|stage| stage.as_mut().map(|stage| stage.set_matrix(matrix)))
+                    .flatten()
+                    .unwrap_or(Ok(()))
+            });
             if let Err(why) = outcome {
                 stage.set_value(None);
                 if kind == RendererKind::WebGl2 {
@@ -178,15 +214,15 @@ pub fn PreviewPage(
             <button
                 class="icon"
                 data-testid=test_id
-                title=move || lang.get().t(text)
-                aria-label=move || lang.get().t(text)
+                title=tr_in(lang, text)
+                aria-label=tr_in(lang, text)
                 disabled=move || show.with(Option::is_none)
                 on:click=move |_| clock.update(|clock| clock.control(action))
             >
                 <span class="symbol" aria-hidden="true">
                     {symbol}
                 </span>
-                <span class="caption">{move || lang.get().t(text)}</span>
+                <span class="caption">{tr_in(lang, text)}</span>
             </button>
         }
     };
@@ -208,7 +244,7 @@ pub fn PreviewPage(
         <div class="preview" data-testid="preview">
             <Show
                 when=move || show.with(Option::is_some)
-                fallback=move || view! { <p class="muted" data-testid="preview-empty">{move || lang.get().t(Text::NoShowSelected)}</p> }
+                fallback=move || view! { <p class="muted" data-testid="preview-empty">{tr_in(lang, Text::NoShowSelected)}</p> }
             >
                 <p class="muted" data-testid="preview-facts">
                     {move || {
@@ -231,7 +267,7 @@ pub fn PreviewPage(
                 </Show>
             </div>
             <Show when=move || view_choice.with(ViewChoice::explains_no_webgl)>
-                <p class="note" data-testid="preview-no-webgl">{move || lang.get().t(Text::NoWebGl)}</p>
+                <p class="note" data-testid="preview-no-webgl">{tr_in(lang, Text::NoWebGl)}</p>
             </Show>
             <div class="transport">
                 {button("preview-restart", "|◀", Text::Restart, Playback::restart)}
@@ -272,7 +308,7 @@ pub fn PreviewPage(
                 class="slider"
                 min="0"
                 step="10"
-                aria-label=move || lang.get().t(Text::ShowTime)
+                aria-label=tr_in(lang, Text::ShowTime)
                 data-testid="preview-slider"
                 prop:max=move || clock.with(|clock| clock.playback().duration_ms())
                 prop:value=t_ms
@@ -284,7 +320,7 @@ pub fn PreviewPage(
             />
             <div class="tools">
                 <label class="speed">
-                    <span>{move || lang.get().t(Text::PlaybackSpeed)}</span>
+                    <span>{tr_in(lang, Text::PlaybackSpeed)}</span>
                     <select
                         data-testid="preview-speed"
                         on:change=move |ev| {
@@ -314,11 +350,11 @@ pub fn PreviewPage(
                         class:on=move || live.get().0
                         data-testid="preview-live"
                         aria-pressed=move || live.get().0.to_string()
-                        title=move || lang.get().t(Text::LiveHint)
+                        title=tr_in(lang, Text::LiveHint)
                         disabled=move || !live.get().1
                         on:click=move |_| clock.update(Clock::toggle_live)
                     >
-                        {move || lang.get().t(Text::Live)}
+                        {tr_in(lang, Text::Live)}
                     </button>
                 </Show>
                 <div class="segmented" role="group">
@@ -328,14 +364,14 @@ pub fn PreviewPage(
                         disabled=move || !view_choice.with(ViewChoice::offers_3d)
                         on:click=move |_| view_choice.update(|view| view.choose(Mode::ThreeD))
                     >
-                        {move || lang.get().t(Text::View3d)}
+                        {tr_in(lang, Text::View3d)}
                     </button>
                     <button
                         data-testid="preview-mode-top"
                         aria-pressed=move || (renderer.get() == RendererKind::TopView).to_string()
                         on:click=move |_| view_choice.update(|view| view.choose(Mode::Top))
                     >
-                        {move || lang.get().t(Text::TopView)}
+                        {tr_in(lang, Text::TopView)}
                     </button>
                 </div>
                 <Show when=move || renderer.get() == RendererKind::WebGl2>
@@ -343,7 +379,7 @@ pub fn PreviewPage(
                         data-testid="preview-reset-view"
                         on:click=move |_| with_stage(stage, Stage::reset_view)
                     >
-                        {move || lang.get().t(Text::ResetView)}
+                        {tr_in(lang, Text::ResetView)}
                     </button>
                 </Show>
                 <button
@@ -359,14 +395,14 @@ pub fn PreviewPage(
                         }
                     }
                 >
-                    {move || lang.get().t(Text::Performance)}
+                    {tr_in(lang, Text::Performance)}
                 </button>
             </div>
             <Show when=move || status.with(Option::is_some) && !live.get().1>
-                <p class="muted small" data-testid="preview-live-hint">{move || lang.get().t(Text::LiveHint)}</p>
+                <p class="muted small" data-testid="preview-live-hint">{tr_in(lang, Text::LiveHint)}</p>
             </Show>
             <Show when=move || renderer.get() == RendererKind::WebGl2 && show.with(Option::is_some)>
-                <p class="muted small">{move || lang.get().t(Text::GestureHint)}</p>
+                <p class="muted small">{tr_in(lang, Text::GestureHint)}</p>
             </Show>
             {move || {
                 plot.get()
@@ -386,14 +422,25 @@ pub fn PreviewPage(
     }
 }
 
-/// The show's problems against the default limits, or that it is within them.
+/// The show's problems against the limits, or that it is within them.
 fn problems_view(checked: Option<&Checked>, lang: Signal<Lang>) -> AnyView {
     let violations = checked.map_or(&[][..], |c| &c.violations[..]);
+    let installed = checked.is_some_and(|c| c.installed);
     let count = violations.len();
     if count == 0 {
-        return view! { <p class="note done" data-testid="preview-valid">{move || lang.get().t(Text::WithinLimits)}</p> }
+        let within = if installed {
+            Text::WithinInstallationLimits
+        } else {
+            Text::WithinLimits
+        };
+        return view! { <p class="note done" data-testid="preview-valid">{tr_in(lang, within)}</p> }
             .into_any();
     }
+    let beyond = if installed {
+        Text::BeyondInstallationLimits
+    } else {
+        Text::BeyondLimits
+    };
     let in_lang = lang.get();
     let shown: Vec<String> = violations
         .iter()
@@ -402,8 +449,8 @@ fn problems_view(checked: Option<&Checked>, lang: Signal<Lang>) -> AnyView {
         .collect();
     let more = count.saturating_sub(shown.len());
     view! {
-        <div class="note error" data-testid="preview-problems">
-            <p>{move || lang.get().t(Text::BeyondLimits)} " " {count}</p>
+        <div class="note error" data-testid="preview-problems" data-limits=if installed { "installation" } else { "default" }>
+            <p>{tr_in(lang, beyond)} " " {count}</p>
             <ul>
                 {shown.into_iter().map(|problem| view! { <li>{problem}</li> }).collect_view()}
                 {(more > 0).then(|| view! { <li>"…"</li> })}
@@ -631,7 +678,7 @@ fn PlotPanel(
             <div class="plot-head">
                 <h3 data-testid="preview-plot-title">{move || lang.get().ball_name(index, row, col)}</h3>
                 <button data-testid="preview-plot-close" on:click=move |_| on_close()>
-                    {move || lang.get().t(Text::Close)}
+                    {tr_in(lang, Text::Close)}
                 </button>
             </div>
             <p class="muted small">{move || lang.get().ball_facts(facts.0, facts.1, facts.2)}</p>
@@ -640,7 +687,7 @@ fn PlotPanel(
                 <div class="plot-cursor" data-testid="preview-plot-cursor" style=cursor></div>
             </div>
             {if count == 0 {
-                view! { <p class="note done">{move || lang.get().t(Text::BallWithinLimits)}</p> }.into_any()
+                view! { <p class="note done">{tr_in(lang, Text::BallWithinLimits)}</p> }.into_any()
             } else {
                 view! {
                     <ul class="note error" data-testid="preview-plot-problems">

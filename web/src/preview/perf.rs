@@ -16,6 +16,8 @@ use std::f64::consts::TAU;
 use floatball_shared::show::{ColourKey, Layout, Show, Track, TrackRow};
 use leptos::html::Canvas;
 use leptos::prelude::*;
+
+use crate::context::tr_in;
 use leptos::task::spawn_local;
 use wasm_bindgen_futures::JsFuture;
 
@@ -273,8 +275,8 @@ pub fn PerfPanel(
     };
     view! {
         <section class="perf card" data-testid="perf">
-            <h3>{move || lang.get().t(Text::Performance)}</h3>
-            <p class="muted">{move || lang.get().t(Text::PerfExplain)}</p>
+            <h3>{tr_in(lang, Text::Performance)}</h3>
+            <p class="muted">{tr_in(lang, Text::PerfExplain)}</p>
             <button
                 class="primary"
                 data-testid="perf-run"
@@ -285,7 +287,7 @@ pub fn PerfPanel(
                 disabled=move || running.get().is_some()
                 on:click=run
             >
-                {move || lang.get().t(Text::PerfRun)}
+                {tr_in(lang, Text::PerfRun)}
             </button>
             <p class="muted" data-testid="perf-status">
                 {move || running.get().map(|balls| lang.get().measuring(balls))}
@@ -305,10 +307,10 @@ pub fn PerfPanel(
             <table class="list perf-results" data-testid="perf-results">
                 <thead>
                     <tr>
-                        <th>{move || lang.get().t(Text::Units)}</th>
-                        <th>{move || lang.get().t(Text::PerfEvalMs)}</th>
-                        <th>{move || lang.get().t(Text::PerfFrameMs)}</th>
-                        <th>{move || lang.get().t(Text::PerfFps)}</th>
+                        <th>{tr_in(lang, Text::Units)}</th>
+                        <th>{tr_in(lang, Text::PerfEvalMs)}</th>
+                        <th>{tr_in(lang, Text::PerfFrameMs)}</th>
+                        <th>{tr_in(lang, Text::PerfFps)}</th>
                     </tr>
                 </thead>
                 <tbody>{rows}</tbody>

@@ -68,6 +68,33 @@ pub struct Stage {
     viewport: Viewport,
     /// The show time last drawn; `None` when the next frame must be drawn anyway.
     drawn_ms: Option<f64>,
+    /// The installation's travel and pitch, when known (else the defaults' and the
+    /// show's).
+    matrix: Option<Matrix>,
+}
+
+/// What the installation says about the picture: how far balls travel and how far
+/// apart they hang.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Matrix {
+    /// Lowest position, mm below the top.
+    pub travel_mm: f64,
+    /// Distance between neighbouring balls, mm.
+    pub pitch_mm: f64,
+}
+
+/// The scene of `layout`, on the installation `matrix` when it is known.
+fn scene_of(layout: Layout, matrix: Option<Matrix>) -> Scene {
+    match matrix {
+        Some(matrix) => Scene::new(
+            Layout {
+                pitch_mm: matrix.pitch_mm,
+                ..layout
+            },
+            matrix.travel_mm,
+        ),
+        None => Scene::new(layout, DEFAULT_TRAVEL_MM),
+    }
 }
 
 /// `performance.now()`, ms.
@@ -86,7 +113,7 @@ impl Stage {
         beyond: Vec<usize>,
         kind: RendererKind,
     ) -> Result<Self, String> {
-        let scene = Scene::new(show.layout, DEFAULT_TRAVEL_MM);
+        let scene = scene_of(show.layout, None);
         let renderer = match kind {
             RendererKind::WebGl2 => Renderer::Gl(GlView::new(&canvas)?),
             RendererKind::TopView => Renderer::Top(
@@ -117,6 +144,7 @@ impl Stage {
                 height: 0.0,
             },
             drawn_ms: None,
+            matrix: None,
         };
         stage.set_show(show, beyond)?;
         Ok(stage)
@@ -126,7 +154,7 @@ impl Stage {
     pub fn set_show(&mut self, show: &Show, beyond: Vec<usize>) -> Result<(), String> {
         let units = show.tracks.len();
         self.layout = show.layout;
-        self.scene = Scene::new(show.layout, DEFAULT_TRAVEL_MM);
+        self.scene = scene_of(show.layout, self.matrix);
         self.sampler = Sampler::new(show);
         self.positions_mm = vec![0.0; units];
         self.colours = vec![[0; 3]; units];
@@ -138,6 +166,24 @@ impl Stage {
         self.drawn_ms = None;
         if let Renderer::Gl(gl) = &mut self.renderer {
             gl.set_scene(&self.scene, units)?;
+        }
+        Ok(())
+    }
+
+    /// Draws on the installation `matrix` (its travel and pitch), or on the defaults
+    /// and the show's pitch (`None`); the view is framed anew when that changes.
+    pub fn set_matrix(&mut self, matrix: Option<Matrix>) -> Result<(), String> {
+        if matrix == self.matrix {
+            return Ok(());
+        }
+        self.matrix = matrix;
+        self.scene = scene_of(self.layout, matrix);
+        if !self.camera_moved {
+            self.fit_camera();
+        }
+        self.drawn_ms = None;
+        if let Renderer::Gl(gl) = &mut self.renderer {
+            gl.set_scene(&self.scene, self.positions_mm.len())?;
         }
         Ok(())
     }

@@ -1,0 +1,185 @@
+//! The bridge's WebSocket messages ([`ServerMessage`]) read in two light steps: the
+//! `"type"` field first, then the whole text straight into that variant's struct
+//! (which skips the `"type"` field as it skips any field it does not know).
+//!
+//! Serde's own reading of an internally tagged enum buffers every message into a
+//! generic tree and then reads each variant's struct from that tree: a second copy of
+//! the reading code of every type in the status (about 20 KB of the compressed app).
+//! The JSON is the same; [`decode`] gives the same message.
+
+use floatball_shared::api::{Problem, ServerMessage};
+use floatball_shared::codes::Params;
+use serde::Deserialize;
+
+use crate::json::from_str;
+
+/// The `"type"` field alone.
+#[derive(Deserialize)]
+struct Tag {
+    #[serde(rename = "type")]
+    kind: String,
+}
+
+/// [`ServerMessage::EstopSent`]'s fields.
+#[derive(Deserialize)]
+struct EstopSent {
+    unreached: Vec<String>,
+}
+
+/// [`ServerMessage::Error`]'s fields.
+#[derive(Deserialize)]
+struct Refused {
+    message: String,
+    #[serde(default)]
+    code: String,
+    #[serde(default)]
+    params: Params,
+    #[serde(default)]
+    reason_problem: Option<Box<Problem>>,
+    #[serde(default)]
+    fix_problems: Vec<Problem>,
+}
+
+/// Reads one WebSocket text frame from the bridge.
+///
+/// # Errors
+/// Not JSON, no `"type"`, a type this app does not know, or a variant's fields that
+/// do not read.
+pub fn decode(text: &str) -> Result<ServerMessage, serde_json::Error> {
+    let tag: Tag = from_str(text)?;
+    Ok(match tag.kind.as_str() {
+        "status" => ServerMessage::Status(from_str(text)?),
+        "feedback" => ServerMessage::Feedback(from_str(text)?),
+        "pong" => ServerMessage::Pong,
+        "estop_sent" => ServerMessage::EstopSent {
+            unreached: from_str::<EstopSent>(text)?.unreached,
+        },
+        "mbox_reply" => ServerMessage::MboxReply(from_str(text)?),
+        "scl_reply" => ServerMessage::SclReply(from_str(text)?),
+        "error" => {
+            let refused: Refused = from_str(text)?;
+            ServerMessage::Error {
+                message: refused.message,
+                code: refused.code,
+                params: refused.params,
+                reason_problem: refused.reason_problem,
+                fix_problems: refused.fix_problems,
+            }
+        }
+        other => {
+            return Err(serde::de::Error::custom(format_args!(
+                "unknown message type `{other}`"
+            )));
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
+
+    use floatball_shared::api::{
+        ArmedShow, FeedbackFrame, GatewayKind, GatewayStatus, LinkState, PlayerState, SclReply,
+        Status, UnitFault, UnitHealth,
+    };
+
+    use super::*;
+
+    /// Every variant the bridge sends, as serde writes it, reads back the same.
+    #[test]
+    fn every_message_reads_back_as_serde_wrote_it() {
+        let status = Status {
+            state: PlayerState::Idle,
+            entry: Some(0),
+            show: Some("wave".into()),
+            show_time_ms: 0,
+            show_duration_ms: 8000,
+            cycle: 0,
+            progress: 0.0,
+            gateways: vec![GatewayStatus {
+                kind: GatewayKind::Uim2503,
+                port: "sim".into(),
+                link: LinkState::NotAnswering,
+                bytes_per_s: 12.5,
+                lowest_water_level: Some(3),
+                error: None,
+                packets_per_s: None,
+                late_frames: None,
+                missed_replies: None,
+                drives: Vec::new(),
+                baud: Some(9600),
+                health: Some(UnitHealth {
+                    expected: 100,
+                    answering: 98,
+                    missing: vec![4, 9],
+                    faults: vec![UnitFault {
+                        station: 3,
+                        error: 0x37,
+                        code: 0x27,
+                        index: 2,
+                    }],
+                    ..UnitHealth::default()
+                }),
+            }],
+            last_error: Some("x".into()),
+            armed: Some(ArmedShow {
+                entry: 0,
+                show: "wave".into(),
+                progress: 0.5,
+            }),
+        };
+        let mut params = Params::new();
+        params.insert("name".into(), "波浪".into());
+        let messages = [
+            ServerMessage::Status(status),
+            ServerMessage::Feedback(FeedbackFrame {
+                gateway: 0,
+                station: 5,
+                code: 35,
+                data: vec![3, 0],
+            }),
+            ServerMessage::Pong,
+            ServerMessage::EstopSent {
+                unreached: vec!["sim: down".into()],
+            },
+            ServerMessage::SclReply(SclReply {
+                gateway: 0,
+                drive: "2".into(),
+                request: "2IP".into(),
+                text: "IP = 1200".into(),
+                raw: "IP=1200".into(),
+            }),
+            ServerMessage::Error {
+                message: "no such show".into(),
+                code: "show_not_found".into(),
+                params,
+                reason_problem: Some(Box::new(Problem {
+                    code: "x".into(),
+                    params: Params::new(),
+                })),
+                fix_problems: Vec::new(),
+            },
+        ];
+        for message in messages {
+            let text = serde_json::to_string(&message).expect("json");
+            assert_eq!(decode(&text).expect(&text), message);
+        }
+        let mbox = r#"{"type":"mbox_reply","gateway":1,"text":"FN0090 = 1","registers":{"bank":"FN","start":144,"values":[1]}}"#;
+        assert!(matches!(decode(mbox), Ok(ServerMessage::MboxReply(_))));
+        let old = decode(r#"{"type":"error","message":"no"}"#).expect("an older bridge");
+        assert!(matches!(old, ServerMessage::Error { code, .. } if code.is_empty()));
+    }
+
+    #[test]
+    fn unknown_or_broken_messages_are_errors() {
+        for text in [
+            r#"{"type":"dance"}"#,
+            r#"{"state":"idle"}"#,
+            r#"{"type":"status"}"#,
+            "not json",
+        ] {
+            assert!(decode(text).is_err(), "{text}");
+        }
+    }
+}
