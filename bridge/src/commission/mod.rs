@@ -62,6 +62,10 @@ pub const QUIET_SLACK: Duration = Duration::from_millis(50);
 /// How often a wait for answers looks whether the link has written everything.
 const POLL: Duration = Duration::from_millis(10);
 
+/// How long after the ball should be back its driver is switched off again (when it
+/// was off before): the units' own acceleration may differ from the installation's.
+const MOTOR_OFF_MARGIN: Duration = Duration::from_millis(500);
+
 /// Bytes of one `SN` answer on the line (header, station, code, 8 data bytes, tail).
 const SERIAL_FRAME_BYTES: usize = 12;
 
@@ -517,7 +521,12 @@ impl Commission {
             .map_err(|error| CommissionError::NotSent {
                 reason: error.to_string(),
             })?;
-        let duration = planned.duration() + line_time;
+        let motor_off = (motor_on == Some(false)).then_some(motor_off);
+        // Back where it was includes the driver off again, when it was off.
+        let settle = motor_off.as_ref().map_or(Duration::ZERO, |batch| {
+            MOTOR_OFF_MARGIN + byte_time * u32::try_from(batch.len()).unwrap_or(u32::MAX)
+        });
+        let duration = planned.duration() + line_time + settle;
         tokio::spawn(come_back(
             ComeBack {
                 link: desk.link.clone(),
@@ -525,7 +534,7 @@ impl Commission {
                 generation,
                 planned,
                 back,
-                motor_off: (motor_on == Some(false)).then_some(motor_off),
+                motor_off,
             },
             busy,
         ));
@@ -571,7 +580,11 @@ async fn come_back(back: ComeBack, busy: Busy) {
     {
         return;
     }
-    tokio::time::sleep(back.planned.leg).await;
+    // The driver goes off only once the ball is surely back: motor off stops it
+    // where it is.
+    let byte_time = Line::new(back.link.baud()).byte_time();
+    let on_the_line = byte_time * u32::try_from(back.back.len()).unwrap_or(u32::MAX);
+    tokio::time::sleep(back.planned.leg + on_the_line + MOTOR_OFF_MARGIN).await;
     if let Some(motor_off) = &back.motor_off
         && back.may_go_on()
     {
