@@ -265,7 +265,10 @@ pub async fn monitor(
                 Err(broadcast::error::RecvError::Closed) => return,
             },
             report = reports.recv() => match report {
-                Some(Report::RollCall(call, stations)) => book.roll_call(&call, &stations),
+                Some(Report::RollCall(call, stations)) => {
+                    book.roll_call(&call, &stations);
+                    publish(&health, &book);
+                }
                 Some(Report::Faults(reply)) => { let _ = reply.send(book.faults()); }
                 None => return,
             },
@@ -296,17 +299,23 @@ pub async fn monitor(
                         book.close_probe();
                     }
                 }
+                publish(&health, &book);
             }
         }
-        health.send_if_modified(|published| {
-            let current = book.health();
-            let changed = *published != current;
-            if changed {
-                *published = current;
-            }
-            changed
-        });
     }
+}
+
+/// Publishes the record if it changed (frames are taken at once, published with the
+/// next tick: a show's thousands of answers a second cost no snapshot each).
+fn publish(health: &watch::Sender<Option<UnitHealth>>, book: &HealthBook) {
+    let current = book.health();
+    health.send_if_modified(|published| {
+        let changed = *published != current;
+        if changed {
+            *published = current;
+        }
+        changed
+    });
 }
 
 fn take_frame(book: &mut HealthBook, frame: &Frame) {
