@@ -80,6 +80,8 @@ fn assert_clean(call: &RollCall, serials: &[u64]) {
 async fn a_factory_fresh_gateway_is_commissioned_and_keeps_its_stations() {
     let bridge = Process::start_with_args(CONFIG, &["--sim-factory-fresh"]);
     let token = bridge.operator().await;
+    let mut ws = bridge.ws(&token).await;
+    assert!(common::process::links_up(&mut ws).await);
 
     // Every unit answers on the factory station 5.
     let fresh = roll_call(&bridge, &token).await;
@@ -138,7 +140,6 @@ async fn a_factory_fresh_gateway_is_commissioned_and_keeps_its_stations() {
     );
 
     // The health in the status says so.
-    let mut ws = bridge.ws(&token).await;
     status_until(&mut ws, Duration::from_secs(5), |status| {
         status
             .gateways
@@ -264,6 +265,8 @@ async fn a_factory_fresh_gateway_is_commissioned_and_keeps_its_stations() {
     let reply = bridge.login(common::PASSWORD).await;
     assert_eq!(reply.status, StatusCode::OK);
     let token = reply.json::<floatball_shared::api::LoginResponse>().token;
+    let mut ws = bridge.ws(&token).await;
+    assert!(common::process::links_up(&mut ws).await);
     assert_clean(&roll_call(&bridge, &token).await, &serials);
 }
 
