@@ -15,6 +15,7 @@
 //! their last handle goes; the others are kept as they are. Readers take the list as
 //! a snapshot ([`Gateways::links`]), never a lock held while they use it.
 
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, RwLock};
 
 use floatball_shared::api::FeedbackFrame;
@@ -24,6 +25,7 @@ use floatball_shared::plan::{DriveKind, Installation};
 use floatball_shared::sim::GatewayConfig;
 use tokio::sync::broadcast;
 
+use crate::commission::sim_units::SimUnits;
 use crate::config::Config;
 use crate::estop::Latch;
 use crate::link::{Link, LinkConfig};
@@ -43,6 +45,10 @@ pub struct Gateways {
     estop: Batch,
     /// The one e-stop latch every link obeys.
     latch: Arc<Latch>,
+    /// Where simulated units keep their stations ([`crate::commission::sim_units`]).
+    data_dir: PathBuf,
+    /// How new simulated units leave the factory.
+    sim: SimUnits,
 }
 
 /// What [`Gateways::reopen`] did.
@@ -56,12 +62,19 @@ pub struct Reopened {
 
 impl Gateways {
     /// Opens a link per configured gateway, all obeying `latch`, and starts relaying
-    /// their feedback. Must run inside the async runtime.
+    /// their feedback. Must run inside the async runtime. A simulated gateway's units
+    /// keep the stations they were given in `data_dir`
+    /// ([`crate::commission::sim_units`]); new ones leave the factory as `sim` says.
     ///
     /// # Errors
     /// If the configured e-stop does not encode (the configuration check already
     /// makes sure it does).
-    pub fn open(config: &Config, latch: &Arc<Latch>) -> Result<Self, EncodeError> {
+    pub fn open(
+        config: &Config,
+        latch: &Arc<Latch>,
+        data_dir: &Path,
+        sim: SimUnits,
+    ) -> Result<Self, EncodeError> {
         let estop = Batch::encode(&config.estop, Form::Standard)?;
         let installation = &config.installation;
         let (feedback, _) = broadcast::channel(FEEDBACK_CAPACITY);
@@ -70,6 +83,8 @@ impl Gateways {
             feedback,
             estop,
             latch: Arc::clone(latch),
+            data_dir: data_dir.to_path_buf(),
+            sim,
         };
         let links: Vec<Link> = installation
             .gateways
@@ -91,7 +106,9 @@ impl Gateways {
         link.latch = Arc::clone(&self.latch);
         // A simulated gateway has the installation's units and calibration.
         link.sim = GatewayConfig {
-            stations: installation.stations_on(index),
+            stations: self
+                .sim
+                .stations(&self.data_dir, index, &installation.stations_on(index)),
             seed: index as u64,
             counts_per_mm: installation.counts_per_mm,
             travel_mm: installation.limits.travel_mm,

@@ -264,9 +264,17 @@ async fn save_and_apply(
         .mbox
         .as_ref()
         .map(|mbox| crate::state::mbox_player_config(&config.installation, mbox));
+    // The units' health of the new links: new monitors, which know the new stations.
+    let (health, health_views) = crate::commission::health_channels(links.len());
     if let Err(error) = state
         .playback()
-        .reconfigure(config.installation.clone(), mbox, links, opened)
+        .reconfigure(
+            config.installation.clone(),
+            mbox,
+            Arc::clone(&links),
+            health_views,
+            opened,
+        )
         .await
     {
         state.gateways().restore(before);
@@ -286,6 +294,9 @@ async fn save_and_apply(
         config.installation.limits.cols,
         config.installation.gateways.len()
     );
+    state
+        .commission()
+        .reopen(&links, &config.installation, health);
     state.replace_config(config);
     Ok(applied)
 }

@@ -48,6 +48,7 @@ use floatball_shared::plan::player::{
 };
 use tokio::sync::{mpsc, oneshot, watch};
 
+use crate::commission::health::HealthView;
 use crate::config::SclConfig;
 use crate::estop::{self, Latch};
 use crate::link::Link;
@@ -105,6 +106,8 @@ struct Reconfigure {
     /// The MBOX player's configuration, for an installation of MBOX boxes.
     mbox: Option<MboxPlayerConfig>,
     links: Arc<Vec<Link>>,
+    /// The units' health of each link (UIM2503; same order), from the new monitors.
+    health: Vec<HealthView>,
     /// The gateways whose link is new (its feedback is not relayed yet).
     opened: Vec<usize>,
     reply: oneshot::Sender<Result<(), ReconfigureError>>,
@@ -205,6 +208,16 @@ impl Playback {
     /// Starts the playback task for `installation` on `links` (one per gateway, in
     /// order, all obeying the same e-stop latch). Must run inside the async runtime.
     pub fn spawn(installation: Installation, links: Vec<Link>) -> Self {
+        Self::spawn_with_health(installation, links, Vec::new())
+    }
+
+    /// As [`Playback::spawn`], with each link's unit health (same order) copied into
+    /// its gateway's status ([`crate::commission::health`]).
+    pub fn spawn_with_health(
+        installation: Installation,
+        links: Vec<Link>,
+        health: Vec<HealthView>,
+    ) -> Self {
         let latch = links
             .first()
             .map_or_else(|| Arc::new(Latch::new()), |link| Arc::clone(link.latch()));
@@ -214,11 +227,12 @@ impl Playback {
             installation: (*installation).clone(),
         });
         let (requests, inbox) = mpsc::unbounded_channel();
-        let (status_tx, status) = watch::channel(status_of(&player, &links));
+        let (status_tx, status) = watch::channel(status_of(&player, &links, &health));
         let started = Self::started(requests, status, installation, latch);
         tokio::spawn(run(
             player,
             Arc::clone(&links),
+            health,
             Arc::clone(&started.latch),
             inbox,
             status_tx,
@@ -516,7 +530,8 @@ impl Playback {
     }
 
     /// Hands the player a new `installation` and its `links` (UIM2503: those of the
-    /// gateways in `opened` are new; the others: the same empty list) and, for MBOX
+    /// gateways in `opened` are new; the others: the same empty list) with the units'
+    /// `health` of each link (the new monitors' views), and, for MBOX
     /// boxes, the MBOX player's configuration `mbox`: taken only while the player is
     /// idle, when the player starts anew on it.
     ///
@@ -528,6 +543,7 @@ impl Playback {
         installation: Installation,
         mbox: Option<MboxPlayerConfig>,
         links: Arc<Vec<Link>>,
+        health: Vec<HealthView>,
         opened: Vec<usize>,
     ) -> Result<(), ReconfigureError> {
         let (reply, answer) = oneshot::channel();
@@ -536,6 +552,7 @@ impl Playback {
                 installation: installation.clone(),
                 mbox,
                 links: Arc::clone(&links),
+                health,
                 opened,
                 reply,
             })))
@@ -577,6 +594,7 @@ fn relay_to_player(
 fn reconfigure_player(
     player: &mut Player,
     links: &mut Arc<Vec<Link>>,
+    health: &mut Vec<HealthView>,
     frames_tx: &mpsc::UnboundedSender<(usize, floatball_shared::feedback::Frame)>,
     change: Reconfigure,
 ) {
@@ -585,6 +603,7 @@ fn reconfigure_player(
             installation: change.installation,
         });
         *links = change.links;
+        *health = change.health;
         for &gateway in &change.opened {
             if let Some(link) = links.get(gateway) {
                 relay_to_player(gateway, link, frames_tx.clone());
@@ -760,7 +779,7 @@ fn link_views(links: &[Link]) -> Vec<LinkView> {
         .collect()
 }
 
-fn status_of(player: &Player, links: &[Link]) -> Status {
+fn status_of(player: &Player, links: &[Link], health: &[HealthView]) -> Status {
     let mut status = player.status();
     let lowest = player.lowest_water_levels();
     status.gateways = links
@@ -783,7 +802,7 @@ fn status_of(player: &Player, links: &[Link]) -> Status {
                 missed_replies: None,
                 drives: Vec::new(),
                 baud: Some(link.baud()),
-                health: None,
+                health: health.get(gateway).and_then(|view| view.borrow().clone()),
             }
         })
         .collect();
@@ -958,6 +977,7 @@ fn handle(
 async fn run(
     mut player: Player,
     mut links: Arc<Vec<Link>>,
+    mut health: Vec<HealthView>,
     latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
     status: watch::Sender<Status>,
@@ -999,7 +1019,7 @@ async fn run(
             player.estop();
         }
         if let Some(Request::Reconfigure(change)) = request {
-            reconfigure_player(&mut player, &mut links, &frames_tx, *change);
+            reconfigure_player(&mut player, &mut links, &mut health, &frames_tx, *change);
             watchdog = Watchdog::new(&links);
             request = None;
         }
@@ -1032,7 +1052,7 @@ async fn run(
             seen_generation = latch.generation();
         }
         arming.disarms.store(player.disarms(), Ordering::Release);
-        publish(&status, status_of(&player, &links));
+        publish(&status, status_of(&player, &links, &health));
     }
 }
 

@@ -157,7 +157,7 @@ async fn a_new_installation_is_saved_with_its_comments_applied_at_once_and_kept_
     assert!(plan.feasible, "{plan:?}");
     assert_eq!(plan.gateways[0].units, 3);
 
-    let bridge = bridge.restart();
+    let bridge = bridge.restart(&[]);
     let login = bridge.login(common::PASSWORD).await;
     let token = login.json::<LoginResponse>().token;
     assert_eq!(get_installation(&bridge, &token).await, wanted);
