@@ -10,7 +10,7 @@ use std::time::Duration;
 use axum::http::{Method, StatusCode};
 use common::process::Process;
 use common::{Remote, send_text, status_until};
-use floatball_shared::api::{InstallationInfo, LoginResponse, PlayerState, SimPositions};
+use floatball_shared::api::{InstallationInfo, LoginResponse, PlayerState, RollCall, SimPositions};
 
 /// A small matrix on the simulated gateway, with the installer's comments.
 const HALL: &str = "# The test hall: keep this comment.\n\
@@ -108,6 +108,28 @@ async fn a_new_installation_is_saved_with_its_comments_applied_at_once_and_kept_
         .map(|unit| unit.station)
         .collect();
     assert_eq!(stations, [1, 2, 3]);
+    // Commissioning follows the new installation too: the roll call asks the new
+    // simulated gateway (not the link it replaced) and expects the new stations.
+    let reply = bridge
+        .request(Method::POST, "/api/gateways/0/rollcall", Some(&token), None)
+        .await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    let call: RollCall = reply.json();
+    let mut answered: Vec<(u8, Option<usize>)> = call
+        .units
+        .iter()
+        .map(|unit| (unit.station, unit.cell))
+        .collect();
+    answered.sort_unstable();
+    assert_eq!(
+        answered,
+        [(1, Some(0)), (2, Some(1)), (3, Some(2))],
+        "{call:?}"
+    );
+    assert!(
+        call.missing.is_empty() && call.unexpected.is_empty(),
+        "{call:?}"
+    );
 
     let text = file(&bridge);
     for kept in [
