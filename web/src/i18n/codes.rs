@@ -874,6 +874,7 @@ pub(super) const ERROR_TEXTS: &[(Code, &str, &str)] = &[
         Code::BaudPortRefused,
         "网关 {gateway} 的串口无法以 {baud} 波特运行：{reason}",
         "The port of gateway {gateway} cannot run at {baud} baud: {reason}",
+    ),
     // ---- arm ----
     (
         Code::PreloadLong,
@@ -884,6 +885,7 @@ pub(super) const ERROR_TEXTS: &[(Code, &str, &str)] = &[
         Code::PreloadLongFastest,
         "网关 {gateway} 即使在最快的 {baud} 波特下，开始前也要预载 {preload_bytes} 字节，需 {preload_s} 秒（{preload_min} 分钟）；作为播放列表的第一项，它会在矩阵空闲时预先载入",
         "gateway {gateway} preloads {preload_bytes} bytes in {preload_s} s ({preload_min} min) at {baud} baud before the show can start, even at the fastest rate; as the playlist's first entry it is loaded while the matrix is idle",
+    ),
     // ---- commission ----
     (
         Code::CommissionNotUim2503,
