@@ -17,6 +17,9 @@ pub enum Page {
     Settings,
     /// Instruction lines and feedback frames, for engineers.
     Console,
+    /// Commissioning: roll call, stations, the units' places in the grid, line speed
+    /// (reached from Control's tabs).
+    Commission,
 }
 
 impl Page {
@@ -25,13 +28,14 @@ impl Page {
     pub const NAV: [Page; 4] = [Page::Files, Page::Preview, Page::Control, Page::Console];
 
     /// Every page.
-    pub const ALL: [Page; 6] = [
+    pub const ALL: [Page; 7] = [
         Page::Login,
         Page::Files,
         Page::Preview,
         Page::Control,
         Page::Settings,
         Page::Console,
+        Page::Commission,
     ];
 
     /// The page's name in the URL and in `data-testid`s.
@@ -43,6 +47,7 @@ impl Page {
             Page::Control => "control",
             Page::Settings => "settings",
             Page::Console => "console",
+            Page::Commission => "commission",
         }
     }
 
@@ -63,7 +68,10 @@ impl Page {
     /// Whether the page needs a login: Files and Preview work offline (local files),
     /// the others talk to the controller.
     pub fn needs_login(self) -> bool {
-        matches!(self, Page::Control | Page::Settings | Page::Console)
+        matches!(
+            self,
+            Page::Control | Page::Settings | Page::Console | Page::Commission
+        )
     }
 
     /// The page to show when `self` is asked for: Login instead of a page that needs
@@ -95,6 +103,8 @@ mod tests {
     fn control_pages_need_a_login() {
         assert_eq!(Page::Control.resolve(false), Page::Login);
         assert_eq!(Page::Console.resolve(false), Page::Login);
+        assert_eq!(Page::Commission.resolve(false), Page::Login);
+        assert_eq!(Page::from_hash("#/commission"), Page::Commission);
         assert_eq!(Page::Control.resolve(true), Page::Control);
         assert_eq!(Page::Files.resolve(false), Page::Files);
         assert_eq!(Page::Preview.resolve(false), Page::Preview);

@@ -3,11 +3,12 @@
 //!
 //! - [`App`]: the real app: browser services, the WebSocket, storage, the URL;
 //! - [`Shell`]: the top bar and the current page (mounted by tests with fakes);
-//! - one module per page ([`qprogram`] is a part of the Files page, [`password`] of
+//! - one module per page ([`commission`] is reached from Control's tabs; [`qprogram`] is a part of the Files page, [`password`] of
 //!   Login and Settings), [`topbar`] for the bar on every page, and [`widgets`] for
 //!   the small views several pages share (labelled fields, notes, the two-press
 //!   Delete, tabs, list rows).
 
+pub mod commission;
 pub mod console;
 pub mod control;
 pub mod files;
@@ -233,6 +234,7 @@ pub fn Shell() -> impl IntoView {
                 Page::Control => view! { <control::ControlPage /> }.into_any(),
                 Page::Settings => view! { <control::SettingsPage /> }.into_any(),
                 Page::Console => view! { <console::ConsolePage /> }.into_any(),
+                Page::Commission => view! { <commission::CommissionPage /> }.into_any(),
             }}
         </main>
         <widgets::ToastArea />

@@ -124,6 +124,7 @@ pub fn page_name(page: Page) -> Text {
         Page::Control => Text::NavControl,
         Page::Settings => Text::NavSettings,
         Page::Console => Text::NavConsole,
+        Page::Commission => Text::NavCommission,
     }
 }
 
