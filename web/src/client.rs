@@ -452,15 +452,20 @@ impl Client {
     }
 
     /// `POST /api/gateways/{gateway}/identify`: the ball of `station` moves down
-    /// (the bridge's default distance) and back.
+    /// `distance_mm` (the bridge's default when `None`) and back.
     ///
     /// # Errors
     /// [`Failure`] as the bridge answered.
-    pub async fn identify(&self, gateway: usize, station: u8) -> Result<Identifying, Failure> {
+    pub async fn identify(
+        &self,
+        gateway: usize,
+        station: u8,
+        distance_mm: Option<f64>,
+    ) -> Result<Identifying, Failure> {
         let path = format!("/api/gateways/{gateway}/identify");
         let body = json(&IdentifyRequest {
             station,
-            distance_mm: None,
+            distance_mm,
         })?;
         self.call_json(Method::Post, &path, Some(body)).await
     }
@@ -736,11 +741,16 @@ mod tests {
 
         let fake = bridge(202, r#"{"station":12,"distance_mm":300.0,"duration_ms":4000}"#);
         let client = Client::new(fake.clone(), "").with_token("t");
-        assert_eq!(run(client.identify(0, 12)).unwrap().duration_ms, 4000);
+        assert_eq!(run(client.identify(0, 12, None)).unwrap().duration_ms, 4000);
         assert_eq!(fake.requests.borrow()[0].url, "/api/gateways/0/identify");
         assert_eq!(
             fake.requests.borrow()[0].body.as_deref(),
             Some(r#"{"station":12}"#)
+        );
+        run(client.identify(0, 12, Some(20.0))).unwrap();
+        assert_eq!(
+            fake.requests.borrow()[1].body.as_deref(),
+            Some(r#"{"station":12,"distance_mm":20.0}"#)
         );
 
         let fake = bridge(200, r#"{"from_baud":9600,"baud":115200,"took_ms":900}"#);

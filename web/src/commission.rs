@@ -88,6 +88,19 @@ pub fn parse_station(text: &str) -> Option<u8> {
         .filter(|station| (1..=MAX_STATION).contains(station))
 }
 
+/// The identify distance as typed, mm: empty for the bridge's default (`Ok(None)`),
+/// else a positive number (a decimal point or comma allowed); `Err` otherwise.
+pub fn parse_distance(text: &str) -> Result<Option<f64>, ()> {
+    let text = text.trim();
+    if text.is_empty() {
+        return Ok(None);
+    }
+    match text.replace(',', ".").parse::<f64>() {
+        Ok(mm) if mm.is_finite() && mm > 0.0 => Ok(Some(mm)),
+        _ => Err(()),
+    }
+}
+
 /// What tapping a cell does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Tap {
@@ -361,6 +374,16 @@ mod tests {
         assert_eq!(parse_station("127"), Some(127));
         for bad in ["", "0", "128", "300", "-1", "1.5", "x"] {
             assert_eq!(parse_station(bad), None, "{bad}");
+        }
+    }
+
+    #[test]
+    fn distances_are_positive_millimetres_or_the_default() {
+        assert_eq!(parse_distance(""), Ok(None));
+        assert_eq!(parse_distance(" 20 "), Ok(Some(20.0)));
+        assert_eq!(parse_distance("12,5"), Ok(Some(12.5)));
+        for bad in ["0", "-5", "x", "inf", "NaN"] {
+            assert_eq!(parse_distance(bad), Err(()), "{bad}");
         }
     }
 

@@ -459,6 +459,10 @@ texts! {
     BadStation => "站号必须是 1 到 127 的整数", "A station is a whole number from 1 to 127";
     /// Move one ball down and back.
     Identify => "识别", "Identify";
+    /// The field of how far Identify moves a ball (empty: the controller's default).
+    IdentifyDistance => "识别时下移距离 (mm)", "Identify moves down (mm)";
+    /// The identify distance is not a positive number.
+    BadDistance => "距离必须是大于 0 的毫米数，留空则用默认值", "The distance is a number of mm above 0; leave it empty for the default";
     /// The grid's heading.
     GridSeenFromBelow => "网格（从下往上看）", "The grid, seen from below";
     /// How the grid works.

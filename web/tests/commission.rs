@@ -345,6 +345,18 @@ async fn identify_then_tap_maps_the_cell_and_save_puts_the_stations() {
     click(&container, "assign-all");
     until("a clean roll call", || all(&container, "roll-clean").len() == 1).await;
 
+    // A distance that is not one is refused before anything is sent.
+    set_value(&container, "identify-distance", "-3", "input");
+    all(&container, "unit-identify")[0].click();
+    until("the refusal", || all(&container, "commission-error").len() == 1).await;
+    assert!(text(&container, "commission-error").contains("above 0"));
+    assert!(
+        bridge
+            .requests_to(Method::Post, "/api/gateways/0/identify")
+            .is_empty()
+    );
+    set_value(&container, "identify-distance", "", "input");
+
     // Identify station 1 (the first unit): the ball moves; it hangs above cell 3.
     all(&container, "unit-identify")[0].click();
     until("the moving ball is named", || {
@@ -366,7 +378,9 @@ async fn identify_then_tap_maps_the_cell_and_save_puts_the_stations() {
     assert!(all(&container, "identified").is_empty());
     assert!(text(&container, "placed").contains("1 of 4"));
 
-    // A tap on a cell with nothing identified moves that cell's ball.
+    // A tap on a cell with nothing identified moves that cell's ball, as far as
+    // asked.
+    set_value(&container, "identify-distance", "20", "input");
     all(&container, "cell")[1].click();
     until("identify sent", || {
         bridge
@@ -376,7 +390,10 @@ async fn identify_then_tap_maps_the_cell_and_save_puts_the_stations() {
     })
     .await;
     let sent = bridge.requests_to(Method::Post, "/api/gateways/0/identify");
-    assert_eq!(sent[1].body.as_deref(), Some(r#"{"station":2}"#));
+    assert_eq!(
+        sent[1].body.as_deref(),
+        Some(r#"{"station":2,"distance_mm":20.0}"#)
+    );
     until("the moving ball is named", || {
         all(&container, "identified").len() == 1
     })

@@ -15,11 +15,11 @@ use leptos::task::spawn_local;
 
 use crate::client::Failure;
 use crate::commission::{
-    BAUD_RATES, Mapping, Tap, age_text, grid_order, parse_station, position_text,
-    roll_call_clean, unit_flags,
+    BAUD_RATES, Mapping, Tap, age_text, grid_order, parse_distance, parse_station,
+    position_text, roll_call_clean, unit_flags,
 };
 use crate::components::control::ControlTabs;
-use crate::components::widgets::{ErrorNote, ProblemList};
+use crate::components::widgets::{ErrorNote, ProblemList, TextField};
 use crate::context::Ctx;
 use crate::i18n::Text;
 
@@ -158,10 +158,18 @@ fn GatewayPanel(
             }
         }));
     };
+    let distance = RwSignal::new(String::new());
     let identify = move |station: u8| {
         let Some(client) = ctx.client() else { return };
+        let Ok(distance_mm) = parse_distance(&distance.get_untracked()) else {
+            said.set(Said {
+                text: Some(ctx.lang.get_untracked().t(Text::BadDistance).to_owned()),
+                problems: Vec::new(),
+            });
+            return;
+        };
         run(Box::pin(async move {
-            match client.identify(gateway, station).await {
+            match client.identify(gateway, station, distance_mm).await {
                 Ok(answer) => {
                     identified.set(Some(answer.station));
                     moving.set(Some(ctx.lang.get_untracked().identifying(&answer)));
@@ -252,6 +260,14 @@ fn GatewayPanel(
                 {move || busy.get().then(|| view! { <span class="muted">{ctx.t(Text::Working)}</span> })}
             </div>
             <p class="muted small">{move || ctx.t(Text::AssignAllNote)}</p>
+            <div class="distance">
+                <TextField
+                    label=Text::IdentifyDistance
+                    value=distance
+                    test_id="identify-distance"
+                    inputmode="decimal"
+                />
+            </div>
             <RollCallView roll busy identify assign />
             <GridView mapping identified moving busy tap save />
             <BaudChange gateway info />
