@@ -19,6 +19,7 @@ use floatball_shared::scl::{escl, twin::StartWire};
 use floatball_shared::sim::{self, GatewayConfig};
 
 use crate::auth::Clock;
+use crate::commission::sim_units::SimUnits;
 use crate::config::{self, Config, Overrides};
 use crate::server;
 use crate::state::{AppState, Paths};
@@ -49,6 +50,10 @@ pub struct Cli {
     /// Directory holding the web app (`index.html` and the built `pkg/`).
     #[arg(long, default_value = "static")]
     pub static_dir: PathBuf,
+    /// Simulated gateways' new units leave the factory as real ones do: all on
+    /// station 5, to be commissioned (units already given stations keep them).
+    #[arg(long)]
+    pub sim_factory_fresh: bool,
 }
 
 /// The subcommands.
@@ -156,7 +161,10 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
                 listen: cli.listen,
                 gateway_ports: cli.gateways,
             };
-            serve(&cli.data_dir, &overrides, cli.static_dir).await
+            let sim = SimUnits {
+                factory_fresh: cli.sim_factory_fresh,
+            };
+            serve(&cli.data_dir, &overrides, cli.static_dir, sim).await
         }
     }
 }
@@ -185,6 +193,7 @@ async fn serve(
     data_dir: &std::path::Path,
     overrides: &Overrides,
     static_dir: PathBuf,
+    sim: SimUnits,
 ) -> anyhow::Result<()> {
     create_data_dir(data_dir)?;
     let config = Config::load_or_create(data_dir, overrides)?;
@@ -195,13 +204,14 @@ async fn serve(
         );
     }
     let listen = config.listen;
-    let state = AppState::open(
+    let state = AppState::open_with(
         config,
         Paths {
             data_dir: data_dir.to_owned(),
             static_dir,
         },
         Clock::system(),
+        sim,
     )?;
     let listener = tokio::net::TcpListener::bind(listen)
         .await

@@ -9,6 +9,7 @@
 //! The links' state and bytes/s reach the clients through the status, which the
 //! playback task owns and fills from the links' snapshots.
 
+use std::path::Path;
 use std::sync::Arc;
 
 use floatball_shared::api::FeedbackFrame;
@@ -17,6 +18,7 @@ use floatball_shared::plan::DriveKind;
 use floatball_shared::sim::GatewayConfig;
 use tokio::sync::broadcast;
 
+use crate::commission::sim_units::SimUnits;
 use crate::config::Config;
 use crate::estop::Latch;
 use crate::link::{Link, LinkConfig};
@@ -34,12 +36,19 @@ pub struct Gateways {
 
 impl Gateways {
     /// Opens a link per configured gateway, all obeying `latch`, and starts relaying
-    /// their feedback. Must run inside the async runtime.
+    /// their feedback. Must run inside the async runtime. A simulated gateway's units
+    /// keep the stations they were given in `data_dir`
+    /// ([`crate::commission::sim_units`]); new ones leave the factory as `sim` says.
     ///
     /// # Errors
     /// If the configured e-stop does not encode (the configuration check already
     /// makes sure it does).
-    pub fn open(config: &Config, latch: &Arc<Latch>) -> Result<Self, EncodeError> {
+    pub fn open(
+        config: &Config,
+        latch: &Arc<Latch>,
+        data_dir: &Path,
+        sim: SimUnits,
+    ) -> Result<Self, EncodeError> {
         let estop = Batch::encode(&config.estop, Form::Standard)?;
         let installation = &config.installation;
         let (feedback, _) = broadcast::channel(FEEDBACK_CAPACITY);
@@ -55,7 +64,7 @@ impl Gateways {
                 link.latch = Arc::clone(latch);
                 // A simulated gateway has the installation's units and calibration.
                 link.sim = GatewayConfig {
-                    stations: installation.stations_on(index),
+                    stations: sim.stations(data_dir, index, &installation.stations_on(index)),
                     seed: index as u64,
                     counts_per_mm: installation.counts_per_mm,
                     travel_mm: installation.limits.travel_mm,

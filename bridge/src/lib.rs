@@ -37,6 +37,9 @@
 //!   and Q program upload.
 //! - [`estop`]: the e-stop latch and the one path that presses it.
 //! - [`gateways`]: every link together: console lines and feedback for the clients.
+//! - [`commission`]: commissioning a UIM2503 gateway's units: roll call, assignment of
+//!   stations by serial, identify moves, and the unit health monitor whose snapshot
+//!   the status carries; the simulated units' stations kept in the data directory.
 //! - [`simulate`]: `floatball simulate`, the simulated gateway on a real serial device,
 //!   and ([`simulate::mbox`]) simulated MBOX boxes on real UDP sockets, and
 //!   ([`simulate::scl`]) simulated MOONS' drives on a serial device or eSCL UDP.
@@ -57,6 +60,7 @@
 
 pub mod auth;
 pub mod cli;
+pub mod commission;
 pub mod config;
 pub mod control;
 pub mod durable;

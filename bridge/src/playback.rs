@@ -34,6 +34,7 @@ use floatball_shared::plan::player::{
 };
 use tokio::sync::{mpsc, oneshot, watch};
 
+use crate::commission::health::HealthView;
 use crate::config::SclConfig;
 use crate::estop::{self, Latch};
 use crate::link::Link;
@@ -114,6 +115,16 @@ impl Playback {
     /// Starts the playback task for `installation` on `links` (one per gateway, in
     /// order, all obeying the same e-stop latch). Must run inside the async runtime.
     pub fn spawn(installation: Installation, links: Vec<Link>) -> Self {
+        Self::spawn_with_health(installation, links, Vec::new())
+    }
+
+    /// As [`Playback::spawn`], with each link's unit health (same order) copied into
+    /// its gateway's status ([`crate::commission::health`]).
+    pub fn spawn_with_health(
+        installation: Installation,
+        links: Vec<Link>,
+        health: Vec<HealthView>,
+    ) -> Self {
         let latch = links
             .first()
             .map_or_else(|| Arc::new(Latch::new()), |link| Arc::clone(link.latch()));
@@ -123,10 +134,11 @@ impl Playback {
             installation: (*installation).clone(),
         });
         let (requests, inbox) = mpsc::unbounded_channel();
-        let (status_tx, status) = watch::channel(status_of(&player, &links));
+        let (status_tx, status) = watch::channel(status_of(&player, &links, &health));
         tokio::spawn(run(
             player,
             Arc::clone(&links),
+            health,
             Arc::clone(&latch),
             inbox,
             status_tx,
@@ -413,7 +425,7 @@ fn link_views(links: &[Link]) -> Vec<LinkView> {
         .collect()
 }
 
-fn status_of(player: &Player, links: &[Link]) -> Status {
+fn status_of(player: &Player, links: &[Link], health: &[HealthView]) -> Status {
     let mut status = player.status();
     let lowest = player.lowest_water_levels();
     status.gateways = links
@@ -436,7 +448,7 @@ fn status_of(player: &Player, links: &[Link]) -> Status {
                 missed_replies: None,
                 drives: Vec::new(),
                 baud: Some(link.baud()),
-                health: None,
+                health: health.get(gateway).and_then(|view| view.borrow().clone()),
             }
         })
         .collect();
@@ -607,6 +619,7 @@ fn handle(
 async fn run(
     mut player: Player,
     links: Arc<Vec<Link>>,
+    health: Vec<HealthView>,
     latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
     status: watch::Sender<Status>,
@@ -683,7 +696,7 @@ async fn run(
             // A stop the player asked for is not news to it (it failed, and stays so).
             seen_generation = latch.generation();
         }
-        publish(&status, status_of(&player, &links));
+        publish(&status, status_of(&player, &links, &health));
     }
 }
 

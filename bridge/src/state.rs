@@ -12,6 +12,8 @@ use floatball_shared::api::Status;
 use floatball_shared::ascii::EncodeError;
 use tokio::sync::{Mutex, watch};
 
+use crate::commission::Commission;
+use crate::commission::sim_units::SimUnits;
 use crate::estop::Latch;
 
 use crate::auth::{Clock, LoginLimiter, Password, PasswordError, Tokens};
@@ -85,8 +87,10 @@ struct Inner {
     playlist: PlaylistStore,
     catalogue: Mutex<()>,
     /// Starts and Resets that read the playlist and are being planned ([`StartPending`]).
-    starts_pending: AtomicUsize,
+    starts_pending: Arc<AtomicUsize>,
     gateways: Gateways,
+    /// Roll calls, assignments, identify moves and the units' health.
+    commission: Commission,
     playback: Playback,
     /// The simulated MBOX boxes (`port = "sim"`), one per such gateway, in order.
     mbox_sims: Vec<MboxBoxes>,
@@ -192,6 +196,20 @@ impl AppState {
     /// # Errors
     /// [`OpenError`] naming the file or directory that cannot be used.
     pub fn open(config: Config, paths: Paths, clock: Clock) -> Result<Self, OpenError> {
+        Self::open_with(config, paths, clock, SimUnits::default())
+    }
+
+    /// As [`AppState::open`], with simulated gateways whose new units leave the factory
+    /// as `sim` says (`floatball --sim-factory-fresh`).
+    ///
+    /// # Errors
+    /// As [`AppState::open`].
+    pub fn open_with(
+        config: Config,
+        paths: Paths,
+        clock: Clock,
+        sim: SimUnits,
+    ) -> Result<Self, OpenError> {
         std::fs::create_dir_all(&paths.data_dir).map_err(|source| OpenError::DataDir {
             path: paths.data_dir.clone(),
             source,
@@ -201,7 +219,8 @@ impl AppState {
         let playlist = PlaylistStore::open(&paths.data_dir)?;
         let tokens = Tokens::open(&paths.data_dir, clock.now());
         let latch = Arc::new(Latch::new());
-        let gateways = Gateways::open(&config, &latch)?;
+        let gateways = Gateways::open(&config, &latch, &paths.data_dir, sim)?;
+        let (health, health_views) = crate::commission::health_channels(gateways.links().len());
         let mut scl_sims = None;
         let (playback, mbox_sims) = match (&config.mbox, &config.scl) {
             (_, Some(scl)) => {
@@ -231,10 +250,23 @@ impl AppState {
                 )
             }
             (None, None) => (
-                Playback::spawn(config.installation.clone(), gateways.links().to_vec()),
+                Playback::spawn_with_health(
+                    config.installation.clone(),
+                    gateways.links().to_vec(),
+                    health_views,
+                ),
                 Vec::new(),
             ),
         };
+        let starts_pending = Arc::new(AtomicUsize::new(0));
+        let commission = Commission::open(
+            gateways.links(),
+            &config.installation,
+            paths.data_dir.clone(),
+            playback.status(),
+            Arc::clone(&starts_pending),
+            health,
+        );
         Ok(Self {
             inner: Arc::new(Inner {
                 config,
@@ -246,8 +278,9 @@ impl AppState {
                 shows,
                 playlist,
                 catalogue: Mutex::new(()),
-                starts_pending: AtomicUsize::new(0),
+                starts_pending,
                 gateways,
+                commission,
                 playback,
                 mbox_sims,
                 scl_sims,
@@ -322,6 +355,11 @@ impl AppState {
     /// The links to the gateways.
     pub fn gateways(&self) -> &Gateways {
         &self.inner.gateways
+    }
+
+    /// Roll calls, assignments, identify moves and the units' health.
+    pub fn commission(&self) -> &Commission {
+        &self.inner.commission
     }
 
     /// The simulated MBOX boxes (`port = "sim"`), each a box of one gateway, in

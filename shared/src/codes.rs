@@ -438,6 +438,30 @@ codes! {
     QprogramTooManyLines = "qprogram_too_many_lines" ["lines", "limit"];
     /// A `[scl]` setting that cannot be used (`must` in English).
     QprogramSetting = "qprogram_setting" ["field", "must"];
+    // ---- commission ----
+    /// The gateway is not a UIM2503: its drives have no stations to commission.
+    CommissionNotUim2503 = "commission_not_uim2503" ["gateway"];
+    /// Commissioning waits until the matrix is idle (`state`: what it is doing, or
+    /// `starting` while a Start is being prepared).
+    CommissionNotIdle = "commission_not_idle" ["state"];
+    /// Another commissioning call is using the gateway.
+    CommissionInProgress = "commission_in_progress" ["gateway"];
+    /// A station outside 1–127.
+    CommissionBadStation = "commission_bad_station" ["station"];
+    /// An identify distance that is not a positive number of mm.
+    CommissionBadDistance = "commission_bad_distance" ["distance_mm"];
+    /// No unit answers on the station.
+    CommissionStationSilent = "commission_station_silent" ["gateway", "station"];
+    /// Several units answer on the station: all of them would move.
+    CommissionStationShared = "commission_station_shared" ["gateway", "station", "units"];
+    /// An assignment request that assigns no unit.
+    CommissionNoAssignments = "commission_no_assignments" [];
+    /// The same serial twice in one assignment request.
+    CommissionSerialTwice = "commission_serial_twice" ["serial"];
+    /// The same station for two units in one assignment request.
+    CommissionStationTwice = "commission_station_twice" ["station"];
+    /// A serial too long for the gateway's 20 characters.
+    CommissionSerialTooLong = "commission_serial_too_long" ["serial", "max"];
 }
 
 #[cfg(test)]

@@ -7,12 +7,15 @@
 //! - [`matrix`]: the installation's calibration and stations, the feasibility report
 //!   of a show, and the simulated balls' positions;
 //! - [`qprogram`]: one ball's Q program for MOONS' drives, compiled from a show;
+//! - [`commission`]: a UIM2503 gateway's roll call, station assignment and identify
+//!   moves;
 //!
 //! Every error answer is an [`ApiError`] JSON body with the right status code
 //! ([`Failure`]); so are unknown `/api` paths (404) and methods (405), and the
 //! framework's own refusals (a body over the limit, a malformed request…), which
 //! [`json_errors`] rewrites.
 
+pub mod commission;
 pub mod library;
 pub mod matrix;
 pub mod qprogram;
@@ -60,6 +63,9 @@ pub fn router(state: &AppState) -> Router<AppState> {
         .route("/sim/positions", get(matrix::sim_positions))
         .route("/mbox/timing", get(matrix::mbox_timing))
         .route("/qprogram/{name}", get(qprogram::qprogram))
+        .route("/gateways/{gateway}/rollcall", post(commission::rollcall))
+        .route("/gateways/{gateway}/assign", post(commission::assign))
+        .route("/gateways/{gateway}/identify", post(commission::identify))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(map_response(json_errors))

@@ -30,16 +30,31 @@ impl Process {
     /// loopback port; returns once it listens. Its log goes to `floatball.log` in the
     /// data directory.
     pub fn start(config: &str) -> Self {
+        Self::start_with_args(config, &[])
+    }
+
+    /// As [`Process::start`], with more command-line arguments.
+    pub fn start_with_args(config: &str, args: &[&str]) -> Self {
         let data = tempfile::tempdir().expect("temp dir");
         std::fs::write(data.path().join("floatball.toml"), config).expect("write config");
+        Self::start_in(data, args)
+    }
+
+    /// Starts `floatball` with `args` on an existing data directory.
+    pub fn start_in(data: TempDir, args: &[&str]) -> Self {
         let static_dir = super::static_dir(data.path());
-        let log = std::fs::File::create(data.path().join("floatball.log")).expect("log");
+        let log = std::fs::File::options()
+            .create(true)
+            .append(true)
+            .open(data.path().join("floatball.log"))
+            .expect("log");
         let mut child = Command::new(env!("CARGO_BIN_EXE_floatball"))
             .arg("--data-dir")
             .arg(data.path())
             .arg("--static-dir")
             .arg(&static_dir)
             .args(["--listen", "127.0.0.1:0"])
+            .args(args)
             .env("RUST_LOG", "warn")
             .stdout(Stdio::piped())
             .stderr(log)
@@ -51,6 +66,14 @@ impl Process {
             remote: Remote { addr },
             data,
         }
+    }
+
+    /// Stops this process and starts another with `args` on the same data directory.
+    pub fn restart(mut self, args: &[&str]) -> Self {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let data = std::mem::replace(&mut self.data, tempfile::tempdir().expect("temp dir"));
+        Self::start_in(data, args)
     }
 
     /// The log so far.

@@ -828,4 +828,60 @@ pub(super) const ERROR_TEXTS: &[(Code, &str, &str)] = &[
         "Q 程序设置 {field} 必须为 {must}",
         "the Q program setting {field} must be {must}",
     ),
+    // ---- commission ----
+    (
+        Code::CommissionNotUim2503,
+        "网关 {gateway} 不是 UIM2503 网关；只有 UFQ750 单元需要调试",
+        "Gateway {gateway} is not a UIM2503 gateway; only UFQ750 units are commissioned",
+    ),
+    (
+        Code::CommissionNotIdle,
+        "矩阵正在{state}：调试要等到矩阵空闲",
+        "The matrix is {state}: commissioning waits until it is idle",
+    ),
+    (
+        Code::CommissionInProgress,
+        "另一个调试操作正在使用网关 {gateway}；完成后再试",
+        "Another commissioning call is using gateway {gateway}; try again when it is done",
+    ),
+    (
+        Code::CommissionBadStation,
+        "站号 {station} 不是单元的站号；站号为 1–127",
+        "Station {station} is not a unit's station; stations are 1–127",
+    ),
+    (
+        Code::CommissionBadDistance,
+        "识别距离必须是正的毫米数，收到 {distance_mm}",
+        "The identify distance must be a positive number of mm, found {distance_mm}",
+    ),
+    (
+        Code::CommissionStationSilent,
+        "网关 {gateway} 的站号 {station} 没有单元应答",
+        "No unit answers on station {station} of gateway {gateway}",
+    ),
+    (
+        Code::CommissionStationShared,
+        "网关 {gateway} 的站号 {station} 上有 {units} 个单元应答；请先给它们各自的站号",
+        "{units} units answer on station {station} of gateway {gateway}; give them their own stations first",
+    ),
+    (
+        Code::CommissionNoAssignments,
+        "请求没有分配任何单元",
+        "The request assigns no unit",
+    ),
+    (
+        Code::CommissionSerialTwice,
+        "序列号 {serial} 被分配了两次",
+        "Serial {serial} is assigned twice",
+    ),
+    (
+        Code::CommissionStationTwice,
+        "站号 {station} 被分配给了两个单元",
+        "Station {station} is given to two units",
+    ),
+    (
+        Code::CommissionSerialTooLong,
+        "序列号 {serial} 太长：`SN[X]=s/n;` 最多 {max} 个字符",
+        "Serial {serial} is too long: `SN[X]=s/n;` holds at most {max} characters",
+    ),
 ];
