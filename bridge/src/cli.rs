@@ -63,7 +63,8 @@ pub enum Command {
     Check(CheckArgs),
     /// Answer as a simulated UIM2503 gateway with its units on a serial device (e.g. one
     /// end of a pseudo-terminal pair or a null-modem cable), or as simulated MBOX boxes
-    /// on UDP sockets (`--kind mbox`).
+    /// on UDP sockets (`--kind mbox`). SIGHUP power-cycles the simulated UIM2503
+    /// gateway (a line speed stored by `BDR=x;` takes effect).
     Simulate(SimulateArgs),
 }
 
@@ -254,7 +255,8 @@ async fn shutdown_signal() {
     tracing::info!("shutting down");
 }
 
-/// `floatball simulate`: runs until Ctrl-C or SIGTERM.
+/// `floatball simulate`: runs until Ctrl-C or SIGTERM; SIGHUP is the simulated
+/// gateway's power cycle (a line speed stored by `BDR=x;` takes effect).
 async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     let port = match (args.kind, args.port.clone()) {
         (SimulateKind::Scl, port) => return simulate_scl(&args, port).await,
@@ -279,12 +281,16 @@ async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     };
     let stop = Arc::new(AtomicBool::new(false));
     let worker_stop = Arc::clone(&stop);
+    let power_cycle = Arc::new(AtomicBool::new(false));
+    watch_power_cycles(&power_cycle)?;
     let banner = format!(
         "floatball simulating a gateway with {} units on {} at {} baud",
         args.units, options.port, options.baud
     );
     let worker = tokio::task::spawn_blocking(move || {
-        crate::simulate::run(&options, &worker_stop, || println!("{banner}"))
+        crate::simulate::run(&options, &worker_stop, &power_cycle, || {
+            println!("{banner}")
+        })
     });
     tokio::select! {
         result = worker => {
@@ -295,6 +301,24 @@ async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// SIGHUP is the simulated gateway's power cycle: sets `power_cycle` each time.
+fn watch_power_cycles(power_cycle: &Arc<AtomicBool>) -> anyhow::Result<()> {
+    #[cfg(unix)]
+    {
+        let mut hangups = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::hangup())
+            .context("cannot watch SIGHUP (the simulated gateway's power cycle)")?;
+        let power_cycle = Arc::clone(power_cycle);
+        tokio::spawn(async move {
+            while hangups.recv().await.is_some() {
+                power_cycle.store(true, Ordering::Release);
+            }
+        });
+    }
+    #[cfg(not(unix))]
+    let _ = power_cycle;
+    Ok(())
 }
 
 /// `floatball simulate --kind mbox`: one line a box once every socket listens; on

@@ -8,13 +8,19 @@
 //!
 //! The links' state and bytes/s reach the clients through the status, which the
 //! playback task owns and fills from the links' snapshots.
+//!
+//! **Replaceable.** A new installation (`PUT /api/installation`) is applied without a
+//! restart ([`Gateways::reopen`]): the links whose port or baud changed, and the
+//! gateways added, are opened anew; the removed ones and the replaced ones close when
+//! their last handle goes; the others are kept as they are. Readers take the list as
+//! a snapshot ([`Gateways::links`]), never a lock held while they use it.
 
-use std::path::Path;
-use std::sync::Arc;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, RwLock};
 
 use floatball_shared::api::FeedbackFrame;
 use floatball_shared::ascii::{Batch, EncodeError, Form};
-use floatball_shared::plan::DriveKind;
+use floatball_shared::plan::{DriveKind, Installation};
 use floatball_shared::sim::GatewayConfig;
 use tokio::sync::broadcast;
 
@@ -30,8 +36,27 @@ const FEEDBACK_CAPACITY: usize = 4096;
 /// The links to all gateways.
 #[derive(Debug)]
 pub struct Gateways {
-    links: Vec<Link>,
+    /// The links now, replaced whole ([`Gateways::reopen`]); the lock is only held to
+    /// copy or swap the pointer.
+    links: RwLock<Arc<Vec<Link>>>,
     feedback: broadcast::Sender<FeedbackFrame>,
+    /// The e-stop's bytes, for links opened later.
+    estop: Batch,
+    /// The one e-stop latch every link obeys.
+    latch: Arc<Latch>,
+    /// Where simulated units keep their stations ([`crate::commission::sim_units`]).
+    data_dir: PathBuf,
+    /// How new simulated units leave the factory.
+    sim: SimUnits,
+}
+
+/// What [`Gateways::reopen`] did.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Reopened {
+    /// The gateways (new numbering) whose link is new: port or baud changed, or added.
+    pub opened: Vec<usize>,
+    /// How many links were closed because their gateway was removed.
+    pub removed: usize,
 }
 
 impl Gateways {
@@ -52,42 +77,114 @@ impl Gateways {
         let estop = Batch::encode(&config.estop, Form::Standard)?;
         let installation = &config.installation;
         let (feedback, _) = broadcast::channel(FEEDBACK_CAPACITY);
+        let gateways = Self {
+            links: RwLock::new(Arc::new(Vec::new())),
+            feedback,
+            estop,
+            latch: Arc::clone(latch),
+            data_dir: data_dir.to_path_buf(),
+            sim,
+        };
         let links: Vec<Link> = installation
             .gateways
             .iter()
             .enumerate()
             // MBOX boxes are not on a line: they are `crate::mbox`'s.
             .filter(|(_, gateway)| gateway.kind == DriveKind::Uim2503)
-            .map(|(index, gateway)| {
-                let mut link = LinkConfig::new(gateway.port.clone(), gateway.baud);
-                link.estop = estop.clone();
-                link.latch = Arc::clone(latch);
-                // A simulated gateway has the installation's units and calibration.
-                link.sim = GatewayConfig {
-                    stations: sim.stations(data_dir, index, &installation.stations_on(index)),
-                    seed: index as u64,
-                    counts_per_mm: installation.counts_per_mm,
-                    travel_mm: installation.limits.travel_mm,
-                    max_speed_mm_s: installation.limits.max_speed_mm_s,
-                    max_accel_mm_s2: installation.limits.max_accel_mm_s2,
-                    ..GatewayConfig::default()
-                };
-                Link::open(index, link)
-            })
+            .map(|(index, _)| gateways.open_link(installation, index))
             .collect();
-        for link in &links {
-            tokio::spawn(relay_feedback(
-                link.index(),
-                link.feedback(),
-                feedback.clone(),
-            ));
-        }
-        Ok(Self { links, feedback })
+        gateways.swap(links);
+        Ok(gateways)
     }
 
-    /// The links, in configuration order.
-    pub fn links(&self) -> &[Link] {
-        &self.links
+    /// Opens gateway `index`'s link of `installation` and relays its feedback.
+    fn open_link(&self, installation: &Installation, index: usize) -> Link {
+        let gateway = &installation.gateways[index];
+        let mut link = LinkConfig::new(gateway.port.clone(), gateway.baud);
+        link.estop = self.estop.clone();
+        link.latch = Arc::clone(&self.latch);
+        // A simulated gateway has the installation's units and calibration; its units
+        // keep the stations they were given.
+        link.sim = GatewayConfig {
+            stations: self
+                .sim
+                .stations(&self.data_dir, index, &installation.stations_on(index)),
+            seed: index as u64,
+            counts_per_mm: installation.counts_per_mm,
+            travel_mm: installation.limits.travel_mm,
+            max_speed_mm_s: installation.limits.max_speed_mm_s,
+            max_accel_mm_s2: installation.limits.max_accel_mm_s2,
+            ..GatewayConfig::default()
+        };
+        let link = Link::open(index, link);
+        tokio::spawn(relay_feedback(
+            link.index(),
+            link.feedback(),
+            self.feedback.clone(),
+        ));
+        link
+    }
+
+    /// Replaces the links with `links`.
+    fn swap(&self, links: Vec<Link>) {
+        self.restore(Arc::new(links));
+    }
+
+    /// The links now, in configuration order: a snapshot, which a new installation
+    /// replaces ([`Gateways::reopen`]) but never changes.
+    pub fn links(&self) -> Arc<Vec<Link>> {
+        match self.links.read() {
+            Ok(links) => Arc::clone(&links),
+            Err(poisoned) => Arc::clone(&poisoned.into_inner()),
+        }
+    }
+
+    /// Puts `links` back (they are still open: the player held them) after a new
+    /// installation was refused; the links [`Gateways::reopen`] opened close.
+    pub fn restore(&self, links: Arc<Vec<Link>>) {
+        match self.links.write() {
+            Ok(mut now) => *now = links,
+            Err(poisoned) => *poisoned.into_inner() = links,
+        }
+    }
+
+    /// Applies a new UIM2503 `installation` (the player is idle; the caller makes
+    /// sure): a link whose gateway keeps its port and baud is kept; the others close
+    /// (when their last handle goes) and the new or changed ones open. A simulated
+    /// gateway kept keeps its units where they are (their stations are theirs, as a
+    /// real unit's are in its flash). Returns the links now and what changed.
+    pub fn reopen(&self, installation: &Installation) -> (Arc<Vec<Link>>, Reopened) {
+        let old = self.links();
+        let mut reopened = Reopened {
+            removed: old.len().saturating_sub(installation.gateways.len()),
+            ..Reopened::default()
+        };
+        // Close the changed links first, so that a port reopened at another speed is
+        // free again (a serial link retries its port until it is).
+        let kept: Vec<Option<Link>> = installation
+            .gateways
+            .iter()
+            .enumerate()
+            .map(|(index, gateway)| {
+                old.get(index)
+                    .filter(|link| link.port() == gateway.port && link.baud() == gateway.baud)
+                    .cloned()
+            })
+            .collect();
+        self.swap(Vec::new());
+        drop(old);
+        let links: Vec<Link> = kept
+            .into_iter()
+            .enumerate()
+            .map(|(index, link)| {
+                link.unwrap_or_else(|| {
+                    reopened.opened.push(index);
+                    self.open_link(installation, index)
+                })
+            })
+            .collect();
+        self.swap(links);
+        (self.links(), reopened)
     }
 
     /// Every feedback frame from every gateway from now on.
@@ -107,14 +204,15 @@ impl Gateways {
         batch: Batch,
         generation: u64,
     ) -> Result<(), String> {
+        let links = self.links();
         let targets: Vec<&Link> = match gateway {
-            Some(index) => vec![self.links.get(index).ok_or_else(|| {
+            Some(index) => vec![links.get(index).ok_or_else(|| {
                 format!(
                     "there is no gateway {index}; gateways are numbered 0 to {}",
-                    self.links.len().saturating_sub(1)
+                    links.len().saturating_sub(1)
                 )
             })?],
-            None => self.links.iter().collect(),
+            None => links.iter().collect(),
         };
         let mut failures = Vec::new();
         for link in targets {

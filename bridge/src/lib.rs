@@ -46,6 +46,9 @@
 //! - [`playback`]: the player driven by the clock and the links, the owner of the
 //!   status, and the link watchdog.
 //! - [`control`]: Start, Reset and Home as the WebSocket asks for them.
+//! - [`install`]: a new installation (`PUT /api/installation`, a gateway's line
+//!   speed) checked, saved into `floatball.toml` (`config/edit.rs`) and applied while
+//!   idle, without a restart.
 //! - [`http`]: the HTTP API under `/api`.
 //! - [`origin`]: which browser origins may call the API (CORS) and open the WebSocket;
 //!   the configuration's `allowed_origins` are normalised by it when checked.
@@ -67,6 +70,7 @@ pub mod durable;
 pub mod estop;
 pub mod gateways;
 pub mod http;
+pub mod install;
 pub mod link;
 pub mod mbox;
 pub mod origin;

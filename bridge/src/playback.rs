@@ -19,6 +19,12 @@
 //! same admission ([`admit`]: no e-stop since, every gateway up) and the same status
 //! and its publication; the drives' runs are [`crate::scl::player`]'s.
 //!
+//! **A new installation while idle.** [`Playback::reconfigure`] hands the task a new
+//! UIM2503 installation and its links (`crate::gateways::Gateways::reopen`); the task
+//! takes it only while the player is idle (a new player, the new links, their
+//! feedback relayed) and refuses it otherwise, as the MBOX and SCL tasks always do.
+//! The handle's installation and links are a snapshot the task's acceptance replaces.
+//!
 //! **A stalled link is a fault.** While a playlist runs, a link that has bytes queued
 //! and writes nothing for [`stall_limit`] stops the show on every gateway and sets the
 //! state `error`, naming the gateway.
@@ -71,6 +77,34 @@ enum Request {
     },
     /// Look at the latch now (the e-stop was pressed).
     Estop,
+    /// A new installation, taken only while idle ([`Playback::reconfigure`]).
+    Reconfigure(Reconfigure),
+}
+
+/// A new UIM2503 installation for the player, with its links.
+struct Reconfigure {
+    installation: Installation,
+    links: Arc<Vec<Link>>,
+    /// The gateways whose link is new (its feedback is not relayed yet).
+    opened: Vec<usize>,
+    reply: oneshot::Sender<Result<(), ReconfigureError>>,
+}
+
+/// Why the player did not take a new installation.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ReconfigureError {
+    /// The player is not idle (`state`: what it is doing).
+    #[error("the player is {state}; a new installation is applied only while it is idle")]
+    NotIdle {
+        /// The player's state, as the status names it.
+        state: String,
+    },
+    /// MBOX boxes and MOONS' drives take a new installation only at a restart.
+    #[error("an installation of MBOX boxes or MOONS' drives is applied at the next start")]
+    NotLive,
+    /// The playback task is gone (the bridge is shutting down).
+    #[error("the player is not running")]
+    Gone,
 }
 
 impl std::fmt::Debug for Request {
@@ -82,6 +116,7 @@ impl std::fmt::Debug for Request {
             Request::Play { reset: true, .. } => "Reset (MBOX or SCL)",
             Request::Play { .. } => "Start (MBOX or SCL)",
             Request::Estop => "Estop",
+            Request::Reconfigure(_) => "Reconfigure",
         })
     }
 }
@@ -91,13 +126,21 @@ impl std::fmt::Debug for Request {
 pub struct Playback {
     requests: mpsc::UnboundedSender<Request>,
     status: watch::Receiver<Status>,
-    links: Arc<Vec<Link>>,
+    /// The installation and the links now: a snapshot, replaced when the task takes a
+    /// new installation ([`Playback::reconfigure`]).
+    live: Arc<std::sync::RwLock<Live>>,
     latch: Arc<Latch>,
-    installation: Arc<Installation>,
     /// The MBOX boxes, when the installation's gateways are MBOX boxes.
     boxes: Option<MboxNet>,
     /// The MOONS' drives, when the installation's gateways are SCL gateway entries.
     scl: Option<SclNet>,
+}
+
+/// The installation the player runs and its links.
+#[derive(Debug, Clone)]
+struct Live {
+    installation: Arc<Installation>,
+    links: Arc<Vec<Link>>,
 }
 
 /// Why a request could not be handled.
@@ -143,10 +186,9 @@ impl Playback {
             inbox,
             status_tx,
         ));
-        Self {
-            links,
-            ..Self::started(requests, status, installation, latch)
-        }
+        let started = Self::started(requests, status, installation, latch);
+        started.set_live(None, Some(links));
+        started
     }
 
     /// The handle of a task just spawned, with its inbox and status: no links, boxes or
@@ -160,9 +202,11 @@ impl Playback {
         Self {
             requests,
             status,
-            links: Arc::new(Vec::new()),
+            live: Arc::new(std::sync::RwLock::new(Live {
+                installation,
+                links: Arc::new(Vec::new()),
+            })),
             latch,
-            installation,
             boxes: None,
             scl: None,
         }
@@ -220,9 +264,14 @@ impl Playback {
         self.status.clone()
     }
 
-    /// The links, in gateway order.
-    pub fn links(&self) -> &[Link] {
-        &self.links
+    /// The links now, in gateway order.
+    pub fn links(&self) -> Arc<Vec<Link>> {
+        Arc::clone(&self.live().links)
+    }
+
+    /// The installation the player runs now.
+    pub fn installation(&self) -> Arc<Installation> {
+        Arc::clone(&self.live().installation)
     }
 
     /// The e-stop latch.
@@ -234,7 +283,7 @@ impl Playback {
     /// queued (which is dropped) — then tells the player. Takes no lock and waits for
     /// nothing. Returns the gateways the stop cannot reach now, each with the reason.
     pub fn estop(&self) -> Vec<String> {
-        let mut failures = estop::press(&self.latch, &self.links);
+        let mut failures = estop::press(&self.latch, &self.links());
         if let Some(boxes) = &self.boxes {
             boxes.wake();
             failures.extend(boxes.unreachable());
@@ -320,7 +369,7 @@ impl Playback {
         reset: bool,
     ) -> Result<(), PlaybackError> {
         if self.boxes.is_some() || self.scl.is_some() {
-            let installation = Arc::clone(&self.installation);
+            let installation = self.installation();
             let scl = self.scl.is_some();
             let entries = tokio::task::spawn_blocking(move || {
                 if scl {
@@ -385,8 +434,8 @@ impl Playback {
         entries: Vec<Entry>,
         loop_playlist: bool,
     ) -> Result<Result<Prepared, StartError>, PlaybackError> {
-        let installation = Arc::clone(&self.installation);
-        let views = link_views(&self.links);
+        let installation = self.installation();
+        let views = link_views(&self.links());
         tokio::task::spawn_blocking(move || prepare(&installation, entries, loop_playlist, &views))
             .await
             .map_err(|_| PlaybackError::Gone)
@@ -403,6 +452,116 @@ impl Playback {
             .map_err(|_| PlaybackError::Gone)?
             .map_err(PlaybackError::from)
     }
+}
+
+impl Playback {
+    /// The installation and links now (a copy of two pointers).
+    fn live(&self) -> Live {
+        match self.live.read() {
+            Ok(live) => live.clone(),
+            Err(poisoned) => poisoned.into_inner().clone(),
+        }
+    }
+
+    /// Replaces the installation and/or the links of the snapshot.
+    fn set_live(&self, installation: Option<Arc<Installation>>, links: Option<Arc<Vec<Link>>>) {
+        let mut live = match self.live.write() {
+            Ok(live) => live,
+            Err(poisoned) => poisoned.into_inner(),
+        };
+        if let Some(installation) = installation {
+            live.installation = installation;
+        }
+        if let Some(links) = links {
+            live.links = links;
+        }
+    }
+
+    /// Hands the player a new UIM2503 `installation` and its `links` (those of the
+    /// gateways in `opened` are new): taken only while the player is idle, when the
+    /// player starts anew on it.
+    ///
+    /// # Errors
+    /// [`ReconfigureError`]: not idle, an MBOX or SCL installation, or the task gone;
+    /// nothing changed.
+    pub async fn reconfigure(
+        &self,
+        installation: Installation,
+        links: Arc<Vec<Link>>,
+        opened: Vec<usize>,
+    ) -> Result<(), ReconfigureError> {
+        let (reply, answer) = oneshot::channel();
+        self.requests
+            .send(Request::Reconfigure(Reconfigure {
+                installation: installation.clone(),
+                links: Arc::clone(&links),
+                opened,
+                reply,
+            }))
+            .map_err(|_| ReconfigureError::Gone)?;
+        answer.await.map_err(|_| ReconfigureError::Gone)??;
+        self.set_live(Some(Arc::new(installation)), Some(links));
+        Ok(())
+    }
+}
+
+/// Relays `link`'s feedback into the player's queue, tagged with `gateway`, until the
+/// link or the player is gone.
+fn relay_to_player(
+    gateway: usize,
+    link: &Link,
+    frames_tx: mpsc::UnboundedSender<(usize, floatball_shared::feedback::Frame)>,
+) {
+    let mut feedback = link.feedback();
+    tokio::spawn(async move {
+        loop {
+            match feedback.recv().await {
+                Ok(frame) => {
+                    if frames_tx.send((gateway, frame)).is_err() {
+                        return;
+                    }
+                }
+                Err(tokio::sync::broadcast::error::RecvError::Lagged(missed)) => {
+                    tracing::warn!("player missed {missed} feedback frames of gateway {gateway}");
+                }
+                Err(tokio::sync::broadcast::error::RecvError::Closed) => return,
+            }
+        }
+    });
+}
+
+/// The UIM2503 task's side of [`Playback::reconfigure`]: while idle, a new player on
+/// the new installation and the new links (their feedback relayed); the answer goes
+/// back on the request's reply.
+fn reconfigure_player(
+    player: &mut Player,
+    links: &mut Arc<Vec<Link>>,
+    frames_tx: &mpsc::UnboundedSender<(usize, floatball_shared::feedback::Frame)>,
+    change: Reconfigure,
+) {
+    let state = player.status().state;
+    let result = if player.is_running() || state != floatball_shared::api::PlayerState::Idle {
+        Err(ReconfigureError::NotIdle {
+            state: format!("{state:?}").to_lowercase(),
+        })
+    } else {
+        *player = Player::new(PlayerConfig {
+            installation: change.installation,
+        });
+        *links = change.links;
+        for &gateway in &change.opened {
+            if let Some(link) = links.get(gateway) {
+                relay_to_player(gateway, link, frames_tx.clone());
+            }
+        }
+        Ok(())
+    };
+    let _ = change.reply.send(result);
+}
+
+/// The MBOX and SCL tasks' answer to [`Playback::reconfigure`]: not live.
+fn refuse_reconfigure(change: Reconfigure) {
+    let _ = change.reply.send(Err(ReconfigureError::NotLive));
 }
 
 /// How long a link may hold queued bytes without writing any while a show runs
@@ -613,12 +772,16 @@ fn handle(
             generation, reply, ..
         } => (generation, reply, Err(StartError::Busy)),
         Request::Estop => return None,
+        Request::Reconfigure(change) => {
+            refuse_reconfigure(change);
+            return None;
+        }
     })
 }
 
 async fn run(
     mut player: Player,
-    links: Arc<Vec<Link>>,
+    mut links: Arc<Vec<Link>>,
     health: Vec<HealthView>,
     latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
@@ -627,29 +790,11 @@ async fn run(
     let epoch = Instant::now();
     let now_us = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
     // Every link's feedback into one queue, tagged with the gateway.
+    // Kept for the links a new installation opens.
     let (frames_tx, mut frames) = mpsc::unbounded_channel();
     for (gateway, link) in links.iter().enumerate() {
-        let mut feedback = link.feedback();
-        let frames_tx = frames_tx.clone();
-        tokio::spawn(async move {
-            loop {
-                match feedback.recv().await {
-                    Ok(frame) => {
-                        if frames_tx.send((gateway, frame)).is_err() {
-                            return;
-                        }
-                    }
-                    Err(tokio::sync::broadcast::error::RecvError::Lagged(missed)) => {
-                        tracing::warn!(
-                            "player missed {missed} feedback frames of gateway {gateway}"
-                        );
-                    }
-                    Err(tokio::sync::broadcast::error::RecvError::Closed) => return,
-                }
-            }
-        });
+        relay_to_player(gateway, link, frames_tx.clone());
     }
-    drop(frames_tx);
     let mut seen_generation = latch.generation();
     let mut run_generation = seen_generation;
     let mut watchdog = Watchdog::new(&links);
@@ -676,6 +821,11 @@ async fn run(
         if generation != seen_generation {
             seen_generation = generation;
             player.estop();
+        }
+        if let Some(Request::Reconfigure(change)) = request {
+            reconfigure_player(&mut player, &mut links, &frames_tx, change);
+            watchdog = Watchdog::new(&links);
+            request = None;
         }
         let now = now_us();
         if let Some(request) = request
@@ -770,6 +920,10 @@ fn handle_mbox(
             generation, reply, ..
         } => (generation, reply, Err(StartError::Busy)),
         Request::Estop => return None,
+        Request::Reconfigure(change) => {
+            refuse_reconfigure(change);
+            return None;
+        }
     })
 }
 
@@ -1077,6 +1231,10 @@ async fn run_scl(
                 } => (generation, reply, Err(StartError::Busy)),
                 Request::Estop => {
                     publish(&status, state.status(&drives));
+                    continue;
+                }
+                Request::Reconfigure(change) => {
+                    refuse_reconfigure(change);
                     continue;
                 }
             };

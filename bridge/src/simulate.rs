@@ -19,6 +19,14 @@
 //! that cannot be written are lost too, as on a real line nobody listens to; they are
 //! counted and logged, and the simulator carries on.
 //!
+//! The gateway answers the greeting `ABC;` with `AA AB AC`. `BDR=x;` is stored (a line
+//! says so on standard output) and takes effect at the gateway's power cycle, which is
+//! **SIGHUP** here (`kill -HUP <pid>`): the gateway restarts, and if a speed was stored
+//! the device is switched to it (another line on standard output). A host still at the
+//! old speed is then neither heard nor answered — on a real cable; over a
+//! pseudo-terminal, which has no speed, the bytes still pass (a test's cable between two
+//! pseudo-terminals can compare the two ends' speeds).
+//!
 //! MBOX boxes on UDP sockets (`--kind mbox`) are [`mbox`]; MOONS' drives on a serial
 //! device or on UDP (`--kind scl`) are [`scl`].
 //!
@@ -28,8 +36,9 @@
 pub mod mbox;
 pub mod scl;
 
+use std::io::Write as _;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, Sender, channel};
 use std::time::{Duration, Instant};
 
@@ -55,13 +64,15 @@ pub struct SimulateOptions {
 }
 
 /// Answers on `options.port` until `stop` is set or the port fails; `ready` is called
-/// once the port is open.
+/// once the port is open. Setting `power_cycle` restarts the gateway (it is cleared
+/// when done): a line speed stored by `BDR=x;` then takes effect.
 ///
 /// # Errors
 /// The port cannot be opened, or reading or writing it fails.
 pub fn run(
     options: &SimulateOptions,
     stop: &Arc<AtomicBool>,
+    power_cycle: &AtomicBool,
     ready: impl FnOnce(),
 ) -> Result<(), String> {
     let mut port = open_port(&options.port, options.baud)?;
@@ -71,22 +82,50 @@ pub fn run(
     let mut engine = SimEngine::new(options.gateway.clone(), options.baud)?;
     let (arrivals, arrived) = channel::<Result<(Instant, Vec<u8>), String>>();
     let reader_stop = Arc::clone(stop);
-    let baud = options.baud;
+    let baud = Arc::new(AtomicU32::new(options.baud));
+    let reader_baud = Arc::clone(&baud);
     std::thread::Builder::new()
         .name("simulate-read".to_owned())
-        .spawn(move || read_at_line_speed(reader, baud, &reader_stop, &arrivals))
+        .spawn(move || read_at_line_speed(reader, &reader_baud, &reader_stop, &arrivals))
         .map_err(|err| format!("cannot start the reader thread: {err}"))?;
     ready();
     let mut answers = Vec::new();
     let mut unwritten: u64 = 0;
+    let mut stored = None;
     while !stop.load(Ordering::Acquire) {
+        if power_cycle.swap(false, Ordering::AcqRel) {
+            engine.restart(Instant::now());
+            let now_baud = engine.baud();
+            if now_baud != baud.load(Ordering::Acquire) {
+                port.set_baud_rate(now_baud).map_err(|err| {
+                    format!("cannot set {} to {now_baud} baud: {err}", options.port)
+                })?;
+                // This end of the line follows the gateway; the far end is the host's.
+                engine.set_host_baud(now_baud);
+                baud.store(now_baud, Ordering::Release);
+            }
+            say(&format!(
+                "the gateway restarted; the line runs at {now_baud} baud"
+            ));
+        }
         let now = Instant::now();
         let wait = engine
             .next_wakeup(now)
             .saturating_duration_since(now)
             .min(Duration::from_millis(50));
         match arrived.recv_timeout(wait) {
-            Ok(Ok((at, bytes))) => engine.receive(at, &bytes),
+            Ok(Ok((at, bytes))) => {
+                engine.receive(at, &bytes);
+                let now_stored = engine.stored_baud();
+                if now_stored != stored {
+                    stored = now_stored;
+                    if let Some(baud) = now_stored {
+                        say(&format!(
+                            "the gateway stored BDR={baud}; it takes effect at its restart (SIGHUP)"
+                        ));
+                    }
+                }
+            }
             Ok(Err(reason)) => return Err(reason),
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => return Err("the reader stopped".to_owned()),
@@ -109,11 +148,19 @@ pub fn run(
     Ok(())
 }
 
-/// The reader thread: reads `port` no faster than a line at `baud` carries bytes, and
-/// hands what it read, with the time, to the engine.
+/// One line on standard output, at once (tests wait for it).
+fn say(line: &str) {
+    let mut stdout = std::io::stdout().lock();
+    let _ = writeln!(stdout, "{line}");
+    let _ = stdout.flush();
+}
+
+/// The reader thread: reads `port` no faster than a line at `baud` carries bytes (a
+/// speed that changes when the gateway restarts at another one), and hands what it
+/// read, with the time, to the engine.
 fn read_at_line_speed(
     mut port: Box<dyn SerialPort>,
-    baud: u32,
+    baud: &AtomicU32,
     stop: &AtomicBool,
     arrivals: &Sender<Result<(Instant, Vec<u8>), String>>,
 ) {
@@ -123,9 +170,14 @@ fn read_at_line_speed(
     };
     // The engine keeps its own clock; a few bytes less than the room keeps rounding
     // between the two from ever counting as an overrun.
-    let mut line = RxLine::new(baud);
+    let mut line_baud = baud.load(Ordering::Acquire);
+    let mut line = RxLine::new(line_baud);
     let mut buffer = [0u8; 1024];
     while !stop.load(Ordering::Acquire) {
+        if baud.load(Ordering::Acquire) != line_baud {
+            line_baud = baud.load(Ordering::Acquire);
+            line = RxLine::new(line_baud);
+        }
         let room = line
             .room(micros(Instant::now()))
             .saturating_sub(READ_MARGIN)

@@ -3,6 +3,11 @@
 //!
 //! [`AppState::open`] builds it from the data directory at start; nothing in it is
 //! global, so tests run many bridges side by side.
+//!
+//! The configuration is a snapshot with one owner: readers get an `Arc<Config>`
+//! ([`AppState::config`]) and keep it as long as they like; a new installation
+//! (`crate::install`) replaces it whole ([`AppState::replace_config`]). The watch it
+//! lives in is only borrowed to copy the pointer, never across an await.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -77,7 +82,8 @@ pub struct AppState {
 
 #[derive(Debug)]
 struct Inner {
-    config: Config,
+    /// The configuration now; replaced whole, never changed in place.
+    config: watch::Sender<Arc<Config>>,
     paths: Paths,
     clock: Clock,
     password: Password,
@@ -260,7 +266,7 @@ impl AppState {
         };
         let starts_pending = Arc::new(AtomicUsize::new(0));
         let commission = Commission::open(
-            gateways.links(),
+            &gateways.links(),
             &config.installation,
             paths.data_dir.clone(),
             playback.status(),
@@ -269,7 +275,7 @@ impl AppState {
         );
         Ok(Self {
             inner: Arc::new(Inner {
-                config,
+                config: watch::channel(Arc::new(config)).0,
                 paths,
                 clock,
                 password,
@@ -289,9 +295,21 @@ impl AppState {
         })
     }
 
-    /// The installation's configuration.
-    pub fn config(&self) -> &Config {
-        &self.inner.config
+    /// The installation's configuration now: a snapshot, which a new installation
+    /// replaces but never changes.
+    pub fn config(&self) -> Arc<Config> {
+        Arc::clone(&self.inner.config.borrow())
+    }
+
+    /// Makes `config` the configuration every reader gets from now on (the one
+    /// writer: `crate::install`, under the catalogue lock).
+    pub fn replace_config(&self, config: Config) {
+        self.inner.config.send_replace(Arc::new(config));
+    }
+
+    /// The data directory (`floatball.toml`, the password, the shows).
+    pub fn data_dir(&self) -> &std::path::Path {
+        &self.inner.paths.data_dir
     }
 
     /// Where the web app's files are.

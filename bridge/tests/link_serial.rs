@@ -1,12 +1,17 @@
 //! Serial links over real pseudo-terminal pairs: the link opens the slave side by its
-//! path, the test plays the gateway on the master side.
+//! path, the test plays the gateway on the master side. The gateway answers the link's
+//! greeting (`ABC;` → `AA AB AC`, without which the link is not up); the greetings are
+//! counted and kept out of the bytes the tests compare.
 
 use std::io::{Read, Write};
 use std::os::unix::fs::symlink;
-use std::sync::mpsc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
-use floatball_bridge::link::{Batch, Link, LinkConfig, LinkError};
+use floatball_bridge::link::{
+    ANSWER_TIMEOUT, Batch, GREETING_INTERVAL, Link, LinkConfig, LinkError,
+};
 use floatball_shared::api::LinkState;
 use floatball_shared::ascii::{Form, parse_script};
 use floatball_shared::feedback::Frame;
@@ -17,9 +22,23 @@ fn batch(script: &str) -> Batch {
 }
 
 /// A pty pair whose slave is reachable at `path` (a symlink, as udev's
-/// /dev/serial/by-id names are), so a test can swap the device behind it.
+/// /dev/serial/by-id names are), so a test can swap the device behind it. The master
+/// is read from the start ([`spawn_reader`]); dropping the gateway closes it.
 struct Gateway {
     master: TTYPort,
+    rx: mpsc::Receiver<(Instant, Vec<u8>)>,
+    greetings: Arc<AtomicUsize>,
+    /// Whether the gateway answers greetings.
+    answering: Arc<AtomicBool>,
+    stop: Arc<AtomicBool>,
+}
+
+impl Drop for Gateway {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        // The reader lets go of its handle within one read timeout.
+        std::thread::sleep(Duration::from_millis(60));
+    }
 }
 
 fn pty_at(path: &std::path::Path) -> Gateway {
@@ -29,7 +48,22 @@ fn pty_at(path: &std::path::Path) -> Gateway {
     master.set_timeout(Duration::from_millis(20)).unwrap();
     let _ = std::fs::remove_file(path);
     symlink(slave_path, path).unwrap();
-    Gateway { master }
+    let greetings = Arc::new(AtomicUsize::new(0));
+    let answering = Arc::new(AtomicBool::new(true));
+    let stop = Arc::new(AtomicBool::new(false));
+    let rx = spawn_reader(
+        master.try_clone_native().unwrap(),
+        Arc::clone(&greetings),
+        Arc::clone(&answering),
+        Arc::clone(&stop),
+    );
+    Gateway {
+        master,
+        rx,
+        greetings,
+        answering,
+        stop,
+    }
 }
 
 async fn wait_for_state(link: &Link, state: LinkState) {
@@ -43,21 +77,48 @@ async fn wait_for_state(link: &Link, state: LinkState) {
     .unwrap();
 }
 
-/// Reads from the master in a thread, timestamping every chunk.
-fn spawn_reader(mut master: TTYPort) -> mpsc::Receiver<(Instant, Vec<u8>)> {
+/// Reads from the master in a thread, timestamping every chunk, until `stop`. Plays
+/// the gateway's part in the greeting: each whole `ABC;` is counted in `greetings`,
+/// answered `AA AB AC` while `answering`, and left out of the chunks; everything else
+/// is handed on in whole instructions (a partial one waits for its `;`).
+fn spawn_reader(
+    mut master: TTYPort,
+    greetings: Arc<AtomicUsize>,
+    answering: Arc<AtomicBool>,
+    stop: Arc<AtomicBool>,
+) -> mpsc::Receiver<(Instant, Vec<u8>)> {
     let (tx, rx) = mpsc::channel();
     std::thread::spawn(move || {
         let mut buffer = [0u8; 512];
-        loop {
+        let mut partial = Vec::new();
+        while !stop.load(Ordering::Acquire) {
             match master.read(&mut buffer) {
                 Ok(0) => {}
                 Ok(n) => {
-                    if tx.send((Instant::now(), buffer[..n].to_vec())).is_err() {
+                    let at = Instant::now();
+                    partial.extend_from_slice(&buffer[..n]);
+                    let whole = partial
+                        .iter()
+                        .rposition(|&b| b == b';')
+                        .map_or(0, |i| i + 1);
+                    let mut chunk = Vec::new();
+                    for instruction in partial[..whole].split_inclusive(|&b| b == b';') {
+                        if instruction == b"ABC;" {
+                            greetings.fetch_add(1, Ordering::AcqRel);
+                            if answering.load(Ordering::Acquire) {
+                                let _ = master.write_all(&[0xAA, 0xAB, 0xAC]);
+                            }
+                        } else {
+                            chunk.extend_from_slice(instruction);
+                        }
+                    }
+                    partial.drain(..whole);
+                    if !chunk.is_empty() && tx.send((at, chunk)).is_err() {
                         return;
                     }
                 }
                 Err(err) if err.kind() == std::io::ErrorKind::TimedOut => {}
-                Err(_) => return,
+                Err(_) => std::thread::sleep(Duration::from_millis(5)),
             }
         }
     });
@@ -83,9 +144,9 @@ async fn a_batch_reaches_the_line_byte_for_byte() {
     let link = Link::open(0, LinkConfig::new(path.display().to_string(), 115_200));
     wait_for_state(&link, LinkState::Up).await;
 
+    assert!(gateway.greetings.load(Ordering::Acquire) >= 1);
     link.send(batch("*20; PV=3; BG;")).await.unwrap();
-    let rx = spawn_reader(gateway.master);
-    let written = collect(&rx, |bytes| bytes.len() >= 12);
+    let written = collect(&gateway.rx, |bytes| bytes.len() >= 12);
     assert_eq!(written, b"*20;PV=3;BG;");
 }
 
@@ -96,7 +157,7 @@ async fn an_estop_overtakes_queued_bulk_within_one_instruction() {
     let gateway = pty_at(&path);
     let link = Link::open(0, LinkConfig::new(path.display().to_string(), 9600));
     wait_for_state(&link, LinkState::Up).await;
-    let rx = spawn_reader(gateway.master);
+    let rx = &gateway.rx;
 
     // 10 kB of rows: more than ten seconds of line time at 9600 baud.
     let mut bulk = batch("*5;");
@@ -111,9 +172,9 @@ async fn an_estop_overtakes_queued_bulk_within_one_instruction() {
     let bulk_len = bulk.len();
     link.send(bulk).await.unwrap();
     // Let the line get going, then stop.
-    let before = collect(&rx, |bytes| bytes.len() >= 200);
+    let before = collect(rx, |bytes| bytes.len() >= 200);
     assert_eq!(link.estop(), None);
-    let after = collect(&rx, |bytes| bytes.windows(8).any(|w| w == b"*0;MO=0;"));
+    let after = collect(rx, |bytes| bytes.windows(8).any(|w| w == b"*0;MO=0;"));
     let mut all = before;
     all.extend(&after);
     let estop_at = all.windows(8).position(|w| w == b"*0;MO=0;").unwrap();
@@ -207,8 +268,7 @@ async fn a_lost_line_is_reported_and_recovered() {
     let gateway = pty_at(&path);
     wait_for_state(&link, LinkState::Up).await;
     link.send(batch("*5;PV;")).await.unwrap();
-    let rx = spawn_reader(gateway.master);
-    assert_eq!(collect(&rx, |bytes| bytes.len() >= 6), b"*5;PV;");
+    assert_eq!(collect(&gateway.rx, |bytes| bytes.len() >= 6), b"*5;PV;");
 }
 
 #[tokio::test]
@@ -227,7 +287,7 @@ async fn while_the_estop_is_latched_only_queries_pass_and_older_batches_are_void
     let gateway = pty_at(&path);
     let link = Link::open(0, LinkConfig::new(path.display().to_string(), 115_200));
     wait_for_state(&link, LinkState::Up).await;
-    let rx = spawn_reader(gateway.master);
+    let rx = &gateway.rx;
 
     let issued_before = link.latch().generation();
     assert_eq!(link.estop(), None);
@@ -237,13 +297,51 @@ async fn while_the_estop_is_latched_only_queries_pass_and_older_batches_are_void
         .unwrap();
     // Issued after it, while latched: only what cannot move a ball goes.
     link.send(batch("*5;MO=1;PA=100;PA;BG;SN;")).await.unwrap();
-    let wire = collect(&rx, |bytes| bytes.ends_with(b"SN;"));
+    let wire = collect(rx, |bytes| bytes.ends_with(b"SN;"));
     assert_eq!(String::from_utf8_lossy(&wire), "*0;MO=0;*5;PA;SN;");
     assert!(link.dropped_instructions() >= 2);
 
     // Released by a request issued after the e-stop: motion goes again.
     assert!(link.latch().release(link.latch().generation()));
     link.send(batch("*5;MO=1;")).await.unwrap();
-    let wire = collect(&rx, |bytes| bytes.ends_with(b"MO=1;"));
+    let wire = collect(rx, |bytes| bytes.ends_with(b"MO=1;"));
     assert_eq!(String::from_utf8_lossy(&wire), "*5;MO=1;");
+}
+
+#[tokio::test]
+async fn the_link_is_up_only_once_greeted_and_not_answering_while_the_gateway_is_silent() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("gateway0");
+    let gateway = pty_at(&path);
+    gateway.answering.store(false, Ordering::Release);
+    let link = Link::open(0, LinkConfig::new(path.display().to_string(), 115_200));
+    // The port opens at once, but nothing answers the greeting.
+    wait_for_state(&link, LinkState::NotAnswering).await;
+    assert!(gateway.greetings.load(Ordering::Acquire) >= 1);
+    let error = link.send(batch("*5;PV;")).await.unwrap_err();
+    assert!(matches!(error, LinkError::Down { .. }), "{error}");
+    assert_eq!(
+        link.status().borrow().error.as_deref(),
+        Some("the gateway does not answer the greeting (ABC;)")
+    );
+
+    // The gateway answers: up. Then it falls silent: after the next idle greeting the
+    // link is not answering, and an e-stop is still written.
+    gateway.answering.store(true, Ordering::Release);
+    wait_for_state(&link, LinkState::Up).await;
+    gateway.answering.store(false, Ordering::Release);
+    let silent_from = Instant::now();
+    wait_for_state(&link, LinkState::NotAnswering).await;
+    let noticed = silent_from.elapsed();
+    assert!(
+        noticed <= GREETING_INTERVAL + ANSWER_TIMEOUT + Duration::from_millis(500),
+        "noticed after {noticed:?}"
+    );
+    assert!(link.estop().is_some(), "the e-stop says the link is not up");
+    let wire = collect(&gateway.rx, |bytes| bytes.ends_with(b"*0;MO=0;"));
+    assert_eq!(wire, b"*0;MO=0;");
+
+    // Answering again: up again, by itself.
+    gateway.answering.store(true, Ordering::Release);
+    wait_for_state(&link, LinkState::Up).await;
 }

@@ -75,3 +75,27 @@ fn more_gateway_flags_than_gateways_stop_the_start() {
         "{stderr}"
     );
 }
+
+#[test]
+fn check_lists_every_problem_each_with_its_line() {
+    let data = tempfile::tempdir().expect("temp dir");
+    let path = data.path().join("floatball.toml");
+    std::fs::write(
+        &path,
+        "[matrix]\nrows = 0\ntravel_mm = -1.0\n\n[[gateway]]\nport = \"sim\"\nbaud = 50\n",
+    )
+    .expect("write");
+    let output = floatball(&["check"], data.path());
+    assert!(!output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    for expected in [
+        "line 2, column 8: rows = 0 must be from 1 to 1000",
+        "line 3, column 13: travel_mm = -1 must be a number above 0",
+        "line 7, column 8: baud 50 is out of range (1200 to 921600)",
+    ] {
+        assert!(
+            stderr.contains(&format!("{} {expected}", path.display())),
+            "{expected} is not in {stderr}"
+        );
+    }
+}

@@ -19,6 +19,10 @@
 //!   each one ends (a link writes one at a time so an e-stop can overtake the rest).
 //! - [`InstructionReader`] reads raw bytes the way the gateway does: in any chunking,
 //!   one `;`-terminated instruction at a time, from a bounded buffer.
+//! - [`gateway`]: the gateway's own three-letter commands, the greeting `ABC;` and the
+//!   line speed `BDR=x;` ([`Instruction::Gateway`], not unit instructions), and
+//!   [`GreetingWatch`], which finds the greeting's answer `AA AB AC` in what the
+//!   gateway sends.
 //!
 //! # Example
 //! ```
@@ -45,6 +49,7 @@
 
 mod batch;
 mod encode;
+pub mod gateway;
 mod parse;
 mod reader;
 
@@ -52,6 +57,7 @@ use std::fmt;
 
 pub use batch::Batch;
 pub use encode::{EncodeError, Encoded, Form};
+pub use gateway::{GatewayCommand, GreetingWatch};
 pub use parse::{Expected, Found, Head, ParseError, ParseErrorKind, parse_script};
 pub use reader::{InstructionReader, ReadInstructions};
 
@@ -300,6 +306,8 @@ pub enum Instruction {
     },
     /// Any other two-letter instruction, passed through as written.
     Generic(Generic),
+    /// A command for the gateway itself (`ABC;`, `BDR=x;`), not for a unit.
+    Gateway(GatewayCommand),
 }
 
 /// An instruction without a typed variant: a mnemonic, an optional index and an optional
@@ -347,13 +355,15 @@ impl Instruction {
             Self::PtpPosition { position_counts } => position_counts.is_none(),
             Self::StopDecel { decel_counts_s2 } => decel_counts_s2.is_none(),
             Self::InfoEnable { enabled, .. } => enabled.is_none(),
+            Self::Gateway(command) => command.is_inert(),
         }
     }
 
-    /// The mnemonic, or `None` for [`Instruction::Select`].
+    /// The two-letter mnemonic, or `None` for [`Instruction::Select`] and the gateway's
+    /// three-letter [`Instruction::Gateway`] commands.
     pub fn mnemonic(&self) -> Option<Mnemonic> {
         match self.parts() {
-            Parts::Select { .. } => None,
+            Parts::Select { .. } | Parts::Gateway { .. } => None,
             Parts::Command { mnemonic, .. } => Some(mnemonic),
         }
     }
@@ -431,6 +441,13 @@ impl Instruction {
                     Operand::Hex(v) => Hex(v),
                 }),
             ),
+            Self::Gateway(command) => Parts::Gateway {
+                letters: command.letters(),
+                operand: match command {
+                    GatewayCommand::Greet => None,
+                    GatewayCommand::SetBaud { baud } => Some(baud),
+                },
+            },
         }
     }
 }
@@ -444,6 +461,11 @@ enum Parts {
         mnemonic: Mnemonic,
         index: Option<u8>,
         operand: Option<Number>,
+    },
+    /// `XXX[=v];`, a command for the gateway itself.
+    Gateway {
+        letters: [u8; 3],
+        operand: Option<u32>,
     },
 }
 
@@ -467,6 +489,8 @@ pub enum Field {
     Index(Mnemonic),
     /// The operand `v` of `XX=v`.
     Operand(Mnemonic),
+    /// The line speed `x` of the gateway's `BDR=x;`.
+    Baud,
 }
 
 impl fmt::Display for Field {
@@ -485,6 +509,7 @@ impl fmt::Display for Field {
                 };
                 write!(f, "the operand of {mnemonic}{shape}{unit}")
             }
+            Self::Baud => f.write_str("the line speed of BDR (baud)"),
         }
     }
 }
@@ -562,6 +587,8 @@ const U32: Range = Range::new(0, u32::MAX as i128);
 const I64: Range = Range::new(i64::MIN as i128, i64::MAX as i128);
 /// `SN[X]=s/n` and any hexadecimal operand.
 const U64: Range = Range::new(0, u64::MAX as i128);
+/// `BDR=x`: 9600–115200 baud (`PROTOCOL.md` §1.2).
+const BAUD: Range = Range::new(gateway::MIN_BAUD as i128, gateway::MAX_BAUD as i128);
 
 /// Whether the mnemonic may be written with an index (`None` of these take one).
 fn takes_index(mnemonic: Mnemonic) -> bool {
@@ -754,6 +781,9 @@ mod proptests {
             (any::<u8>(), any::<Option<bool>>())
                 .prop_map(|(index, enabled)| InfoEnable { index, enabled }),
             generic().prop_map(Generic),
+            Just(Gateway(GatewayCommand::Greet)),
+            (gateway::MIN_BAUD..=gateway::MAX_BAUD)
+                .prop_map(|baud| Gateway(GatewayCommand::SetBaud { baud })),
         ]
     }
 

@@ -462,6 +462,24 @@ codes! {
     CommissionStationTwice = "commission_station_twice" ["station"];
     /// A serial too long for the gateway's 20 characters.
     CommissionSerialTooLong = "commission_serial_too_long" ["serial", "max"];
+    // ---- install ----
+    /// `PUT /api/installation` refused: `problems` problems, each in `problems[]`.
+    InstallationInvalid = "installation_invalid" ["problems"];
+    /// One problem of a new installation, as `floatball check` words it (`reason` in
+    /// English).
+    InstallationProblem = "installation_problem" ["reason"];
+    /// A new installation or line speed is applied only while the player is idle.
+    InstallationBusy = "installation_busy" ["state"];
+    /// The gateways of MBOX boxes and MOONS' drives change only in `floatball.toml`
+    /// and at a restart.
+    InstallationNotLive = "installation_not_live" [];
+    /// `floatball.toml` could not be read or written (`reason` in English).
+    InstallationNotSaved = "installation_not_saved" ["reason"];
+    /// A line speed a gateway does not take (`allowed`: the speeds it takes).
+    BaudNotAllowed = "baud_not_allowed" ["baud", "allowed"];
+    /// The gateway did not answer at the new line speed; the line is back at the old
+    /// one (`reason` in English).
+    BaudChangeFailed = "baud_change_failed" ["gateway", "baud", "reason"];
 }
 
 #[cfg(test)]

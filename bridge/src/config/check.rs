@@ -3,6 +3,7 @@
 //! defaults filled in, and every problem named by the file, line and column of the
 //! value at fault (or by the file alone when the value is a default).
 
+use std::cell::RefCell;
 use std::ops::Range;
 use std::path::Path;
 
@@ -32,6 +33,9 @@ pub(super) struct Checker<'a> {
     pub(super) path: &'a Path,
     /// Its text, to turn byte spans into lines and columns.
     pub(super) text: &'a str,
+    /// Every problem found so far: the check goes on past a problem (with the default
+    /// in place of the wrong value) so that all of them are listed at once.
+    pub(super) problems: RefCell<Vec<ConfigError>>,
 }
 
 /// The gateways' lines, every unit's address, the MBOX boxes and the MOONS' drives'
@@ -54,6 +58,31 @@ pub(super) fn located<T: Clone>(value: Option<&Spanned<T>>, default: T) -> Locat
 }
 
 impl Checker<'_> {
+    /// A checker of `text`, the file at `path`, with no problem found yet.
+    pub(super) fn new<'a>(path: &'a Path, text: &'a str) -> Checker<'a> {
+        Checker {
+            path,
+            text,
+            problems: RefCell::new(Vec::new()),
+        }
+    }
+
+    /// The value of `result`, or `None` with its problem noted.
+    pub(super) fn keep<T>(&self, result: Result<T, ConfigError>) -> Option<T> {
+        match result {
+            Ok(value) => Some(value),
+            Err(problem) => {
+                self.problems.borrow_mut().push(problem);
+                None
+            }
+        }
+    }
+
+    /// Notes a problem and goes on.
+    pub(super) fn note(&self, problem: ConfigError) {
+        self.problems.borrow_mut().push(problem);
+    }
+
     /// An error at `span` of the file.
     pub(super) fn at(&self, span: &Range<usize>, reason: String) -> ConfigError {
         let before = self.text.get(..span.start).unwrap_or(self.text);
@@ -125,31 +154,43 @@ impl Checker<'_> {
         }
     }
 
-    /// Checks the whole file and applies the command-line `overrides`.
+    /// Checks the whole file and applies the command-line `overrides`; every problem
+    /// is listed, in the order of the file's sections.
     pub(super) fn check(
         &self,
         raw: RawConfig,
         overrides: &Overrides,
-    ) -> Result<Config, ConfigError> {
+    ) -> Result<Config, Vec<ConfigError>> {
+        let config = self.check_all(raw, overrides);
+        let problems = self.problems.take();
+        match config {
+            Some(config) if problems.is_empty() => Ok(config),
+            _ => Err(problems),
+        }
+    }
+
+    /// [`Checker::check`]'s work: `None` when a part could not be checked (its problem
+    /// is noted).
+    fn check_all(&self, raw: RawConfig, overrides: &Overrides) -> Option<Config> {
         let listen = match overrides.listen {
-            Some(listen) => listen,
+            Some(listen) => Some(listen),
             None => {
                 let (text, span) = located(raw.listen.as_ref(), "0.0.0.0:8080".to_owned());
-                text.parse().map_err(|_| {
+                self.keep(text.parse().map_err(|_| {
                     self.wrong(
                         span.as_ref(),
                         format!(
                             "listen = {text:?} is not an address and port such as \"0.0.0.0:8080\""
                         ),
                     )
-                })?
+                }))
             }
         };
-        let allowed_origins = raw
+        let allowed_origins: Vec<String> = raw
             .allowed_origins
             .iter()
-            .map(|origin| {
-                normalise_origin(origin.get_ref()).ok_or_else(|| {
+            .filter_map(|origin| {
+                self.keep(normalise_origin(origin.get_ref()).ok_or_else(|| {
                     self.at(
                         &origin.span(),
                         format!(
@@ -158,63 +199,67 @@ impl Checker<'_> {
                             origin.get_ref()
                         ),
                     )
-                })
+                }))
             })
-            .collect::<Result<Vec<_>, _>>()?;
-        let matrix = self.matrix(&raw.matrix)?;
-        let (gateways, units, boxes, drives) = self.gateways(&raw.gateways, &matrix, overrides)?;
+            .collect();
+        let matrix = self.matrix(&raw.matrix);
+        let gateways = self.gateways(&raw.gateways, &matrix, overrides);
+        let (estop, approach_speed_mm_s) =
+            self.keep(self.safety(&raw.safety, &matrix.limits)).unzip();
+        let (max_bytes, span) = located(raw.uploads.max_bytes.as_ref(), 32 * 1024 * 1024);
+        if !(1024..=1024 * 1024 * 1024).contains(&max_bytes) {
+            self.note(self.wrong(
+                span.as_ref(),
+                format!("max_bytes = {max_bytes} must be from 1024 (1 KiB) to 1073741824 (1 GiB)"),
+            ));
+        }
+        let max_duration = match &raw.uploads.max_duration {
+            None => Some(DEFAULT_MAX_DURATION),
+            Some(text) => self.keep(
+                humantime::parse_duration(text.get_ref().trim())
+                    .ok()
+                    .filter(|duration| MAX_DURATION_RANGE.contains(duration))
+                    .ok_or_else(|| {
+                        self.at(
+                            &text.span(),
+                            format!(
+                                "max_duration = {:?} must be a duration such as \"30m\" or \
+                                 \"1h 15m\", from 1 second to 24 hours",
+                                text.get_ref()
+                            ),
+                        )
+                    }),
+            ),
+        };
+        let (gateways, units, boxes, drives) = gateways?;
         let mbox = if boxes.is_empty() {
             None
         } else {
-            Some(self.mbox(&raw.mbox, boxes)?)
+            Some(self.keep(self.mbox(&raw.mbox, boxes))?)
         };
         let scl = if drives.is_empty() {
             None
         } else {
-            Some(self.scl(&raw.scl, drives)?)
+            Some(self.keep(self.scl(&raw.scl, drives))?)
         };
-        let (estop, approach_speed_mm_s) = self.safety(&raw.safety, &matrix.limits)?;
         let installation = Installation {
             limits: matrix.limits,
             pitch_mm: matrix.pitch_mm,
             counts_per_mm: matrix.counts_per_mm,
             gateways,
             units,
-            approach_speed_mm_s,
+            approach_speed_mm_s: approach_speed_mm_s?,
             home_mm: matrix.home_mm,
             stop_decel_mm_s2: matrix.limits.max_accel_mm_s2,
         };
-        let (max_bytes, span) = located(raw.uploads.max_bytes.as_ref(), 32 * 1024 * 1024);
-        if !(1024..=1024 * 1024 * 1024).contains(&max_bytes) {
-            return Err(self.wrong(
-                span.as_ref(),
-                format!("max_bytes = {max_bytes} must be from 1024 (1 KiB) to 1073741824 (1 GiB)"),
-            ));
-        }
-        let max_duration = match &raw.uploads.max_duration {
-            None => DEFAULT_MAX_DURATION,
-            Some(text) => humantime::parse_duration(text.get_ref().trim())
-                .ok()
-                .filter(|duration| MAX_DURATION_RANGE.contains(duration))
-                .ok_or_else(|| {
-                    self.at(
-                        &text.span(),
-                        format!(
-                            "max_duration = {:?} must be a duration such as \"30m\" or \
-                             \"1h 15m\", from 1 second to 24 hours",
-                            text.get_ref()
-                        ),
-                    )
-                })?,
-        };
-        Ok(Config {
-            listen,
+        Some(Config {
+            listen: listen?,
             allowed_origins,
             installation,
-            estop,
+            estop: estop?,
             uploads: Uploads {
                 max_bytes,
-                max_duration,
+                max_duration: max_duration?,
             },
             mbox,
             scl,
@@ -350,57 +395,65 @@ impl Checker<'_> {
         })
     }
 
-    /// `[matrix]`.
-    fn matrix(&self, raw: &RawMatrix) -> Result<Matrix, ConfigError> {
+    /// `[matrix]`; a wrong value is noted and its default used in its place.
+    fn matrix(&self, raw: &RawMatrix) -> Matrix {
         let size = |value: Option<&Spanned<u32>>, key: &str| {
             let (count, span) = located(value, 10);
             if (1..=1000).contains(&count) {
-                Ok(count)
+                count
             } else {
-                Err(self.wrong(
+                self.note(self.wrong(
                     span.as_ref(),
                     format!("{key} = {count} must be from 1 to 1000"),
-                ))
+                ));
+                10
             }
         };
-        let rows = size(raw.rows.as_ref(), "rows")?;
-        let cols = size(raw.cols.as_ref(), "cols")?;
-        let pitch_mm = self.positive(
-            located(raw.pitch_mm.as_ref(), DEFAULT_PITCH_MM),
+        let problems = self.problems.borrow().len();
+        let rows = size(raw.rows.as_ref(), "rows");
+        let cols = size(raw.cols.as_ref(), "cols");
+        let sized = self.problems.borrow().len() == problems;
+        let positive = |value: Option<&Spanned<f64>>, default: f64, key: &str, max: f64| {
+            self.keep(self.positive(located(value, default), key, max))
+                .unwrap_or(default)
+        };
+        let pitch_mm = positive(
+            raw.pitch_mm.as_ref(),
+            DEFAULT_PITCH_MM,
             "pitch_mm",
             100_000.0,
-        )?;
-        let travel_mm = self.positive(
-            located(raw.travel_mm.as_ref(), 7500.0),
-            "travel_mm",
-            100_000.0,
-        )?;
-        let counts_per_mm = self.positive(
-            located(raw.counts_per_mm.as_ref(), 100.0),
+        );
+        let travel_mm = positive(raw.travel_mm.as_ref(), 7500.0, "travel_mm", 100_000.0);
+        let counts_per_mm = positive(
+            raw.counts_per_mm.as_ref(),
+            100.0,
             "counts_per_mm",
             100_000.0,
-        )?;
-        let max_speed_mm_s = self.positive(
-            located(raw.max_speed_mm_s.as_ref(), 2000.0),
+        );
+        let max_speed_mm_s = positive(
+            raw.max_speed_mm_s.as_ref(),
+            2000.0,
             "max_speed_mm_s",
             100_000.0,
-        )?;
-        let max_accel_mm_s2 = self.positive(
-            located(raw.max_accel_mm_s2.as_ref(), 4000.0),
+        );
+        let max_accel_mm_s2 = positive(
+            raw.max_accel_mm_s2.as_ref(),
+            4000.0,
             "max_accel_mm_s2",
             1_000_000.0,
-        )?;
-        let (home_mm, span) = located(raw.home_mm.as_ref(), 0.0);
+        );
+        let (mut home_mm, span) = located(raw.home_mm.as_ref(), 0.0);
         if !(home_mm.is_finite() && (0.0..=travel_mm).contains(&home_mm)) {
-            return Err(self.wrong(
+            self.note(self.wrong(
                 span.as_ref(),
                 format!("home_mm = {home_mm} must be from 0 to travel_mm ({travel_mm})"),
             ));
+            home_mm = 0.0;
         }
         // Positions in counts travel as i32 on the wire (QP, PA).
         if travel_mm * counts_per_mm > f64::from(i32::MAX) {
             let span = raw.counts_per_mm.as_ref().map(Spanned::span);
-            return Err(self.wrong(
+            self.note(self.wrong(
                 span.as_ref(),
                 format!(
                     "travel_mm × counts_per_mm = {} counts does not fit in a position (at most {})",
@@ -409,7 +462,7 @@ impl Checker<'_> {
                 ),
             ));
         }
-        Ok(Matrix {
+        Matrix {
             limits: Limits {
                 travel_mm,
                 max_speed_mm_s,
@@ -420,7 +473,8 @@ impl Checker<'_> {
             pitch_mm,
             counts_per_mm,
             home_mm,
-        })
+            sized,
+        }
     }
 
     /// The `[[gateway]]` tables: each gateway's line and kind, and every unit's address
@@ -430,7 +484,7 @@ impl Checker<'_> {
         raw: &[Spanned<RawGateway>],
         matrix: &Matrix,
         overrides: &Overrides,
-    ) -> Result<CheckedGateways, ConfigError> {
+    ) -> Option<CheckedGateways> {
         let limits = &matrix.limits;
         let default_gateway = [Spanned::new(
             0..0,
@@ -454,165 +508,47 @@ impl Checker<'_> {
         let implicit = raw.is_empty();
         let raw = if implicit { &default_gateway[..] } else { raw };
         if overrides.gateway_ports.len() > raw.len() {
-            return Err(self.file(format!(
+            self.note(self.file(format!(
                 "{} --gateway flags given but the file configures {} [[gateway]] table(s); \
                  add [[gateway]] tables for the others",
                 overrides.gateway_ports.len(),
                 raw.len()
             )));
+            return None;
         }
         let mut specs: Vec<GatewaySpec> = Vec::with_capacity(raw.len());
         let mut wanted = Vec::with_capacity(raw.len());
         let mut boxes = Vec::new();
         let mut lines: Vec<SclEntry> = Vec::new();
+        let mut complete = true;
         for (index, spanned) in raw.iter().enumerate() {
-            let gateway = spanned.get_ref();
-            let kind = match &gateway.kind {
-                None => DriveKind::default(),
-                Some(name) => DriveKind::from_name(name.get_ref()).ok_or_else(|| {
-                    let known: Vec<String> = DriveKind::ALL
-                        .iter()
-                        .map(|kind| format!("{:?}", kind.name()))
-                        .collect();
-                    self.at(
-                        &name.span(),
-                        format!(
-                            "gateway {}: kind {:?} is not a known kind of drive; the known \
-                             kinds are {}",
-                            index + 1,
-                            name.get_ref(),
-                            known.join(", ")
-                        ),
-                    )
-                })?,
-            };
-            if let (Some(first), Some(name)) = (specs.first(), &gateway.kind)
-                && kind != first.kind
-            {
-                return Err(self.at(
-                    &name.span(),
-                    format!(
-                        "gateway {}: kind {:?} after {:?} gateways: an installation is all \
-                         UIM2503 gateways, all MBOX boxes or all MOONS' (SCL) drives",
-                        index + 1,
-                        kind.name(),
-                        first.kind.name()
-                    ),
-                ));
-            }
-            let stations = match &gateway.stations {
-                Some(list) => {
-                    Stations::Listed(list.get_ref().iter().map(|s| *s.get_ref()).collect())
-                }
-                None => Stations::Consecutive {
-                    first: located(gateway.first_station.as_ref(), 1).0,
-                    units: gateway.units.as_ref().map(|units| *units.get_ref()),
-                },
-            };
-            if kind == DriveKind::Scl {
-                let found = self.scl_gateway(
-                    index + 1,
-                    gateway,
-                    &spanned.span(),
-                    overrides.gateway_ports.get(index),
-                )?;
-                let (port, baud) = match &found.gateway {
-                    SclGateway::Serial { port, baud, .. } => (port.clone(), *baud),
-                    SclGateway::Escl(_) | SclGateway::Sim { .. } => (found.gateway.port(), 0),
-                };
-                let units = if found.listed {
-                    Some(found.gateway.drives())
-                } else {
-                    gateway.units.as_ref().map(|units| *units.get_ref())
-                };
-                specs.push(GatewaySpec { port, baud, kind });
-                wanted.push((kind, Stations::Consecutive { first: 1, units }));
-                lines.push(found);
+            let first_kind = specs.first().map(|spec| spec.kind);
+            let Some(one) = self.keep(self.gateway(
+                index,
+                spanned,
+                overrides.gateway_ports.get(index),
+                first_kind,
+                matrix.counts_per_mm,
+            )) else {
+                complete = false;
                 continue;
-            }
-            if let Some(span) = gateway
-                .addresses
-                .as_ref()
-                .map(Spanned::span)
-                .or_else(|| gateway.escl.as_ref().map(Spanned::span))
-            {
-                return Err(self.at(
-                    &span,
-                    format!(
-                        "gateway {}: addresses and escl are for MOONS' drives (kind = \"scl\")",
-                        index + 1
-                    ),
-                ));
-            }
-            if kind == DriveKind::Mbox {
-                let found = self.mbox_box(
-                    index + 1,
-                    gateway,
-                    &spanned.span(),
-                    overrides.gateway_ports.get(index),
-                    matrix.counts_per_mm,
-                )?;
-                let port = match found.target {
-                    MboxTarget::Sim => SIM_PORT.to_owned(),
-                    MboxTarget::Address(address) => address.to_string(),
-                };
-                specs.push(GatewaySpec {
-                    port,
-                    baud: 0,
-                    kind,
-                });
-                boxes.push(found);
-                wanted.push((kind, stations));
-                continue;
-            }
-            let (port, port_span) = match (overrides.gateway_ports.get(index), &gateway.port) {
-                (Some(port), _) => (port.clone(), None),
-                (None, Some(port)) => (port.get_ref().clone(), Some(port.span())),
-                (None, None) => {
-                    return Err(self.at(
-                        &spanned.span(),
-                        format!(
-                            "gateway {}: port is missing: \"sim\" or a device path such as \
-                             \"/dev/ttyUSB0\"",
-                            index + 1
-                        ),
-                    ));
-                }
             };
-            for (key, value) in gateway.mbox_keys() {
-                if let Some(span) = value {
-                    return Err(self.at(
-                        &span,
-                        format!(
-                            "gateway {}: {key} is for MBOX boxes (kind = \"mbox\")",
-                            index + 1
-                        ),
-                    ));
-                }
-            }
-
-            if port.is_empty() || port.chars().any(char::is_control) {
-                return Err(self.wrong(
-                    port_span.as_ref(),
-                    format!(
-                        "gateway {}: port {port:?} must be \"sim\" or a device path such as \
-                         \"/dev/ttyUSB0\"",
-                        index + 1
-                    ),
-                ));
-            }
-            let default_baud = if port == SIM_PORT {
-                DEFAULT_SIM_BAUD
-            } else {
-                DEFAULT_SERIAL_BAUD
-            };
-            let baud = self.baud(gateway.baud.as_ref(), default_baud)?;
-            specs.push(GatewaySpec { port, baud, kind });
-            wanted.push((kind, stations));
+            wanted.push((one.spec.kind, one.stations));
+            specs.push(one.spec);
+            boxes.extend(one.mbox);
+            lines.extend(one.scl);
         }
-        let units = allocate(limits.rows as usize * limits.cols as usize, &wanted)
-            .map_err(|error| self.allocation(error, raw, implicit, limits))?;
+        if !complete || !matrix.sized {
+            // The units cannot be given to gateways that are not all known, nor
+            // counted in a matrix of unknown size.
+            return None;
+        }
+        let units = self.keep(
+            allocate(limits.rows as usize * limits.cols as usize, &wanted)
+                .map_err(|error| self.allocation(error, raw, implicit, limits)),
+        )?;
         // An MBOX unit's station is its axis: within the box's axes.
+        let mut axes_fit = true;
         for (gateway, found) in boxes.iter().enumerate() {
             let axes = found.axes.count();
             if let Some(axis) = units
@@ -629,7 +565,8 @@ impl Checker<'_> {
                     .map(Spanned::span)
                     .or_else(|| table.get_ref().units.as_ref().map(Spanned::span))
                     .unwrap_or_else(|| table.span());
-                return Err(self.at(
+                axes_fit = false;
+                self.note(self.at(
                     &span,
                     format!(
                         "gateway {}: axis {axis} is beyond the box's {axes} axes; give it at \
@@ -638,6 +575,9 @@ impl Checker<'_> {
                     ),
                 ));
             }
+        }
+        if !axes_fit {
+            return None;
         }
         // A line whose addresses were not listed: the first characters, one a unit;
         // simulated drives: one a unit.
@@ -666,7 +606,164 @@ impl Checker<'_> {
                 other => other,
             })
             .collect();
-        Ok((specs, units, boxes, drives))
+        Some((specs, units, boxes, drives))
+    }
+
+    /// One `[[gateway]]` table (the `index`-th): its line, kind and stations, and its
+    /// MBOX box or SCL entry. `first_kind` is the first gateway's kind, which every
+    /// other must share.
+    fn gateway(
+        &self,
+        index: usize,
+        spanned: &Spanned<RawGateway>,
+        override_port: Option<&String>,
+        first_kind: Option<DriveKind>,
+        counts_per_mm: f64,
+    ) -> Result<OneGateway, ConfigError> {
+        let gateway = spanned.get_ref();
+        let kind = match &gateway.kind {
+            None => DriveKind::default(),
+            Some(name) => DriveKind::from_name(name.get_ref()).ok_or_else(|| {
+                let known: Vec<String> = DriveKind::ALL
+                    .iter()
+                    .map(|kind| format!("{:?}", kind.name()))
+                    .collect();
+                self.at(
+                    &name.span(),
+                    format!(
+                        "gateway {}: kind {:?} is not a known kind of drive; the known \
+                         kinds are {}",
+                        index + 1,
+                        name.get_ref(),
+                        known.join(", ")
+                    ),
+                )
+            })?,
+        };
+        if let (Some(first), Some(name)) = (first_kind, &gateway.kind)
+            && kind != first
+        {
+            return Err(self.at(
+                &name.span(),
+                format!(
+                    "gateway {}: kind {:?} after {:?} gateways: an installation is all \
+                     UIM2503 gateways, all MBOX boxes or all MOONS' (SCL) drives",
+                    index + 1,
+                    kind.name(),
+                    first.name()
+                ),
+            ));
+        }
+        let stations = match &gateway.stations {
+            Some(list) => Stations::Listed(list.get_ref().iter().map(|s| *s.get_ref()).collect()),
+            None => Stations::Consecutive {
+                first: located(gateway.first_station.as_ref(), 1).0,
+                units: gateway.units.as_ref().map(|units| *units.get_ref()),
+            },
+        };
+        if kind == DriveKind::Scl {
+            let found = self.scl_gateway(index + 1, gateway, &spanned.span(), override_port)?;
+            let (port, baud) = match &found.gateway {
+                SclGateway::Serial { port, baud, .. } => (port.clone(), *baud),
+                SclGateway::Escl(_) | SclGateway::Sim { .. } => (found.gateway.port(), 0),
+            };
+            let units = if found.listed {
+                Some(found.gateway.drives())
+            } else {
+                gateway.units.as_ref().map(|units| *units.get_ref())
+            };
+            return Ok(OneGateway {
+                spec: GatewaySpec { port, baud, kind },
+                stations: Stations::Consecutive { first: 1, units },
+                mbox: None,
+                scl: Some(found),
+            });
+        }
+        if let Some(span) = gateway
+            .addresses
+            .as_ref()
+            .map(Spanned::span)
+            .or_else(|| gateway.escl.as_ref().map(Spanned::span))
+        {
+            return Err(self.at(
+                &span,
+                format!(
+                    "gateway {}: addresses and escl are for MOONS' drives (kind = \"scl\")",
+                    index + 1
+                ),
+            ));
+        }
+        if kind == DriveKind::Mbox {
+            let found = self.mbox_box(
+                index + 1,
+                gateway,
+                &spanned.span(),
+                override_port,
+                counts_per_mm,
+            )?;
+            let port = match found.target {
+                MboxTarget::Sim => SIM_PORT.to_owned(),
+                MboxTarget::Address(address) => address.to_string(),
+            };
+            return Ok(OneGateway {
+                spec: GatewaySpec {
+                    port,
+                    baud: 0,
+                    kind,
+                },
+                stations,
+                mbox: Some(found),
+                scl: None,
+            });
+        }
+        let (port, port_span) = match (override_port, &gateway.port) {
+            (Some(port), _) => (port.clone(), None),
+            (None, Some(port)) => (port.get_ref().clone(), Some(port.span())),
+            (None, None) => {
+                return Err(self.at(
+                    &spanned.span(),
+                    format!(
+                        "gateway {}: port is missing: \"sim\" or a device path such as \
+                         \"/dev/ttyUSB0\"",
+                        index + 1
+                    ),
+                ));
+            }
+        };
+        for (key, value) in gateway.mbox_keys() {
+            if let Some(span) = value {
+                return Err(self.at(
+                    &span,
+                    format!(
+                        "gateway {}: {key} is for MBOX boxes (kind = \"mbox\")",
+                        index + 1
+                    ),
+                ));
+            }
+        }
+
+        if port.is_empty() || port.chars().any(char::is_control) {
+            return Err(self.wrong(
+                port_span.as_ref(),
+                format!(
+                    "gateway {}: port {port:?} must be \"sim\" or a device path such as \
+                     \"/dev/ttyUSB0\"",
+                    index + 1
+                ),
+            ));
+        }
+        let default_baud = if port == SIM_PORT {
+            DEFAULT_SIM_BAUD
+        } else {
+            DEFAULT_SERIAL_BAUD
+        };
+        let baud = self.baud(gateway.baud.as_ref(), default_baud)?;
+        Ok(OneGateway {
+            spec: GatewaySpec { port, baud, kind },
+            stations,
+            mbox: None,
+            scl: None,
+        })
     }
 
     /// Where an allocation problem sits in the file, in the file's words.
@@ -773,10 +870,21 @@ impl Checker<'_> {
     }
 }
 
+/// One `[[gateway]]` table checked.
+struct OneGateway {
+    spec: GatewaySpec,
+    stations: Stations,
+    mbox: Option<MboxBox>,
+    scl: Option<SclEntry>,
+}
+
 /// `[matrix]` checked: the limits and what else the installation takes from it.
 struct Matrix {
     limits: Limits,
     pitch_mm: f64,
     counts_per_mm: f64,
     home_mm: f64,
+    /// Rows and cols are as configured (not defaults in place of wrong values): the
+    /// units can be given to the gateways.
+    sized: bool,
 }

@@ -12,11 +12,17 @@
 //!   `data/floatball.toml line 12, column 8: baud 300 is out of range (1200 to 921600)`.
 //! - `scl`: the MOONS' drives' gateway entries and the `[scl]` table.
 //!
+//! The check goes on past a problem and lists every one ([`Config::parse_all`]), for
+//! `floatball check`, for the start, and for `PUT /api/installation`, which writes
+//! the file through [`edit`] (comments and untouched keys kept) and checks the result
+//! before anything is saved.
+//!
 //! Two command-line flags override the file without editing it ([`Overrides`]):
 //! `--listen` and `--gateway PORT` (repeatable, the n-th flag replaces the n-th
 //! gateway's port).
 
 mod check;
+pub mod edit;
 mod raw;
 mod scl;
 #[cfg(test)]
@@ -181,6 +187,35 @@ pub enum ConfigError {
         /// What is wrong and what is allowed.
         reason: String,
     },
+    /// More than one problem: each of them, one a line.
+    #[error("{}", list(.0))]
+    Many(Vec<ConfigError>),
+}
+
+/// Problems one a line.
+fn list(problems: &[ConfigError]) -> String {
+    let lines: Vec<String> = problems.iter().map(ToString::to_string).collect();
+    lines.join("\n")
+}
+
+impl ConfigError {
+    /// What is wrong, without the file and the place (for an API answer, where the
+    /// file is not the client's).
+    pub fn reason(&self) -> String {
+        match self {
+            Self::Read { source, .. } | Self::Write { source, .. } => source.to_string(),
+            Self::At { reason, .. } | Self::File { reason, .. } => reason.clone(),
+            Self::Many(problems) => list(problems),
+        }
+    }
+
+    /// Every problem: this one, or each of [`ConfigError::Many`].
+    pub fn problems(&self) -> Vec<&ConfigError> {
+        match self {
+            Self::Many(problems) => problems.iter().collect(),
+            one => vec![one],
+        }
+    }
 }
 
 impl Config {
@@ -211,12 +246,36 @@ impl Config {
     /// Parses and checks the text of a configuration file; `path` names it in errors.
     ///
     /// # Errors
-    /// [`ConfigError::At`] or [`ConfigError::File`] for the first problem found.
+    /// [`ConfigError::At`] or [`ConfigError::File`] for a single problem,
+    /// [`ConfigError::Many`] listing every problem when there are more.
     pub fn parse(path: &Path, text: &str, overrides: &Overrides) -> Result<Self, ConfigError> {
-        let checker = check::Checker { path, text };
-        let raw: raw::RawConfig = toml::from_str(text).map_err(|error| match error.span() {
-            Some(span) => checker.at(&span, error.message().trim_end().to_owned()),
-            None => checker.file(error.message().trim_end().to_owned()),
+        Self::parse_all(path, text, overrides).map_err(|mut problems| {
+            if problems.len() == 1
+                && let Some(one) = problems.pop()
+            {
+                one
+            } else {
+                ConfigError::Many(problems)
+            }
+        })
+    }
+
+    /// Parses and checks the text of a configuration file, listing every problem (a
+    /// file TOML cannot parse has one: where parsing stopped).
+    ///
+    /// # Errors
+    /// Every problem found, in the order of the file's sections (never empty).
+    pub fn parse_all(
+        path: &Path,
+        text: &str,
+        overrides: &Overrides,
+    ) -> Result<Self, Vec<ConfigError>> {
+        let checker = check::Checker::new(path, text);
+        let raw: raw::RawConfig = toml::from_str(text).map_err(|error| {
+            vec![match error.span() {
+                Some(span) => checker.at(&span, error.message().trim_end().to_owned()),
+                None => checker.file(error.message().trim_end().to_owned()),
+            }]
         })?;
         checker.check(raw, overrides)
     }

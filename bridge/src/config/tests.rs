@@ -683,3 +683,43 @@ fn simulated_scl_drives_count_their_units() {
             .contains("there is no drive '3'")
     );
 }
+
+#[test]
+fn every_problem_is_listed_not_only_the_first() {
+    let text = "listen = \"nowhere\"\n[matrix]\nrows = 0\nmax_speed_mm_s = -5.0\n\
+                home_mm = 9000.0\n[[gateway]]\nport = \"sim\"\nstations = [1, 1]\n\
+                [[gateway]]\nkind = \"uim342\"\n[safety]\nestop = \"\"\n\
+                [uploads]\nmax_duration = \"forever\"\n";
+    let problems = Config::parse_all(
+        Path::new("data/floatball.toml"),
+        text,
+        &Overrides::default(),
+    )
+    .expect_err("wrong in many places");
+    let messages: Vec<String> = problems.iter().map(ToString::to_string).collect();
+    let all = messages.join("\n");
+    for part in [
+        "line 1, column 10: listen = \"nowhere\"",
+        "line 3, column 8: rows = 0 must be from 1 to 1000",
+        "line 4, column 18: max_speed_mm_s = -5 must be",
+        "line 5, column 11: home_mm = 9000 must be from 0 to travel_mm",
+        "line 10, column 8: gateway 2: kind \"uim342\"",
+        "estop is empty",
+        "max_duration = \"forever\"",
+    ] {
+        assert!(all.contains(part), "{part} is not in:\n{all}");
+    }
+    assert_eq!(problems.len(), 7, "{all}");
+    // The gateways are known but one, so the units are not given out: no duplicate
+    // reported against a list that may change.
+    assert!(!all.contains("twice"), "{all}");
+    // `parse` says them all too, one a line (the start, `floatball check`).
+    let error = parse(text).expect_err("many").to_string();
+    assert_eq!(error, all);
+    assert_eq!(error.lines().count(), 7);
+    // With every gateway known, an allocation problem is listed beside the others.
+    let text = "[matrix]\nmax_speed_mm_s = 0.0\n[[gateway]]\nport = \"sim\"\nstations = [1, 1]\n";
+    let problems = Config::parse_all(Path::new("f.toml"), text, &Overrides::default())
+        .expect_err("two problems");
+    assert_eq!(problems.len(), 2, "{problems:?}");
+}

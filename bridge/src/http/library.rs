@@ -202,7 +202,7 @@ pub async fn put_show(
     let format = upload_format(content_type, &body);
     let importing = state.clone();
     let show_name = name.clone();
-    let show = blocking(move || import_upload(&show_name, &body, format, importing.config()))
+    let show = blocking(move || import_upload(&show_name, &body, format, &importing.config()))
         .await?
         .map_err(|refused| unprocessable(refused.into()))?;
     let _catalogue = state.lock_catalogue().await;

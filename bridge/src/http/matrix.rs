@@ -4,6 +4,17 @@
 //! - `GET /api/installation`: 200 the calibration (`counts_per_mm`) and every
 //!   gateway's family and stations ([`InstallationInfo`]), so that the app can show
 //!   the drives' positions in mm beside their counts.
+//! - `PUT /api/installation` (an [`Operator`]): body [`InstallationInfo`], checked,
+//!   saved into `floatball.toml` and applied while idle ([`crate::install`]); 200 the
+//!   installation now; 422 `installation_invalid` listing every problem; 409
+//!   `installation_busy` (not idle, or a Start pending) or `installation_not_live`
+//!   (MBOX boxes, MOONS' drives); 500 `installation_not_saved`.
+//! - `POST /api/gateways/{gateway}/baud` (an [`Operator`]): body [`BaudRequest`]; a
+//!   UIM2503 gateway's line to another speed (9600 to 115200) through
+//!   [`crate::link::Link::change_baud`], then saved into `floatball.toml` like a
+//!   `PUT`; 200 [`BaudChanged`]; 404 `no_such_gateway`; 409 `installation_busy`,
+//!   `estop_latched` or `gateway_not_connected`; 422 `baud_not_allowed`; 502
+//!   `baud_change_failed` (the line is back at its old speed).
 //! - `GET /api/plan/{name}`: 200 the bandwidth / feasibility report
 //!   ([`PlanReport`]) of a stored show on this installation; 404. On MOONS' drives
 //!   that Start gives compiled programs (`[scl] programs = "upload"`) every ball's Q
@@ -16,23 +27,30 @@
 //!   ([`MboxTiming`]: frames sent, late frames, a histogram of how late each left
 //!   after its slot); 404 when the installation has no MBOX boxes.
 //!
-//! All need a [`Session`].
+//! All need a [`Session`]; `PUT` an [`Operator`].
 
 use axum::Json;
+use axum::body::Bytes;
+use axum::extract::Path as AxumPath;
 use axum::extract::State;
+use axum::http::StatusCode;
 use floatball_shared::api::{
-    GatewayKind, InstallationGateway, InstallationInfo, PlanReport, SimPositions,
+    BaudChanged, BaudRequest, InstallationInfo, PlanReport, Problem, SimPositions,
 };
+use floatball_shared::codes::Code;
+use floatball_shared::plan::report::GATEWAY_BAUDS;
 use floatball_shared::plan::report::report;
 use floatball_shared::plan::verdict::{Fix, Why, refuse};
-use floatball_shared::plan::{DriveKind, Installation, PlanOptions};
+use floatball_shared::plan::{Installation, PlanOptions};
 use floatball_shared::scl::qprogram::QProgramError;
 use floatball_shared::show::Show;
 
 use super::library::{NameParam, store_failure};
-use super::session::Session;
-use super::{Failure, blocking};
-use crate::config::{SclConfig, SclPrograms};
+use super::session::{Operator, Session};
+use super::{Failure, blocking, json_body};
+use crate::config::{ConfigError, SclConfig, SclPrograms};
+use crate::install::{self, InstallError};
+use crate::link::BaudError;
 use crate::mbox::MboxTiming;
 use crate::scl::program::{compile_every_ball, qprogram_config};
 use crate::state::AppState;
@@ -42,39 +60,110 @@ pub async fn installation(
     State(state): State<AppState>,
     _session: Session,
 ) -> Json<InstallationInfo> {
-    Json(installation_info(&state.config().installation))
+    Json(install::info(&state.config().installation))
 }
 
-/// What `GET /api/installation` says about `installation`.
-fn installation_info(installation: &Installation) -> InstallationInfo {
-    let gateways = installation
-        .gateways
-        .iter()
-        .enumerate()
-        .map(|(index, gateway)| InstallationGateway {
-            kind: match gateway.kind {
-                DriveKind::Uim2503 => GatewayKind::Uim2503,
-                DriveKind::Mbox => GatewayKind::Mbox,
-                DriveKind::Scl => GatewayKind::Scl,
-            },
-            port: gateway.port.clone(),
-            baud: (gateway.kind != DriveKind::Mbox).then_some(gateway.baud),
-            stations: installation.stations_on(index),
-        })
-        .collect();
-    let limits = &installation.limits;
-    InstallationInfo {
-        rows: limits.rows,
-        cols: limits.cols,
-        pitch_mm: installation.pitch_mm,
-        travel_mm: limits.travel_mm,
-        max_speed_mm_s: limits.max_speed_mm_s,
-        max_accel_mm_s2: limits.max_accel_mm_s2,
-        home_mm: installation.home_mm,
-        approach_speed_mm_s: installation.approach_speed_mm_s,
-        counts_per_mm: installation.counts_per_mm,
-        gateways,
+/// `PUT /api/installation`.
+pub async fn put_installation(
+    State(state): State<AppState>,
+    Operator(_session): Operator,
+    body: Bytes,
+) -> Result<Json<InstallationInfo>, Failure> {
+    let new: InstallationInfo = json_body(&body, "installation")?;
+    install::put(&state, new)
+        .await
+        .map(Json)
+        .map_err(|error| install_failure(&error))
+}
+
+/// The answer to a refused installation or line speed.
+pub fn install_failure(error: &InstallError) -> Failure {
+    let text = error.to_string();
+    match error {
+        InstallError::Invalid(problems) => {
+            let mut failure = Failure::coded(
+                StatusCode::UNPROCESSABLE_ENTITY,
+                Code::InstallationInvalid,
+                format!("{text}; nothing was saved"),
+            )
+            .param("problems", problems.len());
+            for problem in problems.iter().flat_map(ConfigError::problems) {
+                let reason = problem.reason();
+                failure.body.problems.push(Problem {
+                    code: Code::InstallationProblem.as_str().to_owned(),
+                    params: floatball_shared::params!("reason" => reason),
+                });
+                failure.body.details.push(reason);
+            }
+            failure
+        }
+        InstallError::Busy { state } => {
+            Failure::coded(StatusCode::CONFLICT, Code::InstallationBusy, text).param("state", state)
+        }
+        InstallError::NotLive => {
+            Failure::coded(StatusCode::CONFLICT, Code::InstallationNotLive, text)
+        }
+        InstallError::NotSaved(reason) => Failure::coded(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            Code::InstallationNotSaved,
+            text.clone(),
+        )
+        .param("reason", reason),
+        InstallError::NoSuchGateway { gateway, links } => {
+            Failure::coded(StatusCode::NOT_FOUND, Code::NoSuchGateway, text)
+                .param("gateway", gateway)
+                .param("last", links.saturating_sub(1))
+        }
+        InstallError::BaudNotAllowed { baud, .. } => baud_not_allowed(text, *baud),
+        InstallError::Baud {
+            gateway,
+            baud,
+            error,
+        } => match error {
+            BaudError::OutOfRange { .. } => baud_not_allowed(text, *baud),
+            BaudError::EstopLatched => {
+                Failure::coded(StatusCode::CONFLICT, Code::EstopLatched, text)
+            }
+            BaudError::Link(_) => {
+                Failure::coded(StatusCode::CONFLICT, Code::GatewayNotConnected, text)
+                    .param("gateway", gateway)
+            }
+            BaudError::Port { reason, .. } => baud_failed(text.clone(), *gateway, *baud, reason),
+            BaudError::NotAnswering { .. } => {
+                baud_failed(text.clone(), *gateway, *baud, &error.to_string())
+            }
+        },
     }
+}
+
+/// 422 `baud_not_allowed`: the speeds a gateway takes.
+fn baud_not_allowed(text: String, baud: u32) -> Failure {
+    let allowed: Vec<String> = GATEWAY_BAUDS.iter().map(u32::to_string).collect();
+    Failure::coded(StatusCode::UNPROCESSABLE_ENTITY, Code::BaudNotAllowed, text)
+        .param("baud", baud)
+        .param("allowed", allowed.join(", "))
+}
+
+/// 502 `baud_change_failed`: the line is back at its old speed.
+fn baud_failed(text: String, gateway: usize, baud: u32, reason: &str) -> Failure {
+    Failure::coded(StatusCode::BAD_GATEWAY, Code::BaudChangeFailed, text)
+        .param("gateway", gateway)
+        .param("baud", baud)
+        .param("reason", reason)
+}
+
+/// `POST /api/gateways/{gateway}/baud`.
+pub async fn change_baud(
+    State(state): State<AppState>,
+    Operator(_session): Operator,
+    AxumPath(gateway): AxumPath<usize>,
+    body: Bytes,
+) -> Result<Json<BaudChanged>, Failure> {
+    let request: BaudRequest = json_body(&body, "line speed")?;
+    install::change_baud(&state, gateway, request.baud)
+        .await
+        .map(Json)
+        .map_err(|error| install_failure(&error))
 }
 
 /// `GET /api/plan/{name}`.

@@ -58,7 +58,11 @@ pub fn router(state: &AppState) -> Router<AppState> {
             "/playlist",
             get(library::get_playlist).put(library::put_playlist),
         )
-        .route("/installation", get(matrix::installation))
+        .route(
+            "/installation",
+            get(matrix::installation).put(matrix::put_installation),
+        )
+        .route("/gateways/{gateway}/baud", post(matrix::change_baud))
         .route("/plan/{name}", get(matrix::plan))
         .route("/sim/positions", get(matrix::sim_positions))
         .route("/mbox/timing", get(matrix::mbox_timing))

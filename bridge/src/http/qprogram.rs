@@ -174,7 +174,7 @@ pub async fn qprogram(
             .param("units", show.tracks.len())
         })?;
         let config = compiling.config();
-        let settings = qprogram_config(&config.installation, &overrides(config));
+        let settings = qprogram_config(&config.installation, &overrides(&config));
         let program = compile(track, &settings).map_err(|error| compile_failure(error, unit))?;
         Ok::<_, Failure>(QProgramListing {
             unit,

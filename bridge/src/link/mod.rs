@@ -22,6 +22,18 @@
 //! later), and the link is retried with backoff while the daemon keeps serving; when it
 //! comes back while the e-stop is latched, the stop is its first write.
 //!
+//! **Presence.** An open port is not a gateway: the writer greets the gateway (`ABC;`,
+//! `PROTOCOL.md` §1.2) as soon as the line opens and again whenever the line has been
+//! idle for [`GREETING_INTERVAL`]. The link is `Up` only once the gateway has answered
+//! (`AA AB AC`, or any feedback frame); a greeting left unanswered for
+//! [`ANSWER_TIMEOUT`] makes it `NotAnswering` (writes are refused, but the e-stop is
+//! still written), and it greets every [`GREETING_RETRY`] until an answer brings it back
+//! `Up`.
+//!
+//! **Line speed.** [`Link::baud`] is the line's live speed; [`Link::change_baud`] moves
+//! the gateway and the line to another one (`BDR=x;`, the gateway's restart, the line
+//! switched, greeted at the new speed; back to the old speed if nothing answers).
+//!
 //! - [`lanes`]: the two lanes and the station re-selection after a priority write;
 //! - [`pacer`]: line timing and the bytes/s meter;
 //! - [`serial`]: serial ports through the `serialport` crate;
@@ -32,18 +44,20 @@ pub mod pacer;
 pub mod serial;
 pub mod sim;
 
-use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::sync::{Arc, OnceLock};
 use std::thread::Thread;
 use std::time::{Duration, Instant};
 
-use floatball_shared::api::LinkState;
-use floatball_shared::ascii::{Form, parse_script};
-use floatball_shared::feedback::Frame;
+use floatball_shared::api::{BaudChanged, LinkState};
+use floatball_shared::ascii::GreetingWatch;
+use floatball_shared::ascii::gateway::{GREETING, MAX_BAUD, MIN_BAUD};
+use floatball_shared::ascii::{Form, GatewayCommand, Instruction, parse_script};
+use floatball_shared::feedback::{Frame, FrameDecoder};
 use floatball_shared::plan::installation::SIM_PORT;
 use floatball_shared::sim::GatewayConfig;
-use tokio::sync::{Notify, broadcast, watch};
+use tokio::sync::{Notify, broadcast, oneshot, watch};
 
 pub use floatball_shared::ascii::Batch;
 use lanes::{Popped, Queues};
@@ -56,6 +70,20 @@ pub const BULK_CAPACITY_BYTES: usize = 64 * 1024;
 
 /// How many decoded frames a slow feedback subscriber may fall behind.
 const FEEDBACK_CAPACITY: usize = 4096;
+
+/// How long the line must have been idle before the link greets the gateway again.
+pub const GREETING_INTERVAL: Duration = Duration::from_secs(2);
+
+/// How long the gateway has to answer a greeting, from when the greeting has crossed
+/// the line.
+pub const ANSWER_TIMEOUT: Duration = Duration::from_millis(500);
+
+/// How often a link greets a gateway that does not answer (and, during a line-speed
+/// change, one that is restarting).
+pub const GREETING_RETRY: Duration = Duration::from_millis(250);
+
+/// What a link says while its gateway does not answer.
+const NOT_ANSWERING: &str = "the gateway does not answer the greeting (ABC;)";
 
 /// The stop instructions of the e-stop unless `[safety] estop` says otherwise; a link
 /// writes them after `*0;` (every unit), so the default e-stop is `*0;MO=0;`.
@@ -124,6 +152,53 @@ pub enum LinkError {
     },
 }
 
+/// Why a line-speed change did not happen.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum BaudError {
+    /// A speed `BDR=x;` does not take.
+    #[error("{baud} baud is not a line speed the gateway takes ({MIN_BAUD}–{MAX_BAUD})")]
+    OutOfRange {
+        /// The speed asked for.
+        baud: u32,
+    },
+    /// The link cannot write now (down, not answering, shut down, or busy with another
+    /// change); nothing was sent.
+    #[error(transparent)]
+    Link(#[from] LinkError),
+    /// The e-stop is latched: `BDR=x;` is not inert; nothing was sent.
+    #[error("the e-stop is latched: the line speed cannot change until it is released")]
+    EstopLatched,
+    /// The port refused the new speed; the line is back at the old one.
+    #[error("gateway {port}: the port cannot run at {baud} baud: {reason}")]
+    Port {
+        /// The gateway's port.
+        port: String,
+        /// The speed asked for.
+        baud: u32,
+        /// The port's refusal.
+        reason: String,
+    },
+    /// The gateway did not answer at the new speed within the wait; the line is back
+    /// at the old speed (where the gateway answers again only if it did not restart).
+    #[error(
+        "gateway {port} did not answer at {baud} baud within {waited_ms} ms; the line is \
+         back at {from_baud} baud"
+    )]
+    NotAnswering {
+        /// The gateway's port.
+        port: String,
+        /// The speed asked for.
+        baud: u32,
+        /// The speed the line is back at.
+        from_baud: u32,
+        /// How long the link waited, ms.
+        waited_ms: u64,
+    },
+}
+
+/// What the writer answers a line-speed change with.
+type BaudReply = oneshot::Sender<Result<BaudChanged, BaudError>>;
+
 /// What a handle hands the writer.
 #[derive(Debug)]
 enum Input {
@@ -131,6 +206,13 @@ enum Input {
     Bulk { generation: u64, batch: Batch },
     /// Instructions for the priority lane, issued at an e-stop generation.
     Priority { generation: u64, batch: Batch },
+    /// Move the gateway and the line to `baud`, waiting up to `restart_wait` for the
+    /// gateway to answer at it.
+    ChangeBaud {
+        baud: u32,
+        restart_wait: Duration,
+        reply: BaudReply,
+    },
 }
 
 fn state_code(state: LinkState) -> u8 {
@@ -159,6 +241,14 @@ struct Shared {
     dropped_instructions: AtomicU64,
     /// [`LinkState`] as a number, for lock-free checks.
     state: AtomicU8,
+    /// The line's speed now, baud.
+    baud: AtomicU32,
+    /// Greeting answers read from the gateway so far.
+    greetings_answered: AtomicU64,
+    /// Feedback frames read from the gateway so far.
+    frames_read: AtomicU64,
+    /// The writer waits for an answer to a greeting (the readers wake it on a frame).
+    awaiting_answer: AtomicBool,
     /// Wakes senders waiting for room on the bulk lane.
     room: Notify,
     feedback: broadcast::Sender<Frame>,
@@ -212,6 +302,34 @@ impl Shared {
         self.room.notify_waiters();
     }
 
+    /// The speed the line runs at now, baud.
+    fn baud(&self) -> u32 {
+        self.baud.load(Ordering::Acquire)
+    }
+
+    /// What a reader does with the bytes it read from the gateway: finds greeting
+    /// answers and frames, broadcasts the frames, and wakes a writer waiting for an
+    /// answer.
+    fn heard(&self, watch: &mut GreetingWatch, decoder: &mut FrameDecoder, bytes: &[u8]) {
+        let answers = watch.push(bytes);
+        let mut frames = 0;
+        for frame in decoder.push(bytes) {
+            frames += 1;
+            // No subscriber is fine: nobody is listening right now.
+            let _ = self.feedback.send(frame);
+        }
+        if answers > 0 {
+            self.greetings_answered
+                .fetch_add(answers as u64, Ordering::AcqRel);
+        }
+        if frames > 0 {
+            self.frames_read.fetch_add(frames, Ordering::AcqRel);
+        }
+        if (answers > 0 || frames > 0) && self.awaiting_answer.load(Ordering::Acquire) {
+            self.wake();
+        }
+    }
+
     fn publish_rate(&self, bytes_per_s: f64) {
         self.status
             .send_modify(|status| status.bytes_per_s = bytes_per_s);
@@ -250,7 +368,7 @@ impl Shared {
     fn hand_over(&self, input: Input) -> Result<(), LinkError> {
         let bulk_bytes = match &input {
             Input::Bulk { batch, .. } => batch.len(),
-            Input::Priority { .. } => 0,
+            Input::Priority { .. } | Input::ChangeBaud { .. } => 0,
         };
         self.queued_bytes.fetch_add(bulk_bytes, Ordering::AcqRel);
         if self.inbox.send(input).is_err() {
@@ -317,6 +435,7 @@ impl Link {
             error: None,
         });
         let (inbox, taken) = channel();
+        let baud = config.baud;
         let shared = Arc::new(Shared {
             index,
             config,
@@ -326,6 +445,10 @@ impl Link {
             written_bytes: AtomicU64::new(0),
             dropped_instructions: AtomicU64::new(0),
             state: AtomicU8::new(state_code(LinkState::Connecting)),
+            baud: AtomicU32::new(baud),
+            greetings_answered: AtomicU64::new(0),
+            frames_read: AtomicU64::new(0),
+            awaiting_answer: AtomicBool::new(false),
             room: Notify::new(),
             feedback: broadcast::channel(FEEDBACK_CAPACITY).0,
             status,
@@ -354,9 +477,50 @@ impl Link {
         &self.shared.config.port
     }
 
-    /// The line's speed, baud.
+    /// The line's speed now, baud: the configured one until [`Link::change_baud`]
+    /// moved it.
     pub fn baud(&self) -> u32 {
-        self.shared.config.baud
+        self.shared.baud()
+    }
+
+    /// Moves the gateway and the line to `baud`: writes `BDR=x;` (after what is queued),
+    /// restarts the gateway if it is the in-process simulator (a real one is
+    /// power-cycled by the installer meanwhile), switches the line to `baud`, and greets
+    /// the gateway every [`GREETING_RETRY`] until it answers or `restart_wait` has
+    /// passed. The link is `Connecting` meanwhile (writes are refused; the e-stop still
+    /// goes, at whatever speed the line runs at). On failure the line goes back to the
+    /// old speed and greets the gateway there.
+    ///
+    /// # Errors
+    /// [`BaudError::OutOfRange`] for a speed `BDR` does not take,
+    /// [`BaudError::EstopLatched`] while the e-stop is latched, [`BaudError::Link`] when
+    /// the link is not up (nothing is sent), [`BaudError::Port`] when the port refuses
+    /// the speed, [`BaudError::NotAnswering`] when nothing answers at the new speed in
+    /// time.
+    pub async fn change_baud(
+        &self,
+        baud: u32,
+        restart_wait: Duration,
+    ) -> Result<BaudChanged, BaudError> {
+        if !(MIN_BAUD..=MAX_BAUD).contains(&baud) {
+            return Err(BaudError::OutOfRange { baud });
+        }
+        if self.latch().is_latched() {
+            return Err(BaudError::EstopLatched);
+        }
+        self.shared.writable()?;
+        let (reply, answer) = oneshot::channel();
+        self.shared.hand_over(Input::ChangeBaud {
+            baud,
+            restart_wait,
+            reply,
+        })?;
+        answer.await.map_err(|_| {
+            BaudError::Link(LinkError::Down {
+                port: self.port().to_owned(),
+                reason: self.shared.status.borrow().error.clone(),
+            })
+        })?
     }
 
     /// The e-stop latch this link obeys.
@@ -486,10 +650,100 @@ impl Link {
 trait LineWrite {
     /// Hands `instruction` to the line.
     fn write_instruction(&mut self, instruction: &[u8]) -> std::io::Result<()>;
+
+    /// Switches the line (this end of it) to `baud`.
+    fn set_baud(&mut self, baud: u32) -> std::io::Result<()>;
+
+    /// Restarts the gateway, if this line can (the in-process simulator); `false` when
+    /// someone else has to (a real gateway is power-cycled by the installer).
+    fn restart_gateway(&mut self) -> bool;
 }
 
 /// How often an idle writer wakes up to update the bytes/s figure.
 const IDLE_TICK: Duration = Duration::from_millis(250);
+
+/// The greeting the writer is waiting to see answered.
+struct Greeting {
+    /// Answers and frames read before it was sent.
+    answers_before: u64,
+    frames_before: u64,
+    /// When it counts as unanswered.
+    deadline: Instant,
+}
+
+/// The writer's greetings: when the next is due, and the one awaiting its answer.
+struct Greeter {
+    next_at: Instant,
+    pending: Option<Greeting>,
+}
+
+/// What became of a greeting.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Answer {
+    /// The gateway answered (the greeting, or with any frame).
+    Answered,
+    /// The deadline passed.
+    Unanswered,
+}
+
+impl Greeter {
+    /// Greets at once.
+    fn now(now: Instant) -> Self {
+        Self {
+            next_at: now,
+            pending: None,
+        }
+    }
+
+    /// Whether a greeting is due at `now` on a line with nothing else to write.
+    fn due(&self, now: Instant) -> bool {
+        self.pending.is_none() && now >= self.next_at
+    }
+
+    /// A greeting went out at `now`; the line is free again after `line_busy`.
+    fn sent(&mut self, shared: &Shared, now: Instant, line_busy: Duration) {
+        self.pending = Some(Greeting {
+            answers_before: shared.greetings_answered.load(Ordering::Acquire),
+            frames_before: shared.frames_read.load(Ordering::Acquire),
+            deadline: now + line_busy + ANSWER_TIMEOUT,
+        });
+        shared.awaiting_answer.store(true, Ordering::Release);
+    }
+
+    /// Something other than a greeting was written at `now`: the line is not idle.
+    fn wrote(&mut self, now: Instant) {
+        if self.pending.is_none() {
+            self.next_at = self.next_at.max(now + GREETING_INTERVAL);
+        }
+    }
+
+    /// Whether the pending greeting has been answered or has timed out by `now`.
+    fn check(&mut self, shared: &Shared, now: Instant) -> Option<Answer> {
+        let pending = self.pending.as_ref()?;
+        let answered = shared.greetings_answered.load(Ordering::Acquire) > pending.answers_before
+            || shared.frames_read.load(Ordering::Acquire) > pending.frames_before;
+        let answer = if answered {
+            self.next_at = now + GREETING_INTERVAL;
+            Answer::Answered
+        } else if now >= pending.deadline {
+            self.next_at = now + GREETING_RETRY;
+            Answer::Unanswered
+        } else {
+            return None;
+        };
+        self.pending = None;
+        shared.awaiting_answer.store(false, Ordering::Release);
+        Some(answer)
+    }
+
+    /// How long the writer may sleep before the greeter needs it.
+    fn wait(&self, now: Instant) -> Duration {
+        match &self.pending {
+            Some(pending) => pending.deadline.saturating_duration_since(now),
+            None => self.next_at.saturating_duration_since(now),
+        }
+    }
+}
 
 /// Whether one instruction's bytes may be written while the e-stop is latched.
 fn is_inert(instruction: &[u8]) -> bool {
@@ -508,6 +762,8 @@ struct Writer<'a> {
     shared: &'a Shared,
     queues: Queues,
     seen_generation: u64,
+    /// A line-speed change asked for and not carried out yet.
+    baud_change: Option<(u32, Duration, BaudReply)>,
 }
 
 impl Writer<'_> {
@@ -528,11 +784,27 @@ impl Writer<'_> {
         self.queues.push_priority(&self.shared.config.estop);
     }
 
-    /// Takes one handed-over input into the queues, dropping it if it is void.
+    /// Takes one handed-over input into the queues, dropping it if it is void; a
+    /// line-speed change is kept for the writer to carry out once the queues are empty.
     fn accept(&mut self, input: Input) {
         let (generation, batch, bulk) = match input {
             Input::Bulk { generation, batch } => (generation, batch, true),
             Input::Priority { generation, batch } => (generation, batch, false),
+            Input::ChangeBaud {
+                baud,
+                restart_wait,
+                reply,
+            } => {
+                if self.baud_change.is_some() {
+                    let _ = reply.send(Err(BaudError::Link(LinkError::Down {
+                        port: self.shared.config.port.clone(),
+                        reason: Some("another line-speed change is under way".to_owned()),
+                    })));
+                } else {
+                    self.baud_change = Some((baud, restart_wait, reply));
+                }
+                return;
+            }
         };
         if generation > self.seen_generation {
             // Issued after an e-stop this writer has not acted on yet: act first.
@@ -572,7 +844,9 @@ impl Writer<'_> {
 }
 
 /// Writes queued instructions to `line` until the link is closed, `lost` is set, or a
-/// write fails; returns why it stopped. The calling thread must have registered as the
+/// write fails; returns why it stopped. Greets the gateway at once and whenever the line
+/// is idle, and keeps the link's state (`Connecting` until the first answer, `Up`,
+/// `NotAnswering`) by the answers. The calling thread must have registered as the
 /// link's writer. Whatever is still queued when it returns is dropped.
 fn run_writer(
     shared: &Shared,
@@ -581,14 +855,16 @@ fn run_writer(
     lost: &AtomicBool,
 ) -> String {
     let now = Instant::now();
-    let mut pacer = Pacer::new(shared.config.baud, now);
+    let mut pacer = Pacer::new(shared.baud(), now);
     let mut meter = RateMeter::new(now);
     let mut instruction = Vec::with_capacity(floatball_shared::ascii::MAX_LEN);
     let mut writer = Writer {
         shared,
         queues: Queues::default(),
         seen_generation: shared.config.latch.generation(),
+        baud_change: None,
     };
+    let mut greeter = Greeter::now(now);
     if shared.config.latch.is_latched() {
         // Back while the e-stop is in force: the units behind this gateway may not
         // have heard it.
@@ -609,10 +885,53 @@ fn run_writer(
         if let Some(rate) = meter.roll(now) {
             shared.publish_rate(rate);
         }
-        let wait = if writer.queues.has_work() {
-            pacer.wait_before_next(now)
+        match greeter.check(shared, now) {
+            Some(Answer::Answered) => shared.set_state(LinkState::Up, None),
+            Some(Answer::Unanswered) => {
+                shared.set_state(LinkState::NotAnswering, Some(NOT_ANSWERING.to_owned()));
+            }
+            None => {}
+        }
+        let has_work = writer.queues.has_work();
+        if !has_work && greeter.pending.is_none() && writer.baud_change.is_some() {
+            if let Some((baud, restart_wait, reply)) = writer.baud_change.take() {
+                let mut change = Change {
+                    writer: &mut writer,
+                    line: &mut *line,
+                    pacer: &mut pacer,
+                    lost,
+                    buffer: &mut instruction,
+                };
+                match change.run(baud, restart_wait) {
+                    Ok(result) => {
+                        let _ = reply.send(result);
+                    }
+                    Err(err) => break format!("write failed: {err}"),
+                }
+                greeter = Greeter {
+                    next_at: Instant::now() + GREETING_INTERVAL,
+                    pending: None,
+                };
+            }
+            continue;
+        }
+        let line_wait = pacer.wait_before_next(now);
+        if !has_work && greeter.due(now) && line_wait.is_zero() {
+            if let Err(err) = line.write_instruction(GREETING) {
+                break format!("write failed: {err}");
+            }
+            let free_at = pacer.wrote(now, GREETING.len());
+            meter.add(now, GREETING.len());
+            shared
+                .written_bytes
+                .fetch_add(GREETING.len() as u64, Ordering::AcqRel);
+            greeter.sent(shared, now, free_at.saturating_duration_since(now));
+            continue;
+        }
+        let wait = if has_work {
+            line_wait
         } else {
-            IDLE_TICK
+            IDLE_TICK.min(greeter.wait(now)).max(line_wait)
         };
         if !wait.is_zero() {
             std::thread::park_timeout(wait.min(IDLE_TICK));
@@ -630,6 +949,7 @@ fn run_writer(
         let now = Instant::now();
         pacer.wrote(now, instruction.len());
         meter.add(now, instruction.len());
+        greeter.wrote(now);
         shared
             .written_bytes
             .fetch_add(instruction.len() as u64, Ordering::AcqRel);
@@ -637,11 +957,185 @@ fn run_writer(
             shared.unqueue(instruction.len());
         }
     };
+    shared.awaiting_answer.store(false, Ordering::Release);
     let left = writer.queues.clear_bulk();
     shared.unqueue(left);
     shared.drop_inbox(inbox);
+    if let Some((_, _, reply)) = writer.baud_change.take() {
+        let _ = reply.send(Err(BaudError::Link(LinkError::Down {
+            port: shared.config.port.clone(),
+            reason: Some(reason.clone()),
+        })));
+    }
     reason
 }
+
+/// A line-speed change, carried out by the writer thread (it owns the line).
+struct Change<'w, 'a, L> {
+    writer: &'w mut Writer<'a>,
+    line: &'w mut L,
+    pacer: &'w mut Pacer,
+    lost: &'w AtomicBool,
+    buffer: &'w mut Vec<u8>,
+}
+
+impl<L: LineWrite> Change<'_, '_, L> {
+    /// `BDR=x;`, the restart, the switch, the greetings; on failure back to the old
+    /// speed. `Err` only when the line failed.
+    fn run(
+        &mut self,
+        baud: u32,
+        restart_wait: Duration,
+    ) -> std::io::Result<Result<BaudChanged, BaudError>> {
+        let shared = self.writer.shared;
+        let port = shared.config.port.clone();
+        let from_baud = shared.baud();
+        let started = Instant::now();
+        shared.set_state(
+            LinkState::Connecting,
+            Some(format!(
+                "changing the line speed from {from_baud} to {baud} baud"
+            )),
+        );
+        let mut bdr = Vec::new();
+        let command = Instruction::Gateway(GatewayCommand::SetBaud { baud });
+        if let Err(err) = command.encode_into(Form::Standard, &mut bdr) {
+            shared.set_state(LinkState::Up, None);
+            return Ok(Err(BaudError::Port {
+                port,
+                baud,
+                reason: err.to_string(),
+            }));
+        }
+        self.write(&bdr)?;
+        // Until the gateway has read all of it.
+        let crossed = self.pacer.wrote(Instant::now(), 0) + ANSWER_MARGIN;
+        self.idle_until(crossed)?;
+        let restarted_here = self.line.restart_gateway();
+        if let Err(err) = self.switch(baud) {
+            self.switch(from_baud)?;
+            self.greet_until(Instant::now() + ANSWER_TIMEOUT * 2)?;
+            return Ok(Err(BaudError::Port {
+                port,
+                baud,
+                reason: err.to_string(),
+            }));
+        }
+        tracing::info!(
+            "gateway {port}: BDR={baud} sent; {}; greeting at {baud} baud",
+            if restarted_here {
+                "the simulated gateway restarted"
+            } else {
+                "waiting for the gateway's power cycle"
+            }
+        );
+        if self.greet_until(started + restart_wait)? {
+            let took_ms = u64::try_from(started.elapsed().as_millis()).unwrap_or(u64::MAX);
+            return Ok(Ok(BaudChanged {
+                from_baud,
+                baud,
+                took_ms,
+            }));
+        }
+        let waited_ms = u64::try_from(started.elapsed().as_millis()).unwrap_or(u64::MAX);
+        tracing::warn!(
+            "gateway {port}: no answer at {baud} baud within {waited_ms} ms; back to \
+             {from_baud} baud"
+        );
+        self.switch(from_baud)?;
+        self.greet_until(Instant::now() + ANSWER_TIMEOUT * 2)?;
+        Ok(Err(BaudError::NotAnswering {
+            port,
+            baud,
+            from_baud,
+            waited_ms,
+        }))
+    }
+
+    /// Switches this end of the line to `baud`.
+    fn switch(&mut self, baud: u32) -> std::io::Result<()> {
+        self.line.set_baud(baud)?;
+        self.writer.shared.baud.store(baud, Ordering::Release);
+        *self.pacer = Pacer::new(baud, Instant::now());
+        Ok(())
+    }
+
+    /// Writes `bytes` when the pacer allows.
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        let wait = self.pacer.wait_before_next(Instant::now());
+        if !wait.is_zero() {
+            std::thread::sleep(wait);
+        }
+        self.check_line()?;
+        self.line.write_instruction(bytes)?;
+        self.pacer.wrote(Instant::now(), bytes.len());
+        self.writer
+            .shared
+            .written_bytes
+            .fetch_add(bytes.len() as u64, Ordering::AcqRel);
+        Ok(())
+    }
+
+    fn check_line(&self) -> std::io::Result<()> {
+        if self.writer.shared.is_closed() || self.lost.load(Ordering::Acquire) {
+            return Err(std::io::Error::other("the line was lost"));
+        }
+        Ok(())
+    }
+
+    /// Waits until `until`, writing the e-stop if it is pressed meanwhile.
+    fn idle_until(&mut self, until: Instant) -> std::io::Result<()> {
+        loop {
+            self.check_line()?;
+            self.writer.observe_latch();
+            // Only the stop can be queued here: the inbox is not read during a change.
+            while self.writer.queues.pop_into(self.buffer).is_some() {
+                let instruction = std::mem::take(self.buffer);
+                self.write(&instruction)?;
+                *self.buffer = instruction;
+            }
+            let now = Instant::now();
+            if now >= until {
+                return Ok(());
+            }
+            std::thread::park_timeout((until - now).min(Duration::from_millis(20)));
+        }
+    }
+
+    /// Greets every [`GREETING_RETRY`] until the gateway answers (`true`, and the link is
+    /// `Up`) or `deadline` passes (`false`, and the link is `NotAnswering`).
+    fn greet_until(&mut self, deadline: Instant) -> std::io::Result<bool> {
+        let shared = self.writer.shared;
+        let answers_before = shared.greetings_answered.load(Ordering::Acquire);
+        shared.awaiting_answer.store(true, Ordering::Release);
+        let answered = loop {
+            self.write(GREETING)?;
+            let retry_at = Instant::now() + GREETING_RETRY;
+            while Instant::now() < retry_at.min(deadline) {
+                if shared.greetings_answered.load(Ordering::Acquire) > answers_before {
+                    break;
+                }
+                self.idle_until((Instant::now() + Duration::from_millis(5)).min(retry_at))?;
+            }
+            if shared.greetings_answered.load(Ordering::Acquire) > answers_before {
+                break true;
+            }
+            if Instant::now() >= deadline {
+                break false;
+            }
+        };
+        shared.awaiting_answer.store(false, Ordering::Release);
+        if answered {
+            shared.set_state(LinkState::Up, None);
+        } else {
+            shared.set_state(LinkState::NotAnswering, Some(NOT_ANSWERING.to_owned()));
+        }
+        Ok(answered)
+    }
+}
+
+/// Time left for the gateway to take in `BDR=x;` after its last byte crossed the line.
+const ANSWER_MARGIN: Duration = Duration::from_millis(20);
 
 /// Retry delays after a lost or failed connection: 250 ms doubling up to 5 s.
 #[derive(Debug, Clone)]

@@ -1,9 +1,10 @@
 //! Serial-port links through the `serialport` crate: 8 data bits, no parity, 1 stop bit,
 //! no flow control (PROTOCOL §1.2).
 //!
-//! One supervisor thread per port opens it, runs the writer, and after a loss reports
-//! it, waits (backoff) and opens it again. A reader thread feeds the bytes it reads to
-//! the feedback decoder and broadcasts every frame. The ports are blocking, so these are
+//! One supervisor thread per port opens it (at the line's live speed), runs the writer
+//! (which greets the gateway and marks the link up once it answers), and after a loss
+//! reports it, waits (backoff) and opens it again. A reader thread feeds the bytes it
+//! reads to the greeting watch and the feedback decoder and broadcasts every frame. The ports are blocking, so these are
 //! plain threads rather than async tasks.
 
 use std::io::{Read, Write};
@@ -13,6 +14,7 @@ use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::LinkState;
+use floatball_shared::ascii::GreetingWatch;
 use floatball_shared::feedback::FrameDecoder;
 use serialport::SerialPort;
 
@@ -57,7 +59,8 @@ fn supervise(shared: &Arc<Shared>, inbox: &Receiver<Input>) {
     let mut backoff = Backoff::new();
     while !shared.is_closed() {
         shared.set_state(LinkState::Connecting, None);
-        let opened = open_port(&port_name, shared.config.baud).and_then(|port| {
+        let baud = shared.baud();
+        let opened = open_port(&port_name, baud).and_then(|port| {
             let reader = port
                 .try_clone()
                 .map_err(|err| format!("cannot read from {port_name}: {err}"))?;
@@ -72,12 +75,8 @@ fn supervise(shared: &Arc<Shared>, inbox: &Receiver<Input>) {
                 continue;
             }
         };
-        tracing::info!(
-            "gateway {port_name}: connected at {} baud",
-            shared.config.baud
-        );
+        tracing::info!("gateway {port_name}: opened at {baud} baud; greeting the gateway");
         shared.drop_inbox(inbox);
-        shared.set_state(LinkState::Up, None);
         let connected_at = Instant::now();
         let lost = Arc::new(AtomicBool::new(false));
         let reader_thread = {
@@ -117,16 +116,12 @@ fn supervise(shared: &Arc<Shared>, inbox: &Receiver<Input>) {
 /// Reads until the link closes or the port fails; returns the failure, if any.
 fn read_loop(shared: &Shared, mut port: Box<dyn SerialPort>, lost: &AtomicBool) -> Option<String> {
     let mut decoder = FrameDecoder::new();
+    let mut watch = GreetingWatch::new();
     let mut buffer = [0u8; 256];
     while !shared.is_closed() && !lost.load(Ordering::Acquire) {
         match port.read(&mut buffer) {
             Ok(0) => {}
-            Ok(n) => {
-                for frame in decoder.push(&buffer[..n]) {
-                    // No subscriber is fine: nobody is listening right now.
-                    let _ = shared.feedback.send(frame);
-                }
-            }
+            Ok(n) => shared.heard(&mut watch, &mut decoder, &buffer[..n]),
             Err(err) if err.kind() == std::io::ErrorKind::TimedOut => {}
             Err(err) if err.kind() == std::io::ErrorKind::Interrupted => {}
             Err(err) => {
@@ -171,5 +166,15 @@ impl LineWrite for SerialLine {
             }
         }
         Ok(())
+    }
+
+    /// Sets the port's speed (the reader's clone shares the device's settings).
+    fn set_baud(&mut self, baud: u32) -> std::io::Result<()> {
+        self.port.set_baud_rate(baud).map_err(std::io::Error::other)
+    }
+
+    /// A real gateway is power-cycled by the installer.
+    fn restart_gateway(&mut self) -> bool {
+        false
     }
 }

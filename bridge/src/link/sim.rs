@@ -6,6 +6,12 @@
 //! gateway's answers come back at the same speed, byte by byte. [`SimEngine`] is that
 //! line-plus-gateway; the in-process link and `floatball simulate` (the
 //! gateway on the far end of a real serial device) both drive it.
+//!
+//! The gateway answers the link's greeting like a real one. A line-speed change
+//! (`BDR=x;`) is stored by the gateway; the in-process link restarts the gateway itself
+//! when the command has crossed the line ([`SimEngine::restart`]) and then switches its
+//! own end of the line ([`SimEngine::set_host_baud`]): until both ends run at the same
+//! speed nothing crosses.
 
 use std::collections::VecDeque;
 use std::sync::atomic::AtomicBool;
@@ -14,6 +20,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::{LinkState, SimGateway, SimLineStats};
+use floatball_shared::ascii::GreetingWatch;
 use floatball_shared::feedback::FrameDecoder;
 use floatball_shared::sim::{Gateway, GatewayConfig, Uart};
 
@@ -112,6 +119,29 @@ impl SimEngine {
         self.view.lock().step(now_us, out);
     }
 
+    /// The gateway's power cycle at `at`: a line speed stored by `BDR=x;` takes effect
+    /// (see [`Uart::restart`]).
+    pub fn restart(&mut self, at: Instant) {
+        let at_us = micros_since(self.view.epoch, at);
+        self.view.lock().restart(at_us);
+    }
+
+    /// The host's end of the line now runs at `baud`.
+    pub fn set_host_baud(&mut self, baud: u32) {
+        self.view.lock().set_host_baud(baud);
+    }
+
+    /// The gateway's line speed, baud.
+    pub fn baud(&self) -> u32 {
+        self.view.lock().baud()
+    }
+
+    /// The line speed the gateway stored from `BDR=x;`, if any (in effect from its next
+    /// restart on).
+    pub fn stored_baud(&self) -> Option<u32> {
+        self.view.lock().gateway().stored_baud()
+    }
+
     /// When [`SimEngine::step`] next has something to do (at the latest one tick on).
     pub fn next_wakeup(&self, now: Instant) -> Instant {
         let mut at = now + TICK;
@@ -136,7 +166,7 @@ pub(super) fn spawn(
         }
     };
     let view = engine.view();
-    let (to_sim, deliveries) = channel::<(Instant, Vec<u8>)>();
+    let (to_sim, deliveries) = channel::<(Instant, ToSim)>();
     let writer_shared = Arc::clone(&shared);
     let sim_shared = Arc::clone(&shared);
     let lost = Arc::new(AtomicBool::new(false));
@@ -144,10 +174,9 @@ pub(super) fn spawn(
         .name(format!("link-{}-sim-write", shared.index))
         .spawn(move || {
             writer_shared.register_writer();
-            writer_shared.set_state(LinkState::Up, None);
             let mut line = SimLine {
                 to_sim,
-                byte_time: Line::new(writer_shared.config.baud).byte_time(),
+                byte_time: Line::new(writer_shared.baud()).byte_time(),
                 line_free_at: Instant::now(),
             };
             let reason = run_writer(&writer_shared, &inbox, &mut line, &lost);
@@ -165,12 +194,32 @@ pub(super) fn spawn(
     Some(view)
 }
 
+/// What the writer's end of the virtual line hands the simulation, due at a time.
+enum ToSim {
+    /// Instruction bytes whose last byte crossed the line.
+    Bytes(Vec<u8>),
+    /// The gateway restarts (the in-process link does what the installer would).
+    Restart,
+    /// The host's end of the line switches speed.
+    HostBaud(u32),
+}
+
 /// The writer's end of the virtual line: an instruction reaches the gateway when its
 /// last byte has crossed.
 struct SimLine {
-    to_sim: Sender<(Instant, Vec<u8>)>,
+    to_sim: Sender<(Instant, ToSim)>,
     byte_time: Duration,
     line_free_at: Instant,
+}
+
+impl SimLine {
+    /// Hands `what` to the simulation, due once the line has carried what came before.
+    fn hand(&mut self, what: ToSim) -> std::io::Result<()> {
+        self.line_free_at = self.line_free_at.max(Instant::now());
+        self.to_sim
+            .send((self.line_free_at, what))
+            .map_err(|_| std::io::Error::other("the simulator stopped"))
+    }
 }
 
 impl LineWrite for SimLine {
@@ -179,16 +228,27 @@ impl LineWrite for SimLine {
         let len = u32::try_from(instruction.len()).unwrap_or(u32::MAX);
         self.line_free_at = start + self.byte_time * len;
         self.to_sim
-            .send((self.line_free_at, instruction.to_vec()))
+            .send((self.line_free_at, ToSim::Bytes(instruction.to_vec())))
             .map_err(|_| std::io::Error::other("the simulator stopped"))
+    }
+
+    fn set_baud(&mut self, baud: u32) -> std::io::Result<()> {
+        self.hand(ToSim::HostBaud(baud))?;
+        self.byte_time = Line::new(baud).byte_time();
+        Ok(())
+    }
+
+    fn restart_gateway(&mut self) -> bool {
+        self.hand(ToSim::Restart).is_ok()
     }
 }
 
 /// The simulation thread: delivers instructions on time, runs the gateway, decodes its
 /// answers and broadcasts the frames.
-fn simulate(shared: &Shared, engine: &mut SimEngine, deliveries: &Receiver<(Instant, Vec<u8>)>) {
-    let mut pending: VecDeque<(Instant, Vec<u8>)> = VecDeque::new();
+fn simulate(shared: &Shared, engine: &mut SimEngine, deliveries: &Receiver<(Instant, ToSim)>) {
+    let mut pending: VecDeque<(Instant, ToSim)> = VecDeque::new();
     let mut decoder = FrameDecoder::new();
+    let mut watch = GreetingWatch::new();
     let mut answers = Vec::new();
     while !shared.is_closed() {
         let now = Instant::now();
@@ -206,14 +266,17 @@ fn simulate(shared: &Shared, engine: &mut SimEngine, deliveries: &Receiver<(Inst
         }
         let now = Instant::now();
         while pending.front().is_some_and(|(due, _)| *due <= now) {
-            if let Some((due, bytes)) = pending.pop_front() {
-                engine.receive(due, &bytes);
+            match pending.pop_front() {
+                Some((due, ToSim::Bytes(bytes))) => engine.receive(due, &bytes),
+                Some((due, ToSim::Restart)) => engine.restart(due),
+                Some((_, ToSim::HostBaud(baud))) => engine.set_host_baud(baud),
+                None => {}
             }
         }
         answers.clear();
         engine.step(now, &mut answers);
-        for frame in decoder.push(&answers) {
-            let _ = shared.feedback.send(frame);
+        if !answers.is_empty() {
+            shared.heard(&mut watch, &mut decoder, &answers);
         }
     }
 }

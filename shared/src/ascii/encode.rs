@@ -19,7 +19,7 @@
 
 use std::fmt;
 
-use super::{Field, STATION};
+use super::{BAUD, Field, GatewayCommand, STATION};
 use super::{Instruction, MAX_LEN, Mnemonic, Number, Parts, QT_MS, RangeError, SN_STATION};
 
 /// How an instruction is written.
@@ -125,6 +125,9 @@ impl Instruction {
             Self::SetStation { station, .. } => {
                 SN_STATION.narrow::<u8>(Field::Index(Mnemonic::SN), station.into())?;
             }
+            Self::Gateway(GatewayCommand::SetBaud { baud }) => {
+                BAUD.narrow::<u32>(Field::Baud, baud.into())?;
+            }
             Self::Generic(generic) if generic.mnemonic.is_typed() => {
                 return Err(EncodeError::TypedMnemonic {
                     mnemonic: generic.mnemonic,
@@ -154,6 +157,11 @@ impl Instruction {
                         }
                 });
                 3 + index_len + operand_len
+            }
+            Parts::Gateway { operand, .. } => {
+                4 + operand.map_or(0, |baud| {
+                    usize::from(form == Form::Standard) + decimal_len(baud.into())
+                })
             }
         }
     }
@@ -234,6 +242,15 @@ impl Instruction {
                         Number::Unsigned(value) => put_decimal(sink, value),
                         Number::Hex(value) => put_hex(sink, value),
                     }
+                }
+            }
+            Parts::Gateway { letters, operand } => {
+                sink.put_all(&letters);
+                if let Some(value) = operand {
+                    if form == Form::Standard {
+                        sink.put(b'=');
+                    }
+                    put_decimal(sink, value.into());
                 }
             }
         }

@@ -28,8 +28,9 @@ use crate::codes::{Code, Coded, Params};
 use crate::params;
 
 use super::{
-    BYTE, FLAG, Field, Form, Generic, I32, I64, INDEX, Instruction, MAX_LEN, MP_PARAM, Mnemonic,
-    MpParam, Operand, QT_MS, Range, RangeError, SN_STATION, STATION, U32, U64, takes_index,
+    BAUD, BYTE, FLAG, Field, Form, GatewayCommand, Generic, I32, I64, INDEX, Instruction, MAX_LEN,
+    MP_PARAM, Mnemonic, MpParam, Operand, QT_MS, Range, RangeError, SN_STATION, STATION, U32, U64,
+    takes_index,
 };
 
 /// Parses a command script: any number of instructions separated by optional whitespace
@@ -239,6 +240,13 @@ pub enum Expected {
         /// The instruction so far.
         head: Head,
     },
+    /// The line speed after `BDR=`.
+    Baud,
+    /// `;` after a gateway command.
+    SemicolonAfterGateway {
+        /// The command.
+        command: GatewayCommand,
+    },
 }
 
 impl fmt::Display for Expected {
@@ -260,6 +268,11 @@ impl fmt::Display for Expected {
             Self::SemicolonAfterStation { station } => write!(f, "`;` after `*{station}`"),
             Self::SemicolonAfterOperand { head } => {
                 write!(f, "`;` after the operand of {head}")
+            }
+            Self::Baud => f.write_str("the line speed after `BDR=` (9600–115200 baud)"),
+            Self::SemicolonAfterGateway { command } => {
+                let letters = command.letters().map(char::from);
+                write!(f, "`;` after {}", letters.iter().collect::<String>())
             }
         }
     }
@@ -476,6 +489,7 @@ impl<'a> Cursor<'a> {
         let start = self.mark();
         let instruction = match self.peek() {
             Some(b'*') => self.select()?,
+            Some(_) if self.gateway_letters().is_some() => self.gateway()?,
             Some(byte) if byte.is_ascii_alphabetic() => build(self.command(start)?)?,
             _ => return Err(self.unexpected(Expected::Instruction)),
         };
@@ -486,6 +500,43 @@ impl<'a> Cursor<'a> {
             }
         }
         Ok(instruction)
+    }
+
+    /// The gateway command whose three letters (any case) start here, if one does.
+    fn gateway_letters(&self) -> Option<[u8; 3]> {
+        let letters: [u8; 3] = self.bytes.get(self.pos..self.pos + 3)?.try_into().ok()?;
+        let upper = letters.map(|byte| byte.to_ascii_uppercase());
+        (upper == *b"ABC" || upper == *b"BDR").then_some(upper)
+    }
+
+    /// `ABC;` or `BDR[=]x;`.
+    fn gateway(&mut self) -> Result<Instruction, ParseError> {
+        let letters = self.gateway_letters().unwrap_or_default();
+        for _ in letters {
+            self.bump();
+        }
+        self.skip_trivia();
+        let command = if letters == *b"ABC" {
+            GatewayCommand::Greet
+        } else {
+            if matches!(self.peek(), Some(b'=' | b':')) {
+                self.bump();
+                self.skip_trivia();
+            }
+            let at = self.mark();
+            let digits = self
+                .digits(10)
+                .ok_or_else(|| self.unexpected(Expected::Baud))?;
+            let too_large = at.error(ParseErrorKind::NumberTooLarge { field: Field::Baud });
+            let value = digits.value.ok_or(too_large)?;
+            let baud = BAUD
+                .narrow(Field::Baud, value.into())
+                .map_err(|error| at.error(ParseErrorKind::OutOfRange(error)))?;
+            self.skip_trivia();
+            GatewayCommand::SetBaud { baud }
+        };
+        self.expect_semicolon(Expected::SemicolonAfterGateway { command })?;
+        Ok(Instruction::Gateway(command))
     }
 
     /// `*N;`

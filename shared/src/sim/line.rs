@@ -18,6 +18,13 @@
 //!   newest answers survive, so after any flood an instruction is answered within the
 //!   time the line needs for one queue: `TX_QUEUE_BYTES` byte times.
 //!
+//! - **Speed.** The host's end of the line has a speed of its own
+//!   ([`Uart::set_host_baud`]); while it differs from the gateway's, every byte either
+//!   way is misread at the far end: what the host sends is lost before the gateway
+//!   reads it, what the gateway sends never reaches the host as bytes it could read
+//!   (both counted, [`Uart::mismatched_bytes`]). [`Uart::restart`] is the gateway's
+//!   power cycle: a line speed stored by `BDR=x;` takes effect then.
+//!
 //! Time is µs, as for the [`Gateway`]; a byte time need not be whole µs (10.85 µs at
 //! 921600 baud), so the line keeps its own clock in µs × baud, where one byte is
 //! 10 000 000 units.
@@ -148,6 +155,10 @@ pub struct Uart {
     idle_from: i128,
     scratch: Vec<u8>,
     stats: SimLineStats,
+    /// The speed the host's end of the line runs at, baud.
+    host_baud: u32,
+    /// Bytes either way lost to a speed mismatch.
+    mismatched_bytes: u64,
 }
 
 impl Uart {
@@ -167,7 +178,49 @@ impl Uart {
             idle_from: 0,
             scratch: Vec::new(),
             stats: SimLineStats::default(),
+            host_baud: baud.max(1),
+            mismatched_bytes: 0,
         })
+    }
+
+    /// The gateway's line speed, baud.
+    #[must_use]
+    pub fn baud(&self) -> u32 {
+        u32::try_from(self.baud).unwrap_or(u32::MAX)
+    }
+
+    /// The host's end of the line now runs at `baud` (at least 1).
+    pub fn set_host_baud(&mut self, baud: u32) {
+        self.host_baud = baud.max(1);
+    }
+
+    /// Whether the host's and the gateway's ends of the line run at the same speed.
+    #[must_use]
+    pub fn speeds_match(&self) -> bool {
+        i128::from(self.host_baud) == self.baud
+    }
+
+    /// Bytes either way lost because the two ends' speeds differ.
+    #[must_use]
+    pub fn mismatched_bytes(&self) -> u64 {
+        self.mismatched_bytes
+    }
+
+    /// The gateway's power cycle at `now_us` (see [`Gateway::restart`]): answers not
+    /// sent yet are lost, and the line runs at the speed `BDR=x;` stored, if any.
+    pub fn restart(&mut self, now_us: u64) {
+        let now_us = now_us.max(self.gateway.now_us());
+        self.gateway.advance(now_us);
+        if let Some(baud) = self.gateway.restart() {
+            self.baud = i128::from(baud.max(1));
+            self.rx = RxLine::new(baud);
+        }
+        self.tx.clear();
+        self.tx_frames.clear();
+        self.front_started = false;
+        let now = i128::from(now_us) * self.baud;
+        self.next_byte_end = now;
+        self.idle_from = now;
     }
 
     /// The gateway.
@@ -216,6 +269,12 @@ impl Uart {
     /// Times earlier than the gateway's count as its time (time never goes back).
     pub fn receive(&mut self, now_us: u64, bytes: &[u8]) {
         let now_us = now_us.max(self.gateway.now_us());
+        if !self.speeds_match() {
+            bump(&mut self.mismatched_bytes, bytes.len());
+            self.gateway.advance(now_us);
+            self.collect();
+            return;
+        }
         let accepted = self.rx.accept(now_us, bytes.len());
         let lost = bytes.len() - accepted;
         bump(&mut self.stats.overrun_bytes, lost);
@@ -239,7 +298,11 @@ impl Uart {
             let Some(byte) = self.tx.pop_front() else {
                 break;
             };
-            out.push(byte);
+            if self.speeds_match() {
+                out.push(byte);
+            } else {
+                bump(&mut self.mismatched_bytes, 1);
+            }
             bump(&mut self.stats.sent_bytes, 1);
             self.front_started = true;
             if let Some(front) = self.tx_frames.front_mut() {
@@ -413,5 +476,72 @@ mod tests {
         assert_eq!(out.len(), 5);
         assert_eq!(uart.next_event_us(), None);
         assert_eq!(uart.positions(0).line.sent_bytes, 5);
+    }
+
+    #[test]
+    fn the_greeting_is_answered_and_a_stored_speed_waits_for_the_restart() {
+        use crate::ascii::gateway::GREETING_ANSWER;
+
+        let mut uart = Uart::new(GatewayConfig::numbered(2), 9600).unwrap();
+        uart.receive(10_000, b"ABC;");
+        let mut out = Vec::new();
+        uart.step(20_000, &mut out);
+        assert_eq!(out, GREETING_ANSWER);
+
+        // BDR is stored and answered by nothing; the line keeps its speed.
+        uart.receive(30_000, b"BDR=115200;ABC;");
+        assert_eq!(uart.gateway().stored_baud(), Some(115_200));
+        out.clear();
+        uart.step(40_000, &mut out);
+        assert_eq!(out, GREETING_ANSWER);
+        assert_eq!(uart.baud(), 9600);
+
+        // After the power cycle the gateway runs at 115200: a host still at 9600 is
+        // neither heard nor answered.
+        uart.restart(50_000);
+        assert_eq!(uart.baud(), 115_200);
+        assert!(!uart.speeds_match());
+        uart.receive(60_000, b"ABC;*1;PV;");
+        out.clear();
+        uart.step(100_000, &mut out);
+        assert!(out.is_empty(), "{out:02X?}");
+        assert_eq!(uart.mismatched_bytes(), 10);
+        assert_eq!(uart.stats().received_bytes, 15 + 4);
+
+        // The host follows: greeted, answered, and the units answer too.
+        uart.set_host_baud(115_200);
+        uart.receive(110_000, b"ABC;*1;PV;");
+        out.clear();
+        uart.step(120_000, &mut out);
+        assert_eq!(out.get(..3), Some(&GREETING_ANSWER[..]));
+        assert_eq!(FrameDecoder::new().push(&out[3..]).count(), 1);
+
+        // The speed stays stored across later restarts.
+        uart.restart(130_000);
+        assert_eq!(uart.baud(), 115_200);
+    }
+
+    #[test]
+    fn answers_at_a_mismatched_speed_are_lost_and_a_restart_drops_the_queue() {
+        let mut uart = Uart::new(GatewayConfig::numbered(100), 9600).unwrap();
+        uart.receive(10_000, b"*0;SN;");
+        // The host changes speed while the roll call is being answered.
+        let mut out = Vec::new();
+        uart.step(100_000, &mut out);
+        let before = out.len();
+        assert!(before > 0 && before < 1200);
+        uart.set_host_baud(19_200);
+        uart.step(2_000_000, &mut out);
+        assert_eq!(out.len(), before, "nothing readable arrives");
+        assert_eq!(uart.mismatched_bytes(), 1200 - before as u64);
+
+        uart.set_host_baud(9600);
+        uart.receive(3_000_000, b"*0;SN;");
+        uart.step(3_100_000, &mut out);
+        uart.restart(3_100_000);
+        assert_eq!(uart.queued_bytes(), 0);
+        assert_eq!(uart.next_event_us(), None);
+        // Without a stored speed the restart keeps the line's speed.
+        assert_eq!(uart.baud(), 9600);
     }
 }

@@ -13,6 +13,10 @@
 //!   something to do, so a caller can sleep until then.
 //! - [`Gateway::units`] shows every unit (station, serial, position, velocity, motor,
 //!   moving) for the bridge's `GET /api/sim/positions`.
+//! - The gateway's own commands (`PROTOCOL.md` §1.2): it answers the greeting `ABC;`
+//!   with `AA AB AC`, and stores the line speed of `BDR=x;`, which
+//!   [`Gateway::restart`] (a power cycle) hands to its serial port ([`Uart`]); until
+//!   then the line keeps its speed.
 //!
 //! Each unit keeps a [`PvtTable`](crate::pvt::PvtTable) and moves PVT rows with the
 //! shared [`Segment`](crate::pvt::Segment) evaluator; point-to-point moves are
@@ -64,7 +68,10 @@ mod procedures;
 use std::ops::Range;
 
 use crate::api::{SimGateway, SimLineStats, SimUnit};
-use crate::ascii::{Field, Instruction, InstructionReader, ParseError, ParseErrorKind};
+use crate::ascii::gateway::GREETING_ANSWER;
+use crate::ascii::{
+    Field, GatewayCommand, Instruction, InstructionReader, ParseError, ParseErrorKind,
+};
 use crate::feedback::{Feedback, Frame, UnitError, code};
 
 pub use config::{
@@ -107,6 +114,8 @@ pub struct Gateway {
     sent_bytes: u64,
     /// Bytes to garble, by position.
     garbles: Vec<Garble>,
+    /// The line speed the last `BDR=x;` stored, baud: used from the next restart on.
+    stored_baud: Option<u32>,
 }
 
 /// A unit index that does not exist.
@@ -150,6 +159,7 @@ impl Gateway {
             output: Vec::new(),
             sent_bytes: 0,
             garbles,
+            stored_baud: None,
         };
         gateway.sort_stations();
         Ok(gateway)
@@ -166,6 +176,25 @@ impl Gateway {
                 self.execute(read);
             }
         }
+    }
+
+    /// The line speed the last `BDR=x;` stored, baud, if one did: the gateway's serial
+    /// port uses it from its next [`restart`](Self::restart) on.
+    #[must_use]
+    pub fn stored_baud(&self) -> Option<u32> {
+        self.stored_baud
+    }
+
+    /// The gateway restarts (a power cycle of the gateway alone; the units keep their
+    /// power, their stations and their motion): a half-read instruction is forgotten,
+    /// the selection is back to 0 (every unit), answers not handed over yet are lost.
+    /// Returns the line speed its serial port runs at from now on, if `BDR=x;` stored
+    /// one (it stays stored, as in the gateway's flash, for later restarts too).
+    pub fn restart(&mut self) -> Option<u32> {
+        self.reader = InstructionReader::new();
+        self.selected = 0;
+        self.output.clear();
+        self.stored_baud
     }
 
     /// Time passes up to `now_us`: every unit's motion, row starts, watermark notices,
@@ -290,6 +319,11 @@ impl Gateway {
             Ok(Instruction::Select { station }) => self.selected = station,
             // A mnemonic no unit knows: the gateway cannot turn it into a CAN message.
             Ok(Instruction::Generic(_)) => self.gateway_error(),
+            Ok(Instruction::Gateway(GatewayCommand::Greet)) => self.send_raw(&GREETING_ANSWER),
+            // Stored, silently; the line changes speed at the next restart.
+            Ok(Instruction::Gateway(GatewayCommand::SetBaud { baud })) => {
+                self.stored_baud = Some(baud);
+            }
             Ok(instruction) => self.dispatch(&instruction),
             Err(error) => match unit_refusal(&error) {
                 Some(refusal) => self.refuse(refusal),
@@ -409,7 +443,12 @@ impl Gateway {
 
     /// Puts one frame on the line, garbling the bytes fault injection asks for.
     fn send(&mut self, frame: &Frame) {
-        for &byte in frame.encode().as_bytes() {
+        self.send_raw(frame.encode().as_bytes());
+    }
+
+    /// Puts bytes on the line, garbling the ones fault injection asks for.
+    fn send_raw(&mut self, bytes: &[u8]) {
+        for &byte in bytes {
             let mut byte = byte;
             while let Some(garble) = self.garbles.first().filter(|g| g.byte <= self.sent_bytes) {
                 if garble.byte == self.sent_bytes {
@@ -443,7 +482,7 @@ fn answers_broadcast(instruction: &Instruction) -> bool {
         I::StopDecel { decel_counts_s2 } => decel_counts_s2.is_none(),
         I::InfoEnable { enabled, .. } => enabled.is_none(),
         I::QuerySerial | I::SetStation { .. } => true,
-        I::Begin { .. } | I::Select { .. } | I::Generic(_) => false,
+        I::Begin { .. } | I::Select { .. } | I::Generic(_) | I::Gateway(_) => false,
     }
 }
 
@@ -462,7 +501,7 @@ fn unit_refusal(error: &ParseError) -> Option<UnitError> {
             mnemonic,
             u8::try_from(range.value).unwrap_or(u8::MAX),
         ),
-        Field::Station => return None,
+        Field::Station | Field::Baud => return None,
     };
     Some(UnitError {
         error: number,

@@ -363,7 +363,7 @@ impl Unit {
     ) -> Option<Feedback> {
         use Instruction as I;
         let answer = match *instruction {
-            I::Select { .. } | I::Generic(_) => return None,
+            I::Select { .. } | I::Generic(_) | I::Gateway(_) => return None,
             I::Begin { at_us } => self.begin(now_us, at_us, limits, out),
             I::MotionProfile { param, value } => {
                 let param = param.index();

@@ -884,4 +884,40 @@ pub(super) const ERROR_TEXTS: &[(Code, &str, &str)] = &[
         "序列号 {serial} 太长：`SN[X]=s/n;` 最多 {max} 个字符",
         "Serial {serial} is too long: `SN[X]=s/n;` holds at most {max} characters",
     ),
+    // ---- install ----
+    (
+        Code::InstallationInvalid,
+        "安装设置有 {problems} 个问题，未保存",
+        "The installation has {problems} problem(s) and was not saved",
+    ),
+    (
+        Code::InstallationProblem,
+        "安装设置：{reason}",
+        "Installation: {reason}",
+    ),
+    (
+        Code::InstallationBusy,
+        "矩阵正在{state}：只能在空闲时更改安装设置或线速",
+        "The matrix is {state}: the installation and line speeds change only while it is idle",
+    ),
+    (
+        Code::InstallationNotLive,
+        "MBOX 控制盒和 MOONS' 驱动器的网关只能在 floatball.toml 中更改，并在重启后生效",
+        "The gateways of MBOX boxes and MOONS' drives change only in floatball.toml, at a restart",
+    ),
+    (
+        Code::InstallationNotSaved,
+        "无法保存 floatball.toml：{reason}",
+        "floatball.toml could not be saved: {reason}",
+    ),
+    (
+        Code::BaudNotAllowed,
+        "网关不支持 {baud} 波特；可用：{allowed}",
+        "The gateway does not take {baud} baud; it takes {allowed}",
+    ),
+    (
+        Code::BaudChangeFailed,
+        "网关 {gateway} 在 {baud} 波特下没有应答，线路已恢复原速：{reason}",
+        "Gateway {gateway} did not answer at {baud} baud; the line is back at its old speed: {reason}",
+    ),
 ];

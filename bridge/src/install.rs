@@ -1,0 +1,280 @@
+//! A new installation applied without a restart: `PUT /api/installation` and a
+//! gateway's new line speed (`POST /api/gateways/{g}/baud`).
+//!
+//! The one path that changes the configuration while the bridge runs, under the
+//! catalogue lock (so no Start can begin meanwhile):
+//! 1. refused while the player is not idle or a Start is pending
+//!    ([`InstallError::Busy`]), and for MBOX boxes and MOONS' drives
+//!    ([`InstallError::NotLive`]: their gateways hold more than the API says);
+//! 2. `floatball.toml` edited ([`crate::config::edit`], comments and other keys kept)
+//!    and checked as `floatball check` checks it, every problem listed
+//!    ([`InstallError::Invalid`]); nothing is written unless it passes;
+//! 3. written atomically ([`crate::durable`]);
+//! 4. applied: the links whose port or baud changed and the added gateways opened,
+//!    the removed ones closed ([`crate::gateways::Gateways::reopen`]), the player
+//!    restarted idle on the new installation ([`crate::playback::Playback::reconfigure`]),
+//!    and the configuration snapshot replaced ([`AppState::replace_config`]). Should
+//!    the player refuse (it left idle in between), the old links and file are put
+//!    back.
+//!
+//! What is live: the matrix (rows, cols, pitch, travel, limits, calibration, home,
+//! approach speed) and the UIM2503 gateways (port, baud, stations, how many). What is
+//! not: everything else in the file (listen, origins, uploads, the e-stop), which
+//! `PUT` does not change, and MBOX / SCL installations (a restart).
+
+use std::time::Duration;
+
+use floatball_shared::api::{
+    BaudChanged, GatewayKind, InstallationGateway, InstallationInfo, PlayerState,
+};
+use floatball_shared::plan::{DriveKind, Installation};
+
+use crate::config::{self, Config, ConfigError, Overrides, edit};
+use crate::link::BaudError;
+use crate::playback::ReconfigureError;
+use crate::state::AppState;
+
+/// How long a baud change waits for the gateway to answer at the new speed (a real
+/// gateway takes its new speed when the installer power-cycles it).
+pub const BAUD_RESTART_WAIT: Duration = Duration::from_secs(60);
+
+/// Why a new installation was not applied; nothing changed.
+#[derive(Debug, thiserror::Error)]
+pub enum InstallError {
+    /// The checks of `floatball check` found these problems.
+    #[error("the installation has {} problem(s)", .0.len())]
+    Invalid(Vec<ConfigError>),
+    /// The player is not idle, or a Start is pending (`state` says which).
+    #[error("the matrix is {state}; the installation changes only while it is idle")]
+    Busy {
+        /// The player's state, or `starting`.
+        state: String,
+    },
+    /// An installation of MBOX boxes or MOONS' drives.
+    #[error(
+        "the gateways of MBOX boxes and MOONS' drives change only in floatball.toml, at a restart"
+    )]
+    NotLive,
+    /// The file could not be read, edited or written.
+    #[error("floatball.toml could not be saved: {0}")]
+    NotSaved(String),
+    /// The gateway has no link (no such gateway, or not a UIM2503).
+    #[error("there is no UIM2503 gateway {gateway}")]
+    NoSuchGateway {
+        /// The gateway asked for.
+        gateway: usize,
+        /// How many links there are.
+        links: usize,
+    },
+    /// The gateway does not take that speed.
+    #[error("gateway {gateway} does not take {baud} baud")]
+    BaudNotAllowed {
+        /// The gateway.
+        gateway: usize,
+        /// The speed asked for.
+        baud: u32,
+    },
+    /// The link did not change its speed ([`Link::change_baud`]'s reason); the line
+    /// runs at its old speed.
+    #[error("gateway {gateway}: {error}")]
+    Baud {
+        /// The gateway.
+        gateway: usize,
+        /// The speed asked for.
+        baud: u32,
+        /// Why.
+        error: BaudError,
+    },
+}
+
+/// What `GET /api/installation` says about `installation`.
+pub fn info(installation: &Installation) -> InstallationInfo {
+    let gateways = installation
+        .gateways
+        .iter()
+        .enumerate()
+        .map(|(index, gateway)| InstallationGateway {
+            kind: match gateway.kind {
+                DriveKind::Uim2503 => GatewayKind::Uim2503,
+                DriveKind::Mbox => GatewayKind::Mbox,
+                DriveKind::Scl => GatewayKind::Scl,
+            },
+            port: gateway.port.clone(),
+            baud: (gateway.kind != DriveKind::Mbox).then_some(gateway.baud),
+            stations: installation.stations_on(index),
+        })
+        .collect();
+    let limits = &installation.limits;
+    InstallationInfo {
+        rows: limits.rows,
+        cols: limits.cols,
+        pitch_mm: installation.pitch_mm,
+        travel_mm: limits.travel_mm,
+        max_speed_mm_s: limits.max_speed_mm_s,
+        max_accel_mm_s2: limits.max_accel_mm_s2,
+        home_mm: installation.home_mm,
+        approach_speed_mm_s: installation.approach_speed_mm_s,
+        counts_per_mm: installation.counts_per_mm,
+        gateways,
+    }
+}
+
+/// `PUT /api/installation`: checks `new`, saves it and applies it (see the module).
+///
+/// # Errors
+/// [`InstallError`]; nothing changed.
+pub async fn put(
+    state: &AppState,
+    new: InstallationInfo,
+) -> Result<InstallationInfo, InstallError> {
+    let _catalogue = state.lock_catalogue().await;
+    idle(state)?;
+    let current = state.config();
+    let current_info = info(&current.installation);
+    if current.mbox.is_some() || current.scl.is_some() {
+        if new == current_info {
+            return Ok(new);
+        }
+        return Err(InstallError::NotLive);
+    }
+    if edit::gateways_changed(&current_info, &new) {
+        return Err(InstallError::NotLive);
+    }
+    save_and_apply(state, &current, &new, |text| {
+        edit::installation(text, &current_info, &new)
+    })
+    .await
+}
+
+/// `POST /api/gateways/{gateway}/baud`: the gateway's line to `baud` (the link sends
+/// `BDR`, waits for the gateway's restart and greets it at the new speed), then the
+/// new speed saved in `floatball.toml` and the configuration.
+///
+/// # Errors
+/// [`InstallError`]: not idle, no such UIM2503 gateway, a speed it does not take, the
+/// gateway silent at the new speed (the line is back at the old one), or the file.
+pub async fn change_baud(
+    state: &AppState,
+    gateway: usize,
+    baud: u32,
+) -> Result<BaudChanged, InstallError> {
+    let _catalogue = state.lock_catalogue().await;
+    idle(state)?;
+    let links = state.gateways().links();
+    let link = links.get(gateway).ok_or(InstallError::NoSuchGateway {
+        gateway,
+        links: links.len(),
+    })?;
+    if !floatball_shared::plan::report::GATEWAY_BAUDS.contains(&baud) {
+        return Err(InstallError::BaudNotAllowed { gateway, baud });
+    }
+    let changed = link
+        .change_baud(baud, BAUD_RESTART_WAIT)
+        .await
+        .map_err(|error| InstallError::Baud {
+            gateway,
+            baud,
+            error,
+        })?;
+    let current = state.config();
+    let current_info = info(&current.installation);
+    let mut new = current_info.clone();
+    if let Some(one) = new.gateways.get_mut(gateway) {
+        one.baud = Some(baud);
+    }
+    save_and_apply(state, &current, &new, |text| {
+        edit::baud(text, &current_info, gateway, baud)
+    })
+    .await?;
+    Ok(changed)
+}
+
+/// Refused unless the player is idle and no Start is pending.
+fn idle(state: &AppState) -> Result<(), InstallError> {
+    if state.starts_pending() {
+        return Err(InstallError::Busy {
+            state: "starting".to_owned(),
+        });
+    }
+    let playing = state.subscribe_status().borrow().state;
+    if playing != PlayerState::Idle {
+        return Err(InstallError::Busy {
+            state: playing.as_str().to_owned(),
+        });
+    }
+    Ok(())
+}
+
+/// Steps 2 to 4 of the module: `edited` makes the new file's text from the file's.
+async fn save_and_apply(
+    state: &AppState,
+    current: &Config,
+    new: &InstallationInfo,
+    edited: impl FnOnce(&str) -> Result<String, edit::EditError>,
+) -> Result<InstallationInfo, InstallError> {
+    let dir = state.data_dir().to_owned();
+    let path = dir.join(config::FILE_NAME);
+    let reading = path.clone();
+    let old_text = tokio::task::spawn_blocking(move || std::fs::read_to_string(reading))
+        .await
+        .map_err(|error| InstallError::NotSaved(error.to_string()))?
+        .map_err(|error| InstallError::NotSaved(format!("{}: {error}", path.display())))?;
+    let text = edited(&old_text).map_err(|error| InstallError::NotSaved(error.to_string()))?;
+    // The command line's listen stays; the ports are the ones asked for.
+    let overrides = Overrides {
+        listen: Some(current.listen),
+        gateway_ports: Vec::new(),
+    };
+    let config = Config::parse_all(&path, &text, &overrides).map_err(InstallError::Invalid)?;
+    let applied = info(&config.installation);
+    let mut asked = new.clone();
+    for (gateway, now) in asked.gateways.iter_mut().zip(&applied.gateways) {
+        if gateway.baud.is_none() {
+            gateway.baud = now.baud;
+        }
+    }
+    if applied != asked {
+        // The file says something else than asked (a key the edit cannot write).
+        return Err(InstallError::NotSaved(
+            "the edited file does not say what was asked; edit floatball.toml by hand".to_owned(),
+        ));
+    }
+    write(&dir, text).await?;
+    let before = state.gateways().links();
+    let (links, reopened) = state.gateways().reopen(&config.installation);
+    if let Err(error) = state
+        .playback()
+        .reconfigure(config.installation.clone(), links, reopened.opened)
+        .await
+    {
+        state.gateways().restore(before);
+        // Best effort: the file said the new installation for a moment.
+        if let Err(restore) = write(&dir, old_text).await {
+            tracing::error!("cannot put floatball.toml back: {restore}");
+        }
+        return Err(match error {
+            ReconfigureError::NotIdle { state } => InstallError::Busy { state },
+            ReconfigureError::NotLive => InstallError::NotLive,
+            ReconfigureError::Gone => InstallError::NotSaved(error.to_string()),
+        });
+    }
+    tracing::info!(
+        "applied a new installation: {} × {} balls on {} gateway(s)",
+        config.installation.limits.rows,
+        config.installation.limits.cols,
+        config.installation.gateways.len()
+    );
+    state.replace_config(config);
+    Ok(applied)
+}
+
+/// Writes `floatball.toml` in `dir` atomically.
+async fn write(dir: &std::path::Path, text: String) -> Result<(), InstallError> {
+    let dir = dir.to_owned();
+    tokio::task::spawn_blocking(move || {
+        crate::durable::write_atomic(&dir, config::FILE_NAME, text.as_bytes())
+    })
+    .await
+    .map_err(|error| InstallError::NotSaved(error.to_string()))?
+    .map_err(|error| InstallError::NotSaved(error.to_string()))
+}
