@@ -5,7 +5,7 @@
 //! The floor is the instruction already on the wire plus the e-stop's own 8 bytes.
 //! Run with `cargo bench -p floatball-bridge --bench estop`.
 
-use std::io::Read;
+use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
 use floatball_bridge::link::{Batch, Link, LinkConfig};
@@ -41,6 +41,18 @@ fn measure(runtime: &tokio::runtime::Runtime, baud: u32, samples: usize) {
         .set_timeout(Duration::from_millis(5))
         .expect("timeout");
     let link = Link::open(0, LinkConfig::new(path, baud));
+    // The gateway's part of the greeting: the link is up once it is answered (the
+    // samples follow each other too closely for the idle greeting to come again).
+    let mut greeting = Vec::new();
+    let mut buffer = [0u8; 4096];
+    while !greeting.windows(4).any(|w| w == b"ABC;") {
+        if let Ok(n) = master.read(&mut buffer) {
+            greeting.extend_from_slice(&buffer[..n]);
+        }
+    }
+    master
+        .write_all(&[0xAA, 0xAB, 0xAC])
+        .expect("answer the greeting");
     runtime.block_on(async {
         let mut status = link.status();
         status
@@ -50,7 +62,6 @@ fn measure(runtime: &tokio::runtime::Runtime, baud: u32, samples: usize) {
     });
     let byte_time = floatball_shared::line::Line::new(baud).byte_time();
     let mut latencies = Vec::with_capacity(samples);
-    let mut buffer = [0u8; 4096];
     let mut seed = 0x2545_f491_4f6c_dd1du64;
     for _ in 0..samples {
         // The last sample's e-stop is still latched: a new request releases it.

@@ -1,10 +1,14 @@
 //! The WebSocket against gateways on pseudo-terminal pairs: the exact bytes a console
 //! line puts on the line, feedback bytes in odd chunks with garbage arriving as
 //! `feedback` messages, the e-stop on every gateway, and link states in the status.
+//! The test's gateways answer the bridge's greeting (`ABC;` → `AA AB AC`, without which
+//! a link is not up) and keep the greetings out of the bytes the tests compare.
 
 mod common;
 
 use std::io::{Read, Write};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use common::{Bridge, Ws, next_message, send_text};
@@ -15,10 +19,21 @@ use tokio::sync::mpsc;
 
 /// A gateway played by the test on the master side of a pty pair. The bridge opens
 /// the slave through a symlink (as udev's /dev/serial/by-id names are), so a test can
-/// take the device away without another test's pty taking its number.
+/// take the device away without another test's pty taking its number. What the bridge
+/// writes is read from the start ([`spawn_reader`]); dropping it closes the master.
 struct Gateway {
     master: TTYPort,
     path: std::path::PathBuf,
+    rx: mpsc::UnboundedReceiver<Vec<u8>>,
+    stop: Arc<AtomicBool>,
+}
+
+impl Drop for Gateway {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        // The reader lets go of its handle within one read timeout.
+        std::thread::sleep(Duration::from_millis(60));
+    }
 }
 
 fn pty(dir: &std::path::Path, name: &str) -> Gateway {
@@ -30,24 +45,46 @@ fn pty(dir: &std::path::Path, name: &str) -> Gateway {
         .expect("timeout");
     let path = dir.join(name);
     std::os::unix::fs::symlink(slave_path, &path).expect("symlink");
-    Gateway { master, path }
+    let stop = Arc::new(AtomicBool::new(false));
+    let reader = master.try_clone_native().expect("clone the master");
+    let rx = spawn_reader(reader, Arc::clone(&stop));
+    Gateway {
+        master,
+        path,
+        rx,
+        stop,
+    }
 }
 
-/// Reads everything the bridge writes to a gateway, in a thread.
-fn spawn_reader(mut master: TTYPort) -> mpsc::UnboundedReceiver<Vec<u8>> {
+/// Reads everything the bridge writes to a gateway, in a thread, until `stop`. Answers
+/// each whole `ABC;` (the greeting) with `AA AB AC` and leaves it out; hands on the
+/// rest in whole instructions.
+fn spawn_reader(mut master: TTYPort, stop: Arc<AtomicBool>) -> mpsc::UnboundedReceiver<Vec<u8>> {
     let (tx, rx) = mpsc::unbounded_channel();
     std::thread::spawn(move || {
         let mut buffer = [0u8; 512];
-        loop {
+        let mut partial = Vec::new();
+        while !stop.load(Ordering::Acquire) {
             match master.read(&mut buffer) {
                 Ok(0) => {}
                 Ok(n) => {
-                    if tx.send(buffer[..n].to_vec()).is_err() {
+                    partial.extend_from_slice(&buffer[..n]);
+                    let whole = partial.iter().rposition(|&b| b == b';').map_or(0, |i| i + 1);
+                    let mut chunk = Vec::new();
+                    for instruction in partial[..whole].split_inclusive(|&b| b == b';') {
+                        if instruction == b"ABC;" {
+                            let _ = master.write_all(&[0xAA, 0xAB, 0xAC]);
+                        } else {
+                            chunk.extend_from_slice(instruction);
+                        }
+                    }
+                    partial.drain(..whole);
+                    if !chunk.is_empty() && tx.send(chunk).is_err() {
                         return;
                     }
                 }
                 Err(err) if err.kind() == std::io::ErrorKind::TimedOut => {}
-                Err(_) => return,
+                Err(_) => std::thread::sleep(Duration::from_millis(5)),
             }
         }
     });
@@ -78,7 +115,7 @@ async fn nothing_arrives(rx: &mut mpsc::UnboundedReceiver<Vec<u8>>) {
 
 /// A bridge with a 1 × 2 matrix on two gateways, one unit each, on pty pairs; the
 /// gateways' symlinks live in the returned directory.
-async fn bridge_with_two_gateways() -> (Bridge, Vec<TTYPort>, tempfile::TempDir) {
+async fn bridge_with_two_gateways() -> (Bridge, Vec<Gateway>, tempfile::TempDir) {
     let dir = tempfile::tempdir().expect("temp dir");
     let gateways = [pty(dir.path(), "gateway0"), pty(dir.path(), "gateway1")];
     let config = format!(
@@ -89,8 +126,7 @@ async fn bridge_with_two_gateways() -> (Bridge, Vec<TTYPort>, tempfile::TempDir)
         gateways[1].path.display()
     );
     let bridge = Bridge::start_with(&config).await;
-    let masters = gateways.into_iter().map(|gateway| gateway.master).collect();
-    (bridge, masters, dir)
+    (bridge, gateways.into(), dir)
 }
 
 /// Reads statuses until every gateway's link is up.
@@ -134,18 +170,18 @@ async fn next_error(ws: &mut Ws) -> String {
 
 #[tokio::test]
 async fn a_console_line_puts_exactly_its_instructions_on_the_chosen_lines() {
-    let (bridge, masters, _links) = bridge_with_two_gateways().await;
+    let (bridge, mut gateways, _links) = bridge_with_two_gateways().await;
     let mut ws = bridge.ws(&bridge.operator().await).await;
     wait_until_links_are_up(&mut ws).await;
-    let mut readers: Vec<_> = masters.into_iter().map(spawn_reader).collect();
+    let mut readers: Vec<_> = gateways.iter_mut().map(|gateway| &mut gateway.rx).collect();
 
     send_text(
         &mut ws,
         r#"{"type":"raw","line":"*5; pv=3;  # start at row 3\nBG;","gateway":1}"#,
     )
     .await;
-    assert_eq!(read_exactly(&mut readers[1], 11).await, b"*5;PV=3;BG;");
-    nothing_arrives(&mut readers[0]).await;
+    assert_eq!(read_exactly(readers[1], 11).await, b"*5;PV=3;BG;");
+    nothing_arrives(readers[0]).await;
 
     send_text(&mut ws, r#"{"type":"raw","line":"*0;MP[3]:1;QT[7]=10;"}"#).await;
     for reader in &mut readers {
@@ -167,7 +203,7 @@ async fn a_console_line_puts_exactly_its_instructions_on_the_chosen_lines() {
 
 #[tokio::test]
 async fn feedback_bytes_in_odd_chunks_with_garbage_arrive_as_feedback_messages() {
-    let (bridge, mut masters, _links) = bridge_with_two_gateways().await;
+    let (bridge, mut gateways, _links) = bridge_with_two_gateways().await;
     let mut ws = bridge.ws(&bridge.token().await).await;
     wait_until_links_are_up(&mut ws).await;
 
@@ -186,8 +222,8 @@ async fn feedback_bytes_in_odd_chunks_with_garbage_arrive_as_feedback_messages()
             break;
         }
         let (chunk, after) = rest.split_at(size.min(rest.len()));
-        masters[1].write_all(chunk).expect("write");
-        masters[1].flush().expect("flush");
+        gateways[1].master.write_all(chunk).expect("write");
+        gateways[1].master.flush().expect("flush");
         rest = after;
         tokio::time::sleep(Duration::from_millis(7)).await;
     }
@@ -212,7 +248,8 @@ async fn feedback_bytes_in_odd_chunks_with_garbage_arrive_as_feedback_messages()
     );
 
     // The other gateway's frames carry its own index.
-    masters[0]
+    gateways[0]
+        .master
         .write_all(Frame::new(6, 0x16, &[]).expect("frame").encode().as_bytes())
         .expect("write");
     let frame = next_feedback(&mut ws).await;
@@ -221,11 +258,11 @@ async fn feedback_bytes_in_odd_chunks_with_garbage_arrive_as_feedback_messages()
 
 #[tokio::test]
 async fn estop_broadcasts_the_stop_on_every_gateway() {
-    let (bridge, masters, _links) = bridge_with_two_gateways().await;
+    let (bridge, mut gateways, _links) = bridge_with_two_gateways().await;
     // E-stop works even before the initial password is changed.
     let mut ws = bridge.ws(&bridge.token().await).await;
     wait_until_links_are_up(&mut ws).await;
-    let mut readers: Vec<_> = masters.into_iter().map(spawn_reader).collect();
+    let mut readers: Vec<_> = gateways.iter_mut().map(|gateway| &mut gateway.rx).collect();
     send_text(&mut ws, r#"{"type":"estop"}"#).await;
     for reader in &mut readers {
         assert_eq!(read_exactly(reader, 8).await, b"*0;MO=0;");
@@ -246,16 +283,16 @@ async fn estop_broadcasts_the_stop_on_every_gateway() {
     let message = next_error(&mut ws).await;
     assert!(message.contains("latched"), "{message}");
     send_text(&mut ws, r#"{"type":"raw","line":"*5;PV;","gateway":0}"#).await;
-    assert_eq!(read_exactly(&mut readers[0], 6).await, b"*5;PV;");
+    assert_eq!(read_exactly(readers[0], 6).await, b"*5;PV;");
 }
 
 #[tokio::test]
 async fn a_lost_gateway_shows_in_the_status_and_the_estop_reports_it() {
-    let (bridge, mut masters, links) = bridge_with_two_gateways().await;
+    let (bridge, mut gateways, links) = bridge_with_two_gateways().await;
     let mut ws = bridge.ws(&bridge.token().await).await;
     wait_until_links_are_up(&mut ws).await;
     std::fs::remove_file(links.path().join("gateway1")).expect("remove the device");
-    drop(masters.remove(1));
+    drop(gateways.remove(1));
     let deadline = Instant::now() + Duration::from_secs(10);
     loop {
         assert!(Instant::now() < deadline, "the loss was not reported");

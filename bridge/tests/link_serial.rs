@@ -10,7 +10,8 @@ use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
 use floatball_bridge::link::{
-    ANSWER_TIMEOUT, Batch, GREETING_INTERVAL, Link, LinkConfig, LinkError,
+    ANSWER_TIMEOUT, Batch, GREETING_INTERVAL, GREETING_RETRY, Link, LinkConfig, LinkError,
+    MISSED_GREETINGS,
 };
 use floatball_shared::api::LinkState;
 use floatball_shared::ascii::{Form, parse_script};
@@ -334,7 +335,10 @@ async fn the_link_is_up_only_once_greeted_and_not_answering_while_the_gateway_is
     wait_for_state(&link, LinkState::NotAnswering).await;
     let noticed = silent_from.elapsed();
     assert!(
-        noticed <= GREETING_INTERVAL + ANSWER_TIMEOUT + Duration::from_millis(500),
+        noticed
+            <= GREETING_INTERVAL
+                + (ANSWER_TIMEOUT + GREETING_RETRY) * MISSED_GREETINGS
+                + Duration::from_millis(500),
         "noticed after {noticed:?}"
     );
     assert!(link.estop().is_some(), "the e-stop says the link is not up");

@@ -25,10 +25,10 @@
 //! **Presence.** An open port is not a gateway: the writer greets the gateway (`ABC;`,
 //! `PROTOCOL.md` §1.2) as soon as the line opens and again whenever the line has been
 //! idle for [`GREETING_INTERVAL`]. The link is `Up` only once the gateway has answered
-//! (`AA AB AC`, or any feedback frame); a greeting left unanswered for
-//! [`ANSWER_TIMEOUT`] makes it `NotAnswering` (writes are refused, but the e-stop is
-//! still written), and it greets every [`GREETING_RETRY`] until an answer brings it back
-//! `Up`.
+//! (`AA AB AC`, or any feedback frame); [`MISSED_GREETINGS`] greetings in a row left
+//! unanswered for [`ANSWER_TIMEOUT`] each make it `NotAnswering` (writes are refused,
+//! but the e-stop is still written), and it greets every [`GREETING_RETRY`] until an
+//! answer brings it back `Up`.
 //!
 //! **Line speed.** [`Link::baud`] is the line's live speed; [`Link::change_baud`] moves
 //! the gateway and the line to another one (`BDR=x;`, the gateway's restart, the line
@@ -76,7 +76,11 @@ pub const GREETING_INTERVAL: Duration = Duration::from_secs(2);
 
 /// How long the gateway has to answer a greeting, from when the greeting has crossed
 /// the line.
-pub const ANSWER_TIMEOUT: Duration = Duration::from_millis(500);
+pub const ANSWER_TIMEOUT: Duration = Duration::from_secs(1);
+
+/// How many greetings in a row must go unanswered before the link counts as not
+/// answering (one late answer on a busy machine is not a missing gateway).
+pub const MISSED_GREETINGS: u32 = 2;
 
 /// How often a link greets a gateway that does not answer (and, during a line-speed
 /// change, one that is restarting).
@@ -671,10 +675,12 @@ struct Greeting {
     deadline: Instant,
 }
 
-/// The writer's greetings: when the next is due, and the one awaiting its answer.
+/// The writer's greetings: when the next is due, the one awaiting its answer, and how
+/// many in a row went unanswered.
 struct Greeter {
     next_at: Instant,
     pending: Option<Greeting>,
+    missed: u32,
 }
 
 /// What became of a greeting.
@@ -682,7 +688,7 @@ struct Greeter {
 enum Answer {
     /// The gateway answered (the greeting, or with any frame).
     Answered,
-    /// The deadline passed.
+    /// [`MISSED_GREETINGS`] deadlines passed in a row.
     Unanswered,
 }
 
@@ -692,6 +698,7 @@ impl Greeter {
         Self {
             next_at: now,
             pending: None,
+            missed: 0,
         }
     }
 
@@ -724,16 +731,18 @@ impl Greeter {
             || shared.frames_read.load(Ordering::Acquire) > pending.frames_before;
         let answer = if answered {
             self.next_at = now + GREETING_INTERVAL;
-            Answer::Answered
+            self.missed = 0;
+            Some(Answer::Answered)
         } else if now >= pending.deadline {
             self.next_at = now + GREETING_RETRY;
-            Answer::Unanswered
+            self.missed = self.missed.saturating_add(1);
+            (self.missed >= MISSED_GREETINGS).then_some(Answer::Unanswered)
         } else {
             return None;
         };
         self.pending = None;
         shared.awaiting_answer.store(false, Ordering::Release);
-        Some(answer)
+        answer
     }
 
     /// How long the writer may sleep before the greeter needs it.
@@ -911,6 +920,7 @@ fn run_writer(
                 greeter = Greeter {
                     next_at: Instant::now() + GREETING_INTERVAL,
                     pending: None,
+                    missed: 0,
                 };
             }
             continue;
