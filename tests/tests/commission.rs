@@ -95,24 +95,21 @@ async fn unit_rows(browser: &Browser) -> Vec<(u64, u8, String)> {
         .collect()
 }
 
-/// Waits until a unit of the simulator is away from the top; returns its place, and
-/// checks that it is the only one.
-async fn the_one_that_moves(browser: &Browser) -> usize {
-    let deadline = tokio::time::Instant::now() + UI_TIMEOUT;
-    loop {
+/// Waits up to `within` until a unit of the simulator is away from the top; returns
+/// its place, and checks that it is the only one.
+async fn the_one_that_moves(browser: &Browser, within: Duration) -> Option<usize> {
+    let deadline = tokio::time::Instant::now() + within;
+    while tokio::time::Instant::now() < deadline {
         let units = sim_units(browser).await;
         let away: Vec<usize> = (0..units.len()).filter(|&p| is_away(&units[p])).collect();
         match away.as_slice() {
             [] => {}
-            [one] => return *one,
+            [one] => return Some(*one),
             many => panic!("identify moved more than one unit: {many:?}"),
         }
-        assert!(
-            tokio::time::Instant::now() < deadline,
-            "no simulated unit moved"
-        );
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
+    None
 }
 
 /// Waits until simulated unit `place` is back at the top and still, with every other
@@ -135,6 +132,74 @@ async fn back_at_the_top(browser: &Browser, place: usize) {
         );
         tokio::time::sleep(Duration::from_millis(30)).await;
     }
+}
+
+/// Taps the element matching `css` as a finger would: scrolled to the middle of the
+/// screen first (the sticky top bar covers the top of a phone's screen, where
+/// WebDriver's own scrolling may leave it).
+async fn tap(browser: &Browser, css: &str) {
+    browser.wait_for(css).await;
+    browser
+        .client
+        .execute(
+            "document.querySelector(arguments[0]).scrollIntoView({ block: 'center' });",
+            vec![Value::from(css)],
+        )
+        .await
+        .expect("scroll to the element");
+    browser.click(css).await;
+}
+
+/// Taps Identify on the unit of `station` until the page says its ball moves (the
+/// bridge refuses while the previous ball is still on its way back).
+async fn identify(browser: &Browser, station: u8) {
+    let button =
+        format!("[data-testid=unit][data-station='{station}'] [data-testid=unit-identify]");
+    let deadline = tokio::time::Instant::now() + UI_TIMEOUT;
+    let shown = |css: &'static str| async move {
+        browser
+            .client
+            .find(fantoccini::Locator::Css(css))
+            .await
+            .is_ok()
+    };
+    loop {
+        tap(browser, &button).await;
+        loop {
+            if shown("[data-testid=identified]").await {
+                return;
+            }
+            if shown("[data-testid=commission-error]").await {
+                break;
+            }
+            assert!(
+                tokio::time::Instant::now() < deadline,
+                "identify {station}: neither moving nor refused"
+            );
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        let refusal = browser.text("[data-testid=commission-error]").await;
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "identify {station} refused: {refusal}"
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+/// Identifies the unit of `station` and returns the place of the one simulated ball
+/// that moves. A move the page announced but the simulator never showed is asked
+/// again (twice at most), and said on stderr.
+async fn identify_and_watch(browser: &Browser, station: u8) -> usize {
+    for attempt in 1..=3 {
+        identify(browser, station).await;
+        if let Some(place) = the_one_that_moves(browser, Duration::from_secs(3)).await {
+            return place;
+        }
+        eprintln!("identify {station}: no simulated unit moved (attempt {attempt})");
+        tap(browser, "[data-testid=cancel-identify]").await;
+    }
+    panic!("identify {station}: no simulated unit moved in three attempts");
 }
 
 #[tokio::test]
@@ -161,7 +226,7 @@ async fn a_factory_fresh_matrix_is_commissioned_from_a_phone_and_plays_where_its
         .await;
 
     // Roll call: 100 units, all on station 5, the collision said.
-    browser.click("[data-testid=rollcall]").await;
+    tap(&browser, "[data-testid=rollcall]").await;
     browser
         .wait_for_attribute("[data-testid=units]", "data-count", "100", BUS_TIMEOUT)
         .await;
@@ -182,7 +247,7 @@ async fn a_factory_fresh_matrix_is_commissioned_from_a_phone_and_plays_where_its
 
     // Assign all in grid order: stations 1–100 by ascending serial, and a clean roll
     // call to confirm it.
-    browser.click("[data-testid=assign-all]").await;
+    tap(&browser, "[data-testid=assign-all]").await;
     browser
         .wait_for_attribute("[data-testid=roll-clean]", "class", "note done", BUS_TIMEOUT)
         .await;
@@ -207,16 +272,8 @@ async fn a_factory_fresh_matrix_is_commissioned_from_a_phone_and_plays_where_its
         .await;
     let mut expected = vec![0u8; UNITS];
     for station in 1..=UNITS as u8 {
-        browser
-            .click(&format!(
-                "[data-testid=unit][data-station='{station}'] [data-testid=unit-identify]"
-            ))
-            .await;
-        browser.wait_for("[data-testid=identified]").await;
-        let place = the_one_that_moves(&browser).await;
-        browser
-            .click(&format!("[data-testid=cell][data-cell='{place}']"))
-            .await;
+        let place = identify_and_watch(&browser, station).await;
+        tap(&browser, &format!("[data-testid=cell][data-cell='{place}']")).await;
         browser
             .wait_for_attribute(
                 &format!("[data-testid=cell][data-cell='{place}']"),
@@ -233,7 +290,7 @@ async fn a_factory_fresh_matrix_is_commissioned_from_a_phone_and_plays_where_its
         .await;
 
     // Save: the installation now lists, cell by cell, the station of the ball above.
-    browser.click("[data-testid=save-mapping]").await;
+    tap(&browser, "[data-testid=save-mapping]").await;
     browser.wait_for_text("[data-testid=toast]", "映射已保存").await;
     let saved = |installation: &Value| -> Vec<u8> {
         installation["gateways"][0]["stations"]

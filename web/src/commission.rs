@@ -12,8 +12,8 @@
 
 use floatball_shared::api::{Assignment, FoundUnit, InstallationInfo, RollCall};
 
-/// The line speeds a UIM2503 gateway offers (`BDR`), baud.
-pub const BAUD_RATES: [u32; 5] = [9600, 19200, 38400, 57600, 115200];
+/// The line speeds a UIM2503 gateway offers (`BDR`), baud: the planner's list.
+pub const BAUD_RATES: [u32; 5] = floatball_shared::plan::report::GATEWAY_BAUDS;
 
 /// The highest station a unit can be given (`SN[X]=s/n`, 1–127).
 pub const MAX_STATION: u8 = 127;
