@@ -69,7 +69,10 @@ fn spawn_reader(mut master: TTYPort, stop: Arc<AtomicBool>) -> mpsc::UnboundedRe
                 Ok(0) => {}
                 Ok(n) => {
                     partial.extend_from_slice(&buffer[..n]);
-                    let whole = partial.iter().rposition(|&b| b == b';').map_or(0, |i| i + 1);
+                    let whole = partial
+                        .iter()
+                        .rposition(|&b| b == b';')
+                        .map_or(0, |i| i + 1);
                     let mut chunk = Vec::new();
                     for instruction in partial[..whole].split_inclusive(|&b| b == b';') {
                         if instruction == b"ABC;" {

@@ -87,8 +87,14 @@ async fn unit_rows(browser: &Browser) -> Vec<(u64, u8, String)> {
         .iter()
         .map(|row| {
             (
-                row[0].as_str().and_then(|s| s.parse().ok()).expect("serial"),
-                row[1].as_str().and_then(|s| s.parse().ok()).expect("station"),
+                row[0]
+                    .as_str()
+                    .and_then(|s| s.parse().ok())
+                    .expect("serial"),
+                row[1]
+                    .as_str()
+                    .and_then(|s| s.parse().ok())
+                    .expect("station"),
                 row[2].as_str().unwrap_or_default().to_owned(),
             )
         })
@@ -208,7 +214,9 @@ async fn a_factory_fresh_matrix_is_commissioned_from_a_phone_and_plays_where_its
     let browser = Browser::open(&bridge).await;
     browser.first_login("commission-17").await;
     let installation = browser.get_json("/api/installation").await;
-    let counts_per_mm = installation["counts_per_mm"].as_f64().expect("counts_per_mm");
+    let counts_per_mm = installation["counts_per_mm"]
+        .as_f64()
+        .expect("counts_per_mm");
     let configured: Vec<u64> = installation["gateways"][0]["stations"]
         .as_array()
         .expect("stations")
@@ -249,18 +257,29 @@ async fn a_factory_fresh_matrix_is_commissioned_from_a_phone_and_plays_where_its
     // call to confirm it.
     tap(&browser, "[data-testid=assign-all]").await;
     browser
-        .wait_for_attribute("[data-testid=roll-clean]", "class", "note done", BUS_TIMEOUT)
+        .wait_for_attribute(
+            "[data-testid=roll-clean]",
+            "class",
+            "note done",
+            BUS_TIMEOUT,
+        )
         .await;
     let mut rows = unit_rows(&browser).await;
     rows.sort_by_key(|(serial, _, _)| *serial);
     let stations: Vec<u8> = rows.iter().map(|(_, station, _)| *station).collect();
     assert_eq!(stations, (1..=100).collect::<Vec<u8>>());
-    assert!(rows.iter().all(|(_, _, flags)| flags.is_empty()), "{rows:?}");
+    assert!(
+        rows.iter().all(|(_, _, flags)| flags.is_empty()),
+        "{rows:?}"
+    );
     // The simulator agrees: each unit answers on its serial's rank.
     let units = sim_units(&browser).await;
     for unit in &units {
         let serial = unit["serial"].as_u64().expect("serial");
-        let rank = rows.iter().position(|(s, _, _)| *s == serial).expect("listed");
+        let rank = rows
+            .iter()
+            .position(|(s, _, _)| *s == serial)
+            .expect("listed");
         assert_eq!(unit["station"].as_u64(), Some(rank as u64 + 1));
     }
     assert!(units.iter().all(|unit| !is_away(unit)));
@@ -273,7 +292,11 @@ async fn a_factory_fresh_matrix_is_commissioned_from_a_phone_and_plays_where_its
     let mut expected = vec![0u8; UNITS];
     for station in 1..=UNITS as u8 {
         let place = identify_and_watch(&browser, station).await;
-        tap(&browser, &format!("[data-testid=cell][data-cell='{place}']")).await;
+        tap(
+            &browser,
+            &format!("[data-testid=cell][data-cell='{place}']"),
+        )
+        .await;
         browser
             .wait_for_attribute(
                 &format!("[data-testid=cell][data-cell='{place}']"),
@@ -291,7 +314,9 @@ async fn a_factory_fresh_matrix_is_commissioned_from_a_phone_and_plays_where_its
 
     // Save: the installation now lists, cell by cell, the station of the ball above.
     tap(&browser, "[data-testid=save-mapping]").await;
-    browser.wait_for_text("[data-testid=toast]", "映射已保存").await;
+    browser
+        .wait_for_text("[data-testid=toast]", "映射已保存")
+        .await;
     let saved = |installation: &Value| -> Vec<u8> {
         installation["gateways"][0]["stations"]
             .as_array()
@@ -300,14 +325,20 @@ async fn a_factory_fresh_matrix_is_commissioned_from_a_phone_and_plays_where_its
             .map(|station| station.as_u64().expect("a station") as u8)
             .collect()
     };
-    assert_eq!(saved(&browser.get_json("/api/installation").await), expected);
+    assert_eq!(
+        saved(&browser.get_json("/api/installation").await),
+        expected
+    );
 
     // A restart keeps it: the file, and the units' own stations.
     bridge.restart().await;
     browser
         .wait_for_attribute(INDICATOR, "data-state", "connected", UI_TIMEOUT)
         .await;
-    assert_eq!(saved(&browser.get_json("/api/installation").await), expected);
+    assert_eq!(
+        saved(&browser.get_json("/api/installation").await),
+        expected
+    );
     let units = sim_units(&browser).await;
     let stations: Vec<u8> = units
         .iter()

@@ -195,7 +195,13 @@ impl Tour<'_> {
     async fn every_page(&mut self, lang: &str, show: &str) {
         self.language(lang).await;
         for page in [
-            "login", "files", "preview", "control", "settings", "console", "commission",
+            "login",
+            "files",
+            "preview",
+            "control",
+            "settings",
+            "console",
+            "commission",
         ] {
             self.open(page).await;
             if page == "preview" {

@@ -739,7 +739,10 @@ mod tests {
             Some(r#"{"assignments":[{"serial":7,"station":12}]}"#)
         );
 
-        let fake = bridge(202, r#"{"station":12,"distance_mm":300.0,"duration_ms":4000}"#);
+        let fake = bridge(
+            202,
+            r#"{"station":12,"distance_mm":300.0,"duration_ms":4000}"#,
+        );
         let client = Client::new(fake.clone(), "").with_token("t");
         assert_eq!(run(client.identify(0, 12, None)).unwrap().duration_ms, 4000);
         assert_eq!(fake.requests.borrow()[0].url, "/api/gateways/0/identify");

@@ -230,10 +230,9 @@ fn commissioning_bridge() -> Rc<FakeBridge> {
             Method::Get if url.ends_with("/api/installation") => {
                 json(200, &installation(vec![1, 2, 3, 4]))
             }
-            Method::Put if url.ends_with("/api/installation") => Answer::Now(answer(
-                200,
-                request.body.as_deref().unwrap_or_default(),
-            )),
+            Method::Put if url.ends_with("/api/installation") => {
+                Answer::Now(answer(200, request.body.as_deref().unwrap_or_default()))
+            }
             Method::Post if url.ends_with("/rollcall") => json(200, &fresh_roll_call()),
             Method::Post if url.ends_with("/assign") => json(200, &assigned_roll_call()),
             Method::Post if url.ends_with("/identify") => {
@@ -256,20 +255,29 @@ fn commissioning_bridge() -> Rc<FakeBridge> {
 async fn roll_call_flags_the_collision_and_assign_all_follows_the_serials() {
     let bridge = commissioning_bridge();
     let (container, _ctx) = mount(&bridge, Lang::En);
-    until("the installation is loaded", || all(&container, "grid").len() == 1).await;
+    until("the installation is loaded", || {
+        all(&container, "grid").len() == 1
+    })
+    .await;
     assert_eq!(all(&container, "cell").len(), 4);
     assert!(text(&container, "no-rollcall").contains("No roll call yet"));
     assert!(disabled(&container, "assign-all"));
 
     click(&container, "rollcall");
-    until("the units are listed", || all(&container, "unit").len() == 4).await;
+    until("the units are listed", || {
+        all(&container, "unit").len() == 4
+    })
+    .await;
     assert_eq!(
         bridge
             .requests_to(Method::Post, "/api/gateways/0/rollcall")
             .len(),
         1
     );
-    assert_eq!(attribute(&container, "duplicated-stations", "data-stations"), "5");
+    assert_eq!(
+        attribute(&container, "duplicated-stations", "data-stations"),
+        "5"
+    );
     assert_eq!(
         attribute(&container, "missing-stations", "data-stations"),
         "1, 2, 3, 4"
@@ -284,7 +292,10 @@ async fn roll_call_flags_the_collision_and_assign_all_follows_the_serials() {
     }
 
     click(&container, "assign-all");
-    until("a clean roll call", || all(&container, "roll-clean").len() == 1).await;
+    until("a clean roll call", || {
+        all(&container, "roll-clean").len() == 1
+    })
+    .await;
     let sent = bridge.requests_to(Method::Post, "/api/gateways/0/assign");
     let body: AssignRequest = serde_json::from_str(sent[0].body.as_deref().unwrap()).unwrap();
     let pairs: Vec<(u64, u8)> = body
@@ -293,21 +304,33 @@ async fn roll_call_flags_the_collision_and_assign_all_follows_the_serials() {
         .map(|one| (one.serial, one.station))
         .collect();
     assert_eq!(pairs, [(101, 1), (102, 2), (103, 3), (104, 4)]);
-    assert_eq!(text(&container, "toast"), "4 units were given their stations");
+    assert_eq!(
+        text(&container, "toast"),
+        "4 units were given their stations"
+    );
     // The last unit reported an overload: in words, and flagged.
     let fault = text(&container, "unit-fault");
     assert!(fault.contains("cannot follow"), "{fault}");
     let rows = all(&container, "unit");
-    assert_eq!(rows[3].get_attribute("data-flags").as_deref(), Some("fault"));
+    assert_eq!(
+        rows[3].get_attribute("data-flags").as_deref(),
+        Some("fault")
+    );
 }
 
 #[wasm_bindgen_test]
 async fn one_unit_gets_the_station_typed_and_a_bad_one_is_refused() {
     let bridge = commissioning_bridge();
     let (container, _ctx) = mount(&bridge, Lang::En);
-    until("the page is ready", || all(&container, "rollcall").len() == 1).await;
+    until("the page is ready", || {
+        all(&container, "rollcall").len() == 1
+    })
+    .await;
     click(&container, "rollcall");
-    until("the units are listed", || all(&container, "unit").len() == 4).await;
+    until("the units are listed", || {
+        all(&container, "unit").len() == 4
+    })
+    .await;
     // Units are listed by serial as the bridge sent them: 104 first.
     set_value(&container, "unit-station", "200", "input");
     click(&container, "unit-assign");
@@ -341,14 +364,23 @@ async fn identify_then_tap_maps_the_cell_and_save_puts_the_stations() {
     until("the page is ready", || all(&container, "grid").len() == 1).await;
     assert!(disabled(&container, "save-mapping"));
     click(&container, "rollcall");
-    until("the units are listed", || all(&container, "unit").len() == 4).await;
+    until("the units are listed", || {
+        all(&container, "unit").len() == 4
+    })
+    .await;
     click(&container, "assign-all");
-    until("a clean roll call", || all(&container, "roll-clean").len() == 1).await;
+    until("a clean roll call", || {
+        all(&container, "roll-clean").len() == 1
+    })
+    .await;
 
     // A distance that is not one is refused before anything is sent.
     set_value(&container, "identify-distance", "-3", "input");
     all(&container, "unit-identify")[0].click();
-    until("the refusal", || all(&container, "commission-error").len() == 1).await;
+    until("the refusal", || {
+        all(&container, "commission-error").len() == 1
+    })
+    .await;
     assert!(text(&container, "commission-error").contains("above 0"));
     assert!(
         bridge
@@ -368,11 +400,17 @@ async fn identify_then_tap_maps_the_cell_and_save_puts_the_stations() {
     assert!(text(&container, "identified").contains("station 1 moves 300 mm"));
     all(&container, "cell")[3].click();
     until("the cell is placed", || {
-        all(&container, "cell")[3].get_attribute("data-station").as_deref() == Some("1")
+        all(&container, "cell")[3]
+            .get_attribute("data-station")
+            .as_deref()
+            == Some("1")
     })
     .await;
     let cells = all(&container, "cell");
-    assert_eq!(cells[3].get_attribute("data-placed").as_deref(), Some("true"));
+    assert_eq!(
+        cells[3].get_attribute("data-placed").as_deref(),
+        Some("true")
+    );
     // Station 4 took cell 3's old place: no station twice.
     assert_eq!(cells[0].get_attribute("data-station").as_deref(), Some("4"));
     assert!(all(&container, "identified").is_empty());
@@ -412,9 +450,9 @@ async fn identify_then_tap_maps_the_cell_and_save_puts_the_stations() {
     assert_eq!(body.gateways[0].stations, [4, 2, 3, 1]);
     assert_eq!(body.rows, 2);
     until("the toast", || {
-        all(&container, "toast")
-            .first()
-            .is_some_and(|toast| toast.text_content().unwrap_or_default() == "Mapping saved and applied")
+        all(&container, "toast").first().is_some_and(|toast| {
+            toast.text_content().unwrap_or_default() == "Mapping saved and applied"
+        })
     })
     .await;
 }
@@ -439,7 +477,10 @@ async fn a_refused_save_lists_every_problem() {
     all(&container, "cell")[0].click();
     tick().await;
     click(&container, "save-mapping");
-    until("the refusal", || all(&container, "commission-error").len() == 1).await;
+    until("the refusal", || {
+        all(&container, "commission-error").len() == 1
+    })
+    .await;
     let problems = element(&container, "commission-problems");
     assert_eq!(problems.get_attribute("data-total").as_deref(), Some("2"));
     assert!(text(&container, "commission-problems").contains("two"));
@@ -452,7 +493,10 @@ async fn the_line_speed_change_explains_waits_and_reports() {
         _ => Answer::Hold,
     });
     let (container, _ctx) = mount(&bridge, Lang::En);
-    until("the page is ready", || all(&container, "baud-now").len() == 1).await;
+    until("the page is ready", || {
+        all(&container, "baud-now").len() == 1
+    })
+    .await;
     assert!(text(&container, "baud-now").contains("9600"));
     set_value(&container, "baud-select", "9600", "change");
     tick().await;
@@ -488,7 +532,10 @@ async fn the_line_speed_change_explains_waits_and_reports() {
         r#"{"error":"the matrix is not idle","code":"playlist_locked"}"#,
     ));
     until("the result", || all(&container, "baud-result").len() == 1).await;
-    assert_eq!(attribute(&container, "baud-result", "data-outcome"), "error");
+    assert_eq!(
+        attribute(&container, "baud-result", "data-outcome"),
+        "error"
+    );
     assert!(!text(&container, "baud-result").is_empty());
 }
 
@@ -500,7 +547,10 @@ async fn the_page_speaks_chinese_too() {
     assert_eq!(text(&container, "rollcall"), "点名");
     assert_eq!(text(&container, "save-mapping"), "保存映射");
     click(&container, "rollcall");
-    until("the units are listed", || all(&container, "unit").len() == 4).await;
+    until("the units are listed", || {
+        all(&container, "unit").len() == 4
+    })
+    .await;
     assert!(text(&container, "duplicated-stations").contains("多个单元共用的站号"));
     ctx.lang.set(Lang::En);
     tick().await;
@@ -510,4 +560,40 @@ async fn the_page_speaks_chinese_too() {
 
 fn disabled(container: &web_sys::HtmlElement, test_id: &str) -> bool {
     element(container, test_id).has_attribute("disabled")
+}
+
+#[wasm_bindgen_test]
+async fn a_new_line_speed_keeps_the_cells_placed_so_far() {
+    let bridge = FakeBridge::new(|request| match request.method {
+        Method::Get => json(200, &installation(vec![1, 2, 3, 4])),
+        _ if request.url.ends_with("/identify") => Answer::Now(answer(
+            202,
+            r#"{"station":3,"distance_mm":300.0,"duration_ms":3000}"#,
+        )),
+        _ => Answer::Now(answer(
+            200,
+            r#"{"from_baud":9600,"baud":115200,"took_ms":800}"#,
+        )),
+    });
+    let (container, _ctx) = mount(&bridge, Lang::En);
+    until("the page is ready", || all(&container, "cell").len() == 4).await;
+    all(&container, "cell")[2].click();
+    until("identified", || all(&container, "identified").len() == 1).await;
+    all(&container, "cell")[0].click();
+    tick().await;
+    assert_eq!(
+        all(&container, "cell")[0].get_attribute("data-station").as_deref(),
+        Some("3")
+    );
+    set_value(&container, "baud-select", "115200", "change");
+    tick().await;
+    click(&container, "baud-change");
+    tick().await;
+    click(&container, "baud-confirm");
+    until("the result", || all(&container, "baud-result").len() == 1).await;
+    assert!(text(&container, "baud-now").contains("115200"));
+    let cells = all(&container, "cell");
+    assert_eq!(cells[0].get_attribute("data-station").as_deref(), Some("3"));
+    assert_eq!(cells[0].get_attribute("data-placed").as_deref(), Some("true"));
+    assert!(!disabled(&container, "save-mapping"));
 }

@@ -15,8 +15,8 @@ use leptos::task::spawn_local;
 
 use crate::client::Failure;
 use crate::commission::{
-    BAUD_RATES, Mapping, Tap, age_text, grid_order, parse_distance, parse_station,
-    position_text, roll_call_clean, unit_flags,
+    BAUD_RATES, Mapping, Tap, age_text, grid_order, parse_distance, parse_station, position_text,
+    roll_call_clean, unit_flags,
 };
 use crate::components::control::ControlTabs;
 use crate::components::widgets::{ErrorNote, ProblemList, TextField};
@@ -111,11 +111,12 @@ fn GatewayPanel(
     let identified = RwSignal::new(None::<u8>);
     let moving = RwSignal::new(None::<String>);
     let mapping = RwSignal::new(None::<Mapping>);
-    // The mapping starts from the installation, and again after every save.
-    Effect::new(move |_| {
-        let fresh = info.with(|info| info.as_ref().and_then(|info| Mapping::new(info, gateway)));
-        mapping.set(fresh);
+    // The mapping starts from the installation's stations, and again whenever they
+    // change (a save); a new line speed leaves the taps made so far alone.
+    let saved = Memo::new(move |_| {
+        info.with(|info| info.as_ref().and_then(|info| Mapping::new(info, gateway)))
     });
+    Effect::new(move |_| mapping.set(saved.get()));
     let title = move || {
         info.with(|info| {
             let port = info
@@ -580,7 +581,10 @@ fn BaudChange(gateway: usize, info: RwSignal<Option<InstallationInfo>>) -> impl 
             let outcome = match client.change_baud(gateway, baud).await {
                 Ok(changed) => {
                     info.update(|info| {
-                        if let Some(one) = info.as_mut().and_then(|info| info.gateways.get_mut(gateway)) {
+                        if let Some(one) = info
+                            .as_mut()
+                            .and_then(|info| info.gateways.get_mut(gateway))
+                        {
                             one.baud = Some(changed.baud);
                         }
                     });
@@ -603,7 +607,8 @@ fn BaudChange(gateway: usize, info: RwSignal<Option<InstallationInfo>>) -> impl 
             })
             .collect_view()
     };
-    let stage = move || match step.get() {
+    let stage = move || {
+        match step.get() {
         BaudStep::Idle => ().into_any(),
         BaudStep::Explain => view! {
             <div class="note" data-testid="baud-explain">
@@ -645,6 +650,7 @@ fn BaudChange(gateway: usize, info: RwSignal<Option<InstallationInfo>>) -> impl 
             </div>
         }
         .into_any(),
+    }
     };
     view! {
         <h4>{move || ctx.t(Text::LineSpeed)}</h4>

@@ -157,7 +157,11 @@ mod tests {
             distance_mm: 300.0,
             duration_ms: 4000,
         };
-        assert!(Lang::En.identifying(&moving).contains("station 12 moves 300 mm"));
+        assert!(
+            Lang::En
+                .identifying(&moving)
+                .contains("station 12 moves 300 mm")
+        );
         assert_eq!(Lang::En.cell_label(0, 2, 3), "row 1, column 3: station 3");
     }
 }
