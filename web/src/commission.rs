@@ -88,16 +88,23 @@ pub fn parse_station(text: &str) -> Option<u8> {
         .filter(|station| (1..=MAX_STATION).contains(station))
 }
 
+/// An identify distance that is not a positive number of mm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BadDistance;
+
 /// The identify distance as typed, mm: empty for the bridge's default (`Ok(None)`),
-/// else a positive number (a decimal point or comma allowed); `Err` otherwise.
-pub fn parse_distance(text: &str) -> Result<Option<f64>, ()> {
+/// else a positive number (a decimal point or comma allowed).
+///
+/// # Errors
+/// [`BadDistance`] for anything else.
+pub fn parse_distance(text: &str) -> Result<Option<f64>, BadDistance> {
     let text = text.trim();
     if text.is_empty() {
         return Ok(None);
     }
     match text.replace(',', ".").parse::<f64>() {
         Ok(mm) if mm.is_finite() && mm > 0.0 => Ok(Some(mm)),
-        _ => Err(()),
+        _ => Err(BadDistance),
     }
 }
 
@@ -383,7 +390,7 @@ mod tests {
         assert_eq!(parse_distance(" 20 "), Ok(Some(20.0)));
         assert_eq!(parse_distance("12,5"), Ok(Some(12.5)));
         for bad in ["0", "-5", "x", "inf", "NaN"] {
-            assert_eq!(parse_distance(bad), Err(()), "{bad}");
+            assert_eq!(parse_distance(bad), Err(BadDistance), "{bad}");
         }
     }
 

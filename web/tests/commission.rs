@@ -582,7 +582,9 @@ async fn a_new_line_speed_keeps_the_cells_placed_so_far() {
     all(&container, "cell")[0].click();
     tick().await;
     assert_eq!(
-        all(&container, "cell")[0].get_attribute("data-station").as_deref(),
+        all(&container, "cell")[0]
+            .get_attribute("data-station")
+            .as_deref(),
         Some("3")
     );
     set_value(&container, "baud-select", "115200", "change");
@@ -594,6 +596,9 @@ async fn a_new_line_speed_keeps_the_cells_placed_so_far() {
     assert!(text(&container, "baud-now").contains("115200"));
     let cells = all(&container, "cell");
     assert_eq!(cells[0].get_attribute("data-station").as_deref(), Some("3"));
-    assert_eq!(cells[0].get_attribute("data-placed").as_deref(), Some("true"));
+    assert_eq!(
+        cells[0].get_attribute("data-placed").as_deref(),
+        Some("true")
+    );
     assert!(!disabled(&container, "save-mapping"));
 }
