@@ -9,7 +9,9 @@ use std::time::{Duration, Instant};
 use axum::http::{Method, StatusCode};
 use common::process::Process;
 use common::{Reply, status_until};
-use floatball_shared::api::{AssignRequest, Assignment, Identifying, RollCall, SimPositions};
+use floatball_shared::api::{
+    AssignRequest, Assignment, Identifying, PlayerState, RollCall, SimPositions,
+};
 
 const CONFIG: &str = "[matrix]\nrows = 10\ncols = 10\n[[gateway]]\nport = \"sim\"\nbaud = 9600\n";
 
@@ -78,6 +80,8 @@ fn assert_clean(call: &RollCall, serials: &[u64]) {
 async fn a_factory_fresh_gateway_is_commissioned_and_keeps_its_stations() {
     let bridge = Process::start_with_args(CONFIG, &["--sim-factory-fresh"]);
     let token = bridge.operator().await;
+    let mut ws = bridge.ws(&token).await;
+    assert!(common::process::links_up(&mut ws).await);
 
     // Every unit answers on the factory station 5.
     let fresh = roll_call(&bridge, &token).await;
@@ -136,7 +140,6 @@ async fn a_factory_fresh_gateway_is_commissioned_and_keeps_its_stations() {
     );
 
     // The health in the status says so.
-    let mut ws = bridge.ws(&token).await;
     status_until(&mut ws, Duration::from_secs(5), |status| {
         status
             .gateways
@@ -262,5 +265,70 @@ async fn a_factory_fresh_gateway_is_commissioned_and_keeps_its_stations() {
     let reply = bridge.login(common::PASSWORD).await;
     assert_eq!(reply.status, StatusCode::OK);
     let token = reply.json::<floatball_shared::api::LoginResponse>().token;
+    let mut ws = bridge.ws(&token).await;
+    assert!(common::process::links_up(&mut ws).await);
     assert_clean(&roll_call(&bridge, &token).await, &serials);
+}
+
+#[tokio::test]
+async fn commissioning_waits_for_a_matrix_at_rest_and_moves_nothing_after_an_estop() {
+    let bridge = Process::start(
+        "[matrix]\nrows = 2\ncols = 2\n[[gateway]]\nport = \"sim\"\n\
+         [safety]\napproach_speed_mm_s = 2000.0\n",
+    );
+    let show = common::show_json("dip", 2, 2, 30.0);
+    let token = bridge.prepare_show("dip", &show, true).await;
+    let mut ws = bridge.ws(&token).await;
+    assert!(common::process::links_up(&mut ws).await);
+    common::send_text(&mut ws, r#"{"type":"start"}"#).await;
+    status_until(&mut ws, Duration::from_secs(10), |status| {
+        status.state == PlayerState::Playing
+    })
+    .await;
+    for path in [
+        "/api/gateways/0/rollcall",
+        "/api/gateways/0/identify",
+        "/api/gateways/0/assign",
+    ] {
+        let body = serde_json::json!({"station": 1, "assignments": [{"serial": 1, "station": 2}]});
+        let reply = post(&bridge, &token, path, body).await;
+        assert_eq!(reply.status, StatusCode::CONFLICT, "{path}");
+        let error = reply.error();
+        assert_eq!(error.code, "commission_not_idle", "{path}");
+        assert_eq!(error.params["state"], "playing");
+    }
+
+    common::send_text(&mut ws, r#"{"type":"estop"}"#).await;
+    status_until(&mut ws, Duration::from_secs(5), |status| {
+        status.state == PlayerState::Stopped
+    })
+    .await;
+    // Stopped is at rest: the roll call (queries only) runs; nothing moves or is
+    // renumbered while the e-stop is latched.
+    let reply = post(
+        &bridge,
+        &token,
+        "/api/gateways/0/rollcall",
+        serde_json::json!({}),
+    )
+    .await;
+    assert_eq!(reply.status, StatusCode::OK);
+    let call: RollCall = reply.json();
+    assert_eq!(call.units.len(), 4);
+    assert!(call.missing.is_empty() && call.duplicated.is_empty());
+    assert!(call.units.iter().all(|unit| unit.position_mm.is_some()));
+    for (path, body) in [
+        (
+            "/api/gateways/0/identify",
+            serde_json::json!({"station": 1}),
+        ),
+        (
+            "/api/gateways/0/assign",
+            serde_json::json!({"assignments": [{"serial": call.units[0].serial, "station": 9}]}),
+        ),
+    ] {
+        let reply = post(&bridge, &token, path, body).await;
+        assert_eq!(reply.status, StatusCode::CONFLICT, "{path}");
+        assert_eq!(reply.error().code, "estop_latched", "{path}");
+    }
 }

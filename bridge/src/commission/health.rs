@@ -8,7 +8,7 @@
 //!   answering; `ER` frames are the units' last faults; `SN` answers tell who is on a
 //!   station);
 //! - a **light probe while the matrix is at rest**: one configured station's `*s;SN;`
-//!   per [`PROBE_PERIOD`] (6 bytes out, 12 back: about 2 % of a 9600-baud line), and
+//!   per [`PROBE_PERIOD`] (6 bytes out, 12 back: about 1 % of a 9600-baud line), and
 //!   only after the line has carried nothing but greetings and probes for
 //!   [`QUIET_BEFORE_PROBING`]. It never probes while a show plays, loads or streams,
 //!   while a Start is being prepared, or while a commissioning call is under way.
@@ -32,7 +32,7 @@ pub const PROBE_PERIOD: Duration = Duration::from_secs(1);
 
 /// How long the line must have been quiet (nothing but greetings and probes) before
 /// the probe starts.
-pub const QUIET_BEFORE_PROBING: Duration = Duration::from_secs(10);
+pub const QUIET_BEFORE_PROBING: Duration = Duration::from_secs(30);
 
 /// Bytes per [`PROBE_PERIOD`] others may write without the line counting as in use (the
 /// link's own greeting, `ABC;`, every two seconds or so).
@@ -265,7 +265,10 @@ pub async fn monitor(
                 Err(broadcast::error::RecvError::Closed) => return,
             },
             report = reports.recv() => match report {
-                Some(Report::RollCall(call, stations)) => book.roll_call(&call, &stations),
+                Some(Report::RollCall(call, stations)) => {
+                    book.roll_call(&call, &stations);
+                    publish(&health, &book);
+                }
                 Some(Report::Faults(reply)) => { let _ = reply.send(book.faults()); }
                 None => return,
             },
@@ -296,17 +299,23 @@ pub async fn monitor(
                         book.close_probe();
                     }
                 }
+                publish(&health, &book);
             }
         }
-        health.send_if_modified(|published| {
-            let current = book.health();
-            let changed = *published != current;
-            if changed {
-                *published = current;
-            }
-            changed
-        });
     }
+}
+
+/// Publishes the record if it changed (frames are taken at once, published with the
+/// next tick: a show's thousands of answers a second cost no snapshot each).
+fn publish(health: &watch::Sender<Option<UnitHealth>>, book: &HealthBook) {
+    let current = book.health();
+    health.send_if_modified(|published| {
+        let changed = *published != current;
+        if changed {
+            *published = current;
+        }
+        changed
+    });
 }
 
 fn take_frame(book: &mut HealthBook, frame: &Frame) {
