@@ -20,6 +20,7 @@ use std::sync::{Arc, RwLock};
 
 use floatball_shared::api::FeedbackFrame;
 use floatball_shared::ascii::{Batch, EncodeError, Form};
+use floatball_shared::plan::installation::SIM_PORT;
 use floatball_shared::plan::{DriveKind, Installation};
 use floatball_shared::sim::GatewayConfig;
 use tokio::sync::broadcast;
@@ -148,30 +149,40 @@ impl Gateways {
         }
     }
 
-    /// Applies a new UIM2503 `installation` (the player is idle; the caller makes
-    /// sure): a link whose gateway keeps its port and baud is kept; the others close
-    /// (when their last handle goes) and the new or changed ones open. A simulated
-    /// gateway kept keeps its units where they are (their stations are theirs, as a
-    /// real unit's are in its flash). Returns the links now and what changed.
-    pub fn reopen(&self, installation: &Installation) -> (Arc<Vec<Link>>, Reopened) {
+    /// Applies a new UIM2503 `installation` in place of `before` (the player is idle;
+    /// the caller makes sure): a link whose gateway keeps its port and baud is kept;
+    /// the others close (when their last handle goes) and the new or changed ones
+    /// open. A simulated gateway kept keeps its units where they are (their stations
+    /// are theirs, as a real unit's are in its flash); one whose number of units
+    /// changes restarts with the new units. Returns the links now and what changed.
+    pub fn reopen(
+        &self,
+        before: &Installation,
+        installation: &Installation,
+    ) -> (Arc<Vec<Link>>, Reopened) {
         let old = self.links();
         let mut reopened = Reopened {
             removed: old.len().saturating_sub(installation.gateways.len()),
             ..Reopened::default()
         };
-        // Close the changed links first, so that a port reopened at another speed is
-        // free again (a serial link retries its port until it is).
+        // A changed serial link's port is free once its last handle goes (the
+        // player's, when it takes the new links); the new link retries it until then.
         let kept: Vec<Option<Link>> = installation
             .gateways
             .iter()
             .enumerate()
             .map(|(index, gateway)| {
+                let units = installation.stations_on(index).len();
                 old.get(index)
-                    .filter(|link| link.port() == gateway.port && link.baud() == gateway.baud)
+                    .filter(|link| {
+                        link.port() == gateway.port
+                            && link.baud() == gateway.baud
+                            && (gateway.port != SIM_PORT
+                                || before.stations_on(index).len() == units)
+                    })
                     .cloned()
             })
             .collect();
-        self.swap(Vec::new());
         drop(old);
         let links: Vec<Link> = kept
             .into_iter()

@@ -4,8 +4,8 @@
 //! The one path that changes the configuration while the bridge runs, under the
 //! catalogue lock (so no Start can begin meanwhile):
 //! 1. refused while the player is not idle or a Start is pending
-//!    ([`InstallError::Busy`]), and for MBOX boxes and MOONS' drives
-//!    ([`InstallError::NotLive`]: their gateways hold more than the API says);
+//!    ([`InstallError::Busy`]), and a change to the gateways of MBOX boxes or MOONS'
+//!    drives ([`InstallError::NotLive`]: their tables hold more than the API says);
 //! 2. `floatball.toml` edited ([`crate::config::edit`], comments and other keys kept)
 //!    and checked as `floatball check` checks it, every problem listed
 //!    ([`InstallError::Invalid`]); nothing is written unless it passes;
@@ -18,10 +18,13 @@
 //!    back.
 //!
 //! What is live: the matrix (rows, cols, pitch, travel, limits, calibration, home,
-//! approach speed) and the UIM2503 gateways (port, baud, stations, how many). What is
-//! not: everything else in the file (listen, origins, uploads, the e-stop), which
-//! `PUT` does not change, and MBOX / SCL installations (a restart).
+//! approach speed; for MBOX boxes and MOONS' drives too, as long as their gateways'
+//! stations stay the same) and the UIM2503 gateways (port, baud, stations, how many).
+//! What is not: everything else in the file (listen, origins, uploads, the e-stop,
+//! `[mbox]`, `[scl]`), which `PUT` does not change, and the gateways of MBOX boxes
+//! and MOONS' drives (refused: edit the file and restart).
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use floatball_shared::api::{
@@ -131,11 +134,12 @@ pub async fn put(
     idle(state)?;
     let current = state.config();
     let current_info = info(&current.installation);
-    if current.mbox.is_some() || current.scl.is_some() {
-        if new == current_info {
-            return Ok(new);
-        }
-        return Err(InstallError::NotLive);
+    if new.gateways.is_empty() {
+        // The file would fall back to the one simulated gateway of a file without any.
+        return Err(InstallError::Invalid(vec![ConfigError::File {
+            path: state.data_dir().join(config::FILE_NAME),
+            reason: "there is no gateway: an installation needs at least one".to_owned(),
+        }]));
     }
     if edit::gateways_changed(&current_info, &new) {
         return Err(InstallError::NotLive);
@@ -241,10 +245,24 @@ async fn save_and_apply(
     }
     write(&dir, text).await?;
     let before = state.gateways().links();
-    let (links, reopened) = state.gateways().reopen(&config.installation);
+    // MBOX boxes and MOONS' drives keep their sockets and links: their gateways did
+    // not change (`put` refuses that).
+    let fixed = config.mbox.is_some() || config.scl.is_some();
+    let (links, opened) = if fixed {
+        (Arc::clone(&before), Vec::new())
+    } else {
+        let (links, reopened) = state
+            .gateways()
+            .reopen(&current.installation, &config.installation);
+        (links, reopened.opened)
+    };
+    let mbox = config
+        .mbox
+        .as_ref()
+        .map(|mbox| crate::state::mbox_player_config(&config.installation, mbox));
     if let Err(error) = state
         .playback()
-        .reconfigure(config.installation.clone(), links, reopened.opened)
+        .reconfigure(config.installation.clone(), mbox, links, opened)
         .await
     {
         state.gateways().restore(before);

@@ -20,9 +20,10 @@
 //! and its publication; the drives' runs are [`crate::scl::player`]'s.
 //!
 //! **A new installation while idle.** [`Playback::reconfigure`] hands the task a new
-//! UIM2503 installation and its links (`crate::gateways::Gateways::reopen`); the task
-//! takes it only while the player is idle (a new player, the new links, their
-//! feedback relayed) and refuses it otherwise, as the MBOX and SCL tasks always do.
+//! installation: UIM2503 with its links (`crate::gateways::Gateways::reopen`), MBOX
+//! with its player's configuration, SCL alone (the same boxes and drives: only the
+//! matrix's limits change there). The task takes it only while the player is idle (a
+//! new player, the new links, their feedback relayed) and refuses it otherwise.
 //! The handle's installation and links are a snapshot the task's acceptance replaces.
 //!
 //! **A stalled link is a fault.** While a playlist runs, a link that has bytes queued
@@ -77,13 +78,17 @@ enum Request {
     },
     /// Look at the latch now (the e-stop was pressed).
     Estop,
-    /// A new installation, taken only while idle ([`Playback::reconfigure`]).
-    Reconfigure(Reconfigure),
+    /// A new installation, taken only while idle ([`Playback::reconfigure`]); boxed:
+    /// it is much larger than the other requests.
+    Reconfigure(Box<Reconfigure>),
 }
 
-/// A new UIM2503 installation for the player, with its links.
+/// A new installation for the player, with its links (UIM2503) or its boxes'
+/// calibration (MBOX).
 struct Reconfigure {
     installation: Installation,
+    /// The MBOX player's configuration, for an installation of MBOX boxes.
+    mbox: Option<MboxPlayerConfig>,
     links: Arc<Vec<Link>>,
     /// The gateways whose link is new (its feedback is not relayed yet).
     opened: Vec<usize>,
@@ -99,8 +104,9 @@ pub enum ReconfigureError {
         /// The player's state, as the status names it.
         state: String,
     },
-    /// MBOX boxes and MOONS' drives take a new installation only at a restart.
-    #[error("an installation of MBOX boxes or MOONS' drives is applied at the next start")]
+    /// The task does not take this installation live (an MBOX player without its
+    /// boxes' configuration).
+    #[error("this installation is applied at the next start")]
     NotLive,
     /// The playback task is gone (the bridge is shutting down).
     #[error("the player is not running")]
@@ -477,27 +483,30 @@ impl Playback {
         }
     }
 
-    /// Hands the player a new UIM2503 `installation` and its `links` (those of the
-    /// gateways in `opened` are new): taken only while the player is idle, when the
-    /// player starts anew on it.
+    /// Hands the player a new `installation` and its `links` (UIM2503: those of the
+    /// gateways in `opened` are new; the others: the same empty list) and, for MBOX
+    /// boxes, the MBOX player's configuration `mbox`: taken only while the player is
+    /// idle, when the player starts anew on it.
     ///
     /// # Errors
-    /// [`ReconfigureError`]: not idle, an MBOX or SCL installation, or the task gone;
-    /// nothing changed.
+    /// [`ReconfigureError`]: not idle, an MBOX installation without `mbox`, or the
+    /// task gone; nothing changed.
     pub async fn reconfigure(
         &self,
         installation: Installation,
+        mbox: Option<MboxPlayerConfig>,
         links: Arc<Vec<Link>>,
         opened: Vec<usize>,
     ) -> Result<(), ReconfigureError> {
         let (reply, answer) = oneshot::channel();
         self.requests
-            .send(Request::Reconfigure(Reconfigure {
+            .send(Request::Reconfigure(Box::new(Reconfigure {
                 installation: installation.clone(),
+                mbox,
                 links: Arc::clone(&links),
                 opened,
                 reply,
-            }))
+            })))
             .map_err(|_| ReconfigureError::Gone)?;
         answer.await.map_err(|_| ReconfigureError::Gone)??;
         self.set_live(Some(Arc::new(installation)), Some(links));
@@ -539,12 +548,7 @@ fn reconfigure_player(
     frames_tx: &mpsc::UnboundedSender<(usize, floatball_shared::feedback::Frame)>,
     change: Reconfigure,
 ) {
-    let state = player.status().state;
-    let result = if player.is_running() || state != floatball_shared::api::PlayerState::Idle {
-        Err(ReconfigureError::NotIdle {
-            state: format!("{state:?}").to_lowercase(),
-        })
-    } else {
+    let result = idle_for_reconfigure(player.status().state, player.is_running()).map(|()| {
         *player = Player::new(PlayerConfig {
             installation: change.installation,
         });
@@ -554,14 +558,60 @@ fn reconfigure_player(
                 relay_to_player(gateway, link, frames_tx.clone());
             }
         }
-        Ok(())
-    };
+    });
     let _ = change.reply.send(result);
 }
 
-/// The MBOX and SCL tasks' answer to [`Playback::reconfigure`]: not live.
-fn refuse_reconfigure(change: Reconfigure) {
+/// A task's answer to a [`Playback::reconfigure`] it cannot take (a UIM2503 or SCL
+/// task's [`handle`] never sees one: they are taken before).
+fn refuse_reconfigure(change: Box<Reconfigure>) {
     let _ = change.reply.send(Err(ReconfigureError::NotLive));
+}
+
+/// The answer while the player is `state` (`running`: a run is under way): idle or
+/// not.
+fn idle_for_reconfigure(
+    state: floatball_shared::api::PlayerState,
+    running: bool,
+) -> Result<(), ReconfigureError> {
+    if running || state != floatball_shared::api::PlayerState::Idle {
+        Err(ReconfigureError::NotIdle {
+            state: state.as_str().to_owned(),
+        })
+    } else {
+        Ok(())
+    }
+}
+
+/// The MBOX task's side of [`Playback::reconfigure`]: while idle, a new MBOX player
+/// on the new configuration (the boxes stay: their gateways did not change).
+fn reconfigure_mbox(player: &mut MboxPlayer, change: Reconfigure) {
+    let result =
+        idle_for_reconfigure(player.status().state, player.is_running()).and_then(
+            |()| match change.mbox {
+                Some(config) => {
+                    *player = MboxPlayer::new(config);
+                    Ok(())
+                }
+                None => Err(ReconfigureError::NotLive),
+            },
+        );
+    let _ = change.reply.send(result);
+}
+
+/// The SCL task's side of [`Playback::reconfigure`]: while idle (`state`, no run
+/// under way), the new installation for the next run (the drives stay: their
+/// gateway entries did not change).
+fn reconfigure_scl(
+    installation: &mut Arc<Installation>,
+    state: floatball_shared::api::PlayerState,
+    running: bool,
+    change: Reconfigure,
+) {
+    let result = idle_for_reconfigure(state, running).map(|()| {
+        *installation = Arc::new(change.installation);
+    });
+    let _ = change.reply.send(result);
 }
 
 /// How long a link may hold queued bytes without writing any while a show runs
@@ -823,7 +873,7 @@ async fn run(
             player.estop();
         }
         if let Some(Request::Reconfigure(change)) = request {
-            reconfigure_player(&mut player, &mut links, &frames_tx, change);
+            reconfigure_player(&mut player, &mut links, &frames_tx, *change);
             watchdog = Watchdog::new(&links);
             request = None;
         }
@@ -965,6 +1015,10 @@ async fn run_mbox(
         if generation != seen_generation {
             seen_generation = generation;
             player.estop();
+        }
+        if let Some(Request::Reconfigure(change)) = request {
+            reconfigure_mbox(&mut player, *change);
+            request = None;
         }
         if let Some(request) = request
             && let Some((generation, reply, result)) =
@@ -1125,7 +1179,7 @@ impl SclStatus {
 /// ends the run (its requests are void already) and the state is `stopped`.
 async fn run_scl(
     drives: SclNet,
-    installation: Arc<Installation>,
+    mut installation: Arc<Installation>,
     scl: Arc<SclConfig>,
     latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
@@ -1234,7 +1288,8 @@ async fn run_scl(
                     continue;
                 }
                 Request::Reconfigure(change) => {
-                    refuse_reconfigure(change);
+                    let idle = status.borrow().state;
+                    reconfigure_scl(&mut installation, idle, running.is_some(), *change);
                     continue;
                 }
             };

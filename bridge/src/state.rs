@@ -31,6 +31,7 @@ use crate::scl::SclNet;
 use crate::simulate::mbox::{MboxBoxes, MboxOptions};
 use crate::simulate::scl::{DEFAULT_START_WIRE, SimDrives, parse_start_wire};
 use crate::store::{ShowStore, StoreError};
+use floatball_shared::plan::Installation;
 use floatball_shared::plan::mbox::MboxPlayerConfig;
 use std::net::SocketAddr;
 
@@ -194,6 +195,15 @@ fn open_drives(scl: &SclConfig) -> Result<(SclConfig, Option<SimDrives>), OpenEr
     Ok((resolved, Some(sims)))
 }
 
+/// The MBOX player's configuration for `installation` on the boxes of `mbox`.
+pub fn mbox_player_config(installation: &Installation, mbox: &MboxConfig) -> MboxPlayerConfig {
+    MboxPlayerConfig {
+        installation: installation.clone(),
+        boxes: mbox.boxes.iter().map(|one| one.calibration).collect(),
+        period_us: u64::try_from(mbox.frame_period.as_micros()).unwrap_or(20_000),
+    }
+}
+
 impl AppState {
     /// Opens the data directory (creating what is missing) for a bridge with `config`,
     /// reading time from `clock`, and opens the links to the gateways. Must run inside
@@ -245,11 +255,7 @@ impl AppState {
             }
             (Some(mbox), None) => {
                 let (boxes, sims) = open_boxes(mbox, &latch)?;
-                let player = MboxPlayerConfig {
-                    installation: config.installation.clone(),
-                    boxes: mbox.boxes.iter().map(|one| one.calibration).collect(),
-                    period_us: u64::try_from(mbox.frame_period.as_micros()).unwrap_or(20_000),
-                };
+                let player = mbox_player_config(&config.installation, mbox);
                 (
                     Playback::spawn_mbox(player, boxes, Arc::clone(&latch)),
                     sims,

@@ -100,6 +100,14 @@ async fn a_new_installation_is_saved_with_its_comments_applied_at_once_and_kept_
     assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
     assert_eq!(reply.json::<InstallationInfo>(), wanted);
     assert_eq!(get_installation(&bridge, &token).await, wanted);
+    // The simulated gateway has its third ball now.
+    let sim = positions(&bridge, &token).await;
+    let stations: Vec<u8> = sim.gateways[0]
+        .units
+        .iter()
+        .map(|unit| unit.station)
+        .collect();
+    assert_eq!(stations, [1, 2, 3]);
 
     let text = file(&bridge);
     for kept in [
@@ -198,6 +206,17 @@ async fn an_invalid_installation_lists_every_problem_and_changes_nothing() {
     assert_eq!(reply.status, StatusCode::UNPROCESSABLE_ENTITY);
     let error = reply.error();
     assert!(error.details.join(" ").contains('7'), "{error:?}");
+
+    // No gateway at all.
+    let mut none = before.clone();
+    none.gateways.clear();
+    let reply = put_installation(&bridge, Some(&token), &none).await;
+    assert_eq!(reply.status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(
+        reply.error().details[0].contains("no gateway"),
+        "{:?}",
+        reply.error()
+    );
 
     // Not JSON of an installation: 400.
     let reply = bridge
@@ -376,19 +395,84 @@ async fn a_gateway_line_speed_changes_live_and_is_saved() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn an_mbox_installation_is_changed_only_in_the_file() {
+async fn an_mbox_installation_takes_new_limits_live_but_not_new_gateways() {
     let config =
         "[matrix]\nrows = 1\ncols = 3\n[[gateway]]\nkind = \"mbox\"\nport = \"sim\"\naxes = 3\n";
     let bridge = Process::start(config);
     let token = bridge.operator().await;
     let before = get_installation(&bridge, &token).await;
-    // The same installation: nothing to do.
+    // The same installation: nothing changes.
     let same = put_installation(&bridge, Some(&token), &before).await;
     assert_eq!(same.status, StatusCode::OK, "{:?}", same.body);
-    let mut faster = before.clone();
-    faster.max_speed_mm_s = 1000.0;
-    let reply = put_installation(&bridge, Some(&token), &faster).await;
+    assert_eq!(file(&bridge), config);
+
+    // Its gateways' stations (the boxes' axes): only in the file.
+    let mut axes = before.clone();
+    axes.gateways[0].stations = vec![3, 2, 1];
+    let reply = put_installation(&bridge, Some(&token), &axes).await;
     assert_eq!(reply.status, StatusCode::CONFLICT);
     assert_eq!(reply.error().code, "installation_not_live");
     assert_eq!(file(&bridge), config);
+
+    // A slower top speed: saved and used at once (the plan refuses a fast show).
+    let mut slower = before.clone();
+    slower.max_speed_mm_s = 100.0;
+    slower.approach_speed_mm_s = 50.0;
+    let reply = put_installation(&bridge, Some(&token), &slower).await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    let text = file(&bridge);
+    assert!(text.contains("max_speed_mm_s = 100.0"), "{text}");
+    assert!(
+        text.contains("[[gateway]]\nkind = \"mbox\"\nport = \"sim\"\naxes = 3\n"),
+        "{text}"
+    );
+    let upload = bridge
+        .upload(
+            &token,
+            "fast",
+            "text/csv",
+            &csv(&[500.0, 500.0, 500.0], 500),
+        )
+        .await;
+    assert_eq!(upload.status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(
+        upload.error().details.join(" ").contains("100"),
+        "{:?}",
+        upload.error()
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_scl_installation_takes_new_limits_live() {
+    let config =
+        "[matrix]\nrows = 1\ncols = 3\n[[gateway]]\nkind = \"scl\"\nport = \"sim\"\nunits = 3\n";
+    let bridge = Process::start(config);
+    let token = bridge.operator().await;
+    let before = get_installation(&bridge, &token).await;
+    let mut places = before.clone();
+    places.gateways[0].stations = vec![1, 2];
+    let reply = put_installation(&bridge, Some(&token), &places).await;
+    assert_eq!(reply.status, StatusCode::CONFLICT);
+    assert_eq!(reply.error().code, "installation_not_live");
+
+    let mut slower = before.clone();
+    slower.max_speed_mm_s = 100.0;
+    slower.approach_speed_mm_s = 50.0;
+    let reply = put_installation(&bridge, Some(&token), &slower).await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    assert_eq!(get_installation(&bridge, &token).await, slower);
+    assert!(
+        file(&bridge).contains("[[gateway]]\nkind = \"scl\"\nport = \"sim\"\nunits = 3\n"),
+        "{}",
+        file(&bridge)
+    );
+    let upload = bridge
+        .upload(
+            &token,
+            "fast",
+            "text/csv",
+            &csv(&[500.0, 500.0, 500.0], 500),
+        )
+        .await;
+    assert_eq!(upload.status, StatusCode::UNPROCESSABLE_ENTITY);
 }

@@ -3,7 +3,7 @@
 
 use std::time::{Duration, Instant};
 
-use floatball_bridge::link::{Batch, Link, LinkConfig};
+use floatball_bridge::link::{Batch, BaudError, Link, LinkConfig};
 use floatball_shared::api::LinkState;
 use floatball_shared::ascii::{Form, parse_script};
 use floatball_shared::feedback::{Ack, Feedback};
@@ -145,4 +145,45 @@ async fn factory_fresh_discovery_returns_every_unit() {
     serials.sort_unstable();
     serials.dedup();
     assert_eq!(serials.len(), 12, "each unit has its own serial");
+}
+
+#[tokio::test]
+async fn the_simulated_gateway_is_greeted_and_follows_a_line_speed_change() {
+    let link = sim_link(9600, GatewayConfig::numbered(2));
+    up(&link).await;
+    let view = link
+        .sim_view()
+        .expect("a simulated link has a view")
+        .clone();
+    // The greeting (`ABC;`, 4 bytes) is what brought it up.
+    assert!(view.received_bytes() >= 4);
+
+    let changed = link
+        .change_baud(115_200, Duration::from_secs(3))
+        .await
+        .unwrap();
+    assert_eq!((changed.from_baud, changed.baud), (9600, 115_200));
+    assert!(changed.took_ms < 3000);
+    assert_eq!(link.baud(), 115_200);
+    assert_eq!(link.snapshot().state, LinkState::Up);
+    // The units answer at the new speed, and nothing was lost to a mismatch on the way
+    // (the link switched after the gateway restarted).
+    let mut feedback = link.feedback();
+    link.send(batch("*1;PV;")).await.unwrap();
+    let frame = tokio::time::timeout(Duration::from_secs(2), feedback.recv())
+        .await
+        .expect("an answer at 115200 baud")
+        .unwrap();
+    assert_eq!(frame.station(), 1);
+
+    assert_eq!(
+        link.change_baud(4800, Duration::from_secs(1)).await,
+        Err(BaudError::OutOfRange { baud: 4800 })
+    );
+    assert!(link.estop().is_none());
+    assert_eq!(
+        link.change_baud(9600, Duration::from_secs(1)).await,
+        Err(BaudError::EstopLatched)
+    );
+    assert_eq!(link.baud(), 115_200);
 }

@@ -477,9 +477,13 @@ codes! {
     InstallationNotSaved = "installation_not_saved" ["reason"];
     /// A line speed a gateway does not take (`allowed`: the speeds it takes).
     BaudNotAllowed = "baud_not_allowed" ["baud", "allowed"];
-    /// The gateway did not answer at the new line speed; the line is back at the old
-    /// one (`reason` in English).
-    BaudChangeFailed = "baud_change_failed" ["gateway", "baud", "reason"];
+    // ---- line: the gateway's line speed (`POST /api/gateways/{g}/baud`) ----
+    /// A line speed `BDR=x;` does not take.
+    BaudOutOfRange = "baud_out_of_range" ["baud", "min", "max"];
+    /// The gateway did not answer at the new speed in time; the line is back at the old.
+    BaudNotAnswering = "baud_not_answering" ["gateway", "baud", "from_baud", "waited_ms"];
+    /// The serial port refused the new speed (`reason` in English).
+    BaudPortRefused = "baud_port_refused" ["gateway", "baud", "reason"];
 }
 
 #[cfg(test)]

@@ -12,7 +12,8 @@
 //!   validation problem and parse error, enumerable for the translation tests.
 //! - [`ascii`]: the UIM2503 instruction language (host → gateway): typed instructions, the
 //!   encoder (20-character rule, compact form), the script parser and the gateway-side
-//!   byte reader.
+//!   byte reader; and ([`ascii::gateway`]) the gateway's own commands, the greeting
+//!   `ABC;` (answered `AA AB AC`) and the line speed `BDR=x;`.
 //! - [`feedback`]: the binary feedback frames (gateway → host): the streaming decoder, the
 //!   frame encoder, typed ACKs, notifications and errors, and every code in one place
 //!   ([`feedback::code`]).
@@ -45,7 +46,8 @@
 //!   validation against an installation's limits, sampling for the preview, and the
 //!   demo wave the tests and benches share ([`show::demo`]).
 //! - [`sim`]: a simulated gateway and its units: instruction bytes and time in,
-//!   feedback bytes out, every ball's PVT table and motion in between.
+//!   feedback bytes out, every ball's PVT table and motion in between; the greeting's
+//!   answer, and a stored line speed applied at the gateway's restart.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 #![cfg_attr(

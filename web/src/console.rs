@@ -427,6 +427,22 @@ mod tests {
     }
 
     #[test]
+    fn the_gateways_own_commands_are_lines_like_any_other() {
+        assert_eq!(
+            check("ABC;\nbdr=115200;"),
+            Check::Ready {
+                lines: vec!["ABC;".into(), "bdr=115200;".into()],
+                instructions: 2
+            }
+        );
+        let Check::Invalid(error) = check("BDR=4800;") else {
+            panic!("4800 baud is below what BDR takes");
+        };
+        assert_eq!(error.code, "ascii_out_of_range");
+        assert!(error.message.contains("9600–115200"), "{error:?}");
+    }
+
+    #[test]
     fn mbox_text_is_checked_with_the_mbox_parser_and_the_selected_box() {
         let every = Route::BROADCAST;
         assert_eq!(check_mbox(" # nothing\n", every), Check::Empty);

@@ -8,13 +8,15 @@
 //!   saved into `floatball.toml` and applied while idle ([`crate::install`]); 200 the
 //!   installation now; 422 `installation_invalid` listing every problem; 409
 //!   `installation_busy` (not idle, or a Start pending) or `installation_not_live`
-//!   (MBOX boxes, MOONS' drives); 500 `installation_not_saved`.
+//!   (a change to the gateways of MBOX boxes or MOONS' drives); 500
+//!   `installation_not_saved`.
 //! - `POST /api/gateways/{gateway}/baud` (an [`Operator`]): body [`BaudRequest`]; a
 //!   UIM2503 gateway's line to another speed (9600 to 115200) through
 //!   [`crate::link::Link::change_baud`], then saved into `floatball.toml` like a
 //!   `PUT`; 200 [`BaudChanged`]; 404 `no_such_gateway`; 409 `installation_busy`,
 //!   `estop_latched` or `gateway_not_connected`; 422 `baud_not_allowed`; 502
-//!   `baud_change_failed` (the line is back at its old speed).
+//!   `baud_not_answering` or `baud_port_refused` (the line is back at its old
+//!   speed): the link's coded [`BaudError`].
 //! - `GET /api/plan/{name}`: 200 the bandwidth / feasibility report
 //!   ([`PlanReport`]) of a stored show on this installation; 404. On MOONS' drives
 //!   that Start gives compiled programs (`[scl] programs = "upload"`) every ball's Q
@@ -119,20 +121,16 @@ pub fn install_failure(error: &InstallError) -> Failure {
             gateway,
             baud,
             error,
-        } => match error {
-            BaudError::OutOfRange { .. } => baud_not_allowed(text, *baud),
-            BaudError::EstopLatched => {
-                Failure::coded(StatusCode::CONFLICT, Code::EstopLatched, text)
-            }
-            BaudError::Link(_) => {
-                Failure::coded(StatusCode::CONFLICT, Code::GatewayNotConnected, text)
-                    .param("gateway", gateway)
-            }
-            BaudError::Port { reason, .. } => baud_failed(text.clone(), *gateway, *baud, reason),
-            BaudError::NotAnswering { .. } => {
-                baud_failed(text.clone(), *gateway, *baud, &error.to_string())
-            }
-        },
+        } => {
+            let status = match error {
+                BaudError::OutOfRange { .. } => StatusCode::UNPROCESSABLE_ENTITY,
+                BaudError::EstopLatched | BaudError::Link(_) => StatusCode::CONFLICT,
+                BaudError::Port { .. } | BaudError::NotAnswering { .. } => StatusCode::BAD_GATEWAY,
+            };
+            let mut failure = Failure::of(status, error);
+            failure.body.error = text;
+            failure.param("gateway", gateway).param("baud", baud)
+        }
     }
 }
 
@@ -142,14 +140,6 @@ fn baud_not_allowed(text: String, baud: u32) -> Failure {
     Failure::coded(StatusCode::UNPROCESSABLE_ENTITY, Code::BaudNotAllowed, text)
         .param("baud", baud)
         .param("allowed", allowed.join(", "))
-}
-
-/// 502 `baud_change_failed`: the line is back at its old speed.
-fn baud_failed(text: String, gateway: usize, baud: u32, reason: &str) -> Failure {
-    Failure::coded(StatusCode::BAD_GATEWAY, Code::BaudChangeFailed, text)
-        .param("gateway", gateway)
-        .param("baud", baud)
-        .param("reason", reason)
 }
 
 /// `POST /api/gateways/{gateway}/baud`.

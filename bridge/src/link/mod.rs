@@ -54,6 +54,7 @@ use floatball_shared::api::{BaudChanged, LinkState};
 use floatball_shared::ascii::GreetingWatch;
 use floatball_shared::ascii::gateway::{GREETING, MAX_BAUD, MIN_BAUD};
 use floatball_shared::ascii::{Form, GatewayCommand, Instruction, parse_script};
+use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::feedback::{Frame, FrameDecoder};
 use floatball_shared::plan::installation::SIM_PORT;
 use floatball_shared::sim::GatewayConfig;
@@ -198,6 +199,53 @@ pub enum BaudError {
         /// How long the link waited, ms.
         waited_ms: u64,
     },
+}
+
+impl Coded for BaudError {
+    fn code(&self) -> Code {
+        match self {
+            Self::OutOfRange { .. } => Code::BaudOutOfRange,
+            Self::Link(_) => Code::GatewayNotConnected,
+            Self::EstopLatched => Code::EstopLatched,
+            Self::Port { .. } => Code::BaudPortRefused,
+            Self::NotAnswering { .. } => Code::BaudNotAnswering,
+        }
+    }
+
+    fn params(&self) -> Params {
+        let mut params = Params::new();
+        let mut put = |name: &str, value: String| {
+            params.insert(name.into(), value);
+        };
+        match self {
+            Self::OutOfRange { baud } => {
+                put("baud", baud.to_string());
+                put("min", MIN_BAUD.to_string());
+                put("max", MAX_BAUD.to_string());
+            }
+            Self::Link(LinkError::Down { port, .. } | LinkError::Closed { port }) => {
+                put("gateway", port.clone());
+            }
+            Self::EstopLatched => {}
+            Self::Port { port, baud, reason } => {
+                put("gateway", port.clone());
+                put("baud", baud.to_string());
+                put("reason", reason.clone());
+            }
+            Self::NotAnswering {
+                port,
+                baud,
+                from_baud,
+                waited_ms,
+            } => {
+                put("gateway", port.clone());
+                put("baud", baud.to_string());
+                put("from_baud", from_baud.to_string());
+                put("waited_ms", waited_ms.to_string());
+            }
+        }
+        params
+    }
 }
 
 /// What the writer answers a line-speed change with.
@@ -1200,6 +1248,33 @@ mod tests {
         ] {
             assert!(!is_inert(active), "{}", String::from_utf8_lossy(active));
         }
+    }
+
+    #[test]
+    fn baud_errors_are_coded_with_their_figures() {
+        let error = BaudError::NotAnswering {
+            port: "/dev/ttyUSB0".into(),
+            baud: 115_200,
+            from_baud: 9600,
+            waited_ms: 30_000,
+        };
+        assert_eq!(error.code(), Code::BaudNotAnswering);
+        let params = error.params();
+        assert_eq!(params.get("from_baud").map(String::as_str), Some("9600"));
+        assert_eq!(params.get("waited_ms").map(String::as_str), Some("30000"));
+        let error = BaudError::OutOfRange { baud: 4800 };
+        assert_eq!(error.code(), Code::BaudOutOfRange);
+        assert_eq!(error.params().get("min").map(String::as_str), Some("9600"));
+        assert_eq!(
+            error.to_string(),
+            "4800 baud is not a line speed the gateway takes (9600–115200)"
+        );
+        let error = BaudError::from(LinkError::Closed { port: "sim".into() });
+        assert_eq!(error.code(), Code::GatewayNotConnected);
+        assert_eq!(
+            error.params().get("gateway").map(String::as_str),
+            Some("sim")
+        );
     }
 
     #[test]

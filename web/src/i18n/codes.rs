@@ -915,9 +915,20 @@ pub(super) const ERROR_TEXTS: &[(Code, &str, &str)] = &[
         "网关不支持 {baud} 波特；可用：{allowed}",
         "The gateway does not take {baud} baud; it takes {allowed}",
     ),
+    // ---- line ----
     (
-        Code::BaudChangeFailed,
-        "网关 {gateway} 在 {baud} 波特下没有应答，线路已恢复原速：{reason}",
-        "Gateway {gateway} did not answer at {baud} baud; the line is back at its old speed: {reason}",
+        Code::BaudOutOfRange,
+        "网关不支持 {baud} 波特的线路速度（{min}–{max}）",
+        "{baud} baud is not a line speed the gateway takes ({min}–{max})",
+    ),
+    (
+        Code::BaudNotAnswering,
+        "网关 {gateway} 在 {waited_ms} 毫秒内没有以 {baud} 波特应答；线路已恢复为 {from_baud} 波特",
+        "Gateway {gateway} did not answer at {baud} baud within {waited_ms} ms; the line is back at {from_baud} baud",
+    ),
+    (
+        Code::BaudPortRefused,
+        "网关 {gateway} 的串口无法以 {baud} 波特运行：{reason}",
+        "The port of gateway {gateway} cannot run at {baud} baud: {reason}",
     ),
 ];
