@@ -104,7 +104,8 @@ impl Gateways {
         let mut link = LinkConfig::new(gateway.port.clone(), gateway.baud);
         link.estop = self.estop.clone();
         link.latch = Arc::clone(&self.latch);
-        // A simulated gateway has the installation's units and calibration.
+        // A simulated gateway has the installation's units and calibration; its units
+        // keep the stations they were given.
         link.sim = GatewayConfig {
             stations: self
                 .sim

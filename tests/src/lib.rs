@@ -90,6 +90,8 @@ pub struct Bridge {
     pub addr: SocketAddr,
     /// Its data directory (kept across restarts by [`Bridge::restart`]).
     pub data_dir: PathBuf,
+    /// Its extra command-line flags (kept across restarts).
+    args: Vec<String>,
     _temp: Option<tempfile::TempDir>,
 }
 
@@ -105,17 +107,29 @@ impl Bridge {
         Self::start_with(Some(config)).await
     }
 
+    /// Starts the bridge on a free port with a fresh data directory and the extra
+    /// flags `args` (e.g. `--sim-factory-fresh`), which a restart keeps.
+    pub async fn start_with_args(args: &[&str]) -> Self {
+        Self::start_with_all(None, args).await
+    }
+
     async fn start_with(config: Option<&str>) -> Self {
+        Self::start_with_all(config, &[]).await
+    }
+
+    async fn start_with_all(config: Option<&str>, args: &[&str]) -> Self {
         let temp = tempfile::tempdir().expect("temp dir");
         let data_dir = temp.path().to_path_buf();
         if let Some(config) = config {
             std::fs::write(data_dir.join("floatball.toml"), config).expect("write the config");
         }
-        let (child, addr) = spawn_bridge("127.0.0.1:0", &data_dir).await;
+        let args: Vec<String> = args.iter().map(|arg| (*arg).to_owned()).collect();
+        let (child, addr) = spawn_bridge("127.0.0.1:0", &data_dir, &args).await;
         Self {
             child,
             addr,
             data_dir,
+            args,
             _temp: Some(temp),
         }
     }
@@ -133,15 +147,20 @@ impl Bridge {
     /// Starts it again on the same port and data directory.
     pub async fn restart(&mut self) {
         self.stop().await;
-        let (child, addr) = spawn_bridge(&self.addr.to_string(), &self.data_dir).await;
+        let (child, addr) = spawn_bridge(&self.addr.to_string(), &self.data_dir, &self.args).await;
         self.child = child;
         self.addr = addr;
     }
 }
 
-async fn spawn_bridge(listen: &str, data_dir: &std::path::Path) -> (Child, SocketAddr) {
+async fn spawn_bridge(
+    listen: &str,
+    data_dir: &std::path::Path,
+    args: &[String],
+) -> (Child, SocketAddr) {
     let mut child = Command::new(bridge_binary())
         .args(["--listen", listen])
+        .args(args)
         .arg("--data-dir")
         .arg(data_dir)
         .arg("--static-dir")

@@ -179,6 +179,10 @@ impl Tour<'_> {
                 self.browser.click("[data-testid=nav-control]").await;
                 self.browser.click("[data-testid=subtab-settings]").await;
             }
+            "commission" => {
+                self.browser.click("[data-testid=nav-control]").await;
+                self.browser.click("[data-testid=subtab-commission]").await;
+            }
             _ => {
                 self.browser
                     .click(&format!("[data-testid=nav-{page}]"))
@@ -191,7 +195,13 @@ impl Tour<'_> {
     async fn every_page(&mut self, lang: &str, show: &str) {
         self.language(lang).await;
         for page in [
-            "login", "files", "preview", "control", "settings", "console",
+            "login",
+            "files",
+            "preview",
+            "control",
+            "settings",
+            "console",
+            "commission",
         ] {
             self.open(page).await;
             if page == "preview" {
@@ -230,6 +240,10 @@ impl Tour<'_> {
                 self.browser
                     .wait_for(&format!("[data-testid=entry][data-show={show}]"))
                     .await;
+            }
+            if page == "commission" {
+                // The grid of the simulated gateway, and the line-speed choice.
+                self.browser.wait_for("[data-testid=grid]").await;
             }
             self.shoot(page, lang, true).await;
         }

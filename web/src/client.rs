@@ -11,8 +11,9 @@ use std::pin::Pin;
 use std::rc::Rc;
 
 use floatball_shared::api::{
-    ApiError, InstallationInfo, LoginRequest, LoginResponse, PasswordChange, PlanReport, Playlist,
-    QProgramListing, ShowSummary,
+    ApiError, AssignRequest, Assignment, BaudChanged, BaudRequest, IdentifyRequest, Identifying,
+    InstallationInfo, LoginRequest, LoginResponse, PasswordChange, PlanReport, Playlist,
+    QProgramListing, RollCall, ShowSummary,
 };
 use floatball_shared::codes::Code;
 use floatball_shared::show::ShowFormat;
@@ -423,6 +424,60 @@ impl Client {
         self.call_json(Method::Put, "/api/installation", Some(json(info)?))
             .await
     }
+
+    /// `POST /api/gateways/{gateway}/rollcall`: every unit on the gateway's bus.
+    ///
+    /// # Errors
+    /// [`Failure`] as the bridge answered.
+    pub async fn roll_call(&self, gateway: usize) -> Result<RollCall, Failure> {
+        let path = format!("/api/gateways/{gateway}/rollcall");
+        self.call_json(Method::Post, &path, None).await
+    }
+
+    /// `POST /api/gateways/{gateway}/assign`: new stations by serial number; the
+    /// answer is a fresh roll call.
+    ///
+    /// # Errors
+    /// [`Failure`] as the bridge answered.
+    pub async fn assign(
+        &self,
+        gateway: usize,
+        assignments: Vec<Assignment>,
+    ) -> Result<RollCall, Failure> {
+        let path = format!("/api/gateways/{gateway}/assign");
+        let body = json(&AssignRequest { assignments })?;
+        self.call_json(Method::Post, &path, Some(body)).await
+    }
+
+    /// `POST /api/gateways/{gateway}/identify`: the ball of `station` moves down
+    /// `distance_mm` (the bridge's default when `None`) and back.
+    ///
+    /// # Errors
+    /// [`Failure`] as the bridge answered.
+    pub async fn identify(
+        &self,
+        gateway: usize,
+        station: u8,
+        distance_mm: Option<f64>,
+    ) -> Result<Identifying, Failure> {
+        let path = format!("/api/gateways/{gateway}/identify");
+        let body = json(&IdentifyRequest {
+            station,
+            distance_mm,
+        })?;
+        self.call_json(Method::Post, &path, Some(body)).await
+    }
+
+    /// `POST /api/gateways/{gateway}/baud`: the guided line-speed change; answers
+    /// once the gateway answered at `baud` (or the wait for it ended).
+    ///
+    /// # Errors
+    /// [`Failure`] as the bridge answered.
+    pub async fn change_baud(&self, gateway: usize, baud: u32) -> Result<BaudChanged, Failure> {
+        let path = format!("/api/gateways/{gateway}/baud");
+        let body = json(&BaudRequest { baud })?;
+        self.call_json(Method::Post, &path, Some(body)).await
+    }
 }
 
 fn json(value: &impl Serialize) -> Result<(&'static str, String), Failure> {
@@ -659,6 +714,54 @@ mod tests {
         assert_eq!(run(client.put_playlist(&playlist)), Ok(playlist));
         let body = fake.requests.borrow()[0].body.clone().unwrap();
         assert!(body.contains(r#""loop":true"#), "{body}");
+    }
+
+    #[test]
+    fn commissioning_calls_post_to_the_gateway() {
+        let roll = r#"{"gateway":1,"units":[{"serial":7,"station":5,"last_answer_age_ms":3}],"duplicated":[5],"took_ms":40}"#;
+        let fake = bridge(200, roll);
+        let client = Client::new(fake.clone(), "").with_token("t");
+        let answer = run(client.roll_call(1)).unwrap();
+        assert_eq!(answer.duplicated, [5]);
+        let assignments = vec![Assignment {
+            serial: 7,
+            station: 12,
+        }];
+        assert_eq!(run(client.assign(1, assignments)), Ok(answer));
+        let requests = fake.requests.borrow();
+        assert_eq!(requests[0].method, Method::Post);
+        assert_eq!(requests[0].url, "/api/gateways/1/rollcall");
+        assert_eq!(requests[1].url, "/api/gateways/1/assign");
+        assert_eq!(
+            requests[1].body.as_deref(),
+            Some(r#"{"assignments":[{"serial":7,"station":12}]}"#)
+        );
+
+        let fake = bridge(
+            202,
+            r#"{"station":12,"distance_mm":300.0,"duration_ms":4000}"#,
+        );
+        let client = Client::new(fake.clone(), "").with_token("t");
+        assert_eq!(run(client.identify(0, 12, None)).unwrap().duration_ms, 4000);
+        assert_eq!(fake.requests.borrow()[0].url, "/api/gateways/0/identify");
+        assert_eq!(
+            fake.requests.borrow()[0].body.as_deref(),
+            Some(r#"{"station":12}"#)
+        );
+        run(client.identify(0, 12, Some(20.0))).unwrap();
+        assert_eq!(
+            fake.requests.borrow()[1].body.as_deref(),
+            Some(r#"{"station":12,"distance_mm":20.0}"#)
+        );
+
+        let fake = bridge(200, r#"{"from_baud":9600,"baud":115200,"took_ms":900}"#);
+        let client = Client::new(fake.clone(), "").with_token("t");
+        assert_eq!(run(client.change_baud(2, 115_200)).unwrap().from_baud, 9600);
+        assert_eq!(fake.requests.borrow()[0].url, "/api/gateways/2/baud");
+        assert_eq!(
+            fake.requests.borrow()[0].body.as_deref(),
+            Some(r#"{"baud":115200}"#)
+        );
     }
 
     #[test]

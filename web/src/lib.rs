@@ -7,6 +7,8 @@
 //! # Layout
 //! Plain logic (native tests):
 //! - [`client`]: the HTTP API as typed calls over a transport, status codes as failures;
+//! - [`commission`]: the Commissioning page's decisions: roll call flags, assignment in
+//!   grid order, the cell ↔ station mapping built by tapping the grid;
 //! - [`connection`]: the connection state machine and its reconnect backoff;
 //! - [`console`]: instruction checking and feedback decoding for the console;
 //! - [`control`]: the Control and Settings pages' decisions: plan verdicts by round,
@@ -34,6 +36,7 @@
 //! the widgets the pages share in [`components::widgets`]), [`preview`].
 
 pub mod client;
+pub mod commission;
 pub mod components;
 pub mod connection;
 pub mod console;

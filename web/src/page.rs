@@ -20,6 +20,9 @@ pub enum Page {
     /// The installation: the matrix's limits and calibration, the gateways (reached
     /// from Settings).
     Installation,
+    /// Commissioning: roll call, stations, the units' places in the grid, line speed
+    /// (reached from Control's tabs).
+    Commission,
 }
 
 impl Page {
@@ -28,7 +31,7 @@ impl Page {
     pub const NAV: [Page; 4] = [Page::Files, Page::Preview, Page::Control, Page::Console];
 
     /// Every page.
-    pub const ALL: [Page; 7] = [
+    pub const ALL: [Page; 8] = [
         Page::Login,
         Page::Files,
         Page::Preview,
@@ -36,6 +39,7 @@ impl Page {
         Page::Settings,
         Page::Console,
         Page::Installation,
+        Page::Commission,
     ];
 
     /// The page's name in the URL and in `data-testid`s.
@@ -48,6 +52,7 @@ impl Page {
             Page::Settings => "settings",
             Page::Console => "console",
             Page::Installation => "installation",
+            Page::Commission => "commission",
         }
     }
 
@@ -70,7 +75,7 @@ impl Page {
     pub fn needs_login(self) -> bool {
         matches!(
             self,
-            Page::Control | Page::Settings | Page::Console | Page::Installation
+            Page::Control | Page::Settings | Page::Console | Page::Installation | Page::Commission
         )
     }
 
@@ -105,6 +110,8 @@ mod tests {
         assert_eq!(Page::Console.resolve(false), Page::Login);
         assert_eq!(Page::Installation.resolve(false), Page::Login);
         assert_eq!(Page::from_hash("#/installation"), Page::Installation);
+        assert_eq!(Page::Commission.resolve(false), Page::Login);
+        assert_eq!(Page::from_hash("#/commission"), Page::Commission);
         assert_eq!(Page::Control.resolve(true), Page::Control);
         assert_eq!(Page::Files.resolve(false), Page::Files);
         assert_eq!(Page::Preview.resolve(false), Page::Preview);

@@ -70,9 +70,10 @@ fn edit_and_save(
     });
 }
 
-/// The Control / Settings switch (the vendor app's left-hand buttons).
+/// The Control / Settings / Commissioning switch (the vendor app's left-hand
+/// buttons).
 #[component]
-fn ControlTabs() -> impl IntoView {
+pub fn ControlTabs() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     let tab = move |page: Page, text: Text| {
         view! {
@@ -87,6 +88,7 @@ fn ControlTabs() -> impl IntoView {
     view! {
         <div class="subtabs">
             {tab(Page::Control, Text::NavControl)} {tab(Page::Settings, Text::NavSettings)}
+            {tab(Page::Commission, Text::NavCommission)}
         </div>
     }
 }

@@ -3,11 +3,13 @@
 //!
 //! - [`App`]: the real app: browser services, the WebSocket, storage, the URL;
 //! - [`Shell`]: the top bar and the current page (mounted by tests with fakes);
-//! - one module per page ([`installation`] is reached from Settings) ([`qprogram`] is a part of the Files page, [`password`] of
+//! - one module per page ([`installation`] is reached from Settings, [`commission`]
+//!   from Control's tabs; [`qprogram`] is a part of the Files page, [`password`] of
 //!   Login and Settings), [`topbar`] for the bar on every page, and [`widgets`] for
 //!   the small views several pages share (labelled fields, notes, the two-press
 //!   Delete, tabs, list rows).
 
+pub mod commission;
 pub mod console;
 pub mod control;
 pub mod files;
@@ -235,6 +237,7 @@ pub fn Shell() -> impl IntoView {
                 Page::Settings => view! { <control::SettingsPage /> }.into_any(),
                 Page::Console => view! { <console::ConsolePage /> }.into_any(),
                 Page::Installation => view! { <installation::InstallationPage /> }.into_any(),
+                Page::Commission => view! { <commission::CommissionPage /> }.into_any(),
             }}
         </main>
         <widgets::ToastArea />

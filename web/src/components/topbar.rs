@@ -127,6 +127,7 @@ pub fn page_name(page: Page) -> Text {
         Page::Settings => Text::NavSettings,
         Page::Console => Text::NavConsole,
         Page::Installation => Text::InstallationTitle,
+        Page::Commission => Text::NavCommission,
     }
 }
 
