@@ -927,6 +927,19 @@ pub struct UnitFault {
     pub index: u8,
 }
 
+impl UnitFault {
+    /// The fault of the unit on `station` that sent `error`.
+    #[must_use]
+    pub fn of(station: u8, error: &crate::feedback::UnitError) -> Self {
+        Self {
+            station,
+            error: error.error,
+            code: error.code,
+            index: error.index,
+        }
+    }
+}
+
 /// A show loaded into the units while the matrix is idle ([`Status::armed`]): Start
 /// then needs only the approach.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -95,15 +95,7 @@ impl HealthBook {
         let serial = match *feedback {
             Feedback::Ack(Ack::Serial { serial }) => Some(serial),
             Feedback::Error(error) => {
-                self.faults.insert(
-                    station,
-                    UnitFault {
-                        station,
-                        error: error.error,
-                        code: error.code,
-                        index: error.index,
-                    },
-                );
+                self.faults.insert(station, UnitFault::of(station, &error));
                 None
             }
             _ => None,

@@ -109,15 +109,7 @@ impl Tally {
                     .insert(position_counts);
             }
             Feedback::Error(error) => {
-                self.faults.insert(
-                    station,
-                    UnitFault {
-                        station,
-                        error: error.error,
-                        code: error.code,
-                        index: error.index,
-                    },
-                );
+                self.faults.insert(station, UnitFault::of(station, &error));
             }
             _ => {}
         }
