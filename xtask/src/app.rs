@@ -2,15 +2,16 @@
 //!
 //! `floatball-web` is compiled to wasm32 and `wasm-bindgen` writes its js glue into a
 //! staging directory under the target directory; a release build then goes through
-//! `wasm-opt -Oz`. [`package`] gives the wasm, the js and `static/style.css`
-//! content-hashed names (`floatball_bg-<16 hex>.wasm`, `floatball-<16 hex>.js`,
-//! `style-<16 hex>.css`; the js is rewritten to load the hashed wasm) and renders
-//! the page `pkg/index.html` from the template `static/index.html`: its stylesheet
-//! link names the hashed css, and a `modulepreload` of the js (which
-//! `static/boot.js` imports) and a `preload` of the wasm start both downloads while
-//! the page is still parsed. [`write_pkg`] replaces `static/pkg/` with these files
-//! and a brotli (`.br`) and gzip (`.gz`) copy of each, which the bridge serves by
-//! `Accept-Encoding` (see `bridge/src/server.rs` for the caching headers).
+//! `wasm-opt -Oz --converge` (and the two memory assumptions [`build_web`] states).
+//! [`package`] gives the wasm, the js and `static/style.css` content-hashed names
+//! (`floatball_bg-<16 hex>.wasm`, `floatball-<16 hex>.js`, `style-<16 hex>.css`; the js
+//! is rewritten to load the hashed wasm) and renders the page `pkg/index.html` from the
+//! template `static/index.html`: its stylesheet link names the hashed css, and a
+//! `modulepreload` of the js (which `static/boot.js` imports) and a `preload` of the
+//! wasm start both downloads while the page is still parsed. [`write_pkg`] replaces
+//! `static/pkg/` with these files and a brotli (`.br`) and gzip (`.gz`) copy of each,
+//! which the bridge serves by `Accept-Encoding` (see `bridge/src/server.rs` for the
+//! caching headers).
 
 use std::io::Write as _;
 use std::path::Path;
@@ -23,7 +24,7 @@ use crate::tools::{self, Env};
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Build {
     /// Small and fast, as operators get it (`cargo xtask run`): the `wasm-release`
-    /// profile of the workspace `Cargo.toml`, `wasm-opt -Oz`, brotli at its best.
+    /// profile of the workspace `Cargo.toml`, `wasm-opt -Oz --converge`, brotli at its best.
     Release,
     /// For the end-to-end tests: the dev profile, which reuses what the browser tests
     /// already compiled instead of compiling every dependency again; no `wasm-opt`
@@ -143,7 +144,18 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
         let wasm_opt = tools::ensure_wasm_opt(env)?;
         tools::run_command(
             tools::program(env, &wasm_opt.to_string_lossy())
-                .arg("-Oz")
+                // `--converge` repeats the passes while the module still shrinks
+                // (about 2 KB of brotli). The memory a wasm module defines starts
+                // zeroed (`--zero-filled-memory`), and wasm-ld puts the 1 MB stack
+                // first, so the low 1 KB is only reached by a stack about to
+                // overflow (`--low-memory-unused` then folds constant offsets into
+                // loads and stores: another 2 KB).
+                .args([
+                    "-Oz",
+                    "--converge",
+                    "--zero-filled-memory",
+                    "--low-memory-unused",
+                ])
                 .args(tools::WASM_FEATURES)
                 .arg(&bindgen_wasm)
                 .arg("-o")

@@ -64,7 +64,7 @@ pub fn CommissionPage() -> impl IntoView {
     view! {
         <section class="commission" data-testid="commission">
             <ControlTabs />
-            <p class="muted">{move || ctx.t(Text::CommissionIntro)}</p>
+            <p class="muted">{ctx.tr(Text::CommissionIntro)}</p>
             <ErrorNote text=unreadable test_id="installation-error" />
             {move || {
                 kinds
@@ -238,7 +238,7 @@ fn GatewayPanel(
 
     let uim = kind == GatewayKind::Uim2503;
     let not_uim = (!uim).then(|| {
-        view! { <p class="note muted" data-testid="not-uim2503">{move || ctx.t(Text::NotUim2503)}</p> }
+        view! { <p class="note muted" data-testid="not-uim2503">{ctx.tr(Text::NotUim2503)}</p> }
     });
     let body = uim.then(|| {
         view! {
@@ -249,18 +249,18 @@ fn GatewayPanel(
                     disabled=move || busy.get() || !ctx.connected()
                     on:click=move |_| roll_call()
                 >
-                    {move || ctx.t(Text::RollCall)}
+                    {ctx.tr(Text::RollCall)}
                 </button>
                 <button
                     data-testid="assign-all"
                     disabled=move || busy.get() || roll.with(Option::is_none)
                     on:click=move |_| assign_all()
                 >
-                    {move || ctx.t(Text::AssignAll)}
+                    {ctx.tr(Text::AssignAll)}
                 </button>
                 {move || busy.get().then(|| view! { <span class="muted">{ctx.t(Text::Working)}</span> })}
             </div>
-            <p class="muted small">{move || ctx.t(Text::AssignAllNote)}</p>
+            <p class="muted small">{ctx.tr(Text::AssignAllNote)}</p>
             <div class="distance">
                 <TextField
                     label=Text::IdentifyDistance
@@ -315,7 +315,7 @@ fn RollCallView(
     move || {
         let Some(found) = roll.get() else {
             return view! {
-                <p class="muted" data-testid="no-rollcall">{move || ctx.t(Text::NoRollCallYet)}</p>
+                <p class="muted" data-testid="no-rollcall">{ctx.tr(Text::NoRollCallYet)}</p>
             }
             .into_any();
         };
@@ -509,8 +509,8 @@ fn GridView(
         })
     };
     view! {
-        <h4>{move || ctx.t(Text::GridSeenFromBelow)}</h4>
-        <p class="muted small">{move || ctx.t(Text::GridHint)}</p>
+        <h4>{ctx.tr(Text::GridSeenFromBelow)}</h4>
+        <p class="muted small">{ctx.tr(Text::GridHint)}</p>
         {move || {
             moving
                 .get()
@@ -526,7 +526,7 @@ fn GridView(
                                     moving.set(None);
                                 }
                             >
-                                {move || ctx.t(Text::Cancel)}
+                                {ctx.tr(Text::Cancel)}
                             </button>
                         </p>
                     }
@@ -540,7 +540,7 @@ fn GridView(
                 disabled=move || busy.get() || unchanged()
                 on:click=move |_| save()
             >
-                {move || ctx.t(Text::SaveMapping)}
+                {ctx.tr(Text::SaveMapping)}
             </button>
         </div>
     }
@@ -612,21 +612,21 @@ fn BaudChange(gateway: usize, info: RwSignal<Option<InstallationInfo>>) -> impl 
         BaudStep::Idle => ().into_any(),
         BaudStep::Explain => view! {
             <div class="note" data-testid="baud-explain">
-                <p>{move || ctx.t(Text::BaudPowerCycle)}</p>
+                <p>{ctx.tr(Text::BaudPowerCycle)}</p>
                 <div class="confirm">
                     <button
                         class="confirm-yes primary"
                         data-testid="baud-confirm"
                         on:click=move |_| start()
                     >
-                        {move || ctx.t(Text::StartBaudChange)}
+                        {ctx.tr(Text::StartBaudChange)}
                     </button>
                     <button
                         class="confirm-cancel"
                         data-testid="baud-cancel"
                         on:click=move |_| step.set(BaudStep::Idle)
                     >
-                        {move || ctx.t(Text::Cancel)}
+                        {ctx.tr(Text::Cancel)}
                     </button>
                 </div>
             </div>
@@ -634,7 +634,7 @@ fn BaudChange(gateway: usize, info: RwSignal<Option<InstallationInfo>>) -> impl 
         .into_any(),
         BaudStep::Waiting => view! {
             <p class="note warn" data-testid="baud-waiting" role="status">
-                {move || ctx.t(Text::BaudWaiting)}
+                {ctx.tr(Text::BaudWaiting)}
             </p>
         }
         .into_any(),
@@ -653,12 +653,12 @@ fn BaudChange(gateway: usize, info: RwSignal<Option<InstallationInfo>>) -> impl 
     }
     };
     view! {
-        <h4>{move || ctx.t(Text::LineSpeed)}</h4>
+        <h4>{ctx.tr(Text::LineSpeed)}</h4>
         <div class="toolbar">
             <span class="muted" data-testid="baud-now">{move || ctx.lang.get().line_speed(current())}</span>
             <select
                 data-testid="baud-select"
-                aria-label=move || ctx.t(Text::LineSpeed)
+                aria-label=ctx.tr(Text::LineSpeed)
                 on:change=move |ev| {
                     if let Ok(baud) = event_target_value(&ev).parse() {
                         chosen.set(baud);
@@ -674,7 +674,7 @@ fn BaudChange(gateway: usize, info: RwSignal<Option<InstallationInfo>>) -> impl 
                 }
                 on:click=move |_| step.set(BaudStep::Explain)
             >
-                {move || ctx.t(Text::ChangeLineSpeed)}
+                {ctx.tr(Text::ChangeLineSpeed)}
             </button>
         </div>
         {stage}
