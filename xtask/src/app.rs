@@ -2,7 +2,7 @@
 //!
 //! `floatball-web` is compiled to wasm32 and `wasm-bindgen` writes its js glue into a
 //! staging directory under the target directory; a release build then goes through
-//! `wasm-opt -Oz --converge` (and the two memory assumptions [`build_web`] states).
+//! `wasm-opt -Oz --converge --zero-filled-memory` ([`build_web`] says why).
 //! [`package`] gives the wasm, the js and `static/style.css` content-hashed names
 //! (`floatball_bg-<16 hex>.wasm`, `floatball-<16 hex>.js`, `style-<16 hex>.css`; the js
 //! is rewritten to load the hashed wasm) and renders the page `pkg/index.html` from the
@@ -146,16 +146,10 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
             tools::program(env, &wasm_opt.to_string_lossy())
                 // `--converge` repeats the passes while the module still shrinks
                 // (about 2 KB of brotli). The memory a wasm module defines starts
-                // zeroed (`--zero-filled-memory`), and wasm-ld puts the 1 MB stack
-                // first, so the low 1 KB is only reached by a stack about to
-                // overflow (`--low-memory-unused` then folds constant offsets into
-                // loads and stores: another 2 KB).
-                .args([
-                    "-Oz",
-                    "--converge",
-                    "--zero-filled-memory",
-                    "--low-memory-unused",
-                ])
+                // zeroed (`--zero-filled-memory`). Not `--low-memory-unused`
+                // (another 2 KB): the stack sits at the bottom of memory, and a
+                // stack about to overflow must trap, not be optimised around.
+                .args(["-Oz", "--converge", "--zero-filled-memory"])
                 .args(tools::WASM_FEATURES)
                 .arg(&bindgen_wasm)
                 .arg("-o")
