@@ -43,11 +43,16 @@ pub fn spawn(state: AppState) {
 /// Whether the matrix may be armed now, as far as `state` shows.
 fn may_arm(state: &AppState) -> bool {
     let playback = state.playback();
-    let status = state.subscribe_status();
-    let status = status.borrow();
-    status.state == PlayerState::Idle
-        && status.armed.is_none()
+    // Copied out: no guard held while the other checks take their locks.
+    let (player_state, armed) = {
+        let status = state.subscribe_status();
+        let status = status.borrow();
+        (status.state, status.armed.is_some())
+    };
+    player_state == PlayerState::Idle
+        && !armed
         && !state.starts_pending()
+        && !state.commission().busy()
         && !playback.latch().is_latched()
         && playback.links().iter().all(crate::link::Link::is_up)
         && playback.arming_allowed()

@@ -210,6 +210,12 @@ fn idle(state: &AppState) -> Result<(), InstallError> {
             state: playing.as_str().to_owned(),
         });
     }
+    if state.commission().busy() {
+        // A roll call or an identified ball on its way back uses the links.
+        return Err(InstallError::Busy {
+            state: "commissioning".to_owned(),
+        });
+    }
     Ok(())
 }
 

@@ -10,7 +10,9 @@ use std::time::Duration;
 use axum::http::{Method, StatusCode};
 use common::process::Process;
 use common::{Remote, send_text, status_until};
-use floatball_shared::api::{InstallationInfo, LoginResponse, PlayerState, RollCall, SimPositions};
+use floatball_shared::api::{
+    InstallationInfo, LinkState, LoginResponse, PlayerState, RollCall, SimPositions,
+};
 
 /// A small matrix on the simulated gateway, with the installer's comments.
 const HALL: &str = "# The test hall: keep this comment.\n\
@@ -109,7 +111,14 @@ async fn a_new_installation_is_saved_with_its_comments_applied_at_once_and_kept_
         .collect();
     assert_eq!(stations, [1, 2, 3]);
     // Commissioning follows the new installation too: the roll call asks the new
-    // simulated gateway (not the link it replaced) and expects the new stations.
+    // simulated gateway (not the link it replaced) and expects the new stations. The
+    // new link is up once its gateway answered the greeting.
+    let mut ws = bridge.ws(&token).await;
+    status_until(&mut ws, Duration::from_secs(10), |status| {
+        status.gateways.len() == 1 && status.gateways[0].link == LinkState::Up
+    })
+    .await;
+    drop(ws);
     let reply = bridge
         .request(Method::POST, "/api/gateways/0/rollcall", Some(&token), None)
         .await;

@@ -335,6 +335,14 @@ impl Commission {
         }
     }
 
+    /// Whether a commissioning call is using any gateway (an identified ball is still
+    /// on its way back): the armer and a new installation wait for it.
+    pub fn busy(&self) -> bool {
+        self.desks()
+            .iter()
+            .any(|desk| desk.busy.load(Ordering::Acquire))
+    }
+
     /// The desks now (a copy of the pointer).
     fn desks(&self) -> Arc<Vec<Desk>> {
         match self.desks.read() {
@@ -561,6 +569,7 @@ impl Commission {
             ComeBack {
                 link: desk.link.clone(),
                 status: self.status.clone(),
+                starts_pending: Arc::clone(&self.starts_pending),
                 generation,
                 planned,
                 back,
@@ -580,6 +589,8 @@ impl Commission {
 struct ComeBack {
     link: Link,
     status: watch::Receiver<Status>,
+    /// Starts and Resets being prepared: a Start's approach moves every ball.
+    starts_pending: Arc<AtomicUsize>,
     generation: u64,
     planned: IdentifyMove,
     back: Batch,
@@ -588,12 +599,19 @@ struct ComeBack {
 }
 
 impl ComeBack {
-    /// Whether the move may go on: no e-stop since, and the player still leaves the
-    /// line alone.
+    /// Whether the move may go on: no e-stop since, the player still leaves the line
+    /// alone, no Start is being prepared (its approach moves this ball too) and nothing
+    /// is being armed.
     fn may_go_on(&self) -> bool {
+        let (state, armed) = {
+            let status = self.status.borrow();
+            (status.state, status.armed.is_some())
+        };
         self.link.latch().generation() == self.generation
-            && at_rest(self.status.borrow().state)
-            && self.status.borrow().state != PlayerState::Stopped
+            && at_rest(state)
+            && state != PlayerState::Stopped
+            && !armed
+            && self.starts_pending.load(Ordering::SeqCst) == 0
     }
 }
 

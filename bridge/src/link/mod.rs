@@ -1049,6 +1049,12 @@ impl<L: LineWrite> Change<'_, '_, L> {
         let port = shared.config.port.clone();
         let from_baud = shared.baud();
         let started = Instant::now();
+        // An e-stop pressed since the change was asked for: `BDR` is not inert, and
+        // nothing but inert instructions goes out while the latch is set.
+        self.writer.observe_latch();
+        if shared.config.latch.is_latched() {
+            return Ok(Err(BaudError::EstopLatched));
+        }
         shared.set_state(
             LinkState::Connecting,
             Some(format!(
@@ -1185,6 +1191,12 @@ impl<L: LineWrite> Change<'_, '_, L> {
         shared.awaiting_answer.store(false, Ordering::Release);
         if answered {
             shared.set_state(LinkState::Up, None);
+            if shared.config.latch.is_latched() {
+                // A stop written while the two ends' speeds differed was lost: the
+                // gateway hears it again now that they agree.
+                self.writer.stop();
+                self.idle_until(Instant::now())?;
+            }
         } else {
             shared.set_state(LinkState::NotAnswering, Some(NOT_ANSWERING.to_owned()));
         }
