@@ -130,6 +130,7 @@ pub async fn put(
     state: &AppState,
     new: InstallationInfo,
 ) -> Result<InstallationInfo, InstallError> {
+    commissioning_done(state).await?;
     let _catalogue = state.lock_catalogue().await;
     idle(state)?;
     // What the units hold may no longer fit the installation or the line.
@@ -164,6 +165,7 @@ pub async fn change_baud(
     gateway: usize,
     baud: u32,
 ) -> Result<BaudChanged, InstallError> {
+    commissioning_done(state).await?;
     let _catalogue = state.lock_catalogue().await;
     idle(state)?;
     // What the units hold may no longer fit the installation or the line.
@@ -195,6 +197,25 @@ pub async fn change_baud(
     })
     .await?;
     Ok(changed)
+}
+
+/// The longest a new installation or line speed waits for a commissioning call to end
+/// (an identified ball on its way back: a few seconds) before it is refused.
+const COMMISSIONING_WAIT: Duration = Duration::from_secs(15);
+
+/// Waits, at most [`COMMISSIONING_WAIT`], until no commissioning call uses a gateway:
+/// the installer may tap Save while the last identified ball is still coming back.
+async fn commissioning_done(state: &AppState) -> Result<(), InstallError> {
+    let deadline = tokio::time::Instant::now() + COMMISSIONING_WAIT;
+    while state.commission().busy() {
+        if tokio::time::Instant::now() >= deadline {
+            return Err(InstallError::Busy {
+                state: "commissioning".to_owned(),
+            });
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    Ok(())
 }
 
 /// Refused unless the player is idle and no Start is pending.

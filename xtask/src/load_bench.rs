@@ -467,14 +467,22 @@ mod tests {
         assert_eq!(median(&[1.0, 2.0, 4.0, 10.0]), 3.0);
     }
 
-    /// A one-shot server that answers `answer` and closes the connection.
+    /// A one-shot server that reads a whole request without a body (the client may
+    /// write it in pieces: answering and closing after the first piece would break
+    /// the client's pipe), answers `answer` and closes the connection.
     fn answering(answer: &'static [u8]) -> SocketAddr {
         let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
         let addr = listener.local_addr().unwrap();
         std::thread::spawn(move || {
             let (mut stream, _) = listener.accept().unwrap();
-            let mut request = [0_u8; 1024];
-            let _ = stream.read(&mut request);
+            let mut request = Vec::new();
+            let mut piece = [0_u8; 1024];
+            while !request.windows(4).any(|end| end == b"\r\n\r\n") {
+                match stream.read(&mut piece) {
+                    Ok(0) | Err(_) => break,
+                    Ok(n) => request.extend_from_slice(&piece[..n]),
+                }
+            }
             stream.write_all(answer).unwrap();
         });
         addr
