@@ -428,6 +428,7 @@ impl MboxNet {
             .map(|(index, one)| {
                 let link = self.state(index);
                 GatewayStatus {
+                    index,
                     kind: GatewayKind::Mbox,
                     port: one.address.to_string(),
                     link,

@@ -40,7 +40,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
-use floatball_shared::api::{GatewayKind, GatewayStatus, Status};
+use floatball_shared::api::{GatewayKind, GatewayStatus, Status, summarise_gateways};
 use floatball_shared::plan::Installation;
 use floatball_shared::plan::mbox::{MboxPlayer, MboxPlayerConfig};
 use floatball_shared::plan::player::{
@@ -782,12 +782,13 @@ fn link_views(links: &[Link]) -> Vec<LinkView> {
 fn status_of(player: &Player, links: &[Link], health: &[HealthView]) -> Status {
     let mut status = player.status();
     let lowest = player.lowest_water_levels();
-    status.gateways = links
+    let all = links
         .iter()
         .enumerate()
         .map(|(gateway, link)| {
             let link_status = link.snapshot();
             GatewayStatus {
+                index: gateway,
                 kind: GatewayKind::Uim2503,
                 port: link.port().to_owned(),
                 link: link_status.state,
@@ -806,6 +807,7 @@ fn status_of(player: &Player, links: &[Link], health: &[HealthView]) -> Status {
             }
         })
         .collect();
+    (status.gateways, status.gateway_summary) = summarise_gateways(all);
     status
 }
 
@@ -1069,7 +1071,7 @@ fn publish(status: &watch::Sender<Status>, current: Status) {
 
 fn mbox_status(player: &MboxPlayer, boxes: &MboxNet) -> Status {
     let mut status = player.status();
-    status.gateways = boxes.statuses();
+    (status.gateways, status.gateway_summary) = summarise_gateways(boxes.statuses());
     status
 }
 
@@ -1314,6 +1316,7 @@ impl SclStatus {
                 None => (0, 0, 0.0),
             },
         };
+        let (gateways, gateway_summary) = summarise_gateways(drives.statuses());
         Status {
             state: self.state,
             entry: self.entry,
@@ -1322,9 +1325,10 @@ impl SclStatus {
             show_duration_ms,
             cycle: self.cycle,
             progress,
-            gateways: drives.statuses(),
+            gateways,
             last_error: self.last_error.clone(),
             armed: None,
+            gateway_summary,
         }
     }
 }

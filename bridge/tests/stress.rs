@@ -46,7 +46,7 @@ impl Random {
 
 /// What came from the bridge.
 enum Heard {
-    Message(ServerMessage),
+    Message(Box<ServerMessage>),
     Nothing,
     /// The connection ended.
     Closed,
@@ -60,7 +60,8 @@ async fn hear_within(ws: &mut Ws, within: Duration) -> Heard {
             Err(_) => return Heard::Nothing,
             Ok(None | Some(Err(_))) => return Heard::Closed,
             Ok(Some(Ok(Message::Text(text)))) => {
-                return serde_json::from_str(text.as_str()).map_or(Heard::Nothing, Heard::Message);
+                return serde_json::from_str(text.as_str())
+                    .map_or(Heard::Nothing, |message| Heard::Message(Box::new(message)));
             }
             Ok(Some(Ok(_))) => {}
         }
@@ -70,7 +71,7 @@ async fn hear_within(ws: &mut Ws, within: Duration) -> Heard {
 /// The next server message within `within`, or `None`.
 async fn next_within(ws: &mut Ws, within: Duration) -> Option<ServerMessage> {
     match hear_within(ws, within).await {
-        Heard::Message(message) => Some(message),
+        Heard::Message(message) => Some(*message),
         Heard::Nothing | Heard::Closed => None,
     }
 }
@@ -125,7 +126,7 @@ async fn run(gateways: usize, seed: u64) {
         readers.push(tokio::spawn(async move {
             while reading.load(Ordering::Acquire) {
                 match hear_within(&mut ws, Duration::from_millis(200)).await {
-                    Heard::Message(ServerMessage::Status(_)) => {
+                    Heard::Message(message) if matches!(*message, ServerMessage::Status(_)) => {
                         statuses.fetch_add(1, Ordering::Relaxed);
                     }
                     Heard::Message(_) | Heard::Nothing => {}

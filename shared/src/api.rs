@@ -848,6 +848,9 @@ impl GatewayKind {
 /// One gateway as shown in the status.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct GatewayStatus {
+    /// Its place in the installation (0-based, the order of `[[gateway]]` entries).
+    #[serde(default)]
+    pub index: usize,
     /// Its drive family; `uim2503` when absent.
     #[serde(default, skip_serializing_if = "GatewayKind::is_uim2503")]
     pub kind: GatewayKind,
@@ -1002,6 +1005,93 @@ pub struct Status {
     /// Start (nothing moves); absent when nothing is armed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub armed: Option<ArmedShow>,
+    /// Every gateway counted: how many are up, the lowest water level, which have a
+    /// problem. With more than [`GATEWAY_DETAIL_LIMIT`] gateways `gateways` lists only
+    /// those with a problem (`GET /api/status/gateways` gives every one).
+    #[serde(default)]
+    pub gateway_summary: GatewaySummary,
+}
+
+/// With more gateways than this, a status lists in full only the gateways with a
+/// problem; [`Status::gateway_summary`] still counts every one.
+pub const GATEWAY_DETAIL_LIMIT: usize = 16;
+
+/// Every gateway of the installation in a few numbers, so that a status stays small
+/// with a hundred gateways.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct GatewaySummary {
+    /// Gateways in the installation.
+    pub total: u32,
+    /// Of those, how many links are up.
+    pub up: u32,
+    /// Bytes written per second, all gateways together.
+    pub bytes_per_s: f64,
+    /// The lowest FIFO water level of any unit on any gateway during the current show,
+    /// rows; absent when nothing streams.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lowest_water_level: Option<u16>,
+    /// The gateway (index) with that lowest level.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lowest_water_gateway: Option<usize>,
+    /// The gateways (indices, ascending) with a problem ([`GatewayStatus::has_problem`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub problems: Vec<usize>,
+    /// Whether [`Status::gateways`] lists every gateway (`false`: only `problems`).
+    pub complete: bool,
+}
+
+impl GatewayStatus {
+    /// Whether an operator should look at this gateway: its link is not up, it has an
+    /// error, or (UIM2503) units are missing, unexpected, shared or in fault, or (SCL)
+    /// a drive reports a problem.
+    #[must_use]
+    pub fn has_problem(&self) -> bool {
+        let health = self.health.as_ref().is_some_and(|health| {
+            !health.missing.is_empty()
+                || !health.unexpected.is_empty()
+                || !health.duplicated.is_empty()
+                || !health.faults.is_empty()
+        });
+        self.link != LinkState::Up
+            || self.error.is_some()
+            || health
+            || self.drives.iter().any(|drive| drive.error.is_some())
+    }
+}
+
+/// Counts `all` (every gateway, in installation order) into a [`GatewaySummary`] and
+/// keeps the details a status carries: every gateway up to [`GATEWAY_DETAIL_LIMIT`],
+/// beyond that only those with a problem.
+#[must_use]
+pub fn summarise_gateways(all: Vec<GatewayStatus>) -> (Vec<GatewayStatus>, GatewaySummary) {
+    let mut summary = GatewaySummary {
+        total: u32::try_from(all.len()).unwrap_or(u32::MAX),
+        complete: all.len() <= GATEWAY_DETAIL_LIMIT,
+        ..GatewaySummary::default()
+    };
+    for gateway in &all {
+        if gateway.link == LinkState::Up {
+            summary.up += 1;
+        }
+        summary.bytes_per_s += gateway.bytes_per_s;
+        if let Some(level) = gateway.lowest_water_level
+            && summary
+                .lowest_water_level
+                .is_none_or(|lowest| level < lowest)
+        {
+            summary.lowest_water_level = Some(level);
+            summary.lowest_water_gateway = Some(gateway.index);
+        }
+        if gateway.has_problem() {
+            summary.problems.push(gateway.index);
+        }
+    }
+    let details = if summary.complete {
+        all
+    } else {
+        all.into_iter().filter(GatewayStatus::has_problem).collect()
+    };
+    (details, summary)
 }
 
 #[cfg(test)]
@@ -1024,6 +1114,71 @@ mod tests {
         );
         let estop: ClientMessage = serde_json::from_str(r#"{"type":"estop"}"#).expect("estop");
         assert_eq!(estop, ClientMessage::Estop);
+    }
+
+    fn gateway(index: usize, link: LinkState, level: Option<u16>) -> GatewayStatus {
+        GatewayStatus {
+            index,
+            kind: GatewayKind::Uim2503,
+            port: format!("tcp://10.0.0.{index}:4001"),
+            link,
+            bytes_per_s: 100.0,
+            lowest_water_level: level,
+            error: None,
+            packets_per_s: None,
+            late_frames: None,
+            missed_replies: None,
+            drives: Vec::new(),
+            baud: Some(115_200),
+            health: None,
+        }
+    }
+
+    #[test]
+    fn a_few_gateways_are_all_detailed() {
+        let all: Vec<_> = (0..3)
+            .map(|i| gateway(i, LinkState::Up, Some(200 - i as u16)))
+            .collect();
+        let (details, summary) = summarise_gateways(all.clone());
+        assert_eq!(details, all);
+        assert!(summary.complete);
+        assert_eq!((summary.total, summary.up), (3, 3));
+        assert_eq!(summary.lowest_water_level, Some(198));
+        assert_eq!(summary.lowest_water_gateway, Some(2));
+        assert!(summary.problems.is_empty());
+        assert!((summary.bytes_per_s - 300.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_hundred_gateways_detail_only_their_problems() {
+        let mut all: Vec<_> = (0..100)
+            .map(|i| gateway(i, LinkState::Up, Some(180)))
+            .collect();
+        all[7].link = LinkState::Down;
+        all[42].health = Some(UnitHealth {
+            expected: 100,
+            answering: 99,
+            missing: vec![12],
+            ..UnitHealth::default()
+        });
+        all[63].lowest_water_level = Some(3);
+        let (details, summary) = summarise_gateways(all);
+        assert!(!summary.complete);
+        assert_eq!((summary.total, summary.up), (100, 99));
+        assert_eq!(summary.problems, vec![7, 42]);
+        assert_eq!(
+            details.iter().map(|g| g.index).collect::<Vec<_>>(),
+            vec![7, 42]
+        );
+        assert_eq!(summary.lowest_water_level, Some(3));
+        assert_eq!(summary.lowest_water_gateway, Some(63));
+        let json = serde_json::to_string(&Status {
+            gateways: details,
+            gateway_summary: summary,
+            ..Status::default()
+        })
+        .expect("json");
+        assert!(json.len() < 1500, "{} bytes: {json}", json.len());
     }
 
     #[test]
@@ -1124,6 +1279,7 @@ mod tests {
                 .is_none()
         );
         let mbox = GatewayStatus {
+            index: 0,
             baud: None,
             health: None,
             kind: GatewayKind::Mbox,
@@ -1146,6 +1302,7 @@ mod tests {
             r#"{"type":"scl_reply","gateway":0,"drive":"2","request":"2IP","text":"IP = 1200","raw":"IP=1200"}"#
         );
         let status = GatewayStatus {
+            index: 0,
             kind: GatewayKind::Scl,
             port: "/dev/ttyUSB0".into(),
             link: LinkState::Up,

@@ -462,6 +462,7 @@ mod tests {
         assert!(matches!(check_mbox("@201 reset", every), Check::Invalid(_)));
         let status = Status {
             gateways: vec![floatball_shared::api::GatewayStatus {
+                index: 0,
                 baud: None,
                 health: None,
                 kind: GatewayKind::Mbox,
@@ -506,6 +507,7 @@ mod tests {
         assert!(matches!(check_scl("*5;PV;"), Check::Invalid(_)));
         let scl = Status {
             gateways: vec![floatball_shared::api::GatewayStatus {
+                index: 0,
                 baud: None,
                 health: None,
                 kind: GatewayKind::Scl,

@@ -458,6 +458,7 @@ mod tests {
     #[test]
     fn only_unwell_gateways_warn() {
         let gateway = |health: Option<UnitHealth>| GatewayStatus {
+            index: 0,
             kind: GatewayKind::Uim2503,
             port: "/dev/ttyUSB0".into(),
             link: LinkState::Up,

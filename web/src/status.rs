@@ -162,6 +162,7 @@ mod tests {
     #[test]
     fn gateway_lines_by_kind() {
         let uim = GatewayStatus {
+            index: 0,
             baud: None,
             health: None,
             kind: GatewayKind::Uim2503,
@@ -186,6 +187,7 @@ mod tests {
             "the buffer only while a show streams"
         );
         let mbox = GatewayStatus {
+            index: 0,
             baud: None,
             health: None,
             kind: GatewayKind::Mbox,
@@ -216,6 +218,7 @@ mod tests {
             error: None,
         };
         let scl = GatewayStatus {
+            index: 0,
             baud: None,
             health: None,
             kind: GatewayKind::Scl,

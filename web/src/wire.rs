@@ -98,6 +98,7 @@ mod tests {
             cycle: 0,
             progress: 0.0,
             gateways: vec![GatewayStatus {
+                index: 0,
                 kind: GatewayKind::Uim2503,
                 port: "sim".into(),
                 link: LinkState::NotAnswering,
@@ -128,6 +129,15 @@ mod tests {
                 show: "wave".into(),
                 progress: 0.5,
             }),
+            gateway_summary: floatball_shared::api::GatewaySummary {
+                total: 100,
+                up: 99,
+                bytes_per_s: 1100.5,
+                lowest_water_level: Some(3),
+                lowest_water_gateway: Some(41),
+                problems: vec![0],
+                complete: false,
+            },
         };
         let mut params = Params::new();
         params.insert("name".into(), "波浪".into());

@@ -755,6 +755,7 @@ async fn a_balls_q_program_shows_on_installations_of_moons_drives() {
         "no Q programs without MOONS' drives"
     );
     let scl = GatewayStatus {
+        index: 0,
         baud: None,
         health: None,
         kind: GatewayKind::Scl,
@@ -1043,6 +1044,7 @@ async fn start_and_reset_ignore_the_checkboxes_and_status_is_live() {
 
 fn uim_gateway(level: u16) -> GatewayStatus {
     GatewayStatus {
+        index: 0,
         baud: None,
         health: None,
         kind: GatewayKind::Uim2503,
@@ -1568,6 +1570,7 @@ async fn console_checks_before_sending_and_decodes_feedback() {
 /// A status of two MBOX boxes: .201 up, .202 down with counts.
 fn mbox_status() -> Status {
     let mbox = |port: &str, link, packets, late, missed| GatewayStatus {
+        index: 0,
         baud: None,
         health: None,
         kind: GatewayKind::Mbox,
@@ -1686,6 +1689,7 @@ async fn console_on_mbox_boxes_checks_box_commands_helps_and_shows_replies() {
 fn scl_status() -> Status {
     Status {
         gateways: vec![GatewayStatus {
+            index: 0,
             baud: None,
             health: None,
             kind: GatewayKind::Scl,
@@ -2121,6 +2125,7 @@ async fn control_warns_about_units_and_shows_armed_not_answering_and_the_preload
     );
 
     let gateway = GatewayStatus {
+        index: 0,
         kind: GatewayKind::Uim2503,
         port: "/dev/ttyUSB0".into(),
         link: LinkState::NotAnswering,

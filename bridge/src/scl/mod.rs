@@ -387,6 +387,7 @@ impl SclLink {
         let drives: Vec<SclDriveStatus> = shared.drives.iter().map(DriveShared::snapshot).collect();
         let missed = drives.iter().map(|drive| drive.missed_replies).sum();
         GatewayStatus {
+            index: 0,
             kind: GatewayKind::Scl,
             port: shared.port.clone(),
             link: if up { LinkState::Up } else { LinkState::Down },
@@ -1127,7 +1128,14 @@ impl SclNet {
 
     /// Every gateway entry as the status shows it.
     pub fn statuses(&self) -> Vec<GatewayStatus> {
-        self.links.iter().map(SclLink::status).collect()
+        self.links
+            .iter()
+            .enumerate()
+            .map(|(index, link)| GatewayStatus {
+                index,
+                ..link.status()
+            })
+            .collect()
     }
 
     /// The drives' answers to console lines from now on.

@@ -5,6 +5,8 @@
 //!   kinds of drive) and the one rule that gives every unit its gateway and station;
 //! - this module: the [`Plan`]: every unit's rows in counts and how each gateway runs
 //!   them;
+//! - [`port`]: a gateway's `port` setting parsed: the simulator, a serial device, or a
+//!   serial device server on the network (`tcp://`, `rfc2217://`);
 //! - [`stream`]: the instruction stream in the fewest bytes the manual allows — compact
 //!   form, one `*N;` per batch of a station's rows, and `*0;` broadcasts of what every
 //!   unit of a gateway shares (a row, or just its duration);
@@ -44,6 +46,7 @@
 pub mod installation;
 pub mod mbox;
 pub mod player;
+pub mod port;
 pub mod report;
 pub mod schedule;
 pub mod stream;

@@ -84,6 +84,7 @@ pub(crate) mod tests {
             gateways: Vec::new(),
             last_error: None,
             armed: None,
+            gateway_summary: Default::default(),
         }
     }
 

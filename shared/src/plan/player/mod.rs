@@ -95,6 +95,7 @@ impl PlaylistProgress {
             gateways: Vec::new(),
             last_error: self.last_error,
             armed: None,
+            gateway_summary: crate::api::GatewaySummary::default(),
         }
     }
 }
