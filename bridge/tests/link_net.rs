@@ -464,3 +464,134 @@ async fn feedback_over_tcp_arrives_as_frames() {
         .unwrap();
     assert_eq!(got, frame);
 }
+
+/// Where `needle` first occurs in `haystack`.
+fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
+    haystack
+        .windows(needle.len())
+        .position(|window| window == needle)
+}
+
+#[tokio::test]
+async fn an_rfc2217_link_sets_the_remote_line_and_writes_the_same_bytes() {
+    let server = Server::start(Mode::Rfc2217);
+    let link = Link::open(0, LinkConfig::new(server.rfc2217(), 19_200));
+    wait_for_state(&link, LinkState::Up).await;
+    assert_eq!(server.line_baud.load(Ordering::Acquire), 19_200);
+
+    let raw = server.raw.lock().unwrap().clone();
+    // WILL COM-PORT-OPTION, then the line: 19200 baud, 8 bits, no parity, one stop
+    // bit, no flow control — each as RFC 2217 spells it — and only then the greeting.
+    let offer = find(&raw, &[IAC, WILL, 44]).expect("WILL COM-PORT-OPTION");
+    let mut at = offer;
+    for command in [
+        &[IAC, SB, 44, 1, 0, 0, 0x4B, 0x00, IAC, SE][..],
+        &[IAC, SB, 44, 2, 8, IAC, SE],
+        &[IAC, SB, 44, 3, 1, IAC, SE],
+        &[IAC, SB, 44, 4, 1, IAC, SE],
+        &[IAC, SB, 44, 5, 1, IAC, SE],
+        b"ABC;",
+    ] {
+        let found = find(&raw[at..], command)
+            .unwrap_or_else(|| panic!("{command:?} after byte {at} of {raw:?}"));
+        at += found + command.len();
+    }
+
+    // The instructions are the line's bytes, as over raw TCP.
+    let mut expected = 0;
+    for batch in traffic() {
+        expected += batch.len();
+        link.send(batch).await.unwrap();
+    }
+    let written = bytes(&collect(&server.rx, expected));
+    let plain: Vec<u8> = traffic().iter().flat_map(|b| b.as_bytes().to_vec()).collect();
+    assert_eq!(written, plain);
+}
+
+#[tokio::test]
+async fn a_line_speed_change_is_sent_to_the_rfc2217_server() {
+    let server = Server::start(Mode::Rfc2217);
+    let link = Link::open(0, LinkConfig::new(server.rfc2217(), 9600));
+    wait_for_state(&link, LinkState::Up).await;
+    let changed = link
+        .change_baud(57_600, Duration::from_secs(3))
+        .await
+        .unwrap();
+    assert_eq!((changed.from_baud, changed.baud), (9600, 57_600));
+    assert_eq!(link.baud(), 57_600);
+    assert_eq!(server.line_baud.load(Ordering::Acquire), 57_600);
+    let raw = server.raw.lock().unwrap().clone();
+    let bdr = find(&raw, b"BDR=57600;").expect("BDR sent to the gateway");
+    let set = find(&raw, &[IAC, SB, 44, 1, 0, 0, 0xE1, 0x00, IAC, SE]).expect("SET-BAUDRATE");
+    assert!(bdr < set, "the gateway is told before the line moves");
+    assert_eq!(bytes(&collect(&server.rx, 10)), b"BDR=57600;");
+}
+
+#[tokio::test]
+async fn a_refused_line_speed_is_down_with_the_reason() {
+    let server = Server::start(Mode::Rfc2217FixedBaud(9600));
+    let link = Link::open(0, LinkConfig::new(server.rfc2217(), 115_200));
+    wait_for_state(&link, LinkState::Down).await;
+    let error = link.snapshot().error.unwrap();
+    assert!(
+        error.contains(&format!("127.0.0.1:{}", server.port))
+            && error.contains("115200")
+            && error.contains("9600"),
+        "{error}"
+    );
+    assert_eq!(server.greetings.load(Ordering::Acquire), 0);
+}
+
+#[tokio::test]
+async fn a_raw_server_on_an_rfc2217_link_is_told_apart() {
+    // A raw TCP server never answers the Telnet offer.
+    let server = Server::start(Mode::Raw);
+    let link = Link::open(0, LinkConfig::new(server.rfc2217(), 9600));
+    wait_for_state(&link, LinkState::Down).await;
+    let error = link.snapshot().error.unwrap();
+    assert!(
+        error.contains(&format!("tcp://127.0.0.1:{}", server.port)),
+        "{error}"
+    );
+}
+
+#[tokio::test]
+async fn feedback_holding_0xff_is_undoubled_and_telnet_commands_inside_it_skipped() {
+    let server = Server::start(Mode::Rfc2217);
+    let link = Link::open(0, LinkConfig::new(server.rfc2217(), 115_200));
+    wait_for_state(&link, LinkState::Up).await;
+    let mut feedback = link.feedback();
+    // Every data byte with its high bit set: the header is 0xFF.
+    let frame = Frame::new(7, 0x5A, &[0xFF; 8]).unwrap();
+    let plain = frame.encode().as_bytes().to_vec();
+    assert_eq!(plain[0], 0xFF);
+    let mut wire = Vec::new();
+    telnet::escape(&plain[..3], &mut wire);
+    // A NOP and a server notification between two bytes of the frame.
+    wire.extend([IAC, 241, IAC, SB, 44, 107, 0x30, IAC, SE]);
+    telnet::escape(&plain[3..], &mut wire);
+    assert_eq!(&wire[..2], [IAC, IAC]);
+    for chunk in wire.chunks(3) {
+        server.send(chunk);
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let got = tokio::time::timeout(Duration::from_secs(5), feedback.recv())
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(got, frame);
+}
+
+#[tokio::test]
+async fn an_estop_over_rfc2217_goes_first_after_a_reconnect_while_latched() {
+    let server = Server::start(Mode::Rfc2217);
+    let link = Link::open(0, LinkConfig::new(server.rfc2217(), 115_200));
+    wait_for_state(&link, LinkState::Up).await;
+    server.cut();
+    wait_for_state(&link, LinkState::Down).await;
+    // Pressed while the connection is down: it cannot be written now…
+    assert!(link.estop().is_some());
+    // …and is the first instruction on the next connection.
+    wait_for_state(&link, LinkState::Up).await;
+    assert_eq!(bytes(&collect(&server.rx, 8)), b"*0;MO=0;");
+}
