@@ -11,7 +11,9 @@
 //! RFC 2217 mode, where ser2net opens H at 9600 baud and the gateway runs at 115 200,
 //! nothing crosses until the bridge has set the remote speed. Whole `ABC;` greetings
 //! (sent when the link comes up and while idle, so their number depends on timing) are
-//! left out of the bytes compared.
+//! left out of the bytes compared. Each run waits until the bridge has loaded the show
+//! ahead of Start (it does 3 s after the playlist is set), and after the show until it
+//! has loaded it again (once), so that timing changes nothing in what is compared.
 //!
 //! ser2net is found at `FLOATBALL_SER2NET` or `/usr/sbin/ser2net`. Without it the
 //! tests say so and pass — unless `FLOATBALL_REQUIRE_SER2NET=1` (`cargo xtask test`
@@ -255,6 +257,9 @@ async fn play(ser2net: &Path, way: Way) -> Played {
         "the gateway did not come up: {}",
         context(&bridge)
     );
+    // The bridge loads the show ahead of Start 3 s after the playlist was set (the
+    // armer); waiting for that makes every run write the same sequence.
+    armed(&mut ws).await;
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let (states, _) = common::until(&mut ws, Duration::from_secs(20), |status| {
         status.state == PlayerState::Playing
@@ -276,16 +281,29 @@ async fn play(ser2net: &Path, way: Way) -> Played {
         status.last_error,
         context(&bridge)
     );
-    // The line settles (the last instructions cross it), the bridge still connected.
-    std::thread::sleep(Duration::from_millis(300));
+    // Once the show has ended the armer loads it again (once): the bytes are taken
+    // when it has, so that every run ends at the same place.
+    armed(&mut ws).await;
+    let wire = record.lock().unwrap().clone();
     let host_baud = host_master.baud_rate().expect("the host pty's speed");
     drop(bridge);
     stop.store(true, Ordering::Release);
-    let wire = record.lock().unwrap().clone();
     Played {
         wire: without_greetings(&wire),
         host_baud,
     }
+}
+
+/// Waits until the bridge has loaded the playlist's first show ahead of Start.
+async fn armed(ws: &mut common::Ws) {
+    common::until(ws, Duration::from_secs(20), |status| {
+        status.state == PlayerState::Idle
+            && status
+                .armed
+                .as_ref()
+                .is_some_and(|armed| armed.progress >= 1.0)
+    })
+    .await;
 }
 
 /// `wire` without its whole `ABC;` instructions.
