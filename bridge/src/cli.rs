@@ -278,6 +278,9 @@ async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
         (SimulateKind::Uim2503, None, Some(listen)) => {
             return simulate_uim2503_tcp(&args, listen).await;
         }
+        (SimulateKind::Uim2503, Some(_), None) if args.gateways > 1 => {
+            anyhow::bail!("--gateways is for --listen: a serial device (--port) has one gateway")
+        }
         (SimulateKind::Uim2503, Some(port), None) => port,
         (SimulateKind::Uim2503, None, None) => {
             anyhow::bail!("--kind uim2503 needs --port (a serial device) or --listen (TCP)")
