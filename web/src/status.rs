@@ -44,18 +44,21 @@ pub fn gateway_port(
         .or_else(|| Some(installation?.gateways.get(index)?.port.clone()))
 }
 
-/// A gateway with a problem in words: its line ([`gateway_text`]) while its link is
-/// not up or has an error; else what is wrong with its units (UIM2503: who does not
+/// A gateway with a problem in words: its port, link and error while its link is not
+/// up or has an error; else what is wrong with its units (UIM2503: who does not
 /// answer, shares a station or reported an error); then each MOONS' drive's error.
-pub fn problem_text(lang: Lang, gateway: &GatewayStatus, streaming: bool) -> String {
+pub fn problem_text(lang: Lang, gateway: &GatewayStatus) -> String {
     let link_fine = gateway.link == LinkState::Up && gateway.error.is_none();
     let units = health_warnings(std::slice::from_ref(gateway))
         .pop()
         .filter(|_| link_fine);
     let mut text = match units {
         Some(warning) => lang.health_warning(&warning),
-        None => gateway_text(lang, gateway, streaming),
+        None => format!("{}: {}", gateway.port, lang.link_state(gateway.link)),
     };
+    if let Some(error) = gateway.error.as_ref().filter(|_| !link_fine) {
+        text.push_str(&format!(" · {error}"));
+    }
     for drive in &gateway.drives {
         if let Some(error) = &drive.error {
             text.push_str(&format!(" · {}: {error}", drive.address));
@@ -388,14 +391,14 @@ mod tests {
         };
         assert!(summarised(&status));
         assert_eq!(
-            problem_text(Lang::En, &status.gateways[0], true),
+            problem_text(Lang::En, &status.gateways[0]),
             "tcp://10.0.0.7:4001: down · connection refused"
         );
         assert_eq!(
-            problem_text(Lang::En, &status.gateways[1], true),
-            "tcp://10.0.0.42:4001: 99 of 100 units answer, missing stations 17"
+            problem_text(Lang::En, &status.gateways[1]),
+            "tcp://10.0.0.42:4001: 99 of 100 units answer; missing stations 17"
         );
-        assert!(problem_text(Lang::Zh, &status.gateways[1], true).contains("缺失站号 17"));
+        assert!(problem_text(Lang::Zh, &status.gateways[1]).contains("缺失站号 17"));
         // Gateway 63 is not detailed: its port comes from the installation.
         assert_eq!(
             lowest_text(Lang::En, &status, None).as_deref(),

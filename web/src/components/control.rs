@@ -643,7 +643,6 @@ fn StatusView() -> impl IntoView {
 /// words (at most [`PROBLEMS_LISTED`], the rest counted).
 fn gateway_summary(ctx: Ctx, lang: Lang, status: &Status) -> impl IntoView + use<> {
     let summary = &status.gateway_summary;
-    let streaming = streams(status.state);
     let lowest = ctx
         .installation
         .with(|installation| lowest_text(lang, status, installation.as_ref()));
@@ -662,7 +661,7 @@ fn gateway_summary(ctx: Ctx, lang: Lang, status: &Status) -> impl IntoView + use
                     data-link=link
                 >
                     <span class="gw-index">{gateway.index}</span>
-                    {problem_text(lang, gateway, streaming)}
+                    {problem_text(lang, gateway)}
                 </li>
             }
         })
