@@ -307,8 +307,7 @@ impl Playback {
         let installation = Arc::new(installation);
         let (requests, inbox) = mpsc::unbounded_channel();
         let (list_tx, list) = watch::channel(Vec::new());
-        let (status_tx, status) =
-            watch::channel(SclStatus::default().status(&drives, &list_tx));
+        let (status_tx, status) = watch::channel(SclStatus::default().status(&drives, &list_tx));
         tokio::spawn(run_scl(
             drives.clone(),
             Arc::clone(&installation),

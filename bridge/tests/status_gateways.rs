@@ -32,10 +32,7 @@ fn config(gateways: usize, units: usize, broken: &[usize]) -> String {
 
 /// The next status over the WebSocket that satisfies `wanted`, with its size on the
 /// wire (bytes of the JSON text frame), within 10 s.
-async fn status_frame(
-    ws: &mut common::Ws,
-    wanted: impl Fn(&Status) -> bool,
-) -> (Status, usize) {
+async fn status_frame(ws: &mut common::Ws, wanted: impl Fn(&Status) -> bool) -> (Status, usize) {
     tokio::time::timeout(Duration::from_secs(10), async {
         loop {
             let frame = ws.next().await.expect("open").expect("frame");
@@ -105,8 +102,7 @@ async fn a_status_of_a_hundred_gateways_that_are_all_up_is_small() {
     let bridge = Bridge::start_with(&config(100, 1, &[])).await;
     let token = bridge.token().await;
     let mut ws = bridge.ws(&token).await;
-    let (status, bytes) =
-        status_frame(&mut ws, |status| status.gateway_summary.up == 100).await;
+    let (status, bytes) = status_frame(&mut ws, |status| status.gateway_summary.up == 100).await;
     println!("a status of 100 gateways, all up: {bytes} bytes");
     assert!(status.gateways.is_empty(), "{:?}", status.gateways);
     assert_eq!(status.gateway_summary.total, 100);

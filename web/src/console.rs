@@ -141,7 +141,12 @@ pub fn mbox_route(
 ) -> Route {
     let address = gateway.and_then(|index| {
         let detailed = status
-            .and_then(|status| status.gateways.iter().find(|gateway| gateway.index == index))
+            .and_then(|status| {
+                status
+                    .gateways
+                    .iter()
+                    .find(|gateway| gateway.index == index)
+            })
             .map(|gateway| gateway.port.as_str());
         let configured = installation
             .and_then(|installation| installation.gateways.get(index))

@@ -75,7 +75,9 @@ pub fn lowest_text(
     installation: Option<&InstallationInfo>,
 ) -> Option<String> {
     let summary = &status.gateway_summary;
-    let level = summary.lowest_water_level.filter(|_| streams(status.state))?;
+    let level = summary
+        .lowest_water_level
+        .filter(|_| streams(status.state))?;
     let gateway = summary.lowest_water_gateway?;
     let port = gateway_port(status, installation, gateway);
     Some(lang.lowest_buffer(level, gateway, port.as_deref()))
@@ -379,7 +381,10 @@ mod tests {
             gateways: vec![gateway(7, LinkState::Down), unwell],
             ..Status::default()
         };
-        assert!(!summarised(&status), "no summary: every gateway is detailed");
+        assert!(
+            !summarised(&status),
+            "no summary: every gateway is detailed"
+        );
         status.gateway_summary = floatball_shared::api::GatewaySummary {
             total: 100,
             up: 99,
@@ -433,7 +438,11 @@ mod tests {
             "the details first"
         );
         status.state = PlayerState::Idle;
-        assert_eq!(lowest_text(Lang::En, &status, None), None, "only while streaming");
+        assert_eq!(
+            lowest_text(Lang::En, &status, None),
+            None,
+            "only while streaming"
+        );
         assert_eq!(Lang::En.gateways_up(99, 100), "99 of 100 gateways");
         assert_eq!(Lang::Zh.gateways_up(99, 100), "99 / 100 个网关");
         assert_eq!(Lang::En.show_all_gateways(100), "Show all 100 gateways");

@@ -2262,8 +2262,7 @@ fn app_styles() -> web_sys::Element {
 }
 
 #[wasm_bindgen_test]
-async fn a_hundred_gateways_show_as_a_summary_with_their_problems_and_the_full_list_on_request()
-{
+async fn a_hundred_gateways_show_as_a_summary_with_their_problems_and_the_full_list_on_request() {
     let every: Vec<GatewayStatus> = (0..100)
         .map(|index| {
             network_gateway(
@@ -2277,10 +2276,12 @@ async fn a_hundred_gateways_show_as_a_summary_with_their_problems_and_the_full_l
         })
         .collect();
     let listed = serde_json::to_string(&every).unwrap();
-    let bridge = FakeBridge::new(move |request| match (request.method, request.url.as_str()) {
-        (Method::Get, "/api/status/gateways") => response(200, &listed),
-        _ => response(404, ""),
-    });
+    let bridge = FakeBridge::new(
+        move |request| match (request.method, request.url.as_str()) {
+            (Method::Get, "/api/status/gateways") => response(200, &listed),
+            _ => response(404, ""),
+        },
+    );
     let socket = Rc::new(FakeSocket::default());
     let (container, ctx) = mount_control(&bridge, &socket, "test-many-gateways").await;
     let style = app_styles();
@@ -2317,8 +2318,15 @@ async fn a_hundred_gateways_show_as_a_summary_with_their_problems_and_the_full_l
         words[1].contains("99 of 100 units answer; missing stations 17"),
         "{words:?}"
     );
-    assert!(all(&container, "gateway-list").is_empty(), "closed at first");
-    assert!(bridge.requests_to(Method::Get, "/api/status/gateways").is_empty());
+    assert!(
+        all(&container, "gateway-list").is_empty(),
+        "closed at first"
+    );
+    assert!(
+        bridge
+            .requests_to(Method::Get, "/api/status/gateways")
+            .is_empty()
+    );
 
     // Opened: every gateway, one compact row each, in a box that scrolls.
     assert_eq!(
@@ -2359,7 +2367,10 @@ async fn a_hundred_gateways_show_as_a_summary_with_their_problems_and_the_full_l
 
     // Refreshed while open.
     until_within("the list is fetched again", 4000, || {
-        bridge.requests_to(Method::Get, "/api/status/gateways").len() >= 2
+        bridge
+            .requests_to(Method::Get, "/api/status/gateways")
+            .len()
+            >= 2
     })
     .await;
 
@@ -2384,10 +2395,14 @@ async fn a_hundred_gateways_show_as_a_summary_with_their_problems_and_the_full_l
     element(&container, "gateway-list-toggle").click();
     tick().await;
     assert!(all(&container, "gateway-list").is_empty());
-    let fetched = bridge.requests_to(Method::Get, "/api/status/gateways").len();
+    let fetched = bridge
+        .requests_to(Method::Get, "/api/status/gateways")
+        .len();
     sleep(2500).await;
     assert_eq!(
-        bridge.requests_to(Method::Get, "/api/status/gateways").len(),
+        bridge
+            .requests_to(Method::Get, "/api/status/gateways")
+            .len(),
         fetched
     );
 
@@ -2443,8 +2458,7 @@ async fn many_problems_are_counted_beyond_the_first_few_and_units_warnings_too()
 
 #[wasm_bindgen_test]
 async fn the_console_takes_the_gateways_from_the_installation_when_the_status_has_few() {
-    let (container, ctx, _, _) =
-        mount_online("test-console-many", || view! { <ConsolePage /> });
+    let (container, ctx, _, _) = mount_online("test-console-many", || view! { <ConsolePage /> });
     // Twenty MBOX boxes, all up: the status details none of them.
     ctx.set_installation(many_gateways(20, GatewayKind::Mbox));
     ctx.receive(ServerMessage::Status(Status {

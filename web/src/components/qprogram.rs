@@ -26,7 +26,12 @@ pub fn has_scl_drives(ctx: Ctx) -> bool {
         installation
             .as_ref()
             .filter(|installation| !installation.gateways.is_empty())
-            .map(|installation| installation.gateways.iter().any(|gateway| scl(gateway.kind)))
+            .map(|installation| {
+                installation
+                    .gateways
+                    .iter()
+                    .any(|gateway| scl(gateway.kind))
+            })
     });
     configured.unwrap_or_else(|| {
         ctx.status.with(|status| {
