@@ -158,7 +158,7 @@ pub struct Playback {
     requests: mpsc::UnboundedSender<Request>,
     status: watch::Receiver<Status>,
     /// Every gateway in full, in installation order, as the status was last built.
-    gateway_list: watch::Receiver<Vec<GatewayStatus>>,
+    gateway_list: watch::Receiver<Listed>,
     /// The installation and the links now: a snapshot, replaced when the task takes a
     /// new installation ([`Playback::reconfigure`]).
     live: Arc<std::sync::RwLock<Live>>,
@@ -234,7 +234,7 @@ impl Playback {
             installation: (*installation).clone(),
         });
         let (requests, inbox) = mpsc::unbounded_channel();
-        let (list_tx, list) = watch::channel(Vec::new());
+        let (list_tx, list) = watch::channel(Listed::default());
         let (status_tx, status) = watch::channel(status_of(&player, &links, &health, &list_tx));
         let started = Self::started(requests, (status, list), installation, latch);
         tokio::spawn(run(
@@ -254,7 +254,7 @@ impl Playback {
     /// drives until the caller names its own.
     fn started(
         requests: mpsc::UnboundedSender<Request>,
-        (status, gateway_list): (watch::Receiver<Status>, watch::Receiver<Vec<GatewayStatus>>),
+        (status, gateway_list): (watch::Receiver<Status>, watch::Receiver<Listed>),
         installation: Arc<Installation>,
         latch: Arc<Latch>,
     ) -> Self {
@@ -280,7 +280,7 @@ impl Playback {
         let installation = Arc::new(config.installation.clone());
         let player = MboxPlayer::new(config);
         let (requests, inbox) = mpsc::unbounded_channel();
-        let (list_tx, list) = watch::channel(Vec::new());
+        let (list_tx, list) = watch::channel(Listed::default());
         let (status_tx, status) = watch::channel(mbox_status(&player, &boxes, &list_tx));
         tokio::spawn(run_mbox(
             player,
@@ -306,7 +306,7 @@ impl Playback {
     ) -> Self {
         let installation = Arc::new(installation);
         let (requests, inbox) = mpsc::unbounded_channel();
-        let (list_tx, list) = watch::channel(Vec::new());
+        let (list_tx, list) = watch::channel(Listed::default());
         let (status_tx, status) = watch::channel(SclStatus::default().status(&drives, &list_tx));
         tokio::spawn(run_scl(
             drives.clone(),
@@ -331,7 +331,7 @@ impl Playback {
     /// (the status itself details only the gateways with a problem beyond
     /// [`floatball_shared::api::GATEWAY_DETAIL_LIMIT`]).
     pub fn gateway_list(&self) -> Vec<GatewayStatus> {
-        self.gateway_list.borrow().clone()
+        self.gateway_list.borrow().gateways.clone()
     }
 
     /// The links now, in gateway order.
@@ -801,7 +801,7 @@ fn status_of(
     player: &Player,
     links: &[Link],
     health: &[HealthView],
-    list: &watch::Sender<Vec<GatewayStatus>>,
+    list: &watch::Sender<Listed>,
 ) -> Status {
     let mut status = player.status();
     let lowest = player.lowest_water_levels();
@@ -834,16 +834,32 @@ fn status_of(
     status
 }
 
-/// Publishes `all` (every gateway) on `list` if it changed, and summarises it for the
-/// status ([`summarise_gateways`]).
+/// How often at most the full list of gateways is published: the status is built on
+/// every turn of the task (many a second while a show streams), the list is read
+/// every 2 s by an app that shows it.
+pub const LIST_EVERY: Duration = Duration::from_millis(250);
+
+/// Every gateway in full as last published ([`Playback::gateway_list`]), and when.
+#[derive(Debug, Default)]
+struct Listed {
+    at: Option<Instant>,
+    gateways: Vec<GatewayStatus>,
+}
+
+/// Publishes `all` (every gateway) on `list` if it changed and the last publication
+/// is [`LIST_EVERY`] old, and summarises it for the status ([`summarise_gateways`]).
+/// Every task builds its status at least ten times a second, so the list is never
+/// more than about a third of a second behind.
 fn summarise(
     all: Vec<GatewayStatus>,
-    list: &watch::Sender<Vec<GatewayStatus>>,
+    list: &watch::Sender<Listed>,
 ) -> (Vec<GatewayStatus>, GatewaySummary) {
     list.send_if_modified(|published| {
-        let changed = *published != all;
+        let due = published.at.is_none_or(|at| at.elapsed() >= LIST_EVERY);
+        let changed = due && published.gateways != all;
         if changed {
-            published.clone_from(&all);
+            published.gateways.clone_from(&all);
+            published.at = Some(Instant::now());
         }
         changed
     });
@@ -1021,7 +1037,7 @@ async fn run(
     mut health: Vec<HealthView>,
     latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
-    (status, list): (watch::Sender<Status>, watch::Sender<Vec<GatewayStatus>>),
+    (status, list): (watch::Sender<Status>, watch::Sender<Listed>),
     arming: Arc<ArmingShared>,
 ) {
     let epoch = Instant::now();
@@ -1108,11 +1124,7 @@ fn publish(status: &watch::Sender<Status>, current: Status) {
     });
 }
 
-fn mbox_status(
-    player: &MboxPlayer,
-    boxes: &MboxNet,
-    list: &watch::Sender<Vec<GatewayStatus>>,
-) -> Status {
+fn mbox_status(player: &MboxPlayer, boxes: &MboxNet, list: &watch::Sender<Listed>) -> Status {
     let mut status = player.status();
     (status.gateways, status.gateway_summary) = summarise(boxes.statuses(), list);
     status
@@ -1185,7 +1197,7 @@ async fn run_mbox(
     boxes: MboxNet,
     latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
-    (status, list): (watch::Sender<Status>, watch::Sender<Vec<GatewayStatus>>),
+    (status, list): (watch::Sender<Status>, watch::Sender<Listed>),
 ) {
     let epoch = Instant::now();
     let now_us = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
@@ -1341,7 +1353,7 @@ impl SclStatus {
         }
     }
 
-    fn status(&self, drives: &SclNet, list: &watch::Sender<Vec<GatewayStatus>>) -> Status {
+    fn status(&self, drives: &SclNet, list: &watch::Sender<Listed>) -> Status {
         let (show_time_ms, show_duration_ms, progress) = match (self.playing, self.loading) {
             (Some((started, duration_ms)), _) => {
                 let time_ms = u64::try_from(started.elapsed().as_millis())
@@ -1386,7 +1398,7 @@ async fn run_scl(
     scl: Arc<SclConfig>,
     latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
-    (status, list): (watch::Sender<Status>, watch::Sender<Vec<GatewayStatus>>),
+    (status, list): (watch::Sender<Status>, watch::Sender<Listed>),
 ) {
     let mut state = SclStatus::default();
     let mut seen_generation = latch.generation();

@@ -48,6 +48,38 @@ async fn status_frame(ws: &mut common::Ws, wanted: impl Fn(&Status) -> bool) -> 
     .expect("no such status within 10 s")
 }
 
+/// How many of `all` are up.
+fn up(all: &[GatewayStatus]) -> usize {
+    all.iter()
+        .filter(|gateway| gateway.link == LinkState::Up)
+        .count()
+}
+
+/// `GET /api/status/gateways` until its answer satisfies `wanted` (the list is
+/// published beside the status, at most four times a second), within 5 s.
+async fn list_until(
+    bridge: &Bridge,
+    token: &str,
+    wanted: impl Fn(&[GatewayStatus]) -> bool,
+) -> Vec<GatewayStatus> {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
+    loop {
+        let reply = bridge
+            .request(Method::GET, "/api/status/gateways", Some(token), None)
+            .await;
+        assert_eq!(reply.status, StatusCode::OK);
+        let all: Vec<GatewayStatus> = reply.json();
+        if wanted(&all) {
+            return all;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "the list never matched: {all:?}"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
 #[tokio::test]
 async fn twenty_gateways_are_summarised_and_listed_in_full_on_request() {
     let bridge = Bridge::start_with(&config(20, 3, &[7])).await;
@@ -71,11 +103,7 @@ async fn twenty_gateways_are_summarised_and_listed_in_full_on_request() {
     assert_ne!(broken.link, LinkState::Up);
     assert!(broken.port.contains("no-such-port-7"), "{broken:?}");
 
-    let reply = bridge
-        .request(Method::GET, "/api/status/gateways", Some(&token), None)
-        .await;
-    assert_eq!(reply.status, StatusCode::OK);
-    let all: Vec<GatewayStatus> = reply.json();
+    let all = list_until(&bridge, &token, |all| up(all) == 19).await;
     assert_eq!(all.len(), 20);
     assert_eq!(
         all.iter().map(|gateway| gateway.index).collect::<Vec<_>>(),
@@ -108,13 +136,10 @@ async fn a_status_of_a_hundred_gateways_that_are_all_up_is_small() {
     assert_eq!(status.gateway_summary.total, 100);
     assert!(bytes < 2048, "{bytes} bytes");
 
-    let reply = bridge
-        .request(Method::GET, "/api/status/gateways", Some(&token), None)
-        .await;
-    let all: Vec<GatewayStatus> = reply.json();
+    let all = list_until(&bridge, &token, |all| up(all) == 100).await;
     assert_eq!(all.len(), 100);
     println!(
         "GET /api/status/gateways with 100 gateways: {} bytes",
-        reply.body.len()
+        serde_json::to_string(&all).expect("json").len()
     );
 }
