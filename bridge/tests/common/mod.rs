@@ -403,10 +403,15 @@ pub async fn until(
 ) {
     let deadline = tokio::time::Instant::now() + limit;
     let mut states = Vec::new();
+    let mut last_error = None;
     loop {
         let frame = tokio::time::timeout_at(deadline, futures_util::StreamExt::next(ws))
             .await
-            .unwrap_or_else(|_| panic!("no such status within {limit:?}; seen {states:?}"))
+            .unwrap_or_else(|_| {
+                panic!(
+                    "no such status within {limit:?}; seen {states:?}, last error {last_error:?}"
+                )
+            })
             .expect("open")
             .expect("frame");
         let tokio_tungstenite::tungstenite::Message::Text(text) = frame else {
@@ -416,6 +421,9 @@ pub async fn until(
             Ok(floatball_shared::api::ServerMessage::Status(status)) => {
                 if states.last() != Some(&status.state) {
                     states.push(status.state);
+                }
+                if status.last_error.is_some() {
+                    last_error.clone_from(&status.last_error);
                 }
                 if wanted(&status) {
                     return (states, status);
