@@ -14,6 +14,7 @@ use floatball_shared::show::{
 use floatball_web::i18n::Lang;
 use floatball_web::preview::PreviewPage;
 use floatball_web::preview::camera::{Orbit, Viewport};
+use floatball_web::preview::gestures::Gesture;
 use floatball_web::preview::perf::{PerfPanel, SIZES};
 use floatball_web::preview::plot::{BallPlot, Panel};
 use floatball_web::preview::scene::{Scene, lit};
@@ -299,6 +300,54 @@ async fn every_ball_lands_on_its_pixel_in_its_lit_colour() {
     assert!(drawn * 100 > total, "{drawn} of {total} pixels drawn");
     assert!(drawn * 2 < total, "{drawn} of {total} pixels drawn");
     assert!(colours.len() > 50, "{} colours", colours.len());
+}
+
+/// From very close a ball is too big for a point sprite: it is drawn as a quad, still
+/// lit as the model says, and its neighbours (sprites) keep theirs.
+#[wasm_bindgen_test]
+async fn a_ball_too_big_for_a_sprite_is_still_drawn_lit() {
+    let container = fresh_container();
+    let canvas: HtmlCanvasElement = document()
+        .create_element("canvas")
+        .unwrap()
+        .unchecked_into();
+    canvas
+        .set_attribute("style", "width: 480px; height: 360px")
+        .unwrap();
+    container.append_child(&canvas).unwrap();
+    // One ball at the middle of the scene's box, where the camera looks.
+    let rgb = [200, 120, 60];
+    let show = Show {
+        outputs: Vec::new(),
+        name: "one".into(),
+        layout: layout(1, 1),
+        // (the box reaches from the grid to the floor, travel and two radii below).
+        tracks: vec![still(DEFAULT_TRAVEL_MM / 2.0, Some(rgb))],
+    };
+    let mut stage = Stage::new(canvas.clone(), &show, Vec::new(), RendererKind::WebGl2).unwrap();
+    stage.draw(0.0, true);
+    for factor in [1.0, 4.0, 1000.0] {
+        stage.apply(Gesture::Zoom(factor));
+        assert!(stage.draw(0.0, true));
+        let camera = stage.camera();
+        let centre = stage.scene().ball_centre(0, stage.positions_mm()[0]);
+        let pixel = camera.pixel_of(centre, stage.viewport()).unwrap();
+        let want = lit(rgb, (camera.eye() - centre).normalize(), camera.light());
+        let got = gl_pixel(&canvas, pixel);
+        assert!(near(got, want, 8), "zoom {factor}: {got:?}, want {want:?}");
+        // The ball's width on screen: from its middle outwards to the background.
+        let background = [11u8, 17, 23];
+        let width = (0..480)
+            .take_while(|dx| {
+                let x = pixel.x + *dx as f32;
+                x < 479.0 && !near(gl_pixel(&canvas, Vec2::new(x, pixel.y)), background, 2)
+            })
+            .count();
+        console_log!("zoom {factor}: half width {width} px");
+        if factor == 1000.0 {
+            assert!(width > 200, "{width} px");
+        }
+    }
 }
 
 #[wasm_bindgen_test]
@@ -714,10 +763,14 @@ async fn without_webgl2_the_top_view_stands_in() {
 // Performance
 // ----------------------------------------------------------------------------------
 
-/// The figures of the issue's benchmarks: sampling 10,000 balls (goal ≤ 1 ms) and a
-/// frame of 2,500 balls (goal ≥ 30 fps). Printed, not asserted tightly (a test build
-/// is not optimised; `docs/preview.md` gives the release figures); only sanity is
-/// checked.
+/// The frame rate every size should reach (issue 18: 10,000 balls at ≥ 60 frames/s
+/// on headless Chromium's software renderer, 640 × 480).
+const FPS_GOAL: f64 = 60.0;
+
+/// The figures of the issues' benchmarks: sampling 10,000 balls (goal ≤ 1 ms) and the
+/// frame rate ([`FPS_GOAL`]). Printed, not asserted (timings vary with the machine's
+/// load, and a test build is not optimised; `docs/preview.md` gives the release
+/// figures); only sanity is checked.
 #[wasm_bindgen_test]
 async fn performance_figures_for_100_2500_and_10000_balls() {
     let container = fresh_container();
@@ -755,7 +808,7 @@ async fn performance_figures_for_100_2500_and_10000_balls() {
             figure(row, "data-fps"),
         );
         console_log!(
-            "  {balls:>6} balls: sample {eval_ms:.3} ms, frame {frame_ms:.2} ms, {fps:.1} frames/s"
+            "  {balls:>6} balls: sample {eval_ms:.3} ms, frame {frame_ms:.2} ms, {fps:.1} frames/s (goal {FPS_GOAL})"
         );
         assert_eq!(figure(row, "data-balls"), balls as f64);
         assert!((0.0..1000.0).contains(&eval_ms));

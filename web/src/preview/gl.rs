@@ -1,21 +1,27 @@
 //! The WebGL2 renderer: thin glue between the plain maths ([`super::camera`],
 //! [`super::scene`]) and the GPU.
 //!
-//! One draw for all balls, each a camera-facing quad on which the fragment shader
-//! traces the exact sphere (a lit impostor: round at any distance for two triangles a
-//! ball, with its true depth), Lambert plus ambient as [`super::scene::lit`]; one draw
-//! of lines for the cables, from each ball up to its anchor; plain lines for the
-//! ceiling grid and the floor reference.
+//! One draw of point sprites for all balls: one vertex a ball, the sprite a square
+//! of pixels holding the ball's silhouette, on which the fragment shader traces the
+//! exact sphere along each pixel's ray (a lit impostor, round at any distance, with
+//! its true depth), Lambert plus ambient as [`super::scene::lit`]. A ball too big on
+//! screen for a sprite (past the WebGL's largest point, or [`SPRITE_LIMIT_PX`]) is
+//! drawn as a camera-facing quad by a second draw, made only when the nearest ball
+//! may be that big. Then one draw of lines for the cables, from each ball up to its
+//! anchor (after the balls, so that the depth test drops what they hide), and plain
+//! lines for the ceiling grid and the floor reference.
 //!
-//! The per-ball data (centre and radius, colour) goes to the GPU as two small textures,
-//! and the vertex shaders fetch their ball's texel by `gl_VertexID` ("vertex
-//! pulling"): one non-instanced draw per kind, four vertices a ball through a fixed
-//! index buffer. That is as cheap as instancing on a GPU, and several times cheaper on
-//! SwiftShader, the software renderer of headless Chromium and of machines without a
-//! usable GPU, which runs instanced draws one instance at a time. Per frame only the
-//! two textures are updated, from buffers the caller keeps (nothing is allocated in
-//! Rust per frame). Edges are smoothed by multisampling, except on a software
-//! renderer, where it would cost several times the frame.
+//! The per-ball data goes to the GPU as one small RG32F texture, one upload a frame:
+//! the height of the ball's centre and its colour packed in one float; where it
+//! hangs follows from its index and the grid, given once per scene. The vertex
+//! shaders fetch their ball's texel by `gl_VertexID` ("vertex pulling"), without
+//! instancing, which SwiftShader (the software renderer of headless Chromium and of
+//! machines without a usable GPU) runs one instance at a time. On SwiftShader every
+//! primitive has a cost of its own, hence one point a ball rather than two triangles
+//! (and cables, 10,000 lines at 100 × 100, are the larger part of such a frame). Nothing is allocated in Rust per frame, and what
+//! stays the same (colours, the light's share, the sampler's unit) is set once.
+//! Edges are smoothed by multisampling, except on a software renderer, where it
+//! would cost several times the frame.
 //!
 //! The canvas keeps its picture (`preserveDrawingBuffer`) so that tests and snapshots
 //! can read it back.
@@ -41,58 +47,92 @@ const SELECTED_COLOUR: [f32; 3] = [0.25, 0.65, 0.96];
 
 const BALL_VERTEX: &str = r"#version 300 es
 uniform highp sampler2D u_balls;
-uniform lowp sampler2D u_colours;
 uniform mat4 u_clip_from_world;
 uniform vec3 u_eye;
 uniform int u_selected;
-out vec3 v_world;
+uniform int u_cols;
+uniform vec3 u_grid;
+uniform float u_radius;
+uniform vec2 u_viewport;
+uniform float u_max_sprite;
+uniform bool u_quads;
 flat out vec4 v_ball;
 flat out vec3 v_colour;
 flat out float v_selected;
 const vec2 CORNERS[4] = vec2[4](vec2(-1.0, -1.0), vec2(1.0, -1.0), vec2(-1.0, 1.0), vec2(1.0, 1.0));
 void main() {
-    int ball = gl_VertexID / 4;
+    int ball = u_quads ? gl_VertexID / 4 : gl_VertexID;
     int width = textureSize(u_balls, 0).x;
-    ivec2 texel = ivec2(ball % width, ball / width);
-    vec4 a_ball = texelFetch(u_balls, texel, 0);
-    vec2 corner = CORNERS[gl_VertexID % 4];
-    vec3 to_eye = u_eye - a_ball.xyz;
-    float d = length(to_eye);
-    float r = a_ball.w;
-    v_ball = a_ball;
-    v_colour = texelFetch(u_colours, texel, 0).rgb;
+    vec2 texel = texelFetch(u_balls, ivec2(ball % width, ball / width), 0).xy;
+    vec3 centre = vec3(
+        (float(ball % u_cols) - u_grid.x) * u_grid.z,
+        texel.x,
+        (float(ball / u_cols) - u_grid.y) * u_grid.z);
+    uint rgb = uint(texel.y);
+    v_colour = vec3(uvec3(rgb >> 16, rgb >> 8, rgb) & 255u) / 255.0;
+    v_ball = vec4(centre, u_radius);
     v_selected = ball == u_selected ? 1.0 : 0.0;
-    if (d <= r * 1.001) {
-        // The eye is inside the ball: nothing to draw (outside the clip volume).
-        v_world = a_ball.xyz;
-        gl_Position = vec4(0.0, 0.0, 2.0, 1.0);
-        return;
-    }
+    // Not drawn unless placed below (outside the clip volume).
+    gl_Position = vec4(0.0, 0.0, 2.0, 1.0);
+    gl_PointSize = 1.0;
+    vec3 to_eye = u_eye - centre;
+    float d = length(to_eye);
+    float r = u_radius;
+    if (d <= r * 1.001) return;
     vec3 n = to_eye / d;
     vec3 side = abs(n.y) > 0.999 ? vec3(1.0, 0.0, 0.0) : normalize(cross(vec3(0.0, 1.0, 0.0), n));
     vec3 up = cross(n, side);
     // The cone from the eye touching the sphere cuts the plane through the centre
-    // in a circle of this radius: the quad holds the whole silhouette.
+    // in a circle of this radius: a square of twice it holds the whole silhouette.
     float h = r * d / sqrt(d * d - r * r) * 1.02;
-    v_world = a_ball.xyz + (side * corner.x + up * corner.y) * h;
-    gl_Position = u_clip_from_world * vec4(v_world, 1.0);
+    vec4 c = u_clip_from_world * vec4(centre, 1.0);
+    vec4 s = u_clip_from_world * vec4(side * h, 0.0);
+    vec4 u = u_clip_from_world * vec4(up * h, 0.0);
+    // The sprite: a square of pixels around the centre's holding that square's corners.
+    bool behind = c.w <= 0.0;
+    vec2 centre_ndc = c.xy / c.w;
+    vec2 half_ndc = vec2(0.0);
+    for (int i = 0; i < 4; i++) {
+        vec4 k = c + s * CORNERS[i].x + u * CORNERS[i].y;
+        behind = behind || k.w <= 0.0;
+        half_ndc = max(half_ndc, abs(k.xy / k.w - centre_ndc));
+    }
+    vec2 half_px = half_ndc * u_viewport * 0.5;
+    float size = ceil(2.0 * max(half_px.x, half_px.y)) + 1.0;
+    bool sprite = !behind && size <= u_max_sprite;
+    if (u_quads) {
+        // Only the balls too big (or too near) for a sprite, with a band drawn both ways.
+        if (sprite && size < u_max_sprite - 4.0) return;
+        vec2 corner = CORNERS[gl_VertexID % 4];
+        gl_Position = c + s * corner.x + u * corner.y;
+        return;
+    }
+    if (!sprite) return;
+    // A point whose centre is outside the view is not drawn at all: one half out is
+    // drawn from the nearest pixel inside, as large, which still covers what shows.
+    vec2 px = (centre_ndc * 0.5 + 0.5) * u_viewport;
+    vec2 inside = clamp(px, vec2(0.5), u_viewport - 0.5);
+    if (any(greaterThan(abs(inside - px), vec2(size * 0.5)))) return;
+    gl_Position = vec4(inside / u_viewport * 2.0 - 1.0, clamp(c.z / c.w, -1.0, 1.0), 1.0);
+    gl_PointSize = size;
 }
 ";
 
 const BALL_FRAGMENT: &str = r"#version 300 es
 precision highp float;
-in vec3 v_world;
 flat in vec4 v_ball;
 flat in vec3 v_colour;
 flat in float v_selected;
-uniform mat4 u_clip_from_world;
+uniform vec3 u_ray[3];
+uniform vec4 u_depth[2];
 uniform vec3 u_eye;
 uniform vec3 u_light;
 uniform float u_ambient;
 uniform vec3 u_selected_colour;
 out vec4 o_colour;
 void main() {
-    vec3 dir = normalize(v_world - u_eye);
+    // The ray from the eye through this pixel (affine in the pixel's position).
+    vec3 dir = normalize(u_ray[0] + u_ray[1] * gl_FragCoord.x + u_ray[2] * gl_FragCoord.y);
     vec3 from_centre = u_eye - v_ball.xyz;
     float b = dot(from_centre, dir);
     float c = dot(from_centre, from_centre) - v_ball.w * v_ball.w;
@@ -101,23 +141,30 @@ void main() {
     vec3 hit = u_eye + dir * (-b - sqrt(disc));
     vec3 n = (hit - v_ball.xyz) / v_ball.w;
     vec3 rgb = v_colour * (u_ambient + (1.0 - u_ambient) * max(dot(n, u_light), 0.0));
-    float rim = pow(1.0 - max(dot(n, -dir), 0.0), 2.0);
-    rgb = mix(rgb, u_selected_colour, rim * v_selected);
+    float edge = 1.0 - max(dot(n, -dir), 0.0);
+    rgb = mix(rgb, u_selected_colour, edge * edge * v_selected);
     o_colour = vec4(rgb, 1.0);
-    vec4 clip = u_clip_from_world * vec4(hit, 1.0);
-    gl_FragDepth = clamp(clip.z / clip.w * 0.5 + 0.5, 0.0, 1.0);
+    // The clip space z and w rows of the projection.
+    vec4 at = vec4(hit, 1.0);
+    gl_FragDepth = clamp(dot(u_depth[0], at) / dot(u_depth[1], at) * 0.5 + 0.5, 0.0, 1.0);
 }
 ";
 
 const CABLE_VERTEX: &str = r"#version 300 es
 uniform highp sampler2D u_balls;
 uniform mat4 u_clip_from_world;
+uniform int u_cols;
+uniform vec3 u_grid;
+uniform float u_radius;
 void main() {
     int ball = gl_VertexID / 2;
     int width = textureSize(u_balls, 0).x;
-    vec4 a_ball = texelFetch(u_balls, ivec2(ball % width, ball / width), 0);
-    vec3 anchor = vec3(a_ball.x, 0.0, a_ball.z);
-    vec3 top_of_ball = a_ball.xyz + vec3(0.0, a_ball.w, 0.0);
+    float y = texelFetch(u_balls, ivec2(ball % width, ball / width), 0).x;
+    vec3 anchor = vec3(
+        (float(ball % u_cols) - u_grid.x) * u_grid.z,
+        0.0,
+        (float(ball / u_cols) - u_grid.y) * u_grid.z);
+    vec3 top_of_ball = vec3(anchor.x, y + u_radius, anchor.z);
     gl_Position = u_clip_from_world * vec4(gl_VertexID % 2 == 0 ? anchor : top_of_ball, 1.0);
 }
 ";
@@ -150,12 +197,17 @@ pub struct FrameView<'a> {
     pub light: Vec3,
     /// The canvas, pixels.
     pub viewport: Viewport,
-    /// Per ball: centre `x, y, z` and radius, metres.
+    /// Per ball, two numbers: the height of its centre, metres (the grid at 0, down
+    /// negative), and its colour as `0xRRGGBB` (see [`pack_colour`]).
     pub balls: &'a [f32],
-    /// Per ball: red, green, blue.
-    pub colours: &'a [[u8; 3]],
     /// The ball to mark, if any.
     pub selected: Option<usize>,
+}
+
+/// A ball's colour as one float (`0xRRGGBB`: exact, as every integer below 2²⁴ is),
+/// the way [`FrameView::balls`] carries it.
+pub fn pack_colour([r, g, b]: [u8; 3]) -> f32 {
+    ((u32::from(r) << 16) | (u32::from(g) << 8) | u32::from(b)) as f32
 }
 
 /// A linked program and its uniforms.
@@ -163,6 +215,11 @@ pub struct FrameView<'a> {
 struct Program {
     program: WebGlProgram,
     clip_from_world: Option<WebGlUniformLocation>,
+    /// Where ball `i` hangs: columns per row; the middle column and row and the
+    /// pitch; the balls' radius.
+    cols: Option<WebGlUniformLocation>,
+    grid: Option<WebGlUniformLocation>,
+    radius: Option<WebGlUniformLocation>,
 }
 
 impl Program {
@@ -180,10 +237,13 @@ impl Program {
         {
             return Err(gl.get_program_info_log(&program).unwrap_or_default());
         }
-        let clip_from_world = gl.get_uniform_location(&program, "u_clip_from_world");
+        let at = |name| gl.get_uniform_location(&program, name);
         Ok(Self {
+            clip_from_world: at("u_clip_from_world"),
+            cols: at("u_cols"),
+            grid: at("u_grid"),
+            radius: at("u_radius"),
             program,
-            clip_from_world,
         })
     }
 
@@ -199,6 +259,20 @@ impl Program {
             false,
             &clip_from_world.to_cols_array(),
         );
+    }
+
+    /// Tells the program where the balls hang (once per scene).
+    fn set_grid(&self, gl: &Gl, scene: &Scene) {
+        let (cols, rows, pitch_m) = scene.grid();
+        gl.use_program(Some(&self.program));
+        gl.uniform1i(self.cols.as_ref(), cols as i32);
+        gl.uniform3f(
+            self.grid.as_ref(),
+            (cols as f32 - 1.0) / 2.0,
+            (rows as f32 - 1.0) / 2.0,
+            pitch_m,
+        );
+        gl.uniform1f(self.radius.as_ref(), scene.ball_radius_m);
     }
 }
 
@@ -232,38 +306,32 @@ impl Lines {
     }
 }
 
-/// Balls per row of the per-ball textures (every WebGL2 allows 2048).
+/// Balls per row of the per-ball texture (every WebGL2 allows 2048).
 const TEXELS_PER_ROW: usize = 1024;
 
-/// The per-ball textures, the JS-side arrays they are filled from, and the indices
-/// of the balls' quads.
+/// The per-ball texture (RG32F: height and packed colour), the JS-side array it is
+/// filled from, and the indices of the balls' quads (for balls too big for a sprite).
 #[derive(Debug)]
-struct BallTextures {
+struct BallTexture {
     /// Two triangles a ball: `4b, 4b+1, 4b+2` and `4b+2, 4b+1, 4b+3`.
     indices: WebGlBuffer,
-    /// Centre and radius: RGBA32F.
-    centres: WebGlTexture,
-    /// Colour: RGB8.
-    colours: WebGlTexture,
-    centre_staging: js_sys::Float32Array,
-    colour_staging: js_sys::Uint8Array,
+    texture: WebGlTexture,
+    staging: js_sys::Float32Array,
     /// Texture width and height, texels.
     width: usize,
     height: usize,
 }
 
-impl BallTextures {
+impl BallTexture {
     fn new(gl: &Gl, units: usize) -> Result<Self, String> {
         let width = units.clamp(1, TEXELS_PER_ROW);
         let height = units.div_ceil(width).max(1);
-        let texture = |format: u32| -> Result<WebGlTexture, String> {
-            let texture = gl.create_texture().ok_or("cannot create a texture")?;
-            gl.bind_texture(Gl::TEXTURE_2D, Some(&texture));
-            gl.tex_storage_2d(Gl::TEXTURE_2D, 1, format, width as i32, height as i32);
-            gl.tex_parameteri(Gl::TEXTURE_2D, Gl::TEXTURE_MIN_FILTER, Gl::NEAREST as i32);
-            gl.tex_parameteri(Gl::TEXTURE_2D, Gl::TEXTURE_MAG_FILTER, Gl::NEAREST as i32);
-            Ok(texture)
-        };
+        let texture = gl.create_texture().ok_or("cannot create a texture")?;
+        gl.active_texture(Gl::TEXTURE0);
+        gl.bind_texture(Gl::TEXTURE_2D, Some(&texture));
+        gl.tex_storage_2d(Gl::TEXTURE_2D, 1, Gl::RG32F, width as i32, height as i32);
+        gl.tex_parameteri(Gl::TEXTURE_2D, Gl::TEXTURE_MIN_FILTER, Gl::NEAREST as i32);
+        gl.tex_parameteri(Gl::TEXTURE_2D, Gl::TEXTURE_MAG_FILTER, Gl::NEAREST as i32);
         let texels = u32::try_from(width * height).map_err(|_| "too many balls")?;
         let indices: Vec<u32> = (0..texels)
             .flat_map(|ball| {
@@ -280,10 +348,8 @@ impl BallTextures {
         );
         Ok(Self {
             indices: buffer,
-            centres: texture(Gl::RGBA32F)?,
-            colours: texture(Gl::RGB8)?,
-            centre_staging: js_sys::Float32Array::new_with_length(texels * 4),
-            colour_staging: js_sys::Uint8Array::new_with_length(texels * 3),
+            texture,
+            staging: js_sys::Float32Array::new_with_length(texels * 2),
             width,
             height,
         })
@@ -295,49 +361,30 @@ impl BallTextures {
 
     fn delete(self, gl: &Gl) {
         gl.delete_buffer(Some(&self.indices));
-        gl.delete_texture(Some(&self.centres));
-        gl.delete_texture(Some(&self.colours));
+        gl.delete_texture(Some(&self.texture));
     }
 
-    /// Uploads the first `units` balls' centres and colours, whole rows at a time.
-    fn upload(&self, gl: &Gl, units: usize, balls: &[f32], colours: &[[u8; 3]]) {
+    /// Uploads the first `units` balls, whole rows at a time: one upload a frame.
+    fn upload(&self, gl: &Gl, units: usize, balls: &[f32]) {
         let rows = units.div_ceil(self.width);
         let texels = (rows * self.width) as u32;
-        self.centre_staging
-            .subarray(0, (units * 4) as u32)
-            .copy_from(&balls[..units * 4]);
-        self.colour_staging
-            .subarray(0, (units * 3) as u32)
-            .copy_from(colours[..units].as_flattened());
-        gl.pixel_storei(Gl::UNPACK_ALIGNMENT, 1);
-        let centres: js_sys::Object = self.centre_staging.subarray(0, texels * 4).into();
-        let colours: js_sys::Object = self.colour_staging.subarray(0, texels * 3).into();
-        for (unit, texture, format, kind, pixels) in [
-            (Gl::TEXTURE0, &self.centres, Gl::RGBA, Gl::FLOAT, &centres),
-            (
-                Gl::TEXTURE1,
-                &self.colours,
-                Gl::RGB,
-                Gl::UNSIGNED_BYTE,
-                &colours,
-            ),
-        ] {
-            gl.active_texture(unit);
-            gl.bind_texture(Gl::TEXTURE_2D, Some(texture));
-            // A failed upload leaves last frame's balls; WebGL reports it on the console.
-            let _ = gl
-                .tex_sub_image_2d_with_i32_and_i32_and_u32_and_type_and_opt_array_buffer_view(
-                    Gl::TEXTURE_2D,
-                    0,
-                    0,
-                    0,
-                    self.width as i32,
-                    rows as i32,
-                    format,
-                    kind,
-                    Some(pixels),
-                );
-        }
+        self.staging
+            .subarray(0, (units * 2) as u32)
+            .copy_from(&balls[..units * 2]);
+        let pixels: js_sys::Object = self.staging.subarray(0, texels * 2).into();
+        // The texture stays bound to unit 0.
+        // A failed upload leaves last frame's balls; WebGL reports it on the console.
+        let _ = gl.tex_sub_image_2d_with_i32_and_i32_and_u32_and_type_and_opt_array_buffer_view(
+            Gl::TEXTURE_2D,
+            0,
+            0,
+            0,
+            self.width as i32,
+            rows as i32,
+            Gl::RG,
+            Gl::FLOAT,
+            Some(&pixels),
+        );
     }
 }
 
@@ -349,24 +396,34 @@ pub struct GlView {
     ball_uniforms: BallUniforms,
     cables: Program,
     lines: Program,
-    /// The flat programs' colour (cables, lines).
-    flat_colour: [Option<WebGlUniformLocation>; 2],
-    /// Drawn with while vertices come from textures (holds the balls' index buffer).
+    /// The grid lines' colour.
+    line_colour: Option<WebGlUniformLocation>,
+    /// Drawn with while vertices come from the texture (holds the quads' index buffer).
     no_attributes: WebGlVertexArrayObject,
-    textures: Option<BallTextures>,
+    texture: Option<BallTexture>,
     ceiling: Option<Lines>,
     floor: Option<Lines>,
+    /// Where the balls hang.
+    scene: Option<Scene>,
+    /// The largest point sprite this WebGL draws, pixels.
+    max_sprite_px: f32,
 }
 
 /// The balls program's own uniforms.
 #[derive(Debug)]
 struct BallUniforms {
+    ray: Option<WebGlUniformLocation>,
+    depth: Option<WebGlUniformLocation>,
     eye: Option<WebGlUniformLocation>,
     light: Option<WebGlUniformLocation>,
-    ambient: Option<WebGlUniformLocation>,
+    viewport: Option<WebGlUniformLocation>,
     selected: Option<WebGlUniformLocation>,
-    selected_colour: Option<WebGlUniformLocation>,
+    quads: Option<WebGlUniformLocation>,
 }
+
+/// The largest sprite drawn as a point even when the WebGL allows more, pixels
+/// (larger balls are few and drawn as quads).
+const SPRITE_LIMIT_PX: f32 = 256.0;
 
 impl GlView {
     /// A WebGL2 renderer on `canvas`; an error (no WebGL2, a shader that does not
@@ -391,30 +448,44 @@ impl GlView {
 
         let balls = Program::new(&gl, BALL_VERTEX, BALL_FRAGMENT)?;
         let ball_uniforms = BallUniforms {
+            ray: balls.uniform(&gl, "u_ray"),
+            depth: balls.uniform(&gl, "u_depth"),
             eye: balls.uniform(&gl, "u_eye"),
             light: balls.uniform(&gl, "u_light"),
-            ambient: balls.uniform(&gl, "u_ambient"),
+            viewport: balls.uniform(&gl, "u_viewport"),
             selected: balls.uniform(&gl, "u_selected"),
-            selected_colour: balls.uniform(&gl, "u_selected_colour"),
+            quads: balls.uniform(&gl, "u_quads"),
         };
         let cables = Program::new(&gl, CABLE_VERTEX, FLAT_FRAGMENT)?;
         let lines = Program::new(&gl, LINE_VERTEX, FLAT_FRAGMENT)?;
-        let flat_colour = [
-            cables.uniform(&gl, "u_colour"),
-            lines.uniform(&gl, "u_colour"),
-        ];
-        // The samplers read texture units 0 (centres) and 1 (colours), for good.
-        for (program, name, unit) in [
-            (&balls, "u_balls", 0),
-            (&balls, "u_colours", 1),
-            (&cables, "u_balls", 0),
-        ] {
-            gl.use_program(Some(&program.program));
-            gl.uniform1i(program.uniform(&gl, name).as_ref(), unit);
-        }
+        // The largest point this WebGL draws (at least 1 by the standard).
+        let max_sprite_px = gl
+            .get_parameter(Gl::ALIASED_POINT_SIZE_RANGE)
+            .ok()
+            .and_then(|range| js_sys::Reflect::get(&range, &1.into()).ok())
+            .and_then(|max| max.as_f64())
+            .map_or(1.0, |max| max as f32)
+            .min(SPRITE_LIMIT_PX);
+        // What stays the same for every frame: the sampler reads texture unit 0, the
+        // colours and the light's share.
+        gl.use_program(Some(&balls.program));
+        gl.uniform1i(balls.uniform(&gl, "u_balls").as_ref(), 0);
+        gl.uniform1f(balls.uniform(&gl, "u_ambient").as_ref(), AMBIENT);
+        gl.uniform1f(balls.uniform(&gl, "u_max_sprite").as_ref(), max_sprite_px);
+        gl.uniform3fv_with_f32_array(
+            balls.uniform(&gl, "u_selected_colour").as_ref(),
+            &SELECTED_COLOUR,
+        );
+        gl.use_program(Some(&cables.program));
+        gl.uniform1i(cables.uniform(&gl, "u_balls").as_ref(), 0);
+        gl.uniform3fv_with_f32_array(cables.uniform(&gl, "u_colour").as_ref(), &CABLE_COLOUR);
+        let line_colour = lines.uniform(&gl, "u_colour");
         let no_attributes = gl
             .create_vertex_array()
             .ok_or("cannot create a vertex array")?;
+        gl.enable(Gl::DEPTH_TEST);
+        let [r, g, b] = BACKGROUND;
+        gl.clear_color(r, g, b, 1.0);
 
         Ok(Self {
             gl,
@@ -422,27 +493,29 @@ impl GlView {
             ball_uniforms,
             cables,
             lines,
-            flat_colour,
+            line_colour,
             no_attributes,
-            textures: None,
+            texture: None,
             ceiling: None,
             floor: None,
+            scene: None,
+            max_sprite_px,
         })
     }
 
-    /// Prepares the textures and the grid for `scene` with `units` balls (once per
+    /// Prepares the texture and the grid for `scene` with `units` balls (once per
     /// show).
     pub fn set_scene(&mut self, scene: &Scene, units: usize) -> Result<(), String> {
         let gl = &self.gl;
         if self
-            .textures
+            .texture
             .as_ref()
-            .is_none_or(|textures| textures.capacity() < units)
+            .is_none_or(|texture| texture.capacity() < units)
         {
-            if let Some(old) = self.textures.take() {
+            if let Some(old) = self.texture.take() {
                 old.delete(gl);
             }
-            self.textures = Some(BallTextures::new(gl, units)?);
+            self.texture = Some(BallTexture::new(gl, units)?);
         }
         for old in [self.ceiling.take(), self.floor.take()]
             .into_iter()
@@ -453,60 +526,99 @@ impl GlView {
         let (ceiling, floor) = scene.grid_lines();
         self.ceiling = Some(lines(gl, &ceiling)?);
         self.floor = Some(lines(gl, &floor)?);
+        self.balls.set_grid(gl, scene);
+        self.cables.set_grid(gl, scene);
+        self.scene = Some(*scene);
         Ok(())
     }
 
-    /// Draws a frame.
+    /// Whether some ball of `frame` may be too big on screen for a point sprite: a
+    /// generous bound from the nearest ball (the vertex shader decides exactly).
+    fn needs_quads(&self, frame: &FrameView, units: usize) -> bool {
+        let Some(scene) = self.scene else {
+            return false;
+        };
+        let r = scene.ball_radius_m;
+        let nearest_sq = (0..units)
+            .map(|unit| {
+                let anchor = scene.anchor(unit);
+                let centre = Vec3::new(anchor.x, frame.balls[unit * 2], anchor.z);
+                centre.distance_squared(frame.eye)
+            })
+            .fold(f32::INFINITY, f32::min);
+        if nearest_sq <= r * r * 1.01 {
+            return true;
+        }
+        // Pixels per radian at the middle of the view (a vertical field of 45°); a
+        // sprite grows by at most 1/cos² towards the view's corners, √2 for a turned
+        // square.
+        let focal_px = frame.viewport.height / 2.0 / (std::f32::consts::FRAC_PI_8).tan();
+        let half_px = focal_px * r / (nearest_sq - r * r).sqrt() * 1.02 * 2f32.sqrt() / 0.4;
+        2.0 * half_px + 4.0 > self.max_sprite_px - 8.0
+    }
+
+    /// Draws a frame: the balls as point sprites (quads for any too big for one),
+    /// then what they may hide, the cables and the grid.
     pub fn draw(&self, frame: &FrameView) {
         let gl = &self.gl;
-        let units = (frame.balls.len() / 4)
-            .min(frame.colours.len())
-            .min(self.textures.as_ref().map_or(0, BallTextures::capacity));
+        let units =
+            (frame.balls.len() / 2).min(self.texture.as_ref().map_or(0, BallTexture::capacity));
         gl.viewport(
             0,
             0,
             frame.viewport.width as i32,
             frame.viewport.height as i32,
         );
-        let [r, g, b] = BACKGROUND;
-        gl.clear_color(r, g, b, 1.0);
-        gl.enable(Gl::DEPTH_TEST);
         gl.clear(Gl::COLOR_BUFFER_BIT | Gl::DEPTH_BUFFER_BIT);
 
         let matrix = &frame.clip_from_world;
+        if let Some(texture) = self.texture.as_ref().filter(|_| units > 0) {
+            texture.upload(gl, units, frame.balls);
+            gl.bind_vertex_array(Some(&self.no_attributes));
+            self.draw_balls(frame, texture, units);
+            // After the balls: the depth test drops what they hide before shading.
+            self.cables.use_with(gl, matrix);
+            gl.draw_arrays(Gl::LINES, 0, (units * 2) as i32);
+        }
         self.lines.use_with(gl, matrix);
         for (lines, colour) in [(&self.ceiling, CEILING_COLOUR), (&self.floor, FLOOR_COLOUR)] {
             if let Some(lines) = lines {
-                gl.uniform3fv_with_f32_array(self.flat_colour[1].as_ref(), &colour);
+                gl.uniform3fv_with_f32_array(self.line_colour.as_ref(), &colour);
                 gl.bind_vertex_array(Some(&lines.vao));
                 gl.draw_arrays(Gl::LINES, 0, lines.vertices);
             }
         }
-        let Some(textures) = self.textures.as_ref().filter(|_| units > 0) else {
-            gl.bind_vertex_array(None);
-            return;
-        };
-        textures.upload(gl, units, frame.balls, frame.colours);
-        gl.bind_vertex_array(Some(&self.no_attributes));
-        gl.bind_buffer(Gl::ELEMENT_ARRAY_BUFFER, Some(&textures.indices));
+        gl.bind_vertex_array(None);
+    }
 
-        self.cables.use_with(gl, matrix);
-        gl.uniform3fv_with_f32_array(self.flat_colour[0].as_ref(), &CABLE_COLOUR);
-        gl.draw_arrays(Gl::LINES, 0, (units * 2) as i32);
-
+    /// The balls: one point sprite each, then quads for those too big for one.
+    fn draw_balls(&self, frame: &FrameView, texture: &BallTexture, units: usize) {
+        let gl = &self.gl;
+        let matrix = &frame.clip_from_world;
         self.balls.use_with(gl, matrix);
         let uniforms = &self.ball_uniforms;
+        gl.uniform3fv_with_f32_array(uniforms.ray.as_ref(), &pixel_rays(frame));
+        let rows = [matrix.row(2).to_array(), matrix.row(3).to_array()];
+        gl.uniform4fv_with_f32_array(uniforms.depth.as_ref(), rows.as_flattened());
         gl.uniform3fv_with_f32_array(uniforms.eye.as_ref(), &frame.eye.to_array());
         gl.uniform3fv_with_f32_array(uniforms.light.as_ref(), &frame.light.to_array());
-        gl.uniform1f(uniforms.ambient.as_ref(), AMBIENT);
+        gl.uniform2f(
+            uniforms.viewport.as_ref(),
+            frame.viewport.width,
+            frame.viewport.height,
+        );
         let selected = frame
             .selected
             .and_then(|unit| i32::try_from(unit).ok())
             .unwrap_or(-1);
         gl.uniform1i(uniforms.selected.as_ref(), selected);
-        gl.uniform3fv_with_f32_array(uniforms.selected_colour.as_ref(), &SELECTED_COLOUR);
-        gl.draw_elements_with_i32(Gl::TRIANGLES, (units * 6) as i32, Gl::UNSIGNED_INT, 0);
-        gl.bind_vertex_array(None);
+        gl.uniform1i(uniforms.quads.as_ref(), 0);
+        gl.draw_arrays(Gl::POINTS, 0, units as i32);
+        if self.needs_quads(frame, units) {
+            gl.uniform1i(uniforms.quads.as_ref(), 1);
+            gl.bind_buffer(Gl::ELEMENT_ARRAY_BUFFER, Some(&texture.indices));
+            gl.draw_elements_with_i32(Gl::TRIANGLES, (units * 6) as i32, Gl::UNSIGNED_INT, 0);
+        }
     }
 
     /// Waits until the GPU has drawn everything asked so far (by reading one pixel
@@ -524,6 +636,26 @@ impl GlView {
             Some(&mut pixel),
         );
     }
+}
+
+/// The ray from the eye through the pixel at `(x, y)` (from the bottom left corner,
+/// as `gl_FragCoord`) is `a + x dx + y dy`: `[a, dx, dy]`, world space, flattened.
+fn pixel_rays(frame: &FrameView) -> [f32; 9] {
+    let world_from_clip = frame.clip_from_world.inverse();
+    let (width, height) = (frame.viewport.width, frame.viewport.height);
+    let on_near = |x: f32, y: f32| {
+        world_from_clip.project_point3(Vec3::new(
+            x / width * 2.0 - 1.0,
+            y / height * 2.0 - 1.0,
+            -1.0,
+        ))
+    };
+    let origin = on_near(0.0, 0.0);
+    let a = origin - frame.eye;
+    let dx = on_near(width, 0.0) - origin;
+    let dy = on_near(0.0, height) - origin;
+    let [dx, dy] = [dx / width, dy / height];
+    [a.x, a.y, a.z, dx.x, dx.y, dx.z, dy.x, dy.y, dy.z]
 }
 
 /// Whether this browser's WebGL2 draws in software (SwiftShader, llvmpipe), asked of a

@@ -49,6 +49,11 @@ impl Scene {
         }
     }
 
+    /// Columns, rows, and the distance between neighbouring balls, metres.
+    pub fn grid(&self) -> (u32, u32, f32) {
+        (self.cols, self.rows, self.pitch_m)
+    }
+
     /// Where the cable of `unit` leaves the grid (centred on the origin).
     pub fn anchor(&self, unit: usize) -> Vec3 {
         let cols = self.cols as usize;

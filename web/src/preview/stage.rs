@@ -13,7 +13,7 @@ use web_sys::{CanvasRenderingContext2d, HtmlCanvasElement};
 
 use super::camera::{Orbit, Viewport};
 use super::gestures::Gesture;
-use super::gl::{FrameView, GlView};
+use super::gl::{FrameView, GlView, pack_colour};
 use super::scene::Scene;
 use super::top_view;
 
@@ -45,7 +45,7 @@ impl RendererKind {
 
 #[derive(Debug)]
 enum Renderer {
-    Gl(GlView),
+    Gl(Box<GlView>),
     Top(CanvasRenderingContext2d),
 }
 
@@ -59,7 +59,7 @@ pub struct Stage {
     sampler: Sampler,
     positions_mm: Vec<f32>,
     colours: Vec<[u8; 3]>,
-    /// Per ball: centre and radius, as the GPU reads them.
+    /// Per ball: the centre's height and the packed colour, as the GPU reads them.
     balls: Vec<f32>,
     beyond: Vec<usize>,
     selected: Option<usize>,
@@ -115,7 +115,7 @@ impl Stage {
     ) -> Result<Self, String> {
         let scene = scene_of(show.layout, None);
         let renderer = match kind {
-            RendererKind::WebGl2 => Renderer::Gl(GlView::new(&canvas)?),
+            RendererKind::WebGl2 => Renderer::Gl(Box::new(GlView::new(&canvas)?)),
             RendererKind::TopView => Renderer::Top(
                 canvas
                     .get_context("2d")
@@ -158,7 +158,7 @@ impl Stage {
         self.sampler = Sampler::new(show);
         self.positions_mm = vec![0.0; units];
         self.colours = vec![[0; 3]; units];
-        self.balls = vec![0.0; units * 4];
+        self.balls = vec![0.0; units * 2];
         self.beyond = beyond;
         self.selected = None;
         self.camera_moved = false;
@@ -290,15 +290,14 @@ impl Stage {
         self.sample(t_ms);
         match &self.renderer {
             Renderer::Gl(gl) => {
-                let radius = self.scene.ball_radius_m;
-                for (unit, (ball, position_mm)) in self
+                for (unit, (ball, (position_mm, colour))) in self
                     .balls
-                    .chunks_exact_mut(4)
-                    .zip(&self.positions_mm)
+                    .chunks_exact_mut(2)
+                    .zip(self.positions_mm.iter().zip(&self.colours))
                     .enumerate()
                 {
                     let centre = self.scene.ball_centre(unit, *position_mm);
-                    ball.copy_from_slice(&[centre.x, centre.y, centre.z, radius]);
+                    ball.copy_from_slice(&[centre.y, pack_colour(*colour)]);
                 }
                 let aspect = self.viewport.aspect();
                 gl.draw(&FrameView {
@@ -307,7 +306,6 @@ impl Stage {
                     light: self.camera.light(),
                     viewport: self.viewport,
                     balls: &self.balls,
-                    colours: &self.colours,
                     selected: self.selected,
                 });
             }
