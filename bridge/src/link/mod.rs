@@ -1,5 +1,7 @@
-//! Links to the gateways: one per configured gateway, a real serial port or the
-//! simulated gateway, behind the same [`Link`] handle.
+//! Links to the gateways: one per configured gateway, a real serial port, a serial
+//! device server on the network (`tcp://`, `rfc2217://`) or the simulated gateway,
+//! behind the same [`Link`] handle; [`Link::open`] tells them apart by
+//! [`PortAddress::parse`], the one parser of a gateway's `port`.
 //!
 //! **One owner.** A link's queues belong to its writer thread and to nothing else: the
 //! handles hand batches over through a channel and wake the writer; the counters the
@@ -36,13 +38,20 @@
 //!
 //! - [`lanes`]: the two lanes and the station re-selection after a priority write;
 //! - [`pacer`]: line timing and the bytes/s meter;
+//! - [`supervisor`]: open, lose, report, back off, open again — the loop a serial
+//!   link and a network link share;
 //! - [`serial`]: serial ports through the `serialport` crate;
+//! - [`net`]: serial device servers over TCP, raw or RFC 2217;
+//! - [`telnet`]: Telnet and RFC 2217 COM-port control, sans IO;
 //! - [`sim`]: the simulated gateway behind a virtual line as slow as a real one.
 
 pub mod lanes;
+pub mod net;
 pub mod pacer;
 pub mod serial;
 pub mod sim;
+pub mod supervisor;
+pub mod telnet;
 
 use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -56,7 +65,7 @@ use floatball_shared::ascii::gateway::{GREETING, MAX_BAUD, MIN_BAUD};
 use floatball_shared::ascii::{Form, GatewayCommand, Instruction, parse_script};
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::feedback::{Frame, FrameDecoder};
-use floatball_shared::plan::installation::SIM_PORT;
+use floatball_shared::plan::port::PortAddress;
 use floatball_shared::sim::GatewayConfig;
 use tokio::sync::{Notify, broadcast, oneshot, watch};
 
@@ -97,7 +106,8 @@ pub const DEFAULT_STOP: &str = "MO=0;";
 /// What a link connects to.
 #[derive(Debug, Clone)]
 pub struct LinkConfig {
-    /// `sim` for the simulated gateway, otherwise a serial device such as `/dev/ttyUSB0`.
+    /// `sim` for the simulated gateway, a serial device such as `/dev/ttyUSB0`, or a
+    /// serial device server: `tcp://host:port` or `rfc2217://host:port`.
     pub port: String,
     /// The line's speed, baud (8N1: baud / 10 bytes per second).
     pub baud: u32,
@@ -283,7 +293,8 @@ struct Shared {
     index: usize,
     config: LinkConfig,
     inbox: Sender<Input>,
-    /// The thread that writes (and, for a serial link, supervises): woken by handles.
+    /// The thread that writes (and, for a serial or network link, supervises): woken
+    /// by handles.
     writer: OnceLock<Thread>,
     /// Bulk bytes handed over and neither written nor dropped yet.
     queued_bytes: AtomicUsize,
@@ -506,11 +517,38 @@ impl Link {
             status,
             closed: AtomicBool::new(false),
         });
-        let sim = if shared.config.port == SIM_PORT {
-            sim::spawn(Arc::clone(&shared), shared.config.sim.clone(), taken)
-        } else {
-            serial::spawn(Arc::clone(&shared), taken);
-            None
+        let sim = match PortAddress::parse(&shared.config.port) {
+            Ok(PortAddress::Sim) => {
+                sim::spawn(Arc::clone(&shared), shared.config.sim.clone(), taken)
+            }
+            Ok(PortAddress::Serial(device)) => {
+                supervisor::spawn(
+                    Arc::clone(&shared),
+                    taken,
+                    serial::SerialConnector { device },
+                );
+                None
+            }
+            Ok(PortAddress::Tcp(address)) => {
+                let connector = net::NetConnector::new(address, net::Mode::Raw);
+                supervisor::spawn(Arc::clone(&shared), taken, connector);
+                None
+            }
+            Ok(PortAddress::Rfc2217(address)) => {
+                let connector = net::NetConnector::new(address, net::Mode::Rfc2217);
+                supervisor::spawn(Arc::clone(&shared), taken, connector);
+                None
+            }
+            Err(err) => {
+                // The configuration check refuses such a port; a link opened anyway
+                // stays down and says why.
+                supervisor::spawn(
+                    Arc::clone(&shared),
+                    taken,
+                    supervisor::Unusable(err.to_string()),
+                );
+                None
+            }
         };
         Self {
             _close: Arc::new(CloseOnDrop(Arc::clone(&shared))),
@@ -524,7 +562,7 @@ impl Link {
         self.shared.index
     }
 
-    /// The configured port (`sim` or a device path).
+    /// The configured port (`sim`, a device path, `tcp://…` or `rfc2217://…`).
     pub fn port(&self) -> &str {
         &self.shared.config.port
     }
@@ -547,7 +585,8 @@ impl Link {
     /// [`BaudError::OutOfRange`] for a speed `BDR` does not take,
     /// [`BaudError::EstopLatched`] while the e-stop is latched, [`BaudError::Link`] when
     /// the link is not up (nothing is sent), [`BaudError::Port`] when the port refuses
-    /// the speed, [`BaudError::NotAnswering`] when nothing answers at the new speed in
+    /// the speed (a raw `tcp://` device server always: its speed is set on the server),
+    /// [`BaudError::NotAnswering`] when nothing answers at the new speed in
     /// time.
     pub async fn change_baud(
         &self,
@@ -559,6 +598,14 @@ impl Link {
         }
         if self.latch().is_latched() {
             return Err(BaudError::EstopLatched);
+        }
+        if let Ok(PortAddress::Tcp(_)) = PortAddress::parse(self.port()) {
+            // Refused before `BDR` goes out: the gateway would move and the line not.
+            return Err(BaudError::Port {
+                port: self.port().to_owned(),
+                baud,
+                reason: net::RAW_BAUD.to_owned(),
+            });
         }
         self.shared.writable()?;
         let (reply, answer) = oneshot::channel();

@@ -1,41 +1,22 @@
 //! Serial-port links through the `serialport` crate: 8 data bits, no parity, 1 stop bit,
 //! no flow control (PROTOCOL §1.2).
 //!
-//! One supervisor thread per port opens it (at the line's live speed), runs the writer
-//! (which greets the gateway and marks the link up once it answers), and after a loss
-//! reports it, waits (backoff) and opens it again. A reader thread feeds the bytes it
-//! reads to the greeting watch and the feedback decoder and broadcasts every frame. The ports are blocking, so these are
-//! plain threads rather than async tasks.
+//! The port is opened, lost and opened again by the [`supervisor`](super::supervisor)
+//! (the same loop as a network link's); this module owns how a port is opened, read
+//! and written.
 
-use std::io::{Read, Write};
+use std::io::Read;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::Receiver;
-use std::time::{Duration, Instant};
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
 
-use floatball_shared::api::LinkState;
-use floatball_shared::ascii::GreetingWatch;
-use floatball_shared::feedback::FrameDecoder;
 use serialport::SerialPort;
 
-use super::{Backoff, Input, LineWrite, Shared, run_writer};
+use super::supervisor::{Connector, LineRead, write_watching};
+use super::{LineWrite, Shared};
 
 /// How long a read waits for bytes before checking whether to stop.
 const READ_TIMEOUT: Duration = Duration::from_millis(50);
-
-/// A connection that lasted this long resets the backoff.
-const STABLE_AFTER: Duration = Duration::from_secs(10);
-
-/// Starts the supervisor thread of a serial link.
-pub(super) fn spawn(shared: Arc<Shared>, inbox: Receiver<Input>) {
-    let name = format!("link-{}", shared.index);
-    let started = std::thread::Builder::new()
-        .name(name)
-        .spawn(move || supervise(&shared, &inbox));
-    if let Err(err) = started {
-        tracing::error!("cannot start a thread for a serial link: {err}");
-    }
-}
 
 /// Opens a serial port as the gateway expects it.
 ///
@@ -52,120 +33,70 @@ pub fn open_port(port: &str, baud: u32) -> Result<Box<dyn SerialPort>, String> {
         .map_err(|err| format!("cannot open {port}: {err}"))
 }
 
-/// The supervisor thread is also the link's writer: it owns the queues.
-fn supervise(shared: &Arc<Shared>, inbox: &Receiver<Input>) {
-    shared.register_writer();
-    let port_name = shared.config.port.clone();
-    let mut backoff = Backoff::new();
-    while !shared.is_closed() {
-        shared.set_state(LinkState::Connecting, None);
-        let baud = shared.baud();
-        let opened = open_port(&port_name, baud).and_then(|port| {
-            let reader = port
-                .try_clone()
-                .map_err(|err| format!("cannot read from {port_name}: {err}"))?;
-            Ok((port, reader))
-        });
-        let (port, reader) = match opened {
-            Ok(pair) => pair,
-            Err(reason) => {
-                tracing::warn!("gateway {port_name}: {reason}; retrying");
-                shared.set_state(LinkState::Down, Some(reason));
-                shared.sleep(inbox, backoff.next_delay());
-                continue;
-            }
-        };
-        tracing::info!("gateway {port_name}: opened at {baud} baud; greeting the gateway");
-        shared.drop_inbox(inbox);
-        let connected_at = Instant::now();
-        let lost = Arc::new(AtomicBool::new(false));
-        let reader_thread = {
-            let shared = Arc::clone(shared);
-            let lost = Arc::clone(&lost);
-            std::thread::Builder::new()
-                .name(format!("link-{}-read", shared.index))
-                .spawn(move || read_loop(&shared, reader, &lost))
-        };
-        let reason = match reader_thread {
-            Ok(reader_thread) => {
-                let mut line = SerialLine {
-                    port,
-                    shared: Arc::clone(shared),
-                    lost: Arc::clone(&lost),
-                };
-                let reason = run_writer(shared, inbox, &mut line, &lost);
-                lost.store(true, Ordering::Release);
-                let read_reason = reader_thread.join().ok().flatten();
-                read_reason.unwrap_or(reason)
-            }
-            Err(err) => format!("cannot start the reader thread: {err}"),
-        };
-        if shared.is_closed() {
-            break;
-        }
-        tracing::warn!("gateway {port_name}: link lost ({reason}); retrying");
-        shared.set_state(LinkState::Down, Some(reason));
-        if connected_at.elapsed() >= STABLE_AFTER {
-            backoff.reset();
-        }
-        shared.sleep(inbox, backoff.next_delay());
-    }
-    shared.set_state(LinkState::Down, Some("shut down".to_owned()));
+/// Opens a local serial device.
+pub(super) struct SerialConnector {
+    /// The device's path.
+    pub(super) device: String,
 }
 
-/// Reads until the link closes or the port fails; returns the failure, if any.
-fn read_loop(shared: &Shared, mut port: Box<dyn SerialPort>, lost: &AtomicBool) -> Option<String> {
-    let mut decoder = FrameDecoder::new();
-    let mut watch = GreetingWatch::new();
-    let mut buffer = [0u8; 256];
-    while !shared.is_closed() && !lost.load(Ordering::Acquire) {
-        match port.read(&mut buffer) {
-            Ok(0) => {}
-            Ok(n) => shared.heard(&mut watch, &mut decoder, &buffer[..n]),
-            Err(err) if err.kind() == std::io::ErrorKind::TimedOut => {}
-            Err(err) if err.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(err) => {
-                lost.store(true, Ordering::Release);
-                shared.wake();
-                return Some(format!("read failed: {err}"));
+impl Connector for SerialConnector {
+    type Line = SerialLine;
+    type Reader = SerialReader;
+
+    fn connect(
+        &mut self,
+        shared: &Arc<Shared>,
+        lost: &Arc<AtomicBool>,
+        baud: u32,
+    ) -> Result<(SerialLine, SerialReader), String> {
+        let port = open_port(&self.device, baud)?;
+        let reader = port
+            .try_clone()
+            .map_err(|err| format!("cannot read from {}: {err}", self.device))?;
+        Ok((
+            SerialLine {
+                port,
+                shared: Arc::clone(shared),
+                lost: Arc::clone(lost),
+            },
+            SerialReader { port: reader },
+        ))
+    }
+}
+
+/// The reader's end of a serial port.
+pub(super) struct SerialReader {
+    port: Box<dyn SerialPort>,
+}
+
+impl LineRead for SerialReader {
+    fn read_some(&mut self, buffer: &mut [u8]) -> Result<usize, String> {
+        match self.port.read(buffer) {
+            Ok(n) => Ok(n),
+            Err(err)
+                if matches!(
+                    err.kind(),
+                    std::io::ErrorKind::TimedOut | std::io::ErrorKind::Interrupted
+                ) =>
+            {
+                Ok(0)
             }
+            Err(err) => Err(format!("read failed: {err}")),
         }
     }
-    None
 }
 
 /// The writer's end of a serial port.
-struct SerialLine {
+pub(super) struct SerialLine {
     port: Box<dyn SerialPort>,
     shared: Arc<Shared>,
     lost: Arc<AtomicBool>,
 }
 
 impl LineWrite for SerialLine {
-    /// Writes the whole instruction. A port that takes nothing for a while (its buffer
-    /// full: a gateway or adapter that stopped reading) is not an error by itself: the
-    /// write goes on until the link closes or is lost, and the link counts as stalled
-    /// meanwhile (its bytes stay queued; the playback watchdog acts on it).
+    /// Writes the whole instruction ([`write_watching`]).
     fn write_instruction(&mut self, instruction: &[u8]) -> std::io::Result<()> {
-        let mut rest = instruction;
-        while !rest.is_empty() {
-            match self.port.write(rest) {
-                Ok(0) => std::thread::sleep(std::time::Duration::from_millis(1)),
-                Ok(n) => rest = &rest[n..],
-                Err(err)
-                    if matches!(
-                        err.kind(),
-                        std::io::ErrorKind::TimedOut
-                            | std::io::ErrorKind::WouldBlock
-                            | std::io::ErrorKind::Interrupted
-                    ) => {}
-                Err(err) => return Err(err),
-            }
-            if self.shared.is_closed() || self.lost.load(Ordering::Acquire) {
-                return Err(std::io::Error::other("the line was lost mid-instruction"));
-            }
-        }
-        Ok(())
+        write_watching(&mut self.port, instruction, &self.shared, &self.lost)
     }
 
     /// Sets the port's speed (the reader's clone shares the device's settings).
