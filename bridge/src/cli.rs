@@ -2,8 +2,8 @@
 //!
 //! `floatball` with no subcommand serves the app and the API with the installation in
 //! `--data-dir`; `floatball check` only reads and checks the configuration;
-//! `floatball simulate` answers as a simulated UIM2503 gateway on a serial device,
-//! (`--kind mbox`) as simulated MBOX boxes on UDP sockets, or (`--kind scl`) as
+//! `floatball simulate` answers as a simulated UIM2503 gateway on a serial device or
+//! as N of them on TCP sockets (`--listen`), (`--kind mbox`) as simulated MBOX boxes on UDP sockets, or (`--kind scl`) as
 //! simulated MOONS' drives on a serial device (RS-485) or UDP sockets (eSCL). Every
 //! subcommand is listed by `floatball --help`.
 
@@ -62,16 +62,18 @@ pub enum Command {
     /// Check floatball.toml (writing the defaults if it is missing) and exit.
     Check(CheckArgs),
     /// Answer as a simulated UIM2503 gateway with its units on a serial device (e.g. one
-    /// end of a pseudo-terminal pair or a null-modem cable), or as simulated MBOX boxes
-    /// on UDP sockets (`--kind mbox`). SIGHUP power-cycles the simulated UIM2503
-    /// gateway (a line speed stored by `BDR=x;` takes effect).
+    /// end of a pseudo-terminal pair or a null-modem cable) or as N of them on TCP
+    /// sockets (`--listen`, `--gateways`), or as simulated MBOX boxes on UDP sockets
+    /// (`--kind mbox`). SIGHUP power-cycles the simulated UIM2503 gateways (a line speed
+    /// stored by `BDR=x;` takes effect).
     Simulate(SimulateArgs),
 }
 
 /// What `floatball simulate` simulates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum SimulateKind {
-    /// A UIM2503 gateway and its units on a serial device (`--port`).
+    /// A UIM2503 gateway and its units on a serial device (`--port`), or gateways on
+    /// TCP sockets as behind serial device servers (`--listen`, `--gateways`).
     Uim2503,
     /// MBOX boxes on UDP sockets (`--listen`, `--axes`, `--boxes`, `--ip`).
     Mbox,
@@ -91,7 +93,8 @@ pub struct SimulateArgs {
     pub port: Option<String>,
     /// (mbox, scl) The first box's or drive's UDP address; box or drive i listens on
     /// its port + i (port 0: each on a free port). Default: 127.0.0.1 on port 7408
-    /// (mbox) or 7775 (scl, eSCL).
+    /// (mbox) or 7775 (scl, eSCL). (uim2503) The first gateway's TCP address instead of
+    /// `--port`: gateway i listens on its port + i (port 0: each on a free port).
     #[arg(long)]
     pub listen: Option<SocketAddr>,
     /// (scl) Number of drives (addresses 0, 1, … 9, then " # $ & ' ( ) + , - . / : ; <
@@ -105,6 +108,9 @@ pub struct SimulateArgs {
     /// (mbox) Axes of every box: 3, 6 or 10.
     #[arg(long, default_value_t = 10, value_parser = parse_axes_count)]
     pub axes: u8,
+    /// (uim2503 with --listen) Number of gateways.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..))]
+    pub gateways: u16,
     /// (mbox) Number of boxes.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..))]
     pub boxes: u16,
@@ -115,7 +121,7 @@ pub struct SimulateArgs {
     /// The line's baud rate (a UIM2503 leaves the factory at 9600).
     #[arg(long, default_value_t = config::DEFAULT_SERIAL_BAUD)]
     pub baud: u32,
-    /// Number of units behind the gateway (stations 1…N).
+    /// Number of units behind the (each) gateway (stations 1…N).
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u8).range(1..=sim::MAX_UNITS as i64))]
     pub units: u8,
     /// Every unit answers on station 5, as delivered from the factory.
@@ -258,22 +264,26 @@ async fn shutdown_signal() {
 /// `floatball simulate`: runs until Ctrl-C or SIGTERM; SIGHUP is the simulated
 /// gateway's power cycle (a line speed stored by `BDR=x;` takes effect).
 async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
-    let port = match (args.kind, args.port.clone()) {
-        (SimulateKind::Scl, port) => return simulate_scl(&args, port).await,
-        (SimulateKind::Mbox, None) => return simulate_mbox(&args).await,
-        (SimulateKind::Mbox, Some(_)) => {
+    let port = match (args.kind, args.port.clone(), args.listen) {
+        (SimulateKind::Scl, port, _) => return simulate_scl(&args, port).await,
+        (SimulateKind::Mbox, None, _) => return simulate_mbox(&args).await,
+        (SimulateKind::Mbox, Some(_), _) => {
             anyhow::bail!("--port is the serial device of --kind uim2503; MBOX boxes take --listen")
         }
-        (SimulateKind::Uim2503, Some(port)) => port,
-        (SimulateKind::Uim2503, None) => anyhow::bail!("--kind uim2503 needs --port"),
+        (SimulateKind::Uim2503, Some(_), Some(_)) => {
+            anyhow::bail!(
+                "--kind uim2503 answers on a serial device (--port) or on TCP (--listen), not both"
+            )
+        }
+        (SimulateKind::Uim2503, None, Some(listen)) => {
+            return simulate_uim2503_tcp(&args, listen).await;
+        }
+        (SimulateKind::Uim2503, Some(port), None) => port,
+        (SimulateKind::Uim2503, None, None) => {
+            anyhow::bail!("--kind uim2503 needs --port (a serial device) or --listen (TCP)")
+        }
     };
-    let mut gateway = if args.factory_fresh {
-        GatewayConfig::factory_fresh(usize::from(args.units))
-    } else {
-        GatewayConfig::numbered(args.units)
-    };
-    gateway.seed = args.seed;
-    gateway.counts_per_mm = args.counts_per_mm;
+    let gateway = simulated_units(&args);
     let options = crate::simulate::SimulateOptions {
         port,
         baud: args.baud,
@@ -282,7 +292,8 @@ async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     let stop = Arc::new(AtomicBool::new(false));
     let worker_stop = Arc::clone(&stop);
     let power_cycle = Arc::new(AtomicBool::new(false));
-    watch_power_cycles(&power_cycle)?;
+    let hangup = Arc::clone(&power_cycle);
+    watch_power_cycles(move || hangup.store(true, Ordering::Release))?;
     let banner = format!(
         "floatball simulating a gateway with {} units on {} at {} baud",
         args.units, options.port, options.baud
@@ -303,16 +314,69 @@ async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     }
 }
 
-/// SIGHUP is the simulated gateway's power cycle: sets `power_cycle` each time.
-fn watch_power_cycles(power_cycle: &Arc<AtomicBool>) -> anyhow::Result<()> {
+/// The units behind each simulated UIM2503 gateway, as the options say.
+fn simulated_units(args: &SimulateArgs) -> GatewayConfig {
+    let mut gateway = if args.factory_fresh {
+        GatewayConfig::factory_fresh(usize::from(args.units))
+    } else {
+        GatewayConfig::numbered(args.units)
+    };
+    gateway.seed = args.seed;
+    gateway.counts_per_mm = args.counts_per_mm;
+    gateway
+}
+
+/// `floatball simulate --kind uim2503 --listen ADDR`: the gateways on TCP sockets
+/// ([`crate::simulate::tcp`], whose documentation gives the lines printed) until Ctrl-C
+/// or SIGTERM; SIGHUP power-cycles them all.
+async fn simulate_uim2503_tcp(args: &SimulateArgs, listen: SocketAddr) -> anyhow::Result<()> {
+    use crate::simulate::tcp;
+    let bound = tcp::bind(tcp::ListenOptions {
+        listen,
+        gateways: args.gateways,
+        baud: args.baud,
+        gateway: simulated_units(args),
+    })
+    .map_err(anyhow::Error::msg)?;
+    let power_cycles = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let hangup = Arc::clone(&power_cycles);
+    watch_power_cycles(move || {
+        hangup.fetch_add(1, Ordering::AcqRel);
+    })?;
+    // People read these lines, and tests parse them: the socket is the last word.
+    for (index, socket) in bound
+        .sockets()
+        .map_err(anyhow::Error::msg)?
+        .iter()
+        .enumerate()
+    {
+        println!(
+            "floatball simulating gateway {index} with {} units at {} baud on tcp {socket}",
+            args.units, args.baud
+        );
+    }
+    let stop = Arc::new(AtomicBool::new(false));
+    let threads = bound
+        .serve(&stop, &power_cycles)
+        .map_err(anyhow::Error::msg)?;
+    shutdown_signal().await;
+    stop.store(true, Ordering::Release);
+    for thread in threads {
+        thread.thread().unpark();
+        let _ = tokio::task::spawn_blocking(move || thread.join()).await;
+    }
+    Ok(())
+}
+
+/// SIGHUP is the simulated gateways' power cycle: calls `power_cycle` each time.
+fn watch_power_cycles(power_cycle: impl Fn() + Send + 'static) -> anyhow::Result<()> {
     #[cfg(unix)]
     {
         let mut hangups = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::hangup())
             .context("cannot watch SIGHUP (the simulated gateway's power cycle)")?;
-        let power_cycle = Arc::clone(power_cycle);
         tokio::spawn(async move {
             while hangups.recv().await.is_some() {
-                power_cycle.store(true, Ordering::Release);
+                power_cycle();
             }
         });
     }

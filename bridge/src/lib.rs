@@ -43,7 +43,8 @@
 //!   the status carries; the simulated units' stations kept in the data directory.
 //! - [`simulate`]: `floatball simulate`, the simulated gateway on a real serial device,
 //!   and ([`simulate::mbox`]) simulated MBOX boxes on real UDP sockets, and
-//!   ([`simulate::scl`]) simulated MOONS' drives on a serial device or eSCL UDP.
+//!   ([`simulate::scl`]) simulated MOONS' drives on a serial device or eSCL UDP;
+//!   ([`simulate::tcp`]) simulated gateways on TCP sockets, as behind device servers.
 //! - [`playback`]: the player driven by the clock and the links, the owner of the
 //!   status, and the link watchdog.
 //! - [`control`]: Start, Reset and Home as the WebSocket asks for them.

@@ -27,14 +27,16 @@
 //! pseudo-terminal, which has no speed, the bytes still pass (a test's cable between two
 //! pseudo-terminals can compare the two ends' speeds).
 //!
-//! MBOX boxes on UDP sockets (`--kind mbox`) are [`mbox`]; MOONS' drives on a serial
-//! device or on UDP (`--kind scl`) are [`scl`].
+//! The same gateways on TCP sockets (`--listen`, `--gateways`), as if behind serial
+//! device servers, are [`tcp`]. MBOX boxes on UDP sockets (`--kind mbox`) are [`mbox`];
+//! MOONS' drives on a serial device or on UDP (`--kind scl`) are [`scl`].
 //!
 //! [`RX_FIFO_BYTES`]: floatball_shared::sim::RX_FIFO_BYTES
 //! [`TX_QUEUE_BYTES`]: floatball_shared::sim::TX_QUEUE_BYTES
 
 pub mod mbox;
 pub mod scl;
+pub mod tcp;
 
 use std::io::Write as _;
 use std::sync::Arc;

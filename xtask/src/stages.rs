@@ -73,12 +73,12 @@ pub fn test() -> Result<(), String> {
         ]))
     });
     stage("native tests", &|env| {
-        tools::run_command(tools::cargo(env).args([
-            "test",
-            "--workspace",
-            "--exclude",
-            "floatball-e2e",
-        ]))
+        tools::run_command(
+            tools::cargo(env)
+                .args(["test", "--workspace", "--exclude", "floatball-e2e"])
+                // ser2net was installed above: its absence is a failure, not a skip.
+                .env(tools::REQUIRE_SER2NET, "1"),
+        )
     });
     stage("shared tests on wasm32 (Node.js)", &|env| {
         tools::run_command(tools::cargo(env).args([
@@ -147,5 +147,6 @@ fn install_tools(env: &Env) -> Result<(), String> {
     tools::ensure_wasm_target(env)?;
     tools::ensure_wasm_bindgen_cli(env)?;
     tools::ensure_wasm_pack(env)?;
-    tools::ensure_chromium(env)
+    tools::ensure_chromium(env)?;
+    tools::ensure_ser2net(env)
 }

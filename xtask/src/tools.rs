@@ -2,8 +2,8 @@
 //!
 //! Every install says what it installs and why before it starts. Nothing is
 //! downloaded outside the package registries: Rust tools come from crates.io through
-//! `cargo install`, the browser from Debian's packages through `apt-get`, `wasm-opt`
-//! from npm's `binaryen` package into the target directory.
+//! `cargo install`, the browser and `ser2net` from Debian's packages through
+//! `apt-get`, `wasm-opt` from npm's `binaryen` package into the target directory.
 
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
@@ -316,6 +316,27 @@ pub fn ensure_chromium(env: &Env) -> Result<(), String> {
         env,
         &missing,
         "Chromium, ChromeDriver and a font for Chinese (the browser tests run in headless Chromium and take screenshots in 中文 and English)",
+    )
+}
+
+/// The path of Debian's `ser2net` (a serial device server the bridge's network links
+/// are tested against, `bridge/tests/ser2net.rs`).
+pub const SER2NET: &str = "/usr/sbin/ser2net";
+
+/// The variable that makes a missing `ser2net` fail `bridge/tests/ser2net.rs` instead
+/// of skipping it (`cargo xtask test` sets it, having installed `ser2net`).
+pub const REQUIRE_SER2NET: &str = "FLOATBALL_REQUIRE_SER2NET";
+
+/// Installs Debian's `ser2net` when it is missing (as root; otherwise stops with the
+/// command to run).
+pub fn ensure_ser2net(env: &Env) -> Result<(), String> {
+    if Path::new(SER2NET).is_file() {
+        return Ok(());
+    }
+    apt_install(
+        env,
+        &["ser2net"],
+        "ser2net (the bridge's tcp:// and rfc2217:// gateways are tested through a real serial device server)",
     )
 }
 
