@@ -504,7 +504,10 @@ async fn an_rfc2217_link_sets_the_remote_line_and_writes_the_same_bytes() {
         link.send(batch).await.unwrap();
     }
     let written = bytes(&collect(&server.rx, expected));
-    let plain: Vec<u8> = traffic().iter().flat_map(|b| b.as_bytes().to_vec()).collect();
+    let plain: Vec<u8> = traffic()
+        .iter()
+        .flat_map(|b| b.as_bytes().to_vec())
+        .collect();
     assert_eq!(written, plain);
 }
 

@@ -108,15 +108,23 @@ fn cpu_time(pid: u32) -> Duration {
     Duration::from_millis(ticks * 10)
 }
 
-/// The peak resident set of process `pid`, bytes (`VmHWM`).
-fn peak_rss_bytes(pid: u32) -> u64 {
+/// A size from `/proc/<pid>/status` (`VmHWM`: the peak resident set; `VmRSS`: now),
+/// bytes.
+fn memory_bytes(pid: u32, field: &str) -> u64 {
     let status =
         std::fs::read_to_string(format!("/proc/{pid}/status")).expect("/proc/<pid>/status");
     status
         .lines()
-        .find_map(|line| line.strip_prefix("VmHWM:"))
-        .and_then(|value| value.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
-        .expect("VmHWM")
+        .find_map(|line| line.strip_prefix(field)?.strip_prefix(':'))
+        .and_then(|value| {
+            value
+                .trim()
+                .trim_end_matches("kB")
+                .trim()
+                .parse::<u64>()
+                .ok()
+        })
+        .unwrap_or_else(|| panic!("{field} in /proc/{pid}/status"))
         * 1024
 }
 
@@ -212,10 +220,20 @@ struct Seen {
     status: Status,
 }
 
-/// Reads statuses into `seen` until `wanted` holds for one; panics after `limit`.
+/// What came over the WebSocket.
+#[derive(Default)]
+struct Log {
+    statuses: Vec<Seen>,
+    /// Messages other than statuses (feedback frames: every gateway acknowledges every
+    /// instruction, and every client is sent every frame), and their bytes.
+    others: usize,
+    other_bytes: usize,
+}
+
+/// Reads statuses into `log` until `wanted` holds for one; panics after `limit`.
 async fn watch(
     ws: &mut Ws,
-    seen: &mut Vec<Seen>,
+    log: &mut Log,
     limit: Duration,
     wanted: impl Fn(&Status) -> bool,
 ) -> Status {
@@ -224,7 +242,7 @@ async fn watch(
         let frame = tokio::time::timeout_at(deadline, ws.next())
             .await
             .unwrap_or_else(|_| {
-                let last = seen.last().map(|seen| &seen.status);
+                let last = log.statuses.last().map(|seen| &seen.status);
                 panic!("no such status within {limit:?}; the last: {last:?}")
             })
             .expect("open")
@@ -232,15 +250,20 @@ async fn watch(
         let Message::Text(text) = frame else {
             continue;
         };
+        if !text.as_str().starts_with(r#"{"type":"status""#) {
+            log.others += 1;
+            log.other_bytes += text.len();
+            continue;
+        }
         if let Ok(ServerMessage::Status(status)) = serde_json::from_str(text.as_str()) {
             let found = wanted(&status);
-            seen.push(Seen {
+            log.statuses.push(Seen {
                 at: Instant::now(),
                 bytes: text.len(),
                 status,
             });
             if found {
-                return seen.last().expect("just pushed").status.clone();
+                return log.statuses.last().expect("just pushed").status.clone();
             }
         }
     }
@@ -293,8 +316,8 @@ async fn bench(gateways: usize, seconds: u64) -> Outcome {
         .max_by(|a, b| a.needed_bytes_per_s.total_cmp(&b.needed_bytes_per_s))
         .expect("a gateway");
     let mut ws = bridge.ws(&token).await;
-    let mut seen = Vec::new();
-    watch(&mut ws, &mut seen, Duration::from_secs(30), |status| {
+    let mut log = Log::default();
+    watch(&mut ws, &mut log, Duration::from_secs(30), |status| {
         status.gateway_summary.total as usize == gateways
             && status.gateway_summary.up as usize == gateways
     })
@@ -310,20 +333,30 @@ async fn bench(gateways: usize, seconds: u64) -> Outcome {
     // The bridge arms the first entry once the playlist is quiet: wait for it so that
     // the preload is measured whole, whether it happens before Start or after.
     let arming = Instant::now();
-    let armed = watch(&mut ws, &mut seen, Duration::from_secs(120), |status| {
-        status.armed.as_ref().is_some_and(|armed| armed.progress >= 1.0)
+    let armed = watch(&mut ws, &mut log, Duration::from_secs(120), |status| {
+        status
+            .armed
+            .as_ref()
+            .is_some_and(|armed| armed.progress >= 1.0)
     })
     .await;
     let armed_s = arming.elapsed().as_secs_f64();
-    let preload_from = seen
+    let preload_from = log
+        .statuses
         .iter()
         .find(|seen| seen.status.armed.is_some())
         .map_or(arming, |seen| seen.at);
-    let preload_s = seen.last().expect("seen").at.duration_since(preload_from).as_secs_f64();
+    let preload_s = log
+        .statuses
+        .last()
+        .expect("seen")
+        .at
+        .duration_since(preload_from)
+        .as_secs_f64();
     assert!(armed.armed.is_some());
     let starting = Instant::now();
     send_text(&mut ws, r#"{"type":"start"}"#).await;
-    let playing = watch(&mut ws, &mut seen, Duration::from_secs(120), |status| {
+    let playing = watch(&mut ws, &mut log, Duration::from_secs(120), |status| {
         matches!(status.state, PlayerState::Playing | PlayerState::Error)
     })
     .await;
@@ -336,26 +369,34 @@ async fn bench(gateways: usize, seconds: u64) -> Outcome {
     );
     let start_s = starting.elapsed().as_secs_f64();
     // Measure while streaming.
-    let streaming_from = seen.len();
+    let streaming_from = (log.statuses.len(), log.others, log.other_bytes);
     let (cpu_before, window) = (cpu_time(bridge.pid()), Instant::now());
-    let simulator_cpu = simulator.as_ref().map(|simulator| cpu_time(simulator.pid()));
+    let simulator_cpu = simulator
+        .as_ref()
+        .map(|simulator| cpu_time(simulator.pid()));
     let done = watch(
         &mut ws,
-        &mut seen,
+        &mut log,
         Duration::from_secs(seconds + 60),
         |status| status.state != PlayerState::Playing,
     )
     .await;
     let elapsed_s = window.elapsed().as_secs_f64();
+    let streaming_rss_mb = memory_bytes(bridge.pid(), "VmRSS") as f64 / 1e6;
     let bridge_cpu = (cpu_time(bridge.pid()) - cpu_before).as_secs_f64();
     let simulator_cpu = simulator
         .as_ref()
         .zip(simulator_cpu)
         .map(|(simulator, before)| (cpu_time(simulator.pid()) - before).as_secs_f64());
     let reached_end = done.state == PlayerState::Idle && done.last_error.is_none();
-    let streaming = &seen[streaming_from..];
+    let streaming = &log.statuses[streaming_from.0..];
+    let (others, other_bytes) = (
+        log.others - streaming_from.1,
+        log.other_bytes - streaming_from.2,
+    );
     let status_bytes: Vec<usize> = streaming.iter().map(|seen| seen.bytes).collect();
-    let lowest_water_level = seen
+    let lowest_water_level = log
+        .statuses
         .iter()
         .filter(|seen| seen.status.state == PlayerState::Playing)
         .filter_map(|seen| seen.status.gateway_summary.lowest_water_level)
@@ -366,7 +407,7 @@ async fn bench(gateways: usize, seconds: u64) -> Outcome {
     // The e-stop, then every gateway must have been told.
     let pressing = Instant::now();
     send_text(&mut ws, r#"{"type":"estop"}"#).await;
-    let stopped = watch(&mut ws, &mut seen, Duration::from_secs(10), |status| {
+    let stopped = watch(&mut ws, &mut log, Duration::from_secs(10), |status| {
         status.state == PlayerState::Stopped
     })
     .await;
@@ -374,7 +415,7 @@ async fn bench(gateways: usize, seconds: u64) -> Outcome {
     tokio::time::sleep(Duration::from_millis(300)).await;
     let log = bridge.log();
     let estop_everywhere = !log.contains("did not reach") && stopped.last_error.is_none();
-    let rss_mb = peak_rss_bytes(bridge.pid()) as f64 / 1e6;
+    let rss_mb = memory_bytes(bridge.pid(), "VmHWM") as f64 / 1e6;
     drop(ws);
     let starts_ns = simulator
         .as_ref()
@@ -388,9 +429,10 @@ async fn bench(gateways: usize, seconds: u64) -> Outcome {
         busiest.needed_bytes_per_s,
         busiest.available_bytes_per_s,
         busiest.bytes_per_row,
-        busiest
-            .lowest_water_level
-            .map_or("- (no streaming: every row preloaded)".to_owned(), |level| format!("{level} rows")),
+        busiest.lowest_water_level.map_or(
+            "- (no streaming: every row preloaded)".to_owned(),
+            |level| format!("{level} rows")
+        ),
     );
     if let Some(first) = starts_ns
         .iter()
@@ -419,7 +461,8 @@ async fn bench(gateways: usize, seconds: u64) -> Outcome {
         );
     }
     println!(
-        "scale-bench:   bridge CPU while streaming: {:.1} % of one core over {elapsed_s:.1} s{}; peak RSS (VmHWM) {rss_mb:.1} MB",
+        "scale-bench:   bridge CPU while streaming: {:.1} % of one core over {elapsed_s:.1} s{}; peak RSS (VmHWM) {rss_mb:.1} MB, \
+         {streaming_rss_mb:.1} MB at the show's end (VmRSS)",
         100.0 * bridge_cpu / elapsed_s,
         simulator_cpu.map_or(String::new(), |cpu| format!(
             " (the simulator: {:.1} %)",
@@ -432,6 +475,11 @@ async fn bench(gateways: usize, seconds: u64) -> Outcome {
         status_bytes.len() as f64 / elapsed_s,
         status_bytes.iter().sum::<usize>() as f64 / status_bytes.len().max(1) as f64,
         status_bytes.iter().max().copied().unwrap_or_default(),
+    );
+    println!(
+        "scale-bench:   other messages over WebSocket while streaming (feedback frames): {:.0}/s, {:.0} kB/s",
+        others as f64 / elapsed_s,
+        other_bytes as f64 / elapsed_s / 1000.0,
     );
     println!(
         "scale-bench:   lowest water level {} rows; underruns {underruns}; show {}; e-stop answered in {estop_ms:.0} ms, {}",

@@ -534,7 +534,12 @@ mod tests {
         let cases = [
             (wave(1, 3, 300, 250), PlanOptions::default()),
             (wave(1, 3, 40, 250), PlanOptions::default()),
-            (wave(1, 3, 40, 250), PlanOptions { repeat_forever: true }),
+            (
+                wave(1, 3, 40, 250),
+                PlanOptions {
+                    repeat_forever: true,
+                },
+            ),
             (ragged, PlanOptions::default()),
             (still, PlanOptions::default()),
         ];
