@@ -517,11 +517,6 @@ mod tests {
     fn row_bytes_are_the_length_of_the_rows_for_every_range() {
         // A wave (durations shared), the same rows on every unit (one broadcast),
         // tracks of different lengths and durations, in FIFO, single and loop mode.
-        let mut ragged = wave(1, 3, 40, 100);
-        ragged.tracks[1].rows.truncate(25);
-        for (index, row) in ragged.tracks[2].rows.iter_mut().enumerate() {
-            row.duration_ms = 100 + (index as u32 % 3) * 10;
-        }
         let mut still = wave(1, 3, 30, 100);
         still.name = "still".into();
         for track in &mut still.tracks {
@@ -540,11 +535,19 @@ mod tests {
                     repeat_forever: true,
                 },
             ),
-            (ragged, PlanOptions::default()),
+            (wave(1, 3, 40, 100), PlanOptions::default()),
             (still, PlanOptions::default()),
         ];
-        for (show, options) in cases {
-            let plan = Plan::new(&show, &installation(1, 3, 115_200), options).unwrap();
+        for (case, (show, options)) in cases.into_iter().enumerate() {
+            let mut plan = Plan::new(&show, &installation(1, 3, 115_200), options).unwrap();
+            if case == 3 {
+                // Tracks of different lengths and durations (as the planner never
+                // makes them, but `rows` takes them).
+                plan.units[1].rows.truncate(25);
+                for (index, row) in plan.units[2].rows.iter_mut().enumerate() {
+                    row.duration_ms = 100 + (index % 3) as u8 * 10;
+                }
+            }
             let run = &plan.gateways[0];
             let measured = RowBytes::new(&plan, run);
             let longest = super::super::schedule::longest(&plan, run);
