@@ -3,8 +3,8 @@
 //! `floatball` with no subcommand serves the app and the API with the installation in
 //! `--data-dir`; `floatball check` only reads and checks the configuration;
 //! `floatball simulate` answers as a simulated UIM2503 gateway on a serial device or
-//! as N of them on TCP sockets (`--listen`), (`--kind mbox`) as simulated MBOX boxes on UDP sockets, or (`--kind scl`) as
-//! simulated MOONS' drives on a serial device (RS-485) or UDP sockets (eSCL). Every
+//! as N of them on TCP sockets (`--listen`), (`--kind mbox`) as simulated MBOX boxes
+//! on UDP sockets, or (`--kind scl`) as simulated MOONS' drives on a serial device (RS-485) or UDP sockets (eSCL). Every
 //! subcommand is listed by `floatball --help`.
 
 use std::net::{Ipv4Addr, SocketAddr};
@@ -40,8 +40,8 @@ pub struct Cli {
     /// floatball.toml.
     #[arg(long)]
     pub listen: Option<SocketAddr>,
-    /// A gateway's port, `sim` or a serial device such as /dev/ttyUSB0; the n-th flag
-    /// replaces the port of the n-th `[[gateway]]` in floatball.toml.
+    /// A gateway's port: `sim`, a serial device such as /dev/ttyUSB0, or a serial device
+    /// server `tcp://host:port` / `rfc2217://host:port`; the n-th flag replaces the port of the n-th `[[gateway]]` in floatball.toml.
     #[arg(long = "gateway", value_name = "PORT")]
     pub gateways: Vec<String>,
     /// Directory for the configuration, the password and the show files.
@@ -277,6 +277,9 @@ async fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
         }
         (SimulateKind::Uim2503, None, Some(listen)) => {
             return simulate_uim2503_tcp(&args, listen).await;
+        }
+        (SimulateKind::Uim2503, Some(_), None) if args.gateways > 1 => {
+            anyhow::bail!("--gateways is for --listen: a serial device (--port) has one gateway")
         }
         (SimulateKind::Uim2503, Some(port), None) => port,
         (SimulateKind::Uim2503, None, None) => {

@@ -28,9 +28,9 @@
 //!   through `floatball_shared::show::import`.
 //! - [`playlist`]: the playlist Start plays, stored beside the shows.
 //! - [`durable`]: atomic, durable file writes.
-//! - [`link`]: the links to the gateways (serial ports, the simulated gateway) with
-//!   their e-stop lane, the greeting that tells whether a gateway answers, and the
-//!   line-speed change.
+//! - [`link`]: the links to the gateways (serial ports, serial device servers over TCP
+//!   or RFC 2217, the simulated gateway) with their e-stop lane, the greeting that
+//!   tells whether a gateway answers, and the line-speed change.
 //! - [`mbox`]: the MBOX boxes of an installation on one UDP socket, with their e-stop
 //!   (the sender is woken by the e-stop like a link's writer).
 //! - [`scl`]: the links to MOONS' drives in SCL (an RS-485 line or eSCL on UDP), one

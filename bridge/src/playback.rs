@@ -4,7 +4,10 @@
 //! **One owner.** The playback task owns the player and the status: it is the only
 //! writer of the [`Status`] every client sees (the player's part and each gateway's
 //! link part, read from the links as snapshots), published on a watch channel whenever
-//! it changes (the WebSocket layer limits how often clients hear of it).
+//! it changes (the WebSocket layer limits how often clients hear of it). Beside it,
+//! every gateway in full ([`Playback::gateway_list`], `GET /api/status/gateways`): a
+//! status with more than [`floatball_shared::api::GATEWAY_DETAIL_LIMIT`] gateways
+//! details only those with a problem.
 //!
 //! **The e-stop waits on nothing.** [`Playback::estop`] presses the latch and wakes the
 //! links itself ([`crate::estop::press`]); the task only learns of it, on its next turn,
@@ -40,7 +43,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
-use floatball_shared::api::{GatewayKind, GatewayStatus, Status, summarise_gateways};
+use floatball_shared::api::{
+    GatewayKind, GatewayStatus, GatewaySummary, Status, summarise_gateways,
+};
 use floatball_shared::plan::Installation;
 use floatball_shared::plan::mbox::{MboxPlayer, MboxPlayerConfig};
 use floatball_shared::plan::player::{
@@ -152,6 +157,8 @@ impl std::fmt::Debug for Request {
 pub struct Playback {
     requests: mpsc::UnboundedSender<Request>,
     status: watch::Receiver<Status>,
+    /// Every gateway in full, in installation order, as the status was last built.
+    gateway_list: watch::Receiver<Listed>,
     /// The installation and the links now: a snapshot, replaced when the task takes a
     /// new installation ([`Playback::reconfigure`]).
     live: Arc<std::sync::RwLock<Live>>,
@@ -227,15 +234,16 @@ impl Playback {
             installation: (*installation).clone(),
         });
         let (requests, inbox) = mpsc::unbounded_channel();
-        let (status_tx, status) = watch::channel(status_of(&player, &links, &health));
-        let started = Self::started(requests, status, installation, latch);
+        let (list_tx, list) = watch::channel(Listed::default());
+        let (status_tx, status) = watch::channel(status_of(&player, &links, &health, &list_tx));
+        let started = Self::started(requests, (status, list), installation, latch);
         tokio::spawn(run(
             player,
             Arc::clone(&links),
             health,
             Arc::clone(&started.latch),
             inbox,
-            status_tx,
+            (status_tx, list_tx),
             Arc::clone(&started.arming),
         ));
         started.set_live(None, Some(links));
@@ -246,13 +254,14 @@ impl Playback {
     /// drives until the caller names its own.
     fn started(
         requests: mpsc::UnboundedSender<Request>,
-        status: watch::Receiver<Status>,
+        (status, gateway_list): (watch::Receiver<Status>, watch::Receiver<Listed>),
         installation: Arc<Installation>,
         latch: Arc<Latch>,
     ) -> Self {
         Self {
             requests,
             status,
+            gateway_list,
             live: Arc::new(std::sync::RwLock::new(Live {
                 installation,
                 links: Arc::new(Vec::new()),
@@ -271,17 +280,18 @@ impl Playback {
         let installation = Arc::new(config.installation.clone());
         let player = MboxPlayer::new(config);
         let (requests, inbox) = mpsc::unbounded_channel();
-        let (status_tx, status) = watch::channel(mbox_status(&player, &boxes));
+        let (list_tx, list) = watch::channel(Listed::default());
+        let (status_tx, status) = watch::channel(mbox_status(&player, &boxes, &list_tx));
         tokio::spawn(run_mbox(
             player,
             boxes.clone(),
             Arc::clone(&latch),
             inbox,
-            status_tx,
+            (status_tx, list_tx),
         ));
         Self {
             boxes: Some(boxes),
-            ..Self::started(requests, status, installation, latch)
+            ..Self::started(requests, (status, list), installation, latch)
         }
     }
 
@@ -296,24 +306,32 @@ impl Playback {
     ) -> Self {
         let installation = Arc::new(installation);
         let (requests, inbox) = mpsc::unbounded_channel();
-        let (status_tx, status) = watch::channel(SclStatus::default().status(&drives));
+        let (list_tx, list) = watch::channel(Listed::default());
+        let (status_tx, status) = watch::channel(SclStatus::default().status(&drives, &list_tx));
         tokio::spawn(run_scl(
             drives.clone(),
             Arc::clone(&installation),
             Arc::new(scl),
             Arc::clone(&latch),
             inbox,
-            status_tx,
+            (status_tx, list_tx),
         ));
         Self {
             scl: Some(drives),
-            ..Self::started(requests, status, installation, latch)
+            ..Self::started(requests, (status, list), installation, latch)
         }
     }
 
     /// The status, on every change.
     pub fn status(&self) -> watch::Receiver<Status> {
         self.status.clone()
+    }
+
+    /// Every gateway in full, in installation order, as the status was last built
+    /// (the status itself details only the gateways with a problem beyond
+    /// [`floatball_shared::api::GATEWAY_DETAIL_LIMIT`]).
+    pub fn gateway_list(&self) -> Vec<GatewayStatus> {
+        self.gateway_list.borrow().gateways.clone()
     }
 
     /// The links now, in gateway order.
@@ -779,7 +797,12 @@ fn link_views(links: &[Link]) -> Vec<LinkView> {
         .collect()
 }
 
-fn status_of(player: &Player, links: &[Link], health: &[HealthView]) -> Status {
+fn status_of(
+    player: &Player,
+    links: &[Link],
+    health: &[HealthView],
+    list: &watch::Sender<Listed>,
+) -> Status {
     let mut status = player.status();
     let lowest = player.lowest_water_levels();
     let all = links
@@ -807,8 +830,40 @@ fn status_of(player: &Player, links: &[Link], health: &[HealthView]) -> Status {
             }
         })
         .collect();
-    (status.gateways, status.gateway_summary) = summarise_gateways(all);
+    (status.gateways, status.gateway_summary) = summarise(all, list);
     status
+}
+
+/// How often at most the full list of gateways is published: the status is built on
+/// every turn of the task (many a second while a show streams), the list is read
+/// every 2 s by an app that shows it.
+pub const LIST_EVERY: Duration = Duration::from_millis(250);
+
+/// Every gateway in full as last published ([`Playback::gateway_list`]), and when.
+#[derive(Debug, Default)]
+struct Listed {
+    at: Option<Instant>,
+    gateways: Vec<GatewayStatus>,
+}
+
+/// Publishes `all` (every gateway) on `list` if it changed and the last publication
+/// is [`LIST_EVERY`] old, and summarises it for the status ([`summarise_gateways`]).
+/// Every task builds its status at least ten times a second, so the list is never
+/// more than about a third of a second behind.
+fn summarise(
+    all: Vec<GatewayStatus>,
+    list: &watch::Sender<Listed>,
+) -> (Vec<GatewayStatus>, GatewaySummary) {
+    list.send_if_modified(|published| {
+        let due = published.at.is_none_or(|at| at.elapsed() >= LIST_EVERY);
+        let changed = due && published.gateways != all;
+        if changed {
+            published.gateways.clone_from(&all);
+            published.at = Some(Instant::now());
+        }
+        changed
+    });
+    summarise_gateways(all)
 }
 
 /// Progress of one link as the watchdog last saw it.
@@ -982,7 +1037,7 @@ async fn run(
     mut health: Vec<HealthView>,
     latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
-    status: watch::Sender<Status>,
+    (status, list): (watch::Sender<Status>, watch::Sender<Listed>),
     arming: Arc<ArmingShared>,
 ) {
     let epoch = Instant::now();
@@ -1068,7 +1123,7 @@ async fn run(
         }
         arming.disarms.store(player.disarms(), Ordering::Release);
         if publisher.due(urgent, player.status().state) {
-            publish(&status, status_of(&player, &links, &health));
+            publish(&status, status_of(&player, &links, &health, &list));
         }
     }
 }
@@ -1136,9 +1191,9 @@ fn publish(status: &watch::Sender<Status>, current: Status) {
     });
 }
 
-fn mbox_status(player: &MboxPlayer, boxes: &MboxNet) -> Status {
+fn mbox_status(player: &MboxPlayer, boxes: &MboxNet, list: &watch::Sender<Listed>) -> Status {
     let mut status = player.status();
-    (status.gateways, status.gateway_summary) = summarise_gateways(boxes.statuses());
+    (status.gateways, status.gateway_summary) = summarise(boxes.statuses(), list);
     status
 }
 
@@ -1209,7 +1264,7 @@ async fn run_mbox(
     boxes: MboxNet,
     latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
-    status: watch::Sender<Status>,
+    (status, list): (watch::Sender<Status>, watch::Sender<Listed>),
 ) {
     let epoch = Instant::now();
     let now_us = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
@@ -1271,7 +1326,7 @@ async fn run_mbox(
             let slot = epoch + Duration::from_micros(frame.slot_us);
             boxes.send(frame, slot, run_generation);
         }
-        publish(&status, mbox_status(&player, &boxes));
+        publish(&status, mbox_status(&player, &boxes, &list));
     }
 }
 
@@ -1365,7 +1420,7 @@ impl SclStatus {
         }
     }
 
-    fn status(&self, drives: &SclNet) -> Status {
+    fn status(&self, drives: &SclNet, list: &watch::Sender<Listed>) -> Status {
         let (show_time_ms, show_duration_ms, progress) = match (self.playing, self.loading) {
             (Some((started, duration_ms)), _) => {
                 let time_ms = u64::try_from(started.elapsed().as_millis())
@@ -1383,7 +1438,7 @@ impl SclStatus {
                 None => (0, 0, 0.0),
             },
         };
-        let (gateways, gateway_summary) = summarise_gateways(drives.statuses());
+        let (gateways, gateway_summary) = summarise(drives.statuses(), list);
         Status {
             state: self.state,
             entry: self.entry,
@@ -1410,7 +1465,7 @@ async fn run_scl(
     scl: Arc<SclConfig>,
     latch: Arc<Latch>,
     mut inbox: mpsc::UnboundedReceiver<Request>,
-    status: watch::Sender<Status>,
+    (status, list): (watch::Sender<Status>, watch::Sender<Listed>),
 ) {
     let mut state = SclStatus::default();
     let mut seen_generation = latch.generation();
@@ -1511,7 +1566,7 @@ async fn run_scl(
                     generation, reply, ..
                 } => (generation, reply, Err(StartError::Busy)),
                 Request::Estop | Request::Arm { .. } | Request::Disarm => {
-                    publish(&status, state.status(&drives));
+                    publish(&status, state.status(&drives, &list));
                     continue;
                 }
                 Request::Reconfigure(change) => {
@@ -1541,6 +1596,6 @@ async fn run_scl(
             });
             let _ = reply.send(result);
         }
-        publish(&status, state.status(&drives));
+        publish(&status, state.status(&drives, &list));
     }
 }

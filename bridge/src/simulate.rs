@@ -54,6 +54,71 @@ use crate::link::sim::SimEngine;
 /// reader's never disagree into an overrun.
 const READ_MARGIN: usize = 4;
 
+/// The receiving end of the simulated line on a real device or socket: how many bytes
+/// may be taken from it now without outrunning the line (baud / 10 bytes/s, with the
+/// receive FIFO's slack, less [`READ_MARGIN`]), and how long until more may.
+#[derive(Debug)]
+struct LineIntake {
+    line: RxLine,
+    baud: u32,
+    epoch: Instant,
+}
+
+impl LineIntake {
+    fn new(baud: u32) -> Self {
+        Self {
+            line: RxLine::new(baud),
+            baud,
+            epoch: Instant::now(),
+        }
+    }
+
+    /// The line now runs at `baud` (an idle line from now on, if that is a change).
+    fn set_baud(&mut self, baud: u32) {
+        if baud != self.baud {
+            *self = Self::new(baud);
+        }
+    }
+
+    fn micros(&self, at: Instant) -> u64 {
+        u64::try_from(at.saturating_duration_since(self.epoch).as_micros()).unwrap_or(u64::MAX)
+    }
+
+    /// How many bytes may be taken at `now`, at most `limit`.
+    fn room(&self, now: Instant, limit: usize) -> usize {
+        // The engine keeps its own clock; a few bytes less than the room keeps rounding
+        // between the two from ever counting as an overrun.
+        self.line
+            .room(self.micros(now))
+            .saturating_sub(READ_MARGIN)
+            .min(limit)
+    }
+
+    /// How long from `now` until at least one byte may be taken.
+    fn until_room(&self, now: Instant) -> Duration {
+        Duration::from_micros(self.line.next_room_us().saturating_sub(self.micros(now)))
+    }
+
+    /// `len` bytes were taken at `at`.
+    fn accept(&mut self, at: Instant, len: usize) {
+        self.line.accept(self.micros(at), len);
+    }
+}
+
+/// Says (with `prefix`) a line speed the gateway newly stored from `BDR=x;`;
+/// `said` is the one said last.
+fn say_stored_baud(engine: &SimEngine, said: &mut Option<u32>, prefix: &str) {
+    let stored = engine.stored_baud();
+    if stored != *said {
+        *said = stored;
+        if let Some(baud) = stored {
+            say(&format!(
+                "{prefix}stored BDR={baud}; it takes effect at its restart (SIGHUP)"
+            ));
+        }
+    }
+}
+
 /// What to simulate, and where.
 #[derive(Debug, Clone)]
 pub struct SimulateOptions {
@@ -118,15 +183,7 @@ pub fn run(
         match arrived.recv_timeout(wait) {
             Ok(Ok((at, bytes))) => {
                 engine.receive(at, &bytes);
-                let now_stored = engine.stored_baud();
-                if now_stored != stored {
-                    stored = now_stored;
-                    if let Some(baud) = now_stored {
-                        say(&format!(
-                            "the gateway stored BDR={baud}; it takes effect at its restart (SIGHUP)"
-                        ));
-                    }
-                }
+                say_stored_baud(&engine, &mut stored, "the gateway ");
             }
             Ok(Err(reason)) => return Err(reason),
             Err(RecvTimeoutError::Timeout) => {}
@@ -166,37 +223,24 @@ fn read_at_line_speed(
     stop: &AtomicBool,
     arrivals: &Sender<Result<(Instant, Vec<u8>), String>>,
 ) {
-    let epoch = Instant::now();
-    let micros = |at: Instant| {
-        u64::try_from(at.saturating_duration_since(epoch).as_micros()).unwrap_or(u64::MAX)
-    };
-    // The engine keeps its own clock; a few bytes less than the room keeps rounding
-    // between the two from ever counting as an overrun.
-    let mut line_baud = baud.load(Ordering::Acquire);
-    let mut line = RxLine::new(line_baud);
+    let mut line = LineIntake::new(baud.load(Ordering::Acquire));
     let mut buffer = [0u8; 1024];
     while !stop.load(Ordering::Acquire) {
-        if baud.load(Ordering::Acquire) != line_baud {
-            line_baud = baud.load(Ordering::Acquire);
-            line = RxLine::new(line_baud);
-        }
-        let room = line
-            .room(micros(Instant::now()))
-            .saturating_sub(READ_MARGIN)
-            .min(buffer.len());
+        line.set_baud(baud.load(Ordering::Acquire));
+        let now = Instant::now();
+        let room = line.room(now, buffer.len());
         if room == 0 {
             let wait = line
-                .next_room_us()
-                .saturating_sub(micros(Instant::now()))
-                .clamp(100, 50_000);
-            std::thread::sleep(Duration::from_micros(wait));
+                .until_room(now)
+                .clamp(Duration::from_micros(100), Duration::from_millis(50));
+            std::thread::sleep(wait);
             continue;
         }
         let result = match port.read(&mut buffer[..room]) {
             Ok(0) => continue,
             Ok(n) => {
                 let at = Instant::now();
-                line.accept(micros(at), n);
+                line.accept(at, n);
                 Ok((at, buffer[..n].to_vec()))
             }
             Err(err) if err.kind() == std::io::ErrorKind::TimedOut => continue,

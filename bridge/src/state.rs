@@ -1,5 +1,6 @@
 //! What every request handler shares: the configuration, the password and tokens, the
-//! show store and playlist, the gateways, and the player (which owns the live status).
+//! show store and playlist, the gateways, and the player (which owns the live status
+//! and the full list of gateways beside it).
 //!
 //! [`AppState::open`] builds it from the data directory at start; nothing in it is
 //! global, so tests run many bridges side by side.
@@ -13,7 +14,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use floatball_shared::api::Status;
+use floatball_shared::api::{GatewayStatus, Status};
 use floatball_shared::ascii::EncodeError;
 use tokio::sync::{Mutex, watch};
 
@@ -415,6 +416,12 @@ impl AppState {
     /// A receiver that sees every status change (the playback task owns the status).
     pub fn subscribe_status(&self) -> watch::Receiver<Status> {
         self.inner.playback.status()
+    }
+
+    /// Every gateway's status in full, in installation order (the status details only
+    /// those with a problem when there are many; `GET /api/status/gateways`).
+    pub fn gateway_list(&self) -> Vec<GatewayStatus> {
+        self.inner.playback.gateway_list()
     }
 }
 

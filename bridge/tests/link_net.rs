@@ -1,6 +1,6 @@
 //! Network links (`tcp://`, `rfc2217://`) against a `std::net::TcpListener` playing
 //! the serial device server with the gateway behind it: it answers the link's greeting
-//! (`ABC;` → `AA AB AC`), records every instruction with its arrival time (greetings
+//! (`ABC;` → `AA AB AC`, unless told to stay silent), records every instruction with its arrival time (greetings
 //! counted and left out), and in RFC 2217 mode speaks Telnet: it agrees to COM-port
 //! control, answers the COM-port commands (code + 100) and keeps the raw bytes so the
 //! tests can look at the negotiation.
@@ -38,6 +38,8 @@ struct Server {
     /// Instruction bytes (the line's data, greetings left out) as they arrived.
     rx: mpsc::Receiver<(Instant, Vec<u8>)>,
     greetings: Arc<AtomicUsize>,
+    /// Whether the gateway answers greetings.
+    answering: Arc<AtomicBool>,
     /// Connections accepted so far, with when.
     accepted: Arc<Mutex<Vec<Instant>>>,
     /// The current client, to write to and to cut.
@@ -57,12 +59,14 @@ impl Server {
             port,
             rx,
             greetings: Arc::default(),
+            answering: Arc::new(AtomicBool::new(true)),
             accepted: Arc::default(),
             client: Arc::default(),
             raw: Arc::default(),
             line_baud: Arc::default(),
         };
         let greetings = Arc::clone(&server.greetings);
+        let answering = Arc::clone(&server.answering);
         let accepted = Arc::clone(&server.accepted);
         let client = Arc::clone(&server.client);
         let raw = Arc::clone(&server.raw);
@@ -77,6 +81,7 @@ impl Server {
                     mode,
                     tx: tx.clone(),
                     greetings: Arc::clone(&greetings),
+                    answering: Arc::clone(&answering),
                     raw: Arc::clone(&raw),
                     line_baud: Arc::clone(&line_baud),
                 };
@@ -119,6 +124,7 @@ struct Connection {
     mode: Mode,
     tx: mpsc::Sender<(Instant, Vec<u8>)>,
     greetings: Arc<AtomicUsize>,
+    answering: Arc<AtomicBool>,
     raw: Arc<Mutex<Vec<u8>>>,
     line_baud: Arc<AtomicU32>,
 }
@@ -156,7 +162,9 @@ impl Connection {
             for instruction in partial[..whole].split_inclusive(|&b| b == b';') {
                 if instruction == b"ABC;" {
                     self.greetings.fetch_add(1, Ordering::AcqRel);
-                    let _ = self.stream.write_all(&[0xAA, 0xAB, 0xAC]);
+                    if self.answering.load(Ordering::Acquire) {
+                        let _ = self.stream.write_all(&[0xAA, 0xAB, 0xAC]);
+                    }
                 } else {
                     chunk.extend_from_slice(instruction);
                 }
@@ -597,4 +605,18 @@ async fn an_estop_over_rfc2217_goes_first_after_a_reconnect_while_latched() {
     // …and is the first instruction on the next connection.
     wait_for_state(&link, LinkState::Up).await;
     assert_eq!(bytes(&collect(&server.rx, 8)), b"*0;MO=0;");
+}
+
+#[tokio::test]
+async fn a_connected_but_silent_gateway_is_not_answering_and_comes_back() {
+    let server = Server::start(Mode::Raw);
+    server.answering.store(false, Ordering::Release);
+    let link = Link::open(0, LinkConfig::new(server.tcp(), 115_200));
+    wait_for_state(&link, LinkState::NotAnswering).await;
+    let error = link.send(batch("*5;PV;")).await.unwrap_err();
+    assert!(matches!(error, LinkError::Down { .. }), "{error}");
+    // The connection stays; the gateway is powered on: the next greeting is answered.
+    server.answering.store(true, Ordering::Release);
+    wait_for_state(&link, LinkState::Up).await;
+    assert_eq!(server.accepted().len(), 1);
 }

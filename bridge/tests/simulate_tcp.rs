@@ -262,3 +262,27 @@ fn sighup_power_cycles_every_gateway_into_its_stored_speed() {
     let spread_s = (starts[99].1 - starts[0].1) as f64 / 1e9;
     assert!(spread_s > 0.3, "{spread_s} s");
 }
+
+#[test]
+fn a_serial_device_and_tcp_do_not_mix() {
+    for (args, said) in [
+        (
+            &["--port", "/dev/null", "--listen", "127.0.0.1:0"][..],
+            "not both",
+        ),
+        (
+            &["--port", "/dev/null", "--gateways", "2"][..],
+            "--gateways is for --listen",
+        ),
+        (&[][..], "needs --port (a serial device) or --listen (TCP)"),
+    ] {
+        let output = Command::new(env!("CARGO_BIN_EXE_floatball"))
+            .arg("simulate")
+            .args(args)
+            .output()
+            .expect("run floatball simulate");
+        assert!(!output.status.success(), "{args:?}");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(stderr.contains(said), "{args:?}: {stderr}");
+    }
+}

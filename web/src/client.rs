@@ -411,6 +411,18 @@ impl Client {
         self.call_json(Method::Get, "/api/installation", None).await
     }
 
+    /// `GET /api/status/gateways`: every gateway's status, in installation order (a
+    /// status with many gateways details only those with a problem).
+    ///
+    /// # Errors
+    /// [`Failure`] as the bridge answered (a bridge older than the call: not found).
+    pub async fn gateway_statuses(
+        &self,
+    ) -> Result<Vec<floatball_shared::api::GatewayStatus>, Failure> {
+        self.call_json(Method::Get, "/api/status/gateways", None)
+            .await
+    }
+
     /// `PUT /api/installation`: the changed installation, checked by the bridge as
     /// `floatball check` does, saved and applied; answers the installation now.
     ///

@@ -94,9 +94,32 @@ pub enum Family {
 }
 
 impl Family {
-    /// The family of an installation's gateways (an installation has one).
+    /// The family of the gateways a status details (an installation has one). A
+    /// status that summarises many gateways details only those with a problem:
+    /// [`Family::of_installation`] knows them all.
     pub fn of(status: &Status) -> Self {
-        let has = |kind| status.gateways.iter().any(|gateway| gateway.kind == kind);
+        Self::of_kinds(status.gateways.iter().map(|gateway| gateway.kind))
+    }
+
+    /// The family of an installation's gateways.
+    pub fn of_installation(installation: &InstallationInfo) -> Self {
+        Self::of_kinds(installation.gateways.iter().map(|gateway| gateway.kind))
+    }
+
+    /// The family of the console's page: the installation's when it is known, else
+    /// that of the gateways the status details.
+    pub fn of_either(installation: Option<&InstallationInfo>, status: Option<&Status>) -> Self {
+        match (installation, status) {
+            (Some(installation), _) if !installation.gateways.is_empty() => {
+                Self::of_installation(installation)
+            }
+            (_, Some(status)) => Self::of(status),
+            _ => Self::default(),
+        }
+    }
+
+    fn of_kinds(kinds: impl Iterator<Item = GatewayKind> + Clone) -> Self {
+        let has = |kind| kinds.clone().any(|found| found == kind);
         if has(GatewayKind::Mbox) {
             Self::Mbox
         } else if has(GatewayKind::Scl) {
@@ -108,11 +131,31 @@ impl Family {
 }
 
 /// The route the bridge gives a command without a box of its own: the selected box
-/// (the last two octets of its configured IP address), or every box.
-pub fn mbox_route(status: Option<&Status>, gateway: Option<usize>) -> Route {
-    let address = gateway
-        .and_then(|index| status?.gateways.get(index))
-        .and_then(|gateway| gateway.port.parse::<SocketAddr>().ok());
+/// (the last two octets of its configured IP address), or every box. The box's
+/// address comes from the status's details of it (found by its `index`: a status of
+/// many gateways details only those with a problem), else from the installation.
+pub fn mbox_route(
+    status: Option<&Status>,
+    installation: Option<&InstallationInfo>,
+    gateway: Option<usize>,
+) -> Route {
+    let address = gateway.and_then(|index| {
+        let detailed = status
+            .and_then(|status| {
+                status
+                    .gateways
+                    .iter()
+                    .find(|gateway| gateway.index == index)
+            })
+            .map(|gateway| gateway.port.as_str());
+        let configured = installation
+            .and_then(|installation| installation.gateways.get(index))
+            .map(|gateway| gateway.port.as_str());
+        [detailed, configured]
+            .into_iter()
+            .flatten()
+            .find_map(|port| port.parse::<SocketAddr>().ok())
+    });
     match address {
         Some(SocketAddr::V4(address)) => Route::to(BoxAddress::of_ip(*address.ip())),
         _ => Route::BROADCAST,
@@ -480,9 +523,49 @@ mod tests {
         };
         assert_eq!(Family::of(&status), Family::Mbox);
         assert_ne!(Family::of(&Status::default()), Family::Mbox);
-        let selected = mbox_route(Some(&status), Some(0));
+        let selected = mbox_route(Some(&status), None, Some(0));
         assert_eq!(selected, Route::to(BoxAddress::from_octets(15, 201)));
-        assert_eq!(mbox_route(Some(&status), None), every);
+        assert_eq!(mbox_route(Some(&status), None, None), every);
+        // A status of many boxes details only those with a problem: box 1 is found by
+        // its index, box 2 in the installation.
+        let mut many = status.clone();
+        many.gateways[0].index = 1;
+        many.gateways[0].port = "192.168.15.202:7408".into();
+        let installation = InstallationInfo {
+            rows: 1,
+            cols: 3,
+            pitch_mm: 500.0,
+            travel_mm: 7500.0,
+            max_speed_mm_s: 2000.0,
+            max_accel_mm_s2: 4000.0,
+            home_mm: 0.0,
+            approach_speed_mm_s: 250.0,
+            counts_per_mm: 100.0,
+            gateways: (201..204)
+                .map(|octet| floatball_shared::api::InstallationGateway {
+                    kind: GatewayKind::Mbox,
+                    port: format!("192.168.15.{octet}:7408"),
+                    baud: None,
+                    stations: vec![1],
+                })
+                .collect(),
+        };
+        assert_eq!(
+            mbox_route(Some(&many), Some(&installation), Some(1)),
+            Route::to(BoxAddress::from_octets(15, 202))
+        );
+        assert_eq!(
+            mbox_route(Some(&many), Some(&installation), Some(2)),
+            Route::to(BoxAddress::from_octets(15, 203))
+        );
+        assert_eq!(mbox_route(Some(&many), None, Some(2)), every);
+        // The family: the installation's, whatever the status details.
+        assert_eq!(
+            Family::of_either(Some(&installation), Some(&Status::default())),
+            Family::Mbox
+        );
+        assert_eq!(Family::of_either(None, Some(&many)), Family::Mbox);
+        assert_eq!(Family::of_either(None, None), Family::Uim2503);
         assert!(matches!(
             check_mbox("@202 reset", selected),
             Check::Ready { .. }

@@ -538,6 +538,17 @@ texts! {
     StartBaudChange => "开始更改", "Start the change";
     /// While the app waits for the gateway.
     BaudWaiting => "现在请将网关断电再上电。正在等待网关以新速率应答…", "Switch the gateway off and on now. Waiting for it to answer at the new speed…";
+    // ---- appscale ----
+    /// Status with many gateways: the label of how many links are up.
+    GatewaysUp => "在线", "Up";
+    /// Status with many gateways: the label of the lowest buffer and where.
+    LowestBuffer => "最低缓冲", "Lowest buffer";
+    /// Status with many gateways: the heading of those with a problem.
+    GatewayProblems => "有问题的网关：", "Gateways with a problem:";
+    /// Status with many gateways: none has a problem.
+    NoGatewayProblems => "没有网关报告问题。", "No gateway reports a problem.";
+    /// Status with many gateways: fold the full list away.
+    HideGatewayList => "收起网关列表", "Hide the list";
 }
 
 impl Lang {

@@ -2,11 +2,122 @@
 //! key (for `data-state` and styling), the show time, the progress bar (homing shows
 //! its own, never the previous show's time) and each gateway's line (the buffer's
 //! level in words, only while a show streams).
+//!
+//! With many gateways the status counts them in its `gateway_summary` and details only
+//! those with a problem ([`summarised`]): the page then says how many are up, the
+//! lowest buffer and where ([`lowest_text`]), and each gateway with a problem in words
+//! ([`problem_text`], at most [`PROBLEMS_LISTED`]); the full list comes from
+//! `GET /api/status/gateways` on request. Gateway ports come from the details or,
+//! for the others, the installation ([`gateway_port`]).
 
-use floatball_shared::api::{GatewayKind, GatewayStatus, LinkState, PlayerState, Status};
+use floatball_shared::api::{
+    GatewayKind, GatewayStatus, InstallationInfo, LinkState, PlayerState, Status,
+};
 
 use crate::files::format_duration_ms;
 use crate::i18n::{Lang, Text};
+use crate::installation::health_warnings;
+
+/// How many gateways with a problem the summary lists by name; the others are
+/// counted ([`Lang::more_gateways`]) and are all in the full list.
+pub const PROBLEMS_LISTED: usize = 8;
+
+/// Whether `status` counts its gateways in a summary and details only those with a
+/// problem (more than `GATEWAY_DETAIL_LIMIT` gateways). A bridge that sends no
+/// summary (`total` 0) details every gateway.
+pub fn summarised(status: &Status) -> bool {
+    !status.gateway_summary.complete && status.gateway_summary.total > 0
+}
+
+/// The port of gateway `index`: from the status's details when it has them, else
+/// from the installation; `None` when neither knows it.
+pub fn gateway_port(
+    status: &Status,
+    installation: Option<&InstallationInfo>,
+    index: usize,
+) -> Option<String> {
+    status
+        .gateways
+        .iter()
+        .find(|gateway| gateway.index == index)
+        .map(|gateway| gateway.port.clone())
+        .or_else(|| Some(installation?.gateways.get(index)?.port.clone()))
+}
+
+/// A gateway with a problem in words: its port, link and error while its link is not
+/// up or has an error; else what is wrong with its units (UIM2503: who does not
+/// answer, shares a station or reported an error); then each MOONS' drive's error.
+pub fn problem_text(lang: Lang, gateway: &GatewayStatus) -> String {
+    let link_fine = gateway.link == LinkState::Up && gateway.error.is_none();
+    let units = health_warnings(std::slice::from_ref(gateway))
+        .pop()
+        .filter(|_| link_fine);
+    let mut text = match units {
+        Some(warning) => lang.health_warning(&warning),
+        None => format!("{}: {}", gateway.port, lang.link_state(gateway.link)),
+    };
+    if let Some(error) = gateway.error.as_ref().filter(|_| !link_fine) {
+        text.push_str(&format!(" · {error}"));
+    }
+    for drive in &gateway.drives {
+        if let Some(error) = &drive.error {
+            text.push_str(&format!(" · {}: {error}", drive.address));
+        }
+    }
+    text
+}
+
+/// The lowest buffer of any unit while a show streams, and on which gateway
+/// (`at least 38 rows · gateway 63 (tcp://…)`); `None` otherwise.
+pub fn lowest_text(
+    lang: Lang,
+    status: &Status,
+    installation: Option<&InstallationInfo>,
+) -> Option<String> {
+    let summary = &status.gateway_summary;
+    let level = summary
+        .lowest_water_level
+        .filter(|_| streams(status.state))?;
+    let gateway = summary.lowest_water_gateway?;
+    let port = gateway_port(status, installation, gateway);
+    Some(lang.lowest_buffer(level, gateway, port.as_deref()))
+}
+
+impl Lang {
+    /// How many gateways' links are up: `97 of 100 gateways`.
+    pub fn gateways_up(self, up: u32, total: u32) -> String {
+        match self {
+            Lang::Zh => format!("{up} / {total} 个网关"),
+            Lang::En => format!("{up} of {total} gateways"),
+        }
+    }
+
+    /// The lowest buffer and its gateway: `at least 38 rows · gateway 63 (sim)`.
+    pub fn lowest_buffer(self, level: u16, gateway: usize, port: Option<&str>) -> String {
+        match (self, port) {
+            (Lang::Zh, Some(port)) => format!("至少 {level} 行 · 网关 {gateway}（{port}）"),
+            (Lang::Zh, None) => format!("至少 {level} 行 · 网关 {gateway}"),
+            (Lang::En, Some(port)) => format!("at least {level} rows · gateway {gateway} ({port})"),
+            (Lang::En, None) => format!("at least {level} rows · gateway {gateway}"),
+        }
+    }
+
+    /// The gateways with a problem beyond those listed: `… and 5 more`.
+    pub fn more_gateways(self, more: usize) -> String {
+        match self {
+            Lang::Zh => format!("……另有 {more} 个，见全部网关列表"),
+            Lang::En => format!("… and {more} more: see the full list"),
+        }
+    }
+
+    /// The button that opens the full list: `Show all 100 gateways`.
+    pub fn show_all_gateways(self, total: u32) -> String {
+        match self {
+            Lang::Zh => format!("显示全部 {total} 个网关"),
+            Lang::En => format!("Show all {total} gateways"),
+        }
+    }
+}
 
 /// One gateway's line in the status: a UIM2503 gateway's port, link, bytes/s and,
 /// while a show `streaming`, how many rows its units had buffered ahead at the least
@@ -236,6 +347,106 @@ mod tests {
             )
         );
         assert!(gateway_text(Lang::Zh, &scl, true).contains("报警 1 · 未应答 2"));
+    }
+
+    fn gateway(index: usize, link: LinkState) -> GatewayStatus {
+        GatewayStatus {
+            index,
+            kind: GatewayKind::Uim2503,
+            port: format!("tcp://10.0.0.{index}:4001"),
+            link,
+            bytes_per_s: 0.0,
+            lowest_water_level: None,
+            error: (link != LinkState::Up).then(|| "connection refused".into()),
+            packets_per_s: None,
+            late_frames: None,
+            missed_replies: None,
+            drives: Vec::new(),
+            baud: None,
+            health: None,
+        }
+    }
+
+    #[test]
+    fn a_summarised_status_names_its_problems_and_the_lowest_buffer() {
+        let mut unwell = gateway(42, LinkState::Up);
+        unwell.health = Some(floatball_shared::api::UnitHealth {
+            expected: 100,
+            answering: 99,
+            missing: vec![17],
+            ..Default::default()
+        });
+        let mut status = Status {
+            state: PlayerState::Playing,
+            gateways: vec![gateway(7, LinkState::Down), unwell],
+            ..Status::default()
+        };
+        assert!(
+            !summarised(&status),
+            "no summary: every gateway is detailed"
+        );
+        status.gateway_summary = floatball_shared::api::GatewaySummary {
+            total: 100,
+            up: 99,
+            bytes_per_s: 0.0,
+            lowest_water_level: Some(38),
+            lowest_water_gateway: Some(63),
+            problems: vec![7, 42],
+            complete: false,
+        };
+        assert!(summarised(&status));
+        assert_eq!(
+            problem_text(Lang::En, &status.gateways[0]),
+            "tcp://10.0.0.7:4001: down · connection refused"
+        );
+        assert_eq!(
+            problem_text(Lang::En, &status.gateways[1]),
+            "tcp://10.0.0.42:4001: 99 of 100 units answer; missing stations 17"
+        );
+        assert!(problem_text(Lang::Zh, &status.gateways[1]).contains("缺失站号 17"));
+        // Gateway 63 is not detailed: its port comes from the installation.
+        assert_eq!(
+            lowest_text(Lang::En, &status, None).as_deref(),
+            Some("at least 38 rows · gateway 63")
+        );
+        let installation = InstallationInfo {
+            gateways: (0..100)
+                .map(|index| floatball_shared::api::InstallationGateway {
+                    kind: GatewayKind::Uim2503,
+                    port: format!("tcp://10.0.1.{index}:4001"),
+                    baud: None,
+                    stations: vec![1],
+                })
+                .collect(),
+            rows: 10,
+            cols: 10,
+            pitch_mm: 500.0,
+            travel_mm: 7500.0,
+            max_speed_mm_s: 2000.0,
+            max_accel_mm_s2: 4000.0,
+            home_mm: 0.0,
+            approach_speed_mm_s: 250.0,
+            counts_per_mm: 100.0,
+        };
+        assert_eq!(
+            lowest_text(Lang::Zh, &status, Some(&installation)).as_deref(),
+            Some("至少 38 行 · 网关 63（tcp://10.0.1.63:4001）")
+        );
+        assert_eq!(
+            gateway_port(&status, Some(&installation), 7).as_deref(),
+            Some("tcp://10.0.0.7:4001"),
+            "the details first"
+        );
+        status.state = PlayerState::Idle;
+        assert_eq!(
+            lowest_text(Lang::En, &status, None),
+            None,
+            "only while streaming"
+        );
+        assert_eq!(Lang::En.gateways_up(99, 100), "99 of 100 gateways");
+        assert_eq!(Lang::Zh.gateways_up(99, 100), "99 / 100 个网关");
+        assert_eq!(Lang::En.show_all_gateways(100), "Show all 100 gateways");
+        assert!(Lang::Zh.more_gateways(5).contains('5'));
     }
 
     #[test]

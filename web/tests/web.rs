@@ -2189,3 +2189,303 @@ async fn control_warns_about_units_and_shows_armed_not_answering_and_the_preload
     assert!(all(&container, "units-warning").is_empty());
     assert!(all(&container, "status-armed").is_empty());
 }
+
+// ---- appscale ----
+
+/// Gateway `index` of a 100-gateway installation on the network: up, or down with a
+/// reason.
+fn network_gateway(index: usize, link: LinkState) -> GatewayStatus {
+    GatewayStatus {
+        index,
+        port: format!("tcp://10.0.1.{index}:4001"),
+        link,
+        bytes_per_s: if link == LinkState::Up { 1380.0 } else { 0.0 },
+        lowest_water_level: Some(40 + (index % 7) as u16),
+        error: (link != LinkState::Up).then(|| "connection refused".into()),
+        ..uim_gateway(0)
+    }
+}
+
+/// An installation of `count` gateways of `kind` at the ports [`network_gateway`]
+/// gives (MBOX boxes at their addresses).
+fn many_gateways(count: usize, kind: GatewayKind) -> floatball_shared::api::InstallationInfo {
+    let mut info: floatball_shared::api::InstallationInfo =
+        serde_json::from_str(&installation_json(2000.0)).unwrap();
+    info.gateways = (0..count)
+        .map(|index| floatball_shared::api::InstallationGateway {
+            kind,
+            port: match kind {
+                GatewayKind::Mbox => format!("192.168.15.{}:7408", 101 + index),
+                _ => format!("tcp://10.0.1.{index}:4001"),
+            },
+            baud: None,
+            stations: vec![1],
+        })
+        .collect();
+    info
+}
+
+/// A status of 100 gateways playing: gateway 7 is down, gateway 42 misses a unit,
+/// the lowest buffer is on gateway 63 (not detailed).
+fn hundred_gateways_status() -> Status {
+    let mut unwell = network_gateway(42, LinkState::Up);
+    unwell.health = Some(floatball_shared::api::UnitHealth {
+        expected: 100,
+        answering: 99,
+        missing: vec![17],
+        ..Default::default()
+    });
+    Status {
+        state: PlayerState::Playing,
+        show: Some("ripple".into()),
+        show_duration_ms: 60_000,
+        gateways: vec![network_gateway(7, LinkState::Down), unwell],
+        gateway_summary: floatball_shared::api::GatewaySummary {
+            total: 100,
+            up: 99,
+            bytes_per_s: 136_620.0,
+            lowest_water_level: Some(38),
+            lowest_water_gateway: Some(63),
+            problems: vec![7, 42],
+            complete: false,
+        },
+        ..Status::default()
+    }
+}
+
+/// The app's style sheet in the page until the returned element is removed.
+fn app_styles() -> web_sys::Element {
+    let style = document().create_element("style").unwrap();
+    style.set_text_content(Some(include_str!("../../static/style.css")));
+    document().head().unwrap().append_child(&style).unwrap();
+    style
+}
+
+#[wasm_bindgen_test]
+async fn a_hundred_gateways_show_as_a_summary_with_their_problems_and_the_full_list_on_request() {
+    let every: Vec<GatewayStatus> = (0..100)
+        .map(|index| {
+            network_gateway(
+                index,
+                if index == 7 {
+                    LinkState::Down
+                } else {
+                    LinkState::Up
+                },
+            )
+        })
+        .collect();
+    let listed = serde_json::to_string(&every).unwrap();
+    let bridge = FakeBridge::new(
+        move |request| match (request.method, request.url.as_str()) {
+            (Method::Get, "/api/status/gateways") => response(200, &listed),
+            _ => response(404, ""),
+        },
+    );
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-many-gateways").await;
+    let style = app_styles();
+    container.style().set_property("width", "360px").unwrap();
+    ctx.set_installation(many_gateways(100, GatewayKind::Uim2503));
+    ctx.receive(ServerMessage::Status(hundred_gateways_status()));
+    tick().await;
+
+    // No line per gateway: the count, the lowest buffer and where, the problems.
+    assert!(all(&container, "gateway").is_empty(), "no wall of text");
+    assert_eq!(
+        text(&container, "gateways-up"),
+        "99 of 100 gateways · 136620 B/s"
+    );
+    assert_eq!(
+        text(&container, "gateways-lowest"),
+        "at least 38 rows · gateway 63 (tcp://10.0.1.63:4001)"
+    );
+    let problems = all(&container, "gateway-problem");
+    let indices: Vec<_> = problems
+        .iter()
+        .map(|problem| problem.get_attribute("data-index").unwrap())
+        .collect();
+    assert_eq!(indices, ["7", "42"]);
+    let words: Vec<_> = problems
+        .iter()
+        .map(|problem| problem.text_content().unwrap())
+        .collect();
+    assert!(
+        words[0].contains("tcp://10.0.1.7:4001: down · connection refused"),
+        "{words:?}"
+    );
+    assert!(
+        words[1].contains("99 of 100 units answer; missing stations 17"),
+        "{words:?}"
+    );
+    assert!(
+        all(&container, "gateway-list").is_empty(),
+        "closed at first"
+    );
+    assert!(
+        bridge
+            .requests_to(Method::Get, "/api/status/gateways")
+            .is_empty()
+    );
+
+    // Opened: every gateway, one compact row each, in a box that scrolls.
+    assert_eq!(
+        text(&container, "gateway-list-toggle"),
+        "Show all 100 gateways"
+    );
+    element(&container, "gateway-list-toggle").click();
+    until("every gateway is listed", || {
+        all(&container, "gateway-row").len() == 100
+    })
+    .await;
+    let rows = all(&container, "gateway-row");
+    assert_eq!(rows[7].get_attribute("data-link").as_deref(), Some("down"));
+    assert!(
+        rows[99]
+            .text_content()
+            .unwrap()
+            .contains("tcp://10.0.1.99:4001: up"),
+        "{:?}",
+        rows[99].text_content()
+    );
+    let list = element(&container, "gateway-list");
+    assert!(
+        list.client_height() < 400 && list.scroll_height() > list.client_height(),
+        "the list scrolls within its box ({} of {} px)",
+        list.client_height(),
+        list.scroll_height()
+    );
+    // A phone's width: nothing wider than the page.
+    assert!(
+        container.scroll_width() <= 360 && list.scroll_width() <= list.client_width(),
+        "fits 360 px ({} px, list {} of {} px)",
+        container.scroll_width(),
+        list.scroll_width(),
+        list.client_width()
+    );
+    assert_eq!(text(&container, "gateway-list-toggle"), "Hide the list");
+
+    // Refreshed while open.
+    until_within("the list is fetched again", 4000, || {
+        bridge
+            .requests_to(Method::Get, "/api/status/gateways")
+            .len()
+            >= 2
+    })
+    .await;
+
+    // The other language.
+    ctx.lang.set(Lang::Zh);
+    tick().await;
+    assert!(
+        text(&container, "gateways-up").starts_with("99 / 100 个网关"),
+        "{}",
+        text(&container, "gateways-up")
+    );
+    assert!(text(&container, "gateways-lowest").contains("网关 63"));
+    assert!(
+        all(&container, "gateway-problem")[1]
+            .text_content()
+            .unwrap()
+            .contains("缺失站号 17")
+    );
+    ctx.lang.set(Lang::En);
+
+    // Closed: no more fetches.
+    element(&container, "gateway-list-toggle").click();
+    tick().await;
+    assert!(all(&container, "gateway-list").is_empty());
+    let fetched = bridge
+        .requests_to(Method::Get, "/api/status/gateways")
+        .len();
+    sleep(2500).await;
+    assert_eq!(
+        bridge
+            .requests_to(Method::Get, "/api/status/gateways")
+            .len(),
+        fetched
+    );
+
+    // Ten gateways: every line, as always.
+    ctx.receive(ServerMessage::Status(Status {
+        gateways: (0..10)
+            .map(|index| network_gateway(index, LinkState::Up))
+            .collect(),
+        gateway_summary: floatball_shared::api::GatewaySummary {
+            total: 10,
+            up: 10,
+            complete: true,
+            ..Default::default()
+        },
+        ..Status::default()
+    }));
+    tick().await;
+    assert_eq!(all(&container, "gateway").len(), 10);
+    assert!(all(&container, "gateway-summary").is_empty());
+    assert!(all(&container, "gateway-list-toggle").is_empty());
+    style.remove();
+}
+
+#[wasm_bindgen_test]
+async fn many_problems_are_counted_beyond_the_first_few_and_units_warnings_too() {
+    let bridge = playlist_bridge();
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-many-problems").await;
+    let mut status = hundred_gateways_status();
+    status.gateways = (0..30)
+        .map(|index| {
+            let mut gateway = network_gateway(index, LinkState::Up);
+            gateway.health = Some(floatball_shared::api::UnitHealth {
+                expected: 100,
+                answering: 98,
+                missing: vec![3, 4],
+                ..Default::default()
+            });
+            gateway
+        })
+        .collect();
+    status.gateway_summary.problems = (0..30).collect();
+    ctx.receive(ServerMessage::Status(status));
+    tick().await;
+    assert_eq!(all(&container, "gateway-problem").len(), 8);
+    assert_eq!(
+        text(&container, "gateway-problems-more"),
+        "… and 22 more: see the full list"
+    );
+    assert_eq!(all(&container, "units-warning-gateway").len(), 8);
+    assert!(text(&container, "units-warning").contains("… and 22 more"));
+}
+
+#[wasm_bindgen_test]
+async fn the_console_takes_the_gateways_from_the_installation_when_the_status_has_few() {
+    let (container, ctx, _, _) = mount_online("test-console-many", || view! { <ConsolePage /> });
+    // Twenty MBOX boxes, all up: the status details none of them.
+    ctx.set_installation(many_gateways(20, GatewayKind::Mbox));
+    ctx.receive(ServerMessage::Status(Status {
+        gateway_summary: floatball_shared::api::GatewaySummary {
+            total: 20,
+            up: 20,
+            complete: false,
+            ..Default::default()
+        },
+        ..Status::default()
+    }));
+    tick().await;
+    assert!(
+        text(&container, "console-help").contains("Box commands"),
+        "the family comes from the installation"
+    );
+    let select =
+        element(&container, "console-gateway").unchecked_into::<web_sys::HtmlSelectElement>();
+    assert_eq!(select.length(), 21, "every box and \"all\"");
+    // `@201` needs the selected box's subnet: found in the installation.
+    type_into(&container, "console-input", "@201 reset");
+    tick().await;
+    assert_eq!(
+        attribute(&container, "console-check", "data-state"),
+        "error"
+    );
+    set_value(&container, "console-gateway", "19", "change");
+    tick().await;
+    assert_eq!(attribute(&container, "console-check", "data-state"), "ok");
+}

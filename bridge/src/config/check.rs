@@ -14,6 +14,7 @@ use floatball_shared::plan::installation::{
     SIM_PORT, Stations, UnitAddress, allocate,
 };
 use floatball_shared::plan::mbox::BoxCalibration;
+use floatball_shared::plan::port::PortAddress;
 use floatball_shared::show::Limits;
 use std::time::Duration;
 use toml::Spanned;
@@ -723,8 +724,9 @@ impl Checker<'_> {
                 return Err(self.at(
                     &spanned.span(),
                     format!(
-                        "gateway {}: port is missing: \"sim\" or a device path such as \
-                         \"/dev/ttyUSB0\"",
+                        "gateway {}: port is missing: \"sim\", a device path such as \
+                         \"/dev/ttyUSB0\", or a serial device server: \"tcp://host:port\" \
+                         (raw TCP) or \"rfc2217://host:port\" (RFC 2217)",
                         index + 1
                     ),
                 ));
@@ -746,10 +748,18 @@ impl Checker<'_> {
             return Err(self.wrong(
                 port_span.as_ref(),
                 format!(
-                    "gateway {}: port {port:?} must be \"sim\" or a device path such as \
-                     \"/dev/ttyUSB0\"",
+                    "gateway {}: port {port:?} must be \"sim\", a device path such as \
+                     \"/dev/ttyUSB0\", or a serial device server: \"tcp://host:port\" \
+                     (raw TCP) or \"rfc2217://host:port\" (RFC 2217)",
                     index + 1
                 ),
+            ));
+        }
+        // The one parser of a port: what passes here is what the link opens.
+        if let Err(err) = PortAddress::parse(&port) {
+            return Err(self.wrong(
+                port_span.as_ref(),
+                format!("gateway {}: port {err}", index + 1),
             ));
         }
         let default_baud = if port == SIM_PORT {

@@ -397,6 +397,25 @@ mod tests {
     }
 
     #[test]
+    fn network_ports_are_written_and_read_back() {
+        let current = info(DEFAULT_FILE);
+        let mut two = current.clone();
+        two.gateways[0].stations = (1..=50).collect();
+        for port in ["tcp://192.168.1.50:4001", "rfc2217://[fd00::5]:4002"] {
+            two.gateways.truncate(1);
+            two.gateways.push(InstallationGateway {
+                kind: GatewayKind::Uim2503,
+                port: port.into(),
+                baud: Some(115_200),
+                stations: (1..=50).collect(),
+            });
+            let text = installation(DEFAULT_FILE, &current, &two).expect("edit");
+            assert!(text.contains(&format!("port = \"{port}\"")), "{text}");
+            assert_eq!(info(&text), two);
+        }
+    }
+
+    #[test]
     fn a_baud_is_written_and_a_default_one_left_out() {
         let current = info(DEFAULT_FILE);
         let text = baud(DEFAULT_FILE, &current, 0, 9600).expect("edit");

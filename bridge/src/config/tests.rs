@@ -723,3 +723,41 @@ fn every_problem_is_listed_not_only_the_first() {
         .expect_err("two problems");
     assert_eq!(problems.len(), 2, "{problems:?}");
 }
+
+#[test]
+fn network_ports_are_taken_and_bad_ones_refused_naming_the_forms() {
+    let config = parse(
+        "[matrix]\nrows = 2\ncols = 1\n[[gateway]]\nport = \"tcp://10.0.0.5:4001\"\nstations = [1]\n\
+         [[gateway]]\nport = \"rfc2217://serial-box.local:4002\"\nbaud = 115200\nstations = [2]\n",
+    )
+    .expect("config");
+    let gateways = &config.installation.gateways;
+    assert_eq!(gateways[0].port, "tcp://10.0.0.5:4001");
+    assert_eq!(
+        gateways[0].baud, 9600,
+        "the remote line's default, as a local one's"
+    );
+    assert_eq!(gateways[1].port, "rfc2217://serial-box.local:4002");
+    assert_eq!(gateways[1].baud, 115_200);
+    for (port, says) in [
+        ("tcp://10.0.0.5", "needs a TCP port 1-65535"),
+        ("tcp://:4001", "has no host"),
+        ("rfc2217://host:0", "needs a TCP port 1-65535"),
+        ("telnet://host:23", "only tcp:// (raw TCP) and rfc2217://"),
+    ] {
+        let error = parse(&format!("[[gateway]]\nport = \"{port}\"\n"))
+            .expect_err(port)
+            .to_string();
+        assert!(
+            error.contains(says) && error.contains("gateway 1"),
+            "{port}: {error}"
+        );
+    }
+    let error = parse("[[gateway]]\nport = \"\"\n")
+        .expect_err("empty")
+        .to_string();
+    assert!(
+        error.contains("tcp://host:port") && error.contains("rfc2217://host:port"),
+        "{error}"
+    );
+}

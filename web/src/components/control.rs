@@ -2,6 +2,12 @@
 //! move up, move down, delete, edit), Start / E-stop / Reset / Home, the bandwidth
 //! verdict and the live status (PROTOCOL §1.7).
 //!
+//! With many gateways (a status that summarises them, [`crate::status::summarised`])
+//! the status shows how many are up, the lowest buffer and where, and the gateways
+//! with a problem in words; "Show all" opens every gateway's compact row in a
+//! scrolling box, fetched from the bridge (`GET /api/status/gateways`) at once and
+//! every [`LIST_REFRESH_MS`] while it is open.
+//!
 //! While the matrix runs, the icons are disabled with the reason beside them (the
 //! bridge refuses such edits too) and Start says why it cannot be pressed. Reset,
 //! Home and a Start after an E-stop turn into a one-tap confirmation that says what
@@ -12,7 +18,9 @@
 //! The decisions (plan rounds, panels, forms, saving) are [`crate::control`]'s; this
 //! module wires them to the page.
 
-use floatball_shared::api::{ClientMessage, Status};
+use std::time::Duration;
+
+use floatball_shared::api::{ClientMessage, GatewayStatus, Status};
 use leptos::prelude::*;
 use leptos::task::spawn_local;
 
@@ -26,13 +34,17 @@ use crate::control::{
     needs_checks, settle_save, start_block, start_reason_key,
 };
 use crate::files::format_duration_ms;
-use crate::i18n::Text;
+use crate::i18n::{Lang, Text};
 use crate::installation::health_warnings;
 use crate::page::Page;
 use crate::playlist::{PlaylistEditor, Verdict, format_delay_s};
 use crate::status::{
-    gateway_text, homing_text, link_key, progress, shows_progress, state_key, streams, time_text,
+    PROBLEMS_LISTED, gateway_text, homing_text, link_key, lowest_text, problem_text, progress,
+    shows_progress, state_key, streams, summarised, time_text,
 };
+
+/// How often the open list of every gateway is fetched again, ms.
+pub const LIST_REFRESH_MS: u64 = 2000;
 
 /// Applies `edit` to the playlist and stores the result on the bridge; `note` gets
 /// the bridge's refusal, if any (then the bridge's playlist is fetched again).
@@ -347,8 +359,11 @@ fn UnitsWarning() -> impl IntoView {
                     <ul>
                         {warnings
                             .iter()
+                            .take(PROBLEMS_LISTED)
                             .map(|warning| view! { <li data-testid="units-warning-gateway">{lang.health_warning(warning)}</li> })
                             .collect_view()}
+                        {(warnings.len() > PROBLEMS_LISTED)
+                            .then(|| view! { <li class="muted">{lang.more_gateways(warnings.len() - PROBLEMS_LISTED)}</li> })}
                     </ul>
                 </div>
             }
@@ -591,6 +606,16 @@ fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
 #[component]
 fn StatusView() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
+    // With many gateways: how many, for the full list's button (a Memo, so that the
+    // list is not rebuilt with every status).
+    let listed_total = Memo::new(move |_| {
+        ctx.status.with(|status| {
+            status
+                .as_ref()
+                .filter(|status| ctx.connected() && summarised(status))
+                .map(|status| status.gateway_summary.total)
+        })
+    });
     view! {
         <div class="card status" data-testid="status">
             <h3>{ctx.tr(Text::StatusTitle)}</h3>
@@ -608,7 +633,161 @@ fn StatusView() -> impl IntoView {
                     Some(status) => status_details(ctx, status).into_any(),
                 }
             }}
+            {move || listed_total.get().map(|total| view! { <GatewayList total=total /> })}
         </div>
+    }
+}
+
+/// Many gateways in a few lines: how many are up and the bytes they carry, the
+/// lowest buffer and where while a show streams, and the gateways with a problem in
+/// words (at most [`PROBLEMS_LISTED`], the rest counted).
+fn gateway_summary(ctx: Ctx, lang: Lang, status: &Status) -> impl IntoView + use<> {
+    let summary = &status.gateway_summary;
+    let lowest = ctx
+        .installation
+        .with(|installation| lowest_text(lang, status, installation.as_ref()));
+    let more = status.gateways.len().saturating_sub(PROBLEMS_LISTED);
+    let problems = status
+        .gateways
+        .iter()
+        .take(PROBLEMS_LISTED)
+        .map(|gateway| {
+            let link = link_key(gateway.link);
+            view! {
+                <li
+                    class=format!("link {link}")
+                    data-testid="gateway-problem"
+                    data-index=gateway.index.to_string()
+                    data-link=link
+                >
+                    <span class="gw-index">{gateway.index}</span>
+                    {problem_text(lang, gateway)}
+                </li>
+            }
+        })
+        .collect_view();
+    let problems = if status.gateways.is_empty() {
+        view! { <p class="muted" data-testid="gateway-no-problems">{lang.t(Text::NoGatewayProblems)}</p> }
+            .into_any()
+    } else {
+        view! {
+            <p class="gateway-problems-title">{lang.t(Text::GatewayProblems)}</p>
+            <ul class="gateways problems" data-testid="gateway-problems">
+                {problems}
+                {(more > 0)
+                    .then(|| {
+                        view! { <li class="muted" data-testid="gateway-problems-more">{lang.more_gateways(more)}</li> }
+                    })}
+            </ul>
+        }
+            .into_any()
+    };
+    view! {
+        <dl class="facts-grid gateway-summary" data-testid="gateway-summary">
+            <dt>{lang.t(Text::GatewaysUp)}</dt>
+            <dd data-testid="gateways-up" data-up=summary.up.to_string() data-total=summary.total.to_string()>
+                {lang.gateways_up(summary.up, summary.total)}
+                {format!(" · {:.0} B/s", summary.bytes_per_s)}
+            </dd>
+            {lowest
+                .map(|text| {
+                    view! {
+                        <dt>{lang.t(Text::LowestBuffer)}</dt>
+                        <dd data-testid="gateways-lowest">{text}</dd>
+                    }
+                })}
+        </dl>
+        {problems}
+    }
+}
+
+/// Every gateway, one compact row each in a scrolling box, behind a button: fetched
+/// from the bridge (`GET /api/status/gateways`) when opened and every
+/// [`LIST_REFRESH_MS`] while open.
+#[component]
+fn GatewayList(
+    /// How many gateways the installation has (the button says it).
+    total: u32,
+) -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    let open = RwSignal::new(false);
+    let list = RwSignal::new(Vec::<GatewayStatus>::new());
+    let error = RwSignal::new(None::<String>);
+    let streaming = Memo::new(move |_| {
+        ctx.status
+            .with(|status| status.as_ref().is_some_and(|status| streams(status.state)))
+    });
+    // An answer that comes back once the list is closed or gone is dropped.
+    let fetch = move || {
+        let Some(client) = ctx.client() else { return };
+        spawn_local(async move {
+            let answer = client.gateway_statuses().await;
+            if open.try_get_untracked() != Some(true) {
+                return;
+            }
+            match answer {
+                Ok(all) => {
+                    error.set(None);
+                    list.set(all);
+                }
+                Err(failure) => error.set(Some(ctx.failed(&failure))),
+            }
+        });
+    };
+    Effect::new(move |_| {
+        if !open.get() {
+            return;
+        }
+        fetch();
+        match set_interval_with_handle(fetch, Duration::from_millis(LIST_REFRESH_MS)) {
+            Ok(handle) => on_cleanup(move || handle.clear()),
+            Err(_) => leptos::logging::warn!("cannot refresh the list of gateways"),
+        }
+    });
+    let rows = move || {
+        let lang = ctx.lang.get();
+        let streaming = streaming.get();
+        list.with(|all| {
+            all.iter()
+                .map(|gateway| {
+                    let link = link_key(gateway.link);
+                    view! {
+                        <li
+                            class=format!("link {link}")
+                            data-testid="gateway-row"
+                            data-index=gateway.index.to_string()
+                            data-link=link
+                        >
+                            <span class="gw-index">{gateway.index}</span>
+                            {gateway_text(lang, gateway, streaming)}
+                        </li>
+                    }
+                })
+                .collect_view()
+        })
+    };
+    view! {
+        <button
+            class="gateway-list-toggle"
+            data-testid="gateway-list-toggle"
+            aria-expanded=move || open.get().to_string()
+            on:click=move |_| open.update(|open| *open = !*open)
+        >
+            {move || {
+                let lang = ctx.lang.get();
+                if open.get() {
+                    lang.t(Text::HideGatewayList).to_owned()
+                } else {
+                    lang.show_all_gateways(total)
+                }
+            }}
+        </button>
+        <Show when=move || open.get()>
+            <ErrorNote text=error test_id="gateway-list-error" />
+            <ul class="gateways gateway-list" data-testid="gateway-list">
+                {rows}
+            </ul>
+        </Show>
     }
 }
 
@@ -633,19 +812,25 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
     } else {
         String::new()
     };
-    let gateways = status
-        .gateways
-        .iter()
-        .map(|gateway| {
-            let text = gateway_text(lang, gateway, streams(state));
-            let link = link_key(gateway.link);
-            view! {
-                <li class=format!("link {link}") data-testid="gateway" data-link=link>
-                    {text}
-                </li>
-            }
-        })
-        .collect_view();
+    // Many gateways: a summary; else every gateway's line, as always.
+    let gateways = if summarised(&status) {
+        gateway_summary(ctx, lang, &status).into_any()
+    } else {
+        let lines = status
+            .gateways
+            .iter()
+            .map(|gateway| {
+                let text = gateway_text(lang, gateway, streams(state));
+                let link = link_key(gateway.link);
+                view! {
+                    <li class=format!("link {link}") data-testid="gateway" data-link=link>
+                        {text}
+                    </li>
+                }
+            })
+            .collect_view();
+        view! { <ul class="gateways">{lines}</ul> }.into_any()
+    };
     view! {
         <dl class="facts-grid">
             <dt>{lang.t(Text::State)}</dt>
@@ -675,7 +860,7 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
                 }
             })}
         <h4>{lang.t(Text::Gateways)}</h4>
-        <ul class="gateways">{gateways}</ul>
+        {gateways}
         {status
             .last_error
             .map(|error| {

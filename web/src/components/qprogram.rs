@@ -17,14 +17,28 @@ use crate::context::Ctx;
 use crate::files::{parse_ball, qprogram_file_name};
 use crate::i18n::Text;
 
-/// Whether the installation has MOONS' drives (a gateway of kind SCL).
+/// Whether the installation has MOONS' drives (a gateway of kind SCL): the
+/// installation's gateways when known (a status of many gateways details only those
+/// with a problem), else those of the status.
 pub fn has_scl_drives(ctx: Ctx) -> bool {
-    ctx.status.with(|status| {
-        status.as_ref().is_some_and(|status| {
+    let scl = |kind: GatewayKind| kind == GatewayKind::Scl;
+    let configured = ctx.installation.with(|installation| {
+        installation
+            .as_ref()
+            .filter(|installation| !installation.gateways.is_empty())
+            .map(|installation| {
+                installation
+                    .gateways
+                    .iter()
+                    .any(|gateway| scl(gateway.kind))
+            })
+    });
+    configured.unwrap_or_else(|| {
+        ctx.status.with(|status| {
             status
-                .gateways
                 .iter()
-                .any(|gateway| gateway.kind == GatewayKind::Scl)
+                .flat_map(|status| &status.gateways)
+                .any(|gateway| scl(gateway.kind))
         })
     })
 }
