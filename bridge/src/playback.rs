@@ -4,7 +4,10 @@
 //! **One owner.** The playback task owns the player and the status: it is the only
 //! writer of the [`Status`] every client sees (the player's part and each gateway's
 //! link part, read from the links as snapshots), published on a watch channel whenever
-//! it changes (the WebSocket layer limits how often clients hear of it). Beside it,
+//! it changes (the WebSocket layer limits how often clients hear of it). It is built
+//! at once after a request, an e-stop or a new player state, otherwise at most every
+//! `STATUS_PERIOD` (20 ms); the feedback frames waiting are handled together in one turn (a
+//! hundred gateways send thousands a second). Beside it,
 //! every gateway in full ([`Playback::gateway_list`], `GET /api/status/gateways`): a
 //! status with more than [`floatball_shared::api::GATEWAY_DETAIL_LIMIT`] gateways
 //! details only those with a problem.
