@@ -6,7 +6,8 @@
 //!
 //! In the normal test run it is small (3 gateways × 100 units, a 6 s show) and checks
 //! that the show plays to its end, that no gateway's FIFO ran dry, that every
-//! gateway received its synchronised start and that the e-stop reached every gateway.
+//! gateway received its synchronised start and that the e-stop reached every gateway
+//! (6 s of rows fit the units' tables; a show streams from 52 s on).
 //! `cargo xtask scale-bench [--gateways N] [--seconds S]` runs it at length in a
 //! release build (`SCALE_BENCH_GATEWAYS`, `SCALE_BENCH_SECONDS`; 100 × 100 = 10,000
 //! balls for 60 s by default) and reads the figures it prints: planning time, preload
