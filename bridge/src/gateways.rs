@@ -247,8 +247,10 @@ async fn relay_feedback(
 ) {
     loop {
         match frames.recv().await {
+            // No subscriber is not an error: frames are only for who listens, and
+            // with nobody listening (most of the time) none is built.
+            Ok(_) if relay.receiver_count() == 0 => {}
             Ok(frame) => {
-                // No subscriber is not an error: frames are only for who listens.
                 let _ = relay.send(FeedbackFrame {
                     gateway,
                     station: frame.station(),

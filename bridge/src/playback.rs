@@ -4,7 +4,10 @@
 //! **One owner.** The playback task owns the player and the status: it is the only
 //! writer of the [`Status`] every client sees (the player's part and each gateway's
 //! link part, read from the links as snapshots), published on a watch channel whenever
-//! it changes (the WebSocket layer limits how often clients hear of it). Beside it,
+//! it changes (the WebSocket layer limits how often clients hear of it). It is built
+//! at once after a request, an e-stop or a new player state, otherwise at most every
+//! `STATUS_PERIOD` (20 ms); the feedback frames waiting are handled together in one turn (a
+//! hundred gateways send thousands a second). Beside it,
 //! every gateway in full ([`Playback::gateway_list`], `GET /api/status/gateways`): a
 //! status with more than [`floatball_shared::api::GATEWAY_DETAIL_LIMIT`] gateways
 //! details only those with a problem.
@@ -1051,13 +1054,16 @@ async fn run(
     let mut seen_generation = latch.generation();
     let mut run_generation = seen_generation;
     let mut watchdog = Watchdog::new(&links);
+    let mut publisher = Publisher::new();
     loop {
         let now = now_us();
-        // Idle, it still looks at the links ten times a second for the status.
+        // Idle, it still looks at the links ten times a second for the status; a
+        // status held back is published within its period.
         let wake_us = player.next_wakeup_us(now).unwrap_or(now + 100_000);
-        let sleep = tokio::time::sleep(Duration::from_micros(
-            wake_us.saturating_sub(now).clamp(1_000, TICK_US * 10),
-        ));
+        let sleep = tokio::time::sleep(
+            Duration::from_micros(wake_us.saturating_sub(now).clamp(1_000, TICK_US * 10))
+                .min(publisher.due_in()),
+        );
         let mut request = None;
         tokio::select! {
             received = inbox.recv() => {
@@ -1066,14 +1072,23 @@ async fn run(
             }
             Some((gateway, frame)) = frames.recv() => {
                 player.handle_feedback(now_us(), gateway, &frame);
+                // Every gateway acknowledges every instruction: with a hundred of them
+                // the frames come by the thousand a second. Those already waiting are
+                // handled in the same turn.
+                for _ in 1..FRAMES_PER_TURN {
+                    let Ok((gateway, frame)) = frames.try_recv() else { break };
+                    player.handle_feedback(now_us(), gateway, &frame);
+                }
             }
             () = sleep => {}
         }
+        let mut urgent = request.is_some();
         // An e-stop pressed since the last turn: the links have acted on it already.
         let generation = latch.generation();
         if generation != seen_generation {
             seen_generation = generation;
             player.estop();
+            urgent = true;
         }
         if let Some(Request::Reconfigure(change)) = request {
             reconfigure_player(&mut player, &mut links, &mut health, &frames_tx, *change);
@@ -1107,9 +1122,64 @@ async fn run(
         if carry_out(&links, &latch, player.take_commands(), run_generation) {
             // A stop the player asked for is not news to it (it failed, and stays so).
             seen_generation = latch.generation();
+            urgent = true;
         }
         arming.disarms.store(player.disarms(), Ordering::Release);
-        publish(&status, status_of(&player, &links, &health, &list));
+        if publisher.due(urgent, player.status().state) {
+            publish(&status, status_of(&player, &links, &health, &list));
+        }
+    }
+}
+
+/// The most feedback frames one turn of the playback task handles before it looks at
+/// its requests, the clock and the links again.
+const FRAMES_PER_TURN: usize = 1024;
+
+/// How long the status may lag what the player and the links know while nothing
+/// urgent happened: a status describes every gateway, and building it on each of the
+/// thousands of feedback frames a second a hundred gateways send costs more than the
+/// rest of the task. The clients read it ten times a second at most.
+const STATUS_PERIOD: Duration = Duration::from_millis(20);
+
+/// When the playback task next builds the status: at once after a request, an e-stop
+/// or a change of the player's state; otherwise once a [`STATUS_PERIOD`].
+#[derive(Debug)]
+struct Publisher {
+    built: Instant,
+    state: floatball_shared::api::PlayerState,
+    /// A turn did not build it: what changed since waits for the period's end.
+    held_back: bool,
+}
+
+impl Publisher {
+    fn new() -> Self {
+        Self {
+            built: Instant::now()
+                .checked_sub(STATUS_PERIOD)
+                .unwrap_or_else(Instant::now),
+            state: floatball_shared::api::PlayerState::Idle,
+            held_back: false,
+        }
+    }
+
+    /// How long until a held-back status is due (`Duration::MAX`: none is).
+    fn due_in(&self) -> Duration {
+        if self.held_back {
+            STATUS_PERIOD.saturating_sub(self.built.elapsed())
+        } else {
+            Duration::MAX
+        }
+    }
+
+    /// Whether to build the status now; if so, counts it as built.
+    fn due(&mut self, urgent: bool, state: floatball_shared::api::PlayerState) -> bool {
+        let due = urgent || state != self.state || self.built.elapsed() >= STATUS_PERIOD;
+        if due {
+            self.built = Instant::now();
+            self.state = state;
+        }
+        self.held_back = !due;
+        due
     }
 }
 

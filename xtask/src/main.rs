@@ -13,6 +13,7 @@
 //! - [`fuzz`]: `cargo xtask fuzz`, the fuzz targets at length.
 //! - [`stress`]: the engine's race and load tests, many times in a row.
 //! - [`mbox_bench`]: one bridge streaming to many simulated MBOX boxes, with figures.
+//! - [`scale_bench`]: one bridge playing to 100 UIM2503 gateways over TCP, with figures.
 //! - [`qprogram_report`]: the Q program compiler on a 10-minute show, with figures.
 //! - [`scl_bench`]: the SCL e-stop's latency on RS-485 lines and eSCL, with figures.
 //! - [`load_bench`]: the release app's compressed sizes and its cold load time in
@@ -23,6 +24,7 @@ mod fuzz;
 mod load_bench;
 mod mbox_bench;
 mod qprogram_report;
+mod scale_bench;
 mod scl_bench;
 mod stages;
 mod stress;
@@ -48,6 +50,10 @@ commands:
   mbox-bench  stream a show to simulated MBOX boxes on loopback at 20 ms; print the
          bridge's CPU use, frames/s, send lateness p50/p99 and late frames
          options: --boxes N (default 1000)  --seconds S (default 30)
+  scale-bench  play a 100 x 100 ripple to simulated UIM2503 gateways over tcp://;
+         print planning and preload time, start skew, bridge CPU and RSS, status
+         size and rate, lowest water level and underruns
+         options: --gateways N (default 100)  --seconds S (default 60)
   qprogram-report  compile a 10-minute demo wave to MOONS' Q programs for every ball;
          print moves kept, lines/segments, max deviation mm and where, compile ms
          options: --rows R --cols C (default 10 x 10)  --minutes M (default 10)
@@ -72,6 +78,7 @@ fn main() -> ExitCode {
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("stress") => stress::stress(&args[1..]),
         Some("mbox-bench") => mbox_bench::mbox_bench(&args[1..]),
+        Some("scale-bench") => scale_bench::scale_bench(&args[1..]),
         Some("qprogram-report") => qprogram_report::qprogram_report(&args[1..]),
         Some("scl-bench") => scl_bench::scl_bench(&args[1..]),
         Some("load-bench") => load_bench::load_bench(&args[1..]),

@@ -111,6 +111,22 @@ pub fn level_at(plan: &Plan, run: &GatewayRun, written: usize, at_ms: f64) -> Op
 /// unit loaded before the start.
 pub fn simulate(plan: &Plan, run_index: usize, line: Line, preload_rows: usize) -> Simulation {
     let Some(run) = plan.gateways.get(run_index) else {
+        return simulate_measured(plan, run_index, line, preload_rows, None);
+    };
+    let bytes = stream::RowBytes::new(plan, run);
+    simulate_measured(plan, run_index, line, preload_rows, Some(&bytes))
+}
+
+/// [`simulate`] with the run's rows measured already ([`stream::RowBytes`] of run
+/// `run_index`; `None` only when there is no such run).
+fn simulate_measured(
+    plan: &Plan,
+    run_index: usize,
+    line: Line,
+    preload_rows: usize,
+    bytes: Option<&stream::RowBytes>,
+) -> Simulation {
+    let (Some(run), Some(bytes)) = (plan.gateways.get(run_index), bytes) else {
         return Simulation {
             preload_rows: 0,
             preload_bytes: 0,
@@ -132,7 +148,7 @@ pub fn simulate(plan: &Plan, run_index: usize, line: Line, preload_rows: usize) 
     let mut row = 0;
     while row < preload_rows {
         let to = (row + ROUND_ROWS).min(preload_rows);
-        preload_bytes += stream::rows(plan, run, row, to).len() as u64;
+        preload_bytes += bytes.len(row, to) as u64;
         row = to;
     }
     let mut stream_bytes = 0u64;
@@ -142,15 +158,15 @@ pub fn simulate(plan: &Plan, run_index: usize, line: Line, preload_rows: usize) 
     while row < total_rows {
         let to = round_end(run, plan, row);
         let start = line_free_ms.max(round_room_at_ms(plan, run, to));
-        let bytes = stream::rows(plan, run, row, to).len() as u64;
-        let landed = start + bytes as f64 * byte_ms;
+        let round_bytes = bytes.len(row, to) as u64;
+        let landed = start + round_bytes as f64 * byte_ms;
         if let Some(level) = level_at(plan, run, row, landed) {
             if level < 0 && underrun_at_ms.is_none() {
                 underrun_at_ms = Some(landed);
             }
             lowest = Some(lowest.map_or(level, |lowest| lowest.min(level)));
         }
-        stream_bytes += bytes;
+        stream_bytes += round_bytes;
         line_free_ms = landed;
         row = to;
     }
@@ -181,6 +197,11 @@ pub fn simulate(plan: &Plan, run_index: usize, line: Line, preload_rows: usize) 
 pub fn choose_preload(plan: &Plan, run_index: usize, line: Line) -> Simulation {
     let Some(run) = plan.gateways.get(run_index) else {
         return simulate(plan, run_index, line, 0);
+    };
+    // Every depth tried streams the same rows: measure them once.
+    let bytes = stream::RowBytes::new(plan, run);
+    let simulate = |plan, run_index, line, preload_rows| {
+        simulate_measured(plan, run_index, line, preload_rows, Some(&bytes))
     };
     let total = longest(plan, run);
     let deepest = simulate(plan, run_index, line, total.min(FIFO_LIMIT));
