@@ -7,7 +7,9 @@
 //!
 //! A session then gets the status at once and on every change, at most
 //! [`STATUS_PER_S`] times a second (changes in between are merged: the latest wins),
-//! and every feedback frame of every gateway. Its reading and writing are separate
+//! and every feedback frame of every gateway until it sends `{"type":"feedback",
+//! "relay":false}` (and again from `"relay":true`: the app asks for them only while its
+//! console is open). Its reading and writing are separate
 //! tasks: what the client sends is acted on as it arrives, even while a status waits
 //! for a client that reads slowly. Every message from the client counts as
 //! use of its token; when the token has expired or was ended by a logout, the
@@ -50,14 +52,14 @@ use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade, close_
 use axum::extract::{Query, State};
 use axum::http::{HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
-use floatball_shared::api::{ClientMessage, ServerMessage};
+use floatball_shared::api::{ClientMessage, FeedbackFrame, ServerMessage};
 use floatball_shared::ascii::{Batch, Form, parse_script};
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::mbox::console::{self as mbox_console, Operation};
 use floatball_shared::mbox::{BoxAddress, RegisterWrite, Route};
 use floatball_shared::params;
 use futures_util::{SinkExt, StreamExt};
-use tokio::sync::{broadcast, mpsc};
+use tokio::sync::{broadcast, mpsc, watch};
 use tokio::time::Instant;
 
 use crate::control::{self, Control};
@@ -156,7 +158,8 @@ type Stream = futures_util::stream::SplitStream<WebSocket>;
 async fn session(socket: WebSocket, state: AppState, token: String) {
     let (mut sink, stream) = socket.split();
     let mut status = state.subscribe_status();
-    let mut feedback = state.gateways().subscribe_feedback();
+    let (relay, mut relay_wanted) = watch::channel(true);
+    let mut feedback = Some(state.gateways().subscribe_feedback());
     let mut mbox_replies = state.playback().boxes().map(MboxNet::subscribe_replies);
     let mut scl_replies = state.playback().scl().map(SclNet::subscribe_replies);
     let (console_lines, waiting_lines) = mpsc::channel(CONSOLE_QUEUE);
@@ -168,9 +171,12 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
         stream,
         state.clone(),
         token.clone(),
-        console_lines,
-        replies,
-        inbound_tx,
+        Senders {
+            console_lines,
+            replies,
+            inbound: inbound_tx,
+            relay,
+        },
     ));
     let _stop_reading = AbortOnDrop(reader);
     let first = ServerMessage::Status(status.borrow_and_update().clone());
@@ -180,7 +186,6 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
     let status_interval = Duration::from_secs(1) / STATUS_PER_S;
     let mut status_sent_at = Instant::now();
     let mut status_pending = false;
-    let mut feedback_open = true;
     let mut token_check = tokio::time::interval(TOKEN_CHECK_INTERVAL);
     let mut stopping = state.stopping();
     if *stopping.borrow_and_update() {
@@ -211,7 +216,17 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
                 let message = ServerMessage::Status(status.borrow_and_update().clone());
                 sent(send(&mut sink, &message).await)
             }
-            frame = feedback.recv(), if feedback_open => match frame {
+            changed = relay_wanted.changed() => {
+                if changed.is_ok() {
+                    // Subscribed only while wanted: with no subscriber, no gateway
+                    // builds frames for the WebSocket relay.
+                    feedback = relay_wanted
+                        .borrow_and_update()
+                        .then(|| feedback.take().unwrap_or_else(|| state.gateways().subscribe_feedback()));
+                }
+                Step::Continue
+            }
+            frame = next_frame(feedback.as_mut()) => match frame {
                 Ok(frame) => sent(send(&mut sink, &ServerMessage::Feedback(frame)).await),
                 Err(broadcast::error::RecvError::Lagged(missed)) => {
                     let message = ServerMessage::error(
@@ -224,7 +239,7 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
                     sent(send(&mut sink, &message).await)
                 }
                 Err(broadcast::error::RecvError::Closed) => {
-                    feedback_open = false;
+                    feedback = None;
                     Step::Continue
                 }
             },
@@ -268,6 +283,16 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
 
 /// The next answer to a console line (an MBOX box's to a read, a MOONS' drive's);
 /// `None` when there will be none; never when the installation has no such family.
+/// The next feedback frame, or never when feedback is not relayed to this client.
+async fn next_frame(
+    feedback: Option<&mut broadcast::Receiver<FeedbackFrame>>,
+) -> Result<FeedbackFrame, broadcast::error::RecvError> {
+    match feedback {
+        Some(feedback) => feedback.recv().await,
+        None => std::future::pending().await,
+    }
+}
+
 async fn next_reply<T: Clone>(replies: Option<&mut broadcast::Receiver<T>>) -> Option<T> {
     let Some(replies) = replies else {
         return std::future::pending().await;
@@ -292,14 +317,25 @@ impl Drop for AbortOnDrop {
 
 /// A session's reading half: every message is acted on as it arrives; what the client
 /// must be told goes to the writing half.
-async fn read_messages(
-    mut stream: Stream,
-    state: AppState,
-    token: String,
+/// Where a session's reading half hands what it read.
+struct Senders {
+    /// Console lines, to be sent in order.
     console_lines: mpsc::Sender<ConsoleLine>,
+    /// Replies sent by the console task.
     replies: mpsc::Sender<ServerMessage>,
+    /// Replies and session events for the writing half.
     inbound: mpsc::Sender<Inbound>,
-) {
+    /// Whether the client wants the gateways' feedback frames.
+    relay: watch::Sender<bool>,
+}
+
+async fn read_messages(mut stream: Stream, state: AppState, token: String, senders: Senders) {
+    let Senders {
+        console_lines,
+        replies,
+        inbound,
+        relay,
+    } = senders;
     loop {
         let reply = match stream.next().await {
             Some(Ok(Message::Text(text))) => {
@@ -308,7 +344,7 @@ async fn read_messages(
                     // Keep reading: the client's side of the closing handshake.
                     continue;
                 }
-                answer(&state, &console_lines, &replies, text.as_str())
+                answer(&state, &console_lines, &replies, &relay, text.as_str())
             }
             Some(Ok(Message::Binary(_))) => Some(error(
                 Code::BinaryFrame,
@@ -441,6 +477,7 @@ fn answer(
     state: &AppState,
     console_lines: &mpsc::Sender<ConsoleLine>,
     replies: &mpsc::Sender<ServerMessage>,
+    relay: &watch::Sender<bool>,
     text: &str,
 ) -> Option<ServerMessage> {
     let message = match serde_json::from_str::<ClientMessage>(text) {
@@ -455,6 +492,10 @@ fn answer(
     };
     match message {
         ClientMessage::Ping => Some(ServerMessage::Pong),
+        ClientMessage::Feedback { relay: wanted } => {
+            relay.send_replace(wanted);
+            None
+        }
         ClientMessage::Estop => {
             let unreached = state.playback().estop();
             tracing::warn!("e-stop requested over the WebSocket");

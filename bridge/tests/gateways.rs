@@ -331,3 +331,50 @@ async fn the_simulated_gateway_answers_a_console_line_with_feedback() {
     let frame = next_feedback(&mut ws).await;
     assert_eq!((frame.gateway, frame.station, frame.code), (0, 8, 0x23));
 }
+
+/// Every message until a `pong`, in order.
+async fn until_pong(ws: &mut Ws) -> Vec<ServerMessage> {
+    send_text(ws, r#"{"type":"ping"}"#).await;
+    let mut heard = Vec::new();
+    loop {
+        match next_message(ws).await {
+            ServerMessage::Pong => return heard,
+            other => heard.push(other),
+        }
+    }
+}
+
+#[tokio::test]
+async fn a_client_that_turns_the_feedback_relay_off_gets_no_frames_until_it_turns_it_on() {
+    let (bridge, mut gateways, _links) = bridge_with_two_gateways().await;
+    let mut ws = bridge.ws(&bridge.token().await).await;
+    wait_until_links_are_up(&mut ws).await;
+    let mut quiet = bridge.ws(&bridge.token().await).await;
+    wait_until_links_are_up(&mut quiet).await;
+    send_text(&mut quiet, r#"{"type":"feedback","relay":false}"#).await;
+    // The ping is read after the relay message: once it is answered, the relay is off.
+    until_pong(&mut quiet).await;
+
+    let frame = |station| Frame::new(station, 0x16, &[]).expect("frame");
+    gateways[0]
+        .master
+        .write_all(frame(6).encode().as_bytes())
+        .expect("write");
+    // The other client still gets it: the relay is per client.
+    assert_eq!(next_feedback(&mut ws).await.station, 6);
+    let heard = until_pong(&mut quiet).await;
+    assert!(
+        !heard
+            .iter()
+            .any(|message| matches!(message, ServerMessage::Feedback(_))),
+        "a frame reached a client that turned the relay off: {heard:?}"
+    );
+
+    send_text(&mut quiet, r#"{"type":"feedback","relay":true}"#).await;
+    until_pong(&mut quiet).await;
+    gateways[0]
+        .master
+        .write_all(frame(7).encode().as_bytes())
+        .expect("write");
+    assert_eq!(next_feedback(&mut quiet).await.station, 7);
+}

@@ -639,6 +639,13 @@ pub enum ClientMessage {
     },
     /// Liveness check; the bridge answers [`ServerMessage::Pong`].
     Ping,
+    /// Whether this client wants every gateway's [`ServerMessage::Feedback`] frames
+    /// (on when a session opens). With a hundred gateways streaming they are thousands
+    /// a second: the app asks for them only while its console is open.
+    Feedback {
+        /// `true`: relay them; `false`: none from now on.
+        relay: bool,
+    },
 }
 
 /// A message from the bridge to a client over `/ws`.

@@ -36,6 +36,10 @@ pub const TOAST_MS: u64 = 4_000;
 pub trait Sender {
     /// Sends `message` now; returns whether it was handed to an open socket.
     fn send(&self, message: &ClientMessage) -> bool;
+
+    /// Whether the app wants every gateway's feedback frames (its console is open):
+    /// told to the bridge now and on every reconnect. Nothing by default.
+    fn relay_feedback(&self, _on: bool) {}
 }
 
 /// Everything that leaves the page: HTTP, the WebSocket, the local file store.
@@ -281,6 +285,18 @@ impl Ctx {
         self.services
             .with_value(|services| Rc::clone(&services.sender))
             .send(message)
+    }
+
+    /// Asks the bridge for every gateway's feedback frames (`true`, while the console
+    /// is open) or for none: with a hundred gateways streaming they are thousands a
+    /// second, more than a phone should read for nothing.
+    pub fn relay_feedback(&self, on: bool) {
+        if let Some(sender) = self
+            .services
+            .try_with_value(|services| Rc::clone(&services.sender))
+        {
+            sender.relay_feedback(on);
+        }
     }
 
     /// Takes the matrix's status (`None`: none known). The E-stop acknowledgement

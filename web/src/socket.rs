@@ -5,7 +5,7 @@
 //! The URL carries the login's token (`/ws?token=…`); the app opens a socket only
 //! while it holds a login.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::rc::{Rc, Weak};
 use std::time::Duration;
 
@@ -37,6 +37,8 @@ type Handler<T> = Closure<dyn FnMut(T)>;
 
 struct Inner {
     url: String,
+    /// Whether the app wants the gateways' feedback frames; said on every connect.
+    relay_feedback: Rc<Cell<bool>>,
     connection: Connection,
     link: RwSignal<Link>,
     on_message: Rc<dyn Fn(ServerMessage)>,
@@ -51,14 +53,17 @@ struct Inner {
 
 impl Socket {
     /// Opens a socket to `url`, reflecting its state in `link` and handing every
-    /// message from the bridge to `on_message`.
+    /// message from the bridge to `on_message`. Each time it connects it tells the
+    /// bridge whether to relay the gateways' feedback frames (`relay_feedback` then).
     pub fn connect(
         url: String,
         link: RwSignal<Link>,
+        relay_feedback: Rc<Cell<bool>>,
         on_message: impl Fn(ServerMessage) + 'static,
     ) -> Self {
         let inner = Rc::new(RefCell::new(Inner {
             url,
+            relay_feedback,
             connection: Connection::new(),
             link,
             on_message: Rc::new(on_message),
@@ -204,6 +209,9 @@ fn received(weak: &Weak<RefCell<Inner>>, generation: u64, event: &MessageEvent) 
     drop(inner);
     if link.get_untracked() != Link::Connected {
         link.set(Link::Connected);
+        // A new session relays every feedback frame until told otherwise.
+        let relay = this.borrow().relay_feedback.get();
+        Socket { inner: this }.send(&ClientMessage::Feedback { relay });
     }
     let Some(text) = event.data().as_string() else {
         return;

@@ -22,6 +22,9 @@ const SENT_LINES: usize = 50;
 #[component]
 pub fn ConsolePage() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
+    // The gateways' answers are relayed only while the console is open.
+    ctx.relay_feedback(true);
+    on_cleanup(move || ctx.relay_feedback(false));
     let text = RwSignal::new(String::new());
     let gateway = RwSignal::new(None::<usize>);
     let sent = RwSignal::new(Vec::<String>::new());

@@ -21,7 +21,7 @@ pub mod qprogram;
 pub mod topbar;
 pub mod widgets;
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::rc::Rc;
 
 use floatball_shared::api::ClientMessage;
@@ -61,9 +61,10 @@ fn store(key: &str, value: Option<&str>) {
     }
 }
 
-/// The WebSocket of the current login, if any: what the app's [`Sender`] writes to.
+/// The WebSocket of the current login, if any: what the app's [`Sender`] writes to;
+/// and whether the app wants the gateways' feedback frames (told to every socket).
 #[derive(Debug, Default, Clone)]
-struct SocketSlot(Rc<RefCell<Option<Socket>>>);
+struct SocketSlot(Rc<RefCell<Option<Socket>>>, Rc<Cell<bool>>);
 
 impl Sender for SocketSlot {
     fn send(&self, message: &ClientMessage) -> bool {
@@ -71,6 +72,12 @@ impl Sender for SocketSlot {
             .borrow()
             .as_ref()
             .is_some_and(|socket| socket.send(message))
+    }
+
+    fn relay_feedback(&self, on: bool) {
+        if self.1.replace(on) != on {
+            self.send(&ClientMessage::Feedback { relay: on });
+        }
     }
 }
 
@@ -83,7 +90,9 @@ impl SocketSlot {
         ctx.set_status(None);
         if let Some((address, token)) = session {
             let url = ctx.origin().ws_url(&address, &token);
-            let socket = Socket::connect(url, ctx.link, move |message| ctx.receive(message));
+            let socket = Socket::connect(url, ctx.link, Rc::clone(&self.1), move |message| {
+                ctx.receive(message);
+            });
             *self.0.borrow_mut() = Some(socket);
         }
     }
