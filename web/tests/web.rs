@@ -147,6 +147,8 @@ fn response(status: u16, body: &str) -> Answer {
 struct FakeSocket {
     sent: RefCell<Vec<ClientMessage>>,
     closed: Cell<bool>,
+    /// What the app said of the feedback relay, in order.
+    relay: RefCell<Vec<bool>>,
 }
 
 impl Sender for FakeSocket {
@@ -156,6 +158,10 @@ impl Sender for FakeSocket {
         }
         self.sent.borrow_mut().push(message.clone());
         true
+    }
+
+    fn relay_feedback(&self, on: bool) {
+        self.relay.borrow_mut().push(on);
     }
 }
 
@@ -2488,4 +2494,26 @@ async fn the_console_takes_the_gateways_from_the_installation_when_the_status_ha
     set_value(&container, "console-gateway", "19", "change");
     tick().await;
     assert_eq!(attribute(&container, "console-check", "data-state"), "ok");
+}
+
+/// The console, and a button that closes it.
+fn closable_console() -> impl IntoView {
+    let open = RwSignal::new(true);
+    view! {
+        <button data-testid="close-console" on:click=move |_| open.set(false)>"close"</button>
+        <Show when=move || open.get()>
+            <ConsolePage />
+        </Show>
+    }
+}
+
+#[wasm_bindgen_test]
+async fn the_gateways_feedback_is_relayed_only_while_the_console_is_open() {
+    let (container, _ctx, socket, _) = mount_online("test-console-relay", closable_console);
+    tick().await;
+    assert_eq!(*socket.relay.borrow(), [true]);
+    element(&container, "close-console").click();
+    tick().await;
+    assert_eq!(*socket.relay.borrow(), [true, false]);
+    assert!(all(&container, "console-input").is_empty());
 }
