@@ -296,13 +296,12 @@ pub async fn links_up(ws: &mut super::Ws) -> bool {
         let tokio_tungstenite::tungstenite::Message::Text(text) = frame else {
             continue;
         };
+        // The summary counts every gateway (beyond 16 the details list only those
+        // with a problem).
         if let Ok(floatball_shared::api::ServerMessage::Status(status)) =
             serde_json::from_str(text.as_str())
-            && !status.gateways.is_empty()
-            && status
-                .gateways
-                .iter()
-                .all(|gateway| gateway.link == floatball_shared::api::LinkState::Up)
+            && status.gateway_summary.total > 0
+            && status.gateway_summary.up == status.gateway_summary.total
         {
             return true;
         }
