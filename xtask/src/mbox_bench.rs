@@ -17,21 +17,11 @@ use crate::tools;
 
 /// The options: (boxes, seconds).
 fn parse_options(args: &[String]) -> Result<(u32, u32), String> {
-    let mut boxes = 1000;
-    let mut seconds = 30;
-    let mut iter = args.iter();
-    while let Some(flag) = iter.next() {
-        let target = match flag.as_str() {
-            "--boxes" => &mut boxes,
-            "--seconds" => &mut seconds,
-            _ => return Err("usage: cargo xtask mbox-bench [--boxes N] [--seconds S]".to_owned()),
-        };
-        *target = iter
-            .next()
-            .and_then(|value| value.parse().ok())
-            .filter(|value| *value > 0)
-            .ok_or_else(|| format!("{flag} needs a positive number"))?;
-    }
+    let [boxes, seconds] = tools::parse_counts(
+        args,
+        [("--boxes", 1000), ("--seconds", 30)],
+        "usage: cargo xtask mbox-bench [--boxes N] [--seconds S]",
+    )?;
     Ok((boxes, seconds))
 }
 
@@ -41,38 +31,14 @@ fn parse_options(args: &[String]) -> Result<(u32, u32), String> {
 /// The build or the run failed.
 pub fn mbox_bench(args: &[String]) -> Result<(), String> {
     let (boxes, seconds) = parse_options(args)?;
-    let root = tools::workspace_root();
-    let env = tools::Env::discover(&root)?;
-    let test = [
-        "test",
-        "--release",
-        "--package",
-        "floatball-bridge",
-        "--test",
+    tools::run_release_bench(
         "mbox_bench",
-    ];
-    tools::run_command(tools::cargo(&env).args(test).arg("--no-run"))?;
-    println!("xtask: {boxes} MBOX boxes × 10 axes at 20 ms for {seconds} s");
-    // Raise the open-file limit for the twins' sockets, then run the test as cargo
-    // would.
-    let mut command = std::process::Command::new("sh");
-    command
-        .current_dir(&env.root)
-        .arg("-c")
-        .arg("ulimit -n \"$(ulimit -Hn)\" 2>/dev/null; exec \"$@\"")
-        .arg("sh")
-        .arg(tools::cargo(&env).get_program())
-        .args(test)
-        .args(["--", "--nocapture"])
-        .env("MBOX_BENCH_BOXES", boxes.to_string())
-        .env("MBOX_BENCH_SECONDS", seconds.to_string());
-    for (key, value) in tools::cargo(&env).get_envs() {
-        match value {
-            Some(value) => command.env(key, value),
-            None => command.env_remove(key),
-        };
-    }
-    tools::run_command(&mut command)
+        &[
+            ("MBOX_BENCH_BOXES", boxes.to_string()),
+            ("MBOX_BENCH_SECONDS", seconds.to_string()),
+        ],
+        &format!("{boxes} MBOX boxes × 10 axes at 20 ms for {seconds} s"),
+    )
 }
 
 #[cfg(test)]

@@ -20,25 +20,11 @@ use crate::tools;
 
 /// The options: (gateways, seconds).
 fn parse_options(args: &[String]) -> Result<(u32, u32), String> {
-    let mut gateways = 100;
-    let mut seconds = 60;
-    let mut iter = args.iter();
-    while let Some(flag) = iter.next() {
-        let target = match flag.as_str() {
-            "--gateways" => &mut gateways,
-            "--seconds" => &mut seconds,
-            _ => {
-                return Err(
-                    "usage: cargo xtask scale-bench [--gateways N] [--seconds S]".to_owned(),
-                );
-            }
-        };
-        *target = iter
-            .next()
-            .and_then(|value| value.parse().ok())
-            .filter(|value| *value > 0)
-            .ok_or_else(|| format!("{flag} needs a positive number"))?;
-    }
+    let [gateways, seconds] = tools::parse_counts(
+        args,
+        [("--gateways", 100), ("--seconds", 60)],
+        "usage: cargo xtask scale-bench [--gateways N] [--seconds S]",
+    )?;
     Ok((gateways, seconds))
 }
 
@@ -48,40 +34,16 @@ fn parse_options(args: &[String]) -> Result<(u32, u32), String> {
 /// The build or the run failed.
 pub fn scale_bench(args: &[String]) -> Result<(), String> {
     let (gateways, seconds) = parse_options(args)?;
-    let root = tools::workspace_root();
-    let env = tools::Env::discover(&root)?;
-    let test = [
-        "test",
-        "--release",
-        "--package",
-        "floatball-bridge",
-        "--test",
+    tools::run_release_bench(
         "scale_bench",
-    ];
-    tools::run_command(tools::cargo(&env).args(test).arg("--no-run"))?;
-    println!(
-        "xtask: {gateways} UIM2503 gateways × 100 units over tcp:// at 115200 baud, a {seconds} s ripple"
-    );
-    // Raise the open-file limit for the gateways' sockets, then run the test as cargo
-    // would.
-    let mut command = std::process::Command::new("sh");
-    command
-        .current_dir(&env.root)
-        .arg("-c")
-        .arg("ulimit -n \"$(ulimit -Hn)\" 2>/dev/null; exec \"$@\"")
-        .arg("sh")
-        .arg(tools::cargo(&env).get_program())
-        .args(test)
-        .args(["--", "--nocapture"])
-        .env("SCALE_BENCH_GATEWAYS", gateways.to_string())
-        .env("SCALE_BENCH_SECONDS", seconds.to_string());
-    for (key, value) in tools::cargo(&env).get_envs() {
-        match value {
-            Some(value) => command.env(key, value),
-            None => command.env_remove(key),
-        };
-    }
-    tools::run_command(&mut command)
+        &[
+            ("SCALE_BENCH_GATEWAYS", gateways.to_string()),
+            ("SCALE_BENCH_SECONDS", seconds.to_string()),
+        ],
+        &format!(
+            "{gateways} UIM2503 gateways × 100 units over tcp:// at 115200 baud, a {seconds} s ripple"
+        ),
+    )
 }
 
 #[cfg(test)]

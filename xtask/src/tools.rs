@@ -364,6 +364,72 @@ fn apt_install(env: &Env, packages: &[&str], why: &str) -> Result<(), String> {
     )
 }
 
+/// Reads `--flag N` pairs of positive numbers: `flags` names each flag and its default;
+/// the values come back in the same order.
+///
+/// # Errors
+/// A flag not in `flags` (then `usage`), or one without a positive number.
+pub fn parse_counts<const N: usize>(
+    args: &[String],
+    flags: [(&str, u32); N],
+    usage: &str,
+) -> Result<[u32; N], String> {
+    let mut values = flags.map(|(_, default)| default);
+    let mut iter = args.iter();
+    while let Some(flag) = iter.next() {
+        let index = flags
+            .iter()
+            .position(|(name, _)| name == flag)
+            .ok_or_else(|| usage.to_owned())?;
+        values[index] = iter
+            .next()
+            .and_then(|value| value.parse().ok())
+            .filter(|value| *value > 0)
+            .ok_or_else(|| format!("{flag} needs a positive number"))?;
+    }
+    Ok(values)
+}
+
+/// Builds the bridge's integration test `test` in release, then runs it with `vars`
+/// set and its output shown, after raising the open-file limit to the hard one (the
+/// benches open a socket or two per simulated gateway).
+///
+/// # Errors
+/// The build or the run failed.
+pub fn run_release_bench(test: &str, vars: &[(&str, String)], banner: &str) -> Result<(), String> {
+    let root = workspace_root();
+    let env = Env::discover(&root)?;
+    let args = [
+        "test",
+        "--release",
+        "--package",
+        "floatball-bridge",
+        "--test",
+        test,
+    ];
+    run_command(cargo(&env).args(args).arg("--no-run"))?;
+    println!("xtask: {banner}");
+    let mut command = Command::new("sh");
+    command
+        .current_dir(&env.root)
+        .arg("-c")
+        .arg("ulimit -n \"$(ulimit -Hn)\" 2>/dev/null; exec \"$@\"")
+        .arg("sh")
+        .arg(cargo(&env).get_program())
+        .args(args)
+        .args(["--", "--nocapture"]);
+    for (key, value) in vars {
+        command.env(key, value);
+    }
+    for (key, value) in cargo(&env).get_envs() {
+        match value {
+            Some(value) => command.env(key, value),
+            None => command.env_remove(key),
+        };
+    }
+    run_command(&mut command)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
