@@ -14,7 +14,10 @@
 //! time, start skew across the gateways, the bridge's CPU while streaming and its peak
 //! RSS, the status messages' size and rate, the lowest water level and the underruns.
 //! `SCALE_BENCH_LINK=sim` plays to the bridge's in-process simulated gateways instead
-//! (no start skew then: the figures of the bridge alone).
+//! (no start skew then: the figures of the bridge alone). The bench's WebSocket client
+//! turns the feedback relay off, as the app does while its console is closed;
+//! `SCALE_BENCH_FEEDBACK=on` keeps it on (every frame of every gateway as JSON, as a
+//! console would get).
 
 mod common;
 
@@ -317,6 +320,12 @@ async fn bench(gateways: usize, seconds: u64) -> Outcome {
         .max_by(|a, b| a.needed_bytes_per_s.total_cmp(&b.needed_bytes_per_s))
         .expect("a gateway");
     let mut ws = bridge.ws(&token).await;
+    let relay = std::env::var("SCALE_BENCH_FEEDBACK").is_ok_and(|value| value == "on");
+    send_text(
+        &mut ws,
+        &format!(r#"{{"type":"feedback","relay":{relay}}}"#),
+    )
+    .await;
     let mut log = Log::default();
     watch(&mut ws, &mut log, Duration::from_secs(30), |status| {
         status.gateway_summary.total as usize == gateways
@@ -478,7 +487,8 @@ async fn bench(gateways: usize, seconds: u64) -> Outcome {
         status_bytes.iter().max().copied().unwrap_or_default(),
     );
     println!(
-        "scale-bench:   other messages over WebSocket while streaming (feedback frames): {:.0}/s, {:.0} kB/s",
+        "scale-bench:   other messages over WebSocket while streaming (feedback frames, relay {}): {:.0}/s, {:.0} kB/s",
+        if relay { "on" } else { "off, as the app" },
         others as f64 / elapsed_s,
         other_bytes as f64 / elapsed_s / 1000.0,
     );
