@@ -220,9 +220,14 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
                 if changed.is_ok() {
                     // Subscribed only while wanted: with no subscriber, no gateway
                     // builds frames for the WebSocket relay.
-                    feedback = relay_wanted
-                        .borrow_and_update()
-                        .then(|| feedback.take().unwrap_or_else(|| state.gateways().subscribe_feedback()));
+                    // The wish is copied out: no watch borrow is held while
+                    // subscribing.
+                    let wanted = *relay_wanted.borrow_and_update();
+                    feedback = wanted.then(|| {
+                        feedback
+                            .take()
+                            .unwrap_or_else(|| state.gateways().subscribe_feedback())
+                    });
                 }
                 Step::Continue
             }
