@@ -43,8 +43,12 @@
 //! - [`serial`]: serial ports through the `serialport` crate;
 //! - [`net`]: serial device servers over TCP, raw or RFC 2217;
 //! - [`telnet`]: Telnet and RFC 2217 COM-port control, sans IO;
-//! - [`sim`]: the simulated gateway behind a virtual line as slow as a real one.
+//! - [`sim`]: the simulated gateway behind a virtual line as slow as a real one;
+//! - [`writer`]: the writer's turn ([`writer::Drive::step`]) and the thread that runs
+//!   it for one serial or simulated link;
+//! - [`driver`]: the one thread that reads and writes every network link.
 
+pub mod driver;
 pub mod lanes;
 pub mod net;
 pub mod pacer;
@@ -52,6 +56,7 @@ pub mod serial;
 pub mod sim;
 pub mod supervisor;
 pub mod telnet;
+pub mod writer;
 
 use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -61,8 +66,8 @@ use std::time::{Duration, Instant};
 
 use floatball_shared::api::{BaudChanged, LinkState};
 use floatball_shared::ascii::GreetingWatch;
-use floatball_shared::ascii::gateway::{GREETING, MAX_BAUD, MIN_BAUD};
-use floatball_shared::ascii::{Form, GatewayCommand, Instruction, parse_script};
+use floatball_shared::ascii::gateway::{MAX_BAUD, MIN_BAUD};
+use floatball_shared::ascii::{Form, parse_script};
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::feedback::{Frame, FrameDecoder};
 use floatball_shared::plan::port::PortAddress;
@@ -70,8 +75,6 @@ use floatball_shared::sim::GatewayConfig;
 use tokio::sync::{Notify, broadcast, oneshot, watch};
 
 pub use floatball_shared::ascii::Batch;
-use lanes::{Popped, Queues};
-use pacer::{Pacer, RateMeter};
 
 use crate::estop::Latch;
 
@@ -296,6 +299,9 @@ struct Shared {
     /// The thread that writes (and, for a serial or network link, supervises): woken
     /// by handles.
     writer: OnceLock<Thread>,
+    /// The network driver's thread, for a network link: it writes while the line is
+    /// open, so handles wake it too.
+    driver: OnceLock<Thread>,
     /// Bulk bytes handed over and neither written nor dropped yet.
     queued_bytes: AtomicUsize,
     /// Bytes written to the line since the link was opened.
@@ -336,6 +342,9 @@ impl Shared {
     fn wake(&self) {
         if let Some(writer) = self.writer.get() {
             writer.unpark();
+        }
+        if let Some(driver) = self.driver.get() {
+            driver.unpark();
         }
     }
 
@@ -504,6 +513,7 @@ impl Link {
             config,
             inbox,
             writer: OnceLock::new(),
+            driver: OnceLock::new(),
             queued_bytes: AtomicUsize::new(0),
             written_bytes: AtomicU64::new(0),
             dropped_instructions: AtomicU64::new(0),
@@ -745,515 +755,6 @@ impl Link {
     }
 }
 
-/// Writes one instruction to a line (a serial port, the simulator's input).
-trait LineWrite {
-    /// Hands `instruction` to the line.
-    fn write_instruction(&mut self, instruction: &[u8]) -> std::io::Result<()>;
-
-    /// Switches the line (this end of it) to `baud`.
-    fn set_baud(&mut self, baud: u32) -> std::io::Result<()>;
-
-    /// Restarts the gateway, if this line can (the in-process simulator); `false` when
-    /// someone else has to (a real gateway is power-cycled by the installer).
-    fn restart_gateway(&mut self) -> bool;
-}
-
-/// How often an idle writer wakes up to update the bytes/s figure.
-const IDLE_TICK: Duration = Duration::from_millis(250);
-
-/// The greeting the writer is waiting to see answered.
-struct Greeting {
-    /// Answers and frames read before it was sent.
-    answers_before: u64,
-    frames_before: u64,
-    /// When it counts as unanswered.
-    deadline: Instant,
-}
-
-/// The writer's greetings: when the next is due, the one awaiting its answer, and how
-/// many in a row went unanswered.
-struct Greeter {
-    next_at: Instant,
-    pending: Option<Greeting>,
-    missed: u32,
-}
-
-/// What became of a greeting.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Answer {
-    /// The gateway answered (the greeting, or with any frame).
-    Answered,
-    /// [`MISSED_GREETINGS`] deadlines passed in a row.
-    Unanswered,
-}
-
-impl Greeter {
-    /// Greets at once.
-    fn now(now: Instant) -> Self {
-        Self {
-            next_at: now,
-            pending: None,
-            missed: 0,
-        }
-    }
-
-    /// Whether a greeting is due at `now` on a line with nothing else to write.
-    fn due(&self, now: Instant) -> bool {
-        self.pending.is_none() && now >= self.next_at
-    }
-
-    /// A greeting went out at `now`; the line is free again after `line_busy`.
-    fn sent(&mut self, shared: &Shared, now: Instant, line_busy: Duration) {
-        self.pending = Some(Greeting {
-            answers_before: shared.greetings_answered.load(Ordering::Acquire),
-            frames_before: shared.frames_read.load(Ordering::Acquire),
-            deadline: now + line_busy + ANSWER_TIMEOUT,
-        });
-        shared.awaiting_answer.store(true, Ordering::Release);
-    }
-
-    /// Something other than a greeting was written at `now`: the line is not idle.
-    fn wrote(&mut self, now: Instant) {
-        if self.pending.is_none() {
-            self.next_at = self.next_at.max(now + GREETING_INTERVAL);
-        }
-    }
-
-    /// Whether the pending greeting has been answered or has timed out by `now`.
-    fn check(&mut self, shared: &Shared, now: Instant) -> Option<Answer> {
-        let pending = self.pending.as_ref()?;
-        let answered = shared.greetings_answered.load(Ordering::Acquire) > pending.answers_before
-            || shared.frames_read.load(Ordering::Acquire) > pending.frames_before;
-        let answer = if answered {
-            self.next_at = now + GREETING_INTERVAL;
-            self.missed = 0;
-            Some(Answer::Answered)
-        } else if now >= pending.deadline {
-            self.next_at = now + GREETING_RETRY;
-            self.missed = self.missed.saturating_add(1);
-            (self.missed >= MISSED_GREETINGS).then_some(Answer::Unanswered)
-        } else {
-            return None;
-        };
-        self.pending = None;
-        shared.awaiting_answer.store(false, Ordering::Release);
-        answer
-    }
-
-    /// How long the writer may sleep before the greeter needs it.
-    fn wait(&self, now: Instant) -> Duration {
-        match &self.pending {
-            Some(pending) => pending.deadline.saturating_duration_since(now),
-            None => self.next_at.saturating_duration_since(now),
-        }
-    }
-}
-
-/// Whether one instruction's bytes may be written while the e-stop is latched.
-fn is_inert(instruction: &[u8]) -> bool {
-    std::str::from_utf8(instruction)
-        .ok()
-        .and_then(|text| parse_script(text).ok())
-        .is_some_and(|parsed| {
-            parsed
-                .iter()
-                .all(floatball_shared::ascii::Instruction::is_inert)
-        })
-}
-
-/// The writer's own state: the queues, and the e-stop generation it last acted on.
-struct Writer<'a> {
-    shared: &'a Shared,
-    queues: Queues,
-    seen_generation: u64,
-    /// A line-speed change asked for and not carried out yet.
-    baud_change: Option<(u32, Duration, BaudReply)>,
-}
-
-impl Writer<'_> {
-    /// Acts on a new e-stop generation: everything queued is void, the stop goes first.
-    fn observe_latch(&mut self) {
-        let generation = self.shared.config.latch.generation();
-        if generation == self.seen_generation {
-            return;
-        }
-        self.seen_generation = generation;
-        self.stop();
-    }
-
-    fn stop(&mut self) {
-        let dropped = self.queues.clear_bulk();
-        self.queues.clear_priority();
-        self.shared.unqueue(dropped);
-        self.queues.push_priority(&self.shared.config.estop);
-    }
-
-    /// Takes one handed-over input into the queues, dropping it if it is void; a
-    /// line-speed change is kept for the writer to carry out once the queues are empty.
-    fn accept(&mut self, input: Input) {
-        let (generation, batch, bulk) = match input {
-            Input::Bulk { generation, batch } => (generation, batch, true),
-            Input::Priority { generation, batch } => (generation, batch, false),
-            Input::ChangeBaud {
-                baud,
-                restart_wait,
-                reply,
-            } => {
-                if self.baud_change.is_some() {
-                    let _ = reply.send(Err(BaudError::Link(LinkError::Down {
-                        port: self.shared.config.port.clone(),
-                        reason: Some("another line-speed change is under way".to_owned()),
-                    })));
-                } else {
-                    self.baud_change = Some((baud, restart_wait, reply));
-                }
-                return;
-            }
-        };
-        if generation > self.seen_generation {
-            // Issued after an e-stop this writer has not acted on yet: act first.
-            self.observe_latch();
-        }
-        let count = batch.instruction_count() as u64;
-        let void = generation < self.seen_generation;
-        if void {
-            self.shared
-                .dropped_instructions
-                .fetch_add(count, Ordering::Relaxed);
-            if bulk {
-                self.shared.unqueue(batch.len());
-            }
-            return;
-        }
-        let latched = self.shared.config.latch.is_latched();
-        let keep = |instruction: &[u8]| !latched || is_inert(instruction);
-        let refused = if bulk {
-            self.queues.push_bulk_filtered(&batch, keep)
-        } else {
-            self.queues.push_priority_filtered(&batch, keep)
-        };
-        if refused > 0 {
-            tracing::warn!(
-                "gateway {}: {refused} bytes of motion refused while the e-stop is latched",
-                self.shared.config.port
-            );
-            self.shared
-                .dropped_instructions
-                .fetch_add(1, Ordering::Relaxed);
-            if bulk {
-                self.shared.unqueue(refused);
-            }
-        }
-    }
-}
-
-/// Writes queued instructions to `line` until the link is closed, `lost` is set, or a
-/// write fails; returns why it stopped. Greets the gateway at once and whenever the line
-/// is idle, and keeps the link's state (`Connecting` until the first answer, `Up`,
-/// `NotAnswering`) by the answers. The calling thread must have registered as the
-/// link's writer. Whatever is still queued when it returns is dropped.
-fn run_writer(
-    shared: &Shared,
-    inbox: &Receiver<Input>,
-    line: &mut impl LineWrite,
-    lost: &AtomicBool,
-) -> String {
-    let now = Instant::now();
-    let mut pacer = Pacer::new(shared.baud(), now);
-    let mut meter = RateMeter::new(now);
-    let mut instruction = Vec::with_capacity(floatball_shared::ascii::MAX_LEN);
-    let mut writer = Writer {
-        shared,
-        queues: Queues::default(),
-        seen_generation: shared.config.latch.generation(),
-        baud_change: None,
-    };
-    let mut greeter = Greeter::now(now);
-    if shared.config.latch.is_latched() {
-        // Back while the e-stop is in force: the units behind this gateway may not
-        // have heard it.
-        writer.stop();
-    }
-    let reason = loop {
-        if shared.is_closed() {
-            break "shut down".to_owned();
-        }
-        if lost.load(Ordering::Acquire) {
-            break "the line was lost".to_owned();
-        }
-        writer.observe_latch();
-        while let Ok(input) = inbox.try_recv() {
-            writer.accept(input);
-        }
-        let now = Instant::now();
-        if let Some(rate) = meter.roll(now) {
-            shared.publish_rate(rate);
-        }
-        match greeter.check(shared, now) {
-            Some(Answer::Answered) => shared.set_state(LinkState::Up, None),
-            Some(Answer::Unanswered) => {
-                shared.set_state(LinkState::NotAnswering, Some(NOT_ANSWERING.to_owned()));
-            }
-            None => {}
-        }
-        let has_work = writer.queues.has_work();
-        if !has_work && greeter.pending.is_none() && writer.baud_change.is_some() {
-            if let Some((baud, restart_wait, reply)) = writer.baud_change.take() {
-                let mut change = Change {
-                    writer: &mut writer,
-                    line: &mut *line,
-                    pacer: &mut pacer,
-                    lost,
-                    buffer: &mut instruction,
-                };
-                match change.run(baud, restart_wait) {
-                    Ok(result) => {
-                        let _ = reply.send(result);
-                    }
-                    Err(err) => break format!("write failed: {err}"),
-                }
-                greeter = Greeter {
-                    next_at: Instant::now() + GREETING_INTERVAL,
-                    pending: None,
-                    missed: 0,
-                };
-            }
-            continue;
-        }
-        let line_wait = pacer.wait_before_next(now);
-        if !has_work && greeter.due(now) && line_wait.is_zero() {
-            if let Err(err) = line.write_instruction(GREETING) {
-                break format!("write failed: {err}");
-            }
-            let free_at = pacer.wrote(now, GREETING.len());
-            meter.add(now, GREETING.len());
-            shared
-                .written_bytes
-                .fetch_add(GREETING.len() as u64, Ordering::AcqRel);
-            greeter.sent(shared, now, free_at.saturating_duration_since(now));
-            continue;
-        }
-        let wait = if has_work {
-            line_wait
-        } else {
-            IDLE_TICK.min(greeter.wait(now)).max(line_wait)
-        };
-        if !wait.is_zero() {
-            std::thread::park_timeout(wait.min(IDLE_TICK));
-            continue;
-        }
-        let Some(popped) = writer.queues.pop_into(&mut instruction) else {
-            continue;
-        };
-        if let Err(err) = line.write_instruction(&instruction) {
-            if popped == Popped::Bulk {
-                shared.unqueue(instruction.len());
-            }
-            break format!("write failed: {err}");
-        }
-        let now = Instant::now();
-        pacer.wrote(now, instruction.len());
-        meter.add(now, instruction.len());
-        greeter.wrote(now);
-        shared
-            .written_bytes
-            .fetch_add(instruction.len() as u64, Ordering::AcqRel);
-        if popped == Popped::Bulk {
-            shared.unqueue(instruction.len());
-        }
-    };
-    shared.awaiting_answer.store(false, Ordering::Release);
-    let left = writer.queues.clear_bulk();
-    shared.unqueue(left);
-    shared.drop_inbox(inbox);
-    if let Some((_, _, reply)) = writer.baud_change.take() {
-        let _ = reply.send(Err(BaudError::Link(LinkError::Down {
-            port: shared.config.port.clone(),
-            reason: Some(reason.clone()),
-        })));
-    }
-    reason
-}
-
-/// A line-speed change, carried out by the writer thread (it owns the line).
-struct Change<'w, 'a, L> {
-    writer: &'w mut Writer<'a>,
-    line: &'w mut L,
-    pacer: &'w mut Pacer,
-    lost: &'w AtomicBool,
-    buffer: &'w mut Vec<u8>,
-}
-
-impl<L: LineWrite> Change<'_, '_, L> {
-    /// `BDR=x;`, the restart, the switch, the greetings; on failure back to the old
-    /// speed. `Err` only when the line failed.
-    fn run(
-        &mut self,
-        baud: u32,
-        restart_wait: Duration,
-    ) -> std::io::Result<Result<BaudChanged, BaudError>> {
-        let shared = self.writer.shared;
-        let port = shared.config.port.clone();
-        let from_baud = shared.baud();
-        let started = Instant::now();
-        // An e-stop pressed since the change was asked for: `BDR` is not inert, and
-        // nothing but inert instructions goes out while the latch is set.
-        self.writer.observe_latch();
-        if shared.config.latch.is_latched() {
-            return Ok(Err(BaudError::EstopLatched));
-        }
-        shared.set_state(
-            LinkState::Connecting,
-            Some(format!(
-                "changing the line speed from {from_baud} to {baud} baud"
-            )),
-        );
-        let mut bdr = Vec::new();
-        let command = Instruction::Gateway(GatewayCommand::SetBaud { baud });
-        if let Err(err) = command.encode_into(Form::Standard, &mut bdr) {
-            shared.set_state(LinkState::Up, None);
-            return Ok(Err(BaudError::Port {
-                port,
-                baud,
-                reason: err.to_string(),
-            }));
-        }
-        self.write(&bdr)?;
-        // Until the gateway has read all of it.
-        let crossed = self.pacer.wrote(Instant::now(), 0) + ANSWER_MARGIN;
-        self.idle_until(crossed)?;
-        let restarted_here = self.line.restart_gateway();
-        if let Err(err) = self.switch(baud) {
-            self.switch(from_baud)?;
-            self.greet_until(Instant::now() + ANSWER_TIMEOUT * 2)?;
-            return Ok(Err(BaudError::Port {
-                port,
-                baud,
-                reason: err.to_string(),
-            }));
-        }
-        tracing::info!(
-            "gateway {port}: BDR={baud} sent; {}; greeting at {baud} baud",
-            if restarted_here {
-                "the simulated gateway restarted"
-            } else {
-                "waiting for the gateway's power cycle"
-            }
-        );
-        if self.greet_until(started + restart_wait)? {
-            let took_ms = u64::try_from(started.elapsed().as_millis()).unwrap_or(u64::MAX);
-            return Ok(Ok(BaudChanged {
-                from_baud,
-                baud,
-                took_ms,
-            }));
-        }
-        let waited_ms = u64::try_from(started.elapsed().as_millis()).unwrap_or(u64::MAX);
-        tracing::warn!(
-            "gateway {port}: no answer at {baud} baud within {waited_ms} ms; back to \
-             {from_baud} baud"
-        );
-        self.switch(from_baud)?;
-        self.greet_until(Instant::now() + ANSWER_TIMEOUT * 2)?;
-        Ok(Err(BaudError::NotAnswering {
-            port,
-            baud,
-            from_baud,
-            waited_ms,
-        }))
-    }
-
-    /// Switches this end of the line to `baud`.
-    fn switch(&mut self, baud: u32) -> std::io::Result<()> {
-        self.line.set_baud(baud)?;
-        self.writer.shared.baud.store(baud, Ordering::Release);
-        *self.pacer = Pacer::new(baud, Instant::now());
-        Ok(())
-    }
-
-    /// Writes `bytes` when the pacer allows.
-    fn write(&mut self, bytes: &[u8]) -> std::io::Result<()> {
-        let wait = self.pacer.wait_before_next(Instant::now());
-        if !wait.is_zero() {
-            std::thread::sleep(wait);
-        }
-        self.check_line()?;
-        self.line.write_instruction(bytes)?;
-        self.pacer.wrote(Instant::now(), bytes.len());
-        self.writer
-            .shared
-            .written_bytes
-            .fetch_add(bytes.len() as u64, Ordering::AcqRel);
-        Ok(())
-    }
-
-    fn check_line(&self) -> std::io::Result<()> {
-        if self.writer.shared.is_closed() || self.lost.load(Ordering::Acquire) {
-            return Err(std::io::Error::other("the line was lost"));
-        }
-        Ok(())
-    }
-
-    /// Waits until `until`, writing the e-stop if it is pressed meanwhile.
-    fn idle_until(&mut self, until: Instant) -> std::io::Result<()> {
-        loop {
-            self.check_line()?;
-            self.writer.observe_latch();
-            // Only the stop can be queued here: the inbox is not read during a change.
-            while self.writer.queues.pop_into(self.buffer).is_some() {
-                let instruction = std::mem::take(self.buffer);
-                self.write(&instruction)?;
-                *self.buffer = instruction;
-            }
-            let now = Instant::now();
-            if now >= until {
-                return Ok(());
-            }
-            std::thread::park_timeout((until - now).min(Duration::from_millis(20)));
-        }
-    }
-
-    /// Greets every [`GREETING_RETRY`] until the gateway answers (`true`, and the link is
-    /// `Up`) or `deadline` passes (`false`, and the link is `NotAnswering`).
-    fn greet_until(&mut self, deadline: Instant) -> std::io::Result<bool> {
-        let shared = self.writer.shared;
-        let answers_before = shared.greetings_answered.load(Ordering::Acquire);
-        shared.awaiting_answer.store(true, Ordering::Release);
-        let answered = loop {
-            self.write(GREETING)?;
-            let retry_at = Instant::now() + GREETING_RETRY;
-            while Instant::now() < retry_at.min(deadline) {
-                if shared.greetings_answered.load(Ordering::Acquire) > answers_before {
-                    break;
-                }
-                self.idle_until((Instant::now() + Duration::from_millis(5)).min(retry_at))?;
-            }
-            if shared.greetings_answered.load(Ordering::Acquire) > answers_before {
-                break true;
-            }
-            if Instant::now() >= deadline {
-                break false;
-            }
-        };
-        shared.awaiting_answer.store(false, Ordering::Release);
-        if answered {
-            shared.set_state(LinkState::Up, None);
-            if shared.config.latch.is_latched() {
-                // A stop written while the two ends' speeds differed was lost: the
-                // gateway hears it again now that they agree.
-                self.writer.stop();
-                self.idle_until(Instant::now())?;
-            }
-        } else {
-            shared.set_state(LinkState::NotAnswering, Some(NOT_ANSWERING.to_owned()));
-        }
-        Ok(answered)
-    }
-}
-
-/// Time left for the gateway to take in `BDR=x;` after its last byte crossed the line.
-const ANSWER_MARGIN: Duration = Duration::from_millis(20);
-
 /// Retry delays after a lost or failed connection: 250 ms doubling up to 5 s.
 #[derive(Debug, Clone)]
 pub(crate) struct Backoff {
@@ -1295,7 +796,11 @@ mod tests {
     #[test]
     fn only_inert_instruction_bytes_pass_the_latch() {
         for inert in [&b"*0;"[..], b"PA;", b"MO=0;", b"SN;", b"QP[3];"] {
-            assert!(is_inert(inert), "{}", String::from_utf8_lossy(inert));
+            assert!(
+                writer::is_inert(inert),
+                "{}",
+                String::from_utf8_lossy(inert)
+            );
         }
         for active in [
             &b"MO1;"[..],
@@ -1305,7 +810,11 @@ mod tests {
             b"SP25000;",
             b"\xff;",
         ] {
-            assert!(!is_inert(active), "{}", String::from_utf8_lossy(active));
+            assert!(
+                !writer::is_inert(active),
+                "{}",
+                String::from_utf8_lossy(active)
+            );
         }
     }
 

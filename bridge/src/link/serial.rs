@@ -8,12 +8,14 @@
 use std::io::Read;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
+use std::sync::mpsc::Receiver;
 use std::time::Duration;
 
 use serialport::SerialPort;
 
-use super::supervisor::{Connector, LineRead, write_watching};
-use super::{LineWrite, Shared};
+use super::supervisor::{Connector, LineRead, serve_with_reader, write_watching};
+use super::writer::LineWrite;
+use super::{Input, Shared};
 
 /// How long a read waits for bytes before checking whether to stop.
 const READ_TIMEOUT: Duration = Duration::from_millis(50);
@@ -40,8 +42,7 @@ pub(super) struct SerialConnector {
 }
 
 impl Connector for SerialConnector {
-    type Line = SerialLine;
-    type Reader = SerialReader;
+    type Connection = (SerialLine, SerialReader);
 
     fn connect(
         &mut self,
@@ -61,6 +62,17 @@ impl Connector for SerialConnector {
             },
             SerialReader { port: reader },
         ))
+    }
+
+    fn serve(
+        &mut self,
+        shared: &Arc<Shared>,
+        inbox: Receiver<Input>,
+        (line, reader): (SerialLine, SerialReader),
+        lost: &Arc<AtomicBool>,
+    ) -> (Receiver<Input>, String) {
+        let reason = serve_with_reader(shared, &inbox, line, reader, lost);
+        (inbox, reason)
     }
 }
 

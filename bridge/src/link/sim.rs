@@ -24,7 +24,8 @@ use floatball_shared::ascii::GreetingWatch;
 use floatball_shared::feedback::FrameDecoder;
 use floatball_shared::sim::{Gateway, GatewayConfig, Uart};
 
-use super::{Input, LineWrite, Shared, run_writer};
+use super::writer::{LineWrite, run_writer};
+use super::{Input, Shared};
 use floatball_shared::line::Line;
 
 /// The longest the simulation sleeps, so positions and clocks stay fresh.

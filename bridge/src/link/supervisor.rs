@@ -1,13 +1,14 @@
 //! The supervisor of a link whose line is opened, lost and opened again: a serial port
 //! ([`super::serial`]) or a serial device server on the network ([`super::net`]).
 //!
-//! One thread per link opens the line (at its live speed) through a [`Connector`],
-//! starts a reader thread that feeds what it reads to the greeting watch and the
-//! feedback decoder, and then is the link's writer ([`run_writer`]: greeting, pacing,
-//! e-stop). When the line is lost it reports why (`Down` with the reason), drops
-//! everything queued, waits ([`Backoff`]) and opens it again; a connection that lasted
-//! [`STABLE_AFTER`] resets the backoff. The lines are blocking, so these are plain
-//! threads rather than async tasks.
+//! One thread per link opens the line (at its live speed) through a [`Connector`] and
+//! hands it to the connector's [`Connector::serve`], which returns when the line is
+//! lost: a serial port gets a reader thread and this thread as its writer
+//! ([`serve_with_reader`]); a network line is handed to the one network driver
+//! ([`super::driver`]) and this thread waits for it back. When the line is lost the
+//! supervisor reports why (`Down` with the reason), drops everything queued, waits
+//! ([`Backoff`]) and opens it again; a connection that lasted [`STABLE_AFTER`] resets
+//! the backoff. Opening is blocking, so these are plain threads rather than async tasks.
 
 use std::io::Write;
 use std::sync::Arc;
@@ -19,24 +20,23 @@ use floatball_shared::api::LinkState;
 use floatball_shared::ascii::GreetingWatch;
 use floatball_shared::feedback::FrameDecoder;
 
-use super::{Backoff, Input, LineWrite, Shared, run_writer};
+use super::writer::{LineWrite, run_writer};
+use super::{Backoff, Input, Shared};
 
 /// A connection that lasted this long resets the backoff.
 pub(super) const STABLE_AFTER: Duration = Duration::from_secs(10);
 
-/// The reader's end of an open line.
+/// The reader's end of an open line with a reader thread of its own.
 pub(super) trait LineRead {
     /// Reads what came in into `buffer`: `Ok(0)` when nothing came within the line's
     /// read timeout, `Err(reason)` when the line is lost.
     fn read_some(&mut self, buffer: &mut [u8]) -> Result<usize, String>;
 }
 
-/// How a link's line is opened.
+/// How a link's line is opened and served.
 pub(super) trait Connector {
-    /// The writer's end.
-    type Line: LineWrite;
-    /// The reader's end, moved to the reader thread.
-    type Reader: LineRead + Send + 'static;
+    /// An open line.
+    type Connection;
 
     /// Opens the line at `baud`. `lost` is the connection's flag: set when either end
     /// fails, and watched by both. `Err` is the reason, naming the port.
@@ -45,13 +45,17 @@ pub(super) trait Connector {
         shared: &Arc<Shared>,
         lost: &Arc<AtomicBool>,
         baud: u32,
-    ) -> Result<(Self::Line, Self::Reader), String>;
+    ) -> Result<Self::Connection, String>;
 
-    /// What is done once the reader runs and before the writer starts (an RFC 2217
-    /// server is told the line's speed and framing); `Err` is the reason.
-    fn prepare(&mut self, _line: &mut Self::Line, _baud: u32) -> Result<(), String> {
-        Ok(())
-    }
+    /// Writes to and reads from the open line until it is lost or the link closes;
+    /// returns the inbox (for the next connection) and why the line ended.
+    fn serve(
+        &mut self,
+        shared: &Arc<Shared>,
+        inbox: Receiver<Input>,
+        connection: Self::Connection,
+        lost: &Arc<AtomicBool>,
+    ) -> (Receiver<Input>, String);
 }
 
 /// Starts the supervisor thread of a link.
@@ -62,14 +66,14 @@ where
     let name = format!("link-{}", shared.index);
     let started = std::thread::Builder::new()
         .name(name)
-        .spawn(move || supervise(&shared, &inbox, connector));
+        .spawn(move || supervise(&shared, inbox, connector));
     if let Err(err) = started {
         tracing::error!("cannot start a thread for a link: {err}");
     }
 }
 
-/// The supervisor thread is also the link's writer: it owns the queues.
-fn supervise<C: Connector>(shared: &Arc<Shared>, inbox: &Receiver<Input>, mut connector: C) {
+/// The supervisor thread owns the inbox between connections.
+fn supervise<C: Connector>(shared: &Arc<Shared>, mut inbox: Receiver<Input>, mut connector: C) {
     shared.register_writer();
     let port_name = shared.config.port.clone();
     let mut backoff = Backoff::new();
@@ -77,38 +81,20 @@ fn supervise<C: Connector>(shared: &Arc<Shared>, inbox: &Receiver<Input>, mut co
         shared.set_state(LinkState::Connecting, None);
         let baud = shared.baud();
         let lost = Arc::new(AtomicBool::new(false));
-        let (mut line, reader) = match connector.connect(shared, &lost, baud) {
-            Ok(pair) => pair,
+        let connection = match connector.connect(shared, &lost, baud) {
+            Ok(connection) => connection,
             Err(reason) => {
                 tracing::warn!("gateway {port_name}: {reason}; retrying");
                 shared.set_state(LinkState::Down, Some(reason));
-                shared.sleep(inbox, backoff.next_delay());
+                shared.sleep(&inbox, backoff.next_delay());
                 continue;
             }
         };
         tracing::info!("gateway {port_name}: opened at {baud} baud; greeting the gateway");
-        shared.drop_inbox(inbox);
+        shared.drop_inbox(&inbox);
         let connected_at = Instant::now();
-        let reader_thread = {
-            let shared = Arc::clone(shared);
-            let lost = Arc::clone(&lost);
-            std::thread::Builder::new()
-                .name(format!("link-{}-read", shared.index))
-                .spawn(move || read_loop(&shared, reader, &lost))
-        };
-        let reason = match reader_thread {
-            Ok(reader_thread) => {
-                let reason = match connector.prepare(&mut line, baud) {
-                    Ok(()) => run_writer(shared, inbox, &mut line, &lost),
-                    Err(reason) => reason,
-                };
-                lost.store(true, Ordering::Release);
-                let read_reason = reader_thread.join().ok().flatten();
-                drop(line);
-                read_reason.unwrap_or(reason)
-            }
-            Err(err) => format!("cannot start the reader thread: {err}"),
-        };
+        let (returned, reason) = connector.serve(shared, inbox, connection, &lost);
+        inbox = returned;
         if shared.is_closed() {
             break;
         }
@@ -117,9 +103,37 @@ fn supervise<C: Connector>(shared: &Arc<Shared>, inbox: &Receiver<Input>, mut co
         if connected_at.elapsed() >= STABLE_AFTER {
             backoff.reset();
         }
-        shared.sleep(inbox, backoff.next_delay());
+        shared.sleep(&inbox, backoff.next_delay());
     }
     shared.set_state(LinkState::Down, Some("shut down".to_owned()));
+}
+
+/// Serves a line with a reader thread of its own (a serial port): starts the reader,
+/// runs the writer on this thread, and joins the reader when the line ends.
+pub(super) fn serve_with_reader<L: LineWrite>(
+    shared: &Arc<Shared>,
+    inbox: &Receiver<Input>,
+    mut line: L,
+    reader: impl LineRead + Send + 'static,
+    lost: &Arc<AtomicBool>,
+) -> String {
+    let reader_thread = {
+        let shared = Arc::clone(shared);
+        let lost = Arc::clone(lost);
+        std::thread::Builder::new()
+            .name(format!("link-{}-read", shared.index))
+            .spawn(move || read_loop(&shared, reader, &lost))
+    };
+    match reader_thread {
+        Ok(reader_thread) => {
+            let reason = run_writer(shared, inbox, &mut line, lost);
+            lost.store(true, Ordering::Release);
+            let read_reason = reader_thread.join().ok().flatten();
+            drop(line);
+            read_reason.unwrap_or(reason)
+        }
+        Err(err) => format!("cannot start the reader thread: {err}"),
+    }
 }
 
 /// Reads until the link closes or the line fails; returns the failure, if any.
@@ -142,9 +156,9 @@ fn read_loop(shared: &Shared, mut reader: impl LineRead, lost: &AtomicBool) -> O
 }
 
 /// Writes all of `bytes` to `port`. A port that takes nothing for a while (its buffer
-/// full: a gateway, adapter or device server that stopped reading) is not an error by
-/// itself: the write goes on until the link closes or is lost, and the link counts as
-/// stalled meanwhile (its bytes stay queued; the playback watchdog acts on it).
+/// full: a gateway or adapter that stopped reading) is not an error by itself: the
+/// write goes on until the link closes or is lost, and the link counts as stalled
+/// meanwhile (its bytes stay queued; the playback watchdog acts on it).
 pub(super) fn write_watching(
     port: &mut (impl Write + ?Sized),
     bytes: &[u8],
@@ -178,15 +192,24 @@ pub(super) fn write_watching(
 pub(super) struct Unusable(pub(super) String);
 
 impl Connector for Unusable {
-    type Line = super::net::NetLine;
-    type Reader = super::net::NetReader;
+    type Connection = ();
 
     fn connect(
         &mut self,
         _shared: &Arc<Shared>,
         _lost: &Arc<AtomicBool>,
         _baud: u32,
-    ) -> Result<(Self::Line, Self::Reader), String> {
+    ) -> Result<(), String> {
         Err(self.0.clone())
+    }
+
+    fn serve(
+        &mut self,
+        _shared: &Arc<Shared>,
+        inbox: Receiver<Input>,
+        (): (),
+        _lost: &Arc<AtomicBool>,
+    ) -> (Receiver<Input>, String) {
+        (inbox, self.0.clone())
     }
 }
