@@ -1055,22 +1055,30 @@ async fn run(
     let mut run_generation = seen_generation;
     let mut watchdog = Watchdog::new(&links);
     let mut publisher = Publisher::new();
+    let mut polled = Instant::now();
+    let mut poll_owed = false;
     loop {
         let now = now_us();
         // Idle, it still looks at the links ten times a second for the status; a
-        // status held back is published within its period.
+        // status held back is published within its period, a poll held back within
+        // its own.
         let wake_us = player.next_wakeup_us(now).unwrap_or(now + 100_000);
-        let sleep = tokio::time::sleep(
+        let mut sleep_for =
             Duration::from_micros(wake_us.saturating_sub(now).clamp(1_000, TICK_US * 10))
-                .min(publisher.due_in()),
-        );
+                .min(publisher.due_in());
+        if poll_owed {
+            sleep_for = sleep_for.min(POLL_PERIOD.saturating_sub(polled.elapsed()));
+        }
+        let sleep = tokio::time::sleep(sleep_for);
         let mut request = None;
+        let mut by_feedback = false;
         tokio::select! {
             received = inbox.recv() => {
                 let Some(received) = received else { return };
                 request = Some(received);
             }
             Some((gateway, frame)) = frames.recv() => {
+                by_feedback = true;
                 player.handle_feedback(now_us(), gateway, &frame);
                 // Every gateway acknowledges every instruction: with a hundred of them
                 // the frames come by the thousand a second. Those already waiting are
@@ -1114,10 +1122,16 @@ async fn run(
             }
             let _ = reply.send(result);
         }
-        player.poll(now_us(), &link_views(&links));
-        if let Some(stall) = watchdog.check(&links, player.is_running()) {
-            tracing::error!("{stall}");
-            player.fail_with(stall);
+        // Feedback alone moves the player on at most once a POLL_PERIOD: a poll looks
+        // at every gateway, and a hundred of them send thousands of frames a second.
+        poll_owed = by_feedback && !urgent && polled.elapsed() < POLL_PERIOD;
+        if !poll_owed {
+            polled = Instant::now();
+            player.poll(now_us(), &link_views(&links));
+            if let Some(stall) = watchdog.check(&links, player.is_running()) {
+                tracing::error!("{stall}");
+                player.fail_with(stall);
+            }
         }
         if carry_out(&links, &latch, player.take_commands(), run_generation) {
             // A stop the player asked for is not news to it (it failed, and stays so).
@@ -1130,6 +1144,11 @@ async fn run(
         }
     }
 }
+
+/// How often feedback alone has the playback task poll the player (look at every
+/// gateway's queue and refill it): a request, the e-stop or the player's own wake-up
+/// polls at once.
+const POLL_PERIOD: Duration = Duration::from_millis(2);
 
 /// The most feedback frames one turn of the playback task handles before it looks at
 /// its requests, the clock and the links again.

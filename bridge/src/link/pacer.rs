@@ -32,6 +32,12 @@ impl Pacer {
         }
     }
 
+    /// How many bytes the line carries in `duration` (whole bytes, rounded down).
+    pub fn bytes_in(&self, duration: Duration) -> usize {
+        usize::try_from(duration.as_nanos() / self.byte_time.as_nanos().max(1))
+            .unwrap_or(usize::MAX)
+    }
+
     /// How long to wait at `now` before handing over the next instruction.
     pub fn wait_before_next(&self, now: Instant) -> Duration {
         self.line_free_at
@@ -115,6 +121,19 @@ mod tests {
         // Writing again right away queues behind the first instruction.
         let free_again = pacer.wrote(start + wait, 10);
         assert_eq!(free_again - free, Line::new(9600).byte_time() * 10);
+    }
+
+    #[test]
+    fn bytes_in_a_duration_follow_the_baud() {
+        let start = Instant::now();
+        assert_eq!(
+            Pacer::new(115_200, start).bytes_in(Duration::from_millis(3)),
+            34
+        );
+        assert_eq!(
+            Pacer::new(9600, start).bytes_in(Duration::from_millis(3)),
+            2
+        );
     }
 
     #[test]

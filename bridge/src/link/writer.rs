@@ -13,9 +13,11 @@
 //! link (one instruction a turn, the thread parked until the pacer allows the next),
 //! and the network driver ([`super::driver`]), one thread for every network link, which
 //! passes an `ahead` window: it writes whenever the line will be free within that
-//! window, gathering consecutive instructions into one write of at most
-//! [`floatball_shared::ascii::MAX_LEN`] bytes (the length of the longest single
-//! instruction), so an e-stop waits for at most that write plus the window's bytes.
+//! window, gathering consecutive whole instructions into one write of at most
+//! [`floatball_shared::ascii::MAX_LEN`] bytes (the longest single instruction) or
+//! [`CHUNK_TIME`] of line time, whichever is more — so an e-stop waits for at most
+//! that write plus the window: at 9,600 baud one instruction's time as before, at
+//! 115,200 baud about 5 ms.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Receiver;
@@ -70,6 +72,10 @@ pub(super) enum Step {
     /// [`Drive::change_baud`].
     ChangeBaud,
 }
+
+/// The line time one write of the network driver may hold (at least one longest
+/// instruction): fewer, larger writes on a fast line.
+pub(super) const CHUNK_TIME: Duration = Duration::from_millis(3);
 
 /// How long a line with a backlog is left before it is tried again.
 const BACKLOG_RETRY: Duration = Duration::from_millis(1);
@@ -298,7 +304,8 @@ impl Drive {
 
     /// One turn of the writer at `now`. With `ahead` zero it writes one instruction
     /// when the pacer allows; otherwise whenever the line will be free within `ahead`,
-    /// up to [`MAX_LEN`] bytes of whole instructions in one write.
+    /// whole instructions up to [`MAX_LEN`] bytes or [`CHUNK_TIME`] of line time
+    /// (whichever is more) in one write.
     pub(super) fn step(
         &mut self,
         shared: &Shared,
@@ -357,6 +364,7 @@ impl Drive {
             return Step::Wait((line_wait - ahead).min(IDLE_TICK));
         }
         self.chunk.clear();
+        let chunk_limit = MAX_LEN.max(self.pacer.bytes_in(CHUNK_TIME));
         let mut bulk_bytes = 0;
         while let Some(popped) = self.writer.queues.pop_into(&mut self.instruction) {
             self.chunk.extend_from_slice(&self.instruction);
@@ -367,7 +375,7 @@ impl Drive {
                 .writer
                 .queues
                 .next_len()
-                .is_some_and(|next| self.chunk.len() + next <= MAX_LEN);
+                .is_some_and(|next| self.chunk.len() + next <= chunk_limit);
             if ahead.is_zero() || !fits {
                 break;
             }
