@@ -436,20 +436,26 @@ impl Shared {
         Ok(())
     }
 
-    /// Hands `input` to the writer and wakes it.
+    /// Hands `input` to the writer and wakes it — unless it is bulk for a link with
+    /// bulk still queued: that writer is busy and takes it on its next turn anyway (a
+    /// refill does not cost the writer a wake-up).
     fn hand_over(&self, input: Input) -> Result<(), LinkError> {
         let bulk_bytes = match &input {
-            Input::Bulk { batch, .. } => batch.len(),
-            Input::Priority { .. } | Input::ChangeBaud { .. } => 0,
+            Input::Bulk { batch, .. } => Some(batch.len()),
+            Input::Priority { .. } | Input::ChangeBaud { .. } => None,
         };
-        self.queued_bytes.fetch_add(bulk_bytes, Ordering::AcqRel);
+        let queued_before = self
+            .queued_bytes
+            .fetch_add(bulk_bytes.unwrap_or(0), Ordering::AcqRel);
         if self.inbox.send(input).is_err() {
-            self.unqueue(bulk_bytes);
+            self.unqueue(bulk_bytes.unwrap_or(0));
             return Err(LinkError::Closed {
                 port: self.config.port.clone(),
             });
         }
-        self.wake();
+        if bulk_bytes.is_none() || queued_before == 0 {
+            self.wake();
+        }
         Ok(())
     }
 
