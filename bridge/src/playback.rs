@@ -926,9 +926,15 @@ impl Watchdog {
 }
 
 /// Carries out the player's commands, every batch tagged with `generation` (the e-stop
-/// generation of the request that started the run). Returns whether it pressed the
-/// e-stop (the player asked for it).
-fn carry_out(links: &[Link], latch: &Latch, commands: Vec<Command>, generation: u64) -> bool {
+/// generation of the request that started the run); `epoch` is the instant of the
+/// player's clock's zero (a start is written at its instant). Returns whether it
+/// pressed the e-stop (the player asked for it).
+fn carry_out(
+    links: &[Link],
+    latch: &Latch,
+    commands: Vec<Command>,
+    (generation, epoch): (u64, Instant),
+) -> bool {
     let mut pressed = false;
     for command in commands {
         let (gateway, result) = match command {
@@ -938,12 +944,19 @@ fn carry_out(links: &[Link], latch: &Latch, commands: Vec<Command>, generation: 
                     .get(gateway)
                     .map(|link| link.enqueue(&batch, generation)),
             ),
-            Command::Priority { gateway, batch } => (
+            Command::Priority {
                 gateway,
-                links
-                    .get(gateway)
-                    .map(|link| link.send_priority(&batch, generation)),
-            ),
+                batch,
+                at_us,
+            } => {
+                let at = epoch + Duration::from_micros(at_us);
+                (
+                    gateway,
+                    links
+                        .get(gateway)
+                        .map(|link| link.send_priority_at(&batch, generation, Some(at))),
+                )
+            }
             Command::Estop => {
                 pressed = true;
                 let failures = estop::press(latch, links);
@@ -1133,7 +1146,12 @@ async fn run(
                 player.fail_with(stall);
             }
         }
-        if carry_out(&links, &latch, player.take_commands(), run_generation) {
+        if carry_out(
+            &links,
+            &latch,
+            player.take_commands(),
+            (run_generation, epoch),
+        ) {
             // A stop the player asked for is not news to it (it failed, and stays so).
             seen_generation = latch.generation();
             urgent = true;

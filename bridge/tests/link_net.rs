@@ -30,6 +30,9 @@ enum Mode {
     Rfc2217,
     /// Agrees to COM-port control but keeps its line at this speed.
     Rfc2217FixedBaud(u32),
+    /// Agrees to everything while the link sets the line up, then never answers a
+    /// SET-BAUDRATE again.
+    Rfc2217MuteAfterSetup,
 }
 
 /// What the fake device server shares with the test.
@@ -84,6 +87,7 @@ impl Server {
                     answering: Arc::clone(&answering),
                     raw: Arc::clone(&raw),
                     line_baud: Arc::clone(&line_baud),
+                    baud_sets: 0,
                 };
                 std::thread::spawn(move || connection.serve());
             }
@@ -127,6 +131,8 @@ struct Connection {
     answering: Arc<AtomicBool>,
     raw: Arc<Mutex<Vec<u8>>>,
     line_baud: Arc<AtomicU32>,
+    /// SET-BAUDRATE commands received on this connection.
+    baud_sets: u32,
 }
 
 impl Connection {
@@ -186,6 +192,10 @@ impl Connection {
                 let (&command, value) = payload.split_first().unwrap();
                 let mut value = value.to_vec();
                 if command == telnet::SET_BAUDRATE {
+                    self.baud_sets += 1;
+                    if self.mode == Mode::Rfc2217MuteAfterSetup && self.baud_sets > 1 {
+                        return;
+                    }
                     if let Mode::Rfc2217FixedBaud(fixed) = self.mode {
                         value = fixed.to_be_bytes().to_vec();
                     }
@@ -332,24 +342,26 @@ async fn a_tcp_link_writes_what_a_serial_link_writes() {
     }
 }
 
-#[tokio::test]
-async fn the_device_server_never_gets_more_than_one_instruction_ahead_of_the_line() {
-    let server = Server::start(Mode::Raw);
-    let link = Link::open(0, LinkConfig::new(server.tcp(), 9600));
-    wait_for_state(&link, LinkState::Up).await;
-
-    // About 1.5 s of line time at 9600 baud (960 bytes/s), in instructions of at most
-    // 15 bytes.
-    let instruction = b"QP[7]=-1234567;".len();
+/// Rows of `instructions` pairs of `QP`/`QV` (15 and 13 bytes) for unit 5.
+fn rows(instructions: usize) -> Batch {
     let mut rows = String::from("*5;");
-    for _ in 0..50 {
+    for _ in 0..instructions {
         rows.push_str("QP[7]=-1234567;QV[7]=765432;");
     }
-    let rows = batch(&rows);
+    batch(&rows)
+}
+
+/// Sends `rows` through a `tcp://` link at `baud` and returns the most bytes the device
+/// server held ahead of what its line could have carried, and whether the whole took
+/// about as long as the line needs.
+async fn bytes_ahead_of_the_line(baud: u32, rows: Batch) -> i64 {
+    let server = Server::start(Mode::Raw);
+    let link = Link::open(0, LinkConfig::new(server.tcp(), baud));
+    wait_for_state(&link, LinkState::Up).await;
     let total = rows.len();
     link.send(rows).await.unwrap();
     let chunks = collect(&server.rx, total);
-    let byte_time = Duration::from_secs_f64(10.0 / 9600.0);
+    let byte_time = Duration::from_secs_f64(10.0 / f64::from(baud));
     let start = chunks[0].0;
     let mut received = 0usize;
     let mut worst_ahead = 0i64;
@@ -359,10 +371,6 @@ async fn the_device_server_never_gets_more_than_one_instruction_ahead_of_the_lin
         let line_bytes = (at.duration_since(start).as_secs_f64() / byte_time.as_secs_f64()) as i64;
         worst_ahead = worst_ahead.max(received as i64 - chunks[0].1.len() as i64 - line_bytes);
     }
-    assert!(
-        worst_ahead <= 2 * instruction as i64,
-        "the device server got {worst_ahead} bytes ahead of the line"
-    );
     // And the whole took about as long as the line needs.
     let took = chunks.last().unwrap().0.duration_since(start);
     let line_time = byte_time * u32::try_from(total - chunks[0].1.len()).unwrap();
@@ -370,6 +378,108 @@ async fn the_device_server_never_gets_more_than_one_instruction_ahead_of_the_lin
         took + Duration::from_millis(60) >= line_time,
         "{took:?} < {line_time:?}"
     );
+    worst_ahead
+}
+
+#[tokio::test]
+async fn the_device_server_never_gets_more_than_one_instruction_ahead_of_the_line() {
+    // About 1.5 s of line time at 9600 baud (960 bytes/s), in instructions of at most
+    // 15 bytes.
+    let instruction = b"QP[7]=-1234567;".len() as i64;
+    let worst_ahead = bytes_ahead_of_the_line(9600, rows(50)).await;
+    assert!(
+        worst_ahead <= 2 * instruction,
+        "the device server got {worst_ahead} bytes ahead of the line"
+    );
+}
+
+#[tokio::test]
+async fn on_a_fast_line_the_device_server_holds_a_few_milliseconds_at_most() {
+    // About 1 s of line time at 115,200 baud. The network driver writes up to 3 ms of
+    // line time at once (34 bytes), 2 ms ahead of the line being free (23 bytes): the
+    // device server holds at most that, and the instruction that did not fit whole.
+    let worst_ahead = bytes_ahead_of_the_line(115_200, rows(400)).await;
+    let limit = 34 + 23 + 15;
+    assert!(
+        worst_ahead <= limit,
+        "the device server got {worst_ahead} bytes ahead of the line (at most {limit})"
+    );
+}
+
+/// When the last byte of `needle` arrived at the device server, among `chunks`.
+fn arrival_of(chunks: &[(Instant, Vec<u8>)], needle: &[u8]) -> Option<Instant> {
+    let all = bytes(chunks);
+    let end = find(&all, needle)? + needle.len();
+    let mut seen = 0;
+    chunks.iter().find_map(|(at, chunk)| {
+        seen += chunk.len();
+        (seen >= end).then_some(*at)
+    })
+}
+
+#[tokio::test]
+async fn a_start_handed_ahead_goes_out_at_its_instant_on_every_link() {
+    let servers = [Server::start(Mode::Raw), Server::start(Mode::Raw)];
+    let links: Vec<Link> = servers
+        .iter()
+        .enumerate()
+        .map(|(index, server)| Link::open(index, LinkConfig::new(server.tcp(), 9600)))
+        .collect();
+    for link in &links {
+        wait_for_state(link, LinkState::Up).await;
+    }
+    // Both lines busy with about 0.6 s of rows, then the start for 150 ms from now.
+    let busy = rows(20);
+    let generation = links[0].latch().generation();
+    for link in &links {
+        link.send(busy.clone()).await.unwrap();
+    }
+    let begin = batch("*0;BG;");
+    let at = Instant::now() + Duration::from_millis(150);
+    for link in &links {
+        link.send_priority_at(&begin, generation, Some(at)).unwrap();
+    }
+    let total = busy.len() + begin.len() + "*5;".len();
+    let mut starts = Vec::new();
+    for server in &servers {
+        let chunks = collect(&server.rx, total);
+        let all = bytes(&chunks);
+        // Rows before and after the start, the unit selected again after it.
+        let start_at = find(&all, b"*0;BG;").expect("the start was written");
+        assert!(start_at > 0, "rows went out before the start's instant");
+        assert!(
+            find(&all[start_at..], b"*0;BG;*5;").is_some(),
+            "{}",
+            all.escape_ascii()
+        );
+        let arrived = arrival_of(&chunks, b"*0;BG;").unwrap();
+        // Not before its instant, and within a few of its own bytes' line time after.
+        assert!(arrived >= at, "the start arrived {:?} early", at - arrived);
+        assert!(
+            arrived - at <= Duration::from_millis(40),
+            "the start arrived {:?} late",
+            arrived - at
+        );
+        starts.push(arrived);
+    }
+    let skew = starts[0].max(starts[1]) - starts[0].min(starts[1]);
+    assert!(skew <= Duration::from_millis(15), "skew {skew:?}");
+}
+
+#[tokio::test]
+async fn an_estop_voids_a_start_waiting_for_its_instant() {
+    let server = Server::start(Mode::Raw);
+    let link = Link::open(0, LinkConfig::new(server.tcp(), 9600));
+    wait_for_state(&link, LinkState::Up).await;
+    let generation = link.latch().generation();
+    let at = Instant::now() + Duration::from_millis(200);
+    link.send_priority_at(&batch("*0;BG;"), generation, Some(at))
+        .unwrap();
+    assert_eq!(link.estop(), None);
+    assert_eq!(bytes(&collect(&server.rx, 8)), b"*0;MO=0;");
+    std::thread::sleep(Duration::from_millis(400));
+    let late: Vec<u8> = server.rx.try_iter().flat_map(|(_, chunk)| chunk).collect();
+    assert!(late.is_empty(), "after the stop: {}", late.escape_ascii());
 }
 
 #[tokio::test]
@@ -544,6 +654,31 @@ async fn a_line_speed_change_is_sent_to_the_rfc2217_server() {
     let set = find(&raw, &[IAC, SB, 44, 1, 0, 0, 0xE1, 0x00, IAC, SE]).expect("SET-BAUDRATE");
     assert!(bdr < set, "the gateway is told before the line moves");
     assert_eq!(bytes(&collect(&server.rx, 10)), b"BDR=57600;");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_estop_during_a_remote_speed_change_does_not_wait_for_the_server() {
+    let server = Server::start(Mode::Rfc2217MuteAfterSetup);
+    let link = Link::open(0, LinkConfig::new(server.rfc2217(), 9600));
+    wait_for_state(&link, LinkState::Up).await;
+    let changing = {
+        let link = link.clone();
+        tokio::spawn(async move { link.change_baud(57_600, Duration::from_secs(3)).await })
+    };
+    assert_eq!(bytes(&collect(&server.rx, 10)), b"BDR=57600;");
+    // The link now waits (up to 3 s) for the server to answer SET-BAUDRATE.
+    tokio::time::sleep(Duration::from_millis(150)).await;
+    let pressed = Instant::now();
+    // The link is `Connecting` while its speed changes: the stop goes all the same.
+    let _ = link.estop();
+    let stop = collect(&server.rx, 8);
+    assert_eq!(bytes(&stop), b"*0;MO=0;");
+    let waited = stop.last().unwrap().0 - pressed;
+    assert!(
+        waited < Duration::from_millis(500),
+        "the stop waited {waited:?} for the server's answer"
+    );
+    assert!(changing.await.unwrap().is_err());
 }
 
 #[tokio::test]

@@ -89,8 +89,9 @@ async fn a_show_plays_on_the_simulated_gateway_and_follows_its_track() {
         )
         .await
         .unwrap();
+    // Playing, and past the start's instant (the show time stays 0 until then).
     let playing = wait_for(&playback, Duration::from_secs(30), |s| {
-        s.state == PlayerState::Playing
+        s.state == PlayerState::Playing && s.show_time_ms > 0
     })
     .await;
     assert_eq!(playing.show.as_deref(), Some("gentle"));

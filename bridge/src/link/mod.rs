@@ -269,8 +269,13 @@ type BaudReply = oneshot::Sender<Result<BaudChanged, BaudError>>;
 enum Input {
     /// Instructions for the bulk lane, issued at an e-stop generation.
     Bulk { generation: u64, batch: Batch },
-    /// Instructions for the priority lane, issued at an e-stop generation.
-    Priority { generation: u64, batch: Batch },
+    /// Instructions for the priority lane, issued at an e-stop generation, written not
+    /// before `not_before` (the synchronised start: every line free for it then).
+    Priority {
+        generation: u64,
+        batch: Batch,
+        not_before: Option<Instant>,
+    },
     /// Move the gateway and the line to `baud`, waiting up to `restart_wait` for the
     /// gateway to answer at it.
     ChangeBaud {
@@ -699,10 +704,27 @@ impl Link {
     /// # Errors
     /// [`LinkError::Down`] / [`LinkError::Closed`] when it cannot be written.
     pub fn send_priority(&self, batch: &Batch, generation: u64) -> Result<(), LinkError> {
+        self.send_priority_at(batch, generation, None)
+    }
+
+    /// As [`Link::send_priority`], written not before `not_before` — the synchronised
+    /// start, handed to every link ahead of its instant: meanwhile a link writes only
+    /// what will have left the line by then, and at the instant the batch goes first.
+    /// An e-stop pressed meanwhile voids it.
+    ///
+    /// # Errors
+    /// As [`Link::send_priority`].
+    pub fn send_priority_at(
+        &self,
+        batch: &Batch,
+        generation: u64,
+        not_before: Option<Instant>,
+    ) -> Result<(), LinkError> {
         self.shared.writable()?;
         self.shared.hand_over(Input::Priority {
             generation,
             batch: batch.clone(),
+            not_before,
         })
     }
 

@@ -38,6 +38,12 @@ impl Pacer {
             .unwrap_or(usize::MAX)
     }
 
+    /// When the line would be free if `len` more bytes were handed over at `now`.
+    pub fn free_after(&self, now: Instant, len: usize) -> Instant {
+        let len = u32::try_from(len).unwrap_or(u32::MAX);
+        self.line_free_at.max(now) + self.byte_time * len
+    }
+
     /// How long to wait at `now` before handing over the next instruction.
     pub fn wait_before_next(&self, now: Instant) -> Duration {
         self.line_free_at

@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 
 use floatball_shared::api::{BaudChanged, LinkState};
 use floatball_shared::ascii::gateway::GREETING;
-use floatball_shared::ascii::{Form, GatewayCommand, Instruction, MAX_LEN, parse_script};
+use floatball_shared::ascii::{Batch, Form, GatewayCommand, Instruction, MAX_LEN, parse_script};
 
 use super::lanes::{Popped, Queues};
 use super::pacer::{Pacer, RateMeter};
@@ -186,6 +186,8 @@ pub(super) fn is_inert(instruction: &[u8]) -> bool {
 /// The writer's queues, and the e-stop generation it last acted on.
 struct Writer {
     queues: Queues,
+    /// A priority batch waiting for its instant (the synchronised start).
+    held: Option<(Instant, Batch)>,
     seen_generation: u64,
     /// A line-speed change asked for and not carried out yet.
     baud_change: Option<(u32, Duration, BaudReply)>,
@@ -205,6 +207,7 @@ impl Writer {
     fn stop(&mut self, shared: &Shared) {
         let dropped = self.queues.clear_bulk();
         self.queues.clear_priority();
+        self.held = None;
         shared.unqueue(dropped);
         self.queues.push_priority(&shared.config.estop);
     }
@@ -212,9 +215,13 @@ impl Writer {
     /// Takes one handed-over input into the queues, dropping it if it is void; a
     /// line-speed change is kept for the writer to carry out once the queues are empty.
     fn accept(&mut self, shared: &Shared, input: Input) {
-        let (generation, batch, bulk) = match input {
-            Input::Bulk { generation, batch } => (generation, batch, true),
-            Input::Priority { generation, batch } => (generation, batch, false),
+        let (generation, batch, bulk, not_before) = match input {
+            Input::Bulk { generation, batch } => (generation, batch, true, None),
+            Input::Priority {
+                generation,
+                batch,
+                not_before,
+            } => (generation, batch, false, not_before),
             Input::ChangeBaud {
                 baud,
                 restart_wait,
@@ -247,6 +254,16 @@ impl Writer {
             return;
         }
         let latched = shared.config.latch.is_latched();
+        if let Some(at) = not_before
+            && !latched
+            && at > Instant::now()
+        {
+            // A second held batch before the first went: the first goes now.
+            if let Some((_, earlier)) = self.held.replace((at, batch)) {
+                self.queues.push_priority(&earlier);
+            }
+            return;
+        }
         let keep = |instruction: &[u8]| !latched || is_inert(instruction);
         let refused = if bulk {
             self.queues.push_bulk_filtered(&batch, keep)
@@ -286,6 +303,7 @@ impl Drive {
     pub(super) fn new(shared: &Shared, now: Instant) -> Self {
         let mut writer = Writer {
             queues: Queues::default(),
+            held: None,
             seen_generation: shared.config.latch.generation(),
             baud_change: None,
         };
@@ -335,7 +353,17 @@ impl Drive {
             }
             None => {}
         }
-        let has_work = self.writer.queues.has_work();
+        let held_until = match &self.writer.held {
+            Some((at, _)) if *at <= now => {
+                if let Some((_, batch)) = self.writer.held.take() {
+                    self.writer.queues.push_priority(&batch);
+                }
+                None
+            }
+            Some((at, _)) => Some(*at),
+            None => None,
+        };
+        let has_work = self.writer.queues.has_work() || held_until.is_some();
         if !has_work && self.greeter.pending.is_none() && self.writer.baud_change.is_some() {
             return Step::ChangeBaud;
         }
@@ -360,11 +388,21 @@ impl Drive {
             let wait = IDLE_TICK.min(self.greeter.wait(now)).max(line_wait);
             return Step::Wait(wait.min(IDLE_TICK));
         }
+        let chunk_limit = if ahead.is_zero() {
+            MAX_LEN
+        } else {
+            MAX_LEN.max(self.pacer.bytes_in(CHUNK_TIME))
+        };
+        if let Some(at) = held_until
+            && (!self.writer.queues.has_work() || self.pacer.free_after(now, chunk_limit) > at)
+        {
+            // The line stays free for the held start: only what leaves it before.
+            return Step::Wait(at.saturating_duration_since(now).min(IDLE_TICK));
+        }
         if line_wait > ahead {
             return Step::Wait((line_wait - ahead).min(IDLE_TICK));
         }
         self.chunk.clear();
-        let chunk_limit = MAX_LEN.max(self.pacer.bytes_in(CHUNK_TIME));
         let mut bulk_bytes = 0;
         while let Some(popped) = self.writer.queues.pop_into(&mut self.instruction) {
             self.chunk.extend_from_slice(&self.instruction);
@@ -432,6 +470,7 @@ impl Drive {
     /// answers a line-speed change still waiting.
     pub(super) fn finish(&mut self, shared: &Shared, inbox: &Receiver<Input>, reason: &str) {
         shared.awaiting_answer.store(false, Ordering::Release);
+        self.writer.held = None;
         let left = self.writer.queues.clear_bulk();
         shared.unqueue(left);
         shared.drop_inbox(inbox);

@@ -24,7 +24,8 @@ struct Line {
     gateway: Gateway,
     baud: u32,
     bulk: VecDeque<Vec<u8>>,
-    priority: VecDeque<Vec<u8>>,
+    /// Instructions and the instant (µs) before which they are not written.
+    priority: VecDeque<(u64, Vec<u8>)>,
     line_free_us: u64,
     in_flight: VecDeque<(u64, Vec<u8>)>,
     answers: VecDeque<(u64, u8)>,
@@ -48,18 +49,22 @@ impl Line {
     }
 
     fn push(&mut self, lane: Lane, batch: &Batch) {
-        let queue = match lane {
-            Lane::Bulk => &mut self.bulk,
-            Lane::Priority => &mut self.priority,
-        };
-        queue.extend(batch.instructions().map(<[u8]>::to_vec));
+        match lane {
+            Lane::Bulk => self.bulk.extend(batch.instructions().map(<[u8]>::to_vec)),
+            Lane::Priority { at_us } => self
+                .priority
+                .extend(batch.instructions().map(|bytes| (at_us, bytes.to_vec()))),
+        }
     }
 }
 
 #[derive(Clone, Copy)]
 enum Lane {
     Bulk,
-    Priority,
+    /// Written first, not before `at_us`.
+    Priority {
+        at_us: u64,
+    },
 }
 
 /// The stand-in bridge.
@@ -135,8 +140,12 @@ impl Rig {
         for command in self.player.take_commands() {
             match command {
                 Command::Bulk { gateway, batch } => self.lines[gateway].push(Lane::Bulk, &batch),
-                Command::Priority { gateway, batch } => {
-                    self.lines[gateway].push(Lane::Priority, &batch);
+                Command::Priority {
+                    gateway,
+                    batch,
+                    at_us,
+                } => {
+                    self.lines[gateway].push(Lane::Priority { at_us }, &batch);
                 }
                 Command::Estop => self.send_stop(),
             }
@@ -148,7 +157,8 @@ impl Rig {
         let estop = self.estop.clone();
         for line in &mut self.lines {
             line.bulk.clear();
-            line.push(Lane::Priority, &estop);
+            line.priority.clear();
+            line.push(Lane::Priority { at_us: 0 }, &estop);
         }
     }
 
@@ -164,9 +174,18 @@ impl Rig {
     fn step(&mut self) {
         let end = self.now_us + STEP_US;
         for (index, line) in self.lines.iter_mut().enumerate() {
-            // Writer: one instruction at a time, priority first, as the bridge's link.
+            // Writer: one instruction at a time, priority first, as the bridge's link; a
+            // start held for its instant keeps the line free until then.
             while line.line_free_us <= end {
-                let next = if let Some(next) = line.priority.pop_front() {
+                let mut start = line.line_free_us.max(self.now_us);
+                let next = if let Some(&(at_us, _)) = line.priority.front() {
+                    if at_us > end {
+                        break;
+                    }
+                    start = start.max(at_us);
+                    let Some((_, next)) = line.priority.pop_front() else {
+                        break;
+                    };
                     if next.first() == Some(&b'*') {
                         line.reselect = true;
                     }
@@ -189,7 +208,6 @@ impl Rig {
                 } else {
                     break;
                 };
-                let start = line.line_free_us.max(self.now_us);
                 line.line_free_us = start + line.byte_us() * next.len() as u64;
                 line.wire.push((start, next.clone()));
                 line.in_flight.push_back((line.line_free_us, next));
@@ -290,8 +308,11 @@ fn follow(rig: &mut Rig, show: &Show) -> f64 {
 /// Steps until the show ends, comparing every ball with the show every 100 ms; the
 /// player reached `Playing` at `start_us`. Returns the largest deviation, mm.
 fn compare_from(rig: &mut Rig, show: &Show, start_us: u64) -> f64 {
-    // The units began when `*0;BG;` finished crossing the line.
-    let begin_us = start_us + crate::line::Line::new(rig.installation.gateways[0].baud).time_us(6);
+    // The units began when `*0;BG;`, written at the start's instant, finished crossing
+    // the line.
+    let begin_us = start_us
+        + super::player::START_LEAD_US
+        + crate::line::Line::new(rig.installation.gateways[0].baud).time_us(6);
     let mut sampler = Sampler::new(show);
     let mut expected = vec![0.0f32; show.tracks.len()];
     let mut worst: f64 = 0.0;
@@ -511,8 +532,9 @@ fn two_gateways_start_together() {
     rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
     rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
     let start_us = rig.now_us;
-    // Both gateways' balls are under way within the same couple of milliseconds…
-    rig.run_until(3_000, |rig| {
+    // Both gateways' balls are under way within the same couple of milliseconds after
+    // the start's instant…
+    rig.run_until(super::player::START_LEAD_US + 3_000, |rig| {
         rig.lines
             .iter()
             .all(|line| line.gateway.units().all(|unit| unit.moving))

@@ -54,6 +54,11 @@ use crate::show::Show;
 /// and refills follow the show's time closely.
 pub const REFILL_LOW_BYTES: usize = 256;
 
+/// How long after the player decides to start the start is written on every gateway,
+/// µs: time for the caller to hand it to every line and to keep each line free for it
+/// (longer than the longest instruction at 9,600 baud, 20.8 ms).
+pub const START_LEAD_US: u64 = 25_000;
+
 /// How often the player wants to be polled while something is under way, µs.
 pub const TICK_US: u64 = 10_000;
 
@@ -169,12 +174,17 @@ pub enum Command {
         /// The instructions.
         batch: Batch,
     },
-    /// Write `batch` on `gateway` ahead of its queued bulk (the synchronised start).
+    /// Write `batch` on `gateway` ahead of its queued bulk (the synchronised start),
+    /// not before `at_us` on the player's clock: every gateway's start carries the same
+    /// instant, [`START_LEAD_US`] after the player decided it, so the caller can keep
+    /// each line free for it and write them all at once.
     Priority {
         /// The gateway.
         gateway: usize,
         /// The instructions.
         batch: Batch,
+        /// When to write them, µs on the player's clock.
+        at_us: u64,
     },
     /// Stop the whole matrix now, through the caller's one e-stop path (every
     /// gateway's configured stop, ahead of everything, queued work dropped). The player

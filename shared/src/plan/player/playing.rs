@@ -1,9 +1,10 @@
-//! The playing phase: every gateway started at once with `*0;BG;` on its priority lane,
+//! The playing phase: every gateway started at once with `*0;BG;` on its priority lane
+//! at one instant ([`START_LEAD_US`] ahead),
 //! streaming gateways refilled round by round by the rule of
 //! [`schedule`](crate::plan::schedule), and, when a show ends, the next cycle, the
 //! next entry, or the end of the playlist (or its start again, looping).
 
-use super::{Command, LinkView, NextRun, Player, REFILL_LOW_BYTES, Step, next_run};
+use super::{Command, LinkView, NextRun, Player, REFILL_LOW_BYTES, START_LEAD_US, Step, next_run};
 use crate::plan::{RunMode, schedule, stream};
 
 /// Time after the last row for the last ball to settle, µs.
@@ -59,12 +60,14 @@ impl Player {
         let mut start_us = Vec::with_capacity(plan.gateways.len());
         let mut next_row = Vec::with_capacity(plan.gateways.len());
         let begin = stream::begin();
+        let at_us = now_us + START_LEAD_US;
         for run in &plan.gateways {
-            start_us.push(now_us + run.line.time_us(begin.len()));
+            start_us.push(at_us + run.line.time_us(begin.len()));
             next_row.push(run.preload_rows);
             self.commands.push(Command::Priority {
                 gateway: run.gateway,
                 batch: begin.clone(),
+                at_us,
             });
         }
         self.believed
