@@ -135,10 +135,13 @@ fn memory_bytes(pid: u32, field: &str) -> u64 {
 /// `floatball simulate --listen`: `gateways` simulated UIM2503 gateways of 100 units,
 /// each on its own TCP port; every synchronised start it received, gateway by gateway,
 /// with the time (unix ns) its last byte arrived.
+/// Per gateway, every start it received: (arrived at its socket, read), Unix ns.
+type Starts = Vec<Vec<(u64, u64)>>;
+
 struct Simulator {
     child: Child,
     ports: Vec<u16>,
-    starts_ns: Arc<Mutex<Vec<Vec<u64>>>>,
+    starts_ns: Arc<Mutex<Starts>>,
 }
 
 impl Simulator {
@@ -187,7 +190,7 @@ impl Simulator {
         self.child.id()
     }
 
-    fn starts_ns(&self) -> Vec<Vec<u64>> {
+    fn starts_ns(&self) -> Starts {
         self.starts_ns.lock().expect("starts").clone()
     }
 }
@@ -209,12 +212,15 @@ fn listening_port(line: &str) -> Option<(usize, u16)> {
     Some((gateway, port))
 }
 
-/// `gateway G: start received at UNIX_NS ns`: (G, UNIX_NS).
-fn start_received(line: &str) -> Option<(usize, u64)> {
+/// `gateway G: start received at UNIX_NS ns, read at READ_NS ns`: (G, (UNIX_NS, READ_NS)).
+fn start_received(line: &str) -> Option<(usize, (u64, u64))> {
     let rest = line.strip_prefix("gateway ")?;
     let (gateway, rest) = rest.split_once(": start received at ")?;
-    let at_ns = rest.strip_suffix(" ns")?;
-    Some((gateway.parse().ok()?, at_ns.trim().parse().ok()?))
+    let (at_ns, read_ns) = rest.strip_suffix(" ns")?.split_once(" ns, read at ")?;
+    Some((
+        gateway.parse().ok()?,
+        (at_ns.trim().parse().ok()?, read_ns.trim().parse().ok()?),
+    ))
 }
 
 /// Every status seen: when, how large, what.
@@ -447,22 +453,32 @@ async fn bench(gateways: usize, seconds: u64) -> Outcome {
     if let Some(first) = starts_ns
         .iter()
         .map(|starts| starts.first().copied())
-        .collect::<Option<Vec<u64>>>()
+        .collect::<Option<Vec<(u64, u64)>>>()
         .filter(|first| !first.is_empty())
     {
-        let earliest = first.iter().min().copied().unwrap_or_default();
-        let mut offsets_ms: Vec<f64> = first
-            .iter()
-            .map(|at_ns| (at_ns - earliest) as f64 / 1e6)
-            .collect();
-        offsets_ms.sort_by(f64::total_cmp);
+        let skew = |times_ns: Vec<u64>| {
+            let earliest = times_ns.iter().min().copied().unwrap_or_default();
+            let mut offsets_ms: Vec<f64> = times_ns
+                .iter()
+                .map(|at_ns| (at_ns - earliest) as f64 / 1e6)
+                .collect();
+            offsets_ms.sort_by(f64::total_cmp);
+            format!(
+                "p50 {:.2} ms, p99 {:.2} ms, spread (max) {:.2} ms",
+                quantile(&offsets_ms, 0.5),
+                quantile(&offsets_ms, 0.99),
+                offsets_ms.last().copied().unwrap_or_default(),
+            )
+        };
         println!(
-            "scale-bench:   start skew over {} gateways (last byte of *0;BG; after the first gateway's): \
-             p50 {:.2} ms, p99 {:.2} ms, spread (max) {:.2} ms",
-            offsets_ms.len(),
-            quantile(&offsets_ms, 0.5),
-            quantile(&offsets_ms, 0.99),
-            offsets_ms.last().copied().unwrap_or_default(),
+            "scale-bench:   start skew over {} gateways (last byte of *0;BG; at each simulated \
+             gateway's socket, after the first gateway's): {}",
+            first.len(),
+            skew(first.iter().map(|(at_ns, _)| *at_ns).collect()),
+        );
+        println!(
+            "scale-bench:   (the same, as the simulator's threads read it: {})",
+            skew(first.iter().map(|(_, read_ns)| *read_ns).collect()),
         );
     } else if !starts_ns.is_empty() {
         println!(
@@ -540,8 +556,10 @@ fn the_simulators_lines_are_read() {
         Some((7, 40007))
     );
     assert_eq!(
-        start_received("gateway 2: start received at 1764000000123456789 ns"),
-        Some((2, 1_764_000_000_123_456_789))
+        start_received(
+            "gateway 2: start received at 1764000000123456789 ns, read at 1764000000123556789 ns"
+        ),
+        Some((2, (1_764_000_000_123_456_789, 1_764_000_000_123_556_789)))
     );
     assert_eq!(
         start_received("gateway 2: stored BDR=9600; it takes effect at its restart (SIGHUP)"),

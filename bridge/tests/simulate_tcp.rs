@@ -62,8 +62,17 @@ impl Simulator {
         stream
     }
 
-    /// The next `count` start lines: (gateway, unix ns).
+    /// The next `count` start lines: (gateway, unix ns the simulated line took it).
     fn starts(&self, count: usize) -> Vec<(usize, u128)> {
+        self.start_lines(count)
+            .into_iter()
+            .map(|(gateway, _, read_ns)| (gateway, read_ns))
+            .collect()
+    }
+
+    /// The next `count` start lines: (gateway, unix ns it arrived at the socket, unix
+    /// ns the simulated line took it).
+    fn start_lines(&self, count: usize) -> Vec<(usize, u128, u128)> {
         (0..count)
             .map(|_| {
                 let line = self.line();
@@ -71,8 +80,15 @@ impl Simulator {
                     .strip_prefix("gateway ")
                     .and_then(|rest| rest.split_once(": start received at "))
                     .unwrap_or_else(|| panic!("not a start line: {line}"));
-                let ns = rest.strip_suffix(" ns").expect(&line);
-                (gateway.parse().expect(&line), ns.parse().expect(&line))
+                let (arrived, read) = rest
+                    .strip_suffix(" ns")
+                    .and_then(|rest| rest.split_once(" ns, read at "))
+                    .expect(&line);
+                (
+                    gateway.parse().expect(&line),
+                    arrived.parse().expect(&line),
+                    read.parse().expect(&line),
+                )
             })
             .collect()
     }
@@ -179,13 +195,17 @@ fn the_socket_is_read_no_faster_than_the_line_carries_bytes() {
     let simulator = Simulator::start(1, 9600, &["--units", "2"]);
     let mut client = simulator.connect(0);
     client.write_all(&b"*0;BG;".repeat(100)).unwrap();
-    let starts = simulator.starts(100);
-    let spread_s = (starts[99].1 - starts[0].1) as f64 / 1e9;
+    let starts = simulator.start_lines(100);
+    let spread_s = (starts[99].2 - starts[0].2) as f64 / 1e9;
     let line_s = (600.0 - 256.0) / 960.0;
     assert!(
         spread_s > line_s * 0.9 && spread_s < line_s + 1.0,
-        "100 starts arrived over {spread_s} s; the line carries them in {line_s} s"
+        "100 starts were read over {spread_s} s; the line carries them in {line_s} s"
     );
+    // They all arrived at the socket at once (one write), long before the last was read.
+    let arrived_s = (starts[99].1 - starts[0].1) as f64 / 1e9;
+    assert!(arrived_s < 0.05, "100 starts arrived over {arrived_s} s");
+    assert!(starts.iter().all(|&(_, arrived, read)| arrived <= read));
 }
 
 #[test]

@@ -77,6 +77,11 @@ pub(super) enum Step {
 /// instruction): fewer, larger writes on a fast line.
 pub(super) const CHUNK_TIME: Duration = Duration::from_millis(3);
 
+/// How long a line is left idle before a held start at least: what the far end's line
+/// still carries when the pacer thinks it free (a late read, a device server's own
+/// delay) is gone by the instant.
+const START_GUARD: Duration = Duration::from_millis(2);
+
 /// How long a line with a backlog is left before it is tried again.
 const BACKLOG_RETRY: Duration = Duration::from_millis(1);
 
@@ -394,7 +399,8 @@ impl Drive {
             MAX_LEN.max(self.pacer.bytes_in(CHUNK_TIME))
         };
         if let Some(at) = held_until
-            && (!self.writer.queues.has_work() || self.pacer.free_after(now, chunk_limit) > at)
+            && (!self.writer.queues.has_work()
+                || self.pacer.free_after(now, chunk_limit) + START_GUARD > at)
         {
             // The line stays free for the held start: only what leaves it before.
             return Step::Wait(at.saturating_duration_since(now).min(IDLE_TICK));

@@ -40,20 +40,26 @@
 //!   `floatball simulating gateway {i} with {units} units at {baud} baud on tcp {socket}`
 //!   (the socket is the last word);
 //! - **per synchronised start `*0;BG;` received**, at once:
-//!   `gateway {i}: start received at {unix_ns} ns` — `{unix_ns}` is the wall-clock time
-//!   ([`SystemTime`], nanoseconds since the Unix epoch, decimal) at which the start's
-//!   last byte was taken from the socket onto the simulated line;
+//!   `gateway {i}: start received at {unix_ns} ns, read at {read_ns} ns` — wall-clock
+//!   times ([`SystemTime`], nanoseconds since the Unix epoch, decimal): `{unix_ns}` when
+//!   the segment holding the start's last byte arrived at the gateway's socket (the
+//!   kernel's receive timestamp, `SO_TIMESTAMPNS`; the read time where the system gives
+//!   none), `{read_ns}` when this process took it from the socket onto the simulated
+//!   line (later by its own thread's scheduling);
 //! - `gateway {i}: stored BDR={baud}; it takes effect at its restart (SIGHUP)`;
 //! - `gateway {i}: restarted; the line runs at {baud} baud`.
 
-use std::io::{ErrorKind, Read as _, Write as _};
+use std::io::{ErrorKind, IoSliceMut, Write as _};
 use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::os::fd::AsRawFd;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime};
 
 use floatball_shared::sim::GatewayConfig;
+use nix::sys::socket::{ControlMessageOwned, MsgFlags, recvmsg, setsockopt, sockopt};
+use nix::sys::time::TimeSpec;
 
 use super::{LineIntake, say, say_stored_baud};
 use crate::link::sim::SimEngine;
@@ -288,15 +294,15 @@ impl Gateway {
             }
             self.read_timeout = timeout;
         }
-        match client.read(&mut buffer[..room]) {
-            Ok(0) => self.drop_client("it closed the connection"),
-            Ok(n) => {
+        match read_stamped(client, &mut buffer[..room]) {
+            Ok((0, _)) => self.drop_client("it closed the connection"),
+            Ok((n, arrived)) => {
                 let at = Instant::now();
                 let wall = SystemTime::now();
                 self.intake.accept(at, n);
                 let bytes = &buffer[..n];
                 self.engine.receive(at, bytes);
-                self.look_for_starts(bytes, wall);
+                self.look_for_starts(bytes, arrived.unwrap_or(wall), wall);
                 say_stored_baud(
                     &self.engine,
                     &mut self.stored,
@@ -351,6 +357,13 @@ impl Gateway {
         {
             tracing::warn!("simulated gateway {}: {err}", self.index);
         }
+        if let Err(err) = setsockopt(stream.as_raw_fd(), sockopt::ReceiveTimestampns, &true) {
+            tracing::warn!(
+                "simulated gateway {}: no receive timestamps ({err}); a start's arrival \
+                 is the time it is read",
+                self.index
+            );
+        }
         if self.client.replace(stream).is_some() {
             tracing::info!(
                 "simulated gateway {}: a new client replaced the old one",
@@ -365,18 +378,22 @@ impl Gateway {
         self.client = None;
     }
 
-    /// Says, for every synchronised start completed by `bytes`, when it arrived.
-    fn look_for_starts(&mut self, bytes: &[u8], wall: SystemTime) {
+    /// Says, for every synchronised start completed by `bytes`, when it arrived at the
+    /// socket (`arrived`) and when it was read from it (`read`).
+    fn look_for_starts(&mut self, bytes: &[u8], arrived: SystemTime, read: SystemTime) {
+        let unix_ns = |at: SystemTime| {
+            at.duration_since(SystemTime::UNIX_EPOCH)
+                .map_or(0, |since| since.as_nanos())
+        };
         for &byte in bytes {
             self.start_matched = next_match(self.start_matched, byte);
             if self.start_matched == START.len() {
                 self.start_matched = 0;
-                let unix_ns = wall
-                    .duration_since(SystemTime::UNIX_EPOCH)
-                    .map_or(0, |since| since.as_nanos());
                 say(&format!(
-                    "gateway {}: start received at {unix_ns} ns",
-                    self.index
+                    "gateway {}: start received at {} ns, read at {} ns",
+                    self.index,
+                    unix_ns(arrived),
+                    unix_ns(read)
                 ));
             }
         }
@@ -395,6 +412,34 @@ impl Gateway {
             self.index
         ));
     }
+}
+
+/// Reads from `client` into `buffer`: how many bytes, and when the last of them
+/// arrived at the socket (the kernel's receive timestamp, if it gave one).
+fn read_stamped(
+    client: &TcpStream,
+    buffer: &mut [u8],
+) -> std::io::Result<(usize, Option<SystemTime>)> {
+    let mut iov = [IoSliceMut::new(buffer)];
+    let mut space = nix::cmsg_space!(TimeSpec);
+    let message = recvmsg::<()>(
+        client.as_raw_fd(),
+        &mut iov,
+        Some(&mut space),
+        MsgFlags::empty(),
+    )
+    .map_err(|errno| std::io::Error::from_raw_os_error(errno as i32))?;
+    let arrived = message.cmsgs().find_map(|cmsg| match cmsg {
+        ControlMessageOwned::ScmTimestampns(at) => {
+            let since = Duration::new(
+                u64::try_from(at.tv_sec()).ok()?,
+                u32::try_from(at.tv_nsec()).ok()?,
+            );
+            SystemTime::UNIX_EPOCH.checked_add(since)
+        }
+        _ => None,
+    });
+    Ok((message.bytes, arrived))
 }
 
 /// How many bytes of [`START`] match after `byte`, when `matched` did before it. No
