@@ -157,25 +157,18 @@ fn run(mut poll: Poll, adopted: &Receiver<Adoption>) {
         }
         let pass_started = Instant::now();
         let mut sleep = READ_TICK;
+        // Starts due go first, on every line, before anything is read or streamed: the
+        // synchronised start leaves all sockets within the shortest time.
         for slot in &mut slots {
-            let Some(served) = slot else {
-                continue;
-            };
-            match turn(served, pass_started) {
-                Ok(wait) => sleep = sleep.min(wait),
-                Err(back) => {
-                    if let Some(mut served) = slot.take() {
-                        let _ = poll.registry().deregister(served.session.io.source());
-                        let back = match back {
-                            Back::Done(reason) => {
-                                Back::Done(served.session.lost_reason.take().unwrap_or(reason))
-                            }
-                            Back::ChangeBaud => Back::ChangeBaud,
-                        };
-                        let _ = served.back.send((served.session, back));
-                    }
-                }
+            if slot
+                .as_ref()
+                .is_some_and(|served| served.session.drive.start_due(pass_started))
+            {
+                visit(slot, &poll, pass_started, &mut sleep);
             }
+        }
+        for slot in &mut slots {
+            visit(slot, &poll, pass_started, &mut sleep);
         }
         if slots.iter().all(Option::is_none) {
             sleep = IDLE_TICK;
@@ -184,6 +177,28 @@ fn run(mut poll: Poll, adopted: &Receiver<Adoption>) {
         let elapsed = pass_started.elapsed();
         let sleep = sleep.max(PASS.saturating_sub(elapsed));
         std::thread::park_timeout(sleep);
+    }
+}
+
+/// Gives the line in `slot` its turn; hands the session back when it is done.
+fn visit(slot: &mut Option<Served>, poll: &Poll, now: Instant, sleep: &mut Duration) {
+    let Some(served) = slot else {
+        return;
+    };
+    match turn(served, now) {
+        Ok(wait) => *sleep = (*sleep).min(wait),
+        Err(back) => {
+            if let Some(mut served) = slot.take() {
+                let _ = poll.registry().deregister(served.session.io.source());
+                let back = match back {
+                    Back::Done(reason) => {
+                        Back::Done(served.session.lost_reason.take().unwrap_or(reason))
+                    }
+                    Back::ChangeBaud => Back::ChangeBaud,
+                };
+                let _ = served.back.send((served.session, back));
+            }
+        }
     }
 }
 

@@ -133,6 +133,12 @@ impl Queues {
         !self.priority.is_empty() || !self.bulk.is_empty()
     }
 
+    /// Whether the instruction [`Queues::pop_into`] would write next is the priority
+    /// lane's.
+    pub fn next_is_priority(&self) -> bool {
+        !self.priority.is_empty()
+    }
+
     /// Length of the instruction [`Queues::pop_into`] would write next.
     pub fn next_len(&self) -> Option<usize> {
         if let Some(&len) = self.priority.lens.front() {

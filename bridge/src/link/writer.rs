@@ -16,8 +16,9 @@
 //! window, gathering consecutive whole instructions into one write of at most
 //! [`floatball_shared::ascii::MAX_LEN`] bytes (the longest single instruction) or
 //! [`CHUNK_TIME`] of line time, whichever is more — so an e-stop waits for at most
-//! that write plus the window: at 9,600 baud one instruction's time as before, at
-//! 115,200 baud about 5 ms.
+//! that write plus the window: at 9,600 baud one instruction's time as before (up to
+//! 20.8 ms), at 115,200 baud about 12 ms. Fewer, larger writes are what lets one thread
+//! stream to a hundred gateways.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Receiver;
@@ -75,7 +76,7 @@ pub(super) enum Step {
 
 /// The line time one write of the network driver may hold (at least one longest
 /// instruction): fewer, larger writes on a fast line.
-pub(super) const CHUNK_TIME: Duration = Duration::from_millis(3);
+pub(super) const CHUNK_TIME: Duration = Duration::from_millis(10);
 
 /// How long a line is left idle before a held start at least: what the far end's line
 /// still carries when the pacer thinks it free (a late read, a device server's own
@@ -410,17 +411,22 @@ impl Drive {
         }
         self.chunk.clear();
         let mut bulk_bytes = 0;
+        let mut priority = None;
         while let Some(popped) = self.writer.queues.pop_into(&mut self.instruction) {
             self.chunk.extend_from_slice(&self.instruction);
             if popped == Popped::Bulk {
                 bulk_bytes += self.instruction.len();
             }
+            // The priority lane's instructions (a start, a stop) go in a write of their
+            // own: as short as they are.
+            let first_was_priority = *priority.get_or_insert(popped == Popped::Priority);
             let fits = self
                 .writer
                 .queues
                 .next_len()
                 .is_some_and(|next| self.chunk.len() + next <= chunk_limit);
-            if ahead.is_zero() || !fits {
+            let next_is_priority = self.writer.queues.next_is_priority();
+            if ahead.is_zero() || !fits || first_was_priority != next_is_priority {
                 break;
             }
         }
@@ -440,6 +446,11 @@ impl Drive {
             .fetch_add(self.chunk.len() as u64, Ordering::AcqRel);
         shared.unqueue(bulk_bytes);
         Step::Wait(Duration::ZERO)
+    }
+
+    /// Whether a held start is due at `now`.
+    pub(super) fn start_due(&self, now: Instant) -> bool {
+        self.writer.held.as_ref().is_some_and(|(at, _)| *at <= now)
     }
 
     /// Carries out the line-speed change [`Step::ChangeBaud`] announced, with `line` to
