@@ -23,12 +23,12 @@ use floatball_shared::ascii::{Batch, EncodeError, Form};
 use floatball_shared::plan::installation::SIM_PORT;
 use floatball_shared::plan::{DriveKind, Installation};
 use floatball_shared::sim::GatewayConfig;
-use tokio::sync::broadcast;
+use tokio::sync::{Notify, broadcast};
 
 use crate::commission::sim_units::SimUnits;
 use crate::config::Config;
 use crate::estop::Latch;
-use crate::link::{Link, LinkConfig};
+use crate::link::{FeedbackSource, Link, LinkConfig};
 
 /// How many relayed frames a slow WebSocket client may fall behind before it is told
 /// that it missed some.
@@ -41,6 +41,9 @@ pub struct Gateways {
     /// copy or swap the pointer.
     links: RwLock<Arc<Vec<Link>>>,
     feedback: broadcast::Sender<FeedbackFrame>,
+    /// Wakes the links' relays when a WebSocket session subscribes to the feedback
+    /// (while nobody does, they do not read their link's frames at all).
+    wanted: Arc<Notify>,
     /// The e-stop's bytes, for links opened later.
     estop: Batch,
     /// The one e-stop latch every link obeys.
@@ -81,6 +84,7 @@ impl Gateways {
         let gateways = Self {
             links: RwLock::new(Arc::new(Vec::new())),
             feedback,
+            wanted: Arc::new(Notify::new()),
             estop,
             latch: Arc::clone(latch),
             data_dir: data_dir.to_path_buf(),
@@ -120,8 +124,9 @@ impl Gateways {
         let link = Link::open(index, link);
         tokio::spawn(relay_feedback(
             link.index(),
-            link.feedback(),
+            link.feedback_source(),
             self.feedback.clone(),
+            Arc::clone(&self.wanted),
         ));
         link
     }
@@ -200,7 +205,9 @@ impl Gateways {
 
     /// Every feedback frame from every gateway from now on.
     pub fn subscribe_feedback(&self) -> broadcast::Receiver<FeedbackFrame> {
-        self.feedback.subscribe()
+        let frames = self.feedback.subscribe();
+        self.wanted.notify_waiters();
+        frames
     }
 
     /// Queues `batch` on the bulk lane of `gateway`, or of every gateway when `None`,
@@ -239,16 +246,43 @@ impl Gateways {
     }
 }
 
+/// How often a relay with nobody listening looks whether its link is gone.
+const RELAY_IDLE_CHECK: std::time::Duration = std::time::Duration::from_secs(1);
+
 /// Forwards one link's frames, tagged with its gateway index, until the link is gone.
+/// While no WebSocket session listens (most of the time: the app asks for frames only
+/// on its console) it does not read its link's frames at all — a hundred gateways send
+/// thousands a second — and waits for `wanted`.
 async fn relay_feedback(
     gateway: usize,
-    mut frames: broadcast::Receiver<floatball_shared::feedback::Frame>,
+    source: FeedbackSource,
     relay: broadcast::Sender<FeedbackFrame>,
+    wanted: Arc<Notify>,
 ) {
+    let mut frames: Option<broadcast::Receiver<floatball_shared::feedback::Frame>> = None;
     loop {
-        match frames.recv().await {
-            // No subscriber is not an error: frames are only for who listens, and
-            // with nobody listening (most of the time) none is built.
+        if relay.receiver_count() == 0 {
+            frames = None;
+            let subscribed = wanted.notified();
+            tokio::pin!(subscribed);
+            subscribed.as_mut().enable();
+            if relay.receiver_count() == 0 {
+                let _ = tokio::time::timeout(RELAY_IDLE_CHECK, subscribed).await;
+                if !source.is_open() {
+                    return;
+                }
+                continue;
+            }
+        }
+        let receiver = match frames.as_mut() {
+            Some(receiver) => receiver,
+            None => match source.subscribe() {
+                Some(receiver) => frames.insert(receiver),
+                None => return,
+            },
+        };
+        match receiver.recv().await {
+            // The last listener left since: back to waiting (the check above).
             Ok(_) if relay.receiver_count() == 0 => {}
             Ok(frame) => {
                 let _ = relay.send(FeedbackFrame {

@@ -489,6 +489,28 @@ impl Shared {
     }
 }
 
+/// Subscribes to a link's feedback frames on demand, without keeping the link open
+/// ([`Link::feedback_source`]).
+#[derive(Debug, Clone)]
+pub struct FeedbackSource {
+    shared: std::sync::Weak<Shared>,
+}
+
+impl FeedbackSource {
+    /// Every frame decoded from now on; `None` once the link is shut down.
+    pub fn subscribe(&self) -> Option<broadcast::Receiver<Frame>> {
+        let shared = self.shared.upgrade()?;
+        (!shared.is_closed()).then(|| shared.feedback.subscribe())
+    }
+
+    /// Whether the link is still open.
+    pub fn is_open(&self) -> bool {
+        self.shared
+            .upgrade()
+            .is_some_and(|shared| !shared.is_closed())
+    }
+}
+
 /// Shuts the link down when the last handle is dropped.
 #[derive(Debug)]
 struct CloseOnDrop(Arc<Shared>);
@@ -765,6 +787,13 @@ impl Link {
     /// Every feedback frame decoded from now on.
     pub fn feedback(&self) -> broadcast::Receiver<Frame> {
         self.shared.feedback.subscribe()
+    }
+
+    /// A way to subscribe to the feedback later that does not keep the link open.
+    pub fn feedback_source(&self) -> FeedbackSource {
+        FeedbackSource {
+            shared: Arc::downgrade(&self.shared),
+        }
     }
 
     /// The simulated gateway behind this link, if it is one.
