@@ -2,7 +2,9 @@
 //! and checked (valid, feasible on its lines, every gateway connected), or refused with
 //! a [`StartError`] saying why.
 
-use super::{Entry, LinkView};
+use std::sync::Arc;
+
+use super::{Entry, EntryTiming, LinkView};
 use crate::api::Problem;
 use crate::codes::{Code, Coded, Params};
 use crate::params;
@@ -12,11 +14,24 @@ use crate::plan::{Installation, Plan, PlanOptions};
 
 /// A playlist planned and checked, ready to start: the slow part of Start, which the
 /// caller may run away from the player (it needs only the installation).
+///
+/// It holds each entry's plan (shared: a clone is a few pointers, so the caller may
+/// keep one for the next Start while the player plays another) and each entry's
+/// timing, not the shows: once planned, a show's tracks are not needed to play it (a
+/// 10,000-ball minute's are 72 MB beside its plan's 60 MB).
 #[derive(Debug, Clone)]
 pub struct Prepared {
-    pub(super) plans: Vec<Plan>,
-    pub(super) entries: Vec<Entry>,
+    pub(super) plans: Vec<Arc<Plan>>,
+    pub(super) entries: Vec<EntryTiming>,
     pub(super) loop_playlist: bool,
+}
+
+impl Prepared {
+    /// The plan of each entry, in order.
+    #[must_use]
+    pub fn plans(&self) -> &[Arc<Plan>] {
+        &self.plans
+    }
 }
 
 /// Plans every entry of a playlist for `installation`, refusing an invalid or
@@ -53,11 +68,11 @@ pub fn prepare(
                 fixes,
             });
         }
-        plans.push(plan);
+        plans.push(Arc::new(plan));
     }
     Ok(Prepared {
         plans,
-        entries,
+        entries: entries.iter().map(Entry::timing).collect(),
         loop_playlist,
     })
 }
