@@ -53,17 +53,22 @@ pub fn prepare(
         repeat_forever: loop_playlist && entries.len() == 1,
     };
     let mut plans = Vec::with_capacity(entries.len());
-    for (index, entry) in entries.iter().enumerate() {
-        let plan =
-            Plan::new(&entry.show, installation, options).map_err(|error| StartError::Invalid {
+    let mut timings = Vec::with_capacity(entries.len());
+    for (index, entry) in entries.into_iter().enumerate() {
+        timings.push(entry.timing());
+        let name = entry.show.name.clone();
+        // Taken: each track is freed as it is planned.
+        let plan = Plan::from_show(entry.show, installation, options).map_err(|error| {
+            StartError::Invalid {
                 entry: index + 1,
-                show: entry.show.name.clone(),
+                show: name.clone(),
                 reason: Box::new(Why::Refused(error)),
-            })?;
+            }
+        })?;
         if let (_, Some(reason), fixes) = line_verdict(&plan, installation) {
             return Err(StartError::Infeasible {
                 entry: index + 1,
-                show: entry.show.name.clone(),
+                show: name,
                 reason: Box::new(reason),
                 fixes,
             });
@@ -72,7 +77,7 @@ pub fn prepare(
     }
     Ok(Prepared {
         plans,
-        entries: entries.iter().map(Entry::timing).collect(),
+        entries: timings,
         loop_playlist,
     })
 }
