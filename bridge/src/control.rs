@@ -84,9 +84,10 @@ pub fn playlist_key(state: &AppState) -> Option<PlaylistKey> {
 }
 
 /// The stored playlist for Start, Reset or the armer: the one prepared last when it is
-/// what is stored now (nothing read nor planned again), else read from the store (on
-/// a blocking thread) with its key, taken before reading and kept only if the same
-/// after (a show replaced meanwhile is planned again next time).
+/// what is stored now (nothing read nor planned again), else read from the store on
+/// a blocking thread and, for UIM2503 gateways, planned on the same thread and kept
+/// under its key, taken before reading and kept only if the same after (a show
+/// replaced meanwhile is planned again next time).
 ///
 /// # Errors
 /// A show the playlist names cannot be read.
@@ -99,9 +100,20 @@ pub async fn playlist(state: &AppState) -> Result<Playlist, ServerMessage> {
         return Ok(Playlist::Prepared(prepared));
     }
     let reading = state.clone();
-    let (entries, loop_playlist, key_after) = tokio::task::spawn_blocking(move || {
-        playlist_entries(&reading)
-            .map(|(entries, loop_playlist)| (entries, loop_playlist, playlist_key(&reading)))
+    tokio::task::spawn_blocking(move || {
+        let (entries, loop_playlist) = playlist_entries(&reading)?;
+        let key = key.filter(|key| playlist_key(&reading).as_ref() == Some(key));
+        let playback = reading.playback();
+        Ok(if playback.plans_lines() {
+            // Planned here, on the thread that read the shows (see `Playlist::Planned`).
+            Playlist::Planned(playback.prepare_blocking(entries, loop_playlist, key))
+        } else {
+            Playlist::Read {
+                entries,
+                loop_playlist,
+                key,
+            }
+        })
     })
     .await
     .map_err(|error| {
@@ -110,12 +122,7 @@ pub async fn playlist(state: &AppState) -> Result<Playlist, ServerMessage> {
             format!("the playlist cannot be read: {error}"),
             params! {"what" => "the playlist cannot be read"},
         )
-    })??;
-    Ok(Playlist::Read {
-        entries,
-        loop_playlist,
-        key: key.filter(|key| key_after.as_ref() == Some(key)),
-    })
+    })?
 }
 
 /// Carries out `control`, a request issued at e-stop `generation` (for Reset and
