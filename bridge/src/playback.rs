@@ -38,6 +38,11 @@
 //! installation, a commissioning command) and keeps arming away for [`ARM_QUIET`]; the
 //! e-stop, Reset, Home and a lost link drop it in the player.
 //!
+//! **One plan per playlist.** The playlist prepared last is kept with its key (each
+//! show's name and file SHA-256, delays, cycles, loop flag) and the installation
+//! ([`Playback::prepared_for`]): the armer, Start and Reset take it instead of reading
+//! and planning the shows again, and its plans (`Arc`) are the player's own.
+//!
 //! **A stalled link is a fault.** While a playlist runs, a link that has bytes queued
 //! and writes nothing for [`stall_limit`] stops the show on every gateway and sets the
 //! state `error`, naming the gateway.
@@ -518,6 +523,7 @@ impl Playback {
                 ..
             } = playlist
             else {
+                // Planned for serial lines: never made here (`plans_lines` is false).
                 return Err(PlaybackError::Refused(StartError::Empty));
             };
             let installation = self.installation();
