@@ -17,7 +17,6 @@ use std::time::Duration;
 
 use floatball_shared::api::PlayerState;
 
-use crate::control::playlist_entries;
 use crate::state::AppState;
 
 /// How often the armer looks when the status does not change.
@@ -83,13 +82,12 @@ async fn run(state: AppState) {
             continue;
         }
         tried = Some(disarms);
-        let reading = state.clone();
-        let Ok(Ok((entries, loop_playlist))) =
-            tokio::task::spawn_blocking(move || playlist_entries(&reading)).await
-        else {
+        // The playlist prepared last (by an arming or a Start) is armed as it is: a
+        // show that ended is armed again without reading or planning it again.
+        let Ok(playlist) = crate::control::playlist(&state).await else {
             continue;
         };
-        if state.playback().arm(entries, loop_playlist, disarms).await {
+        if state.playback().arm(playlist, disarms).await {
             tracing::debug!("arming the playlist's first entry while the matrix is idle");
         }
     }

@@ -10,7 +10,7 @@ use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::params;
 use floatball_shared::plan::player::{Entry, StartError};
 
-use crate::playback::PlaybackError;
+use crate::playback::{PlaybackError, Playlist, PlaylistKey};
 use crate::playlist;
 use crate::state::AppState;
 use crate::store::ShowName;
@@ -61,6 +61,70 @@ pub fn playlist_entries(state: &AppState) -> Result<(Vec<Entry>, bool), ServerMe
     Ok((entries, playlist.loop_playlist))
 }
 
+/// The key of the stored playlist ([`PlaylistKey`]: its shows by name and the SHA-256
+/// of their files, delays, cycles, loop flag); `None` when a show it names is not
+/// stored. Cheap: the store keeps every show's summary in memory.
+pub fn playlist_key(state: &AppState) -> Option<PlaylistKey> {
+    let playlist = state.playlist().get();
+    let shows = state.shows().list();
+    let entries = playlist
+        .entries
+        .iter()
+        .map(|entry| {
+            let summary = shows.iter().find(|summary| summary.name == entry.show)?;
+            Some((
+                entry.show.clone(),
+                summary.sha256.clone(),
+                entry.delay_ms,
+                entry.cycles.max(1),
+            ))
+        })
+        .collect::<Option<Vec<_>>>()?;
+    Some(PlaylistKey::new(entries, playlist.loop_playlist))
+}
+
+/// The stored playlist for Start, Reset or the armer: the one prepared last when it is
+/// what is stored now (nothing read nor planned again), else read from the store on
+/// a blocking thread and, for UIM2503 gateways, planned on the same thread and kept
+/// under its key, taken before reading and kept only if the same after (a show
+/// replaced meanwhile is planned again next time).
+///
+/// # Errors
+/// A show the playlist names cannot be read.
+pub async fn playlist(state: &AppState) -> Result<Playlist, ServerMessage> {
+    let key = playlist_key(state);
+    if let Some(prepared) = key
+        .as_ref()
+        .and_then(|key| state.playback().prepared_for(key))
+    {
+        return Ok(Playlist::Prepared(prepared));
+    }
+    let reading = state.clone();
+    tokio::task::spawn_blocking(move || {
+        let (entries, loop_playlist) = playlist_entries(&reading)?;
+        let key = key.filter(|key| playlist_key(&reading).as_ref() == Some(key));
+        let playback = reading.playback();
+        Ok(if playback.plans_lines() {
+            // Planned here, on the thread that read the shows (see `Playlist::Planned`).
+            Playlist::Planned(playback.prepare_blocking(entries, loop_playlist, key))
+        } else {
+            Playlist::Read {
+                entries,
+                loop_playlist,
+                key,
+            }
+        })
+    })
+    .await
+    .map_err(|error| {
+        ServerMessage::error(
+            Code::Internal,
+            format!("the playlist cannot be read: {error}"),
+            params! {"what" => "the playlist cannot be read"},
+        )
+    })?
+}
+
 /// Carries out `control`, a request issued at e-stop `generation` (for Reset and
 /// Home, after their own stop was pressed).
 ///
@@ -75,27 +139,11 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
         Control::Start | Control::Reset => {
             // The playlist is locked from this read on (PUT /api/playlist).
             let _pending = state.start_pending().await;
-            let reading = state.clone();
-            let (entries, loop_playlist) =
-                tokio::task::spawn_blocking(move || playlist_entries(&reading))
-                    .await
-                    .map_err(|error| {
-                        ServerMessage::error(
-                            Code::Internal,
-                            format!("the playlist cannot be read: {error}"),
-                            params! {"what" => "the playlist cannot be read"},
-                        )
-                    })??;
+            let playlist = playlist(state).await?;
             let mut status = state.subscribe_status();
-            let taken = if control == Control::Start {
-                playback
-                    .start_issued(entries, loop_playlist, generation)
-                    .await
-            } else {
-                playback
-                    .reset_issued(entries, loop_playlist, generation)
-                    .await
-            };
+            let taken = playback
+                .play(playlist, generation, control == Control::Reset)
+                .await;
             if taken.is_ok() {
                 // The player answers before its next status is out (MOONS' drives
                 // report through their own task): the playlist stays locked until

@@ -18,13 +18,27 @@ pub const TEMP_SUFFIX: &str = ".tmp";
 /// # Errors
 /// Any I/O error; the target is then unchanged and the temporary file removed.
 pub fn write_atomic(dir: &Path, name: &str, bytes: &[u8]) -> io::Result<()> {
+    write_atomic_with(dir, name, |file| file.write_all(bytes))
+}
+
+/// Writes `dir/name` atomically and durably with what `write` writes into the
+/// temporary file (a large file need not be in memory whole first).
+///
+/// # Errors
+/// Any I/O error, `write`'s included; the target is then unchanged and the temporary
+/// file removed.
+pub fn write_atomic_with(
+    dir: &Path,
+    name: &str,
+    write: impl FnOnce(&mut File) -> io::Result<()>,
+) -> io::Result<()> {
     let mut random = [0u8; 8];
     getrandom::fill(&mut random).map_err(io::Error::other)?;
     let temp_name = format!(".{name}.{}{TEMP_SUFFIX}", hex(&random));
     let temp = dir.join(&temp_name);
     let result = (|| {
         let mut file = File::create_new(&temp)?;
-        file.write_all(bytes)?;
+        write(&mut file)?;
         file.sync_all()?;
         drop(file);
         fs::rename(&temp, dir.join(name))?;

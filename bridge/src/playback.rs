@@ -38,6 +38,11 @@
 //! installation, a commissioning command) and keeps arming away for [`ARM_QUIET`]; the
 //! e-stop, Reset, Home and a lost link drop it in the player.
 //!
+//! **One plan per playlist.** The playlist prepared last is kept with its key (each
+//! show's name and file SHA-256, delays, cycles, loop flag) and the installation
+//! ([`Playback::prepared_for`]): the armer, Start and Reset take it instead of reading
+//! and planning the shows again, and its plans (`Arc`) are the player's own.
+//!
 //! **A stalled link is a fault.** While a playlist runs, a link that has bytes queued
 //! and writes nothing for [`stall_limit`] stops the show on every gateway and sets the
 //! state `error`, naming the gateway.
@@ -172,6 +177,61 @@ pub struct Playback {
     scl: Option<SclNet>,
     /// Arming's side: the player's disarm count and the quiet time.
     arming: Arc<ArmingShared>,
+    /// The playlist prepared last (armed or started), kept for the next Arm or Start
+    /// of the same playlist on the same installation: planned once, its plans shared
+    /// by the armer, the player and Start.
+    kept: Arc<Mutex<Option<Kept>>>,
+}
+
+/// What a playlist was prepared from, as far as planning goes: each entry's show (its
+/// name and the SHA-256 of its stored file), delay and cycles, and the loop flag. The
+/// same key on the same installation plans to the same [`Prepared`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PlaylistKey {
+    /// Per entry: show name, SHA-256 of its file, delay (ms), cycles.
+    entries: Vec<(String, String, u64, u32)>,
+    loop_playlist: bool,
+}
+
+impl PlaylistKey {
+    /// The key of a playlist whose entries are `(show name, SHA-256 of its stored
+    /// file, delay_ms, cycles)`.
+    pub fn new(entries: Vec<(String, String, u64, u32)>, loop_playlist: bool) -> Self {
+        Self {
+            entries,
+            loop_playlist,
+        }
+    }
+}
+
+/// A playlist prepared, with what it was prepared from.
+#[derive(Debug)]
+struct Kept {
+    key: PlaylistKey,
+    installation: Arc<Installation>,
+    prepared: Prepared,
+}
+
+/// A playlist for Start, Reset or Arm.
+#[derive(Debug)]
+pub enum Playlist {
+    /// Prepared already ([`Playback::prepared_for`]): not read nor planned again.
+    Prepared(Prepared),
+    /// Read and planned on one blocking thread ([`Playback::prepare_blocking`]), so
+    /// that the show is freed as it is planned where it was allocated (a show read on
+    /// one thread and planned on another stays in the first one's malloc arena beside
+    /// its plan: 72 MB more at the peak for a 10,000-ball minute).
+    Planned(Result<Prepared, StartError>),
+    /// Read from the store: planned now, and kept under `key` when it has one (the
+    /// key of what was read: taken before reading and found the same after).
+    Read {
+        /// The entries with their shows.
+        entries: Vec<Entry>,
+        /// Whether the playlist starts over after its last entry.
+        loop_playlist: bool,
+        /// What was read, for [`Playback::prepared_for`].
+        key: Option<PlaylistKey>,
+    },
 }
 
 /// How long after [`Playback::disarm`] nothing is armed: a console session or a
@@ -273,6 +333,7 @@ impl Playback {
             boxes: None,
             scl: None,
             arming: Arc::new(ArmingShared::default()),
+            kept: Arc::new(Mutex::new(None)),
         }
     }
 
@@ -403,7 +464,12 @@ impl Playback {
         loop_playlist: bool,
         generation: u64,
     ) -> Result<(), PlaybackError> {
-        self.play(entries, loop_playlist, generation, false).await
+        let playlist = Playlist::Read {
+            entries,
+            loop_playlist,
+            key: None,
+        };
+        self.play(playlist, generation, false).await
     }
 
     /// Reset: stop now, home, and play the playlist from its first entry.
@@ -430,18 +496,36 @@ impl Playback {
         loop_playlist: bool,
         generation: u64,
     ) -> Result<(), PlaybackError> {
-        self.play(entries, loop_playlist, generation, true).await
+        let playlist = Playlist::Read {
+            entries,
+            loop_playlist,
+            key: None,
+        };
+        self.play(playlist, generation, true).await
     }
 
-    /// Plans the playlist, then hands it to the task as a Start (or a Reset).
-    async fn play(
+    /// Plans the playlist (unless it is [prepared](Playlist::Prepared) already), then
+    /// hands it to the task as a Start (or, `reset`, a Reset), as a request issued at
+    /// e-stop `generation`.
+    ///
+    /// # Errors
+    /// As [`Playback::start`].
+    pub async fn play(
         &self,
-        entries: Vec<Entry>,
-        loop_playlist: bool,
+        playlist: Playlist,
         generation: u64,
         reset: bool,
     ) -> Result<(), PlaybackError> {
         if self.boxes.is_some() || self.scl.is_some() {
+            let Playlist::Read {
+                entries,
+                loop_playlist,
+                ..
+            } = playlist
+            else {
+                // Planned for serial lines: never made here (`plans_lines` is false).
+                return Err(PlaybackError::Refused(StartError::Empty));
+            };
             let installation = self.installation();
             let scl = self.scl.is_some();
             let entries = tokio::task::spawn_blocking(move || {
@@ -463,7 +547,7 @@ impl Playback {
                 })
                 .await;
         }
-        let prepared = self.prepare(entries, loop_playlist).await?;
+        let prepared = self.prepared(playlist).await?;
         self.ask(|reply| {
             if reset {
                 Request::Reset {
@@ -498,6 +582,84 @@ impl Playback {
     /// As [`Playback::home`].
     pub async fn home_issued(&self, generation: u64) -> Result<(), PlaybackError> {
         self.ask(|reply| Request::Home { generation, reply }).await
+    }
+
+    /// The playlist prepared last (armed or started) if it was prepared from `key` on
+    /// the installation now: its plans are shared, nothing is read or planned again
+    /// (UIM2503 gateways; `None` for MBOX boxes and MOONS' drives).
+    pub fn prepared_for(&self, key: &PlaylistKey) -> Option<Prepared> {
+        if self.boxes.is_some() || self.scl.is_some() {
+            return None;
+        }
+        let installation = self.installation();
+        let kept = self.kept.lock().unwrap_or_else(PoisonError::into_inner);
+        kept.as_ref()
+            .filter(|kept| kept.key == *key && Arc::ptr_eq(&kept.installation, &installation))
+            .map(|kept| kept.prepared.clone())
+    }
+
+    /// `playlist` prepared: as it is, or planned now (and kept under its key).
+    async fn prepared(
+        &self,
+        playlist: Playlist,
+    ) -> Result<Result<Prepared, StartError>, PlaybackError> {
+        match playlist {
+            Playlist::Prepared(prepared) => Ok(Ok(prepared)),
+            Playlist::Planned(prepared) => Ok(prepared),
+            Playlist::Read {
+                entries,
+                loop_playlist,
+                key,
+            } => {
+                let installation = self.installation();
+                let prepared = self.prepare(entries, loop_playlist).await?;
+                self.keep(key, installation, &prepared);
+                Ok(prepared)
+            }
+        }
+    }
+
+    /// Keeps `prepared` (when it was prepared, from `key` on `installation`) for
+    /// [`Playback::prepared_for`]. The one kept replaces the last: at most one
+    /// playlist's plans besides what the player holds.
+    fn keep(
+        &self,
+        key: Option<PlaylistKey>,
+        installation: Arc<Installation>,
+        prepared: &Result<Prepared, StartError>,
+    ) {
+        if let (Some(key), Ok(prepared)) = (key, prepared) {
+            *self.kept.lock().unwrap_or_else(PoisonError::into_inner) = Some(Kept {
+                key,
+                installation,
+                prepared: prepared.clone(),
+            });
+        }
+    }
+
+    /// Whether a playlist is planned for serial lines here ([`Playback::prepare_blocking`]):
+    /// UIM2503 gateways, not MBOX boxes or MOONS' drives.
+    pub fn plans_lines(&self) -> bool {
+        self.boxes.is_none() && self.scl.is_none()
+    }
+
+    /// Plans the playlist `entries` now, on the calling thread (a blocking one: the
+    /// thread that read the shows, see [`Playlist::Planned`]), and keeps it under
+    /// `key` (the key of what was read).
+    ///
+    /// # Errors
+    /// The player's refusal, as Start would give it.
+    pub fn prepare_blocking(
+        &self,
+        entries: Vec<Entry>,
+        loop_playlist: bool,
+        key: Option<PlaylistKey>,
+    ) -> Result<Prepared, StartError> {
+        let installation = self.installation();
+        let views = link_views(&self.links());
+        let prepared = prepare(&installation, entries, loop_playlist, &views);
+        self.keep(key, installation, &prepared);
+        prepared
     }
 
     /// Plans the playlist on a blocking thread: planning a long show takes a while, and
@@ -725,17 +887,17 @@ impl Playback {
         let _ = self.requests.send(Request::Disarm);
     }
 
-    /// Arms the first entry of the playlist `entries` (prepared as Start would prepare
-    /// it, on a blocking thread) if the player is still idle and nothing disarmed it
+    /// Arms the first entry of `playlist` (prepared as Start would prepare it, on a
+    /// blocking thread, unless it is prepared already) if the player is still idle and nothing disarmed it
     /// since `disarms` ([`Playback::disarms`] read before the playlist was). Returns
     /// whether the request went to the player; a playlist Start would refuse is not
     /// armed.
-    pub async fn arm(&self, entries: Vec<Entry>, loop_playlist: bool, disarms: u64) -> bool {
+    pub async fn arm(&self, playlist: Playlist, disarms: u64) -> bool {
         if !self.arms() {
             return false;
         }
         let generation = self.latch.generation();
-        let Ok(Ok(prepared)) = self.prepare(entries, loop_playlist).await else {
+        let Ok(Ok(prepared)) = self.prepared(playlist).await else {
             return false;
         };
         self.requests

@@ -37,6 +37,9 @@ pub const MAX_NAME_BYTES: usize = 100;
 
 const EXTENSION: &str = ".json";
 
+/// The buffer between a show file and its JSON reader or writer, bytes.
+const READ_BUFFER_BYTES: usize = 1 << 16;
+
 /// A valid show name.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct ShowName(String);
@@ -338,8 +341,26 @@ impl ShowStore {
     ///
     /// # Errors
     /// [`StoreError::NotFound`], [`StoreError::Unreadable`], or an I/O error.
+    ///
+    /// The file is read as a stream, not held whole beside the show (a 10,000-ball
+    /// minute is about 90 MB of JSON); one that does not read is read again whole for
+    /// the same words as an upload's refusal.
     pub fn load(&self, name: &ShowName) -> Result<Show, StoreError> {
-        decode(name, &self.file(name)?)
+        let path = self.dir.join(name.file_name());
+        let file = std::fs::File::open(&path).map_err(|source| match source.kind() {
+            io::ErrorKind::NotFound => StoreError::NotFound(name.clone()),
+            _ => StoreError::Io {
+                path: path.clone(),
+                source,
+            },
+        })?;
+        match Show::from_json_reader(io::BufReader::with_capacity(READ_BUFFER_BYTES, file)) {
+            Ok(mut show) => {
+                name.as_str().clone_into(&mut show.name);
+                Ok(show)
+            }
+            Err(_) => decode(name, &self.file(name)?),
+        }
     }
 
     /// Stores a show (already [imported](fn@show::import) with this installation's
@@ -348,23 +369,44 @@ impl ShowStore {
     ///
     /// # Errors
     /// [`StoreError::Unwritable`], or an I/O error; the store is then as before.
+    ///
+    /// The file is written as it is serialised (hashed on the way), never held whole in
+    /// memory: a 10,000-ball minute is about 90 MB of JSON.
     pub fn put(&self, name: &ShowName, show: &Show) -> Result<(ShowSummary, bool), StoreError> {
-        let json = show.to_json().map_err(|source| StoreError::Unwritable {
-            name: name.clone(),
-            source,
-        })?;
         let _writing = self.writing.lock().unwrap_or_else(PoisonError::into_inner);
         let file_name = name.file_name();
-        durable::write_atomic(&self.dir, &file_name, json.as_bytes()).map_err(|source| {
-            StoreError::Io {
+        let mut unwritable = None;
+        let mut written = None;
+        durable::write_atomic_with(&self.dir, &file_name, |file| {
+            let mut writer = io::BufWriter::with_capacity(READ_BUFFER_BYTES, Digesting::new(file));
+            if let Err(source) = show.write_json(&mut writer) {
+                // An I/O error comes back from the writer in serde's words; anything
+                // else is the show's own.
+                let io_failed = writer.get_mut().failed.take();
+                unwritable = io_failed.is_none().then_some(source);
+                return Err(io_failed.unwrap_or_else(|| io::Error::other("unwritable show")));
+            }
+            let digesting = writer
+                .into_inner()
+                .map_err(io::IntoInnerError::into_error)?;
+            written = Some((digesting.bytes, digesting.sha256()));
+            Ok(())
+        })
+        .map_err(|source| match unwritable.take() {
+            Some(source) => StoreError::Unwritable {
+                name: name.clone(),
+                source,
+            },
+            None => StoreError::Io {
                 path: self.dir.join(&file_name),
                 source,
-            }
+            },
         })?;
         let modified = std::fs::metadata(self.dir.join(&file_name))
             .and_then(|metadata| metadata.modified())
             .unwrap_or_else(|_| SystemTime::now());
-        let summary = summary(name, json.as_bytes(), show, modified);
+        let (bytes, sha256) = written.unwrap_or_default();
+        let summary = summary(name, bytes, &sha256, show, modified);
         let created = self.index().insert(name.clone(), summary.clone()).is_none();
         Ok((summary, created))
     }
@@ -402,20 +444,102 @@ fn decode(name: &ShowName, bytes: &[u8]) -> Result<Show, StoreError> {
     })
 }
 
+/// The summary of a stored file, read as a stream (hashed on the way).
 fn summarise_file(path: &Path, name: &ShowName) -> Result<ShowSummary, String> {
-    let bytes = std::fs::read(path).map_err(|error| error.to_string())?;
     let modified = std::fs::metadata(path)
         .and_then(|metadata| metadata.modified())
         .map_err(|error| error.to_string())?;
-    let show = decode(name, &bytes).map_err(|error| error.to_string())?;
-    Ok(summary(name, &bytes, &show, modified))
+    let file = std::fs::File::open(path).map_err(|error| error.to_string())?;
+    let mut reader = io::BufReader::with_capacity(READ_BUFFER_BYTES, Digesting::new(file));
+    let show = match Show::from_json_reader(&mut reader) {
+        Ok(show) => {
+            // Whatever follows the show (white space) is part of the file's hash.
+            io::copy(&mut reader, &mut io::sink()).map_err(|error| error.to_string())?;
+            show
+        }
+        Err(_) => {
+            let bytes = std::fs::read(path).map_err(|error| error.to_string())?;
+            decode(name, &bytes).map_err(|error| error.to_string())?
+        }
+    };
+    let digesting = reader.get_ref();
+    Ok(summary(
+        name,
+        digesting.bytes,
+        &digesting.sha256(),
+        &show,
+        modified,
+    ))
 }
 
-fn summary(name: &ShowName, bytes: &[u8], show: &Show, modified: SystemTime) -> ShowSummary {
+/// The bytes and SHA-256 of what passes through a reader or writer.
+struct Digesting<T> {
+    inner: T,
+    hasher: Sha256,
+    bytes: u64,
+    /// The I/O error the inner writer gave (serde reports it in its own words).
+    failed: Option<io::Error>,
+}
+
+impl<T> Digesting<T> {
+    fn new(inner: T) -> Self {
+        Self {
+            inner,
+            hasher: Sha256::new(),
+            bytes: 0,
+            failed: None,
+        }
+    }
+
+    fn sha256(&self) -> String {
+        durable::hex(&self.hasher.clone().finalize())
+    }
+
+    fn count(&mut self, bytes: &[u8]) {
+        self.hasher.update(bytes);
+        self.bytes += bytes.len() as u64;
+    }
+}
+
+impl<T: io::Write> io::Write for Digesting<T> {
+    fn write(&mut self, bytes: &[u8]) -> io::Result<usize> {
+        match self.inner.write(bytes) {
+            Ok(written) => {
+                self.count(&bytes[..written]);
+                Ok(written)
+            }
+            Err(error) => {
+                let kind = error.kind();
+                self.failed = Some(error);
+                Err(io::Error::from(kind))
+            }
+        }
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+impl<T: io::Read> io::Read for Digesting<T> {
+    fn read(&mut self, buffer: &mut [u8]) -> io::Result<usize> {
+        let read = self.inner.read(buffer)?;
+        self.count(&buffer[..read]);
+        Ok(read)
+    }
+}
+
+fn summary(
+    name: &ShowName,
+    bytes: u64,
+    sha256: &str,
+    show: &Show,
+    modified: SystemTime,
+) -> ShowSummary {
     ShowSummary {
         name: name.as_str().to_owned(),
-        bytes: bytes.len() as u64,
-        sha256: durable::hex(&Sha256::digest(bytes)),
+        bytes,
+        sha256: sha256.to_owned(),
         modified: humantime::format_rfc3339_seconds(modified).to_string(),
         units: u32::try_from(show.tracks.len()).unwrap_or(u32::MAX),
         duration_ms: show.duration_ms(),
@@ -500,6 +624,27 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn a_file_that_does_not_read_is_refused_as_an_upload_of_it_would_be() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let store = ShowStore::open(dir.path()).expect("open");
+        let name = ShowName::parse("odd").expect("name");
+        for bytes in [
+            &br#"{"format":"blender-scene","version":3}"#[..],
+            br#"{"format":"floatball-show","version":9}"#,
+            b"\xff\xfe not text",
+            b"{\"format\": \"floatball-show\", \"version\": 1, \"name\": ",
+        ] {
+            std::fs::write(dir.path().join(DIR_NAME).join(name.file_name()), bytes).expect("write");
+            let expected =
+                show::import("odd", bytes, ShowFormat::Json, None, None).expect_err("not a show");
+            match store.load(&name) {
+                Err(StoreError::Unreadable { refused, .. }) => assert_eq!(refused, expected),
+                other => panic!("{other:?}"),
+            }
+        }
+    }
+
+    #[test]
     fn shows_are_stored_listed_read_and_deleted() {
         let dir = tempfile::tempdir().expect("temp dir");
         let store = ShowStore::open(dir.path()).expect("open");
@@ -516,6 +661,7 @@ pub(crate) mod tests {
         let bytes = store.file(&name).expect("file");
         assert_eq!(bytes, stored.to_json().expect("json").as_bytes());
         assert_eq!(summary.bytes, bytes.len() as u64);
+        assert_eq!(summary.sha256, durable::hex(&Sha256::digest(&bytes)));
         assert_eq!(store.load(&name).expect("load"), stored);
         assert!(!store.put(&name, &stored).expect("replace").1);
 

@@ -6,7 +6,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use floatball_bridge::link::{Link, LinkConfig};
-use floatball_bridge::playback::Playback;
+use floatball_bridge::playback::{Playback, Playlist, PlaylistKey};
 use floatball_shared::api::{LinkState, PlayerState, Status};
 use floatball_shared::plan::player::Entry;
 use floatball_shared::plan::{GatewaySpec, Installation};
@@ -163,6 +163,66 @@ async fn estop_stops_every_simulated_ball_at_once() {
         s.state == PlayerState::Homing
     })
     .await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_playlist_is_planned_once_and_its_plan_shared_by_the_armer_the_player_and_start() {
+    let show = gentle_wave(1, 4, 40, 200);
+    let mut config = LinkConfig::new("sim", 115_200);
+    config.sim = GatewayConfig::numbered(4);
+    let link = Link::open(0, config);
+    up(&link).await;
+    let playback = Playback::spawn(installation(1, 4, "sim", 115_200), vec![link]);
+    let key = |sha: &str| PlaylistKey::new(vec![("gentle".into(), sha.into(), 0, 1)], false);
+    assert!(playback.prepared_for(&key("a")).is_none());
+    let read = Playlist::Read {
+        entries: vec![Entry {
+            show,
+            delay_ms: 0,
+            cycles: 1,
+        }],
+        loop_playlist: false,
+        key: Some(key("a")),
+    };
+    assert!(playback.arm(read, playback.disarms()).await);
+    let armed = playback.prepared_for(&key("a")).expect("kept");
+    // Another file of the show, or another playlist: planned anew.
+    assert!(playback.prepared_for(&key("b")).is_none());
+    assert!(
+        playback
+            .prepared_for(&PlaylistKey::new(
+                vec![("gentle".into(), "a".into(), 0, 1)],
+                true
+            ))
+            .is_none()
+    );
+    wait_for(&playback, Duration::from_secs(10), |s| {
+        s.armed.as_ref().is_some_and(|armed| armed.progress >= 1.0)
+    })
+    .await;
+    let plan = std::sync::Arc::clone(&armed.plans()[0]);
+    playback
+        .play(
+            Playlist::Prepared(armed),
+            playback.latch().generation(),
+            false,
+        )
+        .await
+        .unwrap();
+    let playing = wait_for(&playback, Duration::from_secs(30), |s| {
+        s.state == PlayerState::Playing
+    })
+    .await;
+    assert_eq!(playing.last_error, None);
+    // One plan: the one kept for the next Start, the player's, and this test's.
+    let again = playback.prepared_for(&key("a")).expect("still kept");
+    assert!(std::sync::Arc::ptr_eq(&again.plans()[0], &plan));
+    assert!(std::sync::Arc::strong_count(&plan) >= 3);
+    let done = wait_for(&playback, Duration::from_secs(30), |s| {
+        s.state == PlayerState::Idle
+    })
+    .await;
+    assert_eq!(done.last_error, None);
 }
 
 /// Copies bytes both ways between two pty masters: a null-modem cable. A master reads

@@ -41,7 +41,7 @@ use floatball_shared::api::{
 };
 use floatball_shared::codes::Code;
 use floatball_shared::plan::report::GATEWAY_BAUDS;
-use floatball_shared::plan::report::report;
+use floatball_shared::plan::report::{report, report_of};
 use floatball_shared::plan::verdict::{Fix, Why, refuse};
 use floatball_shared::plan::{Installation, PlanOptions};
 use floatball_shared::scl::qprogram::QProgramError;
@@ -166,13 +166,20 @@ pub async fn plan(
     let result = blocking(move || {
         let show = planning.shows().load(&name).map_err(store_failure)?;
         let config = planning.config();
-        let mut plan = report(&show, &config.installation, PlanOptions::default());
-        if let Some(scl) = config
+        let Some(scl) = config
             .scl
             .as_ref()
             .filter(|scl| scl.programs == SclPrograms::Upload)
-            && plan.feasible
-        {
+        else {
+            // The show is planned as it is freed: never whole beside its plan.
+            return Ok(report_of(
+                show,
+                &config.installation,
+                PlanOptions::default(),
+            ));
+        };
+        let mut plan = report(&show, &config.installation, PlanOptions::default());
+        if plan.feasible {
             refuse_uncompilable(&mut plan, &show, &config.installation, scl);
         }
         Ok(plan)

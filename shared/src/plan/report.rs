@@ -25,8 +25,33 @@ pub const GATEWAY_BAUDS: [u32; 5] = [9600, 19_200, 38_400, 57_600, 115_200];
 /// verdict is the Start check ([`unfit_verdict`]); how far each ball's program
 /// is from the show is `GET /api/qprogram`'s.
 pub fn report(show: &Show, installation: &Installation, options: PlanOptions) -> PlanReport {
+    if let Some(report) = report_without_lines(show, installation) {
+        return report;
+    }
+    match Plan::new(show, installation, options) {
+        Ok(plan) => report_for(&plan, installation),
+        Err(error) => refused(&show.name, error),
+    }
+}
+
+/// [`report`], taking the show: on UIM2503 gateways it is planned as it is freed
+/// ([`Plan::from_show`]), so the show and its plan are never both whole in memory.
+pub fn report_of(show: Show, installation: &Installation, options: PlanOptions) -> PlanReport {
+    if let Some(report) = report_without_lines(&show, installation) {
+        return report;
+    }
+    let name = show.name.clone();
+    match Plan::from_show(show, installation, options) {
+        Ok(plan) => report_for(&plan, installation),
+        Err(error) => refused(&name, error),
+    }
+}
+
+/// The report for MBOX boxes or MOONS' drives (no serial line carries the show);
+/// `None` for UIM2503 gateways.
+fn report_without_lines(show: &Show, installation: &Installation) -> Option<PlanReport> {
     if installation.mbox_boxes().is_some() {
-        return super::mbox::report(show, installation);
+        return Some(super::mbox::report(show, installation));
     }
     if !installation.gateways.is_empty()
         && installation
@@ -35,12 +60,14 @@ pub fn report(show: &Show, installation: &Installation, options: PlanOptions) ->
             .all(|gateway| gateway.kind == super::DriveKind::Scl)
     {
         let why = unfit_verdict(installation, show);
-        return verdict_report(show.name.clone(), why.as_ref(), &[], Vec::new());
+        return Some(verdict_report(
+            show.name.clone(),
+            why.as_ref(),
+            &[],
+            Vec::new(),
+        ));
     }
-    match Plan::new(show, installation, options) {
-        Ok(plan) => report_for(&plan, installation),
-        Err(error) => refused(&show.name, error),
-    }
+    None
 }
 
 /// Why `show` cannot play on `installation` when no serial line carries it (MBOX

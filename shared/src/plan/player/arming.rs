@@ -16,6 +16,8 @@
 //! playlist or installation, a commissioning command). Each disarm counts up
 //! [`Player::disarms`], so an arming prepared before it is refused.
 
+use std::sync::Arc;
+
 use super::{Command, LinkView, Player, REFILL_LOW_BYTES, Step};
 use crate::api::ArmedShow;
 use crate::plan::schedule::ROUND_ROWS;
@@ -27,7 +29,7 @@ use super::prepare::Prepared;
 #[derive(Debug, Clone)]
 pub(super) struct Arming {
     /// The first entry's plan.
-    pub(super) plan: Plan,
+    pub(super) plan: Arc<Plan>,
     /// Per run: the next row to load.
     pub(super) next_row: Vec<usize>,
     /// The tables are configured.
@@ -41,7 +43,7 @@ pub(super) struct Arming {
 }
 
 impl Arming {
-    fn new(plan: Plan) -> Self {
+    fn new(plan: Arc<Plan>) -> Self {
         let total_rows = plan
             .gateways
             .iter()
@@ -97,7 +99,7 @@ impl Player {
         if self
             .arming
             .as_ref()
-            .is_none_or(|arming| arming.plan != plan)
+            .is_none_or(|arming| !same_plan(&arming.plan, &plan))
         {
             self.arming = Some(Arming::new(plan));
         }
@@ -209,7 +211,11 @@ impl Player {
     /// armed one; an arming of another plan is dropped.
     pub(super) fn take_arming_for(&mut self) {
         let arming = self.arming.take();
-        self.preloaded = arming.filter(|arming| self.plans.first() == Some(&arming.plan));
+        self.preloaded = arming.filter(|arming| {
+            self.plans
+                .first()
+                .is_some_and(|plan| same_plan(plan, &arming.plan))
+        });
         self.disarms += 1;
     }
 
@@ -223,7 +229,11 @@ impl Player {
         let Some(armed) = self.preloaded.take() else {
             return false;
         };
-        if self.plans.first() != Some(&armed.plan) {
+        if !self
+            .plans
+            .first()
+            .is_some_and(|plan| same_plan(plan, &armed.plan))
+        {
             return false;
         }
         // The motors are on after the approach; said again, as the load phase would,
@@ -246,4 +256,10 @@ impl Player {
         self.show_time_ms = 0;
         true
     }
+}
+
+/// Whether two plans are the same: the same one shared (the bridge hands the armed
+/// playlist's plans to Start), or equal.
+fn same_plan(a: &Arc<Plan>, b: &Arc<Plan>) -> bool {
+    Arc::ptr_eq(a, b) || a == b
 }

@@ -38,6 +38,7 @@ mod playing;
 mod prepare;
 
 use std::collections::HashMap;
+use std::sync::Arc;
 
 use prepare::check_links;
 pub use prepare::{Prepared, StartError, prepare};
@@ -119,12 +120,12 @@ pub(crate) enum NextRun {
 
 /// What follows cycle `cycle` of entry `entry` (of `entries`, each with its cycles).
 pub(crate) fn next_run(
-    entries: &[Entry],
+    entries: &[impl Cycles],
     entry: usize,
     cycle: &mut u32,
     loop_playlist: bool,
 ) -> NextRun {
-    let cycles = entries.get(entry).map_or(1, |entry| entry.cycles.max(1));
+    let cycles = entries.get(entry).map_or(1, |entry| entry.cycles().max(1));
     if *cycle < cycles {
         *cycle += 1;
         NextRun::Cycle
@@ -153,6 +154,45 @@ pub struct Entry {
     pub delay_ms: u64,
     /// Plays in a row (at least 1).
     pub cycles: u32,
+}
+
+/// When and how often an entry plays: what the player keeps of an [`Entry`] once its
+/// show is planned (the plan has the rows; the show's tracks are not kept).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EntryTiming {
+    /// Wait before the entry, ms.
+    pub delay_ms: u64,
+    /// Plays in a row (at least 1).
+    pub cycles: u32,
+}
+
+impl Entry {
+    /// When and how often it plays.
+    #[must_use]
+    pub fn timing(&self) -> EntryTiming {
+        EntryTiming {
+            delay_ms: self.delay_ms,
+            cycles: self.cycles,
+        }
+    }
+}
+
+/// An entry's cycles, for [`next_run`]: both players' entries have them.
+pub(crate) trait Cycles {
+    /// Plays in a row.
+    fn cycles(&self) -> u32;
+}
+
+impl Cycles for Entry {
+    fn cycles(&self) -> u32 {
+        self.cycles
+    }
+}
+
+impl Cycles for EntryTiming {
+    fn cycles(&self) -> u32 {
+        self.cycles
+    }
 }
 
 /// What the player knows of a link when it is polled.
@@ -252,8 +292,10 @@ pub struct Player {
     config: PlayerConfig,
     /// (gateway, station) → unit.
     units_by_address: HashMap<(usize, u8), usize>,
-    plans: Vec<Plan>,
-    entries: Vec<Entry>,
+    /// Each entry's plan, shared with whoever prepared it (the bridge keeps the armed
+    /// playlist's for the next Start).
+    plans: Vec<Arc<Plan>>,
+    entries: Vec<EntryTiming>,
     loop_playlist: bool,
     entry: usize,
     cycle: u32,

@@ -2,7 +2,9 @@
 //! and checked (valid, feasible on its lines, every gateway connected), or refused with
 //! a [`StartError`] saying why.
 
-use super::{Entry, LinkView};
+use std::sync::Arc;
+
+use super::{Entry, EntryTiming, LinkView};
 use crate::api::Problem;
 use crate::codes::{Code, Coded, Params};
 use crate::params;
@@ -12,11 +14,24 @@ use crate::plan::{Installation, Plan, PlanOptions};
 
 /// A playlist planned and checked, ready to start: the slow part of Start, which the
 /// caller may run away from the player (it needs only the installation).
+///
+/// It holds each entry's plan (shared: a clone is a few pointers, so the caller may
+/// keep one for the next Start while the player plays another) and each entry's
+/// timing, not the shows: once planned, a show's tracks are not needed to play it (a
+/// 10,000-ball minute's are 72 MB beside its plan's 60 MB).
 #[derive(Debug, Clone)]
 pub struct Prepared {
-    pub(super) plans: Vec<Plan>,
-    pub(super) entries: Vec<Entry>,
+    pub(super) plans: Vec<Arc<Plan>>,
+    pub(super) entries: Vec<EntryTiming>,
     pub(super) loop_playlist: bool,
+}
+
+impl Prepared {
+    /// The plan of each entry, in order.
+    #[must_use]
+    pub fn plans(&self) -> &[Arc<Plan>] {
+        &self.plans
+    }
 }
 
 /// Plans every entry of a playlist for `installation`, refusing an invalid or
@@ -38,26 +53,31 @@ pub fn prepare(
         repeat_forever: loop_playlist && entries.len() == 1,
     };
     let mut plans = Vec::with_capacity(entries.len());
-    for (index, entry) in entries.iter().enumerate() {
-        let plan =
-            Plan::new(&entry.show, installation, options).map_err(|error| StartError::Invalid {
+    let mut timings = Vec::with_capacity(entries.len());
+    for (index, entry) in entries.into_iter().enumerate() {
+        timings.push(entry.timing());
+        let name = entry.show.name.clone();
+        // Taken: each track is freed as it is planned.
+        let plan = Plan::from_show(entry.show, installation, options).map_err(|error| {
+            StartError::Invalid {
                 entry: index + 1,
-                show: entry.show.name.clone(),
+                show: name.clone(),
                 reason: Box::new(Why::Refused(error)),
-            })?;
+            }
+        })?;
         if let (_, Some(reason), fixes) = line_verdict(&plan, installation) {
             return Err(StartError::Infeasible {
                 entry: index + 1,
-                show: entry.show.name.clone(),
+                show: name,
                 reason: Box::new(reason),
                 fixes,
             });
         }
-        plans.push(plan);
+        plans.push(Arc::new(plan));
     }
     Ok(Prepared {
         plans,
-        entries,
+        entries: timings,
         loop_playlist,
     })
 }
