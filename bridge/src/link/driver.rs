@@ -164,11 +164,11 @@ fn run(mut poll: Poll, adopted: &Receiver<Adoption>) {
                 .as_ref()
                 .is_some_and(|served| served.session.drive.start_due(pass_started))
             {
-                visit(slot, &poll, pass_started, &mut sleep);
+                visit(slot, &poll, (pass_started, false), &mut sleep);
             }
         }
         for slot in &mut slots {
-            visit(slot, &poll, pass_started, &mut sleep);
+            visit(slot, &poll, (pass_started, true), &mut sleep);
         }
         if slots.iter().all(Option::is_none) {
             sleep = IDLE_TICK;
@@ -180,12 +180,18 @@ fn run(mut poll: Poll, adopted: &Receiver<Adoption>) {
     }
 }
 
-/// Gives the line in `slot` its turn; hands the session back when it is done.
-fn visit(slot: &mut Option<Served>, poll: &Poll, now: Instant, sleep: &mut Duration) {
+/// Gives the line in `slot` its turn (reading first if `read`); hands the session back
+/// when it is done.
+fn visit(
+    slot: &mut Option<Served>,
+    poll: &Poll,
+    (now, read): (Instant, bool),
+    sleep: &mut Duration,
+) {
     let Some(served) = slot else {
         return;
     };
-    match turn(served, now) {
+    match turn(served, now, read) {
         Ok(wait) => *sleep = (*sleep).min(wait),
         Err(back) => {
             if let Some(mut served) = slot.take() {
@@ -202,11 +208,12 @@ fn visit(slot: &mut Option<Served>, poll: &Poll, now: Instant, sleep: &mut Durat
     }
 }
 
-/// One line's part of a pass: read, then writer turns until it waits. `Ok` is how
-/// long the line can wait; `Err` hands the session back.
-fn turn(served: &mut Served, now: Instant) -> Result<Duration, Back> {
+/// One line's part of a pass: read, then writer turns until it waits; without `read`,
+/// one turn only (a due start). `Ok` is how long the line can wait; `Err` hands the
+/// session back.
+fn turn(served: &mut Served, now: Instant, read: bool) -> Result<Duration, Back> {
     let session = &mut served.session;
-    if served.readable || session.io.backlog() > 0 {
+    if read && (served.readable || session.io.backlog() > 0) {
         served.readable = false;
         if let Err(err) = session.io.service(&session.shared) {
             session.lost_reason = Some(err.to_string());
@@ -214,7 +221,9 @@ fn turn(served: &mut Served, now: Instant) -> Result<Duration, Back> {
         }
     }
     let mut now = now;
-    for _ in 0..TURNS_PER_PASS {
+    // A start's own pass writes the start and moves on to the next line's.
+    let turns = if read { TURNS_PER_PASS } else { 1 };
+    for _ in 0..turns {
         match session.drive.step(
             &session.shared,
             &session.inbox,

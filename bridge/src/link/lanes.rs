@@ -81,6 +81,16 @@ pub struct Queues {
 }
 
 impl Queues {
+    /// Queues with room for `bytes` of priority instructions already made: a start or
+    /// a stop queued later allocates nothing (the synchronised start is queued on every
+    /// line in one pass).
+    pub fn with_priority_room(bytes: usize) -> Self {
+        let mut queues = Self::default();
+        queues.priority.bytes.reserve(bytes);
+        queues.priority.lens.reserve(bytes);
+        queues
+    }
+
     /// Queues `batch` on the bulk lane.
     pub fn push_bulk(&mut self, batch: &Batch) {
         self.bulk.push(batch, |_| true);

@@ -83,6 +83,9 @@ pub(super) const CHUNK_TIME: Duration = Duration::from_millis(10);
 /// delay) is gone by the instant.
 const START_GUARD: Duration = Duration::from_millis(2);
 
+/// Room made ahead for the priority lane (a start, a stop: a few instructions).
+const PRIORITY_ROOM_BYTES: usize = 64;
+
 /// How long a line with a backlog is left before it is tried again.
 const BACKLOG_RETRY: Duration = Duration::from_millis(1);
 
@@ -308,7 +311,7 @@ impl Drive {
     /// have heard it).
     pub(super) fn new(shared: &Shared, now: Instant) -> Self {
         let mut writer = Writer {
-            queues: Queues::default(),
+            queues: Queues::with_priority_room(PRIORITY_ROOM_BYTES),
             held: None,
             seen_generation: shared.config.latch.generation(),
             baud_change: None,
@@ -346,6 +349,14 @@ impl Drive {
             return Step::Done("the line was lost".to_owned());
         }
         self.writer.observe_latch(shared);
+        if self.start_due(now) && line.backlog() == 0 && self.pacer.wait_before_next(now) <= ahead {
+            // A start due and its line free goes before anything handed over since is
+            // even looked at (the rows that follow it can be many).
+            if let Some((_, start)) = self.writer.held.take() {
+                self.writer.queues.push_priority(&start);
+            }
+            return self.write_next(shared, line, ahead, MAX_LEN);
+        }
         while let Ok(input) = inbox.try_recv() {
             self.writer.accept(shared, input);
         }
@@ -409,6 +420,18 @@ impl Drive {
         if line_wait > ahead {
             return Step::Wait((line_wait - ahead).min(IDLE_TICK));
         }
+        self.write_next(shared, line, ahead, chunk_limit)
+    }
+
+    /// Writes the next instructions: one, or with an `ahead` window whole ones up to
+    /// `chunk_limit` bytes, the priority lane's in a write of their own.
+    fn write_next(
+        &mut self,
+        shared: &Shared,
+        line: &mut impl LineWrite,
+        ahead: Duration,
+        chunk_limit: usize,
+    ) -> Step {
         self.chunk.clear();
         let mut bulk_bytes = 0;
         let mut priority = None;

@@ -56,9 +56,11 @@ use crate::show::Show;
 pub const REFILL_LOW_BYTES: usize = 256;
 
 /// How long after the player decides to start the start is written on every gateway,
-/// µs: time for the caller to hand it to every line and to keep each line free for it
-/// (longer than the longest instruction at 9,600 baud, 20.8 ms).
-pub const START_LEAD_US: u64 = 25_000;
+/// µs: time for the caller to hand it to every line — with a hundred gateways, behind
+/// the rows queued in the same turn — and for each line to finish what it is writing
+/// (the longest instruction at 9,600 baud takes 20.8 ms). A tenth of a second no
+/// operator notices.
+pub const START_LEAD_US: u64 = 100_000;
 
 /// How often the player wants to be polled while something is under way, µs.
 pub const TICK_US: u64 = 10_000;
