@@ -11,6 +11,16 @@
 //! anchor (after the balls, so that the depth test drops what they hide), and plain
 //! lines for the ceiling grid and the floor reference.
 //!
+//! A dense view (neighbouring balls closer than [`DENSE_PITCH_PX`] on screen where
+//! they are nearest, as 10,000 balls seen whole at 640 × 480) is drawn with fewer
+//! primitives, which SwiftShader pays for one by one: the balls as one point sprite
+//! for each block of 2 × 2, on which each pixel shows the nearest of the four discs
+//! under it, lit as a sphere seen from in front at the block's nearest depth (balls
+//! a few pixels across, where that is what the traced sphere shows too); only every
+//! k-th cable of every k-th row, and grid lines through every k-th row and column, k
+//! the smallest that keeps them [`DENSE_PITCH_PX`] apart ([`stride_for`]). Anything
+//! sparser is drawn in full, as above.
+//!
 //! The per-ball data goes to the GPU as one small RG32F texture, one upload a frame:
 //! the height of the ball's centre and its colour packed in one float; where it
 //! hangs follows from its index and the grid, given once per scene. The vertex
@@ -156,8 +166,18 @@ uniform mat4 u_clip_from_world;
 uniform int u_cols;
 uniform vec3 u_grid;
 uniform float u_radius;
+uniform int u_stride;
+uniform int u_units;
 void main() {
-    int ball = gl_VertexID / 2;
+    // The cable of every `u_stride`-th ball of every `u_stride`-th row (all of
+    // them at 1).
+    int line = gl_VertexID / 2;
+    int per_row = (u_cols + u_stride - 1) / u_stride;
+    int ball = (line / per_row) * u_stride * u_cols + (line % per_row) * u_stride;
+    if (ball >= u_units) {
+        gl_Position = vec4(0.0, 0.0, 2.0, 1.0);
+        return;
+    }
     int width = textureSize(u_balls, 0).x;
     float y = texelFetch(u_balls, ivec2(ball % width, ball / width), 0).x;
     vec3 anchor = vec3(
@@ -166,6 +186,119 @@ void main() {
         (float(ball / u_cols) - u_grid.y) * u_grid.z);
     vec3 top_of_ball = vec3(anchor.x, y + u_radius, anchor.z);
     gl_Position = u_clip_from_world * vec4(gl_VertexID % 2 == 0 ? anchor : top_of_ball, 1.0);
+}
+";
+
+/// Dense views: one point sprite for each block of 2 × 2 balls, covering their
+/// discs (written out four times: SwiftShader runs indexed varyings slowly).
+const BLOCK_VERTEX: &str = r"#version 300 es
+uniform highp sampler2D u_balls;
+uniform mat4 u_clip_from_world;
+uniform int u_cols;
+uniform int u_units;
+uniform vec3 u_grid;
+uniform float u_radius;
+uniform vec2 u_viewport;
+uniform float u_focal_px;
+uniform float u_max_sprite;
+uniform int u_selected;
+// Per ball of the block: its centre (pixels), radius (pixels, negative for none)
+// and depth (0-1); their packed colours; which one is selected (-1 for none).
+flat out vec4 v_disc0;
+flat out vec4 v_disc1;
+flat out vec4 v_disc2;
+flat out vec4 v_disc3;
+flat out vec4 v_colours;
+flat out float v_selected;
+int width;
+vec2 lo = vec2(1e9);
+vec2 hi = vec2(-1e9);
+float depth = 1.0;
+// Ball `cell` (column, row): its disc, and its colour in `colour`.
+vec4 disc(ivec2 cell, float slot, out float colour) {
+    colour = 0.0;
+    int ball = cell.y * u_cols + cell.x;
+    if (cell.x >= u_cols || ball >= u_units) return vec4(0.0, 0.0, -1.0, 1.0);
+    vec2 texel = texelFetch(u_balls, ivec2(ball % width, ball / width), 0).xy;
+    vec3 centre = vec3(
+        (float(cell.x) - u_grid.x) * u_grid.z,
+        texel.x,
+        (float(cell.y) - u_grid.y) * u_grid.z);
+    vec4 c = u_clip_from_world * vec4(centre, 1.0);
+    if (c.w <= u_radius || abs(c.z) > c.w) return vec4(0.0, 0.0, -1.0, 1.0);
+    vec2 px = (c.xy / c.w * 0.5 + 0.5) * u_viewport;
+    float r = u_radius * u_focal_px / c.w;
+    float z = c.z / c.w * 0.5 + 0.5;
+    colour = texel.y;
+    if (ball == u_selected) v_selected = slot;
+    lo = min(lo, px - r);
+    hi = max(hi, px + r);
+    depth = min(depth, z);
+    return vec4(px, r, z);
+}
+void main() {
+    int per_row = (u_cols + 1) / 2;
+    ivec2 first = ivec2(gl_VertexID % per_row, gl_VertexID / per_row) * 2;
+    width = textureSize(u_balls, 0).x;
+    v_selected = -1.0;
+    v_disc0 = disc(first, 0.0, v_colours.x);
+    v_disc1 = disc(first + ivec2(1, 0), 1.0, v_colours.y);
+    v_disc2 = disc(first + ivec2(0, 1), 2.0, v_colours.z);
+    v_disc3 = disc(first + ivec2(1, 1), 3.0, v_colours.w);
+    // Not drawn unless placed below (outside the clip volume).
+    gl_Position = vec4(0.0, 0.0, 2.0, 1.0);
+    gl_PointSize = 1.0;
+    if (lo.x > hi.x) return;
+    vec2 px = (lo + hi) * 0.5;
+    float size = min(ceil(max(hi.x - lo.x, hi.y - lo.y)) + 1.0, u_max_sprite);
+    // As for the balls' sprites: a point whose centre is outside the view is drawn
+    // from the nearest pixel inside, as large.
+    vec2 inside = clamp(px, vec2(0.5), u_viewport - 0.5);
+    if (any(greaterThan(abs(inside - px), vec2(size * 0.5)))) return;
+    gl_Position = vec4(inside / u_viewport * 2.0 - 1.0, depth * 2.0 - 1.0, 1.0);
+    gl_PointSize = size;
+}
+";
+
+const BLOCK_FRAGMENT: &str = r"#version 300 es
+precision highp float;
+flat in vec4 v_disc0;
+flat in vec4 v_disc1;
+flat in vec4 v_disc2;
+flat in vec4 v_disc3;
+flat in vec4 v_colours;
+flat in float v_selected;
+uniform vec3 u_light_view;
+uniform float u_ambient;
+uniform vec3 u_selected_colour;
+out vec4 o_colour;
+float hit_depth = 2.0;
+float hit_colour;
+float hit_slot = -1.0;
+vec2 offset;
+void test(vec4 disc, float colour, float slot) {
+    vec2 d = (gl_FragCoord.xy - disc.xy) / max(disc.z, 1e-3);
+    if (disc.z > 0.0 && dot(d, d) < 1.0 && disc.w < hit_depth) {
+        hit_depth = disc.w;
+        hit_colour = colour;
+        hit_slot = slot;
+        offset = d;
+    }
+}
+void main() {
+    // The nearest of the block's discs under this pixel.
+    test(v_disc0, v_colours.x, 0.0);
+    test(v_disc1, v_colours.y, 1.0);
+    test(v_disc2, v_colours.z, 2.0);
+    test(v_disc3, v_colours.w, 3.0);
+    if (hit_slot < 0.0) discard;
+    // The sphere's normal there, in the camera's frame (right, up, back).
+    vec3 n = vec3(offset, sqrt(max(1.0 - dot(offset, offset), 0.0)));
+    uint rgb = uint(hit_colour);
+    vec3 colour = vec3(uvec3(rgb >> 16, rgb >> 8, rgb) & 255u) / 255.0;
+    vec3 lit = colour * (u_ambient + (1.0 - u_ambient) * max(dot(n, u_light_view), 0.0));
+    float edge = 1.0 - n.z;
+    o_colour = vec4(hit_slot == v_selected ? mix(lit, u_selected_colour, edge * edge) : lit, 1.0);
 }
 ";
 
@@ -394,7 +527,11 @@ pub struct GlView {
     gl: Gl,
     balls: Program,
     ball_uniforms: BallUniforms,
+    /// Dense views: the balls by blocks of 2 × 2.
+    blocks: Program,
+    block_uniforms: BlockUniforms,
     cables: Program,
+    cable_uniforms: CableUniforms,
     lines: Program,
     /// The grid lines' colour.
     line_colour: Option<WebGlUniformLocation>,
@@ -403,6 +540,8 @@ pub struct GlView {
     texture: Option<BallTexture>,
     ceiling: Option<Lines>,
     floor: Option<Lines>,
+    /// The grid lines drawn run through every `grid_stride`-th row and column.
+    grid_stride: usize,
     /// Where the balls hang.
     scene: Option<Scene>,
     /// The largest point sprite this WebGL draws, pixels.
@@ -419,6 +558,43 @@ struct BallUniforms {
     viewport: Option<WebGlUniformLocation>,
     selected: Option<WebGlUniformLocation>,
     quads: Option<WebGlUniformLocation>,
+}
+
+/// The block program's own uniforms.
+#[derive(Debug)]
+struct BlockUniforms {
+    units: Option<WebGlUniformLocation>,
+    viewport: Option<WebGlUniformLocation>,
+    focal: Option<WebGlUniformLocation>,
+    selected: Option<WebGlUniformLocation>,
+    light_view: Option<WebGlUniformLocation>,
+}
+
+/// The cable program's own uniforms.
+#[derive(Debug)]
+struct CableUniforms {
+    stride: Option<WebGlUniformLocation>,
+    units: Option<WebGlUniformLocation>,
+}
+
+/// How far apart, on screen, neighbouring balls at least are for the view to be
+/// drawn in full (pixels between the nearest ball and its neighbour); closer than
+/// that, the view is dense: only every k-th cable and grid line (k the smallest
+/// that keeps them this far apart, at most [`MAX_STRIDE`]) and the balls as flat-lit
+/// discs by blocks of 2 × 2.
+pub const DENSE_PITCH_PX: f32 = 8.0;
+/// The most balls (in each direction) one drawn cable stands for in a dense view.
+pub const MAX_STRIDE: usize = 8;
+
+/// Every how many rows and columns a cable and a grid line are drawn when
+/// neighbouring balls are `pitch_px` apart on screen: 1 (all) at
+/// [`DENSE_PITCH_PX`] and more.
+pub fn stride_for(pitch_px: f32) -> usize {
+    if pitch_px.is_nan() || pitch_px >= DENSE_PITCH_PX {
+        1
+    } else {
+        ((DENSE_PITCH_PX / pitch_px.max(1e-3)).ceil() as usize).clamp(1, MAX_STRIDE)
+    }
 }
 
 /// The largest sprite drawn as a point even when the WebGL allows more, pixels
@@ -456,7 +632,19 @@ impl GlView {
             selected: balls.uniform(&gl, "u_selected"),
             quads: balls.uniform(&gl, "u_quads"),
         };
+        let blocks = Program::new(&gl, BLOCK_VERTEX, BLOCK_FRAGMENT)?;
+        let block_uniforms = BlockUniforms {
+            units: blocks.uniform(&gl, "u_units"),
+            viewport: blocks.uniform(&gl, "u_viewport"),
+            focal: blocks.uniform(&gl, "u_focal_px"),
+            selected: blocks.uniform(&gl, "u_selected"),
+            light_view: blocks.uniform(&gl, "u_light_view"),
+        };
         let cables = Program::new(&gl, CABLE_VERTEX, FLAT_FRAGMENT)?;
+        let cable_uniforms = CableUniforms {
+            stride: cables.uniform(&gl, "u_stride"),
+            units: cables.uniform(&gl, "u_units"),
+        };
         let lines = Program::new(&gl, LINE_VERTEX, FLAT_FRAGMENT)?;
         // The largest point this WebGL draws (at least 1 by the standard).
         let max_sprite_px = gl
@@ -476,6 +664,14 @@ impl GlView {
             balls.uniform(&gl, "u_selected_colour").as_ref(),
             &SELECTED_COLOUR,
         );
+        gl.use_program(Some(&blocks.program));
+        gl.uniform1i(blocks.uniform(&gl, "u_balls").as_ref(), 0);
+        gl.uniform1f(blocks.uniform(&gl, "u_ambient").as_ref(), AMBIENT);
+        gl.uniform1f(blocks.uniform(&gl, "u_max_sprite").as_ref(), max_sprite_px);
+        gl.uniform3fv_with_f32_array(
+            blocks.uniform(&gl, "u_selected_colour").as_ref(),
+            &SELECTED_COLOUR,
+        );
         gl.use_program(Some(&cables.program));
         gl.uniform1i(cables.uniform(&gl, "u_balls").as_ref(), 0);
         gl.uniform3fv_with_f32_array(cables.uniform(&gl, "u_colour").as_ref(), &CABLE_COLOUR);
@@ -491,13 +687,17 @@ impl GlView {
             gl,
             balls,
             ball_uniforms,
+            blocks,
+            block_uniforms,
             cables,
+            cable_uniforms,
             lines,
             line_colour,
             no_attributes,
             texture: None,
             ceiling: None,
             floor: None,
+            grid_stride: 1,
             scene: None,
             max_sprite_px,
         })
@@ -517,35 +717,40 @@ impl GlView {
             }
             self.texture = Some(BallTexture::new(gl, units)?);
         }
+        self.balls.set_grid(gl, scene);
+        self.blocks.set_grid(gl, scene);
+        self.cables.set_grid(gl, scene);
+        self.scene = Some(*scene);
+        self.set_grid_stride(1)
+    }
+
+    /// Makes the grid lines run through every `stride`-th row and column.
+    fn set_grid_stride(&mut self, stride: usize) -> Result<(), String> {
+        let gl = &self.gl;
         for old in [self.ceiling.take(), self.floor.take()]
             .into_iter()
             .flatten()
         {
             old.delete(gl);
         }
-        let (ceiling, floor) = scene.grid_lines();
+        self.grid_stride = stride;
+        let Some(scene) = self.scene else {
+            return Ok(());
+        };
+        let (ceiling, floor) = scene.grid_lines_every(stride);
         self.ceiling = Some(lines(gl, &ceiling)?);
         self.floor = Some(lines(gl, &floor)?);
-        self.balls.set_grid(gl, scene);
-        self.cables.set_grid(gl, scene);
-        self.scene = Some(*scene);
         Ok(())
     }
 
     /// Whether some ball of `frame` may be too big on screen for a point sprite: a
-    /// generous bound from the nearest ball (the vertex shader decides exactly).
-    fn needs_quads(&self, frame: &FrameView, units: usize) -> bool {
+    /// generous bound from the nearest ball, `nearest_sq` m² from the eye (the vertex
+    /// shader decides exactly).
+    fn needs_quads(&self, frame: &FrameView, nearest_sq: f32) -> bool {
         let Some(scene) = self.scene else {
             return false;
         };
         let r = scene.ball_radius_m;
-        let nearest_sq = (0..units)
-            .map(|unit| {
-                let anchor = scene.anchor(unit);
-                let centre = Vec3::new(anchor.x, frame.balls[unit * 2], anchor.z);
-                centre.distance_squared(frame.eye)
-            })
-            .fold(f32::INFINITY, f32::min);
         if nearest_sq <= r * r * 1.01 {
             return true;
         }
@@ -557,12 +762,51 @@ impl GlView {
         2.0 * half_px + 4.0 > self.max_sprite_px - 8.0
     }
 
+    /// The squared distance from the eye to the nearest of the first `units` balls'
+    /// centres (infinite for none).
+    fn nearest_sq(&self, frame: &FrameView, units: usize) -> f32 {
+        let Some(scene) = self.scene else {
+            return f32::INFINITY;
+        };
+        (0..units)
+            .map(|unit| {
+                let anchor = scene.anchor(unit);
+                let centre = Vec3::new(anchor.x, frame.balls[unit * 2], anchor.z);
+                centre.distance_squared(frame.eye)
+            })
+            .fold(f32::INFINITY, f32::min)
+    }
+
+    /// Pixels per metre at one metre from the eye (the projection's vertical scale).
+    fn focal_px(frame: &FrameView) -> f32 {
+        frame.clip_from_world.row(1).truncate().length() * frame.viewport.height / 2.0
+    }
+
+    /// Every how many rows and columns the cables and grid lines of `frame` are
+    /// drawn (see [`stride_for`]): from how far apart neighbouring balls are on
+    /// screen where they are nearest.
+    fn stride(&self, frame: &FrameView, nearest_sq: f32) -> usize {
+        let Some(scene) = self.scene else {
+            return 1;
+        };
+        let (_, _, pitch_m) = scene.grid();
+        stride_for(pitch_m * Self::focal_px(frame) / nearest_sq.sqrt())
+    }
+
     /// Draws a frame: the balls as point sprites (quads for any too big for one),
-    /// then what they may hide, the cables and the grid.
-    pub fn draw(&self, frame: &FrameView) {
-        let gl = &self.gl;
+    /// then what they may hide, the cables and the grid. A dense view (see
+    /// [`DENSE_PITCH_PX`]) draws the balls by blocks and every k-th cable and grid
+    /// line.
+    pub fn draw(&mut self, frame: &FrameView) {
         let units =
             (frame.balls.len() / 2).min(self.texture.as_ref().map_or(0, BallTexture::capacity));
+        let nearest_sq = self.nearest_sq(frame, units);
+        let stride = self.stride(frame, nearest_sq);
+        if stride != self.grid_stride {
+            // A failure leaves no grid; WebGL reports it on the console.
+            let _ = self.set_grid_stride(stride);
+        }
+        let gl = &self.gl;
         gl.viewport(
             0,
             0,
@@ -575,10 +819,23 @@ impl GlView {
         if let Some(texture) = self.texture.as_ref().filter(|_| units > 0) {
             texture.upload(gl, units, frame.balls);
             gl.bind_vertex_array(Some(&self.no_attributes));
-            self.draw_balls(frame, texture, units);
+            if stride > 1 {
+                self.draw_blocks(frame, units);
+            } else {
+                self.draw_balls(frame, texture, units, nearest_sq);
+            }
             // After the balls: the depth test drops what they hide before shading.
             self.cables.use_with(gl, matrix);
-            gl.draw_arrays(Gl::LINES, 0, (units * 2) as i32);
+            gl.uniform1i(self.cable_uniforms.stride.as_ref(), stride as i32);
+            gl.uniform1i(self.cable_uniforms.units.as_ref(), units as i32);
+            let cables = if stride == 1 {
+                units
+            } else {
+                let (cols, _, _) = self.scene.map_or((1, 1, 0.0), |scene| scene.grid());
+                let cols = cols.max(1) as usize;
+                cols.div_ceil(stride) * units.div_ceil(cols).div_ceil(stride)
+            };
+            gl.draw_arrays(Gl::LINES, 0, (cables * 2) as i32);
         }
         self.lines.use_with(gl, matrix);
         for (lines, colour) in [(&self.ceiling, CEILING_COLOUR), (&self.floor, FLOOR_COLOUR)] {
@@ -592,7 +849,7 @@ impl GlView {
     }
 
     /// The balls: one point sprite each, then quads for those too big for one.
-    fn draw_balls(&self, frame: &FrameView, texture: &BallTexture, units: usize) {
+    fn draw_balls(&self, frame: &FrameView, texture: &BallTexture, units: usize, nearest_sq: f32) {
         let gl = &self.gl;
         let matrix = &frame.clip_from_world;
         self.balls.use_with(gl, matrix);
@@ -614,11 +871,49 @@ impl GlView {
         gl.uniform1i(uniforms.selected.as_ref(), selected);
         gl.uniform1i(uniforms.quads.as_ref(), 0);
         gl.draw_arrays(Gl::POINTS, 0, units as i32);
-        if self.needs_quads(frame, units) {
+        if self.needs_quads(frame, nearest_sq) {
             gl.uniform1i(uniforms.quads.as_ref(), 1);
             gl.bind_buffer(Gl::ELEMENT_ARRAY_BUFFER, Some(&texture.indices));
             gl.draw_elements_with_i32(Gl::TRIANGLES, (units * 6) as i32, Gl::UNSIGNED_INT, 0);
         }
+    }
+
+    /// A dense view's balls: one point sprite for each block of 2 × 2, on which each pixel
+    /// shows the nearest disc covering it, lit as a sphere seen from in front (at a
+    /// few pixels across, the same as the traced sphere), at the block's nearest
+    /// depth.
+    fn draw_blocks(&self, frame: &FrameView, units: usize) {
+        let gl = &self.gl;
+        self.blocks.use_with(gl, &frame.clip_from_world);
+        let uniforms = &self.block_uniforms;
+        gl.uniform1i(uniforms.units.as_ref(), units as i32);
+        gl.uniform2f(
+            uniforms.viewport.as_ref(),
+            frame.viewport.width,
+            frame.viewport.height,
+        );
+        gl.uniform1f(uniforms.focal.as_ref(), Self::focal_px(frame));
+        let selected = frame
+            .selected
+            .and_then(|unit| i32::try_from(unit).ok())
+            .unwrap_or(-1);
+        gl.uniform1i(uniforms.selected.as_ref(), selected);
+        // The light in the camera's frame: right, up and back, from the pixel rays.
+        let rays = pixel_rays(frame);
+        let right = Vec3::from_slice(&rays[3..6]).normalize_or_zero();
+        let up = Vec3::from_slice(&rays[6..9]).normalize_or_zero();
+        let back = right.cross(up);
+        let light = frame.light;
+        gl.uniform3f(
+            uniforms.light_view.as_ref(),
+            light.dot(right),
+            light.dot(up),
+            light.dot(back),
+        );
+        let (cols, _, _) = self.scene.map_or((1, 1, 0.0), |scene| scene.grid());
+        let cols = cols.max(1) as usize;
+        let blocks = cols.div_ceil(2) * units.div_ceil(cols).div_ceil(2);
+        gl.draw_arrays(Gl::POINTS, 0, blocks as i32);
     }
 
     /// Waits until the GPU has drawn everything asked so far (by reading one pixel
