@@ -18,8 +18,8 @@
 //! under it, lit as a sphere seen from in front at the block's nearest depth (balls
 //! a few pixels across, where that is what the traced sphere shows too); only every
 //! k-th cable of every k-th row, and grid lines through every k-th row and column, k
-//! the smallest that keeps them [`DENSE_PITCH_PX`] apart ([`stride_for`]). Anything
-//! sparser is drawn in full, as above.
+//! the smallest that keeps them [`DENSE_CABLE_SPACING_PX`] apart ([`stride_for`]).
+//! Anything sparser is drawn in full, as above.
 //!
 //! The per-ball data goes to the GPU as one small RG32F texture, one upload a frame:
 //! the height of the ball's centre and its colour packed in one float; where it
@@ -579,21 +579,24 @@ struct CableUniforms {
 
 /// How far apart, on screen, neighbouring balls at least are for the view to be
 /// drawn in full (pixels between the nearest ball and its neighbour); closer than
-/// that, the view is dense: only every k-th cable and grid line (k the smallest
-/// that keeps them this far apart, at most [`MAX_STRIDE`]) and the balls as flat-lit
-/// discs by blocks of 2 × 2.
+/// that, the view is dense: the balls are drawn as flat-lit discs by blocks of 2 × 2,
+/// and only every k-th cable and grid line ([`stride_for`]).
 pub const DENSE_PITCH_PX: f32 = 8.0;
+/// How far apart, on screen, the cables and grid lines drawn in a dense view at least
+/// are (pixels, where the balls are nearest).
+pub const DENSE_CABLE_SPACING_PX: f32 = 16.0;
 /// The most balls (in each direction) one drawn cable stands for in a dense view.
 pub const MAX_STRIDE: usize = 8;
 
 /// Every how many rows and columns a cable and a grid line are drawn when
-/// neighbouring balls are `pitch_px` apart on screen: 1 (all) at
-/// [`DENSE_PITCH_PX`] and more.
+/// neighbouring balls are `pitch_px` apart on screen: 1 (all) at [`DENSE_PITCH_PX`]
+/// and more; below, the smallest (at least 2, at most [`MAX_STRIDE`]) that keeps
+/// them [`DENSE_CABLE_SPACING_PX`] apart.
 pub fn stride_for(pitch_px: f32) -> usize {
     if pitch_px.is_nan() || pitch_px >= DENSE_PITCH_PX {
         1
     } else {
-        ((DENSE_PITCH_PX / pitch_px.max(1e-3)).ceil() as usize).clamp(1, MAX_STRIDE)
+        ((DENSE_CABLE_SPACING_PX / pitch_px.max(1e-3)).ceil() as usize).clamp(2, MAX_STRIDE)
     }
 }
 
