@@ -12,12 +12,11 @@
 //! lines for the ceiling grid and the floor reference.
 //!
 //! A dense view (neighbouring balls closer than [`DENSE_PITCH_PX`] on screen where
-//! they are nearest, as 10,000 balls seen whole at 640 × 480) is drawn with fewer
-//! primitives, which SwiftShader pays for one by one: the balls as one point sprite
-//! for each block of 2 × 2, on which each pixel shows the nearest of the four discs
-//! under it, lit as a sphere seen from in front at the block's nearest depth (balls
-//! a few pixels across, where that is what the traced sphere shows too); only every
-//! k-th cable of every k-th row, and grid lines through every k-th row and column, k
+//! they are nearest, as 10,000 balls seen whole at 640 × 480) is drawn more
+//! cheaply, SwiftShader paying for every primitive and every shader instruction: the
+//! balls as point sprites of flat-lit discs (lit as a sphere seen from in front, at
+//! the centre's depth, no ray traced: balls a few pixels across, where that is what
+//! the traced sphere shows too); only every k-th cable of every k-th row, and grid lines through every k-th row and column, k
 //! the smallest that keeps them [`DENSE_CABLE_SPACING_PX`] apart ([`stride_for`]).
 //! Anything sparser is drawn in full, as above.
 //!
@@ -189,116 +188,58 @@ void main() {
 }
 ";
 
-/// Dense views: one point sprite for each block of 2 × 2 balls, covering their
-/// discs (written out four times: SwiftShader runs indexed varyings slowly).
-const BLOCK_VERTEX: &str = r"#version 300 es
+/// Dense views: one point sprite a ball holding a flat-lit disc, the cheapest
+/// shaders that draw it.
+const DOT_VERTEX: &str = r"#version 300 es
 uniform highp sampler2D u_balls;
 uniform mat4 u_clip_from_world;
 uniform int u_cols;
-uniform int u_units;
 uniform vec3 u_grid;
 uniform float u_radius;
-uniform vec2 u_viewport;
 uniform float u_focal_px;
-uniform float u_max_sprite;
 uniform int u_selected;
-// Per ball of the block: its centre (pixels), radius (pixels, negative for none)
-// and depth (0-1); their packed colours; which one is selected (-1 for none).
-flat out vec4 v_disc0;
-flat out vec4 v_disc1;
-flat out vec4 v_disc2;
-flat out vec4 v_disc3;
-flat out vec4 v_colours;
+flat out vec3 v_colour;
 flat out float v_selected;
-int width;
-vec2 lo = vec2(1e9);
-vec2 hi = vec2(-1e9);
-float depth = 1.0;
-// Ball `cell` (column, row): its disc, and its colour in `colour`.
-vec4 disc(ivec2 cell, float slot, out float colour) {
-    colour = 0.0;
-    int ball = cell.y * u_cols + cell.x;
-    if (cell.x >= u_cols || ball >= u_units) return vec4(0.0, 0.0, -1.0, 1.0);
+// From the sprite's coordinates (-1 to 1) to the disc's (1 at its rim).
+flat out float v_scale;
+void main() {
+    int ball = gl_VertexID;
+    int width = textureSize(u_balls, 0).x;
     vec2 texel = texelFetch(u_balls, ivec2(ball % width, ball / width), 0).xy;
     vec3 centre = vec3(
-        (float(cell.x) - u_grid.x) * u_grid.z,
+        (float(ball % u_cols) - u_grid.x) * u_grid.z,
         texel.x,
-        (float(cell.y) - u_grid.y) * u_grid.z);
+        (float(ball / u_cols) - u_grid.y) * u_grid.z);
+    uint rgb = uint(texel.y);
+    v_colour = vec3(uvec3(rgb >> 16, rgb >> 8, rgb) & 255u) / 255.0;
+    v_selected = ball == u_selected ? 1.0 : 0.0;
     vec4 c = u_clip_from_world * vec4(centre, 1.0);
-    if (c.w <= u_radius || abs(c.z) > c.w) return vec4(0.0, 0.0, -1.0, 1.0);
-    vec2 px = (c.xy / c.w * 0.5 + 0.5) * u_viewport;
-    float r = u_radius * u_focal_px / c.w;
-    float z = c.z / c.w * 0.5 + 0.5;
-    colour = texel.y;
-    if (ball == u_selected) v_selected = slot;
-    lo = min(lo, px - r);
-    hi = max(hi, px + r);
-    depth = min(depth, z);
-    return vec4(px, r, z);
-}
-void main() {
-    int per_row = (u_cols + 1) / 2;
-    ivec2 first = ivec2(gl_VertexID % per_row, gl_VertexID / per_row) * 2;
-    width = textureSize(u_balls, 0).x;
-    v_selected = -1.0;
-    v_disc0 = disc(first, 0.0, v_colours.x);
-    v_disc1 = disc(first + ivec2(1, 0), 1.0, v_colours.y);
-    v_disc2 = disc(first + ivec2(0, 1), 2.0, v_colours.z);
-    v_disc3 = disc(first + ivec2(1, 1), 3.0, v_colours.w);
-    // Not drawn unless placed below (outside the clip volume).
-    gl_Position = vec4(0.0, 0.0, 2.0, 1.0);
-    gl_PointSize = 1.0;
-    if (lo.x > hi.x) return;
-    vec2 px = (lo + hi) * 0.5;
-    float size = min(ceil(max(hi.x - lo.x, hi.y - lo.y)) + 1.0, u_max_sprite);
-    // As for the balls' sprites: a point whose centre is outside the view is drawn
-    // from the nearest pixel inside, as large.
-    vec2 inside = clamp(px, vec2(0.5), u_viewport - 0.5);
-    if (any(greaterThan(abs(inside - px), vec2(size * 0.5)))) return;
-    gl_Position = vec4(inside / u_viewport * 2.0 - 1.0, depth * 2.0 - 1.0, 1.0);
+    float r = u_radius * u_focal_px / max(c.w, 1e-6);
+    float size = ceil(2.0 * r) + 1.0;
+    v_scale = size / (2.0 * r);
+    gl_Position = c;
     gl_PointSize = size;
 }
 ";
 
-const BLOCK_FRAGMENT: &str = r"#version 300 es
+const DOT_FRAGMENT: &str = r"#version 300 es
 precision highp float;
-flat in vec4 v_disc0;
-flat in vec4 v_disc1;
-flat in vec4 v_disc2;
-flat in vec4 v_disc3;
-flat in vec4 v_colours;
+flat in vec3 v_colour;
 flat in float v_selected;
+flat in float v_scale;
 uniform vec3 u_light_view;
 uniform float u_ambient;
 uniform vec3 u_selected_colour;
 out vec4 o_colour;
-float hit_depth = 2.0;
-float hit_colour;
-float hit_slot = -1.0;
-vec2 offset;
-void test(vec4 disc, float colour, float slot) {
-    vec2 d = (gl_FragCoord.xy - disc.xy) / max(disc.z, 1e-3);
-    if (disc.z > 0.0 && dot(d, d) < 1.0 && disc.w < hit_depth) {
-        hit_depth = disc.w;
-        hit_colour = colour;
-        hit_slot = slot;
-        offset = d;
-    }
-}
 void main() {
-    // The nearest of the block's discs under this pixel.
-    test(v_disc0, v_colours.x, 0.0);
-    test(v_disc1, v_colours.y, 1.0);
-    test(v_disc2, v_colours.z, 2.0);
-    test(v_disc3, v_colours.w, 3.0);
-    if (hit_slot < 0.0) discard;
+    vec2 p = (gl_PointCoord * 2.0 - 1.0) * vec2(v_scale, -v_scale);
+    float d2 = dot(p, p);
+    if (d2 >= 1.0) discard;
     // The sphere's normal there, in the camera's frame (right, up, back).
-    vec3 n = vec3(offset, sqrt(max(1.0 - dot(offset, offset), 0.0)));
-    uint rgb = uint(hit_colour);
-    vec3 colour = vec3(uvec3(rgb >> 16, rgb >> 8, rgb) & 255u) / 255.0;
-    vec3 lit = colour * (u_ambient + (1.0 - u_ambient) * max(dot(n, u_light_view), 0.0));
+    vec3 n = vec3(p, sqrt(1.0 - d2));
+    vec3 rgb = v_colour * (u_ambient + (1.0 - u_ambient) * max(dot(n, u_light_view), 0.0));
     float edge = 1.0 - n.z;
-    o_colour = vec4(hit_slot == v_selected ? mix(lit, u_selected_colour, edge * edge) : lit, 1.0);
+    o_colour = vec4(mix(rgb, u_selected_colour, edge * edge * v_selected), 1.0);
 }
 ";
 
@@ -527,9 +468,9 @@ pub struct GlView {
     gl: Gl,
     balls: Program,
     ball_uniforms: BallUniforms,
-    /// Dense views: the balls by blocks of 2 × 2.
-    blocks: Program,
-    block_uniforms: BlockUniforms,
+    /// Dense views: the balls as flat-lit discs.
+    dots: Program,
+    dot_uniforms: DotUniforms,
     cables: Program,
     cable_uniforms: CableUniforms,
     lines: Program,
@@ -560,11 +501,9 @@ struct BallUniforms {
     quads: Option<WebGlUniformLocation>,
 }
 
-/// The block program's own uniforms.
+/// The dot program's own uniforms.
 #[derive(Debug)]
-struct BlockUniforms {
-    units: Option<WebGlUniformLocation>,
-    viewport: Option<WebGlUniformLocation>,
+struct DotUniforms {
     focal: Option<WebGlUniformLocation>,
     selected: Option<WebGlUniformLocation>,
     light_view: Option<WebGlUniformLocation>,
@@ -579,8 +518,7 @@ struct CableUniforms {
 
 /// How far apart, on screen, neighbouring balls at least are for the view to be
 /// drawn in full (pixels between the nearest ball and its neighbour); closer than
-/// that, the view is dense: the balls are drawn as flat-lit discs by blocks of 2 × 2,
-/// and only every k-th cable and grid line ([`stride_for`]).
+/// that, the view is dense: the balls are drawn as flat-lit discs, and only every k-th cable and grid line ([`stride_for`]).
 pub const DENSE_PITCH_PX: f32 = 8.0;
 /// How far apart, on screen, the cables and grid lines drawn in a dense view at least
 /// are (pixels, where the balls are nearest).
@@ -635,13 +573,11 @@ impl GlView {
             selected: balls.uniform(&gl, "u_selected"),
             quads: balls.uniform(&gl, "u_quads"),
         };
-        let blocks = Program::new(&gl, BLOCK_VERTEX, BLOCK_FRAGMENT)?;
-        let block_uniforms = BlockUniforms {
-            units: blocks.uniform(&gl, "u_units"),
-            viewport: blocks.uniform(&gl, "u_viewport"),
-            focal: blocks.uniform(&gl, "u_focal_px"),
-            selected: blocks.uniform(&gl, "u_selected"),
-            light_view: blocks.uniform(&gl, "u_light_view"),
+        let dots = Program::new(&gl, DOT_VERTEX, DOT_FRAGMENT)?;
+        let dot_uniforms = DotUniforms {
+            focal: dots.uniform(&gl, "u_focal_px"),
+            selected: dots.uniform(&gl, "u_selected"),
+            light_view: dots.uniform(&gl, "u_light_view"),
         };
         let cables = Program::new(&gl, CABLE_VERTEX, FLAT_FRAGMENT)?;
         let cable_uniforms = CableUniforms {
@@ -667,12 +603,11 @@ impl GlView {
             balls.uniform(&gl, "u_selected_colour").as_ref(),
             &SELECTED_COLOUR,
         );
-        gl.use_program(Some(&blocks.program));
-        gl.uniform1i(blocks.uniform(&gl, "u_balls").as_ref(), 0);
-        gl.uniform1f(blocks.uniform(&gl, "u_ambient").as_ref(), AMBIENT);
-        gl.uniform1f(blocks.uniform(&gl, "u_max_sprite").as_ref(), max_sprite_px);
+        gl.use_program(Some(&dots.program));
+        gl.uniform1i(dots.uniform(&gl, "u_balls").as_ref(), 0);
+        gl.uniform1f(dots.uniform(&gl, "u_ambient").as_ref(), AMBIENT);
         gl.uniform3fv_with_f32_array(
-            blocks.uniform(&gl, "u_selected_colour").as_ref(),
+            dots.uniform(&gl, "u_selected_colour").as_ref(),
             &SELECTED_COLOUR,
         );
         gl.use_program(Some(&cables.program));
@@ -690,8 +625,8 @@ impl GlView {
             gl,
             balls,
             ball_uniforms,
-            blocks,
-            block_uniforms,
+            dots,
+            dot_uniforms,
             cables,
             cable_uniforms,
             lines,
@@ -721,7 +656,7 @@ impl GlView {
             self.texture = Some(BallTexture::new(gl, units)?);
         }
         self.balls.set_grid(gl, scene);
-        self.blocks.set_grid(gl, scene);
+        self.dots.set_grid(gl, scene);
         self.cables.set_grid(gl, scene);
         self.scene = Some(*scene);
         self.set_grid_stride(1)
@@ -798,8 +733,8 @@ impl GlView {
 
     /// Draws a frame: the balls as point sprites (quads for any too big for one),
     /// then what they may hide, the cables and the grid. A dense view (see
-    /// [`DENSE_PITCH_PX`]) draws the balls by blocks and every k-th cable and grid
-    /// line.
+    /// [`DENSE_PITCH_PX`]) draws the balls as flat-lit discs and every k-th cable and
+    /// grid line.
     pub fn draw(&mut self, frame: &FrameView) {
         let units =
             (frame.balls.len() / 2).min(self.texture.as_ref().map_or(0, BallTexture::capacity));
@@ -823,7 +758,7 @@ impl GlView {
             texture.upload(gl, units, frame.balls);
             gl.bind_vertex_array(Some(&self.no_attributes));
             if stride > 1 {
-                self.draw_blocks(frame, units);
+                self.draw_dots(frame, units);
             } else {
                 self.draw_balls(frame, texture, units, nearest_sq);
             }
@@ -881,20 +816,13 @@ impl GlView {
         }
     }
 
-    /// A dense view's balls: one point sprite for each block of 2 × 2, on which each pixel
-    /// shows the nearest disc covering it, lit as a sphere seen from in front (at a
-    /// few pixels across, the same as the traced sphere), at the block's nearest
-    /// depth.
-    fn draw_blocks(&self, frame: &FrameView, units: usize) {
+    /// A dense view's balls: one point sprite each holding a disc, lit as a sphere seen
+    /// from in front (at a few pixels across, the same as the traced sphere), at the
+    /// centre's depth.
+    fn draw_dots(&self, frame: &FrameView, units: usize) {
         let gl = &self.gl;
-        self.blocks.use_with(gl, &frame.clip_from_world);
-        let uniforms = &self.block_uniforms;
-        gl.uniform1i(uniforms.units.as_ref(), units as i32);
-        gl.uniform2f(
-            uniforms.viewport.as_ref(),
-            frame.viewport.width,
-            frame.viewport.height,
-        );
+        self.dots.use_with(gl, &frame.clip_from_world);
+        let uniforms = &self.dot_uniforms;
         gl.uniform1f(uniforms.focal.as_ref(), Self::focal_px(frame));
         let selected = frame
             .selected
@@ -913,10 +841,7 @@ impl GlView {
             light.dot(up),
             light.dot(back),
         );
-        let (cols, _, _) = self.scene.map_or((1, 1, 0.0), |scene| scene.grid());
-        let cols = cols.max(1) as usize;
-        let blocks = cols.div_ceil(2) * units.div_ceil(cols).div_ceil(2);
-        gl.draw_arrays(Gl::POINTS, 0, blocks as i32);
+        gl.draw_arrays(Gl::POINTS, 0, units as i32);
     }
 
     /// Waits until the GPU has drawn everything asked so far (by reading one pixel
