@@ -15,6 +15,7 @@ use floatball_web::i18n::Lang;
 use floatball_web::preview::PreviewPage;
 use floatball_web::preview::camera::{Orbit, Viewport};
 use floatball_web::preview::gestures::Gesture;
+use floatball_web::preview::gl::stride_for;
 use floatball_web::preview::perf::{PerfPanel, SIZES};
 use floatball_web::preview::plot::{BallPlot, Panel};
 use floatball_web::preview::scene::{Scene, lit};
@@ -300,6 +301,116 @@ async fn every_ball_lands_on_its_pixel_in_its_lit_colour() {
     assert!(drawn * 100 > total, "{drawn} of {total} pixels drawn");
     assert!(drawn * 2 < total, "{drawn} of {total} pixels drawn");
     assert!(colours.len() > 50, "{} colours", colours.len());
+}
+
+/// The cables' colour in the picture (`CABLE_COLOUR` in `preview::gl`).
+const CABLE_RGB: [u8; 3] = [115, 128, 140];
+
+/// A `rows` × `cols` show, every ball still at `position_mm`.
+fn still_matrix(rows: u32, cols: u32, position_mm: f64) -> Show {
+    Show {
+        outputs: Vec::new(),
+        name: "matrix".into(),
+        layout: layout(rows, cols),
+        tracks: (0..rows * cols)
+            .map(|_| still(position_mm, Some([240, 200, 40])))
+            .collect(),
+    }
+}
+
+/// Draws `show` on a 640 × 480 canvas with the default view; the stage, the canvas,
+/// its pixels and every how many rows and columns a cable is drawn.
+fn draw_matrix(show: &Show) -> (Stage, HtmlCanvasElement, Vec<u8>, usize) {
+    let container = fresh_container();
+    let canvas: HtmlCanvasElement = document()
+        .create_element("canvas")
+        .unwrap()
+        .unchecked_into();
+    canvas
+        .set_attribute("style", "width: 640px; height: 480px")
+        .unwrap();
+    container.append_child(&canvas).unwrap();
+    let mut stage = Stage::new(canvas.clone(), show, Vec::new(), RendererKind::WebGl2)
+        .expect("WebGL2 in headless Chromium");
+    assert!(stage.draw(500.0, true), "a frame");
+    let (camera, scene, viewport) = (stage.camera(), stage.scene(), stage.viewport());
+    // As the renderer decides: from how far apart the nearest balls are on screen.
+    let nearest = stage
+        .positions_mm()
+        .iter()
+        .enumerate()
+        .map(|(unit, position_mm)| scene.ball_centre(unit, *position_mm).distance(camera.eye()))
+        .fold(f32::INFINITY, f32::min);
+    let focal_px = viewport.height / 2.0 / std::f32::consts::FRAC_PI_8.tan();
+    let stride = stride_for(scene.grid().2 * focal_px / nearest);
+    let pixels = gl_pixels(&canvas);
+    (stage, canvas, pixels, stride)
+}
+
+/// Of nine points along the cable of `unit` (between its ball and the grid), how
+/// many show the cable's colour (within a pixel).
+fn cable_points_shown(stage: &Stage, pixels: &[u8], unit: usize) -> usize {
+    let (camera, scene, viewport) = (stage.camera(), stage.scene(), stage.viewport());
+    let (width, height) = (viewport.width as i32, viewport.height as i32);
+    let anchor = scene.anchor(unit);
+    let top =
+        scene.ball_centre(unit, stage.positions_mm()[unit]) + glam::Vec3::Y * scene.ball_radius_m;
+    (1..=9)
+        .filter(|k| {
+            let at = camera
+                .pixel_of(top.lerp(anchor, *k as f32 / 10.0), viewport)
+                .unwrap();
+            let (x, y) = (at.x.floor() as i32, height - 1 - at.y.floor() as i32);
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dx| {
+                    let (x, y) = (x + dx, y + dy);
+                    if x < 0 || y < 0 || x >= width || y >= height {
+                        return false;
+                    }
+                    let i = ((y * width + x) * 4) as usize;
+                    near([pixels[i], pixels[i + 1], pixels[i + 2]], CABLE_RGB, 4)
+                })
+            })
+        })
+        .count()
+}
+
+/// A sparse view draws every ball's cable, up to the grid; a dense one (10,000
+/// balls seen whole) draws only every k-th, but those still hang from the grid down
+/// to their ball, visible above it.
+#[wasm_bindgen_test]
+async fn cables_hang_above_the_balls_in_sparse_and_dense_views() {
+    let show = still_matrix(4, 4, 5000.0);
+    let (stage, _canvas, pixels, stride) = draw_matrix(&show);
+    assert_eq!(stride, 1, "a sparse view");
+    for unit in 0..16 {
+        let shown = cable_points_shown(&stage, &pixels, unit);
+        assert!(shown >= 8, "the cable of ball {unit}: {shown} of 9 points");
+    }
+
+    let show = still_matrix(100, 100, 5000.0);
+    let (stage, _canvas, pixels, stride) = draw_matrix(&show);
+    assert!(stride > 1, "a dense view");
+    // The front corner's nearest ball with a cable drawn.
+    let row = (99 / stride) * stride;
+    let unit = row * 100 + row;
+    let shown = cable_points_shown(&stage, &pixels, unit);
+    assert!(shown >= 7, "the cable of ball {unit}: {shown} of 9 points");
+    // The ball itself is drawn (lit yellow, not the background nor a cable).
+    let centre = stage
+        .camera()
+        .pixel_of(
+            stage.scene().ball_centre(unit, stage.positions_mm()[unit]),
+            stage.viewport(),
+        )
+        .unwrap();
+    let (x, y) = (
+        centre.x.floor() as i32,
+        stage.viewport().height as i32 - 1 - centre.y.floor() as i32,
+    );
+    let i = ((y * stage.viewport().width as i32 + x) * 4) as usize;
+    let [r, g, b] = [pixels[i], pixels[i + 1], pixels[i + 2]];
+    assert!(r > 100 && g > 80 && b < 60, "ball {unit}: {:?}", [r, g, b]);
 }
 
 /// From very close a ball is too big for a point sprite: it is drawn as a quad, still

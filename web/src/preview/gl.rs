@@ -11,6 +11,15 @@
 //! anchor (after the balls, so that the depth test drops what they hide), and plain
 //! lines for the ceiling grid and the floor reference.
 //!
+//! A dense view (neighbouring balls closer than [`DENSE_PITCH_PX`] on screen where
+//! they are nearest, as 10,000 balls seen whole at 640 × 480) is drawn more
+//! cheaply, SwiftShader paying for every primitive and every shader instruction: the
+//! balls as point sprites of flat-lit discs (lit as a sphere seen from in front, at
+//! the centre's depth, no ray traced: balls a few pixels across, where that is what
+//! the traced sphere shows too); only every k-th cable of every k-th row, and grid lines through every k-th row and column, k
+//! the smallest that keeps them [`DENSE_CABLE_SPACING_PX`] apart ([`stride_for`]).
+//! Anything sparser is drawn in full, as above.
+//!
 //! The per-ball data goes to the GPU as one small RG32F texture, one upload a frame:
 //! the height of the ball's centre and its colour packed in one float; where it
 //! hangs follows from its index and the grid, given once per scene. The vertex
@@ -156,8 +165,18 @@ uniform mat4 u_clip_from_world;
 uniform int u_cols;
 uniform vec3 u_grid;
 uniform float u_radius;
+uniform int u_stride;
+uniform int u_units;
 void main() {
-    int ball = gl_VertexID / 2;
+    // The cable of every `u_stride`-th ball of every `u_stride`-th row (all of
+    // them at 1).
+    int line = gl_VertexID / 2;
+    int per_row = (u_cols + u_stride - 1) / u_stride;
+    int ball = (line / per_row) * u_stride * u_cols + (line % per_row) * u_stride;
+    if (ball >= u_units) {
+        gl_Position = vec4(0.0, 0.0, 2.0, 1.0);
+        return;
+    }
     int width = textureSize(u_balls, 0).x;
     float y = texelFetch(u_balls, ivec2(ball % width, ball / width), 0).x;
     vec3 anchor = vec3(
@@ -166,6 +185,61 @@ void main() {
         (float(ball / u_cols) - u_grid.y) * u_grid.z);
     vec3 top_of_ball = vec3(anchor.x, y + u_radius, anchor.z);
     gl_Position = u_clip_from_world * vec4(gl_VertexID % 2 == 0 ? anchor : top_of_ball, 1.0);
+}
+";
+
+/// Dense views: one point sprite a ball holding a flat-lit disc, the cheapest
+/// shaders that draw it.
+const DOT_VERTEX: &str = r"#version 300 es
+uniform highp sampler2D u_balls;
+uniform mat4 u_clip_from_world;
+uniform int u_cols;
+uniform vec3 u_grid;
+uniform float u_radius;
+uniform float u_focal_px;
+uniform int u_selected;
+flat out vec3 v_colour;
+flat out float v_selected;
+// From the sprite's coordinates (-1 to 1) to the disc's (1 at its rim).
+flat out float v_scale;
+void main() {
+    int ball = gl_VertexID;
+    int width = textureSize(u_balls, 0).x;
+    vec2 texel = texelFetch(u_balls, ivec2(ball % width, ball / width), 0).xy;
+    vec3 centre = vec3(
+        (float(ball % u_cols) - u_grid.x) * u_grid.z,
+        texel.x,
+        (float(ball / u_cols) - u_grid.y) * u_grid.z);
+    uint rgb = uint(texel.y);
+    v_colour = vec3(uvec3(rgb >> 16, rgb >> 8, rgb) & 255u) / 255.0;
+    v_selected = ball == u_selected ? 1.0 : 0.0;
+    vec4 c = u_clip_from_world * vec4(centre, 1.0);
+    float r = u_radius * u_focal_px / max(c.w, 1e-6);
+    float size = ceil(2.0 * r) + 1.0;
+    v_scale = size / (2.0 * r);
+    gl_Position = c;
+    gl_PointSize = size;
+}
+";
+
+const DOT_FRAGMENT: &str = r"#version 300 es
+precision highp float;
+flat in vec3 v_colour;
+flat in float v_selected;
+flat in float v_scale;
+uniform vec3 u_light_view;
+uniform float u_ambient;
+uniform vec3 u_selected_colour;
+out vec4 o_colour;
+void main() {
+    vec2 p = (gl_PointCoord * 2.0 - 1.0) * vec2(v_scale, -v_scale);
+    float d2 = dot(p, p);
+    if (d2 >= 1.0) discard;
+    // The sphere's normal there, in the camera's frame (right, up, back).
+    vec3 n = vec3(p, sqrt(1.0 - d2));
+    vec3 rgb = v_colour * (u_ambient + (1.0 - u_ambient) * max(dot(n, u_light_view), 0.0));
+    float edge = 1.0 - n.z;
+    o_colour = vec4(mix(rgb, u_selected_colour, edge * edge * v_selected), 1.0);
 }
 ";
 
@@ -394,7 +468,11 @@ pub struct GlView {
     gl: Gl,
     balls: Program,
     ball_uniforms: BallUniforms,
+    /// Dense views: the balls as flat-lit discs.
+    dots: Program,
+    dot_uniforms: DotUniforms,
     cables: Program,
+    cable_uniforms: CableUniforms,
     lines: Program,
     /// The grid lines' colour.
     line_colour: Option<WebGlUniformLocation>,
@@ -403,6 +481,8 @@ pub struct GlView {
     texture: Option<BallTexture>,
     ceiling: Option<Lines>,
     floor: Option<Lines>,
+    /// The grid lines drawn run through every `grid_stride`-th row and column.
+    grid_stride: usize,
     /// Where the balls hang.
     scene: Option<Scene>,
     /// The largest point sprite this WebGL draws, pixels.
@@ -419,6 +499,43 @@ struct BallUniforms {
     viewport: Option<WebGlUniformLocation>,
     selected: Option<WebGlUniformLocation>,
     quads: Option<WebGlUniformLocation>,
+}
+
+/// The dot program's own uniforms.
+#[derive(Debug)]
+struct DotUniforms {
+    focal: Option<WebGlUniformLocation>,
+    selected: Option<WebGlUniformLocation>,
+    light_view: Option<WebGlUniformLocation>,
+}
+
+/// The cable program's own uniforms.
+#[derive(Debug)]
+struct CableUniforms {
+    stride: Option<WebGlUniformLocation>,
+    units: Option<WebGlUniformLocation>,
+}
+
+/// How far apart, on screen, neighbouring balls at least are for the view to be
+/// drawn in full (pixels between the nearest ball and its neighbour); closer than
+/// that, the view is dense: the balls are drawn as flat-lit discs, and only every k-th cable and grid line ([`stride_for`]).
+pub const DENSE_PITCH_PX: f32 = 8.0;
+/// How far apart, on screen, the cables and grid lines drawn in a dense view at least
+/// are (pixels, where the balls are nearest).
+pub const DENSE_CABLE_SPACING_PX: f32 = 16.0;
+/// The most balls (in each direction) one drawn cable stands for in a dense view.
+pub const MAX_STRIDE: usize = 8;
+
+/// Every how many rows and columns a cable and a grid line are drawn when
+/// neighbouring balls are `pitch_px` apart on screen: 1 (all) at [`DENSE_PITCH_PX`]
+/// and more; below, the smallest (at least 2, at most [`MAX_STRIDE`]) that keeps
+/// them [`DENSE_CABLE_SPACING_PX`] apart.
+pub fn stride_for(pitch_px: f32) -> usize {
+    if pitch_px.is_nan() || pitch_px >= DENSE_PITCH_PX {
+        1
+    } else {
+        ((DENSE_CABLE_SPACING_PX / pitch_px.max(1e-3)).ceil() as usize).clamp(2, MAX_STRIDE)
+    }
 }
 
 /// The largest sprite drawn as a point even when the WebGL allows more, pixels
@@ -456,7 +573,17 @@ impl GlView {
             selected: balls.uniform(&gl, "u_selected"),
             quads: balls.uniform(&gl, "u_quads"),
         };
+        let dots = Program::new(&gl, DOT_VERTEX, DOT_FRAGMENT)?;
+        let dot_uniforms = DotUniforms {
+            focal: dots.uniform(&gl, "u_focal_px"),
+            selected: dots.uniform(&gl, "u_selected"),
+            light_view: dots.uniform(&gl, "u_light_view"),
+        };
         let cables = Program::new(&gl, CABLE_VERTEX, FLAT_FRAGMENT)?;
+        let cable_uniforms = CableUniforms {
+            stride: cables.uniform(&gl, "u_stride"),
+            units: cables.uniform(&gl, "u_units"),
+        };
         let lines = Program::new(&gl, LINE_VERTEX, FLAT_FRAGMENT)?;
         // The largest point this WebGL draws (at least 1 by the standard).
         let max_sprite_px = gl
@@ -476,6 +603,13 @@ impl GlView {
             balls.uniform(&gl, "u_selected_colour").as_ref(),
             &SELECTED_COLOUR,
         );
+        gl.use_program(Some(&dots.program));
+        gl.uniform1i(dots.uniform(&gl, "u_balls").as_ref(), 0);
+        gl.uniform1f(dots.uniform(&gl, "u_ambient").as_ref(), AMBIENT);
+        gl.uniform3fv_with_f32_array(
+            dots.uniform(&gl, "u_selected_colour").as_ref(),
+            &SELECTED_COLOUR,
+        );
         gl.use_program(Some(&cables.program));
         gl.uniform1i(cables.uniform(&gl, "u_balls").as_ref(), 0);
         gl.uniform3fv_with_f32_array(cables.uniform(&gl, "u_colour").as_ref(), &CABLE_COLOUR);
@@ -491,13 +625,17 @@ impl GlView {
             gl,
             balls,
             ball_uniforms,
+            dots,
+            dot_uniforms,
             cables,
+            cable_uniforms,
             lines,
             line_colour,
             no_attributes,
             texture: None,
             ceiling: None,
             floor: None,
+            grid_stride: 1,
             scene: None,
             max_sprite_px,
         })
@@ -517,35 +655,40 @@ impl GlView {
             }
             self.texture = Some(BallTexture::new(gl, units)?);
         }
+        self.balls.set_grid(gl, scene);
+        self.dots.set_grid(gl, scene);
+        self.cables.set_grid(gl, scene);
+        self.scene = Some(*scene);
+        self.set_grid_stride(1)
+    }
+
+    /// Makes the grid lines run through every `stride`-th row and column.
+    fn set_grid_stride(&mut self, stride: usize) -> Result<(), String> {
+        let gl = &self.gl;
         for old in [self.ceiling.take(), self.floor.take()]
             .into_iter()
             .flatten()
         {
             old.delete(gl);
         }
-        let (ceiling, floor) = scene.grid_lines();
+        self.grid_stride = stride;
+        let Some(scene) = self.scene else {
+            return Ok(());
+        };
+        let (ceiling, floor) = scene.grid_lines_every(stride);
         self.ceiling = Some(lines(gl, &ceiling)?);
         self.floor = Some(lines(gl, &floor)?);
-        self.balls.set_grid(gl, scene);
-        self.cables.set_grid(gl, scene);
-        self.scene = Some(*scene);
         Ok(())
     }
 
     /// Whether some ball of `frame` may be too big on screen for a point sprite: a
-    /// generous bound from the nearest ball (the vertex shader decides exactly).
-    fn needs_quads(&self, frame: &FrameView, units: usize) -> bool {
+    /// generous bound from the nearest ball, `nearest_sq` m² from the eye (the vertex
+    /// shader decides exactly).
+    fn needs_quads(&self, frame: &FrameView, nearest_sq: f32) -> bool {
         let Some(scene) = self.scene else {
             return false;
         };
         let r = scene.ball_radius_m;
-        let nearest_sq = (0..units)
-            .map(|unit| {
-                let anchor = scene.anchor(unit);
-                let centre = Vec3::new(anchor.x, frame.balls[unit * 2], anchor.z);
-                centre.distance_squared(frame.eye)
-            })
-            .fold(f32::INFINITY, f32::min);
         if nearest_sq <= r * r * 1.01 {
             return true;
         }
@@ -557,12 +700,51 @@ impl GlView {
         2.0 * half_px + 4.0 > self.max_sprite_px - 8.0
     }
 
+    /// The squared distance from the eye to the nearest of the first `units` balls'
+    /// centres (infinite for none).
+    fn nearest_sq(&self, frame: &FrameView, units: usize) -> f32 {
+        let Some(scene) = self.scene else {
+            return f32::INFINITY;
+        };
+        (0..units)
+            .map(|unit| {
+                let anchor = scene.anchor(unit);
+                let centre = Vec3::new(anchor.x, frame.balls[unit * 2], anchor.z);
+                centre.distance_squared(frame.eye)
+            })
+            .fold(f32::INFINITY, f32::min)
+    }
+
+    /// Pixels per metre at one metre from the eye (the projection's vertical scale).
+    fn focal_px(frame: &FrameView) -> f32 {
+        frame.clip_from_world.row(1).truncate().length() * frame.viewport.height / 2.0
+    }
+
+    /// Every how many rows and columns the cables and grid lines of `frame` are
+    /// drawn (see [`stride_for`]): from how far apart neighbouring balls are on
+    /// screen where they are nearest.
+    fn stride(&self, frame: &FrameView, nearest_sq: f32) -> usize {
+        let Some(scene) = self.scene else {
+            return 1;
+        };
+        let (_, _, pitch_m) = scene.grid();
+        stride_for(pitch_m * Self::focal_px(frame) / nearest_sq.sqrt())
+    }
+
     /// Draws a frame: the balls as point sprites (quads for any too big for one),
-    /// then what they may hide, the cables and the grid.
-    pub fn draw(&self, frame: &FrameView) {
-        let gl = &self.gl;
+    /// then what they may hide, the cables and the grid. A dense view (see
+    /// [`DENSE_PITCH_PX`]) draws the balls as flat-lit discs and every k-th cable and
+    /// grid line.
+    pub fn draw(&mut self, frame: &FrameView) {
         let units =
             (frame.balls.len() / 2).min(self.texture.as_ref().map_or(0, BallTexture::capacity));
+        let nearest_sq = self.nearest_sq(frame, units);
+        let stride = self.stride(frame, nearest_sq);
+        if stride != self.grid_stride {
+            // A failure leaves no grid; WebGL reports it on the console.
+            let _ = self.set_grid_stride(stride);
+        }
+        let gl = &self.gl;
         gl.viewport(
             0,
             0,
@@ -575,10 +757,23 @@ impl GlView {
         if let Some(texture) = self.texture.as_ref().filter(|_| units > 0) {
             texture.upload(gl, units, frame.balls);
             gl.bind_vertex_array(Some(&self.no_attributes));
-            self.draw_balls(frame, texture, units);
+            if stride > 1 {
+                self.draw_dots(frame, units);
+            } else {
+                self.draw_balls(frame, texture, units, nearest_sq);
+            }
             // After the balls: the depth test drops what they hide before shading.
             self.cables.use_with(gl, matrix);
-            gl.draw_arrays(Gl::LINES, 0, (units * 2) as i32);
+            gl.uniform1i(self.cable_uniforms.stride.as_ref(), stride as i32);
+            gl.uniform1i(self.cable_uniforms.units.as_ref(), units as i32);
+            let cables = if stride == 1 {
+                units
+            } else {
+                let (cols, _, _) = self.scene.map_or((1, 1, 0.0), |scene| scene.grid());
+                let cols = cols.max(1) as usize;
+                cols.div_ceil(stride) * units.div_ceil(cols).div_ceil(stride)
+            };
+            gl.draw_arrays(Gl::LINES, 0, (cables * 2) as i32);
         }
         self.lines.use_with(gl, matrix);
         for (lines, colour) in [(&self.ceiling, CEILING_COLOUR), (&self.floor, FLOOR_COLOUR)] {
@@ -592,7 +787,7 @@ impl GlView {
     }
 
     /// The balls: one point sprite each, then quads for those too big for one.
-    fn draw_balls(&self, frame: &FrameView, texture: &BallTexture, units: usize) {
+    fn draw_balls(&self, frame: &FrameView, texture: &BallTexture, units: usize, nearest_sq: f32) {
         let gl = &self.gl;
         let matrix = &frame.clip_from_world;
         self.balls.use_with(gl, matrix);
@@ -614,11 +809,39 @@ impl GlView {
         gl.uniform1i(uniforms.selected.as_ref(), selected);
         gl.uniform1i(uniforms.quads.as_ref(), 0);
         gl.draw_arrays(Gl::POINTS, 0, units as i32);
-        if self.needs_quads(frame, units) {
+        if self.needs_quads(frame, nearest_sq) {
             gl.uniform1i(uniforms.quads.as_ref(), 1);
             gl.bind_buffer(Gl::ELEMENT_ARRAY_BUFFER, Some(&texture.indices));
             gl.draw_elements_with_i32(Gl::TRIANGLES, (units * 6) as i32, Gl::UNSIGNED_INT, 0);
         }
+    }
+
+    /// A dense view's balls: one point sprite each holding a disc, lit as a sphere seen
+    /// from in front (at a few pixels across, the same as the traced sphere), at the
+    /// centre's depth.
+    fn draw_dots(&self, frame: &FrameView, units: usize) {
+        let gl = &self.gl;
+        self.dots.use_with(gl, &frame.clip_from_world);
+        let uniforms = &self.dot_uniforms;
+        gl.uniform1f(uniforms.focal.as_ref(), Self::focal_px(frame));
+        let selected = frame
+            .selected
+            .and_then(|unit| i32::try_from(unit).ok())
+            .unwrap_or(-1);
+        gl.uniform1i(uniforms.selected.as_ref(), selected);
+        // The light in the camera's frame: right, up and back, from the pixel rays.
+        let rays = pixel_rays(frame);
+        let right = Vec3::from_slice(&rays[3..6]).normalize_or_zero();
+        let up = Vec3::from_slice(&rays[6..9]).normalize_or_zero();
+        let back = right.cross(up);
+        let light = frame.light;
+        gl.uniform3f(
+            uniforms.light_view.as_ref(),
+            light.dot(right),
+            light.dot(up),
+            light.dot(back),
+        );
+        gl.draw_arrays(Gl::POINTS, 0, units as i32);
     }
 
     /// Waits until the GPU has drawn everything asked so far (by reading one pixel

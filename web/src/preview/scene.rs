@@ -98,6 +98,13 @@ impl Scene {
     /// half a pitch past the outer balls) and of the floor reference (its outline and
     /// the same grid), as pairs of points: `(ceiling, floor)`.
     pub fn grid_lines(&self) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+        self.grid_lines_every(1)
+    }
+
+    /// As [`Self::grid_lines`], but only through every `stride`-th row and column of
+    /// anchors (the first of each included): what a dense view draws.
+    pub fn grid_lines_every(&self, stride: usize) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+        let stride = stride.max(1);
         let (min, max) = self.bounds();
         let mut ceiling = Vec::new();
         let mut floor = Vec::new();
@@ -106,11 +113,11 @@ impl Scene {
             let down = Vec3::Y * self.floor_y();
             floor.extend([(a + down).to_array(), (b + down).to_array()]);
         };
-        for col in 0..self.cols as usize {
+        for col in (0..self.cols as usize).step_by(stride) {
             let x = self.anchor(col).x;
             both(Vec3::new(x, 0.0, min.z), Vec3::new(x, 0.0, max.z));
         }
-        for row in 0..self.rows as usize {
+        for row in (0..self.rows as usize).step_by(stride) {
             let z = self.anchor(row * self.cols as usize).z;
             both(Vec3::new(min.x, 0.0, z), Vec3::new(max.x, 0.0, z));
         }
@@ -195,6 +202,12 @@ mod tests {
         assert_eq!(floor.len(), 2 * (2 + 3) + 2 * 4);
         assert!(ceiling.iter().all(|p| p[1] == 0.0));
         assert!(floor.iter().all(|p| (p[1] + 7.8).abs() < 1e-6));
+        let (every_other, floor) = scene().grid_lines_every(2);
+        // Columns 0 and 2, row 0.
+        assert_eq!(every_other.len(), 2 * (1 + 2));
+        assert_eq!(floor.len(), 2 * (1 + 2) + 2 * 4);
+        assert_eq!(every_other[0], ceiling[0]);
+        assert_eq!(every_other[2], ceiling[4]);
     }
 
     #[test]

@@ -288,7 +288,7 @@ impl Stage {
             return false;
         }
         self.sample(t_ms);
-        match &self.renderer {
+        match &mut self.renderer {
             Renderer::Gl(gl) => {
                 for (unit, (ball, (position_mm, colour))) in self
                     .balls
