@@ -14,6 +14,10 @@
 //!   encoder (20-character rule, compact form), the script parser and the gateway-side
 //!   byte reader; and ([`ascii::gateway`]) the gateway's own commands, the greeting
 //!   `ABC;` (answered `AA AB AC`) and the line speed `BDR=x;`.
+//! - [`create`]: show creation: patterns (wave, ripple, rain, plane, breathing
+//!   surface, noise, text, picture) described as data for the app's sliders and the
+//!   CLI, recipes (a timeline of segments with transitions, as JSON) and their
+//!   rendering into a show within the installation's limits by construction.
 //! - [`feedback`]: the binary feedback frames (gateway → host): the streaming decoder, the
 //!   frame encoder, typed ACKs, notifications and errors, and every code in one place
 //!   ([`feedback::code`]).
@@ -58,6 +62,7 @@
 pub mod api;
 pub mod ascii;
 pub mod codes;
+pub mod create;
 pub mod feedback;
 pub mod line;
 pub mod mbox;
