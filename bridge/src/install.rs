@@ -338,3 +338,24 @@ async fn write(dir: &std::path::Path, text: String) -> Result<(), InstallError> 
     .map_err(|error| InstallError::NotSaved(error.to_string()))?
     .map_err(|error| InstallError::NotSaved(error.to_string()))
 }
+
+#[cfg(test)]
+mod tests {
+    use floatball_shared::plan::{DriveKind, Installation};
+
+    use super::info;
+
+    /// The app plans a show in the browser from `GET /api/installation`: what the
+    /// bridge describes must read back as the installation the bridge plans with.
+    #[test]
+    fn the_description_reads_back_as_the_installation() {
+        let uim2503 = Installation::demo(10, 12, &[115_200, 9600, 57_600]).unwrap();
+        assert_eq!(info(&uim2503).installation(), uim2503);
+
+        let mut mbox = Installation::demo(2, 3, &[0]).unwrap();
+        mbox.gateways[0].kind = DriveKind::Mbox;
+        mbox.approach_speed_mm_s = 321.0;
+        mbox.home_mm = 12.5;
+        assert_eq!(info(&mbox).installation(), mbox);
+    }
+}

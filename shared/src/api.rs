@@ -274,6 +274,56 @@ impl InstallationInfo {
             .map(|one| one.stations.len())
             .sum()
     }
+
+    /// The installation this describes, as the planner takes it: what the app needs
+    /// to plan a show in the browser (the bandwidth verdict of a show it has just
+    /// made) exactly as the bridge would. The inverse of the bridge's own
+    /// description; the stop deceleration is the top acceleration, as the bridge's
+    /// configuration sets it, and a gateway without a line speed (UDP) has 0.
+    #[must_use]
+    pub fn installation(&self) -> crate::plan::Installation {
+        use crate::plan::{DriveKind, GatewaySpec, Installation, UnitAddress};
+        use crate::show::Limits;
+        let units = self
+            .gateways
+            .iter()
+            .enumerate()
+            .flat_map(|(gateway, one)| {
+                one.stations
+                    .iter()
+                    .map(move |&station| UnitAddress { gateway, station })
+            })
+            .collect();
+        let gateways = self
+            .gateways
+            .iter()
+            .map(|one| GatewaySpec {
+                port: one.port.clone(),
+                baud: one.baud.unwrap_or(0),
+                kind: match one.kind {
+                    GatewayKind::Uim2503 => DriveKind::Uim2503,
+                    GatewayKind::Mbox => DriveKind::Mbox,
+                    GatewayKind::Scl => DriveKind::Scl,
+                },
+            })
+            .collect();
+        Installation {
+            limits: Limits {
+                travel_mm: self.travel_mm,
+                max_speed_mm_s: self.max_speed_mm_s,
+                max_accel_mm_s2: self.max_accel_mm_s2,
+                rows: self.rows,
+                cols: self.cols,
+            },
+            pitch_mm: self.pitch_mm,
+            counts_per_mm: self.counts_per_mm,
+            gateways,
+            units,
+            approach_speed_mm_s: self.approach_speed_mm_s,
+            home_mm: self.home_mm,
+            stop_decel_mm_s2: self.max_accel_mm_s2,
+        }
+    }
 }
 
 /// One gateway in [`InstallationInfo`].
