@@ -117,6 +117,8 @@ pub struct Ctx {
     /// The installation as the bridge last said it (`GET /api/installation`, and
     /// the answer to a saved change); see [`Ctx::installation_now`].
     pub installation: RwSignal<Option<InstallationInfo>>,
+    /// The show being made on the Create page, kept while other pages are open.
+    pub create: RwSignal<crate::create::Draft>,
     origin: StoredValue<Origin>,
     services: StoredValue<Services, LocalStorage>,
 }
@@ -229,6 +231,7 @@ impl Ctx {
             estop_ack: RwSignal::new(None),
             toast: RwSignal::new(None),
             installation: RwSignal::new(None),
+            create: RwSignal::new(crate::create::Draft::new()),
             origin: StoredValue::new(origin),
             services: StoredValue::new_local(services),
         }

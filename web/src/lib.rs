@@ -13,6 +13,8 @@
 //! - [`console`]: instruction checking and feedback decoding for the console;
 //! - [`control`]: the Control and Settings pages' decisions: plan verdicts by round,
 //!   panels, the delay-and-cycles forms, saving an edit;
+//! - [`create`]: the Create page's draft (a timeline of patterns), what it is made
+//!   for, and the generated show with its notes, limit check and bandwidth verdict;
 //! - [`files`]: local and controller file lists, formats, CSV preview layout;
 //! - [`installation`]: the installation's limits for the preview, its settings form,
 //!   stations as ranges, and the units' health warnings before Start;
@@ -42,6 +44,7 @@ pub mod connection;
 pub mod console;
 pub mod context;
 pub mod control;
+pub mod create;
 pub mod files;
 pub mod http;
 pub mod i18n;

@@ -9,6 +9,8 @@ pub enum Page {
     /// Local and controller files.
     #[default]
     Files,
+    /// Show creation: patterns on a timeline, previewed as they change.
+    Create,
     /// A show's animation.
     Preview,
     /// The playlist, Start / E-stop / Reset and the live status.
@@ -28,12 +30,19 @@ pub enum Page {
 impl Page {
     /// The pages in the navigation bar, in order (Settings is reached from Control,
     /// Login from the connection button).
-    pub const NAV: [Page; 4] = [Page::Files, Page::Preview, Page::Control, Page::Console];
+    pub const NAV: [Page; 5] = [
+        Page::Files,
+        Page::Create,
+        Page::Preview,
+        Page::Control,
+        Page::Console,
+    ];
 
     /// Every page.
-    pub const ALL: [Page; 8] = [
+    pub const ALL: [Page; 9] = [
         Page::Login,
         Page::Files,
+        Page::Create,
         Page::Preview,
         Page::Control,
         Page::Settings,
@@ -47,6 +56,7 @@ impl Page {
         match self {
             Page::Login => "login",
             Page::Files => "files",
+            Page::Create => "create",
             Page::Preview => "preview",
             Page::Control => "control",
             Page::Settings => "settings",
@@ -70,8 +80,8 @@ impl Page {
             .unwrap_or_default()
     }
 
-    /// Whether the page needs a login: Files and Preview work offline (local files),
-    /// the others talk to the controller.
+    /// Whether the page needs a login: Files, Create and Preview work offline (local
+    /// files), the others talk to the controller.
     pub fn needs_login(self) -> bool {
         matches!(
             self,
@@ -115,5 +125,7 @@ mod tests {
         assert_eq!(Page::Control.resolve(true), Page::Control);
         assert_eq!(Page::Files.resolve(false), Page::Files);
         assert_eq!(Page::Preview.resolve(false), Page::Preview);
+        assert_eq!(Page::Create.resolve(false), Page::Create);
+        assert_eq!(Page::from_hash("#/create"), Page::Create);
     }
 }

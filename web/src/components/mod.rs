@@ -12,6 +12,7 @@
 pub mod commission;
 pub mod console;
 pub mod control;
+pub mod create;
 pub mod files;
 pub mod installation;
 pub mod login;
@@ -42,6 +43,8 @@ pub use topbar::{ConnectionIndicator, EstopButton, LanguageSwitch, TopBar};
 const LANG_KEY: &str = "floatball.lang";
 /// Where the login is remembered (see [`crate::session`] for why `localStorage`).
 const SESSION_KEY: &str = "floatball.session";
+/// The Create page's draft, as a recipe, so a reload keeps the work.
+const RECIPE_KEY: &str = "floatball.recipe";
 
 fn storage() -> Option<web_sys::Storage> {
     window().local_storage().ok().flatten()
@@ -127,6 +130,14 @@ pub fn App() -> impl IntoView {
         .set(stored(SESSION_KEY).and_then(|text| crate::json::from_str::<Session>(&text).ok()));
     ctx.page
         .set(Page::from_hash(&location.hash().unwrap_or_default()));
+    if let Some(draft) = stored(RECIPE_KEY)
+        .and_then(|text| floatball_shared::create::recipe::Recipe::from_json(&text).ok())
+        .and_then(|recipe| {
+            crate::create::Draft::from_recipe(recipe, crate::create::DEFAULT_GRID).ok()
+        })
+    {
+        ctx.create.set(draft);
+    }
     provide_context(ctx);
 
     // The language is stored only once the operator chose one, so that a browser in
@@ -144,6 +155,13 @@ pub fn App() -> impl IntoView {
             .session
             .with(|session| session.as_ref().and_then(|s| serde_json::to_string(s).ok()));
         store(SESSION_KEY, text.as_deref());
+    });
+
+    // The Create page's draft (a storage too full for a large picture only costs
+    // the draft across reloads).
+    Effect::new(move |_| {
+        let text = ctx.create.with(|draft| draft.recipe().to_json().ok());
+        store(RECIPE_KEY, text.as_deref());
     });
 
     // The page in the URL, so a reload and the back button keep it.
@@ -241,6 +259,7 @@ pub fn Shell() -> impl IntoView {
             {move || match shown.get() {
                 Page::Login => view! { <login::LoginPage /> }.into_any(),
                 Page::Files => view! { <files::FilesPage /> }.into_any(),
+                Page::Create => view! { <create::CreatePage /> }.into_any(),
                 Page::Preview => view! { <preview::PreviewScreen /> }.into_any(),
                 Page::Control => view! { <control::ControlPage /> }.into_any(),
                 Page::Settings => view! { <control::SettingsPage /> }.into_any(),

@@ -122,6 +122,7 @@ pub fn page_name(page: Page) -> Text {
     match page {
         Page::Login => Text::LoginTitle,
         Page::Files => Text::NavFiles,
+        Page::Create => Text::NavCreate,
         Page::Preview => Text::NavPreview,
         Page::Control => Text::NavControl,
         Page::Settings => Text::NavSettings,

@@ -1,0 +1,275 @@
+//! The Create page's words that come from the show-creation catalogue
+//! ([`floatball_shared::create::PATTERNS`]): each pattern's name and help, each
+//! parameter's label, each choice's word, in both languages (English is the
+//! catalogue's own); the notes of what was changed to keep within the limits, and
+//! why a show cannot be made. A test checks that every pattern, parameter and choice
+//! of the catalogue has its Chinese here.
+
+use floatball_shared::create::{CreateError, Note, ParamSpec};
+
+use super::Lang;
+
+/// Chinese name and help of each pattern.
+const PATTERNS_ZH: &[(&str, &str, &str)] = &[
+    ("wave", "波浪", "正弦波浪横穿整个矩阵。"),
+    ("ripple", "涟漪", "从一点向外扩散的圆形涟漪，逐渐减弱。"),
+    ("rain", "雨滴", "球像雨滴一样随机落下再缓缓升起。"),
+    ("plane", "平面", "倾斜并可旋转的平面。"),
+    ("breathe", "呼吸", "整个表面像呼吸一样缓慢起伏。"),
+    ("noise", "流动", "平滑流动的随机起伏。"),
+    ("text", "文字", "用球排出文字，凸起或凹下，静止或滚动。"),
+    ("image", "图片", "把一张图片变成高度：亮处高，暗处低。"),
+];
+
+/// Chinese label of each parameter, by key (the same key means the same in every
+/// pattern).
+const PARAMS_ZH: &[(&str, &str)] = &[
+    ("direction", "方向"),
+    ("wavelength_m", "波长"),
+    ("amplitude_mm", "幅度"),
+    ("speed_m_s", "速度"),
+    ("centre_mm", "中间高度"),
+    ("centre_x_m", "中心 X"),
+    ("centre_y_m", "中心 Y"),
+    ("damping", "衰减"),
+    ("damping_per_m", "衰减"),
+    ("period_s", "周期"),
+    ("drops_per_s", "每秒雨滴数"),
+    ("drop_mm", "落下距离"),
+    ("fall_s", "下落时间"),
+    ("rise_s", "回升时间"),
+    ("seed", "随机种子"),
+    ("tilt_deg", "倾斜角"),
+    ("rotation_deg_s", "旋转速度"),
+    ("turn_deg_s", "旋转速度"),
+    ("heading_deg", "朝向"),
+    ("depth_mm", "深度"),
+    ("base_mm", "底面高度"),
+    ("scale_m", "尺度"),
+    ("text", "文字"),
+    ("style", "样式"),
+    ("scroll_m_s", "滚动速度"),
+    ("bitmap", "自定义点阵"),
+    ("size", "字号"),
+    ("image", "图片"),
+    ("invert", "反转"),
+    ("low_mm", "最低位置"),
+    ("high_mm", "最高位置"),
+    ("fit", "适配"),
+    ("reveal_s", "显现时间"),
+];
+
+/// Chinese of each choice's word.
+const CHOICES_ZH: &[(&str, &str)] = &[
+    ("left", "向左"),
+    ("right", "向右"),
+    ("up", "向后"),
+    ("down", "向前"),
+    ("forward", "向前"),
+    ("back", "向后"),
+    ("raised", "凸起"),
+    ("lowered", "凹下"),
+    ("contain", "完整显示"),
+    ("cover", "铺满"),
+    ("yes", "是"),
+    ("no", "否"),
+    ("off", "关"),
+    ("on", "开"),
+];
+
+fn lookup<'a>(table: &'a [(&str, &str)], key: &str) -> Option<&'a str> {
+    table.iter().find(|(k, _)| *k == key).map(|(_, zh)| *zh)
+}
+
+/// A pattern's name for people.
+pub fn pattern(lang: Lang, name: &str) -> String {
+    let spec = floatball_shared::create::pattern(name);
+    match lang {
+        Lang::Zh => PATTERNS_ZH
+            .iter()
+            .find(|(n, _, _)| *n == name)
+            .map(|(_, zh, _)| (*zh).to_owned()),
+        Lang::En => None,
+    }
+    .or_else(|| spec.map(|spec| spec.label.to_owned()))
+    .unwrap_or_else(|| name.to_owned())
+}
+
+/// What a pattern does, in one sentence.
+pub fn pattern_help(lang: Lang, name: &str) -> String {
+    let spec = floatball_shared::create::pattern(name);
+    match lang {
+        Lang::Zh => PATTERNS_ZH
+            .iter()
+            .find(|(n, _, _)| *n == name)
+            .map(|(_, _, zh)| (*zh).to_owned()),
+        Lang::En => None,
+    }
+    .or_else(|| spec.map(|spec| spec.help.to_owned()))
+    .unwrap_or_default()
+}
+
+/// A parameter's label.
+pub fn param(lang: Lang, _pattern: &str, spec: &ParamSpec) -> String {
+    match lang {
+        Lang::Zh => lookup(PARAMS_ZH, spec.key).unwrap_or(spec.label).to_owned(),
+        Lang::En => spec.label.to_owned(),
+    }
+}
+
+/// A choice's word.
+pub fn choice(lang: Lang, word: &str) -> String {
+    match lang {
+        Lang::Zh => lookup(CHOICES_ZH, word).unwrap_or(word).to_owned(),
+        Lang::En => word.to_owned(),
+    }
+}
+
+/// The label of `key` in `pattern` (a parameter, or a segment's own duration or
+/// blend).
+fn key_label(lang: Lang, pattern: &str, key: &str) -> String {
+    match (key, lang) {
+        ("duration_s", Lang::Zh) => "时长".to_owned(),
+        ("duration_s", Lang::En) => "duration".to_owned(),
+        ("transition_s", Lang::Zh) => "过渡".to_owned(),
+        ("transition_s", Lang::En) => "blend".to_owned(),
+        _ => floatball_shared::create::pattern(pattern)
+            .and_then(|spec| spec.param(key))
+            .map_or_else(|| key.to_owned(), |spec| param(lang, pattern, spec)),
+    }
+}
+
+/// A number as a note writes it: at most two decimals, none when whole.
+fn number(value: f64) -> String {
+    let text = format!("{value:.2}");
+    text.trim_end_matches('0').trim_end_matches('.').to_owned()
+}
+
+/// What was changed to keep within the limits, and which parameter to change.
+pub fn note(lang: Lang, note: &Note) -> String {
+    let label = key_label(lang, &note.pattern, &note.key);
+    let pattern = pattern(lang, &note.pattern);
+    let (from, to, unit) = (number(note.from), number(note.to), &note.unit);
+    let segment = note.segment + 1;
+    match lang {
+        Lang::Zh => format!(
+            "第 {segment} 段（{pattern}）：{label} 已从 {from} 改为 {to} {unit}，以保持在限值之内；要更大的动作，请调整这一项或其他参数。"
+        ),
+        Lang::En => format!(
+            "segment {segment} ({pattern}): {label} changed from {from} to {to} {unit} {}",
+            note.reason
+        ),
+    }
+}
+
+/// Why a show cannot be made.
+pub fn error(lang: Lang, error: &CreateError) -> String {
+    if lang == Lang::En {
+        return error.to_string();
+    }
+    match error {
+        CreateError::UnknownPattern { name, known } => {
+            format!("没有名为“{name}”的图案；可用的图案：{known}")
+        }
+        CreateError::UnknownParam { pattern, key, known } => {
+            format!("图案“{pattern}”没有参数“{key}”；它的参数：{known}")
+        }
+        CreateError::WrongType { pattern, key, .. } => {
+            format!("图案“{pattern}”的参数“{key}”的值不合适")
+        }
+        CreateError::Picture { message, .. } => {
+            format!("无法读取这张图片（{message}）；请使用 PNG 或 JPEG 文件")
+        }
+        CreateError::TooLarge {
+            bytes, max_bytes, ..
+        } => format!("文件有 {bytes} 字节，最多允许 {max_bytes} 字节；请换一个较小的文件"),
+        CreateError::EmptyTimeline => "时间线上没有片段；请至少添加一个图案".to_owned(),
+        CreateError::TooManySegments { segments, max } => {
+            format!("时间线有 {segments} 个片段，最多 {max} 个；请删除一些")
+        }
+        CreateError::TooLong { seconds, max_s } => {
+            format!(
+                "节目将长达 {} 秒，最多 {} 秒；请缩短片段",
+                number(*seconds),
+                number(*max_s)
+            )
+        }
+        CreateError::Duration {
+            segment,
+            key,
+            value,
+            min_s,
+            max_s,
+        } => format!(
+            "第 {segment} 段：{} 为 {} 秒，应在 {} 到 {} 秒之间",
+            key_label(lang, "", key),
+            number(*value),
+            number(*min_s),
+            number(*max_s)
+        ),
+        CreateError::EmptyGrid { rows, cols } => {
+            format!("{rows} × {cols} 的矩阵无法容纳节目；至少需要一行一列，间距和行程须为正数")
+        }
+        CreateError::Recipe { message } => format!("配方无效：{message}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use floatball_shared::create::{PATTERNS, ParamKind};
+
+    use super::*;
+
+    #[test]
+    fn every_pattern_parameter_and_choice_has_its_chinese() {
+        for spec in PATTERNS {
+            assert!(
+                PATTERNS_ZH.iter().any(|(name, _, _)| *name == spec.name),
+                "pattern {}",
+                spec.name
+            );
+            assert_ne!(pattern(Lang::Zh, spec.name), spec.label);
+            for param in spec.params {
+                assert!(
+                    lookup(PARAMS_ZH, param.key).is_some(),
+                    "parameter {} of {}",
+                    param.key,
+                    spec.name
+                );
+                if let ParamKind::Choice { options, .. } = param.kind {
+                    for option in options {
+                        assert!(
+                            lookup(CHOICES_ZH, option).is_some(),
+                            "choice {option} of {}",
+                            param.key
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn notes_name_the_segment_the_parameter_and_the_values_in_both_languages() {
+        let note = Note {
+            segment: 1,
+            pattern: "wave".into(),
+            key: "speed_m_s".into(),
+            from: 6.0,
+            to: 2.4,
+            unit: "m/s".into(),
+            reason: "so balls stay within 2000 mm/s".into(),
+        };
+        assert_eq!(
+            super::note(Lang::En, &note),
+            "segment 2 (Wave): Speed changed from 6 to 2.4 m/s so balls stay within 2000 mm/s"
+        );
+        let zh = super::note(Lang::Zh, &note);
+        assert!(zh.contains("第 2 段（波浪）：速度 已从 6 改为 2.4 m/s"), "{zh}");
+        assert!(error(Lang::Zh, &CreateError::EmptyTimeline).contains("时间线"));
+        assert_eq!(
+            error(Lang::En, &CreateError::EmptyTimeline),
+            CreateError::EmptyTimeline.to_string()
+        );
+    }
+}
