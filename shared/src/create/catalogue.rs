@@ -61,7 +61,10 @@ impl PatternSpec {
 }
 
 /// Every pattern, in the order they are listed.
-pub const PATTERNS: &[PatternSpec] = &[super::wave::PATTERN];
+pub const PATTERNS: &[PatternSpec] = &[
+    super::wave::PATTERN,
+    super::text::PATTERN,
+];
 
 /// The pattern called `name`.
 #[must_use]

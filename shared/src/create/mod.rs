@@ -22,10 +22,15 @@
 //! - [`catalogue`]: [`PATTERNS`], every pattern's name, label, help, parameters and
 //!   builder; [`pattern()`] finds one by name;
 //! - [`wave`]: the travelling wave pattern.
+//! - [`text`]: the text pattern — a word or a user's bitmap, raised or lowered, static
+//!   or scrolling smoothly; [`font`]: its built-in bitmap font and the [`font::Bitmap`].
 
 pub mod catalogue;
 pub mod params;
 pub mod wave;
+
+pub mod font;
+pub mod text;
 
 use std::fmt;
 
