@@ -64,6 +64,7 @@ impl PatternSpec {
 pub const PATTERNS: &[PatternSpec] = &[
     super::wave::PATTERN,
     super::text::PATTERN,
+    super::picture::PATTERN,
 ];
 
 /// The pattern called `name`.

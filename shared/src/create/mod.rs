@@ -23,13 +23,15 @@
 //!   builder; [`pattern()`] finds one by name;
 //! - [`wave`]: the travelling wave pattern.
 //! - [`text`]: the text pattern — a word or a user's bitmap, raised or lowered, static
-//!   or scrolling smoothly; [`font`]: its built-in bitmap font and the [`font::Bitmap`].
+//!   or scrolling smoothly; [`font`]: its built-in bitmap font and the [`font::Bitmap`];
+//! - [`picture`]: the image heightmap pattern — a PNG or JPEG picture as heights.
 
 pub mod catalogue;
 pub mod params;
 pub mod wave;
 
 pub mod font;
+pub mod picture;
 pub mod text;
 
 use std::fmt;
