@@ -544,3 +544,80 @@ mod tests {
         assert!(one.iter().all(|mm| (2000.0..=4000.0).contains(mm)));
     }
 }
+
+#[cfg(all(test, not(target_arch = "wasm32")))]
+mod proptests {
+    use image::{ImageBuffer, ImageFormat, LumaA};
+    use proptest::prelude::*;
+
+    use super::super::params::{ParamKind, Value, encode_base64};
+    use super::super::text::proptests::{grid, params};
+    use super::*;
+
+    /// A small picture of any size and pixels, as a PNG.
+    fn png() -> impl Strategy<Value = Vec<u8>> {
+        (1..=24u32, 1..=24u32)
+            .prop_flat_map(|(width, height)| {
+                (
+                    Just((width, height)),
+                    proptest::collection::vec(any::<[u8; 2]>(), (width * height) as usize),
+                )
+            })
+            .prop_map(|((width, height), pixels)| {
+                let picture = ImageBuffer::from_fn(width, height, |x, y| {
+                    LumaA(pixels[(y * width + x) as usize])
+                });
+                let mut bytes = Vec::new();
+                DynamicImage::ImageLumaA8(picture)
+                    .write_to(&mut Cursor::new(&mut bytes), ImageFormat::Png)
+                    .unwrap();
+                bytes
+            })
+    }
+
+    fn number(params: &super::super::params::Params, key: &str) -> f64 {
+        match (params.get(key), PATTERN.param(key).map(|spec| spec.kind)) {
+            (Some(Value::Number(value)), _) => *value,
+            (_, Some(ParamKind::Number { default, .. })) => default,
+            _ => f64::NAN,
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+
+        /// For any picture and parameters the page allows: every ball stays between
+        /// the dark and bright heights, finite, and revealing moves it no faster than
+        /// the smooth step allows; the same picture gives the same positions.
+        #[test]
+        fn pictures_stay_between_their_heights_and_reveal_smoothly(
+            mut params in params(PARAMS),
+            picture in png(),
+            grid in grid(),
+            t_s in 0.0..120.0f64,
+        ) {
+            params.insert("image".into(), Value::Text(encode_base64(&picture)));
+            let (field, notes) = PATTERN.field(&params, 0, &grid).unwrap();
+            prop_assert!(notes.is_empty());
+            let (again, _) = PATTERN.field(&params, 0, &grid).unwrap();
+            let (low_mm, high_mm) = (number(&params, "low_mm"), number(&params, "high_mm"));
+            let reveal_s = number(&params, "reveal_s");
+            let max_speed = if reveal_s > 0.0 { (high_mm - low_mm).abs() * 15.0 / 8.0 / reveal_s } else { 0.0 };
+            let n = grid.unit_count();
+            let (mut a, mut b, mut c) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+            let h = 1e-4;
+            field.sample(&grid, t_s - h, &mut a);
+            field.sample(&grid, t_s, &mut b);
+            field.sample(&grid, t_s + h, &mut c);
+            let mut d = vec![0.0; n];
+            again.sample(&grid, t_s, &mut d);
+            prop_assert_eq!(&b, &d);
+            for unit in 0..n {
+                prop_assert!(b[unit].is_finite());
+                prop_assert!(b[unit] >= low_mm.min(high_mm) - 1e-9 && b[unit] <= low_mm.max(high_mm) + 1e-9);
+                let speed = (c[unit] - a[unit]) / (2.0 * h);
+                prop_assert!(speed.abs() <= max_speed * 1.001 + 1e-6, "{} > {}", speed, max_speed);
+            }
+        }
+    }
+}

@@ -544,3 +544,115 @@ mod tests {
         }
     }
 }
+
+#[cfg(all(test, not(target_arch = "wasm32")))]
+pub(crate) mod proptests {
+    use proptest::prelude::*;
+
+    use super::super::params::{ParamKind, Params, Value};
+    use super::*;
+
+    /// Any value the page allows for `spec`: a number in its range (on its ends now
+    /// and then), one of its choices, text of its length (letters the font has and
+    /// has not, `#`, `.`, `|`), or no value at all (the default).
+    fn value(spec: &'static ParamSpec) -> BoxedStrategy<Option<Value>> {
+        let given = match spec.kind {
+            ParamKind::Number { min, max, .. } => prop_oneof![
+                1 => Just(min),
+                1 => Just(max),
+                6 => min..=max,
+            ]
+            .prop_map(Value::Number)
+            .boxed(),
+            ParamKind::Choice { options, .. } => proptest::sample::select(options)
+                .prop_map(|option| Value::Text(option.to_owned()))
+                .boxed(),
+            ParamKind::Text { max_chars, .. } => proptest::collection::vec(
+                proptest::sample::select(
+                    &['A', 'g', 'W', '1', ' ', '#', '.', '|', '\n', 'ß', '字'][..],
+                ),
+                0..=max_chars.min(40),
+            )
+            .prop_map(|chars| Value::Text(chars.into_iter().collect()))
+            .boxed(),
+            ParamKind::Bytes { .. } => Just(Value::Text(String::new())).boxed(),
+        };
+        proptest::option::weighted(0.8, given).boxed()
+    }
+
+    /// Any parameters the page allows for a pattern whose parameters are `specs`
+    /// (bytes parameters left out: the caller gives the file).
+    pub(crate) fn params(specs: &'static [ParamSpec]) -> BoxedStrategy<Params> {
+        specs
+            .iter()
+            .filter(|spec| !matches!(spec.kind, ParamKind::Bytes { .. }))
+            .map(|spec| value(spec).prop_map(move |value| (spec.key, value)))
+            .collect::<Vec<_>>()
+            .prop_map(|values| {
+                values
+                    .into_iter()
+                    .filter_map(|(key, value)| Some((key.to_owned(), value?)))
+                    .collect()
+            })
+            .boxed()
+    }
+
+    /// A small grid: 1..=12 × 1..=12 balls, 100–1000 mm apart.
+    pub(crate) fn grid() -> impl Strategy<Value = Grid> {
+        (1..=12u32, 1..=12u32, 100.0..=1000.0f64)
+            .prop_map(|(rows, cols, pitch_mm)| Grid::new(rows, cols, pitch_mm, 7500.0))
+    }
+
+    fn number(params: &Params, key: &str) -> f64 {
+        match (params.get(key), PATTERN.param(key).map(|spec| spec.kind)) {
+            (Some(Value::Number(value)), _) => *value,
+            (_, Some(ParamKind::Number { default, .. })) => default,
+            _ => f64::NAN,
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        /// For any parameters the page allows: every ball stays between the background
+        /// and the letters, finite, and moves no faster (and accelerates no harder) than
+        /// the smooth step allows at the scroll speed; the same parameters give the
+        /// same positions.
+        #[test]
+        fn text_stays_between_its_heights_and_is_smooth(
+            params in params(PARAMS),
+            grid in grid(),
+            t0_s in 0.0..600.0f64,
+        ) {
+            let (field, notes) = PATTERN.field(&params, 0, &grid).unwrap();
+            prop_assert!(notes.is_empty());
+            let (again, _) = PATTERN.field(&params, 0, &grid).unwrap();
+            let base_mm = number(&params, "base_mm");
+            let depth_mm = number(&params, "depth_mm");
+            let cols_per_s = number(&params, "scroll_m_s").abs() * 1000.0 / grid.pitch_mm;
+            let max_speed = depth_mm * 15.0 / 8.0 * cols_per_s;
+            let max_accel = depth_mm * 10.0 / 3f64.sqrt() * cols_per_s * cols_per_s;
+            let (low, high) = (base_mm - depth_mm, base_mm + depth_mm);
+            let n = grid.unit_count();
+            let (mut a, mut b, mut c, mut d) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+            let h = 1e-3;
+            for step in 0..50 {
+                let t_s = t0_s + f64::from(step) * 0.037;
+                field.sample(&grid, t_s - h, &mut a);
+                field.sample(&grid, t_s, &mut b);
+                field.sample(&grid, t_s + h, &mut c);
+                again.sample(&grid, t_s, &mut d);
+                prop_assert_eq!(&b, &d);
+                for unit in 0..n {
+                    prop_assert!(b[unit].is_finite());
+                    prop_assert!((low - 1e-9..=high + 1e-9).contains(&b[unit]), "{}", b[unit]);
+                    let speed = (c[unit] - a[unit]) / (2.0 * h);
+                    let accel = (c[unit] - 2.0 * b[unit] + a[unit]) / (h * h);
+                    prop_assert!(speed.abs() <= max_speed * 1.001 + 1e-6, "{} > {}", speed, max_speed);
+                    // The second difference's rounding error is about 1e-13 · mm / h².
+                    prop_assert!(accel.abs() <= max_accel * 1.01 + 1e-6 * high.max(1.0), "{} > {}", accel, max_accel);
+                }
+            }
+        }
+    }
+}
