@@ -16,7 +16,11 @@
 //! the position `low_mm + (high_mm − low_mm) · v`. With `reveal_s` > 0 the balls start
 //! flat at `low_mm` and reach the picture after `reveal_s` seconds along the quintic
 //! smooth step, with zero speed at both ends.
+//!
+//! The last picture's levels are remembered (per thread), so moving a height or reveal
+//! slider on the page does not decode the file again.
 
+use std::cell::RefCell;
 use std::io::Cursor;
 
 use image::{DynamicImage, GrayAlphaImage, ImageDecoder, ImageError, ImageReader};
@@ -129,17 +133,18 @@ pub enum Fit {
 
 fn build(reader: &mut Reader<'_>, grid: &Grid) -> Result<Box<dyn Field>, CreateError> {
     let bytes = reader.bytes("image")?;
-    let picture = decode(&bytes).map_err(|message| CreateError::Picture {
-        key: "image".to_owned(),
-        message,
-    })?;
     let fit = if reader.choice("fit") == "cover" {
         Fit::Cover
     } else {
         Fit::Contain
     };
     let invert = reader.choice("invert") == "yes";
-    let levels = cell_levels(&picture, grid.rows, grid.cols, fit, invert);
+    let levels = cached_levels(bytes, grid.rows, grid.cols, fit, invert).map_err(|message| {
+        CreateError::Picture {
+            key: "image".to_owned(),
+            message,
+        }
+    })?;
     Ok(Box::new(Picture::new(
         grid,
         &levels,
@@ -147,6 +152,55 @@ fn build(reader: &mut Reader<'_>, grid: &Grid) -> Result<Box<dyn Field>, CreateE
         reader.number("high_mm"),
         reader.number("reveal_s"),
     )))
+}
+
+/// The last picture's cell levels and what they were computed from.
+struct Cached {
+    bytes: Vec<u8>,
+    rows: u32,
+    cols: u32,
+    fit: Fit,
+    invert: bool,
+    levels: Vec<f64>,
+}
+
+thread_local! {
+    /// The last picture's levels: the page rebuilds the pattern on every move of a
+    /// slider, and decoding a photo takes far longer than the 16 ms a frame has; only
+    /// a new file, grid, fit or inversion decodes it again. Holds one file (≤ 4 MiB)
+    /// and one level per ball; the result is the same with or without it.
+    static LAST: RefCell<Option<Cached>> = const { RefCell::new(None) };
+}
+
+/// [`decode`] and [`cell_levels`], remembering the last result (see [`LAST`]).
+fn cached_levels(
+    bytes: Vec<u8>,
+    rows: u32,
+    cols: u32,
+    fit: Fit,
+    invert: bool,
+) -> Result<Vec<f64>, String> {
+    let hit = LAST.with_borrow(|last| {
+        last.as_ref()
+            .filter(|last| {
+                (last.rows, last.cols, last.fit, last.invert) == (rows, cols, fit, invert)
+                    && last.bytes == bytes
+            })
+            .map(|last| last.levels.clone())
+    });
+    if let Some(levels) = hit {
+        return Ok(levels);
+    }
+    let levels = cell_levels(&decode(&bytes)?, rows, cols, fit, invert);
+    LAST.set(Some(Cached {
+        bytes,
+        rows,
+        cols,
+        fit,
+        invert,
+        levels: levels.clone(),
+    }));
+    Ok(levels)
 }
 
 /// Decodes a PNG or JPEG picture, upright, to its brightness and alpha.
@@ -524,6 +578,30 @@ mod tests {
                 .zip(&full)
                 .all(|(m, f)| (m - (4000.0 + f) / 2.0).abs() < 1e-9)
         );
+    }
+
+    #[test]
+    fn the_remembered_picture_gives_what_decoding_gives() {
+        let bytes = gradient();
+        let fresh = cell_levels(&decode(&bytes).unwrap(), 3, 5, Fit::Contain, true);
+        // Twice: the first decodes (or finds another test's), the second remembers.
+        for _ in 0..2 {
+            assert_eq!(
+                cached_levels(bytes.clone(), 3, 5, Fit::Contain, true).unwrap(),
+                fresh
+            );
+        }
+        // Anything else different decodes again.
+        let other = cell_levels(&decode(&bytes).unwrap(), 3, 5, Fit::Cover, true);
+        assert_ne!(other, fresh);
+        assert_eq!(
+            cached_levels(bytes.clone(), 3, 5, Fit::Cover, true).unwrap(),
+            other
+        );
+        let mut changed = bytes.clone();
+        changed.truncate(50);
+        assert!(cached_levels(changed, 3, 5, Fit::Cover, true).is_err());
+        assert_eq!(cached_levels(bytes, 3, 5, Fit::Cover, true).unwrap(), other);
     }
 
     #[test]
