@@ -16,6 +16,36 @@
 //! A ball's peak speed is `depth · 15/8 · v/pitch` and its peak acceleration
 //! `depth · 10/√3 · (v/pitch)²` (the smooth step's peak slope and curvature, v the
 //! scroll speed).
+//!
+//! ```
+//! use floatball_shared::create::{Grid, Params, Value, pattern};
+//!
+//! let grid = Grid::new(8, 12, 500.0, 7500.0);
+//! let mut params = Params::new();
+//! params.insert("text".into(), Value::Text("Hi".into()));
+//! params.insert("scroll_m_s".into(), Value::Number(0.0));
+//! let (field, _notes) = pattern("text").unwrap().field(&params, 0, &grid).unwrap();
+//! let mut out_mm = vec![0.0; grid.unit_count()];
+//! field.sample(&grid, 0.0, &mut out_mm);
+//! // The balls seen from below, the back row first: # raised to 2200 mm, . at 3000 mm.
+//! let seen: Vec<String> = (0..8)
+//!     .rev()
+//!     .map(|row| (0..12).map(|col| if out_mm[row * 12 + col] < 3000.0 { '#' } else { '.' }).collect())
+//!     .collect();
+//! assert_eq!(
+//!     seen,
+//!     [
+//!         "##..##..##..",
+//!         "##..##......",
+//!         "##..##.###..",
+//!         "######..##..",
+//!         "##..##..##..",
+//!         "##..##..##..",
+//!         "##..##.####.",
+//!         "............",
+//!     ]
+//! );
+//! ```
 
 use super::catalogue::PatternSpec;
 use super::font::{Bitmap, render};
