@@ -91,7 +91,7 @@ pub const PARAMS: &[ParamSpec] = &[
             min: -2.0,
             max: 2.0,
             step: 0.05,
-            default: 0.4,
+            default: 0.35,
             unit: "m/s",
         },
     },
