@@ -61,7 +61,16 @@ impl PatternSpec {
 }
 
 /// Every pattern, in the order they are listed.
-pub const PATTERNS: &[PatternSpec] = &[super::wave::PATTERN];
+pub const PATTERNS: &[PatternSpec] = &[
+    super::wave::PATTERN,
+    super::ripple::PATTERN,
+    super::rain::PATTERN,
+    super::plane::PATTERN,
+    super::breathe::PATTERN,
+    super::noise::PATTERN,
+    super::text::PATTERN,
+    super::picture::PATTERN,
+];
 
 /// The pattern called `name`.
 #[must_use]

@@ -5,9 +5,9 @@
 //! described as data ([`params::ParamSpec`]: key, label, unit, range, default, step), so
 //! the app builds its sliders, the CLI its `--help` and the property tests their
 //! parameters from the same table. Built with parameters for a [`Grid`], a pattern is
-//! a [`Field`]: every ball's position at any time. A recipe is a timeline of
+//! a [`Field`]: every ball's position at any time. A [`Recipe`] is a timeline of
 //! segments (pattern + parameters + duration) with smooth transitions; rendering it
-//! gives a native [`Show`](crate::show::Show) that passes
+//! ([`render()`]) gives a native [`Show`](crate::show::Show) that passes
 //! [`validate`](crate::show::validate) for the installation's limits, and the notes of
 //! what was clamped and which parameter to change.
 //!
@@ -21,11 +21,29 @@
 //!   clamping;
 //! - [`catalogue`]: [`PATTERNS`], every pattern's name, label, help, parameters and
 //!   builder; [`pattern()`] finds one by name;
-//! - [`wave`]: the travelling wave pattern.
+//! - [`wave`], [`ripple`], [`rain`], [`plane`], [`breathe`], [`noise`]: the patterns;
+//! - [`text`]: the text pattern — a word or a user's bitmap, raised or lowered, static
+//!   or scrolling smoothly; [`font`]: its built-in bitmap font and the [`font::Bitmap`];
+//! - [`picture`]: the image heightmap pattern — a PNG or JPEG picture as heights;
+//! - [`recipe`]: the recipe (JSON), its segments and the timeline with transitions and
+//!   easing from and to rest;
+//! - [`render`]: recipe + grid + limits → show + notes, within the limits by
+//!   construction.
 
+pub mod breathe;
 pub mod catalogue;
+pub mod noise;
 pub mod params;
+pub mod plane;
+pub mod rain;
+pub mod recipe;
+pub mod render;
+pub mod ripple;
 pub mod wave;
+
+pub mod font;
+pub mod picture;
+pub mod text;
 
 use std::fmt;
 
@@ -33,6 +51,8 @@ use thiserror::Error;
 
 pub use catalogue::{PATTERNS, PatternSpec, pattern};
 pub use params::{ParamKind, ParamSpec, Params, Reader, Value};
+pub use recipe::{Recipe, Segment};
+pub use render::{Generated, render};
 
 /// The matrix a show is generated for.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -220,7 +220,7 @@ impl<'a> Reader<'a> {
         let Some(Value::Number(value)) = self.params.get(key) else {
             return default;
         };
-        let clamped = value.clamp(min, max);
+        let clamped = value.max(min).min(max);
         if clamped != *value {
             self.notes.push(Note {
                 segment: self.segment,

@@ -1,0 +1,579 @@
+//! Rendering a recipe into a show for a grid, within the installation's limits by
+//! construction: `render(recipe, grid, limits)` gives a [`Show`] that passes
+//! [`validate`](crate::show::validate) for `limits`, and the [`Note`]s of every value
+//! changed on the way, each naming the parameter to change.
+//!
+//! 1. Every segment's pattern is built ([`PatternSpec::field`]); parameters out of
+//!    their range are clamped (a note each).
+//! 2. Each pattern is sampled over its time (every fourth row) and, if it leaves the
+//!    travel (less a margin of 2 %), its motion is scaled about its middle and moved
+//!    into it (a note naming its amplitude or its height).
+//! 3. The timeline ([`super::recipe`]) is sampled at every row time: positions; each
+//!    row's velocity is the central difference of its neighbours (Catmull–Rom), so the
+//!    rows are C1 Hermite curves through the samples. The show starts and ends at
+//!    rest by playing the timeline slower over its first and last [`EASE_S`] (its
+//!    speed rising smoothly from 0 to 1 and back), never faster than the patterns.
+//! 4. Every row's exact peak speed and acceleration (the units' own cubic) are
+//!    measured; a pattern too fast or too hard on its own is scaled down about its
+//!    middle (a note naming its amplitude) and step 3 runs once more.
+//! 5. What remains above a limit (a short transition between distant patterns) scales
+//!    the whole show's motion about the middle of the travel (a note saying which
+//!    transition or pattern to change). Scaling every position about one point scales
+//!    every row's speed and acceleration exactly, so the result is within the limits,
+//!    including the rounding of positions and velocities to 0.1 mm (mm/s; 0.001 for
+//!    rows shorter than 100 ms), whose worst effect is subtracted from the limits.
+//!
+//! The same recipe, grid and limits always give the same show, bit for bit.
+//!
+//! ```
+//! use floatball_shared::create::{Grid, Params, Recipe, render};
+//! use floatball_shared::plan::{Installation, PlanOptions, report::report};
+//! use floatball_shared::show::{Limits, validate};
+//!
+//! let recipe = Recipe::single("lobby", "wave", Params::new(), 10.0);
+//! let grid = Grid::new(4, 4, 500.0, 7500.0);
+//! let limits = Limits::for_layout(4, 4);
+//! let generated = render(&recipe, &grid, &limits).unwrap();
+//! assert!(generated.notes.is_empty());
+//! assert_eq!(validate(&generated.show, &limits), []);
+//! // The planner's verdict on it, as the page shows it before saving.
+//! let installation = Installation::demo(4, 4, &[115_200]).unwrap();
+//! assert!(report(&generated.show, &installation, PlanOptions::default()).feasible);
+//! ```
+
+use super::catalogue::{self, PatternSpec};
+use super::params::{ParamKind, Value};
+use super::recipe::{EASE_S, Recipe, Span};
+use super::{CreateError, Field, Grid, Note, number, smooth_step};
+use crate::pvt::Segment as Cubic;
+use crate::show::{Layout, Limits, Show, Track, TrackRow};
+
+/// A rendered recipe: the show and what was changed to keep it within the limits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Generated {
+    /// The show (its layout the grid's, its name the recipe's).
+    pub show: Show,
+    /// Every value changed, in the order found.
+    pub notes: Vec<Note>,
+}
+
+/// Fraction of the travel kept free at the top and the bottom when a pattern is fitted
+/// into it.
+const MARGIN: f64 = 0.02;
+
+/// A pattern scaled down for a limit aims this far below it (the samples of step 4
+/// are exact, but the transitions around it change a little).
+const SAFETY: f64 = 0.97;
+
+/// One segment's pattern with the map that fits it into the limits:
+/// `x ↦ target_mm + scale · (x − mid_mm)`.
+struct Part {
+    spec: &'static PatternSpec,
+    field: Box<dyn Field>,
+    span: Span,
+    mid_mm: f64,
+    target_mm: f64,
+    scale: f64,
+}
+
+impl Part {
+    fn sample(&self, grid: &Grid, t_s: f64, out_mm: &mut [f64]) {
+        self.field.sample(grid, t_s - self.span.begin_s, out_mm);
+        if self.scale != 1.0 || self.mid_mm != self.target_mm {
+            for x in out_mm.iter_mut() {
+                *x = self.target_mm + self.scale * (*x - self.mid_mm);
+            }
+        }
+    }
+
+    /// The value of the parameter `key` the recipe gives, or its default.
+    fn value(&self, params: &super::Params, key: &str) -> Option<(f64, &'static str)> {
+        let spec = self.spec.param(key)?;
+        let ParamKind::Number {
+            default,
+            unit,
+            min,
+            max,
+            ..
+        } = spec.kind
+        else {
+            return None;
+        };
+        let value = match params.get(key) {
+            Some(Value::Number(value)) => value.max(min).min(max),
+            _ => default,
+        };
+        Some((value, unit))
+    }
+}
+
+/// The timeline as the rows sample it: show time `t` plays the timeline at time
+/// `τ(t)`, which starts and ends at rest: τ′ rises from 0 to 1 over the first
+/// `ease_s` (τ′ = the smooth step of t / ease_s) and falls back to 0 over the last,
+/// so every ball starts and ends at rest, no faster than its pattern, and the show is
+/// `ease_s` longer than the timeline.
+struct Timeline<'a> {
+    parts: &'a [Part],
+    grid: &'a Grid,
+    show_s: f64,
+    ease_s: f64,
+    scratch: Vec<f64>,
+}
+
+/// ∫₀ˣ smooth_step = x⁶ − 3x⁵ + 2.5x⁴ (½ at 1).
+fn eased(x: f64) -> f64 {
+    let x = x.clamp(0.0, 1.0);
+    x * x * x * x * (x * x - 3.0 * x + 2.5)
+}
+
+impl<'a> Timeline<'a> {
+    fn new(parts: &'a [Part], grid: &'a Grid, show_s: f64, ease_s: f64) -> Self {
+        Self {
+            parts,
+            grid,
+            show_s,
+            ease_s,
+            scratch: vec![0.0; grid.unit_count()],
+        }
+    }
+
+    /// The timeline's time at show time `t_s`.
+    fn warp(&self, t_s: f64) -> f64 {
+        let ease_s = self.ease_s;
+        if ease_s <= 0.0 {
+            t_s
+        } else if t_s < ease_s {
+            ease_s * eased(t_s / ease_s)
+        } else if t_s > self.show_s - ease_s {
+            (self.show_s - ease_s) - ease_s * eased((self.show_s - t_s) / ease_s)
+        } else {
+            t_s - ease_s / 2.0
+        }
+    }
+
+    /// The segment running at `t_s` (the earlier one during a transition).
+    fn index(&self, t_s: f64) -> usize {
+        self.parts
+            .iter()
+            .position(|part| t_s < part.span.out_s)
+            .unwrap_or(self.parts.len().saturating_sub(1))
+    }
+
+    /// Zone of show time `t_s`: 2i while segment i runs alone, 2i + 1 during the
+    /// transition from segment i to i + 1.
+    fn zone(&self, t_s: f64) -> usize {
+        let t_s = self.warp(t_s);
+        let index = self.index(t_s);
+        let span = self.parts[index].span;
+        if t_s >= span.end_s && index + 1 < self.parts.len() {
+            2 * index + 1
+        } else {
+            2 * index
+        }
+    }
+
+    /// The timeline without easing.
+    fn raw(&mut self, t_s: f64, out_mm: &mut [f64]) {
+        let index = self.index(t_s);
+        let part = &self.parts[index];
+        part.sample(self.grid, t_s, out_mm);
+        if t_s > part.span.end_s
+            && let Some(next) = self.parts.get(index + 1)
+        {
+            let weight = smooth_step((t_s - part.span.end_s) / (part.span.out_s - part.span.end_s));
+            next.sample(self.grid, t_s, &mut self.scratch);
+            for (out, next) in out_mm.iter_mut().zip(&self.scratch) {
+                *out += weight * (next - *out);
+            }
+        }
+    }
+
+    /// Every ball's position at show time `t_s`.
+    fn position(&mut self, t_s: f64, out_mm: &mut [f64]) {
+        self.raw(self.warp(t_s), out_mm);
+    }
+}
+
+/// Peaks measured on the rows.
+#[derive(Debug, Clone, Copy, Default)]
+struct Peaks {
+    speed_mm_s: f64,
+    accel_mm_s2: f64,
+}
+
+/// The rows' exact peaks per zone, and the lowest and highest point reached.
+struct Measure {
+    zones: Vec<Peaks>,
+    min_mm: f64,
+    max_mm: f64,
+}
+
+fn measure(tracks: &[Track], zones: &[usize], zone_count: usize, dt_s: f64) -> Measure {
+    let mut measured = Measure {
+        zones: vec![Peaks::default(); zone_count],
+        min_mm: f64::INFINITY,
+        max_mm: f64::NEG_INFINITY,
+    };
+    for track in tracks {
+        let (mut p0, mut v0) = (track.start_mm, 0.0);
+        for (row, zone) in track.rows.iter().zip(zones) {
+            let cubic = Cubic::new(p0, v0, row.position_mm, row.velocity_mm_s, dt_s);
+            let peaks = &mut measured.zones[*zone];
+            peaks.speed_mm_s = peaks.speed_mm_s.max(cubic.peak_speed().value);
+            peaks.accel_mm_s2 = peaks.accel_mm_s2.max(cubic.peak_acceleration().value);
+            let range = cubic.position_range();
+            measured.min_mm = measured.min_mm.min(range.min.value);
+            measured.max_mm = measured.max_mm.max(range.max.value);
+            (p0, v0) = (row.position_mm, row.velocity_mm_s);
+        }
+    }
+    measured
+}
+
+/// Samples the timeline into `tracks` (positions at every row, Catmull–Rom
+/// velocities, at rest at both ends).
+fn sample_rows(timeline: &mut Timeline<'_>, tracks: &mut [Track], rows: usize, row_ms: u32) {
+    let units = tracks.len();
+    let dt_s = f64::from(row_ms) / 1000.0;
+    let mut positions = vec![0.0; units];
+    timeline.position(0.0, &mut positions);
+    for (track, start) in tracks.iter_mut().zip(&positions) {
+        track.start_mm = *start;
+        track.rows.clear();
+    }
+    for row in 1..=rows {
+        timeline.position(row as f64 * dt_s, &mut positions);
+        for (track, position) in tracks.iter_mut().zip(&positions) {
+            track.rows.push(TrackRow::new(*position, 0.0, row_ms));
+        }
+    }
+    for track in tracks.iter_mut() {
+        let count = track.rows.len();
+        for row in 0..count.saturating_sub(1) {
+            let before = if row == 0 {
+                track.start_mm
+            } else {
+                track.rows[row - 1].position_mm
+            };
+            let after = track.rows[row + 1].position_mm;
+            track.rows[row].velocity_mm_s = (after - before) / (2.0 * dt_s);
+        }
+    }
+}
+
+/// The parameter a note about a pattern's swing names: its amplitude (or depth, or
+/// slope), else the first length in mm that is not a height; `None` if it has none.
+fn motion_key(spec: &PatternSpec) -> Option<&'static str> {
+    ["amplitude_mm", "depth_mm", "slope_mm_m"]
+        .into_iter()
+        .find(|key| spec.param(key).is_some())
+        .or_else(|| {
+            spec.params
+                .iter()
+                .map(|param| param.key)
+                .find(|key| key.ends_with("_mm") && !matches!(*key, "centre_mm" | "base_mm"))
+        })
+}
+
+/// The parameter a note about a pattern's height names.
+fn height_key(spec: &PatternSpec) -> Option<&'static str> {
+    ["centre_mm", "base_mm"]
+        .into_iter()
+        .find(|key| spec.param(key).is_some())
+}
+
+/// A note that segment `index`'s motion was scaled by `scale` (or moved by
+/// `shift_mm` when `shift`), naming its parameter.
+fn part_note(
+    recipe: &Recipe,
+    parts: &[Part],
+    index: usize,
+    scale: f64,
+    shift_mm: Option<f64>,
+    reason: String,
+) -> Note {
+    let part = &parts[index];
+    let params = &recipe.segments[index].params;
+    let key = match shift_mm {
+        Some(_) => height_key(part.spec),
+        None => motion_key(part.spec),
+    };
+    let (key, from, to, unit) = match key.and_then(|key| Some((key, part.value(params, key)?))) {
+        Some((key, (value, unit))) => {
+            let to = match shift_mm {
+                Some(shift_mm) => value + shift_mm,
+                None => value * scale,
+            };
+            (key.to_owned(), value, to, unit.to_owned())
+        }
+        None => match shift_mm {
+            Some(shift_mm) => ("height".to_owned(), 0.0, shift_mm, "mm".to_owned()),
+            None => ("motion".to_owned(), 100.0, 100.0 * scale, "%".to_owned()),
+        },
+    };
+    Note {
+        segment: index,
+        pattern: part.spec.name.to_owned(),
+        key,
+        from,
+        to,
+        unit,
+        reason,
+    }
+}
+
+/// Renders `recipe` for `grid` within `limits`.
+///
+/// # Errors
+/// The recipe's ([`Recipe::check`]) or grid's ([`Grid::check`]) problems, an unknown
+/// pattern or parameter, a parameter of the wrong type, a picture that cannot be used.
+pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated, CreateError> {
+    recipe.check()?;
+    grid.check()?;
+    let spans = recipe.spans();
+    let mut notes = Vec::new();
+    let mut parts = Vec::with_capacity(recipe.segments.len());
+    for (index, (segment, span)) in recipe.segments.iter().zip(&spans).enumerate() {
+        let spec = catalogue::find(&segment.pattern)?;
+        let (field, clamped) = spec.field(&segment.params, index, grid)?;
+        notes.extend(clamped);
+        parts.push(Part {
+            spec,
+            field,
+            span: *span,
+            mid_mm: 0.0,
+            target_mm: 0.0,
+            scale: 1.0,
+        });
+    }
+    let row_ms = recipe.row_ms;
+    let dt_s = f64::from(row_ms) / 1000.0;
+    let timeline_s = recipe.duration_s();
+    let ease_s = EASE_S.min(timeline_s);
+    let rows = (((timeline_s + ease_s) / dt_s - 1e-9).ceil() as usize).max(1);
+    let show_s = rows as f64 * dt_s;
+    // The timeline's time at the show's end (≥ its length: the rows round up).
+    let timeline_end_s = show_s - ease_s;
+    let travel_mm = limits.travel_mm.min(grid.travel_mm);
+    let units = grid.unit_count();
+
+    // What the rows may reach, less the worst effect of rounding positions and
+    // velocities to `resolution`.
+    let resolution = if row_ms >= 100 { 0.1 } else { 0.001 };
+    let half = resolution / 2.0;
+    let speed_allowed = limits.max_speed_mm_s * 0.999 - (3.0 * half / dt_s + 2.0 * half);
+    let accel_allowed =
+        limits.max_accel_mm_s2 * 0.999 - (12.0 * half / (dt_s * dt_s) + 8.0 * half / dt_s);
+    let limit_words = format!(
+        "so balls stay within {} mm/s and {} mm/s²",
+        number(limits.max_speed_mm_s),
+        number(limits.max_accel_mm_s2)
+    );
+
+    // 2. Fit every pattern into the travel and, as far as it shows between rows,
+    // its speed and acceleration into the limits (velocities and accelerations by
+    // central differences over 1 ms: a pattern faster than the rows can follow is
+    // caught here, not aliased away).
+    let margin_mm = travel_mm * MARGIN;
+    let (low_mm, high_mm) = (margin_mm, travel_mm - margin_mm);
+    let travel_words = format!(
+        "so the balls stay within the travel of {} mm",
+        number(travel_mm)
+    );
+    let h_s = 1e-3;
+    let mut before = vec![0.0; units];
+    let mut now = vec![0.0; units];
+    let mut after = vec![0.0; units];
+    for index in 0..parts.len() {
+        let part = &parts[index];
+        let (from_s, to_s) = (
+            part.span.begin_s,
+            if index + 1 == parts.len() {
+                timeline_end_s
+            } else {
+                part.span.out_s
+            },
+        );
+        let samples = (((to_s - from_s) / (4.0 * dt_s)).ceil() as usize).max(1);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut peaks = Peaks::default();
+        for sample in 0..=samples {
+            let t_s = from_s + (to_s - from_s) * sample as f64 / samples as f64;
+            part.sample(grid, t_s - h_s, &mut before);
+            part.sample(grid, t_s, &mut now);
+            part.sample(grid, t_s + h_s, &mut after);
+            for ((&b, &mm), &a) in before.iter().zip(&now).zip(&after) {
+                lo = lo.min(mm);
+                hi = hi.max(mm);
+                peaks.speed_mm_s = peaks.speed_mm_s.max((a - b).abs() / (2.0 * h_s));
+                peaks.accel_mm_s2 = peaks
+                    .accel_mm_s2
+                    .max((a - 2.0 * mm + b).abs() / (h_s * h_s));
+            }
+        }
+        let mid_mm = (lo + hi) / 2.0;
+        let fit = if hi - lo > high_mm - low_mm {
+            (high_mm - low_mm) / (hi - lo)
+        } else {
+            1.0
+        };
+        let over =
+            (fit * peaks.speed_mm_s / speed_allowed).max(fit * peaks.accel_mm_s2 / accel_allowed);
+        let scale = if over > SAFETY {
+            fit * SAFETY / over
+        } else {
+            fit
+        };
+        let half_mm = scale * (hi - lo) / 2.0;
+        let target_mm = mid_mm.max(low_mm + half_mm).min(high_mm - half_mm);
+        if fit < 1.0 {
+            notes.push(part_note(
+                recipe,
+                &parts,
+                index,
+                fit,
+                None,
+                travel_words.clone(),
+            ));
+        }
+        if scale < fit {
+            notes.push(part_note(
+                recipe,
+                &parts,
+                index,
+                scale,
+                None,
+                limit_words.clone(),
+            ));
+        }
+        if (target_mm - mid_mm).abs() > 0.05 {
+            notes.push(part_note(
+                recipe,
+                &parts,
+                index,
+                1.0,
+                Some(target_mm - mid_mm),
+                travel_words.clone(),
+            ));
+        }
+        let part = &mut parts[index];
+        (part.mid_mm, part.target_mm, part.scale) = (mid_mm, target_mm, scale);
+    }
+
+    // 3 and 4: sample, measure, scale down the patterns too fast on their own, once.
+    let zone_count = 2 * parts.len() - 1;
+    let mut tracks: Vec<Track> = (0..units)
+        .map(|_| Track {
+            start_mm: 0.0,
+            rows: Vec::with_capacity(rows),
+            colours: Vec::new(),
+        })
+        .collect();
+    let mut measured;
+    let mut zones = Vec::with_capacity(rows);
+    {
+        let timeline = Timeline::new(&parts, grid, show_s, ease_s);
+        zones.extend((1..=rows).map(|row| timeline.zone((row as f64 - 0.5) * dt_s)));
+    }
+    let mut pass = 0;
+    loop {
+        let mut timeline = Timeline::new(&parts, grid, show_s, ease_s);
+        sample_rows(&mut timeline, &mut tracks, rows, row_ms);
+        measured = measure(&tracks, &zones, zone_count, dt_s);
+        pass += 1;
+        if pass > 1 {
+            break;
+        }
+        let mut rescaled = false;
+        for index in 0..parts.len() {
+            let peaks = measured.zones[2 * index];
+            let over = (peaks.speed_mm_s / speed_allowed).max(peaks.accel_mm_s2 / accel_allowed);
+            if over > 1.0 {
+                let scale = parts[index].scale * SAFETY / over;
+                notes.push(part_note(
+                    recipe,
+                    &parts,
+                    index,
+                    scale,
+                    None,
+                    limit_words.clone(),
+                ));
+                parts[index].scale = scale;
+                rescaled = true;
+            }
+        }
+        if !rescaled {
+            break;
+        }
+    }
+
+    // 5. Scale the whole show's motion about the middle of the travel.
+    let centre_mm = travel_mm / 2.0;
+    let edge_mm = half + 1e-3;
+    let mut scale: f64 = 1.0;
+    let mut worst: Option<(usize, f64)> = None;
+    for (zone, peaks) in measured.zones.iter().enumerate() {
+        let need = (speed_allowed / peaks.speed_mm_s).min(accel_allowed / peaks.accel_mm_s2);
+        if need < scale {
+            scale = need;
+            worst = Some((zone, need));
+        }
+    }
+    if measured.max_mm > travel_mm - edge_mm {
+        scale = scale.min((travel_mm - edge_mm - centre_mm) / (measured.max_mm - centre_mm));
+    }
+    if measured.min_mm < edge_mm {
+        scale = scale.min((centre_mm - edge_mm) / (centre_mm - measured.min_mm));
+    }
+    let scale = scale.clamp(0.0, 1.0);
+    if scale < 1.0 {
+        let (segment, advice) = match worst {
+            Some((zone, _)) if zone % 2 == 1 => (
+                zone / 2,
+                format!(
+                    "; the blend from segment {} into {} is the hardest part: make its transition_s longer",
+                    zone / 2 + 1,
+                    zone / 2 + 2
+                ),
+            ),
+            Some((zone, _)) => (zone / 2, String::new()),
+            None => (0, String::new()),
+        };
+        notes.push(Note {
+            segment,
+            pattern: parts[segment].spec.name.to_owned(),
+            key: "motion".to_owned(),
+            from: 100.0,
+            to: 100.0 * scale,
+            unit: "%".to_owned(),
+            reason: format!(
+                "(the whole show) {limit_words} and within the travel of {} mm{advice}",
+                number(travel_mm)
+            ),
+        });
+    }
+    let round = |value: f64| (value / resolution).round() * resolution;
+    for track in &mut tracks {
+        track.start_mm = round(centre_mm + scale * (track.start_mm - centre_mm));
+        for row in &mut track.rows {
+            row.position_mm = round(centre_mm + scale * (row.position_mm - centre_mm));
+            row.velocity_mm_s = round(scale * row.velocity_mm_s);
+        }
+        if let Some(last) = track.rows.last_mut() {
+            last.velocity_mm_s = 0.0;
+        }
+    }
+    Ok(Generated {
+        show: Show {
+            name: recipe.name.clone(),
+            layout: Layout {
+                rows: grid.rows,
+                cols: grid.cols,
+                pitch_mm: grid.pitch_mm,
+            },
+            tracks,
+            outputs: Vec::new(),
+        },
+        notes,
+    })
+}
