@@ -184,8 +184,7 @@ impl Draft {
     /// Sets the edited segment's length, s, within the recipe's limits.
     pub fn set_duration_s(&mut self, duration_s: f64) {
         if duration_s.is_finite() {
-            self.segments[self.selected].duration_s =
-                duration_s.clamp(MIN_DURATION_S, MAX_SHOW_S);
+            self.segments[self.selected].duration_s = duration_s.clamp(MIN_DURATION_S, MAX_SHOW_S);
         }
     }
 
@@ -278,10 +277,13 @@ impl Draft {
     pub fn make(&self, target: &Target) -> Result<Made, CreateError> {
         let generated = create::render::render(&self.recipe(), &target.grid, &target.limits)?;
         let violations = floatball_shared::show::validate(&generated.show, &target.limits);
-        let verdict = target
-            .installation
-            .as_ref()
-            .map(|info| report(&generated.show, &info.installation(), PlanOptions::default()));
+        let verdict = target.installation.as_ref().map(|info| {
+            report(
+                &generated.show,
+                &info.installation(),
+                PlanOptions::default(),
+            )
+        });
         Ok(Made {
             show: generated.show,
             notes: generated.notes,

@@ -24,7 +24,7 @@ use wasm_bindgen_futures::JsFuture;
 use crate::client::{Failure, OnProgress, UploadProgress};
 use crate::components::files::save_text;
 use crate::context::Ctx;
-use crate::create::{Draft, Made, Target, format_number, pattern_of};
+use crate::create::{Draft, Made, Target, format_number};
 use crate::files::LocalFile;
 use crate::i18n::{Text, create as words};
 use crate::preview::PreviewPage;
@@ -170,9 +170,9 @@ fn Timeline() -> impl IntoView {
     let draft = ctx.create;
     let rows = move || {
         let lang = ctx.lang.get();
-        draft.with(|draft| {
-            let count = draft.segments().len();
-            draft
+        draft.with(|now| {
+            let count = now.segments().len();
+            now
                 .segments()
                 .iter()
                 .enumerate()
@@ -183,7 +183,7 @@ fn Timeline() -> impl IntoView {
                         words::pattern(lang, &segment.pattern),
                         format_number(segment.duration_s, 0.5),
                     );
-                    let selected = index == draft.selected();
+                    let selected = index == now.selected();
                     view! {
                         <li class="segment" class:selected=selected data-testid="segment" data-pattern=segment.pattern.clone()>
                             <button
@@ -297,30 +297,28 @@ fn SegmentEditor() -> impl IntoView {
                 .collect_view()
         })
     };
-    let number_input = move |test_id: &'static str,
-                             get: fn(&Draft) -> f64,
-                             set: fn(&mut Draft, f64),
-                             max: f64| {
-        view! {
-            <input
-                type="number"
-                inputmode="decimal"
-                min="0"
-                max=max
-                step="0.5"
-                data-testid=test_id
-                prop:value=move || format_number(draft.with(get), 0.5)
-                on:change=move |ev| {
-                    if let Ok(value) = event_target_value(&ev).trim().parse::<f64>() {
-                        draft.update(|d| set(d, value));
-                    } else {
-                        // Back to the value kept.
-                        draft.update(|_| {});
+    let number_input =
+        move |test_id: &'static str, get: fn(&Draft) -> f64, set: fn(&mut Draft, f64), max: f64| {
+            view! {
+                <input
+                    type="number"
+                    inputmode="decimal"
+                    min="0"
+                    max=max
+                    step="0.5"
+                    data-testid=test_id
+                    prop:value=move || format_number(draft.with(get), 0.5)
+                    on:change=move |ev| {
+                        if let Ok(value) = event_target_value(&ev).trim().parse::<f64>() {
+                            draft.update(|d| set(d, value));
+                        } else {
+                            // Back to the value kept.
+                            draft.update(|_| {});
+                        }
                     }
-                }
-            />
-        }
-    };
+                />
+            }
+        };
     view! {
         <div class="card segment-editor" data-testid="segment-editor">
             <h3>
@@ -383,11 +381,12 @@ fn param_control(ctx: Ctx, pattern: &'static str, spec: &'static ParamSpec) -> A
                 Some(Value::Number(number)) => number,
                 _ => min,
             };
+            let value_id = format!("{test_id}-value");
             view! {
                 <label class="param number">
                     <span>
                         {label} " "
-                        <output class="mono" data-testid=format!("{test_id}-value")>
+                        <output class="mono" data-testid=value_id>
                             {move || format!("{} {unit}", format_number(number(), step))}
                         </output>
                     </span>
@@ -520,11 +519,12 @@ fn param_control(ctx: Ctx, pattern: &'static str, spec: &'static ParamSpec) -> A
                     draft.update(|d| d.set_param(spec.key, Value::Text(base64)));
                 });
             };
+            let chosen_id = format!("{test_id}-chosen");
             view! {
                 <label class="param bytes">
                     <span>{label}</span>
                     <input type="file" accept="image/png,image/jpeg" data-testid=test_id on:change=on_pick />
-                    <span class="muted" data-testid=format!("{test_id}-chosen")>
+                    <span class="muted" data-testid=chosen_id>
                         {move || match chosen() {
                             Some(kib) => format!("{kib} KB"),
                             None => ctx.t(Text::NoPicture).to_owned(),
@@ -722,13 +722,15 @@ fn Actions(
         });
     };
     let download_recipe = move |_| {
-        let (name, text) =
-            draft.with_untracked(|d| (d.recipe_file_name(), d.recipe().to_json()));
+        let (name, text) = draft.with_untracked(|d| (d.recipe_file_name(), d.recipe().to_json()));
         let result = text
             .map_err(|error| error.to_string())
             .and_then(|text| save_text(&name, &text, "application/json"));
         if let Err(error) = result {
-            message.set(Some(Message { error: true, text: error }));
+            message.set(Some(Message {
+                error: true,
+                text: error,
+            }));
         }
     };
     let open_recipe = move |ev: leptos::ev::Event| {

@@ -12,69 +12,74 @@ use super::Lang;
 /// Chinese name and help of each pattern.
 const PATTERNS_ZH: &[(&str, &str, &str)] = &[
     ("wave", "波浪", "正弦波浪横穿整个矩阵。"),
-    ("ripple", "涟漪", "从一点向外扩散的圆形涟漪，逐渐减弱。"),
-    ("rain", "雨滴", "球像雨滴一样随机落下再缓缓升起。"),
-    ("plane", "平面", "倾斜并可旋转的平面。"),
-    ("breathe", "呼吸", "整个表面像呼吸一样缓慢起伏。"),
-    ("noise", "流动", "平滑流动的随机起伏。"),
-    ("text", "文字", "用球排出文字，凸起或凹下，静止或滚动。"),
-    ("image", "图片", "把一张图片变成高度：亮处高，暗处低。"),
+    ("ripple", "涟漪", "从一点向外扩散的圆环，越远越弱。"),
+    ("rain", "雨滴", "雨滴随机落下，每一滴把附近的球按下片刻。"),
+    ("plane", "倾斜平面", "一个倾斜的平面，倾斜方向绕中心旋转。"),
+    ("breathe", "呼吸", "整个表面缓慢起伏，中间拱起。"),
+    ("noise", "起伏地形", "平滑的山丘和洼地，缓缓漂移和变化。"),
+    (
+        "text",
+        "文字",
+        "用凸起或凹下的球组成文字或点阵，静止或滚动。",
+    ),
+    (
+        "image",
+        "图片",
+        "把 PNG 或 JPEG 图片变成高度：亮处高，暗处低。",
+    ),
 ];
 
 /// Chinese label of each parameter, by key (the same key means the same in every
 /// pattern).
 const PARAMS_ZH: &[(&str, &str)] = &[
-    ("direction", "方向"),
-    ("wavelength_m", "波长"),
     ("amplitude_mm", "幅度"),
-    ("speed_m_s", "速度"),
-    ("centre_mm", "中间高度"),
-    ("centre_x_m", "中心 X"),
-    ("centre_y_m", "中心 Y"),
-    ("damping", "衰减"),
-    ("damping_per_m", "衰减"),
-    ("period_s", "周期"),
-    ("drops_per_s", "每秒雨滴数"),
-    ("drop_mm", "落下距离"),
-    ("fall_s", "下落时间"),
-    ("rise_s", "回升时间"),
-    ("seed", "随机种子"),
-    ("tilt_deg", "倾斜角"),
-    ("rotation_deg_s", "旋转速度"),
-    ("turn_deg_s", "旋转速度"),
-    ("heading_deg", "朝向"),
-    ("depth_mm", "深度"),
+    ("angle_deg", "倾角"),
     ("base_mm", "底面高度"),
-    ("scale_m", "尺度"),
-    ("text", "文字"),
-    ("style", "样式"),
-    ("scroll_m_s", "滚动速度"),
     ("bitmap", "自定义点阵"),
-    ("size", "字号"),
+    ("centre_mm", "中间高度"),
+    ("change_hz", "变化快慢"),
+    ("damping_per_m", "衰减"),
+    ("depth_mm", "深度"),
+    ("direction", "方向"),
+    ("dome_mm", "中间拱起"),
+    ("drift_m_s", "漂移速度"),
+    ("drop_s", "每滴时长"),
+    ("drops_per_s", "每秒雨滴数"),
+    ("fit", "适配"),
+    ("high_mm", "最高位置"),
     ("image", "图片"),
     ("invert", "反转"),
     ("low_mm", "最低位置"),
-    ("high_mm", "最高位置"),
-    ("fit", "适配"),
+    ("motion", "动作幅度"),
+    ("period_s", "周期"),
+    ("radius_m", "半径"),
     ("reveal_s", "显现时间"),
+    ("scale_m", "尺度"),
+    ("scroll_m_s", "滚动速度"),
+    ("seed", "随机种子"),
+    ("size_mm", "大小"),
+    ("slope_mm_m", "坡度"),
+    ("speed_m_s", "速度"),
+    ("style", "样式"),
+    ("text", "文字"),
+    ("turns_per_min", "每分钟转数"),
+    ("wavelength_m", "波长"),
+    ("x_m", "中心 X"),
+    ("y_m", "中心 Y"),
 ];
 
 /// Chinese of each choice's word.
 const CHOICES_ZH: &[(&str, &str)] = &[
-    ("left", "向左"),
     ("right", "向右"),
-    ("up", "向后"),
-    ("down", "向前"),
-    ("forward", "向前"),
+    ("left", "向左"),
     ("back", "向后"),
+    ("front", "向前"),
     ("raised", "凸起"),
     ("lowered", "凹下"),
     ("contain", "完整显示"),
     ("cover", "铺满"),
-    ("yes", "是"),
     ("no", "否"),
-    ("off", "关"),
-    ("on", "开"),
+    ("yes", "是"),
 ];
 
 fn lookup<'a>(table: &'a [(&str, &str)], key: &str) -> Option<&'a str> {
@@ -135,7 +140,13 @@ fn key_label(lang: Lang, pattern: &str, key: &str) -> String {
         ("transition_s", Lang::En) => "blend".to_owned(),
         _ => floatball_shared::create::pattern(pattern)
             .and_then(|spec| spec.param(key))
-            .map_or_else(|| key.to_owned(), |spec| param(lang, pattern, spec)),
+            .map_or_else(
+                || match lang {
+                    Lang::Zh => lookup(PARAMS_ZH, key).unwrap_or(key).to_owned(),
+                    Lang::En => key.to_owned(),
+                },
+                |spec| param(lang, pattern, spec),
+            ),
     }
 }
 
@@ -171,7 +182,11 @@ pub fn error(lang: Lang, error: &CreateError) -> String {
         CreateError::UnknownPattern { name, known } => {
             format!("没有名为“{name}”的图案；可用的图案：{known}")
         }
-        CreateError::UnknownParam { pattern, key, known } => {
+        CreateError::UnknownParam {
+            pattern,
+            key,
+            known,
+        } => {
             format!("图案“{pattern}”没有参数“{key}”；它的参数：{known}")
         }
         CreateError::WrongType { pattern, key, .. } => {
@@ -265,7 +280,10 @@ mod tests {
             "segment 2 (Wave): Speed changed from 6 to 2.4 m/s so balls stay within 2000 mm/s"
         );
         let zh = super::note(Lang::Zh, &note);
-        assert!(zh.contains("第 2 段（波浪）：速度 已从 6 改为 2.4 m/s"), "{zh}");
+        assert!(
+            zh.contains("第 2 段（波浪）：速度 已从 6 改为 2.4 m/s"),
+            "{zh}"
+        );
         assert!(error(Lang::Zh, &CreateError::EmptyTimeline).contains("时间线"));
         assert_eq!(
             error(Lang::En, &CreateError::EmptyTimeline),
