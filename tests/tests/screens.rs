@@ -6,7 +6,8 @@
 //! - no page is wider than the screen (`scrollWidth` ≤ `innerWidth`);
 //! - "E-STOP" stays on one line;
 //! - on the phone, the compact status bar (state, show, progress) is at the top of
-//!   every page once connected, and a chosen show's picture is above the fold;
+//!   every page once connected, and a chosen show's picture (Preview, Create) is
+//!   above the fold;
 //! - on the tablet, Control puts the playlist and the status side by side;
 //! - the console gives a position answer in counts and in mm (`PA = … (… mm)`).
 //!
@@ -141,7 +142,7 @@ impl Tour<'_> {
                 )),
             }
         }
-        if self.phone() && page == "preview" {
+        if self.phone() && (page == "preview" || page == "create") {
             match edge("stage", "top") {
                 Some(top) if top < number("innerHeight") * 0.5 => {}
                 other => self.problems.push(format!(
@@ -197,6 +198,7 @@ impl Tour<'_> {
         for page in [
             "login",
             "files",
+            "create",
             "preview",
             "control",
             "settings",
@@ -225,6 +227,13 @@ impl Tour<'_> {
                     ))
                     .await;
                 self.browser.wait_for("[data-testid=preview-canvas]").await;
+            }
+            if page == "create" {
+                // The draft's picture, made for the installation.
+                self.browser.wait_for("[data-testid=preview-canvas]").await;
+                self.browser
+                    .wait_for("[data-testid=create-for-installation]")
+                    .await;
             }
             if page == "console" {
                 // A position query: its answer comes in counts and in mm.

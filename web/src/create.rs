@@ -196,9 +196,12 @@ impl Draft {
         }
     }
 
-    /// The show's length, s: the segments and the blends between them.
+    /// The show's length, s: the segments, the blends between them, and the start
+    /// from rest and the end at rest ([`recipe::EASE_S`] in all; the show rounds it up
+    /// to whole rows).
     pub fn total_s(&self) -> f64 {
-        self.recipe().duration_s()
+        let timeline_s = self.recipe().duration_s();
+        timeline_s + recipe::EASE_S.min(timeline_s)
     }
 
     /// The offline grid: rows and columns.
@@ -393,7 +396,7 @@ mod tests {
             let spec = PATTERNS[0].param(key).unwrap();
             assert_eq!(spec.kind.default_value(), Some(Value::Number(value)));
         }
-        assert_eq!(draft.total_s(), DEFAULT_SEGMENT_S);
+        assert_eq!(draft.total_s(), DEFAULT_SEGMENT_S + recipe::EASE_S);
         assert_eq!(draft.recipe().segments.len(), 1);
     }
 

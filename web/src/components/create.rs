@@ -50,6 +50,8 @@ struct Outcome {
     error: Option<String>,
     /// How long the last generation took, ms.
     generated_ms: f64,
+    /// Generations so far (tests wait for the next one).
+    count: u32,
 }
 
 fn now_ms() -> f64 {
@@ -80,6 +82,7 @@ pub fn CreatePage() -> impl IntoView {
         let started = now_ms();
         let result = draft.with_untracked(|draft| draft.make(&target.get_untracked()));
         let generated_ms = now_ms() - started;
+        let count = outcome.with_untracked(|o| o.count.wrapping_add(1));
         match result {
             Ok(made) => {
                 let Made {
@@ -100,6 +103,7 @@ pub fn CreatePage() -> impl IntoView {
                     }),
                     error: None,
                     generated_ms,
+                    count,
                 });
                 show.set(Some(made_show));
             }
@@ -107,14 +111,17 @@ pub fn CreatePage() -> impl IntoView {
                 outcome.set(Outcome {
                     error: Some(words::error(lang, &error)),
                     generated_ms,
+                    count,
                     ..Outcome::default()
                 });
                 show.set(None);
             }
         }
     };
+    // What the show depends on (not its name): a new name does not regenerate.
+    let inputs = Memo::new(move |_| draft.with(|d| (d.segments().to_vec(), d.grid())));
     Effect::new(move |_| {
-        draft.track();
+        inputs.track();
         target.track();
         ctx.lang.track();
         if !scheduled.get_value() {
@@ -149,7 +156,9 @@ pub fn CreatePage() -> impl IntoView {
                             }
                         })
                 }}
-                <p class="muted" data-testid="create-generated" data-ms=move || format!("{:.1}", outcome.with(|o| o.generated_ms))>
+                <p class="muted" data-testid="create-generated" data-ms=move || format!("{:.1}", outcome.with(|o| o.generated_ms))
+                    data-count=move || outcome.with(|o| o.count)
+                >
                     {move || {
                         format!(
                             "{} {:.0} ms",
@@ -238,7 +247,7 @@ fn Timeline() -> impl IntoView {
                 maxlength="100"
                 data-testid="create-name"
                 prop:value=move || draft.with(|d| d.name.clone())
-                on:change=move |ev| {
+                on:input=move |ev| {
                     let name = event_target_value(&ev);
                     draft.update(|d| d.name = name);
                 }
@@ -617,7 +626,10 @@ fn Checks(outcome: RwSignal<Outcome>, target: Memo<Target>) -> impl IntoView {
                 if error {
                     None
                 } else if violations.is_empty() {
-                    Some(view! { <p class="ok" data-testid="create-limits" data-ok="true">{ctx.t(Text::WithinLimits)}</p> }.into_any())
+                    {
+                    let text = if online() { Text::WithinInstallationLimits } else { Text::WithinLimits };
+                    Some(view! { <p class="ok" data-testid="create-limits" data-ok="true">{ctx.t(text)}</p> }.into_any())
+                }
                 } else {
                     Some(view! {
                         <ul class="problems" data-testid="create-limits" data-ok="false">
@@ -658,7 +670,16 @@ fn Actions(
     let draft = ctx.create;
     let progress = RwSignal::new(None::<f64>);
     let ready = move || show.with(Option::is_some) && outcome.with(|o| o.error.is_none());
-    let json = move || show.with_untracked(|show| show.as_ref().and_then(|s| s.to_json().ok()));
+    // The show's file, under the name the draft has now.
+    let json = move || {
+        let name = draft.with_untracked(Draft::show_name);
+        show.update_untracked(|show| {
+            if let Some(show) = show {
+                show.name = name;
+            }
+        });
+        show.with_untracked(|show| show.as_ref().and_then(|s| s.to_json().ok()))
+    };
 
     let save_local = move |_| {
         let Some(text) = json() else { return };

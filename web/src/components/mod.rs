@@ -248,10 +248,15 @@ pub fn App() -> impl IntoView {
 pub fn Shell() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     let shown = Memo::new(move |_| ctx.page.get().resolve(ctx.logged_in()));
-    // A refusal belongs to the page where the request was made.
-    Effect::new(move |_| {
-        shown.track();
+    // A refusal belongs to the page where the request was made; a new page starts
+    // at its top (not under the sticky bar, scrolled as far as the last page was).
+    Effect::new(move |previous: Option<Page>| {
+        let page = shown.get();
         ctx.bridge_error.set(None);
+        if previous.is_some_and(|previous| previous != page) {
+            window().scroll_to_with_x_and_y(0.0, 0.0);
+        }
+        page
     });
     view! {
         <TopBar />

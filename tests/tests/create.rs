@@ -1,0 +1,297 @@
+//! Show creation end to end, on a phone-sized browser against the real bridge and
+//! its simulated matrix: a newcomer makes a 60 s show of a wave, a word and a ripple
+//! with blends between them, sees it change in 3D as a slider moves, keeps it in the
+//! local files, uploads it, and plays it on the matrix — without leaving the app.
+//! A second test draws every pattern and saves its picture for `docs/create.md`
+//! (`<target>/screens/create-<pattern>.png`; the test prints where).
+
+use std::path::{Path, PathBuf};
+
+use floatball_e2e::{Bridge, Browser, UI_TIMEOUT};
+use serde_json::Value;
+
+/// Sets the form control matching `css` to `value` as a person would leave it: an
+/// `input` event, then a `change` event.
+async fn set_value(browser: &Browser, css: &str, value: &str) {
+    browser.wait_for(css).await;
+    let script = r"
+        const [css, value] = arguments;
+        const element = document.querySelector(css);
+        element.value = value;
+        element.dispatchEvent(new Event('input', { bubbles: true }));
+        element.dispatchEvent(new Event('change', { bubbles: true }));
+        return element.value;
+    ";
+    browser
+        .client
+        .execute(script, vec![Value::from(css), Value::from(value)])
+        .await
+        .unwrap_or_else(|err| panic!("set {css} to {value}: {err}"));
+}
+
+/// A fingerprint of the 3D preview's picture, once two more frames are drawn.
+async fn picture(browser: &Browser) -> String {
+    let script = r"
+        const done = arguments[arguments.length - 1];
+        requestAnimationFrame(() => requestAnimationFrame(() => {
+            const canvas = document.querySelector('[data-testid=preview-canvas]');
+            const url = canvas.toDataURL('image/png');
+            let hash = 0;
+            for (let i = 0; i < url.length; i++) hash = (hash * 31 + url.charCodeAt(i)) | 0;
+            done(url.length + ':' + hash);
+        }));
+    ";
+    browser
+        .client
+        .execute_async(script, Vec::new())
+        .await
+        .expect("read the preview")
+        .as_str()
+        .unwrap_or_default()
+        .to_owned()
+}
+
+/// Waits until a generation has finished after `before` (the page's counter).
+async fn generated_after(browser: &Browser, before: &str) -> String {
+    let deadline = tokio::time::Instant::now() + UI_TIMEOUT;
+    loop {
+        let element = browser.wait_for("[data-testid=create-generated]").await;
+        let count = element
+            .attr("data-count")
+            .await
+            .ok()
+            .flatten()
+            .unwrap_or_default();
+        if count != before {
+            return count;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "no new generation after {before}: {}",
+            browser.text("[data-testid=create]").await
+        );
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    }
+}
+
+async fn generation(browser: &Browser) -> String {
+    browser
+        .wait_for("[data-testid=create-generated]")
+        .await
+        .attr("data-count")
+        .await
+        .ok()
+        .flatten()
+        .unwrap_or_default()
+}
+
+/// Pauses the preview so that its picture changes only when the show does.
+async fn pause(browser: &Browser) {
+    let toggle = browser.wait_for("[data-testid=preview-toggle]").await;
+    if toggle.attr("data-playing").await.ok().flatten().as_deref() == Some("true") {
+        toggle.click().await.expect("pause");
+    }
+    browser
+        .wait_for_attribute(
+            "[data-testid=preview-toggle]",
+            "data-playing",
+            "false",
+            UI_TIMEOUT,
+        )
+        .await;
+}
+
+#[tokio::test]
+async fn a_newcomer_makes_a_show_on_the_phone_and_plays_it_on_the_matrix() {
+    let bridge = Bridge::start().await;
+    let browser = Browser::open(&bridge).await;
+    browser.first_login("create-a-show").await;
+
+    browser.click("[data-testid=nav-create]").await;
+    browser.wait_for("[data-testid=preview-canvas]").await;
+    // Made for the controller's installation (the simulated 10 × 10 matrix).
+    browser
+        .wait_for("[data-testid=create-for-installation]")
+        .await;
+    set_value(&browser, "[data-testid=create-name]", "lobby").await;
+
+    // A wave of 17 s; a slider moves and the picture changes with it.
+    let before = generation(&browser).await;
+    set_value(&browser, "[data-testid=segment-duration]", "17").await;
+    let count = generated_after(&browser, &before).await;
+    pause(&browser).await;
+    let still = picture(&browser).await;
+    assert_eq!(picture(&browser).await, still, "a paused picture stays");
+    set_value(&browser, "[data-testid=param-amplitude_mm]", "300").await;
+    generated_after(&browser, &count).await;
+    let moved = picture(&browser).await;
+    assert_ne!(moved, still, "the picture follows the slider");
+    assert!(
+        browser
+            .text("[data-testid=param-amplitude_mm-value]")
+            .await
+            .starts_with("300"),
+    );
+
+    // A word: HI, raised, for 17 s.
+    browser.click("[data-testid=segment-add]").await;
+    set_value(&browser, "[data-testid=create-pattern]", "text").await;
+    browser.wait_for("[data-testid=param-text]").await;
+    set_value(&browser, "[data-testid=param-text]", "HI").await;
+    set_value(&browser, "[data-testid=segment-duration]", "17").await;
+
+    // A ripple for 20 s; the blends of 2 s between them, and the start from rest and
+    // the end at rest (2 s in all), make 60 s.
+    browser.click("[data-testid=segment-add]").await;
+    set_value(&browser, "[data-testid=create-pattern]", "ripple").await;
+    browser.wait_for("[data-testid=param-wavelength_m]").await;
+    set_value(&browser, "[data-testid=segment-duration]", "20").await;
+    let patterns = browser
+        .client
+        .execute(
+            "return [...document.querySelectorAll('[data-testid=segment]')].map((s) => s.dataset.pattern);",
+            Vec::new(),
+        )
+        .await
+        .expect("the timeline");
+    assert_eq!(patterns, serde_json::json!(["wave", "text", "ripple"]));
+    browser
+        .wait_for_text("[data-testid=create-total]", "60")
+        .await;
+    browser
+        .wait_for_text("[data-testid=preview-facts]", "1:00.0")
+        .await;
+
+    // Within the installation's limits, and the line can carry it.
+    browser
+        .wait_for_attribute("[data-testid=create-limits]", "data-ok", "true", UI_TIMEOUT)
+        .await;
+    browser
+        .wait_for_attribute(
+            "[data-testid=create-verdict]",
+            "data-verdict",
+            "feasible",
+            UI_TIMEOUT,
+        )
+        .await;
+
+    // Kept in the local files.
+    browser.click("[data-testid=create-save-local]").await;
+    browser
+        .wait_for_text("[data-testid=create-message]", "lobby.json")
+        .await;
+    browser.click("[data-testid=nav-files]").await;
+    browser
+        .wait_for("[data-testid=local-file][data-name='lobby.json']")
+        .await;
+
+    // Uploaded from the Create page (the draft is still there), then played.
+    browser.click("[data-testid=nav-create]").await;
+    browser.wait_for("[data-testid=create-name]").await;
+    let name = browser
+        .client
+        .execute(
+            "return document.querySelector('[data-testid=create-name]').value;",
+            Vec::new(),
+        )
+        .await
+        .expect("the show's name");
+    assert_eq!(name, "lobby", "the draft is kept while other pages are open");
+    browser
+        .wait_for_attribute(
+            "[data-testid=create-verdict]",
+            "data-verdict",
+            "feasible",
+            UI_TIMEOUT,
+        )
+        .await;
+    browser.click("[data-testid=create-upload]").await;
+    browser
+        .wait_for_text("[data-testid=create-message]", "lobby")
+        .await;
+    let shows = browser.get_json("/api/shows").await;
+    let lobby = shows
+        .as_array()
+        .and_then(|shows| shows.iter().find(|show| show["name"] == "lobby"))
+        .unwrap_or_else(|| panic!("lobby among the controller's shows: {shows}"));
+    assert_eq!(lobby["units"], 100, "{lobby}");
+    let duration_ms = lobby["duration_ms"].as_u64().unwrap_or_default();
+    assert!(
+        (60_000..=61_000).contains(&duration_ms),
+        "a 60 s show: {lobby}"
+    );
+
+    browser.queue_show("lobby").await;
+    browser.play_then_estop("lobby").await;
+    browser.client.close().await.expect("close the browser");
+}
+
+/// Where the pictures go: `<target>/screens`, next to the test binary's profile
+/// directory (`<target>/debug/deps/create-…`).
+fn screens_dir() -> PathBuf {
+    let exe = std::env::current_exe().expect("the test binary's path");
+    let target = exe
+        .ancestors()
+        .nth(3)
+        .map(Path::to_path_buf)
+        .unwrap_or_else(std::env::temp_dir);
+    let dir = target.join("screens");
+    std::fs::create_dir_all(&dir).expect("create the screenshot directory");
+    dir
+}
+
+/// Every pattern, offline on the default 10 × 10 matrix: a picture of each a few
+/// seconds in, for the documentation; each within the default limits.
+#[tokio::test]
+async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
+    let bridge = Bridge::start().await;
+    let browser = Browser::start_in(640, 800, "en-US").await;
+    browser
+        .client
+        .goto(&format!("{}#/create", bridge.url()))
+        .await
+        .expect("open the Create page");
+    browser.wait_for("[data-testid=preview-canvas]").await;
+    let dir = screens_dir();
+    let names = browser
+        .client
+        .execute(
+            "return [...document.querySelectorAll('[data-testid=create-pattern] option')].map((o) => o.value);",
+            Vec::new(),
+        )
+        .await
+        .expect("the patterns");
+    let names: Vec<String> = serde_json::from_value(names).expect("pattern names");
+    assert!(names.len() >= 8, "{names:?}");
+    // A picture for the picture pattern: a bright disc fading to dark edges.
+    let folder = tempfile::tempdir().expect("temp dir");
+    let png = folder.path().join("disc.png");
+    image::GrayImage::from_fn(64, 64, |x, y| {
+        let d = (f64::from(x) - 31.5).hypot(f64::from(y) - 31.5) / 32.0;
+        image::Luma([(255.0 * (1.0 - d).clamp(0.0, 1.0)) as u8])
+    })
+    .save(&png)
+    .expect("write the picture");
+    for name in &names {
+        let before = generation(&browser).await;
+        set_value(&browser, "[data-testid=create-pattern]", name).await;
+        let mut count = generated_after(&browser, &before).await;
+        if name == "image" {
+            browser.pick_file("[data-testid=param-image]", &png).await;
+            count = generated_after(&browser, &count).await;
+        }
+        let _ = count;
+        browser
+            .wait_for_attribute("[data-testid=create-limits]", "data-ok", "true", UI_TIMEOUT)
+            .await;
+        pause(&browser).await;
+        set_value(&browser, "[data-testid=preview-slider]", "6000").await;
+        picture(&browser).await;
+        let canvas = browser.wait_for("[data-testid=preview-canvas]").await;
+        let png = canvas.screenshot().await.expect("screenshot");
+        let path = dir.join(format!("create-{name}.png"));
+        std::fs::write(&path, png).expect("write the picture");
+        println!("{name}: {}", path.display());
+    }
+    browser.client.close().await.expect("close the browser");
+}
