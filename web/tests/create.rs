@@ -1,0 +1,100 @@
+//! The Create page's benchmark in a real browser (`wasm-pack test --release
+//! --headless --chrome web --test create -- --nocapture`): what one change of a
+//! parameter costs the page on a 10 × 10 and a 100 × 100 matrix — the show
+//! regenerated (render, the limit check, offline so no plan), checked again for the
+//! 3D preview's red balls, handed to the stage and drawn until the GPU has finished.
+//! Printed, not asserted (timings vary with the machine's load); `docs/create.md`
+//! gives the release figures. Only sanity is checked: every show within the limits.
+
+use floatball_shared::create::Value;
+use floatball_shared::show::validate;
+use floatball_web::create::{Draft, Target};
+use floatball_web::preview::stage::{RendererKind, Stage, now_ms};
+use wasm_bindgen::JsCast;
+use wasm_bindgen_futures::JsFuture;
+use wasm_bindgen_test::*;
+use web_sys::HtmlCanvasElement;
+
+mod dom;
+
+use dom::*;
+
+wasm_bindgen_test_configure!(run_in_browser);
+
+/// Waits for the next animation frame, so each change is its own frame.
+async fn next_frame() {
+    let promise = js_sys::Promise::new(&mut |resolve, _| {
+        let _ = web_sys::window()
+            .unwrap()
+            .request_animation_frame(&resolve);
+    });
+    let _ = JsFuture::from(promise).await;
+}
+
+/// The median and the largest of `times`, ms.
+fn median_and_max(mut times: Vec<f64>) -> (f64, f64) {
+    times.sort_by(f64::total_cmp);
+    (times[times.len() / 2], times[times.len() - 1])
+}
+
+#[wasm_bindgen_test]
+async fn a_change_regenerates_and_redraws_10x10_and_100x100() {
+    let build = if cfg!(debug_assertions) {
+        "debug"
+    } else {
+        "release"
+    };
+    console_log!("create: one change, regenerated and redrawn ({build} build, 640 × 480 px):");
+    for (rows, cols, changes, goal_ms) in [(10, 10, 20, 16.0), (100, 100, 5, 100.0)] {
+        let container = fresh_container();
+        let canvas: HtmlCanvasElement = web_sys::window()
+            .unwrap()
+            .document()
+            .unwrap()
+            .create_element("canvas")
+            .unwrap()
+            .unchecked_into();
+        canvas
+            .set_attribute("style", "width: 640px; height: 480px")
+            .unwrap();
+        container.append_child(&canvas).unwrap();
+
+        let mut draft = Draft::new();
+        draft.set_grid(rows, cols);
+        let target = Target::of(None, draft.grid());
+        let made = draft.make(&target).expect("the default wave");
+        let mut stage = Stage::new(canvas, &made.show, Vec::new(), RendererKind::WebGl2)
+            .expect("WebGL2 in headless Chromium");
+        stage.draw(6000.0, true);
+        stage.finish();
+
+        let mut times = Vec::new();
+        let mut generate = Vec::new();
+        for change in 0..changes {
+            next_frame().await;
+            let started = now_ms();
+            draft.set_param("amplitude_mm", Value::Number(300.0 + 50.0 * f64::from(change)));
+            let made = draft.make(&target).expect("a wave");
+            let generated = now_ms();
+            assert!(made.violations.is_empty(), "{:?}", made.violations);
+            // As the preview does: the balls beyond a limit are drawn red.
+            let mut beyond: Vec<usize> = validate(&made.show, &target.limits)
+                .iter()
+                .filter_map(|violation| violation.unit.map(|unit| unit.index))
+                .collect();
+            beyond.dedup();
+            stage.set_show(&made.show, beyond).expect("the new show");
+            stage.draw(6000.0, true);
+            stage.finish();
+            generate.push(generated - started);
+            times.push(now_ms() - started);
+        }
+        let (median_ms, max_ms) = median_and_max(times);
+        let (generate_ms, _) = median_and_max(generate);
+        console_log!(
+            "  {rows}×{cols} ({} s show): {median_ms:.1} ms median, {max_ms:.1} ms max, of which generating {generate_ms:.1} ms (goal ≤ {goal_ms} ms)",
+            draft.total_s()
+        );
+        assert!(median_ms > 0.0 && max_ms < 60_000.0);
+    }
+}
