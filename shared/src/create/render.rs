@@ -5,18 +5,23 @@
 //!
 //! 1. Every segment's pattern is built ([`PatternSpec::field`]); parameters out of
 //!    their range are clamped (a note each).
-//! 2. Each pattern is sampled over its time (every fourth row) and, if it leaves the
-//!    travel (less a margin of 2 %), its motion is scaled about its middle and moved
-//!    into it (a note naming its amplitude or its height).
-//! 3. The timeline ([`super::recipe`]) is sampled at every row time: positions; each
+//! 2. Each pattern is probed over its time (every eighth row, with its velocity and
+//!    acceleration by central differences over 1 ms) and, if it leaves the travel (less
+//!    a margin of 2 %) or moves faster than the limits allow, its motion is scaled
+//!    about its middle and moved into the travel (a note naming its amplitude or its
+//!    height). A pattern faster than the rows can follow is caught here.
+//! 3. A transition too short for the distance between its two patterns is lengthened
+//!    (a note naming `transition_s`): blending a difference D over T s peaks at
+//!    1.875 D / T mm/s and 5.77 D / T² mm/s².
+//! 4. The timeline ([`super::recipe`]) is sampled at every row time: positions; each
 //!    row's velocity is the central difference of its neighbours (Catmull–Rom), so the
 //!    rows are C1 Hermite curves through the samples. The show starts and ends at
 //!    rest by playing the timeline slower over its first and last [`EASE_S`] (its
 //!    speed rising smoothly from 0 to 1 and back), never faster than the patterns.
-//! 4. Every row's exact peak speed and acceleration (the units' own cubic) are
+//! 5. Every row's exact peak speed and acceleration (the units' own cubic) are
 //!    measured; a pattern too fast or too hard on its own is scaled down about its
-//!    middle (a note naming its amplitude) and step 3 runs once more.
-//! 5. What remains above a limit (a short transition between distant patterns) scales
+//!    middle (a note naming its amplitude) and step 4 runs once more.
+//! 6. What remains above a limit (a transition at its longest) scales
 //!    the whole show's motion about the middle of the travel (a note saying which
 //!    transition or pattern to change). Scaling every position about one point scales
 //!    every row's speed and acceleration exactly, so the result is within the limits,
@@ -43,7 +48,7 @@
 
 use super::catalogue::{self, PatternSpec};
 use super::params::{ParamKind, Value};
-use super::recipe::{EASE_S, Recipe, Span};
+use super::recipe::{EASE_S, MAX_TRANSITION_S, Recipe, Span};
 use super::{CreateError, Field, Grid, Note, number, smooth_step};
 use crate::pvt::Segment as Cubic;
 use crate::show::{Layout, Limits, Show, Track, TrackRow};
@@ -60,6 +65,9 @@ pub struct Generated {
 /// Fraction of the travel kept free at the top and the bottom when a pattern is fitted
 /// into it.
 const MARGIN: f64 = 0.02;
+
+/// Step 2 probes the patterns every this many rows.
+const PROBE_ROWS: f64 = 8.0;
 
 /// A pattern scaled down for a limit aims this far below it (the samples of step 4
 /// are exact, but the transitions around it change a little).
@@ -208,56 +216,110 @@ struct Measure {
     max_mm: f64,
 }
 
-fn measure(tracks: &[Track], zones: &[usize], zone_count: usize, dt_s: f64) -> Measure {
+/// Sets every row's velocity to the central difference of its neighbours' positions
+/// (Catmull–Rom; the last row ends at rest) and measures the exact peak speed and
+/// acceleration of each row (the units' Hermite cubic, in closed form: its acceleration is linear, so its speed peaks at an end or where the
+/// acceleration crosses 0) per zone, and the lowest and highest point reached where it
+/// may come within `edge_mm` of 0 or `travel_mm` (elsewhere the rows' ends: only
+/// points beyond the edges matter).
+fn measure(
+    tracks: &mut [Track],
+    zones: &[usize],
+    zone_count: usize,
+    dt_s: f64,
+    (edge_mm, travel_mm): (f64, f64),
+) -> Measure {
     let mut measured = Measure {
         zones: vec![Peaks::default(); zone_count],
         min_mm: f64::INFINITY,
         max_mm: f64::NEG_INFINITY,
     };
+    let per_s = 1.0 / dt_s;
+    let half_per_s = 0.5 / dt_s;
     for track in tracks {
-        let (mut p0, mut v0) = (track.start_mm, 0.0);
-        for (row, zone) in track.rows.iter().zip(zones) {
-            let cubic = Cubic::new(p0, v0, row.position_mm, row.velocity_mm_s, dt_s);
-            let peaks = &mut measured.zones[*zone];
-            peaks.speed_mm_s = peaks.speed_mm_s.max(cubic.peak_speed().value);
-            peaks.accel_mm_s2 = peaks.accel_mm_s2.max(cubic.peak_acceleration().value);
-            let range = cubic.position_range();
-            measured.min_mm = measured.min_mm.min(range.min.value);
-            measured.max_mm = measured.max_mm.max(range.max.value);
-            (p0, v0) = (row.position_mm, row.velocity_mm_s);
+        let (mut p0, mut v0) = (track.start_mm, 0.0f64);
+        let count = track.rows.len();
+        for (index, zone) in (0..count).zip(zones) {
+            let p1 = track.rows[index].position_mm;
+            let v1 = match track.rows.get(index + 1) {
+                Some(next) => (next.position_mm - p0) * half_per_s,
+                None => 0.0,
+            };
+            track.rows[index].velocity_mm_s = v1;
+            let slope = 6.0 * (p1 - p0) * per_s;
+            let a0 = (slope - 4.0 * v0 - 2.0 * v1) * per_s;
+            let a1 = (-slope + 2.0 * v0 + 4.0 * v1) * per_s;
+            let mut speed = v0.abs().max(v1.abs());
+            if (a0 > 0.0) != (a1 > 0.0) && a0 != a1 {
+                let s = a0 / (a0 - a1);
+                speed = speed.max((v0 + dt_s * (a0 * s + (a1 - a0) * s * s / 2.0)).abs());
+            }
+            if let Some(peaks) = measured.zones.get_mut(*zone) {
+                peaks.speed_mm_s = peaks.speed_mm_s.max(speed);
+                peaks.accel_mm_s2 = peaks.accel_mm_s2.max(a0.abs().max(a1.abs()));
+            }
+            // Between its ends a cubic strays at most 4/27 · T · (|v0| + |v1|) beyond
+            // them.
+            let stray_mm = 4.0 / 27.0 * dt_s * (v0.abs() + v1.abs());
+            let (low, high) = (p0.min(p1), p0.max(p1));
+            let (low, high) = if low - stray_mm < edge_mm || high + stray_mm > travel_mm - edge_mm {
+                let range = Cubic::new(p0, v0, p1, v1, dt_s).position_range();
+                (range.min.value, range.max.value)
+            } else {
+                (low, high)
+            };
+            measured.min_mm = measured.min_mm.min(low);
+            measured.max_mm = measured.max_mm.max(high);
+            (p0, v0) = (p1, v1);
         }
     }
     measured
 }
 
-/// Samples the timeline into `tracks` (positions at every row, Catmull–Rom
-/// velocities, at rest at both ends).
+/// Row times sampled together before their positions are copied into the tracks: each
+/// track then gets this many rows in a row, not one row at a time across all tracks.
+const BLOCK_ROWS: usize = 32;
+
+/// Samples the timeline's positions into `tracks` (every row at rest: the velocities
+/// come with [`measure`]).
 fn sample_rows(timeline: &mut Timeline<'_>, tracks: &mut [Track], rows: usize, row_ms: u32) {
     let units = tracks.len();
     let dt_s = f64::from(row_ms) / 1000.0;
-    let mut positions = vec![0.0; units];
-    timeline.position(0.0, &mut positions);
-    for (track, start) in tracks.iter_mut().zip(&positions) {
+    let mut block = vec![0.0; BLOCK_ROWS * units];
+    timeline.position(0.0, &mut block[..units]);
+    for (track, start) in tracks.iter_mut().zip(&block) {
         track.start_mm = *start;
         track.rows.clear();
     }
-    for row in 1..=rows {
-        timeline.position(row as f64 * dt_s, &mut positions);
-        for (track, position) in tracks.iter_mut().zip(&positions) {
-            track.rows.push(TrackRow::new(*position, 0.0, row_ms));
+    let mut first = 1;
+    while first <= rows {
+        let count = BLOCK_ROWS.min(rows + 1 - first);
+        for (k, positions) in block.chunks_exact_mut(units).take(count).enumerate() {
+            timeline.position((first + k) as f64 * dt_s, positions);
         }
+        for (unit, track) in tracks.iter_mut().enumerate() {
+            track.rows.extend(
+                block
+                    .iter()
+                    .skip(unit)
+                    .step_by(units)
+                    .take(count)
+                    .map(|&position| TrackRow::new(position, 0.0, row_ms)),
+            );
+        }
+        first += count;
     }
-    for track in tracks.iter_mut() {
-        let count = track.rows.len();
-        for row in 0..count.saturating_sub(1) {
-            let before = if row == 0 {
-                track.start_mm
-            } else {
-                track.rows[row - 1].position_mm
-            };
-            let after = track.rows[row + 1].position_mm;
-            track.rows[row].velocity_mm_s = (after - before) / (2.0 * dt_s);
-        }
+}
+
+/// `value` rounded to the nearest whole number (ties to even), by the float unit's own
+/// rounding: quicker than `f64::round` (a library call on many targets), the same on
+/// every target. Exact for |value| < 2⁵¹; larger values are returned as they are.
+fn round_even(value: f64) -> f64 {
+    const MAGIC: f64 = 6_755_399_441_055_744.0; // 1.5 · 2⁵²
+    if value.abs() < 2_251_799_813_685_248.0 {
+        (value + MAGIC) - MAGIC
+    } else {
+        value
     }
 }
 
@@ -348,12 +410,9 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
     }
     let row_ms = recipe.row_ms;
     let dt_s = f64::from(row_ms) / 1000.0;
-    let timeline_s = recipe.duration_s();
-    let ease_s = EASE_S.min(timeline_s);
-    let rows = (((timeline_s + ease_s) / dt_s - 1e-9).ceil() as usize).max(1);
-    let show_s = rows as f64 * dt_s;
-    // The timeline's time at the show's end (≥ its length: the rows round up).
-    let timeline_end_s = show_s - ease_s;
+    // The timeline's time at the show's end as the recipe gives it (≥ its length: the
+    // rows round up).
+    let timeline_end_s = recipe.duration_s() + dt_s;
     let travel_mm = limits.travel_mm.min(grid.travel_mm);
     let units = grid.unit_count();
 
@@ -361,6 +420,8 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
     // velocities to `resolution`.
     let resolution = if row_ms >= 100 { 0.1 } else { 0.001 };
     let half = resolution / 2.0;
+    // How close to 0 and the travel the rows may come, so rounding keeps them inside.
+    let edge_mm = half + 1e-3;
     let speed_allowed = limits.max_speed_mm_s * 0.999 - (3.0 * half / dt_s + 2.0 * half);
     let accel_allowed =
         limits.max_accel_mm_s2 * 0.999 - (12.0 * half / (dt_s * dt_s) + 8.0 * half / dt_s);
@@ -394,7 +455,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
                 part.span.out_s
             },
         );
-        let samples = (((to_s - from_s) / (4.0 * dt_s)).ceil() as usize).max(1);
+        let samples = (((to_s - from_s) / (PROBE_ROWS * dt_s)).ceil() as usize).max(1);
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         let mut peaks = Peaks::default();
         for sample in 0..=samples {
@@ -460,6 +521,53 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
         (part.mid_mm, part.target_mm, part.scale) = (mid_mm, target_mm, scale);
     }
 
+    // 2b. Lengthen the transitions too short for the distance between their
+    // patterns: blending a difference D over T seconds with the smooth step peaks at
+    // 1.875 D / T mm/s and 5.77 D / T² mm/s² (leaving a fifth of each limit for the
+    // patterns' own motion).
+    let mut recipe = recipe.clone();
+    for index in 0..parts.len().saturating_sub(1) {
+        let (a, b) = (&parts[index], &parts[index + 1]);
+        let span = a.span;
+        let mut difference_mm = 0.0f64;
+        for t_s in [span.end_s, (span.end_s + span.out_s) / 2.0, span.out_s] {
+            a.sample(grid, t_s, &mut before);
+            b.sample(grid, t_s, &mut after);
+            for (a, b) in before.iter().zip(&after) {
+                difference_mm = difference_mm.max((a - b).abs());
+            }
+        }
+        let needed_s = (1.875 * difference_mm / (0.8 * speed_allowed))
+            .max((5.77 * difference_mm / (0.8 * accel_allowed)).sqrt());
+        let asked_s = recipe.segments[index].transition_s;
+        if needed_s > asked_s {
+            let longer_s = ((needed_s * 10.0).ceil() / 10.0).min(MAX_TRANSITION_S);
+            recipe.segments[index].transition_s = longer_s;
+            notes.push(Note {
+                segment: index,
+                pattern: a.spec.name.to_owned(),
+                key: "transition_s".to_owned(),
+                from: asked_s,
+                to: longer_s,
+                unit: "s".to_owned(),
+                reason: format!(
+                    "so balls moving {} mm from one pattern to the next stay within {} mm/s and {} mm/s²",
+                    number(difference_mm),
+                    number(limits.max_speed_mm_s),
+                    number(limits.max_accel_mm_s2)
+                ),
+            });
+        }
+    }
+    let recipe = &recipe;
+    for (part, span) in parts.iter_mut().zip(recipe.spans()) {
+        part.span = span;
+    }
+    let timeline_s = recipe.duration_s();
+    let ease_s = EASE_S.min(timeline_s);
+    let rows = (((timeline_s + ease_s) / dt_s - 1e-9).ceil() as usize).max(1);
+    let show_s = rows as f64 * dt_s;
+
     // 3 and 4: sample, measure, scale down the patterns too fast on their own, once.
     let zone_count = 2 * parts.len() - 1;
     let mut tracks: Vec<Track> = (0..units)
@@ -472,14 +580,26 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
     let mut measured;
     let mut zones = Vec::with_capacity(rows);
     {
+        // A row's cubic depends on the positions at its ends and, through their
+        // velocities, one row on either side: it belongs to a transition if any of
+        // them does, else to the segment at its middle.
         let timeline = Timeline::new(&parts, grid, show_s, ease_s);
-        zones.extend((1..=rows).map(|row| timeline.zone((row as f64 - 0.5) * dt_s)));
+        let at: Vec<usize> = (0..=rows)
+            .map(|row| timeline.zone(row as f64 * dt_s))
+            .collect();
+        zones.extend((1..=rows).map(|row| {
+            at[row.saturating_sub(2)..=(row + 1).min(rows)]
+                .iter()
+                .copied()
+                .find(|zone| zone % 2 == 1)
+                .unwrap_or_else(|| timeline.zone((row as f64 - 0.5) * dt_s))
+        }));
     }
     let mut pass = 0;
     loop {
         let mut timeline = Timeline::new(&parts, grid, show_s, ease_s);
         sample_rows(&mut timeline, &mut tracks, rows, row_ms);
-        measured = measure(&tracks, &zones, zone_count, dt_s);
+        measured = measure(&mut tracks, &zones, zone_count, dt_s, (edge_mm, travel_mm));
         pass += 1;
         if pass > 1 {
             break;
@@ -490,14 +610,14 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
             let over = (peaks.speed_mm_s / speed_allowed).max(peaks.accel_mm_s2 / accel_allowed);
             if over > 1.0 {
                 let scale = parts[index].scale * SAFETY / over;
-                notes.push(part_note(
-                    recipe,
-                    &parts,
-                    index,
-                    scale,
-                    None,
-                    limit_words.clone(),
-                ));
+                let note = part_note(recipe, &parts, index, scale, None, limit_words.clone());
+                // One note per parameter: step 2's, if any, with the value now used.
+                match notes.iter_mut().find(|old| {
+                    (old.segment, &old.key, &old.reason) == (note.segment, &note.key, &note.reason)
+                }) {
+                    Some(old) => old.to = note.to,
+                    None => notes.push(note),
+                }
                 parts[index].scale = scale;
                 rescaled = true;
             }
@@ -509,7 +629,6 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
 
     // 5. Scale the whole show's motion about the middle of the travel.
     let centre_mm = travel_mm / 2.0;
-    let edge_mm = half + 1e-3;
     let mut scale: f64 = 1.0;
     let mut worst: Option<(usize, f64)> = None;
     for (zone, peaks) in measured.zones.iter().enumerate() {
@@ -530,11 +649,21 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
         let (segment, advice) = match worst {
             Some((zone, _)) if zone % 2 == 1 => (
                 zone / 2,
-                format!(
-                    "; the blend from segment {} into {} is the hardest part: make its transition_s longer",
-                    zone / 2 + 1,
-                    zone / 2 + 2
-                ),
+                if recipe.segments[zone / 2].transition_s >= MAX_TRANSITION_S {
+                    format!(
+                        "; the blend from segment {} into {} is the hardest part, its \
+                         transition_s at its longest: bring the two patterns' heights closer",
+                        zone / 2 + 1,
+                        zone / 2 + 2
+                    )
+                } else {
+                    format!(
+                        "; the blend from segment {} into {} is the hardest part: make its \
+                         transition_s longer",
+                        zone / 2 + 1,
+                        zone / 2 + 2
+                    )
+                },
             ),
             Some((zone, _)) => (zone / 2, String::new()),
             None => (0, String::new()),
@@ -552,7 +681,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
             ),
         });
     }
-    let round = |value: f64| (value / resolution).round() * resolution;
+    let round = |value: f64| round_even(value / resolution) * resolution;
     for track in &mut tracks {
         track.start_mm = round(centre_mm + scale * (track.start_mm - centre_mm));
         for row in &mut track.rows {
@@ -576,4 +705,36 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
         },
         notes,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
+
+    use super::*;
+
+    #[test]
+    fn rounding_is_to_the_nearest_and_ties_to_even() {
+        assert_eq!(round_even(2.4), 2.0);
+        assert_eq!(round_even(2.6), 3.0);
+        assert_eq!(round_even(2.5), 2.0);
+        assert_eq!(round_even(3.5), 4.0);
+        assert_eq!(round_even(-2.6), -3.0);
+        assert_eq!(round_even(-0.4), 0.0);
+        assert_eq!(round_even(1e300), 1e300);
+        assert_eq!(round_even(12345.6789 * 10.0) / 10.0, 12345.7);
+    }
+
+    #[test]
+    fn the_timeline_starts_and_ends_slowly() {
+        assert_eq!(eased(0.0), 0.0);
+        assert_eq!(eased(1.0), 0.5);
+        assert_eq!(eased(2.0), 0.5);
+        // Its slope is the smooth step: 0 at 0, 1 at 1.
+        let h = 1e-6;
+        assert!((eased(h) - eased(0.0)) / h < 1e-12);
+        assert!(((eased(1.0) - eased(1.0 - h)) / h - 1.0).abs() < 1e-5);
+        assert!(((eased(0.5 + h) - eased(0.5 - h)) / (2.0 * h) - 0.5).abs() < 1e-6);
+    }
 }
