@@ -416,6 +416,49 @@ mod tests {
     }
 
     #[test]
+    fn the_rendered_show_raises_the_letters_balls_while_the_word_stands() {
+        // "A" standing on 10 × 10 for 10 s: once the show has eased in (2 s), the row at
+        // every whole second has the glyph's balls at 2200 mm and the others at 3000.
+        let grid = Grid::new(10, 10, 500.0, 7500.0);
+        let params: Params = [
+            ("text".to_owned(), Value::Text("A".into())),
+            ("scroll_m_s".to_owned(), Value::Number(0.0)),
+        ]
+        .into_iter()
+        .collect();
+        let recipe = crate::create::Recipe::single("a", "text", params, 10.0);
+        let limits = crate::show::Limits::for_layout(10, 10);
+        let generated = crate::create::render(&recipe, &grid, &limits).unwrap();
+        assert!(generated.notes.is_empty(), "{:?}", generated.notes);
+        assert_eq!(crate::show::validate(&generated.show, &limits), []);
+        let want = expected('A', 0..7, 0..6, 1, 2, 1, 10, 10);
+        let row_ms = u64::from(recipe.row_ms);
+        for at_ms in [4000u64, 6000, 9000] {
+            let row = usize::try_from(at_ms / row_ms).unwrap() - 1;
+            let out_mm: Vec<f64> = generated
+                .show
+                .tracks
+                .iter()
+                .map(|track| {
+                    let mm = track.rows[row].position_mm;
+                    // Rounded to 0.1 mm as a show file holds it.
+                    if (mm - (BASE_MM - DEPTH_MM)).abs() <= 0.05 {
+                        BASE_MM - DEPTH_MM
+                    } else {
+                        assert!((mm - BASE_MM).abs() <= 0.05, "{mm}");
+                        BASE_MM
+                    }
+                })
+                .collect();
+            assert_eq!(
+                picture(&grid, &out_mm, BASE_MM - DEPTH_MM),
+                want,
+                "at {at_ms} ms"
+            );
+        }
+    }
+
+    #[test]
     fn lowered_letters_hang_below_the_background() {
         let grid = Grid::new(10, 10, 500.0, 7500.0);
         let text = field(
@@ -683,6 +726,36 @@ pub(crate) mod proptests {
                     prop_assert!(accel.abs() <= max_accel * 1.01 + 1e-6 * high.max(1.0), "{} > {}", accel, max_accel);
                 }
             }
+        }
+    }
+
+    /// The installation's limits for `grid`.
+    pub(crate) fn limits_for(grid: &Grid) -> crate::show::Limits {
+        let mut limits = crate::show::Limits::for_layout(grid.rows, grid.cols);
+        limits.travel_mm = grid.travel_mm;
+        limits
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(32))]
+
+        /// Any text, bitmap and parameters the page allows render into a show that
+        /// passes validation, the same show every time.
+        #[test]
+        fn any_text_renders_within_the_limits(
+            params in params(PARAMS),
+            grid in grid(),
+            duration_s in 1.0..12.0f64,
+            row_ms in proptest::sample::select(&[20u32, 100, 200, 255][..]),
+        ) {
+            let mut recipe = crate::create::Recipe::single("t", "text", params, duration_s);
+            recipe.row_ms = row_ms;
+            let limits = limits_for(&grid);
+            let once = crate::create::render(&recipe, &grid, &limits).unwrap();
+            prop_assert_eq!(crate::show::validate(&once.show, &limits), vec![]);
+            let twice = crate::create::render(&recipe, &grid, &limits).unwrap();
+            prop_assert_eq!(once.show.to_json().unwrap(), twice.show.to_json().unwrap());
+            prop_assert_eq!(once.notes, twice.notes);
         }
     }
 }
