@@ -165,24 +165,23 @@ fn build(reader: &mut Reader<'_>, grid: &Grid) -> Result<Box<dyn Field>, CreateE
 /// The text pattern with its parameters fixed.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Text {
-    /// The bitmap without blank rows at its top and bottom.
-    bitmap: Bitmap,
-    /// Balls per bitmap pixel, each way (≥ 1).
-    scale: i64,
-    /// The row (counted from the back) of the bitmap's top row; may be negative.
-    top: i64,
-    /// The column of the bitmap's left edge on the tape; may be negative.
-    lead: i64,
-    /// The tape's length, columns, when scrolling (it repeats); `None` when static.
-    period: Option<i64>,
+    /// The tape: for every row of the bitmap and then a blank one, 1 where a column of
+    /// balls is inked and 0 where not, `length` columns a row; when scrolling, one
+    /// period and then the matrix's width again, so a ball's column and the one after
+    /// never wrap.
+    tape: Vec<u8>,
+    /// Columns in each row of the tape.
+    length: usize,
+    /// The tape's period, columns, when scrolling; 0 when static.
+    period: f64,
     /// Scroll speed, ball columns per second (positive moves the text to the left).
     cols_per_s: f64,
     /// The background's position, mm below the top.
     base_mm: f64,
     /// From the background to an inked pixel, mm (negative = raised).
     swing_mm: f64,
-    /// Every ball's (column from the left, row from the back), row-major.
-    cells: Vec<(i64, i64)>,
+    /// Every ball's start in the tape (its bitmap row × length + its column), row-major.
+    starts: Vec<usize>,
 }
 
 impl Text {
@@ -207,49 +206,60 @@ impl Text {
             fit_height.min(fit_width)
         }
         .max(1);
+        // The bitmap's top row (counted from the back) and left column on the tape.
         let top = (rows - height * scale).div_euclid(2);
         let (lead, period) = if scrolling {
-            (cols, Some(cols + width * scale))
+            // The matrix's width of flat, then the text.
+            (cols, cols + width * scale)
         } else {
-            ((cols - width * scale).div_euclid(2), None)
+            ((cols - width * scale).div_euclid(2), 0)
         };
+        // A ball's column plus the offset (< period) and the column after it.
+        let length = period + cols + 1;
+        let ink = |py: usize, x: i64| {
+            let x = if period > 0 { x % period } else { x };
+            let dx = x - lead;
+            dx >= 0 && usize::try_from(dx / scale).is_ok_and(|px| bitmap.ink(px, py))
+        };
+        // Rows 0..height are the bitmap's, row `height` is blank (`ink` is false there).
+        let tape = (0..=bitmap.height())
+            .flat_map(|py| (0..length).map(move |x| u8::from(ink(py, x))))
+            .collect();
+        let length = usize::try_from(length).unwrap_or(0);
+        let starts = cells(grid)
+            .into_iter()
+            .map(|(col, row)| {
+                // The bitmap's row under this row of balls, or the blank one.
+                let dy = row - top;
+                let py = if (0..height * scale).contains(&dy) {
+                    dy / scale
+                } else {
+                    height
+                };
+                usize::try_from(py)
+                    .ok()
+                    .zip(usize::try_from(col).ok())
+                    .map_or(usize::MAX, |(py, col)| py * length + col)
+            })
+            .collect();
         Self {
-            bitmap,
-            scale,
-            top,
-            lead,
-            period,
+            tape,
+            length,
+            period: period as f64,
             cols_per_s,
             base_mm,
             swing_mm,
-            cells: cells(grid),
+            starts,
         }
     }
 
-    /// 1 if the tape's column `x` in row `row` (from the back) is inked, else 0.
-    fn ink(&self, row: i64, x: i64) -> f64 {
-        let x = match self.period {
-            Some(period) => x.rem_euclid(period),
-            None => x,
-        };
-        let (dx, dy) = (x - self.lead, row - self.top);
-        if dx < 0 || dy < 0 {
-            return 0.0;
-        }
-        let (px, py) = (dx / self.scale, dy / self.scale);
-        let inked = usize::try_from(px)
-            .ok()
-            .zip(usize::try_from(py).ok())
-            .is_some_and(|(px, py)| self.bitmap.ink(px, py));
-        if inked { 1.0 } else { 0.0 }
-    }
-
-    /// How far the tape has moved at `t_s`, columns (within one period when scrolling).
+    /// How far the tape has moved at `t_s`, columns (within one period; 0 when static).
     fn offset(&self, t_s: f64) -> f64 {
         let moved = self.cols_per_s * t_s;
-        match self.period {
-            Some(period) if moved.is_finite() => moved.rem_euclid(period as f64),
-            _ => 0.0,
+        if self.period > 0.0 && moved.is_finite() {
+            moved.rem_euclid(self.period)
+        } else {
+            0.0
         }
     }
 }
@@ -257,15 +267,22 @@ impl Text {
 impl Field for Text {
     fn sample(&self, _grid: &Grid, t_s: f64, out_mm: &mut [f64]) {
         let offset = self.offset(t_s);
-        for (out, &(col, row)) in out_mm.iter_mut().zip(&self.cells) {
-            let x = col as f64 + offset;
-            let left = x.floor();
-            // `left` is a whole number within the tape's period (or a column): exact.
-            #[allow(clippy::cast_possible_truncation)]
-            let n = left as i64;
-            let from = self.ink(row, n);
-            let to = self.ink(row, n + 1);
-            let ink = from + (to - from) * smooth_step(x - left);
+        let whole = offset.floor();
+        let fraction = offset - whole;
+        let step = smooth_step(fraction);
+        // `whole` is a whole number in 0..=period: exact.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let shift = whole as usize;
+        for (out, &start) in out_mm.iter_mut().zip(&self.starts) {
+            let at = start.saturating_add(shift);
+            let from = self.tape.get(at).copied().unwrap_or(0);
+            let to = self.tape.get(at.saturating_add(1)).copied().unwrap_or(0);
+            let ink = match (from, to) {
+                (0, 0) => 0.0,
+                (1, 1) => 1.0,
+                (0, _) => step,
+                _ => 1.0 - step,
+            };
             *out = self.base_mm + self.swing_mm * ink;
         }
     }
@@ -591,6 +608,23 @@ mod tests {
             sample(blank.as_ref(), &grid, 1.0)
                 .iter()
                 .all(|&mm| mm == BASE_MM)
+        );
+    }
+
+    #[test]
+    fn the_tape_holds_the_bitmap_rows_not_the_balls_rows() {
+        // A bitmap one pixel tall and 4095 wide on 200 rows scales by 200: the tape
+        // holds its one row (and a blank one), not 200.
+        let grid = Grid::new(200, 10, 500.0, 7500.0);
+        let bitmap = Bitmap::parse(&"#.".repeat(2047));
+        let text = Text::new(&grid, &bitmap, 0.5, BASE_MM, -DEPTH_MM);
+        assert_eq!(text.length, 10 + 4094 * 200 + 10 + 1);
+        assert_eq!(text.tape.len(), 2 * text.length);
+        // After the flat width, every ball's column shows the first pixel: all inked.
+        let out_mm = sample(&text, &grid, 10.0); // 0.5 m/s at 500 mm: a column a second
+        assert!(
+            out_mm.iter().all(|&mm| mm == BASE_MM - DEPTH_MM),
+            "{out_mm:?}"
         );
     }
 
