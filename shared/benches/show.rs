@@ -1,5 +1,8 @@
 //! Benchmarks of the show module: sampling for the preview (goal: at least 200 M
-//! ball-samples/s natively) and CSV import (goal: 100 balls × 6,000 frames within 0.5 s).
+//! ball-samples/s natively), CSV import (goal: 100 balls × 6,000 frames within 0.5 s)
+//! and rendering a generated show (issue 19: the Create page regenerates its preview
+//! on every change; goal in the browser: 10 × 10 within 16 ms, 100 × 100 within
+//! 100 ms).
 //!
 //! Run with `cargo bench -p floatball-shared --bench show`.
 
@@ -117,5 +120,24 @@ fn csv(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, sample, csv);
+/// Rendering a 60 s recipe of the default wave, as the Create page does on every change
+/// of a parameter.
+fn render(c: &mut Criterion) {
+    use floatball_shared::create::{self, Grid, Params, Recipe};
+    use floatball_shared::show::Limits;
+    let mut group = c.benchmark_group("create");
+    group.sample_size(10);
+    for side in [10u32, 100] {
+        let grid = Grid::new(side, side, 500.0, 7500.0);
+        let limits = Limits::for_layout(side, side);
+        let recipe = Recipe::single("bench", "wave", Params::new(), 60.0);
+        group.throughput(Throughput::Elements(u64::from(side * side)));
+        group.bench_function(format!("render {side}x{side} 60 s wave"), |b| {
+            b.iter(|| create::render(black_box(&recipe), &grid, &limits));
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, sample, csv, render);
 criterion_main!(benches);

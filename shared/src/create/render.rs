@@ -5,9 +5,11 @@
 //!
 //! 1. Every segment's pattern is built ([`PatternSpec::field`]); parameters out of
 //!    their range are clamped (a note each).
-//! 2. Each pattern is sampled over its time (every fourth row) and, if it leaves the
-//!    travel (less a margin of 2 %), its motion is scaled about its middle and moved
-//!    into it (a note naming its amplitude or its height).
+//! 2. Each pattern is probed over its time (every eighth row, with its velocity and
+//!    acceleration by central differences over 1 ms) and, if it leaves the travel (less
+//!    a margin of 2 %) or moves faster than the limits allow, its motion is scaled
+//!    about its middle and moved into the travel (a note naming its amplitude or its
+//!    height). A pattern faster than the rows can follow is caught here.
 //! 3. The timeline ([`super::recipe`]) is sampled at every row time: positions; each
 //!    row's velocity is the central difference of its neighbours (Catmull–Rom), so the
 //!    rows are C1 Hermite curves through the samples. The show starts and ends at
@@ -60,6 +62,9 @@ pub struct Generated {
 /// Fraction of the travel kept free at the top and the bottom when a pattern is fitted
 /// into it.
 const MARGIN: f64 = 0.02;
+
+/// Step 2 probes the patterns every this many rows.
+const PROBE_ROWS: f64 = 8.0;
 
 /// A pattern scaled down for a limit aims this far below it (the samples of step 4
 /// are exact, but the transitions around it change a little).
@@ -208,56 +213,110 @@ struct Measure {
     max_mm: f64,
 }
 
-fn measure(tracks: &[Track], zones: &[usize], zone_count: usize, dt_s: f64) -> Measure {
+/// Sets every row's velocity to the central difference of its neighbours' positions
+/// (Catmull–Rom; the last row ends at rest) and measures the exact peak speed and
+/// acceleration of each row (the units' Hermite cubic, in closed form: its acceleration is linear, so its speed peaks at an end or where the
+/// acceleration crosses 0) per zone, and the lowest and highest point reached where it
+/// may come within `edge_mm` of 0 or `travel_mm` (elsewhere the rows' ends: only
+/// points beyond the edges matter).
+fn measure(
+    tracks: &mut [Track],
+    zones: &[usize],
+    zone_count: usize,
+    dt_s: f64,
+    (edge_mm, travel_mm): (f64, f64),
+) -> Measure {
     let mut measured = Measure {
         zones: vec![Peaks::default(); zone_count],
         min_mm: f64::INFINITY,
         max_mm: f64::NEG_INFINITY,
     };
+    let per_s = 1.0 / dt_s;
+    let half_per_s = 0.5 / dt_s;
     for track in tracks {
-        let (mut p0, mut v0) = (track.start_mm, 0.0);
-        for (row, zone) in track.rows.iter().zip(zones) {
-            let cubic = Cubic::new(p0, v0, row.position_mm, row.velocity_mm_s, dt_s);
-            let peaks = &mut measured.zones[*zone];
-            peaks.speed_mm_s = peaks.speed_mm_s.max(cubic.peak_speed().value);
-            peaks.accel_mm_s2 = peaks.accel_mm_s2.max(cubic.peak_acceleration().value);
-            let range = cubic.position_range();
-            measured.min_mm = measured.min_mm.min(range.min.value);
-            measured.max_mm = measured.max_mm.max(range.max.value);
-            (p0, v0) = (row.position_mm, row.velocity_mm_s);
+        let (mut p0, mut v0) = (track.start_mm, 0.0f64);
+        let count = track.rows.len();
+        for (index, zone) in (0..count).zip(zones) {
+            let p1 = track.rows[index].position_mm;
+            let v1 = match track.rows.get(index + 1) {
+                Some(next) => (next.position_mm - p0) * half_per_s,
+                None => 0.0,
+            };
+            track.rows[index].velocity_mm_s = v1;
+            let slope = 6.0 * (p1 - p0) * per_s;
+            let a0 = (slope - 4.0 * v0 - 2.0 * v1) * per_s;
+            let a1 = (-slope + 2.0 * v0 + 4.0 * v1) * per_s;
+            let mut speed = v0.abs().max(v1.abs());
+            if (a0 > 0.0) != (a1 > 0.0) && a0 != a1 {
+                let s = a0 / (a0 - a1);
+                speed = speed.max((v0 + dt_s * (a0 * s + (a1 - a0) * s * s / 2.0)).abs());
+            }
+            if let Some(peaks) = measured.zones.get_mut(*zone) {
+                peaks.speed_mm_s = peaks.speed_mm_s.max(speed);
+                peaks.accel_mm_s2 = peaks.accel_mm_s2.max(a0.abs().max(a1.abs()));
+            }
+            // Between its ends a cubic strays at most 4/27 · T · (|v0| + |v1|) beyond
+            // them.
+            let stray_mm = 4.0 / 27.0 * dt_s * (v0.abs() + v1.abs());
+            let (low, high) = (p0.min(p1), p0.max(p1));
+            let (low, high) = if low - stray_mm < edge_mm || high + stray_mm > travel_mm - edge_mm {
+                let range = Cubic::new(p0, v0, p1, v1, dt_s).position_range();
+                (range.min.value, range.max.value)
+            } else {
+                (low, high)
+            };
+            measured.min_mm = measured.min_mm.min(low);
+            measured.max_mm = measured.max_mm.max(high);
+            (p0, v0) = (p1, v1);
         }
     }
     measured
 }
 
-/// Samples the timeline into `tracks` (positions at every row, Catmull–Rom
-/// velocities, at rest at both ends).
+/// Row times sampled together before their positions are copied into the tracks: each
+/// track then gets this many rows in a row, not one row at a time across all tracks.
+const BLOCK_ROWS: usize = 32;
+
+/// Samples the timeline's positions into `tracks` (every row at rest: the velocities
+/// come with [`measure`]).
 fn sample_rows(timeline: &mut Timeline<'_>, tracks: &mut [Track], rows: usize, row_ms: u32) {
     let units = tracks.len();
     let dt_s = f64::from(row_ms) / 1000.0;
-    let mut positions = vec![0.0; units];
-    timeline.position(0.0, &mut positions);
-    for (track, start) in tracks.iter_mut().zip(&positions) {
+    let mut block = vec![0.0; BLOCK_ROWS * units];
+    timeline.position(0.0, &mut block[..units]);
+    for (track, start) in tracks.iter_mut().zip(&block) {
         track.start_mm = *start;
         track.rows.clear();
     }
-    for row in 1..=rows {
-        timeline.position(row as f64 * dt_s, &mut positions);
-        for (track, position) in tracks.iter_mut().zip(&positions) {
-            track.rows.push(TrackRow::new(*position, 0.0, row_ms));
+    let mut first = 1;
+    while first <= rows {
+        let count = BLOCK_ROWS.min(rows + 1 - first);
+        for (k, positions) in block.chunks_exact_mut(units).take(count).enumerate() {
+            timeline.position((first + k) as f64 * dt_s, positions);
         }
+        for (unit, track) in tracks.iter_mut().enumerate() {
+            track.rows.extend(
+                block
+                    .iter()
+                    .skip(unit)
+                    .step_by(units)
+                    .take(count)
+                    .map(|&position| TrackRow::new(position, 0.0, row_ms)),
+            );
+        }
+        first += count;
     }
-    for track in tracks.iter_mut() {
-        let count = track.rows.len();
-        for row in 0..count.saturating_sub(1) {
-            let before = if row == 0 {
-                track.start_mm
-            } else {
-                track.rows[row - 1].position_mm
-            };
-            let after = track.rows[row + 1].position_mm;
-            track.rows[row].velocity_mm_s = (after - before) / (2.0 * dt_s);
-        }
+}
+
+/// `value` rounded to the nearest whole number (ties to even), by the float unit's own
+/// rounding: quicker than `f64::round` (a library call on many targets), the same on
+/// every target. Exact for |value| < 2⁵¹; larger values are returned as they are.
+fn round_even(value: f64) -> f64 {
+    const MAGIC: f64 = 6_755_399_441_055_744.0; // 1.5 · 2⁵²
+    if value.abs() < 2_251_799_813_685_248.0 {
+        (value + MAGIC) - MAGIC
+    } else {
+        value
     }
 }
 
@@ -361,6 +420,8 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
     // velocities to `resolution`.
     let resolution = if row_ms >= 100 { 0.1 } else { 0.001 };
     let half = resolution / 2.0;
+    // How close to 0 and the travel the rows may come, so rounding keeps them inside.
+    let edge_mm = half + 1e-3;
     let speed_allowed = limits.max_speed_mm_s * 0.999 - (3.0 * half / dt_s + 2.0 * half);
     let accel_allowed =
         limits.max_accel_mm_s2 * 0.999 - (12.0 * half / (dt_s * dt_s) + 8.0 * half / dt_s);
@@ -394,7 +455,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
                 part.span.out_s
             },
         );
-        let samples = (((to_s - from_s) / (4.0 * dt_s)).ceil() as usize).max(1);
+        let samples = (((to_s - from_s) / (PROBE_ROWS * dt_s)).ceil() as usize).max(1);
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         let mut peaks = Peaks::default();
         for sample in 0..=samples {
@@ -479,7 +540,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
     loop {
         let mut timeline = Timeline::new(&parts, grid, show_s, ease_s);
         sample_rows(&mut timeline, &mut tracks, rows, row_ms);
-        measured = measure(&tracks, &zones, zone_count, dt_s);
+        measured = measure(&mut tracks, &zones, zone_count, dt_s, (edge_mm, travel_mm));
         pass += 1;
         if pass > 1 {
             break;
@@ -509,7 +570,6 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
 
     // 5. Scale the whole show's motion about the middle of the travel.
     let centre_mm = travel_mm / 2.0;
-    let edge_mm = half + 1e-3;
     let mut scale: f64 = 1.0;
     let mut worst: Option<(usize, f64)> = None;
     for (zone, peaks) in measured.zones.iter().enumerate() {
@@ -552,7 +612,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
             ),
         });
     }
-    let round = |value: f64| (value / resolution).round() * resolution;
+    let round = |value: f64| round_even(value / resolution) * resolution;
     for track in &mut tracks {
         track.start_mm = round(centre_mm + scale * (track.start_mm - centre_mm));
         for row in &mut track.rows {
@@ -576,4 +636,36 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
         },
         notes,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
+
+    use super::*;
+
+    #[test]
+    fn rounding_is_to_the_nearest_and_ties_to_even() {
+        assert_eq!(round_even(2.4), 2.0);
+        assert_eq!(round_even(2.6), 3.0);
+        assert_eq!(round_even(2.5), 2.0);
+        assert_eq!(round_even(3.5), 4.0);
+        assert_eq!(round_even(-2.6), -3.0);
+        assert_eq!(round_even(-0.4), 0.0);
+        assert_eq!(round_even(1e300), 1e300);
+        assert_eq!(round_even(12345.6789 * 10.0) / 10.0, 12345.7);
+    }
+
+    #[test]
+    fn the_timeline_starts_and_ends_slowly() {
+        assert_eq!(eased(0.0), 0.0);
+        assert_eq!(eased(1.0), 0.5);
+        assert_eq!(eased(2.0), 0.5);
+        // Its slope is the smooth step: 0 at 0, 1 at 1.
+        let h = 1e-6;
+        assert!((eased(h) - eased(0.0)) / h < 1e-12);
+        assert!(((eased(1.0) - eased(1.0 - h)) / h - 1.0).abs() < 1e-5);
+        assert!(((eased(0.5 + h) - eased(0.5 - h)) / (2.0 * h) - 0.5).abs() < 1e-6);
+    }
 }

@@ -87,8 +87,9 @@ pub const PATTERN: PatternSpec = PatternSpec {
 /// The wave with its parameters fixed.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Wave {
-    /// Each ball's phase at time 0, radians.
-    phase: Vec<f64>,
+    /// Each ball's phase at time 0, radians: its sine and cosine, so a sample is two
+    /// multiplications a ball (sin(φ − ωt) = sin φ cos ωt − cos φ sin ωt).
+    phase: Vec<(f64, f64)>,
     /// Phase change per second, radians.
     omega: f64,
     centre_mm: f64,
@@ -110,7 +111,7 @@ fn build(reader: &mut Reader<'_>, grid: &Grid) -> Result<Box<dyn Field>, CreateE
     let phase = (0..grid.unit_count())
         .map(|unit| {
             let (x, y) = grid.xy_mm(unit);
-            TAU * (x * dx + y * dy) / wavelength_mm
+            (TAU * (x * dx + y * dy) / wavelength_mm).sin_cos()
         })
         .collect();
     Ok(Box::new(Wave {
@@ -123,9 +124,10 @@ fn build(reader: &mut Reader<'_>, grid: &Grid) -> Result<Box<dyn Field>, CreateE
 
 impl Field for Wave {
     fn sample(&self, _grid: &Grid, t_s: f64, out_mm: &mut [f64]) {
-        let shift = self.omega * t_s;
-        for (out, phase) in out_mm.iter_mut().zip(&self.phase) {
-            *out = self.centre_mm + self.amplitude_mm * (phase - shift).sin();
+        let (sin, cos) = (self.omega * t_s).sin_cos();
+        let (sin, cos) = (self.amplitude_mm * sin, self.amplitude_mm * cos);
+        for (out, (sin_phase, cos_phase)) in out_mm.iter_mut().zip(&self.phase) {
+            *out = self.centre_mm + sin_phase * cos - cos_phase * sin;
         }
     }
 }
