@@ -534,6 +534,8 @@ mod tests {
         damaged.truncate(40);
         let damaged = refuse(&damaged);
         assert!(damaged.contains("cannot be read ("), "{damaged}");
+        let gif = refuse(b"GIF89a\x01\x00\x01\x00\x00\x00\x00;");
+        assert!(gif.contains("only PNG and JPEG pictures are read"), "{gif}");
         let empty = refuse(b"");
         assert!(empty.contains("no picture was given"), "{empty}");
         let missing = PATTERN
