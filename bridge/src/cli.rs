@@ -155,6 +155,14 @@ pub struct CheckArgs {
     pub data_dir: PathBuf,
 }
 
+/// The whole command line: [`Cli`] and `floatball generate`, whose options are built
+/// at run time from the patterns' table ([`crate::generate::command`]).
+#[must_use]
+pub fn command() -> clap::Command {
+    use clap::CommandFactory;
+    Cli::command().subcommand(crate::generate::command())
+}
+
 /// Runs the command the user asked for until it ends or Ctrl-C is pressed.
 ///
 /// # Errors

@@ -18,6 +18,8 @@
 //!
 //! # Layout
 //! - [`cli`]: the command line and what each command does.
+//! - [`generate`]: `floatball generate`, shows from patterns or recipes on the command
+//!   line, its options built from the patterns' table.
 //! - [`config`]: `floatball.toml` (its defaults in `config/default.toml`, written on
 //!   first start), parsed (`config/raw.rs`) and checked (`config/check.rs`, the one
 //!   place the installation is checked) straight into the shared
@@ -74,6 +76,7 @@ pub mod control;
 pub mod durable;
 pub mod estop;
 pub mod gateways;
+pub mod generate;
 pub mod http;
 pub mod install;
 pub mod link;

@@ -3,7 +3,7 @@
 
 use std::process::ExitCode;
 
-use clap::Parser;
+use clap::FromArgMatches;
 use floatball_bridge::cli::Cli;
 
 /// glibc's malloc, set for a daemon with hundreds of threads (two per gateway link)
@@ -47,7 +47,20 @@ const MMAP_THRESHOLD_BYTES: i32 = 256 * 1024;
 
 fn main() -> ExitCode {
     tune_malloc();
-    let cli = Cli::parse();
+    let matches = floatball_bridge::cli::command().get_matches();
+    if let Some(("generate", generate)) = matches.subcommand() {
+        return match floatball_bridge::generate::run(generate) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(err) => {
+                eprintln!("floatball: {err:#}");
+                ExitCode::FAILURE
+            }
+        };
+    }
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(err) => err.exit(),
+    };
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()

@@ -551,14 +551,14 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
             let over = (peaks.speed_mm_s / speed_allowed).max(peaks.accel_mm_s2 / accel_allowed);
             if over > 1.0 {
                 let scale = parts[index].scale * SAFETY / over;
-                notes.push(part_note(
-                    recipe,
-                    &parts,
-                    index,
-                    scale,
-                    None,
-                    limit_words.clone(),
-                ));
+                let note = part_note(recipe, &parts, index, scale, None, limit_words.clone());
+                // One note per parameter: step 2's, if any, with the value now used.
+                match notes.iter_mut().find(|old| {
+                    (old.segment, &old.key, &old.reason) == (note.segment, &note.key, &note.reason)
+                }) {
+                    Some(old) => old.to = note.to,
+                    None => notes.push(note),
+                }
                 parts[index].scale = scale;
                 rescaled = true;
             }
