@@ -68,6 +68,7 @@ fn param_arg(spec: &ParamSpec) -> Arg {
     match spec.kind {
         ParamKind::Number { .. } => arg
             .value_name("NUMBER")
+            .allow_negative_numbers(true)
             .value_parser(clap::value_parser!(f64)),
         ParamKind::Choice { options, .. } => arg
             .value_name("CHOICE")
