@@ -228,4 +228,8 @@ fn mistakes_are_refused_and_clamps_reported() {
         "{stderr}"
     );
     assert!(Path::new(&out).exists());
+    // Negative numbers are values, not flags.
+    let output = floatball(&["ripple", "--x_m", "-2", "--duration-s", "5", "--out", &out]);
+    assert!(output.status.success(), "{output:?}");
+    assert!(output.stderr.is_empty(), "{output:?}");
 }

@@ -299,7 +299,7 @@ fn too_much_is_scaled_down_with_a_note_naming_the_parameter() {
     let note = &generated.notes[0];
     assert_eq!((note.key.as_str(), note.from), ("centre_mm", 7400.0));
     assert!((note.to - (7500.0 - 150.0 - 1000.0)).abs() < 20.0, "{note}");
-    // A short transition between far-apart patterns scales the show and says which.
+    // A transition too short for the distance between its patterns is lengthened.
     let recipe = Recipe {
         name: "jump".into(),
         row_ms: 200,
@@ -328,10 +328,33 @@ fn too_much_is_scaled_down_with_a_note_naming_the_parameter() {
     };
     let generated = render(&recipe, &grid, &limits).unwrap();
     assert_eq!(validate(&generated.show, &limits), []);
+    assert_eq!(generated.notes.len(), 1, "{:?}", generated.notes);
+    let note = &generated.notes[0];
+    assert_eq!(
+        (note.segment, note.key.as_str(), note.from),
+        (0, "transition_s", 0.5)
+    );
+    // 6500 mm at 2000 mm/s: the smooth step needs 1.875 × 6500 / 1600 = 7.6 s.
+    assert!((7.0..9.0).contains(&note.to), "{note}");
+    assert_eq!(
+        generated.show.duration_ms(),
+        // Whole rows of 200 ms.
+        ((6.0 + note.to + 2.0) / 0.2 - 1e-9).ceil() as u64 * 200
+    );
+    // Beyond the longest transition, the whole show's motion is scaled down, and the
+    // note says which transition it is.
+    let mut slow = limits;
+    slow.max_speed_mm_s = 50.0;
+    let generated = render(&recipe, &grid, &slow).unwrap();
+    assert_eq!(validate(&generated.show, &slow), []);
+    assert_eq!(generated.notes[0].to, 60.0);
     let note = generated.notes.last().unwrap();
     assert_eq!(note.key, "motion");
     assert!(
-        note.to_string().contains("make its transition_s longer"),
+        note.to_string().contains(
+            "the blend from segment 1 into 2 is the hardest part, its transition_s at its \
+             longest: bring the two patterns' heights closer"
+        ),
         "{note}"
     );
 }
@@ -369,4 +392,41 @@ fn bad_input_is_refused_in_words() {
     )
     .unwrap_err();
     assert!(error.to_string().contains("at least one row"), "{error}");
+}
+
+/// docs/create.md describes every pattern and every parameter with its range and
+/// default, as the table holds them.
+#[test]
+fn the_documentation_lists_every_pattern_and_parameter() {
+    let doc = include_str!("../../docs/create.md");
+    for spec in PATTERNS {
+        let heading = format!("### `{}`", spec.name);
+        let Some(start) = doc.find(&heading) else {
+            panic!("docs/create.md: add a section for pattern {}", spec.name);
+        };
+        let section = &doc[start + heading.len()..];
+        let section = &section[..section.find("\n#").unwrap_or(section.len())];
+        for param in spec.params {
+            let row = section
+                .lines()
+                .find(|line| line.starts_with(&format!("| `{}` | {} |", param.key, param.label)));
+            let Some(row) = row else {
+                panic!(
+                    "docs/create.md: add a row for `{}` of pattern {}",
+                    param.key, spec.name
+                );
+            };
+            if let ParamKind::Number {
+                min,
+                max,
+                default,
+                unit,
+                ..
+            } = param.kind
+            {
+                let expected = format!("| {unit} | {min}–{max} | {default} |");
+                assert!(row.ends_with(&expected), "{row} should end {expected}");
+            }
+        }
+    }
 }

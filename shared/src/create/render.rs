@@ -10,15 +10,18 @@
 //!    a margin of 2 %) or moves faster than the limits allow, its motion is scaled
 //!    about its middle and moved into the travel (a note naming its amplitude or its
 //!    height). A pattern faster than the rows can follow is caught here.
-//! 3. The timeline ([`super::recipe`]) is sampled at every row time: positions; each
+//! 3. A transition too short for the distance between its two patterns is lengthened
+//!    (a note naming `transition_s`): blending a difference D over T s peaks at
+//!    1.875 D / T mm/s and 5.77 D / T² mm/s².
+//! 4. The timeline ([`super::recipe`]) is sampled at every row time: positions; each
 //!    row's velocity is the central difference of its neighbours (Catmull–Rom), so the
 //!    rows are C1 Hermite curves through the samples. The show starts and ends at
 //!    rest by playing the timeline slower over its first and last [`EASE_S`] (its
 //!    speed rising smoothly from 0 to 1 and back), never faster than the patterns.
-//! 4. Every row's exact peak speed and acceleration (the units' own cubic) are
+//! 5. Every row's exact peak speed and acceleration (the units' own cubic) are
 //!    measured; a pattern too fast or too hard on its own is scaled down about its
-//!    middle (a note naming its amplitude) and step 3 runs once more.
-//! 5. What remains above a limit (a short transition between distant patterns) scales
+//!    middle (a note naming its amplitude) and step 4 runs once more.
+//! 6. What remains above a limit (a transition at its longest) scales
 //!    the whole show's motion about the middle of the travel (a note saying which
 //!    transition or pattern to change). Scaling every position about one point scales
 //!    every row's speed and acceleration exactly, so the result is within the limits,
@@ -45,7 +48,7 @@
 
 use super::catalogue::{self, PatternSpec};
 use super::params::{ParamKind, Value};
-use super::recipe::{EASE_S, Recipe, Span};
+use super::recipe::{EASE_S, MAX_TRANSITION_S, Recipe, Span};
 use super::{CreateError, Field, Grid, Note, number, smooth_step};
 use crate::pvt::Segment as Cubic;
 use crate::show::{Layout, Limits, Show, Track, TrackRow};
@@ -407,12 +410,9 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
     }
     let row_ms = recipe.row_ms;
     let dt_s = f64::from(row_ms) / 1000.0;
-    let timeline_s = recipe.duration_s();
-    let ease_s = EASE_S.min(timeline_s);
-    let rows = (((timeline_s + ease_s) / dt_s - 1e-9).ceil() as usize).max(1);
-    let show_s = rows as f64 * dt_s;
-    // The timeline's time at the show's end (≥ its length: the rows round up).
-    let timeline_end_s = show_s - ease_s;
+    // The timeline's time at the show's end as the recipe gives it (≥ its length: the
+    // rows round up).
+    let timeline_end_s = recipe.duration_s() + dt_s;
     let travel_mm = limits.travel_mm.min(grid.travel_mm);
     let units = grid.unit_count();
 
@@ -521,6 +521,53 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
         (part.mid_mm, part.target_mm, part.scale) = (mid_mm, target_mm, scale);
     }
 
+    // 2b. Lengthen the transitions too short for the distance between their
+    // patterns: blending a difference D over T seconds with the smooth step peaks at
+    // 1.875 D / T mm/s and 5.77 D / T² mm/s² (leaving a fifth of each limit for the
+    // patterns' own motion).
+    let mut recipe = recipe.clone();
+    for index in 0..parts.len().saturating_sub(1) {
+        let (a, b) = (&parts[index], &parts[index + 1]);
+        let span = a.span;
+        let mut difference_mm = 0.0f64;
+        for t_s in [span.end_s, (span.end_s + span.out_s) / 2.0, span.out_s] {
+            a.sample(grid, t_s, &mut before);
+            b.sample(grid, t_s, &mut after);
+            for (a, b) in before.iter().zip(&after) {
+                difference_mm = difference_mm.max((a - b).abs());
+            }
+        }
+        let needed_s = (1.875 * difference_mm / (0.8 * speed_allowed))
+            .max((5.77 * difference_mm / (0.8 * accel_allowed)).sqrt());
+        let asked_s = recipe.segments[index].transition_s;
+        if needed_s > asked_s {
+            let longer_s = ((needed_s * 10.0).ceil() / 10.0).min(MAX_TRANSITION_S);
+            recipe.segments[index].transition_s = longer_s;
+            notes.push(Note {
+                segment: index,
+                pattern: a.spec.name.to_owned(),
+                key: "transition_s".to_owned(),
+                from: asked_s,
+                to: longer_s,
+                unit: "s".to_owned(),
+                reason: format!(
+                    "so balls moving {} mm from one pattern to the next stay within {} mm/s and {} mm/s²",
+                    number(difference_mm),
+                    number(limits.max_speed_mm_s),
+                    number(limits.max_accel_mm_s2)
+                ),
+            });
+        }
+    }
+    let recipe = &recipe;
+    for (part, span) in parts.iter_mut().zip(recipe.spans()) {
+        part.span = span;
+    }
+    let timeline_s = recipe.duration_s();
+    let ease_s = EASE_S.min(timeline_s);
+    let rows = (((timeline_s + ease_s) / dt_s - 1e-9).ceil() as usize).max(1);
+    let show_s = rows as f64 * dt_s;
+
     // 3 and 4: sample, measure, scale down the patterns too fast on their own, once.
     let zone_count = 2 * parts.len() - 1;
     let mut tracks: Vec<Track> = (0..units)
@@ -533,8 +580,20 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
     let mut measured;
     let mut zones = Vec::with_capacity(rows);
     {
+        // A row's cubic depends on the positions at its ends and, through their
+        // velocities, one row on either side: it belongs to a transition if any of
+        // them does, else to the segment at its middle.
         let timeline = Timeline::new(&parts, grid, show_s, ease_s);
-        zones.extend((1..=rows).map(|row| timeline.zone((row as f64 - 0.5) * dt_s)));
+        let at: Vec<usize> = (0..=rows)
+            .map(|row| timeline.zone(row as f64 * dt_s))
+            .collect();
+        zones.extend((1..=rows).map(|row| {
+            at[row.saturating_sub(2)..=(row + 1).min(rows)]
+                .iter()
+                .copied()
+                .find(|zone| zone % 2 == 1)
+                .unwrap_or_else(|| timeline.zone((row as f64 - 0.5) * dt_s))
+        }));
     }
     let mut pass = 0;
     loop {
@@ -590,11 +649,21 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
         let (segment, advice) = match worst {
             Some((zone, _)) if zone % 2 == 1 => (
                 zone / 2,
-                format!(
-                    "; the blend from segment {} into {} is the hardest part: make its transition_s longer",
-                    zone / 2 + 1,
-                    zone / 2 + 2
-                ),
+                if recipe.segments[zone / 2].transition_s >= MAX_TRANSITION_S {
+                    format!(
+                        "; the blend from segment {} into {} is the hardest part, its \
+                         transition_s at its longest: bring the two patterns' heights closer",
+                        zone / 2 + 1,
+                        zone / 2 + 2
+                    )
+                } else {
+                    format!(
+                        "; the blend from segment {} into {} is the hardest part: make its \
+                         transition_s longer",
+                        zone / 2 + 1,
+                        zone / 2 + 2
+                    )
+                },
             ),
             Some((zone, _)) => (zone / 2, String::new()),
             None => (0, String::new()),
