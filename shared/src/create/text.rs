@@ -5,7 +5,7 @@
 //! Seen from below with the front row nearest, the bitmap's top row is at the back and
 //! its left column at the left, so the word reads left to right. Glyph pixels are
 //! scaled by a whole number of balls so the line fills the matrix's height (static
-//! text also fits its width when it can), and centred.
+//! text also fits its width when it can), or by `balls_per_pixel`, and centred.
 //!
 //! A scrolling word runs on a loop: the matrix starts flat, the word enters at the
 //! right (`scroll_m_s` > 0; at the left when negative), crosses and leaves, and enters
@@ -120,6 +120,19 @@ pub const PARAMS: &[ParamSpec] = &[
         },
     },
     ParamSpec {
+        key: "balls_per_pixel",
+        label: "Letter size",
+        help: "Balls per pixel of the letters, across and deep (0: as large as the matrix's \
+               depth allows).",
+        kind: ParamKind::Number {
+            min: 0.0,
+            max: 16.0,
+            step: 1.0,
+            default: 0.0,
+            unit: "",
+        },
+    },
+    ParamSpec {
         key: "bitmap",
         label: "Bitmap",
         help: "Your own picture instead of the text (CJK characters, a logo): lines of # \
@@ -153,9 +166,13 @@ fn build(reader: &mut Reader<'_>, grid: &Grid) -> Result<Box<dyn Field>, CreateE
     } else {
         -depth_mm
     };
+    // A whole number of balls (a recipe may hold any number).
+    #[allow(clippy::cast_possible_truncation)]
+    let balls_per_pixel = reader.number("balls_per_pixel").round() as i64;
     Ok(Box::new(Text::new(
         grid,
         &bitmap,
+        balls_per_pixel,
         reader.number("scroll_m_s"),
         reader.number("base_mm"),
         swing_mm,
@@ -185,10 +202,18 @@ pub struct Text {
 }
 
 impl Text {
-    /// `bitmap` on `grid`, scrolling at `scroll_m_s` (0 = static), the background at
-    /// `base_mm` and inked pixels `swing_mm` from it (negative = higher).
+    /// `bitmap` on `grid`, each pixel `balls_per_pixel` × `balls_per_pixel` balls (0 or
+    /// less: as large as fits), scrolling at `scroll_m_s` (0 = static), the background
+    /// at `base_mm` and inked pixels `swing_mm` from it (negative = higher).
     #[must_use]
-    pub fn new(grid: &Grid, bitmap: &Bitmap, scroll_m_s: f64, base_mm: f64, swing_mm: f64) -> Self {
+    pub fn new(
+        grid: &Grid,
+        bitmap: &Bitmap,
+        balls_per_pixel: i64,
+        scroll_m_s: f64,
+        base_mm: f64,
+        swing_mm: f64,
+    ) -> Self {
         let bitmap = bitmap.trimmed();
         let (rows, cols) = (i64::from(grid.rows), i64::from(grid.cols));
         let (width, height) = (to_i64(bitmap.width()), to_i64(bitmap.height()));
@@ -200,10 +225,15 @@ impl Text {
         let scrolling = cols_per_s != 0.0;
         let fit_height = if height > 0 { rows / height } else { 1 };
         let fit_width = if width > 0 { cols / width } else { 1 };
-        let scale = if scrolling {
+        let fits = if scrolling {
             fit_height
         } else {
             fit_height.min(fit_width)
+        };
+        let scale = if balls_per_pixel > 0 {
+            balls_per_pixel
+        } else {
+            fits
         }
         .max(1);
         // The bitmap's top row (counted from the back) and left column on the tape.
@@ -476,6 +506,30 @@ mod tests {
     }
 
     #[test]
+    fn letters_take_the_size_asked_for() {
+        // 'A' at 2 balls a pixel on 20 × 20: 14 rows by 12 columns, centred; at 1 on the
+        // same grid the automatic size (2) is not used.
+        let grid = Grid::new(20, 20, 500.0, 7500.0);
+        for (size, want) in [
+            (2.0, expected('A', 0..7, 0..6, 2, 4, 3, 20, 20)),
+            (0.0, expected('A', 0..7, 0..6, 2, 4, 3, 20, 20)),
+            (1.0, expected('A', 0..7, 0..6, 1, 7, 6, 20, 20)),
+            (1.4, expected('A', 0..7, 0..6, 1, 7, 6, 20, 20)),
+        ] {
+            let text = field(
+                &grid,
+                &[
+                    ("text", Value::Text("A".into())),
+                    ("scroll_m_s", Value::Number(0.0)),
+                    ("balls_per_pixel", Value::Number(size)),
+                ],
+            );
+            let out_mm = sample(text.as_ref(), &grid, 0.0);
+            assert_eq!(picture(&grid, &out_mm, BASE_MM - DEPTH_MM), want, "{size}");
+        }
+    }
+
+    #[test]
     fn lowered_letters_hang_below_the_background() {
         let grid = Grid::new(10, 10, 500.0, 7500.0);
         let text = field(
@@ -617,7 +671,7 @@ mod tests {
         // holds its one row (and a blank one), not 200.
         let grid = Grid::new(200, 10, 500.0, 7500.0);
         let bitmap = Bitmap::parse(&"#.".repeat(2047));
-        let text = Text::new(&grid, &bitmap, 0.5, BASE_MM, -DEPTH_MM);
+        let text = Text::new(&grid, &bitmap, 0, 0.5, BASE_MM, -DEPTH_MM);
         assert_eq!(text.length, 10 + 4094 * 200 + 10 + 1);
         assert_eq!(text.tape.len(), 2 * text.length);
         // After the flat width, every ball's column shows the first pixel: all inked.
