@@ -534,6 +534,8 @@ mod tests {
         damaged.truncate(40);
         let damaged = refuse(&damaged);
         assert!(damaged.contains("cannot be read ("), "{damaged}");
+        let gif = refuse(b"GIF89a\x01\x00\x01\x00\x00\x00\x00;");
+        assert!(gif.contains("only PNG and JPEG pictures are read"), "{gif}");
         let empty = refuse(b"");
         assert!(empty.contains("no picture was given"), "{empty}");
         let missing = PATTERN
@@ -628,9 +630,12 @@ mod proptests {
     use image::{ImageBuffer, ImageFormat, LumaA};
     use proptest::prelude::*;
 
+    use super::super::params::Params;
     use super::super::params::{ParamKind, Value, encode_base64};
-    use super::super::text::proptests::{grid, params};
+    use super::super::text::proptests::{grid, limits_for, params};
+    use super::super::{Recipe, Segment, render};
     use super::*;
+    use crate::show::validate;
 
     /// A small picture of any size and pixels, as a PNG.
     fn png() -> impl Strategy<Value = Vec<u8>> {
@@ -696,6 +701,60 @@ mod proptests {
                 let speed = (c[unit] - a[unit]) / (2.0 * h);
                 prop_assert!(speed.abs() <= max_speed * 1.001 + 1e-6, "{} > {}", speed, max_speed);
             }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+
+        /// Any picture and parameters the page allows render into a show that passes
+        /// validation, the same show every time; and so does a timeline from a wave
+        /// through a word to the picture, with transitions, continuous across them.
+        #[test]
+        fn any_picture_renders_within_the_limits_alone_and_after_a_word(
+            mut params in params(PARAMS),
+            words in params(super::super::text::PARAMS),
+            picture in png(),
+            grid in grid(),
+            duration_s in 1.0..8.0f64,
+            transition_s in 0.5..4.0f64,
+        ) {
+            params.insert("image".into(), Value::Text(encode_base64(&picture)));
+            let limits = limits_for(&grid);
+            let alone = Recipe::single("p", "image", params.clone(), duration_s);
+            let once = render(&alone, &grid, &limits).unwrap();
+            prop_assert_eq!(validate(&once.show, &limits), vec![]);
+            let segment = |pattern: &str, params: Params| Segment {
+                pattern: pattern.to_owned(),
+                params,
+                duration_s,
+                transition_s,
+            };
+            let timeline = Recipe {
+                name: "wave, word, picture".into(),
+                row_ms: 100,
+                segments: vec![
+                    segment("wave", Params::new()),
+                    segment("text", words),
+                    segment("image", params),
+                ],
+            };
+            let once = render(&timeline, &grid, &limits).unwrap();
+            prop_assert_eq!(validate(&once.show, &limits), vec![]);
+            // Continuous: between rows, no step beyond what the limits allow.
+            for track in &once.show.tracks {
+                let (mut p0, mut v0) = (track.start_mm, 0.0f64);
+                for row in &track.rows {
+                    let dt_s = f64::from(row.duration_ms) / 1000.0;
+                    prop_assert!((row.position_mm - p0).abs() <= limits.max_speed_mm_s * dt_s + 1e-6);
+                    prop_assert!((row.velocity_mm_s - v0).abs() <= limits.max_accel_mm_s2 * dt_s + 1e-6);
+                    (p0, v0) = (row.position_mm, row.velocity_mm_s);
+                }
+                prop_assert_eq!(v0, 0.0);
+            }
+            let json = timeline.to_json().unwrap();
+            let again = render(&Recipe::from_json(&json).unwrap(), &grid, &limits).unwrap();
+            prop_assert_eq!(once.show.to_json().unwrap(), again.show.to_json().unwrap());
         }
     }
 }

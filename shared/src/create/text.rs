@@ -5,7 +5,7 @@
 //! Seen from below with the front row nearest, the bitmap's top row is at the back and
 //! its left column at the left, so the word reads left to right. Glyph pixels are
 //! scaled by a whole number of balls so the line fills the matrix's height (static
-//! text also fits its width when it can), and centred.
+//! text also fits its width when it can), or by `balls_per_pixel`, and centred.
 //!
 //! A scrolling word runs on a loop: the matrix starts flat, the word enters at the
 //! right (`scroll_m_s` > 0; at the left when negative), crosses and leaves, and enters
@@ -120,6 +120,19 @@ pub const PARAMS: &[ParamSpec] = &[
         },
     },
     ParamSpec {
+        key: "balls_per_pixel",
+        label: "Letter size",
+        help: "Balls per pixel of the letters, across and deep (0: as large as the matrix's \
+               depth allows).",
+        kind: ParamKind::Number {
+            min: 0.0,
+            max: 16.0,
+            step: 1.0,
+            default: 0.0,
+            unit: "",
+        },
+    },
+    ParamSpec {
         key: "bitmap",
         label: "Bitmap",
         help: "Your own picture instead of the text (CJK characters, a logo): lines of # \
@@ -153,9 +166,13 @@ fn build(reader: &mut Reader<'_>, grid: &Grid) -> Result<Box<dyn Field>, CreateE
     } else {
         -depth_mm
     };
+    // A whole number of balls (a recipe may hold any number).
+    #[allow(clippy::cast_possible_truncation)]
+    let balls_per_pixel = reader.number("balls_per_pixel").round() as i64;
     Ok(Box::new(Text::new(
         grid,
         &bitmap,
+        balls_per_pixel,
         reader.number("scroll_m_s"),
         reader.number("base_mm"),
         swing_mm,
@@ -165,31 +182,38 @@ fn build(reader: &mut Reader<'_>, grid: &Grid) -> Result<Box<dyn Field>, CreateE
 /// The text pattern with its parameters fixed.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Text {
-    /// The bitmap without blank rows at its top and bottom.
-    bitmap: Bitmap,
-    /// Balls per bitmap pixel, each way (≥ 1).
-    scale: i64,
-    /// The row (counted from the back) of the bitmap's top row; may be negative.
-    top: i64,
-    /// The column of the bitmap's left edge on the tape; may be negative.
-    lead: i64,
-    /// The tape's length, columns, when scrolling (it repeats); `None` when static.
-    period: Option<i64>,
+    /// The tape: for every row of the bitmap and then a blank one, 1 where a column of
+    /// balls is inked and 0 where not, `length` columns a row; when scrolling, one
+    /// period and then the matrix's width again, so a ball's column and the one after
+    /// never wrap.
+    tape: Vec<u8>,
+    /// Columns in each row of the tape.
+    length: usize,
+    /// The tape's period, columns, when scrolling; 0 when static.
+    period: f64,
     /// Scroll speed, ball columns per second (positive moves the text to the left).
     cols_per_s: f64,
     /// The background's position, mm below the top.
     base_mm: f64,
     /// From the background to an inked pixel, mm (negative = raised).
     swing_mm: f64,
-    /// Every ball's (column from the left, row from the back), row-major.
-    cells: Vec<(i64, i64)>,
+    /// Every ball's start in the tape (its bitmap row × length + its column), row-major.
+    starts: Vec<usize>,
 }
 
 impl Text {
-    /// `bitmap` on `grid`, scrolling at `scroll_m_s` (0 = static), the background at
-    /// `base_mm` and inked pixels `swing_mm` from it (negative = higher).
+    /// `bitmap` on `grid`, each pixel `balls_per_pixel` × `balls_per_pixel` balls (0 or
+    /// less: as large as fits), scrolling at `scroll_m_s` (0 = static), the background
+    /// at `base_mm` and inked pixels `swing_mm` from it (negative = higher).
     #[must_use]
-    pub fn new(grid: &Grid, bitmap: &Bitmap, scroll_m_s: f64, base_mm: f64, swing_mm: f64) -> Self {
+    pub fn new(
+        grid: &Grid,
+        bitmap: &Bitmap,
+        balls_per_pixel: i64,
+        scroll_m_s: f64,
+        base_mm: f64,
+        swing_mm: f64,
+    ) -> Self {
         let bitmap = bitmap.trimmed();
         let (rows, cols) = (i64::from(grid.rows), i64::from(grid.cols));
         let (width, height) = (to_i64(bitmap.width()), to_i64(bitmap.height()));
@@ -201,55 +225,71 @@ impl Text {
         let scrolling = cols_per_s != 0.0;
         let fit_height = if height > 0 { rows / height } else { 1 };
         let fit_width = if width > 0 { cols / width } else { 1 };
-        let scale = if scrolling {
+        let fits = if scrolling {
             fit_height
         } else {
             fit_height.min(fit_width)
+        };
+        let scale = if balls_per_pixel > 0 {
+            balls_per_pixel
+        } else {
+            fits
         }
         .max(1);
+        // The bitmap's top row (counted from the back) and left column on the tape.
         let top = (rows - height * scale).div_euclid(2);
         let (lead, period) = if scrolling {
-            (cols, Some(cols + width * scale))
+            // The matrix's width of flat, then the text.
+            (cols, cols + width * scale)
         } else {
-            ((cols - width * scale).div_euclid(2), None)
+            ((cols - width * scale).div_euclid(2), 0)
         };
+        // A ball's column plus the offset (< period) and the column after it.
+        let length = period + cols + 1;
+        let ink = |py: usize, x: i64| {
+            let x = if period > 0 { x % period } else { x };
+            let dx = x - lead;
+            dx >= 0 && usize::try_from(dx / scale).is_ok_and(|px| bitmap.ink(px, py))
+        };
+        // Rows 0..height are the bitmap's, row `height` is blank (`ink` is false there).
+        let tape = (0..=bitmap.height())
+            .flat_map(|py| (0..length).map(move |x| u8::from(ink(py, x))))
+            .collect();
+        let length = usize::try_from(length).unwrap_or(0);
+        let starts = cells(grid)
+            .into_iter()
+            .map(|(col, row)| {
+                // The bitmap's row under this row of balls, or the blank one.
+                let dy = row - top;
+                let py = if (0..height * scale).contains(&dy) {
+                    dy / scale
+                } else {
+                    height
+                };
+                usize::try_from(py)
+                    .ok()
+                    .zip(usize::try_from(col).ok())
+                    .map_or(usize::MAX, |(py, col)| py * length + col)
+            })
+            .collect();
         Self {
-            bitmap,
-            scale,
-            top,
-            lead,
-            period,
+            tape,
+            length,
+            period: period as f64,
             cols_per_s,
             base_mm,
             swing_mm,
-            cells: cells(grid),
+            starts,
         }
     }
 
-    /// 1 if the tape's column `x` in row `row` (from the back) is inked, else 0.
-    fn ink(&self, row: i64, x: i64) -> f64 {
-        let x = match self.period {
-            Some(period) => x.rem_euclid(period),
-            None => x,
-        };
-        let (dx, dy) = (x - self.lead, row - self.top);
-        if dx < 0 || dy < 0 {
-            return 0.0;
-        }
-        let (px, py) = (dx / self.scale, dy / self.scale);
-        let inked = usize::try_from(px)
-            .ok()
-            .zip(usize::try_from(py).ok())
-            .is_some_and(|(px, py)| self.bitmap.ink(px, py));
-        if inked { 1.0 } else { 0.0 }
-    }
-
-    /// How far the tape has moved at `t_s`, columns (within one period when scrolling).
+    /// How far the tape has moved at `t_s`, columns (within one period; 0 when static).
     fn offset(&self, t_s: f64) -> f64 {
         let moved = self.cols_per_s * t_s;
-        match self.period {
-            Some(period) if moved.is_finite() => moved.rem_euclid(period as f64),
-            _ => 0.0,
+        if self.period > 0.0 && moved.is_finite() {
+            moved.rem_euclid(self.period)
+        } else {
+            0.0
         }
     }
 }
@@ -257,15 +297,22 @@ impl Text {
 impl Field for Text {
     fn sample(&self, _grid: &Grid, t_s: f64, out_mm: &mut [f64]) {
         let offset = self.offset(t_s);
-        for (out, &(col, row)) in out_mm.iter_mut().zip(&self.cells) {
-            let x = col as f64 + offset;
-            let left = x.floor();
-            // `left` is a whole number within the tape's period (or a column): exact.
-            #[allow(clippy::cast_possible_truncation)]
-            let n = left as i64;
-            let from = self.ink(row, n);
-            let to = self.ink(row, n + 1);
-            let ink = from + (to - from) * smooth_step(x - left);
+        let whole = offset.floor();
+        let fraction = offset - whole;
+        let step = smooth_step(fraction);
+        // `whole` is a whole number in 0..=period: exact.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let shift = whole as usize;
+        for (out, &start) in out_mm.iter_mut().zip(&self.starts) {
+            let at = start.saturating_add(shift);
+            let from = self.tape.get(at).copied().unwrap_or(0);
+            let to = self.tape.get(at.saturating_add(1)).copied().unwrap_or(0);
+            let ink = match (from, to) {
+                (0, 0) => 0.0,
+                (1, 1) => 1.0,
+                (0, _) => step,
+                _ => 1.0 - step,
+            };
             *out = self.base_mm + self.swing_mm * ink;
         }
     }
@@ -416,6 +463,73 @@ mod tests {
     }
 
     #[test]
+    fn the_rendered_show_raises_the_letters_balls_while_the_word_stands() {
+        // "A" standing on 10 × 10 for 10 s: once the show has eased in (2 s), the row at
+        // every whole second has the glyph's balls at 2200 mm and the others at 3000.
+        let grid = Grid::new(10, 10, 500.0, 7500.0);
+        let params: Params = [
+            ("text".to_owned(), Value::Text("A".into())),
+            ("scroll_m_s".to_owned(), Value::Number(0.0)),
+        ]
+        .into_iter()
+        .collect();
+        let recipe = crate::create::Recipe::single("a", "text", params, 10.0);
+        let limits = crate::show::Limits::for_layout(10, 10);
+        let generated = crate::create::render(&recipe, &grid, &limits).unwrap();
+        assert!(generated.notes.is_empty(), "{:?}", generated.notes);
+        assert_eq!(crate::show::validate(&generated.show, &limits), []);
+        let want = expected('A', 0..7, 0..6, 1, 2, 1, 10, 10);
+        let row_ms = u64::from(recipe.row_ms);
+        for at_ms in [4000u64, 6000, 9000] {
+            let row = usize::try_from(at_ms / row_ms).unwrap() - 1;
+            let out_mm: Vec<f64> = generated
+                .show
+                .tracks
+                .iter()
+                .map(|track| {
+                    let mm = track.rows[row].position_mm;
+                    // Rounded to 0.1 mm as a show file holds it.
+                    if (mm - (BASE_MM - DEPTH_MM)).abs() <= 0.05 {
+                        BASE_MM - DEPTH_MM
+                    } else {
+                        assert!((mm - BASE_MM).abs() <= 0.05, "{mm}");
+                        BASE_MM
+                    }
+                })
+                .collect();
+            assert_eq!(
+                picture(&grid, &out_mm, BASE_MM - DEPTH_MM),
+                want,
+                "at {at_ms} ms"
+            );
+        }
+    }
+
+    #[test]
+    fn letters_take_the_size_asked_for() {
+        // 'A' at 2 balls a pixel on 20 × 20: 14 rows by 12 columns, centred; at 1 on the
+        // same grid the automatic size (2) is not used.
+        let grid = Grid::new(20, 20, 500.0, 7500.0);
+        for (size, want) in [
+            (2.0, expected('A', 0..7, 0..6, 2, 4, 3, 20, 20)),
+            (0.0, expected('A', 0..7, 0..6, 2, 4, 3, 20, 20)),
+            (1.0, expected('A', 0..7, 0..6, 1, 7, 6, 20, 20)),
+            (1.4, expected('A', 0..7, 0..6, 1, 7, 6, 20, 20)),
+        ] {
+            let text = field(
+                &grid,
+                &[
+                    ("text", Value::Text("A".into())),
+                    ("scroll_m_s", Value::Number(0.0)),
+                    ("balls_per_pixel", Value::Number(size)),
+                ],
+            );
+            let out_mm = sample(text.as_ref(), &grid, 0.0);
+            assert_eq!(picture(&grid, &out_mm, BASE_MM - DEPTH_MM), want, "{size}");
+        }
+    }
+
+    #[test]
     fn lowered_letters_hang_below_the_background() {
         let grid = Grid::new(10, 10, 500.0, 7500.0);
         let text = field(
@@ -552,6 +666,23 @@ mod tests {
     }
 
     #[test]
+    fn the_tape_holds_the_bitmap_rows_not_the_balls_rows() {
+        // A bitmap one pixel tall and 4095 wide on 200 rows scales by 200: the tape
+        // holds its one row (and a blank one), not 200.
+        let grid = Grid::new(200, 10, 500.0, 7500.0);
+        let bitmap = Bitmap::parse(&"#.".repeat(2047));
+        let text = Text::new(&grid, &bitmap, 0, 0.5, BASE_MM, -DEPTH_MM);
+        assert_eq!(text.length, 10 + 4094 * 200 + 10 + 1);
+        assert_eq!(text.tape.len(), 2 * text.length);
+        // After the flat width, every ball's column shows the first pixel: all inked.
+        let out_mm = sample(&text, &grid, 10.0); // 0.5 m/s at 500 mm: a column a second
+        assert!(
+            out_mm.iter().all(|&mm| mm == BASE_MM - DEPTH_MM),
+            "{out_mm:?}"
+        );
+    }
+
+    #[test]
     fn text_is_deterministic_and_never_fails() {
         let grid = Grid::new(3, 4, 500.0, 7500.0);
         let params = [
@@ -683,6 +814,36 @@ pub(crate) mod proptests {
                     prop_assert!(accel.abs() <= max_accel * 1.01 + 1e-6 * high.max(1.0), "{} > {}", accel, max_accel);
                 }
             }
+        }
+    }
+
+    /// The installation's limits for `grid`.
+    pub(crate) fn limits_for(grid: &Grid) -> crate::show::Limits {
+        let mut limits = crate::show::Limits::for_layout(grid.rows, grid.cols);
+        limits.travel_mm = grid.travel_mm;
+        limits
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(32))]
+
+        /// Any text, bitmap and parameters the page allows render into a show that
+        /// passes validation, the same show every time.
+        #[test]
+        fn any_text_renders_within_the_limits(
+            params in params(PARAMS),
+            grid in grid(),
+            duration_s in 1.0..12.0f64,
+            row_ms in proptest::sample::select(&[20u32, 100, 200, 255][..]),
+        ) {
+            let mut recipe = crate::create::Recipe::single("t", "text", params, duration_s);
+            recipe.row_ms = row_ms;
+            let limits = limits_for(&grid);
+            let once = crate::create::render(&recipe, &grid, &limits).unwrap();
+            prop_assert_eq!(crate::show::validate(&once.show, &limits), vec![]);
+            let twice = crate::create::render(&recipe, &grid, &limits).unwrap();
+            prop_assert_eq!(once.show.to_json().unwrap(), twice.show.to_json().unwrap());
+            prop_assert_eq!(once.notes, twice.notes);
         }
     }
 }
