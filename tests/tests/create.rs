@@ -164,7 +164,7 @@ async fn a_newcomer_makes_a_show_on_the_phone_and_plays_it_on_the_matrix() {
 
     // Within the installation's limits, and the line can carry it.
     browser
-        .wait_for_attribute("[data-testid=create-limits]", "data-ok", "true", UI_TIMEOUT)
+        .wait_for_text("[data-testid=preview-valid]", "本装置")
         .await;
     browser
         .wait_for_attribute(
@@ -281,9 +281,7 @@ async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
             count = generated_after(&browser, &count).await;
         }
         let _ = count;
-        browser
-            .wait_for_attribute("[data-testid=create-limits]", "data-ok", "true", UI_TIMEOUT)
-            .await;
+        browser.wait_for("[data-testid=preview-valid]").await;
         pause(&browser).await;
         set_value(&browser, "[data-testid=preview-slider]", "6000").await;
         picture(&browser).await;

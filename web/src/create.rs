@@ -10,10 +10,10 @@
 //! - [`Target`]: what the show is made for: the controller's installation while
 //!   connected (its grid, pitch, travel and limits), otherwise the offline grid with
 //!   the default limits.
-//! - [`Made`]: a generated show with what was changed to keep it within the limits,
-//!   the check against those limits, and the planner's bandwidth verdict when an
-//!   installation is known — all computed here in the browser, with the same code
-//!   as the controller.
+//! - [`Made`]: a generated show with what was changed to keep it within the limits
+//!   and the planner's bandwidth verdict when an installation is known — computed
+//!   here in the browser, with the same code as the controller. (The check against
+//!   the limits is the preview's, shown under the picture.)
 
 use floatball_shared::api::{InstallationInfo, PlanReport};
 use floatball_shared::create::recipe::{
@@ -25,7 +25,7 @@ use floatball_shared::create::{
 };
 use floatball_shared::plan::PlanOptions;
 use floatball_shared::plan::report::report;
-use floatball_shared::show::{DEFAULT_PITCH_MM, DEFAULT_TRAVEL_MM, Limits, Show, Violation};
+use floatball_shared::show::{DEFAULT_PITCH_MM, DEFAULT_TRAVEL_MM, Limits, Show};
 
 /// A new segment's length, s.
 pub const DEFAULT_SEGMENT_S: f64 = 20.0;
@@ -279,7 +279,6 @@ impl Draft {
     /// read), in the renderer's words.
     pub fn make(&self, target: &Target) -> Result<Made, CreateError> {
         let generated = create::render::render(&self.recipe(), &target.grid, &target.limits)?;
-        let violations = floatball_shared::show::validate(&generated.show, &target.limits);
         let verdict = target.installation.as_ref().map(|info| {
             report(
                 &generated.show,
@@ -290,7 +289,6 @@ impl Draft {
         Ok(Made {
             show: generated.show,
             notes: generated.notes,
-            violations,
             verdict,
         })
     }
@@ -339,8 +337,6 @@ pub struct Made {
     pub show: Show,
     /// What was changed to keep it within the limits, and which parameter to change.
     pub notes: Vec<Note>,
-    /// The check against the limits (empty: within them, as the renderer ensures).
-    pub violations: Vec<Violation>,
     /// The planner's verdict for the installation, when there is one.
     pub verdict: Option<PlanReport>,
 }
@@ -512,7 +508,8 @@ mod tests {
         let offline = Target::of(None, draft.grid());
         let made = draft.make(&offline).unwrap();
         assert_eq!((made.show.layout.rows, made.show.layout.cols), (4, 5));
-        assert!(made.violations.is_empty(), "{:?}", made.violations);
+        let violations = floatball_shared::show::validate(&made.show, &offline.limits);
+        assert!(violations.is_empty(), "{violations:?}");
         assert!(made.verdict.is_none());
 
         let installation = floatball_shared::plan::Installation::demo(3, 4, &[115_200]).unwrap();

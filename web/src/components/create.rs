@@ -1,6 +1,6 @@
 //! The Create page: a show made from patterns on a timeline, previewed in 3D while
-//! its parameters change, checked against the installation (or the default limits
-//! offline) and the line's bandwidth, and saved to the local files, to the
+//! its parameters change (the preview checks it against the installation, or the
+//! default limits offline), checked against the line's bandwidth, and saved to the local files, to the
 //! controller or as a recipe.
 //!
 //! The draft lives in [`Ctx::create`] ([`crate::create::Draft`]), so it survives a
@@ -42,8 +42,6 @@ struct Message {
 struct Outcome {
     /// What was changed to keep within the limits, in words.
     notes: Vec<String>,
-    /// Limits broken (the renderer keeps within them: a bug if ever shown).
-    violations: Vec<String>,
     /// The planner's verdict: feasible, and why not.
     verdict: Option<(bool, Option<String>, Vec<String>)>,
     /// Why nothing could be made.
@@ -88,12 +86,10 @@ pub fn CreatePage() -> impl IntoView {
                 let Made {
                     show: made_show,
                     notes,
-                    violations,
                     verdict,
                 } = made;
                 outcome.set(Outcome {
                     notes: notes.iter().map(|note| words::note(lang, note)).collect(),
-                    violations: violations.iter().map(ToString::to_string).collect(),
                     verdict: verdict.map(|report| {
                         (
                             report.feasible,
@@ -620,23 +616,6 @@ fn Checks(outcome: RwSignal<Outcome>, target: Memo<Target>) -> impl IntoView {
                             </div>
                         }
                     })
-            }}
-            {move || {
-                let (error, violations) = outcome.with(|o| (o.error.is_some(), o.violations.clone()));
-                if error {
-                    None
-                } else if violations.is_empty() {
-                    {
-                    let text = if online() { Text::WithinInstallationLimits } else { Text::WithinLimits };
-                    Some(view! { <p class="ok" data-testid="create-limits" data-ok="true">{ctx.t(text)}</p> }.into_any())
-                }
-                } else {
-                    Some(view! {
-                        <ul class="problems" data-testid="create-limits" data-ok="false">
-                            {violations.into_iter().map(|v| view! { <li>{v}</li> }).collect_view()}
-                        </ul>
-                    }.into_any())
-                }
             }}
             {move || {
                 outcome

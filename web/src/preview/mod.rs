@@ -114,13 +114,31 @@ pub fn PreviewPage(
 ) -> impl IntoView {
     let clock = RwSignal::new(Clock::new(now_ms()));
     let view_choice = RwSignal::new(ViewChoice::default());
-    let checked = Memo::new(move |_| {
-        installation.with(|installation| {
-            show.with(|show| {
-                show.as_ref()
-                    .map(|show| Checked::of(show, installation.as_ref()))
-            })
-        })
+    // The check of a new show follows its first frame (two animation frames later):
+    // a large show is on screen at once, and its balls beyond a limit turn red and
+    // its problems are listed a moment after. The latest request wins.
+    let checked = RwSignal::new(None::<Checked>);
+    let check_due = StoredValue::new(0u32);
+    Effect::new(move |_| {
+        show.track();
+        installation.track();
+        checked.set(None);
+        let due = check_due.get_value().wrapping_add(1);
+        check_due.set_value(due);
+        request_animation_frame(move || {
+            request_animation_frame(move || {
+                if check_due.get_value() != due {
+                    return;
+                }
+                let result = installation.with_untracked(|installation| {
+                    show.with_untracked(|show| {
+                        show.as_ref()
+                            .map(|show| Checked::of(show, installation.as_ref()))
+                    })
+                });
+                checked.set(result);
+            });
+        });
     });
     let matrix = Memo::new(move |_| {
         installation.with(|installation| {
@@ -154,10 +172,11 @@ pub fn PreviewPage(
     Effect::new(move |_| {
         let kind = renderer.get();
         let canvas = parts.canvas.get();
-        let beyond = checked.with(|checked| checked.as_ref().map(|c| c.beyond.clone()));
         let matrix = matrix.get();
+        // The balls beyond a limit are marked once the check is done (below).
+        let beyond = Vec::new();
         show.with(|show| {
-            let (Some(canvas), Some(show), Some(beyond)) = (canvas, show, beyond) else {
+            let (Some(canvas), Some(show)) = (canvas, show) else {
                 stage.set_value(None);
                 return;
             };
@@ -194,6 +213,13 @@ pub fn PreviewPage(
     Effect::new(move |_| {
         let unit = selected.get();
         with_stage(stage, |stage| stage.select(unit));
+    });
+
+    Effect::new(move |_| {
+        let beyond = checked.with(|checked| checked.as_ref().map(|c| c.beyond.clone()));
+        if let Some(beyond) = beyond {
+            with_stage(stage, |stage| stage.set_beyond(beyond));
+        }
     });
 
     // Live mode: the bridge's reports feed the clock.
@@ -424,8 +450,12 @@ pub fn PreviewPage(
 
 /// The show's problems against the limits, or that it is within them.
 fn problems_view(checked: Option<&Checked>, lang: Signal<Lang>) -> AnyView {
-    let violations = checked.map_or(&[][..], |c| &c.violations[..]);
-    let installed = checked.is_some_and(|c| c.installed);
+    // Nothing while the check is still to come.
+    let Some(checked) = checked else {
+        return ().into_any();
+    };
+    let violations = &checked.violations[..];
+    let installed = checked.installed;
     let count = violations.len();
     if count == 0 {
         let within = if installed {

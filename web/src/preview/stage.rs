@@ -150,9 +150,12 @@ impl Stage {
         Ok(stage)
     }
 
-    /// Shows another show on the same canvas; the view is framed anew.
+    /// Shows another show on the same canvas. The view is framed anew for another
+    /// layout; on the same one (a show regenerated while its parameters change) a
+    /// view the user moved stays.
     pub fn set_show(&mut self, show: &Show, beyond: Vec<usize>) -> Result<(), String> {
         let units = show.tracks.len();
+        let same_layout = self.layout == show.layout && self.positions_mm.len() == units;
         self.layout = show.layout;
         self.scene = scene_of(show.layout, self.matrix);
         self.sampler = Sampler::new(show);
@@ -161,13 +164,22 @@ impl Stage {
         self.balls = vec![0.0; units * 2];
         self.beyond = beyond;
         self.selected = None;
-        self.camera_moved = false;
-        self.fit_camera();
+        if !(same_layout && self.camera_moved) {
+            self.camera_moved = false;
+            self.fit_camera();
+        }
         self.drawn_ms = None;
         if let Renderer::Gl(gl) = &mut self.renderer {
             gl.set_scene(&self.scene, units)?;
         }
         Ok(())
+    }
+
+    /// Marks the balls of `beyond` as breaking a limit (drawn red), from the next
+    /// frame.
+    pub fn set_beyond(&mut self, beyond: Vec<usize>) {
+        self.beyond = beyond;
+        self.drawn_ms = None;
     }
 
     /// Draws on the installation `matrix` (its travel and pitch), or on the defaults
