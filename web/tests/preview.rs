@@ -465,10 +465,16 @@ async fn a_ball_too_big_for_a_sprite_is_still_drawn_lit() {
 async fn a_ball_beyond_a_limit_is_red_and_a_tap_plots_it_with_the_violation() {
     let show = speeding_show();
     let (container, _mounted, canvas) = mount_paused(show.clone(), 0.0).await;
-    assert_eq!(all(&container, "preview-problems").len(), 1);
+    // The check follows the show's first frame.
+    until("the check", || all(&container, "preview-problems").len() == 1).await;
 
     let fine = default_view_of(&canvas, &show, 0, 0.0);
     let beyond = default_view_of(&canvas, &show, 1, 0.0);
+    until("ball 1 drawn red", || {
+        let [r, g, b] = gl_pixel(&canvas, beyond);
+        r > g + 60 && r > b + 60
+    })
+    .await;
     let [r, g, b] = gl_pixel(&canvas, fine);
     assert!(
         g > r + 60 && g > b + 60,
