@@ -399,6 +399,20 @@ fn bad_input_is_refused_in_words() {
     )
     .unwrap_err();
     assert!(error.to_string().contains("at least one row"), "{error}");
+    // More rows than a renderer holds: refused before any is made.
+    let grid = Grid::new(1000, 1000, 500.0, 7500.0);
+    let error = render(
+        &Recipe::single("x", "wave", Params::new(), 60.0),
+        &grid,
+        &limits_for(&grid),
+    )
+    .unwrap_err();
+    assert!(
+        error.to_string().starts_with(
+            "the show would have 310 rows for each of 1000000 balls, 310000000 in all"
+        ),
+        "{error}"
+    );
 }
 
 /// docs/create.md describes every pattern and every parameter with its range and

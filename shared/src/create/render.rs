@@ -65,6 +65,10 @@ pub struct Generated {
 /// into it.
 const MARGIN: f64 = 0.02;
 
+/// Most rows a show made here may have, all balls together: 50 million, 1.2 GB in
+/// memory (a 32 MiB upload, the default limit, holds about 1.5 million).
+pub const MAX_ROWS: u64 = 50_000_000;
+
 /// Step 2 probes the patterns every this many rows.
 const PROBE_ROWS: f64 = 8.0;
 
@@ -383,6 +387,28 @@ fn part_note(
     }
 }
 
+/// The rows of every ball of `recipe`'s show, and its easing time.
+fn rows_of(recipe: &Recipe) -> (usize, f64) {
+    let dt_s = f64::from(recipe.row_ms) / 1000.0;
+    let timeline_s = recipe.duration_s();
+    let ease_s = EASE_S.min(timeline_s);
+    let rows = (((timeline_s + ease_s) / dt_s - 1e-9).ceil() as usize).max(1);
+    (rows, ease_s)
+}
+
+/// Refuses a show of more than [`MAX_ROWS`] rows in all.
+fn rows_within(recipe: &Recipe, balls: usize) -> Result<(), CreateError> {
+    let (rows, _) = rows_of(recipe);
+    if rows as u64 * balls as u64 > MAX_ROWS {
+        return Err(CreateError::TooManyRows {
+            rows,
+            balls,
+            max: MAX_ROWS,
+        });
+    }
+    Ok(())
+}
+
 /// Renders `recipe` for `grid` within `limits`.
 ///
 /// # Errors
@@ -391,6 +417,9 @@ fn part_note(
 pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated, CreateError> {
     recipe.check()?;
     grid.check()?;
+    // At least as many rows as the recipe asks for (step 3 may add some): refused
+    // before anything is built.
+    rows_within(recipe, grid.unit_count())?;
     let spans = recipe.spans();
     let mut notes = Vec::new();
     let mut parts = Vec::with_capacity(recipe.segments.len());
@@ -579,10 +608,9 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
     for (part, span) in parts.iter_mut().zip(recipe.spans()) {
         part.span = span;
     }
-    let timeline_s = recipe.duration_s();
-    let ease_s = EASE_S.min(timeline_s);
-    let rows = (((timeline_s + ease_s) / dt_s - 1e-9).ceil() as usize).max(1);
+    let (rows, ease_s) = rows_of(recipe);
     let show_s = rows as f64 * dt_s;
+    rows_within(recipe, units)?;
 
     // 3 and 4: sample, measure, scale down the patterns too fast on their own, once.
     let zone_count = 2 * parts.len() - 1;
