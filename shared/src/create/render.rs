@@ -10,9 +10,8 @@
 //!    a margin of 2 %) or moves faster than the limits allow, its motion is scaled
 //!    about its middle and moved into the travel (a note naming its amplitude or its
 //!    height). A pattern faster than the rows can follow is caught here.
-//! 3. A transition too short for the distance between its two patterns is lengthened
-//!    (a note naming `transition_s`): blending a difference D over T s peaks at
-//!    1.875 D / T mm/s and 5.77 D / T² mm/s².
+//! 3. A transition too short for its two patterns is lengthened (a note naming
+//!    `transition_s`), so that blending them takes at most half of each limit.
 //! 4. The timeline ([`super::recipe`]) is sampled at every row time: positions; each
 //!    row's velocity is the central difference of its neighbours (Catmull–Rom), so the
 //!    rows are C1 Hermite curves through the samples. The show starts and ends at
@@ -521,24 +520,41 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
         (part.mid_mm, part.target_mm, part.scale) = (mid_mm, target_mm, scale);
     }
 
-    // 2b. Lengthen the transitions too short for the distance between their
-    // patterns: blending a difference D over T seconds with the smooth step peaks at
-    // 1.875 D / T mm/s and 5.77 D / T² mm/s² (leaving a fifth of each limit for the
-    // patterns' own motion).
+    // 2b. Lengthen the transitions too short for their patterns. Blending from a to b
+    // with the smooth step w over T seconds adds w′(b − a) to the speed and
+    // 2w′(b′ − a′) + w″(b − a) to the acceleration, at most 1.875 D / T and
+    // 3.75 V / T + 5.77 D / T² for a difference D and a difference of velocities V:
+    // T is chosen so these take at most half of each limit (the patterns' own motion
+    // takes the rest; what is left over is step 6's).
     let mut recipe = recipe.clone();
+    let mut a_velocity = vec![0.0; units];
     for index in 0..parts.len().saturating_sub(1) {
         let (a, b) = (&parts[index], &parts[index + 1]);
         let span = a.span;
-        let mut difference_mm = 0.0f64;
+        let (mut difference_mm, mut relative_mm_s) = (0.0f64, 0.0f64);
         for t_s in [span.end_s, (span.end_s + span.out_s) / 2.0, span.out_s] {
-            a.sample(grid, t_s, &mut before);
-            b.sample(grid, t_s, &mut after);
-            for (a, b) in before.iter().zip(&after) {
+            a.sample(grid, t_s - h_s, &mut before);
+            a.sample(grid, t_s + h_s, &mut after);
+            for ((v, b), a) in a_velocity.iter_mut().zip(&before).zip(&after) {
+                *v = (a - b) / (2.0 * h_s);
+            }
+            a.sample(grid, t_s, &mut now);
+            b.sample(grid, t_s, &mut before);
+            for (a, b) in now.iter().zip(&before) {
                 difference_mm = difference_mm.max((a - b).abs());
             }
+            b.sample(grid, t_s - h_s, &mut now);
+            b.sample(grid, t_s + h_s, &mut after);
+            for ((va, b0), b1) in a_velocity.iter().zip(&now).zip(&after) {
+                relative_mm_s = relative_mm_s.max(((b1 - b0) / (2.0 * h_s) - va).abs());
+            }
         }
-        let needed_s = (1.875 * difference_mm / (0.8 * speed_allowed))
-            .max((5.77 * difference_mm / (0.8 * accel_allowed)).sqrt());
+        let (speed_share, accel_share) = (0.5 * speed_allowed, 0.5 * accel_allowed);
+        let cross = 3.75 * relative_mm_s;
+        let needed_s = (1.875 * difference_mm / speed_share).max(
+            (cross + (cross * cross + 4.0 * accel_share * 5.77 * difference_mm).sqrt())
+                / (2.0 * accel_share),
+        );
         let asked_s = recipe.segments[index].transition_s;
         if needed_s > asked_s {
             let longer_s = ((needed_s * 10.0).ceil() / 10.0).min(MAX_TRANSITION_S);
@@ -551,7 +567,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
                 to: longer_s,
                 unit: "s".to_owned(),
                 reason: format!(
-                    "so balls moving {} mm from one pattern to the next stay within {} mm/s and {} mm/s²",
+                    "so balls moving up to {} mm from one pattern to the next stay within {} mm/s and {} mm/s²",
                     number(difference_mm),
                     number(limits.max_speed_mm_s),
                     number(limits.max_accel_mm_s2)
