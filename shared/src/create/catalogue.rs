@@ -68,6 +68,8 @@ pub const PATTERNS: &[PatternSpec] = &[
     super::plane::PATTERN,
     super::breathe::PATTERN,
     super::noise::PATTERN,
+    super::text::PATTERN,
+    super::picture::PATTERN,
 ];
 
 /// The pattern called `name`.

@@ -22,6 +22,9 @@
 //! - [`catalogue`]: [`PATTERNS`], every pattern's name, label, help, parameters and
 //!   builder; [`pattern()`] finds one by name;
 //! - [`wave`], [`ripple`], [`rain`], [`plane`], [`breathe`], [`noise`]: the patterns;
+//! - [`text`]: the text pattern — a word or a user's bitmap, raised or lowered, static
+//!   or scrolling smoothly; [`font`]: its built-in bitmap font and the [`font::Bitmap`];
+//! - [`picture`]: the image heightmap pattern — a PNG or JPEG picture as heights;
 //! - [`recipe`]: the recipe (JSON), its segments and the timeline with transitions and
 //!   easing from and to rest;
 //! - [`render`]: recipe + grid + limits → show + notes, within the limits by
@@ -37,6 +40,10 @@ pub mod recipe;
 pub mod render;
 pub mod ripple;
 pub mod wave;
+
+pub mod font;
+pub mod picture;
+pub mod text;
 
 use std::fmt;
 
