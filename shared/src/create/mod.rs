@@ -276,6 +276,20 @@ pub enum CreateError {
         /// The largest allowed, s.
         max_s: f64,
     },
+    /// A show with more rows in all than a renderer holds in memory.
+    #[error(
+        "the show would have {rows} rows for each of {balls} balls, {} in all; at most \
+         {max} are made: shorten it, use longer rows (row_ms) or fewer balls",
+        *rows as u64 * *balls as u64
+    )]
+    TooManyRows {
+        /// Rows per ball.
+        rows: usize,
+        /// Balls.
+        balls: usize,
+        /// The most rows in all.
+        max: u64,
+    },
     /// A grid without balls, or with a pitch or travel that is not positive.
     #[error(
         "the grid of {rows} × {cols} balls cannot hold a show; give at least one row and one \

@@ -10,9 +10,8 @@
 //!    a margin of 2 %) or moves faster than the limits allow, its motion is scaled
 //!    about its middle and moved into the travel (a note naming its amplitude or its
 //!    height). A pattern faster than the rows can follow is caught here.
-//! 3. A transition too short for the distance between its two patterns is lengthened
-//!    (a note naming `transition_s`): blending a difference D over T s peaks at
-//!    1.875 D / T mm/s and 5.77 D / T² mm/s².
+//! 3. A transition too short for its two patterns is lengthened (a note naming
+//!    `transition_s`), so that blending them takes at most half of each limit.
 //! 4. The timeline ([`super::recipe`]) is sampled at every row time: positions; each
 //!    row's velocity is the central difference of its neighbours (Catmull–Rom), so the
 //!    rows are C1 Hermite curves through the samples. The show starts and ends at
@@ -65,6 +64,10 @@ pub struct Generated {
 /// Fraction of the travel kept free at the top and the bottom when a pattern is fitted
 /// into it.
 const MARGIN: f64 = 0.02;
+
+/// Most rows a show made here may have, all balls together: 50 million, 1.2 GB in
+/// memory (a 32 MiB upload, the default limit, holds about 1.5 million).
+pub const MAX_ROWS: u64 = 50_000_000;
 
 /// Step 2 probes the patterns every this many rows.
 const PROBE_ROWS: f64 = 8.0;
@@ -384,6 +387,28 @@ fn part_note(
     }
 }
 
+/// The rows of every ball of `recipe`'s show, and its easing time.
+fn rows_of(recipe: &Recipe) -> (usize, f64) {
+    let dt_s = f64::from(recipe.row_ms) / 1000.0;
+    let timeline_s = recipe.duration_s();
+    let ease_s = EASE_S.min(timeline_s);
+    let rows = (((timeline_s + ease_s) / dt_s - 1e-9).ceil() as usize).max(1);
+    (rows, ease_s)
+}
+
+/// Refuses a show of more than [`MAX_ROWS`] rows in all.
+fn rows_within(recipe: &Recipe, balls: usize) -> Result<(), CreateError> {
+    let (rows, _) = rows_of(recipe);
+    if rows as u64 * balls as u64 > MAX_ROWS {
+        return Err(CreateError::TooManyRows {
+            rows,
+            balls,
+            max: MAX_ROWS,
+        });
+    }
+    Ok(())
+}
+
 /// Renders `recipe` for `grid` within `limits`.
 ///
 /// # Errors
@@ -392,6 +417,9 @@ fn part_note(
 pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated, CreateError> {
     recipe.check()?;
     grid.check()?;
+    // At least as many rows as the recipe asks for (step 3 may add some): refused
+    // before anything is built.
+    rows_within(recipe, grid.unit_count())?;
     let spans = recipe.spans();
     let mut notes = Vec::new();
     let mut parts = Vec::with_capacity(recipe.segments.len());
@@ -521,24 +549,41 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
         (part.mid_mm, part.target_mm, part.scale) = (mid_mm, target_mm, scale);
     }
 
-    // 2b. Lengthen the transitions too short for the distance between their
-    // patterns: blending a difference D over T seconds with the smooth step peaks at
-    // 1.875 D / T mm/s and 5.77 D / T² mm/s² (leaving a fifth of each limit for the
-    // patterns' own motion).
+    // 2b. Lengthen the transitions too short for their patterns. Blending from a to b
+    // with the smooth step w over T seconds adds w′(b − a) to the speed and
+    // 2w′(b′ − a′) + w″(b − a) to the acceleration, at most 1.875 D / T and
+    // 3.75 V / T + 5.77 D / T² for a difference D and a difference of velocities V:
+    // T is chosen so these take at most half of each limit (the patterns' own motion
+    // takes the rest; what is left over is step 6's).
     let mut recipe = recipe.clone();
+    let mut a_velocity = vec![0.0; units];
     for index in 0..parts.len().saturating_sub(1) {
         let (a, b) = (&parts[index], &parts[index + 1]);
         let span = a.span;
-        let mut difference_mm = 0.0f64;
+        let (mut difference_mm, mut relative_mm_s) = (0.0f64, 0.0f64);
         for t_s in [span.end_s, (span.end_s + span.out_s) / 2.0, span.out_s] {
-            a.sample(grid, t_s, &mut before);
-            b.sample(grid, t_s, &mut after);
-            for (a, b) in before.iter().zip(&after) {
+            a.sample(grid, t_s - h_s, &mut before);
+            a.sample(grid, t_s + h_s, &mut after);
+            for ((v, b), a) in a_velocity.iter_mut().zip(&before).zip(&after) {
+                *v = (a - b) / (2.0 * h_s);
+            }
+            a.sample(grid, t_s, &mut now);
+            b.sample(grid, t_s, &mut before);
+            for (a, b) in now.iter().zip(&before) {
                 difference_mm = difference_mm.max((a - b).abs());
             }
+            b.sample(grid, t_s - h_s, &mut now);
+            b.sample(grid, t_s + h_s, &mut after);
+            for ((va, b0), b1) in a_velocity.iter().zip(&now).zip(&after) {
+                relative_mm_s = relative_mm_s.max(((b1 - b0) / (2.0 * h_s) - va).abs());
+            }
         }
-        let needed_s = (1.875 * difference_mm / (0.8 * speed_allowed))
-            .max((5.77 * difference_mm / (0.8 * accel_allowed)).sqrt());
+        let (speed_share, accel_share) = (0.5 * speed_allowed, 0.5 * accel_allowed);
+        let cross = 3.75 * relative_mm_s;
+        let needed_s = (1.875 * difference_mm / speed_share).max(
+            (cross + (cross * cross + 4.0 * accel_share * 5.77 * difference_mm).sqrt())
+                / (2.0 * accel_share),
+        );
         let asked_s = recipe.segments[index].transition_s;
         if needed_s > asked_s {
             let longer_s = ((needed_s * 10.0).ceil() / 10.0).min(MAX_TRANSITION_S);
@@ -551,7 +596,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
                 to: longer_s,
                 unit: "s".to_owned(),
                 reason: format!(
-                    "so balls moving {} mm from one pattern to the next stay within {} mm/s and {} mm/s²",
+                    "so balls moving up to {} mm from one pattern to the next stay within {} mm/s and {} mm/s²",
                     number(difference_mm),
                     number(limits.max_speed_mm_s),
                     number(limits.max_accel_mm_s2)
@@ -563,10 +608,9 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
     for (part, span) in parts.iter_mut().zip(recipe.spans()) {
         part.span = span;
     }
-    let timeline_s = recipe.duration_s();
-    let ease_s = EASE_S.min(timeline_s);
-    let rows = (((timeline_s + ease_s) / dt_s - 1e-9).ceil() as usize).max(1);
+    let (rows, ease_s) = rows_of(recipe);
     let show_s = rows as f64 * dt_s;
+    rows_within(recipe, units)?;
 
     // 3 and 4: sample, measure, scale down the patterns too fast on their own, once.
     let zone_count = 2 * parts.len() - 1;
