@@ -34,6 +34,7 @@ const PATTERNS_ZH: &[(&str, &str, &str)] = &[
 const PARAMS_ZH: &[(&str, &str)] = &[
     ("amplitude_mm", "幅度"),
     ("angle_deg", "倾角"),
+    ("balls_per_pixel", "每点用球数"),
     ("base_mm", "底面高度"),
     ("bitmap", "自定义点阵"),
     ("centre_mm", "中间高度"),
@@ -226,6 +227,10 @@ pub fn error(lang: Lang, error: &CreateError) -> String {
             format!("{rows} × {cols} 的矩阵无法容纳节目；至少需要一行一列，间距和行程须为正数")
         }
         CreateError::Recipe { message } => format!("配方无效：{message}"),
+        CreateError::TooManyRows { rows, balls, max } => format!(
+            "节目每个球有 {rows} 行、共 {balls} 个球，合计 {} 行；最多 {max} 行：请缩短节目、加长每行时间（row_ms）或减少球数",
+            *rows as u64 * *balls as u64
+        ),
     }
 }
 
