@@ -115,9 +115,11 @@ async fn a_newcomer_makes_a_show_on_the_phone_and_plays_it_on_the_matrix() {
         .await;
     set_value(&browser, "[data-testid=create-name]", "lobby").await;
 
-    // A wave of 17 s; a slider moves and the picture changes with it.
+    // A wave of 15 s blending into the next over 4 s; a slider moves and the
+    // picture changes with it.
     let before = generation(&browser).await;
-    set_value(&browser, "[data-testid=segment-duration]", "17").await;
+    set_value(&browser, "[data-testid=segment-duration]", "15").await;
+    set_value(&browser, "[data-testid=segment-transition]", "4").await;
     let count = generated_after(&browser, &before).await;
     pause(&browser).await;
     let still = picture(&browser).await;
@@ -133,15 +135,16 @@ async fn a_newcomer_makes_a_show_on_the_phone_and_plays_it_on_the_matrix() {
             .starts_with("300"),
     );
 
-    // A word: HI, raised, for 17 s.
+    // A word: HI, raised, for 15 s, blending over 4 s.
     browser.click("[data-testid=segment-add]").await;
     set_value(&browser, "[data-testid=create-pattern]", "text").await;
     browser.wait_for("[data-testid=param-text]").await;
     set_value(&browser, "[data-testid=param-text]", "HI").await;
-    set_value(&browser, "[data-testid=segment-duration]", "17").await;
+    set_value(&browser, "[data-testid=segment-duration]", "15").await;
+    set_value(&browser, "[data-testid=segment-transition]", "4").await;
 
-    // A ripple for 20 s; the blends of 2 s between them, and the start from rest and
-    // the end at rest (2 s in all), make 60 s.
+    // A ripple for 20 s; with the blends between them, the start from rest and the
+    // end at rest (2 s in all), 60 s.
     browser.click("[data-testid=segment-add]").await;
     set_value(&browser, "[data-testid=create-pattern]", "ripple").await;
     browser.wait_for("[data-testid=param-wavelength_m]").await;
@@ -155,12 +158,21 @@ async fn a_newcomer_makes_a_show_on_the_phone_and_plays_it_on_the_matrix() {
         .await
         .expect("the timeline");
     assert_eq!(patterns, serde_json::json!(["wave", "text", "ripple"]));
-    browser
-        .wait_for_text("[data-testid=create-total]", "60")
-        .await;
-    browser
-        .wait_for_text("[data-testid=preview-facts]", "1:00.0")
-        .await;
+    let deadline = tokio::time::Instant::now() + UI_TIMEOUT;
+    while !browser
+        .text("[data-testid=preview-facts]")
+        .await
+        .contains("1:00.0")
+    {
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "not a 60 s show: {} ({})",
+            browser.text("[data-testid=preview-facts]").await,
+            browser.text("[data-testid=create-checks]").await
+        );
+        tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+    }
+    assert_eq!(browser.text("[data-testid=create-total]").await, "60.0 s");
 
     // Within the installation's limits, and the line can carry it.
     browser

@@ -137,7 +137,7 @@ pub fn CreatePage() -> impl IntoView {
                 />
             </div>
             <div class="create-controls">
-                <Timeline />
+                <Timeline show=show />
                 <SegmentEditor />
                 <Checks outcome=outcome target=target />
                 <Actions show=show outcome=outcome message=message />
@@ -168,9 +168,9 @@ pub fn CreatePage() -> impl IntoView {
     }
 }
 
-/// The show's name and the list of segments: pick, move, remove, add.
+/// The show's name, its length and the list of segments: pick, move, remove, add.
 #[component]
-fn Timeline() -> impl IntoView {
+fn Timeline(show: RwSignal<Option<Show>>) -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     let draft = ctx.create;
     let rows = move || {
@@ -253,7 +253,13 @@ fn Timeline() -> impl IntoView {
             {ctx.tr(Text::Timeline)}
             " "
             <span class="muted" data-testid="create-total">
-                {move || format!("{} s", format_number(draft.with(Draft::total_s), 0.5))}
+                {move || {
+                    // The show made (its blends may have been lengthened), else the plan.
+                    let total_s = show
+                        .with(|show| show.as_ref().map(|s| s.duration_ms() as f64 / 1000.0))
+                        .unwrap_or_else(|| draft.with(Draft::total_s));
+                    format!("{} s", format_number(total_s, 0.1))
+                }}
             </span>
         </h3>
         <ol class="segments" data-testid="segments">{rows}</ol>
