@@ -252,8 +252,8 @@ fn screens_dir() -> PathBuf {
     dir
 }
 
-/// Every pattern, offline on the default 10 × 10 matrix: a picture of each a few
-/// seconds in, for the documentation; each within the default limits.
+/// Every pattern, offline on a 16 × 24 matrix: a picture of each a few seconds in,
+/// for the documentation; each within the default limits.
 #[tokio::test]
 async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
     let bridge = Bridge::start().await;
@@ -264,6 +264,12 @@ async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
         .await
         .expect("open the Create page");
     browser.wait_for("[data-testid=preview-canvas]").await;
+    // Offline: a matrix of 16 × 24 balls, large enough for a word to read.
+    set_value(&browser, "[data-testid=create-rows]", "16").await;
+    set_value(&browser, "[data-testid=create-cols]", "24").await;
+    browser
+        .wait_for_text("[data-testid=preview-facts]", "384")
+        .await;
     let dir = screens_dir();
     let names = browser
         .client
@@ -292,16 +298,41 @@ async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
             browser.pick_file("[data-testid=param-image]", &png).await;
             count = generated_after(&browser, &count).await;
         }
+        if name == "text" {
+            // Standing still, so the picture shows the whole word.
+            set_value(&browser, "[data-testid=param-scroll_m_s]", "0").await;
+            count = generated_after(&browser, &count).await;
+        }
         let _ = count;
         browser.wait_for("[data-testid=preview-valid]").await;
         pause(&browser).await;
-        set_value(&browser, "[data-testid=preview-slider]", "6000").await;
-        picture(&browser).await;
-        let canvas = browser.wait_for("[data-testid=preview-canvas]").await;
-        let png = canvas.screenshot().await.expect("screenshot");
-        let path = dir.join(format!("create-{name}.png"));
-        std::fs::write(&path, png).expect("write the picture");
-        println!("{name}: {}", path.display());
+        // In 3D, then seen from above (the top view: higher balls larger and
+        // brighter), where a word or a picture reads best.
+        for (view, suffix) in [("3d", ""), ("top", "-top")] {
+            browser
+                .client
+                .execute(
+                    &format!("document.querySelector('[data-testid=preview-mode-{view}]').click();"),
+                    Vec::new(),
+                )
+                .await
+                .expect("choose the view");
+            set_value(&browser, "[data-testid=preview-slider]", "6000").await;
+            picture(&browser).await;
+            let canvas = browser.wait_for("[data-testid=preview-canvas]").await;
+            let png = canvas.screenshot().await.expect("screenshot");
+            let path = dir.join(format!("create-{name}{suffix}.png"));
+            std::fs::write(&path, png).expect("write the picture");
+            println!("{name}: {}", path.display());
+        }
+        browser
+            .client
+            .execute(
+                "document.querySelector('[data-testid=preview-mode-3d]').click();",
+                Vec::new(),
+            )
+            .await
+            .expect("back to 3D");
     }
     browser.client.close().await.expect("close the browser");
 }
