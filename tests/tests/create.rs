@@ -208,7 +208,10 @@ async fn a_newcomer_makes_a_show_on_the_phone_and_plays_it_on_the_matrix() {
         )
         .await
         .expect("the show's name");
-    assert_eq!(name, "lobby", "the draft is kept while other pages are open");
+    assert_eq!(
+        name, "lobby",
+        "the draft is kept while other pages are open"
+    );
     browser
         .wait_for_attribute(
             "[data-testid=create-verdict]",
@@ -312,7 +315,9 @@ async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
             browser
                 .client
                 .execute(
-                    &format!("document.querySelector('[data-testid=preview-mode-{view}]').click();"),
+                    &format!(
+                        "document.querySelector('[data-testid=preview-mode-{view}]').click();"
+                    ),
                     Vec::new(),
                 )
                 .await

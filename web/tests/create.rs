@@ -25,9 +25,7 @@ wasm_bindgen_test_configure!(run_in_browser);
 /// Waits for the next animation frame, so each change is its own frame.
 async fn next_frame() {
     let promise = js_sys::Promise::new(&mut |resolve, _| {
-        let _ = web_sys::window()
-            .unwrap()
-            .request_animation_frame(&resolve);
+        let _ = web_sys::window().unwrap().request_animation_frame(&resolve);
     });
     let _ = JsFuture::from(promise).await;
 }
@@ -81,12 +79,17 @@ async fn a_change_regenerates_and_redraws_10x10_and_100x100() {
         for change in 0..changes {
             next_frame().await;
             let started = now_ms();
-            draft.set_param("amplitude_mm", Value::Number(300.0 + 50.0 * f64::from(change)));
+            draft.set_param(
+                "amplitude_mm",
+                Value::Number(300.0 + 50.0 * f64::from(change)),
+            );
             let made = draft.make(&target).expect("a wave");
             let generated = now_ms();
             // As the preview does: the new show on the stage, drawn; then its check
             // against the limits (its balls beyond a limit turn red).
-            stage.set_show(&made.show, Vec::new()).expect("the new show");
+            stage
+                .set_show(&made.show, Vec::new())
+                .expect("the new show");
             stage.draw(6000.0, true);
             stage.finish();
             let drawn = now_ms();

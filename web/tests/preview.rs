@@ -466,7 +466,10 @@ async fn a_ball_beyond_a_limit_is_red_and_a_tap_plots_it_with_the_violation() {
     let show = speeding_show();
     let (container, _mounted, canvas) = mount_paused(show.clone(), 0.0).await;
     // The check follows the show's first frame.
-    until("the check", || all(&container, "preview-problems").len() == 1).await;
+    until("the check", || {
+        all(&container, "preview-problems").len() == 1
+    })
+    .await;
 
     let fine = default_view_of(&canvas, &show, 0, 0.0);
     let beyond = default_view_of(&canvas, &show, 1, 0.0);

@@ -353,6 +353,21 @@ pub fn encode_base64(bytes: &[u8]) -> String {
     text
 }
 
+/// Marks a byte that is not a base64 digit in [`BASE64_VALUE`].
+const NOT_BASE64: u8 = 0xff;
+
+/// Each byte's value as a base64 digit (a table: a picture of a few MB is decoded on
+/// every change of the Create page's sliders).
+const BASE64_VALUE: [u8; 256] = {
+    let mut table = [NOT_BASE64; 256];
+    let mut digit = 0;
+    while digit < BASE64.len() {
+        table[BASE64[digit] as usize] = digit as u8;
+        digit += 1;
+    }
+    table
+};
+
 /// Standard base64 (padding optional, ASCII whitespace ignored) as bytes; `None` if it
 /// is not base64.
 #[must_use]
@@ -370,8 +385,11 @@ pub fn decode_base64(text: &str) -> Option<Vec<u8>> {
         if padding > 0 {
             return None;
         }
-        let value = BASE64.iter().position(|&b| b == c)?;
-        acc = (acc << 6) | u32::try_from(value).ok()?;
+        let value = BASE64_VALUE[usize::from(c)];
+        if value == NOT_BASE64 {
+            return None;
+        }
+        acc = (acc << 6) | u32::from(value);
         bits += 6;
         if bits >= 8 {
             bits -= 8;
@@ -538,6 +556,11 @@ mod tests {
         assert_eq!(decode_base64("Z"), None);
         assert_eq!(decode_base64("Zm9*"), None);
         assert_eq!(decode_base64("Zm9vYg==="), None);
+        // Every byte value, through every digit; bytes above ASCII are not digits.
+        let all: Vec<u8> = (0..=255).collect();
+        assert_eq!(decode_base64(&encode_base64(&all)), Some(all));
+        assert_eq!(decode_base64("Zm9\u{e9}"), None);
+        assert_eq!(decode_base64("Zm9-"), None);
     }
 
     #[test]
