@@ -6,7 +6,7 @@
 //! and `static/` are used, and a missing build is reported with what to run.
 
 use std::net::SocketAddr;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::time::Duration;
 
@@ -185,6 +185,20 @@ async fn spawn_bridge(
     // Keep draining stdout so the bridge never blocks on a full pipe.
     tokio::spawn(async move { while let Ok(Some(_)) = lines.next_line().await {} });
     (child, addr)
+}
+
+/// Where screenshots go: `<target>/screens`, next to the test binary's profile
+/// directory (`<target>/debug/deps/<test>-…`); created if missing.
+pub fn screens_dir() -> PathBuf {
+    let exe = std::env::current_exe().expect("the test binary's path");
+    let target = exe
+        .ancestors()
+        .nth(3)
+        .map(Path::to_path_buf)
+        .unwrap_or_else(std::env::temp_dir);
+    let dir = target.join("screens");
+    std::fs::create_dir_all(&dir).expect("create the screenshot directory");
+    dir
 }
 
 /// A running ChromeDriver and a headless Chromium session; both end when dropped.

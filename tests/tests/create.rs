@@ -5,9 +5,7 @@
 //! A second test draws every pattern and saves its picture for `docs/create.md`
 //! (`<target>/screens/create-<pattern>.png`; the test prints where).
 
-use std::path::{Path, PathBuf};
-
-use floatball_e2e::{Bridge, Browser, UI_TIMEOUT};
+use floatball_e2e::{Bridge, Browser, UI_TIMEOUT, screens_dir};
 use serde_json::Value;
 
 /// Sets the form control matching `css` to `value` as a person would leave it: an
@@ -83,6 +81,18 @@ async fn generation(browser: &Browser) -> String {
         .ok()
         .flatten()
         .unwrap_or_default()
+}
+
+/// Waits for the planner's verdict on the Create page: the line can carry the show.
+async fn line_can_carry_it(browser: &Browser) {
+    browser
+        .wait_for_attribute(
+            "[data-testid=create-verdict]",
+            "data-verdict",
+            "feasible",
+            UI_TIMEOUT,
+        )
+        .await;
 }
 
 /// Pauses the preview so that its picture changes only when the show does.
@@ -178,14 +188,7 @@ async fn a_newcomer_makes_a_show_on_the_phone_and_plays_it_on_the_matrix() {
     browser
         .wait_for_text("[data-testid=preview-valid]", "本装置")
         .await;
-    browser
-        .wait_for_attribute(
-            "[data-testid=create-verdict]",
-            "data-verdict",
-            "feasible",
-            UI_TIMEOUT,
-        )
-        .await;
+    line_can_carry_it(&browser).await;
 
     // Kept in the local files.
     browser.click("[data-testid=create-save-local]").await;
@@ -212,14 +215,7 @@ async fn a_newcomer_makes_a_show_on_the_phone_and_plays_it_on_the_matrix() {
         name, "lobby",
         "the draft is kept while other pages are open"
     );
-    browser
-        .wait_for_attribute(
-            "[data-testid=create-verdict]",
-            "data-verdict",
-            "feasible",
-            UI_TIMEOUT,
-        )
-        .await;
+    line_can_carry_it(&browser).await;
     browser.click("[data-testid=create-upload]").await;
     browser
         .wait_for_text("[data-testid=create-message]", "lobby")
@@ -239,20 +235,6 @@ async fn a_newcomer_makes_a_show_on_the_phone_and_plays_it_on_the_matrix() {
     browser.queue_show("lobby").await;
     browser.play_then_estop("lobby").await;
     browser.client.close().await.expect("close the browser");
-}
-
-/// Where the pictures go: `<target>/screens`, next to the test binary's profile
-/// directory (`<target>/debug/deps/create-…`).
-fn screens_dir() -> PathBuf {
-    let exe = std::env::current_exe().expect("the test binary's path");
-    let target = exe
-        .ancestors()
-        .nth(3)
-        .map(Path::to_path_buf)
-        .unwrap_or_else(std::env::temp_dir);
-    let dir = target.join("screens");
-    std::fs::create_dir_all(&dir).expect("create the screenshot directory");
-    dir
 }
 
 /// Every pattern, offline on a 16 × 24 matrix: a picture of each a few seconds in,

@@ -13,9 +13,9 @@
 //!
 //! Every failure names the page, the size and the language.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use floatball_e2e::{Bridge, Browser, INDICATOR, UI_TIMEOUT, wave_csv};
+use floatball_e2e::{Bridge, Browser, INDICATOR, UI_TIMEOUT, screens_dir, wave_csv};
 use serde_json::Value;
 
 /// The phone's viewport, CSS pixels.
@@ -24,20 +24,6 @@ const PHONE: (u32, u32) = (390, 844);
 const TABLET: (u32, u32) = (1280, 800);
 /// The operator's password after the first login.
 const PASSWORD: &str = "screens-and-sizes";
-
-/// Where the screenshots go: `<target>/screens`, next to the test binary's profile
-/// directory (`<target>/debug/deps/screens-…`).
-fn screens_dir() -> PathBuf {
-    let exe = std::env::current_exe().expect("the test binary's path");
-    let target = exe
-        .ancestors()
-        .nth(3)
-        .map(Path::to_path_buf)
-        .unwrap_or_else(std::env::temp_dir);
-    let dir = target.join("screens");
-    std::fs::create_dir_all(&dir).expect("create the screenshot directory");
-    dir
-}
 
 /// Calls back once the fonts are loaded and two more frames are drawn.
 const SETTLED: &str = r"

@@ -11,10 +11,8 @@ use floatball_shared::create::Value;
 use floatball_shared::show::validate;
 use floatball_web::create::{Draft, Target};
 use floatball_web::preview::stage::{RendererKind, Stage, now_ms};
-use wasm_bindgen::JsCast;
 use wasm_bindgen_futures::JsFuture;
 use wasm_bindgen_test::*;
-use web_sys::HtmlCanvasElement;
 
 mod dom;
 
@@ -50,18 +48,7 @@ async fn a_change_regenerates_and_redraws_10x10_and_100x100() {
         (100, 100, 20.0, 5, 100.0),
         (100, 100, 58.0, 5, 100.0),
     ] {
-        let container = fresh_container();
-        let canvas: HtmlCanvasElement = web_sys::window()
-            .unwrap()
-            .document()
-            .unwrap()
-            .create_element("canvas")
-            .unwrap()
-            .unchecked_into();
-        canvas
-            .set_attribute("style", "width: 640px; height: 480px")
-            .unwrap();
-        container.append_child(&canvas).unwrap();
+        let canvas = fresh_canvas(640, 480);
 
         let mut draft = Draft::new();
         draft.set_grid(rows, cols);

@@ -246,15 +246,7 @@ async fn mount_paused(
 
 #[wasm_bindgen_test]
 async fn every_ball_lands_on_its_pixel_in_its_lit_colour() {
-    let container = fresh_container();
-    let canvas: HtmlCanvasElement = document()
-        .create_element("canvas")
-        .unwrap()
-        .unchecked_into();
-    canvas
-        .set_attribute("style", "width: 480px; height: 360px")
-        .unwrap();
-    container.append_child(&canvas).unwrap();
+    let canvas = fresh_canvas(480, 360);
     let show = coloured_show();
     let mut stage = Stage::new(canvas.clone(), &show, Vec::new(), RendererKind::WebGl2)
         .expect("WebGL2 in headless Chromium");
@@ -321,15 +313,7 @@ fn still_matrix(rows: u32, cols: u32, position_mm: f64) -> Show {
 /// Draws `show` on a 640 × 480 canvas with the default view; the stage, the canvas,
 /// its pixels and every how many rows and columns a cable is drawn.
 fn draw_matrix(show: &Show) -> (Stage, HtmlCanvasElement, Vec<u8>, usize) {
-    let container = fresh_container();
-    let canvas: HtmlCanvasElement = document()
-        .create_element("canvas")
-        .unwrap()
-        .unchecked_into();
-    canvas
-        .set_attribute("style", "width: 640px; height: 480px")
-        .unwrap();
-    container.append_child(&canvas).unwrap();
+    let canvas = fresh_canvas(640, 480);
     let mut stage = Stage::new(canvas.clone(), show, Vec::new(), RendererKind::WebGl2)
         .expect("WebGL2 in headless Chromium");
     assert!(stage.draw(500.0, true), "a frame");
@@ -417,15 +401,7 @@ async fn cables_hang_above_the_balls_in_sparse_and_dense_views() {
 /// lit as the model says, and its neighbours (sprites) keep theirs.
 #[wasm_bindgen_test]
 async fn a_ball_too_big_for_a_sprite_is_still_drawn_lit() {
-    let container = fresh_container();
-    let canvas: HtmlCanvasElement = document()
-        .create_element("canvas")
-        .unwrap()
-        .unchecked_into();
-    canvas
-        .set_attribute("style", "width: 480px; height: 360px")
-        .unwrap();
-    container.append_child(&canvas).unwrap();
+    let canvas = fresh_canvas(480, 360);
     // One ball at the middle of the scene's box, where the camera looks.
     let rgb = [200, 120, 60];
     let show = Show {

@@ -16,49 +16,25 @@ pub const PARAMS: &[ParamSpec] = &[
         key: "amplitude_mm",
         label: "Depth of breath",
         help: "How far the whole surface rises and falls from the middle.",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 3000.0,
-            step: 10.0,
-            default: 900.0,
-            unit: "mm",
-        },
+        kind: ParamKind::number(0.0, 3000.0, 10.0, 900.0, "mm"),
     },
     ParamSpec {
         key: "period_s",
         label: "Breath",
         help: "Seconds for one breath, in and out.",
-        kind: ParamKind::Number {
-            min: 1.0,
-            max: 120.0,
-            step: 0.5,
-            default: 8.0,
-            unit: "s",
-        },
+        kind: ParamKind::number(1.0, 120.0, 0.5, 8.0, "s"),
     },
     ParamSpec {
         key: "dome_mm",
         label: "Dome",
         help: "How much more the middle moves than the corners (negative: less).",
-        kind: ParamKind::Number {
-            min: -3000.0,
-            max: 3000.0,
-            step: 10.0,
-            default: 600.0,
-            unit: "mm",
-        },
+        kind: ParamKind::number(-3000.0, 3000.0, 10.0, 600.0, "mm"),
     },
     ParamSpec {
         key: "centre_mm",
         label: "Middle height",
         help: "The height the surface breathes around, below the top.",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 7500.0,
-            step: 10.0,
-            default: 3000.0,
-            unit: "mm",
-        },
+        kind: ParamKind::height_mm(3000.0),
     },
 ];
 

@@ -72,6 +72,26 @@ pub enum ParamKind {
 }
 
 impl ParamKind {
+    /// A number from `min` to `max` in steps of `step`, `default` when none is given,
+    /// in `unit` (the patterns' tables, one line each).
+    #[must_use]
+    pub const fn number(min: f64, max: f64, step: f64, default: f64, unit: &'static str) -> Self {
+        Self::Number {
+            min,
+            max,
+            step,
+            default,
+            unit,
+        }
+    }
+
+    /// A height below the top, mm: anywhere in a UFQ750's travel (0–7500 mm, the
+    /// installation's own travel limits it when rendered), in steps of 10 mm.
+    #[must_use]
+    pub const fn height_mm(default: f64) -> Self {
+        Self::number(0.0, crate::show::DEFAULT_TRAVEL_MM, 10.0, default, "mm")
+    }
+
     /// What a value must be, in words: "a number from 0 to 5 m/s", "one of: left,
     /// right", "text of at most 40 characters", "a file of at most 4194304 bytes".
     #[must_use]

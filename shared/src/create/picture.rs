@@ -79,37 +79,19 @@ pub const PARAMS: &[ParamSpec] = &[
         key: "high_mm",
         label: "Bright height",
         help: "Where the brightest parts hang, below the top.",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 7500.0,
-            step: 10.0,
-            default: 2000.0,
-            unit: "mm",
-        },
+        kind: ParamKind::height_mm(2000.0),
     },
     ParamSpec {
         key: "low_mm",
         label: "Dark height",
         help: "Where the darkest parts (and the background) hang, below the top.",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 7500.0,
-            step: 10.0,
-            default: 4000.0,
-            unit: "mm",
-        },
+        kind: ParamKind::height_mm(4000.0),
     },
     ParamSpec {
         key: "reveal_s",
         label: "Reveal",
         help: "Seconds the picture takes to rise out of a flat matrix (0: shown at once).",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 60.0,
-            step: 0.5,
-            default: 0.0,
-            unit: "s",
-        },
+        kind: ParamKind::number(0.0, 60.0, 0.5, 0.0, "s"),
     },
 ];
 

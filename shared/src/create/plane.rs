@@ -17,49 +17,25 @@ pub const PARAMS: &[ParamSpec] = &[
         key: "slope_mm_m",
         label: "Tilt",
         help: "How much lower the surface is one metre further along its tilt.",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 2000.0,
-            step: 10.0,
-            default: 400.0,
-            unit: "mm/m",
-        },
+        kind: ParamKind::number(0.0, 2000.0, 10.0, 400.0, "mm/m"),
     },
     ParamSpec {
         key: "turns_per_min",
         label: "Turning",
         help: "Turns of the tilt's direction per minute (negative: the other way; 0: still).",
-        kind: ParamKind::Number {
-            min: -20.0,
-            max: 20.0,
-            step: 0.1,
-            default: 3.0,
-            unit: "/min",
-        },
+        kind: ParamKind::number(-20.0, 20.0, 0.1, 3.0, "/min"),
     },
     ParamSpec {
         key: "angle_deg",
         label: "Start angle",
         help: "Direction the surface falls towards at the start: 0° right, 90° back.",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 360.0,
-            step: 1.0,
-            default: 0.0,
-            unit: "deg",
-        },
+        kind: ParamKind::number(0.0, 360.0, 1.0, 0.0, "deg"),
     },
     ParamSpec {
         key: "centre_mm",
         label: "Middle height",
         help: "The height at the matrix's centre, below the top.",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 7500.0,
-            step: 10.0,
-            default: 3000.0,
-            unit: "mm",
-        },
+        kind: ParamKind::height_mm(3000.0),
     },
 ];
 

@@ -87,50 +87,26 @@ pub const PARAMS: &[ParamSpec] = &[
         label: "Scroll speed",
         help: "How fast the text moves across the matrix: 0 stands still, positive scrolls \
                right to left, negative left to right.",
-        kind: ParamKind::Number {
-            min: -2.0,
-            max: 2.0,
-            step: 0.05,
-            default: 0.35,
-            unit: "m/s",
-        },
+        kind: ParamKind::number(-2.0, 2.0, 0.05, 0.35, "m/s"),
     },
     ParamSpec {
         key: "depth_mm",
         label: "Depth",
         help: "How far the letters stand out from the background.",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 3000.0,
-            step: 10.0,
-            default: 800.0,
-            unit: "mm",
-        },
+        kind: ParamKind::number(0.0, 3000.0, 10.0, 800.0, "mm"),
     },
     ParamSpec {
         key: "base_mm",
         label: "Background height",
         help: "Where the background balls hang, below the top.",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 7500.0,
-            step: 10.0,
-            default: 3000.0,
-            unit: "mm",
-        },
+        kind: ParamKind::height_mm(3000.0),
     },
     ParamSpec {
         key: "balls_per_pixel",
         label: "Letter size",
         help: "Balls per pixel of the letters, across and deep (0: as large as the matrix's \
                depth allows).",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 16.0,
-            step: 1.0,
-            default: 0.0,
-            unit: "",
-        },
+        kind: ParamKind::number(0.0, 16.0, 1.0, 0.0, ""),
     },
     ParamSpec {
         key: "bitmap",

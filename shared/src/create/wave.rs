@@ -29,49 +29,25 @@ pub const PARAMS: &[ParamSpec] = &[
         key: "wavelength_m",
         label: "Wavelength",
         help: "Distance from one crest to the next.",
-        kind: ParamKind::Number {
-            min: 0.5,
-            max: 50.0,
-            step: 0.1,
-            default: 4.0,
-            unit: "m",
-        },
+        kind: ParamKind::number(0.5, 50.0, 0.1, 4.0, "m"),
     },
     ParamSpec {
         key: "amplitude_mm",
         label: "Amplitude",
         help: "How far each ball moves above and below the middle.",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 3000.0,
-            step: 10.0,
-            default: 800.0,
-            unit: "mm",
-        },
+        kind: ParamKind::number(0.0, 3000.0, 10.0, 800.0, "mm"),
     },
     ParamSpec {
         key: "speed_m_s",
         label: "Speed",
         help: "How fast the crests travel across the matrix.",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 5.0,
-            step: 0.05,
-            default: 0.5,
-            unit: "m/s",
-        },
+        kind: ParamKind::number(0.0, 5.0, 0.05, 0.5, "m/s"),
     },
     ParamSpec {
         key: "centre_mm",
         label: "Middle height",
         help: "The middle of the swing, below the top.",
-        kind: ParamKind::Number {
-            min: 0.0,
-            max: 7500.0,
-            step: 10.0,
-            default: 3000.0,
-            unit: "mm",
-        },
+        kind: ParamKind::height_mm(3000.0),
     },
 ];
 

@@ -21,20 +21,13 @@ use leptos::task::spawn_local;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_futures::JsFuture;
 
-use crate::client::{Failure, OnProgress, UploadProgress};
-use crate::components::files::save_text;
+use crate::client::{OnProgress, UploadProgress};
+use crate::components::files::{Message, save_text, upload_show};
 use crate::context::Ctx;
 use crate::create::{Draft, Made, Target, format_number};
 use crate::files::LocalFile;
 use crate::i18n::{Text, create as words};
 use crate::preview::PreviewPage;
-
-/// What the page says after an action.
-#[derive(Debug, Clone, PartialEq)]
-struct Message {
-    error: bool,
-    text: String,
-}
 
 /// The generated show and what is said about it, kept apart so the show (large at
 /// 10,000 balls) is never copied.
@@ -146,9 +139,10 @@ pub fn CreatePage() -> impl IntoView {
                         .get()
                         .map(|message| {
                             view! {
-                                <p class="note" class:error=message.error data-testid="create-message">
-                                    {message.text}
-                                </p>
+                                <div class="note" class:error=message.error data-testid="create-message">
+                                    <p>{message.text}</p>
+                                    <ul>{message.details.into_iter().map(|d| view! { <li>{d}</li> }).collect_view()}</ul>
+                                </div>
                             }
                         })
                 }}
@@ -189,6 +183,25 @@ fn Timeline(show: RwSignal<Option<Show>>) -> impl IntoView {
                         format_number(segment.duration_s, 0.5),
                     );
                     let selected = index == now.selected();
+                    // A small button acting on this segment.
+                    let icon = move |test_id: &'static str,
+                                     text: Text,
+                                     symbol: &'static str,
+                                     disabled: bool,
+                                     act: fn(&mut Draft, usize) -> bool| {
+                        view! {
+                            <button
+                                class="icon"
+                                data-testid=test_id
+                                title=lang.t(text)
+                                aria-label=lang.t(text)
+                                disabled=disabled
+                                on:click=move |_| draft.update(|d| { act(d, index); })
+                            >
+                                {symbol}
+                            </button>
+                        }
+                    };
                     view! {
                         <li class="segment" class:selected=selected data-testid="segment" data-pattern=segment.pattern.clone()>
                             <button
@@ -199,36 +212,9 @@ fn Timeline(show: RwSignal<Option<Show>>) -> impl IntoView {
                             >
                                 {label}
                             </button>
-                            <button
-                                class="icon"
-                                data-testid="segment-up"
-                                title=lang.t(Text::MoveUp)
-                                aria-label=lang.t(Text::MoveUp)
-                                disabled=index == 0
-                                on:click=move |_| draft.update(|d| { d.move_segment(index, true); })
-                            >
-                                "↑"
-                            </button>
-                            <button
-                                class="icon"
-                                data-testid="segment-down"
-                                title=lang.t(Text::MoveDown)
-                                aria-label=lang.t(Text::MoveDown)
-                                disabled=index + 1 == count
-                                on:click=move |_| draft.update(|d| { d.move_segment(index, false); })
-                            >
-                                "↓"
-                            </button>
-                            <button
-                                class="icon"
-                                data-testid="segment-remove"
-                                title=lang.t(Text::Delete)
-                                aria-label=lang.t(Text::Delete)
-                                disabled=count == 1
-                                on:click=move |_| draft.update(|d| { d.remove(index); })
-                            >
-                                "✕"
-                            </button>
+                            {icon("segment-up", Text::MoveUp, "↑", index == 0, |d, i| d.move_segment(i, true))}
+                            {icon("segment-down", Text::MoveDown, "↓", index + 1 == count, |d, i| d.move_segment(i, false))}
+                            {icon("segment-remove", Text::Delete, "✕", count == 1, Draft::remove)}
                         </li>
                     }
                 })
@@ -680,12 +666,12 @@ fn Actions(
                     let text = format!("{}: {}", lang.t(Text::SavedToLocalFiles), file.name);
                     ctx.local_files.update(|list| list.upsert(file));
                     ctx.notify(text.clone());
-                    message.set(Some(Message { error: false, text }));
+                    message.set(Some(Message::done(text)));
                 }
-                Err(error) => message.set(Some(Message {
-                    error: true,
-                    text: format!("{}: {error}", lang.t(Text::StorageFailed)),
-                })),
+                Err(error) => message.set(Some(Message::error(format!(
+                    "{}: {error}",
+                    lang.t(Text::StorageFailed)
+                )))),
             }
         });
     };
@@ -699,32 +685,10 @@ fn Actions(
         let on_progress: OnProgress =
             Rc::new(move |p: UploadProgress| progress.set(Some(p.fraction())));
         spawn_local(async move {
-            let lang = ctx.lang.get_untracked();
-            let result = client
-                .upload(&name, ShowFormat::Json, text, on_progress)
-                .await;
+            let outcome =
+                upload_show(ctx, &client, &name, ShowFormat::Json, text, on_progress).await;
             progress.set(None);
-            message.set(Some(match result {
-                Ok(summary) => {
-                    let text = format!("{}: {}", lang.t(Text::Uploaded), summary.name);
-                    ctx.controller_files.update(|list| list.upsert(summary));
-                    ctx.notify(text.clone());
-                    Message { error: false, text }
-                }
-                Err(Failure::Rejected(error)) => Message {
-                    error: true,
-                    text: format!(
-                        "{} {} {}",
-                        lang.t(Text::UploadRefused),
-                        lang.api_error(&error),
-                        lang.problems(&error).join("; ")
-                    ),
-                },
-                Err(failure) => Message {
-                    error: true,
-                    text: ctx.failed(&failure),
-                },
-            }));
+            message.set(Some(outcome));
         });
     };
     let download_recipe = move |_| {
@@ -733,10 +697,7 @@ fn Actions(
             .map_err(|error| error.to_string())
             .and_then(|text| save_text(&name, &text, "application/json"));
         if let Err(error) = result {
-            message.set(Some(Message {
-                error: true,
-                text: error,
-            }));
+            message.set(Some(Message::error(error)));
         }
     };
     let open_recipe = move |ev: leptos::ev::Event| {
@@ -763,14 +724,11 @@ fn Actions(
                     draft.set(new);
                     message.set(None);
                 }
-                Err(error) => message.set(Some(Message {
-                    error: true,
-                    text: format!(
-                        "{} {}",
-                        lang.t(Text::RecipeUnreadable),
-                        words::error(lang, &error)
-                    ),
-                })),
+                Err(error) => message.set(Some(Message::error(format!(
+                    "{} {}",
+                    lang.t(Text::RecipeUnreadable),
+                    words::error(lang, &error)
+                )))),
             }
         });
     };

@@ -11,7 +11,7 @@ use leptos::task::spawn_local;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_futures::JsFuture;
 
-use crate::client::{Failure, OnProgress, UploadProgress};
+use crate::client::{Client, Failure, OnProgress, UploadProgress};
 use crate::components::qprogram::{QProgramPanel, has_scl_drives};
 use crate::components::widgets::{
     ActionButton, ConfirmButton, EmptyItem, ProblemList, RowButton, TabButton,
@@ -28,16 +28,17 @@ enum Tab {
     Controller,
 }
 
-/// A message under the lists: what happened, and the problems the bridge listed.
+/// A message under the lists (and under the Create page's actions): what happened,
+/// and the problems the bridge listed.
 #[derive(Debug, Clone, PartialEq, Eq)]
-struct Message {
-    error: bool,
-    text: String,
-    details: Vec<String>,
+pub(crate) struct Message {
+    pub(crate) error: bool,
+    pub(crate) text: String,
+    pub(crate) details: Vec<String>,
 }
 
 impl Message {
-    fn done(text: impl Into<String>) -> Self {
+    pub(crate) fn done(text: impl Into<String>) -> Self {
         Self {
             error: false,
             text: text.into(),
@@ -45,7 +46,7 @@ impl Message {
         }
     }
 
-    fn error(text: impl Into<String>) -> Self {
+    pub(crate) fn error(text: impl Into<String>) -> Self {
         Self {
             error: true,
             text: text.into(),
@@ -150,25 +151,17 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
         let on_progress: OnProgress =
             Rc::new(move |p: UploadProgress| progress.set(Some(p.fraction())));
         spawn_local(async move {
-            let lang = ctx.lang.get_untracked();
-            let result = client
-                .upload(file.show_name(), file.kind, file.text.clone(), on_progress)
-                .await;
+            let outcome = upload_show(
+                ctx,
+                &client,
+                file.show_name(),
+                file.kind,
+                file.text.clone(),
+                on_progress,
+            )
+            .await;
             progress.set(None);
-            message.set(Some(match result {
-                Ok(summary) => {
-                    let text = format!("{}: {}", lang.t(Text::Uploaded), summary.name);
-                    ctx.controller_files.update(|list| list.upsert(summary));
-                    ctx.notify(text.clone());
-                    Message::done(text)
-                }
-                Err(Failure::Rejected(error)) => Message {
-                    error: true,
-                    text: format!("{} {}", lang.t(Text::UploadRefused), lang.api_error(&error)),
-                    details: lang.problems(&error),
-                },
-                Err(failure) => Message::error(ctx.failed(&failure)),
-            }));
+            message.set(Some(outcome));
         });
     });
     let preview = Callback::new(move |()| {
@@ -292,6 +285,34 @@ fn LocalTab(message: RwSignal<Option<Message>>) -> impl IntoView {
                     .into_any()
             }}
         </ul>
+    }
+}
+
+/// Sends a show's file to the controller as `name`. Once stored it joins the
+/// controller's list and a toast says so; the message to show either way (a refusal
+/// with every problem the bridge listed).
+pub(crate) async fn upload_show(
+    ctx: Ctx,
+    client: &Client,
+    name: &str,
+    kind: ShowFormat,
+    text: String,
+    on_progress: OnProgress,
+) -> Message {
+    let lang = ctx.lang.get_untracked();
+    match client.upload(name, kind, text, on_progress).await {
+        Ok(summary) => {
+            let text = format!("{}: {}", lang.t(Text::Uploaded), summary.name);
+            ctx.controller_files.update(|list| list.upsert(summary));
+            ctx.notify(text.clone());
+            Message::done(text)
+        }
+        Err(Failure::Rejected(error)) => Message {
+            error: true,
+            text: format!("{} {}", lang.t(Text::UploadRefused), lang.api_error(&error)),
+            details: lang.problems(&error),
+        },
+        Err(failure) => Message::error(ctx.failed(&failure)),
     }
 }
 

@@ -17,6 +17,19 @@ pub fn fresh_container() -> web_sys::HtmlElement {
     container.unchecked_into()
 }
 
+/// A canvas of `width` × `height` CSS pixels in a fresh container, for a stage.
+pub fn fresh_canvas(width: u32, height: u32) -> web_sys::HtmlCanvasElement {
+    let canvas: web_sys::HtmlCanvasElement = document()
+        .create_element("canvas")
+        .unwrap()
+        .unchecked_into();
+    canvas
+        .set_attribute("style", &format!("width: {width}px; height: {height}px"))
+        .unwrap();
+    fresh_container().append_child(&canvas).unwrap();
+    canvas
+}
+
 /// Every element in `container` with `data-testid=test_id`, in document order.
 pub fn all(container: &web_sys::HtmlElement, test_id: &str) -> Vec<web_sys::HtmlElement> {
     let list = container
