@@ -149,6 +149,8 @@ pub fn PreviewPage(
         })
     });
     let stage = StoredValue::new_local(None::<Stage>);
+    // Counts the stages built or given a show, so the check's marks follow.
+    let staged = RwSignal::new(0u32);
     let renderer = Memo::new(move |_| view_choice.with(ViewChoice::renderer));
     let selected = Memo::new(move |_| view_choice.with(ViewChoice::selected));
     let live = Memo::new(move |_| clock.with(|c| (c.live_on(), c.live_available())));
@@ -200,11 +202,15 @@ pub fn PreviewPage(
                     .flatten()
                     .unwrap_or(Ok(()))
             });
-            if let Err(why) = outcome {
-                stage.set_value(None);
-                if kind == RendererKind::WebGl2 {
-                    leptos::logging::warn!("3D preview unavailable: {why}");
-                    view_choice.update(|view| view.webgl_failed(why));
+            match outcome {
+                // The marks of the check, on this stage too (below).
+                Ok(()) => staged.update(|n| *n = n.wrapping_add(1)),
+                Err(why) => {
+                    stage.set_value(None);
+                    if kind == RendererKind::WebGl2 {
+                        leptos::logging::warn!("3D preview unavailable: {why}");
+                        view_choice.update(|view| view.webgl_failed(why));
+                    }
                 }
             }
         });
@@ -215,11 +221,18 @@ pub fn PreviewPage(
         with_stage(stage, |stage| stage.select(unit));
     });
 
+    // The balls beyond a limit, red on whatever stage draws the show: when the check
+    // arrives, and when the stage is built or given the show anew (another view, a
+    // resized canvas); none while the check of a new show is still to come.
     Effect::new(move |_| {
-        let beyond = checked.with(|checked| checked.as_ref().map(|c| c.beyond.clone()));
-        if let Some(beyond) = beyond {
-            with_stage(stage, |stage| stage.set_beyond(beyond));
-        }
+        staged.track();
+        let beyond = checked.with(|checked| {
+            checked
+                .as_ref()
+                .map(|c| c.beyond.clone())
+                .unwrap_or_default()
+        });
+        with_stage(stage, |stage| stage.set_beyond(beyond));
     });
 
     // Live mode: the bridge's reports feed the clock.
