@@ -275,6 +275,19 @@ impl InstallationInfo {
             .sum()
     }
 
+    /// The limits a show must keep on this installation (its travel, top speed and
+    /// acceleration, and its grid).
+    #[must_use]
+    pub fn limits(&self) -> crate::show::Limits {
+        crate::show::Limits {
+            travel_mm: self.travel_mm,
+            max_speed_mm_s: self.max_speed_mm_s,
+            max_accel_mm_s2: self.max_accel_mm_s2,
+            rows: self.rows,
+            cols: self.cols,
+        }
+    }
+
     /// The installation this describes, as the planner takes it: what the app needs
     /// to plan a show in the browser (the bandwidth verdict of a show it has just
     /// made) exactly as the bridge would. The inverse of the bridge's own
@@ -283,7 +296,6 @@ impl InstallationInfo {
     #[must_use]
     pub fn installation(&self) -> crate::plan::Installation {
         use crate::plan::{DriveKind, GatewaySpec, Installation, UnitAddress};
-        use crate::show::Limits;
         let units = self
             .gateways
             .iter()
@@ -308,13 +320,7 @@ impl InstallationInfo {
             })
             .collect();
         Installation {
-            limits: Limits {
-                travel_mm: self.travel_mm,
-                max_speed_mm_s: self.max_speed_mm_s,
-                max_accel_mm_s2: self.max_accel_mm_s2,
-                rows: self.rows,
-                cols: self.cols,
-            },
+            limits: self.limits(),
             pitch_mm: self.pitch_mm,
             counts_per_mm: self.counts_per_mm,
             gateways,

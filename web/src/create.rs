@@ -10,10 +10,10 @@
 //! - [`Target`]: what the show is made for: the controller's installation while
 //!   connected (its grid, pitch, travel and limits), otherwise the offline grid with
 //!   the default limits.
-//! - [`Made`]: a generated show with what was changed to keep it within the limits
-//!   and the planner's bandwidth verdict when an installation is known — computed
-//!   here in the browser, with the same code as the controller. (The check against
-//!   the limits is the preview's, shown under the picture.)
+//! - [`Made`]: a generated show with what was changed to keep it within the limits;
+//!   [`Target::verdict`], the planner's bandwidth verdict when an installation is
+//!   known — computed here in the browser, with the same code as the controller.
+//!   (The check against the limits is the preview's, shown under the picture.)
 
 use floatball_shared::api::{InstallationInfo, PlanReport};
 use floatball_shared::create::recipe::{
@@ -279,17 +279,9 @@ impl Draft {
     /// read), in the renderer's words.
     pub fn make(&self, target: &Target) -> Result<Made, CreateError> {
         let generated = create::render::render(&self.recipe(), &target.grid, &target.limits)?;
-        let verdict = target.installation.as_ref().map(|info| {
-            report(
-                &generated.show,
-                &info.installation(),
-                PlanOptions::default(),
-            )
-        });
         Ok(Made {
             show: generated.show,
             notes: generated.notes,
-            verdict,
         })
     }
 }
@@ -306,19 +298,24 @@ pub struct Target {
 }
 
 impl Target {
+    /// The planner's verdict on `show` for the installation (none offline): planned
+    /// in the browser exactly as the controller would. A whole plan, so the page
+    /// asks for it after the picture, not on every change.
+    pub fn verdict(&self, show: &Show) -> Option<PlanReport> {
+        self.installation
+            .as_ref()
+            .map(|info| report(show, &info.installation(), PlanOptions::default()))
+    }
+}
+
+impl Target {
     /// The controller's installation, or (offline) `rows` × `cols` at the default
     /// pitch, travel and limits.
     pub fn of(installation: Option<&InstallationInfo>, (rows, cols): (u32, u32)) -> Self {
         match installation {
             Some(info) => Self {
                 grid: Grid::new(info.rows, info.cols, info.pitch_mm, info.travel_mm),
-                limits: Limits {
-                    travel_mm: info.travel_mm,
-                    max_speed_mm_s: info.max_speed_mm_s,
-                    max_accel_mm_s2: info.max_accel_mm_s2,
-                    rows: info.rows,
-                    cols: info.cols,
-                },
+                limits: info.limits(),
                 installation: Some(info.clone()),
             },
             None => Self {
@@ -337,8 +334,6 @@ pub struct Made {
     pub show: Show,
     /// What was changed to keep it within the limits, and which parameter to change.
     pub notes: Vec<Note>,
-    /// The planner's verdict for the installation, when there is one.
-    pub verdict: Option<PlanReport>,
 }
 
 /// A new segment of `pattern` with its defaults.
@@ -510,7 +505,7 @@ mod tests {
         assert_eq!((made.show.layout.rows, made.show.layout.cols), (4, 5));
         let violations = floatball_shared::show::validate(&made.show, &offline.limits);
         assert!(violations.is_empty(), "{violations:?}");
-        assert!(made.verdict.is_none());
+        assert!(offline.verdict(&made.show).is_none());
 
         let installation = floatball_shared::plan::Installation::demo(3, 4, &[115_200]).unwrap();
         let info = InstallationInfo {
@@ -534,7 +529,7 @@ mod tests {
         assert_eq!(online.grid.rows, 3);
         let made = draft.make(&online).unwrap();
         assert_eq!((made.show.layout.rows, made.show.layout.cols), (3, 4));
-        let verdict = made.verdict.unwrap();
+        let verdict = online.verdict(&made.show).unwrap();
         assert!(verdict.feasible, "{verdict:?}");
     }
 }

@@ -18,13 +18,7 @@ use floatball_shared::show::Limits;
 /// The limits of `info`'s matrix: its grid, travel, top speed and acceleration.
 #[must_use]
 pub fn limits_of(info: &InstallationInfo) -> Limits {
-    Limits {
-        travel_mm: info.travel_mm,
-        max_speed_mm_s: info.max_speed_mm_s,
-        max_accel_mm_s2: info.max_accel_mm_s2,
-        rows: info.rows,
-        cols: info.cols,
-    }
+    info.limits()
 }
 
 /// Stations as ranges, in their order: `[1, 2, 3, 5]` → `1-3, 5`.

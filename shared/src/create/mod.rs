@@ -181,8 +181,10 @@ pub fn smooth_step(x: f64) -> f64 {
     x * x * x * (x * (x * 6.0 - 15.0) + 10.0)
 }
 
-/// `value` with at most 3 decimals and no trailing zeros.
-pub(crate) fn number(value: f64) -> String {
+/// `value` with at most 3 decimals and no trailing zeros, as notes and messages
+/// write it (the app's too).
+#[must_use]
+pub fn number(value: f64) -> String {
     let text = format!("{value:.3}");
     let text = text.trim_end_matches('0').trim_end_matches('.');
     if text == "-0" {

@@ -35,8 +35,6 @@ use crate::preview::PreviewPage;
 struct Outcome {
     /// What was changed to keep within the limits, in words.
     notes: Vec<String>,
-    /// The planner's verdict: feasible, and why not.
-    verdict: Option<(bool, Option<String>, Vec<String>)>,
     /// Why nothing could be made.
     error: Option<String>,
     /// How long the last generation took, ms.
@@ -44,6 +42,10 @@ struct Outcome {
     /// Generations so far (tests wait for the next one).
     count: u32,
 }
+
+/// The planner's verdict in words: whether the line can carry the show, why not,
+/// and what would make it run.
+type Verdict = (bool, Option<String>, Vec<String>);
 
 fn now_ms() -> f64 {
     window()
@@ -65,6 +67,35 @@ pub fn CreatePage() -> impl IntoView {
     let outcome = RwSignal::new(Outcome::default());
     let message = RwSignal::new(None::<Message>);
 
+    // The line's verdict plans the whole show: two frames after the picture, for the
+    // latest show only (a slider being dragged plans once it rests).
+    let verdict = RwSignal::new(None::<Verdict>);
+    let verdict_due = StoredValue::new(0u32);
+    let plan_after_the_picture = move || {
+        verdict.set(None);
+        let due = verdict_due.get_value().wrapping_add(1);
+        verdict_due.set_value(due);
+        request_animation_frame(move || {
+            request_animation_frame(move || {
+                if verdict_due.get_value() != due {
+                    return;
+                }
+                let lang = ctx.lang.get_untracked();
+                let report = show.with_untracked(|show| {
+                    show.as_ref()
+                        .and_then(|show| target.with_untracked(|t| t.verdict(show)))
+                });
+                verdict.set(report.map(|report| {
+                    (
+                        report.feasible,
+                        lang.plan_reason(&report),
+                        lang.plan_fixes(&report),
+                    )
+                }));
+            });
+        });
+    };
+
     // Generation: at most once an animation frame, from the latest draft.
     let scheduled = StoredValue::new(false);
     let generate = move || {
@@ -79,22 +110,15 @@ pub fn CreatePage() -> impl IntoView {
                 let Made {
                     show: made_show,
                     notes,
-                    verdict,
                 } = made;
                 outcome.set(Outcome {
                     notes: notes.iter().map(|note| words::note(lang, note)).collect(),
-                    verdict: verdict.map(|report| {
-                        (
-                            report.feasible,
-                            lang.plan_reason(&report),
-                            lang.plan_fixes(&report),
-                        )
-                    }),
                     error: None,
                     generated_ms,
                     count,
                 });
                 show.set(Some(made_show));
+                plan_after_the_picture();
             }
             Err(error) => {
                 outcome.set(Outcome {
@@ -104,6 +128,7 @@ pub fn CreatePage() -> impl IntoView {
                     ..Outcome::default()
                 });
                 show.set(None);
+                verdict.set(None);
             }
         }
     };
@@ -132,7 +157,7 @@ pub fn CreatePage() -> impl IntoView {
             <div class="create-controls">
                 <Timeline show=show />
                 <SegmentEditor />
-                <Checks outcome=outcome target=target />
+                <Checks outcome=outcome target=target verdict=verdict />
                 <Actions show=show outcome=outcome message=message />
                 {move || {
                     message
@@ -536,7 +561,11 @@ fn param_control(ctx: Ctx, pattern: &'static str, spec: &'static ParamSpec) -> A
 
 /// What the show is made for, what was changed, the limits and the line's verdict.
 #[component]
-fn Checks(outcome: RwSignal<Outcome>, target: Memo<Target>) -> impl IntoView {
+fn Checks(
+    outcome: RwSignal<Outcome>,
+    target: Memo<Target>,
+    verdict: RwSignal<Option<Verdict>>,
+) -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     let draft = ctx.create;
     let online = move || target.with(|t| t.installation.is_some());
@@ -610,8 +639,8 @@ fn Checks(outcome: RwSignal<Outcome>, target: Memo<Target>) -> impl IntoView {
                     })
             }}
             {move || {
-                outcome
-                    .with(|o| o.verdict.clone())
+                verdict
+                    .get()
                     .map(|(feasible, reason, fixes)| {
                         let key = if feasible { "feasible" } else { "infeasible" };
                         view! {

@@ -5,7 +5,7 @@
 //! why a show cannot be made. A test checks that every pattern, parameter and choice
 //! of the catalogue has its Chinese here.
 
-use floatball_shared::create::{CreateError, Note, ParamSpec};
+use floatball_shared::create::{CreateError, Note, ParamSpec, number};
 
 use super::Lang;
 
@@ -87,32 +87,28 @@ fn lookup<'a>(table: &'a [(&str, &str)], key: &str) -> Option<&'a str> {
     table.iter().find(|(k, _)| *k == key).map(|(_, zh)| *zh)
 }
 
+/// A pattern's name (`label`) or help for people: the catalogue's English, or its
+/// Chinese; the name itself for a pattern the catalogue does not know.
+fn pattern_words(lang: Lang, name: &str, label: bool) -> String {
+    let zh = PATTERNS_ZH.iter().find(|(n, _, _)| *n == name);
+    match (lang, zh, floatball_shared::create::pattern(name)) {
+        (Lang::Zh, Some((_, zh_label, zh_help)), _) => {
+            (*if label { zh_label } else { zh_help }).to_owned()
+        }
+        (_, _, Some(spec)) => (if label { spec.label } else { spec.help }).to_owned(),
+        _ if label => name.to_owned(),
+        _ => String::new(),
+    }
+}
+
 /// A pattern's name for people.
 pub fn pattern(lang: Lang, name: &str) -> String {
-    let spec = floatball_shared::create::pattern(name);
-    match lang {
-        Lang::Zh => PATTERNS_ZH
-            .iter()
-            .find(|(n, _, _)| *n == name)
-            .map(|(_, zh, _)| (*zh).to_owned()),
-        Lang::En => None,
-    }
-    .or_else(|| spec.map(|spec| spec.label.to_owned()))
-    .unwrap_or_else(|| name.to_owned())
+    pattern_words(lang, name, true)
 }
 
 /// What a pattern does, in one sentence.
 pub fn pattern_help(lang: Lang, name: &str) -> String {
-    let spec = floatball_shared::create::pattern(name);
-    match lang {
-        Lang::Zh => PATTERNS_ZH
-            .iter()
-            .find(|(n, _, _)| *n == name)
-            .map(|(_, _, zh)| (*zh).to_owned()),
-        Lang::En => None,
-    }
-    .or_else(|| spec.map(|spec| spec.help.to_owned()))
-    .unwrap_or_default()
+    pattern_words(lang, name, false)
 }
 
 /// A parameter's label.
@@ -149,12 +145,6 @@ fn key_label(lang: Lang, pattern: &str, key: &str) -> String {
                 |spec| param(lang, pattern, spec),
             ),
     }
-}
-
-/// A number as a note writes it: at most two decimals, none when whole.
-fn number(value: f64) -> String {
-    let text = format!("{value:.2}");
-    text.trim_end_matches('0').trim_end_matches('.').to_owned()
 }
 
 /// What was changed to keep within the limits, and which parameter to change.
