@@ -219,98 +219,195 @@ struct Measure {
     max_mm: f64,
 }
 
-/// Sets every row's velocity to the central difference of its neighbours' positions
-/// (Catmull–Rom; the last row ends at rest) and measures the exact peak speed and
-/// acceleration of each row (the units' Hermite cubic, in closed form: its acceleration is linear, so its speed peaks at an end or where the
-/// acceleration crosses 0) per zone, and the lowest and highest point reached where it
-/// may come within `edge_mm` of 0 or `travel_mm` (elsewhere the rows' ends: only
-/// points beyond the edges matter).
-fn measure(
-    tracks: &mut [Track],
-    zones: &[usize],
-    zone_count: usize,
-    dt_s: f64,
-    (edge_mm, travel_mm): (f64, f64),
-) -> Measure {
-    let mut measured = Measure {
-        zones: vec![Peaks::default(); zone_count],
-        min_mm: f64::INFINITY,
-        max_mm: f64::NEG_INFINITY,
-    };
-    let per_s = 1.0 / dt_s;
-    let half_per_s = 0.5 / dt_s;
-    for track in tracks {
-        let (mut p0, mut v0) = (track.start_mm, 0.0f64);
-        let count = track.rows.len();
-        for (index, zone) in (0..count).zip(zones) {
-            let p1 = track.rows[index].position_mm;
-            let v1 = match track.rows.get(index + 1) {
-                Some(next) => (next.position_mm - p0) * half_per_s,
-                None => 0.0,
-            };
-            track.rows[index].velocity_mm_s = v1;
-            let slope = 6.0 * (p1 - p0) * per_s;
-            let a0 = (slope - 4.0 * v0 - 2.0 * v1) * per_s;
-            let a1 = (-slope + 2.0 * v0 + 4.0 * v1) * per_s;
-            let mut speed = v0.abs().max(v1.abs());
-            if (a0 > 0.0) != (a1 > 0.0) && a0 != a1 {
-                let s = a0 / (a0 - a1);
-                speed = speed.max((v0 + dt_s * (a0 * s + (a1 - a0) * s * s / 2.0)).abs());
-            }
-            if let Some(peaks) = measured.zones.get_mut(*zone) {
-                peaks.speed_mm_s = peaks.speed_mm_s.max(speed);
-                peaks.accel_mm_s2 = peaks.accel_mm_s2.max(a0.abs().max(a1.abs()));
-            }
-            // Between its ends a cubic strays at most 4/27 · T · (|v0| + |v1|) beyond
-            // them.
-            let stray_mm = 4.0 / 27.0 * dt_s * (v0.abs() + v1.abs());
-            let (low, high) = (p0.min(p1), p0.max(p1));
-            let (low, high) = if low - stray_mm < edge_mm || high + stray_mm > travel_mm - edge_mm {
-                let range = Cubic::new(p0, v0, p1, v1, dt_s).position_range();
-                (range.min.value, range.max.value)
-            } else {
-                (low, high)
-            };
-            measured.min_mm = measured.min_mm.min(low);
-            measured.max_mm = measured.max_mm.max(high);
-            (p0, v0) = (p1, v1);
-        }
-    }
-    measured
+/// Every ball's position at every row time, time-major: the position of ball `u` at
+/// the end of row `r` (row 0: the start) is `positions_mm[r * units + u]`. Sampling,
+/// measuring and writing the tracks then each run straight through memory.
+struct Samples {
+    units: usize,
+    rows: usize,
+    positions_mm: Vec<f64>,
 }
 
-/// Row times sampled together before their positions are copied into the tracks: each
-/// track then gets this many rows in a row, not one row at a time across all tracks.
-const BLOCK_ROWS: usize = 32;
-
-/// Samples the timeline's positions into `tracks` (every row at rest: the velocities
-/// come with [`measure`]).
-fn sample_rows(timeline: &mut Timeline<'_>, tracks: &mut [Track], rows: usize, row_ms: u32) {
-    let units = tracks.len();
-    let dt_s = f64::from(row_ms) / 1000.0;
-    let mut block = vec![0.0; BLOCK_ROWS * units];
-    timeline.position(0.0, &mut block[..units]);
-    for (track, start) in tracks.iter_mut().zip(&block) {
-        track.start_mm = *start;
-        track.rows.clear();
+impl Samples {
+    fn new(units: usize, rows: usize) -> Self {
+        Self {
+            units,
+            rows,
+            positions_mm: vec![0.0; (rows + 1) * units],
+        }
     }
-    let mut first = 1;
-    while first <= rows {
-        let count = BLOCK_ROWS.min(rows + 1 - first);
-        for (k, positions) in block.chunks_exact_mut(units).take(count).enumerate() {
-            timeline.position((first + k) as f64 * dt_s, positions);
+
+    /// Every ball's position at the end of row `row` (0: the start).
+    fn at(&self, row: usize) -> &[f64] {
+        &self.positions_mm[row * self.units..(row + 1) * self.units]
+    }
+
+    /// Every ball's velocity at the end of row `row` (1..=rows) into `out_mm_s`: the
+    /// central difference of its neighbours' positions (Catmull–Rom); the last row
+    /// ends at rest.
+    fn velocities(&self, row: usize, half_per_s: f64, out_mm_s: &mut [f64]) {
+        if row >= self.rows {
+            out_mm_s.fill(0.0);
+            return;
         }
-        for (unit, track) in tracks.iter_mut().enumerate() {
-            track.rows.extend(
-                block
-                    .iter()
-                    .skip(unit)
-                    .step_by(units)
-                    .take(count)
-                    .map(|&position| TrackRow::new(position, 0.0, row_ms)),
-            );
+        for ((out, before), after) in out_mm_s
+            .iter_mut()
+            .zip(self.at(row - 1))
+            .zip(self.at(row + 1))
+        {
+            *out = (after - before) * half_per_s;
         }
-        first += count;
+    }
+
+    /// Samples the timeline's positions at every row time.
+    fn sample(&mut self, timeline: &mut Timeline<'_>, dt_s: f64) {
+        for (row, positions) in self.positions_mm.chunks_exact_mut(self.units).enumerate() {
+            timeline.position(row as f64 * dt_s, positions);
+        }
+    }
+
+    /// Measures the exact peak speed and acceleration of every row (the units' Hermite
+    /// cubic through the positions with [`Samples::velocities`], in closed form: its
+    /// acceleration is linear, so its speed peaks at an end or where the acceleration
+    /// crosses 0) per zone (`zones[r - 1]` for row `r`), and the lowest and highest
+    /// point reached where it may come within `edge_mm` of 0 or `travel_mm`
+    /// (elsewhere the rows' ends: only points beyond the edges matter).
+    fn measure(
+        &self,
+        zones: &[usize],
+        zone_count: usize,
+        dt_s: f64,
+        (edge_mm, travel_mm): (f64, f64),
+    ) -> Measure {
+        let mut measured = Measure {
+            zones: vec![Peaks::default(); zone_count],
+            min_mm: f64::INFINITY,
+            max_mm: f64::NEG_INFINITY,
+        };
+        let per_s = 1.0 / dt_s;
+        let half_per_s = 0.5 / dt_s;
+        // Between its ends a cubic strays at most 4/27 · T · (|v0| + |v1|) beyond them.
+        let stray_per_mm_s = 4.0 / 27.0 * dt_s;
+        let top_mm = travel_mm - edge_mm;
+        let mut v0_mm_s = vec![0.0; self.units];
+        let mut v1_mm_s = vec![0.0; self.units];
+        for (row, zone) in (1..=self.rows).zip(zones) {
+            self.velocities(row, half_per_s, &mut v1_mm_s);
+            let (mut speed_mm_s, mut accel_mm_s2) = (0.0f64, 0.0f64);
+            let (mut min_mm, mut max_mm) = (f64::INFINITY, f64::NEG_INFINITY);
+            for (((&p0, &p1), &v0), &v1) in self
+                .at(row - 1)
+                .iter()
+                .zip(self.at(row))
+                .zip(&v0_mm_s)
+                .zip(&v1_mm_s)
+            {
+                // Plain comparisons, not `f64::max`: no NaN handling in the hottest loop
+                // (positions are finite).
+                let slope = 6.0 * (p1 - p0) * per_s;
+                let a0 = (slope - 4.0 * v0 - 2.0 * v1) * per_s;
+                let a1 = (-slope + 2.0 * v0 + 4.0 * v1) * per_s;
+                let (v0_abs, v1_abs) = (v0.abs(), v1.abs());
+                let mut speed = if v0_abs > v1_abs { v0_abs } else { v1_abs };
+                if (a0 > 0.0) != (a1 > 0.0) && a0 != a1 {
+                    let s = a0 / (a0 - a1);
+                    let peak = (v0 + dt_s * (a0 * s + (a1 - a0) * s * s / 2.0)).abs();
+                    if peak > speed {
+                        speed = peak;
+                    }
+                }
+                if speed > speed_mm_s {
+                    speed_mm_s = speed;
+                }
+                let (a0_abs, a1_abs) = (a0.abs(), a1.abs());
+                let accel = if a0_abs > a1_abs { a0_abs } else { a1_abs };
+                if accel > accel_mm_s2 {
+                    accel_mm_s2 = accel;
+                }
+                let stray_mm = stray_per_mm_s * (v0_abs + v1_abs);
+                let (mut low, mut high) = if p0 < p1 { (p0, p1) } else { (p1, p0) };
+                if low - stray_mm < edge_mm || high + stray_mm > top_mm {
+                    let range = Cubic::new(p0, v0, p1, v1, dt_s).position_range();
+                    (low, high) = (range.min.value, range.max.value);
+                }
+                if low < min_mm {
+                    min_mm = low;
+                }
+                if high > max_mm {
+                    max_mm = high;
+                }
+            }
+            if let Some(peaks) = measured.zones.get_mut(*zone) {
+                peaks.speed_mm_s = peaks.speed_mm_s.max(speed_mm_s);
+                peaks.accel_mm_s2 = peaks.accel_mm_s2.max(accel_mm_s2);
+            }
+            measured.min_mm = measured.min_mm.min(min_mm);
+            measured.max_mm = measured.max_mm.max(max_mm);
+            std::mem::swap(&mut v0_mm_s, &mut v1_mm_s);
+        }
+        measured
+    }
+
+    /// The tracks: every position scaled by `scale` about `centre_mm`, every velocity
+    /// ([`Samples::velocities`]) by `scale`, each rounded by `round`; the last row
+    /// ends at rest.
+    fn tracks(&self, row_ms: u32, (centre_mm, scale): (f64, f64), grain: Grain) -> Vec<Track> {
+        let half_per_s = 0.5 / (f64::from(row_ms) / 1000.0);
+        let place =
+            move |position_mm: f64| grain.round(centre_mm + scale * (position_mm - centre_mm));
+        // Ball by ball, each reading its column of the samples: the cache lines of a
+        // ball's column hold its neighbours' too, read by the next balls. Everything
+        // the loop needs is copied into it, so nothing is read back through a pointer.
+        let (units, rows) = (self.units, self.rows);
+        let positions_mm = &self.positions_mm[..(rows + 1) * units];
+        (0..units)
+            .map(|unit| {
+                let column = &positions_mm[unit..];
+                let at = move |row: usize| column[row * units];
+                let mut track_rows = Vec::with_capacity(rows);
+                track_rows.extend((1..rows).map(move |row| {
+                    let velocity_mm_s = (at(row + 1) - at(row - 1)) * half_per_s;
+                    TrackRow::new(place(at(row)), grain.round(scale * velocity_mm_s), row_ms)
+                }));
+                track_rows.push(TrackRow::new(place(at(rows)), 0.0, row_ms));
+                Track {
+                    start_mm: place(at(0)),
+                    rows: track_rows,
+                    colours: Vec::new(),
+                }
+            })
+            .collect()
+    }
+}
+
+/// The resolution positions (mm) and velocities (mm/s) are rounded to.
+#[derive(Debug, Clone, Copy)]
+struct Grain {
+    resolution: f64,
+    /// `1 / resolution`, exactly.
+    steps: f64,
+}
+
+impl Grain {
+    /// What a row of `row_ms` holds: 0.1 mm, or 0.001 mm in rows shorter than 100 ms.
+    fn of_row(row_ms: u32) -> Self {
+        if row_ms >= 100 {
+            Self {
+                resolution: 0.1,
+                steps: 10.0,
+            }
+        } else {
+            Self {
+                resolution: 0.001,
+                steps: 1000.0,
+            }
+        }
+    }
+
+    /// `value` rounded to the nearest multiple of the resolution (multiplying by the
+    /// steps, not dividing by the resolution: quicker).
+    fn round(self, value: f64) -> f64 {
+        round_even(value * self.steps) * self.resolution
     }
 }
 
@@ -446,8 +543,8 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
 
     // What the rows may reach, less the worst effect of rounding positions and
     // velocities to `resolution`.
-    let resolution = if row_ms >= 100 { 0.1 } else { 0.001 };
-    let half = resolution / 2.0;
+    let grain = Grain::of_row(row_ms);
+    let half = grain.resolution / 2.0;
     // How close to 0 and the travel the rows may come, so rounding keeps them inside.
     let edge_mm = half + 1e-3;
     let speed_allowed = limits.max_speed_mm_s * 0.999 - (3.0 * half / dt_s + 2.0 * half);
@@ -614,13 +711,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
 
     // 3 and 4: sample, measure, scale down the patterns too fast on their own, once.
     let zone_count = 2 * parts.len() - 1;
-    let mut tracks: Vec<Track> = (0..units)
-        .map(|_| Track {
-            start_mm: 0.0,
-            rows: Vec::with_capacity(rows),
-            colours: Vec::new(),
-        })
-        .collect();
+    let mut samples = Samples::new(units, rows);
     let mut measured;
     let mut zones = Vec::with_capacity(rows);
     {
@@ -642,8 +733,8 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
     let mut pass = 0;
     loop {
         let mut timeline = Timeline::new(&parts, grid, show_s, ease_s);
-        sample_rows(&mut timeline, &mut tracks, rows, row_ms);
-        measured = measure(&mut tracks, &zones, zone_count, dt_s, (edge_mm, travel_mm));
+        samples.sample(&mut timeline, dt_s);
+        measured = samples.measure(&zones, zone_count, dt_s, (edge_mm, travel_mm));
         pass += 1;
         if pass > 1 {
             break;
@@ -725,17 +816,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
             ),
         });
     }
-    let round = |value: f64| round_even(value / resolution) * resolution;
-    for track in &mut tracks {
-        track.start_mm = round(centre_mm + scale * (track.start_mm - centre_mm));
-        for row in &mut track.rows {
-            row.position_mm = round(centre_mm + scale * (row.position_mm - centre_mm));
-            row.velocity_mm_s = round(scale * row.velocity_mm_s);
-        }
-        if let Some(last) = track.rows.last_mut() {
-            last.velocity_mm_s = 0.0;
-        }
-    }
+    let tracks = samples.tracks(row_ms, (centre_mm, scale), grain);
     Ok(Generated {
         show: Show {
             name: recipe.name.clone(),
