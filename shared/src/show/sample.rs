@@ -69,8 +69,6 @@ struct Timeline<T> {
     knots: Vec<Knot<T>>,
     /// Per block, the index of its first knot; one more entry marks the end.
     block_start: Vec<usize>,
-    /// Balls added but not yet laid out in a block (only while building).
-    pending: Vec<Vec<Knot<T>>>,
     /// Per ball, the index in `knots` of the knot starting its current interval.
     current: Vec<usize>,
     /// Per ball, the current interval's start and end, ms (copied for a fast check).
@@ -88,7 +86,6 @@ impl<T: Copy> Timeline<T> {
         Self {
             knots: Vec::with_capacity(knots),
             block_start: Vec::with_capacity(units / LANES + 2),
-            pending: Vec::with_capacity(LANES),
             current: Vec::with_capacity(units),
             current_lo_ms: Vec::with_capacity(units),
             current_hi_ms: Vec::with_capacity(units),
@@ -97,53 +94,38 @@ impl<T: Copy> Timeline<T> {
         }
     }
 
-    /// Adds a ball: `before` holds before the first knot, `after` after the last.
-    fn push_unit(&mut self, before: T, knots: impl IntoIterator<Item = Knot<T>>, after: T) {
-        let mut unit = vec![Knot {
-            time_ms: f64::MIN,
-            value: before,
-        }];
-        unit.extend(knots);
-        unit.push(Knot {
-            time_ms: f64::MAX,
-            value: after,
-        });
-        // The index is set when the block is laid out.
-        self.current.push(0);
-        self.current_lo_ms.push(unit[0].time_ms);
-        self.current_hi_ms.push(unit[1].time_ms);
-        self.pending.push(unit);
-        if self.pending.len() == LANES {
-            self.lay_out_block();
-        }
-    }
-
-    /// Lays out the last block and the end marker.
-    fn finish(&mut self) {
-        if !self.pending.is_empty() {
-            self.lay_out_block();
-        }
-        self.block_start.push(self.knots.len());
-    }
-
-    fn lay_out_block(&mut self) {
+    /// Adds a block of `lanes` (1..=[`LANES`]) balls, each with at most `len` knots
+    /// (sentinels included): `knot(lane, k)` is knot `k` of the block's ball `lane`,
+    /// asked for every `k` in order and, past the ball's own last knot, its final
+    /// sentinel again. Written straight into place, time-major.
+    fn push_block(
+        &mut self,
+        lanes: usize,
+        len: usize,
+        mut knot: impl FnMut(usize, usize) -> Knot<T>,
+    ) {
+        debug_assert!((1..=LANES).contains(&lanes) && len >= 2);
         let start = self.knots.len();
         self.block_start.push(start);
-        let first_unit = self.current.len() - self.pending.len();
-        for (lane, current) in self.current[first_unit..].iter_mut().enumerate() {
-            *current = start + lane;
-        }
-        let len = self.pending.iter().map(Vec::len).max().unwrap_or(0);
-        // Lanes without a ball repeat the block's first ball; nothing reads them.
-        let filler = self.pending[0].clone();
+        self.knots.reserve(len * LANES);
         for k in 0..len {
-            for lane in 0..LANES {
-                let unit = self.pending.get(lane).unwrap_or(&filler);
-                // Past its own end a ball repeats its final sentinel.
-                self.knots.push(unit[k.min(unit.len() - 1)]);
-            }
+            let first = knot(0, k);
+            self.knots.push(first);
+            self.knots.extend((1..lanes).map(|lane| knot(lane, k)));
+            // Lanes without a ball repeat the block's first ball; nothing reads them.
+            self.knots.extend(std::iter::repeat_n(first, LANES - lanes));
         }
-        self.pending.clear();
+        for lane in 0..lanes {
+            self.current.push(start + lane);
+            self.current_lo_ms.push(self.knots[start + lane].time_ms);
+            self.current_hi_ms
+                .push(self.knots[start + LANES + lane].time_ms);
+        }
+    }
+
+    /// Marks the end of the last block.
+    fn finish(&mut self) {
+        self.block_start.push(self.knots.len());
     }
 
     /// The current interval of `unit`: its two ends.
@@ -248,41 +230,84 @@ impl Sampler {
     #[must_use]
     pub fn new(show: &Show) -> Self {
         let units = show.tracks.len();
-        let rows: usize = show.tracks.iter().map(|track| track.rows.len()).sum();
-        let colours: usize = show.tracks.iter().map(|track| track.colours.len()).sum();
-        let mut motion = Timeline::with_capacity(units, rows + 3 * units);
-        let mut colour = Timeline::with_capacity(units, colours + 2 * units);
-        for track in &show.tracks {
-            let start_mm = track.start_mm as f32;
-            let start = Knot {
-                time_ms: 0.0,
-                value: [start_mm, 0.0],
-            };
-            let mut time_ms = 0u64;
-            let rows = track.rows.iter().map(|row| {
-                time_ms += u64::from(row.duration_ms);
-                Knot {
-                    time_ms: time_ms as f64,
-                    value: [row.position_mm as f32, row.velocity_mm_s as f32],
+        // Every block is as long as its longest ball.
+        let knots = |count: fn(&super::Track) -> usize| -> usize {
+            show.tracks
+                .chunks(LANES)
+                .map(|block| LANES * block.iter().map(count).max().unwrap_or(0))
+                .sum()
+        };
+        let mut motion = Timeline::with_capacity(units, knots(|track| track.rows.len() + 3));
+        let mut colour = Timeline::with_capacity(units, knots(|track| track.colours.len() + 2));
+        for block in show.tracks.chunks(LANES) {
+            // Motion: a sentinel at rest at the start, the start itself at 0 ms, the
+            // rows, and a sentinel at rest at the last position.
+            let len = block
+                .iter()
+                .map(|track| track.rows.len())
+                .max()
+                .unwrap_or(0)
+                + 3;
+            let mut time_ms = [0u64; LANES];
+            motion.push_block(block.len(), len, |lane, k| {
+                let track = &block[lane];
+                let start_mm = track.start_mm as f32;
+                match k {
+                    0 => Knot {
+                        time_ms: f64::MIN,
+                        value: [start_mm, 0.0],
+                    },
+                    1 => Knot {
+                        time_ms: 0.0,
+                        value: [start_mm, 0.0],
+                    },
+                    _ => match track.rows.get(k - 2) {
+                        Some(row) => {
+                            time_ms[lane] += u64::from(row.duration_ms);
+                            Knot {
+                                time_ms: time_ms[lane] as f64,
+                                value: [row.position_mm as f32, row.velocity_mm_s as f32],
+                            }
+                        }
+                        None => Knot {
+                            time_ms: f64::MAX,
+                            value: [
+                                track
+                                    .rows
+                                    .last()
+                                    .map_or(track.start_mm, |row| row.position_mm)
+                                    as f32,
+                                0.0,
+                            ],
+                        },
+                    },
                 }
             });
-            let last_mm = track
-                .rows
-                .last()
-                .map_or(track.start_mm, |row| row.position_mm);
-            motion.push_unit(
-                [start_mm, 0.0],
-                std::iter::once(start).chain(rows),
-                [last_mm as f32, 0.0],
-            );
-
-            let keys = track.colours.iter().map(|key| Knot {
-                time_ms: key.time_ms as f64,
-                value: rgb_f32(key.rgb),
+            // Colour: its first colour before the first key, the keys, its last colour
+            // after the last.
+            let len = block
+                .iter()
+                .map(|track| track.colours.len())
+                .max()
+                .unwrap_or(0)
+                + 2;
+            colour.push_block(block.len(), len, |lane, k| {
+                let keys = &block[lane].colours;
+                match k.checked_sub(1).map(|index| keys.get(index)) {
+                    None => Knot {
+                        time_ms: f64::MIN,
+                        value: rgb_f32(keys.first().map_or(DEFAULT_COLOUR, |key| key.rgb)),
+                    },
+                    Some(Some(key)) => Knot {
+                        time_ms: key.time_ms as f64,
+                        value: rgb_f32(key.rgb),
+                    },
+                    Some(None) => Knot {
+                        time_ms: f64::MAX,
+                        value: rgb_f32(keys.last().map_or(DEFAULT_COLOUR, |key| key.rgb)),
+                    },
+                }
             });
-            let first = track.colours.first().map_or(DEFAULT_COLOUR, |key| key.rgb);
-            let last = track.colours.last().map_or(DEFAULT_COLOUR, |key| key.rgb);
-            colour.push_unit(rgb_f32(first), keys, rgb_f32(last));
         }
         motion.finish();
         colour.finish();
