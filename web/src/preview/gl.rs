@@ -641,9 +641,18 @@ impl GlView {
         })
     }
 
-    /// Prepares the texture and the grid for `scene` with `units` balls (once per
-    /// show).
+    /// Prepares the texture and the grid for `scene` with `units` balls (each show;
+    /// nothing to do when the matrix is the same).
     pub fn set_scene(&mut self, scene: &Scene, units: usize) -> Result<(), String> {
+        let fits = self
+            .texture
+            .as_ref()
+            .is_some_and(|texture| texture.capacity() >= units);
+        if fits && self.scene.as_ref() == Some(scene) {
+            // The same matrix (a show regenerated while a slider moves): its buffers
+            // and grid lines stand.
+            return Ok(());
+        }
         let gl = &self.gl;
         if self
             .texture
