@@ -10,6 +10,7 @@
 //! languages at start ([`browser_languages`]) and `<html lang>` ([`set_document_lang`]).
 
 use std::rc::Rc;
+use std::sync::Arc;
 
 use floatball_shared::api::{
     ClientMessage, InstallationInfo, PlayerState, Problem, ServerMessage, ShowSummary, Status,
@@ -66,8 +67,9 @@ impl std::fmt::Debug for Services {
 pub enum PreviewItem {
     /// A controller file is being fetched.
     Loading(String),
-    /// The show to draw, with the label of its file.
-    Ready(String, Show),
+    /// The show to draw (shared, never copied: a large show is many megabytes), with
+    /// the label of its file.
+    Ready(String, Arc<Show>),
     /// The file could not be read.
     Failed(String, String),
 }
@@ -465,7 +467,7 @@ impl Ctx {
     /// Opens the Preview page on a local file.
     pub fn preview_local(&self, file: &LocalFile) {
         let item = match file.to_show() {
-            Ok(show) => PreviewItem::Ready(file.name.clone(), show),
+            Ok(show) => PreviewItem::Ready(file.name.clone(), Arc::new(show)),
             Err(refused) => PreviewItem::Failed(
                 file.name.clone(),
                 self.lang.get_untracked().refused(&refused),
@@ -485,7 +487,7 @@ impl Ctx {
         spawn_local(async move {
             let item = match client.download(&name).await {
                 Ok(json) => match import(&name, json.as_bytes(), ShowFormat::Json, None, None) {
-                    Ok(show) => PreviewItem::Ready(name.clone(), show),
+                    Ok(show) => PreviewItem::Ready(name.clone(), Arc::new(show)),
                     Err(refused) => PreviewItem::Failed(
                         name.clone(),
                         ctx.lang.get_untracked().refused(&refused),

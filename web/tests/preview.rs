@@ -7,6 +7,8 @@
 //! components without the app's stylesheet, so canvases have the browser's default
 //! size (300 × 150 CSS pixels) unless a test sets one.
 
+use std::sync::Arc;
+
 use floatball_shared::api::{PlayerState, Status};
 use floatball_shared::show::{
     ColourKey, DEFAULT_TRAVEL_MM, Layout, Limits, Sampler, Show, Track, TrackRow, validate,
@@ -224,7 +226,7 @@ async fn mount_paused(
     t_ms: f64,
 ) -> (web_sys::HtmlElement, impl Sized, HtmlCanvasElement) {
     let container = fresh_container();
-    let show = RwSignal::new(Some(show));
+    let show = RwSignal::new(Some(Arc::new(show)));
     let mounted = mount_to(container.clone(), move || {
         view! { <PreviewPage show=show lang=Lang::En /> }
     });
@@ -616,7 +618,7 @@ async fn drags_and_the_wheel_move_the_view_and_reset_brings_it_back() {
 #[wasm_bindgen_test]
 async fn the_controls_change_the_time_as_the_vendor_app_does() {
     let container = fresh_container();
-    let show = RwSignal::new(None::<Show>);
+    let show = RwSignal::new(None::<Arc<Show>>);
     let _mounted = mount_to(container.clone(), move || {
         view! { <PreviewPage show=show lang=Lang::En /> }
     });
@@ -628,7 +630,7 @@ async fn the_controls_change_the_time_as_the_vendor_app_does() {
     for track in &mut long.tracks {
         track.rows = vec![track.rows[0]; 40];
     }
-    show.set(Some(long));
+    show.set(Some(Arc::new(long)));
     tick().await;
     let playing = || attribute(&container, "preview-toggle", "data-playing");
     assert_eq!(playing(), "true", "a new show plays");
@@ -695,7 +697,7 @@ async fn live_mode_follows_the_machine_while_it_plays_this_show() {
     for track in &mut long.tracks {
         track.rows = vec![track.rows[0]; 40];
     }
-    let show = RwSignal::new(Some(long));
+    let show = RwSignal::new(Some(Arc::new(long)));
     let status = RwSignal::new(None::<Status>);
     let _mounted = mount_to(container.clone(), move || {
         view! { <PreviewPage show=show lang=Lang::En name="two.json".to_owned() status=status /> }
@@ -836,7 +838,7 @@ async fn without_webgl2_the_top_view_stands_in() {
     .unchecked_into();
 
     let container = fresh_container();
-    let show = RwSignal::new(Some(high_and_low_show()));
+    let show = RwSignal::new(Some(Arc::new(high_and_low_show())));
     let mounted = mount_to(container.clone(), move || {
         view! { <PreviewPage show=show lang=Lang::En /> }
     });

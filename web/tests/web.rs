@@ -711,7 +711,7 @@ async fn controller_files_download_to_the_device_and_preview() {
     let Some(PreviewItem::Ready(name, show)) = ctx.preview.get_untracked() else {
         unreachable!()
     };
-    assert_eq!((name.as_str(), show), ("two", two_ball_show()));
+    assert_eq!((name.as_str(), &*show), ("two", &two_ball_show()));
     assert!(
         bridge
             .requests

@@ -10,6 +10,7 @@
 //! scroll under it; wider screens put the controls beside it.
 
 use std::rc::Rc;
+use std::sync::Arc;
 
 use floatball_shared::create::recipe::{MAX_SEGMENTS, MAX_SHOW_S, MAX_TRANSITION_S, Recipe};
 use floatball_shared::create::{
@@ -63,7 +64,8 @@ pub fn CreatePage() -> impl IntoView {
         let grid = draft.with(Draft::grid);
         Target::of(installation.as_ref(), grid)
     });
-    let show = RwSignal::new(None::<Show>);
+    // Shared with the preview, never copied: at 100 × 100 a minute is 70 MB of rows.
+    let show = RwSignal::new(None::<Arc<Show>>);
     let outcome = RwSignal::new(Outcome::default());
     let message = RwSignal::new(None::<Message>);
 
@@ -117,7 +119,7 @@ pub fn CreatePage() -> impl IntoView {
                     generated_ms,
                     count,
                 });
-                show.set(Some(made_show));
+                show.set(Some(Arc::new(made_show)));
                 plan_after_the_picture();
             }
             Err(error) => {
@@ -189,7 +191,7 @@ pub fn CreatePage() -> impl IntoView {
 
 /// The show's name, its length and the list of segments: pick, move, remove, add.
 #[component]
-fn Timeline(show: RwSignal<Option<Show>>) -> impl IntoView {
+fn Timeline(show: RwSignal<Option<Arc<Show>>>) -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     let draft = ctx.create;
     let rows = move || {
@@ -662,7 +664,7 @@ fn Checks(
 /// start again.
 #[component]
 fn Actions(
-    show: RwSignal<Option<Show>>,
+    show: RwSignal<Option<Arc<Show>>>,
     outcome: RwSignal<Outcome>,
     message: RwSignal<Option<Message>>,
 ) -> impl IntoView {
@@ -670,15 +672,22 @@ fn Actions(
     let draft = ctx.create;
     let progress = RwSignal::new(None::<f64>);
     let ready = move || show.with(Option::is_some) && outcome.with(|o| o.error.is_none());
-    // The show's file, under the name the draft has now.
+    // The show's file, under the name the draft has now (a copy, once per click: the
+    // preview shares the show).
     let json = move || {
         let name = draft.with_untracked(Draft::show_name);
-        show.update_untracked(|show| {
-            if let Some(show) = show {
-                show.name = name;
+        show.with_untracked(|show| {
+            let show = show.as_deref()?;
+            if show.name == name {
+                return show.to_json().ok();
             }
-        });
-        show.with_untracked(|show| show.as_ref().and_then(|s| s.to_json().ok()))
+            Show {
+                name,
+                ..show.clone()
+            }
+            .to_json()
+            .ok()
+        })
     };
 
     let save_local = move |_| {

@@ -6,6 +6,8 @@
 //! above the fold; "Choose another show" opens them again. Wide screens keep them
 //! beside the picture.
 
+use std::sync::Arc;
+
 use leptos::prelude::*;
 
 use crate::components::widgets::RowButton;
@@ -20,10 +22,17 @@ pub fn PreviewScreen() -> impl IntoView {
     // Whether the operator asked for the lists again after choosing a show.
     let picking = RwSignal::new(false);
     let collapsed = move || !picking.get() && ctx.preview.with(Option::is_some);
-    let show = Memo::new(move |_| match ctx.preview.get() {
-        Some(PreviewItem::Ready(_, show)) => Some(show),
-        _ => None,
-    });
+    // The same show (its `Arc`) is no change: shows are compared by identity, never
+    // row by row.
+    let show = Memo::new_with_compare(
+        move |_| {
+            ctx.preview.with(|item| match item {
+                Some(PreviewItem::Ready(_, show)) => Some(Arc::clone(show)),
+                _ => None,
+            })
+        },
+        crate::preview::show_changed,
+    );
     let current = move || {
         ctx.preview.with(|item| match item {
             Some(

@@ -87,6 +87,16 @@ impl Checked {
     }
 }
 
+/// Whether a show signal's new value is another show (a `Memo`'s comparison): shows
+/// are shared ([`Arc`]) and compared by identity, never row by row.
+pub fn show_changed(old: Option<&Option<Arc<Show>>>, new: Option<&Option<Arc<Show>>>) -> bool {
+    match (old.map(Option::as_ref), new.map(Option::as_ref)) {
+        (Some(Some(old)), Some(Some(new))) => !Arc::ptr_eq(old, new),
+        (Some(None), Some(None)) => false,
+        _ => true,
+    }
+}
+
 /// The preview of `show`: the stage, the controls, the time, the tapped ball's plot,
 /// and the show's problems against the installation's limits (the defaults while
 /// it is not known); the 3D view uses its travel and pitch.
@@ -95,9 +105,10 @@ impl Checked {
 /// moves every frame, and the [`ViewChoice`], which moves when the user asks.
 #[component]
 pub fn PreviewPage(
-    /// The show to play; `None` shows a hint.
+    /// The show to play; `None` shows a hint. Shared, never copied (a large show is
+    /// many megabytes).
     #[prop(into)]
-    show: Signal<Option<Show>>,
+    show: Signal<Option<Arc<Show>>>,
     /// The language of the labels.
     #[prop(into)]
     lang: Signal<Lang>,
@@ -164,7 +175,7 @@ pub fn PreviewPage(
 
     // A new show: from its start, nothing chosen.
     Effect::new(move |_| {
-        let duration_ms = show.with(|show| show.as_ref().map_or(0, Show::duration_ms));
+        let duration_ms = show.with(|show| show.as_deref().map_or(0, Show::duration_ms));
         clock.update(|clock| clock.for_show(duration_ms));
         view_choice.update(|view| view.select(None));
     });
@@ -534,7 +545,7 @@ fn run_frames(clock: RwSignal<Clock>, stage: StoredValue<Option<Stage>, LocalSto
 /// What the stage's canvas is wired to (all `Copy`, for the event handlers).
 #[derive(Clone, Copy)]
 struct StageParts {
-    show: Signal<Option<Show>>,
+    show: Signal<Option<Arc<Show>>>,
     canvas: NodeRef<Canvas>,
     stage: StoredValue<Option<Stage>, LocalStorage>,
     gestures: StoredValue<Gestures>,
