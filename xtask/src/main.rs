@@ -16,10 +16,13 @@
 //! - [`scale_bench`]: one bridge playing to 100 UIM2503 gateways over TCP, with figures.
 //! - [`qprogram_report`]: the Q program compiler on a 10-minute show, with figures.
 //! - [`scl_bench`]: the SCL e-stop's latency on RS-485 lines and eSCL, with figures.
+//! - [`create_bench`]: the Create page's cost of one change in the app as served,
+//!   with figures.
 //! - [`load_bench`]: the release app's compressed sizes and its cold load time in
 //!   Chromium on throttled links, with figures.
 
 mod app;
+mod create_bench;
 mod fuzz;
 mod load_bench;
 mod mbox_bench;
@@ -67,6 +70,10 @@ commands:
          options: --runs N (default 5)  --no-build (measure what static/pkg/ holds)
                   --host IP (default 127.0.0.1; Chromium offers brotli to loopback
                   and https only, so a LAN address shows the gzip case)
+  create-bench  one change of a parameter on the Create page at 10 x 10 and 100 x 100,
+         in the app as served (wasm-release) in headless Chromium; print the median
+         and largest time to the new picture, and generating, handing to the stage
+         and the limit check after it
 ";
 
 fn main() -> ExitCode {
@@ -82,6 +89,7 @@ fn main() -> ExitCode {
         Some("qprogram-report") => qprogram_report::qprogram_report(&args[1..]),
         Some("scl-bench") => scl_bench::scl_bench(&args[1..]),
         Some("load-bench") => load_bench::load_bench(&args[1..]),
+        Some("create-bench") => create_bench::create_bench(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())
