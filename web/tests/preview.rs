@@ -14,7 +14,6 @@ use floatball_shared::show::{
     ColourKey, DEFAULT_TRAVEL_MM, Layout, Limits, Sampler, Show, Track, TrackRow, validate,
 };
 use floatball_web::i18n::Lang;
-use floatball_web::preview::PreviewPage;
 use floatball_web::preview::camera::{Orbit, Viewport};
 use floatball_web::preview::gestures::Gesture;
 use floatball_web::preview::gl::stride_for;
@@ -22,6 +21,7 @@ use floatball_web::preview::perf::{PerfPanel, SIZES};
 use floatball_web::preview::plot::{BallPlot, Panel};
 use floatball_web::preview::scene::{Scene, lit};
 use floatball_web::preview::stage::{BEYOND_COLOUR, RendererKind, Stage};
+use floatball_web::preview::{PreviewPage, show_changed};
 use glam::Vec2;
 use leptos::mount::mount_to;
 use leptos::prelude::*;
@@ -245,6 +245,21 @@ async fn mount_paused(
 // ----------------------------------------------------------------------------------
 // The renderer
 // ----------------------------------------------------------------------------------
+
+/// Shows are compared by identity: the same `Arc` is no change (no row-by-row
+/// comparison of a large show), another one is, even with the same rows.
+#[wasm_bindgen_test]
+fn a_show_signal_changes_when_the_show_is_another_one() {
+    let show = Some(Arc::new(high_and_low_show()));
+    let copy = Some(Arc::new(high_and_low_show()));
+    assert!(!show_changed(Some(&show), Some(&show.clone())));
+    assert!(show_changed(Some(&show), Some(&copy)));
+    assert!(show_changed(None, Some(&show)));
+    assert!(show_changed(Some(&show), Some(&None)));
+    assert!(show_changed(Some(&None), Some(&show)));
+    assert!(!show_changed(Some(&None), Some(&None)));
+    assert!(show_changed(None, Some(&None)));
+}
 
 #[wasm_bindgen_test]
 async fn every_ball_lands_on_its_pixel_in_its_lit_colour() {
