@@ -323,3 +323,55 @@ async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
     }
     browser.client.close().await.expect("close the browser");
 }
+
+/// The draft outlives a reload: one right after a change (saved as the page is left)
+/// and one after a pause (saved a moment after the change).
+#[tokio::test]
+async fn the_draft_outlives_a_reload_right_after_a_change() {
+    let bridge = Bridge::start().await;
+    let browser = Browser::start_in(640, 800, "en-US").await;
+    browser
+        .client
+        .goto(&format!("{}#/create", bridge.url()))
+        .await
+        .expect("open the Create page");
+    browser.wait_for("[data-testid=preview-canvas]").await;
+    let draft = async || {
+        browser.wait_for("[data-testid=preview-canvas]").await;
+        browser
+            .client
+            .execute(
+                "return [document.querySelector('[data-testid=create-name]').value,
+                         [...document.querySelectorAll('[data-testid=segment]')].map((s) => s.dataset.pattern),
+                         JSON.parse(localStorage.getItem('floatball.recipe') || 'null')?.name ?? null];",
+                Vec::new(),
+            )
+            .await
+            .expect("the draft")
+    };
+
+    // A change, and at once a reload.
+    set_value(&browser, "[data-testid=create-name]", "kept").await;
+    browser.click("[data-testid=segment-add]").await;
+    set_value(&browser, "[data-testid=create-pattern]", "text").await;
+    browser.wait_for("[data-testid=param-text]").await;
+    browser.client.refresh().await.expect("reload");
+    assert_eq!(
+        draft().await,
+        serde_json::json!(["kept", ["wave", "text"], "kept"])
+    );
+
+    // A change, a pause, and the draft is stored without leaving the page.
+    set_value(&browser, "[data-testid=create-name]", "later").await;
+    let deadline = tokio::time::Instant::now() + UI_TIMEOUT;
+    while draft().await[2] != "later" {
+        assert!(tokio::time::Instant::now() < deadline, "{}", draft().await);
+        tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+    }
+    browser.client.refresh().await.expect("reload");
+    assert_eq!(
+        draft().await,
+        serde_json::json!(["later", ["wave", "text"], "later"])
+    );
+    browser.client.close().await.expect("close the browser");
+}

@@ -45,6 +45,8 @@ const LANG_KEY: &str = "floatball.lang";
 const SESSION_KEY: &str = "floatball.session";
 /// The Create page's draft, as a recipe, so a reload keeps the work.
 const RECIPE_KEY: &str = "floatball.recipe";
+/// The draft is saved this long after its last change (or when the page is hidden).
+const DRAFT_SAVE_MS: u64 = 400;
 
 fn storage() -> Option<web_sys::Storage> {
     window().local_storage().ok().flatten()
@@ -157,12 +159,45 @@ pub fn App() -> impl IntoView {
         store(SESSION_KEY, text.as_deref());
     });
 
-    // The Create page's draft (a storage too full for a large picture only costs
-    // the draft across reloads).
-    Effect::new(move |_| {
-        let text = ctx.create.with(|draft| draft.recipe().to_json().ok());
-        store(RECIPE_KEY, text.as_deref());
+    // The Create page's draft: saved a moment after the last change, not on every
+    // one (a dragged slider changes it every frame, and a recipe with a picture is
+    // large), and at once when the page is hidden or left. A storage too full for a
+    // large picture only costs the draft across reloads.
+    let draft_changes = StoredValue::new(0u32);
+    let draft_saved = StoredValue::new(0u32);
+    let save_draft = move || {
+        let change = draft_changes.get_value();
+        if draft_saved.get_value() != change {
+            draft_saved.set_value(change);
+            let text = ctx
+                .create
+                .with_untracked(|draft| draft.recipe().to_json().ok());
+            store(RECIPE_KEY, text.as_deref());
+        }
+    };
+    Effect::new(move |first: Option<()>| {
+        ctx.create.track();
+        if first.is_none() {
+            // The draft as it was loaded (or the default): nothing to save.
+            return;
+        }
+        let change = draft_changes.get_value().wrapping_add(1);
+        draft_changes.set_value(change);
+        set_timeout(
+            move || {
+                if draft_changes.get_value() == change {
+                    save_draft();
+                }
+            },
+            std::time::Duration::from_millis(DRAFT_SAVE_MS),
+        );
     });
+    let save_when_hidden = window_event_listener_untyped("visibilitychange", move |_| {
+        if document().visibility_state() == web_sys::VisibilityState::Hidden {
+            save_draft();
+        }
+    });
+    let save_when_left = window_event_listener_untyped("pagehide", move |_| save_draft());
 
     // The page in the URL, so a reload and the back button keep it.
     Effect::new(move |_| {
@@ -236,6 +271,8 @@ pub fn App() -> impl IntoView {
         wake_on("visibilitychange"),
         wake_on("pageshow"),
         wake_on("online"),
+        save_when_hidden,
+        save_when_left,
     ];
     on_cleanup(move || listeners.into_iter().for_each(|listener| listener.remove()));
 
