@@ -237,11 +237,9 @@ async fn a_newcomer_makes_a_show_on_the_phone_and_plays_it_on_the_matrix() {
     browser.client.close().await.expect("close the browser");
 }
 
-/// Every pattern, offline on a 16 × 24 matrix: a picture of each a few seconds in,
-/// for the documentation; each within the default limits.
-#[tokio::test]
-async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
-    let bridge = Bridge::start().await;
+/// A tablet-sized browser on the Create page, not logged in (made for a matrix of its
+/// own, with the default limits).
+async fn create_offline(bridge: &Bridge) -> Browser {
     let browser = Browser::start_in(640, 800, "en-US").await;
     browser
         .client
@@ -249,6 +247,15 @@ async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
         .await
         .expect("open the Create page");
     browser.wait_for("[data-testid=preview-canvas]").await;
+    browser
+}
+
+/// Every pattern, offline on a 16 × 24 matrix: a picture of each a few seconds in,
+/// for the documentation; each within the default limits.
+#[tokio::test]
+async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
+    let bridge = Bridge::start().await;
+    let browser = create_offline(&bridge).await;
     // Offline: a matrix of 16 × 24 balls, large enough for a word to read.
     set_value(&browser, "[data-testid=create-rows]", "16").await;
     set_value(&browser, "[data-testid=create-cols]", "24").await;
@@ -329,13 +336,7 @@ async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
 #[tokio::test]
 async fn the_draft_outlives_a_reload_right_after_a_change() {
     let bridge = Bridge::start().await;
-    let browser = Browser::start_in(640, 800, "en-US").await;
-    browser
-        .client
-        .goto(&format!("{}#/create", bridge.url()))
-        .await
-        .expect("open the Create page");
-    browser.wait_for("[data-testid=preview-canvas]").await;
+    let browser = create_offline(&bridge).await;
     let draft = async || {
         browser.wait_for("[data-testid=preview-canvas]").await;
         browser

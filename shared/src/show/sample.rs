@@ -34,7 +34,7 @@
 //! assert_eq!(positions_mm[0], 100.0);
 //! ```
 
-use super::Show;
+use super::{Show, Track};
 use crate::pvt::hermite_position;
 
 /// The colour of a ball whose track has no colour keyframes: white.
@@ -197,6 +197,11 @@ impl<T: Copy> Timeline<T> {
     }
 }
 
+/// The most knots `count` gives a ball of `block`.
+fn longest(block: &[Track], count: fn(&Track) -> usize) -> usize {
+    block.iter().map(count).max().unwrap_or(0)
+}
+
 /// A ball's position and velocity at a knot, mm and mm/s (in `f32`, as the sampler
 /// evaluates: smaller knots are fewer bytes to read when cursors move).
 type State = [f32; 2];
@@ -231,23 +236,20 @@ impl Sampler {
     pub fn new(show: &Show) -> Self {
         let units = show.tracks.len();
         // Every block is as long as its longest ball.
-        let knots = |count: fn(&super::Track) -> usize| -> usize {
+        let knots = |count: fn(&Track) -> usize| -> usize {
             show.tracks
                 .chunks(LANES)
-                .map(|block| LANES * block.iter().map(count).max().unwrap_or(0))
+                .map(|block| LANES * longest(block, count))
                 .sum()
         };
-        let mut motion = Timeline::with_capacity(units, knots(|track| track.rows.len() + 3));
-        let mut colour = Timeline::with_capacity(units, knots(|track| track.colours.len() + 2));
+        let motion_knots = |track: &Track| track.rows.len() + 3;
+        let colour_knots = |track: &Track| track.colours.len() + 2;
+        let mut motion = Timeline::with_capacity(units, knots(motion_knots));
+        let mut colour = Timeline::with_capacity(units, knots(colour_knots));
         for block in show.tracks.chunks(LANES) {
             // Motion: a sentinel at rest at the start, the start itself at 0 ms, the
             // rows, and a sentinel at rest at the last position.
-            let len = block
-                .iter()
-                .map(|track| track.rows.len())
-                .max()
-                .unwrap_or(0)
-                + 3;
+            let len = longest(block, motion_knots);
             let mut time_ms = [0u64; LANES];
             motion.push_block(block.len(), len, |lane, k| {
                 let track = &block[lane];
@@ -285,12 +287,7 @@ impl Sampler {
             });
             // Colour: its first colour before the first key, the keys, its last colour
             // after the last.
-            let len = block
-                .iter()
-                .map(|track| track.colours.len())
-                .max()
-                .unwrap_or(0)
-                + 2;
+            let len = longest(block, colour_knots);
             colour.push_block(block.len(), len, |lane, k| {
                 let keys = &block[lane].colours;
                 match k.checked_sub(1).map(|index| keys.get(index)) {
