@@ -9,8 +9,8 @@
 //! The grid and limits are `--rows`, `--cols`, `--pitch-mm`, `--travel-mm` with the
 //! default limits, or an installation's (`--config floatball.toml`). The command line is
 //! built from [`PATTERNS`]: every pattern is a subcommand, every parameter a flag
-//! named by its key as in recipes (`--speed_m_s`), so `--help` lists them all
-//! with unit, range and default. A file parameter (a picture) takes a path.
+//! named by its key as in recipes with hyphens (`--speed-m-s`; `--speed_m_s` works
+//! too), so `--help` lists them all with unit, range and default. A file parameter (a picture) takes a path.
 //!
 //! Notes (values clamped to keep the show within the limits) go to stderr; a summary
 //! and the planner's verdict on the installation to stdout.
@@ -62,7 +62,8 @@ fn range_words(kind: &ParamKind) -> String {
 /// A parameter's flag.
 fn param_arg(spec: &ParamSpec) -> Arg {
     let arg = Arg::new(spec.key)
-        .long(spec.key)
+        .long(flag(spec.key))
+        .alias(spec.key)
         .help(format!("{} {}", spec.help, range_words(&spec.kind)))
         .action(ArgAction::Set);
     match spec.kind {
@@ -78,6 +79,12 @@ fn param_arg(spec: &ParamSpec) -> Arg {
             .value_name("FILE")
             .value_parser(clap::value_parser!(PathBuf)),
     }
+}
+
+/// The flag of the parameter `key`: hyphens for the recipe key's underscores, like
+/// the other options (`--speed-m-s`; the key itself, `--speed_m_s`, is accepted too).
+fn flag(key: &str) -> String {
+    key.replace('_', "-")
 }
 
 /// One pattern's subcommand.
@@ -96,7 +103,7 @@ fn catalogue_words() -> String {
             let _ = writeln!(
                 text,
                 "    --{} {}: {} {}",
-                param.key,
+                flag(param.key),
                 param.label,
                 param.help,
                 range_words(&param.kind)

@@ -28,6 +28,7 @@ fn path(dir: &Path, name: &str) -> String {
 async fn a_generated_wave_is_a_valid_show_the_server_accepts() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = path(dir.path(), "wave.json");
+    // The recipe key works as a flag too (`--speed-m-s` is the one `--help` shows).
     let output = floatball(&[
         "wave",
         "--speed_m_s",
@@ -176,7 +177,7 @@ fn help_names_every_pattern_and_parameter() {
         );
         for param in pattern.params {
             assert!(
-                help.contains(&format!("--{} ", param.key)),
+                help.contains(&format!("--{} ", param.key.replace('_', "-"))),
                 "{}: {help}",
                 param.key
             );
@@ -185,7 +186,7 @@ fn help_names_every_pattern_and_parameter() {
     let output = floatball(&["wave", "--help"]);
     let help = String::from_utf8_lossy(&output.stdout);
     assert!(
-        help.contains("--speed_m_s <NUMBER>") && help.contains("[m/s, 0–5, default 0.5]"),
+        help.contains("--speed-m-s <NUMBER>") && help.contains("[m/s, 0–5, default 0.5]"),
         "{help}"
     );
     assert!(
@@ -235,7 +236,7 @@ fn mistakes_are_refused_and_clamps_reported() {
     );
     assert!(Path::new(&out).exists());
     // Negative numbers are values, not flags.
-    let output = floatball(&["ripple", "--x_m", "-2", "--duration-s", "5", "--out", &out]);
+    let output = floatball(&["ripple", "--x-m", "-2", "--duration-s", "5", "--out", &out]);
     assert!(output.status.success(), "{output:?}");
     assert!(output.stderr.is_empty(), "{output:?}");
 }
