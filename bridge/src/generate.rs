@@ -162,21 +162,23 @@ pub fn command() -> Command {
                 .long("rows")
                 .value_name("N")
                 .value_parser(clap::value_parser!(u32).range(1..=1000))
-                .help("Rows of balls [default 10]"),
+                .help("Rows of balls [default: the recipe's grid, else 10]"),
         ))
         .arg(global(
             Arg::new("cols")
                 .long("cols")
                 .value_name("N")
                 .value_parser(clap::value_parser!(u32).range(1..=1000))
-                .help("Balls in each row [default 10]"),
+                .help("Balls in each row [default: the recipe's grid, else 10]"),
         ))
         .arg(global(
             Arg::new("pitch-mm")
                 .long("pitch-mm")
                 .value_name("MM")
                 .value_parser(clap::value_parser!(f64))
-                .help(format!("Distance between balls, mm [default {DEFAULT_PITCH_MM}]")),
+                .help(format!(
+                    "Distance between balls, mm [default: the recipe's grid, else {DEFAULT_PITCH_MM}]"
+                )),
         ))
         .arg(global(
             Arg::new("travel-mm")
@@ -184,7 +186,8 @@ pub fn command() -> Command {
                 .value_name("MM")
                 .value_parser(clap::value_parser!(f64))
                 .help(format!(
-                    "Lowest position a ball may reach, mm below the top [default {DEFAULT_TRAVEL_MM}]"
+                    "Lowest position a ball may reach, mm below the top [default: the recipe's grid, \
+                     else {DEFAULT_TRAVEL_MM}]"
                 )),
         ))
         .arg(global(
@@ -274,8 +277,12 @@ fn recipe_of(matches: &ArgMatches) -> anyhow::Result<Recipe> {
 }
 
 /// The installation the show is made for, its grid, and how to name it in the
-/// verdict.
-fn installation_of(matches: &ArgMatches) -> anyhow::Result<(Installation, Grid, String)> {
+/// verdict: `--config`'s, else the grid of `--rows`, `--cols`, `--pitch-mm` and
+/// `--travel-mm`, each defaulting to the recipe's grid (`made_for`) or the defaults.
+fn installation_of(
+    matches: &ArgMatches,
+    made_for: Option<Grid>,
+) -> anyhow::Result<(Installation, Grid, String)> {
     if let Some(path) = matches.get_one::<PathBuf>("config") {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read {}", path.display()))?;
@@ -294,16 +301,23 @@ fn installation_of(matches: &ArgMatches) -> anyhow::Result<(Installation, Grid, 
             format!("the installation in {}", path.display()),
         ));
     }
-    let rows = matches.get_one::<u32>("rows").copied().unwrap_or(10);
-    let cols = matches.get_one::<u32>("cols").copied().unwrap_or(10);
+    let made_for = made_for.unwrap_or(Grid::new(10, 10, DEFAULT_PITCH_MM, DEFAULT_TRAVEL_MM));
+    let rows = matches
+        .get_one::<u32>("rows")
+        .copied()
+        .unwrap_or(made_for.rows);
+    let cols = matches
+        .get_one::<u32>("cols")
+        .copied()
+        .unwrap_or(made_for.cols);
     let pitch_mm = matches
         .get_one::<f64>("pitch-mm")
         .copied()
-        .unwrap_or(DEFAULT_PITCH_MM);
+        .unwrap_or(made_for.pitch_mm);
     let travel_mm = matches
         .get_one::<f64>("travel-mm")
         .copied()
-        .unwrap_or(DEFAULT_TRAVEL_MM);
+        .unwrap_or(made_for.travel_mm);
     let mut limits = Limits::for_layout(rows, cols);
     limits.travel_mm = travel_mm;
     let units = rows as usize * cols as usize;
@@ -350,11 +364,14 @@ pub fn run(matches: &ArgMatches) -> anyhow::Result<()> {
     let Some(out) = matches.get_one::<PathBuf>("out") else {
         bail!("give --out FILE: where to write the show");
     };
-    let recipe = recipe_of(matches)?;
-    // Render the recipe as its file holds it, so the file regenerates this show.
+    let mut recipe = recipe_of(matches)?;
+    let (installation, grid, installation_words) = installation_of(matches, recipe.grid)?;
+    // Render the recipe as its file holds it, with the grid it is made for, so the file
+    // regenerates this show.
+    recipe.grid = Some(grid);
     let recipe_json = recipe.to_json()?;
     let recipe = Recipe::from_json(&recipe_json)?;
-    let (installation, grid, installation_words) = installation_of(matches)?;
+    let grid = recipe.grid.unwrap_or(grid);
     let generated = render(&recipe, &grid, &installation.limits)?;
     for note in &generated.notes {
         eprintln!("note: {note}");

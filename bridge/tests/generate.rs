@@ -94,18 +94,12 @@ fn a_recipe_regenerates_the_same_bytes() {
     let text = std::fs::read_to_string(&recipe).expect("recipe");
     assert!(text.contains("\"seed\": 42.0"), "{text}");
     assert!(text.contains("\"row_ms\": 100"), "{text}");
-    let output = floatball(&[
-        "--recipe",
-        &recipe,
-        "--rows",
-        "6",
-        "--cols",
-        "8",
-        "--pitch-mm",
-        "600",
-        "--out",
-        &second,
-    ]);
+    // The recipe keeps the grid it was made for: no need to give it again.
+    assert!(
+        text.contains("\"rows\": 6,\n    \"cols\": 8,\n    \"pitch_mm\": 600.0,"),
+        "{text}"
+    );
+    let output = floatball(&["--recipe", &recipe, "--out", &second]);
     assert!(output.status.success(), "{output:?}");
     let (a, b) = (
         std::fs::read(&first).expect("first"),
@@ -114,6 +108,15 @@ fn a_recipe_regenerates_the_same_bytes() {
     assert_eq!(a, b, "the recipe regenerates the same show");
     let show = Show::from_json(std::str::from_utf8(&a).expect("utf-8")).expect("a show");
     assert_eq!((show.name.as_str(), show.layout.pitch_mm), ("hills", 600.0));
+    // The command line still wins over the recipe's grid, field by field.
+    let output = floatball(&["--recipe", &recipe, "--rows", "3", "--out", &second]);
+    assert!(output.status.success(), "{output:?}");
+    let text = std::fs::read_to_string(&second).expect("third");
+    let show = Show::from_json(&text).expect("a show");
+    assert_eq!(
+        (show.layout.rows, show.layout.cols, show.layout.pitch_mm),
+        (3, 8, 600.0)
+    );
 }
 
 #[test]

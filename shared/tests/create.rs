@@ -132,7 +132,7 @@ proptest! {
                 }
             })
             .collect();
-        let recipe = Recipe { name: "t".into(), row_ms: 100, segments };
+        let recipe = Recipe { name: "t".into(), row_ms: 100, grid: None, segments };
         let mut limits = limits_for(&grid);
         if slow {
             // A gentler installation.
@@ -170,6 +170,7 @@ fn rows_follow_the_patterns_across_the_transition() {
     let recipe = Recipe {
         name: "two".into(),
         row_ms: 100,
+        grid: None,
         segments: vec![
             Segment {
                 pattern: "wave".into(),
@@ -309,6 +310,7 @@ fn too_much_is_scaled_down_with_a_note_naming_the_parameter() {
     let recipe = Recipe {
         name: "jump".into(),
         row_ms: 200,
+        grid: None,
         segments: vec![
             Segment {
                 pattern: "breathe".into(),

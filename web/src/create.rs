@@ -247,29 +247,40 @@ impl Draft {
         }
     }
 
-    /// The recipe of this draft.
+    /// The recipe of this draft, made for the offline grid (as the browser keeps it).
     pub fn recipe(&self) -> Recipe {
+        self.recipe_for(&Target::of(None, self.grid))
+    }
+
+    /// The recipe of this draft, made for `target`'s grid (as it is downloaded).
+    pub fn recipe_for(&self, target: &Target) -> Recipe {
         Recipe {
             name: self.show_name(),
             row_ms: self.row_ms,
+            grid: Some(target.grid),
             segments: self.segments.clone(),
         }
     }
 
     /// A draft from a recipe (checked as the renderer checks it), editing its first
-    /// segment; the offline grid stays as it was.
+    /// segment; offline it is made for the recipe's rows and columns, or `grid` for a
+    /// recipe without.
     ///
     /// # Errors
     /// Why the recipe cannot be used, in the renderer's words.
     pub fn from_recipe(recipe: Recipe, grid: (u32, u32)) -> Result<Self, CreateError> {
         recipe.check()?;
-        Ok(Self {
+        let mut draft = Self {
             name: recipe.name,
             segments: recipe.segments,
             selected: 0,
             row_ms: recipe.row_ms,
             grid,
-        })
+        };
+        if let Some(made_for) = recipe.grid {
+            draft.set_grid(made_for.rows, made_for.cols);
+        }
+        Ok(draft)
     }
 
     /// Generates the show for `target`.
@@ -493,6 +504,36 @@ mod tests {
         let back = Draft::from_recipe(Recipe::from_json(&json).unwrap(), draft.grid()).unwrap();
         assert_eq!(back.segments(), draft.segments());
         assert_eq!(back.name, "round trip");
+    }
+
+    #[test]
+    fn a_recipe_carries_the_grid_it_is_made_for() {
+        let mut draft = Draft::new();
+        draft.set_grid(6, 7);
+        // Kept in the browser: the offline grid; opened again, the draft is made for it.
+        let kept = draft.recipe();
+        assert_eq!(
+            kept.grid,
+            Some(Grid::new(6, 7, DEFAULT_PITCH_MM, DEFAULT_TRAVEL_MM))
+        );
+        let opened = Draft::from_recipe(kept, DEFAULT_GRID).unwrap();
+        assert_eq!(opened.grid(), (6, 7));
+        // Downloaded while connected: the installation's grid.
+        let target = Target {
+            grid: Grid::new(3, 4, 400.0, 3000.0),
+            limits: Limits::for_layout(3, 4),
+            installation: None,
+        };
+        let downloaded = draft.recipe_for(&target);
+        assert_eq!(downloaded.grid, Some(target.grid));
+        assert_eq!(
+            Draft::from_recipe(downloaded, DEFAULT_GRID).unwrap().grid(),
+            (3, 4)
+        );
+        // A recipe without a grid keeps the grid the page has.
+        let mut bare = draft.recipe();
+        bare.grid = None;
+        assert_eq!(Draft::from_recipe(bare, (2, 9)).unwrap().grid(), (2, 9));
     }
 
     #[test]

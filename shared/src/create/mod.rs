@@ -54,8 +54,9 @@ pub use params::{ParamKind, ParamSpec, Params, Reader, Value};
 pub use recipe::{Recipe, Segment};
 pub use render::{Generated, render};
 
-/// The matrix a show is generated for.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The matrix a show is generated for (in a recipe file, `"grid"`).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Grid {
     /// Rows of balls (front to back).
     pub rows: u32,

@@ -715,6 +715,7 @@ mod proptests {
             let timeline = Recipe {
                 name: "wave, word, picture".into(),
                 row_ms: 100,
+                grid: None,
                 segments: vec![
                     segment("wave", Params::new()),
                     segment("text", words),

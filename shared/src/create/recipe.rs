@@ -1,10 +1,12 @@
 //! Recipes: a show as a small JSON file that regenerates it byte for byte — a name,
-//! the row length and a timeline of segments (pattern + parameters + duration), each
-//! blending smoothly into the next over its `transition_s`.
+//! the row length, the matrix it was made for (optional) and a timeline of segments
+//! (pattern + parameters + duration), each blending smoothly into the next over its
+//! `transition_s`.
 //!
 //! ```json
 //! { "format": "floatball-recipe", "version": 1, "name": "lobby wave",
 //!   "row_ms": 200,
+//!   "grid": { "rows": 10, "cols": 10, "pitch_mm": 500, "travel_mm": 7500 },
 //!   "segments": [
 //!     { "pattern": "wave", "params": { "wavelength_m": 3, "amplitude_mm": 800 },
 //!       "duration_s": 20, "transition_s": 2 },
@@ -31,8 +33,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::CreateError;
 use super::params::{Params, Value};
+use super::{CreateError, Grid};
 use crate::pvt::{ROW_MAX_MS, ROW_MIN_MS};
 
 /// The `"format"` of a recipe file.
@@ -100,6 +102,10 @@ pub struct Recipe {
     pub name: String,
     /// Every PVT row's length, ms (10–255).
     pub row_ms: u32,
+    /// The matrix it was made for, if known: `floatball generate --recipe` renders for
+    /// it unless told another; the app renders for the installation it is connected
+    /// to, and offline for this grid's rows and columns.
+    pub grid: Option<Grid>,
     /// The timeline.
     pub segments: Vec<Segment>,
 }
@@ -113,6 +119,8 @@ struct File {
     name: String,
     #[serde(default = "default_row_ms")]
     row_ms: u32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    grid: Option<Grid>,
     segments: Vec<Segment>,
 }
 
@@ -144,6 +152,7 @@ impl Recipe {
         Self {
             name: name.to_owned(),
             row_ms: DEFAULT_ROW_MS,
+            grid: None,
             segments: vec![Segment {
                 pattern: pattern.to_owned(),
                 params,
@@ -174,6 +183,7 @@ impl Recipe {
         let recipe = Self {
             name: file.name,
             row_ms: file.row_ms,
+            grid: file.grid,
             segments: file.segments,
         };
         recipe.check()?;
@@ -213,6 +223,11 @@ impl Recipe {
             version: VERSION,
             name: self.name.clone(),
             row_ms: self.row_ms,
+            grid: self.grid.map(|grid| Grid {
+                pitch_mm: digits15(grid.pitch_mm),
+                travel_mm: digits15(grid.travel_mm),
+                ..grid
+            }),
             segments,
         };
         serde_json::to_string_pretty(&file)
@@ -228,12 +243,15 @@ impl Recipe {
     /// Checks the timeline: at least one and at most [`MAX_SEGMENTS`] segments, every
     /// duration from [`MIN_DURATION_S`] and transition from [`MIN_TRANSITION_S`] to
     /// [`MAX_TRANSITION_S`],
-    /// the whole show at most [`MAX_SHOW_S`], rows of 10–255 ms. (The patterns and
-    /// their parameters are checked when rendered.)
+    /// the whole show at most [`MAX_SHOW_S`], rows of 10–255 ms, the grid (if any) not
+    /// empty. (The patterns and their parameters are checked when rendered.)
     ///
     /// # Errors
     /// The [`CreateError`] saying what to change.
     pub fn check(&self) -> Result<(), CreateError> {
+        if let Some(grid) = &self.grid {
+            grid.check()?;
+        }
         if self.segments.is_empty() {
             return Err(CreateError::EmptyTimeline);
         }
@@ -389,6 +407,35 @@ mod tests {
         // The row length defaults.
         let short = EXAMPLE.replace(r#""row_ms": 200,"#, "");
         assert_eq!(Recipe::from_json(&short).unwrap().row_ms, DEFAULT_ROW_MS);
+    }
+
+    #[test]
+    fn a_recipe_keeps_the_grid_it_was_made_for() {
+        // None given, none written.
+        let recipe = Recipe::from_json(EXAMPLE).unwrap();
+        assert_eq!(recipe.grid, None);
+        assert!(!recipe.to_json().unwrap().contains("grid"));
+        // Given: read, written after the row length, and read back the same.
+        let with_grid = EXAMPLE.replace(
+            r#""row_ms": 200,"#,
+            r#""row_ms": 200, "grid": { "rows": 6, "cols": 8, "pitch_mm": 600, "travel_mm": 5000 },"#,
+        );
+        let recipe = Recipe::from_json(&with_grid).unwrap();
+        assert_eq!(recipe.grid, Some(Grid::new(6, 8, 600.0, 5000.0)));
+        let json = recipe.to_json().unwrap();
+        assert!(
+            json.contains(
+                "\"row_ms\": 200,\n  \"grid\": {\n    \"rows\": 6,\n    \"cols\": 8,\n    \"pitch_mm\": 600.0,\n    \"travel_mm\": 5000.0\n  },"
+            ),
+            "{json}"
+        );
+        assert_eq!(Recipe::from_json(&json).unwrap(), recipe);
+        // An empty grid, or one with a field it does not know, is refused.
+        let refused = |text: &str| Recipe::from_json(text).unwrap_err().to_string();
+        assert!(refused(&with_grid.replace(r#""rows": 6"#, r#""rows": 0"#)).contains("0 × 8"));
+        assert!(
+            refused(&with_grid.replace(r#""pitch_mm": 600"#, r#""pitch": 600"#)).contains("pitch")
+        );
     }
 
     #[test]

@@ -160,7 +160,7 @@ pub fn CreatePage() -> impl IntoView {
                 <Timeline show=show />
                 <SegmentEditor />
                 <Checks outcome=outcome target=target verdict=verdict />
-                <Actions show=show outcome=outcome message=message />
+                <Actions show=show target=target outcome=outcome message=message />
                 {move || {
                     message
                         .get()
@@ -665,6 +665,7 @@ fn Checks(
 #[component]
 fn Actions(
     show: RwSignal<Option<Arc<Show>>>,
+    target: Memo<Target>,
     outcome: RwSignal<Outcome>,
     message: RwSignal<Option<Message>>,
 ) -> impl IntoView {
@@ -730,7 +731,10 @@ fn Actions(
         });
     };
     let download_recipe = move |_| {
-        let (name, text) = draft.with_untracked(|d| (d.recipe_file_name(), d.recipe().to_json()));
+        let (name, text) = draft.with_untracked(|d| {
+            let recipe = target.with_untracked(|target| d.recipe_for(target));
+            (d.recipe_file_name(), recipe.to_json())
+        });
         let result = text
             .map_err(|error| error.to_string())
             .and_then(|text| save_text(&name, &text, "application/json"));
