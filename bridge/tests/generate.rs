@@ -242,4 +242,20 @@ fn mistakes_are_refused_and_clamps_reported() {
     let output = floatball(&["ripple", "--x-m", "-2", "--duration-s", "5", "--out", &out]);
     assert!(output.status.success(), "{output:?}");
     assert!(output.stderr.is_empty(), "{output:?}");
+    // Characters the built-in font lacks: drawn as ?, said on stderr.
+    let output = floatball(&[
+        "text",
+        "--text",
+        "HI 字",
+        "--duration-s",
+        "5",
+        "--out",
+        &out,
+    ]);
+    assert!(output.status.success(), "{output:?}");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("note: text of text 1: 字 not in the built-in font, drawn as ? (draw them with the bitmap parameter"),
+        "{stderr}"
+    );
 }

@@ -286,10 +286,10 @@ fn too_much_is_scaled_down_with_a_note_naming_the_parameter() {
         .find(|note| note.reason.contains("mm/s"))
         .unwrap();
     assert_eq!(
-        (note.segment, note.key.as_str(), note.from),
+        (note.segment, note.key.as_str(), note.numbers().unwrap().0),
         (0, "amplitude_mm", 3000.0)
     );
-    assert!(note.to < 3000.0 * 0.2, "{note}");
+    assert!(note.numbers().unwrap().1 < 3000.0 * 0.2, "{note}");
     assert!(
         note.to_string()
             .starts_with("amplitude_mm of wave 1 clamped from 3000 to "),
@@ -304,8 +304,9 @@ fn too_much_is_scaled_down_with_a_note_naming_the_parameter() {
     let generated = render(&Recipe::single("low", "wave", params, 10.0), &grid, &limits).unwrap();
     assert_eq!(validate(&generated.show, &limits), []);
     let note = &generated.notes[0];
-    assert_eq!((note.key.as_str(), note.from), ("centre_mm", 7400.0));
-    assert!((note.to - (7500.0 - 150.0 - 1000.0)).abs() < 20.0, "{note}");
+    let (from, to) = note.numbers().unwrap();
+    assert_eq!((note.key.as_str(), from), ("centre_mm", 7400.0));
+    assert!((to - (7500.0 - 150.0 - 1000.0)).abs() < 20.0, "{note}");
     // A transition too short for the distance between its patterns is lengthened.
     let recipe = Recipe {
         name: "jump".into(),
@@ -339,16 +340,17 @@ fn too_much_is_scaled_down_with_a_note_naming_the_parameter() {
     assert_eq!(generated.notes.len(), 1, "{:?}", generated.notes);
     let note = &generated.notes[0];
     assert_eq!(
-        (note.segment, note.key.as_str(), note.from),
+        (note.segment, note.key.as_str(), note.numbers().unwrap().0),
         (0, "transition_s", 0.5)
     );
+    let longer_s = note.numbers().unwrap().1;
     // 6500 mm in at most half of 2000 mm/s: the smooth step needs 1.875 × 6500 / 1000
     // = 12.2 s.
-    assert!((12.0..13.0).contains(&note.to), "{note}");
+    assert!((12.0..13.0).contains(&longer_s), "{note}");
     assert_eq!(
         generated.show.duration_ms(),
         // Whole rows of 200 ms.
-        ((6.0 + note.to + 2.0) / 0.2 - 1e-9).ceil() as u64 * 200
+        ((6.0 + longer_s + 2.0) / 0.2 - 1e-9).ceil() as u64 * 200
     );
     // Beyond the longest transition, the whole show's motion is scaled down, and the
     // note says which transition it is.
@@ -356,7 +358,7 @@ fn too_much_is_scaled_down_with_a_note_naming_the_parameter() {
     slow.max_speed_mm_s = 50.0;
     let generated = render(&recipe, &grid, &slow).unwrap();
     assert_eq!(validate(&generated.show, &slow), []);
-    assert_eq!(generated.notes[0].to, 60.0);
+    assert_eq!(generated.notes[0].numbers().unwrap().1, 60.0);
     let note = generated.notes.last().unwrap();
     assert_eq!(note.key, "motion");
     assert!(

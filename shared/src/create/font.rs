@@ -162,6 +162,20 @@ pub fn has_glyph(c: char) -> bool {
     c.is_whitespace() || glyph(c).is_some()
 }
 
+/// The characters of `text` that the built-in font lacks (and [`render`] draws as
+/// `?`), each once, in the order they first appear; whitespace and control characters
+/// are not drawn and not missing.
+#[must_use]
+pub fn missing(text: &str) -> String {
+    let mut missing = String::new();
+    for c in text.chars() {
+        if !c.is_control() && !has_glyph(c) && !missing.contains(c) {
+            missing.push(c);
+        }
+    }
+    missing
+}
+
 /// `text` on one line in the built-in font, eight pixels high (top row first, the
 /// descenders of g, j, p, q, y in the last). Every glyph keeps only its inked columns,
 /// with [`GAP_PX`] blank between glyphs; whitespace is a [`SPACE_PX`]-wide blank; a
@@ -225,6 +239,8 @@ mod tests {
         }
         assert!(has_glyph(' '));
         assert!(!has_glyph('字'));
+        assert_eq!(missing("Hi 字 ok 字幕\t?"), "字幕");
+        assert_eq!(missing("Grüße, ΑΒΓ あ 42!"), "");
     }
 
     #[test]

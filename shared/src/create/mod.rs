@@ -133,8 +133,8 @@ pub trait Field {
     fn sample(&self, grid: &Grid, t_s: f64, out_mm: &mut [f64]);
 }
 
-/// What was changed so the show stays within its limits (or its parameters' ranges),
-/// and which parameter to change: shown next to that parameter's slider.
+/// What was changed so the show stays within its limits (or its parameters' ranges,
+/// or the font), and which parameter to change: shown next to that parameter's field.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Note {
     /// The 0-based segment of the recipe concerned (messages count from 1).
@@ -144,33 +144,89 @@ pub struct Note {
     /// The parameter concerned (a key of the pattern's parameters, or `transition_s`,
     /// `duration_s` for the segment's own fields).
     pub key: String,
-    /// The value asked for.
-    pub from: f64,
-    /// The value used.
-    pub to: f64,
-    /// The values' unit (`"m/s"`, `"mm"`, `"%"`; may be empty).
-    pub unit: String,
-    /// Why, ending the sentence: "so balls stay within 2000 mm/s".
+    /// What was changed.
+    pub change: Change,
+    /// Why, or what to do instead, ending the sentence: "so balls stay within 2000 mm/s".
     pub reason: String,
+}
+
+/// What a [`Note`] says was changed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Change {
+    /// A number: the value asked for and the value used.
+    Number {
+        /// The value asked for.
+        from: f64,
+        /// The value used.
+        to: f64,
+        /// The values' unit (`"m/s"`, `"mm"`, `"%"`; may be empty).
+        unit: String,
+    },
+    /// Characters of a text that the built-in font lacks, each drawn as `?`.
+    NotInFont {
+        /// Those characters, each once, in the order they first appear.
+        chars: String,
+    },
+}
+
+impl Note {
+    /// A note of a number clamped `from` → `to`.
+    #[must_use]
+    pub fn number(
+        segment: usize,
+        pattern: &str,
+        key: &str,
+        (from, to): (f64, f64),
+        unit: &str,
+        reason: String,
+    ) -> Self {
+        Self {
+            segment,
+            pattern: pattern.to_owned(),
+            key: key.to_owned(),
+            change: Change::Number {
+                from,
+                to,
+                unit: unit.to_owned(),
+            },
+            reason,
+        }
+    }
+
+    /// The value asked for and the value used, if the note is of a number.
+    #[must_use]
+    pub fn numbers(&self) -> Option<(f64, f64)> {
+        match self.change {
+            Change::Number { from, to, .. } => Some((from, to)),
+            Change::NotInFont { .. } => None,
+        }
+    }
 }
 
 impl fmt::Display for Note {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let unit = if self.unit.is_empty() {
-            String::new()
-        } else {
-            format!(" {}", self.unit)
-        };
-        write!(
-            f,
-            "{} of {} {} clamped from {} to {}{unit} {}",
-            self.key,
-            self.pattern,
-            self.segment + 1,
-            number(self.from),
-            number(self.to),
-            self.reason
-        )
+        let (key, pattern, segment) = (&self.key, &self.pattern, self.segment + 1);
+        match &self.change {
+            Change::Number { from, to, unit } => {
+                let unit = if unit.is_empty() {
+                    String::new()
+                } else {
+                    format!(" {unit}")
+                };
+                write!(
+                    f,
+                    "{key} of {pattern} {segment} clamped from {} to {}{unit} {}",
+                    number(*from),
+                    number(*to),
+                    self.reason
+                )
+            }
+            Change::NotInFont { chars } => write!(
+                f,
+                "{key} of {pattern} {segment}: {chars} not in the built-in font, drawn as ? {}",
+                self.reason
+            ),
+        }
     }
 }
 
@@ -359,15 +415,14 @@ mod tests {
 
     #[test]
     fn notes_read_as_a_sentence() {
-        let note = Note {
-            segment: 0,
-            pattern: "wave".into(),
-            key: "speed_m_s".into(),
-            from: 6.0,
-            to: 2.4,
-            unit: "m/s".into(),
-            reason: "so balls stay within 2000 mm/s".into(),
-        };
+        let note = Note::number(
+            0,
+            "wave",
+            "speed_m_s",
+            (6.0, 2.4),
+            "m/s",
+            "so balls stay within 2000 mm/s".into(),
+        );
         assert_eq!(
             note.to_string(),
             "speed_m_s of wave 1 clamped from 6 to 2.4 m/s so balls stay within 2000 mm/s"

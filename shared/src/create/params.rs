@@ -30,7 +30,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::{CreateError, Note, number};
+use super::{Change, CreateError, Note, number};
 
 /// What kind of value a parameter takes, its range and default.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -242,15 +242,14 @@ impl<'a> Reader<'a> {
         };
         let clamped = value.max(min).min(max);
         if clamped != *value {
-            self.notes.push(Note {
-                segment: self.segment,
-                pattern: self.pattern.to_owned(),
-                key: key.to_owned(),
-                from: *value,
-                to: clamped,
-                unit: unit.to_owned(),
-                reason: format!("(the range is {} to {})", number(min), number(max)),
-            });
+            self.notes.push(Note::number(
+                self.segment,
+                self.pattern,
+                key,
+                (*value, clamped),
+                unit,
+                format!("(the range is {} to {})", number(min), number(max)),
+            ));
         }
         clamped
     }
@@ -331,13 +330,27 @@ impl<'a> Reader<'a> {
     /// Adds a note (a builder that changes a value for the grid, e.g. a size that
     /// does not fit it).
     pub fn note(&mut self, key: &str, from: f64, to: f64, unit: &str, reason: &str) {
+        self.notes.push(Note::number(
+            self.segment,
+            self.pattern,
+            key,
+            (from, to),
+            unit,
+            reason.to_owned(),
+        ));
+    }
+
+    /// Adds a note that the characters `chars` of the text `key` are not in the
+    /// built-in font (and are drawn as `?`); nothing if `chars` is empty.
+    pub fn not_in_font(&mut self, key: &str, chars: String, reason: &str) {
+        if chars.is_empty() {
+            return;
+        }
         self.notes.push(Note {
             segment: self.segment,
             pattern: self.pattern.to_owned(),
             key: key.to_owned(),
-            from,
-            to,
-            unit: unit.to_owned(),
+            change: Change::NotInFont { chars },
             reason: reason.to_owned(),
         });
     }
@@ -500,8 +513,8 @@ mod tests {
         let notes = reader.into_notes();
         assert_eq!(notes.len(), 1);
         assert_eq!(
-            (notes[0].segment, notes[0].from, notes[0].to),
-            (2, 5.0, 10.0)
+            (notes[0].segment, notes[0].numbers()),
+            (2, Some((5.0, 10.0)))
         );
         assert_eq!(
             notes[0].to_string(),

@@ -473,15 +473,7 @@ fn part_note(
             None => ("motion".to_owned(), 100.0, 100.0 * scale, "%".to_owned()),
         },
     };
-    Note {
-        segment: index,
-        pattern: part.spec.name.to_owned(),
-        key,
-        from,
-        to,
-        unit,
-        reason,
-    }
+    Note::number(index, part.spec.name, &key, (from, to), &unit, reason)
 }
 
 /// The rows of every ball of `recipe`'s show, and its easing time.
@@ -685,20 +677,19 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
         if needed_s > asked_s {
             let longer_s = ((needed_s * 10.0).ceil() / 10.0).min(MAX_TRANSITION_S);
             recipe.segments[index].transition_s = longer_s;
-            notes.push(Note {
-                segment: index,
-                pattern: a.spec.name.to_owned(),
-                key: "transition_s".to_owned(),
-                from: asked_s,
-                to: longer_s,
-                unit: "s".to_owned(),
-                reason: format!(
+            notes.push(Note::number(
+                index,
+                a.spec.name,
+                "transition_s",
+                (asked_s, longer_s),
+                "s",
+                format!(
                     "so balls moving up to {} mm from one pattern to the next stay within {} mm/s and {} mm/s²",
                     number(difference_mm),
                     number(limits.max_speed_mm_s),
                     number(limits.max_accel_mm_s2)
                 ),
-            });
+            ));
         }
     }
     let recipe = &recipe;
@@ -750,7 +741,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
                 match notes.iter_mut().find(|old| {
                     (old.segment, &old.key, &old.reason) == (note.segment, &note.key, &note.reason)
                 }) {
-                    Some(old) => old.to = note.to,
+                    Some(old) => old.change = note.change,
                     None => notes.push(note),
                 }
                 parts[index].scale = scale;
@@ -803,18 +794,17 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
             Some((zone, _)) => (zone / 2, String::new()),
             None => (0, String::new()),
         };
-        notes.push(Note {
+        notes.push(Note::number(
             segment,
-            pattern: parts[segment].spec.name.to_owned(),
-            key: "motion".to_owned(),
-            from: 100.0,
-            to: 100.0 * scale,
-            unit: "%".to_owned(),
-            reason: format!(
+            parts[segment].spec.name,
+            "motion",
+            (100.0, 100.0 * scale),
+            "%",
+            format!(
                 "(the whole show) {limit_words} and within the travel of {} mm{advice}",
                 number(travel_mm)
             ),
-        });
+        ));
     }
     let tracks = samples.tracks(row_ms, (centre_mm, scale), grain);
     Ok(Generated {

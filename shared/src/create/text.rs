@@ -48,7 +48,7 @@
 //! ```
 
 use super::catalogue::PatternSpec;
-use super::font::{Bitmap, render};
+use super::font::{Bitmap, missing, render};
 use super::params::{ParamKind, ParamSpec, Reader};
 use super::{CreateError, Field, Grid, smooth_step};
 
@@ -132,6 +132,12 @@ pub const PATTERN: PatternSpec = PatternSpec {
 fn build(reader: &mut Reader<'_>, grid: &Grid) -> Result<Box<dyn Field>, CreateError> {
     let bitmap = Bitmap::parse(reader.text("bitmap"));
     let bitmap = if bitmap.is_blank() {
+        let missing = missing(reader.text("text"));
+        reader.not_in_font(
+            "text",
+            missing,
+            "(draw them with the bitmap parameter: lines of # and .)",
+        );
         render(reader.text("text"))
     } else {
         bitmap
@@ -435,6 +441,53 @@ mod tests {
         assert_eq!(
             picture(&grid, &out_mm, BASE_MM - DEPTH_MM),
             expected('A', 0..7, 0..6, 2, 4, 1, 20, 16)
+        );
+    }
+
+    #[test]
+    fn characters_the_font_lacks_are_drawn_as_question_marks_with_a_note() {
+        let grid = Grid::new(10, 30, 500.0, 7500.0);
+        let notes = |params: &[(&str, Value)]| {
+            let params: Params = params
+                .iter()
+                .map(|(key, value)| ((*key).to_owned(), value.clone()))
+                .collect();
+            PATTERN.field(&params, 1, &grid).unwrap().1
+        };
+        let notes_of = notes(&[("text", Value::Text("字A幕字".into()))]);
+        assert_eq!(notes_of.len(), 1, "{notes_of:?}");
+        assert_eq!((notes_of[0].segment, notes_of[0].key.as_str()), (1, "text"));
+        assert_eq!(
+            notes_of[0].change,
+            crate::create::Change::NotInFont {
+                chars: "字幕".into()
+            }
+        );
+        assert_eq!(
+            notes_of[0].to_string(),
+            "text of text 2: 字幕 not in the built-in font, drawn as ? \
+             (draw them with the bitmap parameter: lines of # and .)"
+        );
+        // What is drawn is the same as for question marks.
+        let still = |text: &str| {
+            let text = field(
+                &grid,
+                &[
+                    ("text", Value::Text(text.into())),
+                    ("scroll_m_s", Value::Number(0.0)),
+                ],
+            );
+            sample(text.as_ref(), &grid, 1.0)
+        };
+        assert_eq!(still("字A"), still("?A"));
+        // Letters the font has, or a bitmap given instead of the text: no note.
+        assert!(notes(&[("text", Value::Text("Grüße 42".into()))]).is_empty());
+        assert!(
+            notes(&[
+                ("text", Value::Text("字".into())),
+                ("bitmap", Value::Text("#.#|.#.".into())),
+            ])
+            .is_empty()
         );
     }
 
@@ -762,7 +815,13 @@ pub(crate) mod proptests {
             t0_s in 0.0..600.0f64,
         ) {
             let (field, notes) = PATTERN.field(&params, 0, &grid).unwrap();
-            prop_assert!(notes.is_empty());
+            // No number is clamped; only characters the font lacks are noted.
+            prop_assert!(
+                notes
+                    .iter()
+                    .all(|note| matches!(note.change, crate::create::Change::NotInFont { .. })),
+                "{notes:?}"
+            );
             let (again, _) = PATTERN.field(&params, 0, &grid).unwrap();
             let base_mm = number(&params, "base_mm");
             let depth_mm = number(&params, "depth_mm");

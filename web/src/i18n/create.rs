@@ -5,7 +5,7 @@
 //! why a show cannot be made. A test checks that every pattern, parameter and choice
 //! of the catalogue has its Chinese here.
 
-use floatball_shared::create::{CreateError, Note, ParamSpec, number};
+use floatball_shared::create::{Change, CreateError, Note, ParamSpec, number};
 
 use super::Lang;
 
@@ -151,15 +151,26 @@ fn key_label(lang: Lang, pattern: &str, key: &str) -> String {
 pub fn note(lang: Lang, note: &Note) -> String {
     let label = key_label(lang, &note.pattern, &note.key);
     let pattern = pattern(lang, &note.pattern);
-    let (from, to, unit) = (number(note.from), number(note.to), &note.unit);
     let segment = note.segment + 1;
-    match lang {
-        Lang::Zh => format!(
-            "第 {segment} 段（{pattern}）：{label} 已从 {from} 改为 {to} {unit}，以保持在限值之内；要更大的动作，请调整这一项或其他参数。"
+    match (&note.change, lang) {
+        (Change::Number { from, to, unit }, Lang::Zh) => format!(
+            "第 {segment} 段（{pattern}）：{label} 已从 {} 改为 {} {unit}，以保持在限值之内；要更大的动作，请调整这一项或其他参数。",
+            number(*from),
+            number(*to)
         ),
-        Lang::En => format!(
-            "segment {segment} ({pattern}): {label} changed from {from} to {to} {unit} {}",
+        (Change::Number { from, to, unit }, Lang::En) => format!(
+            "segment {segment} ({pattern}): {label} changed from {} to {} {unit} {}",
+            number(*from),
+            number(*to),
             note.reason
+        ),
+        (Change::NotInFont { chars }, Lang::Zh) => format!(
+            "第 {segment} 段（{pattern}）：{label} 中的“{chars}”不在内置字库中，显示为 ?；请用“{}”参数绘制它们（由 # 与 . 组成的行）。",
+            key_label(lang, &note.pattern, "bitmap")
+        ),
+        (Change::NotInFont { chars }, Lang::En) => format!(
+            "segment {segment} ({pattern}): {label}: {chars} not in the built-in font, drawn as ? (draw them with the {} parameter: lines of # and .)",
+            key_label(lang, &note.pattern, "bitmap")
         ),
     }
 }
@@ -261,15 +272,14 @@ mod tests {
 
     #[test]
     fn notes_name_the_segment_the_parameter_and_the_values_in_both_languages() {
-        let note = Note {
-            segment: 1,
-            pattern: "wave".into(),
-            key: "speed_m_s".into(),
-            from: 6.0,
-            to: 2.4,
-            unit: "m/s".into(),
-            reason: "so balls stay within 2000 mm/s".into(),
-        };
+        let note = Note::number(
+            1,
+            "wave",
+            "speed_m_s",
+            (6.0, 2.4),
+            "m/s",
+            "so balls stay within 2000 mm/s".into(),
+        );
         assert_eq!(
             super::note(Lang::En, &note),
             "segment 2 (Wave): Speed changed from 6 to 2.4 m/s so balls stay within 2000 mm/s"
@@ -277,6 +287,24 @@ mod tests {
         let zh = super::note(Lang::Zh, &note);
         assert!(
             zh.contains("第 2 段（波浪）：速度 已从 6 改为 2.4 m/s"),
+            "{zh}"
+        );
+        let note = Note {
+            segment: 0,
+            pattern: "text".into(),
+            key: "text".into(),
+            change: Change::NotInFont {
+                chars: "字幕".into(),
+            },
+            reason: String::new(),
+        };
+        assert_eq!(
+            super::note(Lang::En, &note),
+            "segment 1 (Text): Text: 字幕 not in the built-in font, drawn as ? (draw them with the Bitmap parameter: lines of # and .)"
+        );
+        let zh = super::note(Lang::Zh, &note);
+        assert!(
+            zh.contains("“字幕”不在内置字库中") && zh.contains("“自定义点阵”参数"),
             "{zh}"
         );
         assert!(error(Lang::Zh, &CreateError::EmptyTimeline).contains("时间线"));
