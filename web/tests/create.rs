@@ -31,6 +31,14 @@ async fn next_frame() {
     let _ = JsFuture::from(promise).await;
 }
 
+/// The size of the app's memory now, MB (it only grows).
+fn memory_mb() -> f64 {
+    use wasm_bindgen::JsCast;
+    let memory: js_sys::WebAssembly::Memory = wasm_bindgen::memory().unchecked_into();
+    let buffer: js_sys::ArrayBuffer = memory.buffer().unchecked_into();
+    buffer.byte_length() as f64 / 1_048_576.0
+}
+
 /// The median and the largest of `times`, ms.
 fn median_and_max(mut times: Vec<f64>) -> (f64, f64) {
     times.sort_by(f64::total_cmp);
@@ -92,13 +100,23 @@ async fn a_change_regenerates_and_redraws_10x10_and_100x100() {
             times.push(drawn - started);
             checks.push(now_ms() - drawn);
         }
+        let each: Vec<String> = times
+            .iter()
+            .zip(&generate)
+            .zip(&handing)
+            .map(|((ms, generate_ms), hand_ms)| {
+                format!("{ms:.0} ({generate_ms:.0} + {hand_ms:.0})")
+            })
+            .collect();
         let (median_ms, max_ms) = median_and_max(times);
         let (generate_ms, _) = median_and_max(generate);
         let (check_ms, _) = median_and_max(checks);
         let (hand_ms, _) = median_and_max(handing);
         console_log!(
-            "  {rows}×{cols} ({} s show): drawn {median_ms:.1} ms median, {max_ms:.1} ms max, of which generating {generate_ms:.1} ms, handing to the stage {hand_ms:.1} ms (goal ≤ {goal_ms} ms); the limit check after it {check_ms:.1} ms",
-            draft.total_s()
+            "  {rows}×{cols} ({} s show): drawn {median_ms:.1} ms median, {max_ms:.1} ms max, of which generating {generate_ms:.1} ms, handing to the stage {hand_ms:.1} ms (goal ≤ {goal_ms} ms); the limit check after it {check_ms:.1} ms; each change in turn: {} ms; the app's memory {:.0} MB",
+            draft.total_s(),
+            each.join(", "),
+            memory_mb()
         );
         assert!(median_ms > 0.0 && max_ms < 60_000.0);
     }

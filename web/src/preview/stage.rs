@@ -158,6 +158,9 @@ impl Stage {
         let same_layout = self.layout == show.layout && self.positions_mm.len() == units;
         self.layout = show.layout;
         self.scene = scene_of(show.layout, self.matrix);
+        // The last show's layout is let go first, so the new one reuses its memory
+        // instead of growing the page's (and, on the first change, waiting for it).
+        drop(std::mem::take(&mut self.sampler));
         self.sampler = Sampler::new(show);
         self.positions_mm = vec![0.0; units];
         self.colours = vec![[0; 3]; units];
