@@ -3,9 +3,10 @@
 //! Glyphs come from the public-domain 8 × 8 font of the `font8x8` crate (IBM's VGA
 //! font as collected by Marcel Sondaar and Daniel Hepper): Basic Latin (letters in both
 //! cases, digits, punctuation), Latin-1 (accented letters: é, ü, ß, ñ …), Greek and
-//! Hiragana. [`render`] lays a line of text out proportionally — each glyph trimmed
-//! to its inked columns, one blank column between glyphs, a space two columns wide —
-//! so a 10-ball-wide matrix shows more than one letter. A character the font lacks
+//! Hiragana. [`render`] lays text out proportionally — each glyph trimmed to its
+//! inked columns, one blank column between glyphs, a space two columns wide — so a
+//! 10-ball-wide matrix shows more than one letter; lines (separated by a newline or
+//! `|`) are centred one under the other. A character the font lacks
 //! is drawn as `?`; CJK and logos come as a user [`Bitmap`] instead
 //! ([`Bitmap::parse`]: lines of `#` and `.`).
 //!
@@ -30,6 +31,12 @@ pub const SPACE_PX: usize = 2;
 
 /// Blank columns between two glyphs, pixels.
 pub const GAP_PX: usize = 1;
+
+/// Blank rows between two lines of text, pixels (below the descenders' row).
+pub const LINE_GAP_PX: usize = 1;
+
+/// What separates the lines of a text: a newline, or `|` (as in [`Bitmap::parse`]).
+pub const LINE_BREAKS: [char; 2] = ['\n', '|'];
 
 /// A monochrome picture: `height` rows of `width` pixels, each inked or not.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -176,12 +183,35 @@ pub fn missing(text: &str) -> String {
     missing
 }
 
-/// `text` on one line in the built-in font, eight pixels high (top row first, the
-/// descenders of g, j, p, q, y in the last). Every glyph keeps only its inked columns,
-/// with [`GAP_PX`] blank between glyphs; whitespace is a [`SPACE_PX`]-wide blank; a
-/// character the font lacks is a `?`.
+/// `text` in the built-in font: each line (separated by a newline or `|`) eight
+/// pixels high (top row first, the descenders of g, j, p, q, y in the last), centred
+/// under the one before with [`LINE_GAP_PX`] blank rows between. Every glyph keeps
+/// only its inked columns, with [`GAP_PX`] blank between glyphs; whitespace is a
+/// [`SPACE_PX`]-wide blank; a character the font lacks is a `?`.
 #[must_use]
 pub fn render(text: &str) -> Bitmap {
+    let mut lines: Vec<Bitmap> = text.split(LINE_BREAKS).map(render_line).collect();
+    if lines.len() == 1 {
+        return lines.remove(0);
+    }
+    let width = lines.iter().map(Bitmap::width).max().unwrap_or(0);
+    let pitch = GLYPH_PX + LINE_GAP_PX;
+    let mut bitmap = Bitmap::blank(width, pitch * lines.len() - LINE_GAP_PX);
+    for (index, line) in lines.iter().enumerate() {
+        let left = (width - line.width()) / 2;
+        for y in 0..line.height() {
+            for x in 0..line.width() {
+                if line.ink(x, y) {
+                    bitmap.set(left + x, index * pitch + y, true);
+                }
+            }
+        }
+    }
+    bitmap
+}
+
+/// One line of `text` in the built-in font, eight pixels high.
+fn render_line(text: &str) -> Bitmap {
     // (columns of the glyph, its rows) for every character.
     let glyphs: Vec<(std::ops::Range<usize>, [u8; GLYPH_PX])> = text
         .chars()
@@ -262,6 +292,33 @@ mod tests {
         assert_eq!(render("I I").width(), 2 * i + SPACE_PX + 2 * GAP_PX);
         assert_eq!(render("").width(), 0);
         assert!(render("").is_blank());
+    }
+
+    #[test]
+    fn lines_are_centred_one_under_the_other() {
+        let two = render("II|I");
+        let i = render("I");
+        let ii = render("II");
+        assert_eq!(two.width(), ii.width());
+        assert_eq!(two.height(), 2 * GLYPH_PX + LINE_GAP_PX);
+        assert_eq!(render("II\nI"), two);
+        let left = (ii.width() - i.width()) / 2;
+        for y in 0..GLYPH_PX {
+            for x in 0..two.width() {
+                assert_eq!(two.ink(x, y), ii.ink(x, y), "first line at {x}, {y}");
+                let below = x
+                    .checked_sub(left)
+                    .is_some_and(|x| x < i.width() && i.ink(x, y));
+                assert_eq!(two.ink(x, GLYPH_PX + LINE_GAP_PX + y), below, "{x}, {y}");
+            }
+        }
+        assert!(
+            (0..two.width()).all(|x| !two.ink(x, GLYPH_PX)),
+            "the gap is blank"
+        );
+        // An empty line in the middle is a blank line; the text's own lines only.
+        assert_eq!(render("A||A").height(), 3 * GLYPH_PX + 2 * LINE_GAP_PX);
+        assert_eq!(missing("A|B\nC"), "");
     }
 
     #[test]

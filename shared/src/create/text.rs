@@ -1,6 +1,7 @@
-//! The text pattern: a word in the built-in font ([`super::font`]) or a user's bitmap
-//! (CJK, a logo) drawn in heights — letters raised above (or lowered below) a flat
-//! background — static and centred, or scrolling across the matrix.
+//! The text pattern: a word (or a few lines) in the built-in font ([`super::font`])
+//! or a user's bitmap (CJK, a logo) drawn in heights — letters raised above (or
+//! lowered below) a flat background — static and centred, or scrolling across the
+//! matrix.
 //!
 //! Seen from below with the front row nearest, the bitmap's top row is at the back and
 //! its left column at the left, so the word reads left to right. Glyph pixels are
@@ -67,7 +68,7 @@ pub const PARAMS: &[ParamSpec] = &[
         key: "text",
         label: "Text",
         help: "The word to show, in the built-in font (Latin letters, digits, punctuation; \
-               other characters show as ?).",
+               other characters show as ?). | or a new line starts another line.",
         kind: ParamKind::Text {
             default: "HELLO",
             max_chars: MAX_TEXT_CHARS,
@@ -442,6 +443,29 @@ mod tests {
             picture(&grid, &out_mm, BASE_MM - DEPTH_MM),
             expected('A', 0..7, 0..6, 2, 4, 1, 20, 16)
         );
+    }
+
+    #[test]
+    fn lines_stand_one_under_the_other() {
+        // "A|A" on 18 × 8: two A's (7 inked rows each, one blank and one gap row
+        // between), 16 rows in all, centred: the first from row 1, the second from 10.
+        let grid = Grid::new(18, 8, 500.0, 7500.0);
+        let text = field(
+            &grid,
+            &[
+                ("text", Value::Text("A|A".into())),
+                ("scroll_m_s", Value::Number(0.0)),
+            ],
+        );
+        let first = expected('A', 0..7, 0..6, 1, 1, 1, 8, 18);
+        let second = expected('A', 0..7, 0..6, 1, 1, 10, 8, 18);
+        let want: String = first
+            .chars()
+            .zip(second.chars())
+            .map(|(a, b)| if a == '#' || b == '#' { '#' } else { a })
+            .collect();
+        let out_mm = sample(text.as_ref(), &grid, 2.0);
+        assert_eq!(picture(&grid, &out_mm, BASE_MM - DEPTH_MM), want);
     }
 
     #[test]
