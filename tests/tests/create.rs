@@ -374,5 +374,28 @@ async fn the_draft_outlives_a_reload_right_after_a_change() {
         draft().await,
         serde_json::json!(["later", ["wave", "text"], "later"])
     );
+
+    // Two lines, one with a character the font lacks: drawn as ?, and a note under
+    // the preview names it and says what to use instead.
+    browser
+        .click("[data-testid=segment][data-pattern=text] [data-testid=segment-pick]")
+        .await;
+    set_value(&browser, "[data-testid=param-text]", "HI|字").await;
+    browser
+        .wait_for_text(
+            "[data-testid=create-notes]",
+            "字 not in the built-in font, drawn as ? (draw them with the Bitmap parameter",
+        )
+        .await;
+    set_value(&browser, "[data-testid=param-text]", "HI|42").await;
+    let deadline = tokio::time::Instant::now() + UI_TIMEOUT;
+    while browser
+        .text("[data-testid=create]")
+        .await
+        .contains("not in the built-in font")
+    {
+        assert!(tokio::time::Instant::now() < deadline, "the note stays");
+        tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+    }
     browser.client.close().await.expect("close the browser");
 }
