@@ -1,8 +1,8 @@
 //! The built app as the browser gets it: the page names the content-hashed js, wasm
 //! and css under `/pkg/`, they arrive compressed (`Content-Encoding: br` or `gzip`,
 //! whichever Chromium offers) and are cached for a year as immutable, while the page
-//! and `boot.js` are revalidated on every load (`no-cache`), so an update reaches
-//! every device at its next load.
+//! and `boot.js` (and the planner's `plan-worker.js`) are revalidated on every load
+//! (`no-cache`), so an update reaches every device at its next load.
 
 use floatball_e2e::{Bridge, Browser, INDICATOR, UI_TIMEOUT};
 
@@ -20,6 +20,7 @@ const urls = {
   css: href('link[rel="stylesheet"]'),
   page: location.origin + '/',
   boot: location.origin + '/boot.js',
+  worker: location.origin + '/plan-worker.js',
 };
 const loaded = performance.getEntriesByName(urls.wasm || '')[0];
 Promise.all(Object.entries(urls).map(async ([what, url]) => {
@@ -86,7 +87,7 @@ async fn the_app_arrives_compressed_with_hashed_names_and_cache_headers() {
         );
         assert_eq!(file["vary"], "accept-encoding", "{what}: {file}");
     }
-    for what in ["page", "boot"] {
+    for what in ["page", "boot", "worker"] {
         let file = &files[what];
         assert_eq!(file["status"], 200, "{what}: {file}");
         assert_eq!(file["cache"], "no-cache", "{what}: {file}");

@@ -184,11 +184,20 @@ async fn a_newcomer_makes_a_show_on_the_phone_and_plays_it_on_the_matrix() {
     }
     assert_eq!(browser.text("[data-testid=create-total]").await, "60.0 s");
 
-    // Within the installation's limits, and the line can carry it.
+    // Within the installation's limits, and the line can carry it: planned in the
+    // page's worker, off the thread that answers the buttons.
     browser
         .wait_for_text("[data-testid=preview-valid]", "本装置")
         .await;
     line_can_carry_it(&browser).await;
+    browser
+        .wait_for_attribute(
+            "[data-testid=create-verdict]",
+            "data-planned",
+            "worker",
+            UI_TIMEOUT,
+        )
+        .await;
 
     // Kept in the local files.
     browser.click("[data-testid=create-save-local]").await;

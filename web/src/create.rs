@@ -338,6 +338,24 @@ impl Target {
     }
 }
 
+/// The planner's verdict on `recipe` (JSON) for the installation `installation`
+/// (JSON, as `GET /api/installation` gives it): the show rendered and planned as the
+/// page would, as `PlanReport` JSON. What `static/plan-worker.js` runs, off the page's
+/// thread: planning 100 × 100 balls for a minute takes about a second.
+///
+/// # Errors
+/// The recipe or the installation cannot be read, or the show cannot be made.
+pub fn plan_recipe(recipe_json: &str, installation_json: &str) -> Result<String, String> {
+    let recipe = Recipe::from_json(recipe_json).map_err(|error| error.to_string())?;
+    let info: InstallationInfo = serde_json::from_str(installation_json)
+        .map_err(|error| format!("the installation cannot be read: {error}"))?;
+    let target = Target::of(Some(&info), (info.rows, info.cols));
+    let generated = create::render::render(&recipe, &target.grid, &target.limits)
+        .map_err(|error| error.to_string())?;
+    let report = target.verdict(&generated.show);
+    serde_json::to_string(&report).map_err(|error| error.to_string())
+}
+
 /// A generated show and what the page says about it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Made {
@@ -572,5 +590,19 @@ mod tests {
         assert_eq!((made.show.layout.rows, made.show.layout.cols), (3, 4));
         let verdict = online.verdict(&made.show).unwrap();
         assert!(verdict.feasible, "{verdict:?}");
+
+        // The worker's planner: the same verdict from the recipe and the installation
+        // as JSON; what it cannot read, said.
+        let recipe = draft.recipe().to_json().unwrap();
+        let installation = serde_json::to_string(&info).unwrap();
+        let planned = plan_recipe(&recipe, &installation).unwrap();
+        let planned: Option<PlanReport> = serde_json::from_str(&planned).unwrap();
+        assert_eq!(planned, Some(verdict));
+        let error = plan_recipe(&recipe, "{}").unwrap_err();
+        assert!(
+            error.starts_with("the installation cannot be read"),
+            "{error}"
+        );
+        assert!(plan_recipe("{", &installation).is_err());
     }
 }

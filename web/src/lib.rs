@@ -51,6 +51,7 @@ pub mod i18n;
 pub mod installation;
 pub mod json;
 pub mod page;
+pub mod plan_worker;
 pub mod playlist;
 pub mod preview;
 pub mod session;
@@ -65,4 +66,14 @@ use wasm_bindgen::prelude::wasm_bindgen;
 #[wasm_bindgen]
 pub fn start() {
     leptos::mount::mount_to_body(components::App);
+}
+
+/// Entry point called by `static/plan-worker.js`, off the page's thread: the
+/// planner's verdict on a recipe for an installation ([`create::plan_recipe`]).
+///
+/// # Errors
+/// What cannot be read or made, in words.
+#[wasm_bindgen]
+pub fn plan_recipe(recipe_json: &str, installation_json: &str) -> Result<String, String> {
+    create::plan_recipe(recipe_json, installation_json)
 }

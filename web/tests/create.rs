@@ -2,7 +2,8 @@
 //! costs the page on a 10 × 10 and a 100 × 100 matrix until the new picture is drawn —
 //! the show regenerated (offline, so no plan), handed to the stage (its sampler laid
 //! out) and drawn until the GPU has finished — and the limit check that follows the
-//! picture (as in the preview, two frames later).
+//! picture (as in the preview, two frames later); and, as online, the planner's
+//! verdict on the show for a matrix on simulated gateways.
 //!
 //! `cargo xtask create-bench` runs it in the app as served (the `wasm-release`
 //! profile, whose shared crate is optimised for speed); `wasm-pack test --headless
@@ -11,6 +12,8 @@
 //! gives the figures. Only sanity is checked: every show within the limits.
 
 use floatball_shared::create::Value;
+use floatball_shared::plan::report::report;
+use floatball_shared::plan::{Installation, PlanOptions};
 use floatball_shared::show::validate;
 use floatball_web::create::{Draft, Target};
 use floatball_web::preview::stage::{RendererKind, Stage, now_ms};
@@ -100,6 +103,18 @@ async fn a_change_regenerates_and_redraws_10x10_and_100x100() {
             times.push(drawn - started);
             checks.push(now_ms() - drawn);
         }
+        // Online, the page also asks the planner whether the line can carry the show
+        // (as the Create page does, once the slider rests): simulated gateways at
+        // 115 200 baud, 100 balls each.
+        let gateways = (rows * cols).div_ceil(100) as usize;
+        let installation =
+            Installation::demo(rows, cols, &vec![115_200; gateways]).expect("a demo installation");
+        let memory_mb = memory_mb();
+        let made = draft.make(&target).expect("a wave");
+        let planning = now_ms();
+        let verdict = report(&made.show, &installation, PlanOptions::default());
+        let verdict_ms = now_ms() - planning;
+        drop(made);
         let each: Vec<String> = times
             .iter()
             .zip(&generate)
@@ -113,10 +128,15 @@ async fn a_change_regenerates_and_redraws_10x10_and_100x100() {
         let (check_ms, _) = median_and_max(checks);
         let (hand_ms, _) = median_and_max(handing);
         console_log!(
-            "  {rows}×{cols} ({} s show): drawn {median_ms:.1} ms median, {max_ms:.1} ms max, of which generating {generate_ms:.1} ms, handing to the stage {hand_ms:.1} ms (goal ≤ {goal_ms} ms); the limit check after it {check_ms:.1} ms; each change in turn: {} ms; the app's memory {:.0} MB",
+            "  {rows}×{cols} ({} s show): drawn {median_ms:.1} ms median, {max_ms:.1} ms max, of which generating {generate_ms:.1} ms, handing to the stage {hand_ms:.1} ms (goal ≤ {goal_ms} ms); the limit check after it {check_ms:.1} ms; each change in turn: {} ms; the app's memory {:.0} MB; online, the line's verdict after it {verdict_ms:.0} ms ({})",
             draft.total_s(),
             each.join(", "),
-            memory_mb()
+            memory_mb,
+            if verdict.feasible {
+                "it can run"
+            } else {
+                "it cannot run"
+            }
         );
         assert!(median_ms > 0.0 && max_ms < 60_000.0);
     }

@@ -12,6 +12,7 @@
 use std::rc::Rc;
 use std::sync::Arc;
 
+use floatball_shared::api::PlanReport;
 use floatball_shared::create::recipe::{MAX_SEGMENTS, MAX_SHOW_S, MAX_TRANSITION_S, Recipe};
 use floatball_shared::create::{
     self, CreateError, PATTERNS, ParamKind, ParamSpec, Value, params::encode_base64,
@@ -28,6 +29,7 @@ use crate::context::Ctx;
 use crate::create::{Draft, Made, Target, format_number};
 use crate::files::LocalFile;
 use crate::i18n::{Text, create as words};
+use crate::plan_worker::PlanWorker;
 use crate::preview::PreviewPage;
 
 /// The generated show and what is said about it, kept apart so the show (large at
@@ -45,8 +47,8 @@ struct Outcome {
 }
 
 /// The planner's verdict in words: whether the line can carry the show, why not,
-/// and what would make it run.
-type Verdict = (bool, Option<String>, Vec<String>);
+/// what would make it run, and where it was planned (`worker` or `page`).
+type Verdict = (bool, Option<String>, Vec<String>, &'static str);
 
 fn now_ms() -> f64 {
     window()
@@ -70,9 +72,61 @@ pub fn CreatePage() -> impl IntoView {
     let message = RwSignal::new(None::<Message>);
 
     // The line's verdict plans the whole show: two frames after the picture, for the
-    // latest show only (a slider being dragged plans once it rests).
+    // latest show only (a slider being dragged plans once it rests). In a worker when
+    // the page can start one (`plan_worker`), so that a large plan never holds the
+    // page (and its E-STOP); else here.
     let verdict = RwSignal::new(None::<Verdict>);
     let verdict_due = StoredValue::new(0u32);
+    let in_words = move |report: PlanReport, planned_in: &'static str| -> Verdict {
+        let lang = ctx.lang.get_untracked();
+        (
+            report.feasible,
+            lang.plan_reason(&report),
+            lang.plan_fixes(&report),
+            planned_in,
+        )
+    };
+    let plan_here = move || {
+        let report = show.with_untracked(|show| {
+            show.as_ref()
+                .and_then(|show| target.with_untracked(|t| t.verdict(show)))
+        });
+        verdict.set(report.map(|report| in_words(report, "page")));
+    };
+    // None: not tried yet; Some(None): no worker here.
+    let worker = StoredValue::new_local(None::<Option<PlanWorker>>);
+    let plan_in_worker = move |due: u32| -> bool {
+        let Some(installation) = target.with_untracked(|t| t.installation.clone()) else {
+            return false;
+        };
+        if worker.with_value(Option::is_none) {
+            let started = PlanWorker::start(move |id, answer| {
+                if id != verdict_due.get_value() {
+                    return;
+                }
+                match answer {
+                    Ok(report) => verdict.set(report.map(|report| in_words(report, "worker"))),
+                    Err(error) => {
+                        leptos::logging::warn!("planning in the worker failed: {error}");
+                        plan_here();
+                    }
+                }
+            });
+            worker.set_value(Some(started));
+        }
+        let (Ok(recipe), Ok(installation)) = (
+            draft.with_untracked(Draft::recipe).to_json(),
+            serde_json::to_string(&installation),
+        ) else {
+            return false;
+        };
+        worker.with_value(|worker| {
+            worker
+                .as_ref()
+                .and_then(Option::as_ref)
+                .is_some_and(|worker| worker.plan(due, &recipe, &installation))
+        })
+    };
     let plan_after_the_picture = move || {
         verdict.set(None);
         let due = verdict_due.get_value().wrapping_add(1);
@@ -82,18 +136,9 @@ pub fn CreatePage() -> impl IntoView {
                 if verdict_due.get_value() != due {
                     return;
                 }
-                let lang = ctx.lang.get_untracked();
-                let report = show.with_untracked(|show| {
-                    show.as_ref()
-                        .and_then(|show| target.with_untracked(|t| t.verdict(show)))
-                });
-                verdict.set(report.map(|report| {
-                    (
-                        report.feasible,
-                        lang.plan_reason(&report),
-                        lang.plan_fixes(&report),
-                    )
-                }));
+                if !plan_in_worker(due) {
+                    plan_here();
+                }
             });
         });
     };
@@ -643,10 +688,15 @@ fn Checks(
             {move || {
                 verdict
                     .get()
-                    .map(|(feasible, reason, fixes)| {
+                    .map(|(feasible, reason, fixes, planned_in)| {
                         let key = if feasible { "feasible" } else { "infeasible" };
                         view! {
-                            <div class=format!("verdict {key}") data-testid="create-verdict" data-verdict=key>
+                            <div
+                                class=format!("verdict {key}")
+                                data-testid="create-verdict"
+                                data-verdict=key
+                                data-planned=planned_in
+                            >
                                 <strong>{ctx.t(Text::BandwidthVerdict)} ": "</strong>
                                 {ctx.t(if feasible { Text::PlanFeasible } else { Text::PlanInfeasible })}
                                 {reason.map(|reason| view! { <p>{reason}</p> })}

@@ -1,0 +1,26 @@
+// The Create page's planner, off the page's thread. Planning a large show (100 × 100
+// balls for a minute) takes about a second; on the page's own thread it would hold
+// every button for that long, the E-STOP too. The page sends
+// { module, id, recipe, installation }: `module` the app's js (the page's
+// modulepreload link), the recipe and the installation as JSON. The worker loads the
+// app once, renders the recipe and plans it exactly as the page would, and answers
+// { id, report } (the PlanReport as JSON) or { id, error }.
+let app = null;
+
+function load(module) {
+  app ??= import(module).then(async (loaded) => {
+    await loaded.default();
+    return loaded;
+  });
+  return app;
+}
+
+self.onmessage = async (event) => {
+  const { module, id, recipe, installation } = event.data;
+  try {
+    const loaded = await load(module);
+    self.postMessage({ id, report: loaded.plan_recipe(recipe, installation) });
+  } catch (err) {
+    self.postMessage({ id, error: String(err) });
+  }
+};
