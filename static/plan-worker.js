@@ -5,7 +5,13 @@
 // modulepreload link), the recipe and the installation as JSON. The worker loads the
 // app once, renders the recipe and plans it exactly as the page would, and answers
 // { id, report } (the PlanReport as JSON) or { id, error }.
+//
+// Only the latest request is planned: requests that arrive while a plan runs wait in
+// the event loop, so before each plan the worker lets them all arrive and keeps the
+// newest (the page ignores answers to older ones anyway).
 let app = null;
+let latest = null;
+let running = false;
 
 function load(module) {
   app ??= import(module).then(async (loaded) => {
@@ -15,12 +21,32 @@ function load(module) {
   return app;
 }
 
-self.onmessage = async (event) => {
-  const { module, id, recipe, installation } = event.data;
+async function run() {
+  running = true;
   try {
-    const loaded = await load(module);
-    self.postMessage({ id, report: loaded.plan_recipe(recipe, installation) });
-  } catch (err) {
-    self.postMessage({ id, error: String(err) });
+    for (;;) {
+      // Let every request already queued arrive first.
+      await new Promise((resolve) => setTimeout(resolve, 0));
+      if (latest === null) {
+        break;
+      }
+      const { module, id, recipe, installation } = latest;
+      latest = null;
+      try {
+        const loaded = await load(module);
+        self.postMessage({ id, report: loaded.plan_recipe(recipe, installation) });
+      } catch (err) {
+        self.postMessage({ id, error: String(err) });
+      }
+    }
+  } finally {
+    running = false;
+  }
+}
+
+self.onmessage = (event) => {
+  latest = event.data;
+  if (!running) {
+    run();
   }
 };
