@@ -190,37 +190,12 @@ impl Recipe {
         Ok(recipe)
     }
 
-    /// The recipe as pretty JSON (parameters in key order: the same recipe always
-    /// gives the same text). Numbers are written with at most 15 significant digits,
-    /// so the file reads back as exactly the recipe it holds and writes back as the
-    /// same text: a recipe file renders the same show every time.
-    ///
-    /// # Errors
-    /// [`CreateError::Recipe`] if serialisation fails.
-    pub fn to_json(&self) -> Result<String, CreateError> {
-        let segments = self
-            .segments
-            .iter()
-            .map(|segment| Segment {
-                pattern: segment.pattern.clone(),
-                params: segment
-                    .params
-                    .iter()
-                    .map(|(key, value)| {
-                        let value = match value {
-                            Value::Number(number) => Value::Number(digits15(*number)),
-                            Value::Text(text) => Value::Text(text.clone()),
-                        };
-                        (key.clone(), value)
-                    })
-                    .collect(),
-                duration_s: digits15(segment.duration_s),
-                transition_s: digits15(segment.transition_s),
-            })
-            .collect();
-        let file = File {
-            format: FORMAT.to_owned(),
-            version: VERSION,
+    /// The recipe as its file holds it: every number rounded to 15 significant digits
+    /// (see [`Recipe::to_json`]). [`super::render`] renders this, so the show made on
+    /// the page and the one made from the saved recipe are the same, row for row.
+    #[must_use]
+    pub fn filed(&self) -> Self {
+        Self {
             name: self.name.clone(),
             row_ms: self.row_ms,
             grid: self.grid.map(|grid| Grid {
@@ -228,7 +203,46 @@ impl Recipe {
                 travel_mm: digits15(grid.travel_mm),
                 ..grid
             }),
-            segments,
+            segments: self
+                .segments
+                .iter()
+                .map(|segment| Segment {
+                    pattern: segment.pattern.clone(),
+                    params: segment
+                        .params
+                        .iter()
+                        .map(|(key, value)| {
+                            let value = match value {
+                                Value::Number(number) => Value::Number(digits15(*number)),
+                                Value::Text(text) => Value::Text(text.clone()),
+                            };
+                            (key.clone(), value)
+                        })
+                        .collect(),
+                    duration_s: digits15(segment.duration_s),
+                    transition_s: digits15(segment.transition_s),
+                })
+                .collect(),
+        }
+    }
+
+    /// The recipe as pretty JSON (parameters in key order: the same recipe always
+    /// gives the same text). Numbers are written with at most 15 significant digits
+    /// ([`Recipe::filed`]), so the file reads back as exactly the recipe it holds and
+    /// writes back as the same text: a recipe file renders the same show every time,
+    /// and the same show as the recipe it was saved from.
+    ///
+    /// # Errors
+    /// [`CreateError::Recipe`] if serialisation fails.
+    pub fn to_json(&self) -> Result<String, CreateError> {
+        let filed = self.filed();
+        let file = File {
+            format: FORMAT.to_owned(),
+            version: VERSION,
+            name: filed.name,
+            row_ms: filed.row_ms,
+            grid: filed.grid,
+            segments: filed.segments,
         };
         serde_json::to_string_pretty(&file)
             .map(|mut text| {

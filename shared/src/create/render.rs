@@ -504,11 +504,13 @@ fn rows_within(recipe: &Recipe, balls: usize) -> Result<(), CreateError> {
 /// The recipe's ([`Recipe::check`]) or grid's ([`Grid::check`]) problems, an unknown
 /// pattern or parameter, a parameter of the wrong type, a picture that cannot be used.
 pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated, CreateError> {
+    // Its numbers as its file holds them: the saved recipe renders this very show.
+    let mut recipe = recipe.filed();
     recipe.check()?;
     grid.check()?;
     // At least as many rows as the recipe asks for (step 3 may add some): refused
     // before anything is built.
-    rows_within(recipe, grid.unit_count())?;
+    rows_within(&recipe, grid.unit_count())?;
     let spans = recipe.spans();
     let mut notes = Vec::new();
     let mut parts = Vec::with_capacity(recipe.segments.len());
@@ -606,7 +608,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
         let target_mm = mid_mm.max(low_mm + half_mm).min(high_mm - half_mm);
         if fit < 1.0 {
             notes.push(part_note(
-                recipe,
+                &recipe,
                 &parts,
                 index,
                 fit,
@@ -616,7 +618,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
         }
         if scale < fit {
             notes.push(part_note(
-                recipe,
+                &recipe,
                 &parts,
                 index,
                 scale,
@@ -626,7 +628,7 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
         }
         if (target_mm - mid_mm).abs() > 0.05 {
             notes.push(part_note(
-                recipe,
+                &recipe,
                 &parts,
                 index,
                 1.0,
@@ -644,7 +646,6 @@ pub fn render(recipe: &Recipe, grid: &Grid, limits: &Limits) -> Result<Generated
     // 3.75 V / T + 5.77 D / T² for a difference D and a difference of velocities V:
     // T is chosen so these take at most half of each limit (the patterns' own motion
     // takes the rest; what is left over is step 6's).
-    let mut recipe = recipe.clone();
     let mut a_velocity = vec![0.0; units];
     for index in 0..parts.len().saturating_sub(1) {
         let (a, b) = (&parts[index], &parts[index + 1]);
@@ -839,6 +840,37 @@ mod tests {
         assert_eq!(round_even(-0.4), 0.0);
         assert_eq!(round_even(1e300), 1e300);
         assert_eq!(round_even(12345.6789 * 10.0) / 10.0, 12345.7);
+    }
+
+    #[test]
+    fn a_recipe_renders_the_same_show_as_its_saved_file() {
+        // A slider's arithmetic leaves numbers of 17 digits (50.00000000000001, one
+        // bit above the wavelength's maximum; 0.1 + 0.2); the saved file holds 15. The
+        // recipe on the page and the file read back give the same show and the same
+        // notes — none here: 50.00000000000001 is 50 on file.
+        let params: super::super::Params = [
+            ("amplitude_mm", 800.000_000_000_000_1),
+            ("speed_m_s", 0.1 + 0.2),
+            ("wavelength_m", 50.000_000_000_000_01),
+        ]
+        .into_iter()
+        .map(|(key, value)| (key.to_owned(), super::super::Value::Number(value)))
+        .collect();
+        let mut recipe = Recipe::single("w", "wave", params, 5.0 + 1e-15);
+        recipe.segments.push(recipe.segments[0].clone());
+        recipe.segments[0].transition_s = 0.1 + 0.2 + 2.0;
+        let grid = Grid::new(4, 5, 500.0, 7500.0);
+        let limits = Limits::for_layout(4, 5);
+        let page = render(&recipe, &grid, &limits).unwrap();
+        let file = Recipe::from_json(&recipe.to_json().unwrap()).unwrap();
+        assert_eq!(file, recipe.filed());
+        assert_ne!(file, recipe);
+        let saved = render(&file, &grid, &limits).unwrap();
+        assert_eq!(page.notes, saved.notes);
+        assert_eq!(page.notes, []);
+        assert_eq!(page.show, saved.show);
+        // Filing twice changes nothing more.
+        assert_eq!(recipe.filed().filed(), recipe.filed());
     }
 
     #[test]
