@@ -258,4 +258,28 @@ fn mistakes_are_refused_and_clamps_reported() {
         stderr.contains("note: text of text 1: 字 not in the built-in font, drawn as ? (draw them with the bitmap parameter"),
         "{stderr}"
     );
+    // A word standing still, wider than the matrix: only its middle shows, said so.
+    let output = floatball(&[
+        "text",
+        "--text",
+        "HELLO",
+        "--scroll-m-s",
+        "0",
+        "--rows",
+        "10",
+        "--cols",
+        "10",
+        "--duration-s",
+        "5",
+        "--out",
+        &out,
+    ]);
+    assert!(output.status.success(), "{output:?}");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains(
+            "note: text of text 1: 38 balls across on a matrix 10 across, only its middle is shown"
+        ),
+        "{stderr}"
+    );
 }

@@ -300,9 +300,26 @@ async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
             count = generated_after(&browser, &count).await;
         }
         if name == "text" {
-            // Standing still, so the picture shows the whole word.
+            // Standing still, HELLO is wider than 24 balls: a note says only its
+            // middle is shown. HI fits, whole, and the note goes.
             set_value(&browser, "[data-testid=param-scroll_m_s]", "0").await;
-            count = generated_after(&browser, &count).await;
+            browser
+                .wait_for_text(
+                    "[data-testid=create-notes]",
+                    "38 balls across on a matrix 24 across, only its middle is shown",
+                )
+                .await;
+            set_value(&browser, "[data-testid=param-text]", "HI").await;
+            let deadline = tokio::time::Instant::now() + UI_TIMEOUT;
+            while browser
+                .text("[data-testid=create]")
+                .await
+                .contains("only its middle is shown")
+            {
+                assert!(tokio::time::Instant::now() < deadline, "the note stays");
+                tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+            }
+            count = generation(&browser).await;
         }
         let _ = count;
         browser.wait_for("[data-testid=preview-valid]").await;

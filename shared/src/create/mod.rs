@@ -167,6 +167,17 @@ pub enum Change {
         /// Those characters, each once, in the order they first appear.
         chars: String,
     },
+    /// A text or bitmap larger than the matrix at its letter size: only its middle is
+    /// shown. Each side that does not fit is given as (balls needed, balls the matrix
+    /// has); a scrolling text's width always fits.
+    Cropped {
+        /// Across (columns), if the width does not fit.
+        across: Option<(u32, u32)>,
+        /// Deep (rows), if the height does not fit.
+        deep: Option<(u32, u32)>,
+    },
+    /// Nothing to draw (an empty text, only spaces): the matrix stays flat.
+    Empty,
 }
 
 impl Note {
@@ -198,7 +209,7 @@ impl Note {
     pub fn numbers(&self) -> Option<(f64, f64)> {
         match self.change {
             Change::Number { from, to, .. } => Some((from, to)),
-            Change::NotInFont { .. } => None,
+            Change::NotInFont { .. } | Change::Cropped { .. } | Change::Empty => None,
         }
     }
 }
@@ -224,6 +235,27 @@ impl fmt::Display for Note {
             Change::NotInFont { chars } => write!(
                 f,
                 "{key} of {pattern} {segment}: {chars} not in the built-in font, drawn as ? {}",
+                self.reason
+            ),
+            Change::Cropped { across, deep } => {
+                let side = |(needed, has): (u32, u32), way: &str| {
+                    format!("{needed} balls {way} on a matrix {has} {way}")
+                };
+                let sides: Vec<String> = across
+                    .map(|side_of| side(side_of, "across"))
+                    .into_iter()
+                    .chain(deep.map(|side_of| side(side_of, "deep")))
+                    .collect();
+                write!(
+                    f,
+                    "{key} of {pattern} {segment}: {}, only its middle is shown {}",
+                    sides.join(" and "),
+                    self.reason
+                )
+            }
+            Change::Empty => write!(
+                f,
+                "{key} of {pattern} {segment}: nothing to draw, the matrix stays flat {}",
                 self.reason
             ),
         }

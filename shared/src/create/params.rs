@@ -346,11 +346,17 @@ impl<'a> Reader<'a> {
         if chars.is_empty() {
             return;
         }
+        self.change(key, Change::NotInFont { chars }, reason);
+    }
+
+    /// Adds a note of any other `change` to what the parameter `key` asked for, and
+    /// `reason`: what to do instead.
+    pub fn change(&mut self, key: &str, change: Change, reason: &str) {
         self.notes.push(Note {
             segment: self.segment,
             pattern: self.pattern.to_owned(),
             key: key.to_owned(),
-            change: Change::NotInFont { chars },
+            change,
             reason: reason.to_owned(),
         });
     }

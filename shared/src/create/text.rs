@@ -8,6 +8,10 @@
 //! scaled by a whole number of balls so the line fills the matrix's height (static
 //! text also fits its width when it can), or by `balls_per_pixel`, and centred.
 //!
+//! A text whose ink does not all fit the matrix (wider than it when standing still, or
+//! deeper) is noted ([`Change::Cropped`]), as is one with nothing to draw
+//! ([`Change::Empty`]).
+//!
 //! A scrolling word runs on a loop: the matrix starts flat, the word enters at the
 //! right (`scroll_m_s` > 0; at the left when negative), crosses and leaves, and enters
 //! again. Between two neighbouring balls' columns the height follows the quintic smooth
@@ -51,7 +55,7 @@
 use super::catalogue::PatternSpec;
 use super::font::{Bitmap, missing, render};
 use super::params::{ParamKind, ParamSpec, Reader};
-use super::{CreateError, Field, Grid, smooth_step};
+use super::{Change, CreateError, Field, Grid, smooth_step};
 
 /// The styles: letters above the background, or below it.
 pub const STYLES: &[&str] = &["raised", "lowered"];
@@ -132,16 +136,16 @@ pub const PATTERN: PatternSpec = PatternSpec {
 
 fn build(reader: &mut Reader<'_>, grid: &Grid) -> Result<Box<dyn Field>, CreateError> {
     let bitmap = Bitmap::parse(reader.text("bitmap"));
-    let bitmap = if bitmap.is_blank() {
+    let (key, bitmap) = if bitmap.is_blank() {
         let missing = missing(reader.text("text"));
         reader.not_in_font(
             "text",
             missing,
             "(draw them with the bitmap parameter: lines of # and .)",
         );
-        render(reader.text("text"))
+        ("text", render(reader.text("text")))
     } else {
-        bitmap
+        ("bitmap", bitmap)
     };
     let depth_mm = reader.number("depth_mm");
     let swing_mm = if reader.choice("style") == "lowered" {
@@ -152,14 +156,85 @@ fn build(reader: &mut Reader<'_>, grid: &Grid) -> Result<Box<dyn Field>, CreateE
     // A whole number of balls (a recipe may hold any number).
     #[allow(clippy::cast_possible_truncation)]
     let balls_per_pixel = reader.number("balls_per_pixel").round() as i64;
+    let scroll_m_s = reader.number("scroll_m_s");
+    let trimmed = bitmap.trimmed();
+    if trimmed.is_blank() {
+        reader.change(key, Change::Empty, "(type a text, or draw a bitmap)");
+    } else {
+        let scrolling = cols_per_s(grid, scroll_m_s) != 0.0;
+        let scale = scale(grid, &trimmed, balls_per_pixel, scrolling);
+        if let Some(change) = cropped(grid, &trimmed, scale, scrolling) {
+            reader.change(
+                key,
+                change,
+                "(choose a smaller letter size or a shorter text, or scroll it)",
+            );
+        }
+    }
     Ok(Box::new(Text::new(
         grid,
         &bitmap,
         balls_per_pixel,
-        reader.number("scroll_m_s"),
+        scroll_m_s,
         reader.number("base_mm"),
         swing_mm,
     )))
+}
+
+/// Scroll speed `scroll_m_s` on `grid` in ball columns per second (0 when it cannot
+/// scroll: no pitch, or a speed that is not a number).
+fn cols_per_s(grid: &Grid, scroll_m_s: f64) -> f64 {
+    if grid.pitch_mm > 0.0 && scroll_m_s.is_finite() {
+        scroll_m_s * 1000.0 / grid.pitch_mm
+    } else {
+        0.0
+    }
+}
+
+/// Balls per pixel of the `trimmed` bitmap on `grid`: `balls_per_pixel`, or when that
+/// is 0 (or less) as many as fit the matrix's depth (and its width when the text
+/// stands still); at least 1.
+fn scale(grid: &Grid, trimmed: &Bitmap, balls_per_pixel: i64, scrolling: bool) -> i64 {
+    let (rows, cols) = (i64::from(grid.rows), i64::from(grid.cols));
+    let (width, height) = (to_i64(trimmed.width()), to_i64(trimmed.height()));
+    let fit_height = if height > 0 { rows / height } else { 1 };
+    let fit_width = if width > 0 { cols / width } else { 1 };
+    let fits = if scrolling {
+        fit_height
+    } else {
+        fit_height.min(fit_width)
+    };
+    if balls_per_pixel > 0 {
+        balls_per_pixel
+    } else {
+        fits
+    }
+    .max(1)
+}
+
+/// The left column of a bitmap `width_balls` wide centred on `cols` columns (negative
+/// when it is wider).
+fn centred(cols: i64, width_balls: i64) -> i64 {
+    (cols - width_balls).div_euclid(2)
+}
+
+/// [`Change::Cropped`] when some of the `trimmed` bitmap's ink, `scale` balls a pixel
+/// and centred, falls off `grid` (across only when it stands still: a scrolling text
+/// crosses the whole matrix); `None` when all of it is seen.
+fn cropped(grid: &Grid, trimmed: &Bitmap, scale: i64, scrolling: bool) -> Option<Change> {
+    let (rows, cols) = (i64::from(grid.rows), i64::from(grid.cols));
+    let (width, height) = (to_i64(trimmed.width()), to_i64(trimmed.height()));
+    let balls = |count: i64| u32::try_from(count).unwrap_or(u32::MAX);
+    // Rows are trimmed to the ink: the bitmap's height is the ink's.
+    let deep = (height * scale > rows).then(|| (balls(height * scale), grid.rows));
+    // Columns may have blank ones at the edges (a glyph's spacing): only ink counts.
+    let inked = |x: &usize| (0..trimmed.height()).any(|y| trimmed.ink(*x, y));
+    let first = (0..trimmed.width()).find(inked).map_or(0, to_i64);
+    let last = (0..trimmed.width()).rev().find(inked).map_or(0, to_i64);
+    let lead = centred(cols, width * scale);
+    let across = (!scrolling && (lead + first * scale < 0 || lead + (last + 1) * scale > cols))
+        .then(|| (balls(width * scale), grid.cols));
+    (across.is_some() || deep.is_some()).then_some(Change::Cropped { across, deep })
 }
 
 /// The text pattern with its parameters fixed.
@@ -200,32 +275,16 @@ impl Text {
         let bitmap = bitmap.trimmed();
         let (rows, cols) = (i64::from(grid.rows), i64::from(grid.cols));
         let (width, height) = (to_i64(bitmap.width()), to_i64(bitmap.height()));
-        let cols_per_s = if grid.pitch_mm > 0.0 && scroll_m_s.is_finite() {
-            scroll_m_s * 1000.0 / grid.pitch_mm
-        } else {
-            0.0
-        };
+        let cols_per_s = cols_per_s(grid, scroll_m_s);
         let scrolling = cols_per_s != 0.0;
-        let fit_height = if height > 0 { rows / height } else { 1 };
-        let fit_width = if width > 0 { cols / width } else { 1 };
-        let fits = if scrolling {
-            fit_height
-        } else {
-            fit_height.min(fit_width)
-        };
-        let scale = if balls_per_pixel > 0 {
-            balls_per_pixel
-        } else {
-            fits
-        }
-        .max(1);
+        let scale = scale(grid, &bitmap, balls_per_pixel, scrolling);
         // The bitmap's top row (counted from the back) and left column on the tape.
         let top = (rows - height * scale).div_euclid(2);
         let (lead, period) = if scrolling {
             // The matrix's width of flat, then the text.
             (cols, cols + width * scale)
         } else {
-            ((cols - width * scale).div_euclid(2), 0)
+            (centred(cols, width * scale), 0)
         };
         // A ball's column plus the offset (< period) and the column after it.
         let length = period + cols + 1;
@@ -689,6 +748,109 @@ mod tests {
     }
 
     #[test]
+    fn a_text_larger_than_the_matrix_or_with_nothing_to_draw_gets_a_note() {
+        let notes = |grid: &Grid, params: &[(&str, Value)]| {
+            let params: Params = params
+                .iter()
+                .map(|(key, value)| ((*key).to_owned(), value.clone()))
+                .collect();
+            PATTERN.field(&params, 0, grid).unwrap().1
+        };
+        let text = |text: &str| ("text", Value::Text(text.into()));
+        let still = ("scroll_m_s", Value::Number(0.0));
+        let ten = Grid::new(10, 10, 500.0, 7500.0);
+        // Five letters, 38 pixels, standing on 10 columns: only the middle shows.
+        let cut = notes(&ten, &[text("HELLO"), still.clone()]);
+        assert_eq!(cut.len(), 1, "{cut:?}");
+        assert_eq!(
+            (cut[0].key.as_str(), &cut[0].change),
+            (
+                "text",
+                &Change::Cropped {
+                    across: Some((38, 10)),
+                    deep: None
+                }
+            )
+        );
+        assert_eq!(
+            cut[0].to_string(),
+            "text of text 1: 38 balls across on a matrix 10 across, only its middle is \
+             shown (choose a smaller letter size or a shorter text, or scroll it)"
+        );
+        // Scrolling, the same word crosses the whole matrix: no note.
+        assert_eq!(notes(&ten, &[text("HELLO")]), []);
+        // One letter fits; at 2 balls a pixel it needs 12 × 14 of the 10 × 10.
+        assert_eq!(notes(&ten, &[text("A"), still.clone()]), []);
+        let big = notes(
+            &ten,
+            &[
+                text("A"),
+                still.clone(),
+                ("balls_per_pixel", Value::Number(2.0)),
+            ],
+        );
+        assert_eq!(
+            big[0].change,
+            Change::Cropped {
+                across: Some((12, 10)),
+                deep: Some((14, 10))
+            }
+        );
+        assert!(
+            big[0].to_string().contains(
+                "12 balls across on a matrix 10 across and 14 balls deep on a matrix 10 deep"
+            ),
+            "{}",
+            big[0]
+        );
+        // Scrolling on a matrix shallower than a letter: only the depth is cut.
+        let shallow = Grid::new(5, 10, 500.0, 7500.0);
+        assert_eq!(
+            notes(&shallow, &[text("A")])[0].change,
+            Change::Cropped {
+                across: None,
+                deep: Some((7, 5))
+            }
+        );
+        // Only ink counts: blank columns off the matrix are no loss.
+        let narrow = Grid::new(3, 3, 500.0, 7500.0);
+        let bitmap = |rows: &str| ("bitmap", Value::Text(rows.into()));
+        assert_eq!(notes(&narrow, &[bitmap("..#.."), still.clone()]), []);
+        let off = notes(&narrow, &[bitmap("#...."), still.clone()]);
+        assert_eq!(
+            (off[0].key.as_str(), &off[0].change),
+            (
+                "bitmap",
+                &Change::Cropped {
+                    across: Some((5, 3)),
+                    deep: None
+                }
+            )
+        );
+        // Nothing to draw: an empty text, only spaces, a blank bitmap and no text.
+        for params in [
+            vec![text("")],
+            vec![text("   ")],
+            vec![text(""), bitmap("...|...")],
+        ] {
+            let empty = notes(&ten, &params);
+            assert_eq!(
+                empty
+                    .iter()
+                    .map(|note| (note.key.as_str(), &note.change))
+                    .collect::<Vec<_>>(),
+                [("text", &Change::Empty)],
+                "{params:?}"
+            );
+            assert_eq!(
+                empty[0].to_string(),
+                "text of text 1: nothing to draw, the matrix stays flat (type a text, or \
+                 draw a bitmap)"
+            );
+        }
+    }
+
+    #[test]
     fn a_user_bitmap_replaces_the_text() {
         let grid = Grid::new(4, 5, 500.0, 7500.0);
         let text = field(
@@ -839,13 +1001,9 @@ pub(crate) mod proptests {
             t0_s in 0.0..600.0f64,
         ) {
             let (field, notes) = PATTERN.field(&params, 0, &grid).unwrap();
-            // No number is clamped; only characters the font lacks are noted.
-            prop_assert!(
-                notes
-                    .iter()
-                    .all(|note| matches!(note.change, crate::create::Change::NotInFont { .. })),
-                "{notes:?}"
-            );
+            // No number is clamped: only characters the font lacks, a text larger
+            // than the matrix or an empty one are noted.
+            prop_assert!(notes.iter().all(|note| note.numbers().is_none()), "{notes:?}");
             let (again, _) = PATTERN.field(&params, 0, &grid).unwrap();
             let base_mm = number(&params, "base_mm");
             let depth_mm = number(&params, "depth_mm");

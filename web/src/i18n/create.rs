@@ -172,6 +172,42 @@ pub fn note(lang: Lang, note: &Note) -> String {
             "segment {segment} ({pattern}): {label}: {chars} not in the built-in font, drawn as ? (draw them with the {} parameter: lines of # and .)",
             key_label(lang, &note.pattern, "bitmap")
         ),
+        (Change::Cropped { across, deep }, Lang::Zh) => {
+            let sides: Vec<String> = across
+                .map(|(needed, has)| format!("需要横向 {needed} 个球，矩阵只有 {has} 个"))
+                .into_iter()
+                .chain(
+                    deep.map(|(needed, has)| format!("需要纵向 {needed} 个球，矩阵只有 {has} 个")),
+                )
+                .collect();
+            format!(
+                "第 {segment} 段（{pattern}）：{label}{}，只显示中间部分；请减小“{}”、缩短文字，或让它滚动。",
+                sides.join("；"),
+                key_label(lang, &note.pattern, "balls_per_pixel")
+            )
+        }
+        (Change::Cropped { across, deep }, Lang::En) => {
+            let sides: Vec<String> = across
+                .map(|(needed, has)| format!("{needed} balls across on a matrix {has} across"))
+                .into_iter()
+                .chain(
+                    deep.map(|(needed, has)| format!("{needed} balls deep on a matrix {has} deep")),
+                )
+                .collect();
+            format!(
+                "segment {segment} ({pattern}): {label}: {}, only its middle is shown (choose a smaller {}, a shorter text, or scroll it)",
+                sides.join(" and "),
+                key_label(lang, &note.pattern, "balls_per_pixel")
+            )
+        }
+        (Change::Empty, Lang::Zh) => format!(
+            "第 {segment} 段（{pattern}）：{label} 没有可显示的内容，矩阵保持平整；请输入文字或绘制“{}”。",
+            key_label(lang, &note.pattern, "bitmap")
+        ),
+        (Change::Empty, Lang::En) => format!(
+            "segment {segment} ({pattern}): {label}: nothing to draw, the matrix stays flat (type a text, or draw a {})",
+            key_label(lang, &note.pattern, "bitmap")
+        ),
     }
 }
 
@@ -306,6 +342,45 @@ mod tests {
         assert!(
             zh.contains("“字幕”不在内置字库中") && zh.contains("“自定义点阵”参数"),
             "{zh}"
+        );
+        let mut note = Note {
+            segment: 2,
+            pattern: "text".into(),
+            key: "text".into(),
+            change: Change::Cropped {
+                across: Some((38, 10)),
+                deep: Some((14, 10)),
+            },
+            reason: String::new(),
+        };
+        assert_eq!(
+            super::note(Lang::En, &note),
+            "segment 3 (Text): Text: 38 balls across on a matrix 10 across and 14 balls deep on a matrix 10 deep, only its middle is shown (choose a smaller Letter size, a shorter text, or scroll it)"
+        );
+        let zh = super::note(Lang::Zh, &note);
+        assert!(
+            zh.contains("需要横向 38 个球，矩阵只有 10 个；需要纵向 14 个球")
+                && zh.contains("只显示中间部分"),
+            "{zh}"
+        );
+        note.change = Change::Cropped {
+            across: None,
+            deep: Some((7, 5)),
+        };
+        assert!(
+            !super::note(Lang::En, &note).contains("across"),
+            "{}",
+            super::note(Lang::En, &note)
+        );
+        note.change = Change::Empty;
+        assert_eq!(
+            super::note(Lang::En, &note),
+            "segment 3 (Text): Text: nothing to draw, the matrix stays flat (type a text, or draw a Bitmap)"
+        );
+        assert!(
+            super::note(Lang::Zh, &note).contains("矩阵保持平整"),
+            "{}",
+            super::note(Lang::Zh, &note)
         );
         assert!(error(Lang::Zh, &CreateError::EmptyTimeline).contains("时间线"));
         assert_eq!(
