@@ -158,7 +158,9 @@ fn words_and_bitmaps_scroll_either_way_from_the_command_line() {
             "--style",
             "lowered",
         ],
-        &["--text", "OK", "--scroll_m_s", "0"],
+        // Standing, two glyphs that fit 10 balls across (OK, 15 across, would show
+        // only its middle, with a note).
+        &["--text", "I!", "--scroll_m_s", "0"],
     ] {
         let mut all = vec!["text", "--duration-s", "8", "--out", &out];
         all.extend_from_slice(args);
