@@ -358,18 +358,36 @@ impl Browser {
 
     /// Waits until the text of the element matching `css` contains `part`.
     pub async fn wait_for_text(&self, css: &str, part: &str) {
+        self.wait_for_text_that(
+            css,
+            &|text| text.contains(part),
+            &format!("contained {part:?}"),
+        )
+        .await;
+    }
+
+    /// Waits until the element matching `css` is there and its text no longer contains
+    /// `part`.
+    pub async fn wait_for_text_gone(&self, css: &str, part: &str) {
+        self.wait_for_text_that(css, &|text| !text.contains(part), &format!("lost {part:?}"))
+            .await;
+    }
+
+    /// Waits until the element matching `css` is there and its text passes `test`;
+    /// panics after [`UI_TIMEOUT`] saying it never `did` (and what was last seen).
+    async fn wait_for_text_that(&self, css: &str, test: &dyn Fn(&str) -> bool, did: &str) {
         let deadline = tokio::time::Instant::now() + UI_TIMEOUT;
         let mut seen = None;
         while tokio::time::Instant::now() < deadline {
             if let Ok(element) = self.client.find(fantoccini::Locator::Css(css)).await {
                 seen = element.text().await.ok();
-                if seen.as_deref().is_some_and(|text| text.contains(part)) {
+                if seen.as_deref().is_some_and(test) {
                     return;
                 }
             }
             tokio::time::sleep(Duration::from_millis(50)).await;
         }
-        panic!("{css} never contained {part:?} within {UI_TIMEOUT:?} (last seen {seen:?})");
+        panic!("{css} never {did} within {UI_TIMEOUT:?} (last seen {seen:?})");
     }
 
     /// Logs in from the Login page (opened with the connection button) with

@@ -310,15 +310,9 @@ async fn every_pattern_draws_within_the_limits_and_leaves_a_picture() {
                 )
                 .await;
             set_value(&browser, "[data-testid=param-text]", "HI").await;
-            let deadline = tokio::time::Instant::now() + UI_TIMEOUT;
-            while browser
-                .text("[data-testid=create]")
-                .await
-                .contains("only its middle is shown")
-            {
-                assert!(tokio::time::Instant::now() < deadline, "the note stays");
-                tokio::time::sleep(std::time::Duration::from_millis(100)).await;
-            }
+            browser
+                .wait_for_text_gone("[data-testid=create]", "only its middle is shown")
+                .await;
             count = generation(&browser).await;
         }
         let _ = count;
@@ -414,14 +408,8 @@ async fn the_draft_outlives_a_reload_right_after_a_change() {
         )
         .await;
     set_value(&browser, "[data-testid=param-text]", "HI|42").await;
-    let deadline = tokio::time::Instant::now() + UI_TIMEOUT;
-    while browser
-        .text("[data-testid=create]")
-        .await
-        .contains("not in the built-in font")
-    {
-        assert!(tokio::time::Instant::now() < deadline, "the note stays");
-        tokio::time::sleep(std::time::Duration::from_millis(100)).await;
-    }
+    browser
+        .wait_for_text_gone("[data-testid=create]", "not in the built-in font")
+        .await;
     browser.client.close().await.expect("close the browser");
 }

@@ -401,12 +401,22 @@ mod tests {
     const BASE_MM: f64 = 3000.0;
     const DEPTH_MM: f64 = 800.0;
 
-    fn field(grid: &Grid, params: &[(&str, Value)]) -> Box<dyn Field> {
+    /// The text pattern with `params` on `grid` as segment `segment`: its field and
+    /// its notes.
+    fn built(
+        grid: &Grid,
+        params: &[(&str, Value)],
+        segment: usize,
+    ) -> (Box<dyn Field>, Vec<crate::create::Note>) {
         let params: Params = params
             .iter()
             .map(|(key, value)| ((*key).to_owned(), value.clone()))
             .collect();
-        PATTERN.field(&params, 0, grid).unwrap().0
+        PATTERN.field(&params, segment, grid).unwrap()
+    }
+
+    fn field(grid: &Grid, params: &[(&str, Value)]) -> Box<dyn Field> {
+        built(grid, params, 0).0
     }
 
     fn sample(field: &dyn Field, grid: &Grid, t_s: f64) -> Vec<f64> {
@@ -530,13 +540,7 @@ mod tests {
     #[test]
     fn characters_the_font_lacks_are_drawn_as_question_marks_with_a_note() {
         let grid = Grid::new(10, 30, 500.0, 7500.0);
-        let notes = |params: &[(&str, Value)]| {
-            let params: Params = params
-                .iter()
-                .map(|(key, value)| ((*key).to_owned(), value.clone()))
-                .collect();
-            PATTERN.field(&params, 1, &grid).unwrap().1
-        };
+        let notes = |params: &[(&str, Value)]| built(&grid, params, 1).1;
         let notes_of = notes(&[("text", Value::Text("字A幕字".into()))]);
         assert_eq!(notes_of.len(), 1, "{notes_of:?}");
         assert_eq!((notes_of[0].segment, notes_of[0].key.as_str()), (1, "text"));
@@ -749,13 +753,7 @@ mod tests {
 
     #[test]
     fn a_text_larger_than_the_matrix_or_with_nothing_to_draw_gets_a_note() {
-        let notes = |grid: &Grid, params: &[(&str, Value)]| {
-            let params: Params = params
-                .iter()
-                .map(|(key, value)| ((*key).to_owned(), value.clone()))
-                .collect();
-            PATTERN.field(&params, 0, grid).unwrap().1
-        };
+        let notes = |grid: &Grid, params: &[(&str, Value)]| built(grid, params, 0).1;
         let text = |text: &str| ("text", Value::Text(text.into()));
         let still = ("scroll_m_s", Value::Number(0.0));
         let ten = Grid::new(10, 10, 500.0, 7500.0);

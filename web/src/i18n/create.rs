@@ -172,34 +172,16 @@ pub fn note(lang: Lang, note: &Note) -> String {
             "segment {segment} ({pattern}): {label}: {chars} not in the built-in font, drawn as ? (draw them with the {} parameter: lines of # and .)",
             key_label(lang, &note.pattern, "bitmap")
         ),
-        (Change::Cropped { across, deep }, Lang::Zh) => {
-            let sides: Vec<String> = across
-                .map(|(needed, has)| format!("需要横向 {needed} 个球，矩阵只有 {has} 个"))
-                .into_iter()
-                .chain(
-                    deep.map(|(needed, has)| format!("需要纵向 {needed} 个球，矩阵只有 {has} 个")),
-                )
-                .collect();
-            format!(
-                "第 {segment} 段（{pattern}）：{label}{}，只显示中间部分；请减小“{}”、缩短文字，或让它滚动。",
-                sides.join("；"),
-                key_label(lang, &note.pattern, "balls_per_pixel")
-            )
-        }
-        (Change::Cropped { across, deep }, Lang::En) => {
-            let sides: Vec<String> = across
-                .map(|(needed, has)| format!("{needed} balls across on a matrix {has} across"))
-                .into_iter()
-                .chain(
-                    deep.map(|(needed, has)| format!("{needed} balls deep on a matrix {has} deep")),
-                )
-                .collect();
-            format!(
-                "segment {segment} ({pattern}): {label}: {}, only its middle is shown (choose a smaller {}, a shorter text, or scroll it)",
-                sides.join(" and "),
-                key_label(lang, &note.pattern, "balls_per_pixel")
-            )
-        }
+        (Change::Cropped { across, deep }, Lang::Zh) => format!(
+            "第 {segment} 段（{pattern}）：{label}{}，只显示中间部分；请减小“{}”、缩短文字，或让它滚动。",
+            cropped_sides(lang, *across, *deep),
+            key_label(lang, &note.pattern, "balls_per_pixel")
+        ),
+        (Change::Cropped { across, deep }, Lang::En) => format!(
+            "segment {segment} ({pattern}): {label}: {}, only its middle is shown (choose a smaller {}, a shorter text, or scroll it)",
+            cropped_sides(lang, *across, *deep),
+            key_label(lang, &note.pattern, "balls_per_pixel")
+        ),
         (Change::Empty, Lang::Zh) => format!(
             "第 {segment} 段（{pattern}）：{label} 没有可显示的内容，矩阵保持平整；请输入文字或绘制“{}”。",
             key_label(lang, &note.pattern, "bitmap")
@@ -209,6 +191,23 @@ pub fn note(lang: Lang, note: &Note) -> String {
             key_label(lang, &note.pattern, "bitmap")
         ),
     }
+}
+
+/// The sides of a text that do not fit the matrix (balls needed, balls it has), in
+/// `lang`: across first, then deep.
+fn cropped_sides(lang: Lang, across: Option<(u32, u32)>, deep: Option<(u32, u32)>) -> String {
+    let side = |(needed, has): (u32, u32), is_across: bool| match (lang, is_across) {
+        (Lang::Zh, true) => format!("需要横向 {needed} 个球，矩阵只有 {has} 个"),
+        (Lang::Zh, false) => format!("需要纵向 {needed} 个球，矩阵只有 {has} 个"),
+        (Lang::En, true) => format!("{needed} balls across on a matrix {has} across"),
+        (Lang::En, false) => format!("{needed} balls deep on a matrix {has} deep"),
+    };
+    let sides: Vec<String> = across
+        .map(|sides| side(sides, true))
+        .into_iter()
+        .chain(deep.map(|sides| side(sides, false)))
+        .collect();
+    sides.join(if lang == Lang::Zh { "；" } else { " and " })
 }
 
 /// Why a show cannot be made.
