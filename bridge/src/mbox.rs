@@ -470,6 +470,71 @@ impl MboxNet {
     }
 }
 
+/// The bytes of FN `0x0090` = `value` (1 e-stop, 0 release), as written to every box.
+fn estop_datagram(value: u16) -> Vec<u8> {
+    let write = if value == 0 {
+        RegisterWrite::release_estop(Route::BROADCAST_SILENT)
+    } else {
+        RegisterWrite::estop(Route::BROADCAST_SILENT)
+    };
+    write.encode()
+}
+
+/// Turns the player's frames into the motion datagrams the sender puts on the wire:
+/// the time code of the configured [`TimeMode`], and each box's own sequence number
+/// (1 for its first frame, counting on and wrapping past 0 to 1).
+#[derive(Debug)]
+struct FrameEncoder {
+    time: TimeMode,
+    /// Per box: the sequence number of the last frame it was sent.
+    sequence: Vec<u32>,
+}
+
+impl FrameEncoder {
+    fn new(time: TimeMode, boxes: usize) -> Self {
+        Self {
+            time,
+            sequence: vec![0; boxes],
+        }
+    }
+
+    /// The time code of `frame`: its duration (relative), or the moment to arrive, ms
+    /// on the player's clock (absolute; never 0).
+    fn time_code(&self, frame: &MboxFrame) -> TimeCode {
+        match self.time {
+            TimeMode::Relative => TimeCode::from_ms(frame.time_ms),
+            TimeMode::Absolute => TimeCode::from_ms(
+                u32::try_from(frame.slot_us / 1_000)
+                    .unwrap_or(u32::MAX)
+                    .saturating_add(frame.time_ms)
+                    .max(1),
+            ),
+        }
+    }
+
+    /// Box `index`'s datagram of `frame`, counted in the box's sequence; `None` (and
+    /// not counted) when the frame has no valid axis count for it or the box is not
+    /// configured.
+    fn datagram(&mut self, frame: &MboxFrame, index: usize) -> Option<Vec<u8>> {
+        let time_code = self.time_code(frame);
+        let positions_pulses =
+            AxisPositions::from_slice(frame.positions_pulses.get(index)?).ok()?;
+        let sequence = self.sequence.get_mut(index)?;
+        *sequence = sequence.wrapping_add(1).max(1);
+        let output = frame.outputs.get(index).copied().unwrap_or_default();
+        let datagram = MotionFrame {
+            mode: self.time,
+            route: Route::BROADCAST_SILENT,
+            sequence: *sequence,
+            time_code,
+            positions_pulses,
+            digital: DigitalOutputs::from_bits(output.digital_bits),
+            analog: output.analog,
+        };
+        Some(datagram.encode())
+    }
+}
+
 /// The sender thread's own state.
 struct Outbox<'a> {
     shared: &'a Shared,
@@ -486,7 +551,7 @@ struct Outbox<'a> {
     pending: std::collections::VecDeque<Outgoing>,
     /// Per box: a poll is unanswered (replies count when it was sent).
     polled: Vec<Option<u64>>,
-    sequence: Vec<u32>,
+    encoder: FrameEncoder,
     meter_since: Instant,
     meter_sent: Vec<u64>,
 }
@@ -505,7 +570,7 @@ impl<'a> Outbox<'a> {
             poll_cursor: 0,
             pending: std::collections::VecDeque::new(),
             polled: vec![None; boxes],
-            sequence: vec![0; boxes],
+            encoder: FrameEncoder::new(shared.time, boxes),
             meter_since: now,
             meter_sent: vec![0; boxes],
         }
@@ -525,12 +590,7 @@ impl<'a> Outbox<'a> {
 
     /// Writes FN `0x0090` = `value` to every box.
     fn write_estop(&self, value: u16) {
-        let write = if value == 0 {
-            RegisterWrite::release_estop(Route::BROADCAST_SILENT)
-        } else {
-            RegisterWrite::estop(Route::BROADCAST_SILENT)
-        };
-        let bytes = write.encode();
+        let bytes = estop_datagram(value);
         for index in 0..self.shared.boxes.len() {
             self.send_to(index, &bytes);
         }
@@ -559,42 +619,11 @@ impl<'a> Outbox<'a> {
             self.write_estop(0);
             self.repeats.start_with(0, Instant::now());
         }
-        let MboxFrame {
-            slot_us,
-            time_ms,
-            positions_pulses,
-            outputs,
-        } = outgoing.frame;
-        let time_code = match self.shared.time {
-            TimeMode::Relative => TimeCode::from_ms(time_ms),
-            // The moment to arrive, ms on the player's clock (never 0).
-            TimeMode::Absolute => TimeCode::from_ms(
-                u32::try_from(slot_us / 1_000)
-                    .unwrap_or(u32::MAX)
-                    .saturating_add(time_ms)
-                    .max(1),
-            ),
-        };
         let started = Instant::now();
-        for (index, positions) in positions_pulses.iter().enumerate() {
-            let Ok(positions_pulses) = AxisPositions::from_slice(positions) else {
-                continue;
-            };
-            let Some(sequence) = self.sequence.get_mut(index) else {
-                continue;
-            };
-            *sequence = sequence.wrapping_add(1).max(1);
-            let output = outputs.get(index).copied().unwrap_or_default();
-            let datagram = MotionFrame {
-                mode: self.shared.time,
-                route: Route::BROADCAST_SILENT,
-                sequence: *sequence,
-                time_code,
-                positions_pulses,
-                digital: DigitalOutputs::from_bits(output.digital_bits),
-                analog: output.analog,
-            };
-            self.send_to(index, &datagram.encode());
+        for index in 0..outgoing.frame.positions_pulses.len() {
+            if let Some(datagram) = self.encoder.datagram(&outgoing.frame, index) {
+                self.send_to(index, &datagram);
+            }
         }
         let finished = Instant::now();
         let late = finished.saturating_duration_since(outgoing.slot) > self.shared.period / 2;
@@ -826,3 +855,7 @@ fn receive(shared: &Shared, socket: &UdpSocket) {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "mbox_tests.rs"]
+mod tests;
