@@ -37,6 +37,9 @@
 //!   bytes, the FIFO refill schedule, the bandwidth / feasibility report with its coded
 //!   verdict (why a show cannot run, what would make it run) and the player (Start /
 //!   E-stop / Reset as a state machine, split by phase).
+//! - [`player`]: the show sequencer — the playlist, approach, load, start, cycles,
+//!   E-stop, Reset and Home written once for every drive family, each family a
+//!   [`player::Drive`] under it (MBOX boxes: [`mbox::drive`]).
 //! - [`playlist`]: the playlist's limits and the one check of its ranges, used by the
 //!   bridge and the app alike.
 //! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
@@ -68,6 +71,7 @@ pub mod line;
 pub mod mbox;
 pub mod motion;
 pub mod plan;
+pub mod player;
 pub mod playlist;
 pub mod pvt;
 pub mod scl;

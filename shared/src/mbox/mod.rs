@@ -56,6 +56,7 @@
 //! ```
 
 pub mod console;
+pub mod drive;
 mod error;
 pub mod motion;
 pub mod register;

@@ -31,10 +31,12 @@
 //!   sends 0).
 
 use super::installation::Installation;
-use super::player::{Entry, NextRun, PlaylistProgress, StartError, next_run};
+use super::player::{Entry, StartError};
 use super::verdict::{Why, verdict_report};
-use crate::api::{PlanReport, PlayerState, Status};
-use crate::show::{OutputSample, Sampler, Show};
+use crate::api::{PlanReport, Status};
+use crate::mbox::drive::{MboxDrive, MboxEntry};
+use crate::player::{Run, Sequencer};
+use crate::show::{OutputSample, Show};
 
 /// Frames sent after a move or the playlist's end, holding the final positions.
 pub const SETTLE_FRAMES: u64 = 5;
@@ -90,56 +92,24 @@ pub struct MboxFrame {
     pub outputs: Vec<OutputSample>,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum AfterMove {
-    /// Play the current entry.
-    Play,
-    /// Begin the playlist's first entry.
-    First,
-    /// Stay idle.
-    Rest,
-}
-
-#[derive(Debug, Clone)]
-enum Step {
-    Idle,
-    Waiting {
-        until_us: u64,
-    },
-    Moving {
-        /// Approaching or Homing.
-        kind: PlayerState,
-        targets_mm: Vec<f64>,
-        began_us: u64,
-        arrive_us: u64,
-        after: AfterMove,
-    },
-    Playing {
-        start_us: u64,
-    },
-    Stopped,
-    Failed,
-}
-
-/// The MBOX player; see the [module documentation](self).
+/// The MBOX player: the show sequencer ([`crate::player`]) over the boxes' drive
+/// ([`crate::mbox::drive`]); see the [module documentation](self).
 #[derive(Debug)]
 pub struct MboxPlayer {
-    config: MboxPlayerConfig,
-    entries: Vec<Entry>,
-    samplers: Vec<Sampler>,
-    loop_playlist: bool,
-    entry: usize,
-    cycle: u32,
-    step: Step,
-    /// The last commanded positions, mm; `None` when unknown.
-    believed_mm: Option<Vec<f64>>,
-    /// The next frame slot, µs.
-    next_slot_us: u64,
-    frames: Vec<MboxFrame>,
-    samples: Vec<f32>,
-    last_error: Option<String>,
-    show_time_ms: u64,
-    progress: f64,
+    sequencer: Sequencer<MboxDrive>,
+}
+
+/// The playlist as the sequencer runs it on boxes.
+fn runs(entries: Vec<Entry>) -> Vec<Run<MboxEntry>> {
+    entries
+        .into_iter()
+        .map(|entry| Run {
+            name: entry.show.name.clone(),
+            duration_ms: entry.show.duration_ms(),
+            timing: entry.timing(),
+            prepared: MboxEntry::new(entry.show),
+        })
+        .collect()
 }
 
 impl MboxPlayer {
@@ -147,26 +117,14 @@ impl MboxPlayer {
     #[must_use]
     pub fn new(config: MboxPlayerConfig) -> Self {
         Self {
-            config,
-            entries: Vec::new(),
-            samplers: Vec::new(),
-            loop_playlist: false,
-            entry: 0,
-            cycle: 0,
-            step: Step::Idle,
-            believed_mm: None,
-            next_slot_us: 0,
-            frames: Vec::new(),
-            samples: Vec::new(),
-            last_error: None,
-            show_time_ms: 0,
-            progress: 0.0,
+            sequencer: Sequencer::new(MboxDrive::new(config)),
         }
     }
 
-    /// The frame period, µs (at least 1 ms).
-    fn period_us(&self) -> u64 {
-        self.config.period_us.max(1_000)
+    /// The boxes and installation it plays on.
+    #[must_use]
+    pub fn config(&self) -> &MboxPlayerConfig {
+        self.sequencer.drive().config()
     }
 
     /// Checks every entry against the installation before anything moves.
@@ -192,62 +150,24 @@ impl MboxPlayer {
     /// The playlist's state as the status shows it (the bridge adds the boxes).
     #[must_use]
     pub fn status(&self) -> Status {
-        let state = match &self.step {
-            Step::Idle => PlayerState::Idle,
-            Step::Waiting { .. } => PlayerState::Waiting,
-            Step::Moving { kind, .. } => *kind,
-            Step::Playing { .. } => PlayerState::Playing,
-            Step::Stopped => PlayerState::Stopped,
-            Step::Failed => PlayerState::Error,
-        };
-        let homing_to_rest = matches!(
-            self.step,
-            Step::Moving {
-                after: AfterMove::Rest,
-                ..
-            }
-        );
-        let active = self.is_running() && !homing_to_rest;
-        let entry = active.then(|| self.entries.get(self.entry)).flatten();
-        PlaylistProgress {
-            state,
-            playing: entry.map(|entry| {
-                (
-                    self.entry,
-                    entry.show.name.clone(),
-                    entry.show.duration_ms(),
-                )
-            }),
-            show_time_ms: self.show_time_ms,
-            cycle: self.cycle,
-            progress: self.progress,
-            last_error: self.last_error.clone(),
-        }
-        .status()
+        self.sequencer.status()
     }
 
     /// Whether a playlist runs (waiting, moving or playing).
     #[must_use]
     pub fn is_running(&self) -> bool {
-        matches!(
-            self.step,
-            Step::Waiting { .. } | Step::Moving { .. } | Step::Playing { .. }
-        )
+        self.sequencer.is_running()
     }
 
     /// The frames to send now, in order.
     pub fn take_frames(&mut self) -> Vec<MboxFrame> {
-        std::mem::take(&mut self.frames)
+        self.sequencer.drive_mut().take_frames()
     }
 
     /// When the player wants to be polled next, µs; `None` while at rest.
     #[must_use]
     pub fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
-        match &self.step {
-            Step::Idle | Step::Stopped | Step::Failed => None,
-            Step::Waiting { until_us } => Some((*until_us).max(now_us)),
-            _ => Some(self.next_slot_us.max(now_us)),
-        }
+        self.sequencer.next_wakeup_us(now_us)
     }
 
     /// Start: checks the playlist, homes first if the positions are unknown, then plays
@@ -265,41 +185,21 @@ impl MboxPlayer {
         if self.is_running() {
             return Err(StartError::Busy);
         }
-        Self::check(&self.config.installation, &entries)?;
-        self.start_checked(now_us, entries, loop_playlist);
-        Ok(())
+        Self::check(&self.sequencer.drive().config().installation, &entries)?;
+        self.sequencer.start(now_us, runs(entries), loop_playlist)
     }
 
     /// Start with a playlist [`MboxPlayer::check`]ed already, unless a playlist runs.
     /// Returns whether it started.
     pub fn start_checked(&mut self, now_us: u64, entries: Vec<Entry>, loop_playlist: bool) -> bool {
-        if self.is_running() {
-            return false;
-        }
-        self.samplers = entries
-            .iter()
-            .map(|entry| Sampler::new(&entry.show))
-            .collect();
-        self.entries = entries;
-        self.loop_playlist = loop_playlist;
-        self.last_error = None;
-        self.next_slot_us = now_us;
-        if self.believed_mm.is_none() {
-            self.begin_home(now_us, AfterMove::First);
-        } else {
-            self.begin_entry(now_us, 0);
-        }
-        true
+        self.sequencer
+            .start(now_us, runs(entries), loop_playlist)
+            .is_ok()
     }
 
     /// E-stop: stops sending at once; positions become unknown.
     pub fn estop(&mut self) {
-        if !matches!(self.step, Step::Failed) {
-            self.step = Step::Stopped;
-        }
-        self.believed_mm = None;
-        self.frames.clear();
-        self.progress = 0.0;
+        self.sequencer.estop();
     }
 
     /// Reset: stops, homes and plays the playlist from its first entry.
@@ -312,241 +212,26 @@ impl MboxPlayer {
         entries: Result<Vec<Entry>, StartError>,
         loop_playlist: bool,
     ) -> Result<(), StartError> {
-        self.estop();
-        self.step = Step::Stopped;
-        let result = entries.and_then(|entries| self.start(now_us, entries, loop_playlist));
-        if let Err(error) = &result {
-            self.last_error = Some(error.to_string());
-        }
-        result
+        let installation = self.sequencer.drive().config().installation.clone();
+        let entries = entries
+            .and_then(|entries| Self::check(&installation, &entries).map(|()| runs(entries)));
+        self.sequencer.reset(now_us, entries, loop_playlist)
     }
 
     /// Home: stops, brings every axis home and stays idle.
     pub fn home(&mut self, now_us: u64) {
-        self.estop();
-        self.last_error = None;
-        self.next_slot_us = now_us;
-        self.begin_home(now_us, AfterMove::Rest);
+        self.sequencer.home(now_us);
     }
 
     /// Fails the running playlist with `reason` (the bridge presses the e-stop).
     pub fn fail_with(&mut self, reason: String) {
-        if self.is_running() {
-            self.estop();
-            self.step = Step::Failed;
-            self.last_error = Some(reason);
-        }
+        self.sequencer.fail_with(reason);
     }
 
     /// Moves on in time: emits the frames of every slot due by `now_us` (only the
     /// latest when late: a box goes to the newest position).
     pub fn poll(&mut self, now_us: u64) {
-        if let Step::Waiting { until_us } = self.step {
-            if now_us < until_us {
-                return;
-            }
-            self.next_slot_us = self.next_slot_us.max(until_us);
-            self.begin_approach(until_us);
-        }
-        if !self.is_running() || now_us < self.next_slot_us {
-            return;
-        }
-        let period = self.period_us();
-        let behind = (now_us - self.next_slot_us) / period;
-        let slot_us = self.next_slot_us + behind * period;
-        self.next_slot_us = slot_us + period;
-        self.slot(slot_us);
-    }
-
-    /// The frame of one slot, and what follows it.
-    fn slot(&mut self, slot_us: u64) {
-        let period = self.period_us();
-        match &self.step {
-            Step::Moving {
-                targets_mm,
-                began_us,
-                arrive_us,
-                after,
-                ..
-            } => {
-                let (targets_mm, began_us, arrive_us, after) =
-                    (targets_mm.clone(), *began_us, *arrive_us, *after);
-                let left_us = arrive_us.saturating_sub(slot_us).max(period);
-                self.push_frame(slot_us, left_us, &targets_mm, None);
-                if slot_us >= arrive_us + SETTLE_FRAMES * period {
-                    self.believed_mm = Some(targets_mm);
-                    self.progress = 1.0;
-                    match after {
-                        AfterMove::Rest => self.step = Step::Idle,
-                        AfterMove::First => self.begin_entry(slot_us, 0),
-                        AfterMove::Play => self.begin_play(slot_us),
-                    }
-                } else {
-                    let span = arrive_us.saturating_sub(began_us).max(1) as f64;
-                    let done = slot_us.saturating_sub(began_us) as f64;
-                    self.progress = (done / span).min(1.0);
-                }
-            }
-            Step::Playing { start_us } => {
-                let start_us = *start_us;
-                let Some(sampler) = self.samplers.get_mut(self.entry) else {
-                    return;
-                };
-                let duration_ms = sampler.duration_ms();
-                let t_ms = slot_us.saturating_sub(start_us) / 1_000;
-                self.samples.resize(sampler.unit_count(), 0.0);
-                let ahead_ms = (t_ms + period / 1_000).min(duration_ms);
-                sampler.sample(ahead_ms as f64, &mut self.samples, None);
-                let targets_mm: Vec<f64> = self.samples.iter().map(|&mm| f64::from(mm)).collect();
-                self.show_time_ms = t_ms.min(duration_ms);
-                self.progress = if duration_ms == 0 {
-                    1.0
-                } else {
-                    (self.show_time_ms as f64 / duration_ms as f64).min(1.0)
-                };
-                self.push_frame(slot_us, period, &targets_mm, Some(t_ms));
-                let last = self.entry + 1 == self.entries.len()
-                    && self.cycle >= self.entries[self.entry].cycles.max(1)
-                    && !self.loop_playlist;
-                let settle_ms = if last {
-                    SETTLE_FRAMES * period / 1_000
-                } else {
-                    0
-                };
-                if t_ms + period / 1_000 >= duration_ms + settle_ms {
-                    self.believed_mm = Some(targets_mm);
-                    self.next_run(slot_us + period);
-                }
-            }
-            _ => {}
-        }
-    }
-
-    /// After a show's cycle: the next cycle, entry, the playlist again, or rest.
-    fn next_run(&mut self, now_us: u64) {
-        match next_run(
-            &self.entries,
-            self.entry,
-            &mut self.cycle,
-            self.loop_playlist,
-        ) {
-            NextRun::Cycle => self.begin_approach(now_us),
-            NextRun::Entry(entry) => self.begin_entry(now_us, entry),
-            NextRun::Rest => {
-                self.step = Step::Idle;
-                self.progress = 1.0;
-            }
-        }
-    }
-
-    fn begin_entry(&mut self, now_us: u64, entry: usize) {
-        self.entry = entry;
-        self.cycle = 1;
-        self.show_time_ms = 0;
-        self.progress = 0.0;
-        let delay_us = self
-            .entries
-            .get(entry)
-            .map_or(0, |entry| entry.delay_ms.saturating_mul(1_000));
-        if delay_us > 0 {
-            self.step = Step::Waiting {
-                until_us: now_us + delay_us,
-            };
-        } else {
-            self.begin_approach(now_us);
-        }
-    }
-
-    fn begin_approach(&mut self, now_us: u64) {
-        let Some(sampler) = self.samplers.get_mut(self.entry) else {
-            return;
-        };
-        self.samples.resize(sampler.unit_count(), 0.0);
-        sampler.sample(0.0, &mut self.samples, None);
-        let targets: Vec<f64> = self.samples.iter().map(|&mm| f64::from(mm)).collect();
-        self.show_time_ms = 0;
-        self.begin_move(now_us, PlayerState::Approaching, targets, AfterMove::Play);
-    }
-
-    fn begin_home(&mut self, now_us: u64, after: AfterMove) {
-        let installation = &self.config.installation;
-        let targets = vec![installation.home_mm; installation.units.len()];
-        self.begin_move(now_us, PlayerState::Homing, targets, after);
-    }
-
-    fn begin_move(
-        &mut self,
-        now_us: u64,
-        kind: PlayerState,
-        targets_mm: Vec<f64>,
-        after: AfterMove,
-    ) {
-        let installation = &self.config.installation;
-        let speed = installation.approach_speed_mm_s.max(f64::MIN_POSITIVE);
-        let distance_mm = match &self.believed_mm {
-            Some(believed) => believed
-                .iter()
-                .zip(&targets_mm)
-                .map(|(from, to)| (to - from).abs())
-                .fold(0.0, f64::max),
-            None => installation.limits.travel_mm,
-        };
-        let move_us = (distance_mm / speed * 1e6).ceil() as u64;
-        self.progress = 0.0;
-        self.step = Step::Moving {
-            kind,
-            targets_mm,
-            began_us: now_us,
-            arrive_us: now_us + move_us,
-            after,
-        };
-    }
-
-    fn begin_play(&mut self, now_us: u64) {
-        self.show_time_ms = 0;
-        self.progress = 0.0;
-        self.step = Step::Playing { start_us: now_us };
-    }
-
-    /// Turns every unit's target into each box's frame, with the outputs of the
-    /// current show at `show_t_ms` (0 without).
-    fn push_frame(
-        &mut self,
-        slot_us: u64,
-        time_us: u64,
-        targets_mm: &[f64],
-        show_t_ms: Option<u64>,
-    ) {
-        let installation = &self.config.installation;
-        let show = self.entries.get(self.entry).map(|entry| &entry.show);
-        let boxes = self.config.boxes.len();
-        let outputs = match (show, show_t_ms) {
-            (Some(show), Some(t_ms)) => show.outputs_of_boxes(boxes, t_ms),
-            _ => vec![OutputSample::default(); boxes],
-        };
-        let mut positions: Vec<Vec<i32>> = self
-            .config
-            .boxes
-            .iter()
-            .map(|calibration| vec![calibration.pulses(0.0); calibration.axes])
-            .collect();
-        for (address, &mm) in installation.units.iter().zip(targets_mm) {
-            let Some(calibration) = self.config.boxes.get(address.gateway) else {
-                continue;
-            };
-            if let Some(axis) = positions
-                .get_mut(address.gateway)
-                .and_then(|axes| axes.get_mut(usize::from(address.station).wrapping_sub(1)))
-            {
-                *axis = calibration.pulses(mm);
-            }
-        }
-        self.frames.push(MboxFrame {
-            slot_us,
-            time_ms: u32::try_from(time_us / 1_000).unwrap_or(u32::MAX).max(1),
-            positions_pulses: positions,
-            outputs,
-        });
+        self.sequencer.poll(now_us);
     }
 }
 

@@ -387,7 +387,7 @@ fn outputs_for_a_box_the_installation_lacks_are_refused() {
 
 #[test]
 fn the_report_says_a_valid_show_can_run_however_long_it_is() {
-    let mut installation = player().config.installation;
+    let mut installation = player().config().installation.clone();
     for gateway in &mut installation.gateways {
         gateway.baud = 0; // as the configuration gives a box: it has no serial line
     }
@@ -424,7 +424,7 @@ fn the_report_says_a_valid_show_can_run_however_long_it_is() {
 
 #[test]
 fn the_report_codes_outputs_for_a_box_the_installation_lacks() {
-    let installation = player().config.installation;
+    let installation = player().config().installation.clone();
     let mut show = entry_with_outputs().show;
     show.outputs[1].box_index = 2;
     let verdict = report::report(&show, &installation, PlanOptions::default());

@@ -1,0 +1,299 @@
+//! MBOX boxes under the show sequencer ([`crate::player`]): the [`Drive`] that turns
+//! its steps into one frame per period for every box ([`MboxFrame`]), which the bridge
+//! sends at the frame's slot, one datagram a box.
+//!
+//! - A box cannot report where its axes are, so the drive tracks the last commanded
+//!   positions. A move whose start is unknown (homing after an e-stop) lasts as long
+//!   as the longest possible move (the whole travel at the approach speed), and every
+//!   frame of a move carries the move's target and the time left, so each box moves
+//!   from wherever it is, and a lost frame is made good by the next.
+//! - A move, and the last show of a playlist, end with [`SETTLE_FRAMES`] more frames
+//!   holding the final positions: positions are absolute, so a lost last frame is
+//!   repeated.
+//! - A show is sampled by the preview's evaluator ([`Sampler`]) one period ahead, so
+//!   each frame tells every box where to be at the end of the period; its outputs are
+//!   sampled at the frame's show time. Frames of moves, and the settle frames after the
+//!   last show, carry every output 0.
+//! - Only the latest due slot is sent when the caller is late: a box goes to the
+//!   newest position.
+
+use crate::plan::mbox::{MboxFrame, MboxPlayerConfig, SETTLE_FRAMES};
+use crate::player::{Drive, Phase};
+use crate::show::{OutputSample, Sampler, Show};
+
+/// A playlist entry prepared for the boxes: its show and the show's sampler.
+#[derive(Debug, Clone)]
+pub struct MboxEntry {
+    /// The show (its output tracks are sampled for every frame).
+    pub show: Show,
+    /// The show's positions, sampled frame by frame.
+    pub sampler: Sampler,
+}
+
+impl MboxEntry {
+    /// `show`, ready to sample.
+    #[must_use]
+    pub fn new(show: Show) -> Self {
+        let sampler = Sampler::new(&show);
+        Self { show, sampler }
+    }
+}
+
+#[derive(Debug, Clone)]
+enum Step {
+    Idle,
+    Moving {
+        targets_mm: Vec<f64>,
+        began_us: u64,
+        arrive_us: u64,
+    },
+    Playing {
+        start_us: u64,
+        /// Nothing follows: settle frames end the show.
+        last: bool,
+    },
+}
+
+/// The MBOX drive; see the [module documentation](self).
+#[derive(Debug)]
+pub struct MboxDrive {
+    config: MboxPlayerConfig,
+    step: Step,
+    /// The last commanded positions, mm; `None` when unknown.
+    believed_mm: Option<Vec<f64>>,
+    /// The next frame slot, µs.
+    next_slot_us: u64,
+    frames: Vec<MboxFrame>,
+    samples: Vec<f32>,
+    show_time_ms: u64,
+    progress: f64,
+}
+
+impl MboxDrive {
+    /// The drive for the boxes in `config`, positions unknown.
+    #[must_use]
+    pub fn new(config: MboxPlayerConfig) -> Self {
+        Self {
+            config,
+            step: Step::Idle,
+            believed_mm: None,
+            next_slot_us: 0,
+            frames: Vec::new(),
+            samples: Vec::new(),
+            show_time_ms: 0,
+            progress: 0.0,
+        }
+    }
+
+    /// The configuration it drives.
+    #[must_use]
+    pub fn config(&self) -> &MboxPlayerConfig {
+        &self.config
+    }
+
+    /// The frames to send now, in order.
+    pub fn take_frames(&mut self) -> Vec<MboxFrame> {
+        std::mem::take(&mut self.frames)
+    }
+
+    /// The frame period, µs (at least 1 ms).
+    fn period_us(&self) -> u64 {
+        self.config.period_us.max(1_000)
+    }
+
+    fn begin_move(&mut self, now_us: u64, targets_mm: Vec<f64>) {
+        self.next_slot_us = self.next_slot_us.max(now_us);
+        let installation = &self.config.installation;
+        let speed = installation.approach_speed_mm_s.max(f64::MIN_POSITIVE);
+        let distance_mm = match &self.believed_mm {
+            Some(believed) => believed
+                .iter()
+                .zip(&targets_mm)
+                .map(|(from, to)| (to - from).abs())
+                .fold(0.0, f64::max),
+            None => installation.limits.travel_mm,
+        };
+        let move_us = (distance_mm / speed * 1e6).ceil() as u64;
+        self.progress = 0.0;
+        self.step = Step::Moving {
+            targets_mm,
+            began_us: now_us,
+            arrive_us: now_us + move_us,
+        };
+    }
+
+    /// The frame of one slot, and whether the step is over with it.
+    fn slot(&mut self, slot_us: u64, entry: Option<&mut MboxEntry>) -> Phase {
+        let period = self.period_us();
+        match &self.step {
+            Step::Moving {
+                targets_mm,
+                began_us,
+                arrive_us,
+            } => {
+                let (targets_mm, began_us, arrive_us) = (targets_mm.clone(), *began_us, *arrive_us);
+                let left_us = arrive_us.saturating_sub(slot_us).max(period);
+                self.push_frame(slot_us, left_us, &targets_mm, None);
+                if slot_us >= arrive_us + SETTLE_FRAMES * period {
+                    self.believed_mm = Some(targets_mm);
+                    self.progress = 1.0;
+                    self.step = Step::Idle;
+                    Phase::Done { at_us: slot_us }
+                } else {
+                    let span = arrive_us.saturating_sub(began_us).max(1) as f64;
+                    let done = slot_us.saturating_sub(began_us) as f64;
+                    self.progress = (done / span).min(1.0);
+                    Phase::Pending
+                }
+            }
+            Step::Playing { start_us, last } => {
+                let (start_us, last) = (*start_us, *last);
+                let Some(entry) = entry else {
+                    return Phase::Pending;
+                };
+                let duration_ms = entry.sampler.duration_ms();
+                let t_ms = slot_us.saturating_sub(start_us) / 1_000;
+                self.samples.resize(entry.sampler.unit_count(), 0.0);
+                let ahead_ms = (t_ms + period / 1_000).min(duration_ms);
+                entry
+                    .sampler
+                    .sample(ahead_ms as f64, &mut self.samples, None);
+                let targets_mm: Vec<f64> = self.samples.iter().map(|&mm| f64::from(mm)).collect();
+                self.show_time_ms = t_ms.min(duration_ms);
+                self.progress = if duration_ms == 0 {
+                    1.0
+                } else {
+                    (self.show_time_ms as f64 / duration_ms as f64).min(1.0)
+                };
+                self.push_frame(slot_us, period, &targets_mm, Some((&entry.show, t_ms)));
+                let settle_ms = if last {
+                    SETTLE_FRAMES * period / 1_000
+                } else {
+                    0
+                };
+                if t_ms + period / 1_000 >= duration_ms + settle_ms {
+                    self.believed_mm = Some(targets_mm);
+                    self.step = Step::Idle;
+                    Phase::Done {
+                        at_us: slot_us + period,
+                    }
+                } else {
+                    Phase::Pending
+                }
+            }
+            Step::Idle => Phase::Pending,
+        }
+    }
+
+    /// Turns every unit's target into each box's frame, with the outputs of `show` at
+    /// its time (0 without).
+    fn push_frame(
+        &mut self,
+        slot_us: u64,
+        time_us: u64,
+        targets_mm: &[f64],
+        show_at: Option<(&Show, u64)>,
+    ) {
+        let installation = &self.config.installation;
+        let boxes = self.config.boxes.len();
+        let outputs = match show_at {
+            Some((show, t_ms)) => show.outputs_of_boxes(boxes, t_ms),
+            None => vec![OutputSample::default(); boxes],
+        };
+        let mut positions: Vec<Vec<i32>> = self
+            .config
+            .boxes
+            .iter()
+            .map(|calibration| vec![calibration.pulses(0.0); calibration.axes])
+            .collect();
+        for (address, &mm) in installation.units.iter().zip(targets_mm) {
+            let Some(calibration) = self.config.boxes.get(address.gateway) else {
+                continue;
+            };
+            if let Some(axis) = positions
+                .get_mut(address.gateway)
+                .and_then(|axes| axes.get_mut(usize::from(address.station).wrapping_sub(1)))
+            {
+                *axis = calibration.pulses(mm);
+            }
+        }
+        self.frames.push(MboxFrame {
+            slot_us,
+            time_ms: u32::try_from(time_us / 1_000).unwrap_or(u32::MAX).max(1),
+            positions_pulses: positions,
+            outputs,
+        });
+    }
+}
+
+impl Drive for MboxDrive {
+    type Entry = MboxEntry;
+
+    fn begin_run(&mut self, now_us: u64) {
+        self.next_slot_us = now_us;
+    }
+
+    fn begin_home(&mut self, now_us: u64) {
+        let installation = &self.config.installation;
+        let targets = vec![installation.home_mm; installation.units.len()];
+        self.begin_move(now_us, targets);
+    }
+
+    fn begin_approach(&mut self, now_us: u64, entry: &mut MboxEntry) {
+        self.samples.resize(entry.sampler.unit_count(), 0.0);
+        entry.sampler.sample(0.0, &mut self.samples, None);
+        let targets: Vec<f64> = self.samples.iter().map(|&mm| f64::from(mm)).collect();
+        self.show_time_ms = 0;
+        self.begin_move(now_us, targets);
+    }
+
+    fn begin_load(
+        &mut self,
+        _now_us: u64,
+        _index: usize,
+        _entry: &mut MboxEntry,
+        _cycle: u32,
+    ) -> bool {
+        // Boxes take positions frame by frame: nothing is loaded ahead.
+        false
+    }
+
+    fn begin_play(&mut self, now_us: u64, _entry: &mut MboxEntry, last: bool) {
+        self.show_time_ms = 0;
+        self.progress = 0.0;
+        self.step = Step::Playing {
+            start_us: now_us,
+            last,
+        };
+    }
+
+    fn poll(&mut self, now_us: u64, entry: Option<&mut MboxEntry>) -> Phase {
+        if matches!(self.step, Step::Idle) || now_us < self.next_slot_us {
+            return Phase::Pending;
+        }
+        let period = self.period_us();
+        let behind = (now_us - self.next_slot_us) / period;
+        let slot_us = self.next_slot_us + behind * period;
+        self.next_slot_us = slot_us + period;
+        self.slot(slot_us, entry)
+    }
+
+    fn progress(&self) -> f64 {
+        self.progress
+    }
+
+    fn show_time_ms(&self) -> u64 {
+        self.show_time_ms
+    }
+
+    fn stop(&mut self) {
+        self.step = Step::Idle;
+        self.believed_mm = None;
+        self.frames.clear();
+        self.progress = 0.0;
+    }
+
+    fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
+        Some(self.next_slot_us.max(now_us))
+    }
+}

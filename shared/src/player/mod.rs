@@ -1,0 +1,481 @@
+//! The show sequencer: one state machine for the playlist on every drive family
+//! (DESIGN §1, §4–5). It owns everything that is not a family's own — the entries,
+//! their delays and cycles, the loop, the approach before each show, the order of
+//! load and play, what an e-stop voids, Reset, Home, "home first when the balls'
+//! positions are unknown" (at start-up, after an e-stop or an error), the progress and
+//! the status — and leaves every byte on the wire to a [`Drive`], the one place the
+//! families differ.
+//!
+//! Sans-IO (quinn-proto's shape): the caller hands it the time and the operator's
+//! requests, polls it when [`Sequencer::next_wakeup_us`] says, feeds the drive's own
+//! inputs (answers, feedback) to the drive, and carries out what the drive queued.
+//!
+//! - **Start** begins the playlist when nothing runs: homing first when the positions
+//!   are unknown, then for each entry: wait `delay_ms`; **approach** (every ball to
+//!   the show's first position); **load** what the show needs on the units, if the
+//!   drive has anything to load for this cycle; **play** it from a common start;
+//!   repeat `cycles` times; next entry; after the last, rest or start over (loop).
+//! - **E-stop** (the caller sent the stop ahead of everything): the sequencer stops,
+//!   the drive drops what it queued and forgets where the balls are, so the next Start
+//!   homes first and begins at the first entry — it never resumes mid-show. A failure
+//!   stays a failure (its reason stays visible).
+//! - **Reset** stops the same way, then starts: homing first, the playlist from its
+//!   first entry. **Home** stops, homes and rests.
+//! - A drive's failure (a unit's error, a lost link, a ball that does not arrive)
+//!   stops the matrix and says what happened, in words: the caller presses the e-stop
+//!   when [`Sequencer::take_estop`] says so.
+
+use crate::api::{PlayerState, Status};
+use crate::plan::player::{EntryTiming, NextRun, PlaylistProgress, StartError, next_run};
+
+/// How a step the drive carries out stands after a poll.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Phase {
+    /// Still under way.
+    Pending,
+    /// Over at `at_us` (on the caller's clock): the next step begins then.
+    Done {
+        /// When the step ended, µs.
+        at_us: u64,
+    },
+    /// It failed: the matrix stops with this reason.
+    Failed(String),
+}
+
+/// Which way a point-to-point move goes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MoveKind {
+    /// To a show's first position.
+    Approach,
+    /// To the installation's home position.
+    Home,
+}
+
+/// One playlist entry as the sequencer runs it: its show's name and length, when and
+/// how often it plays, and what the drive prepared of it.
+#[derive(Debug, Clone)]
+pub struct Run<E> {
+    /// The show's name, for the status.
+    pub name: String,
+    /// The show's length, ms.
+    pub duration_ms: u64,
+    /// Its delay and cycles.
+    pub timing: EntryTiming,
+    /// The drive's prepared form (samplers, programs, plans).
+    pub prepared: E,
+}
+
+/// A drive family under the sequencer: what the units are told, and when a step is
+/// over. The sequencer calls one `begin_*` per step, then [`Drive::poll`] until the
+/// step is [`Phase::Done`] or [`Phase::Failed`].
+pub trait Drive {
+    /// An entry as the drive prepared it before Start.
+    type Entry;
+
+    /// A Start, Reset or Home begins at `now_us`.
+    fn begin_run(&mut self, now_us: u64);
+
+    /// Every ball to the home position.
+    fn begin_home(&mut self, now_us: u64);
+
+    /// Every ball to `entry`'s first position.
+    fn begin_approach(&mut self, now_us: u64, entry: &mut Self::Entry);
+
+    /// Loads what cycle `cycle` of entry `index` needs on the units before its start;
+    /// `false` when there is nothing to load (the show plays at once).
+    fn begin_load(
+        &mut self,
+        now_us: u64,
+        index: usize,
+        entry: &mut Self::Entry,
+        cycle: u32,
+    ) -> bool;
+
+    /// Plays `entry` from a common start; `last`: nothing follows it (the playlist's
+    /// last cycle without a loop).
+    fn begin_play(&mut self, now_us: u64, entry: &mut Self::Entry, last: bool);
+
+    /// Lets time pass in the step under way; `entry` is the current entry.
+    fn poll(&mut self, now_us: u64, entry: Option<&mut Self::Entry>) -> Phase;
+
+    /// How far the step under way is, 0 to 1.
+    fn progress(&self) -> f64;
+
+    /// The show's time while it plays, ms.
+    fn show_time_ms(&self) -> u64;
+
+    /// The e-stop (or a failure): drop what is queued; positions become unknown.
+    fn stop(&mut self);
+
+    /// When the step under way next needs a poll, µs.
+    fn next_wakeup_us(&self, now_us: u64) -> Option<u64>;
+}
+
+/// What follows a move.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum AfterMove {
+    /// Load and play the current entry.
+    Play,
+    /// Begin the playlist's first entry.
+    First,
+    /// Rest.
+    Rest,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Step {
+    Idle,
+    Waiting { until_us: u64 },
+    Moving { kind: MoveKind, after: AfterMove },
+    Loading,
+    Playing,
+    Stopped,
+    Failed,
+}
+
+/// The sequencer over drive `D`; see the [module documentation](self).
+#[derive(Debug)]
+pub struct Sequencer<D: Drive> {
+    drive: D,
+    entries: Vec<Run<D::Entry>>,
+    loop_playlist: bool,
+    entry: usize,
+    cycle: u32,
+    step: Step,
+    /// The balls' positions are unknown: the next Start homes first.
+    needs_home: bool,
+    last_error: Option<String>,
+    show_time_ms: u64,
+    progress: f64,
+    /// The sequencer failed on its own: the caller must press the e-stop.
+    estop_wanted: bool,
+}
+
+impl<D: Drive> Sequencer<D> {
+    /// A sequencer over `drive`, idle, positions unknown (the first Start homes).
+    pub fn new(drive: D) -> Self {
+        Self {
+            drive,
+            entries: Vec::new(),
+            loop_playlist: false,
+            entry: 0,
+            cycle: 0,
+            step: Step::Idle,
+            needs_home: true,
+            last_error: None,
+            show_time_ms: 0,
+            progress: 0.0,
+            estop_wanted: false,
+        }
+    }
+
+    /// The drive.
+    pub fn drive(&self) -> &D {
+        &self.drive
+    }
+
+    /// The drive, to hand it its inputs and take its outputs.
+    pub fn drive_mut(&mut self) -> &mut D {
+        &mut self.drive
+    }
+
+    /// The playlist's state as the status shows it (the caller adds the links).
+    #[must_use]
+    pub fn status(&self) -> Status {
+        let state = match self.step {
+            Step::Idle => PlayerState::Idle,
+            Step::Waiting { .. } => PlayerState::Waiting,
+            Step::Moving {
+                kind: MoveKind::Approach,
+                ..
+            } => PlayerState::Approaching,
+            Step::Moving {
+                kind: MoveKind::Home,
+                ..
+            } => PlayerState::Homing,
+            Step::Loading => PlayerState::Loading,
+            Step::Playing => PlayerState::Playing,
+            Step::Stopped => PlayerState::Stopped,
+            Step::Failed => PlayerState::Error,
+        };
+        let homing_to_rest = matches!(
+            self.step,
+            Step::Moving {
+                after: AfterMove::Rest,
+                ..
+            }
+        );
+        let active = self.is_running() && !homing_to_rest;
+        let entry = active.then(|| self.entries.get(self.entry)).flatten();
+        PlaylistProgress {
+            state,
+            playing: entry.map(|run| (self.entry, run.name.clone(), run.duration_ms)),
+            show_time_ms: self.show_time_ms,
+            cycle: self.cycle,
+            progress: self.progress,
+            last_error: self.last_error.clone(),
+        }
+        .status()
+    }
+
+    /// Whether a playlist (or a homing move) is under way.
+    #[must_use]
+    pub fn is_running(&self) -> bool {
+        matches!(
+            self.step,
+            Step::Waiting { .. } | Step::Moving { .. } | Step::Loading | Step::Playing
+        )
+    }
+
+    /// Whether the next Start homes first.
+    #[must_use]
+    pub fn needs_home(&self) -> bool {
+        self.needs_home
+    }
+
+    /// Whether the sequencer failed on its own since the last call: the caller presses
+    /// the e-stop (every unit stops, whatever it was doing).
+    pub fn take_estop(&mut self) -> bool {
+        std::mem::take(&mut self.estop_wanted)
+    }
+
+    /// When the sequencer wants to be polled next, µs; `None` while at rest.
+    #[must_use]
+    pub fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
+        match self.step {
+            Step::Idle | Step::Stopped | Step::Failed => None,
+            Step::Waiting { until_us } => Some(until_us.max(now_us)),
+            Step::Moving { .. } | Step::Loading | Step::Playing => {
+                self.drive.next_wakeup_us(now_us)
+            }
+        }
+    }
+
+    /// Start: homes first if the positions are unknown, then plays `entries` from the
+    /// first.
+    ///
+    /// # Errors
+    /// [`StartError::Busy`] while a playlist runs, [`StartError::Empty`] without
+    /// entries; nothing was changed.
+    pub fn start(
+        &mut self,
+        now_us: u64,
+        entries: Vec<Run<D::Entry>>,
+        loop_playlist: bool,
+    ) -> Result<(), StartError> {
+        if self.is_running() {
+            return Err(StartError::Busy);
+        }
+        if entries.is_empty() {
+            return Err(StartError::Empty);
+        }
+        self.entries = entries;
+        self.loop_playlist = loop_playlist;
+        self.last_error = None;
+        self.drive.begin_run(now_us);
+        if self.needs_home {
+            self.begin_home(now_us, AfterMove::First);
+        } else {
+            self.begin_entry(now_us, 0);
+        }
+        Ok(())
+    }
+
+    /// The e-stop was sent (by the caller, ahead of everything): the sequencer stops,
+    /// the drive drops what it queued, and the next Start homes first.
+    pub fn estop(&mut self) {
+        if self.step != Step::Failed {
+            self.step = Step::Stopped;
+        }
+        self.needs_home = true;
+        self.drive.stop();
+        self.progress = 0.0;
+    }
+
+    /// Reset (the caller sent the stop first): stops, then homes and plays `entries`
+    /// from the first. If they cannot play, the matrix stays stopped and the error says
+    /// why.
+    ///
+    /// # Errors
+    /// Why the playlist cannot run.
+    pub fn reset(
+        &mut self,
+        now_us: u64,
+        entries: Result<Vec<Run<D::Entry>>, StartError>,
+        loop_playlist: bool,
+    ) -> Result<(), StartError> {
+        self.estop();
+        self.step = Step::Stopped;
+        let result = entries.and_then(|entries| self.start(now_us, entries, loop_playlist));
+        if let Err(error) = &result {
+            self.last_error = Some(error.to_string());
+        }
+        result
+    }
+
+    /// Home (the caller sent the stop first): stops, brings every ball home and rests.
+    pub fn home(&mut self, now_us: u64) {
+        self.estop();
+        self.last_error = None;
+        self.drive.begin_run(now_us);
+        self.begin_home(now_us, AfterMove::Rest);
+    }
+
+    /// Fails the running playlist with `reason`, for a fault the caller found (a lost
+    /// link): stops as an e-stop does (the caller presses it).
+    pub fn fail_with(&mut self, reason: String) {
+        if self.is_running() {
+            self.estop();
+            self.step = Step::Failed;
+            self.last_error = Some(reason);
+        }
+    }
+
+    /// Lets time pass: moves on between steps as the drive finishes them.
+    pub fn poll(&mut self, now_us: u64) {
+        if let Step::Waiting { until_us } = self.step {
+            if now_us < until_us {
+                return;
+            }
+            self.begin_approach(until_us);
+        }
+        // A step that ends at once hands over to the next in the same turn; a bound
+        // keeps a drive that is always done from spinning.
+        for _ in 0..64 {
+            if !matches!(
+                self.step,
+                Step::Moving { .. } | Step::Loading | Step::Playing
+            ) {
+                return;
+            }
+            let entry = self
+                .entries
+                .get_mut(self.entry)
+                .map(|run| &mut run.prepared);
+            let phase = self.drive.poll(now_us, entry);
+            self.progress = self.drive.progress();
+            if self.step == Step::Playing {
+                self.show_time_ms = self.drive.show_time_ms();
+            }
+            match phase {
+                Phase::Pending => return,
+                Phase::Failed(reason) => {
+                    self.estop_wanted = true;
+                    self.fail_with(reason);
+                    return;
+                }
+                Phase::Done { at_us } => self.step_done(at_us),
+            }
+        }
+    }
+
+    /// The step under way is over at `at_us`: the next begins.
+    fn step_done(&mut self, at_us: u64) {
+        match self.step {
+            Step::Moving { kind, after } => {
+                if kind == MoveKind::Home {
+                    self.needs_home = false;
+                }
+                match after {
+                    AfterMove::Rest => {
+                        self.step = Step::Idle;
+                        self.progress = 1.0;
+                    }
+                    AfterMove::First => self.begin_entry(at_us, 0),
+                    AfterMove::Play => self.begin_load(at_us),
+                }
+            }
+            Step::Loading => self.begin_play(at_us),
+            Step::Playing => match next_run(
+                &self.timings(),
+                self.entry,
+                &mut self.cycle,
+                self.loop_playlist,
+            ) {
+                NextRun::Cycle => self.begin_approach(at_us),
+                NextRun::Entry(entry) => self.begin_entry(at_us, entry),
+                NextRun::Rest => {
+                    self.step = Step::Idle;
+                    self.progress = 1.0;
+                }
+            },
+            Step::Idle | Step::Waiting { .. } | Step::Stopped | Step::Failed => {}
+        }
+    }
+
+    fn timings(&self) -> Vec<EntryTiming> {
+        self.entries.iter().map(|run| run.timing).collect()
+    }
+
+    fn begin_entry(&mut self, now_us: u64, entry: usize) {
+        self.entry = entry;
+        self.cycle = 1;
+        self.show_time_ms = 0;
+        self.progress = 0.0;
+        let delay_us = self
+            .entries
+            .get(entry)
+            .map_or(0, |run| run.timing.delay_ms.saturating_mul(1_000));
+        if delay_us > 0 {
+            self.step = Step::Waiting {
+                until_us: now_us + delay_us,
+            };
+        } else {
+            self.begin_approach(now_us);
+        }
+    }
+
+    fn begin_approach(&mut self, now_us: u64) {
+        let Some(run) = self.entries.get_mut(self.entry) else {
+            return;
+        };
+        self.show_time_ms = 0;
+        self.step = Step::Moving {
+            kind: MoveKind::Approach,
+            after: AfterMove::Play,
+        };
+        self.drive.begin_approach(now_us, &mut run.prepared);
+        self.progress = self.drive.progress();
+    }
+
+    fn begin_home(&mut self, now_us: u64, after: AfterMove) {
+        self.step = Step::Moving {
+            kind: MoveKind::Home,
+            after,
+        };
+        self.drive.begin_home(now_us);
+        self.progress = self.drive.progress();
+    }
+
+    fn begin_load(&mut self, now_us: u64) {
+        let (entry, cycle) = (self.entry, self.cycle);
+        let Some(run) = self.entries.get_mut(entry) else {
+            return;
+        };
+        if self
+            .drive
+            .begin_load(now_us, entry, &mut run.prepared, cycle)
+        {
+            self.step = Step::Loading;
+            self.progress = self.drive.progress();
+        } else {
+            self.begin_play(now_us);
+        }
+    }
+
+    fn begin_play(&mut self, now_us: u64) {
+        let last = self.entry + 1 == self.entries.len()
+            && self.cycle >= self.entries[self.entry].timing.cycles.max(1)
+            && !self.loop_playlist;
+        let Some(run) = self.entries.get_mut(self.entry) else {
+            return;
+        };
+        self.show_time_ms = 0;
+        self.progress = 0.0;
+        self.step = Step::Playing;
+        self.drive.begin_play(now_us, &mut run.prepared, last);
+    }
+}
+
+#[cfg(test)]
+mod tests;

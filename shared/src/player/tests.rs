@@ -1,0 +1,291 @@
+//! The sequencer's own semantics, family-agnostic: a drive whose every step takes a
+//! fixed time, and which writes down each step it is asked for. The families' drives
+//! are tested against their twins beside them (`plan/mbox_tests.rs`, `scl/drive`).
+
+#[cfg(target_arch = "wasm32")]
+use wasm_bindgen_test::wasm_bindgen_test as test;
+
+use super::*;
+
+/// Every step takes `step_us`; loading happens when `loads` and on a first cycle.
+#[derive(Debug, Default)]
+struct Timed {
+    step_us: u64,
+    loads: bool,
+    ends_us: Option<u64>,
+    fails_at: Option<&'static str>,
+    current: &'static str,
+    log: Vec<String>,
+}
+
+impl Timed {
+    fn begin(&mut self, now_us: u64, what: &'static str, detail: String) {
+        self.log.push(format!("{now_us} {what}{detail}"));
+        self.current = what;
+        self.ends_us = Some(now_us + self.step_us);
+    }
+}
+
+impl Drive for Timed {
+    type Entry = &'static str;
+
+    fn begin_run(&mut self, now_us: u64) {
+        self.log.push(format!("{now_us} run"));
+    }
+
+    fn begin_home(&mut self, now_us: u64) {
+        self.begin(now_us, "home", String::new());
+    }
+
+    fn begin_approach(&mut self, now_us: u64, entry: &mut &'static str) {
+        self.begin(now_us, "approach", format!(" {entry}"));
+    }
+
+    fn begin_load(
+        &mut self,
+        now_us: u64,
+        index: usize,
+        entry: &mut &'static str,
+        cycle: u32,
+    ) -> bool {
+        if self.loads && cycle == 1 {
+            self.begin(now_us, "load", format!(" {entry} #{index}"));
+            true
+        } else {
+            false
+        }
+    }
+
+    fn begin_play(&mut self, now_us: u64, entry: &mut &'static str, last: bool) {
+        self.begin(
+            now_us,
+            "play",
+            format!(" {entry}{}", if last { " last" } else { "" }),
+        );
+    }
+
+    fn poll(&mut self, now_us: u64, _entry: Option<&mut &'static str>) -> Phase {
+        match self.ends_us {
+            Some(_) if self.fails_at == Some(self.current) => {
+                self.ends_us = None;
+                Phase::Failed(format!("{} failed", self.current))
+            }
+            Some(at_us) if now_us >= at_us => {
+                self.ends_us = None;
+                Phase::Done { at_us }
+            }
+            _ => Phase::Pending,
+        }
+    }
+
+    fn progress(&self) -> f64 {
+        0.5
+    }
+
+    fn show_time_ms(&self) -> u64 {
+        7
+    }
+
+    fn stop(&mut self) {
+        self.log.push("stop".into());
+        self.ends_us = None;
+    }
+
+    fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
+        self.ends_us.map(|at_us| at_us.max(now_us))
+    }
+}
+
+fn run(name: &'static str, delay_ms: u64, cycles: u32) -> Run<&'static str> {
+    Run {
+        name: name.into(),
+        duration_ms: 1_000,
+        timing: EntryTiming { delay_ms, cycles },
+        prepared: name,
+    }
+}
+
+/// Polls whenever the sequencer asks, up to `until_us`.
+fn run_until(sequencer: &mut Sequencer<Timed>, mut now_us: u64, until_us: u64) -> u64 {
+    while let Some(wake_us) = sequencer.next_wakeup_us(now_us) {
+        if wake_us > until_us {
+            break;
+        }
+        now_us = wake_us;
+        sequencer.poll(now_us);
+    }
+    until_us.max(now_us)
+}
+
+fn timed(loads: bool) -> Sequencer<Timed> {
+    Sequencer::new(Timed {
+        step_us: 100,
+        loads,
+        ..Timed::default()
+    })
+}
+
+#[test]
+fn the_first_start_homes_then_plays_each_entry_with_its_delay_and_cycles() {
+    let mut sequencer = timed(true);
+    sequencer
+        .start(0, vec![run("a", 0, 2), run("b", 1, 1)], false)
+        .unwrap();
+    run_until(&mut sequencer, 0, 10_000);
+    assert_eq!(
+        sequencer.drive().log,
+        [
+            "0 run",
+            "0 home",
+            "100 approach a",
+            "200 load a #0",
+            "300 play a",
+            "400 approach a",
+            "500 play a",
+            // b waits its 1 ms from the end of a's second cycle.
+            "1600 approach b",
+            "1700 load b #1",
+            "1800 play b last",
+        ]
+    );
+    let status = sequencer.status();
+    assert_eq!(status.state, PlayerState::Idle);
+    assert_eq!(status.progress, 1.0);
+    assert!(!sequencer.needs_home());
+}
+
+#[test]
+fn start_after_an_estop_homes_first_and_begins_at_the_first_entry() {
+    let mut sequencer = timed(false);
+    sequencer
+        .start(0, vec![run("a", 0, 1), run("b", 0, 1)], false)
+        .unwrap();
+    // Into b's approach.
+    run_until(&mut sequencer, 0, 350);
+    assert_eq!(sequencer.status().entry, Some(1));
+    sequencer.estop();
+    assert_eq!(sequencer.status().state, PlayerState::Stopped);
+    assert!(sequencer.needs_home());
+    assert_eq!(
+        sequencer.next_wakeup_us(400),
+        None,
+        "nothing runs after the e-stop"
+    );
+    sequencer.drive_mut().log.clear();
+    sequencer
+        .start(1_000, vec![run("a", 0, 1), run("b", 0, 1)], false)
+        .unwrap();
+    run_until(&mut sequencer, 1_000, 1_250);
+    assert_eq!(
+        sequencer.drive().log,
+        ["1000 run", "1000 home", "1100 approach a", "1200 play a"]
+    );
+}
+
+#[test]
+fn start_without_an_estop_between_does_not_home_again() {
+    let mut sequencer = timed(false);
+    sequencer.start(0, vec![run("a", 0, 1)], false).unwrap();
+    run_until(&mut sequencer, 0, 1_000);
+    sequencer.drive_mut().log.clear();
+    sequencer.start(2_000, vec![run("a", 0, 1)], false).unwrap();
+    assert_eq!(sequencer.drive().log, ["2000 run", "2000 approach a"]);
+}
+
+#[test]
+fn start_is_refused_while_running_and_without_entries() {
+    let mut sequencer = timed(false);
+    assert_eq!(
+        sequencer.start(0, Vec::new(), false),
+        Err(StartError::Empty)
+    );
+    sequencer.start(0, vec![run("a", 0, 1)], false).unwrap();
+    assert_eq!(
+        sequencer.start(10, vec![run("a", 0, 1)], false),
+        Err(StartError::Busy)
+    );
+}
+
+#[test]
+fn reset_stops_homes_and_plays_from_the_first_entry_and_home_rests() {
+    let mut sequencer = timed(false);
+    sequencer
+        .start(0, vec![run("a", 0, 1), run("b", 0, 1)], true)
+        .unwrap();
+    run_until(&mut sequencer, 0, 450);
+    sequencer.drive_mut().log.clear();
+    sequencer
+        .reset(500, Ok(vec![run("a", 0, 1)]), false)
+        .unwrap();
+    run_until(&mut sequencer, 500, 800);
+    assert_eq!(
+        sequencer.drive().log,
+        [
+            "stop",
+            "500 run",
+            "500 home",
+            "600 approach a",
+            "700 play a last"
+        ]
+    );
+    sequencer.drive_mut().log.clear();
+    sequencer.home(1_000);
+    assert_eq!(sequencer.status().state, PlayerState::Homing);
+    assert_eq!(
+        sequencer.status().show,
+        None,
+        "homing to rest names no show"
+    );
+    run_until(&mut sequencer, 1_000, 2_000);
+    assert_eq!(sequencer.drive().log, ["stop", "1000 run", "1000 home"]);
+    assert_eq!(sequencer.status().state, PlayerState::Idle);
+    // A Reset that cannot start leaves the matrix stopped, saying why.
+    assert_eq!(
+        sequencer.reset(3_000, Err(StartError::Empty), false),
+        Err(StartError::Empty)
+    );
+    let status = sequencer.status();
+    assert_eq!(status.state, PlayerState::Stopped);
+    assert_eq!(
+        status.last_error.as_deref(),
+        Some(&*StartError::Empty.to_string())
+    );
+}
+
+#[test]
+fn a_drive_failure_stops_asks_for_the_estop_and_the_next_start_homes() {
+    let mut sequencer = Sequencer::new(Timed {
+        step_us: 100,
+        fails_at: Some("play"),
+        ..Timed::default()
+    });
+    sequencer.start(0, vec![run("a", 0, 1)], true).unwrap();
+    run_until(&mut sequencer, 0, 1_000);
+    let status = sequencer.status();
+    assert_eq!(status.state, PlayerState::Error);
+    assert_eq!(status.last_error.as_deref(), Some("play failed"));
+    assert!(sequencer.take_estop());
+    assert!(!sequencer.take_estop(), "asked once");
+    // An e-stop keeps the failure visible.
+    sequencer.estop();
+    assert_eq!(sequencer.status().state, PlayerState::Error);
+    assert!(sequencer.needs_home());
+}
+
+#[test]
+fn the_status_counts_show_time_only_while_playing() {
+    let mut sequencer = timed(false);
+    sequencer.start(0, vec![run("a", 0, 1)], false).unwrap();
+    run_until(&mut sequencer, 0, 150);
+    let status = sequencer.status();
+    assert_eq!(status.state, PlayerState::Approaching);
+    assert_eq!(
+        (status.show_time_ms, status.show.as_deref()),
+        (0, Some("a"))
+    );
+    run_until(&mut sequencer, 150, 250);
+    let status = sequencer.status();
+    assert_eq!(status.state, PlayerState::Playing);
+    assert_eq!((status.show_time_ms, status.show_duration_ms), (7, 1_000));
+    assert_eq!(status.progress, 0.5);
+}
