@@ -54,6 +54,7 @@
 //! ```
 
 pub mod command;
+pub mod drive;
 mod error;
 pub mod escl;
 pub mod parse;

@@ -1,0 +1,848 @@
+//! MOONS' drives under the show sequencer ([`crate::player`]): the [`Drive`] that
+//! turns its steps into SCL requests and reads their answers, sans-IO — the caller
+//! sends each [`SclAsk`] to its drive and hands the answer back with
+//! [`SclDrive::answer`]; time is the caller's. So a whole show on MOONS' drives runs
+//! against the drive twin ([`super::twin`]) in simulated time.
+//!
+//! **Which way shows play, and why.** Each show plays from **Q programs stored on the
+//! drives**, not by streaming moves: a drive runs its program on its own clock and the
+//! only timing-critical act is the common start, so neither a busy RS-485 line at
+//! 9600 baud nor a lost datagram can bend the show.
+//!
+//! Each step is a few stages, each stage a few lanes run side by side — one lane a
+//! line, so the drives of one line are asked one after the other (half duplex) and
+//! the lines work at once — and a lane is a list of requests, each sent when the one
+//! before it was answered:
+//! - **move** (home, approach): `VE AC DE DI FP` to every drive (lanes by line), at the
+//!   installation's approach speed and acceleration; then `IP` to each drive until it
+//!   stands at its target, every [`WAIT_POLL_US`], at most the whole travel at the
+//!   approach speed and 5 s more;
+//! - **load** (the first cycle of an entry, when programs are uploaded): for each drive
+//!   in turn, each segment written with `QW`, its lines, and the lone CR that ends it,
+//!   then read back with `QU` and compared;
+//! - **play**: `QX1` to every drive (lanes by line); with a trigger, then the trigger
+//!   output low, 100 ms, high (every program waits for that edge); the show's time 0
+//!   is when the first `QX1` went (or the trigger went low); then the show's length,
+//!   and `SC` to each drive until no program runs and no motor moves (at most 10 s).
+//!
+//! A refusal, a missed answer or a drive that does not arrive fails the step with a
+//! sentence naming the drive; the sequencer stops the matrix.
+
+use std::collections::VecDeque;
+
+use super::qprogram::QProgram;
+use super::{Answer, Command, Decimal, IoPoint, Level, QueueUpload, Reply, Segment};
+use crate::player::{Drive, Phase};
+
+/// How often the drive asks while it waits for the drives (`IP`, `SC`), µs.
+pub const WAIT_POLL_US: u64 = 20_000;
+
+/// How long the trigger output stays low before it goes high, µs.
+pub const TRIGGER_PULSE_US: u64 = 100_000;
+
+/// How long after a show's length the programs may still run, µs.
+pub const END_GRACE_US: u64 = 10_000_000;
+
+/// Status code bit: a Q program is running (HCR, `SC`).
+pub const SC_PROGRAM_RUNNING: u16 = 0x4000;
+
+/// Status code bit: the motor is moving (HCR, `SC`).
+pub const SC_MOVING: u16 = 0x0010;
+
+/// What a request's answer is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Expect {
+    /// One answer line.
+    One,
+    /// `QU`: `%`, then a header `QU{n+1}` and `n` lines (or `?` alone).
+    Upload,
+}
+
+impl Expect {
+    /// What `command`'s answer is.
+    #[must_use]
+    pub fn of(command: &Command) -> Self {
+        if matches!(command, Command::QueueUpload { .. }) {
+            Self::Upload
+        } else {
+            Self::One
+        }
+    }
+}
+
+/// Whether `command` may go while the e-stop is latched: a query, or a stop. The one
+/// "inert while latched" rule of MOONS' drives.
+#[must_use]
+pub fn is_inert(command: &Command) -> bool {
+    command.is_query()
+        || matches!(
+            command,
+            Command::StopKill | Command::Stop | Command::MotorDisable | Command::AlarmCode
+        )
+}
+
+/// A unit's drive: its gateway entry, its place there, and how errors name it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DriveSlot {
+    /// The gateway entry (one RS-485 line or one set of eSCL drives).
+    pub gateway: usize,
+    /// The drive's index on it (station − 1).
+    pub drive: usize,
+    /// How errors name it: `drive "1" on SCL gateway 0`.
+    pub name: String,
+}
+
+/// The common start by a trigger output wired to every drive's start input.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Trigger {
+    /// The drive whose output it is, by its index on gateway 0; `Err`: why there is
+    /// none (the start fails with it).
+    pub drive: Result<usize, String>,
+    /// How errors name that drive.
+    pub name: String,
+    /// The output.
+    pub output: IoPoint,
+}
+
+/// What the drive needs to know about the installation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SclDriveConfig {
+    /// Every unit's drive, in unit order.
+    pub units: Vec<DriveSlot>,
+    /// Gateway entries.
+    pub gateways: usize,
+    /// Drive counts per mm of ball travel.
+    pub counts_per_mm: f64,
+    /// Counts per motor revolution (`EG`): the unit of `VE` and `AC`/`DE`.
+    pub steps_per_rev: u32,
+    /// Approach and homing speed, mm/s.
+    pub approach_speed_mm_s: f64,
+    /// Acceleration of every move, mm/s².
+    pub max_accel_mm_s2: f64,
+    /// The home position, mm.
+    pub home_mm: f64,
+    /// The whole travel, mm.
+    pub travel_mm: f64,
+    /// The common start by a trigger output, or `None`: `QX1` to every drive.
+    pub trigger: Option<Trigger>,
+}
+
+impl SclDriveConfig {
+    /// `position_mm` in drive counts.
+    #[must_use]
+    pub fn counts(&self, position_mm: f64) -> i32 {
+        let counts = (position_mm * self.counts_per_mm).round();
+        counts.clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32
+    }
+
+    /// How long a move across the whole travel may take at the approach speed, and
+    /// some, µs.
+    fn travel_limit_us(&self) -> u64 {
+        let speed = self.approach_speed_mm_s.max(1.0);
+        ((self.travel_mm / speed + 5.0) * 1e6) as u64
+    }
+}
+
+/// A program's stored segments, each with its lines.
+pub type Segments = Vec<(Segment, Vec<Command>)>;
+
+/// A playlist entry prepared for the drives: where each ball starts, and each
+/// ball's program when programs are uploaded (`None`: the drives' stored programs
+/// run).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SclEntry {
+    /// Each unit's first position, counts.
+    pub start_counts: Vec<i32>,
+    /// Each unit's program's segments, in unit order.
+    pub programs: Option<Vec<Segments>>,
+    /// The show's length, ms.
+    pub duration_ms: u64,
+}
+
+impl SclEntry {
+    /// The entry of a show whose tracks start at `start_mm`, with `programs`.
+    #[must_use]
+    pub fn new(
+        config: &SclDriveConfig,
+        start_mm: impl IntoIterator<Item = f64>,
+        programs: Option<Vec<QProgram>>,
+        duration_ms: u64,
+    ) -> Self {
+        Self {
+            start_counts: start_mm.into_iter().map(|mm| config.counts(mm)).collect(),
+            programs: programs.map(|programs| {
+                programs
+                    .into_iter()
+                    .map(|program| program.segments)
+                    .collect()
+            }),
+            duration_ms,
+        }
+    }
+}
+
+/// One request for the caller to send: `text` (SCL without the address; empty: the
+/// lone CR that ends a `QW`) to drive `drive` of gateway entry `gateway`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SclAsk {
+    /// Hand it back with the answer ([`SclDrive::answer`]).
+    pub id: u64,
+    /// The gateway entry.
+    pub gateway: usize,
+    /// The drive's index there.
+    pub drive: usize,
+    /// The request.
+    pub text: String,
+    /// What its answer is.
+    pub expect: Expect,
+}
+
+/// What an answer must be.
+#[derive(Debug, Clone, PartialEq)]
+enum Check {
+    /// Anything but a refusal.
+    NotRefused,
+    /// `IP` at the target (asked again until the deadline).
+    Position { target: i64 },
+    /// `SC` without a program running or a motor moving (asked again until the
+    /// deadline).
+    Ended,
+    /// `QW`'s `%`.
+    QueueWrite { segment: Segment },
+    /// A program line's `*` or `%`.
+    Line { segment: Segment },
+    /// The end of a segment's `%`.
+    SegmentEnd { segment: Segment },
+    /// `QU`: the lines written.
+    ReadBack {
+        segment: Segment,
+        commands: Vec<Command>,
+    },
+}
+
+#[derive(Debug, Clone, PartialEq)]
+enum Action {
+    Ask {
+        unit: usize,
+        command: Option<Command>,
+        check: Check,
+    },
+    /// Wait so long, µs.
+    Sleep(u64),
+    /// Wait until the show's length has passed since its time 0.
+    ShowEnd,
+    /// The show's time 0 is now.
+    Started,
+    /// A unit's programs are written.
+    Loaded,
+}
+
+#[derive(Debug, Default)]
+struct Lane {
+    actions: VecDeque<Action>,
+    /// The request out, and what it was.
+    waiting: Option<(u64, Action)>,
+    sleeping_until_us: Option<u64>,
+}
+
+impl Lane {
+    fn of(actions: impl IntoIterator<Item = Action>) -> Self {
+        Self {
+            actions: actions.into_iter().collect(),
+            ..Self::default()
+        }
+    }
+
+    fn is_done(&self) -> bool {
+        self.actions.is_empty() && self.waiting.is_none() && self.sleeping_until_us.is_none()
+    }
+}
+
+type Stage = Vec<Lane>;
+
+/// The MOONS' drive; see the [module documentation](self).
+#[derive(Debug)]
+pub struct SclDrive {
+    config: SclDriveConfig,
+    /// Every unit's drive, then the trigger's (it may drive no ball).
+    slots: Vec<DriveSlot>,
+    /// The stages to come of the step under way; the first runs.
+    stages: VecDeque<Stage>,
+    /// When the running stage began, µs.
+    stage_began_us: u64,
+    next_id: u64,
+    asks: Vec<SclAsk>,
+    failure: Option<String>,
+    /// The show's time 0, µs, while playing.
+    started_us: Option<u64>,
+    duration_ms: u64,
+    playing: bool,
+    /// Loading: units written of all.
+    loaded: usize,
+    loading: bool,
+    now_us: u64,
+}
+
+impl SclDrive {
+    /// The drive for `config`.
+    #[must_use]
+    pub fn new(config: SclDriveConfig) -> Self {
+        let mut slots = config.units.clone();
+        if let Some(Trigger {
+            drive: Ok(drive),
+            name,
+            ..
+        }) = &config.trigger
+        {
+            slots.push(DriveSlot {
+                gateway: 0,
+                drive: *drive,
+                name: name.clone(),
+            });
+        }
+        Self {
+            config,
+            slots,
+            stages: VecDeque::new(),
+            stage_began_us: 0,
+            next_id: 1,
+            asks: Vec::new(),
+            failure: None,
+            started_us: None,
+            duration_ms: 0,
+            playing: false,
+            loaded: 0,
+            loading: false,
+            now_us: 0,
+        }
+    }
+
+    /// The installation it drives.
+    #[must_use]
+    pub fn config(&self) -> &SclDriveConfig {
+        &self.config
+    }
+
+    /// The requests to send now, in order.
+    pub fn take_asks(&mut self) -> Vec<SclAsk> {
+        std::mem::take(&mut self.asks)
+    }
+
+    /// The show's time 0 on the caller's clock while a show plays, µs.
+    #[must_use]
+    pub fn started_us(&self) -> Option<u64> {
+        self.started_us.filter(|_| self.playing)
+    }
+
+    /// The answer to request `id` at `now_us`: its lines (addresses removed), or why
+    /// there is none. Answers to requests of a step that ended are ignored.
+    pub fn answer(&mut self, now_us: u64, id: u64, answer: Result<Vec<String>, String>) {
+        self.now_us = self.now_us.max(now_us);
+        let Some(lane) = self.stages.front_mut().and_then(|stage| {
+            stage
+                .iter_mut()
+                .find(|lane| lane.waiting.as_ref().is_some_and(|(out, _)| *out == id))
+        }) else {
+            return;
+        };
+        let Some((_, action)) = lane.waiting.take() else {
+            return;
+        };
+        let Action::Ask {
+            unit,
+            command,
+            check,
+        } = &action
+        else {
+            return;
+        };
+        let deadline_us = self.stage_began_us.saturating_add(match check {
+            Check::Ended => END_GRACE_US,
+            _ => self.config.travel_limit_us(),
+        });
+        let limit_ms = self.config.travel_limit_us() / 1_000;
+        let name = self
+            .slots
+            .get(*unit)
+            .map_or_else(String::new, |slot| slot.name.clone());
+        match judge(&name, command.as_ref(), check, answer, limit_ms) {
+            Verdict::Ok => {}
+            Verdict::Again(why) => {
+                if now_us >= deadline_us {
+                    self.failure.get_or_insert(why);
+                } else {
+                    lane.actions.push_front(action.clone());
+                    lane.sleeping_until_us = Some(now_us + WAIT_POLL_US);
+                }
+            }
+            Verdict::Failed(why) => {
+                self.failure.get_or_insert(why);
+            }
+        }
+    }
+
+    fn begin_stages(&mut self, now_us: u64, stages: Vec<Stage>) {
+        self.now_us = now_us;
+        self.stages = stages.into();
+        self.stage_began_us = now_us;
+        self.failure = None;
+        self.advance(now_us);
+    }
+
+    /// One lane per gateway entry, each unit's `actions` on its own entry's lane.
+    fn by_line(&self, actions: impl Fn(usize) -> Vec<Action>) -> Stage {
+        (0..self.config.gateways)
+            .map(|gateway| {
+                Lane::of(
+                    self.config
+                        .units
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, slot)| slot.gateway == gateway)
+                        .flat_map(|(unit, _)| actions(unit)),
+                )
+            })
+            .collect()
+    }
+
+    fn move_stages(&self, targets_counts: &[i32]) -> Vec<Stage> {
+        let per_rev = f64::from(self.config.steps_per_rev);
+        let velocity = decimal(
+            self.config.approach_speed_mm_s * self.config.counts_per_mm / per_rev,
+            4,
+        );
+        let accel = decimal(
+            self.config.max_accel_mm_s2 * self.config.counts_per_mm / per_rev,
+            3,
+        );
+        let target = |unit: usize| targets_counts.get(unit).copied().unwrap_or(0);
+        let feed = self.by_line(|unit| {
+            [
+                Command::Velocity {
+                    rev_s: Some(velocity),
+                },
+                Command::Acceleration {
+                    rev_s2: Some(accel),
+                },
+                Command::Deceleration {
+                    rev_s2: Some(accel),
+                },
+                Command::Distance {
+                    counts: Some(target(unit)),
+                },
+                Command::FeedToPosition,
+            ]
+            .into_iter()
+            .map(|command| ask(unit, command, Check::NotRefused))
+            .collect()
+        });
+        let arrive = Lane::of((0..self.config.units.len()).map(|unit| {
+            ask(
+                unit,
+                Command::ImmediatePosition,
+                Check::Position {
+                    target: i64::from(target(unit)),
+                },
+            )
+        }));
+        vec![feed, vec![arrive]]
+    }
+
+    fn begin_move(&mut self, now_us: u64, targets_counts: &[i32]) {
+        self.playing = false;
+        self.loading = false;
+        let stages = self.move_stages(targets_counts);
+        self.begin_stages(now_us, stages);
+    }
+
+    /// Sends what is due and moves on through the stages; whether the step is over.
+    fn advance(&mut self, now_us: u64) -> bool {
+        loop {
+            if self.failure.is_some() {
+                return false;
+            }
+            let Some(stage) = self.stages.front_mut() else {
+                return true;
+            };
+            for lane in stage.iter_mut() {
+                if lane
+                    .sleeping_until_us
+                    .is_some_and(|until_us| now_us >= until_us)
+                {
+                    lane.sleeping_until_us = None;
+                }
+                while lane.waiting.is_none() && lane.sleeping_until_us.is_none() {
+                    let Some(action) = lane.actions.pop_front() else {
+                        break;
+                    };
+                    match &action {
+                        Action::Ask { unit, command, .. } => {
+                            let Some(slot) = self.slots.get(*unit) else {
+                                continue;
+                            };
+                            let id = self.next_id;
+                            self.next_id += 1;
+                            self.asks.push(SclAsk {
+                                id,
+                                gateway: slot.gateway,
+                                drive: slot.drive,
+                                text: command
+                                    .as_ref()
+                                    .map(ToString::to_string)
+                                    .unwrap_or_default(),
+                                expect: command.as_ref().map_or(Expect::One, Expect::of),
+                            });
+                            lane.waiting = Some((id, action));
+                        }
+                        Action::Sleep(us) => lane.sleeping_until_us = Some(now_us + us),
+                        Action::ShowEnd => {
+                            let end_us = self.started_us.unwrap_or(now_us)
+                                + self.duration_ms.saturating_mul(1_000);
+                            if now_us < end_us {
+                                lane.sleeping_until_us = Some(end_us);
+                            }
+                        }
+                        Action::Started => self.started_us = Some(now_us),
+                        Action::Loaded => self.loaded += 1,
+                    }
+                }
+            }
+            if !stage.iter().all(Lane::is_done) {
+                return false;
+            }
+            self.stages.pop_front();
+            self.stage_began_us = now_us;
+        }
+    }
+}
+
+fn ask(unit: usize, command: Command, check: Check) -> Action {
+    Action::Ask {
+        unit,
+        command: Some(command),
+        check,
+    }
+}
+
+/// `value` with `scale` decimals, as a parameter.
+fn decimal(value: f64, scale: u8) -> Decimal {
+    let mantissa = (value * 10f64.powi(i32::from(scale))).round();
+    // Within i64 by the limits the configuration checks.
+    Decimal::new(mantissa as i64, scale).unwrap_or(Decimal::from_int(0))
+}
+
+enum Verdict {
+    Ok,
+    /// Not yet: ask again (this is why, when time is up).
+    Again(String),
+    Failed(String),
+}
+
+/// What the answer `lines` to `command` (on drive `name`) means for `check`.
+fn judge(
+    name: &str,
+    command: Option<&Command>,
+    check: &Check,
+    lines: Result<Vec<String>, String>,
+    limit_ms: u64,
+) -> Verdict {
+    let lines = match lines {
+        Ok(lines) => lines,
+        Err(why) => return Verdict::Failed(why),
+    };
+    let text = command.map(ToString::to_string).unwrap_or_default();
+    let first = lines.first().map(|line| Reply::parse(line));
+    let unparsed = || format!("{name} answered {:?}", lines.join(" "));
+    match check {
+        Check::NotRefused | Check::Position { .. } | Check::Ended => {
+            if let Some(Ok(Reply {
+                answer: Answer::Refused { code },
+                ..
+            })) = &first
+            {
+                return Verdict::Failed(format!(
+                    "{name} refused {text}{}",
+                    code.map(|code| format!(" (code {code})"))
+                        .unwrap_or_default()
+                ));
+            }
+            let answer = match first {
+                Some(Ok(reply)) => reply.answer,
+                _ if *check == Check::NotRefused => return Verdict::Ok,
+                _ => {
+                    return Verdict::Failed(format!(
+                        "{name} answered {text} with {:?}",
+                        lines.join(" ")
+                    ));
+                }
+            };
+            match check {
+                Check::Position { target } => {
+                    let at = answer.value_i64();
+                    if at == Some(*target) {
+                        Verdict::Ok
+                    } else {
+                        Verdict::Again(format!(
+                            "{name} is at {} counts, not {target}, {limit_ms} ms after it was sent \
+                             there",
+                            at.map_or_else(|| "?".to_owned(), |at| at.to_string()),
+                        ))
+                    }
+                }
+                Check::Ended => {
+                    let code = answer.value_hex_u16().unwrap_or(0);
+                    if code & (SC_PROGRAM_RUNNING | SC_MOVING) == 0 {
+                        Verdict::Ok
+                    } else {
+                        Verdict::Again(format!(
+                            "{name} still runs its program (status code {code:04X}) after the \
+                             show's end"
+                        ))
+                    }
+                }
+                _ => Verdict::Ok,
+            }
+        }
+        Check::QueueWrite { .. } => match first {
+            Some(Ok(Reply {
+                answer: Answer::Executed,
+                ..
+            })) => Verdict::Ok,
+            Some(Ok(Reply {
+                answer: Answer::Refused { .. },
+                ..
+            })) => Verdict::Failed(format!(
+                "{name} refused {text}: it does not take programs from the bridge. Load each \
+                 drive's program with MOONS' Q Programmer (the app offers every ball's program \
+                 as a download) and set programs = \"stored\" in [scl]"
+            )),
+            Some(Ok(reply)) => {
+                Verdict::Failed(format!("{name} answered {text} with {}", reply.answer))
+            }
+            _ => Verdict::Failed(unparsed()),
+        },
+        Check::Line { segment } => match first {
+            Some(Ok(Reply {
+                answer: Answer::Buffered | Answer::Executed,
+                ..
+            })) => Verdict::Ok,
+            Some(Ok(reply)) => Verdict::Failed(format!(
+                "{name} answered line {text} of segment {segment} with {}",
+                reply.answer
+            )),
+            _ => Verdict::Failed(unparsed()),
+        },
+        Check::SegmentEnd { segment } => match first {
+            Some(Ok(Reply {
+                answer: Answer::Executed,
+                ..
+            })) => Verdict::Ok,
+            Some(Ok(reply)) => Verdict::Failed(format!(
+                "{name} answered the end of segment {segment} with {}",
+                reply.answer
+            )),
+            _ => Verdict::Failed(unparsed()),
+        },
+        Check::ReadBack { segment, commands } => {
+            let rest: Vec<&str> = lines.iter().skip(1).map(String::as_str).collect();
+            match QueueUpload::parse(&rest) {
+                Ok((_, QueueUpload::Lines(read_back))) if read_back == *commands => Verdict::Ok,
+                Ok((_, QueueUpload::Lines(read_back))) => Verdict::Failed(format!(
+                    "{name} holds {} lines in segment {segment} after the upload, not the {} \
+                     written (or not the same)",
+                    read_back.len(),
+                    commands.len()
+                )),
+                Ok((_, other)) => Verdict::Failed(format!(
+                    "{name} answered {text} with {}",
+                    other.lines().join(" ")
+                )),
+                Err(error) => Verdict::Failed(format!(
+                    "{name} answered {text} with {:?}: {error}",
+                    lines.join(" ")
+                )),
+            }
+        }
+    }
+}
+
+impl Drive for SclDrive {
+    type Entry = SclEntry;
+
+    fn begin_run(&mut self, now_us: u64) {
+        self.now_us = now_us;
+    }
+
+    fn begin_home(&mut self, now_us: u64) {
+        let home = vec![self.config.counts(self.config.home_mm); self.config.units.len()];
+        self.begin_move(now_us, &home);
+    }
+
+    fn begin_approach(&mut self, now_us: u64, entry: &mut SclEntry) {
+        let start = entry.start_counts.clone();
+        self.begin_move(now_us, &start);
+    }
+
+    fn begin_load(&mut self, now_us: u64, _index: usize, entry: &mut SclEntry, cycle: u32) -> bool {
+        let Some(programs) = entry.programs.as_ref().filter(|_| cycle == 1) else {
+            return false;
+        };
+        let mut actions = Vec::new();
+        for (unit, segments) in programs.iter().enumerate() {
+            for (segment, commands) in segments {
+                let segment = *segment;
+                actions.push(ask(
+                    unit,
+                    Command::QueueWrite { segment },
+                    Check::QueueWrite { segment },
+                ));
+                actions.extend(
+                    commands
+                        .iter()
+                        .map(|command| ask(unit, *command, Check::Line { segment })),
+                );
+                actions.push(Action::Ask {
+                    unit,
+                    command: None,
+                    check: Check::SegmentEnd { segment },
+                });
+                actions.push(ask(
+                    unit,
+                    Command::QueueUpload {
+                        segment: Some(segment),
+                    },
+                    Check::ReadBack {
+                        segment,
+                        commands: commands.clone(),
+                    },
+                ));
+            }
+            actions.push(Action::Loaded);
+        }
+        self.playing = false;
+        self.loading = true;
+        self.loaded = 0;
+        self.begin_stages(now_us, vec![vec![Lane::of(actions)]]);
+        true
+    }
+
+    fn begin_play(&mut self, now_us: u64, entry: &mut SclEntry, _last: bool) {
+        self.playing = true;
+        self.loading = false;
+        self.started_us = None;
+        self.duration_ms = entry.duration_ms;
+        let execute = |unit| {
+            Segment::new(1)
+                .map(|segment| ask(unit, Command::QueueExecute { segment }, Check::NotRefused))
+                .into_iter()
+                .collect::<Vec<_>>()
+        };
+        let mut stages = Vec::new();
+        match self.config.trigger.clone() {
+            None => {
+                let mut fire = self.by_line(execute);
+                if let Some(first) = fire.first_mut() {
+                    first.actions.push_front(Action::Started);
+                }
+                stages.push(fire);
+            }
+            Some(Trigger { drive, output, .. }) => {
+                stages.push(self.by_line(execute));
+                let drive = match drive {
+                    Ok(drive) => drive,
+                    Err(why) => {
+                        self.failure = Some(why);
+                        return;
+                    }
+                };
+                // The trigger drive's slot follows the units'.
+                let _ = drive;
+                let unit = self.config.units.len();
+                let set = |level| {
+                    ask(
+                        unit,
+                        Command::SetOutput { output, level },
+                        Check::NotRefused,
+                    )
+                };
+                stages.push(vec![Lane::of([
+                    set(Level::Low),
+                    Action::Started,
+                    Action::Sleep(TRIGGER_PULSE_US),
+                    set(Level::High),
+                ])]);
+            }
+        }
+        stages.push(vec![Lane::of([Action::ShowEnd])]);
+        let ended = Lane::of(
+            (0..self.config.units.len()).map(|unit| ask(unit, Command::StatusCode, Check::Ended)),
+        );
+        stages.push(vec![ended]);
+        self.begin_stages(now_us, stages);
+    }
+
+    fn poll(&mut self, now_us: u64, _entry: Option<&mut SclEntry>) -> Phase {
+        self.now_us = self.now_us.max(now_us);
+        let done = self.advance(now_us);
+        if let Some(why) = self.failure.take() {
+            self.stages.clear();
+            return Phase::Failed(why);
+        }
+        if done {
+            self.loading = false;
+            Phase::Done { at_us: now_us }
+        } else {
+            Phase::Pending
+        }
+    }
+
+    fn progress(&self) -> f64 {
+        if self.loading {
+            return self.loaded as f64 / self.config.units.len().max(1) as f64;
+        }
+        if self.playing {
+            return match self.duration_ms {
+                0 => 1.0,
+                duration_ms => self.show_time_ms() as f64 / duration_ms as f64,
+            };
+        }
+        0.0
+    }
+
+    fn show_time_ms(&self) -> u64 {
+        match self.started_us {
+            Some(started_us) if self.playing => {
+                (self.now_us.saturating_sub(started_us) / 1_000).min(self.duration_ms)
+            }
+            _ => 0,
+        }
+    }
+
+    fn stop(&mut self) {
+        self.stages.clear();
+        self.asks.clear();
+        self.failure = None;
+        self.playing = false;
+        self.loading = false;
+        self.started_us = None;
+    }
+
+    fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
+        let sleeping = self
+            .stages
+            .front()
+            .into_iter()
+            .flatten()
+            .filter_map(|lane| lane.sleeping_until_us)
+            .min();
+        // While playing, the status counts the show's time: a poll every 20 ms.
+        let counting = (self.playing && self.started_us.is_some()).then_some(now_us + WAIT_POLL_US);
+        match (sleeping, counting) {
+            (Some(a), Some(b)) => Some(a.min(b).max(now_us)),
+            (a, b) => a.or(b).map(|at| at.max(now_us)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,382 @@
+//! MOONS' drives under the sequencer, in simulated time: a whole playlist — homing,
+//! approach, upload, start, play, E-stop, Reset and Home — against three drive twins
+//! ([`crate::scl::twin`]), every request answered by the twin it is addressed to, at
+//! the time it is sent.
+
+#[cfg(target_arch = "wasm32")]
+use wasm_bindgen_test::wasm_bindgen_test as test;
+
+use super::*;
+use crate::api::PlayerState;
+use crate::plan::player::EntryTiming;
+use crate::player::{Run, Sequencer};
+use crate::scl::qprogram::{QProgramConfig, compile};
+use crate::scl::twin::{self, DriveConfig};
+use crate::show::{Layout, Show, Track, TrackRow};
+
+const COUNTS_PER_MM: f64 = 100.0;
+
+/// Three balls that each go down 20 mm and come up to 5 × (i + 1) mm, in 1 s.
+fn show() -> Show {
+    let track = |ball: usize| Track {
+        start_mm: 0.0,
+        rows: vec![
+            TrackRow::new(10.0, 0.0, 250),
+            TrackRow::new(20.0, 0.0, 250),
+            TrackRow::new(10.0, 0.0, 250),
+            TrackRow::new(5.0 * (ball as f64 + 1.0), 0.0, 250),
+        ],
+        colours: Vec::new(),
+    };
+    Show {
+        name: "drop".into(),
+        layout: Layout {
+            rows: 1,
+            cols: 3,
+            pitch_mm: 500.0,
+        },
+        tracks: (0..3).map(track).collect(),
+        outputs: Vec::new(),
+    }
+}
+
+fn config(trigger: Option<Trigger>) -> SclDriveConfig {
+    SclDriveConfig {
+        units: (0..3)
+            .map(|drive| DriveSlot {
+                gateway: 0,
+                drive,
+                name: format!("drive \"{}\" on SCL gateway 0", drive + 1),
+            })
+            .collect(),
+        gateways: 1,
+        counts_per_mm: COUNTS_PER_MM,
+        steps_per_rev: 20_000,
+        approach_speed_mm_s: 1_000.0,
+        max_accel_mm_s2: 4_000.0,
+        home_mm: 0.0,
+        travel_mm: 3_000.0,
+        trigger,
+    }
+}
+
+fn entry(config: &SclDriveConfig, cycles: u32) -> Run<SclEntry> {
+    let show = show();
+    let settings = QProgramConfig {
+        counts_per_mm: COUNTS_PER_MM,
+        start: None,
+        tolerance_mm: 20.0,
+        ..QProgramConfig::default()
+    };
+    let programs = show
+        .tracks
+        .iter()
+        .map(|track| compile(track, &settings).unwrap())
+        .collect();
+    Run {
+        name: show.name.clone(),
+        duration_ms: show.duration_ms(),
+        timing: EntryTiming {
+            delay_ms: 0,
+            cycles,
+        },
+        prepared: SclEntry::new(
+            config,
+            show.tracks.iter().map(|track| track.start_mm + 1.0),
+            Some(programs),
+            show.duration_ms(),
+        ),
+    }
+}
+
+/// The sequencer, three twins, the clock, and every line each twin was sent.
+struct Rig {
+    sequencer: Sequencer<SclDrive>,
+    twins: Vec<twin::Drive>,
+    now_us: u64,
+    lines: Vec<Vec<String>>,
+    /// Every state the sequencer was in, in order.
+    states: Vec<PlayerState>,
+    /// A request the twins answer with `?6` (refused).
+    refused: Option<&'static str>,
+}
+
+impl Rig {
+    fn new() -> Self {
+        Self {
+            sequencer: Sequencer::new(SclDrive::new(config(None))),
+            twins: (0..3)
+                .map(|_| twin::Drive::new(DriveConfig::default()))
+                .collect(),
+            now_us: 0,
+            lines: vec![Vec::new(); 3],
+            states: Vec::new(),
+            refused: None,
+        }
+    }
+
+    /// Answers every request at once, until none is left.
+    fn exchange(&mut self) {
+        loop {
+            self.sequencer.poll(self.now_us);
+            let state = self.sequencer.status().state;
+            if self.states.last() != Some(&state) {
+                self.states.push(state);
+            }
+            let asks = self.sequencer.drive_mut().take_asks();
+            if asks.is_empty() {
+                return;
+            }
+            for ask in asks {
+                let twin = &mut self.twins[ask.drive];
+                twin.advance(self.now_us);
+                self.lines[ask.drive].push(ask.text.clone());
+                let answer = twin
+                    .receive_line(&ask.text, self.now_us)
+                    .unwrap_or_default();
+                let answer = if self.refused == Some(ask.text.as_str()) {
+                    "?6".to_owned()
+                } else {
+                    answer
+                };
+                let lines = answer
+                    .split('\r')
+                    .filter(|line| !line.is_empty())
+                    .map(str::to_owned)
+                    .collect();
+                self.sequencer
+                    .drive_mut()
+                    .answer(self.now_us, ask.id, Ok(lines));
+            }
+        }
+    }
+
+    /// Runs until `until_us` or until the sequencer rests.
+    fn run_until(&mut self, until_us: u64) {
+        loop {
+            self.exchange();
+            let Some(wake_us) = self.sequencer.next_wakeup_us(self.now_us) else {
+                return;
+            };
+            if wake_us > until_us {
+                self.now_us = until_us;
+                return;
+            }
+            self.now_us = wake_us.max(self.now_us + 1);
+            for twin in &mut self.twins {
+                twin.advance(self.now_us);
+            }
+        }
+    }
+
+    fn positions(&self) -> Vec<i64> {
+        self.twins
+            .iter()
+            .map(twin::Drive::position_integer)
+            .collect()
+    }
+
+    /// Every line sent but the waits' queries (`IP`, `SC`).
+    fn commands(&mut self, drive: usize) -> Vec<String> {
+        std::mem::take(&mut self.lines[drive])
+            .into_iter()
+            .filter(|line| line != "IP" && line != "SC")
+            .collect()
+    }
+}
+
+#[test]
+fn a_show_homes_approaches_uploads_starts_and_ends_where_it_was_drawn() {
+    let mut rig = Rig::new();
+    let run = entry(rig.sequencer.drive().config(), 2);
+    rig.sequencer.start(0, vec![run], false).unwrap();
+    assert_eq!(rig.sequencer.status().state, PlayerState::Homing);
+    rig.states.push(PlayerState::Homing);
+    rig.run_until(60_000_000);
+    assert_eq!(
+        rig.states,
+        [
+            PlayerState::Homing,
+            PlayerState::Approaching,
+            PlayerState::Loading,
+            PlayerState::Playing,
+            PlayerState::Approaching,
+            PlayerState::Playing,
+            PlayerState::Idle,
+        ]
+    );
+    // Every ball ends at 5 × (i + 1) mm, as drawn.
+    assert_eq!(rig.positions(), [500, 1_000, 1_500]);
+    let lines = rig.commands(1);
+    // Homing, then the approach to 1 mm, at 1000 mm/s (5 rev/s) and 4000 mm/s².
+    assert_eq!(
+        lines[..10],
+        [
+            "VE5.0000", "AC20.000", "DE20.000", "DI0", "FP", "VE5.0000", "AC20.000", "DE20.000",
+            "DI100", "FP"
+        ]
+    );
+    // The upload of the first cycle only, read back; QX1 starts each cycle.
+    assert_eq!(lines.iter().filter(|line| *line == "QW1").count(), 1);
+    assert_eq!(lines.iter().filter(|line| *line == "QU1").count(), 1);
+    assert_eq!(lines.iter().filter(|line| *line == "QX1").count(), 2);
+    assert_eq!(lines.last().map(String::as_str), Some("QX1"));
+}
+
+#[test]
+fn the_show_time_is_counted_from_the_start_and_playing_begins_with_it() {
+    let mut rig = Rig::new();
+    let run = entry(rig.sequencer.drive().config(), 1);
+    rig.sequencer.start(0, vec![run], false).unwrap();
+    while rig.sequencer.status().state != PlayerState::Playing {
+        let at_us = rig.now_us + 1_000;
+        rig.run_until(at_us);
+    }
+    let started_us = rig.sequencer.drive().started_us().unwrap();
+    assert!(
+        rig.now_us - started_us <= 1_000,
+        "playing as the start goes"
+    );
+    rig.run_until(started_us + 500_000);
+    let status = rig.sequencer.status();
+    assert_eq!(status.show_time_ms, 500);
+    assert_eq!(status.progress, 0.5);
+}
+
+#[test]
+fn start_after_an_estop_homes_first() {
+    let mut rig = Rig::new();
+    let config = rig.sequencer.drive().config().clone();
+    rig.sequencer
+        .start(0, vec![entry(&config, 1)], false)
+        .unwrap();
+    rig.run_until(60_000_000);
+    assert_eq!(rig.sequencer.status().state, PlayerState::Idle);
+    rig.commands(0);
+    // Start again: the positions are known, no homing.
+    rig.sequencer
+        .start(rig.now_us, vec![entry(&config, 1)], false)
+        .unwrap();
+    let at_us = rig.now_us + 5_000;
+    rig.run_until(at_us);
+    assert_eq!(rig.sequencer.status().state, PlayerState::Approaching);
+    assert_eq!(rig.commands(0)[3], "DI100", "straight to the show's start");
+    // The e-stop (the caller sent SK): nothing more is asked of the drives.
+    rig.sequencer.estop();
+    for twin in &mut rig.twins {
+        twin.receive_line("SK", rig.now_us);
+    }
+    assert!(rig.sequencer.drive_mut().take_asks().is_empty());
+    assert_eq!(rig.sequencer.next_wakeup_us(rig.now_us), None);
+    assert_eq!(rig.sequencer.status().state, PlayerState::Stopped);
+    // The next Start homes first, then approaches.
+    rig.commands(0);
+    rig.sequencer
+        .start(rig.now_us, vec![entry(&config, 1)], false)
+        .unwrap();
+    assert_eq!(rig.sequencer.status().state, PlayerState::Homing);
+    rig.run_until(rig.now_us + 60_000_000);
+    let lines = rig.commands(0);
+    assert_eq!(lines[3], "DI0", "home first: {lines:?}");
+    assert_eq!(lines[8], "DI100", "then the approach: {lines:?}");
+    assert_eq!(rig.positions(), [500, 1_000, 1_500]);
+}
+
+#[test]
+fn home_rests_at_home_and_a_refused_upload_fails_naming_the_drive() {
+    let mut rig = Rig::new();
+    rig.sequencer.home(0);
+    rig.run_until(60_000_000);
+    assert_eq!(rig.sequencer.status().state, PlayerState::Idle);
+    assert_eq!(rig.positions(), [0, 0, 0]);
+    // A program the drive cannot take: an answer that is not its own.
+    let config = rig.sequencer.drive().config().clone();
+    rig.refused = Some("QW1");
+    rig.sequencer
+        .start(rig.now_us, vec![entry(&config, 1)], false)
+        .unwrap();
+    rig.run_until(rig.now_us + 60_000_000);
+    assert_eq!(
+        rig.commands(0).last().map(String::as_str),
+        Some("QW1"),
+        "nothing after"
+    );
+    let status = rig.sequencer.status();
+    assert_eq!(status.state, PlayerState::Error);
+    let error = status.last_error.unwrap();
+    assert!(
+        error.starts_with("drive \"1\" on SCL gateway 0 refused QW1: it does not take programs"),
+        "{error}"
+    );
+    assert!(rig.sequencer.take_estop(), "the matrix is stopped");
+}
+
+#[test]
+fn a_ball_that_does_not_arrive_fails_the_move_after_the_travel_time() {
+    let mut rig = Rig::new();
+    rig.sequencer.home(0);
+    rig.sequencer.poll(0);
+    // Answer every IP with a position that never arrives.
+    let mut now_us = 0;
+    while rig.sequencer.is_running() {
+        loop {
+            rig.sequencer.poll(now_us);
+            let asks = rig.sequencer.drive_mut().take_asks();
+            if asks.is_empty() {
+                break;
+            }
+            for ask in asks {
+                let answer = if ask.text == "IP" { "IP=7" } else { "%" };
+                rig.sequencer
+                    .drive_mut()
+                    .answer(now_us, ask.id, Ok(vec![answer.into()]));
+            }
+        }
+        now_us = rig.sequencer.next_wakeup_us(now_us).unwrap_or(now_us);
+        assert!(now_us < 20_000_000);
+    }
+    let error = rig.sequencer.status().last_error.unwrap();
+    // 3000 mm at 1000 mm/s, and 5 s more.
+    assert_eq!(
+        error,
+        "drive \"1\" on SCL gateway 0 is at 7 counts, not 0, 8000 ms after it was sent there"
+    );
+    assert!((8_000_000..8_020_001).contains(&now_us), "{now_us}");
+}
+
+#[test]
+fn with_a_trigger_every_program_is_executed_then_the_trigger_pulses() {
+    let trigger = Trigger {
+        drive: Ok(0),
+        name: "drive \"1\" on SCL gateway 0".into(),
+        output: IoPoint::new(2).unwrap(),
+    };
+    let mut drive = SclDrive::new(config(Some(trigger)));
+    let config = drive.config().clone();
+    let mut run = entry(&config, 1);
+    drive.begin_play(0, &mut run.prepared, true);
+    let mut sent = Vec::new();
+    let mut now_us = 0;
+    for _ in 0..20 {
+        assert_eq!(drive.poll(now_us, None), Phase::Pending);
+        for ask in drive.take_asks() {
+            sent.push(format!("{} {}", ask.drive, ask.text));
+            let answer = if ask.text == "SC" { "SC=0000" } else { "%" };
+            drive.answer(now_us, ask.id, Ok(vec![answer.into()]));
+        }
+        if sent.len() == 5 {
+            assert_eq!(drive.started_us(), Some(0));
+            assert_eq!(drive.next_wakeup_us(0), Some(20_000));
+        }
+        now_us = drive.next_wakeup_us(now_us).unwrap_or(now_us);
+        if sent.len() == 9 {
+            break;
+        }
+    }
+    assert_eq!(
+        sent,
+        [
+            "0 QX1", "1 QX1", "2 QX1", "0 SO2L", "0 SO2H", "0 SC", "1 SC", "2 SC"
+        ][..sent.len().min(8)]
+    );
+}
