@@ -24,7 +24,7 @@
 mod check;
 pub mod edit;
 mod raw;
-mod scl;
+pub mod scl;
 #[cfg(test)]
 mod tests;
 

@@ -1,13 +1,17 @@
 //! The MOONS' (SCL) part of `floatball.toml`: a `kind = "scl"` gateway entry — an
 //! RS-485 line (`port`, `baud`, `addresses`) or eSCL drives on UDP (`escl`) — and the
 //! `[scl]` table (start input and trigger, programs uploaded or stored, steps per
-//! revolution, tolerance, poll period), checked with line and column like the rest.
+//! revolution, tolerance, poll period), checked with line and column like the rest; and
+//! the Q program compiler's settings an installation gives ([`qprogram_config`]), the
+//! one place that builds them for the player, the API and the verdict.
 
 use std::net::SocketAddr;
 use std::ops::Range;
 use std::time::Duration;
 
+use floatball_shared::plan::Installation;
 use floatball_shared::plan::installation::{MAX_SCL_DRIVES, SIM_PORT};
+use floatball_shared::scl::qprogram::QProgramConfig;
 use floatball_shared::scl::{Address, InputCondition, IoPoint, escl};
 use toml::Spanned;
 
@@ -26,6 +30,63 @@ pub use floatball_shared::scl::qprogram::{
 /// answers only the address and port of the first host that spoke to it until it is
 /// powered down, so the bridge sends from the same port every time it starts.
 pub const DEFAULT_SCL_HOST_PORT: u16 = escl::UDP_PORT;
+
+// ---- the Q program compiler's settings ----
+
+/// What an installation may set beyond its calibration and limits; `None` keeps the
+/// compiler's default ([`QProgramConfig::default`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct QProgramOverrides {
+    /// The common start input (`Some(None)`: no `WI`, the program starts at once).
+    pub start: Option<Option<(IoPoint, InputCondition)>>,
+    /// The largest deviation accepted, mm.
+    pub tolerance_mm: Option<f64>,
+    /// Counts per motor revolution (`EG`).
+    pub steps_per_rev: Option<u32>,
+    /// Run the show again and again.
+    pub loop_show: Option<bool>,
+}
+
+/// The compiler's settings for `installation`: its calibration (`counts_per_mm`) and
+/// limits (top speed and acceleration), then `overrides`, then the defaults.
+#[must_use]
+pub fn qprogram_config(
+    installation: &Installation,
+    overrides: &QProgramOverrides,
+) -> QProgramConfig {
+    let defaults = QProgramConfig::default();
+    QProgramConfig {
+        counts_per_mm: installation.counts_per_mm,
+        steps_per_rev: overrides.steps_per_rev.unwrap_or(defaults.steps_per_rev),
+        start: overrides.start.unwrap_or(defaults.start),
+        loop_show: overrides.loop_show.unwrap_or(defaults.loop_show),
+        tolerance_mm: overrides.tolerance_mm.unwrap_or(defaults.tolerance_mm),
+        max_speed_mm_s: installation.limits.max_speed_mm_s,
+        max_accel_mm_s2: installation.limits.max_accel_mm_s2,
+    }
+}
+
+/// The overrides a configuration sets: its `[scl]` table (start input only with a
+/// trigger, tolerance, steps per revolution) when the gateways are MOONS' drives;
+/// otherwise every setting is the compiler's default.
+#[must_use]
+pub fn overrides(config: &super::Config) -> QProgramOverrides {
+    config
+        .scl
+        .as_ref()
+        .map_or_else(QProgramOverrides::default, scl_overrides)
+}
+
+/// The overrides of an SCL installation's `[scl]` table (the player's too).
+#[must_use]
+pub fn scl_overrides(scl: &SclConfig) -> QProgramOverrides {
+    QProgramOverrides {
+        start: Some(scl.start),
+        tolerance_mm: Some(scl.tolerance_mm),
+        steps_per_rev: Some(scl.steps_per_rev),
+        loop_show: Some(false),
+    }
+}
 
 /// An installation of MOONS' drives: every gateway entry's drives and the `[scl]`
 /// settings.
@@ -486,4 +547,27 @@ pub fn default_addresses(drives: usize) -> Vec<Address> {
         .take(drives)
         .filter_map(Address::new)
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_settings_come_from_the_installation_then_the_overrides() {
+        let installation = Installation::demo(1, 1, &[9600]).unwrap();
+        let config = qprogram_config(&installation, &QProgramOverrides::default());
+        assert_eq!(config.counts_per_mm, installation.counts_per_mm);
+        assert_eq!(config.max_speed_mm_s, installation.limits.max_speed_mm_s);
+        assert_eq!(config.start, QProgramConfig::default().start);
+        let config = qprogram_config(
+            &installation,
+            &QProgramOverrides {
+                start: Some(None),
+                tolerance_mm: Some(2.5),
+                ..QProgramOverrides::default()
+            },
+        );
+        assert_eq!((config.start, config.tolerance_mm), (None, 2.5));
+    }
 }

@@ -9,79 +9,23 @@
 //!   a move faster than the limits, with its time).
 //!
 //! Needs a [`Session`]. The compiling runs on a blocking thread. The compiler's
-//! settings come from the installation through [`qprogram_config`], the one place
-//! that builds them.
+//! settings come from the installation through
+//! [`qprogram_config`](crate::config::scl::qprogram_config), the one place that builds
+//! them.
 
 use axum::extract::{RawQuery, State};
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::QProgramListing;
 use floatball_shared::codes::Code;
-use floatball_shared::plan::Installation;
 use floatball_shared::plan::verdict::Why;
-use floatball_shared::scl::qprogram::{QProgramConfig, QProgramError, compile};
-use floatball_shared::scl::{InputCondition, IoPoint};
+use floatball_shared::scl::qprogram::{QProgramError, compile};
 
 use super::library::{NameParam, store_failure};
 use super::session::Session;
 use super::{Failure, blocking};
-use crate::config::Config;
+use crate::config::scl::{overrides, qprogram_config};
 use crate::state::AppState;
-
-/// What an installation may set beyond its calibration and limits; `None` keeps the
-/// compiler's default ([`QProgramConfig::default`]).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct QProgramOverrides {
-    /// The common start input (`Some(None)`: no `WI`, the program starts at once).
-    pub start: Option<Option<(IoPoint, InputCondition)>>,
-    /// The largest deviation accepted, mm.
-    pub tolerance_mm: Option<f64>,
-    /// Counts per motor revolution (`EG`).
-    pub steps_per_rev: Option<u32>,
-    /// Run the show again and again.
-    pub loop_show: Option<bool>,
-}
-
-/// The compiler's settings for `installation`: its calibration (`counts_per_mm`) and
-/// limits (top speed and acceleration), then `overrides`, then the defaults.
-#[must_use]
-pub fn qprogram_config(
-    installation: &Installation,
-    overrides: &QProgramOverrides,
-) -> QProgramConfig {
-    let defaults = QProgramConfig::default();
-    QProgramConfig {
-        counts_per_mm: installation.counts_per_mm,
-        steps_per_rev: overrides.steps_per_rev.unwrap_or(defaults.steps_per_rev),
-        start: overrides.start.unwrap_or(defaults.start),
-        loop_show: overrides.loop_show.unwrap_or(defaults.loop_show),
-        tolerance_mm: overrides.tolerance_mm.unwrap_or(defaults.tolerance_mm),
-        max_speed_mm_s: installation.limits.max_speed_mm_s,
-        max_accel_mm_s2: installation.limits.max_accel_mm_s2,
-    }
-}
-
-/// The overrides a configuration sets: its `[scl]` table (start input only with a
-/// trigger, tolerance, steps per revolution) when the gateways are MOONS' drives;
-/// otherwise every setting is the compiler's default.
-#[must_use]
-pub fn overrides(config: &Config) -> QProgramOverrides {
-    config
-        .scl
-        .as_ref()
-        .map_or_else(QProgramOverrides::default, scl_overrides)
-}
-
-/// The overrides of an SCL installation's `[scl]` table (the player's too).
-#[must_use]
-pub fn scl_overrides(scl: &crate::config::SclConfig) -> QProgramOverrides {
-    QProgramOverrides {
-        start: Some(scl.start),
-        tolerance_mm: Some(scl.tolerance_mm),
-        steps_per_rev: Some(scl.steps_per_rev),
-        loop_show: Some(false),
-    }
-}
 
 /// The query: the ball and whether to answer text.
 fn parse_query(query: Option<&str>) -> Result<(usize, bool), Failure> {
@@ -232,23 +176,5 @@ mod tests {
     fn the_download_name_is_safe() {
         assert_eq!(file_name("wave", 7), "wave-unit7.q");
         assert_eq!(file_name("a \"b\"/ç", 0), "a__b___-unit0.q");
-    }
-
-    #[test]
-    fn the_settings_come_from_the_installation_then_the_overrides() {
-        let installation = Installation::demo(1, 1, &[9600]).unwrap();
-        let config = qprogram_config(&installation, &QProgramOverrides::default());
-        assert_eq!(config.counts_per_mm, installation.counts_per_mm);
-        assert_eq!(config.max_speed_mm_s, installation.limits.max_speed_mm_s);
-        assert_eq!(config.start, QProgramConfig::default().start);
-        let config = qprogram_config(
-            &installation,
-            &QProgramOverrides {
-                start: Some(None),
-                tolerance_mm: Some(2.5),
-                ..QProgramOverrides::default()
-            },
-        );
-        assert_eq!((config.start, config.tolerance_mm), (None, 2.5));
     }
 }

@@ -59,10 +59,10 @@ pub fn drives_of(installation: &Installation) -> Vec<DriveRef> {
 }
 
 /// The compiler's settings for this installation: the same as `GET /api/qprogram`
-/// uses ([`crate::http::qprogram::qprogram_config`]), so a program downloaded for Q
+/// uses ([`crate::config::scl::qprogram_config`]), so a program downloaded for Q
 /// Programmer is the one Start would upload.
 pub fn qprogram_config(installation: &Installation, scl: &SclConfig) -> QProgramConfig {
-    crate::http::qprogram::qprogram_config(installation, &crate::http::qprogram::scl_overrides(scl))
+    crate::config::scl::qprogram_config(installation, &crate::config::scl::scl_overrides(scl))
 }
 
 /// Compiles every ball's track of `show` with `settings`, in ball order, on as many
