@@ -35,11 +35,13 @@
 //! queries follows until Home; Home stops every drive the same way (`SK` back to back)
 //! before it moves them.
 //!
-//! **Today, Start after an e-stop does not home first on MOONS' drives** (Start runs
-//! with `home_first: reset`, false for a Start, in `run_scl`; neither does the first
-//! Start). A later change makes it home first: the home moves (`VE AC DE DI0 FP` to
-//! every drive) will then come before the approach in the section "Start after the
-//! e-stop", and that is the one change to these goldens it should make.
+//! **Start homes first when the positions are unknown** — the first Start after
+//! start-up and every Start after an e-stop — as on every other family (the show
+//! sequencer, `floatball_shared::player`): the home moves (`VE AC DE DI0 FP` to every
+//! drive) come before the approach in "Start (the first)" and "Start after the
+//! e-stop". That was the one change the move onto the sequencer made to these
+//! goldens (before it, a Start on MOONS' drives never homed); a Start after Home goes
+//! straight to the approach.
 //!
 //! Regenerate with `FLOATBALL_BLESS=1 cargo test -p floatball-bridge --test
 //! scl_golden` and read the diff.
@@ -275,8 +277,26 @@ async fn scenario(scl: &str, title: &str) -> String {
     .await;
     assert_eq!(marks.peer.positions(), [0, 0, 0]);
 
-    // Today without homing first (see the module's doc).
-    marks.mark("Start after the e-stop (played to the end)");
+    // Homed: the positions are known, Start goes straight to the approach.
+    marks.mark("Start after Home (played to the end)");
+    play_to_end(&mut ws).await;
+    assert_eq!(marks.peer.positions(), ends);
+
+    marks.mark("Start and E-stop again");
+    send_text(&mut ws, r#"{"type":"start"}"#).await;
+    until(&mut ws, Duration::from_secs(10), |status| {
+        status.state == PlayerState::Playing
+    })
+    .await;
+    tokio::time::sleep(Duration::from_millis(150)).await;
+    send_text(&mut ws, r#"{"type":"estop"}"#).await;
+    until(&mut ws, Duration::from_secs(5), |status| {
+        status.state == PlayerState::Stopped
+    })
+    .await;
+
+    // After an e-stop the positions are unknown: Start homes first.
+    marks.mark("Start after the e-stop (homes first, played to the end)");
     play_to_end(&mut ws).await;
     assert_eq!(marks.peer.positions(), ends);
     // The last polls come in.

@@ -54,11 +54,14 @@ use std::time::{Duration, Instant};
 use floatball_shared::api::{
     GatewayKind, GatewayStatus, GatewaySummary, Status, summarise_gateways,
 };
+use floatball_shared::mbox::drive::MboxDrive;
 use floatball_shared::plan::Installation;
-use floatball_shared::plan::mbox::{MboxPlayer, MboxPlayerConfig};
+use floatball_shared::plan::mbox::MboxPlayerConfig;
 use floatball_shared::plan::player::{
     Command, Entry, LinkView, Player, PlayerConfig, Prepared, StartError, TICK_US, prepare,
 };
+use floatball_shared::player::Sequencer;
+use floatball_shared::scl::drive::SclDrive;
 use tokio::sync::{mpsc, oneshot, watch};
 
 use crate::commission::health::HealthView;
@@ -67,7 +70,12 @@ use crate::estop::{self, Latch};
 use crate::link::Link;
 use crate::mbox::MboxNet;
 use crate::scl::SclNet;
-use crate::scl::player::{self as scl_player, Progress as RunProgress};
+
+mod mbox;
+mod scl;
+mod sequenced;
+
+use sequenced::{Prepare, PreparedRuns};
 
 type Reply = oneshot::Sender<Result<(), StartError>>;
 
@@ -86,12 +94,11 @@ enum Request {
         generation: u64,
         reply: Reply,
     },
-    /// Start or Reset on MBOX boxes or MOONS' drives: the playlist checked (not
-    /// planned: boxes take positions, drives run Q programs, not a line's
-    /// instructions).
+    /// Start or Reset on a family under the sequencer (MBOX boxes, MOONS' drives):
+    /// the playlist prepared by the family ([`Prepare`]).
     Play {
         generation: u64,
-        entries: Result<Vec<Entry>, StartError>,
+        prepared: Result<PreparedRuns, StartError>,
         loop_playlist: bool,
         reset: bool,
         reply: Reply,
@@ -175,6 +182,9 @@ pub struct Playback {
     boxes: Option<MboxNet>,
     /// The MOONS' drives, when the installation's gateways are SCL gateway entries.
     scl: Option<SclNet>,
+    /// How the family under the sequencer prepares a playlist (MBOX boxes, MOONS'
+    /// drives); `None`: UIM2503 gateways, planned for their lines.
+    sequenced: Option<Arc<dyn Prepare>>,
     /// Arming's side: the player's disarm count and the quiet time.
     arming: Arc<ArmingShared>,
     /// The playlist prepared last (armed or started), kept for the next Arm or Start
@@ -332,6 +342,7 @@ impl Playback {
             latch,
             boxes: None,
             scl: None,
+            sequenced: None,
             arming: Arc::new(ArmingShared::default()),
             kept: Arc::new(Mutex::new(None)),
         }
@@ -342,20 +353,19 @@ impl Playback {
     /// obeys). Must run inside the async runtime.
     pub fn spawn_mbox(config: MboxPlayerConfig, boxes: MboxNet, latch: Arc<Latch>) -> Self {
         let installation = Arc::new(config.installation.clone());
-        let player = MboxPlayer::new(config);
-        let (requests, inbox) = mpsc::unbounded_channel();
-        let (list_tx, list) = watch::channel(Listed::default());
-        let (status_tx, status) = watch::channel(mbox_status(&player, &boxes, &list_tx));
-        tokio::spawn(run_mbox(
-            player,
-            boxes.clone(),
-            Arc::clone(&latch),
-            inbox,
-            (status_tx, list_tx),
-        ));
+        let sequencer = Sequencer::new(MboxDrive::new(config));
+        let family = mbox::MboxFamily {
+            boxes: boxes.clone(),
+        };
         Self {
             boxes: Some(boxes),
-            ..Self::started(requests, (status, list), installation, latch)
+            ..Self::spawn_sequenced(
+                sequencer,
+                family,
+                installation,
+                latch,
+                Arc::new(mbox::MboxPrepare),
+            )
         }
     }
 
@@ -368,20 +378,52 @@ impl Playback {
         drives: SclNet,
         latch: Arc<Latch>,
     ) -> Self {
-        let installation = Arc::new(installation);
+        let scl = Arc::new(scl);
+        let sequencer = Sequencer::new(SclDrive::new(scl::drive_config(
+            &installation,
+            &scl,
+            &drives,
+        )));
+        let family = scl::SclFamily {
+            net: drives.clone(),
+            scl: Arc::clone(&scl),
+        };
+        let prepare = scl::SclPrepare {
+            net: drives.clone(),
+            scl,
+        };
+        Self {
+            scl: Some(drives),
+            ..Self::spawn_sequenced(
+                sequencer,
+                family,
+                Arc::new(installation),
+                latch,
+                Arc::new(prepare),
+            )
+        }
+    }
+
+    /// Starts the playback task of a family under the sequencer.
+    fn spawn_sequenced<F: sequenced::Family>(
+        sequencer: Sequencer<F::Drive>,
+        family: F,
+        installation: Arc<Installation>,
+        latch: Arc<Latch>,
+        prepare: Arc<dyn Prepare>,
+    ) -> Self {
         let (requests, inbox) = mpsc::unbounded_channel();
         let (list_tx, list) = watch::channel(Listed::default());
-        let (status_tx, status) = watch::channel(SclStatus::default().status(&drives, &list_tx));
-        tokio::spawn(run_scl(
-            drives.clone(),
-            Arc::clone(&installation),
-            Arc::new(scl),
+        let (status_tx, status) = watch::channel(sequenced::status(&sequencer, &family, &list_tx));
+        tokio::spawn(sequenced::run(
+            sequencer,
+            family,
             Arc::clone(&latch),
             inbox,
             (status_tx, list_tx),
         ));
         Self {
-            scl: Some(drives),
+            sequenced: Some(prepare),
             ..Self::started(requests, (status, list), installation, latch)
         }
     }
@@ -516,7 +558,7 @@ impl Playback {
         generation: u64,
         reset: bool,
     ) -> Result<(), PlaybackError> {
-        if self.boxes.is_some() || self.scl.is_some() {
+        if let Some(prepare) = &self.sequenced {
             let Playlist::Read {
                 entries,
                 loop_playlist,
@@ -527,20 +569,15 @@ impl Playback {
                 return Err(PlaybackError::Refused(StartError::Empty));
             };
             let installation = self.installation();
-            let scl = self.scl.is_some();
-            let entries = tokio::task::spawn_blocking(move || {
-                if scl {
-                    check_scl(&installation, &entries).map(|()| entries)
-                } else {
-                    MboxPlayer::check(&installation, &entries).map(|()| entries)
-                }
-            })
-            .await
-            .map_err(|_| PlaybackError::Gone)?;
+            let prepare = Arc::clone(prepare);
+            let prepared =
+                tokio::task::spawn_blocking(move || prepare.prepare(&installation, entries))
+                    .await
+                    .map_err(|_| PlaybackError::Gone)?;
             return self
                 .ask(|reply| Request::Play {
                     generation,
-                    entries,
+                    prepared,
                     loop_playlist,
                     reset,
                     reply,
@@ -588,7 +625,7 @@ impl Playback {
     /// the installation now: its plans are shared, nothing is read or planned again
     /// (UIM2503 gateways; `None` for MBOX boxes and MOONS' drives).
     pub fn prepared_for(&self, key: &PlaylistKey) -> Option<Prepared> {
-        if self.boxes.is_some() || self.scl.is_some() {
+        if self.sequenced.is_some() {
             return None;
         }
         let installation = self.installation();
@@ -640,7 +677,7 @@ impl Playback {
     /// Whether a playlist is planned for serial lines here ([`Playback::prepare_blocking`]):
     /// UIM2503 gateways, not MBOX boxes or MOONS' drives.
     pub fn plans_lines(&self) -> bool {
-        self.boxes.is_none() && self.scl.is_none()
+        self.sequenced.is_none()
     }
 
     /// Plans the playlist `entries` now, on the calling thread (a blocking one: the
@@ -817,44 +854,13 @@ fn idle_for_reconfigure(
     }
 }
 
-/// The MBOX task's side of [`Playback::reconfigure`]: while idle, a new MBOX player
-/// on the new configuration (the boxes stay: their gateways did not change).
-fn reconfigure_mbox(player: &mut MboxPlayer, change: Reconfigure) {
-    let result =
-        idle_for_reconfigure(player.status().state, player.is_running()).and_then(
-            |()| match change.mbox {
-                Some(config) => {
-                    *player = MboxPlayer::new(config);
-                    Ok(())
-                }
-                None => Err(ReconfigureError::NotLive),
-            },
-        );
-    let _ = change.reply.send(result);
-}
-
-/// The SCL task's side of [`Playback::reconfigure`]: while idle (`state`, no run
-/// under way), the new installation for the next run (the drives stay: their
-/// gateway entries did not change).
-fn reconfigure_scl(
-    installation: &mut Arc<Installation>,
-    state: floatball_shared::api::PlayerState,
-    running: bool,
-    change: Reconfigure,
-) {
-    let result = idle_for_reconfigure(state, running).map(|()| {
-        *installation = Arc::new(change.installation);
-    });
-    let _ = change.reply.send(result);
-}
-
 // ---- arm ----
 
 impl Playback {
     /// Whether this installation arms shows while idle (UIM2503 gateways; MBOX boxes
     /// take positions frame by frame, MOONS' drives load their programs at Start).
     pub fn arms(&self) -> bool {
-        self.boxes.is_none() && self.scl.is_none() && !self.live().links.is_empty()
+        self.sequenced.is_none() && !self.live().links.is_empty()
     }
 
     /// The player's disarm count as last published: an arming prepared at this count
@@ -1391,413 +1397,4 @@ fn publish(status: &watch::Sender<Status>, current: Status) {
         }
         changed
     });
-}
-
-fn mbox_status(player: &MboxPlayer, boxes: &MboxNet, list: &watch::Sender<Listed>) -> Status {
-    let mut status = player.status();
-    (status.gateways, status.gateway_summary) = summarise(boxes.statuses(), list);
-    status
-}
-
-fn mbox_views(boxes: &MboxNet) -> Vec<LinkView> {
-    (0..boxes.len())
-        .map(|index| LinkView {
-            up: boxes.state(index) == floatball_shared::api::LinkState::Up,
-            queued_bytes: 0,
-        })
-        .collect()
-}
-
-/// Carries out a Start, Reset or Home on the MBOX player, if no e-stop came since it
-/// was issued and every box answers.
-fn handle_mbox(
-    player: &mut MboxPlayer,
-    latch: &Latch,
-    request: Request,
-    now_us: u64,
-    views: &[LinkView],
-) -> Option<(u64, Reply, Result<(), StartError>)> {
-    let gateways = views.len();
-    Some(match request {
-        Request::Play {
-            generation,
-            entries,
-            loop_playlist,
-            reset,
-            reply,
-        } => {
-            let admitted = entries
-                .and_then(|entries| admit(latch, generation, views, gateways).map(|()| entries));
-            let result = if reset {
-                player.reset(now_us, admitted, loop_playlist)
-            } else {
-                admitted.and_then(|entries| {
-                    if player.start_checked(now_us, entries, loop_playlist) {
-                        Ok(())
-                    } else {
-                        Err(StartError::Busy)
-                    }
-                })
-            };
-            (generation, reply, result)
-        }
-        Request::Home { generation, reply } => {
-            let result = admit(latch, generation, views, gateways).map(|()| player.home(now_us));
-            (generation, reply, result)
-        }
-        Request::Start {
-            generation, reply, ..
-        }
-        | Request::Reset {
-            generation, reply, ..
-        } => (generation, reply, Err(StartError::Busy)),
-        Request::Estop | Request::Arm { .. } | Request::Disarm => return None,
-        Request::Reconfigure(change) => {
-            refuse_reconfigure(change);
-            return None;
-        }
-    })
-}
-
-/// The playback task of an installation of MBOX boxes: the MBOX player on the clock,
-/// its frames handed to the boxes' sender, the status from the player and the boxes.
-async fn run_mbox(
-    mut player: MboxPlayer,
-    boxes: MboxNet,
-    latch: Arc<Latch>,
-    mut inbox: mpsc::UnboundedReceiver<Request>,
-    (status, list): (watch::Sender<Status>, watch::Sender<Listed>),
-) {
-    let epoch = Instant::now();
-    let now_us = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
-    let mut seen_generation = latch.generation();
-    let mut run_generation = seen_generation;
-    loop {
-        let now = now_us();
-        // Idle, it still looks at the boxes ten times a second for the status.
-        let wake_us = player
-            .next_wakeup_us(now)
-            .unwrap_or(now + 100_000)
-            .min(now + 100_000);
-        // Frames are handed to the sender FRAME_LEAD ahead of their slot; it sends
-        // them at their slot.
-        let lead_us = u64::try_from(crate::mbox::FRAME_LEAD.as_micros()).unwrap_or(0);
-        let sleep = tokio::time::sleep_until(
-            (epoch + Duration::from_micros(wake_us.saturating_sub(lead_us))).into(),
-        );
-        let mut request = None;
-        tokio::select! {
-            received = inbox.recv() => {
-                let Some(received) = received else { return };
-                request = Some(received);
-            }
-            () = sleep => {}
-        }
-        let generation = latch.generation();
-        if generation != seen_generation {
-            seen_generation = generation;
-            player.estop();
-        }
-        if let Some(Request::Reconfigure(change)) = request {
-            reconfigure_mbox(&mut player, *change);
-            request = None;
-        }
-        if let Some(request) = request
-            && let Some((generation, reply, result)) =
-                handle_mbox(&mut player, &latch, request, now_us(), &mbox_views(&boxes))
-        {
-            if result.is_ok() {
-                run_generation = generation;
-            }
-            let _ = reply.send(result);
-        }
-        if player.is_running()
-            && let Some(down) = (0..boxes.len())
-                .find(|&index| boxes.state(index) == floatball_shared::api::LinkState::Down)
-        {
-            let reason =
-                format!("MBOX box {down} stopped answering; the show was stopped on every box");
-            tracing::error!("{reason}");
-            estop::press(&latch, &[]);
-            boxes.wake();
-            seen_generation = latch.generation();
-            player.fail_with(reason);
-        }
-        player.poll(now_us() + lead_us);
-        for frame in player.take_frames() {
-            let slot = epoch + Duration::from_micros(frame.slot_us);
-            boxes.send(frame, slot, run_generation);
-        }
-        publish(&status, mbox_status(&player, &boxes, &list));
-    }
-}
-
-/// Whether `entries` can play on MOONS' drives: a playlist, every show valid for the
-/// installation with a track per drive.
-fn check_scl(installation: &Installation, entries: &[Entry]) -> Result<(), StartError> {
-    if entries.is_empty() {
-        return Err(StartError::Empty);
-    }
-    for (index, entry) in entries.iter().enumerate() {
-        let reason = floatball_shared::plan::report::unfit_verdict(installation, &entry.show);
-        if let Some(reason) = reason {
-            return Err(StartError::Invalid {
-                entry: index + 1,
-                show: entry.show.name.clone(),
-                reason: Box::new(reason),
-            });
-        }
-    }
-    Ok(())
-}
-
-/// The player's part of an SCL installation's status, kept by its playback task.
-#[derive(Debug, Default)]
-struct SclStatus {
-    state: floatball_shared::api::PlayerState,
-    entry: Option<usize>,
-    show: Option<String>,
-    cycle: u32,
-    /// When the show started and how long it is, while playing.
-    playing: Option<(Instant, u64)>,
-    /// Loading: programs written of all.
-    loading: Option<(usize, usize)>,
-    /// The playlist played to its end: the last show's length.
-    ended_ms: Option<u64>,
-    last_error: Option<String>,
-}
-
-impl SclStatus {
-    fn apply(&mut self, progress: RunProgress) {
-        use floatball_shared::api::PlayerState;
-        let played = self.playing.take();
-        self.loading = None;
-        self.ended_ms = None;
-        match progress {
-            // Homing names no show: the status must not carry the last one's.
-            RunProgress::Homing => {
-                self.state = PlayerState::Homing;
-                (self.entry, self.show, self.cycle) = (None, None, 0);
-            }
-            RunProgress::Waiting { entry, show } => {
-                self.state = PlayerState::Waiting;
-                (self.entry, self.show) = (Some(entry), Some(show));
-            }
-            RunProgress::Approaching { entry, show, cycle } => {
-                self.state = PlayerState::Approaching;
-                (self.entry, self.show, self.cycle) = (Some(entry), Some(show), cycle);
-            }
-            RunProgress::Loading {
-                entry,
-                done,
-                drives,
-            } => {
-                self.state = PlayerState::Loading;
-                self.entry = Some(entry);
-                self.loading = Some((done, drives));
-            }
-            RunProgress::Playing {
-                entry,
-                show,
-                cycle,
-                started,
-                duration_ms,
-            } => {
-                self.state = PlayerState::Playing;
-                (self.entry, self.show, self.cycle) = (Some(entry), Some(show), cycle);
-                self.playing = Some((started, duration_ms));
-            }
-            RunProgress::Done => {
-                self.state = PlayerState::Idle;
-                // As the other players: idle at the end of the show, progress full.
-                self.ended_ms = played.map(|(_, duration_ms)| duration_ms);
-                if self.ended_ms.is_none() {
-                    (self.entry, self.show, self.cycle) = (None, None, 0);
-                }
-            }
-            RunProgress::Failed(reason) => {
-                self.state = PlayerState::Error;
-                self.last_error = Some(reason);
-            }
-        }
-    }
-
-    fn status(&self, drives: &SclNet, list: &watch::Sender<Listed>) -> Status {
-        let (show_time_ms, show_duration_ms, progress) = match (self.playing, self.loading) {
-            (Some((started, duration_ms)), _) => {
-                let time_ms = u64::try_from(started.elapsed().as_millis())
-                    .map_or(duration_ms, |ms| ms.min(duration_ms));
-                let progress = if duration_ms == 0 {
-                    1.0
-                } else {
-                    time_ms as f64 / duration_ms as f64
-                };
-                (time_ms, duration_ms, progress)
-            }
-            (None, Some((done, drives))) => (0, 0, done as f64 / drives.max(1) as f64),
-            (None, None) => match self.ended_ms {
-                Some(duration_ms) => (duration_ms, duration_ms, 1.0),
-                None => (0, 0, 0.0),
-            },
-        };
-        let (gateways, gateway_summary) = summarise(drives.statuses(), list);
-        Status {
-            state: self.state,
-            entry: self.entry,
-            show: self.show.clone(),
-            show_time_ms,
-            show_duration_ms,
-            cycle: self.cycle,
-            progress,
-            gateways,
-            last_error: self.last_error.clone(),
-            armed: None,
-            gateway_summary,
-        }
-    }
-}
-
-/// The playback task of an installation of MOONS' drives: Start, Reset and Home
-/// admitted as for the other families and carried out by a run
-/// ([`crate::scl::player::run`]) whose progress it turns into the status; an e-stop
-/// ends the run (its requests are void already) and the state is `stopped`.
-async fn run_scl(
-    drives: SclNet,
-    mut installation: Arc<Installation>,
-    scl: Arc<SclConfig>,
-    latch: Arc<Latch>,
-    mut inbox: mpsc::UnboundedReceiver<Request>,
-    (status, list): (watch::Sender<Status>, watch::Sender<Listed>),
-) {
-    let mut state = SclStatus::default();
-    let mut seen_generation = latch.generation();
-    let mut running: Option<(
-        tokio::task::JoinHandle<()>,
-        mpsc::UnboundedReceiver<RunProgress>,
-    )> = None;
-    let views = |drives: &SclNet| -> Vec<LinkView> {
-        drives
-            .links()
-            .iter()
-            .map(|link| LinkView {
-                up: link.is_up(),
-                queued_bytes: 0,
-            })
-            .collect()
-    };
-    loop {
-        let mut request = None;
-        let mut progress = None;
-        {
-            let next_progress = async {
-                match running.as_mut() {
-                    Some((_, progress)) => progress.recv().await,
-                    None => std::future::pending().await,
-                }
-            };
-            tokio::select! {
-                received = inbox.recv() => {
-                    let Some(received) = received else { return };
-                    request = Some(received);
-                }
-                Some(received) = next_progress => progress = Some(received),
-                () = tokio::time::sleep(Duration::from_millis(100)) => {}
-            }
-        }
-        let generation = latch.generation();
-        if generation != seen_generation {
-            seen_generation = generation;
-            if let Some((task, _)) = running.take() {
-                task.abort();
-            }
-            progress = None;
-            state.apply(RunProgress::Done);
-            state.ended_ms = None;
-            state.state = floatball_shared::api::PlayerState::Stopped;
-        }
-        if let Some(progress) = progress {
-            let ended = matches!(progress, RunProgress::Done | RunProgress::Failed(_));
-            if let RunProgress::Failed(reason) = &progress {
-                tracing::error!("{reason}");
-                // Whatever the drives were doing, they stop.
-                estop::press(&latch, &[]);
-                drives.wake();
-                seen_generation = latch.generation();
-            }
-            state.apply(progress);
-            if ended {
-                running = None;
-            }
-        }
-        if let Some(request) = request {
-            let (generation, reply, run) = match request {
-                Request::Play {
-                    generation,
-                    entries,
-                    loop_playlist,
-                    reset,
-                    reply,
-                } => {
-                    let busy = running.is_some() && !reset;
-                    let run = entries.and_then(|entries| {
-                        if busy {
-                            Err(StartError::Busy)
-                        } else {
-                            Ok(scl_player::Run {
-                                entries,
-                                loop_playlist,
-                                home_first: reset,
-                            })
-                        }
-                    });
-                    (generation, reply, run)
-                }
-                Request::Home { generation, reply } => (
-                    generation,
-                    reply,
-                    Ok(scl_player::Run {
-                        entries: Vec::new(),
-                        loop_playlist: false,
-                        home_first: true,
-                    }),
-                ),
-                Request::Start {
-                    generation, reply, ..
-                }
-                | Request::Reset {
-                    generation, reply, ..
-                } => (generation, reply, Err(StartError::Busy)),
-                Request::Estop | Request::Arm { .. } | Request::Disarm => {
-                    publish(&status, state.status(&drives, &list));
-                    continue;
-                }
-                Request::Reconfigure(change) => {
-                    let idle = status.borrow().state;
-                    reconfigure_scl(&mut installation, idle, running.is_some(), *change);
-                    continue;
-                }
-            };
-            let views = views(&drives);
-            let result =
-                run.and_then(|run| admit(&latch, generation, &views, views.len()).map(|()| run));
-            let result = result.map(|run| {
-                if let Some((task, _)) = running.take() {
-                    task.abort();
-                }
-                let (progress_tx, progress_rx) = mpsc::unbounded_channel();
-                let task = tokio::spawn(scl_player::run(
-                    drives.clone(),
-                    Arc::clone(&installation),
-                    Arc::clone(&scl),
-                    run,
-                    generation,
-                    progress_tx,
-                ));
-                running = Some((task, progress_rx));
-                state.last_error = None;
-            });
-            let _ = reply.send(result);
-        }
-        publish(&status, state.status(&drives, &list));
-    }
 }

@@ -27,7 +27,6 @@
 //! when it has nothing else waiting (five times less often while programs are being
 //! uploaded); the answers fill [`GatewayStatus::drives`].
 
-pub mod player;
 pub mod program;
 pub mod serial;
 pub mod udp;
@@ -75,14 +74,7 @@ enum Event {
     Wake,
 }
 
-/// What a request waits for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Expect {
-    /// One answer line.
-    One,
-    /// `QU`: `%`, then a header `QU{n+1}` and `n` lines (or `?` alone).
-    Upload,
-}
+pub use floatball_shared::scl::drive::{Expect, is_inert};
 
 /// Why a request has no answer.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -469,33 +461,15 @@ impl SclLink {
             drive,
             command,
             is_inert(&request.command),
-            expect_of(&request.command),
+            Expect::of(&request.command),
             generation,
             Purpose::Console,
         ));
     }
 }
 
-/// Whether `command` may go while the e-stop is latched: a query, or a stop.
-pub fn is_inert(command: &Command) -> bool {
-    command.is_query()
-        || matches!(
-            command,
-            Command::StopKill | Command::Stop | Command::MotorDisable | Command::AlarmCode
-        )
-}
-
 fn is_inert_text(text: &str) -> bool {
     Request::parse(text).is_ok_and(|request| is_inert(&request.command))
-}
-
-/// What `command`'s answer is.
-pub fn expect_of(command: &Command) -> Expect {
-    if matches!(command, Command::QueueUpload { .. }) {
-        Expect::Upload
-    } else {
-        Expect::One
-    }
 }
 
 /// Completes `job` with `result`: to its waiter, the console, or the drive's figures.

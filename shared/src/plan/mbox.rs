@@ -99,8 +99,10 @@ pub struct MboxPlayer {
     sequencer: Sequencer<MboxDrive>,
 }
 
-/// The playlist as the sequencer runs it on boxes.
-fn runs(entries: Vec<Entry>) -> Vec<Run<MboxEntry>> {
+/// The playlist as the sequencer runs it on boxes (checked with
+/// [`MboxPlayer::check`]).
+#[must_use]
+pub fn runs(entries: Vec<Entry>) -> Vec<Run<MboxEntry>> {
     entries
         .into_iter()
         .map(|entry| Run {

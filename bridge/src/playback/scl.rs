@@ -1,0 +1,240 @@
+//! MOONS' drives as a family under the sequencer ([`super::sequenced`]): the drives'
+//! sans-IO drive ([`floatball_shared::scl::drive`]) asks, and each request goes to
+//! its link ([`crate::scl::SclNet`]) as a task of its own whose answer comes back to
+//! the playback task; a lane of the drive sends its next request only when the one
+//! before was answered, so every drive hears its lines in order.
+//!
+//! A playlist is prepared before Start: every show checked against the installation
+//! and, when programs are uploaded, every ball's Q program compiled — a show that
+//! cannot be compiled is refused before anything moves, with the ball and why.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use floatball_shared::api::GatewayStatus;
+use floatball_shared::plan::Installation;
+use floatball_shared::plan::player::{Entry, LinkView, StartError};
+use floatball_shared::plan::verdict::{Fix, Why};
+use floatball_shared::player::Run;
+use floatball_shared::scl::drive::{DriveSlot, SclDrive, SclDriveConfig, SclEntry, Trigger};
+use floatball_shared::scl::qprogram::QProgramError;
+use tokio::sync::mpsc;
+
+use super::sequenced::{Family, Prepare, PreparedRuns};
+use super::{Reconfigure, ReconfigureError};
+use crate::config::{SclConfig, SclPrograms};
+use crate::scl::SclNet;
+use crate::scl::program::{DriveRef, compile_every_ball, drives_of, qprogram_config};
+
+/// An answer: the request's id, and its lines or why there are none.
+pub type Answer = (u64, Result<Vec<String>, String>);
+
+/// The drives of an installation, as a family.
+#[derive(Debug)]
+pub struct SclFamily {
+    /// The drives on their links.
+    pub net: SclNet,
+    /// The `[scl]` settings.
+    pub scl: Arc<SclConfig>,
+}
+
+/// What the drive needs of `installation` on `net` with `scl`.
+pub fn drive_config(installation: &Installation, scl: &SclConfig, net: &SclNet) -> SclDriveConfig {
+    let units = drives_of(installation)
+        .into_iter()
+        .map(|drive| DriveSlot {
+            gateway: drive.gateway,
+            drive: drive.drive,
+            name: net.name(drive),
+        })
+        .collect();
+    let trigger = scl.trigger.map(|(address, output)| {
+        let drive = net
+            .links()
+            .first()
+            .and_then(|link| link.drive_of(address))
+            .ok_or_else(|| format!("the trigger drive {address} is not on SCL gateway 0"));
+        let name = drive
+            .as_ref()
+            .map(|&drive| net.name(DriveRef { gateway: 0, drive }))
+            .unwrap_or_default();
+        Trigger {
+            drive,
+            name,
+            output,
+        }
+    });
+    SclDriveConfig {
+        units,
+        gateways: net.links().len(),
+        counts_per_mm: installation.counts_per_mm,
+        steps_per_rev: scl.steps_per_rev,
+        approach_speed_mm_s: installation.approach_speed_mm_s,
+        max_accel_mm_s2: installation.limits.max_accel_mm_s2,
+        home_mm: installation.home_mm,
+        travel_mm: installation.limits.travel_mm,
+        trigger,
+    }
+}
+
+impl Family for SclFamily {
+    type Drive = SclDrive;
+    type Input = Answer;
+
+    fn views(&self) -> Vec<LinkView> {
+        self.net
+            .links()
+            .iter()
+            .map(|link| LinkView {
+                up: link.is_up(),
+                queued_bytes: 0,
+            })
+            .collect()
+    }
+
+    fn statuses(&self) -> Vec<GatewayStatus> {
+        self.net.statuses()
+    }
+
+    fn lost(&self) -> Option<String> {
+        // A drive that does not answer fails the request that waited for it.
+        None
+    }
+
+    fn wake(&self) {
+        self.net.wake();
+    }
+
+    fn carry_out(
+        &mut self,
+        drive: &mut SclDrive,
+        _epoch: Instant,
+        generation: u64,
+        inputs: &mpsc::UnboundedSender<Answer>,
+    ) {
+        for ask in drive.take_asks() {
+            let net = self.net.clone();
+            let inputs = inputs.clone();
+            tokio::spawn(async move {
+                let answer = match net.links().get(ask.gateway) {
+                    Some(link) => link
+                        .request(ask.drive, ask.text, ask.expect, generation)
+                        .await
+                        .map_err(|error| error.to_string()),
+                    None => Err(format!("there is no SCL gateway {}", ask.gateway)),
+                };
+                let _ = inputs.send((ask.id, answer));
+            });
+        }
+    }
+
+    fn apply(drive: &mut SclDrive, now_us: u64, (id, answer): Answer) {
+        drive.answer(now_us, id, answer);
+    }
+
+    fn reconfigure(&mut self, change: &Reconfigure) -> Result<SclDrive, ReconfigureError> {
+        // The drives stay (their gateway entries did not change); the drive takes the
+        // matrix's new calibration and limits.
+        Ok(SclDrive::new(drive_config(
+            &change.installation,
+            &self.scl,
+            &self.net,
+        )))
+    }
+}
+
+/// A playlist for the drives: checked, and compiled when programs are uploaded.
+#[derive(Debug)]
+pub struct SclPrepare {
+    /// The drives (they name the balls in errors).
+    pub net: SclNet,
+    /// The `[scl]` settings.
+    pub scl: Arc<SclConfig>,
+}
+
+impl Prepare for SclPrepare {
+    fn prepare(
+        &self,
+        installation: &Installation,
+        entries: Vec<Entry>,
+    ) -> Result<PreparedRuns, StartError> {
+        check(installation, &entries)?;
+        let config = drive_config(installation, &self.scl, &self.net);
+        let settings = qprogram_config(installation, &self.scl);
+        let mut runs = Vec::with_capacity(entries.len());
+        for (index, entry) in entries.into_iter().enumerate() {
+            let show = &entry.show;
+            let programs = match self.scl.programs {
+                SclPrograms::Upload => {
+                    let mut programs = Vec::with_capacity(show.tracks.len());
+                    let mut largest_mm: Option<f64> = None;
+                    let mut first = None;
+                    for (ball, program) in
+                        compile_every_ball(show, &settings).into_iter().enumerate()
+                    {
+                        match program {
+                            Ok(program) => programs.push(program),
+                            Err(error) => {
+                                if let QProgramError::TooFar { deviation_mm, .. } = error {
+                                    largest_mm = Some(
+                                        largest_mm.map_or(deviation_mm, |mm| mm.max(deviation_mm)),
+                                    );
+                                }
+                                first.get_or_insert(Why::Program { ball, error });
+                            }
+                        }
+                    }
+                    if let Some(why) = first {
+                        return Err(StartError::Infeasible {
+                            entry: index + 1,
+                            show: show.name.clone(),
+                            reason: Box::new(why),
+                            fixes: largest_mm
+                                .map(|mm| Fix::Tolerance {
+                                    tolerance_mm: mm.ceil(),
+                                    deviation_mm: mm,
+                                })
+                                .into_iter()
+                                .collect(),
+                        });
+                    }
+                    Some(programs)
+                }
+                SclPrograms::Stored => None,
+            };
+            let duration_ms = show.duration_ms();
+            runs.push(Run {
+                name: show.name.clone(),
+                duration_ms,
+                timing: entry.timing(),
+                prepared: SclEntry::new(
+                    &config,
+                    show.tracks.iter().map(|track| track.start_mm),
+                    programs,
+                    duration_ms,
+                ),
+            });
+        }
+        Ok(Box::new(runs))
+    }
+}
+
+/// Whether `entries` can play on MOONS' drives: a playlist, every show valid for the
+/// installation with a track per drive.
+fn check(installation: &Installation, entries: &[Entry]) -> Result<(), StartError> {
+    if entries.is_empty() {
+        return Err(StartError::Empty);
+    }
+    for (index, entry) in entries.iter().enumerate() {
+        if let Some(reason) =
+            floatball_shared::plan::report::unfit_verdict(installation, &entry.show)
+        {
+            return Err(StartError::Invalid {
+                entry: index + 1,
+                show: entry.show.name.clone(),
+                reason: Box::new(reason),
+            });
+        }
+    }
+    Ok(())
+}
