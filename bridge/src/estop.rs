@@ -10,9 +10,11 @@
 //! Stops sent as datagrams (MBOX boxes, eSCL drives) are repeated [`REPEATS`] times
 //! [`REPEAT_INTERVAL`] apart ([`Repeats`], owned by each sender).
 //!
-//! MBOX boxes are not on a link: [`crate::playback::Playback::estop`] wakes their
-//! sender ([`crate::mbox::MboxNet::wake`]) right after pressing, in the same way — no
-//! lock, no await — and the sender writes the boxes' e-stop register before any frame.
+//! Every family's stop goes through [`press`], over its ports ([`StopPort`]): a
+//! UIM2503 link's writer writes the gateway's stop; the MBOX boxes' sender
+//! ([`crate::mbox::MboxNet`]) writes the boxes' e-stop register before any frame; the
+//! owners of the MOONS' drives' links ([`crate::scl::SclNet`]) write `SK` to every
+//! drive — each woken the same way, no lock, no await.
 //!
 //! The latch stays set until a Start, Reset or Home issued *after* the e-stop is
 //! accepted ([`Latch::release`] with the generation that request saw). While it is set,
@@ -124,26 +126,44 @@ impl Latch {
     }
 }
 
-/// The e-stop: presses `latch` and wakes the writer of every link in `links` (which
-/// must share `latch`), so each writes its stop ahead of everything and drops what was
-/// queued. Returns the gateways the stop cannot reach now (link not up), each with the
-/// reason; they get the stop as soon as they are back, before anything else.
-pub fn press(latch: &Latch, links: &[Link]) -> Vec<String> {
-    latch.trip();
-    for link in links {
-        link.wake();
+/// What the e-stop reaches: a UIM2503 link's writer, the MBOX boxes' sender, the
+/// owners of the MOONS' drives' links — each obeying the same latch.
+pub trait StopPort {
+    /// Wakes the writer(s): each looks at the latch, drops what was queued and writes
+    /// its stop ahead of everything. No lock, no await.
+    fn wake(&self);
+    /// Where the stop cannot be confirmed to reach now, each with the reason.
+    fn unreachable(&self) -> Vec<String>;
+}
+
+impl StopPort for Link {
+    fn wake(&self) {
+        Link::wake(self);
     }
-    links
-        .iter()
-        .filter(|link| !link.is_up())
-        .map(|link| {
-            format!(
+
+    fn unreachable(&self) -> Vec<String> {
+        if self.is_up() {
+            Vec::new()
+        } else {
+            vec![format!(
                 "gateway {} ({}) is not connected",
-                link.index(),
-                link.port()
-            )
-        })
-        .collect()
+                self.index(),
+                self.port()
+            )]
+        }
+    }
+}
+
+/// The e-stop, the one path for every family: presses `latch` and wakes every port in
+/// `ports` (which must obey `latch`), so each writes its stop ahead of everything and
+/// drops what was queued. Returns where the stop cannot reach now, each with the
+/// reason; those get the stop as soon as they are back, before anything else.
+pub fn press(latch: &Latch, ports: &[&dyn StopPort]) -> Vec<String> {
+    latch.trip();
+    for port in ports {
+        port.wake();
+    }
+    ports.iter().flat_map(|port| port.unreachable()).collect()
 }
 
 #[cfg(test)]

@@ -362,7 +362,7 @@ impl MboxNet {
     }
 
     /// The boxes the e-stop cannot be confirmed to reach now (down), with the reason.
-    pub fn unreachable(&self) -> Vec<String> {
+    fn unreachable_boxes(&self) -> Vec<String> {
         (0..self.shared.boxes.len())
             .filter(|&index| self.state(index) == LinkState::Down)
             .map(|index| {
@@ -657,7 +657,7 @@ impl<'a> Outbox<'a> {
             ),
             Operation::Write(write) => {
                 if (out.generation != self.seen_generation || self.shared.latch.is_latched())
-                    && *write != RegisterWrite::estop(write.route)
+                    && !write.is_estop()
                 {
                     return;
                 }
@@ -853,6 +853,17 @@ fn receive(shared: &Shared, socket: &UdpSocket) {
                 shared.unexpected.fetch_add(1, Ordering::Relaxed);
             }
         }
+    }
+}
+
+impl crate::estop::StopPort for MboxNet {
+    /// Wakes the sender: it writes the boxes' e-stop register before any frame.
+    fn wake(&self) {
+        MboxNet::wake(self);
+    }
+
+    fn unreachable(&self) -> Vec<String> {
+        self.unreachable_boxes()
     }
 }
 

@@ -56,7 +56,7 @@ use floatball_shared::api::{ClientMessage, FeedbackFrame, ServerMessage};
 use floatball_shared::ascii::{Batch, Form, parse_script};
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::mbox::console::{self as mbox_console, Operation};
-use floatball_shared::mbox::{BoxAddress, RegisterWrite, Route};
+use floatball_shared::mbox::{BoxAddress, Route};
 use floatball_shared::params;
 use futures_util::{SinkExt, StreamExt};
 use tokio::sync::{broadcast, mpsc, watch};
@@ -643,12 +643,7 @@ fn mbox_line(
         Err(parse_error) => return Some(invalid_line(&parse_error)),
     };
     let latch = state.playback().latch();
-    if latch.is_latched()
-        && !operations.iter().all(|operation| match operation {
-            Operation::Read(_) => true,
-            Operation::Write(write) => *write == RegisterWrite::estop(write.route),
-        })
-    {
+    if latch.is_latched() && !operations.iter().all(Operation::is_inert) {
         return Some(error(
             Code::EstopLatched,
             "the e-stop is latched: only reads and estop can be sent until Start, Reset or \

@@ -165,6 +165,25 @@ async fn a_start_after_arming_has_no_loading_phase() {
         "loading took {loading_for:?} of a {} ms preload",
         plan.preload_ms
     );
+
+    // An e-stop while it plays: the next Start homes first (the balls' positions are
+    // unknown), as on every drive family.
+    send_text(&mut ws, r#"{"type":"estop"}"#).await;
+    status_until(&mut ws, Duration::from_secs(2), |status| {
+        status.state == PlayerState::Stopped
+    })
+    .await;
+    send_text(&mut ws, r#"{"type":"start"}"#).await;
+    let (states, _) = common::until(&mut ws, Duration::from_secs(30), |status| {
+        status.state == PlayerState::Playing
+    })
+    .await;
+    let moves: Vec<PlayerState> = states
+        .into_iter()
+        .filter(|state| !matches!(state, PlayerState::Stopped | PlayerState::Idle))
+        .collect();
+    assert_eq!(moves.first(), Some(&PlayerState::Homing), "{moves:?}");
+    assert!(moves.contains(&PlayerState::Approaching), "{moves:?}");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -164,6 +164,22 @@ async fn mbox_boxes_play_stop_and_reset_like_a_matrix() {
         assert_eq!(estop_register(*socket), 1, "box at {socket}");
     }
 
+    // Start after the e-stop homes first (the axes' positions are unknown), as on
+    // every drive family, then plays.
+    let states: Vec<PlayerState> = play_to_end(&mut ws, "start")
+        .await
+        .into_iter()
+        .filter(|state| !matches!(state, PlayerState::Stopped | PlayerState::Idle))
+        .collect();
+    assert_eq!(
+        states,
+        [
+            PlayerState::Homing,
+            PlayerState::Approaching,
+            PlayerState::Playing
+        ]
+    );
+
     // Reset: released, homed, and the playlist played to its end.
     let states = play_to_end(&mut ws, "reset").await;
     assert!(states.contains(&PlayerState::Homing), "{states:?}");

@@ -753,7 +753,7 @@ impl Link {
     /// The e-stop for this link alone (its latch, pressed): see [`crate::estop::press`].
     /// Returns why the stop cannot reach the gateway now, if it cannot.
     pub fn estop(&self) -> Option<String> {
-        crate::estop::press(self.latch(), std::slice::from_ref(self))
+        crate::estop::press(self.latch(), &[self])
             .into_iter()
             .next()
     }

@@ -13,6 +13,7 @@ use tokio::sync::mpsc;
 
 use super::sequenced::{Family, Prepare, PreparedRuns};
 use super::{Reconfigure, ReconfigureError};
+use crate::estop::StopPort;
 use crate::mbox::{FRAME_LEAD, MboxNet};
 
 /// The boxes of an installation, as a family.
@@ -48,8 +49,8 @@ impl Family for MboxFamily {
             })
     }
 
-    fn wake(&self) {
-        self.boxes.wake();
+    fn port(&self) -> &dyn StopPort {
+        &self.boxes
     }
 
     fn lead_us(&self) -> u64 {

@@ -66,7 +66,7 @@ use tokio::sync::{mpsc, oneshot, watch};
 
 use crate::commission::health::HealthView;
 use crate::config::SclConfig;
-use crate::estop::{self, Latch};
+use crate::estop::{self, Latch, StopPort};
 use crate::link::Link;
 use crate::mbox::MboxNet;
 use crate::scl::SclNet;
@@ -459,15 +459,15 @@ impl Playback {
     /// queued (which is dropped) — then tells the player. Takes no lock and waits for
     /// nothing. Returns the gateways the stop cannot reach now, each with the reason.
     pub fn estop(&self) -> Vec<String> {
-        let mut failures = estop::press(&self.latch, &self.links());
+        let links = self.links();
+        let mut ports: Vec<&dyn StopPort> = links.iter().map(|link| link as _).collect();
         if let Some(boxes) = &self.boxes {
-            boxes.wake();
-            failures.extend(boxes.unreachable());
+            ports.push(boxes);
         }
         if let Some(drives) = &self.scl {
-            drives.wake();
-            failures.extend(drives.unreachable());
+            ports.push(drives);
         }
+        let failures = estop::press(&self.latch, &ports);
         let _ = self.requests.send(Request::Estop);
         failures
     }
@@ -1127,7 +1127,8 @@ fn carry_out(
             }
             Command::Estop => {
                 pressed = true;
-                let failures = estop::press(latch, links);
+                let ports: Vec<&dyn StopPort> = links.iter().map(|link| link as _).collect();
+                let failures = estop::press(latch, &ports);
                 if !failures.is_empty() {
                     tracing::error!("the stop did not reach {}", failures.join("; "));
                 }

@@ -23,6 +23,7 @@ use tokio::sync::mpsc;
 use super::sequenced::{Family, Prepare, PreparedRuns};
 use super::{Reconfigure, ReconfigureError};
 use crate::config::{SclConfig, SclPrograms};
+use crate::estop::StopPort;
 use crate::scl::SclNet;
 use crate::scl::program::{DriveRef, compile_every_ball, drives_of, qprogram_config};
 
@@ -101,8 +102,8 @@ impl Family for SclFamily {
         None
     }
 
-    fn wake(&self) {
-        self.net.wake();
+    fn port(&self) -> &dyn StopPort {
+        &self.net
     }
 
     fn carry_out(

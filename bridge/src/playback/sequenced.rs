@@ -25,7 +25,7 @@ use tokio::sync::{mpsc, watch};
 use super::{
     Listed, Reconfigure, ReconfigureError, Request, admit, idle_for_reconfigure, publish, summarise,
 };
-use crate::estop::{self, Latch};
+use crate::estop::{self, Latch, StopPort};
 
 /// A playlist prepared for a family's drive (its `Vec<Run<Drive::Entry>>`), as the
 /// request carries it to the task.
@@ -62,8 +62,8 @@ pub(super) trait Family: Send + 'static {
     /// A link lost while a run is under way: why the matrix stops.
     fn lost(&self) -> Option<String>;
 
-    /// Wakes the stop writers (after the latch was pressed).
-    fn wake(&self);
+    /// Where the family's stop goes ([`estop::press`]).
+    fn port(&self) -> &dyn StopPort;
 
     /// How long ahead of its time the task polls the sequencer, µs (frames are handed
     /// to a sender that sends them at their slot).
@@ -223,8 +223,7 @@ pub(super) async fn run<F: Family>(
             && let Some(reason) = family.lost()
         {
             tracing::error!("{reason}");
-            estop::press(&latch, &[]);
-            family.wake();
+            estop::press(&latch, &[family.port()]);
             seen_generation = latch.generation();
             sequencer.fail_with(reason);
         }
@@ -234,8 +233,7 @@ pub(super) async fn run<F: Family>(
             if let Some(reason) = sequencer.status().last_error {
                 tracing::error!("{reason}");
             }
-            estop::press(&latch, &[]);
-            family.wake();
+            estop::press(&latch, &[family.port()]);
             seen_generation = latch.generation();
         }
         family.carry_out(sequencer.drive_mut(), epoch, run_generation, &inputs_tx);

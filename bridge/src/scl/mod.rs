@@ -1120,3 +1120,14 @@ impl SclNet {
 
 #[cfg(test)]
 mod tests;
+
+impl crate::estop::StopPort for SclNet {
+    /// Wakes every link's owner: it writes `SK` to every drive before anything else.
+    fn wake(&self) {
+        SclNet::wake(self);
+    }
+
+    fn unreachable(&self) -> Vec<String> {
+        SclNet::unreachable(self)
+    }
+}

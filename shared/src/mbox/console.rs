@@ -89,6 +89,16 @@ pub enum Operation {
 }
 
 impl Operation {
+    /// Whether it may go while the e-stop is latched: a read, or the e-stop itself —
+    /// the one "inert while latched" rule of MBOX boxes.
+    #[must_use]
+    pub fn is_inert(&self) -> bool {
+        match self {
+            Self::Read(_) => true,
+            Self::Write(write) => write.is_estop(),
+        }
+    }
+
     /// Who executes it and who replies.
     #[must_use]
     pub fn route(&self) -> Route {

@@ -229,7 +229,7 @@ impl MboxDrive {
 impl Drive for MboxDrive {
     type Entry = MboxEntry;
 
-    fn begin_run(&mut self, now_us: u64) {
+    fn begin_run(&mut self, now_us: u64, _first: Option<&mut MboxEntry>) {
         self.next_slot_us = now_us;
     }
 
@@ -239,12 +239,13 @@ impl Drive for MboxDrive {
         self.begin_move(now_us, targets);
     }
 
-    fn begin_approach(&mut self, now_us: u64, entry: &mut MboxEntry) {
+    fn begin_approach(&mut self, now_us: u64, entry: &mut MboxEntry) -> bool {
         self.samples.resize(entry.sampler.unit_count(), 0.0);
         entry.sampler.sample(0.0, &mut self.samples, None);
         let targets: Vec<f64> = self.samples.iter().map(|&mm| f64::from(mm)).collect();
         self.show_time_ms = 0;
         self.begin_move(now_us, targets);
+        true
     }
 
     fn begin_load(

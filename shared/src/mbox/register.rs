@@ -334,6 +334,12 @@ impl RegisterWrite {
         Self::one(WriteBank::FnVolatile, route, FN_ESTOP, 1)
     }
 
+    /// Whether it is the emergency stop ([`RegisterWrite::estop`]) to its route.
+    #[must_use]
+    pub fn is_estop(&self) -> bool {
+        *self == Self::estop(self.route)
+    }
+
     /// Release of the emergency stop: FN `0x0090` = 0, not saved.
     #[must_use]
     pub fn release_estop(route: Route) -> Self {

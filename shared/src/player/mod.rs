@@ -72,14 +72,16 @@ pub trait Drive {
     /// An entry as the drive prepared it before Start.
     type Entry;
 
-    /// A Start, Reset or Home begins at `now_us`.
-    fn begin_run(&mut self, now_us: u64);
+    /// A Start or Reset (with its first entry), or a Home (`None`), begins at
+    /// `now_us`.
+    fn begin_run(&mut self, now_us: u64, first: Option<&mut Self::Entry>);
 
     /// Every ball to the home position.
     fn begin_home(&mut self, now_us: u64);
 
-    /// Every ball to `entry`'s first position.
-    fn begin_approach(&mut self, now_us: u64, entry: &mut Self::Entry);
+    /// Every ball to `entry`'s first position; `false` when every ball is there
+    /// already (the entry loads at once).
+    fn begin_approach(&mut self, now_us: u64, entry: &mut Self::Entry) -> bool;
 
     /// Loads what cycle `cycle` of entry `index` needs on the units before its start;
     /// `false` when there is nothing to load (the show plays at once).
@@ -97,6 +99,18 @@ pub trait Drive {
 
     /// Lets time pass in the step under way; `entry` is the current entry.
     fn poll(&mut self, now_us: u64, entry: Option<&mut Self::Entry>) -> Phase;
+
+    /// A fault that stops a running playlist whatever the step (a lost link, a unit's
+    /// error), asked at every poll while a playlist runs, waiting included.
+    fn fault(&mut self) -> Option<String> {
+        None
+    }
+
+    /// When the drive wants a poll while the sequencer waits out an entry's delay
+    /// (to watch its links), µs.
+    fn waiting_wakeup_us(&self, _now_us: u64) -> Option<u64> {
+        None
+    }
 
     /// How far the step under way is, 0 to 1.
     fn progress(&self) -> f64;
@@ -227,6 +241,18 @@ impl<D: Drive> Sequencer<D> {
         )
     }
 
+    /// Whether nothing runs and nothing stopped: idle.
+    #[must_use]
+    pub fn is_idle(&self) -> bool {
+        self.step == Step::Idle
+    }
+
+    /// The entry under way (0-based).
+    #[must_use]
+    pub fn entry(&self) -> usize {
+        self.entry
+    }
+
     /// Whether the next Start homes first.
     #[must_use]
     pub fn needs_home(&self) -> bool {
@@ -244,7 +270,12 @@ impl<D: Drive> Sequencer<D> {
     pub fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
         match self.step {
             Step::Idle | Step::Stopped | Step::Failed => None,
-            Step::Waiting { until_us } => Some(until_us.max(now_us)),
+            Step::Waiting { until_us } => Some(
+                self.drive
+                    .waiting_wakeup_us(now_us)
+                    .map_or(until_us, |wake_us| wake_us.min(until_us))
+                    .max(now_us),
+            ),
             Step::Moving { .. } | Step::Loading | Step::Playing => {
                 self.drive.next_wakeup_us(now_us)
             }
@@ -272,7 +303,8 @@ impl<D: Drive> Sequencer<D> {
         self.entries = entries;
         self.loop_playlist = loop_playlist;
         self.last_error = None;
-        self.drive.begin_run(now_us);
+        let first = self.entries.first_mut().map(|run| &mut run.prepared);
+        self.drive.begin_run(now_us, first);
         if self.needs_home {
             self.begin_home(now_us, AfterMove::First);
         } else {
@@ -317,7 +349,7 @@ impl<D: Drive> Sequencer<D> {
     pub fn home(&mut self, now_us: u64) {
         self.estop();
         self.last_error = None;
-        self.drive.begin_run(now_us);
+        self.drive.begin_run(now_us, None);
         self.begin_home(now_us, AfterMove::Rest);
     }
 
@@ -331,41 +363,67 @@ impl<D: Drive> Sequencer<D> {
         }
     }
 
-    /// Lets time pass: moves on between steps as the drive finishes them.
-    pub fn poll(&mut self, now_us: u64) {
-        if let Step::Waiting { until_us } = self.step {
-            if now_us < until_us {
-                return;
-            }
-            self.begin_approach(until_us);
+    /// Fails the running playlist on the drive's own account (a unit's error, a ball
+    /// that does not arrive): stops, and asks the caller for the e-stop
+    /// ([`Sequencer::take_estop`]).
+    pub fn fail(&mut self, reason: String) {
+        if self.is_running() {
+            self.estop_wanted = true;
+            self.fail_with(reason);
         }
-        // A step that ends at once hands over to the next in the same turn; a bound
-        // keeps a drive that is always done from spinning.
-        for _ in 0..64 {
-            if !matches!(
-                self.step,
-                Step::Moving { .. } | Step::Loading | Step::Playing
-            ) {
+    }
+
+    /// Lets time pass: checks the drive for a fault, ends an entry's delay, and polls
+    /// the drive once in the step under way, moving on when it is over.
+    pub fn poll(&mut self, now_us: u64) {
+        if self.is_running()
+            && let Some(reason) = self.drive.fault()
+        {
+            self.fail(reason);
+            return;
+        }
+        match self.step {
+            Step::Waiting { until_us } if now_us < until_us => {
+                self.progress = 0.0;
                 return;
             }
-            let entry = self
-                .entries
-                .get_mut(self.entry)
-                .map(|run| &mut run.prepared);
-            let phase = self.drive.poll(now_us, entry);
-            self.progress = self.drive.progress();
-            if self.step == Step::Playing {
-                self.show_time_ms = self.drive.show_time_ms();
-            }
-            match phase {
-                Phase::Pending => return,
-                Phase::Failed(reason) => {
-                    self.estop_wanted = true;
-                    self.fail_with(reason);
-                    return;
-                }
-                Phase::Done { at_us } => self.step_done(at_us),
-            }
+            Step::Waiting { until_us } => self.begin_approach(until_us),
+            _ => {}
+        }
+        if !self.in_drive_step() {
+            return;
+        }
+        let entry = self
+            .entries
+            .get_mut(self.entry)
+            .map(|run| &mut run.prepared);
+        let phase = self.drive.poll(now_us, entry);
+        self.advance(phase);
+    }
+
+    /// Whether the drive carries out the step under way (a move, a load, a show).
+    fn in_drive_step(&self) -> bool {
+        matches!(
+            self.step,
+            Step::Moving { .. } | Step::Loading | Step::Playing
+        )
+    }
+
+    /// What the drive said of the step under way — after a poll, or after an input
+    /// that ended it (an answer, a unit's feedback) — taken: the next step begins
+    /// when it is over, the matrix stops when it failed.
+    pub fn advance(&mut self, phase: Phase) {
+        if !self.in_drive_step() {
+            return;
+        }
+        self.progress = self.drive.progress();
+        if self.step == Step::Playing {
+            self.show_time_ms = self.drive.show_time_ms();
+        }
+        match phase {
+            Phase::Pending => {}
+            Phase::Failed(reason) => self.fail(reason),
+            Phase::Done { at_us } => self.step_done(at_us),
         }
     }
 
@@ -434,8 +492,11 @@ impl<D: Drive> Sequencer<D> {
             kind: MoveKind::Approach,
             after: AfterMove::Play,
         };
-        self.drive.begin_approach(now_us, &mut run.prepared);
-        self.progress = self.drive.progress();
+        if self.drive.begin_approach(now_us, &mut run.prepared) {
+            self.progress = self.drive.progress();
+        } else {
+            self.begin_load(now_us);
+        }
     }
 
     fn begin_home(&mut self, now_us: u64, after: AfterMove) {

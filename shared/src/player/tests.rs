@@ -29,7 +29,7 @@ impl Timed {
 impl Drive for Timed {
     type Entry = &'static str;
 
-    fn begin_run(&mut self, now_us: u64) {
+    fn begin_run(&mut self, now_us: u64, _first: Option<&mut &'static str>) {
         self.log.push(format!("{now_us} run"));
     }
 
@@ -37,8 +37,9 @@ impl Drive for Timed {
         self.begin(now_us, "home", String::new());
     }
 
-    fn begin_approach(&mut self, now_us: u64, entry: &mut &'static str) {
+    fn begin_approach(&mut self, now_us: u64, entry: &mut &'static str) -> bool {
         self.begin(now_us, "approach", format!(" {entry}"));
+        true
     }
 
     fn begin_load(
@@ -284,6 +285,7 @@ fn the_status_counts_show_time_only_while_playing() {
         (0, Some("a"))
     );
     run_until(&mut sequencer, 150, 250);
+    sequencer.poll(250);
     let status = sequencer.status();
     assert_eq!(status.state, PlayerState::Playing);
     assert_eq!((status.show_time_ms, status.show_duration_ms), (7, 1_000));

@@ -669,7 +669,7 @@ fn judge(
 impl Drive for SclDrive {
     type Entry = SclEntry;
 
-    fn begin_run(&mut self, now_us: u64) {
+    fn begin_run(&mut self, now_us: u64, _first: Option<&mut SclEntry>) {
         self.now_us = now_us;
     }
 
@@ -678,9 +678,10 @@ impl Drive for SclDrive {
         self.begin_move(now_us, &home);
     }
 
-    fn begin_approach(&mut self, now_us: u64, entry: &mut SclEntry) {
+    fn begin_approach(&mut self, now_us: u64, entry: &mut SclEntry) -> bool {
         let start = entry.start_counts.clone();
         self.begin_move(now_us, &start);
+        true
     }
 
     fn begin_load(&mut self, now_us: u64, _index: usize, entry: &mut SclEntry, cycle: u32) -> bool {

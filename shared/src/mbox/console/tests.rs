@@ -726,3 +726,19 @@ mod proptests {
         }
     }
 }
+
+#[test]
+fn only_reads_and_the_estop_are_inert_while_latched() {
+    let inert = |text: &str| {
+        parse(text, Route::BROADCAST)
+            .unwrap()
+            .iter()
+            .all(Operation::is_inert)
+    };
+    assert!(inert("read FN 0x20 4"));
+    assert!(inert("estop"));
+    assert!(!inert("release"));
+    assert!(!inert("reset"));
+    assert!(!inert("write FN 0x90 1 2"), "two registers: not the e-stop");
+    assert!(!inert("read FN 0x20 1\nrelease"));
+}
