@@ -363,6 +363,20 @@ impl<D: Drive> Sequencer<D> {
         }
     }
 
+    /// Stops (the caller sent the stop) and stays stopped, saying `error` (why a
+    /// Home could not begin, say).
+    pub fn stop_with(&mut self, error: Option<String>) {
+        self.estop();
+        self.step = Step::Stopped;
+        self.last_error = error;
+    }
+
+    /// Says `error` in the status without changing the state (a drive's note while at
+    /// rest).
+    pub fn set_last_error(&mut self, error: Option<String>) {
+        self.last_error = error;
+    }
+
     /// Fails the running playlist on the drive's own account (a unit's error, a ball
     /// that does not arrive): stops, and asks the caller for the e-stop
     /// ([`Sequencer::take_estop`]).

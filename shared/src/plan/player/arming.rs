@@ -18,7 +18,7 @@
 
 use std::sync::Arc;
 
-use super::{Command, LinkView, Player, REFILL_LOW_BYTES, Step};
+use super::{Command, LinkView, Player, REFILL_LOW_BYTES, Uim2503Drive};
 use crate::api::ArmedShow;
 use crate::plan::schedule::ROUND_ROWS;
 use crate::plan::{Plan, stream};
@@ -87,21 +87,23 @@ impl Player {
     /// and no disarm came since `disarms` ([`Player::disarms`] when the caller began to
     /// prepare). Arming the same plan again keeps what is loaded.
     pub fn arm(&mut self, prepared: Prepared, disarms: u64, links: &[LinkView]) -> bool {
-        if !matches!(self.step, Step::Idle)
-            || disarms != self.disarms
-            || super::prepare::check_links(&self.config.installation, links).is_err()
+        let idle = self.sequencer.is_idle();
+        let drive = self.sequencer.drive_mut();
+        if !idle
+            || disarms != drive.disarms
+            || super::prepare::check_links(&drive.config.installation, links).is_err()
         {
             return false;
         }
         let Some(plan) = prepared.plans.into_iter().next() else {
             return false;
         };
-        if self
+        if drive
             .arming
             .as_ref()
             .is_none_or(|arming| !same_plan(&arming.plan, &plan))
         {
-            self.arming = Some(Arming::new(plan));
+            drive.arming = Some(Arming::new(plan));
         }
         true
     }
@@ -109,24 +111,31 @@ impl Player {
     /// Drops the arming: the next Start loads every table again. Counts a disarm (an
     /// arming prepared before it is refused).
     pub fn disarm(&mut self) {
-        self.arming = None;
-        self.disarms += 1;
+        self.sequencer.drive_mut().disarm();
     }
 
     /// How many times the player was disarmed (or ran, or stopped) since it began: an
     /// arming is accepted only for the count it was prepared at.
     pub fn disarms(&self) -> u64 {
-        self.disarms
+        self.sequencer.drive().disarms
     }
 
     /// The show being armed or armed, for the status.
     pub fn armed(&self) -> Option<ArmedShow> {
-        let arming = self.arming.as_ref()?;
+        let arming = self.sequencer.drive().arming.as_ref()?;
         Some(ArmedShow {
             entry: 0,
             show: arming.plan.show.clone(),
             progress: arming.progress(),
         })
+    }
+}
+
+impl Uim2503Drive {
+    /// Drops the arming; counts a disarm.
+    pub(super) fn disarm(&mut self) {
+        self.arming = None;
+        self.disarms += 1;
     }
 
     /// Whether tables are still on their way (the caller polls at [`super::TICK_US`]).
@@ -136,15 +145,18 @@ impl Player {
 
     /// A unit refused an instruction while the show was being armed: the arming is
     /// dropped (not counted as a disarm: the same arming is not tried again until
-    /// something changes) and the error says so.
-    pub(super) fn arming_refused(&mut self, who: String, error: impl std::fmt::Display) {
-        if let Some(arming) = self.arming.take() {
-            self.last_error = Some(format!(
-                "{who} refused an instruction while \"{}\" was being loaded ahead of \
-                 Start: {error}; nothing moved, and Start will load it again",
-                arming.plan.show
-            ));
-        }
+    /// something changes); returns what the error says.
+    pub(super) fn arming_refused(
+        &mut self,
+        who: String,
+        error: impl std::fmt::Display,
+    ) -> Option<String> {
+        let arming = self.arming.take()?;
+        Some(format!(
+            "{who} refused an instruction while \"{}\" was being loaded ahead of \
+             Start: {error}; nothing moved, and Start will load it again",
+            arming.plan.show
+        ))
     }
 
     /// Loads the next rounds of the armed tables as the lines drain; a lost link drops
@@ -153,9 +165,6 @@ impl Player {
         let Some(arming) = self.arming.as_mut() else {
             return;
         };
-        if !matches!(self.step, Step::Idle) {
-            return;
-        }
         let queued = |gateway: usize| {
             links
                 .get(gateway)
@@ -209,13 +218,9 @@ impl Player {
     /// Takes the arming over for a Start of `self.plans`: what is loaded stays for
     /// the load phase of entry 0 (it goes on from there) if the first plan is the
     /// armed one; an arming of another plan is dropped.
-    pub(super) fn take_arming_for(&mut self) {
+    pub(super) fn take_arming_for(&mut self, first: &Arc<Plan>) {
         let arming = self.arming.take();
-        self.preloaded = arming.filter(|arming| {
-            self.plans
-                .first()
-                .is_some_and(|plan| same_plan(plan, &arming.plan))
-        });
+        self.preloaded = arming.filter(|arming| same_plan(first, &arming.plan));
         self.disarms += 1;
     }
 
@@ -230,8 +235,8 @@ impl Player {
             return false;
         };
         if !self
-            .plans
-            .first()
+            .plan
+            .as_ref()
             .is_some_and(|plan| same_plan(plan, &armed.plan))
         {
             return false;
@@ -245,7 +250,7 @@ impl Player {
             });
         }
         let runs = armed.plan.gateways.len();
-        self.step = Step::Loading {
+        self.step = super::Step::Loading {
             next_row: armed.next_row,
             configured: armed.configured,
             armed: false,

@@ -2,17 +2,18 @@
 //! in rounds as the line drains, arm them with `PV=0`, and confirm with a `PV;` query
 //! whose answer comes after everything before it was carried out (the barrier).
 
-use super::{Command, LinkView, Player, REFILL_LOW_BYTES, Step};
+use super::{Command, LinkView, Phase, REFILL_LOW_BYTES, Step, Uim2503Drive};
 use crate::plan::schedule::ROUND_ROWS;
 use crate::plan::{RunMode, stream};
 
-impl Player {
-    pub(super) fn begin_load(&mut self) {
+impl Uim2503Drive {
+    /// Loads the current entry's plan (what arming loaded of it, if it was armed).
+    pub(super) fn begin_loading(&mut self) {
         if self.begin_load_armed() {
             self.poll_loading(&[]);
             return;
         }
-        let Some(plan) = self.plans.get(self.entry) else {
+        let Some(plan) = self.plan.as_ref() else {
             return;
         };
         let runs = plan.gateways.len();
@@ -41,7 +42,7 @@ impl Player {
     }
 
     pub(super) fn poll_loading(&mut self, links: &[LinkView]) {
-        let Some(plan) = self.plans.get(self.entry) else {
+        let Some(plan) = self.plan.as_ref() else {
             return;
         };
         let Step::Loading {
@@ -106,15 +107,17 @@ impl Player {
         self.commands.extend(commands);
     }
 
+    /// The answer to the `PV;` barrier of `gateway`'s first unit: the load is over
+    /// when every gateway answered as expected; it failed when one did not.
     pub(super) fn barrier_answered(
         &mut self,
         now_us: u64,
         gateway: usize,
         station: u8,
         value: u16,
-    ) {
-        let Some(plan) = self.plans.get(self.entry) else {
-            return;
+    ) -> Phase {
+        let Some(plan) = self.plan.as_ref() else {
+            return Phase::Pending;
         };
         let Step::Loading {
             armed: true,
@@ -122,17 +125,17 @@ impl Player {
             ..
         } = &mut self.step
         else {
-            return;
+            return Phase::Pending;
         };
         let Some(index) = plan.gateways.iter().position(|run| run.gateway == gateway) else {
-            return;
+            return Phase::Pending;
         };
         let run = &plan.gateways[index];
         let Some(&first) = run.units.first() else {
-            return;
+            return Phase::Pending;
         };
         if plan.units[first].address.station != station {
-            return;
+            return Phase::Pending;
         }
         let expected = match run.mode {
             // FIFO: the water level is the preload.
@@ -142,15 +145,16 @@ impl Player {
         };
         if value != expected {
             let who = self.describe_unit(first);
-            self.fail(format!(
+            return Phase::Failed(format!(
                 "{who} answered PV with {value} after loading, expected {expected}; the matrix was stopped"
             ));
-            return;
         }
         confirmed[index] = true;
         if confirmed.iter().all(|&done| done) {
             self.loaded_entry = Some(self.entry);
-            self.begin_play(now_us);
+            self.step = Step::Idle;
+            return Phase::Done { at_us: now_us };
         }
+        Phase::Pending
     }
 }

@@ -18,16 +18,20 @@
 //! - A unit's error report, a link that goes down, or a ball that does not arrive stops
 //!   the matrix and says what happened, in words.
 //!
-//! The player is split by phase, each an `impl Player` of its own:
-//! - this module: the types, the state ([`Player`] and its steps) and the public
-//!   interface (Start, E-stop, Reset, Home, feedback, polling);
+//! The playlist's own logic — entries, delays, cycles, loop, approach, load, play,
+//! E-stop, Reset, Home, "home first" and the status — is the show sequencer's
+//! ([`crate::player::Sequencer`]), the same for every drive family. What is UIM2503's
+//! is [`Uim2503Drive`], the sequencer's [`Drive`] here; [`Player`] is the sequencer over
+//! it, with the interface the bridge and the tests use. The drive is split by phase,
+//! each an `impl` of its own:
+//! - this module: the types, the drive's state and its [`Drive`] side, and the
+//!   player's public interface (Start, E-stop, Reset, Home, feedback, polling);
 //! - `prepare`: planning and checking a playlist before anything moves ([`prepare`],
 //!   [`StartError`]);
 //! - `moving`: the point-to-point moves — the approach to each show's start and homing —
 //!   and confirming that every ball arrived;
 //! - `loading`: configuring the units, preloading rows and arming them;
-//! - `playing`: the synchronised start, refill rounds while a show runs, and moving on
-//!   through cycles and entries;
+//! - `playing`: the synchronised start and refill rounds while a show runs;
 //! - `arming`: loading the first entry's tables while the matrix is idle, so that Start
 //!   needs only the approach ([`Player::arm`], [`Player::disarm`]).
 
@@ -48,6 +52,7 @@ use super::{Installation, Plan};
 use crate::api::{PlayerState, Status};
 use crate::ascii::Batch;
 use crate::feedback::{Ack, Feedback, Frame, Notification};
+use crate::player::{Drive, Phase, Run, Sequencer};
 use crate::show::Show;
 
 /// How long after a bulk queue falls below [`REFILL_LOW_BYTES`] the next round may be
@@ -236,28 +241,11 @@ pub enum Command {
     Estop,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum MoveKind {
-    Approach,
-    Home,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum AfterHome {
-    /// Start the playlist from its first entry.
-    Play,
-    /// Stay idle.
-    Rest,
-}
-
+/// Where the drive is in the step the sequencer gave it.
 #[derive(Debug, Clone)]
 enum Step {
     Idle,
-    Waiting {
-        until_us: u64,
-    },
     Moving {
-        kind: MoveKind,
         targets: Vec<i32>,
         began_us: u64,
         /// The modelled arrival (the latest, when positions were unknown).
@@ -284,35 +272,32 @@ enum Step {
         /// Per run: the next row to stream.
         next_row: Vec<usize>,
     },
-    Stopped,
-    Failed,
 }
 
-/// The player; see the [module documentation](self).
+/// UIM2503 gateways under the show sequencer ([`crate::player`]): the [`Drive`] that
+/// turns its steps into each gateway's instruction batches ([`Command`]) and reads the
+/// units' feedback — moves confirmed by `PA;`, tables loaded in rounds and confirmed
+/// by the `PV;` barrier, the synchronised start, refills while a show streams; and
+/// arming while the matrix is idle.
 #[derive(Debug)]
-pub struct Player {
+pub struct Uim2503Drive {
     config: PlayerConfig,
     /// (gateway, station) → unit.
     units_by_address: HashMap<(usize, u8), usize>,
-    /// Each entry's plan, shared with whoever prepared it (the bridge keeps the armed
-    /// playlist's for the next Start).
-    plans: Vec<Arc<Plan>>,
-    entries: Vec<EntryTiming>,
-    loop_playlist: bool,
+    /// The entry the step under way belongs to, and its plan.
     entry: usize,
-    cycle: u32,
+    plan: Option<Arc<Plan>>,
     step: Step,
-    after_home: AfterHome,
-    needs_home: bool,
     /// Where each ball is when at rest, counts; `None` when unknown.
     believed: Vec<Option<i32>>,
     /// The entry whose rows are in the units' tables (single-sequence mode).
     loaded_entry: Option<usize>,
     lowest_level: Vec<Option<u16>>,
-    last_error: Option<String>,
     commands: Vec<Command>,
     show_time_ms: u64,
     progress: f64,
+    /// The links as last polled.
+    links: Vec<LinkView>,
     /// The first entry's tables being loaded while idle (`arming`).
     arming: Option<arming::Arming>,
     /// An arming a Start took over, for entry 0's first load.
@@ -321,10 +306,8 @@ pub struct Player {
     disarms: u64,
 }
 
-impl Player {
-    /// A player for the machine in `config`, idle, with the balls' positions unknown
-    /// (the first Start homes them).
-    pub fn new(config: PlayerConfig) -> Self {
+impl Uim2503Drive {
+    fn new(config: PlayerConfig) -> Self {
         let units_by_address = config
             .installation
             .units
@@ -337,63 +320,176 @@ impl Player {
         Self {
             config,
             units_by_address,
-            plans: Vec::new(),
-            entries: Vec::new(),
-            loop_playlist: false,
             entry: 0,
-            cycle: 0,
+            plan: None,
             step: Step::Idle,
-            after_home: AfterHome::Rest,
-            needs_home: true,
             believed: vec![None; unit_count],
             loaded_entry: None,
             lowest_level: vec![None; gateway_count],
-            last_error: None,
             commands: Vec::new(),
             show_time_ms: 0,
             progress: 0.0,
+            links: Vec::new(),
             arming: None,
             preloaded: None,
             disarms: 0,
         }
     }
 
+    fn describe_unit(&self, unit: usize) -> String {
+        let limits = &self.config.installation.limits;
+        let cols = limits.cols.max(1) as usize;
+        let address = self.config.installation.units[unit];
+        format!(
+            "ball (row {}, col {}) on gateway {}, station {}",
+            unit / cols + 1,
+            unit % cols + 1,
+            address.gateway,
+            address.station
+        )
+    }
+}
+
+impl Drive for Uim2503Drive {
+    type Entry = Arc<Plan>;
+
+    fn begin_run(&mut self, _now_us: u64, first: Option<&mut Arc<Plan>>) {
+        if let Some(first) = first {
+            self.loaded_entry = None;
+            self.lowest_level.iter_mut().for_each(|level| *level = None);
+            self.take_arming_for(first);
+        }
+    }
+
+    fn begin_home(&mut self, now_us: u64) {
+        self.begin_home_move(now_us);
+    }
+
+    fn begin_approach(&mut self, now_us: u64, plan: &mut Arc<Plan>) -> bool {
+        self.plan = Some(Arc::clone(plan));
+        self.begin_approach_move(now_us, plan)
+    }
+
+    fn begin_load(
+        &mut self,
+        _now_us: u64,
+        index: usize,
+        plan: &mut Arc<Plan>,
+        _cycle: u32,
+    ) -> bool {
+        self.entry = index;
+        self.plan = Some(Arc::clone(plan));
+        self.begin_loading();
+        true
+    }
+
+    fn begin_play(&mut self, now_us: u64, plan: &mut Arc<Plan>, _last: bool) {
+        self.plan = Some(Arc::clone(plan));
+        self.begin_playing(now_us);
+    }
+
+    fn poll(&mut self, now_us: u64, _entry: Option<&mut Arc<Plan>>) -> Phase {
+        let links = std::mem::take(&mut self.links);
+        let phase = match self.step {
+            Step::Moving { .. } => self.poll_moving(now_us),
+            Step::Loading { .. } => {
+                self.poll_loading(&links);
+                Phase::Pending
+            }
+            Step::Playing { .. } => self.poll_playing(now_us, &links),
+            Step::Idle => Phase::Pending,
+        };
+        self.links = links;
+        phase
+    }
+
+    fn fault(&mut self) -> Option<String> {
+        (0..self.config.installation.gateways.len())
+            .find(|&gateway| !self.links.get(gateway).is_some_and(|link| link.up))
+            .map(|gateway| {
+                format!("the link to gateway {gateway} was lost; the matrix was stopped")
+            })
+    }
+
+    fn waiting_wakeup_us(&self, now_us: u64) -> Option<u64> {
+        Some(now_us + TICK_US)
+    }
+
+    fn progress(&self) -> f64 {
+        self.progress
+    }
+
+    fn show_time_ms(&self) -> u64 {
+        self.show_time_ms
+    }
+
+    fn stop(&mut self) {
+        self.step = Step::Idle;
+        self.loaded_entry = None;
+        self.preloaded = None;
+        self.disarm();
+        self.believed
+            .iter_mut()
+            .for_each(|position| *position = None);
+        self.progress = 0.0;
+    }
+
+    fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
+        Some(now_us + TICK_US)
+    }
+}
+
+/// The player: the show sequencer over the UIM2503 drive; see the [module
+/// documentation](self).
+#[derive(Debug)]
+pub struct Player {
+    sequencer: Sequencer<Uim2503Drive>,
+}
+
+/// The playlist as the sequencer runs it: each entry's plan with its timing.
+fn runs(prepared: Prepared) -> (Vec<Run<Arc<Plan>>>, bool) {
+    let Prepared {
+        plans,
+        entries,
+        loop_playlist,
+    } = prepared;
+    let runs = plans
+        .into_iter()
+        .zip(entries)
+        .map(|(plan, timing)| Run {
+            name: plan.show.clone(),
+            duration_ms: plan.duration_ms,
+            timing,
+            prepared: plan,
+        })
+        .collect();
+    (runs, loop_playlist)
+}
+
+impl Player {
+    /// A player for the machine in `config`, idle, with the balls' positions unknown
+    /// (the first Start homes them).
+    pub fn new(config: PlayerConfig) -> Self {
+        Self {
+            sequencer: Sequencer::new(Uim2503Drive::new(config)),
+        }
+    }
+
+    fn drive(&self) -> &Uim2503Drive {
+        self.sequencer.drive()
+    }
+
+    fn drive_mut(&mut self) -> &mut Uim2503Drive {
+        self.sequencer.drive_mut()
+    }
+
+    fn installation(&self) -> &Installation {
+        &self.drive().config.installation
+    }
+
     /// The playlist's state as the status shows it (the bridge adds the links).
     pub fn status(&self) -> Status {
-        let state = match &self.step {
-            Step::Idle => PlayerState::Idle,
-            Step::Waiting { .. } => PlayerState::Waiting,
-            Step::Moving {
-                kind: MoveKind::Approach,
-                ..
-            } => PlayerState::Approaching,
-            Step::Moving {
-                kind: MoveKind::Home,
-                ..
-            } => PlayerState::Homing,
-            Step::Loading { .. } => PlayerState::Loading,
-            Step::Playing { .. } => PlayerState::Playing,
-            Step::Stopped => PlayerState::Stopped,
-            Step::Failed => PlayerState::Error,
-        };
-        let homing_to_rest = matches!(
-            self.step,
-            Step::Moving {
-                kind: MoveKind::Home,
-                ..
-            }
-        ) && self.after_home == AfterHome::Rest;
-        let active = self.is_active() && !homing_to_rest;
-        let plan = active.then(|| self.plans.get(self.entry)).flatten();
-        let mut status = PlaylistProgress {
-            state,
-            playing: plan.map(|plan| (self.entry, plan.show.clone(), plan.duration_ms)),
-            show_time_ms: self.show_time_ms,
-            cycle: self.cycle,
-            progress: self.progress,
-            last_error: self.last_error.clone(),
-        }
-        .status();
+        let mut status = self.sequencer.status();
         status.armed = self.armed();
         status
     }
@@ -401,12 +497,17 @@ impl Player {
     /// The lowest FIFO water level of each gateway during the current show (modelled
     /// at each refill, and lowered by watermark notices).
     pub fn lowest_water_levels(&self) -> &[Option<u16>] {
-        &self.lowest_level
+        &self.drive().lowest_level
     }
 
-    /// The commands to carry out now, in order.
+    /// The commands to carry out now, in order; [`Command::Estop`] last when the
+    /// player stopped on its own.
     pub fn take_commands(&mut self) -> Vec<Command> {
-        std::mem::take(&mut self.commands)
+        let mut commands = std::mem::take(&mut self.drive_mut().commands);
+        if self.sequencer.take_estop() {
+            commands.push(Command::Estop);
+        }
+        commands
     }
 
     /// Start: plans every entry (refusing an invalid or infeasible one before anything
@@ -422,10 +523,10 @@ impl Player {
         loop_playlist: bool,
         links: &[LinkView],
     ) -> Result<(), StartError> {
-        if !self.is_at_rest() {
+        if self.sequencer.is_running() {
             return Err(StartError::Busy);
         }
-        let prepared = prepare(&self.config.installation, entries, loop_playlist, links)?;
+        let prepared = prepare(self.installation(), entries, loop_playlist, links)?;
         self.start_prepared(now_us, prepared, links)
     }
 
@@ -440,51 +541,19 @@ impl Player {
         prepared: Prepared,
         links: &[LinkView],
     ) -> Result<(), StartError> {
-        if !self.is_at_rest() {
+        if self.sequencer.is_running() {
             return Err(StartError::Busy);
         }
-        check_links(&self.config.installation, links)?;
-        let Prepared {
-            plans,
-            entries,
-            loop_playlist,
-        } = prepared;
-        self.plans = plans;
-        self.entries = entries;
-        self.loop_playlist = loop_playlist;
-        self.last_error = None;
-        self.loaded_entry = None;
-        self.lowest_level.iter_mut().for_each(|level| *level = None);
-        self.take_arming_for();
-        if self.needs_home {
-            self.after_home = AfterHome::Play;
-            self.begin_home(now_us);
-        } else {
-            self.begin_entry(now_us, 0);
-        }
-        Ok(())
-    }
-
-    /// Whether nothing runs: a Start may begin.
-    fn is_at_rest(&self) -> bool {
-        matches!(self.step, Step::Idle | Step::Stopped | Step::Failed)
+        check_links(self.installation(), links)?;
+        let (runs, loop_playlist) = runs(prepared);
+        self.sequencer.start(now_us, runs, loop_playlist)
     }
 
     /// The e-stop was sent (by the caller, ahead of everything on every gateway): the
     /// player stops, forgets where the balls are, and homes before the next show. A
     /// failure stays a failure (its reason stays visible).
     pub fn estop(&mut self) {
-        if !matches!(self.step, Step::Failed) {
-            self.step = Step::Stopped;
-        }
-        self.needs_home = true;
-        self.loaded_entry = None;
-        self.preloaded = None;
-        self.disarm();
-        self.believed
-            .iter_mut()
-            .for_each(|position| *position = None);
-        self.progress = 0.0;
+        self.sequencer.estop();
     }
 
     /// Reset: stop at once, then home every ball and play the playlist from its first
@@ -500,7 +569,7 @@ impl Player {
         loop_playlist: bool,
         links: &[LinkView],
     ) -> Result<(), StartError> {
-        let prepared = prepare(&self.config.installation, entries, loop_playlist, links);
+        let prepared = prepare(self.installation(), entries, loop_playlist, links);
         self.reset_prepared(now_us, prepared, links)
     }
 
@@ -514,30 +583,26 @@ impl Player {
         prepared: Result<Prepared, StartError>,
         links: &[LinkView],
     ) -> Result<(), StartError> {
-        self.estop();
-        self.step = Step::Stopped;
-        let result = prepared.and_then(|prepared| self.start_prepared(now_us, prepared, links));
-        if let Err(error) = &result {
-            self.last_error = Some(error.to_string());
-        }
-        result
+        let checked = prepared.and_then(|prepared| {
+            check_links(self.installation(), links)?;
+            Ok(runs(prepared))
+        });
+        let loop_playlist = checked.as_ref().is_ok_and(|(_, looping)| *looping);
+        self.sequencer
+            .reset(now_us, checked.map(|(runs, _)| runs), loop_playlist)
     }
 
     /// Home: stop (the caller sent the stop first), bring every ball to the home
-    /// position, and stay idle there.
+    /// position, and stay idle.
     ///
     /// # Errors
     /// [`StartError::NotConnected`]: the matrix is stopped, and stays so.
     pub fn home(&mut self, now_us: u64, links: &[LinkView]) -> Result<(), StartError> {
-        self.estop();
-        self.step = Step::Stopped;
-        if let Err(error) = check_links(&self.config.installation, links) {
-            self.last_error = Some(error.to_string());
+        if let Err(error) = check_links(self.installation(), links) {
+            self.sequencer.stop_with(Some(error.to_string()));
             return Err(error);
         }
-        self.last_error = None;
-        self.after_home = AfterHome::Rest;
-        self.begin_home(now_us);
+        self.sequencer.home(now_us);
         Ok(())
     }
 
@@ -546,27 +611,29 @@ impl Player {
         let Ok(feedback) = Feedback::from_frame(frame) else {
             return;
         };
-        let unit = self
+        let running = self.sequencer.is_running();
+        let drive = self.sequencer.drive_mut();
+        let unit = drive
             .units_by_address
             .get(&(gateway, frame.station()))
             .copied();
+        let who = |drive: &Uim2503Drive| match unit {
+            Some(unit) => drive.describe_unit(unit),
+            None => format!("gateway {gateway}, station {}", frame.station()),
+        };
         match feedback {
-            Feedback::Error(error) if self.is_active() => {
-                let who = match unit {
-                    Some(unit) => self.describe_unit(unit),
-                    None => format!("gateway {gateway}, station {}", frame.station()),
-                };
-                self.fail(format!("{who}: {error}"));
+            Feedback::Error(error) if running => {
+                let reason = format!("{}: {error}", who(drive));
+                self.sequencer.fail(reason);
             }
-            Feedback::Error(error) if self.arming.is_some() => {
-                let who = match unit {
-                    Some(unit) => self.describe_unit(unit),
-                    None => format!("gateway {gateway}, station {}", frame.station()),
-                };
-                self.arming_refused(who, error);
+            Feedback::Error(error) if drive.arming.is_some() => {
+                let who = who(drive);
+                if let Some(note) = drive.arming_refused(who, error) {
+                    self.sequencer.set_last_error(Some(note));
+                }
             }
             Feedback::Notification(Notification::PVT_WATERMARK) => {
-                if let Some(level) = self.lowest_level.get_mut(gateway) {
+                if let Some(level) = drive.lowest_level.get_mut(gateway) {
                     let watermark = u16::from(WATERMARK_ROWS);
                     *level = Some(level.map_or(watermark, |level| level.min(watermark)));
                 }
@@ -582,100 +649,51 @@ impl Player {
                         queried: true,
                         ..
                     },
-                ) = (unit, &mut self.step)
+                ) = (unit, &mut drive.step)
                     && targets.get(unit) == Some(&position_counts)
                 {
                     confirmed[unit] = true;
                 }
-                self.poll_moving(now_us);
+                let phase = drive.poll_moving(now_us);
+                self.sequencer.advance(phase);
             }
             Feedback::Ack(Ack::PvtStart { value }) => {
-                self.barrier_answered(now_us, gateway, frame.station(), value);
+                let phase = drive.barrier_answered(now_us, gateway, frame.station(), value);
+                self.sequencer.advance(phase);
             }
             _ => {}
         }
     }
 
-    fn is_active(&self) -> bool {
-        matches!(
-            self.step,
-            Step::Waiting { .. }
-                | Step::Moving { .. }
-                | Step::Loading { .. }
-                | Step::Playing { .. }
-        )
-    }
-
-    fn describe_unit(&self, unit: usize) -> String {
-        let limits = &self.config.installation.limits;
-        let cols = limits.cols.max(1) as usize;
-        let address = self.config.installation.units[unit];
-        format!(
-            "ball (row {}, col {}) on gateway {}, station {}",
-            unit / cols + 1,
-            unit % cols + 1,
-            address.gateway,
-            address.station
-        )
-    }
-
-    /// Stops everything with `reason` as the last error: asks the caller for the
-    /// e-stop ([`Command::Estop`]) and stays failed until the next Start.
-    fn fail(&mut self, reason: String) {
-        self.commands.push(Command::Estop);
-        self.estop();
-        self.step = Step::Failed;
-        self.last_error = Some(reason);
-    }
-
     /// Stops with `reason` as the last error, for a fault the caller found (a stalled
     /// link): as a failure of the player's own, the e-stop is asked for.
     pub fn fail_with(&mut self, reason: String) {
-        if self.is_active() {
-            self.fail(reason);
-        }
+        self.sequencer.fail(reason);
     }
 
     /// Whether a playlist (or a homing move) is under way.
     pub fn is_running(&self) -> bool {
-        self.is_active()
+        self.sequencer.is_running()
     }
 
     /// When the player next needs to be polled, µs (`None` when idle with nothing
     /// being armed).
     pub fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
-        match &self.step {
-            Step::Idle if self.arming_under_way() => Some(now_us + TICK_US),
-            Step::Idle | Step::Stopped | Step::Failed => None,
-            Step::Waiting { until_us } => Some((*until_us).min(now_us + TICK_US)),
-            _ => Some(now_us + TICK_US),
+        if self.sequencer.is_idle() && self.drive().arming_under_way() {
+            return Some(now_us + TICK_US);
         }
+        self.sequencer.next_wakeup_us(now_us)
     }
 
     /// Lets time pass: moves on between steps, queues rows, checks the links.
     pub fn poll(&mut self, now_us: u64, links: &[LinkView]) {
-        if self.is_active()
-            && let Some(gateway) = (0..self.config.installation.gateways.len())
-                .find(|&gateway| !links.get(gateway).is_some_and(|link| link.up))
-        {
-            self.fail(format!(
-                "the link to gateway {gateway} was lost; the matrix was stopped"
-            ));
-            return;
-        }
-        match self.step {
-            Step::Waiting { until_us } => {
-                if now_us >= until_us {
-                    self.begin_approach(now_us);
-                } else {
-                    self.progress = 0.0;
-                }
-            }
-            Step::Moving { .. } => self.poll_moving(now_us),
-            Step::Loading { .. } => self.poll_loading(links),
-            Step::Playing { .. } => self.poll_playing(now_us, links),
-            Step::Idle => self.poll_arming(links),
-            Step::Stopped | Step::Failed => {}
+        let idle = self.sequencer.is_idle();
+        let drive = self.sequencer.drive_mut();
+        drive.links.clear();
+        drive.links.extend_from_slice(links);
+        self.sequencer.poll(now_us);
+        if idle {
+            self.sequencer.drive_mut().poll_arming(links);
         }
     }
 }

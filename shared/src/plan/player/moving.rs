@@ -2,11 +2,11 @@
 //! start positions and homing — timed with the [`Trapezoid`] model, then confirmed by
 //! asking each unit where it is (`PA;`) until every ball has answered its target.
 
-use super::{AfterHome, Command, MoveKind, Player, Step};
+use super::{Command, Phase, Step, Uim2503Drive};
 use crate::ascii::Batch;
 use crate::line::Line;
 use crate::motion::Trapezoid;
-use crate::plan::stream;
+use crate::plan::{Plan, stream};
 
 /// Time allowed for answers to position queries before asking again, µs (at least;
 /// more on a slow line).
@@ -21,11 +21,9 @@ const ARRIVAL_GRACE_US: u64 = 10_000_000;
 /// Slack added to modelled move times, µs.
 const MOVE_MARGIN_US: u64 = 50_000;
 
-impl Player {
-    pub(super) fn begin_approach(&mut self, now_us: u64) {
-        let Some(plan) = self.plans.get(self.entry) else {
-            return;
-        };
+impl Uim2503Drive {
+    /// Every ball to `plan`'s start; `false` when every ball is there already.
+    pub(super) fn begin_approach_move(&mut self, now_us: u64, plan: &Plan) -> bool {
         let targets: Vec<i32> = plan.units.iter().map(|unit| unit.start_counts).collect();
         if self
             .believed
@@ -33,23 +31,23 @@ impl Player {
             .zip(&targets)
             .all(|(believed, target)| *believed == Some(*target))
         {
-            self.begin_load();
-            return;
+            return false;
         }
-        self.begin_move(now_us, MoveKind::Approach, targets);
+        self.begin_move(now_us, targets);
+        true
     }
 
-    pub(super) fn begin_home(&mut self, now_us: u64) {
+    pub(super) fn begin_home_move(&mut self, now_us: u64) {
         let home = self
             .config
             .installation
             .counts(self.config.installation.home_mm)
             .unwrap_or(0);
         let targets = vec![home; self.config.installation.units.len()];
-        self.begin_move(now_us, MoveKind::Home, targets);
+        self.begin_move(now_us, targets);
     }
 
-    fn begin_move(&mut self, now_us: u64, kind: MoveKind, targets: Vec<i32>) {
+    fn begin_move(&mut self, now_us: u64, targets: Vec<i32>) {
         let installation = &self.config.installation;
         let speed = installation
             .counts(installation.approach_speed_mm_s)
@@ -93,7 +91,6 @@ impl Player {
             .for_each(|position| *position = None);
         let unit_count = targets.len();
         self.step = Step::Moving {
-            kind,
             targets,
             began_us: now_us,
             arrive_us,
@@ -129,9 +126,10 @@ impl Player {
             .collect()
     }
 
-    pub(super) fn poll_moving(&mut self, now_us: u64) {
+    /// Where the move stands: over when every ball answered its target, failed when
+    /// one is still not there long after the modelled arrival.
+    pub(super) fn poll_moving(&mut self, now_us: u64) -> Phase {
         let Step::Moving {
-            kind,
             targets,
             began_us,
             arrive_us,
@@ -140,28 +138,19 @@ impl Player {
             confirmed,
         } = &mut self.step
         else {
-            return;
+            return Phase::Pending;
         };
         let span = arrive_us.saturating_sub(*began_us).max(1);
         self.progress = (now_us.saturating_sub(*began_us) as f64 / span as f64).min(1.0);
         if confirmed.iter().all(|&done| done) {
-            let (kind, targets) = (*kind, std::mem::take(targets));
+            let targets = std::mem::take(targets);
             self.believed = targets.into_iter().map(Some).collect();
             self.progress = 1.0;
-            match kind {
-                MoveKind::Approach => self.begin_load(),
-                MoveKind::Home => {
-                    self.needs_home = false;
-                    match self.after_home {
-                        AfterHome::Play => self.begin_entry(now_us, 0),
-                        AfterHome::Rest => self.step = Step::Idle,
-                    }
-                }
-            }
-            return;
+            self.step = Step::Idle;
+            return Phase::Done { at_us: now_us };
         }
         if now_us < *next_query_us {
-            return;
+            return Phase::Pending;
         }
         if now_us > *arrive_us + ARRIVAL_GRACE_US {
             let missing: Vec<usize> = confirmed
@@ -175,10 +164,9 @@ impl Player {
                 .first()
                 .map(|&unit| self.describe_unit(unit))
                 .unwrap_or_default();
-            self.fail(format!(
+            return Phase::Failed(format!(
                 "{count} ball(s) did not reach their position, first {first}; the matrix was stopped"
             ));
-            return;
         }
         *queried = true;
         let confirmed = confirmed.clone();
@@ -200,5 +188,6 @@ impl Player {
         if let Step::Moving { next_query_us, .. } = &mut self.step {
             *next_query_us = now_us + CONFIRM_WAIT_US.max(slowest_us);
         }
+        Phase::Pending
     }
 }

@@ -1,60 +1,18 @@
 //! The playing phase: every gateway started at once with `*0;BG;` on its priority lane
 //! at one instant ([`START_LEAD_US`] ahead),
 //! streaming gateways refilled round by round by the rule of
-//! [`schedule`](crate::plan::schedule), and, when a show ends, the next cycle, the
-//! next entry, or the end of the playlist (or its start again, looping).
+//! [`schedule`](crate::plan::schedule), until the show's end (what follows it is the
+//! sequencer's).
 
-use super::{Command, LinkView, NextRun, Player, REFILL_LOW_BYTES, START_LEAD_US, Step, next_run};
+use super::{Command, LinkView, Phase, REFILL_LOW_BYTES, START_LEAD_US, Step, Uim2503Drive};
 use crate::plan::{RunMode, schedule, stream};
 
 /// Time after the last row for the last ball to settle, µs.
 const END_MARGIN_US: u64 = 200_000;
 
-impl Player {
-    pub(super) fn begin_entry(&mut self, now_us: u64, entry: usize) {
-        self.entry = entry;
-        self.cycle = 1;
-        self.show_time_ms = 0;
-        let delay_ms = self.entries.get(entry).map_or(0, |entry| entry.delay_ms);
-        if delay_ms > 0 {
-            self.step = Step::Waiting {
-                until_us: now_us + delay_ms * 1000,
-            };
-        } else {
-            self.begin_approach(now_us);
-        }
-    }
-
-    pub(super) fn cycle_done(&mut self, now_us: u64) {
-        let Some(plan) = self.plans.get(self.entry) else {
-            self.step = Step::Idle;
-            return;
-        };
-        // The balls rest where their tracks end.
-        for (position, unit) in self.believed.iter_mut().zip(&plan.units) {
-            *position = Some(
-                unit.rows
-                    .last()
-                    .map_or(unit.start_counts, |row| row.position_counts),
-            );
-        }
-        match next_run(
-            &self.entries,
-            self.entry,
-            &mut self.cycle,
-            self.loop_playlist,
-        ) {
-            NextRun::Cycle => self.begin_approach(now_us),
-            NextRun::Entry(entry) => self.begin_entry(now_us, entry),
-            NextRun::Rest => {
-                self.step = Step::Idle;
-                self.progress = 1.0;
-            }
-        }
-    }
-
-    pub(super) fn begin_play(&mut self, now_us: u64) {
-        let Some(plan) = self.plans.get(self.entry) else {
+impl Uim2503Drive {
+    pub(super) fn begin_playing(&mut self, now_us: u64) {
+        let Some(plan) = self.plan.as_ref() else {
             return;
         };
         let mut start_us = Vec::with_capacity(plan.gateways.len());
@@ -78,12 +36,15 @@ impl Player {
         self.progress = 0.0;
     }
 
-    pub(super) fn poll_playing(&mut self, now_us: u64, links: &[LinkView]) {
-        let Some(plan) = self.plans.get(self.entry) else {
-            return;
+    /// Refills streaming gateways as their lines drain; over when the show's length
+    /// (and a margin for the last ball to settle) has passed, the balls resting where
+    /// their tracks end.
+    pub(super) fn poll_playing(&mut self, now_us: u64, links: &[LinkView]) -> Phase {
+        let Some(plan) = self.plan.as_ref() else {
+            return Phase::Pending;
         };
         let Step::Playing { start_us, next_row } = &mut self.step else {
-            return;
+            return Phase::Pending;
         };
         let first_start = start_us.first().copied().unwrap_or(now_us);
         let elapsed_us = now_us.saturating_sub(first_start);
@@ -132,7 +93,17 @@ impl Player {
         }
         self.commands.extend(commands);
         if !looping && elapsed_us >= duration_us + END_MARGIN_US {
-            self.cycle_done(now_us);
+            // The balls rest where their tracks end.
+            for (position, unit) in self.believed.iter_mut().zip(&plan.units) {
+                *position = Some(
+                    unit.rows
+                        .last()
+                        .map_or(unit.start_counts, |row| row.position_counts),
+                );
+            }
+            self.step = Step::Idle;
+            return Phase::Done { at_us: now_us };
         }
+        Phase::Pending
     }
 }
