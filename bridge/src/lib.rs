@@ -36,9 +36,10 @@
 //! - [`mbox`]: the MBOX boxes of an installation on one UDP socket, with their e-stop
 //!   (the sender is woken by the e-stop like a link's writer).
 //! - [`scl`]: the links to MOONS' drives in SCL (an RS-485 line or eSCL on UDP), one
-//!   owner thread each, with their e-stop (`SK` to every drive), status polls, console
-//!   and Q program upload.
-//! - [`estop`]: the e-stop latch and the one path that presses it.
+//!   owner thread each, with their e-stop (`SK` to every drive), status polls and
+//!   console.
+//! - [`estop`]: the e-stop latch and the one path that presses it, over every port a
+//!   stop goes to (`StopPort`: a UIM2503 link, the MBOX boxes, the MOONS' drives).
 //! - [`gateways`]: every link together: console lines and feedback for the clients.
 //! - [`commission`]: commissioning a UIM2503 gateway's units: roll call, assignment of
 //!   stations by serial, identify moves, and the unit health monitor whose snapshot
@@ -47,8 +48,11 @@
 //!   and ([`simulate::mbox`]) simulated MBOX boxes on real UDP sockets, and
 //!   ([`simulate::scl`]) simulated MOONS' drives on a serial device or eSCL UDP;
 //!   ([`simulate::tcp`]) simulated gateways on TCP sockets, as behind device servers.
-//! - [`playback`]: the player driven by the clock and the links, the owner of the
-//!   status, and the link watchdog.
+//! - [`playback`]: the show sequencer (`floatball_shared::player`) driven by the clock
+//!   and the links, the owner of the status, and the link watchdog: the UIM2503 task
+//!   (`playback/mod.rs`) and one task for the families whose ports carry out their
+//!   drive's work (`playback/sequenced.rs`: MBOX boxes in `playback/mbox.rs`, MOONS'
+//!   drives in `playback/scl.rs`).
 //! - [`control`]: Start, Reset and Home as the WebSocket asks for them.
 //! - [`install`]: a new installation (`PUT /api/installation`, a gateway's line
 //!   speed) checked, saved into `floatball.toml` (`config/edit.rs`) and applied while

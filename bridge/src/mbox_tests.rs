@@ -43,6 +43,10 @@ use floatball_shared::plan::player::Entry;
 use floatball_shared::show::demo::Wave;
 use floatball_shared::show::{AnalogKey, DigitalKey, OutputTrack, Show};
 
+#[path = "../tests/common/golden.rs"]
+mod golden;
+use golden::assert_golden;
+
 use super::{FRAME_LEAD, FrameEncoder, estop_datagram};
 use crate::config::{Config, Overrides};
 use crate::estop::{Latch, Repeats};
@@ -478,55 +482,14 @@ fn operator_wire(time: &str) -> String {
     rig.wire
 }
 
-/// Compares `actual` with the golden file `name` (in `bridge/tests/golden/`) line by
-/// line and names the first line that differs. With `FLOATBALL_BLESS=1` the file is
-/// written from `actual` instead: only ever from code whose wire is known to be right.
-fn assert_golden(name: &str, expected: &str, actual: &str) {
-    if std::env::var_os("FLOATBALL_BLESS").is_some() {
-        let path = format!("{}/tests/golden/{name}", env!("CARGO_MANIFEST_DIR"));
-        std::fs::write(&path, actual).expect("the golden file written");
-        return;
-    }
-    let mut expected_lines = expected.lines();
-    let mut actual_lines = actual.lines();
-    for number in 1.. {
-        match (expected_lines.next(), actual_lines.next()) {
-            (None, None) => break,
-            (expected, actual) if expected == actual => {}
-            (expected, actual) => panic!(
-                "{name}: line {number} differs on the wire\n  expected: {}\n  actual:   {}",
-                expected.unwrap_or("(nothing: the wire fell silent)"),
-                actual.unwrap_or("(nothing: the wire fell silent)")
-            ),
-        }
-    }
-    assert_eq!(expected, actual, "{name}: same lines, other line ends");
-}
-
 #[test]
 fn the_wire_carries_exactly_the_golden_datagrams_for_a_playlist() {
-    assert_golden(
-        "mbox_playlist_relative.txt",
-        include_str!("../tests/golden/mbox_playlist_relative.txt"),
-        &playlist_wire("relative"),
-    );
-    assert_golden(
-        "mbox_playlist_absolute.txt",
-        include_str!("../tests/golden/mbox_playlist_absolute.txt"),
-        &playlist_wire("absolute"),
-    );
+    assert_golden("mbox_playlist_relative.txt", &playlist_wire("relative"));
+    assert_golden("mbox_playlist_absolute.txt", &playlist_wire("absolute"));
 }
 
 #[test]
 fn the_wire_carries_exactly_the_golden_datagrams_for_estop_home_start_and_reset() {
-    assert_golden(
-        "mbox_operator_relative.txt",
-        include_str!("../tests/golden/mbox_operator_relative.txt"),
-        &operator_wire("relative"),
-    );
-    assert_golden(
-        "mbox_operator_absolute.txt",
-        include_str!("../tests/golden/mbox_operator_absolute.txt"),
-        &operator_wire("absolute"),
-    );
+    assert_golden("mbox_operator_relative.txt", &operator_wire("relative"));
+    assert_golden("mbox_operator_absolute.txt", &operator_wire("absolute"));
 }

@@ -50,6 +50,7 @@ mod common;
 
 use std::time::Duration;
 
+use common::golden::assert_golden;
 use common::process::{Process, links_up};
 use common::scl_peer::Peer;
 use common::{Ws, native_show, next_reply, send_text, until};
@@ -168,34 +169,6 @@ impl Marks {
         }
         out
     }
-}
-
-/// Compares `actual` with the golden file `name` (or writes it, with
-/// `FLOATBALL_BLESS` set), naming the first line that differs.
-fn assert_golden(name: &str, actual: &str) {
-    let path = format!("{}/tests/golden/{name}", env!("CARGO_MANIFEST_DIR"));
-    if std::env::var_os("FLOATBALL_BLESS").is_some() {
-        std::fs::write(&path, actual).unwrap();
-        return;
-    }
-    let expected = std::fs::read_to_string(&path).unwrap_or_else(|error| {
-        panic!("{path}: {error}; write it with FLOATBALL_BLESS=1\nactual:\n{actual}")
-    });
-    let mut expected_lines = expected.lines();
-    let mut actual_lines = actual.lines();
-    for number in 1.. {
-        match (expected_lines.next(), actual_lines.next()) {
-            (None, None) => break,
-            (expected, got) if expected == got => {}
-            (expected, got) => panic!(
-                "{name}: line {number} differs on the wire\n  expected: {}\n  actual:   {}\n\
-                 the whole record (FLOATBALL_BLESS=1 writes it):\n{actual}",
-                expected.unwrap_or("(nothing: the file ended)"),
-                got.unwrap_or("(nothing: the record ended)"),
-            ),
-        }
-    }
-    assert_eq!(expected, actual, "{name}: same lines, other line ends");
 }
 
 /// Starts the playlist and reads statuses until it has played to its end.

@@ -2,6 +2,7 @@
 //! client that speaks to it over real sockets.
 #![allow(dead_code)] // Each test binary uses its own part of this.
 
+pub mod golden;
 pub mod mbox_sim;
 pub mod process;
 pub mod scl_peer;
