@@ -118,6 +118,12 @@ pub trait Drive {
     /// The show's time while it plays, ms.
     fn show_time_ms(&self) -> u64;
 
+    /// Whether the units were started, once a show was begun: until then the status
+    /// says `loading` (the start is being given), not `playing`.
+    fn has_started(&self) -> bool {
+        true
+    }
+
     /// The e-stop (or a failure): drop what is queued; positions become unknown.
     fn stop(&mut self);
 
@@ -208,6 +214,7 @@ impl<D: Drive> Sequencer<D> {
                 ..
             } => PlayerState::Homing,
             Step::Loading => PlayerState::Loading,
+            Step::Playing if !self.drive.has_started() => PlayerState::Loading,
             Step::Playing => PlayerState::Playing,
             Step::Stopped => PlayerState::Stopped,
             Step::Failed => PlayerState::Error,

@@ -22,7 +22,8 @@
 //!   then read back with `QU` and compared;
 //! - **play**: `QX1` to every drive (lanes by line); with a trigger, then the trigger
 //!   output low, 100 ms, high (every program waits for that edge); the show's time 0
-//!   is when the first `QX1` went (or the trigger went low); then the show's length,
+//!   is when the first `QX1` went (or the trigger went low), and the show plays (the
+//!   status says `playing`) once every drive was started; then the show's length,
 //!   and `SC` to each drive until no program runs and no motor moves (at most 10 s).
 //!
 //! A refusal, a missed answer or a drive that does not arrive fails the step with a
@@ -233,6 +234,8 @@ enum Action {
     ShowEnd,
     /// The show's time 0 is now.
     Started,
+    /// Every drive has been started: the show plays.
+    AllStarted,
     /// A unit's programs are written.
     Loaded,
 }
@@ -277,6 +280,8 @@ pub struct SclDrive {
     started_us: Option<u64>,
     duration_ms: u64,
     playing: bool,
+    /// Every drive was started (the trigger's edge, or the last `QX1`).
+    all_started: bool,
     /// Loading: units written of all.
     loaded: usize,
     loading: bool,
@@ -311,6 +316,7 @@ impl SclDrive {
             started_us: None,
             duration_ms: 0,
             playing: false,
+            all_started: false,
             loaded: 0,
             loading: false,
             now_us: 0,
@@ -503,6 +509,7 @@ impl SclDrive {
                             }
                         }
                         Action::Started => self.started_us = Some(now_us),
+                        Action::AllStarted => self.all_started = true,
                         Action::Loaded => self.loaded += 1,
                     }
                 }
@@ -731,6 +738,7 @@ impl Drive for SclDrive {
         self.playing = true;
         self.loading = false;
         self.started_us = None;
+        self.all_started = false;
         self.duration_ms = entry.duration_ms;
         let execute = |unit| {
             Segment::new(1)
@@ -746,6 +754,7 @@ impl Drive for SclDrive {
                     first.actions.push_front(Action::Started);
                 }
                 stages.push(fire);
+                stages.push(vec![Lane::of([Action::AllStarted])]);
             }
             Some(Trigger { drive, output, .. }) => {
                 stages.push(self.by_line(execute));
@@ -769,6 +778,7 @@ impl Drive for SclDrive {
                 stages.push(vec![Lane::of([
                     set(Level::Low),
                     Action::Started,
+                    Action::AllStarted,
                     Action::Sleep(TRIGGER_PULSE_US),
                     set(Level::High),
                 ])]);
@@ -795,6 +805,10 @@ impl Drive for SclDrive {
         } else {
             Phase::Pending
         }
+    }
+
+    fn has_started(&self) -> bool {
+        self.all_started
     }
 
     fn progress(&self) -> f64 {
@@ -824,6 +838,7 @@ impl Drive for SclDrive {
         self.asks.clear();
         self.failure = None;
         self.playing = false;
+        self.all_started = false;
         self.loading = false;
         self.started_us = None;
     }

@@ -89,6 +89,15 @@ fn entry(config: &SclDriveConfig, cycles: u32) -> Run<SclEntry> {
     }
 }
 
+/// A twin's answer as the link hands it over: its lines, without their CRs.
+fn lines_of(answer: &str) -> Vec<String> {
+    answer
+        .split('\r')
+        .filter(|line| !line.is_empty())
+        .map(str::to_owned)
+        .collect()
+}
+
 /// The sequencer, three twins, the clock, and every line each twin was sent.
 struct Rig {
     sequencer: Sequencer<SclDrive>,
@@ -139,14 +148,9 @@ impl Rig {
                 } else {
                     answer
                 };
-                let lines = answer
-                    .split('\r')
-                    .filter(|line| !line.is_empty())
-                    .map(str::to_owned)
-                    .collect();
                 self.sequencer
                     .drive_mut()
-                    .answer(self.now_us, ask.id, Ok(lines));
+                    .answer(self.now_us, ask.id, Ok(lines_of(&answer)));
             }
         }
     }
@@ -201,6 +205,9 @@ fn a_show_homes_approaches_uploads_starts_and_ends_where_it_was_drawn() {
             PlayerState::Loading,
             PlayerState::Playing,
             PlayerState::Approaching,
+            // The second cycle's start (no upload): `playing` once every drive
+            // took its QX1.
+            PlayerState::Loading,
             PlayerState::Playing,
             PlayerState::Idle,
         ]
@@ -379,4 +386,68 @@ fn with_a_trigger_every_program_is_executed_then_the_trigger_pulses() {
             "0 QX1", "1 QX1", "2 QX1", "0 SO2L", "0 SO2H", "0 SC", "1 SC", "2 SC"
         ][..sent.len().min(8)]
     );
+}
+
+#[test]
+fn the_state_is_playing_only_once_every_drive_was_started() {
+    let mut rig = Rig::new();
+    let config = rig.sequencer.drive().config().clone();
+    rig.sequencer
+        .start(0, vec![entry(&config, 1)], false)
+        .unwrap();
+    // Answer everything but the starts.
+    let mut starts = Vec::new();
+    for _ in 0..10_000 {
+        rig.sequencer.poll(rig.now_us);
+        for ask in rig.sequencer.drive_mut().take_asks() {
+            if ask.text == "QX1" {
+                starts.push(ask);
+                continue;
+            }
+            let twin = &mut rig.twins[ask.drive];
+            twin.advance(rig.now_us);
+            let answer = twin.receive_line(&ask.text, rig.now_us).unwrap_or_default();
+            rig.sequencer
+                .drive_mut()
+                .answer(rig.now_us, ask.id, Ok(lines_of(&answer)));
+        }
+        if !starts.is_empty() {
+            break;
+        }
+        rig.now_us += 1_000;
+        for twin in &mut rig.twins {
+            twin.advance(rig.now_us);
+        }
+    }
+    assert_eq!(starts.len(), 1, "one QX1 at a time on a line");
+    let status = rig.sequencer.status();
+    assert_eq!(
+        status.state,
+        PlayerState::Loading,
+        "starting, not playing yet"
+    );
+    assert_eq!(status.show_time_ms, 0);
+    // The drives take their starts, one after the other on the line.
+    while let Some(ask) = starts.pop() {
+        let answer = rig.twins[ask.drive]
+            .receive_line(&ask.text, rig.now_us)
+            .unwrap_or_default();
+        rig.sequencer
+            .drive_mut()
+            .answer(rig.now_us, ask.id, Ok(lines_of(&answer)));
+        rig.sequencer.poll(rig.now_us);
+        starts.extend(
+            rig.sequencer
+                .drive_mut()
+                .take_asks()
+                .into_iter()
+                .filter(|ask| ask.text == "QX1"),
+        );
+        let state = rig.sequencer.status().state;
+        if starts.is_empty() {
+            assert_eq!(state, PlayerState::Playing, "every drive started");
+        } else {
+            assert_eq!(state, PlayerState::Loading);
+        }
+    }
 }
