@@ -244,6 +244,17 @@ pub enum Playlist {
     },
 }
 
+impl Playlist {
+    /// A playlist read from the store, kept under no key.
+    fn read(entries: Vec<Entry>, loop_playlist: bool) -> Self {
+        Self::Read {
+            entries,
+            loop_playlist,
+            key: None,
+        }
+    }
+}
+
 /// How long after [`Playback::disarm`] nothing is armed: a console session or a
 /// commissioning walk of several steps is not interleaved with loading tables.
 pub const ARM_QUIET: Duration = Duration::from_secs(3);
@@ -506,12 +517,8 @@ impl Playback {
         loop_playlist: bool,
         generation: u64,
     ) -> Result<(), PlaybackError> {
-        let playlist = Playlist::Read {
-            entries,
-            loop_playlist,
-            key: None,
-        };
-        self.play(playlist, generation, false).await
+        self.play(Playlist::read(entries, loop_playlist), generation, false)
+            .await
     }
 
     /// Reset: stop now, home, and play the playlist from its first entry.
@@ -538,12 +545,8 @@ impl Playback {
         loop_playlist: bool,
         generation: u64,
     ) -> Result<(), PlaybackError> {
-        let playlist = Playlist::Read {
-            entries,
-            loop_playlist,
-            key: None,
-        };
-        self.play(playlist, generation, true).await
+        self.play(Playlist::read(entries, loop_playlist), generation, true)
+            .await
     }
 
     /// Plans the playlist (unless it is [prepared](Playlist::Prepared) already), then
