@@ -144,26 +144,31 @@ pub enum PasswordError {
     #[error("the password check was interrupted")]
     Interrupted,
     /// The current password given with a change is wrong.
-    #[error("the current password is wrong")]
+    #[error("{}", Code::WrongCurrentPassword.english())]
     WrongPassword,
     /// The new password is not acceptable.
     #[error("{0}")]
     Unacceptable(PasswordRule),
 }
 
-/// The rule a new password breaks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+/// The rule a new password breaks; its text is its code's English template.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PasswordRule {
     /// Fewer than [`MIN_PASSWORD_CHARS`] characters.
-    #[error("the new password must have at least {MIN_PASSWORD_CHARS} characters")]
     TooShort,
     /// More than [`MAX_PASSWORD_BYTES`] bytes.
-    #[error("the new password must have at most {MAX_PASSWORD_BYTES} bytes")]
     TooLong,
     /// The initial password.
-    #[error("the new password must not be the initial password {DEFAULT_PASSWORD}")]
     IsDefault,
 }
+
+impl std::fmt::Display for PasswordRule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&codes::english_text(self.code(), &self.params()))
+    }
+}
+
+impl std::error::Error for PasswordRule {}
 
 impl Coded for PasswordRule {
     fn code(&self) -> Code {

@@ -42,13 +42,8 @@ pub fn playlist_entries(state: &AppState) -> Result<(Vec<Entry>, bool), ServerMe
             .map_err(|error| error.to_string())
             .and_then(|name| state.shows().load(&name).map_err(|error| error.to_string()))
             .map_err(|reason| {
-                ServerMessage::error(
+                ServerMessage::from_template(
                     Code::EntryUnreadable,
-                    format!(
-                        "playlist entry {} (\"{}\") cannot be read: {reason}",
-                        index + 1,
-                        entry.show
-                    ),
                     params! {"entry" => index + 1, "show" => entry.show, "reason" => reason},
                 )
             })?;

@@ -30,6 +30,9 @@ use std::time::Duration;
 use floatball_shared::api::{
     BaudChanged, GatewayKind, InstallationGateway, InstallationInfo, PlayerState,
 };
+use floatball_shared::codes::{Code, Coded, Params, english_text};
+use floatball_shared::params;
+use floatball_shared::plan::report::GATEWAY_BAUDS;
 use floatball_shared::plan::{DriveKind, Installation};
 
 use crate::config::{self, Config, ConfigError, Overrides, edit};
@@ -41,28 +44,23 @@ use crate::state::AppState;
 /// gateway takes its new speed when the installer power-cycles it).
 pub const BAUD_RESTART_WAIT: Duration = Duration::from_secs(60);
 
-/// Why a new installation was not applied; nothing changed.
-#[derive(Debug, thiserror::Error)]
+/// Why a new installation was not applied; nothing changed. Its text is its code's
+/// English template, but for [`InstallError::NoSuchGateway`] and
+/// [`InstallError::Baud`], which say more.
+#[derive(Debug)]
 pub enum InstallError {
     /// The checks of `floatball check` found these problems.
-    #[error("the installation has {} problem(s)", .0.len())]
     Invalid(Vec<ConfigError>),
     /// The player is not idle, or a Start is pending (`state` says which).
-    #[error("the matrix is {state}; the installation changes only while it is idle")]
     Busy {
         /// The player's state, or `starting`.
         state: String,
     },
     /// An installation of MBOX boxes or MOONS' drives.
-    #[error(
-        "the gateways of MBOX boxes and MOONS' drives change only in floatball.toml, at a restart"
-    )]
     NotLive,
     /// The file could not be read, edited or written.
-    #[error("floatball.toml could not be saved: {0}")]
     NotSaved(String),
     /// The gateway has no link (no such gateway, or not a UIM2503).
-    #[error("there is no UIM2503 gateway {gateway}")]
     NoSuchGateway {
         /// The gateway asked for.
         gateway: usize,
@@ -70,7 +68,6 @@ pub enum InstallError {
         links: usize,
     },
     /// The gateway does not take that speed.
-    #[error("gateway {gateway} does not take {baud} baud")]
     BaudNotAllowed {
         /// The gateway.
         gateway: usize,
@@ -79,7 +76,6 @@ pub enum InstallError {
     },
     /// The link did not change its speed ([`Link::change_baud`]'s reason); the line
     /// runs at its old speed.
-    #[error("gateway {gateway}: {error}")]
     Baud {
         /// The gateway.
         gateway: usize,
@@ -88,6 +84,60 @@ pub enum InstallError {
         /// Why.
         error: BaudError,
     },
+}
+
+impl std::fmt::Display for InstallError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::NoSuchGateway { gateway, .. } => {
+                write!(f, "there is no UIM2503 gateway {gateway}")
+            }
+            Self::Baud { gateway, error, .. } => write!(f, "gateway {gateway}: {error}"),
+            _ => f.write_str(&english_text(self.code(), &self.params())),
+        }
+    }
+}
+
+impl std::error::Error for InstallError {}
+
+impl Coded for InstallError {
+    fn code(&self) -> Code {
+        match self {
+            Self::Invalid(_) => Code::InstallationInvalid,
+            Self::Busy { .. } => Code::InstallationBusy,
+            Self::NotLive => Code::InstallationNotLive,
+            Self::NotSaved(_) => Code::InstallationNotSaved,
+            Self::NoSuchGateway { .. } => Code::NoSuchGateway,
+            Self::BaudNotAllowed { .. } => Code::BaudNotAllowed,
+            Self::Baud { error, .. } => error.code(),
+        }
+    }
+
+    fn params(&self) -> Params {
+        match self {
+            Self::Invalid(problems) => params! {"problems" => problems.len()},
+            Self::Busy { state } => params! {"state" => state},
+            Self::NotLive => Params::new(),
+            Self::NotSaved(reason) => params! {"reason" => reason},
+            Self::NoSuchGateway { gateway, links } => {
+                params! {"gateway" => gateway, "last" => links.saturating_sub(1)}
+            }
+            Self::BaudNotAllowed { baud, .. } => {
+                let allowed: Vec<String> = GATEWAY_BAUDS.iter().map(u32::to_string).collect();
+                params! {"baud" => baud, "allowed" => allowed.join(", ")}
+            }
+            Self::Baud {
+                gateway,
+                baud,
+                error,
+            } => {
+                let mut params = error.params();
+                params.insert("gateway".into(), gateway.to_string());
+                params.insert("baud".into(), baud.to_string());
+                params
+            }
+        }
+    }
 }
 
 /// What `GET /api/installation` says about `installation`.
@@ -357,5 +407,38 @@ mod tests {
         mbox.approach_speed_mm_s = 321.0;
         mbox.home_mm = 12.5;
         assert_eq!(info(&mbox).installation(), mbox);
+    }
+
+    /// A refusal is worded by its code's English template, but where it says more.
+    #[test]
+    fn refusals_read_as_their_codes_templates() {
+        use floatball_shared::codes::{Code, Coded};
+
+        use super::InstallError;
+
+        let busy = InstallError::Busy {
+            state: "playing".into(),
+        };
+        assert_eq!(busy.code(), Code::InstallationBusy);
+        assert_eq!(
+            busy.to_string(),
+            "The matrix is playing: the installation and line speeds change only while it is idle"
+        );
+        let not_allowed = InstallError::BaudNotAllowed {
+            gateway: 0,
+            baud: 1200,
+        };
+        assert!(
+            not_allowed
+                .to_string()
+                .starts_with("The gateway does not take 1200 baud; it takes 9600, "),
+            "{not_allowed}"
+        );
+        let missing = InstallError::NoSuchGateway {
+            gateway: 3,
+            links: 2,
+        };
+        assert_eq!(missing.to_string(), "there is no UIM2503 gateway 3");
+        assert_eq!(missing.params()["last"], "1");
     }
 }

@@ -117,7 +117,7 @@ pub fn check(playlist: &Playlist, show_exists: impl Fn(&str) -> bool) -> Result<
     } else {
         Err(Refused::invalid(
             Code::PlaylistInvalid,
-            "the playlist is not valid",
+            Code::PlaylistInvalid.english(),
             &problems,
         ))
     }

@@ -96,11 +96,10 @@ pub async fn upgrade(
     upgrade: WebSocketUpgrade,
 ) -> Response {
     if !origin_allowed(&headers, &state.config().allowed_origins) {
-        return Failure::coded(
+        return Failure::from_template(
             StatusCode::FORBIDDEN,
             Code::OriginNotAllowed,
-            "this page's origin may not open the bridge's WebSocket; add it to \
-             allowed_origins in floatball.toml",
+            Params::new(),
         )
         .into_response();
     }
@@ -113,10 +112,10 @@ pub async fn upgrade(
         .into_response();
     };
     if !state.tokens().touch(&token, state.clock().now()) {
-        return Failure::coded(
+        return Failure::from_template(
             StatusCode::UNAUTHORIZED,
             Code::SessionExpired,
-            "the session has expired or ended; log in again",
+            Params::new(),
         )
         .into_response();
     }
@@ -234,11 +233,8 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
             frame = next_frame(feedback.as_mut()) => match frame {
                 Ok(frame) => sent(send(&mut sink, &ServerMessage::Feedback(frame)).await),
                 Err(broadcast::error::RecvError::Lagged(missed)) => {
-                    let message = ServerMessage::error(
+                    let message = ServerMessage::from_template(
                         Code::FeedbackDropped,
-                        format!(
-                            "{missed} feedback frames were dropped: this client reads too slowly"
-                        ),
                         params! {"count" => missed},
                     );
                     sent(send(&mut sink, &message).await)
@@ -351,10 +347,7 @@ async fn read_messages(mut stream: Stream, state: AppState, token: String, sende
                 }
                 answer(&state, &console_lines, &replies, &relay, text.as_str())
             }
-            Some(Ok(Message::Binary(_))) => Some(error(
-                Code::BinaryFrame,
-                "only text frames holding JSON messages are understood",
-            )),
+            Some(Ok(Message::Binary(_))) => Some(templated(Code::BinaryFrame)),
             Some(Ok(Message::Ping(_) | Message::Pong(_))) => None,
             Some(Ok(Message::Close(_))) | None => {
                 let _ = inbound.send(Inbound::Closed).await;
@@ -385,9 +378,8 @@ async fn console(
     while let Some((gateway, batch, generation)) = lines.recv().await {
         if let Err(reason) = state.gateways().send(gateway, batch, generation).await
             && failures
-                .send(ServerMessage::error(
+                .send(ServerMessage::from_template(
                     Code::LineNotSent,
-                    format!("the line was not sent: {reason}"),
                     params! {"reason" => reason},
                 ))
                 .await
@@ -424,14 +416,7 @@ fn receive_failed(error: &axum::Error) -> Option<CloseFrame> {
 /// Tells the client its token is no longer valid and closes, waiting a moment for the
 /// client's side of the closing handshake.
 async fn end_session(sink: &mut Sink, inbound: &mut mpsc::Receiver<Inbound>) -> Step {
-    let _ = send(
-        sink,
-        &error(
-            Code::SessionExpired,
-            "the session has expired or ended; log in again",
-        ),
-    )
-    .await;
+    let _ = send(sink, &templated(Code::SessionExpired)).await;
     let closing = sink
         .send(Message::Close(Some(CloseFrame {
             code: close_code::POLICY,
@@ -451,9 +436,14 @@ async fn end_session(sink: &mut Sink, inbound: &mut mpsc::Receiver<Inbound>) -> 
     Step::Close
 }
 
-/// A refusal with `code` and no parameters.
+/// A refusal with `code` and no parameters, in words of its own.
 fn error(code: Code, message: impl Into<String>) -> ServerMessage {
     ServerMessage::error(code, message, Params::new())
+}
+
+/// A refusal with `code` and no parameters, in the words of the code's template.
+fn templated(code: Code) -> ServerMessage {
+    ServerMessage::from_template(code, Params::new())
 }
 
 /// The refusal of a console line that does not parse: its code and parameters (line,
@@ -468,11 +458,9 @@ fn invalid_line(parse_error: &(impl Coded + std::fmt::Display)) -> ServerMessage
 
 /// The refusal of a gateway number past the last.
 fn no_such_gateway(index: usize, count: usize) -> ServerMessage {
-    let last = count.saturating_sub(1);
-    ServerMessage::error(
+    ServerMessage::from_template(
         Code::NoSuchGateway,
-        format!("there is no gateway {index}; gateways are numbered 0 to {last}"),
-        params! {"gateway" => index, "last" => last},
+        params! {"gateway" => index, "last" => count.saturating_sub(1)},
     )
 }
 
@@ -488,9 +476,8 @@ fn answer(
     let message = match serde_json::from_str::<ClientMessage>(text) {
         Ok(message) => message,
         Err(err) => {
-            return Some(ServerMessage::error(
+            return Some(ServerMessage::from_template(
                 Code::BadMessage,
-                format!("not a valid message: {err}"),
                 params! {"reason" => err},
             ));
         }
@@ -512,10 +499,7 @@ fn answer(
         ClientMessage::Start | ClientMessage::Reset | ClientMessage::Home
             if state.password().is_default() =>
         {
-            Some(error(
-                Code::MustChangePasswordFirst,
-                "change the initial password (1234) before controlling the matrix",
-            ))
+            Some(templated(Code::MustChangePasswordFirst))
         }
         ClientMessage::Start | ClientMessage::Reset | ClientMessage::Home => {
             let control = match message {
@@ -539,10 +523,9 @@ fn answer(
             });
             None
         }
-        ClientMessage::Raw { .. } if state.password().is_default() => Some(error(
-            Code::MustChangePasswordFirst,
-            "change the initial password (1234) before sending instructions",
-        )),
+        ClientMessage::Raw { .. } if state.password().is_default() => {
+            Some(templated(Code::MustChangePasswordFirst))
+        }
         ClientMessage::Raw { line, gateway } => {
             if let Some(boxes) = state.playback().boxes() {
                 return mbox_line(state, boxes, &line, gateway);
@@ -564,7 +547,7 @@ fn answer(
             }
             let instructions = match parse_script(&line) {
                 Ok(instructions) if instructions.is_empty() => {
-                    return Some(error(Code::EmptyLine, "the line holds no instruction"));
+                    return Some(templated(Code::EmptyLine));
                 }
                 Ok(instructions) => instructions,
                 Err(parse_error) => return Some(invalid_line(&parse_error)),
@@ -574,19 +557,14 @@ fn answer(
                     .iter()
                     .all(|instruction| instruction.is_inert())
             {
-                return Some(error(
-                    Code::EstopLatched,
-                    "the e-stop is latched: only queries can be sent until Start, Reset or \
-                     Home; this line was not sent",
-                ));
+                return Some(templated(Code::EstopLatched));
             }
             let generation = state.playback().latch().generation();
             let batch = match Batch::encode(&instructions, Form::Standard) {
                 Ok(batch) => batch,
                 Err(encode_error) => {
-                    return Some(ServerMessage::error(
+                    return Some(ServerMessage::from_template(
                         Code::AsciiNotEncodable,
-                        format!("the line is not valid: {encode_error}"),
                         params! {"reason" => encode_error},
                     ));
                 }
@@ -595,10 +573,7 @@ fn answer(
             crate::arming::disarm(state);
             match console_lines.try_send((gateway, batch, generation)) {
                 Ok(()) => None,
-                Err(_) => Some(error(
-                    Code::ConsoleBusy,
-                    "too many console lines are waiting for the gateway; this one was not sent",
-                )),
+                Err(_) => Some(templated(Code::ConsoleBusy)),
             }
         }
     }

@@ -121,7 +121,7 @@ async fn start_needs_the_password_changed_and_a_playlist() {
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     let reply = common::next_reply(&mut ws).await;
     assert!(
-        matches!(&reply, ServerMessage::Error { message, .. } if message.contains("initial password")),
+        matches!(&reply, ServerMessage::Error { message, .. } if message.contains("factory password")),
         "{reply:?}"
     );
     let token = {

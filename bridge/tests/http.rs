@@ -55,7 +55,7 @@ async fn login_answers_a_token_or_401_or_400() {
 
     let wrong = bridge.login("4321").await;
     assert_eq!(wrong.status, StatusCode::UNAUTHORIZED);
-    assert_eq!(wrong.error().error, "wrong password");
+    assert_eq!(wrong.error().error, "Wrong password");
     assert_eq!(wrong.error().code, "wrong_password");
 
     let bad = bridge
@@ -217,7 +217,7 @@ async fn the_password_change_checks_both_passwords_and_ends_other_sessions() {
 
     let wrong = bridge.change_password(&token, "9999", PASSWORD).await;
     assert_eq!(wrong.status, StatusCode::FORBIDDEN);
-    assert_eq!(wrong.error().error, "the current password is wrong");
+    assert_eq!(wrong.error().error, "The current password is wrong");
     assert_eq!(wrong.error().code, "wrong_current_password");
     let short = bridge.change_password(&token, "1234", "abc").await;
     assert_eq!(short.status, StatusCode::BAD_REQUEST);

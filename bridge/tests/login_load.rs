@@ -42,7 +42,7 @@ fn assert_correct(right: bool, status: u16, retry_after: Option<&str>, body: &[u
         401 => {
             assert!(!right, "the right password was refused: {text}");
             let json: serde_json::Value = serde_json::from_slice(body).expect("JSON");
-            assert_eq!(json["error"], "wrong password", "{text}");
+            assert_eq!(json["error"], "Wrong password", "{text}");
         }
         503 => {
             let seconds: u64 = retry_after

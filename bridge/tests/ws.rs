@@ -183,7 +183,7 @@ async fn bad_messages_get_an_error_and_the_connection_stays() {
     first_status(&mut ws).await;
 
     send_text(&mut ws, "{not json").await;
-    assert!(expect_error(next_reply(&mut ws).await).contains("not a valid message"));
+    assert!(expect_error(next_reply(&mut ws).await).contains("did not understand the message"));
     send_text(&mut ws, r#"{"type":"dance"}"#).await;
     assert!(expect_error(next_reply(&mut ws).await).contains("dance"));
     futures_util::SinkExt::send(&mut ws, Message::binary(vec![1, 2, 3]))
@@ -207,7 +207,7 @@ async fn console_lines_and_control_need_a_changed_password() {
     ] {
         send_text(&mut ws, message).await;
         let error = expect_error(next_reply(&mut ws).await);
-        assert!(error.contains("initial password"), "{message}: {error}");
+        assert!(error.contains("factory password"), "{message}: {error}");
     }
 }
 

@@ -96,6 +96,16 @@ impl ApiError {
             problems: Vec::new(),
         }
     }
+
+    /// An error with `code` and `params`, its sentence the code's English template
+    /// filled with them ([`crate::codes::english_text`]).
+    pub fn from_template(code: Code, params: Params) -> Self {
+        let error = crate::codes::english_text(code, &params);
+        Self {
+            params,
+            ..Self::coded(code, error)
+        }
+    }
 }
 
 /// One individual problem of an [`ApiError`] (a validation violation, a CSV problem…):
@@ -760,6 +770,12 @@ impl ServerMessage {
             reason_problem: None,
             fix_problems: Vec::new(),
         }
+    }
+
+    /// A [`ServerMessage::Error`] with `code` and `params`, its `message` the code's
+    /// English template filled with them ([`crate::codes::english_text`]).
+    pub fn from_template(code: Code, params: Params) -> Self {
+        Self::error(code, crate::codes::english_text(code, &params), params)
     }
 
     /// This message with the coded forms of its `reason` and `fixes` parameters (an

@@ -3,8 +3,9 @@
 //! Fixed strings are [`Text`] variants, translated by [`Lang::t`]; strings with a
 //! value in them are methods of [`Lang`]. Errors from the bridge and from the shared
 //! parsers come as a code and parameters ([`floatball_shared::codes`]) and are
-//! rendered by [`Lang::coded`] from the templates in [`codes`]; the bridge's English
-//! text is shown only for a code this app does not know (a newer or older bridge).
+//! rendered by [`Lang::coded`] from the shared English templates ([`Code::english`])
+//! and the 中文 ones in [`codes`]; the bridge's English text is shown only for a code
+//! this app does not know (a newer or older bridge).
 
 mod codes;
 mod commission;
@@ -13,7 +14,7 @@ pub mod create;
 use floatball_shared::api::{
     ApiError, LinkState, PlanReport, PlayerState, Problem, QProgramListing,
 };
-use floatball_shared::codes::{Code, Coded, Params};
+use floatball_shared::codes::{Code, Coded, Params, fill};
 
 use crate::client::Failure;
 use crate::playlist::InputError;
@@ -632,15 +633,16 @@ impl Lang {
         }
     }
 
-    /// The template of `code` in this language, if this app knows the code.
+    /// The template of `code` in this language, if this app knows the code: the
+    /// shared English template ([`Code::english`]), or the 中文 one of [`codes`].
     pub fn template(self, code: Code) -> Option<&'static str> {
-        codes::ERROR_TEXTS
-            .iter()
-            .find(|(known, _, _)| *known == code)
-            .map(|&(_, zh, en)| match self {
-                Lang::Zh => zh,
-                Lang::En => en,
-            })
+        match self {
+            Lang::Zh => codes::ERROR_TEXTS
+                .iter()
+                .find(|(known, _)| *known == code)
+                .map(|&(_, zh)| zh),
+            Lang::En => Some(code.english()),
+        }
     }
 
     /// An error given by code and parameters, in this language: where it happened
@@ -651,22 +653,7 @@ impl Lang {
             return english.to_owned();
         };
         let mut text = self.place(params);
-        let mut rest = template;
-        while let Some(open) = rest.find('{') {
-            text.push_str(&rest[..open]);
-            let after = &rest[open + 1..];
-            match after.find('}') {
-                Some(close) if params.contains_key(&after[..close]) => {
-                    text.push_str(&params[&after[..close]]);
-                    rest = &after[close + 1..];
-                }
-                _ => {
-                    text.push('{');
-                    rest = after;
-                }
-            }
-        }
-        text.push_str(rest);
+        text.push_str(&fill(template, params));
         text
     }
 
@@ -1210,6 +1197,7 @@ mod tests {
 
     #[test]
     fn every_error_code_has_a_text_in_both_languages() {
+        // 中文 from this app's table, English the shared template of the code.
         for &code in Code::ALL {
             let (Some(zh), Some(en)) = (Lang::Zh.template(code), Lang::En.template(code)) else {
                 panic!("{code} has no text in one of the languages");
@@ -1239,10 +1227,7 @@ mod tests {
                 }
             }
         }
-        let listed: Vec<Code> = codes::ERROR_TEXTS
-            .iter()
-            .map(|(code, _, _)| *code)
-            .collect();
+        let listed: Vec<Code> = codes::ERROR_TEXTS.iter().map(|(code, _)| *code).collect();
         let mut unique = listed.clone();
         unique.sort();
         unique.dedup();

@@ -72,11 +72,12 @@ const SERIAL_FRAME_BYTES: usize = 12;
 /// Bytes of one `PA` or `MO` answer at most.
 const POSITION_FRAME_BYTES: usize = 8;
 
-/// Why a commissioning call was refused.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+/// Why a commissioning call was refused. Its text is its code's English template, but
+/// for [`CommissionError::EstopLatched`] and [`CommissionError::NotSent`], whose codes'
+/// templates speak of console lines.
+#[derive(Debug, Clone, PartialEq)]
 pub enum CommissionError {
     /// No gateway with that number.
-    #[error("there is no gateway {gateway}; gateways are numbered 0 to {last}")]
     NoSuchGateway {
         /// The number asked for.
         gateway: usize,
@@ -84,48 +85,38 @@ pub enum CommissionError {
         last: usize,
     },
     /// The gateway is not a UIM2503 (its drives have no stations to commission).
-    #[error("gateway {gateway} is not a UIM2503 gateway; only UFQ750 units are commissioned")]
     NotUim2503 {
         /// The gateway.
         gateway: usize,
     },
     /// The matrix is busy (a show, a homing, a Start being prepared).
-    #[error("the matrix is {state}: commissioning waits until it is idle")]
     NotAtRest {
         /// What it is doing (`playing`…, or `starting` for a Start being prepared).
         state: String,
     },
     /// Another commissioning call is using the gateway.
-    #[error("another commissioning call is using gateway {gateway}; try again when it is done")]
     InProgress {
         /// The gateway.
         gateway: usize,
     },
     /// The gateway's link is not up.
-    #[error("gateway {gateway} is not connected")]
     NotConnected {
         /// The gateway.
         gateway: usize,
     },
     /// The e-stop is latched: nothing moves or is renumbered.
-    #[error(
-        "the E-stop is latched: only queries can be sent until Start, Reset or Home; nothing was sent"
-    )]
     EstopLatched,
     /// A station outside 1–127.
-    #[error("station {station} is not a unit's station; stations are 1–127")]
     BadStation {
         /// The station given.
         station: u8,
     },
     /// An identify distance that is not a positive number of mm.
-    #[error("the identify distance must be a positive number of mm, found {distance_mm}")]
     BadDistance {
         /// The distance given.
         distance_mm: f64,
     },
     /// Nobody answered on the station.
-    #[error("no unit answers on station {station} of gateway {gateway}")]
     StationSilent {
         /// The gateway.
         gateway: usize,
@@ -133,9 +124,6 @@ pub enum CommissionError {
         station: u8,
     },
     /// Several units answer on the station: all of them would move.
-    #[error(
-        "{units} units answer on station {station} of gateway {gateway}; give them their own stations first"
-    )]
     StationShared {
         /// The gateway.
         gateway: usize,
@@ -145,22 +133,18 @@ pub enum CommissionError {
         units: usize,
     },
     /// An assignment request without assignments.
-    #[error("the request assigns no unit")]
     NoAssignments,
     /// The same serial twice in one request.
-    #[error("serial {serial} is assigned twice")]
     SerialTwice {
         /// The serial.
         serial: u64,
     },
     /// The same station for two units in one request.
-    #[error("station {station} is given to two units")]
     StationTwice {
         /// The station.
         station: u8,
     },
     /// A serial too long for the gateway's 20 characters.
-    #[error("serial {serial} is too long: `SN[X]=s/n;` holds at most {max} characters")]
     SerialTooLong {
         /// The serial.
         serial: u64,
@@ -168,12 +152,29 @@ pub enum CommissionError {
         max: usize,
     },
     /// The link refused the instructions (it went down meanwhile).
-    #[error("the instructions were not sent: {reason}")]
     NotSent {
         /// Why.
         reason: String,
     },
 }
+
+impl std::fmt::Display for CommissionError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::EstopLatched => f.write_str(
+                "the E-stop is latched: only queries can be sent until Start, Reset or Home; \
+                 nothing was sent",
+            ),
+            Self::NotSent { reason } => write!(f, "the instructions were not sent: {reason}"),
+            _ => f.write_str(&floatball_shared::codes::english_text(
+                self.code(),
+                &self.params(),
+            )),
+        }
+    }
+}
+
+impl std::error::Error for CommissionError {}
 
 impl Coded for CommissionError {
     fn code(&self) -> Code {
@@ -865,5 +866,7 @@ mod tests {
         let error = refuse(&[(1, 2), (4, 2)]);
         assert_eq!(error.code(), Code::CommissionStationTwice);
         assert_eq!(error.params()["station"], "2");
+        // Worded by the code's English template.
+        assert_eq!(error.to_string(), "Station 2 is given to two units");
     }
 }

@@ -30,6 +30,7 @@ use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{Playlist, ShowSummary};
 use floatball_shared::codes::Code;
+use floatball_shared::params;
 use floatball_shared::show::{self, ShowFormat, UploadLimits};
 
 use super::session::{Operator, Session};
@@ -50,12 +51,11 @@ impl FromRequestParts<AppState> for NameParam {
         let Path(name) = Path::<String>::from_request_parts(parts, state)
             .await
             .map_err(|rejection| {
-                Failure::coded(
+                Failure::from_template(
                     StatusCode::BAD_REQUEST,
                     Code::BadShowName,
-                    format!("bad show name: {rejection}"),
+                    params! {"reason" => rejection},
                 )
-                .param("reason", rejection)
             })?;
         ShowName::parse(&name).map(Self).map_err(bad_name)
     }
@@ -63,12 +63,11 @@ impl FromRequestParts<AppState> for NameParam {
 
 /// 400 for a show name that is not allowed.
 fn bad_name(error: NameError) -> Failure {
-    Failure::coded(
+    Failure::from_template(
         StatusCode::BAD_REQUEST,
         Code::BadShowName,
-        error.to_string(),
+        params! {"reason" => error},
     )
-    .param("reason", error)
 }
 
 /// 422 for an invalid show or playlist, 413 for a show too large once converted.
@@ -87,17 +86,16 @@ fn unprocessable(refused: Refused) -> Failure {
 
 pub(crate) fn store_failure(error: StoreError) -> Failure {
     match &error {
-        StoreError::NotFound(name) => {
-            Failure::coded(StatusCode::NOT_FOUND, Code::ShowNotFound, error.to_string())
-                .param("name", name)
-        }
-        StoreError::Unreadable { name, .. } => Failure::coded(
+        StoreError::NotFound(name) => Failure::from_template(
+            StatusCode::NOT_FOUND,
+            Code::ShowNotFound,
+            params! {"name" => name},
+        ),
+        StoreError::Unreadable { name, .. } => Failure::from_template(
             StatusCode::UNPROCESSABLE_ENTITY,
             Code::ShowUnreadable,
-            error.to_string(),
-        )
-        .param("name", name)
-        .param("reason", &error),
+            params! {"name" => name, "reason" => error},
+        ),
         other => Failure::internal("the show store failed", other),
     }
 }
@@ -231,12 +229,11 @@ pub async fn delete_show(
 ) -> Result<StatusCode, Failure> {
     let _catalogue = state.lock_catalogue().await;
     if state.playlist().uses(name.as_str()) {
-        return Err(Failure::coded(
+        return Err(Failure::from_template(
             StatusCode::CONFLICT,
             Code::ShowInPlaylist,
-            format!("\"{name}\" is in the playlist; remove it from the playlist first"),
-        )
-        .param("name", &name));
+            params! {"name" => name},
+        ));
     }
     let deleting = state.clone();
     blocking(move || deleting.shows().delete(&name))

@@ -39,8 +39,7 @@ use axum::http::StatusCode;
 use floatball_shared::api::{
     BaudChanged, BaudRequest, InstallationInfo, PlanReport, Problem, SimPositions,
 };
-use floatball_shared::codes::Code;
-use floatball_shared::plan::report::GATEWAY_BAUDS;
+use floatball_shared::codes::{Code, Params};
 use floatball_shared::plan::report::{report, report_of};
 use floatball_shared::plan::verdict::{Fix, Why, refuse};
 use floatball_shared::plan::{Installation, PlanOptions};
@@ -78,68 +77,35 @@ pub async fn put_installation(
         .map_err(|error| install_failure(&error))
 }
 
-/// The answer to a refused installation or line speed.
+/// The answer to a refused installation or line speed: the error's code, parameters
+/// and words (its code's template, see [`InstallError`]), with each problem of an
+/// invalid installation.
 pub fn install_failure(error: &InstallError) -> Failure {
-    let text = error.to_string();
-    match error {
-        InstallError::Invalid(problems) => {
-            let mut failure = Failure::coded(
-                StatusCode::UNPROCESSABLE_ENTITY,
-                Code::InstallationInvalid,
-                format!("{text}; nothing was saved"),
-            )
-            .param("problems", problems.len());
-            for problem in problems.iter().flat_map(ConfigError::problems) {
-                let reason = problem.reason();
-                failure.body.problems.push(Problem {
-                    code: Code::InstallationProblem.as_str().to_owned(),
-                    params: floatball_shared::params!("reason" => reason),
-                });
-                failure.body.details.push(reason);
-            }
-            failure
+    let status = match error {
+        InstallError::Invalid(_) | InstallError::BaudNotAllowed { .. } => {
+            StatusCode::UNPROCESSABLE_ENTITY
         }
-        InstallError::Busy { state } => {
-            Failure::coded(StatusCode::CONFLICT, Code::InstallationBusy, text).param("state", state)
-        }
-        InstallError::NotLive => {
-            Failure::coded(StatusCode::CONFLICT, Code::InstallationNotLive, text)
-        }
-        InstallError::NotSaved(reason) => Failure::coded(
-            StatusCode::INTERNAL_SERVER_ERROR,
-            Code::InstallationNotSaved,
-            text.clone(),
-        )
-        .param("reason", reason),
-        InstallError::NoSuchGateway { gateway, links } => {
-            Failure::coded(StatusCode::NOT_FOUND, Code::NoSuchGateway, text)
-                .param("gateway", gateway)
-                .param("last", links.saturating_sub(1))
-        }
-        InstallError::BaudNotAllowed { baud, .. } => baud_not_allowed(text, *baud),
-        InstallError::Baud {
-            gateway,
-            baud,
-            error,
-        } => {
-            let status = match error {
-                BaudError::OutOfRange { .. } => StatusCode::UNPROCESSABLE_ENTITY,
-                BaudError::EstopLatched | BaudError::Link(_) => StatusCode::CONFLICT,
-                BaudError::Port { .. } | BaudError::NotAnswering { .. } => StatusCode::BAD_GATEWAY,
-            };
-            let mut failure = Failure::of(status, error);
-            failure.body.error = text;
-            failure.param("gateway", gateway).param("baud", baud)
+        InstallError::Busy { .. } | InstallError::NotLive => StatusCode::CONFLICT,
+        InstallError::NotSaved(_) => StatusCode::INTERNAL_SERVER_ERROR,
+        InstallError::NoSuchGateway { .. } => StatusCode::NOT_FOUND,
+        InstallError::Baud { error, .. } => match error {
+            BaudError::OutOfRange { .. } => StatusCode::UNPROCESSABLE_ENTITY,
+            BaudError::EstopLatched | BaudError::Link(_) => StatusCode::CONFLICT,
+            BaudError::Port { .. } | BaudError::NotAnswering { .. } => StatusCode::BAD_GATEWAY,
+        },
+    };
+    let mut failure = Failure::of(status, error);
+    if let InstallError::Invalid(problems) = error {
+        for problem in problems.iter().flat_map(ConfigError::problems) {
+            let reason = problem.reason();
+            failure.body.problems.push(Problem {
+                code: Code::InstallationProblem.as_str().to_owned(),
+                params: floatball_shared::params!("reason" => reason),
+            });
+            failure.body.details.push(reason);
         }
     }
-}
-
-/// 422 `baud_not_allowed`: the speeds a gateway takes.
-fn baud_not_allowed(text: String, baud: u32) -> Failure {
-    let allowed: Vec<String> = GATEWAY_BAUDS.iter().map(u32::to_string).collect();
-    Failure::coded(StatusCode::UNPROCESSABLE_ENTITY, Code::BaudNotAllowed, text)
-        .param("baud", baud)
-        .param("allowed", allowed.join(", "))
+    failure
 }
 
 /// `POST /api/gateways/{gateway}/baud`.
@@ -253,10 +219,6 @@ pub async fn mbox_timing(
         .boxes()
         .map(|boxes| Json(boxes.timing()))
         .ok_or_else(|| {
-            Failure::coded(
-                axum::http::StatusCode::NOT_FOUND,
-                floatball_shared::codes::Code::NoMboxBoxes,
-                "this installation has no MBOX boxes",
-            )
+            Failure::from_template(StatusCode::NOT_FOUND, Code::NoMboxBoxes, Params::new())
         })
 }

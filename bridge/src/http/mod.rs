@@ -30,7 +30,8 @@ use axum::middleware::map_response;
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use floatball_shared::api::{ApiError, Problem};
-use floatball_shared::codes::{Code, Coded};
+use floatball_shared::codes::{Code, Coded, Params};
+use floatball_shared::params;
 use serde::de::DeserializeOwned;
 
 use crate::state::AppState;
@@ -100,26 +101,19 @@ pub async fn json_errors(response: Response) -> Response {
         .map(|bytes| String::from_utf8_lossy(&bytes).trim().to_owned())
         .unwrap_or_default();
     let failure = match status {
-        StatusCode::PAYLOAD_TOO_LARGE => Failure::coded(
+        StatusCode::PAYLOAD_TOO_LARGE => Failure::from_template(
             status,
             Code::BodyTooLarge,
-            format!(
-                "the request body is too large: this call accepts at most {MAX_JSON_BYTES} bytes"
-            ),
-        )
-        .param("limit_bytes", MAX_JSON_BYTES),
-        StatusCode::UNSUPPORTED_MEDIA_TYPE => Failure::coded(
-            status,
-            Code::UnsupportedMediaType,
-            "the request's Content-Type is not one this call accepts",
+            params! {"limit_bytes" => MAX_JSON_BYTES},
         ),
+        StatusCode::UNSUPPORTED_MEDIA_TYPE => {
+            Failure::from_template(status, Code::UnsupportedMediaType, Params::new())
+        }
         _ if !text.is_empty() => Failure::refused(status, text.clone()),
-        _ => Failure::refused(
+        _ => Failure::from_template(
             status,
-            format!(
-                "the request was refused ({})",
-                status.canonical_reason().unwrap_or("error")
-            ),
+            Code::RequestRefused,
+            params! {"status" => status.as_u16()},
         ),
     };
     let details = if text.is_empty() || text == failure.body.error {
@@ -139,18 +133,14 @@ pub async fn json_errors(response: Response) -> Response {
 }
 
 async fn not_found() -> Failure {
-    Failure::coded(
-        StatusCode::NOT_FOUND,
-        Code::NotFound,
-        "there is no such API call",
-    )
+    Failure::from_template(StatusCode::NOT_FOUND, Code::NotFound, Params::new())
 }
 
 async fn method_not_allowed() -> Failure {
-    Failure::coded(
+    Failure::from_template(
         StatusCode::METHOD_NOT_ALLOWED,
         Code::MethodNotAllowed,
-        "this API call does not take that method",
+        Params::new(),
     )
 }
 
@@ -173,6 +163,17 @@ impl Failure {
         Self {
             status,
             body: Box::new(ApiError::coded(code, error)),
+            retry_after_s: None,
+        }
+    }
+
+    /// An answer with `status`, a stable `code` and its `params`, worded by the code's
+    /// English template ([`floatball_shared::codes::english_text`]), the sentence the
+    /// app shows in English.
+    pub fn from_template(status: StatusCode, code: Code, params: Params) -> Self {
+        Self {
+            status,
+            body: Box::new(ApiError::from_template(code, params)),
             retry_after_s: None,
         }
     }
@@ -252,13 +253,11 @@ impl IntoResponse for Failure {
 /// what serde found.
 fn json_body<T: DeserializeOwned>(body: &[u8], what: &str) -> Result<T, Failure> {
     serde_json::from_slice(body).map_err(|error| {
-        Failure::coded(
+        Failure::from_template(
             StatusCode::BAD_REQUEST,
             Code::BadJson,
-            format!("the body is not a valid {what}: {error}"),
+            params! {"what" => what, "reason" => error},
         )
-        .param("what", what)
-        .param("reason", error)
     })
 }
 

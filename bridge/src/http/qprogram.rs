@@ -18,6 +18,7 @@ use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::QProgramListing;
 use floatball_shared::codes::Code;
+use floatball_shared::params;
 use floatball_shared::plan::verdict::Why;
 use floatball_shared::scl::qprogram::{QProgramError, compile};
 
@@ -29,9 +30,12 @@ use crate::state::AppState;
 
 /// The query: the ball and whether to answer text.
 fn parse_query(query: Option<&str>) -> Result<(usize, bool), Failure> {
-    let bad = |message: String| {
-        Failure::coded(StatusCode::BAD_REQUEST, Code::BadQuery, message.clone())
-            .param("reason", message)
+    let bad = |reason: String| {
+        Failure::from_template(
+            StatusCode::BAD_REQUEST,
+            Code::BadQuery,
+            params! {"reason" => reason},
+        )
     };
     let mut unit = None;
     let mut text = false;
@@ -67,12 +71,11 @@ fn compile_failure(error: QProgramError, ball: usize) -> Failure {
         QProgramError::InvalidConfig { .. } => {
             Failure::internal("the Q program settings are invalid", &error)
         }
-        other => Failure::coded(
+        other => Failure::from_template(
             StatusCode::UNPROCESSABLE_ENTITY,
             Code::QprogramRefused,
-            other.to_string(),
+            params! {"reason" => other},
         )
-        .param("reason", &other)
         .with_problems([&Why::Program { ball, error: other }]),
     }
 }
@@ -105,17 +108,11 @@ pub async fn qprogram(
     let listing = blocking(move || {
         let show = compiling.shows().load(&name).map_err(store_failure)?;
         let track = show.tracks.get(unit).ok_or_else(|| {
-            Failure::coded(
+            Failure::from_template(
                 StatusCode::NOT_FOUND,
                 Code::NoSuchUnit,
-                format!(
-                    "the show \"{name}\" has {} balls: no unit {unit} (the first is 0)",
-                    show.tracks.len()
-                ),
+                params! {"name" => name, "unit" => unit, "units" => show.tracks.len()},
             )
-            .param("name", &name)
-            .param("unit", unit)
-            .param("units", show.tracks.len())
         })?;
         let config = compiling.config();
         let settings = qprogram_config(&config.installation, &overrides(&config));

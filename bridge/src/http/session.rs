@@ -23,7 +23,8 @@ use axum::http::request::Parts;
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{LoginRequest, LoginResponse, PasswordChange};
-use floatball_shared::codes::Code;
+use floatball_shared::codes::{Code, Params};
+use floatball_shared::params;
 
 use super::{Failure, blocking, json_body};
 use crate::auth::{Busy, CHECK_QUEUE_WAIT, PasswordError};
@@ -58,10 +59,10 @@ impl FromRequestParts<AppState> for Session {
                 token: token.to_owned(),
             })
         } else {
-            Err(Failure::coded(
+            Err(Failure::from_template(
                 StatusCode::UNAUTHORIZED,
                 Code::SessionExpired,
-                "the session has expired or ended; log in again",
+                Params::new(),
             ))
         }
     }
@@ -94,18 +95,14 @@ pub fn must_change_password() -> Failure {
 
 /// The 429 for an address that guessed too often.
 fn too_many(wait: std::time::Duration) -> Failure {
-    let seconds = wait.as_secs() + u64::from(wait.subsec_nanos() > 0);
+    let seconds = (wait.as_secs() + u64::from(wait.subsec_nanos() > 0)).max(1);
     Failure {
-        retry_after_s: Some(seconds.max(1)),
-        ..Failure::coded(
+        retry_after_s: Some(seconds),
+        ..Failure::from_template(
             StatusCode::TOO_MANY_REQUESTS,
             Code::TooManyAttempts,
-            format!(
-                "too many wrong passwords; try again in {} s",
-                seconds.max(1)
-            ),
+            params! {"retry_after_s" => seconds},
         )
-        .param("retry_after_s", seconds.max(1))
     }
 }
 
@@ -116,15 +113,11 @@ const BUSY_RETRY_AFTER_S: u64 = 5;
 fn busy(_: Busy) -> Failure {
     Failure {
         retry_after_s: Some(BUSY_RETRY_AFTER_S),
-        ..Failure::coded(
+        ..Failure::from_template(
             StatusCode::SERVICE_UNAVAILABLE,
             Code::LoginBusy,
-            format!(
-                "the bridge is busy checking other passwords; try again in \
-                 {BUSY_RETRY_AFTER_S} s"
-            ),
+            params! {"retry_after_s" => BUSY_RETRY_AFTER_S},
         )
-        .param("retry_after_s", BUSY_RETRY_AFTER_S)
     }
 }
 
@@ -153,10 +146,10 @@ pub async fn login(
         blocking(move || checking.password().verify(&mut permit, &request.password)).await?;
     if !right {
         tracing::warn!("wrong password from {}", client.ip());
-        return Err(Failure::coded(
+        return Err(Failure::from_template(
             StatusCode::UNAUTHORIZED,
             Code::WrongPassword,
-            "wrong password",
+            Params::new(),
         ));
     }
     state.login_limiter().forgive(client.ip(), started);
@@ -211,10 +204,10 @@ pub async fn change_password(
             tracing::info!("the operator password was changed from {}", client.ip());
             Ok(StatusCode::NO_CONTENT.into_response())
         }
-        Err(PasswordError::WrongPassword) => Err(Failure::coded(
+        Err(PasswordError::WrongPassword) => Err(Failure::from_template(
             StatusCode::FORBIDDEN,
             Code::WrongCurrentPassword,
-            "the current password is wrong",
+            Params::new(),
         )),
         Err(PasswordError::Unacceptable(rule)) => {
             state.login_limiter().forgive(client.ip(), started);

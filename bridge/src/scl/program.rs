@@ -125,34 +125,24 @@ pub fn console(
     }
     let index = gateway.unwrap_or(0);
     let link = net.links().get(index).ok_or_else(|| {
-        let last = net.links().len().saturating_sub(1);
-        ServerMessage::error(
+        ServerMessage::from_template(
             Code::NoSuchGateway,
-            format!("there is no gateway {index}; gateways are numbered 0 to {last}"),
-            params! {"gateway" => index, "last" => last},
+            params! {"gateway" => index, "last" => net.links().len().saturating_sub(1)},
         )
     })?;
     let mut targets: Vec<(usize, Request)> = Vec::with_capacity(requests.len());
     for request in requests {
         let drive = match request.address {
             Some(address) => link.drive_of(address).ok_or_else(|| {
-                ServerMessage::error(
+                ServerMessage::from_template(
                     Code::NoSuchDrive,
-                    format!(
-                        "there is no drive {:?} on gateway {index}",
-                        address.character()
-                    ),
                     params! {"drive" => address.character(), "gateway" => index},
                 )
             })?,
             None if link.drives() == 1 => 0,
             None => {
-                return Err(ServerMessage::error(
+                return Err(ServerMessage::from_template(
                     Code::DriveAddressNeeded,
-                    format!(
-                        "{request}: put the drive's address first (gateway {index} has {} drives)",
-                        link.drives()
-                    ),
                     params! {"request" => &request, "gateway" => index, "drives" => link.drives()},
                 ));
             }
