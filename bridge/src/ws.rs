@@ -30,7 +30,9 @@
 //! console lines are parsed by the codec; a valid line is queued, in order, on the
 //! bulk lane of its gateway (or of all), by a task of the session so that a full lane
 //! never holds up status and feedback. While the e-stop is latched, a line that could
-//! move a ball is refused (queries still go).
+//! move a ball is refused (queries still go). A line holding `BDR=x;` is refused
+//! whole: the line speed changes only through the guided change
+//! ([`crate::link::Link::change_baud`]), which keeps the link in step with the gateway.
 //!
 //! On an MBOX installation a `raw` line is MBOX console text
 //! (`floatball_shared::mbox::console`, docs/gateways.md §7), parsed with the selected
@@ -60,7 +62,7 @@ use axum::extract::{Query, State};
 use axum::http::{HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{ClientMessage, FeedbackFrame, ServerMessage};
-use floatball_shared::ascii::{Batch, Form, parse_script};
+use floatball_shared::ascii::{Batch, Form, GatewayCommand, Instruction, parse_script};
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::mbox::console::{self as mbox_console, Operation};
 use floatball_shared::mbox::{BoxAddress, RegisterWrite, Route};
@@ -753,6 +755,23 @@ fn answer(
                 Ok(instructions) => instructions,
                 Err(parse_error) => return Some(invalid_line(&parse_error)),
             };
+            if let Some(baud) = instructions
+                .iter()
+                .find_map(|instruction| match instruction {
+                    Instruction::Gateway(GatewayCommand::SetBaud { baud }) => Some(*baud),
+                    _ => None,
+                })
+            {
+                return Some(ServerMessage::error(
+                    Code::ConsoleLineSpeed,
+                    format!(
+                        "the console cannot set the line speed (BDR={baud}): change it in \
+                         Commissioning → Line speed, which keeps the bridge in step with the \
+                         gateway; this line was not sent"
+                    ),
+                    params! {"baud" => baud},
+                ));
+            }
             if state.playback().latch().is_latched()
                 && !instructions
                     .iter()

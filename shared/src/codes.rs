@@ -277,6 +277,9 @@ codes! {
     EstopLatched = "estop_latched" [];
     /// Too many console lines wait for the gateway.
     ConsoleBusy = "console_busy" [];
+    /// A console line holds `BDR=x;`: a gateway's line speed changes only through the
+    /// guided change (Commissioning → line speed), which keeps the link in step.
+    ConsoleLineSpeed = "console_line_speed" ["baud"];
     /// The console line could not be sent (`reason` in English).
     LineNotSent = "line_not_sent" ["reason"];
     /// The E-stop could not reach these gateways now (`estop_sent` with `unreached`;

@@ -446,6 +446,11 @@ pub(super) const ERROR_TEXTS: &[(Code, &str, &str)] = &[
         "Too many console lines are waiting for the gateway; this one was not sent",
     ),
     (
+        Code::ConsoleLineSpeed,
+        "控制台不能设置线路速率（BDR={baud}）：请在“调试 → 线路速率”中更改，网桥会随网关一起切换；这一行未发送",
+        "The console cannot set the line speed (BDR={baud}): change it in Commissioning → Line speed, which keeps the bridge in step with the gateway; this line was not sent",
+    ),
+    (
         Code::LineNotSent,
         "这一行未发送：{reason}",
         "The line was not sent: {reason}",
