@@ -17,6 +17,13 @@
 //!    the player refuse (it left idle in between), the old links and file are put
 //!    back.
 //!
+//! A line-speed change is checked and marked under the lock
+//! ([`AppState::line_speed_change`]), then releases it while the link waits (up to
+//! [`BAUD_RESTART_WAIT`]) for the gateway's power cycle — shows and the playlist stay
+//! editable, a Start waits for the mark, other installation changes are refused as
+//! busy — and takes it again to save and apply the new speed (or, when the gateway
+//! stays silent, ends with the line back at its old speed and nothing saved).
+//!
 //! What is live: the matrix (rows, cols, pitch, travel, limits, calibration, home,
 //! approach speed; for MBOX boxes and MOONS' drives too, as long as their gateways'
 //! stations stay the same) and the UIM2503 gateways (port, baud, stations, how many).
@@ -216,18 +223,27 @@ pub async fn change_baud(
     baud: u32,
 ) -> Result<BaudChanged, InstallError> {
     commissioning_done(state).await?;
-    let _catalogue = state.lock_catalogue().await;
-    idle(state)?;
-    // What the units hold may no longer fit the installation or the line.
-    crate::arming::disarm(state);
-    let links = state.gateways().links();
-    let link = links.get(gateway).ok_or(InstallError::NoSuchGateway {
-        gateway,
-        links: links.len(),
-    })?;
-    if !floatball_shared::plan::report::GATEWAY_BAUDS.contains(&baud) {
-        return Err(InstallError::BaudNotAllowed { gateway, baud });
-    }
+    // Checked and marked under the catalogue lock; the lock is not held while the
+    // link waits (up to BAUD_RESTART_WAIT) for the gateway's power cycle: a Start
+    // waits for the mark instead, and other installation changes are refused.
+    let (link, _changing) = {
+        let _catalogue = state.lock_catalogue().await;
+        idle(state)?;
+        let links = state.gateways().links();
+        let link = links
+            .get(gateway)
+            .cloned()
+            .ok_or(InstallError::NoSuchGateway {
+                gateway,
+                links: links.len(),
+            })?;
+        if !floatball_shared::plan::report::GATEWAY_BAUDS.contains(&baud) {
+            return Err(InstallError::BaudNotAllowed { gateway, baud });
+        }
+        // What the units hold may no longer fit the installation or the line.
+        crate::arming::disarm(state);
+        (link, state.line_speed_change())
+    };
     let changed = link
         .change_baud(baud, BAUD_RESTART_WAIT)
         .await
@@ -236,6 +252,8 @@ pub async fn change_baud(
             baud,
             error,
         })?;
+    // The gateway answers at the new speed: saved and applied under the lock.
+    let _catalogue = state.lock_catalogue().await;
     let current = state.config();
     let current_info = info(&current.installation);
     let mut new = current_info.clone();
@@ -270,6 +288,11 @@ async fn commissioning_done(state: &AppState) -> Result<(), InstallError> {
 
 /// Refused unless the player is idle and no Start is pending.
 fn idle(state: &AppState) -> Result<(), InstallError> {
+    if state.line_speed_changing() {
+        return Err(InstallError::Busy {
+            state: "changing a line speed".to_owned(),
+        });
+    }
     if state.starts_pending() {
         return Err(InstallError::Busy {
             state: "starting".to_owned(),

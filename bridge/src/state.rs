@@ -96,6 +96,8 @@ struct Inner {
     catalogue: Mutex<()>,
     /// Starts and Resets that read the playlist and are being planned ([`StartPending`]).
     starts_pending: Arc<AtomicUsize>,
+    /// Line-speed changes under way ([`LineSpeedChange`]): a Start waits for them.
+    line_speed_changes: watch::Sender<usize>,
     gateways: Gateways,
     /// Roll calls, assignments, identify moves and the units' health.
     commission: Commission,
@@ -292,6 +294,7 @@ impl AppState {
                 playlist,
                 catalogue: Mutex::new(()),
                 starts_pending,
+                line_speed_changes: watch::Sender::new(0),
                 gateways,
                 commission,
                 playback,
@@ -364,12 +367,41 @@ impl AppState {
     /// the player has taken or refused it (the guard's drop): planning takes a while,
     /// and all that time the status still says idle. Taken under the catalogue lock,
     /// so a playlist change either lands before the read or sees the mark.
+    /// A line-speed change under way ([`AppState::line_speed_change`]) is waited out
+    /// first, without holding the lock.
     pub async fn start_pending(&self) -> StartPending {
-        let _catalogue = self.lock_catalogue().await;
-        self.inner.starts_pending.fetch_add(1, Ordering::SeqCst);
-        StartPending {
+        let mut changes = self.inner.line_speed_changes.subscribe();
+        loop {
+            {
+                let _catalogue = self.lock_catalogue().await;
+                if *changes.borrow_and_update() == 0 {
+                    self.inner.starts_pending.fetch_add(1, Ordering::SeqCst);
+                    return StartPending {
+                        state: self.clone(),
+                    };
+                }
+            }
+            let _ = changes.wait_for(|changes| *changes == 0).await;
+        }
+    }
+
+    /// Marks a line-speed change as under way until the guard's drop: taken under
+    /// the catalogue lock, which the change then releases while it waits for the
+    /// gateway's power cycle (up to a minute), so shows and the playlist can be edited
+    /// meanwhile; a Start waits for the mark to go, and another installation change is
+    /// refused ([`AppState::line_speed_changing`]).
+    pub fn line_speed_change(&self) -> LineSpeedChange {
+        self.inner
+            .line_speed_changes
+            .send_modify(|changes| *changes += 1);
+        LineSpeedChange {
             state: self.clone(),
         }
+    }
+
+    /// Whether a line-speed change is under way ([`AppState::line_speed_change`]).
+    pub fn line_speed_changing(&self) -> bool {
+        *self.inner.line_speed_changes.borrow() > 0
     }
 
     /// Whether a Start or Reset is being prepared ([`AppState::start_pending`]).
@@ -429,6 +461,21 @@ impl AppState {
 #[derive(Debug)]
 pub struct StartPending {
     state: AppState,
+}
+
+/// A line-speed change under way ([`AppState::line_speed_change`]); ends when dropped.
+#[derive(Debug)]
+pub struct LineSpeedChange {
+    state: AppState,
+}
+
+impl Drop for LineSpeedChange {
+    fn drop(&mut self) {
+        self.state
+            .inner
+            .line_speed_changes
+            .send_modify(|changes| *changes = changes.saturating_sub(1));
+    }
 }
 
 impl Drop for StartPending {

@@ -16,6 +16,12 @@
 //! session says so and closes. Anything the bridge cannot do is answered with an
 //! `error` message and the connection stays open.
 //!
+//! No reply is dropped in silence: the reading half queues each in the session's
+//! [`Outbox`] without waiting (`estop_sent` ahead of everything, runs of `pong` as a
+//! count), and a client that gets more than [`REPLY_LIMIT`] other replies waiting is
+//! flooding: what it sends from then on is not acted on (except `estop`, always
+//! pressed and acknowledged), and the session closes with 1008 and [`FLOODED`].
+//!
 //! `estop` is always obeyed, even before the initial password is changed: it is
 //! carried out right here, before anything else, by pressing the e-stop latch (no lock,
 //! no await: [`crate::estop`]), and answered with `estop_sent`. Start, Reset and Home
@@ -24,7 +30,9 @@
 //! console lines are parsed by the codec; a valid line is queued, in order, on the
 //! bulk lane of its gateway (or of all), by a task of the session so that a full lane
 //! never holds up status and feedback. While the e-stop is latched, a line that could
-//! move a ball is refused (queries still go).
+//! move a ball is refused (queries still go). A line holding `BDR=x;` is refused
+//! whole: the line speed changes only through the guided change
+//! ([`crate::link::Link::change_baud`]), which keeps the link in step with the gateway.
 //!
 //! On an MBOX installation a `raw` line is MBOX console text
 //! (`floatball_shared::mbox::console`, docs/gateways.md §7), parsed with the selected
@@ -44,8 +52,9 @@
 //! [`crate::scl::program::console`]. While the e-stop is latched only queries and
 //! stops go. Every drive's decoded answer reaches every session as `scl_reply`.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::net::SocketAddr;
+use std::sync::Arc;
 use std::time::Duration;
 
 use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade, close_code};
@@ -53,7 +62,7 @@ use axum::extract::{Query, State};
 use axum::http::{HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use floatball_shared::api::{ClientMessage, FeedbackFrame, ServerMessage};
-use floatball_shared::ascii::{Batch, Form, parse_script};
+use floatball_shared::ascii::{Batch, Form, GatewayCommand, Instruction, parse_script};
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::mbox::console::{self as mbox_console, Operation};
 use floatball_shared::mbox::{BoxAddress, Route};
@@ -130,11 +139,10 @@ enum Step {
     Close,
 }
 
-/// What a session's reading half tells its writing half.
+/// What a session's reading half tells its writing half (besides replies, which go
+/// through the [`Outbox`]).
 #[derive(Debug)]
 enum Inbound {
-    /// A message for the client (an answer to one of its messages).
-    Reply(ServerMessage),
     /// The client used a token that is no longer valid.
     EndSession,
     /// The client sent what cannot be received: close with this frame.
@@ -143,9 +151,167 @@ enum Inbound {
     Closed,
 }
 
-/// Replies a session's reader may have waiting for its writer; a client that sends
-/// faster than it reads loses the excess replies, never the effect of its messages.
-const REPLY_QUEUE: usize = 64;
+/// Session events the reading half may have waiting for the writing half.
+const INBOUND_QUEUE: usize = 8;
+
+/// Replies to a client's messages, other than `pong`, that may wait for its writer
+/// (waiting pongs are a count: they never overflow). A client that sends so fast that
+/// more would wait is flooding: the message that would overflow is not acted on, nor
+/// any after it except `estop`, and the session closes with 1008 and [`FLOODED`] once
+/// the `estop_sent` already waiting have been sent.
+pub const REPLY_LIMIT: usize = 1024;
+
+/// The close reason of a session whose client flooded it.
+pub const FLOODED: &str =
+    "flooded: over 1024 replies were waiting; later messages were not acted on (estop always is)";
+
+/// The replies waiting for a session's writer, filled by its reader without waiting:
+/// acknowledgements of `estop` ahead of everything, then the others in order, runs of
+/// `pong` as one count. A guard is taken, a reply pushed or popped, and the guard
+/// dropped at once.
+#[derive(Default)]
+struct Outbox {
+    pending: std::sync::Mutex<Pending>,
+    ready: tokio::sync::Notify,
+}
+
+#[derive(Default)]
+struct Pending {
+    /// `estop_sent`, sent ahead of everything.
+    safety: VecDeque<ServerMessage>,
+    /// Every other reply, in order.
+    replies: VecDeque<Waiting>,
+    /// How many replies `replies` holds besides its pongs.
+    count: usize,
+    /// The client flooded: the session closes.
+    flooded: bool,
+}
+
+enum Waiting {
+    Pongs(usize),
+    Reply(Box<ServerMessage>),
+}
+
+/// What a session's writer sends next.
+enum Next {
+    Reply(Box<ServerMessage>),
+    /// Close with 1008 and [`FLOODED`].
+    Flooded,
+    Nothing,
+}
+
+impl Outbox {
+    fn pending(&self) -> std::sync::MutexGuard<'_, Pending> {
+        self.pending
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Whether another message from the client may be acted on: there is room for its
+    /// reply. When there is not, the client is flooding: the writer is told to close.
+    fn admit(&self) -> bool {
+        let mut pending = self.pending();
+        if !pending.flooded && pending.count >= REPLY_LIMIT {
+            pending.flooded = true;
+            drop(pending);
+            tracing::warn!("closing a WebSocket whose client sends faster than it reads");
+            self.ready.notify_one();
+            return false;
+        }
+        !pending.flooded
+    }
+
+    /// Queues `reply` for the writer: an `estop_sent` ahead of everything, any other
+    /// after those waiting (dropped once the session is flooded: it is closing).
+    fn push(&self, reply: ServerMessage) {
+        let mut pending = self.pending();
+        match reply {
+            ServerMessage::EstopSent { .. } => {
+                if pending.safety.len() < REPLY_LIMIT {
+                    pending.safety.push_back(reply);
+                } else {
+                    pending.flooded = true;
+                }
+            }
+            _ if pending.flooded => return,
+            ServerMessage::Pong => {
+                if let Some(Waiting::Pongs(run)) = pending.replies.back_mut() {
+                    *run += 1;
+                } else {
+                    pending.replies.push_back(Waiting::Pongs(1));
+                }
+            }
+            reply => {
+                pending.count += 1;
+                pending.replies.push_back(Waiting::Reply(Box::new(reply)));
+            }
+        }
+        drop(pending);
+        self.ready.notify_one();
+    }
+
+    /// What the writer sends next.
+    fn next(&self) -> Next {
+        let mut pending = self.pending();
+        if let Some(reply) = pending.safety.pop_front() {
+            return Next::Reply(Box::new(reply));
+        }
+        if pending.flooded {
+            return Next::Flooded;
+        }
+        match pending.replies.front_mut() {
+            None => Next::Nothing,
+            Some(Waiting::Pongs(run)) if *run > 1 => {
+                *run -= 1;
+                Next::Reply(Box::new(ServerMessage::Pong))
+            }
+            Some(Waiting::Pongs(_)) => {
+                pending.replies.pop_front();
+                Next::Reply(Box::new(ServerMessage::Pong))
+            }
+            Some(Waiting::Reply(_)) => match pending.replies.pop_front() {
+                Some(Waiting::Reply(reply)) => {
+                    pending.count -= 1;
+                    Next::Reply(reply)
+                }
+                _ => Next::Nothing,
+            },
+        }
+    }
+}
+
+/// Sends every reply waiting in `outbox`; closes with 1008 when the client flooded.
+async fn send_replies(
+    sink: &mut Sink,
+    outbox: &Outbox,
+    inbound: &mut mpsc::Receiver<Inbound>,
+) -> Step {
+    loop {
+        match outbox.next() {
+            Next::Reply(reply) => {
+                if send(sink, &reply).await.is_err() {
+                    return Step::Close;
+                }
+            }
+            Next::Flooded => {
+                let closing = sink
+                    .send(Message::Close(Some(CloseFrame {
+                        code: close_code::POLICY,
+                        reason: FLOODED.into(),
+                    })))
+                    .await;
+                // The reader goes on pressing every e-stop the client still sends
+                // until its side of the closing handshake (no answer can follow a
+                // close frame).
+                if closing.is_ok() {
+                    closing_handshake(inbound).await;
+                }
+                return Step::Close;
+            }
+            Next::Nothing => return Step::Continue,
+        }
+    }
+}
 
 type Sink = futures_util::stream::SplitSink<WebSocket, Message>;
 type Stream = futures_util::stream::SplitStream<WebSocket>;
@@ -165,7 +331,8 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
     let (console_errors, mut console_failures) = mpsc::channel(CONSOLE_QUEUE);
     let replies = console_errors.clone();
     tokio::spawn(console(state.clone(), waiting_lines, console_errors));
-    let (inbound_tx, mut inbound) = mpsc::channel(REPLY_QUEUE);
+    let (inbound_tx, mut inbound) = mpsc::channel(INBOUND_QUEUE);
+    let outbox = Arc::new(Outbox::default());
     let reader = tokio::spawn(read_messages(
         stream,
         state.clone(),
@@ -173,6 +340,7 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
         Senders {
             console_lines,
             replies,
+            outbox: Arc::clone(&outbox),
             inbound: inbound_tx,
             relay,
         },
@@ -266,8 +434,8 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
                     end_session(&mut sink, &mut inbound).await
                 }
             }
+            () = outbox.ready.notified() => send_replies(&mut sink, &outbox, &mut inbound).await,
             message = inbound.recv() => match message {
-                Some(Inbound::Reply(reply)) => sent(send(&mut sink, &reply).await),
                 Some(Inbound::EndSession) => end_session(&mut sink, &mut inbound).await,
                 Some(Inbound::Refuse(frame)) => {
                     let _ = sink.send(Message::Close(Some(frame))).await;
@@ -324,7 +492,9 @@ struct Senders {
     console_lines: mpsc::Sender<ConsoleLine>,
     /// Replies sent by the console task.
     replies: mpsc::Sender<ServerMessage>,
-    /// Replies and session events for the writing half.
+    /// Replies to the client's messages, for the writing half.
+    outbox: Arc<Outbox>,
+    /// Session events for the writing half.
     inbound: mpsc::Sender<Inbound>,
     /// Whether the client wants the gateways' feedback frames.
     relay: watch::Sender<bool>,
@@ -334,6 +504,7 @@ async fn read_messages(mut stream: Stream, state: AppState, token: String, sende
     let Senders {
         console_lines,
         replies,
+        outbox,
         inbound,
         relay,
     } = senders;
@@ -345,8 +516,13 @@ async fn read_messages(mut stream: Stream, state: AppState, token: String, sende
                     // Keep reading: the client's side of the closing handshake.
                     continue;
                 }
+                // Past the limit only an e-stop is acted on (and acknowledged first).
+                if !outbox.admit() && !is_estop(text.as_str()) {
+                    continue;
+                }
                 answer(&state, &console_lines, &replies, &relay, text.as_str())
             }
+            Some(Ok(Message::Binary(_))) if !outbox.admit() => None,
             Some(Ok(Message::Binary(_))) => Some(templated(Code::BinaryFrame)),
             Some(Ok(Message::Ping(_) | Message::Pong(_))) => None,
             Some(Ok(Message::Close(_))) | None => {
@@ -359,13 +535,18 @@ async fn read_messages(mut stream: Stream, state: AppState, token: String, sende
                 return;
             }
         };
-        if let Some(reply) = reply
-            && inbound.try_send(Inbound::Reply(reply)).is_err()
-            && inbound.is_closed()
-        {
-            return;
+        if let Some(reply) = reply {
+            outbox.push(reply);
         }
     }
+}
+
+/// Whether a client's text frame is an `estop`.
+fn is_estop(text: &str) -> bool {
+    matches!(
+        serde_json::from_str::<ClientMessage>(text),
+        Ok(ClientMessage::Estop)
+    )
 }
 
 /// Sends a session's console lines in order, each waiting for room on its lanes;
@@ -424,16 +605,21 @@ async fn end_session(sink: &mut Sink, inbound: &mut mpsc::Receiver<Inbound>) -> 
         })))
         .await;
     if closing.is_ok() {
-        let _ = tokio::time::timeout(CLOSE_HANDSHAKE, async {
-            while let Some(message) = inbound.recv().await {
-                if let Inbound::Closed | Inbound::Refuse(_) = message {
-                    break;
-                }
-            }
-        })
-        .await;
+        closing_handshake(inbound).await;
     }
     Step::Close
+}
+
+/// Waits, at most [`CLOSE_HANDSHAKE`], for the client's side of the closing handshake.
+async fn closing_handshake(inbound: &mut mpsc::Receiver<Inbound>) {
+    let _ = tokio::time::timeout(CLOSE_HANDSHAKE, async {
+        while let Some(message) = inbound.recv().await {
+            if let Inbound::Closed | Inbound::Refuse(_) = message {
+                break;
+            }
+        }
+    })
+    .await;
 }
 
 /// A refusal with `code` and no parameters, in words of its own.
@@ -552,6 +738,18 @@ fn answer(
                 Ok(instructions) => instructions,
                 Err(parse_error) => return Some(invalid_line(&parse_error)),
             };
+            if let Some(baud) = instructions
+                .iter()
+                .find_map(|instruction| match instruction {
+                    Instruction::Gateway(GatewayCommand::SetBaud { baud }) => Some(*baud),
+                    _ => None,
+                })
+            {
+                return Some(ServerMessage::from_template(
+                    Code::ConsoleLineSpeed,
+                    params! {"baud" => baud},
+                ));
+            }
             if state.playback().latch().is_latched()
                 && !instructions
                     .iter()
@@ -635,4 +833,58 @@ fn mbox_line(
 async fn send(sink: &mut Sink, message: &ServerMessage) -> Result<(), axum::Error> {
     let text = serde_json::to_string(message).map_err(axum::Error::new)?;
     sink.send(Message::Text(text.into())).await
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_flood_reason_names_the_limit_and_fits_a_close_frame() {
+        assert!(FLOODED.contains(&REPLY_LIMIT.to_string()));
+        assert!(FLOODED.len() <= 123);
+    }
+
+    #[test]
+    fn estop_acknowledgements_go_first_and_pongs_keep_their_count_and_order() {
+        let outbox = Outbox::default();
+        outbox.push(ServerMessage::Pong);
+        outbox.push(ServerMessage::Pong);
+        outbox.push(error(Code::EmptyLine, "x"));
+        outbox.push(ServerMessage::Pong);
+        outbox.push(ServerMessage::EstopSent {
+            unreached: Vec::new(),
+        });
+        let mut sent = Vec::new();
+        while let Next::Reply(reply) = outbox.next() {
+            sent.push(match *reply {
+                ServerMessage::Pong => "pong",
+                ServerMessage::EstopSent { .. } => "estop_sent",
+                _ => "error",
+            });
+        }
+        assert_eq!(sent, ["estop_sent", "pong", "pong", "error", "pong"]);
+    }
+
+    #[test]
+    fn past_the_limit_the_outbox_is_flooded_but_estop_is_still_acknowledged() {
+        let outbox = Outbox::default();
+        for _ in 0..10 * REPLY_LIMIT {
+            assert!(outbox.admit());
+            outbox.push(ServerMessage::Pong);
+        }
+        for _ in 0..REPLY_LIMIT {
+            assert!(outbox.admit());
+            outbox.push(error(Code::BadMessage, "x"));
+        }
+        assert!(!outbox.admit());
+        outbox.push(error(Code::BadMessage, "x"));
+        outbox.push(ServerMessage::EstopSent {
+            unreached: Vec::new(),
+        });
+        assert!(
+            matches!(outbox.next(), Next::Reply(reply) if matches!(*reply, ServerMessage::EstopSent { .. }))
+        );
+        assert!(matches!(outbox.next(), Next::Flooded));
+    }
 }

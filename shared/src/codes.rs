@@ -410,6 +410,10 @@ codes! {
     /// Too many console lines wait for the gateway.
     ConsoleBusy = "console_busy" []
         => "Too many console lines are waiting for the gateway; this one was not sent";
+    /// A console line holds `BDR=x;`: a gateway's line speed changes only through the
+    /// guided change (Commissioning → line speed), which keeps the link in step.
+    ConsoleLineSpeed = "console_line_speed" ["baud"]
+        => "The console cannot set the line speed (BDR={baud}): change it in Commissioning → Line speed, which keeps the bridge in step with the gateway; this line was not sent";
     /// The console line could not be sent (`reason` in English).
     LineNotSent = "line_not_sent" ["reason"]
         => "The line was not sent: {reason}";

@@ -214,6 +214,10 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
         "急停已锁定：在开始、重置或回零之前只能发送查询；这一行未发送",
     ),
     (Code::ConsoleBusy, "等待发往网关的指令太多；这一行未发送"),
+    (
+        Code::ConsoleLineSpeed,
+        "控制台不能设置线路速率（BDR={baud}）：请在“调试 → 线路速率”中更改，网桥会随网关一起切换；这一行未发送",
+    ),
     (Code::LineNotSent, "这一行未发送：{reason}"),
     (Code::NoSuchDrive, "网关 {gateway} 上没有驱动器 {drive}"),
     (
