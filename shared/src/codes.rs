@@ -618,7 +618,7 @@ codes! {
         => "the installation lists {listed} units for a matrix of {expected}";
     /// Fix: a faster line is enough.
     FixFasterLine = "fix_faster_line" ["baud"]
-        => "raise the line to {baud} baud (BDR={baud}; on the gateway, then `baud = {baud}` in floatball.toml)";
+        => "raise the line to {baud} baud (Commissioning → Line speed)";
     /// Fix: no baud rate is enough on its own.
     FixNoBaudEnough = "fix_no_baud_enough" ["max_baud"]
         => "no baud rate up to {max_baud} is enough on its own";
@@ -685,7 +685,7 @@ codes! {
     /// Advice: a gateway's preload is long at its rate; a faster rate shortens it
     /// (seconds rounded up; `preload_min` with one decimal).
     PreloadLong = "preload_long" ["gateway", "baud", "preload_bytes", "preload_s", "preload_min", "faster_baud", "faster_preload_s"]
-        => "gateway {gateway} preloads {preload_bytes} bytes in {preload_s} s ({preload_min} min) at {baud} baud before the show can start; at {faster_baud} baud it takes {faster_preload_s} s (change the line speed: BDR={faster_baud}; on the gateway, then `baud = {faster_baud}` in floatball.toml)";
+        => "gateway {gateway} preloads {preload_bytes} bytes in {preload_s} s ({preload_min} min) at {baud} baud before the show can start; at {faster_baud} baud it takes {faster_preload_s} s (change the line speed to {faster_baud} in Commissioning → Line speed)";
     /// Advice: a gateway's preload is long even at the fastest rate.
     PreloadLongFastest = "preload_long_fastest" ["gateway", "baud", "preload_bytes", "preload_s", "preload_min"]
         => "gateway {gateway} preloads {preload_bytes} bytes in {preload_s} s ({preload_min} min) at {baud} baud before the show can start, even at the fastest rate; as the playlist's first entry it is loaded while the matrix is idle";

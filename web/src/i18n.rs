@@ -1348,7 +1348,7 @@ mod tests {
         assert_eq!(
             Lang::Zh.plan_fixes(&report),
             [
-                "把线路提高到 38400 波特（在网关上设 BDR=38400;，再在 floatball.toml 中设 `baud = 38400`）",
+                "把线路提高到 38400 波特（调试 → 线路速率）",
                 "english other"
             ]
         );
@@ -1388,9 +1388,9 @@ mod tests {
         let english_reason = "gateway sim (9600 baud) cannot keep its 100 units fed: \"wave\" \
              streams 2400 B/s while the line carries 960 B/s, so the units' row buffers run dry \
              1.5 s into the show even with a full 256-row preload";
-        let english_fixes = "raise the line to 38400 baud (BDR=38400; on the gateway, then \
-             `baud = 38400` in floatball.toml); or shorten the show to at most 500 rows per \
-             ball so it loads completely before it starts";
+        let english_fixes = "raise the line to 38400 baud (Commissioning → Line speed); or \
+             shorten the show to at most 500 rows per ball so it loads completely before it \
+             starts";
         let english = format!(
             "entry 1 (\"wave\") cannot run: {english_reason}. To make it run: {english_fixes}"
         );
@@ -1434,8 +1434,8 @@ mod tests {
             zh,
             "第 1 项（“wave”）无法运行：网关 sim（9600 波特）供不上它的 100 个单元：“wave”每秒需要 \
              2400 字节，线路只能传 960 字节，即使预载满 256 行，单元的行缓冲也会在动作开始 1.5 \
-             秒后用尽。建议：把线路提高到 38400 波特（在网关上设 BDR=38400;，再在 floatball.toml \
-             中设 `baud = 38400`）；或把动作缩短到每个球最多 500 行，使它在开始前完全载入"
+             秒后用尽。建议：把线路提高到 38400 波特（调试 → 线路速率）；或把动作缩短到每个球最多 \
+             500 行，使它在开始前完全载入"
         );
         assert!(
             !zh.contains("baud)") && !zh.contains("To make it run"),

@@ -227,8 +227,7 @@ impl fmt::Display for Fix {
         match self {
             Self::FasterLine { baud } => write!(
                 f,
-                "raise the line to {baud} baud (BDR={baud}; on the gateway, then \
-                 `baud = {baud}` in floatball.toml)"
+                "raise the line to {baud} baud (Commissioning → Line speed)"
             ),
             Self::NoBaudEnough { max_baud } => {
                 write!(f, "no baud rate up to {max_baud} is enough on its own")
@@ -380,8 +379,7 @@ impl fmt::Display for Advice {
                 f,
                 "gateway {gateway} preloads {preload_bytes} bytes in {} s ({} min) at {baud} \
                  baud before the show can start; at {faster_baud} baud it takes {} s (change \
-                 the line speed: BDR={faster_baud}; on the gateway, then `baud = \
-                 {faster_baud}` in floatball.toml)",
+                 the line speed to {faster_baud} in Commissioning → Line speed)",
                 seconds(*preload_ms),
                 minutes(*preload_ms),
                 seconds(*faster_preload_ms)

@@ -411,7 +411,7 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
     ),
     (
         Code::FixFasterLine,
-        "把线路提高到 {baud} 波特（在网关上设 BDR={baud};，再在 floatball.toml 中设 `baud = {baud}`）",
+        "把线路提高到 {baud} 波特（调试 → 线路速率）",
     ),
     (
         Code::FixNoBaudEnough,
@@ -489,7 +489,7 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
     // ---- arm ----
     (
         Code::PreloadLong,
-        "网关 {gateway} 在 {baud} 波特下开始前要预载 {preload_bytes} 字节，需 {preload_s} 秒（{preload_min} 分钟）；在 {faster_baud} 波特下只需 {faster_preload_s} 秒（更改线路速度：在网关上设 BDR={faster_baud};，再在 floatball.toml 中设 `baud = {faster_baud}`）",
+        "网关 {gateway} 在 {baud} 波特下开始前要预载 {preload_bytes} 字节，需 {preload_s} 秒（{preload_min} 分钟）；在 {faster_baud} 波特下只需 {faster_preload_s} 秒（在“调试 → 线路速率”中把线路速度改为 {faster_baud}）",
     ),
     (
         Code::PreloadLongFastest,
