@@ -27,8 +27,6 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use crate::link::Link;
-
 /// How many times a stop (or its release) sent as a datagram is sent again after the
 /// first: UDP may lose one (MBOX boxes, eSCL drives).
 pub const REPEATS: u32 = 3;
@@ -134,24 +132,6 @@ pub trait StopPort {
     fn wake(&self);
     /// Where the stop cannot be confirmed to reach now, each with the reason.
     fn unreachable(&self) -> Vec<String>;
-}
-
-impl StopPort for Link {
-    fn wake(&self) {
-        Link::wake(self);
-    }
-
-    fn unreachable(&self) -> Vec<String> {
-        if self.is_up() {
-            Vec::new()
-        } else {
-            vec![format!(
-                "gateway {} ({}) is not connected",
-                self.index(),
-                self.port()
-            )]
-        }
-    }
 }
 
 /// The e-stop, the one path for every family: presses `latch` and wakes every port in

@@ -837,6 +837,24 @@ impl Backoff {
     }
 }
 
+impl crate::estop::StopPort for Link {
+    fn wake(&self) {
+        Link::wake(self);
+    }
+
+    fn unreachable(&self) -> Vec<String> {
+        if self.is_up() {
+            Vec::new()
+        } else {
+            vec![format!(
+                "gateway {} ({}) is not connected",
+                self.index(),
+                self.port()
+            )]
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

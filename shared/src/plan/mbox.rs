@@ -34,63 +34,12 @@ use super::installation::Installation;
 use super::player::{Entry, StartError};
 use super::verdict::{Why, verdict_report};
 use crate::api::{PlanReport, Status};
+pub use crate::mbox::drive::{
+    BoxCalibration, DEFAULT_PERIOD_US, MboxFrame, MboxPlayerConfig, SETTLE_FRAMES,
+};
 use crate::mbox::drive::{MboxDrive, MboxEntry};
 use crate::player::{Run, Sequencer};
-use crate::show::{OutputSample, Show};
-
-/// Frames sent after a move or the playlist's end, holding the final positions.
-pub const SETTLE_FRAMES: u64 = 5;
-
-/// The frame period unless configured, µs.
-pub const DEFAULT_PERIOD_US: u64 = 20_000;
-
-/// One box's calibration: millimetres below the top to pulses.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BoxCalibration {
-    /// How many axes it drives (3, 6 or 10).
-    pub axes: usize,
-    /// Pulses per millimetre of ball travel.
-    pub pulses_per_mm: f64,
-    /// +1, or −1 when the axis counts up as the ball rises.
-    pub sign: i8,
-    /// Pulses at 0 mm (the top).
-    pub offset_pulses: i32,
-}
-
-impl BoxCalibration {
-    /// `mm` in pulses, rounded and clamped to the wire's `i32`.
-    #[must_use]
-    pub fn pulses(&self, mm: f64) -> i32 {
-        let pulses = f64::from(self.offset_pulses) + f64::from(self.sign) * mm * self.pulses_per_mm;
-        // `as` saturates, and NaN (never produced from finite values) becomes 0.
-        pulses.round() as i32
-    }
-}
-
-/// What the MBOX player needs to know about the machine.
-#[derive(Debug, Clone)]
-pub struct MboxPlayerConfig {
-    /// The installation (every unit's box and axis, limits, approach speed, home).
-    pub installation: Installation,
-    /// Each box's calibration, in gateway order.
-    pub boxes: Vec<BoxCalibration>,
-    /// The frame period, µs.
-    pub period_us: u64,
-}
-
-/// One period's frame for every box: the bridge sends it at `slot_us`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MboxFrame {
-    /// The slot it belongs to, µs on the player's clock.
-    pub slot_us: u64,
-    /// How long each box takes to reach the positions, ms (at least 1).
-    pub time_ms: u32,
-    /// Per box (gateway order), per axis: the target, pulses. Axes no unit uses hold
-    /// their calibrated 0 mm.
-    pub positions_pulses: Vec<Vec<i32>>,
-    /// Per box (gateway order): its digital and analog outputs.
-    pub outputs: Vec<OutputSample>,
-}
+use crate::show::Show;
 
 /// The MBOX player: the show sequencer ([`crate::player`]) over the boxes' drive
 /// ([`crate::mbox::drive`]); see the [module documentation](self).

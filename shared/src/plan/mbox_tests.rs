@@ -11,7 +11,7 @@ use crate::mbox::{
 };
 use crate::plan::installation::{DriveKind, GatewaySpec, Stations, allocate};
 use crate::plan::{PlanOptions, report};
-use crate::show::{AnalogKey, DigitalKey, Limits, OutputTrack, demo};
+use crate::show::{AnalogKey, DigitalKey, Limits, OutputSample, OutputTrack, demo};
 
 const CALIBRATION: BoxCalibration = BoxCalibration {
     axes: 3,

@@ -25,8 +25,14 @@
 //!   stops the matrix and says what happened, in words: the caller presses the e-stop
 //!   when [`Sequencer::take_estop`] says so.
 
+mod error;
+mod playlist;
+
+pub use error::StartError;
+pub use playlist::{Entry, EntryTiming, LinkView};
+pub(crate) use playlist::{NextRun, PlaylistProgress, next_run};
+
 use crate::api::{PlayerState, Status};
-use crate::plan::player::{EntryTiming, NextRun, PlaylistProgress, StartError, next_run};
 
 /// How a step the drive carries out stands after a poll.
 #[derive(Debug, Clone, PartialEq)]
