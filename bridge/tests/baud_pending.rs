@@ -8,22 +8,12 @@ mod common;
 use std::time::{Duration, Instant};
 
 use axum::http::{Method, StatusCode};
-use common::process::{Process, Tap, links_up};
-use common::send_text;
-use floatball_shared::sim::GatewayConfig;
+use common::process::tapped_bridge;
 
 #[tokio::test]
 async fn a_playlist_edit_during_a_pending_line_speed_change_answers_at_once() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let tap = Tap::new(dir.path(), "gateway0", 9600, GatewayConfig::numbered(4));
-    let bridge = Process::start(&format!(
-        "[matrix]\nrows = 2\ncols = 2\n[[gateway]]\nport = \"{}\"\nbaud = 9600\n",
-        tap.path.display()
-    ));
-    let token = bridge.operator().await;
-    let mut ws = bridge.ws(&token).await;
-    send_text(&mut ws, r#"{"type":"feedback","relay":false}"#).await;
-    assert!(links_up(&mut ws).await, "the link comes up");
+    let (tap, bridge, token, _ws) = tapped_bridge(dir.path()).await;
 
     // The gateway takes BDR and then hangs: the change waits for a power cycle that
     // does not come.
@@ -41,20 +31,9 @@ async fn a_playlist_edit_during_a_pending_line_speed_change_answers_at_once() {
         }
         tap.set_answering(false);
         tokio::time::sleep(Duration::from_millis(200)).await;
-        let playlist = serde_json::json!({
-            "entries": [],
-            "loop": false,
-            "default_delay_ms": 0,
-            "default_cycles": 1,
-        });
         let started = Instant::now();
         let reply = bridge
-            .request(
-                Method::PUT,
-                "/api/playlist",
-                Some(&token),
-                Some(("application/json", playlist.to_string().into_bytes())),
-            )
+            .put_playlist(&token, serde_json::json!([]), false)
             .await;
         (reply, started.elapsed())
     };

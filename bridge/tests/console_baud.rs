@@ -7,23 +7,14 @@ mod common;
 
 use std::time::{Duration, Instant};
 
-use common::process::{Process, Tap, links_up};
+use common::process::tapped_bridge;
 use common::{next_reply, send_text};
 use floatball_shared::api::ServerMessage;
-use floatball_shared::sim::GatewayConfig;
 
 #[tokio::test]
 async fn a_console_bdr_is_refused_and_the_link_keeps_working() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let tap = Tap::new(dir.path(), "gateway0", 9600, GatewayConfig::numbered(4));
-    let bridge = Process::start(&format!(
-        "[matrix]\nrows = 2\ncols = 2\n[[gateway]]\nport = \"{}\"\nbaud = 9600\n",
-        tap.path.display()
-    ));
-    let token = bridge.operator().await;
-    let mut ws = bridge.ws(&token).await;
-    send_text(&mut ws, r#"{"type":"feedback","relay":false}"#).await;
-    assert!(links_up(&mut ws).await, "the link comes up");
+    let (tap, _bridge, _token, mut ws) = tapped_bridge(dir.path()).await;
 
     for line in ["BDR=38400;", "*1;PV;\nbdr 57600;"] {
         let message = serde_json::json!({"type": "raw", "line": line, "gateway": 0});

@@ -266,23 +266,49 @@ impl Remote {
             "{}",
             String::from_utf8_lossy(&upload.body)
         );
+        let entries = serde_json::json!([{ "show": name, "delay_ms": 0, "cycles": 1 }]);
+        let reply = self.put_playlist(&token, entries, loop_playlist).await;
+        assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+        token
+    }
+
+    /// `PUT /api/playlist` with `entries` (a JSON array), default delay 0 and cycles 1.
+    pub async fn put_playlist(
+        &self,
+        token: &str,
+        entries: serde_json::Value,
+        loop_playlist: bool,
+    ) -> super::Reply {
         let playlist = serde_json::json!({
-            "entries": [{ "show": name, "delay_ms": 0, "cycles": 1 }],
+            "entries": entries,
             "loop": loop_playlist,
             "default_delay_ms": 0,
             "default_cycles": 1,
         });
-        let reply = self
-            .request(
-                Method::PUT,
-                "/api/playlist",
-                Some(&token),
-                Some(("application/json", playlist.to_string().into_bytes())),
-            )
-            .await;
-        assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
-        token
+        self.request(
+            Method::PUT,
+            "/api/playlist",
+            Some(token),
+            Some(("application/json", playlist.to_string().into_bytes())),
+        )
+        .await
     }
+}
+
+/// A bridge on one tapped pseudo-terminal gateway of 4 units at 9600 baud (a 2 × 2
+/// matrix), its operator's token, and a WebSocket that relays no feedback, the link
+/// up.
+pub async fn tapped_bridge(dir: &std::path::Path) -> (Tap, Process, String, super::Ws) {
+    let tap = Tap::new(dir, "gateway0", 9600, GatewayConfig::numbered(4));
+    let bridge = Process::start(&format!(
+        "[matrix]\nrows = 2\ncols = 2\n[[gateway]]\nport = \"{}\"\nbaud = 9600\n",
+        tap.path.display()
+    ));
+    let token = bridge.operator().await;
+    let mut ws = bridge.ws(&token).await;
+    super::send_text(&mut ws, r#"{"type":"feedback","relay":false}"#).await;
+    assert!(links_up(&mut ws).await, "the link comes up");
+    (tap, bridge, token, ws)
 }
 
 /// Reads statuses until every gateway's link is up; `false` if they are not within
