@@ -9,44 +9,17 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::process::{Process, links_up};
-use common::scl_peer::{Peer, Simulator};
-use common::{Ws, native_show, next_reply, send_text, until};
+use common::scl_peer::{Peer, Simulator, config, drop_end_mm, drop_show, serial_config};
+use common::{Ws, next_reply, send_text, until};
 use floatball_shared::api::{PlayerState, ServerMessage};
 use floatball_shared::scl::{IoPoint, Level, Segment};
 
-/// The show's end positions, mm: ball i ends at 5 × (i + 1) mm.
 fn end_mm(ball: usize) -> f64 {
-    5.0 * (ball as f64 + 1.0)
+    drop_end_mm(ball)
 }
 
-/// Three balls that each go down 20 mm and come up to their end position, in 1 s.
 fn show() -> Vec<u8> {
-    let units = (0..3)
-        .map(|ball| {
-            serde_json::json!({
-                "start_mm": 0.0,
-                "rows": [[10.0, 0.0, 250], [20.0, 0.0, 250], [10.0, 0.0, 250], [end_mm(ball), 0.0, 250]],
-            })
-        })
-        .collect();
-    native_show("drop", 1, 3, units)
-}
-
-fn config(gateway: &str, scl: &str) -> String {
-    format!(
-        "[matrix]\nrows = 1\ncols = 3\n[safety]\napproach_speed_mm_s = 1000.0\n\
-         [scl]\npoll_ms = 50\ntolerance_mm = 20.0\nhost_port = 0\n{scl}\n[[gateway]]\nkind = \"scl\"\n{gateway}\n"
-    )
-}
-
-fn serial_config(peer: &Peer, scl: &str) -> String {
-    config(
-        &format!(
-            "port = \"{}\"\nbaud = 115200\naddresses = \"123\"",
-            peer.path.display()
-        ),
-        scl,
-    )
+    drop_show(|_| 0.0)
 }
 
 fn udp_config(peer: &Peer, scl: &str) -> String {

@@ -52,8 +52,8 @@ use std::time::Duration;
 
 use common::golden::assert_golden;
 use common::process::{Process, links_up};
-use common::scl_peer::Peer;
-use common::{Ws, native_show, next_reply, send_text, until};
+use common::scl_peer::{Peer, drop_end_mm, drop_show, serial_config};
+use common::{Ws, next_reply, send_text, until};
 use floatball_shared::api::{PlayerState, ServerMessage};
 
 /// The drives' addresses on the line, in unit order.
@@ -69,29 +69,16 @@ fn start_mm(ball: usize) -> f64 {
 
 /// Ball `ball`'s end position, mm: 5, 10, 15.
 fn end_mm(ball: usize) -> f64 {
-    5.0 * (ball as f64 + 1.0)
+    drop_end_mm(ball)
 }
 
 /// Three balls that each go down to 20 mm and come up to their end position, in 1 s.
 fn show() -> Vec<u8> {
-    let units = (0..3)
-        .map(|ball| {
-            serde_json::json!({
-                "start_mm": start_mm(ball),
-                "rows": [[10.0, 0.0, 250], [20.0, 0.0, 250], [10.0, 0.0, 250], [end_mm(ball), 0.0, 250]],
-            })
-        })
-        .collect();
-    native_show("drop", 1, 3, units)
+    drop_show(start_mm)
 }
 
 fn config(peer: &Peer, scl: &str) -> String {
-    format!(
-        "[matrix]\nrows = 1\ncols = 3\n[safety]\napproach_speed_mm_s = 1000.0\n\
-         [scl]\npoll_ms = 50\ntolerance_mm = 20.0\nhost_port = 0\n{scl}\n\
-         [[gateway]]\nkind = \"scl\"\nport = \"{}\"\nbaud = 115200\naddresses = \"{ADDRESSES}\"\n",
-        peer.path.display()
-    )
+    serial_config(peer, scl)
 }
 
 /// The SCL command of a line as written on the line: without its address character.

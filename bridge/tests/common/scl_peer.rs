@@ -425,3 +425,42 @@ impl Simulator {
         }
     }
 }
+
+/// Ball `ball`'s end position in [`drop_show`], mm: 5 × (ball + 1).
+pub fn drop_end_mm(ball: usize) -> f64 {
+    5.0 * (ball as f64 + 1.0)
+}
+
+/// "drop" on a row of three balls: each starts at `start_mm(ball)`, goes down to 20 mm
+/// and comes up to [`drop_end_mm`], in 1 s.
+pub fn drop_show(start_mm: impl Fn(usize) -> f64) -> Vec<u8> {
+    let units = (0..3)
+        .map(|ball| {
+            serde_json::json!({
+                "start_mm": start_mm(ball),
+                "rows": [[10.0, 0.0, 250], [20.0, 0.0, 250], [10.0, 0.0, 250], [drop_end_mm(ball), 0.0, 250]],
+            })
+        })
+        .collect();
+    super::native_show("drop", 1, 3, units)
+}
+
+/// A row of three balls on MOONS' drives, the `[scl]` table holding `scl`, its gateway
+/// entry `gateway`.
+pub fn config(gateway: &str, scl: &str) -> String {
+    format!(
+        "[matrix]\nrows = 1\ncols = 3\n[safety]\napproach_speed_mm_s = 1000.0\n\
+         [scl]\npoll_ms = 50\ntolerance_mm = 20.0\nhost_port = 0\n{scl}\n[[gateway]]\nkind = \"scl\"\n{gateway}\n"
+    )
+}
+
+/// [`config`] with the drives `1`, `2`, `3` on `peer`'s RS-485 line at 115200 baud.
+pub fn serial_config(peer: &Peer, scl: &str) -> String {
+    config(
+        &format!(
+            "port = \"{}\"\nbaud = 115200\naddresses = \"123\"",
+            peer.path.display()
+        ),
+        scl,
+    )
+}
