@@ -49,10 +49,10 @@
 //!   ([`simulate::scl`]) simulated MOONS' drives on a serial device or eSCL UDP;
 //!   ([`simulate::tcp`]) simulated gateways on TCP sockets, as behind device servers.
 //! - [`playback`]: the show sequencer (`floatball_shared::player`) driven by the clock
-//!   and the links, the owner of the status, and the link watchdog: the UIM2503 task
-//!   (`playback/mod.rs`) and one task for the families whose ports carry out their
-//!   drive's work (`playback/sequenced.rs`: MBOX boxes in `playback/mbox.rs`, MOONS'
-//!   drives in `playback/scl.rs`).
+//!   and the ports, the owner of the status, in one task for every family
+//!   (`playback/sequenced.rs`): UIM2503 gateways on their links with the link
+//!   watchdog (`playback/uim2503.rs`), MBOX boxes (`playback/mbox.rs`), MOONS' drives
+//!   (`playback/scl.rs`).
 //! - [`control`]: Start, Reset and Home as the WebSocket asks for them.
 //! - [`install`]: a new installation (`PUT /api/installation`, a gateway's line
 //!   speed) checked, saved into `floatball.toml` (`config/edit.rs`) and applied while

@@ -9,6 +9,7 @@ use floatball_shared::mbox::drive::MboxDrive;
 use floatball_shared::plan::Installation;
 use floatball_shared::plan::mbox::{MboxPlayer, runs};
 use floatball_shared::plan::player::{Entry, LinkView, StartError};
+use floatball_shared::player::Sequencer;
 use tokio::sync::mpsc;
 
 use super::sequenced::{Family, Prepare, PreparedRuns};
@@ -37,11 +38,14 @@ impl Family for MboxFamily {
             .collect()
     }
 
-    fn statuses(&self) -> Vec<GatewayStatus> {
+    fn statuses(&self, _drive: &MboxDrive) -> Vec<GatewayStatus> {
         self.boxes.statuses()
     }
 
-    fn lost(&self) -> Option<String> {
+    fn lost(&mut self, running: bool) -> Option<String> {
+        if !running {
+            return None;
+        }
         (0..self.boxes.len())
             .find(|&index| self.boxes.state(index) == LinkState::Down)
             .map(|down| {
@@ -49,8 +53,8 @@ impl Family for MboxFamily {
             })
     }
 
-    fn port(&self) -> &dyn StopPort {
-        &self.boxes
+    fn ports(&self) -> Vec<&dyn StopPort> {
+        vec![&self.boxes]
     }
 
     fn lead_us(&self) -> u64 {
@@ -72,9 +76,13 @@ impl Family for MboxFamily {
         }
     }
 
-    fn apply(_drive: &mut MboxDrive, _now_us: u64, (): ()) {}
+    fn apply(_sequencer: &mut Sequencer<MboxDrive>, _now_us: u64, (): ()) {}
 
-    fn reconfigure(&mut self, change: &Reconfigure) -> Result<MboxDrive, ReconfigureError> {
+    fn reconfigure(
+        &mut self,
+        change: &Reconfigure,
+        _inputs: &mpsc::UnboundedSender<()>,
+    ) -> Result<MboxDrive, ReconfigureError> {
         // The boxes stay (their gateways did not change); the drive takes the new
         // calibration and installation.
         change

@@ -1,47 +1,48 @@
-//! Playback: the player (`floatball_shared::plan::player`) driven by the bridge's
-//! clock, the links' state and their feedback, its commands carried out on the links.
+//! Playback: the show sequencer (`floatball_shared::player`) driven by the bridge's
+//! clock, the links' state and the units' answers, for every drive family, in one
+//! task ([`sequenced::run`]); each family is a port under it: UIM2503 gateways on
+//! their links (`uim2503.rs`), MBOX boxes (`mbox.rs`), MOONS' drives (`scl.rs`).
 //!
-//! **One owner.** The playback task owns the player and the status: it is the only
-//! writer of the [`Status`] every client sees (the player's part and each gateway's
-//! link part, read from the links as snapshots), published on a watch channel whenever
-//! it changes (the WebSocket layer limits how often clients hear of it). It is built
-//! at once after a request, an e-stop or a new player state, otherwise at most every
-//! `STATUS_PERIOD` (20 ms); the feedback frames waiting are handled together in one turn (a
-//! hundred gateways send thousands a second). Beside it,
-//! every gateway in full ([`Playback::gateway_list`], `GET /api/status/gateways`): a
-//! status with more than [`floatball_shared::api::GATEWAY_DETAIL_LIMIT`] gateways
-//! details only those with a problem.
+//! **One owner.** The playback task owns the sequencer and the status: it is the only
+//! writer of the [`Status`] every client sees (the sequencer's part and each
+//! gateway's, read from the links as snapshots), published on a watch channel
+//! whenever it changes (the WebSocket layer limits how often clients hear of it). It
+//! is built at once after a request, an e-stop or a new state, otherwise at most every
+//! 20 ms; the answers waiting are handled together in one turn (a hundred gateways
+//! send thousands a second). Beside it, every gateway in full
+//! ([`Playback::gateway_list`], `GET /api/status/gateways`): a status with more than
+//! [`floatball_shared::api::GATEWAY_DETAIL_LIMIT`] gateways details only those with a
+//! problem.
 //!
-//! **The e-stop waits on nothing.** [`Playback::estop`] presses the latch and wakes the
-//! links itself ([`crate::estop::press`]); the task only learns of it, on its next turn,
-//! from the latch's generation, and stops the player. Start, Reset and Home are tagged
-//! with the generation they were issued at; they are planned away from the task (a
-//! blocking thread), and the task accepts them only if no e-stop came since. Every
-//! batch the player queues carries the generation of the request that started the
-//! run, so nothing planned before an e-stop reaches a line after it.
-//!
-//! The MBOX boxes ([`Playback::spawn_mbox`]) and the MOONS' drives
-//! ([`Playback::spawn_scl`]) have their own task loops with the same requests, the
-//! same admission ([`admit`]: no e-stop since, every gateway up) and the same status
-//! and its publication; the drives' runs are [`crate::scl::player`]'s.
+//! **The e-stop waits on nothing.** [`Playback::estop`] presses the latch and wakes
+//! every port itself ([`crate::estop::press`]: the links' writers, the boxes' sender,
+//! the drives' owners); the task only learns of it, on its next turn, from the
+//! latch's generation, and stops the sequencer. Start, Reset and Home are tagged with
+//! the generation they were issued at; they are prepared away from the task (a
+//! blocking thread), and the task accepts them only if no e-stop came since
+//! ([`admit`]: no e-stop since, every gateway up). Everything a run sends carries the
+//! generation of the request that started it, so nothing prepared before an e-stop
+//! reaches a unit after it.
 //!
 //! **A new installation while idle.** [`Playback::reconfigure`] hands the task a new
 //! installation: UIM2503 with its links (`crate::gateways::Gateways::reopen`), MBOX
-//! with its player's configuration, SCL alone (the same boxes and drives: only the
-//! matrix's limits change there). The task takes it only while the player is idle (a
-//! new player, the new links, their feedback relayed) and refuses it otherwise.
+//! with its boxes' configuration, SCL alone (the same boxes and drives: only the
+//! matrix's limits change there). The task takes it only while the sequencer is idle
+//! (a new drive, the new links, their feedback relayed) and refuses it otherwise.
 //! The handle's installation and links are a snapshot the task's acceptance replaces.
+//!
 //! **Arming** (UIM2503 gateways): while the matrix is idle, [`crate::arming`] hands
 //! the task the playlist prepared as Start would prepare it ([`Playback::arm`]); the
-//! player loads the first entry's tables without moving anything and the status says
+//! drive loads the first entry's tables without moving anything and the status says
 //! `armed`. [`Playback::disarm`] drops it (a console line, a new playlist or
 //! installation, a commissioning command) and keeps arming away for [`ARM_QUIET`]; the
-//! e-stop, Reset, Home and a lost link drop it in the player.
+//! e-stop, Reset, Home and a lost link drop it in the drive.
 //!
-//! **One plan per playlist.** The playlist prepared last is kept with its key (each
-//! show's name and file SHA-256, delays, cycles, loop flag) and the installation
-//! ([`Playback::prepared_for`]): the armer, Start and Reset take it instead of reading
-//! and planning the shows again, and its plans (`Arc`) are the player's own.
+//! **One plan per playlist.** The UIM2503 playlist prepared last is kept with its key
+//! (each show's name and file SHA-256, delays, cycles, loop flag) and the
+//! installation ([`Playback::prepared_for`]): the armer, Start and Reset take it
+//! instead of reading and planning the shows again, and its plans (`Arc`) are the
+//! drive's own.
 //!
 //! **A stalled link is a fault.** While a playlist runs, a link that has bytes queued
 //! and writes nothing for [`stall_limit`] stops the show on every gateway and sets the
@@ -51,14 +52,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
-use floatball_shared::api::{
-    GatewayKind, GatewayStatus, GatewaySummary, Status, summarise_gateways,
-};
+use floatball_shared::api::{GatewayStatus, GatewaySummary, Status, summarise_gateways};
 use floatball_shared::mbox::drive::MboxDrive;
 use floatball_shared::plan::Installation;
 use floatball_shared::plan::mbox::MboxPlayerConfig;
 use floatball_shared::plan::player::{
-    Command, Entry, LinkView, Player, PlayerConfig, Prepared, StartError, TICK_US, prepare,
+    Entry, LinkView, PlayerConfig, Prepared, StartError, Uim2503Drive, prepare, runs,
 };
 use floatball_shared::player::Sequencer;
 use floatball_shared::scl::drive::SclDrive;
@@ -74,33 +73,26 @@ use crate::scl::SclNet;
 mod mbox;
 mod scl;
 mod sequenced;
+mod uim2503;
 
 use sequenced::{Prepare, PreparedRuns};
+use uim2503::link_views;
+pub use uim2503::stall_limit;
 
 type Reply = oneshot::Sender<Result<(), StartError>>;
 
 enum Request {
-    Start {
-        generation: u64,
-        prepared: Result<Prepared, StartError>,
-        reply: Reply,
-    },
-    Reset {
-        generation: u64,
-        prepared: Result<Prepared, StartError>,
-        reply: Reply,
-    },
-    Home {
-        generation: u64,
-        reply: Reply,
-    },
-    /// Start or Reset on a family under the sequencer (MBOX boxes, MOONS' drives):
-    /// the playlist prepared by the family ([`Prepare`]).
+    /// Start or Reset (`reset`): the playlist prepared for the family's drive
+    /// (UIM2503 plans, MBOX samplers, MOONS' programs: [`PreparedRuns`]).
     Play {
         generation: u64,
         prepared: Result<PreparedRuns, StartError>,
         loop_playlist: bool,
         reset: bool,
+        reply: Reply,
+    },
+    Home {
+        generation: u64,
         reply: Reply,
     },
     /// Look at the latch now (the e-stop was pressed).
@@ -109,11 +101,11 @@ enum Request {
     /// it is much larger than the other requests.
     Reconfigure(Box<Reconfigure>),
     /// Arm the first entry of a playlist prepared while the matrix was idle, at the
-    /// player's disarm count `disarms` and e-stop `generation`.
+    /// drive's disarm count `disarms` and e-stop `generation`.
     Arm {
         generation: u64,
         disarms: u64,
-        prepared: Box<Prepared>,
+        prepared: PreparedRuns,
     },
     /// Drop what is armed.
     Disarm,
@@ -154,11 +146,9 @@ pub enum ReconfigureError {
 impl std::fmt::Debug for Request {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
-            Request::Start { .. } => "Start",
-            Request::Reset { .. } => "Reset",
+            Request::Play { reset: true, .. } => "Reset",
+            Request::Play { .. } => "Start",
             Request::Home { .. } => "Home",
-            Request::Play { reset: true, .. } => "Reset (MBOX or SCL)",
-            Request::Play { .. } => "Start (MBOX or SCL)",
             Request::Estop => "Estop",
             Request::Reconfigure(_) => "Reconfigure",
             Request::Arm { .. } => "Arm",
@@ -262,7 +252,7 @@ pub const ARM_QUIET: Duration = Duration::from_secs(3);
 /// What the handles and the playback task share about arming.
 #[derive(Debug)]
 struct ArmingShared {
-    /// The player's disarm count, as the task last saw it.
+    /// The drive's disarm count, as the task last saw it.
     disarms: AtomicU64,
     /// No arming before this.
     quiet_until: Mutex<Instant>,
@@ -313,23 +303,11 @@ impl Playback {
             .first()
             .map_or_else(|| Arc::new(Latch::new()), |link| Arc::clone(link.latch()));
         let links = Arc::new(links);
-        let installation = Arc::new(installation);
-        let player = Player::new(PlayerConfig {
-            installation: (*installation).clone(),
-        });
-        let (requests, inbox) = mpsc::unbounded_channel();
-        let (list_tx, list) = watch::channel(Listed::default());
-        let (status_tx, status) = watch::channel(status_of(&player, &links, &health, &list_tx));
-        let started = Self::started(requests, (status, list), installation, latch);
-        tokio::spawn(run(
-            player,
-            Arc::clone(&links),
-            health,
-            Arc::clone(&started.latch),
-            inbox,
-            (status_tx, list_tx),
-            Arc::clone(&started.arming),
-        ));
+        let sequencer = Sequencer::new(Uim2503Drive::new(PlayerConfig {
+            installation: installation.clone(),
+        }));
+        let family = uim2503::Uim2503Family::new(Arc::clone(&links), health);
+        let started = Self::spawn_sequenced(sequencer, family, Arc::new(installation), latch, None);
         started.set_live(None, Some(links));
         started
     }
@@ -375,7 +353,7 @@ impl Playback {
                 family,
                 installation,
                 latch,
-                Arc::new(mbox::MboxPrepare),
+                Some(Arc::new(mbox::MboxPrepare)),
             )
         }
     }
@@ -410,33 +388,35 @@ impl Playback {
                 family,
                 Arc::new(installation),
                 latch,
-                Arc::new(prepare),
+                Some(Arc::new(prepare)),
             )
         }
     }
 
-    /// Starts the playback task of a family under the sequencer.
+    /// Starts the playback task of a family under the sequencer; `prepare`: how the
+    /// family prepares a playlist (`None`: planned for UIM2503 lines).
     fn spawn_sequenced<F: sequenced::Family>(
         sequencer: Sequencer<F::Drive>,
         family: F,
         installation: Arc<Installation>,
         latch: Arc<Latch>,
-        prepare: Arc<dyn Prepare>,
+        prepare: Option<Arc<dyn Prepare>>,
     ) -> Self {
         let (requests, inbox) = mpsc::unbounded_channel();
         let (list_tx, list) = watch::channel(Listed::default());
         let (status_tx, status) = watch::channel(sequenced::status(&sequencer, &family, &list_tx));
+        let started = Self {
+            sequenced: prepare,
+            ..Self::started(requests, (status, list), installation, latch)
+        };
         tokio::spawn(sequenced::run(
             sequencer,
             family,
-            Arc::clone(&latch),
+            (Arc::clone(&started.latch), Arc::clone(&started.arming)),
             inbox,
             (status_tx, list_tx),
         ));
-        Self {
-            sequenced: Some(prepare),
-            ..Self::started(requests, (status, list), installation, latch)
-        }
+        started
     }
 
     /// The status, on every change.
@@ -587,21 +567,14 @@ impl Playback {
                 })
                 .await;
         }
-        let prepared = self.prepared(playlist).await?;
-        self.ask(|reply| {
-            if reset {
-                Request::Reset {
-                    generation,
-                    prepared,
-                    reply,
-                }
-            } else {
-                Request::Start {
-                    generation,
-                    prepared,
-                    reply,
-                }
-            }
+        let prepared = self.prepared(playlist).await?.map(runs);
+        let loop_playlist = prepared.as_ref().is_ok_and(|(_, looping)| *looping);
+        self.ask(|reply| Request::Play {
+            generation,
+            prepared: prepared.map(|(runs, _)| Box::new(runs) as PreparedRuns),
+            loop_playlist,
+            reset,
+            reply,
         })
         .await
     }
@@ -786,62 +759,6 @@ impl Playback {
     }
 }
 
-/// Relays `link`'s feedback into the player's queue, tagged with `gateway`, until the
-/// link or the player is gone.
-fn relay_to_player(
-    gateway: usize,
-    link: &Link,
-    frames_tx: mpsc::UnboundedSender<(usize, floatball_shared::feedback::Frame)>,
-) {
-    let mut feedback = link.feedback();
-    tokio::spawn(async move {
-        loop {
-            match feedback.recv().await {
-                Ok(frame) => {
-                    if frames_tx.send((gateway, frame)).is_err() {
-                        return;
-                    }
-                }
-                Err(tokio::sync::broadcast::error::RecvError::Lagged(missed)) => {
-                    tracing::warn!("player missed {missed} feedback frames of gateway {gateway}");
-                }
-                Err(tokio::sync::broadcast::error::RecvError::Closed) => return,
-            }
-        }
-    });
-}
-
-/// The UIM2503 task's side of [`Playback::reconfigure`]: while idle, a new player on
-/// the new installation and the new links (their feedback relayed); the answer goes
-/// back on the request's reply.
-fn reconfigure_player(
-    player: &mut Player,
-    links: &mut Arc<Vec<Link>>,
-    health: &mut Vec<HealthView>,
-    frames_tx: &mpsc::UnboundedSender<(usize, floatball_shared::feedback::Frame)>,
-    change: Reconfigure,
-) {
-    let result = idle_for_reconfigure(player.status().state, player.is_running()).map(|()| {
-        *player = Player::new(PlayerConfig {
-            installation: change.installation,
-        });
-        *links = change.links;
-        *health = change.health;
-        for &gateway in &change.opened {
-            if let Some(link) = links.get(gateway) {
-                relay_to_player(gateway, link, frames_tx.clone());
-            }
-        }
-    });
-    let _ = change.reply.send(result);
-}
-
-/// A task's answer to a [`Playback::reconfigure`] it cannot take (a UIM2503 or SCL
-/// task's [`handle`] never sees one: they are taken before).
-fn refuse_reconfigure(change: Box<Reconfigure>) {
-    let _ = change.reply.send(Err(ReconfigureError::NotLive));
-}
-
 /// The answer while the player is `state` (`running`: a run is under way): idle or
 /// not.
 fn idle_for_reconfigure(
@@ -913,99 +830,10 @@ impl Playback {
             .send(Request::Arm {
                 generation,
                 disarms,
-                prepared: Box::new(prepared),
+                prepared: Box::new(runs(prepared).0),
             })
             .is_ok()
     }
-}
-
-/// Carries out an arming request on the idle player: arms only with no e-stop in force
-/// or since it was issued, and `run_generation` (what the player's batches are tagged
-/// with) current. Returns the request back when it is not about arming.
-fn handle_arming(
-    player: &mut Player,
-    latch: &Latch,
-    request: Request,
-    run_generation: u64,
-    views: &[LinkView],
-) -> Option<Request> {
-    match request {
-        Request::Arm {
-            generation,
-            disarms,
-            prepared,
-        } => {
-            if generation == latch.generation()
-                && generation == run_generation
-                && !latch.is_latched()
-            {
-                player.arm(*prepared, disarms, views);
-            }
-            None
-        }
-        Request::Disarm => {
-            player.disarm();
-            None
-        }
-        other => Some(other),
-    }
-}
-
-/// How long a link may hold queued bytes without writing any while a show runs
-/// before it counts as stalled: ten of the longest instructions on its line, and never
-/// less than half a second (threads are not scheduled to the millisecond).
-pub fn stall_limit(baud: u32) -> Duration {
-    (floatball_shared::line::Line::new(baud).byte_time()
-        * 10
-        * floatball_shared::ascii::MAX_LEN as u32)
-        .max(Duration::from_millis(500))
-}
-
-fn link_views(links: &[Link]) -> Vec<LinkView> {
-    links
-        .iter()
-        .map(|link| LinkView {
-            up: link.is_up(),
-            queued_bytes: link.queued_bytes(),
-        })
-        .collect()
-}
-
-fn status_of(
-    player: &Player,
-    links: &[Link],
-    health: &[HealthView],
-    list: &watch::Sender<Listed>,
-) -> Status {
-    let mut status = player.status();
-    let lowest = player.lowest_water_levels();
-    let all = links
-        .iter()
-        .enumerate()
-        .map(|(gateway, link)| {
-            let link_status = link.snapshot();
-            GatewayStatus {
-                index: gateway,
-                kind: GatewayKind::Uim2503,
-                port: link.port().to_owned(),
-                link: link_status.state,
-                bytes_per_s: link_status.bytes_per_s,
-                lowest_water_level: lowest.get(gateway).copied().flatten(),
-                error: match link_status.state {
-                    floatball_shared::api::LinkState::Up => None,
-                    _ => link_status.error,
-                },
-                packets_per_s: None,
-                late_frames: None,
-                missed_replies: None,
-                drives: Vec::new(),
-                baud: Some(link.baud()),
-                health: health.get(gateway).and_then(|view| view.borrow().clone()),
-            }
-        })
-        .collect();
-    (status.gateways, status.gateway_summary) = summarise(all, list);
-    status
 }
 
 /// How often at most the full list of gateways is published: the status is built on
@@ -1040,113 +868,6 @@ fn summarise(
     summarise_gateways(all)
 }
 
-/// Progress of one link as the watchdog last saw it.
-#[derive(Debug, Clone, Copy)]
-struct Progress {
-    written_bytes: u64,
-    since: Instant,
-}
-
-/// The link watchdog: a link with bytes queued that writes nothing for its
-/// [`stall_limit`] while a show runs.
-#[derive(Debug)]
-struct Watchdog {
-    progress: Vec<Progress>,
-}
-
-impl Watchdog {
-    fn new(links: &[Link]) -> Self {
-        let now = Instant::now();
-        Self {
-            progress: links
-                .iter()
-                .map(|link| Progress {
-                    written_bytes: link.written_bytes(),
-                    since: now,
-                })
-                .collect(),
-        }
-    }
-
-    /// The first stalled link's description, if one is stalled.
-    fn check(&mut self, links: &[Link], running: bool) -> Option<String> {
-        let now = Instant::now();
-        let mut stalled = None;
-        for (progress, link) in self.progress.iter_mut().zip(links) {
-            let written_bytes = link.written_bytes();
-            let queued = link.queued_bytes();
-            if !running || queued == 0 || written_bytes != progress.written_bytes {
-                *progress = Progress {
-                    written_bytes,
-                    since: now,
-                };
-                continue;
-            }
-            let silent = now.saturating_duration_since(progress.since);
-            if stalled.is_none() && silent >= stall_limit(link.baud()) {
-                stalled = Some(format!(
-                    "gateway {} ({}) stalled: {queued} bytes queued and nothing written for {} ms; the show was stopped on every gateway",
-                    link.index(),
-                    link.port(),
-                    silent.as_millis()
-                ));
-            }
-        }
-        stalled
-    }
-}
-
-/// Carries out the player's commands, every batch tagged with `generation` (the e-stop
-/// generation of the request that started the run); `epoch` is the instant of the
-/// player's clock's zero (a start is written at its instant). Returns whether it
-/// pressed the e-stop (the player asked for it).
-fn carry_out(
-    links: &[Link],
-    latch: &Latch,
-    commands: Vec<Command>,
-    (generation, epoch): (u64, Instant),
-) -> bool {
-    let mut pressed = false;
-    for command in commands {
-        let (gateway, result) = match command {
-            Command::Bulk { gateway, batch } => (
-                gateway,
-                links
-                    .get(gateway)
-                    .map(|link| link.enqueue(&batch, generation)),
-            ),
-            Command::Priority {
-                gateway,
-                batch,
-                at_us,
-            } => {
-                let at = epoch + Duration::from_micros(at_us);
-                (
-                    gateway,
-                    links
-                        .get(gateway)
-                        .map(|link| link.send_priority_at(&batch, generation, Some(at))),
-                )
-            }
-            Command::Estop => {
-                pressed = true;
-                let ports: Vec<&dyn StopPort> = links.iter().map(|link| link as _).collect();
-                let failures = estop::press(latch, &ports);
-                if !failures.is_empty() {
-                    tracing::error!("the stop did not reach {}", failures.join("; "));
-                }
-                continue;
-            }
-        };
-        match result {
-            Some(Ok(())) => {}
-            Some(Err(err)) => tracing::warn!("player: {err}"),
-            None => tracing::error!("player: there is no gateway {gateway}"),
-        }
-    }
-    pressed
-}
-
 /// Whether a request issued at `generation` may run now: no e-stop since, every
 /// gateway up; then the latch is released for it.
 fn admit(
@@ -1166,230 +887,6 @@ fn admit(
         return Err(StartError::Superseded);
     }
     Ok(())
-}
-
-/// Carries out a Start, Reset or Home on the player, if no e-stop came since it was
-/// issued; returns its generation, where to answer, and the answer.
-fn handle(
-    player: &mut Player,
-    latch: &Latch,
-    request: Request,
-    now_us: u64,
-    views: &[LinkView],
-) -> Option<(u64, Reply, Result<(), StartError>)> {
-    let gateways = views.len();
-    let admitted = |generation, prepared: Result<Prepared, StartError>| {
-        prepared.and_then(|prepared| admit(latch, generation, views, gateways).map(|()| prepared))
-    };
-    Some(match request {
-        Request::Start {
-            generation,
-            prepared,
-            reply,
-        } => {
-            let result = if player.is_running() {
-                Err(StartError::Busy)
-            } else {
-                admitted(generation, prepared)
-                    .and_then(|prepared| player.start_prepared(now_us, prepared, views))
-            };
-            (generation, reply, result)
-        }
-        Request::Reset {
-            generation,
-            prepared,
-            reply,
-        } => {
-            let result = player.reset_prepared(now_us, admitted(generation, prepared), views);
-            (generation, reply, result)
-        }
-        Request::Home { generation, reply } => {
-            let result =
-                admit(latch, generation, views, gateways).and_then(|()| player.home(now_us, views));
-            (generation, reply, result)
-        }
-        Request::Play {
-            generation, reply, ..
-        } => (generation, reply, Err(StartError::Busy)),
-        Request::Estop | Request::Arm { .. } | Request::Disarm => return None,
-        Request::Reconfigure(change) => {
-            refuse_reconfigure(change);
-            return None;
-        }
-    })
-}
-
-async fn run(
-    mut player: Player,
-    mut links: Arc<Vec<Link>>,
-    mut health: Vec<HealthView>,
-    latch: Arc<Latch>,
-    mut inbox: mpsc::UnboundedReceiver<Request>,
-    (status, list): (watch::Sender<Status>, watch::Sender<Listed>),
-    arming: Arc<ArmingShared>,
-) {
-    let epoch = Instant::now();
-    let now_us = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
-    // Every link's feedback into one queue, tagged with the gateway.
-    // Kept for the links a new installation opens.
-    let (frames_tx, mut frames) = mpsc::unbounded_channel();
-    for (gateway, link) in links.iter().enumerate() {
-        relay_to_player(gateway, link, frames_tx.clone());
-    }
-    let mut seen_generation = latch.generation();
-    let mut run_generation = seen_generation;
-    let mut watchdog = Watchdog::new(&links);
-    let mut publisher = Publisher::new();
-    let mut polled = Instant::now();
-    let mut poll_owed = false;
-    loop {
-        let now = now_us();
-        // Idle, it still looks at the links ten times a second for the status; a
-        // status held back is published within its period, a poll held back within
-        // its own.
-        let wake_us = player.next_wakeup_us(now).unwrap_or(now + 100_000);
-        let mut sleep_for =
-            Duration::from_micros(wake_us.saturating_sub(now).clamp(1_000, TICK_US * 10))
-                .min(publisher.due_in());
-        if poll_owed {
-            sleep_for = sleep_for.min(POLL_PERIOD.saturating_sub(polled.elapsed()));
-        }
-        let sleep = tokio::time::sleep(sleep_for);
-        let mut request = None;
-        let mut by_feedback = false;
-        tokio::select! {
-            received = inbox.recv() => {
-                let Some(received) = received else { return };
-                request = Some(received);
-            }
-            Some((gateway, frame)) = frames.recv() => {
-                by_feedback = true;
-                player.handle_feedback(now_us(), gateway, &frame);
-                // Every gateway acknowledges every instruction: with a hundred of them
-                // the frames come by the thousand a second. Those already waiting are
-                // handled in the same turn.
-                for _ in 1..FRAMES_PER_TURN {
-                    let Ok((gateway, frame)) = frames.try_recv() else { break };
-                    player.handle_feedback(now_us(), gateway, &frame);
-                }
-            }
-            () = sleep => {}
-        }
-        let mut urgent = request.is_some();
-        // An e-stop pressed since the last turn: the links have acted on it already.
-        let generation = latch.generation();
-        if generation != seen_generation {
-            seen_generation = generation;
-            player.estop();
-            urgent = true;
-        }
-        if let Some(Request::Reconfigure(change)) = request {
-            reconfigure_player(&mut player, &mut links, &mut health, &frames_tx, *change);
-            watchdog = Watchdog::new(&links);
-            request = None;
-        }
-        let now = now_us();
-        let request = request.and_then(|request| {
-            handle_arming(
-                &mut player,
-                &latch,
-                request,
-                run_generation,
-                &link_views(&links),
-            )
-        });
-        if let Some(request) = request
-            && let Some((generation, reply, result)) =
-                handle(&mut player, &latch, request, now, &link_views(&links))
-        {
-            if result.is_ok() {
-                run_generation = generation;
-            }
-            let _ = reply.send(result);
-        }
-        // Feedback alone moves the player on at most once a POLL_PERIOD: a poll looks
-        // at every gateway, and a hundred of them send thousands of frames a second.
-        poll_owed = by_feedback && !urgent && polled.elapsed() < POLL_PERIOD;
-        if !poll_owed {
-            polled = Instant::now();
-            player.poll(now_us(), &link_views(&links));
-            if let Some(stall) = watchdog.check(&links, player.is_running()) {
-                tracing::error!("{stall}");
-                player.fail_with(stall);
-            }
-        }
-        if carry_out(
-            &links,
-            &latch,
-            player.take_commands(),
-            (run_generation, epoch),
-        ) {
-            // A stop the player asked for is not news to it (it failed, and stays so).
-            seen_generation = latch.generation();
-            urgent = true;
-        }
-        arming.disarms.store(player.disarms(), Ordering::Release);
-        if publisher.due(urgent, player.status().state) {
-            publish(&status, status_of(&player, &links, &health, &list));
-        }
-    }
-}
-
-/// How often feedback alone has the playback task poll the player (look at every
-/// gateway's queue and refill it): a request, the e-stop or the player's own wake-up
-/// polls at once.
-const POLL_PERIOD: Duration = Duration::from_millis(2);
-
-/// The most feedback frames one turn of the playback task handles before it looks at
-/// its requests, the clock and the links again.
-const FRAMES_PER_TURN: usize = 1024;
-
-/// How long the status may lag what the player and the links know while nothing
-/// urgent happened: a status describes every gateway, and building it on each of the
-/// thousands of feedback frames a second a hundred gateways send costs more than the
-/// rest of the task. The clients read it ten times a second at most.
-const STATUS_PERIOD: Duration = Duration::from_millis(20);
-
-/// When the playback task next builds the status: at once after a request, an e-stop
-/// or a change of the player's state; otherwise once a [`STATUS_PERIOD`].
-#[derive(Debug)]
-struct Publisher {
-    built: Instant,
-    state: floatball_shared::api::PlayerState,
-    /// A turn did not build it: what changed since waits for the period's end.
-    held_back: bool,
-}
-
-impl Publisher {
-    fn new() -> Self {
-        Self {
-            built: Instant::now()
-                .checked_sub(STATUS_PERIOD)
-                .unwrap_or_else(Instant::now),
-            state: floatball_shared::api::PlayerState::Idle,
-            held_back: false,
-        }
-    }
-
-    /// How long until a held-back status is due (`Duration::MAX`: none is).
-    fn due_in(&self) -> Duration {
-        if self.held_back {
-            STATUS_PERIOD.saturating_sub(self.built.elapsed())
-        } else {
-            Duration::MAX
-        }
-    }
-
-    /// Whether to build the status now; if so, counts it as built.
-    fn due(&mut self, urgent: bool, state: floatball_shared::api::PlayerState) -> bool {
-        let due = urgent || state != self.state || self.built.elapsed() >= STATUS_PERIOD;
-        if due {
-            self.built = Instant::now();
-            self.state = state;
-        }
-        self.held_back = !due;
-        due
-    }
 }
 
 /// Publishes `current` if it differs from what the clients saw last.

@@ -15,7 +15,7 @@ use floatball_shared::api::GatewayStatus;
 use floatball_shared::plan::Installation;
 use floatball_shared::plan::player::{Entry, LinkView, StartError};
 use floatball_shared::plan::verdict::{Fix, Why};
-use floatball_shared::player::Run;
+use floatball_shared::player::{Run, Sequencer};
 use floatball_shared::scl::drive::{DriveSlot, SclDrive, SclDriveConfig, SclEntry, Trigger};
 use floatball_shared::scl::qprogram::QProgramError;
 use tokio::sync::mpsc;
@@ -93,17 +93,17 @@ impl Family for SclFamily {
             .collect()
     }
 
-    fn statuses(&self) -> Vec<GatewayStatus> {
+    fn statuses(&self, _drive: &SclDrive) -> Vec<GatewayStatus> {
         self.net.statuses()
     }
 
-    fn lost(&self) -> Option<String> {
+    fn lost(&mut self, _running: bool) -> Option<String> {
         // A drive that does not answer fails the request that waited for it.
         None
     }
 
-    fn port(&self) -> &dyn StopPort {
-        &self.net
+    fn ports(&self) -> Vec<&dyn StopPort> {
+        vec![&self.net]
     }
 
     fn carry_out(
@@ -129,11 +129,15 @@ impl Family for SclFamily {
         }
     }
 
-    fn apply(drive: &mut SclDrive, now_us: u64, (id, answer): Answer) {
-        drive.answer(now_us, id, answer);
+    fn apply(sequencer: &mut Sequencer<SclDrive>, now_us: u64, (id, answer): Answer) {
+        sequencer.drive_mut().answer(now_us, id, answer);
     }
 
-    fn reconfigure(&mut self, change: &Reconfigure) -> Result<SclDrive, ReconfigureError> {
+    fn reconfigure(
+        &mut self,
+        change: &Reconfigure,
+        _inputs: &mpsc::UnboundedSender<Answer>,
+    ) -> Result<SclDrive, ReconfigureError> {
         // The drives stay (their gateway entries did not change); the drive takes the
         // matrix's new calibration and limits.
         Ok(SclDrive::new(drive_config(

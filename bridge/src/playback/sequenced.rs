@@ -1,29 +1,38 @@
 //! The playback loop over the show sequencer ([`floatball_shared::player`]): one task
-//! for every drive family that runs on it (MBOX boxes, MOONS' drives), the family's
+//! for every drive family (UIM2503 gateways, MBOX boxes, MOONS' drives), the family's
 //! port ([`Family`]) carrying out what its drive queued and handing back what the
 //! units answered.
 //!
-//! **One owner.** The task owns the sequencer and the status, as the UIM2503 task
-//! does: Start, Reset and Home are admitted as for every family ([`super::admit`]: no
-//! e-stop since they were issued, every link up, then the latch released for them);
-//! an e-stop is learnt from the latch's generation on the next turn and stops the
-//! sequencer (the stop itself went out from [`super::Playback::estop`] without the
-//! task); a lost link or a drive's failure stops the matrix through the same latch.
-//! Every request a run sends carries the generation of the request that began it, so
+//! **One owner.** The task owns the sequencer and the status: Start, Reset and Home
+//! are admitted as for every family ([`super::admit`]: no e-stop since they were
+//! issued, every link up, then the latch released for them); an e-stop is learnt
+//! from the latch's generation on the next turn and stops the sequencer (the stop
+//! itself went out from [`super::Playback::estop`] without the task); a lost or
+//! stalled link or a drive's failure stops the matrix through the same latch. Every
+//! request a run sends carries the generation of the request that began it, so
 //! nothing of a run reaches a unit after an e-stop.
+//!
+//! **Many inputs, few polls.** The units' answers waiting are handed to the drive
+//! together in one turn (at most [`INPUTS_PER_TURN`]: a hundred UIM2503 gateways
+//! acknowledge thousands of instructions a second); answers alone poll the sequencer
+//! at most once a [`Family::POLL_PERIOD`], and the status is built at once after a
+//! request, an e-stop or a new state, otherwise at most once a [`STATUS_PERIOD`]
+//! ([`Publisher`]).
 
 use std::any::Any;
 use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use floatball_shared::api::{GatewayStatus, Status};
+use floatball_shared::api::{GatewayStatus, PlayerState, Status};
 use floatball_shared::plan::Installation;
 use floatball_shared::plan::player::{Entry, LinkView, StartError};
 use floatball_shared::player::{Drive, Run, Sequencer};
 use tokio::sync::{mpsc, watch};
 
 use super::{
-    Listed, Reconfigure, ReconfigureError, Request, admit, idle_for_reconfigure, publish, summarise,
+    ArmingShared, Listed, Reconfigure, ReconfigureError, Reply, Request, admit,
+    idle_for_reconfigure, publish, summarise,
 };
 use crate::estop::{self, Latch, StopPort};
 
@@ -53,17 +62,27 @@ pub(super) trait Family: Send + 'static {
     /// What the units answer, for the drive.
     type Input: Send + 'static;
 
+    /// How often at most answers alone poll the sequencer (a request, the e-stop or
+    /// the sequencer's own wake-up poll at once).
+    const POLL_PERIOD: Duration = Duration::ZERO;
+
+    /// The task began: where the units' answers go, for a family whose links send
+    /// them on their own (UIM2503 feedback).
+    fn attach(&mut self, _inputs: &mpsc::UnboundedSender<Self::Input>) {}
+
     /// Each link as Start's admission sees it, in gateway order.
     fn views(&self) -> Vec<LinkView>;
 
-    /// Each gateway's status, in gateway order.
-    fn statuses(&self) -> Vec<GatewayStatus>;
+    /// Each gateway's status, in gateway order (`drive`: what the drive knows of
+    /// them).
+    fn statuses(&self, drive: &Self::Drive) -> Vec<GatewayStatus>;
 
-    /// A link lost while a run is under way: why the matrix stops.
-    fn lost(&self) -> Option<String>;
+    /// A link lost or stalled while a run is under way (`running`): why the matrix
+    /// stops. Asked at every poll.
+    fn lost(&mut self, running: bool) -> Option<String>;
 
     /// Where the family's stop goes ([`estop::press`]).
-    fn port(&self) -> &dyn StopPort;
+    fn ports(&self) -> Vec<&dyn StopPort>;
 
     /// How long ahead of its time the task polls the sequencer, µs (frames are handed
     /// to a sender that sends them at their slot).
@@ -71,8 +90,11 @@ pub(super) trait Family: Send + 'static {
         0
     }
 
-    /// Carries out what `drive` queued, for a run admitted at `generation`; answers
-    /// go to `inputs`.
+    /// Before each poll: what the drive must know of the links now.
+    fn before_poll(&self, _drive: &mut Self::Drive) {}
+
+    /// Carries out what `drive` queued, for a run admitted at `generation`, its
+    /// times on the clock whose zero is `epoch`; answers go to `inputs`.
     fn carry_out(
         &mut self,
         drive: &mut Self::Drive,
@@ -81,15 +103,30 @@ pub(super) trait Family: Send + 'static {
         inputs: &mpsc::UnboundedSender<Self::Input>,
     );
 
-    /// Hands `input` to `drive` at `now_us`.
-    fn apply(drive: &mut Self::Drive, now_us: u64, input: Self::Input);
+    /// Hands `input` to the drive under `sequencer` at `now_us`.
+    fn apply(sequencer: &mut Sequencer<Self::Drive>, now_us: u64, input: Self::Input);
 
-    /// A new installation, taken while idle: the drive for it.
+    /// A new installation, taken while idle: the drive for it (answers of new links
+    /// go to `inputs`).
     ///
     /// # Errors
     /// [`ReconfigureError::NotLive`]: this change is not taken live.
-    fn reconfigure(&mut self, change: &Reconfigure) -> Result<Self::Drive, ReconfigureError>;
+    fn reconfigure(
+        &mut self,
+        change: &Reconfigure,
+        inputs: &mpsc::UnboundedSender<Self::Input>,
+    ) -> Result<Self::Drive, ReconfigureError>;
 }
+
+/// The most answers one turn of the task hands to the drive before it looks at its
+/// requests, the clock and the links again.
+pub(super) const INPUTS_PER_TURN: usize = 1024;
+
+/// How long the status may lag what the sequencer and the links know while nothing
+/// urgent happened: a status describes every gateway, and building it on each of the
+/// thousands of answers a second a hundred gateways send costs more than the rest of
+/// the task. The clients read it ten times a second at most.
+pub(super) const STATUS_PERIOD: Duration = Duration::from_millis(20);
 
 /// The status: the sequencer's, with every gateway's.
 pub(super) fn status<F: Family>(
@@ -98,20 +135,33 @@ pub(super) fn status<F: Family>(
     list: &watch::Sender<Listed>,
 ) -> Status {
     let mut status = sequencer.status();
-    (status.gateways, status.gateway_summary) = summarise(family.statuses(), list);
+    (status.gateways, status.gateway_summary) = summarise(family.statuses(sequencer.drive()), list);
     status
+}
+
+/// The playlist a request carries, as the drive runs it.
+fn runs_of<D: Drive + 'static>(
+    prepared: Result<PreparedRuns, StartError>,
+) -> Result<Vec<Run<D::Entry>>, StartError> {
+    prepared.and_then(|prepared| {
+        prepared
+            .downcast::<Vec<Run<D::Entry>>>()
+            .map(|runs| *runs)
+            // Prepared for another family: the installation changed since.
+            .map_err(|_| StartError::Superseded)
+    })
 }
 
 /// Carries out a Start, Reset or Home on the sequencer, if no e-stop came since it was
 /// issued and every link is up; returns its generation, where to answer, and the
-/// answer.
+/// answer. Arming requests are carried out here too (they answer nothing).
 fn handle<D: Drive + 'static>(
     sequencer: &mut Sequencer<D>,
     latch: &Latch,
     request: Request,
-    now_us: u64,
+    (now_us, run_generation): (u64, u64),
     views: &[LinkView],
-) -> Option<(u64, super::Reply, Result<(), StartError>)> {
+) -> Option<(u64, Reply, Result<(), StartError>)> {
     let gateways = views.len();
     Some(match request {
         Request::Play {
@@ -121,13 +171,7 @@ fn handle<D: Drive + 'static>(
             reset,
             reply,
         } => {
-            let runs = prepared.and_then(|prepared| {
-                prepared
-                    .downcast::<Vec<Run<D::Entry>>>()
-                    .map(|runs| *runs)
-                    // PreparedRuns for another family: the installation changed since.
-                    .map_err(|_| StartError::Superseded)
-            });
+            let runs = runs_of::<D>(prepared);
             let result = if reset {
                 let admitted =
                     runs.and_then(|runs| admit(latch, generation, views, gateways).map(|()| runs));
@@ -143,18 +187,37 @@ fn handle<D: Drive + 'static>(
             (generation, reply, result)
         }
         Request::Home { generation, reply } => {
-            let result = admit(latch, generation, views, gateways).map(|()| sequencer.home(now_us));
+            let result = admit(latch, generation, views, gateways);
+            match &result {
+                Ok(()) => sequencer.home(now_us),
+                // The stop went out: the matrix stays stopped, saying why.
+                Err(error) => sequencer.stop_with(Some(error.to_string())),
+            }
             (generation, reply, result)
         }
-        Request::Start {
-            generation, reply, ..
-        }
-        | Request::Reset {
-            generation, reply, ..
-        } => (generation, reply, Err(StartError::Busy)),
-        Request::Estop | Request::Arm { .. } | Request::Disarm | Request::Reconfigure(_) => {
+        Request::Arm {
+            generation,
+            disarms,
+            prepared,
+        } => {
+            // Only with no e-stop in force or since it was issued, the run's batches
+            // tagged with the generation now, and every link up.
+            if generation == latch.generation()
+                && generation == run_generation
+                && !latch.is_latched()
+                && views.iter().all(|view| view.up)
+                && let Ok(runs) = runs_of::<D>(Ok(prepared))
+                && let Some(first) = runs.first()
+            {
+                sequencer.arm(&first.prepared, disarms);
+            }
             return None;
         }
+        Request::Disarm => {
+            sequencer.drive_mut().disarm();
+            return None;
+        }
+        Request::Estop | Request::Reconfigure(_) => return None,
     })
 }
 
@@ -163,26 +226,36 @@ fn handle<D: Drive + 'static>(
 pub(super) async fn run<F: Family>(
     mut sequencer: Sequencer<F::Drive>,
     mut family: F,
-    latch: Arc<Latch>,
+    (latch, arming): (Arc<Latch>, Arc<ArmingShared>),
     mut inbox: mpsc::UnboundedReceiver<Request>,
     (status_tx, list): (watch::Sender<Status>, watch::Sender<Listed>),
 ) {
     let epoch = Instant::now();
     let now_us = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
     let (inputs_tx, mut inputs) = mpsc::unbounded_channel::<F::Input>();
+    family.attach(&inputs_tx);
     let mut seen_generation = latch.generation();
     let mut run_generation = seen_generation;
+    let mut publisher = Publisher::new();
+    let mut polled = Instant::now();
+    let mut poll_owed = false;
     loop {
         let now = now_us();
         let lead_us = family.lead_us();
-        // Idle, it still looks at the links ten times a second for the status.
+        // Idle, it still looks at the links ten times a second for the status; a
+        // status held back is published within its period, a poll held back within
+        // its own.
         let wake_us = sequencer
             .next_wakeup_us(now)
             .unwrap_or(now + 100_000)
             .min(now + 100_000);
-        let sleep = tokio::time::sleep_until(
-            (epoch + Duration::from_micros(wake_us.saturating_sub(lead_us))).into(),
-        );
+        let mut sleep_until = epoch + Duration::from_micros(wake_us.saturating_sub(lead_us));
+        if let Some(due) = Instant::now().checked_add(publisher.due_in()) {
+            sleep_until = sleep_until.min(due);
+        }
+        if poll_owed {
+            sleep_until = sleep_until.min(polled + F::POLL_PERIOD);
+        }
         let mut request = None;
         let mut input = None;
         tokio::select! {
@@ -191,52 +264,123 @@ pub(super) async fn run<F: Family>(
                 request = Some(received);
             }
             Some(received) = inputs.recv() => input = Some(received),
-            () = sleep => {}
+            () = tokio::time::sleep_until(sleep_until.into()) => {}
         }
+        let by_input = input.is_some();
+        // The answers waiting, in the order they came.
+        let mut handed = 0;
+        while handed < INPUTS_PER_TURN
+            && let Some(received) = input.take().or_else(|| inputs.try_recv().ok())
+        {
+            F::apply(&mut sequencer, now_us(), received);
+            handed += 1;
+        }
+        let mut urgent = request.is_some();
+        // An e-stop pressed since the last turn: the ports have acted on it already.
         let generation = latch.generation();
         if generation != seen_generation {
             seen_generation = generation;
             sequencer.estop();
-        }
-        // Every answer waiting, in the order they came.
-        while let Some(received) = input.take().or_else(|| inputs.try_recv().ok()) {
-            F::apply(sequencer.drive_mut(), now_us(), received);
+            urgent = true;
         }
         if let Some(Request::Reconfigure(change)) = request {
             let state = sequencer.status().state;
             let result = idle_for_reconfigure(state, sequencer.is_running())
-                .and_then(|()| family.reconfigure(&change))
+                .and_then(|()| family.reconfigure(&change, &inputs_tx))
                 .map(|drive| sequencer = Sequencer::new(drive));
             let _ = change.reply.send(result);
             request = None;
         }
         if let Some(request) = request
-            && let Some((generation, reply, result)) =
-                handle(&mut sequencer, &latch, request, now_us(), &family.views())
+            && let Some((generation, reply, result)) = handle(
+                &mut sequencer,
+                &latch,
+                request,
+                (now_us(), run_generation),
+                &family.views(),
+            )
         {
             if result.is_ok() {
                 run_generation = generation;
             }
             let _ = reply.send(result);
         }
-        if sequencer.is_running()
-            && let Some(reason) = family.lost()
-        {
-            tracing::error!("{reason}");
-            estop::press(&latch, &[family.port()]);
-            seen_generation = latch.generation();
-            sequencer.fail_with(reason);
+        // Answers alone move the sequencer on at most once a POLL_PERIOD.
+        poll_owed = by_input && !urgent && polled.elapsed() < F::POLL_PERIOD;
+        if !poll_owed {
+            polled = Instant::now();
+            if let Some(reason) = family.lost(sequencer.is_running()) {
+                tracing::error!("{reason}");
+                estop::press(&latch, &family.ports());
+                seen_generation = latch.generation();
+                sequencer.fail_with(reason);
+                urgent = true;
+            }
+            family.before_poll(sequencer.drive_mut());
+            sequencer.poll(now_us() + lead_us);
         }
-        sequencer.poll(now_us() + lead_us);
         if sequencer.take_estop() {
             // The drive failed: whatever the units were doing, they stop.
             if let Some(reason) = sequencer.status().last_error {
                 tracing::error!("{reason}");
             }
-            estop::press(&latch, &[family.port()]);
+            let failures = estop::press(&latch, &family.ports());
+            if !failures.is_empty() {
+                tracing::error!("the stop did not reach {}", failures.join("; "));
+            }
+            // A stop the sequencer asked for is not news to it (it failed, and stays
+            // so).
             seen_generation = latch.generation();
+            urgent = true;
         }
         family.carry_out(sequencer.drive_mut(), epoch, run_generation, &inputs_tx);
-        publish(&status_tx, status(&sequencer, &family, &list));
+        arming
+            .disarms
+            .store(sequencer.drive().disarms(), Ordering::Release);
+        if publisher.due(urgent, sequencer.status().state) {
+            publish(&status_tx, status(&sequencer, &family, &list));
+        }
+    }
+}
+
+/// When the playback task next builds the status: at once after a request, an e-stop
+/// or a change of the sequencer's state; otherwise once a [`STATUS_PERIOD`].
+#[derive(Debug)]
+struct Publisher {
+    built: Instant,
+    state: PlayerState,
+    /// A turn did not build it: what changed since waits for the period's end.
+    held_back: bool,
+}
+
+impl Publisher {
+    fn new() -> Self {
+        Self {
+            built: Instant::now()
+                .checked_sub(STATUS_PERIOD)
+                .unwrap_or_else(Instant::now),
+            state: PlayerState::Idle,
+            held_back: false,
+        }
+    }
+
+    /// How long until a held-back status is due (`Duration::MAX`: none is).
+    fn due_in(&self) -> Duration {
+        if self.held_back {
+            STATUS_PERIOD.saturating_sub(self.built.elapsed())
+        } else {
+            Duration::MAX
+        }
+    }
+
+    /// Whether to build the status now; if so, counts it as built.
+    fn due(&mut self, urgent: bool, state: PlayerState) -> bool {
+        let due = urgent || state != self.state || self.built.elapsed() >= STATUS_PERIOD;
+        if due {
+            self.built = Instant::now();
+            self.state = state;
+        }
+        self.held_back = !due;
+        due
     }
 }

@@ -32,7 +32,7 @@ pub use error::StartError;
 pub use playlist::{Entry, EntryTiming, LinkView};
 pub(crate) use playlist::{NextRun, PlaylistProgress, next_run};
 
-use crate::api::{PlayerState, Status};
+use crate::api::{ArmedShow, PlayerState, Status};
 
 /// How a step the drive carries out stands after a poll.
 #[derive(Debug, Clone, PartialEq)]
@@ -135,6 +135,37 @@ pub trait Drive {
 
     /// When the step under way next needs a poll, µs.
     fn next_wakeup_us(&self, now_us: u64) -> Option<u64>;
+
+    /// **Arming**, for a drive that can load a show ahead of Start while the matrix
+    /// is idle (UIM2503 tables): takes `first`, the first entry of a playlist prepared
+    /// at disarm count `disarms`, and loads it while idle ([`Drive::poll_idle`]).
+    /// Returns whether it took it (not if a disarm came since `disarms`). The default:
+    /// the drive arms nothing.
+    fn arm(&mut self, _first: &Self::Entry, _disarms: u64) -> bool {
+        false
+    }
+
+    /// Drops what is armed or being armed, and counts a disarm.
+    fn disarm(&mut self) {}
+
+    /// How many times the drive was disarmed (or ran, or stopped): an arming is taken
+    /// only at the count it was prepared at.
+    fn disarms(&self) -> u64 {
+        0
+    }
+
+    /// The show armed or being armed, for the status.
+    fn armed(&self) -> Option<ArmedShow> {
+        None
+    }
+
+    /// When the drive wants a poll while the matrix is idle (an arming under way), µs.
+    fn idle_wakeup_us(&self, _now_us: u64) -> Option<u64> {
+        None
+    }
+
+    /// Lets time pass while the matrix is idle (an arming loads its next round).
+    fn poll_idle(&mut self, _now_us: u64) {}
 }
 
 /// What follows a move.
@@ -234,7 +265,7 @@ impl<D: Drive> Sequencer<D> {
         );
         let active = self.is_running() && !homing_to_rest;
         let entry = active.then(|| self.entries.get(self.entry)).flatten();
-        PlaylistProgress {
+        let mut status = PlaylistProgress {
             state,
             playing: entry.map(|run| (self.entry, run.name.clone(), run.duration_ms)),
             show_time_ms: self.show_time_ms,
@@ -242,7 +273,9 @@ impl<D: Drive> Sequencer<D> {
             progress: self.progress,
             last_error: self.last_error.clone(),
         }
-        .status()
+        .status();
+        status.armed = self.drive.armed();
+        status
     }
 
     /// Whether a playlist (or a homing move) is under way.
@@ -282,7 +315,8 @@ impl<D: Drive> Sequencer<D> {
     #[must_use]
     pub fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
         match self.step {
-            Step::Idle | Step::Stopped | Step::Failed => None,
+            Step::Idle => self.drive.idle_wakeup_us(now_us),
+            Step::Stopped | Step::Failed => None,
             Step::Waiting { until_us } => Some(
                 self.drive
                     .waiting_wakeup_us(now_us)
@@ -366,6 +400,13 @@ impl<D: Drive> Sequencer<D> {
         self.begin_home(now_us, AfterMove::Rest);
     }
 
+    /// Arms `first` (the first entry of a playlist prepared at disarm count
+    /// `disarms`) while the matrix is idle ([`Drive::arm`]); `false` when it is not
+    /// idle or the drive did not take it.
+    pub fn arm(&mut self, first: &D::Entry, disarms: u64) -> bool {
+        self.is_idle() && self.drive.arm(first, disarms)
+    }
+
     /// Fails the running playlist with `reason`, for a fault the caller found (a lost
     /// link): stops as an e-stop does (the caller presses it).
     pub fn fail_with(&mut self, reason: String) {
@@ -401,8 +442,13 @@ impl<D: Drive> Sequencer<D> {
     }
 
     /// Lets time pass: checks the drive for a fault, ends an entry's delay, and polls
-    /// the drive once in the step under way, moving on when it is over.
+    /// the drive once in the step under way, moving on when it is over; while idle,
+    /// lets the drive arm ([`Drive::poll_idle`]).
     pub fn poll(&mut self, now_us: u64) {
+        if self.is_idle() {
+            self.drive.poll_idle(now_us);
+            return;
+        }
         if self.is_running()
             && let Some(reason) = self.drive.fault()
         {

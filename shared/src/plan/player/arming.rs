@@ -87,31 +87,19 @@ impl Player {
     /// and no disarm came since `disarms` ([`Player::disarms`] when the caller began to
     /// prepare). Arming the same plan again keeps what is loaded.
     pub fn arm(&mut self, prepared: Prepared, disarms: u64, links: &[LinkView]) -> bool {
-        let idle = self.sequencer.is_idle();
-        let drive = self.sequencer.drive_mut();
-        if !idle
-            || disarms != drive.disarms
-            || super::prepare::check_links(&drive.config.installation, links).is_err()
-        {
+        if super::prepare::check_links(&self.drive().config.installation, links).is_err() {
             return false;
         }
-        let Some(plan) = prepared.plans.into_iter().next() else {
-            return false;
-        };
-        if drive
-            .arming
-            .as_ref()
-            .is_none_or(|arming| !same_plan(&arming.plan, &plan))
-        {
-            drive.arming = Some(Arming::new(plan));
-        }
-        true
+        prepared
+            .plans
+            .first()
+            .is_some_and(|plan| self.sequencer.arm(plan, disarms))
     }
 
     /// Drops the arming: the next Start loads every table again. Counts a disarm (an
     /// arming prepared before it is refused).
     pub fn disarm(&mut self) {
-        self.sequencer.drive_mut().disarm();
+        self.sequencer.drive_mut().disarm_tables();
     }
 
     /// How many times the player was disarmed (or ran, or stopped) since it began: an
@@ -122,18 +110,39 @@ impl Player {
 
     /// The show being armed or armed, for the status.
     pub fn armed(&self) -> Option<ArmedShow> {
-        let arming = self.sequencer.drive().arming.as_ref()?;
+        self.sequencer.drive().armed_show()
+    }
+}
+
+impl Uim2503Drive {
+    /// Takes `plan` to arm, unless a disarm came since `disarms` (the sequencer
+    /// calls it only while idle); arming the same plan again keeps what is loaded.
+    pub(super) fn arm_plan(&mut self, plan: &Arc<Plan>, disarms: u64) -> bool {
+        if disarms != self.disarms {
+            return false;
+        }
+        if self
+            .arming
+            .as_ref()
+            .is_none_or(|arming| !same_plan(&arming.plan, plan))
+        {
+            self.arming = Some(Arming::new(Arc::clone(plan)));
+        }
+        true
+    }
+
+    /// The show being armed or armed, for the status.
+    pub(super) fn armed_show(&self) -> Option<ArmedShow> {
+        let arming = self.arming.as_ref()?;
         Some(ArmedShow {
             entry: 0,
             show: arming.plan.show.clone(),
             progress: arming.progress(),
         })
     }
-}
 
-impl Uim2503Drive {
     /// Drops the arming; counts a disarm.
-    pub(super) fn disarm(&mut self) {
+    pub(super) fn disarm_tables(&mut self) {
         self.arming = None;
         self.disarms += 1;
     }
@@ -177,7 +186,7 @@ impl Uim2503Drive {
             .iter()
             .any(|run| queued(run.gateway).is_none())
         {
-            self.disarm();
+            self.disarm_tables();
             return;
         }
         // Only what was queued on an earlier turn can have been written since.

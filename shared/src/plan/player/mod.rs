@@ -49,7 +49,7 @@ pub use prepare::{Prepared, StartError, prepare};
 
 use super::stream::WATERMARK_ROWS;
 use super::{Installation, Plan};
-use crate::api::Status;
+use crate::api::{ArmedShow, Status};
 use crate::ascii::Batch;
 use crate::feedback::{Ack, Feedback, Frame, Notification};
 use crate::player::{Drive, Phase, Run, Sequencer};
@@ -173,7 +173,8 @@ pub struct Uim2503Drive {
 }
 
 impl Uim2503Drive {
-    fn new(config: PlayerConfig) -> Self {
+    /// The drive for the machine in `config`, idle, the balls' positions unknown.
+    pub fn new(config: PlayerConfig) -> Self {
         let units_by_address = config
             .installation
             .units
@@ -199,6 +200,91 @@ impl Uim2503Drive {
             arming: None,
             preloaded: None,
             disarms: 0,
+        }
+    }
+
+    /// The links as they are now, for the next poll (each gateway's state and queued
+    /// bytes: the load and refill rounds follow the lines' draining).
+    pub fn set_links(&mut self, links: &[LinkView]) {
+        self.links.clear();
+        self.links.extend_from_slice(links);
+    }
+
+    /// The batches to queue now, in order ([`Command::Bulk`] and
+    /// [`Command::Priority`]; the e-stop is the sequencer's, [`Sequencer::take_estop`]).
+    pub fn take_commands(&mut self) -> Vec<Command> {
+        std::mem::take(&mut self.commands)
+    }
+
+    /// The lowest FIFO water level of each gateway during the current show (modelled
+    /// at each refill, and lowered by watermark notices).
+    pub fn lowest_water_levels(&self) -> &[Option<u16>] {
+        &self.lowest_level
+    }
+
+    /// A feedback frame from `gateway`, for the drive under `sequencer`: a unit's
+    /// error fails the run (or drops an arming), a watermark notice lowers the water
+    /// level, a position answer confirms a move, a `PV;` answer the load's barrier.
+    pub fn handle_feedback(
+        sequencer: &mut Sequencer<Self>,
+        now_us: u64,
+        gateway: usize,
+        frame: &Frame,
+    ) {
+        let Ok(feedback) = Feedback::from_frame(frame) else {
+            return;
+        };
+        let running = sequencer.is_running();
+        let drive = sequencer.drive_mut();
+        let unit = drive
+            .units_by_address
+            .get(&(gateway, frame.station()))
+            .copied();
+        let who = |drive: &Uim2503Drive| match unit {
+            Some(unit) => drive.describe_unit(unit),
+            None => format!("gateway {gateway}, station {}", frame.station()),
+        };
+        match feedback {
+            Feedback::Error(error) if running => {
+                let reason = format!("{}: {error}", who(drive));
+                sequencer.fail(reason);
+            }
+            Feedback::Error(error) if drive.arming.is_some() => {
+                let who = who(drive);
+                if let Some(note) = drive.arming_refused(who, error) {
+                    sequencer.set_last_error(Some(note));
+                }
+            }
+            Feedback::Notification(Notification::PVT_WATERMARK) => {
+                if let Some(level) = drive.lowest_level.get_mut(gateway) {
+                    let watermark = u16::from(WATERMARK_ROWS);
+                    *level = Some(level.map_or(watermark, |level| level.min(watermark)));
+                }
+            }
+            Feedback::Ack(Ack::PtpPosition { position_counts }) => {
+                // `PA=p;` itself is acknowledged with its target: only answers to the
+                // position queries, sent once the move should be over, confirm it.
+                if let (
+                    Some(unit),
+                    Step::Moving {
+                        targets,
+                        confirmed,
+                        queried: true,
+                        ..
+                    },
+                ) = (unit, &mut drive.step)
+                    && targets.get(unit) == Some(&position_counts)
+                {
+                    confirmed[unit] = true;
+                }
+                let phase = drive.poll_moving(now_us);
+                sequencer.advance(phase);
+            }
+            Feedback::Ack(Ack::PvtStart { value }) => {
+                let phase = drive.barrier_answered(now_us, gateway, frame.station(), value);
+                sequencer.advance(phase);
+            }
+            _ => {}
         }
     }
 
@@ -293,7 +379,7 @@ impl Drive for Uim2503Drive {
         self.step = Step::Idle;
         self.loaded_entry = None;
         self.preloaded = None;
-        self.disarm();
+        self.disarm_tables();
         self.believed
             .iter_mut()
             .for_each(|position| *position = None);
@@ -302,6 +388,32 @@ impl Drive for Uim2503Drive {
 
     fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
         Some(now_us + TICK_US)
+    }
+
+    fn arm(&mut self, first: &Arc<Plan>, disarms: u64) -> bool {
+        self.arm_plan(first, disarms)
+    }
+
+    fn disarm(&mut self) {
+        self.disarm_tables();
+    }
+
+    fn disarms(&self) -> u64 {
+        self.disarms
+    }
+
+    fn armed(&self) -> Option<ArmedShow> {
+        self.armed_show()
+    }
+
+    fn idle_wakeup_us(&self, now_us: u64) -> Option<u64> {
+        self.arming_under_way().then_some(now_us + TICK_US)
+    }
+
+    fn poll_idle(&mut self, _now_us: u64) {
+        let links = std::mem::take(&mut self.links);
+        self.poll_arming(&links);
+        self.links = links;
     }
 }
 
@@ -312,8 +424,9 @@ pub struct Player {
     sequencer: Sequencer<Uim2503Drive>,
 }
 
-/// The playlist as the sequencer runs it: each entry's plan with its timing.
-fn runs(prepared: Prepared) -> (Vec<Run<Arc<Plan>>>, bool) {
+/// The playlist as the sequencer runs it: each entry's plan with its timing, and
+/// whether it loops.
+pub fn runs(prepared: Prepared) -> (Vec<Run<Arc<Plan>>>, bool) {
     let Prepared {
         plans,
         entries,
@@ -355,21 +468,19 @@ impl Player {
 
     /// The playlist's state as the status shows it (the bridge adds the links).
     pub fn status(&self) -> Status {
-        let mut status = self.sequencer.status();
-        status.armed = self.armed();
-        status
+        self.sequencer.status()
     }
 
     /// The lowest FIFO water level of each gateway during the current show (modelled
     /// at each refill, and lowered by watermark notices).
     pub fn lowest_water_levels(&self) -> &[Option<u16>] {
-        &self.drive().lowest_level
+        self.drive().lowest_water_levels()
     }
 
     /// The commands to carry out now, in order; [`Command::Estop`] last when the
     /// player stopped on its own.
     pub fn take_commands(&mut self) -> Vec<Command> {
-        let mut commands = std::mem::take(&mut self.drive_mut().commands);
+        let mut commands = self.drive_mut().take_commands();
         if self.sequencer.take_estop() {
             commands.push(Command::Estop);
         }
@@ -474,61 +585,7 @@ impl Player {
 
     /// A feedback frame from `gateway`.
     pub fn handle_feedback(&mut self, now_us: u64, gateway: usize, frame: &Frame) {
-        let Ok(feedback) = Feedback::from_frame(frame) else {
-            return;
-        };
-        let running = self.sequencer.is_running();
-        let drive = self.sequencer.drive_mut();
-        let unit = drive
-            .units_by_address
-            .get(&(gateway, frame.station()))
-            .copied();
-        let who = |drive: &Uim2503Drive| match unit {
-            Some(unit) => drive.describe_unit(unit),
-            None => format!("gateway {gateway}, station {}", frame.station()),
-        };
-        match feedback {
-            Feedback::Error(error) if running => {
-                let reason = format!("{}: {error}", who(drive));
-                self.sequencer.fail(reason);
-            }
-            Feedback::Error(error) if drive.arming.is_some() => {
-                let who = who(drive);
-                if let Some(note) = drive.arming_refused(who, error) {
-                    self.sequencer.set_last_error(Some(note));
-                }
-            }
-            Feedback::Notification(Notification::PVT_WATERMARK) => {
-                if let Some(level) = drive.lowest_level.get_mut(gateway) {
-                    let watermark = u16::from(WATERMARK_ROWS);
-                    *level = Some(level.map_or(watermark, |level| level.min(watermark)));
-                }
-            }
-            Feedback::Ack(Ack::PtpPosition { position_counts }) => {
-                // `PA=p;` itself is acknowledged with its target: only answers to the
-                // position queries, sent once the move should be over, confirm it.
-                if let (
-                    Some(unit),
-                    Step::Moving {
-                        targets,
-                        confirmed,
-                        queried: true,
-                        ..
-                    },
-                ) = (unit, &mut drive.step)
-                    && targets.get(unit) == Some(&position_counts)
-                {
-                    confirmed[unit] = true;
-                }
-                let phase = drive.poll_moving(now_us);
-                self.sequencer.advance(phase);
-            }
-            Feedback::Ack(Ack::PvtStart { value }) => {
-                let phase = drive.barrier_answered(now_us, gateway, frame.station(), value);
-                self.sequencer.advance(phase);
-            }
-            _ => {}
-        }
+        Uim2503Drive::handle_feedback(&mut self.sequencer, now_us, gateway, frame);
     }
 
     /// Stops with `reason` as the last error, for a fault the caller found (a stalled
@@ -545,21 +602,12 @@ impl Player {
     /// When the player next needs to be polled, µs (`None` when idle with nothing
     /// being armed).
     pub fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
-        if self.sequencer.is_idle() && self.drive().arming_under_way() {
-            return Some(now_us + TICK_US);
-        }
         self.sequencer.next_wakeup_us(now_us)
     }
 
     /// Lets time pass: moves on between steps, queues rows, checks the links.
     pub fn poll(&mut self, now_us: u64, links: &[LinkView]) {
-        let idle = self.sequencer.is_idle();
-        let drive = self.sequencer.drive_mut();
-        drive.links.clear();
-        drive.links.extend_from_slice(links);
+        self.sequencer.drive_mut().set_links(links);
         self.sequencer.poll(now_us);
-        if idle {
-            self.sequencer.drive_mut().poll_arming(links);
-        }
     }
 }
