@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 
 use floatball_bridge::link::{Batch, Link, LinkConfig};
 use floatball_shared::api::LinkState;
-use floatball_shared::ascii::{Form, parse_script};
+use floatball_shared::uim2503::ascii::{Form, parse_script};
 use serialport::{SerialPort, TTYPort};
 
 fn batch(script: &str) -> Batch {

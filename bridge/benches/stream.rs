@@ -8,9 +8,9 @@ use floatball_bridge::link::{Link, LinkConfig};
 use floatball_bridge::playback::Playback;
 use floatball_shared::api::{LinkState, PlayerState};
 use floatball_shared::plan::Installation;
-use floatball_shared::plan::player::Entry;
 use floatball_shared::show::Show;
 use floatball_shared::show::demo::Wave;
+use floatball_shared::uim2503::player::Entry;
 
 /// A 10 × 10 wave of `row_count` rows of 250 ms.
 fn wave(row_count: usize) -> Show {

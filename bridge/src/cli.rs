@@ -16,7 +16,7 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 use floatball_shared::mbox::{self, AxisCount};
 use floatball_shared::scl::{escl, twin::StartWire};
-use floatball_shared::sim::{self, GatewayConfig};
+use floatball_shared::uim2503::sim::{self, GatewayConfig};
 
 use crate::auth::Clock;
 use crate::commission::sim_units::SimUnits;

@@ -19,7 +19,7 @@
 //! The latch stays set until a Start, Reset or Home issued *after* the e-stop is
 //! accepted ([`Latch::release`] with the generation that request saw). While it is set,
 //! the writers let only inert instructions through (queries, station selections, motor
-//! off: [`Instruction::is_inert`](floatball_shared::ascii::Instruction::is_inert)), and
+//! off: [`Instruction::is_inert`](floatball_shared::uim2503::ascii::Instruction::is_inert)), and
 //! every batch or request issued before the e-stop — a Start still being planned, a
 //! batch the player queued a moment earlier, a console line — carries an older
 //! generation and is void.

@@ -19,10 +19,10 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, RwLock};
 
 use floatball_shared::api::FeedbackFrame;
-use floatball_shared::ascii::{Batch, EncodeError, Form};
 use floatball_shared::plan::installation::SIM_PORT;
 use floatball_shared::plan::{DriveKind, Installation};
-use floatball_shared::sim::GatewayConfig;
+use floatball_shared::uim2503::ascii::{Batch, EncodeError, Form};
+use floatball_shared::uim2503::sim::GatewayConfig;
 use tokio::sync::{Notify, broadcast};
 
 use crate::commission::sim_units::SimUnits;
@@ -259,7 +259,7 @@ async fn relay_feedback(
     relay: broadcast::Sender<FeedbackFrame>,
     wanted: Arc<Notify>,
 ) {
-    let mut frames: Option<broadcast::Receiver<floatball_shared::feedback::Frame>> = None;
+    let mut frames: Option<broadcast::Receiver<floatball_shared::uim2503::feedback::Frame>> = None;
     loop {
         if relay.receiver_count() == 0 {
             frames = None;

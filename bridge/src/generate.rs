@@ -24,8 +24,9 @@ use clap::{Arg, ArgAction, ArgMatches, Command};
 use floatball_shared::create::params::{ParamKind, ParamSpec, encode_base64};
 use floatball_shared::create::{Grid, PATTERNS, Params, PatternSpec, Recipe, Value, render};
 use floatball_shared::plan::report::report;
-use floatball_shared::plan::{GatewaySpec, Installation, MAX_UNITS_PER_GATEWAY, PlanOptions};
+use floatball_shared::plan::{GatewaySpec, Installation, MAX_UNITS_PER_GATEWAY};
 use floatball_shared::show::{DEFAULT_PITCH_MM, DEFAULT_TRAVEL_MM, Limits};
+use floatball_shared::uim2503::plan::PlanOptions;
 
 use crate::config::{self, Config, Overrides};
 

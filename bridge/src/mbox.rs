@@ -43,12 +43,12 @@ use std::time::{Duration, Instant};
 
 use floatball_shared::api::{GatewayKind, GatewayStatus, LinkState, MboxRegisters, MboxReply};
 use floatball_shared::mbox::console::{Operation, ReplyLayout, render_reply};
+use floatball_shared::mbox::player::MboxFrame;
 use floatball_shared::mbox::register::FN_ESTOP;
 use floatball_shared::mbox::{
     AxisPositions, BoxAddress, Datagram, DigitalOutputs, Encode, MotionFrame, ReadBank,
     RegisterRange, RegisterRead, RegisterReply, RegisterWrite, Route, TimeCode, TimeMode,
 };
-use floatball_shared::plan::mbox::MboxFrame;
 use tokio::sync::broadcast;
 
 use crate::estop::Latch;

@@ -31,8 +31,8 @@
 //! device servers, are [`tcp`]. MBOX boxes on UDP sockets (`--kind mbox`) are [`mbox`];
 //! MOONS' drives on a serial device or on UDP (`--kind scl`) are [`scl`].
 //!
-//! [`RX_FIFO_BYTES`]: floatball_shared::sim::RX_FIFO_BYTES
-//! [`TX_QUEUE_BYTES`]: floatball_shared::sim::TX_QUEUE_BYTES
+//! [`RX_FIFO_BYTES`]: floatball_shared::uim2503::sim::RX_FIFO_BYTES
+//! [`TX_QUEUE_BYTES`]: floatball_shared::uim2503::sim::TX_QUEUE_BYTES
 
 pub mod mbox;
 pub mod scl;
@@ -44,7 +44,7 @@ use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, Sender, channel};
 use std::time::{Duration, Instant};
 
-use floatball_shared::sim::{GatewayConfig, RxLine};
+use floatball_shared::uim2503::sim::{GatewayConfig, RxLine};
 use serialport::SerialPort;
 
 use crate::link::serial::open_port;

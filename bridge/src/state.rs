@@ -15,7 +15,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use floatball_shared::api::{GatewayStatus, Status};
-use floatball_shared::ascii::EncodeError;
+use floatball_shared::uim2503::ascii::EncodeError;
 use tokio::sync::{Mutex, watch};
 
 use crate::commission::Commission;
@@ -32,8 +32,8 @@ use crate::scl::SclNet;
 use crate::simulate::mbox::{MboxBoxes, MboxOptions};
 use crate::simulate::scl::{DEFAULT_START_WIRE, SimDrives, parse_start_wire};
 use crate::store::{ShowStore, StoreError};
+use floatball_shared::mbox::player::MboxPlayerConfig;
 use floatball_shared::plan::Installation;
-use floatball_shared::plan::mbox::MboxPlayerConfig;
 use std::net::SocketAddr;
 
 /// Why the bridge cannot start with this data directory.

@@ -14,8 +14,8 @@ use std::time::{Duration, Instant};
 use common::process::{Process, Tap};
 use common::{Ws, send_text};
 use floatball_shared::api::{PlayerState, ServerMessage};
-use floatball_shared::ascii::parse_script;
-use floatball_shared::sim::GatewayConfig;
+use floatball_shared::uim2503::ascii::parse_script;
+use floatball_shared::uim2503::sim::GatewayConfig;
 use futures_util::StreamExt;
 use tokio_tungstenite::tungstenite::Message;
 

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use common::{Bridge, Ws, next_message, send_text};
 use floatball_shared::api::{FeedbackFrame, LinkState, ServerMessage};
-use floatball_shared::feedback::Frame;
+use floatball_shared::uim2503::feedback::Frame;
 use serialport::{SerialPort, TTYPort};
 use tokio::sync::mpsc;
 

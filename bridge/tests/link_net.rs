@@ -14,8 +14,8 @@ use std::time::{Duration, Instant};
 use floatball_bridge::link::telnet::{self, DO, IAC, SB, SE, WILL};
 use floatball_bridge::link::{Batch, Link, LinkConfig, LinkError};
 use floatball_shared::api::LinkState;
-use floatball_shared::ascii::{Form, parse_script};
-use floatball_shared::feedback::Frame;
+use floatball_shared::uim2503::ascii::{Form, parse_script};
+use floatball_shared::uim2503::feedback::Frame;
 use serialport::{SerialPort, TTYPort};
 
 fn batch(script: &str) -> Batch {

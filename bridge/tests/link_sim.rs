@@ -5,9 +5,9 @@ use std::time::{Duration, Instant};
 
 use floatball_bridge::link::{Batch, BaudError, Link, LinkConfig};
 use floatball_shared::api::LinkState;
-use floatball_shared::ascii::{Form, parse_script};
-use floatball_shared::feedback::{Ack, Feedback};
-use floatball_shared::sim::GatewayConfig;
+use floatball_shared::uim2503::ascii::{Form, parse_script};
+use floatball_shared::uim2503::feedback::{Ack, Feedback};
+use floatball_shared::uim2503::sim::GatewayConfig;
 
 fn batch(script: &str) -> Batch {
     Batch::encode(&parse_script(script).unwrap(), Form::Standard).unwrap()

@@ -8,11 +8,11 @@ use std::time::{Duration, Instant};
 use floatball_bridge::link::{Link, LinkConfig};
 use floatball_bridge::playback::{Playback, Playlist, PlaylistKey};
 use floatball_shared::api::{LinkState, PlayerState, Status};
-use floatball_shared::plan::player::Entry;
 use floatball_shared::plan::{GatewaySpec, Installation};
 use floatball_shared::show::demo::Wave;
 use floatball_shared::show::{Limits, Sampler, Show};
-use floatball_shared::sim::GatewayConfig;
+use floatball_shared::uim2503::player::Entry;
+use floatball_shared::uim2503::sim::GatewayConfig;
 use serialport::{SerialPort, TTYPort};
 
 /// A slow, gentle wave (≤ 40 mm/s) so a few ms of scheduling jitter stay far below a

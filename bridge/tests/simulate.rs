@@ -5,9 +5,9 @@ use std::io::{Read, Write};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use floatball_shared::feedback::{Ack, Feedback, Frame, FrameDecoder};
-use floatball_shared::sim::TX_QUEUE_BYTES;
-use floatball_shared::sim::noise::LineNoise;
+use floatball_shared::uim2503::feedback::{Ack, Feedback, Frame, FrameDecoder};
+use floatball_shared::uim2503::sim::TX_QUEUE_BYTES;
+use floatball_shared::uim2503::sim::noise::LineNoise;
 use serialport::{SerialPort, TTYPort};
 
 struct Simulator(Child);

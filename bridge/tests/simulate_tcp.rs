@@ -7,7 +7,7 @@ use std::process::{Child, ChildStdout, Command, Stdio};
 use std::sync::mpsc::{Receiver, channel};
 use std::time::{Duration, Instant, SystemTime};
 
-use floatball_shared::feedback::{Ack, Feedback, Frame, FrameDecoder};
+use floatball_shared::uim2503::feedback::{Ack, Feedback, Frame, FrameDecoder};
 
 struct Simulator {
     child: Child,

@@ -8,8 +8,8 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use floatball_shared::ascii::{Form, Instruction, InstructionReader, parse_script};
-use floatball_shared::feedback::{Ack, Frame, FrameDecoder};
+use floatball_shared::uim2503::ascii::{Form, Instruction, InstructionReader, parse_script};
+use floatball_shared::uim2503::feedback::{Ack, Frame, FrameDecoder};
 
 /// The instructions of a 10-station, 256-row PVT upload.
 fn pvt_stream() -> Vec<Instruction> {

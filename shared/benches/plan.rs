@@ -6,11 +6,13 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use floatball_shared::plan::Installation;
 use floatball_shared::plan::report::report_for;
-use floatball_shared::plan::schedule::ROUND_ROWS;
-use floatball_shared::plan::{Installation, Plan, PlanOptions, stream};
 use floatball_shared::show::Show;
 use floatball_shared::show::demo::Wave;
+use floatball_shared::uim2503::plan::{Plan, PlanOptions};
+use floatball_shared::uim2503::schedule::ROUND_ROWS;
+use floatball_shared::uim2503::stream;
 
 /// A wave across 10 × 10 balls, 600 rows of 250 ms each (150 s).
 fn wave() -> Show {

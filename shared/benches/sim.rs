@@ -9,8 +9,8 @@ use std::fmt::Write as _;
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use floatball_shared::feedback::{Feedback, FrameDecoder, Notification};
-use floatball_shared::sim::{Gateway, GatewayConfig};
+use floatball_shared::uim2503::feedback::{Feedback, FrameDecoder, Notification};
+use floatball_shared::uim2503::sim::{Gateway, GatewayConfig};
 
 const UNITS: u8 = 100;
 const ROW_MS: u64 = 20;

@@ -563,7 +563,7 @@ pub struct SimLineStats {
 }
 
 /// One simulated unit, at the simulated gateway's time: what
-/// [`crate::sim::Gateway::units`] returns and `GET /api/sim/positions` serves.
+/// [`crate::uim2503::sim::Gateway::units`] returns and `GET /api/sim/positions` serves.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SimUnit {
     /// Its station number (CAN id).
@@ -995,13 +995,13 @@ pub struct UnitHealth {
 }
 
 /// The last error a unit reported: an `ER` frame (PROTOCOL §1.4), as
-/// [`crate::feedback::UnitError`] decodes it; the app says it in words through its
+/// [`crate::uim2503::feedback::UnitError`] decodes it; the app says it in words through its
 /// code.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct UnitFault {
     /// The unit's station.
     pub station: u8,
-    /// The error number (0x32–0x41, [`crate::feedback::UnitError::error`]).
+    /// The error number (0x32–0x41, [`crate::uim2503::feedback::UnitError::error`]).
     pub error: u8,
     /// The code of the instruction it refused.
     pub code: u8,
@@ -1012,7 +1012,7 @@ pub struct UnitFault {
 impl UnitFault {
     /// The fault of the unit on `station` that sent `error`.
     #[must_use]
-    pub fn of(station: u8, error: &crate::feedback::UnitError) -> Self {
+    pub fn of(station: u8, error: &crate::uim2503::feedback::UnitError) -> Self {
         Self {
             station,
             error: error.error,

@@ -831,13 +831,13 @@ mod tests {
         assert_eq!(problems[0].params["line"], "3");
         let errors: Vec<Box<dyn Coded>> = vec![
             Box::new(refused),
-            Box::new(crate::ascii::parse_script("PV[1]=3;").expect_err("index")),
+            Box::new(crate::uim2503::ascii::parse_script("PV[1]=3;").expect_err("index")),
             Box::new(crate::scl::parse_script("1ZZ").expect_err("unknown")),
             Box::new(
                 crate::mbox::console::parse("dance", crate::mbox::Route::BROADCAST)
                     .expect_err("unknown"),
             ),
-            Box::new(crate::feedback::UnitError {
+            Box::new(crate::uim2503::feedback::UnitError {
                 error: 0x32,
                 code: 0,
                 index: 0,

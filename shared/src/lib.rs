@@ -10,17 +10,10 @@
 //!   bridge and the app so both sides agree on every field.
 //! - [`codes`]: the stable error codes (and their parameters) of every refusal,
 //!   validation problem and parse error, enumerable for the translation tests.
-//! - [`ascii`]: the UIM2503 instruction language (host → gateway): typed instructions, the
-//!   encoder (20-character rule, compact form), the script parser and the gateway-side
-//!   byte reader; and ([`ascii::gateway`]) the gateway's own commands, the greeting
-//!   `ABC;` (answered `AA AB AC`) and the line speed `BDR=x;`.
 //! - [`create`]: show creation: patterns (wave, ripple, rain, plane, breathing
 //!   surface, noise, text, picture) described as data for the app's sliders and the
 //!   CLI, recipes (a timeline of segments with transitions, as JSON) and their
 //!   rendering into a show within the installation's limits by construction.
-//! - [`feedback`]: the binary feedback frames (gateway → host): the streaming decoder, the
-//!   frame encoder, typed ACKs, notifications and errors, and every code in one place
-//!   ([`feedback::code`]).
 //! - [`mod@line`]: a serial line's timing (8N1: 10 bit times a byte): byte time, bytes per
 //!   second, time for N bytes — used by the planner, the player, the simulator and the
 //!   bridge's pacer.
@@ -32,18 +25,15 @@
 //!   [`mbox::console`], the operator's text syntax for register operations.
 //! - [`motion`]: motion profiles outside the PVT table — point-to-point moves
 //!   ([`motion::Trapezoid`]) and braking — used by the player's timing and the simulator.
-//! - [`plan`]: the installation (gateways, kinds of drive, which unit hangs where) and,
-//!   from a show and an installation, each gateway's instruction stream in the fewest
-//!   bytes, the FIFO refill schedule, the bandwidth / feasibility report with its coded
-//!   verdict (why a show cannot run, what would make it run) and the player (Start /
-//!   E-stop / Reset as a state machine, split by phase).
+//! - [`plan`]: the installation (gateways, kinds of drive, which unit hangs where),
+//!   the gateways' `port` settings, and the bandwidth / feasibility report with its
+//!   coded verdict (why a show cannot run, what would make it run).
 //! - [`player`]: the show sequencer — the playlist, approach, load, start, cycles,
 //!   E-stop, Reset and Home written once for every drive family, each family a
-//!   [`player::Drive`] under it (MBOX boxes: [`mbox::drive`]).
+//!   [`player::Drive`] under it (UIM2503 gateways: [`uim2503::player`]; MBOX boxes:
+//!   [`mbox::drive`]; MOONS' drives: [`scl::drive`]).
 //! - [`playlist`]: the playlist's limits and the one check of its ranges, used by the
 //!   bridge and the app alike.
-//! - [`pvt`]: PVT rows as cubic Hermite segments and a unit's 256-row PVT table (FIFO,
-//!   single-sequence and loop runs, `MP` parameters, watermark) driven by time.
 //! - [`scl`]: MOONS' drives' serial command language: typed commands with units and
 //!   their text, the drives' answers (`%`, `*`, `?code`, `XX=value`), RS-485 address
 //!   characters, eSCL datagrams (UDP), and the parser for command lines and answers;
@@ -52,9 +42,13 @@
 //! - [`show`]: the show model and its native file format, CSV keyframe import,
 //!   validation against an installation's limits, sampling for the preview, and the
 //!   demo wave the tests and benches share ([`show::demo`]).
-//! - [`sim`]: a simulated gateway and its units: instruction bytes and time in,
-//!   feedback bytes out, every ball's PVT table and motion in between; the greeting's
-//!   answer, and a stored line speed applied at the gateway's restart.
+//! - [`uim2503`]: UIM2503 gateways with UFQ750 units, the whole family: the ASCII
+//!   instruction language ([`uim2503::ascii`]) and the binary feedback frames
+//!   ([`uim2503::feedback`]), PVT rows and tables ([`uim2503::pvt`]), the planner
+//!   ([`uim2503::plan`]), the instruction stream and its refill schedule, the drive
+//!   under the sequencer ([`uim2503::player`]), and the simulated gateway and its units
+//!   ([`uim2503::sim`]).
+
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 #![cfg_attr(
@@ -63,17 +57,14 @@
 )]
 
 pub mod api;
-pub mod ascii;
 pub mod codes;
 pub mod create;
-pub mod feedback;
 pub mod line;
 pub mod mbox;
 pub mod motion;
 pub mod plan;
 pub mod player;
 pub mod playlist;
-pub mod pvt;
 pub mod scl;
 pub mod show;
-pub mod sim;
+pub mod uim2503;

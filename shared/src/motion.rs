@@ -3,7 +3,7 @@
 //! outside its PVT table.
 //!
 //! The planner's player uses [`Trapezoid`] to know how long an approach or a homing
-//! move takes; the simulator ([`crate::sim`]) moves its balls by the same profiles.
+//! move takes; the simulator ([`crate::uim2503::sim`]) moves its balls by the same profiles.
 //!
 //! Every piece of motion is a [`Segment`]: a phase of constant acceleration is exactly a
 //! Hermite cubic whose cubic term is zero, so point-to-point moves and braking are
@@ -20,7 +20,7 @@
 //! assert_eq!(ptp.kinematics(0.7).position, 10_000.0);
 //! ```
 
-use crate::pvt::{Kinematics, Segment};
+use crate::uim2503::pvt::{Kinematics, Segment};
 
 /// Most pieces of a point-to-point move: stop, speed up (or slow down to the speed),
 /// cruise, slow down to the target.

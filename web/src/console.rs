@@ -16,12 +16,12 @@ use std::net::SocketAddr;
 use floatball_shared::api::{
     FeedbackFrame, GatewayKind, InstallationInfo, MboxReply, SclReply, Status,
 };
-use floatball_shared::ascii::parse_script;
 use floatball_shared::codes::Coded;
-use floatball_shared::feedback::{Ack, Feedback, Frame, code};
 use floatball_shared::mbox::console as mbox_console;
 use floatball_shared::mbox::{BoxAddress, Route};
 use floatball_shared::scl::{Answer, Reply};
+use floatball_shared::uim2503::ascii::parse_script;
+use floatball_shared::uim2503::feedback::{Ack, Feedback, Frame, code};
 
 use crate::context::Refusal;
 use crate::i18n::Lang;

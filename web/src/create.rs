@@ -23,9 +23,9 @@ use floatball_shared::create::recipe::{
 use floatball_shared::create::{
     self, CreateError, Grid, Note, PATTERNS, ParamKind, ParamSpec, Params, PatternSpec, Value,
 };
-use floatball_shared::plan::PlanOptions;
 use floatball_shared::plan::report::report;
 use floatball_shared::show::{DEFAULT_PITCH_MM, DEFAULT_TRAVEL_MM, Limits, Show};
+use floatball_shared::uim2503::plan::PlanOptions;
 
 /// A new segment's length, s.
 pub const DEFAULT_SEGMENT_S: f64 = 20.0;

@@ -1073,7 +1073,7 @@ impl Lang {
             });
         }
         for fault in &warning.faults {
-            let error = floatball_shared::feedback::UnitError {
+            let error = floatball_shared::uim2503::feedback::UnitError {
                 error: fault.error,
                 code: fault.code,
                 index: fault.index,
@@ -1252,7 +1252,8 @@ mod tests {
             Lang::Zh.coded("", &Params::new(), "old bridge"),
             "old bridge"
         );
-        let error = floatball_shared::ascii::parse_script("*5;PV[1]=3;").expect_err("index");
+        let error =
+            floatball_shared::uim2503::ascii::parse_script("*5;PV[1]=3;").expect_err("index");
         assert_eq!(Lang::Zh.error_of(&error), "第 1 行第 6 列：PV 不带下标");
         let body = ApiError {
             error: "the show does not fit".into(),

@@ -12,9 +12,10 @@
 //! gives the figures. Only sanity is checked: every show within the limits.
 
 use floatball_shared::create::Value;
+use floatball_shared::plan::Installation;
 use floatball_shared::plan::report::report;
-use floatball_shared::plan::{Installation, PlanOptions};
 use floatball_shared::show::validate;
+use floatball_shared::uim2503::plan::PlanOptions;
 use floatball_web::create::{Draft, Target};
 use floatball_web::preview::stage::{RendererKind, Stage, now_ms};
 use wasm_bindgen_futures::JsFuture;

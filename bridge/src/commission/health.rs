@@ -21,8 +21,8 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Duration;
 
 use floatball_shared::api::{PlayerState, RollCall, Status, UnitFault, UnitHealth};
-use floatball_shared::ascii::{Batch, Form, Instruction};
-use floatball_shared::feedback::{Ack, Feedback, Frame};
+use floatball_shared::uim2503::ascii::{Batch, Form, Instruction};
+use floatball_shared::uim2503::feedback::{Ack, Feedback, Frame};
 use tokio::sync::{broadcast, mpsc, watch};
 
 use crate::link::Link;
@@ -319,7 +319,7 @@ fn take_frame(book: &mut HealthBook, frame: &Frame) {
 #[cfg(test)]
 mod tests {
     use floatball_shared::api::FoundUnit;
-    use floatball_shared::feedback::UnitError;
+    use floatball_shared::uim2503::feedback::UnitError;
 
     use super::*;
 

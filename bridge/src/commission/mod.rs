@@ -39,13 +39,13 @@ use floatball_shared::api::{
     AssignRequest, IdentifyRequest, Identifying, PlayerState, RollCall, Status, UnitFault,
     UnitHealth,
 };
-use floatball_shared::ascii::{Batch, Form, Instruction};
 use floatball_shared::codes::{Code, Coded, Params};
-use floatball_shared::feedback::{Ack, Feedback, Frame};
 use floatball_shared::line::Line;
 use floatball_shared::params;
 use floatball_shared::plan::{DriveKind, Installation};
-use floatball_shared::sim::MAX_UNITS;
+use floatball_shared::uim2503::ascii::{Batch, Form, Instruction};
+use floatball_shared::uim2503::feedback::{Ack, Feedback, Frame};
+use floatball_shared::uim2503::sim::MAX_UNITS;
 use tokio::sync::{broadcast, mpsc, oneshot, watch};
 
 use crate::link::Link;
@@ -667,7 +667,7 @@ fn assignment_batch(request: &AssignRequest) -> Result<Batch, CommissionError> {
             .push(&Instruction::SetStation { station, serial }, Form::Standard)
             .map_err(|_| CommissionError::SerialTooLong {
                 serial,
-                max: floatball_shared::ascii::MAX_LEN,
+                max: floatball_shared::uim2503::ascii::MAX_LEN,
             })?;
     }
     Ok(batch)

@@ -17,7 +17,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::{FoundUnit, RollCall, UnitFault};
-use floatball_shared::feedback::{Ack, Feedback};
+use floatball_shared::uim2503::feedback::{Ack, Feedback};
 
 /// What the roll call needs to know about the installation.
 #[derive(Debug, Clone, Copy)]
@@ -196,7 +196,7 @@ fn millis(duration: Duration) -> u64 {
 
 #[cfg(test)]
 mod tests {
-    use floatball_shared::feedback::UnitError;
+    use floatball_shared::uim2503::feedback::UnitError;
 
     use super::*;
 

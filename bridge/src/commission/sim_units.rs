@@ -11,7 +11,7 @@
 
 use std::path::Path;
 
-use floatball_shared::sim::FACTORY_STATION;
+use floatball_shared::uim2503::sim::FACTORY_STATION;
 use serde::{Deserialize, Serialize};
 
 /// The file's name in the data directory.

@@ -7,15 +7,15 @@ use std::cell::RefCell;
 use std::ops::Range;
 use std::path::Path;
 
-use floatball_shared::ascii::{Form, Instruction, parse_script};
+use floatball_shared::mbox::player::BoxCalibration;
 use floatball_shared::mbox::{AxisCount, TimeMode};
 use floatball_shared::plan::installation::{
     AllocationError, DEFAULT_PITCH_MM, DriveKind, GatewaySpec, Installation, MAX_UNITS_PER_GATEWAY,
     SIM_PORT, Stations, UnitAddress, allocate,
 };
-use floatball_shared::plan::mbox::BoxCalibration;
 use floatball_shared::plan::port::PortAddress;
 use floatball_shared::show::Limits;
+use floatball_shared::uim2503::ascii::{Form, Instruction, parse_script};
 use std::time::Duration;
 use toml::Spanned;
 

@@ -38,8 +38,8 @@ use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use floatball_shared::ascii::Instruction;
 use floatball_shared::plan::Installation;
+use floatball_shared::uim2503::ascii::Instruction;
 
 use crate::durable;
 
@@ -113,7 +113,7 @@ pub struct MboxBox {
     /// 3, 6 or 10 axes.
     pub axes: floatball_shared::mbox::AxisCount,
     /// Millimetres to pulses.
-    pub calibration: floatball_shared::plan::mbox::BoxCalibration,
+    pub calibration: floatball_shared::mbox::player::BoxCalibration,
 }
 
 /// The host's UDP port unless configured (the box's factory setting).

@@ -3,9 +3,9 @@
 use std::path::Path;
 use std::time::Duration;
 
-use floatball_shared::ascii::Form;
 use floatball_shared::plan::DriveKind;
 use floatball_shared::show::{Layout, Limits};
+use floatball_shared::uim2503::ascii::Form;
 
 use super::*;
 

@@ -40,11 +40,12 @@ use floatball_shared::api::{
     BaudChanged, BaudRequest, InstallationInfo, PlanReport, Problem, SimPositions,
 };
 use floatball_shared::codes::{Code, Params};
+use floatball_shared::plan::Installation;
 use floatball_shared::plan::report::{report, report_of};
 use floatball_shared::plan::verdict::{Fix, Why, refuse};
-use floatball_shared::plan::{Installation, PlanOptions};
 use floatball_shared::scl::qprogram::QProgramError;
 use floatball_shared::show::Show;
+use floatball_shared::uim2503::plan::PlanOptions;
 
 use super::library::{NameParam, store_failure};
 use super::session::{Operator, Session};

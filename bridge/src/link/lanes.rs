@@ -9,7 +9,7 @@
 
 use std::collections::VecDeque;
 
-use floatball_shared::ascii::Batch;
+use floatball_shared::uim2503::ascii::Batch;
 
 /// One lane: instruction bytes back to back, and each instruction's length.
 #[derive(Debug, Default)]
@@ -196,7 +196,7 @@ impl Queues {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use floatball_shared::ascii::{Form, parse_script};
+    use floatball_shared::uim2503::ascii::{Form, parse_script};
 
     fn batch(script: &str) -> Batch {
         Batch::encode(&parse_script(script).unwrap(), Form::Standard).unwrap()

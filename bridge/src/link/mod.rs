@@ -65,16 +65,16 @@ use std::thread::Thread;
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::{BaudChanged, LinkState};
-use floatball_shared::ascii::GreetingWatch;
-use floatball_shared::ascii::gateway::{MAX_BAUD, MIN_BAUD};
-use floatball_shared::ascii::{Form, parse_script};
 use floatball_shared::codes::{Code, Coded, Params};
-use floatball_shared::feedback::{Frame, FrameDecoder};
 use floatball_shared::plan::port::PortAddress;
-use floatball_shared::sim::GatewayConfig;
+use floatball_shared::uim2503::ascii::GreetingWatch;
+use floatball_shared::uim2503::ascii::gateway::{MAX_BAUD, MIN_BAUD};
+use floatball_shared::uim2503::ascii::{Form, parse_script};
+use floatball_shared::uim2503::feedback::{Frame, FrameDecoder};
+use floatball_shared::uim2503::sim::GatewayConfig;
 use tokio::sync::{Notify, broadcast, oneshot, watch};
 
-pub use floatball_shared::ascii::Batch;
+pub use floatball_shared::uim2503::ascii::Batch;
 
 use crate::estop::Latch;
 

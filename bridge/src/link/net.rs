@@ -28,9 +28,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
-use floatball_shared::ascii::GreetingWatch;
-use floatball_shared::feedback::FrameDecoder;
 use floatball_shared::plan::port::NetAddress;
+use floatball_shared::uim2503::ascii::GreetingWatch;
+use floatball_shared::uim2503::feedback::FrameDecoder;
 
 use super::driver::{self, Back, Session};
 use super::supervisor::Connector;

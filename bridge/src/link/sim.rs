@@ -20,9 +20,9 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::{LinkState, SimGateway, SimLineStats};
-use floatball_shared::ascii::GreetingWatch;
-use floatball_shared::feedback::FrameDecoder;
-use floatball_shared::sim::{Gateway, GatewayConfig, Uart};
+use floatball_shared::uim2503::ascii::GreetingWatch;
+use floatball_shared::uim2503::feedback::FrameDecoder;
+use floatball_shared::uim2503::sim::{Gateway, GatewayConfig, Uart};
 
 use super::writer::{LineWrite, run_writer};
 use super::{Input, Shared};

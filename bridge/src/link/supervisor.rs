@@ -17,8 +17,8 @@ use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::LinkState;
-use floatball_shared::ascii::GreetingWatch;
-use floatball_shared::feedback::FrameDecoder;
+use floatball_shared::uim2503::ascii::GreetingWatch;
+use floatball_shared::uim2503::feedback::FrameDecoder;
 
 use super::writer::{LineWrite, run_writer};
 use super::{Backoff, Input, Shared};

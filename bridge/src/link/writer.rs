@@ -14,7 +14,7 @@
 //! and the network driver ([`super::driver`]), one thread for every network link, which
 //! passes an `ahead` window: it writes whenever the line will be free within that
 //! window, gathering consecutive whole instructions into one write of at most
-//! [`floatball_shared::ascii::MAX_LEN`] bytes (the longest single instruction) or
+//! [`floatball_shared::uim2503::ascii::MAX_LEN`] bytes (the longest single instruction) or
 //! [`CHUNK_TIME`] of line time, whichever is more — so an e-stop waits for at most
 //! that write plus the window: at 9,600 baud one instruction's time as before (up to
 //! 20.8 ms), at 115,200 baud about 12 ms. Fewer, larger writes are what lets one thread
@@ -25,8 +25,10 @@ use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::{BaudChanged, LinkState};
-use floatball_shared::ascii::gateway::GREETING;
-use floatball_shared::ascii::{Batch, Form, GatewayCommand, Instruction, MAX_LEN, parse_script};
+use floatball_shared::uim2503::ascii::gateway::GREETING;
+use floatball_shared::uim2503::ascii::{
+    Batch, Form, GatewayCommand, Instruction, MAX_LEN, parse_script,
+};
 
 use super::lanes::{Popped, Queues};
 use super::pacer::{Pacer, RateMeter};
@@ -188,7 +190,7 @@ pub(super) fn is_inert(instruction: &[u8]) -> bool {
         .is_some_and(|parsed| {
             parsed
                 .iter()
-                .all(floatball_shared::ascii::Instruction::is_inert)
+                .all(floatball_shared::uim2503::ascii::Instruction::is_inert)
         })
 }
 

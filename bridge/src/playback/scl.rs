@@ -13,11 +13,11 @@ use std::time::Instant;
 
 use floatball_shared::api::GatewayStatus;
 use floatball_shared::plan::Installation;
-use floatball_shared::plan::player::{Entry, LinkView, StartError};
 use floatball_shared::plan::verdict::{Fix, Why};
 use floatball_shared::player::{Run, Sequencer};
 use floatball_shared::scl::drive::{DriveSlot, SclDrive, SclDriveConfig, SclEntry, Trigger};
 use floatball_shared::scl::qprogram::QProgramError;
+use floatball_shared::uim2503::player::{Entry, LinkView, StartError};
 use tokio::sync::mpsc;
 
 use super::sequenced::{Family, Prepare, PreparedRuns};

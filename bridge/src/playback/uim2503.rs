@@ -11,9 +11,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::{GatewayKind, GatewayStatus, LinkState};
-use floatball_shared::feedback::Frame;
-use floatball_shared::plan::player::{Command, LinkView, PlayerConfig, Uim2503Drive};
 use floatball_shared::player::Sequencer;
+use floatball_shared::uim2503::feedback::Frame;
+use floatball_shared::uim2503::player::{Command, LinkView, PlayerConfig, Uim2503Drive};
 use tokio::sync::mpsc;
 
 use super::sequenced::Family;
@@ -211,7 +211,7 @@ fn relay(gateway: usize, link: &Link, inputs: mpsc::UnboundedSender<Feedback>) {
 pub fn stall_limit(baud: u32) -> Duration {
     (floatball_shared::line::Line::new(baud).byte_time()
         * 10
-        * floatball_shared::ascii::MAX_LEN as u32)
+        * floatball_shared::uim2503::ascii::MAX_LEN as u32)
         .max(Duration::from_millis(500))
 }
 

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use axum::http::{Method, StatusCode};
 use floatball_bridge::link::sim::SimEngine;
-use floatball_shared::sim::{GatewayConfig, RxLine};
+use floatball_shared::uim2503::sim::{GatewayConfig, RxLine};
 use serialport::{SerialPort, TTYPort};
 use tempfile::TempDir;
 

@@ -35,7 +35,7 @@ use serde::{Deserialize, Serialize};
 
 use super::params::{Params, Value};
 use super::{CreateError, Grid};
-use crate::pvt::{ROW_MAX_MS, ROW_MIN_MS};
+use crate::uim2503::pvt::{ROW_MAX_MS, ROW_MIN_MS};
 
 /// The `"format"` of a recipe file.
 pub const FORMAT: &str = "floatball-recipe";

@@ -9,12 +9,13 @@
 //! MOONS' drives play Q programs, whose upload this report does not model), have no
 //! gateway figures, and their `preload_ms` is 0.
 
-use super::schedule::{self, Simulation};
+use super::Installation;
 use super::verdict::{Advice, Fix, LONG_PRELOAD_MS, Why, advise, verdict_report};
-use super::{Installation, Plan, PlanError, PlanOptions, RunMode};
 use crate::api::{GatewayPlan, PlanReport};
 use crate::line::Line;
 use crate::show::Show;
+use crate::uim2503::plan::{Plan, PlanError, PlanOptions, RunMode};
+use crate::uim2503::schedule::{self, Simulation};
 
 /// The baud rates a UIM2503 can be set to (`BDR=x;`, PROTOCOL §1.2), ascending.
 pub const GATEWAY_BAUDS: [u32; 5] = [9600, 19_200, 38_400, 57_600, 115_200];
@@ -51,7 +52,7 @@ pub fn report_of(show: Show, installation: &Installation, options: PlanOptions) 
 /// `None` for UIM2503 gateways.
 fn report_without_lines(show: &Show, installation: &Installation) -> Option<PlanReport> {
     if installation.mbox_boxes().is_some() {
-        return Some(super::mbox::report(show, installation));
+        return Some(crate::mbox::player::report(show, installation));
     }
     if !installation.gateways.is_empty()
         && installation
@@ -276,7 +277,7 @@ fn remedies(plan: &Plan, index: usize, line: Line, needed: f64, available: f64) 
     }
     if plan.gateways[index].mode == RunMode::Fifo {
         fixes.push(Fix::FewerRows {
-            rows: crate::pvt::TABLE_ROWS,
+            rows: crate::uim2503::pvt::TABLE_ROWS,
         });
     }
     fixes
@@ -311,7 +312,7 @@ mod tests {
     use wasm_bindgen_test::wasm_bindgen_test as test;
 
     use super::*;
-    use crate::plan::tests::{installation, wave};
+    use crate::uim2503::plan::tests::{installation, wave};
 
     #[test]
     fn moons_drives_get_the_start_check_without_line_figures() {

@@ -10,12 +10,12 @@
 
 use std::fmt;
 
-use super::PlanError;
 use crate::api::{GatewayPlan, PlanReport, Problem};
 use crate::codes::{Code, Coded, Params};
 use crate::params;
 use crate::scl::qprogram::QProgramError;
 use crate::show::{Violation, output_box_message};
+use crate::uim2503::plan::PlanError;
 
 /// Why a show cannot run.
 #[derive(Debug, Clone, PartialEq)]

@@ -45,7 +45,7 @@ use crate::codes::{Code, Coded, Params};
 use crate::params;
 
 use super::{DEFAULT_PITCH_MM, Layout, Show, Track, TrackRow, json_len};
-use crate::pvt::{ROW_MAX_MS, ROW_MIN_MS, Segment};
+use crate::uim2503::pvt::{ROW_MAX_MS, ROW_MIN_MS, Segment};
 
 /// The most PVT rows an import may produce over all balls (about 240 MB), so that a
 /// small file with huge gaps cannot exhaust memory.

@@ -54,7 +54,7 @@ use thiserror::Error;
 
 use crate::codes::{Code, Coded, Params};
 use crate::params;
-use crate::pvt::Segment;
+use crate::uim2503::pvt::Segment;
 
 pub use csv::{CsvError, CsvProblem, ImportError, ImportLimits, import_csv, import_csv_within};
 pub use import::{Refused, ShowFormat, UploadLimits, import};

@@ -33,7 +33,7 @@ use std::fmt;
 use super::{DEFAULT_TRAVEL_MM, Show};
 use crate::codes::{Code, Coded, Params};
 use crate::params;
-use crate::pvt::{ROW_MAX_MS, ROW_MIN_MS};
+use crate::uim2503::pvt::{ROW_MAX_MS, ROW_MIN_MS};
 
 /// Default top speed of a ball, mm/s (the manual: "over 2 m/s").
 pub const DEFAULT_MAX_SPEED_MM_S: f64 = 2000.0;

@@ -13,8 +13,6 @@
 
 use std::collections::BTreeSet;
 
-use floatball_shared::ascii::{Form, Instruction, InstructionReader, parse_script};
-use floatball_shared::feedback::{Ack, Feedback, Frame, FrameDecoder, MAX_FRAME_LEN};
 use floatball_shared::mbox::console::{self as mbox_console, ConsoleErrorKind};
 use floatball_shared::mbox::{
     AxisCount, AxisPositions, BoxAddress, Datagram, DecodeError, DigitalOutputs, Encode,
@@ -24,8 +22,10 @@ use floatball_shared::mbox::{
 use floatball_shared::scl;
 use floatball_shared::scl::twin::{Bus, Drive, DriveConfig, StartWire};
 use floatball_shared::scl::{Address, IoPoint, Reply, Request};
-use floatball_shared::sim::noise::{LineNoise, SplitMix};
-use floatball_shared::sim::{GatewayConfig, TX_QUEUE_BYTES, Uart};
+use floatball_shared::uim2503::ascii::{Form, Instruction, InstructionReader, parse_script};
+use floatball_shared::uim2503::feedback::{Ack, Feedback, Frame, FrameDecoder, MAX_FRAME_LEN};
+use floatball_shared::uim2503::sim::noise::{LineNoise, SplitMix};
+use floatball_shared::uim2503::sim::{GatewayConfig, TX_QUEUE_BYTES, Uart};
 
 /// What one run of a target did.
 #[derive(Debug, Clone, Default)]

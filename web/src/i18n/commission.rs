@@ -3,7 +3,7 @@
 //! in words, what identify and a line-speed change did.
 
 use floatball_shared::api::{BaudChanged, GatewayKind, Identifying, RollCall, UnitFault};
-use floatball_shared::feedback::UnitError;
+use floatball_shared::uim2503::feedback::UnitError;
 
 use super::Lang;
 

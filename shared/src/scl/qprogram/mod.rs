@@ -18,7 +18,7 @@
 //!   it writes, as the drive computes the trapezoid, and gives the next move what is
 //!   left to its keyframe, so rounding never accumulates: every move ends within
 //!   [`KEEP_SPEED_S`] (4 ms) of its keyframe (so within a player's tick,
-//!   [`crate::plan::player::TICK_US`]) at exactly its count. A move keeps the `VE` of
+//!   [`crate::uim2503::player::TICK_US`]) at exactly its count. A move keeps the `VE` of
 //!   the one before when that ends it within those 4 ms (a line saved: a periodic show
 //!   needs `DI` and `FP` alone); a move that no rounded `VE` ends that close (a very
 //!   slow one) runs at the rounded-up speed and a `WT` makes up the rest;

@@ -4,11 +4,11 @@
 
 use super::moves::{Trapezoid, solve_speed};
 use super::*;
-use crate::plan::player::TICK_US;
 use crate::scl::twin::{Drive, DriveConfig};
 use crate::scl::{Level, parse_script};
 use crate::show::demo::Wave;
 use crate::show::{Track, TrackRow};
+use crate::uim2503::player::TICK_US;
 
 /// Down 100 mm in 1 s, rest 0.5 s, back up in 1 s.
 fn tiny() -> Track {

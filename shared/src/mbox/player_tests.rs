@@ -1,0 +1,444 @@
+//! The MBOX player against twins ([`crate::mbox::twin`]) fed its frames as datagrams.
+
+#[cfg(target_arch = "wasm32")]
+use wasm_bindgen_test::wasm_bindgen_test as test;
+
+use super::*;
+use crate::api::{PlayerState, Status};
+use crate::mbox::twin::{MboxTwin, TwinConfig};
+use crate::mbox::{
+    AxisCount, AxisPositions, DigitalOutputs, Encode, MotionFrame, Route, TimeCode, TimeMode,
+};
+use crate::plan::installation::{DriveKind, GatewaySpec, Stations, allocate};
+use crate::plan::report;
+use crate::show::{AnalogKey, DigitalKey, Limits, OutputSample, OutputTrack, demo};
+use crate::uim2503::plan::PlanOptions;
+
+const CALIBRATION: BoxCalibration = BoxCalibration {
+    axes: 3,
+    pulses_per_mm: 10.0,
+    sign: -1,
+    offset_pulses: 1_000,
+};
+
+/// A 2 × 3 matrix on two 3-axis boxes.
+fn player() -> MboxPlayer {
+    let mut limits = Limits::for_layout(2, 3);
+    limits.max_accel_mm_s2 = 40_000.0;
+    let wanted = vec![
+        (
+            DriveKind::Mbox,
+            Stations::Consecutive {
+                first: 1,
+                units: Some(3)
+            }
+        );
+        2
+    ];
+    let units = allocate(6, &wanted).unwrap();
+    let mut installation = Installation::row_major(
+        limits,
+        100.0,
+        vec![GatewaySpec::uim2503("sim", 115_200); 2],
+        1,
+    )
+    .unwrap();
+    for gateway in &mut installation.gateways {
+        gateway.kind = DriveKind::Mbox;
+    }
+    installation.units = units;
+    installation.approach_speed_mm_s = 2_000.0;
+    MboxPlayer::new(MboxPlayerConfig {
+        installation,
+        boxes: vec![CALIBRATION; 2],
+        period_us: DEFAULT_PERIOD_US,
+    })
+}
+
+fn entry(cycles: u32, delay_ms: u64) -> Entry {
+    Entry {
+        show: demo::wave(2, 3, 10, 100),
+        delay_ms,
+        cycles,
+    }
+}
+
+/// Runs the player until it rests, feeding every frame to the twins; returns the
+/// states it went through.
+fn run(player: &mut MboxPlayer, twins: &mut [MboxTwin], now_us: &mut u64) -> Vec<PlayerState> {
+    run_logged(player, twins, now_us, &mut |_, _, _| {})
+}
+
+/// [`run`], telling `log` each frame with the player's state and show time after the
+/// poll that made it and the twins' snapshots once they received it.
+fn run_logged(
+    player: &mut MboxPlayer,
+    twins: &mut [MboxTwin],
+    now_us: &mut u64,
+    log: &mut dyn FnMut(&Status, &MboxFrame, &[MboxTwin]),
+) -> Vec<PlayerState> {
+    let mut states = vec![player.status().state];
+    while let Some(wake) = player.next_wakeup_us(*now_us) {
+        *now_us = wake.max(*now_us);
+        player.poll(*now_us);
+        let status = player.status();
+        for frame in player.take_frames() {
+            let boxes = frame.positions_pulses.iter().zip(&frame.outputs);
+            for (twin, (positions, outputs)) in twins.iter_mut().zip(boxes) {
+                let datagram = MotionFrame {
+                    mode: TimeMode::Relative,
+                    route: Route::BROADCAST_SILENT,
+                    sequence: 0,
+                    time_code: TimeCode::from_ms(frame.time_ms),
+                    positions_pulses: AxisPositions::from_slice(positions).unwrap(),
+                    digital: DigitalOutputs::from_bits(outputs.digital_bits),
+                    analog: outputs.analog,
+                };
+                twin.receive(frame.slot_us, &datagram.encode());
+            }
+            log(&status, &frame, twins);
+        }
+        let state = player.status().state;
+        if states.last() != Some(&state) {
+            states.push(state);
+        }
+        assert!(*now_us < 600_000_000, "the player never rests");
+    }
+    for twin in twins.iter_mut() {
+        twin.advance(*now_us + 1_000_000);
+    }
+    states
+}
+
+fn twins() -> Vec<MboxTwin> {
+    (0..2)
+        .map(|_| MboxTwin::new(TwinConfig::new(crate::mbox::FACTORY_IP, AxisCount::Three)))
+        .collect()
+}
+
+fn last_positions(show: &crate::show::Show) -> Vec<i32> {
+    show.tracks
+        .iter()
+        .map(|track| {
+            let mm = track
+                .rows
+                .last()
+                .map_or(track.start_mm, |row| row.position_mm);
+            CALIBRATION.pulses(mm)
+        })
+        .collect()
+}
+
+#[test]
+fn a_playlist_homes_approaches_plays_and_ends_at_the_last_positions() {
+    let mut player = player();
+    let mut twins = twins();
+    let mut now = 0;
+    player.start(now, vec![entry(2, 50)], false).unwrap();
+    assert_eq!(
+        player.start(now, vec![entry(1, 0)], false),
+        Err(StartError::Busy)
+    );
+    let states = run(&mut player, &mut twins, &mut now);
+    assert_eq!(
+        states,
+        [
+            PlayerState::Homing,
+            PlayerState::Waiting,
+            PlayerState::Approaching,
+            PlayerState::Playing,
+            PlayerState::Approaching,
+            PlayerState::Playing,
+            PlayerState::Idle
+        ]
+    );
+    let reached: Vec<i32> = twins.iter().flat_map(MboxTwin::positions_pulses).collect();
+    assert_eq!(reached, last_positions(&entry(1, 0).show));
+    assert!((player.status().progress - 1.0).abs() < 1e-9);
+}
+
+#[test]
+fn estop_stops_at_once_and_the_next_start_homes_first() {
+    let mut player = player();
+    let mut now = 0;
+    player.start(now, vec![entry(1, 0)], true).unwrap();
+    now += 2_000_000;
+    player.poll(now);
+    assert!(!player.take_frames().is_empty());
+    player.estop();
+    assert_eq!(player.status().state, PlayerState::Stopped);
+    assert_eq!(player.next_wakeup_us(now), None);
+    player.poll(now + 100_000);
+    assert!(player.take_frames().is_empty());
+    player.start(now, vec![entry(1, 0)], false).unwrap();
+    assert_eq!(player.status().state, PlayerState::Homing);
+    player.home(now);
+    let mut twins = twins();
+    let states = run(&mut player, &mut twins, &mut now);
+    assert_eq!(states, [PlayerState::Homing, PlayerState::Idle]);
+    let home: Vec<i32> = twins.iter().flat_map(MboxTwin::positions_pulses).collect();
+    assert_eq!(home, vec![CALIBRATION.pulses(0.0); 6]);
+}
+
+#[test]
+fn invalid_shows_are_refused_before_anything_moves() {
+    let mut player = player();
+    let wrong = Entry {
+        show: demo::wave(3, 3, 10, 100),
+        delay_ms: 0,
+        cycles: 1,
+    };
+    let refused = player.start(0, vec![wrong], false);
+    assert!(
+        matches!(refused, Err(StartError::Invalid { entry: 1, .. })),
+        "{refused:?}"
+    );
+    // Why, also coded for the app: a 3 × 3 show on the 2 × 3 installation.
+    let reason = refused
+        .unwrap_err()
+        .reason_problem()
+        .expect("a coded reason");
+    assert_eq!(reason.code, "wrong_layout", "{reason:?}");
+    assert_eq!(reason.params["show_rows"], "3");
+    assert_eq!(player.start(0, Vec::new(), false), Err(StartError::Empty));
+    assert_eq!(player.status().state, PlayerState::Idle);
+    assert!(player.take_frames().is_empty());
+}
+
+#[test]
+fn calibration_maps_millimetres_to_pulses() {
+    assert_eq!(CALIBRATION.pulses(0.0), 1_000);
+    assert_eq!(CALIBRATION.pulses(12.34), 877);
+    let up = BoxCalibration {
+        sign: 1,
+        ..CALIBRATION
+    };
+    assert_eq!(up.pulses(1e12), i32::MAX);
+}
+
+#[test]
+fn reset_homes_and_plays_and_a_refused_reset_stays_stopped() {
+    let mut player = player();
+    let mut now = 0;
+    let refused = player.reset(now, Err(StartError::Empty), false);
+    assert_eq!(refused, Err(StartError::Empty));
+    let status = player.status();
+    assert_eq!(status.state, PlayerState::Stopped);
+    assert_eq!(status.last_error, Some(StartError::Empty.to_string()));
+    player.reset(now, Ok(vec![entry(1, 0)]), false).unwrap();
+    let mut twins = twins();
+    let states = run(&mut player, &mut twins, &mut now);
+    assert_eq!(
+        states,
+        [
+            PlayerState::Homing,
+            PlayerState::Approaching,
+            PlayerState::Playing,
+            PlayerState::Idle
+        ]
+    );
+    assert_eq!(player.status().last_error, None);
+}
+
+/// `entry(1, 0)` with outputs: box 0 switches outputs 1 and 3 on at 0 and only output
+/// 12 from 500 ms, and ramps analog channel 0 from 0 to 1000 over the show; box 1
+/// switches every output on at 200 ms.
+fn entry_with_outputs() -> Entry {
+    let mut entry = entry(1, 0);
+    entry.show.outputs = vec![
+        OutputTrack {
+            box_index: 0,
+            digital: vec![
+                DigitalKey {
+                    time_ms: 0,
+                    bits: 0b101,
+                },
+                DigitalKey {
+                    time_ms: 500,
+                    bits: 0x0800,
+                },
+            ],
+            analog: vec![
+                AnalogKey {
+                    time_ms: 0,
+                    channel: 0,
+                    value: 0,
+                },
+                AnalogKey {
+                    time_ms: 1_000,
+                    channel: 0,
+                    value: 1_000,
+                },
+            ],
+        },
+        OutputTrack {
+            box_index: 1,
+            digital: vec![DigitalKey {
+                time_ms: 200,
+                bits: 0x0FFF,
+            }],
+            analog: Vec::new(),
+        },
+    ];
+    entry.show.check().unwrap();
+    entry
+}
+
+#[test]
+fn frames_carry_the_outputs_at_their_show_time_and_0_outside_the_show() {
+    let mut player = player();
+    let mut twins = twins();
+    let mut now = 0;
+    let entry = entry_with_outputs();
+    let duration_ms = entry.show.duration_ms();
+    assert_eq!(duration_ms, 1_000);
+    player.start(now, vec![entry], false).unwrap();
+    let mut played = Vec::new();
+    let mut log = |status: &Status, frame: &MboxFrame, twins: &[MboxTwin]| {
+        let snapshots: Vec<_> = twins
+            .iter()
+            .map(|twin| {
+                let snapshot = twin.snapshot();
+                (snapshot.digital, snapshot.analog)
+            })
+            .collect();
+        let sent: Vec<_> = frame
+            .outputs
+            .iter()
+            .map(|one| (one.digital_bits, one.analog))
+            .collect();
+        // The twins keep what the frame carried.
+        assert_eq!(snapshots, sent);
+        if status.state == PlayerState::Playing {
+            played.push((status.show_time_ms, sent));
+        } else {
+            // Homing and approaching: every output 0.
+            assert_eq!(sent, vec![(0, [0, 0]); 2], "{:?}", status.state);
+        }
+    };
+    run_logged(&mut player, &mut twins, &mut now, &mut log);
+    let at = |t_ms: u64| {
+        played
+            .iter()
+            .find(|(time, _)| *time == t_ms)
+            .map(|(_, sent)| sent.clone())
+            .unwrap()
+    };
+    // The approach's last frame (at the show's first positions, outputs 0) leaves
+    // the player playing at 0 ms; the show's first frame is one period later.
+    assert_eq!(at(0), vec![(0, [0, 0]); 2]);
+    assert_eq!(at(20), vec![(0b101, [20, 0]), (0, [0, 0])]);
+    assert_eq!(at(180), vec![(0b101, [180, 0]), (0, [0, 0])]);
+    assert_eq!(at(200), vec![(0b101, [200, 0]), (0x0FFF, [0, 0])]);
+    assert_eq!(at(480), vec![(0b101, [480, 0]), (0x0FFF, [0, 0])]);
+    assert_eq!(at(500), vec![(0x0800, [500, 0]), (0x0FFF, [0, 0])]);
+    assert_eq!(at(980), vec![(0x0800, [980, 0]), (0x0FFF, [0, 0])]);
+    // The settle frames after the show's end switch everything off.
+    let (end_ms, last) = played.last().unwrap();
+    assert_eq!(*end_ms, duration_ms);
+    assert_eq!(*last, vec![(0, [0, 0]); 2]);
+    for twin in &twins {
+        let snapshot = twin.snapshot();
+        assert_eq!((snapshot.digital, snapshot.analog), (0, [0, 0]));
+    }
+}
+
+#[test]
+fn home_switches_the_outputs_off_and_an_estop_leaves_them() {
+    let mut player = player();
+    let mut now = 0;
+    player
+        .start(now, vec![entry_with_outputs()], false)
+        .unwrap();
+    let mut last_sent = None;
+    while player.status().show_time_ms < 600 || player.status().state != PlayerState::Playing {
+        now = player.next_wakeup_us(now).unwrap();
+        player.poll(now);
+        if let Some(frame) = player.take_frames().pop() {
+            last_sent = Some(frame.outputs);
+        }
+    }
+    let sent = last_sent.unwrap();
+    assert_eq!(sent[0].digital_bits, 0x0800);
+    // An e-stop sends nothing more: the boxes keep the last frame's outputs.
+    player.estop();
+    player.poll(now + 100_000);
+    assert!(player.take_frames().is_empty());
+    // Homing carries 0 from its first frame.
+    player.home(now + 100_000);
+    player.poll(now + 100_000);
+    let frames = player.take_frames();
+    assert_eq!(frames.len(), 1);
+    assert_eq!(frames[0].outputs, vec![OutputSample::default(); 2]);
+}
+
+#[test]
+fn outputs_for_a_box_the_installation_lacks_are_refused() {
+    let mut player = player();
+    let mut entry = entry_with_outputs();
+    entry.show.outputs[1].box_index = 2;
+    let error = player.start(0, vec![entry], false).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("outputs for box 2 but the installation's MBOX boxes are 0–1"),
+        "{error}"
+    );
+}
+
+#[test]
+fn the_report_says_a_valid_show_can_run_however_long_it_is() {
+    let mut installation = player().config().installation.clone();
+    for gateway in &mut installation.gateways {
+        gateway.baud = 0; // as the configuration gives a box: it has no serial line
+    }
+    // Ten minutes of 100 ms rows: far more than a 256-row preload, which no serial
+    // line would carry at 0 baud; an MBOX frame stream has no such limit.
+    let long = demo::wave(2, 3, 6_000, 100);
+    let verdict = report::report(&long, &installation, PlanOptions::default());
+    assert!(verdict.feasible, "{:?}", verdict.reason);
+    assert_eq!(verdict.reason, None);
+    assert!(verdict.gateways.is_empty(), "{:?}", verdict.gateways);
+    // Nothing is preloaded: frames carry positions as the show plays.
+    assert_eq!((verdict.preload_ms, verdict.advice.len()), (0, 0));
+
+    let wrong_size = demo::wave(1, 3, 10, 100);
+    let verdict = report::report(&wrong_size, &installation, PlanOptions::default());
+    assert!(!verdict.feasible);
+    assert_eq!(
+        verdict.reason.as_deref(),
+        Some(
+            "the show is made for 1 rows × 3 columns of balls but the installation has 2 \
+             rows × 3 columns"
+        )
+    );
+
+    let mut too_deep = demo::wave(2, 3, 10, 100);
+    too_deep.tracks[4].start_mm = installation.limits.travel_mm + 100.0;
+    let verdict = report::report(&too_deep, &installation, PlanOptions::default());
+    assert!(!verdict.feasible);
+    assert!(verdict.reason.is_some_and(|reason| !reason.is_empty()));
+    let reason = verdict.reason_problem.expect("coded");
+    assert_eq!(reason.code, "below_travel");
+    assert_eq!(reason.params["unit"], "u4");
+}
+
+#[test]
+fn the_report_codes_outputs_for_a_box_the_installation_lacks() {
+    let installation = player().config().installation.clone();
+    let mut show = entry_with_outputs().show;
+    show.outputs[1].box_index = 2;
+    let verdict = report::report(&show, &installation, PlanOptions::default());
+    assert!(!verdict.feasible);
+    assert!(
+        verdict
+            .reason
+            .as_deref()
+            .is_some_and(|reason| reason.contains("outputs for box 2")),
+        "{verdict:?}"
+    );
+    let reason = verdict.reason_problem.expect("coded");
+    assert_eq!(reason.code, "output_box");
+    assert_eq!(reason.params["box"], "2");
+    assert_eq!(reason.params["boxes"], "2");
+}

@@ -1,0 +1,897 @@
+//! The player against simulated gateways, in virtual time: a small stand-in for the
+//! bridge that paces every byte at baud / 10 in both directions, hands instructions to
+//! [`crate::uim2503::sim::Gateway`]s when their last byte has crossed, decodes the answers and
+//! feeds them back — the player sees what it would see on a real line.
+
+#[cfg(target_arch = "wasm32")]
+use wasm_bindgen_test::wasm_bindgen_test as test;
+
+use std::collections::VecDeque;
+
+use super::plan::tests::wave;
+use super::player::{Command, Entry, LinkView, Player, PlayerConfig, StartError};
+use crate::api::PlayerState;
+use crate::plan::Installation;
+use crate::show::{Sampler, Show};
+use crate::uim2503::ascii::{Batch, Form, parse_script};
+use crate::uim2503::feedback::FrameDecoder;
+use crate::uim2503::sim::{Gateway, GatewayConfig};
+
+const STEP_US: u64 = 1_000;
+
+/// One gateway behind a virtual line.
+struct Line {
+    gateway: Gateway,
+    baud: u32,
+    bulk: VecDeque<Vec<u8>>,
+    /// Instructions and the instant (µs) before which they are not written.
+    priority: VecDeque<(u64, Vec<u8>)>,
+    line_free_us: u64,
+    in_flight: VecDeque<(u64, Vec<u8>)>,
+    answers: VecDeque<(u64, u8)>,
+    answers_free_us: u64,
+    decoder: FrameDecoder,
+    /// The station the bulk lane last selected, restored after a priority write.
+    bulk_selection: Option<Vec<u8>>,
+    reselect: bool,
+    /// Every instruction written, in order: when it began to cross the line (µs) and its
+    /// bytes — what the golden wire test pins.
+    wire: Vec<(u64, Vec<u8>)>,
+}
+
+impl Line {
+    fn byte_us(&self) -> u64 {
+        crate::line::Line::new(self.baud).time_us(1)
+    }
+
+    fn queued_bytes(&self) -> usize {
+        self.bulk.iter().map(Vec::len).sum()
+    }
+
+    fn push(&mut self, lane: Lane, batch: &Batch) {
+        match lane {
+            Lane::Bulk => self.bulk.extend(batch.instructions().map(<[u8]>::to_vec)),
+            Lane::Priority { at_us } => self
+                .priority
+                .extend(batch.instructions().map(|bytes| (at_us, bytes.to_vec()))),
+        }
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Lane {
+    Bulk,
+    /// Written first, not before `at_us`.
+    Priority {
+        at_us: u64,
+    },
+}
+
+/// The stand-in bridge.
+struct Rig {
+    estop: Batch,
+    now_us: u64,
+    lines: Vec<Line>,
+    player: Player,
+    installation: Installation,
+    states: Vec<(u64, PlayerState)>,
+}
+
+fn installation(rows: u32, cols: u32, bauds: &[u32]) -> Installation {
+    let mut installation = Installation::demo(rows, cols, bauds).unwrap();
+    installation.approach_speed_mm_s = 1500.0;
+    installation
+}
+
+impl Rig {
+    fn new(installation: Installation) -> Self {
+        let lines = (0..installation.gateways.len())
+            .map(|gateway| {
+                let stations: Vec<u8> = installation
+                    .units_on(gateway)
+                    .map(|unit| installation.units[unit].station)
+                    .collect();
+                let mut config = GatewayConfig::numbered(1);
+                config.stations = stations;
+                config.seed = gateway as u64;
+                config.max_accel_mm_s2 = installation.limits.max_accel_mm_s2;
+                config.counts_per_mm = installation.counts_per_mm;
+                Line {
+                    gateway: Gateway::new(config).unwrap(),
+                    baud: installation.gateways[gateway].baud,
+                    bulk: VecDeque::new(),
+                    priority: VecDeque::new(),
+                    line_free_us: 0,
+                    in_flight: VecDeque::new(),
+                    answers: VecDeque::new(),
+                    answers_free_us: 0,
+                    decoder: FrameDecoder::new(),
+                    bulk_selection: None,
+                    reselect: false,
+                    wire: Vec::new(),
+                }
+            })
+            .collect();
+        let estop = Batch::encode(&parse_script("*0;MO=0;").unwrap(), Form::Standard).unwrap();
+        let player = Player::new(PlayerConfig {
+            installation: installation.clone(),
+        });
+        Self {
+            estop,
+            now_us: 0,
+            lines,
+            player,
+            installation,
+            states: Vec::new(),
+        }
+    }
+
+    fn links(&self) -> Vec<LinkView> {
+        self.lines
+            .iter()
+            .map(|line| LinkView {
+                up: true,
+                queued_bytes: line.queued_bytes(),
+            })
+            .collect()
+    }
+
+    fn carry_out(&mut self) {
+        for command in self.player.take_commands() {
+            match command {
+                Command::Bulk { gateway, batch } => self.lines[gateway].push(Lane::Bulk, &batch),
+                Command::Priority {
+                    gateway,
+                    batch,
+                    at_us,
+                } => {
+                    self.lines[gateway].push(Lane::Priority { at_us }, &batch);
+                }
+                Command::Estop => self.send_stop(),
+            }
+        }
+    }
+
+    /// The bridge's e-stop path: every line drops its bulk and writes the stop first.
+    fn send_stop(&mut self) {
+        let estop = self.estop.clone();
+        for line in &mut self.lines {
+            line.bulk.clear();
+            line.priority.clear();
+            line.push(Lane::Priority { at_us: 0 }, &estop);
+        }
+    }
+
+    /// The operator's e-stop: the stop on every line, then the player is told.
+    fn estop(&mut self) {
+        self.send_stop();
+        self.player.estop();
+        self.carry_out();
+    }
+
+    /// One step of virtual time: the lines move bytes, the gateways run, answers come
+    /// back, the player is polled.
+    fn step(&mut self) {
+        let end = self.now_us + STEP_US;
+        for (index, line) in self.lines.iter_mut().enumerate() {
+            // Writer: one instruction at a time, priority first, as the bridge's link; a
+            // start held for its instant keeps the line free until then.
+            while line.line_free_us <= end {
+                let mut start = line.line_free_us.max(self.now_us);
+                let next = if let Some(&(at_us, _)) = line.priority.front() {
+                    if at_us > end {
+                        break;
+                    }
+                    start = start.max(at_us);
+                    let Some((_, next)) = line.priority.pop_front() else {
+                        break;
+                    };
+                    if next.first() == Some(&b'*') {
+                        line.reselect = true;
+                    }
+                    next
+                } else if line.reselect
+                    && line
+                        .bulk
+                        .front()
+                        .is_some_and(|next| next.first() != Some(&b'*'))
+                    && line.bulk_selection.is_some()
+                {
+                    line.reselect = false;
+                    line.bulk_selection.clone().unwrap_or_default()
+                } else if let Some(next) = line.bulk.pop_front() {
+                    if next.first() == Some(&b'*') {
+                        line.bulk_selection = Some(next.clone());
+                        line.reselect = false;
+                    }
+                    next
+                } else {
+                    break;
+                };
+                line.line_free_us = start + line.byte_us() * next.len() as u64;
+                line.wire.push((start, next.clone()));
+                line.in_flight.push_back((line.line_free_us, next));
+            }
+            while line.in_flight.front().is_some_and(|(at, _)| *at <= end) {
+                let (at, bytes) = line.in_flight.pop_front().unwrap();
+                line.gateway.receive(at, &bytes);
+            }
+            line.gateway.advance(end);
+            let mut out = Vec::new();
+            line.gateway.poll_output(&mut out);
+            for byte in out {
+                let start = line.answers_free_us.max(self.now_us);
+                line.answers_free_us = start + line.byte_us();
+                line.answers.push_back((line.answers_free_us, byte));
+            }
+            let mut arrived = Vec::new();
+            while line.answers.front().is_some_and(|(at, _)| *at <= end) {
+                arrived.push(line.answers.pop_front().unwrap().1);
+            }
+            let frames: Vec<_> = line.decoder.push(&arrived).collect();
+            for frame in frames {
+                self.player.handle_feedback(end, index, &frame);
+            }
+        }
+        self.now_us = end;
+        let links = self.links();
+        self.player.poll(self.now_us, &links);
+        self.carry_out();
+        let state = self.player.status().state;
+        if self.states.last().map(|(_, last)| *last) != Some(state) {
+            self.states.push((self.now_us, state));
+        }
+    }
+
+    fn run_until(&mut self, limit_us: u64, mut done: impl FnMut(&Rig) -> bool) {
+        let deadline = self.now_us + limit_us;
+        while !done(self) {
+            assert!(
+                self.now_us < deadline,
+                "timed out in {:?}; states {:?}; last error {:?}",
+                self.player.status().state,
+                self.states,
+                self.player.status().last_error
+            );
+            self.step();
+        }
+    }
+
+    fn start(&mut self, entries: Vec<Entry>, loop_playlist: bool) -> Result<(), StartError> {
+        let links = self.links();
+        let result = self
+            .player
+            .start(self.now_us, entries, loop_playlist, &links);
+        self.carry_out();
+        result
+    }
+
+    fn state(&self) -> PlayerState {
+        self.player.status().state
+    }
+
+    /// Every ball's true position, mm.
+    fn positions_mm(&self) -> Vec<f64> {
+        let cpm = self.installation.counts_per_mm;
+        let mut positions = vec![0.0; self.installation.units.len()];
+        for (gateway, line) in self.lines.iter().enumerate() {
+            for (slot, unit) in self.installation.units_on(gateway).enumerate() {
+                positions[unit] = line.gateway.unit(slot).unwrap().position_counts / cpm;
+            }
+        }
+        positions
+    }
+
+    fn anyone_moving(&self) -> bool {
+        self.lines
+            .iter()
+            .any(|line| line.gateway.units().any(|unit| unit.moving))
+    }
+}
+
+fn entry(show: Show, delay_ms: u64, cycles: u32) -> Entry {
+    Entry {
+        show,
+        delay_ms,
+        cycles,
+    }
+}
+
+/// Plays to `Playing` and checks every ball against the show every 100 ms until the
+/// end; returns the largest deviation, mm.
+fn follow(rig: &mut Rig, show: &Show) -> f64 {
+    rig.run_until(120_000_000, |rig| rig.state() == PlayerState::Playing);
+    let start_us = rig.now_us;
+    compare_from(rig, show, start_us)
+}
+
+/// Steps until the show ends, comparing every ball with the show every 100 ms; the
+/// player reached `Playing` at `start_us`. Returns the largest deviation, mm.
+fn compare_from(rig: &mut Rig, show: &Show, start_us: u64) -> f64 {
+    // The units began when `*0;BG;`, written at the start's instant, finished crossing
+    // the line.
+    let begin_us = start_us
+        + super::player::START_LEAD_US
+        + crate::line::Line::new(rig.installation.gateways[0].baud).time_us(6);
+    let mut sampler = Sampler::new(show);
+    let mut expected = vec![0.0f32; show.tracks.len()];
+    let mut worst: f64 = 0.0;
+    let mut checks = 0;
+    while rig.state() == PlayerState::Playing {
+        rig.step();
+        if !(rig.now_us - start_us).is_multiple_of(100_000) || rig.now_us < begin_us {
+            continue;
+        }
+        let show_ms = (rig.now_us - begin_us) as f64 / 1000.0;
+        if show_ms > show.duration_ms() as f64 {
+            continue;
+        }
+        sampler.sample(show_ms, &mut expected, None);
+        for (actual, expected) in rig.positions_mm().iter().zip(&expected) {
+            worst = worst.max((actual - f64::from(*expected)).abs());
+        }
+        checks += 1;
+    }
+    assert!(checks > 10, "only {checks} samples were compared");
+    worst
+}
+
+#[test]
+fn a_show_plays_as_written_within_a_millimetre() {
+    let show = wave(2, 3, 120, 200);
+    let mut rig = Rig::new(installation(2, 3, &[115_200]));
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &show);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+    // The first start homes the balls (their positions are unknown), then approaches.
+    let states: Vec<PlayerState> = rig.states.iter().map(|(_, state)| *state).collect();
+    assert_eq!(
+        &states[..5],
+        [
+            PlayerState::Homing,
+            PlayerState::Approaching,
+            PlayerState::Loading,
+            PlayerState::Playing,
+            PlayerState::Idle
+        ]
+    );
+}
+
+#[test]
+fn a_long_show_streams_without_running_dry() {
+    // 400 rows of 100 ms per ball: more than the table holds, streamed at 115200 baud.
+    let show = wave(2, 5, 400, 100);
+    let mut rig = Rig::new(installation(2, 5, &[115_200]));
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &show);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+    let lowest = rig.player.lowest_water_levels()[0].unwrap();
+    assert!(lowest >= 2, "the FIFOs went down to {lowest} rows");
+    // Every ball finished its track.
+    let ends: Vec<f64> = show
+        .tracks
+        .iter()
+        .map(|track| track.rows.last().unwrap().position_mm)
+        .collect();
+    for (actual, end) in rig.positions_mm().iter().zip(&ends) {
+        assert!((actual - end).abs() < 0.01, "{actual} vs {end}");
+    }
+}
+
+#[test]
+fn an_infeasible_show_is_refused_with_numbers_before_anything_moves() {
+    let show = wave(10, 10, 600, 250);
+    let mut rig = Rig::new(installation(10, 10, &[9600]));
+    let error = rig.start(vec![entry(show, 0, 1)], false).unwrap_err();
+    let StartError::Infeasible { reason, fixes, .. } = &error else {
+        panic!("expected an infeasible show, got {error}");
+    };
+    assert!(reason.to_string().contains("960 B/s"), "{reason}");
+    assert!(!fixes.is_empty());
+    assert!(rig.player.take_commands().is_empty(), "nothing may be sent");
+    assert_eq!(rig.state(), PlayerState::Idle);
+}
+
+#[test]
+fn an_infeasible_start_carries_its_reason_and_fixes_as_codes_beside_the_english() {
+    use crate::codes::Coded;
+    let show = wave(10, 10, 600, 250);
+    let mut rig = Rig::new(installation(10, 10, &[9600]));
+    let error = rig.start(vec![entry(show, 0, 1)], false).unwrap_err();
+    let params = error.params();
+    let reason = error.reason_problem().expect("a coded reason");
+    assert!(
+        reason.code == "line_starved" || reason.code == "line_starved_during",
+        "{reason:?}"
+    );
+    assert_eq!(reason.params["available_bytes_per_s"], "960");
+    assert_eq!(reason.params["baud"], "9600");
+    assert!(params["reason"].contains("960 B/s"), "{params:?}");
+    let fixes = error.fix_problems();
+    assert_eq!(fixes.len(), error.fix_sentences().len());
+    assert!(
+        fixes.iter().any(|fix| fix.code == "fix_faster_line"),
+        "{fixes:?}"
+    );
+    assert_eq!(params["fixes"], error.fix_sentences().join("; "));
+}
+
+#[test]
+fn an_estop_stops_every_ball_within_one_instruction_and_start_homes_first() {
+    let show = wave(2, 3, 200, 200);
+    let mut rig = Rig::new(installation(2, 3, &[115_200]));
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    rig.run_until(3_000_000, |rig| {
+        rig.now_us % 1_000_000 == 0 && rig.anyone_moving()
+    });
+    rig.estop();
+    let stopped_at = rig.now_us;
+    // One instruction already on the wire (≤ 20 bytes) plus the 8-byte stop.
+    let bound_us = crate::line::Line::new(115_200).time_us(28) + STEP_US;
+    rig.run_until(bound_us, |rig| !rig.anyone_moving());
+    assert!(rig.now_us - stopped_at <= bound_us);
+    assert_eq!(rig.state(), PlayerState::Stopped);
+    let frozen = rig.positions_mm();
+    rig.run_until(1_000_000, |rig| rig.now_us >= stopped_at + 1_000_000);
+    assert_eq!(rig.positions_mm(), frozen, "nothing moves after an e-stop");
+
+    // Start again: home first, then from the beginning.
+    rig.states.clear();
+    rig.start(vec![entry(show, 0, 1)], false).unwrap();
+    assert_eq!(rig.state(), PlayerState::Homing);
+    rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Approaching);
+    for position in rig.positions_mm() {
+        assert!(position.abs() < 0.01, "homed to {position}");
+    }
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    assert_eq!(rig.player.status().entry, Some(0));
+    assert!(rig.player.status().show_time_ms < 100);
+}
+
+#[test]
+fn reset_stops_homes_and_restarts_from_the_first_entry() {
+    let first = wave(1, 2, 60, 200);
+    let mut second = wave(1, 2, 60, 200);
+    second.name = "second".into();
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    let playlist = vec![entry(first.clone(), 0, 1), entry(second.clone(), 0, 1)];
+    rig.start(playlist.clone(), false).unwrap();
+    rig.run_until(60_000_000, |rig| {
+        rig.player.status().entry == Some(1) && rig.state() == PlayerState::Playing
+    });
+    rig.states.clear();
+    let links = rig.links();
+    rig.send_stop();
+    rig.player
+        .reset(rig.now_us, playlist, false, &links)
+        .unwrap();
+    rig.carry_out();
+    assert_eq!(rig.state(), PlayerState::Homing);
+    // Homing shows its own progress, not the stopped show's time.
+    let homing = rig.player.status();
+    assert_eq!(
+        (homing.entry, homing.show.as_deref(), homing.show_time_ms),
+        (None, None, 0)
+    );
+    assert_eq!((homing.show_duration_ms, homing.cycle), (0, 0));
+    rig.run_until(30_000_000, |rig| {
+        let status = rig.player.status();
+        status.state != PlayerState::Homing || status.progress > 0.3
+    });
+    let halfway = rig.player.status();
+    assert_eq!(halfway.state, PlayerState::Homing);
+    assert!(halfway.progress < 1.0, "{halfway:?}");
+    assert_eq!((halfway.show, halfway.show_time_ms), (None, 0));
+    rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Approaching);
+    for position in rig.positions_mm() {
+        assert!(position.abs() < 0.01, "homed to {position}");
+    }
+    assert_eq!(rig.player.status().show_time_ms, 0, "no stale time");
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    assert_eq!(rig.player.status().entry, Some(0));
+    assert_eq!(rig.player.status().show.as_deref(), Some("wave"));
+}
+
+#[test]
+fn delays_cycles_and_loop_behave_as_specified() {
+    let show = wave(1, 2, 20, 100); // 2 s
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    rig.start(vec![entry(show.clone(), 700, 2)], true).unwrap();
+    rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Waiting);
+    let waited_from = rig.now_us;
+    rig.run_until(2_000_000, |rig| rig.state() != PlayerState::Waiting);
+    let waited_us = rig.now_us - waited_from;
+    assert!(
+        (690_000..=710_000).contains(&waited_us),
+        "waited {waited_us} µs"
+    );
+    rig.run_until(30_000_000, |rig| {
+        rig.state() == PlayerState::Playing && rig.player.status().cycle == 1
+    });
+    rig.run_until(30_000_000, |rig| {
+        rig.state() == PlayerState::Playing && rig.player.status().cycle == 2
+    });
+    // The loop comes back to the entry, delay and all.
+    rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Waiting);
+    rig.run_until(30_000_000, |rig| {
+        rig.state() == PlayerState::Playing && rig.player.status().cycle == 1
+    });
+    assert_eq!(rig.player.status().last_error, None);
+}
+
+#[test]
+fn two_gateways_start_together() {
+    let show = wave(2, 3, 40, 200);
+    let mut rig = Rig::new(installation(2, 3, &[115_200, 115_200]));
+    assert_eq!(rig.installation.units_on(1).count(), 3);
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    let start_us = rig.now_us;
+    // Both gateways' balls are under way within the same couple of milliseconds after
+    // the start's instant…
+    rig.run_until(super::player::START_LEAD_US + 3_000, |rig| {
+        rig.lines
+            .iter()
+            .all(|line| line.gateway.units().all(|unit| unit.moving))
+    });
+    // …and all follow the show from the same start.
+    let worst = compare_from(&mut rig, &show, start_us);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+}
+
+#[test]
+fn a_unit_error_stops_the_matrix_and_says_which_ball() {
+    let show = wave(1, 3, 100, 200);
+    let mut rig = Rig::new(installation(1, 3, &[115_200]));
+    rig.start(vec![entry(show, 0, 1)], false).unwrap();
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    // Unit 2 (station 2) reports an overload.
+    let frame = crate::uim2503::feedback::Frame::new(
+        2,
+        crate::uim2503::feedback::code::ER,
+        &[0x40, 0x27, 7],
+    )
+    .unwrap();
+    rig.player.handle_feedback(rig.now_us, 0, &frame);
+    rig.carry_out();
+    assert_eq!(rig.state(), PlayerState::Error);
+    let error = rig.player.status().last_error.unwrap();
+    assert!(
+        error.contains("row 1, col 2") && error.contains("station 2"),
+        "{error}"
+    );
+    rig.run_until(100_000, |rig| !rig.anyone_moving());
+}
+
+#[test]
+fn home_stops_brings_every_ball_home_and_stays_idle() {
+    let show = wave(1, 3, 200, 200);
+    let mut rig = Rig::new(installation(1, 3, &[115_200]));
+    rig.start(vec![entry(show, 0, 1)], false).unwrap();
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    rig.send_stop();
+    let links = rig.links();
+    rig.player.home(rig.now_us, &links).unwrap();
+    rig.carry_out();
+    assert_eq!(rig.state(), PlayerState::Homing);
+    assert_eq!(
+        rig.player.status().show,
+        None,
+        "homing shows no show's time"
+    );
+    rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Idle);
+    for position in rig.positions_mm() {
+        assert!(position.abs() < 0.01, "homed to {position}");
+    }
+    let until_us = rig.now_us + 1_000_000;
+    rig.run_until(2_000_000, |rig| rig.now_us >= until_us);
+    assert!(
+        rig.states
+            .ends_with(&[(rig.states.last().unwrap().0, PlayerState::Idle)]),
+        "it stays idle at home: {:?}",
+        rig.states
+    );
+}
+
+#[test]
+fn a_failure_asks_for_the_estop_and_an_estop_keeps_the_failure() {
+    let show = wave(1, 2, 200, 200);
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    rig.start(vec![entry(show, 0, 1)], false).unwrap();
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    rig.player.fail_with("gateway 0 stalled".into());
+    assert_eq!(rig.player.take_commands(), vec![Command::Estop]);
+    assert_eq!(rig.state(), PlayerState::Error);
+    rig.player.estop();
+    assert_eq!(rig.state(), PlayerState::Error);
+    assert_eq!(
+        rig.player.status().last_error.as_deref(),
+        Some("gateway 0 stalled")
+    );
+}
+
+/// The instructions written to each gateway, one a line: when the instruction began to
+/// cross the line (µs of virtual time), a space, its bytes as ASCII.
+fn wire_text(rig: &Rig) -> Vec<String> {
+    rig.lines
+        .iter()
+        .map(|line| {
+            line.wire
+                .iter()
+                .map(|(at_us, bytes)| format!("{at_us} {}\n", bytes.escape_ascii()))
+                .collect()
+        })
+        .collect()
+}
+
+/// Compares `actual` with the golden file `name` (in `shared/tests/golden/`) line by
+/// line and names the first instruction that differs. With `FLOATBALL_BLESS=1` (native
+/// only) the file is written from `actual` instead: only ever from code whose bytes on
+/// the wire are known to be right.
+fn assert_golden(name: &str, expected: &str, actual: &str) {
+    #[cfg(not(target_arch = "wasm32"))]
+    if std::env::var_os("FLOATBALL_BLESS").is_some() {
+        let path = format!("{}/tests/golden/{name}", env!("CARGO_MANIFEST_DIR"));
+        std::fs::write(&path, actual).unwrap();
+        return;
+    }
+    let mut expected_lines = expected.lines();
+    let mut actual_lines = actual.lines();
+    for number in 1.. {
+        match (expected_lines.next(), actual_lines.next()) {
+            (None, None) => break,
+            (expected, actual) if expected == actual => {}
+            (expected, actual) => panic!(
+                "{name}: instruction {number} differs on the wire\n  expected: {}\n  actual:   {}",
+                expected.unwrap_or("(nothing: the stream ended)"),
+                actual.unwrap_or("(nothing: the stream ended)")
+            ),
+        }
+    }
+    assert_eq!(
+        expected, actual,
+        "{name}: same instructions, other line ends"
+    );
+}
+
+/// Golden wire test, streaming: two gateways at 9600 baud, three units each, a 28 s
+/// wave too long for the table (FIFO). Pins every byte each gateway is sent, and when:
+/// homing, approach, position queries, configuration, preload, arm, the synchronised
+/// start and every refill round.
+#[test]
+fn the_wire_carries_exactly_the_golden_stream_when_streaming() {
+    let show = wave(2, 3, 280, 100);
+    let mut rig = Rig::new(installation(2, 3, &[9600, 9600]));
+    rig.start(vec![entry(show, 0, 1)], false).unwrap();
+    rig.run_until(120_000_000, |rig| rig.state() == PlayerState::Playing);
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+    let wire = wire_text(&rig);
+    assert_golden(
+        "wave_fifo_9600_gateway0.txt",
+        include_str!("../../tests/golden/wave_fifo_9600_gateway0.txt"),
+        &wire[0],
+    );
+    assert_golden(
+        "wave_fifo_9600_gateway1.txt",
+        include_str!("../../tests/golden/wave_fifo_9600_gateway1.txt"),
+        &wire[1],
+    );
+}
+
+/// Golden wire test, a playlist of short shows: two gateways at 9600 baud, a wave that
+/// fits the table (single mode) played twice after a delay, then a second show — the
+/// moves and loads between entries and cycles.
+#[test]
+fn the_wire_carries_exactly_the_golden_stream_for_a_playlist() {
+    let first = wave(2, 3, 20, 200);
+    let mut second = wave(2, 3, 12, 250);
+    second.name = "second".into();
+    let mut rig = Rig::new(installation(2, 3, &[9600, 9600]));
+    rig.start(vec![entry(first, 300, 2), entry(second, 0, 1)], false)
+        .unwrap();
+    rig.run_until(120_000_000, |rig| {
+        rig.player.status().entry == Some(1) && rig.state() == PlayerState::Playing
+    });
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+    let wire = wire_text(&rig);
+    assert_golden(
+        "wave_playlist_9600_gateway0.txt",
+        include_str!("../../tests/golden/wave_playlist_9600_gateway0.txt"),
+        &wire[0],
+    );
+    assert_golden(
+        "wave_playlist_9600_gateway1.txt",
+        include_str!("../../tests/golden/wave_playlist_9600_gateway1.txt"),
+        &wire[1],
+    );
+}
+
+// ---- arm ----
+
+impl Rig {
+    /// Arms `entries` as the bridge does while idle: prepared as Start would prepare
+    /// them, at the player's current disarm count.
+    fn arm(&mut self, entries: Vec<Entry>, loop_playlist: bool) -> bool {
+        let links = self.links();
+        let prepared =
+            super::player::prepare(&self.installation, entries, loop_playlist, &links).unwrap();
+        let disarms = self.player.disarms();
+        let armed = self.player.arm(prepared, disarms, &links);
+        self.carry_out();
+        armed
+    }
+
+    fn armed_progress(&self) -> Option<f64> {
+        self.player.armed().map(|armed| armed.progress)
+    }
+
+    /// Every instruction written to every gateway since `from` (per gateway, an index
+    /// into its wire), as text.
+    fn wire_since(&self, from: &[usize]) -> String {
+        self.lines
+            .iter()
+            .zip(from)
+            .flat_map(|(line, &from)| &line.wire[from..])
+            .map(|(_, bytes)| format!("{}\n", bytes.escape_ascii()))
+            .collect()
+    }
+
+    fn wire_marks(&self) -> Vec<usize> {
+        self.lines.iter().map(|line| line.wire.len()).collect()
+    }
+}
+
+/// Arms `show` on an idle rig until it is armed, checking that nothing moves and that
+/// only the table is written; returns the wire as it was before arming.
+fn arm_fully(rig: &mut Rig, show: &Show) -> Vec<usize> {
+    let before = rig.wire_marks();
+    let positions = rig.positions_mm();
+    assert!(rig.arm(vec![entry(show.clone(), 0, 1)], false));
+    let armed = rig
+        .player
+        .status()
+        .armed
+        .expect("arming shows in the status");
+    assert_eq!((armed.entry, armed.show.as_str()), (0, show.name.as_str()));
+    let mut last = 0.0;
+    rig.run_until(60_000_000, |rig| {
+        let progress = rig.armed_progress().expect("still arming");
+        assert!(
+            progress >= last,
+            "progress went back from {last} to {progress}"
+        );
+        last = progress;
+        progress == 1.0
+    });
+    assert_eq!(rig.state(), PlayerState::Idle);
+    assert!(!rig.anyone_moving());
+    assert_eq!(rig.positions_mm(), positions, "nothing moved while arming");
+    let written = rig.wire_since(&before);
+    assert!(written.contains("QP"), "{written}");
+    for forbidden in ["MO", "PA", "PV", "BG", "SP"] {
+        assert!(
+            !written.contains(forbidden),
+            "arming wrote {forbidden}:\n{written}"
+        );
+    }
+    before
+}
+
+#[test]
+fn an_armed_show_starts_after_the_approach_alone_and_plays_as_written() {
+    // 120 rows of 200 ms: the single-sequence table.
+    let show = wave(2, 3, 120, 200);
+    let mut rig = Rig::new(installation(2, 3, &[9600]));
+    arm_fully(&mut rig, &show);
+    // A Start of the same playlist takes the tables over: no row is sent again.
+    let marks = rig.wire_marks();
+    rig.states.clear();
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    assert_eq!(
+        rig.player.status().armed,
+        None,
+        "a running show is not armed"
+    );
+    rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
+    let start = rig.wire_since(&marks);
+    assert!(!start.contains("QP"), "rows were loaded again:\n{start}");
+    assert!(start.contains("PV"), "{start}");
+    // The load phase only arms and confirms: a few bytes, not the show's table.
+    let loading_us: u64 = rig
+        .states
+        .windows(2)
+        .filter(|pair| pair[0].1 == PlayerState::Loading)
+        .map(|pair| pair[1].0 - pair[0].0)
+        .sum();
+    assert!(loading_us < 200_000, "loading took {loading_us} µs");
+    let start_us = rig.now_us;
+    let worst = compare_from(&mut rig, &show, start_us);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+}
+
+#[test]
+fn a_streamed_show_armed_or_half_armed_plays_as_written() {
+    // 600 rows: more than the table holds, streamed (FIFO) after its preload.
+    let show = wave(1, 2, 600, 200);
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    arm_fully(&mut rig, &show);
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &show);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+
+    // A Start while arming is under way takes over from where it got.
+    let mut rig = Rig::new(installation(1, 2, &[9600]));
+    assert!(rig.arm(vec![entry(show.clone(), 0, 1)], false));
+    rig.run_until(10_000_000, |rig| {
+        rig.armed_progress().is_some_and(|progress| progress > 0.3)
+    });
+    let progress = rig.armed_progress().unwrap();
+    assert!(progress < 1.0, "{progress}");
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &show);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+}
+
+#[test]
+fn an_estop_or_a_disarm_drops_the_arming_and_a_stale_one_is_refused() {
+    let show = wave(1, 2, 60, 200);
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    arm_fully(&mut rig, &show);
+    rig.estop();
+    assert_eq!(rig.player.status().armed, None);
+    // Stopped is not idle: nothing is armed until the matrix is idle again.
+    assert!(!rig.arm(vec![entry(show.clone(), 0, 1)], false));
+
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    arm_fully(&mut rig, &show);
+    let links = rig.links();
+    let prepared = super::player::prepare(
+        &rig.installation,
+        vec![entry(show.clone(), 0, 1)],
+        false,
+        &links,
+    )
+    .unwrap();
+    let stale = rig.player.disarms();
+    rig.player.disarm();
+    assert_eq!(rig.player.status().armed, None);
+    assert!(
+        !rig.player.arm(prepared, stale, &links),
+        "prepared before the disarm"
+    );
+    // A lost link drops it too.
+    assert!(rig.arm(vec![entry(show.clone(), 0, 1)], false));
+    let mut links = rig.links();
+    links[0].up = false;
+    rig.player.poll(rig.now_us, &links);
+    assert_eq!(rig.player.status().armed, None);
+    assert_eq!(rig.state(), PlayerState::Idle);
+}
+
+#[test]
+fn a_start_of_another_show_loads_it_in_full() {
+    let armed = wave(1, 2, 60, 200);
+    let mut other = wave(1, 2, 80, 200);
+    other.name = "other".into();
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    arm_fully(&mut rig, &armed);
+    let marks = rig.wire_marks();
+    rig.start(vec![entry(other.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &other);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+    assert!(
+        rig.wire_since(&marks).contains("MP[0]"),
+        "the table was cleared"
+    );
+}
