@@ -14,7 +14,7 @@ use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
-use floatball_bridge::link::{Batch, Link, LinkConfig};
+use floatball_bridge::ports::uim2503::{Batch, Link, LinkConfig};
 use floatball_shared::api::LinkState;
 use floatball_shared::uim2503::ascii::{Form, parse_script};
 use serialport::{SerialPort, TTYPort};

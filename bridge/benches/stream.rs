@@ -4,8 +4,8 @@
 
 use std::time::Duration;
 
-use floatball_bridge::link::{Link, LinkConfig};
 use floatball_bridge::playback::Playback;
+use floatball_bridge::ports::uim2503::{Link, LinkConfig};
 use floatball_shared::api::{LinkState, PlayerState};
 use floatball_shared::plan::Installation;
 use floatball_shared::show::Show;

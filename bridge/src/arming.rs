@@ -53,7 +53,10 @@ fn may_arm(state: &AppState) -> bool {
         && !state.starts_pending()
         && !state.commission().busy()
         && !playback.latch().is_latched()
-        && playback.links().iter().all(crate::link::Link::is_up)
+        && playback
+            .links()
+            .iter()
+            .all(crate::ports::uim2503::Link::is_up)
         && playback.arming_allowed()
 }
 

@@ -12,8 +12,8 @@
 //!
 //! Every family's stop goes through [`press`], over its ports ([`StopPort`]): a
 //! UIM2503 link's writer writes the gateway's stop; the MBOX boxes' sender
-//! ([`crate::mbox::MboxNet`]) writes the boxes' e-stop register before any frame; the
-//! owners of the MOONS' drives' links ([`crate::scl::SclNet`]) write `SK` to every
+//! ([`crate::ports::mbox::MboxNet`]) writes the boxes' e-stop register before any frame; the
+//! owners of the MOONS' drives' links ([`crate::ports::scl::SclNet`]) write `SK` to every
 //! drive — each woken the same way, no lock, no await.
 //!
 //! The latch stays set until a Start, Reset or Home issued *after* the e-stop is

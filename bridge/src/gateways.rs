@@ -28,7 +28,7 @@ use tokio::sync::{Notify, broadcast};
 use crate::commission::sim_units::SimUnits;
 use crate::config::Config;
 use crate::estop::Latch;
-use crate::link::{FeedbackSource, Link, LinkConfig};
+use crate::ports::uim2503::{FeedbackSource, Link, LinkConfig};
 
 /// How many relayed frames a slow WebSocket client may fall behind before it is told
 /// that it missed some.
@@ -94,7 +94,7 @@ impl Gateways {
             .gateways
             .iter()
             .enumerate()
-            // MBOX boxes are not on a line: they are `crate::mbox`'s.
+            // MBOX boxes are not on a line: they are `crate::ports::mbox`'s.
             .filter(|(_, gateway)| gateway.kind == DriveKind::Uim2503)
             .map(|(index, _)| gateways.open_link(installation, index))
             .collect();

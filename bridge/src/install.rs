@@ -43,8 +43,8 @@ use floatball_shared::plan::report::GATEWAY_BAUDS;
 use floatball_shared::plan::{DriveKind, Installation};
 
 use crate::config::{self, Config, ConfigError, Overrides, edit};
-use crate::link::BaudError;
 use crate::playback::ReconfigureError;
+use crate::ports::uim2503::BaudError;
 use crate::state::AppState;
 
 /// How long a baud change waits for the gateway to answer at the new speed (a real

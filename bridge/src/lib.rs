@@ -2,7 +2,7 @@
 //!
 //! # Concurrency rule
 //! Each piece of mutable state has **one owner**, and everyone else gets snapshots:
-//! - a link's queues and counters belong to its writer thread ([`link`]); handles hand
+//! - a link's queues and counters belong to its writer thread ([`ports::uim2503`]); handles hand
 //!   batches over through a channel, read atomics, and read the link's status as a
 //!   copy;
 //! - the status every client sees belongs to the playback task ([`playback`]), which
@@ -30,14 +30,14 @@
 //!   through `floatball_shared::show::import`.
 //! - [`playlist`]: the playlist Start plays, stored beside the shows.
 //! - [`durable`]: atomic, durable file writes.
-//! - [`link`]: the links to the gateways (serial ports, serial device servers over TCP
-//!   or RFC 2217, the simulated gateway) with their e-stop lane, the greeting that
-//!   tells whether a gateway answers, and the line-speed change.
-//! - [`mbox`]: the MBOX boxes of an installation on one UDP socket, with their e-stop
-//!   (the sender is woken by the e-stop like a link's writer).
-//! - [`scl`]: the links to MOONS' drives in SCL (an RS-485 line or eSCL on UDP), one
-//!   owner thread each, with their e-stop (`SK` to every drive), status polls and
-//!   console.
+//! - [`ports`]: where the bytes go, one port per family and transport, each with its
+//!   e-stop lane: [`ports::uim2503`] the links to UIM2503 gateways (serial ports,
+//!   serial device servers over TCP or RFC 2217, the simulated gateway) with the
+//!   greeting that tells whether a gateway answers and the line-speed change;
+//!   [`ports::mbox`] the MBOX boxes of an installation on one UDP socket (the sender
+//!   is woken by the e-stop like a link's writer); [`ports::scl`] the links to MOONS'
+//!   drives in SCL (an RS-485 line or eSCL on UDP), one owner thread each, with their
+//!   e-stop (`SK` to every drive), status polls and console.
 //! - [`estop`]: the e-stop latch and the one path that presses it, over every port a
 //!   stop goes to (`StopPort`: a UIM2503 link, the MBOX boxes, the MOONS' drives).
 //! - [`gateways`]: every link together: console lines and feedback for the clients.
@@ -83,12 +83,10 @@ pub mod gateways;
 pub mod generate;
 pub mod http;
 pub mod install;
-pub mod link;
-pub mod mbox;
 pub mod origin;
 pub mod playback;
 pub mod playlist;
-pub mod scl;
+pub mod ports;
 pub mod server;
 pub mod simulate;
 pub mod state;

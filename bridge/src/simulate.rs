@@ -47,8 +47,8 @@ use std::time::{Duration, Instant};
 use floatball_shared::uim2503::sim::{GatewayConfig, RxLine};
 use serialport::SerialPort;
 
-use crate::link::serial::open_port;
-use crate::link::sim::SimEngine;
+use crate::ports::uim2503::serial::open_port;
+use crate::ports::uim2503::sim::SimEngine;
 
 /// Bytes the reader leaves of the line's room, so that the engine's clock and the
 /// reader's never disagree into an overrun.

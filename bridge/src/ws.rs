@@ -32,14 +32,14 @@
 //! never holds up status and feedback. While the e-stop is latched, a line that could
 //! move a ball is refused (queries still go). A line holding `BDR=x;` is refused
 //! whole: the line speed changes only through the guided change
-//! ([`crate::link::Link::change_baud`]), which keeps the link in step with the gateway.
+//! ([`crate::ports::uim2503::Link::change_baud`]), which keeps the link in step with the gateway.
 //!
 //! On an MBOX installation a `raw` line is MBOX console text
 //! (`floatball_shared::mbox::console`, docs/gateways.md §7), parsed with the selected
 //! box's route (the last two octets of gateway N's configured IP address, sent as
 //! every box since only that box's socket receives it; every box when no gateway is
 //! given) and handed to
-//! [`crate::mbox::MboxNet::console`]. While the e-stop is latched only reads and the
+//! [`crate::ports::mbox::MboxNet::console`]. While the e-stop is latched only reads and the
 //! e-stop write (`estop`) go; `release` and every other write are refused: releasing is
 //! Start, Reset or Home. The console's `estop` is a register write only — it does not
 //! set the bridge's latch (the `estop` message does). Replies to console reads reach
@@ -49,7 +49,7 @@
 //! `floatball_shared::scl::parse_script`; a refusal names its line and column): each
 //! command goes to the drive its address character names on gateway N (0 when no
 //! gateway is given; no address: the entry's only drive), by
-//! [`crate::scl::program::console`]. While the e-stop is latched only queries and
+//! [`crate::ports::scl::program::console`]. While the e-stop is latched only queries and
 //! stops go. Every drive's decoded answer reaches every session as `scl_reply`.
 
 use std::collections::{HashMap, VecDeque};
@@ -73,9 +73,9 @@ use tokio::time::Instant;
 
 use crate::control::{self, Control};
 use crate::http::Failure;
-use crate::mbox::MboxNet;
 use crate::origin::origin_allowed;
-use crate::scl::SclNet;
+use crate::ports::mbox::MboxNet;
+use crate::ports::scl::SclNet;
 use crate::state::AppState;
 
 /// Most `status` messages per second to one client.
@@ -718,7 +718,7 @@ fn answer(
             }
             if let Some(drives) = state.playback().scl() {
                 let latch = state.playback().latch();
-                return crate::scl::program::console(
+                return crate::ports::scl::program::console(
                     drives,
                     &line,
                     gateway,

@@ -10,7 +10,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
-use floatball_bridge::link::{BaudError, Link, LinkConfig};
+use floatball_bridge::ports::uim2503::{BaudError, Link, LinkConfig};
 use floatball_shared::api::LinkState;
 use serialport::{SerialPort, TTYPort};
 

@@ -11,8 +11,8 @@ use std::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
 
-use floatball_bridge::link::telnet::{self, DO, IAC, SB, SE, WILL};
-use floatball_bridge::link::{Batch, Link, LinkConfig, LinkError};
+use floatball_bridge::ports::uim2503::telnet::{self, DO, IAC, SB, SE, WILL};
+use floatball_bridge::ports::uim2503::{Batch, Link, LinkConfig, LinkError};
 use floatball_shared::api::LinkState;
 use floatball_shared::uim2503::ascii::{Form, parse_script};
 use floatball_shared::uim2503::feedback::Frame;

@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
-use floatball_bridge::link::{
+use floatball_bridge::ports::uim2503::{
     ANSWER_TIMEOUT, Batch, GREETING_INTERVAL, GREETING_RETRY, Link, LinkConfig, LinkError,
     MISSED_GREETINGS,
 };

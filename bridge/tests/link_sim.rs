@@ -3,7 +3,7 @@
 
 use std::time::{Duration, Instant};
 
-use floatball_bridge::link::{Batch, BaudError, Link, LinkConfig};
+use floatball_bridge::ports::uim2503::{Batch, BaudError, Link, LinkConfig};
 use floatball_shared::api::LinkState;
 use floatball_shared::uim2503::ascii::{Form, parse_script};
 use floatball_shared::uim2503::feedback::{Ack, Feedback};

@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use common::mbox_sim::Simulator;
 use common::process::{Process, links_up};
 use common::{send_text, until};
-use floatball_bridge::mbox::MboxTiming;
+use floatball_bridge::ports::mbox::MboxTiming;
 use floatball_shared::api::PlayerState;
 
 const PERIOD_MS: u64 = 20;

@@ -5,8 +5,8 @@ use std::io::{Read, Write};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use floatball_bridge::link::{Link, LinkConfig};
 use floatball_bridge::playback::{Playback, Playlist, PlaylistKey};
+use floatball_bridge::ports::uim2503::{Link, LinkConfig};
 use floatball_shared::api::{LinkState, PlayerState, Status};
 use floatball_shared::plan::{GatewaySpec, Installation};
 use floatball_shared::show::demo::Wave;

@@ -367,7 +367,8 @@ async fn stored_programs_are_started_without_an_upload() {
     )
     .expect("valid");
     let scl = config.scl.as_ref().expect("scl");
-    let compiler = floatball_bridge::scl::program::qprogram_config(&config.installation, scl);
+    let compiler =
+        floatball_bridge::ports::scl::program::qprogram_config(&config.installation, scl);
     let show = floatball_shared::show::Show::from_json(std::str::from_utf8(&show()).unwrap())
         .expect("show");
     for (ball, track) in show.tracks.iter().enumerate() {

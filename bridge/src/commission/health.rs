@@ -25,7 +25,7 @@ use floatball_shared::uim2503::ascii::{Batch, Form, Instruction};
 use floatball_shared::uim2503::feedback::{Ack, Feedback, Frame};
 use tokio::sync::{broadcast, mpsc, watch};
 
-use crate::link::Link;
+use crate::ports::uim2503::Link;
 
 /// How often the idle probe asks one station.
 pub const PROBE_PERIOD: Duration = Duration::from_secs(1);

@@ -48,7 +48,7 @@ use floatball_shared::uim2503::feedback::{Ack, Feedback, Frame};
 use floatball_shared::uim2503::sim::MAX_UNITS;
 use tokio::sync::{broadcast, mpsc, oneshot, watch};
 
-use crate::link::Link;
+use crate::ports::uim2503::Link;
 use health::{HealthView, MonitorConfig, Report, at_rest};
 use identify::{IdentifyMove, MoveLimits};
 use rollcall::{Context, Tally};

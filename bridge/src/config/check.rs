@@ -840,7 +840,10 @@ impl Checker<'_> {
         raw: &RawSafety,
         limits: &Limits,
     ) -> Result<(Vec<Instruction>, f64), ConfigError> {
-        let (text, span) = located(raw.estop.as_ref(), crate::link::DEFAULT_STOP.to_owned());
+        let (text, span) = located(
+            raw.estop.as_ref(),
+            crate::ports::uim2503::DEFAULT_STOP.to_owned(),
+        );
         let estop = parse_script(&text)
             .map_err(|error| self.wrong(span.as_ref(), format!("estop = {text:?}: {error}")))?;
         if estop.is_empty() {

@@ -46,7 +46,7 @@ fn the_default_file_gives_the_defaults() {
     assert_eq!(estop_bytes(&config), b"*0;MO=0;");
     // A link opened without a configuration stops the same way.
     assert_eq!(
-        crate::link::LinkConfig::new("sim", DEFAULT_SIM_BAUD)
+        crate::ports::uim2503::LinkConfig::new("sim", DEFAULT_SIM_BAUD)
             .estop
             .as_bytes(),
         estop_bytes(&config)

@@ -12,7 +12,7 @@
 //!   `installation_not_saved`.
 //! - `POST /api/gateways/{gateway}/baud` (an [`Operator`]): body [`BaudRequest`]; a
 //!   UIM2503 gateway's line to another speed (9600 to 115200) through
-//!   [`crate::link::Link::change_baud`], then saved into `floatball.toml` like a
+//!   [`crate::ports::uim2503::Link::change_baud`], then saved into `floatball.toml` like a
 //!   `PUT`; 200 [`BaudChanged`]; 404 `no_such_gateway`; 409 `installation_busy`,
 //!   `estop_latched` or `gateway_not_connected`; 422 `baud_not_allowed`; 502
 //!   `baud_not_answering` or `baud_port_refused` (the line is back at its old
@@ -52,9 +52,9 @@ use super::session::{Operator, Session};
 use super::{Failure, blocking, json_body};
 use crate::config::{ConfigError, SclConfig, SclPrograms};
 use crate::install::{self, InstallError};
-use crate::link::BaudError;
-use crate::mbox::MboxTiming;
-use crate::scl::program::{compile_every_ball, qprogram_config};
+use crate::ports::mbox::MboxTiming;
+use crate::ports::scl::program::{compile_every_ball, qprogram_config};
+use crate::ports::uim2503::BaudError;
 use crate::state::AppState;
 
 /// `GET /api/installation`.

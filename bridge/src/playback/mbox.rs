@@ -1,6 +1,6 @@
 //! MBOX boxes as a family under the sequencer ([`super::sequenced`]): the boxes'
 //! drive ([`floatball_shared::mbox::drive`]) queues one frame per period, and the
-//! boxes' sender ([`crate::mbox::MboxNet`]) sends each at its slot, one datagram a box.
+//! boxes' sender ([`crate::ports::mbox::MboxNet`]) sends each at its slot, one datagram a box.
 
 use std::time::{Duration, Instant};
 
@@ -15,7 +15,7 @@ use tokio::sync::mpsc;
 use super::sequenced::{Family, Prepare, PreparedRuns};
 use super::{Reconfigure, ReconfigureError};
 use crate::estop::StopPort;
-use crate::mbox::{FRAME_LEAD, MboxNet};
+use crate::ports::mbox::{FRAME_LEAD, MboxNet};
 
 /// The boxes of an installation, as a family.
 #[derive(Debug)]

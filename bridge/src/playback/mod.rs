@@ -66,9 +66,9 @@ use tokio::sync::{mpsc, oneshot, watch};
 use crate::commission::health::HealthView;
 use crate::config::SclConfig;
 use crate::estop::{self, Latch, StopPort};
-use crate::link::Link;
-use crate::mbox::MboxNet;
-use crate::scl::SclNet;
+use crate::ports::mbox::MboxNet;
+use crate::ports::scl::SclNet;
+use crate::ports::uim2503::Link;
 
 mod mbox;
 mod scl;

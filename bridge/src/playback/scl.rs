@@ -1,6 +1,6 @@
 //! MOONS' drives as a family under the sequencer ([`super::sequenced`]): the drives'
 //! sans-IO drive ([`floatball_shared::scl::drive`]) asks, and each request goes to
-//! its link ([`crate::scl::SclNet`]) as a task of its own whose answer comes back to
+//! its link ([`crate::ports::scl::SclNet`]) as a task of its own whose answer comes back to
 //! the playback task; a lane of the drive sends its next request only when the one
 //! before was answered, so every drive hears its lines in order.
 //!
@@ -24,8 +24,8 @@ use super::sequenced::{Family, Prepare, PreparedRuns};
 use super::{Reconfigure, ReconfigureError};
 use crate::config::{SclConfig, SclPrograms};
 use crate::estop::StopPort;
-use crate::scl::SclNet;
-use crate::scl::program::{DriveRef, compile_every_ball, drives_of, qprogram_config};
+use crate::ports::scl::SclNet;
+use crate::ports::scl::program::{DriveRef, compile_every_ball, drives_of, qprogram_config};
 
 /// An answer: the request's id, and its lines or why there are none.
 pub type Answer = (u64, Result<Vec<String>, String>);

@@ -1,6 +1,6 @@
 //! UIM2503 gateways as a family under the sequencer ([`super::sequenced`]): the
 //! gateways' drive ([`Uim2503Drive`]) queues instruction batches for each line, the
-//! links ([`crate::link::Link`]) write them — the synchronised start on the priority
+//! links ([`crate::ports::uim2503::Link`]) write them — the synchronised start on the priority
 //! lane at its instant — and every unit's feedback comes back to the drive.
 //!
 //! **A stalled link is a fault.** While a playlist runs, a link that has bytes queued
@@ -20,7 +20,7 @@ use super::sequenced::Family;
 use super::{Reconfigure, ReconfigureError};
 use crate::commission::health::HealthView;
 use crate::estop::StopPort;
-use crate::link::Link;
+use crate::ports::uim2503::Link;
 
 /// A unit's feedback frame, with its gateway.
 pub type Feedback = (usize, Frame);

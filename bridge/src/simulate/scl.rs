@@ -30,7 +30,7 @@ use tokio::net::UdpSocket;
 use tokio::sync::watch;
 use tokio::task::JoinHandle;
 
-use crate::link::serial::open_port;
+use crate::ports::uim2503::serial::open_port;
 
 /// The most drives on one line: one per address character.
 pub const MAX_DRIVES: usize = Address::CHARACTERS.len();

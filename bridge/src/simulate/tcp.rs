@@ -62,7 +62,7 @@ use nix::sys::socket::{ControlMessageOwned, MsgFlags, recvmsg, setsockopt, socko
 use nix::sys::time::TimeSpec;
 
 use super::{LineIntake, say, say_stored_baud};
-use crate::link::sim::SimEngine;
+use crate::ports::uim2503::sim::SimEngine;
 
 /// The synchronised start every gateway receives at once.
 pub const START: &[u8] = b"*0;BG;";

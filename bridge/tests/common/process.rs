@@ -11,7 +11,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use axum::http::{Method, StatusCode};
-use floatball_bridge::link::sim::SimEngine;
+use floatball_bridge::ports::uim2503::sim::SimEngine;
 use floatball_shared::uim2503::sim::{GatewayConfig, RxLine};
 use serialport::{SerialPort, TTYPort};
 use tempfile::TempDir;

@@ -55,7 +55,7 @@ impl Transport for SerialLine {
 /// Opens `port` at `baud` for the owner, with a reader thread.
 pub(super) fn opener(port: String, baud: u32) -> Opener {
     Box::new(move |connection, events: Sender<Event>| {
-        let opened = crate::link::serial::open_port(&port, baud)?;
+        let opened = crate::ports::uim2503::serial::open_port(&port, baud)?;
         let reader = opened
             .try_clone()
             .map_err(|err| format!("cannot read from {port}: {err}"))?;

@@ -609,7 +609,7 @@ struct Owner<'a> {
     transport: Option<Box<dyn Transport>>,
     connection: u64,
     retry_at: Instant,
-    backoff: crate::link::Backoff,
+    backoff: crate::ports::uim2503::Backoff,
     seen_generation: u64,
     /// A stop is owed to a line that was down when the e-stop was pressed.
     stop_owed: bool,
@@ -635,7 +635,7 @@ impl<'a> Owner<'a> {
             transport: None,
             connection: 0,
             retry_at: now,
-            backoff: crate::link::Backoff::new(),
+            backoff: crate::ports::uim2503::Backoff::new(),
             seen_generation: shared.latch.generation(),
             stop_owed: false,
             queues: Vec::new(),

@@ -43,7 +43,7 @@ use floatball_shared::show::demo::Wave;
 use floatball_shared::show::{AnalogKey, DigitalKey, OutputTrack, Show};
 use floatball_shared::uim2503::player::Entry;
 
-#[path = "../tests/common/golden.rs"]
+#[path = "../../tests/common/golden.rs"]
 mod golden;
 use golden::assert_golden;
 
