@@ -8,7 +8,7 @@
 use floatball_shared::api::ServerMessage;
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::params;
-use floatball_shared::uim2503::player::{Entry, StartError};
+use floatball_shared::player::{Entry, StartError};
 
 use crate::playback::{PlaybackError, Playlist, PlaylistKey};
 use crate::playlist;

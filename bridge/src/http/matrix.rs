@@ -42,8 +42,7 @@ use floatball_shared::api::{
 use floatball_shared::codes::{Code, Params};
 use floatball_shared::plan::Installation;
 use floatball_shared::plan::report::{report, report_of};
-use floatball_shared::plan::verdict::{Fix, Why, refuse};
-use floatball_shared::scl::qprogram::QProgramError;
+use floatball_shared::plan::verdict::refuse;
 use floatball_shared::show::Show;
 use floatball_shared::uim2503::plan::PlanOptions;
 
@@ -53,7 +52,7 @@ use super::{Failure, blocking, json_body};
 use crate::config::{ConfigError, SclConfig, SclPrograms};
 use crate::install::{self, InstallError};
 use crate::ports::mbox::MboxTiming;
-use crate::ports::scl::program::{compile_every_ball, qprogram_config};
+use crate::ports::scl::program::{compile_show, qprogram_config};
 use crate::ports::uim2503::BaudError;
 use crate::state::AppState;
 
@@ -164,26 +163,8 @@ fn refuse_uncompilable(
     installation: &Installation,
     scl: &SclConfig,
 ) {
-    let settings = qprogram_config(installation, scl);
-    let mut first = None;
-    let mut largest_mm: Option<f64> = None;
-    for (ball, program) in compile_every_ball(show, &settings).into_iter().enumerate() {
-        if let Err(error) = program {
-            if let QProgramError::TooFar { deviation_mm, .. } = error {
-                largest_mm = Some(largest_mm.map_or(deviation_mm, |mm| mm.max(deviation_mm)));
-            }
-            first.get_or_insert(Why::Program { ball, error });
-        }
-    }
-    if let Some(why) = first {
-        let fixes: Vec<Fix> = largest_mm
-            .map(|mm| Fix::Tolerance {
-                tolerance_mm: mm.ceil(),
-                deviation_mm: mm,
-            })
-            .into_iter()
-            .collect();
-        refuse(plan, &why, &fixes);
+    if let Err(uncompilable) = compile_show(show, &qprogram_config(installation, scl)) {
+        refuse(plan, &uncompilable.why, &uncompilable.fixes);
     }
 }
 

@@ -9,7 +9,7 @@ use floatball_shared::mbox::drive::MboxDrive;
 use floatball_shared::mbox::player::{MboxPlayer, runs};
 use floatball_shared::plan::Installation;
 use floatball_shared::player::Sequencer;
-use floatball_shared::uim2503::player::{Entry, LinkView, StartError};
+use floatball_shared::player::{Entry, LinkView, StartError};
 use tokio::sync::mpsc;
 
 use super::sequenced::{Family, Prepare, PreparedRuns};

@@ -56,11 +56,9 @@ use floatball_shared::api::{GatewayStatus, GatewaySummary, Status, summarise_gat
 use floatball_shared::mbox::drive::MboxDrive;
 use floatball_shared::mbox::player::MboxPlayerConfig;
 use floatball_shared::plan::Installation;
-use floatball_shared::player::Sequencer;
+use floatball_shared::player::{Entry, LinkView, Sequencer, StartError};
 use floatball_shared::scl::drive::SclDrive;
-use floatball_shared::uim2503::player::{
-    Entry, LinkView, PlayerConfig, Prepared, StartError, Uim2503Drive, prepare, runs,
-};
+use floatball_shared::uim2503::player::{PlayerConfig, Prepared, Uim2503Drive, prepare, runs};
 use tokio::sync::{mpsc, oneshot, watch};
 
 use crate::commission::health::HealthView;

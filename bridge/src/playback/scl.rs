@@ -13,11 +13,8 @@ use std::time::Instant;
 
 use floatball_shared::api::GatewayStatus;
 use floatball_shared::plan::Installation;
-use floatball_shared::plan::verdict::{Fix, Why};
-use floatball_shared::player::{Run, Sequencer};
+use floatball_shared::player::{Entry, LinkView, Run, Sequencer, StartError};
 use floatball_shared::scl::drive::{DriveSlot, SclDrive, SclDriveConfig, SclEntry, Trigger};
-use floatball_shared::scl::qprogram::QProgramError;
-use floatball_shared::uim2503::player::{Entry, LinkView, StartError};
 use tokio::sync::mpsc;
 
 use super::sequenced::{Family, Prepare, PreparedRuns};
@@ -25,7 +22,9 @@ use super::{Reconfigure, ReconfigureError};
 use crate::config::{SclConfig, SclPrograms};
 use crate::estop::StopPort;
 use crate::ports::scl::SclNet;
-use crate::ports::scl::program::{DriveRef, compile_every_ball, drives_of, qprogram_config};
+use crate::ports::scl::program::{
+    DriveRef, Uncompilable, compile_show, drives_of, qprogram_config,
+};
 
 /// An answer: the request's id, and its lines or why there are none.
 pub type Answer = (u64, Result<Vec<String>, String>);
@@ -170,41 +169,14 @@ impl Prepare for SclPrepare {
         for (index, entry) in entries.into_iter().enumerate() {
             let show = &entry.show;
             let programs = match self.scl.programs {
-                SclPrograms::Upload => {
-                    let mut programs = Vec::with_capacity(show.tracks.len());
-                    let mut largest_mm: Option<f64> = None;
-                    let mut first = None;
-                    for (ball, program) in
-                        compile_every_ball(show, &settings).into_iter().enumerate()
-                    {
-                        match program {
-                            Ok(program) => programs.push(program),
-                            Err(error) => {
-                                if let QProgramError::TooFar { deviation_mm, .. } = error {
-                                    largest_mm = Some(
-                                        largest_mm.map_or(deviation_mm, |mm| mm.max(deviation_mm)),
-                                    );
-                                }
-                                first.get_or_insert(Why::Program { ball, error });
-                            }
-                        }
-                    }
-                    if let Some(why) = first {
-                        return Err(StartError::Infeasible {
-                            entry: index + 1,
-                            show: show.name.clone(),
-                            reason: Box::new(why),
-                            fixes: largest_mm
-                                .map(|mm| Fix::Tolerance {
-                                    tolerance_mm: mm.ceil(),
-                                    deviation_mm: mm,
-                                })
-                                .into_iter()
-                                .collect(),
-                        });
-                    }
-                    Some(programs)
-                }
+                SclPrograms::Upload => Some(compile_show(show, &settings).map_err(
+                    |Uncompilable { why, fixes }| StartError::Infeasible {
+                        entry: index + 1,
+                        show: show.name.clone(),
+                        reason: Box::new(why),
+                        fixes,
+                    },
+                )?),
                 SclPrograms::Stored => None,
             };
             let duration_ms = show.duration_ms();

@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 use floatball_shared::api::{GatewayStatus, PlayerState, Status};
 use floatball_shared::plan::Installation;
 use floatball_shared::player::{Drive, Run, Sequencer};
-use floatball_shared::uim2503::player::{Entry, LinkView, StartError};
+use floatball_shared::player::{Entry, LinkView, StartError};
 use tokio::sync::{mpsc, watch};
 
 use super::{

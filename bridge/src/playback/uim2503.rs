@@ -11,9 +11,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::{GatewayKind, GatewayStatus, LinkState};
-use floatball_shared::player::Sequencer;
+use floatball_shared::player::{LinkView, Sequencer};
 use floatball_shared::uim2503::feedback::Frame;
-use floatball_shared::uim2503::player::{Command, LinkView, PlayerConfig, Uim2503Drive};
+use floatball_shared::uim2503::player::{Command, PlayerConfig, Uim2503Drive};
 use tokio::sync::mpsc;
 
 use super::sequenced::Family;

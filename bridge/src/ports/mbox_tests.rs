@@ -39,9 +39,9 @@ use floatball_shared::api::PlayerState;
 use floatball_shared::mbox::TimeMode;
 use floatball_shared::mbox::player::{MboxFrame, MboxPlayer};
 use floatball_shared::plan::Installation;
+use floatball_shared::player::Entry;
 use floatball_shared::show::demo::Wave;
 use floatball_shared::show::{AnalogKey, DigitalKey, OutputTrack, Show};
-use floatball_shared::uim2503::player::Entry;
 
 #[path = "../../tests/common/golden.rs"]
 mod golden;

@@ -9,6 +9,7 @@ use floatball_shared::api::ServerMessage;
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::params;
 use floatball_shared::plan::Installation;
+use floatball_shared::plan::verdict::{Fix, Why};
 use floatball_shared::scl::qprogram::{QProgram, QProgramConfig, QProgramError, compile};
 use floatball_shared::scl::{Request, parse_script};
 use floatball_shared::show::Show;
@@ -79,6 +80,52 @@ pub fn compile_every_ball(
             })
             .collect()
     })
+}
+
+/// Why a show cannot be compiled for MOONS' drives: the first ball that cannot, and
+/// what would make every ball compile.
+#[derive(Debug)]
+pub struct Uncompilable {
+    /// The first ball's reason.
+    pub why: Why,
+    /// When balls stray too far from the show: the tolerance that would take them.
+    pub fixes: Vec<Fix>,
+}
+
+/// Every ball of `show` compiled with `settings` ([`compile_every_ball`]), or why
+/// not: the one judgement the plan report and Start share. Blocking.
+///
+/// # Errors
+/// [`Uncompilable`]: the first ball that cannot be compiled, and the tolerance that
+/// would take the ball that strays furthest.
+pub fn compile_show(show: &Show, settings: &QProgramConfig) -> Result<Vec<QProgram>, Uncompilable> {
+    let mut programs = Vec::with_capacity(show.tracks.len());
+    let mut largest_mm: Option<f64> = None;
+    let mut first = None;
+    for (ball, program) in compile_every_ball(show, settings).into_iter().enumerate() {
+        match program {
+            Ok(program) => programs.push(program),
+            Err(error) => {
+                if let QProgramError::TooFar { deviation_mm, .. } = error {
+                    largest_mm = Some(largest_mm.map_or(deviation_mm, |mm| mm.max(deviation_mm)));
+                }
+                first.get_or_insert(Why::Program { ball, error });
+            }
+        }
+    }
+    match first {
+        None => Ok(programs),
+        Some(why) => Err(Uncompilable {
+            why,
+            fixes: largest_mm
+                .map(|mm| Fix::Tolerance {
+                    tolerance_mm: mm.ceil(),
+                    deviation_mm: mm,
+                })
+                .into_iter()
+                .collect(),
+        }),
+    }
 }
 
 impl SclNet {

@@ -8,11 +8,11 @@ use wasm_bindgen_test::wasm_bindgen_test as test;
 
 use super::*;
 use crate::api::PlayerState;
+use crate::player::EntryTiming;
 use crate::player::{Run, Sequencer};
 use crate::scl::qprogram::{QProgramConfig, compile};
 use crate::scl::twin::{self, DriveConfig};
 use crate::show::{Layout, Show, Track, TrackRow};
-use crate::uim2503::player::EntryTiming;
 
 const COUNTS_PER_MM: f64 = 100.0;
 
