@@ -10,6 +10,13 @@
 //! a content hash (`/pkg/floatball-<16 hex>.js`, see `xtask/src/app.rs`) are cached for
 //! a year ([`IMMUTABLE`]); everything else, the page first of all, is revalidated on
 //! every load ([`NO_CACHE`]), so a device picks up a new build at its next load.
+//!
+//! [`run`] serves each connection itself with hyper's HTTP/1 builder (not
+//! `axum::serve`, which sets no timer and so no header read timeout): a request head
+//! must arrive within [`HEADER_READ_TIMEOUT`] and stay under [`MAX_HEADER_BYTES`], and
+//! at most [`MAX_CONNECTIONS`] are served at once. What hyper cannot read it answers
+//! itself (400, 431) without the router's JSON or [`SECURITY_HEADERS`]; docs/api.md,
+//! "Requests the bridge cannot read", says exactly what is sent.
 
 use std::future::Future;
 use std::net::SocketAddr;

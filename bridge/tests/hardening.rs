@@ -492,6 +492,17 @@ async fn unreadable_requests_get_the_documented_answer_and_the_connection_closes
         .expect("the connection stayed open");
     assert_hypers_answer(&answer, "HTTP/1.1 431 Request Header Fields Too Large");
 
+    // More than 100 headers, however short.
+    let many: String = (0..101).map(|n| format!("X-{n}: a\r\n")).collect();
+    let answer = raw_exchange(
+        &bridge,
+        format!("GET / HTTP/1.1\r\nHost: x\r\n{many}\r\n").as_bytes(),
+        within,
+    )
+    .await
+    .expect("the connection stayed open");
+    assert_hypers_answer(&answer, "HTTP/1.1 431 Request Header Fields Too Large");
+
     // Just within the limit: the router answers, with its headers.
     let within_limit = format!(
         "GET /api/nothing-here HTTP/1.1\r\nHost: x\r\nConnection: close\r\nX-Padding: {}\r\n\r\n",
