@@ -368,8 +368,12 @@ async fn identify_moves_its_ball_every_time_under_load() {
     use std::sync::atomic::{AtomicBool, Ordering};
 
     let mut config = String::from("[matrix]\nrows = 2\ncols = 10\n");
-    for _ in 0..REPEAT_GATEWAYS {
-        config.push_str("[[gateway]]\nport = \"sim\"\nbaud = 9600\nunits = 2\n");
+    // Half the lines at 9600 baud, half at the simulator's usual 115200.
+    for gateway in 0..REPEAT_GATEWAYS {
+        let baud = if gateway % 2 == 0 { 9600 } else { 115_200 };
+        config.push_str(&format!(
+            "[[gateway]]\nport = \"sim\"\nbaud = {baud}\nunits = 2\n"
+        ));
     }
     let bridge = Arc::new(Process::start(&config));
     let token = bridge.operator().await;

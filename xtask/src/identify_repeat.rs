@@ -3,10 +3,10 @@
 //!
 //! Runs the bridge test `identify_moves_its_ball_every_time_under_load`
 //! (`bridge/tests/commission.rs`) with `IDENTIFY_REPEATS` = N (default 200): the real
-//! `floatball` binary with 10 simulated gateways at 9600 baud, every core kept busy and
-//! the simulator polled without pause; each 202 must be followed by its unit on its
-//! way. It prints how long the run took and the median and longest time from the 202
-//! to the move seen. The test suite runs the same test with 30.
+//! `floatball` binary with 10 simulated gateways (at 9600 and 115200 baud), every core
+//! kept busy and the simulator polled without pause; each 202 must be followed by its
+//! unit on its way. It prints how long the run took and the median and longest time
+//! from the 202 to the move seen. The test suite runs the same test with 30.
 
 use crate::tools;
 
