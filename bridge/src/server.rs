@@ -190,8 +190,9 @@ const ACCEPT_RETRY: Duration = Duration::from_secs(1);
 /// Each connection is HTTP/1.1 with the limits above ([`HEADER_READ_TIMEOUT`],
 /// [`MAX_HEADER_BYTES`], [`MAX_CONNECTIONS`]). A request hyper cannot read is answered
 /// by hyper itself before any router sees it, and the connection closed: `400 Bad
-/// Request` (a malformed request line or header), `431` (headers too large), `414`
-/// (a URI too long), each with `content-length: 0` and `date` only — no body and no
+/// Request` (a malformed request line or header) or `431` (a head over
+/// [`MAX_HEADER_BYTES`], a long URI included, or over 100 headers), each with
+/// `connection: close`, `content-length: 0` and `date` only — no body and no
 /// [`SECURITY_HEADERS`] (hyper has no hook for these answers; see docs/api.md).
 ///
 /// # Errors
