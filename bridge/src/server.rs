@@ -10,18 +10,32 @@
 //! a content hash (`/pkg/floatball-<16 hex>.js`, see `xtask/src/app.rs`) are cached for
 //! a year ([`IMMUTABLE`]); everything else, the page first of all, is revalidated on
 //! every load ([`NO_CACHE`]), so a device picks up a new build at its next load.
+//!
+//! [`run`] serves each connection itself with hyper's HTTP/1 builder (not
+//! `axum::serve`, which sets no timer and so no header read timeout): a request head
+//! must arrive within [`HEADER_READ_TIMEOUT`] and stay under [`MAX_HEADER_BYTES`], and
+//! at most [`MAX_CONNECTIONS`] are served at once. What hyper cannot read it answers
+//! itself (400, 431) without the router's JSON or [`SECURITY_HEADERS`]; docs/api.md,
+//! "Requests the bridge cannot read", says exactly what is sent.
 
 use std::future::Future;
 use std::net::SocketAddr;
 use std::path::Path;
+use std::sync::Arc;
+use std::time::Duration;
 
 use axum::Router;
-use axum::extract::Request;
+use axum::extract::{ConnectInfo, Request};
 use axum::http::{HeaderName, HeaderValue, StatusCode, header};
 use axum::middleware::{Next, from_fn, map_response};
 use axum::response::Response;
 use axum::routing::get;
-use tokio::net::TcpListener;
+use hyper::server::conn::http1;
+use hyper_util::rt::{TokioIo, TokioTimer};
+use hyper_util::service::TowerToHyperService;
+use tokio::net::{TcpListener, TcpStream};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore, watch};
+use tower_http::add_extension::AddExtension;
 use tower_http::services::{ServeDir, ServeFile};
 use tower_http::set_header::SetResponseHeaderLayer;
 
@@ -149,29 +163,126 @@ pub fn is_hashed_asset(path: &str) -> bool {
             .all(|byte| byte.is_ascii_digit() || (b'a'..=b'f').contains(&byte))
 }
 
+/// How long a client has to send a request's line and headers, from the moment its
+/// connection is accepted or its previous answer went out: a connection that has not
+/// sent a whole request head by then (a slowloris, or a keep-alive connection left
+/// idle) is closed without an answer.
+pub const HEADER_READ_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// The most bytes a request's headers may take: beyond, the answer is `431 Request
+/// Header Fields Too Large` and the connection is closed. The app sends a few hundred.
+pub const MAX_HEADER_BYTES: usize = 32 * 1024;
+
+/// The most HTTP connections served at once. Beyond, new connections wait in the
+/// system's accept queue until one closes (each idle one does within
+/// [`HEADER_READ_TIMEOUT`]); open WebSockets are not counted and keep working.
+pub const MAX_CONNECTIONS: usize = 512;
+
+/// How long to wait before accepting again after an error that is not about one
+/// connection (out of file descriptors).
+const ACCEPT_RETRY: Duration = Duration::from_secs(1);
+
 /// Serves on `listener` until `shutdown` completes (and arms the playlist's first
 /// entry while the matrix is idle: [`crate::arming`]); then open WebSockets are closed
 /// and requests under way finish. Handlers see each client's address (for the login
 /// limit).
 ///
+/// Each connection is HTTP/1.1 with the limits above ([`HEADER_READ_TIMEOUT`],
+/// [`MAX_HEADER_BYTES`], [`MAX_CONNECTIONS`]). A request hyper cannot read is answered
+/// by hyper itself before any router sees it, and the connection closed: `400 Bad
+/// Request` (a malformed request line or header) or `431` (a head over
+/// [`MAX_HEADER_BYTES`], a long URI included, or over 100 headers), each with
+/// `connection: close`, `content-length: 0` and `date` only — no body and no
+/// [`SECURITY_HEADERS`] (hyper has no hook for these answers; see docs/api.md).
+///
 /// # Errors
-/// If accepting connections fails for good.
+/// None at present: errors accepting a connection are logged and accepting goes on.
 pub async fn run(
     listener: TcpListener,
     state: AppState,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
-    let stopping = state.clone();
     crate::arming::spawn(state.clone());
-    axum::serve(
-        listener,
-        router(state).into_make_service_with_connect_info::<SocketAddr>(),
+    let app = router(state.clone());
+    let permits = Arc::new(Semaphore::new(MAX_CONNECTIONS));
+    // Every connection's task holds a receiver: the sender is told to close them, and
+    // learns when the last one is gone.
+    let (close, closing) = watch::channel(false);
+    let mut shutdown = std::pin::pin!(shutdown);
+    loop {
+        let (stream, remote, permit) = tokio::select! {
+            () = &mut shutdown => break,
+            accepted = accept(&listener, &permits) => match accepted {
+                Some(accepted) => accepted,
+                None => break,
+            },
+        };
+        let service = TowerToHyperService::new(AddExtension::new(app.clone(), ConnectInfo(remote)));
+        let mut closing = closing.clone();
+        tokio::spawn(async move {
+            let _permit = permit;
+            let mut builder = http1::Builder::new();
+            builder
+                .timer(TokioTimer::new())
+                .header_read_timeout(HEADER_READ_TIMEOUT)
+                .max_header_size(MAX_HEADER_BYTES);
+            let connection = builder
+                .serve_connection(TokioIo::new(stream), service)
+                .with_upgrades();
+            let mut connection = std::pin::pin!(connection);
+            let mut asked = false;
+            loop {
+                tokio::select! {
+                    result = connection.as_mut() => {
+                        if let Err(error) = result {
+                            tracing::debug!("connection from {remote}: {error}");
+                        }
+                        break;
+                    }
+                    _ = closing.changed(), if !asked => {
+                        // Requests under way finish; an idle connection closes now.
+                        asked = true;
+                        connection.as_mut().graceful_shutdown();
+                    }
+                }
+            }
+        });
+    }
+    state.stop();
+    drop(listener);
+    drop(closing);
+    let _ = close.send(true);
+    close.closed().await;
+    Ok(())
+}
+
+/// The next connection, once fewer than [`MAX_CONNECTIONS`] are served (`None` only if
+/// the semaphore were closed, which it never is).
+async fn accept(
+    listener: &TcpListener,
+    permits: &Arc<Semaphore>,
+) -> Option<(TcpStream, SocketAddr, OwnedSemaphorePermit)> {
+    let permit = Arc::clone(permits).acquire_owned().await.ok()?;
+    loop {
+        match listener.accept().await {
+            Ok((stream, remote)) => return Some((stream, remote, permit)),
+            Err(error) if is_connection_error(&error) => {}
+            Err(error) => {
+                tracing::error!("accepting a connection: {error}");
+                tokio::time::sleep(ACCEPT_RETRY).await;
+            }
+        }
+    }
+}
+
+/// Whether an accept error is about one connection only (it went before it was taken).
+fn is_connection_error(error: &std::io::Error) -> bool {
+    matches!(
+        error.kind(),
+        std::io::ErrorKind::ConnectionRefused
+            | std::io::ErrorKind::ConnectionAborted
+            | std::io::ErrorKind::ConnectionReset
     )
-    .with_graceful_shutdown(async move {
-        shutdown.await;
-        stopping.stop();
-    })
-    .await
 }
 
 #[cfg(test)]

@@ -332,3 +332,155 @@ async fn commissioning_waits_for_a_matrix_at_rest_and_moves_nothing_after_an_est
         assert_eq!(reply.error().code, "estop_latched", "{path}");
     }
 }
+
+/// Identifies per run of [`identify_moves_its_ball_every_time_under_load`]: 30 here,
+/// `IDENTIFY_REPEATS` when set (`cargo xtask identify-repeat` runs 200).
+fn identify_repeats() -> usize {
+    std::env::var("IDENTIFY_REPEATS")
+        .ok()
+        .and_then(|value| value.parse().ok())
+        .filter(|&repeats| repeats > 0)
+        .unwrap_or(30)
+}
+
+/// Simulated gateways of the repeat test, identified side by side (one call at a time
+/// runs per gateway, and an identify holds its gateway until its ball is back).
+const REPEAT_GATEWAYS: usize = 10;
+
+/// Spins a CPU until `stop`: the load the repeat test runs under.
+fn burn(stop: &std::sync::atomic::AtomicBool) -> u64 {
+    let mut x = 1u64;
+    while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+        for _ in 0..10_000 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+        }
+    }
+    x
+}
+
+/// Issue 36: one Identify answered 202 and no simulated unit moved. Every 202 must be
+/// a move: `IDENTIFY_REPEATS` identifies over [`REPEAT_GATEWAYS`] simulated gateways,
+/// with every core kept busy and the simulator polled without pause, and each unit
+/// identified must be seen on its way (moving, or away from the top) after its 202.
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn identify_moves_its_ball_every_time_under_load() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    let mut config = String::from("[matrix]\nrows = 2\ncols = 10\n");
+    // Half the lines at 9600 baud, half at the simulator's usual 115200.
+    for gateway in 0..REPEAT_GATEWAYS {
+        let baud = if gateway % 2 == 0 { 9600 } else { 115_200 };
+        config.push_str(&format!(
+            "[[gateway]]\nport = \"sim\"\nbaud = {baud}\nunits = 2\n"
+        ));
+    }
+    let bridge = Arc::new(Process::start(&config));
+    let token = bridge.operator().await;
+    let mut ws = bridge.ws(&token).await;
+    assert!(common::process::links_up(&mut ws).await);
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let cores = std::thread::available_parallelism().map_or(2, std::num::NonZeroUsize::get);
+    let burners: Vec<_> = (0..cores)
+        .map(|_| {
+            let stop = Arc::clone(&stop);
+            std::thread::spawn(move || burn(&stop))
+        })
+        .collect();
+    let poller = {
+        let (bridge, token, stop) = (Arc::clone(&bridge), token.clone(), Arc::clone(&stop));
+        tokio::spawn(async move {
+            while !stop.load(Ordering::Relaxed) {
+                let _ = bridge
+                    .request(Method::GET, "/api/sim/positions", Some(&token), None)
+                    .await;
+            }
+        })
+    };
+
+    let repeats = identify_repeats();
+    let started = Instant::now();
+    let mut runs = Vec::new();
+    for gateway in 0..REPEAT_GATEWAYS {
+        let (bridge, token) = (Arc::clone(&bridge), token.clone());
+        let count = repeats / REPEAT_GATEWAYS + usize::from(gateway < repeats % REPEAT_GATEWAYS);
+        runs.push(tokio::spawn(async move {
+            let mut waits = Vec::new();
+            for round in 0..count {
+                let station = u8::try_from(round % 2).expect("0 or 1") + 1;
+                let path = format!("/api/gateways/{gateway}/identify");
+                let body = serde_json::json!({"station": station, "distance_mm": 1.0});
+                // The previous identify holds the gateway until its ball is back (and
+                // its motor off again): refused meanwhile, asked again.
+                let reply = loop {
+                    let reply = post(&bridge, &token, &path, body.clone()).await;
+                    if reply.status == StatusCode::CONFLICT
+                        && reply.error().code == "commission_in_progress"
+                    {
+                        tokio::time::sleep(Duration::from_millis(20)).await;
+                        continue;
+                    }
+                    break reply;
+                };
+                assert_eq!(
+                    reply.status,
+                    StatusCode::ACCEPTED,
+                    "gateway {gateway} station {station}: {}",
+                    String::from_utf8_lossy(&reply.body)
+                );
+                let accepted = Instant::now();
+                let deadline = accepted + Duration::from_secs(3);
+                loop {
+                    let reply = bridge
+                        .request(Method::GET, "/api/sim/positions", Some(&token), None)
+                        .await;
+                    let positions: SimPositions = reply.json();
+                    let unit = positions.gateways[gateway]
+                        .units
+                        .iter()
+                        .find(|unit| unit.station == station)
+                        .copied()
+                        .expect("the unit");
+                    if unit.moving || unit.position_counts != 0.0 {
+                        waits.push(accepted.elapsed());
+                        break;
+                    }
+                    assert!(
+                        Instant::now() < deadline,
+                        "gateway {gateway} station {station}, identify {round}: 202 and the \
+                         unit never took the move: {unit:?}, line {:?}",
+                        positions.gateways[gateway].line
+                    );
+                    tokio::time::sleep(Duration::from_millis(2)).await;
+                }
+            }
+            waits
+        }));
+    }
+    let mut waits = Vec::new();
+    let mut failure = None;
+    for run in runs {
+        match run.await {
+            Ok(mut more) => waits.append(&mut more),
+            Err(error) => failure = failure.or(Some(error)),
+        }
+    }
+    stop.store(true, Ordering::Relaxed);
+    poller.abort();
+    for burner in burners {
+        burner.join().expect("a burner");
+    }
+    if let Some(error) = failure {
+        std::panic::resume_unwind(error.into_panic());
+    }
+    assert_eq!(waits.len(), repeats);
+    waits.sort();
+    eprintln!(
+        "{repeats} identifies on {REPEAT_GATEWAYS} gateways under load in {:?}: every one \
+         moved its unit, 202 to the move seen median {:?}, max {:?}",
+        started.elapsed(),
+        waits[waits.len() / 2],
+        waits[waits.len() - 1]
+    );
+}

@@ -401,3 +401,224 @@ async fn empty_shows_are_refused() {
         .await;
     assert_json_error(&reply, StatusCode::UNPROCESSABLE_ENTITY);
 }
+
+/// Sends `bytes` on a new raw TCP connection to `bridge` and reads until the bridge
+/// closes it (or `within` passes: then `None`). A reset after the answer keeps what
+/// was read.
+async fn raw_exchange(
+    bridge: &common::process::Process,
+    bytes: &[u8],
+    within: Duration,
+) -> Option<Vec<u8>> {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let mut stream = tokio::net::TcpStream::connect(bridge.addr)
+        .await
+        .expect("connect");
+    stream.write_all(bytes).await.expect("write");
+    let mut answer = Vec::new();
+    let mut buffer = [0u8; 4096];
+    tokio::time::timeout(within, async {
+        loop {
+            match stream.read(&mut buffer).await {
+                Ok(0) | Err(_) => return,
+                Ok(read) => answer.extend_from_slice(&buffer[..read]),
+            }
+        }
+    })
+    .await
+    .ok()?;
+    Some(answer)
+}
+
+/// Hyper's own answer to a request it cannot read, as docs/api.md describes it: the
+/// status line, `connection: close`, `content-length: 0` and `date`, nothing else,
+/// and the connection closed.
+fn assert_hypers_answer(answer: &[u8], status_line: &str) {
+    let text = String::from_utf8_lossy(answer);
+    let (head, body) = text
+        .split_once("\r\n\r\n")
+        .unwrap_or_else(|| panic!("{text:?}"));
+    assert!(body.is_empty(), "{text:?}");
+    let mut lines = head.lines();
+    assert_eq!(lines.next(), Some(status_line), "{text:?}");
+    let mut names: Vec<String> = lines
+        .map(|line| {
+            line.split_once(':')
+                .map(|(name, _)| name.to_ascii_lowercase())
+                .unwrap_or_default()
+        })
+        .collect();
+    names.sort();
+    assert_eq!(names, ["connection", "content-length", "date"], "{text:?}");
+    let head = head.to_ascii_lowercase();
+    assert!(head.contains("\r\nconnection: close\r\n"), "{text:?}");
+    assert!(head.contains("\r\ncontent-length: 0\r\n"), "{text:?}");
+}
+
+/// Issue 36 (6): what a scanner gets for a malformed request line or oversized
+/// headers, through the real binary on raw sockets — hyper's own answer, as
+/// documented, and the connection closed at once; a request within the limit is the
+/// router's as usual.
+#[tokio::test]
+async fn unreadable_requests_get_the_documented_answer_and_the_connection_closes() {
+    let bridge = common::process::Process::start("");
+    let within = Duration::from_secs(5);
+
+    for malformed in [
+        &b"GARBAGE\r\n\r\n"[..],
+        b"GET / HTTP/9.9\r\nHost: x\r\n\r\n",
+        b"GET / HTTP/1.1\r\nHost: x\r\nNo colon here\r\n\r\n",
+        b"GET /\x01 HTTP/1.1\r\nHost: x\r\n\r\n",
+    ] {
+        let answer = raw_exchange(&bridge, malformed, within)
+            .await
+            .unwrap_or_else(|| panic!("{malformed:?}: the connection stayed open"));
+        assert_hypers_answer(&answer, "HTTP/1.1 400 Bad Request");
+    }
+
+    let limit = floatball_bridge::server::MAX_HEADER_BYTES;
+    let oversized = format!(
+        "GET / HTTP/1.1\r\nHost: x\r\nX-Padding: {}\r\n\r\n",
+        "a".repeat(limit)
+    );
+    let answer = raw_exchange(&bridge, oversized.as_bytes(), within)
+        .await
+        .expect("the connection stayed open");
+    assert_hypers_answer(&answer, "HTTP/1.1 431 Request Header Fields Too Large");
+    // A URI as long is refused the same way (it counts with the headers).
+    let long_uri = format!("GET /{} HTTP/1.1\r\nHost: x\r\n\r\n", "a".repeat(limit));
+    let answer = raw_exchange(&bridge, long_uri.as_bytes(), within)
+        .await
+        .expect("the connection stayed open");
+    assert_hypers_answer(&answer, "HTTP/1.1 431 Request Header Fields Too Large");
+
+    // More than 100 headers, however short.
+    let many: String = (0..101).map(|n| format!("X-{n}: a\r\n")).collect();
+    let answer = raw_exchange(
+        &bridge,
+        format!("GET / HTTP/1.1\r\nHost: x\r\n{many}\r\n").as_bytes(),
+        within,
+    )
+    .await
+    .expect("the connection stayed open");
+    assert_hypers_answer(&answer, "HTTP/1.1 431 Request Header Fields Too Large");
+
+    // Just within the limit: the router answers, with its headers.
+    let within_limit = format!(
+        "GET /api/nothing-here HTTP/1.1\r\nHost: x\r\nConnection: close\r\nX-Padding: {}\r\n\r\n",
+        "a".repeat(limit / 2)
+    );
+    let answer = raw_exchange(&bridge, within_limit.as_bytes(), within)
+        .await
+        .expect("closed after the answer");
+    let text = String::from_utf8_lossy(&answer).to_ascii_lowercase();
+    assert!(text.starts_with("http/1.1 404 not found\r\n"), "{text}");
+    assert!(text.contains("content-type: application/json"), "{text}");
+    assert!(text.contains("x-content-type-options: nosniff"), "{text}");
+}
+
+/// Issue 36 (6): slowloris connections (a header line every second, never the end of
+/// the head), idle connections and a keep-alive connection left idle are all closed,
+/// without an answer, [`HEADER_READ_TIMEOUT`] after their request began — and
+/// meanwhile the e-stop works, on a WebSocket opened before them and on one opened
+/// while they hang.
+///
+/// [`HEADER_READ_TIMEOUT`]: floatball_bridge::server::HEADER_READ_TIMEOUT
+#[tokio::test]
+async fn slow_and_idle_connections_are_closed_and_the_estop_still_works() {
+    use floatball_shared::api::{PlayerState, ServerMessage};
+    use std::time::Instant;
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+    const SLOW: usize = 40;
+    const IDLE: usize = 40;
+    let timeout = floatball_bridge::server::HEADER_READ_TIMEOUT;
+    let bridge = common::process::Process::start("");
+    let token = bridge.operator().await;
+    let mut before = bridge.ws(&token).await;
+
+    // Each connection: when it began, and when the bridge closed it (and whether it
+    // sent anything).
+    let began = Instant::now();
+    let mut hanging = Vec::new();
+    for slow in 0..SLOW + IDLE {
+        let mut stream = tokio::net::TcpStream::connect(bridge.addr)
+            .await
+            .expect("connect");
+        hanging.push(tokio::spawn(async move {
+            let mut buffer = [0u8; 1024];
+            let mut sent = 0usize;
+            if slow < SLOW {
+                stream
+                    .write_all(b"GET / HTTP/1.1\r\nHost: x\r\n")
+                    .await
+                    .expect("write");
+            }
+            loop {
+                tokio::select! {
+                    read = stream.read(&mut buffer) => {
+                        return (Instant::now(), read.unwrap_or(0));
+                    }
+                    () = tokio::time::sleep(Duration::from_secs(1)), if slow < SLOW => {
+                        sent += 1;
+                        if stream.write_all(format!("X-Slow-{sent}: a\r\n").as_bytes()).await.is_err() {
+                            return (Instant::now(), 0);
+                        }
+                    }
+                }
+            }
+        }));
+    }
+    // A keep-alive connection: one request answered, then nothing.
+    let mut kept = tokio::net::TcpStream::connect(bridge.addr)
+        .await
+        .expect("connect");
+    kept.write_all(b"GET / HTTP/1.1\r\nHost: x\r\n\r\n")
+        .await
+        .expect("write");
+    let mut buffer = vec![0u8; 65_536];
+    let read = kept.read(&mut buffer).await.expect("the answer");
+    assert!(
+        String::from_utf8_lossy(&buffer[..read]).starts_with("HTTP/1.1 200 OK"),
+        "{:?}",
+        String::from_utf8_lossy(&buffer[..read])
+    );
+    let kept_answered = Instant::now();
+
+    // While they hang: a new WebSocket, and the e-stop on the one opened before.
+    let mut during = bridge.ws(&token).await;
+    assert!(matches!(
+        common::next_message(&mut during).await,
+        ServerMessage::Status(_)
+    ));
+    common::send_text(&mut before, r#"{"type":"estop"}"#).await;
+    common::status_until(&mut during, Duration::from_secs(5), |status| {
+        status.state == PlayerState::Stopped
+    })
+    .await;
+    assert!(
+        began.elapsed() < timeout,
+        "the e-stop took until the hanging connections' end"
+    );
+
+    // Every hanging connection is closed, without an answer, after the timeout.
+    for (index, connection) in hanging.into_iter().enumerate() {
+        let (closed, bytes) = tokio::time::timeout(timeout + Duration::from_secs(5), connection)
+            .await
+            .unwrap_or_else(|_| panic!("connection {index} is still open"))
+            .expect("the connection's task");
+        assert_eq!(bytes, 0, "connection {index} got an answer");
+        let after = closed.duration_since(began);
+        assert!(
+            after >= timeout - Duration::from_millis(500)
+                && after < timeout + Duration::from_secs(3),
+            "connection {index} closed after {after:?}"
+        );
+    }
+    let read = tokio::time::timeout(Duration::from_secs(5), kept.read(&mut buffer))
+        .await
+        .expect("the idle keep-alive connection is still open")
+        .unwrap_or(0);
+    assert_eq!(read, 0, "{:?}", String::from_utf8_lossy(&buffer[..read]));
+    assert!(kept_answered.elapsed() >= timeout - Duration::from_millis(500));
+}

@@ -101,17 +101,63 @@ async fn unit_rows(browser: &Browser) -> Vec<(u64, u8, String)> {
         .collect()
 }
 
-/// Waits up to `within` until a unit of the simulator is away from the top; returns
-/// its place, and checks that it is the only one.
+/// Starts watching the simulator from inside the page, before Identify is tapped: a
+/// fetch of `GET /api/sim/positions` every 15 ms keeps, in `window.floatballAway`, the
+/// places of the units away from the top in the first sample where any is. A 5 mm
+/// identify keeps its ball away for about 0.6 s: sampled by WebDriver round trips
+/// after the page showed the 202 (on a loaded machine, each can take hundreds of ms),
+/// the whole move could be over before the first look — issue 36's "no simulated unit
+/// moved". Sampled in the page from before the tap, it cannot be.
+async fn watch_the_simulator(browser: &Browser) {
+    let script = r"
+        window.floatballAway = null;
+        clearInterval(window.floatballWatch);
+        const session = JSON.parse(localStorage.getItem('floatball.session'));
+        let asking = false;
+        window.floatballWatch = setInterval(() => {
+            if (asking || window.floatballAway !== null) return;
+            asking = true;
+            fetch('/api/sim/positions', { headers: { Authorization: 'Bearer ' + session.token } })
+                .then((reply) => reply.json())
+                .then((positions) => {
+                    const away = positions.gateways[0].units
+                        .map((unit, place) => [unit, place])
+                        .filter(([unit]) => unit.moving || Math.abs(unit.position_counts) > 1)
+                        .map(([, place]) => place);
+                    if (away.length > 0 && window.floatballAway === null) {
+                        window.floatballAway = away;
+                        clearInterval(window.floatballWatch);
+                    }
+                })
+                .finally(() => { asking = false; });
+        }, 15);
+    ";
+    browser
+        .client
+        .execute(script, Vec::new())
+        .await
+        .expect("start watching the simulator");
+}
+
+/// Waits up to `within` until the page's watcher ([`watch_the_simulator`]) saw a unit
+/// away from the top; returns its place, and checks that it is the only one.
 async fn the_one_that_moves(browser: &Browser, within: Duration) -> Option<usize> {
     let deadline = tokio::time::Instant::now() + within;
     while tokio::time::Instant::now() < deadline {
-        let units = sim_units(browser).await;
-        let away: Vec<usize> = (0..units.len()).filter(|&p| is_away(&units[p])).collect();
-        match away.as_slice() {
-            [] => {}
-            [one] => return Some(*one),
-            many => panic!("identify moved more than one unit: {many:?}"),
+        let away = browser
+            .client
+            .execute("return window.floatballAway;", Vec::new())
+            .await
+            .expect("read the watcher");
+        if let Some(away) = away.as_array() {
+            let places: Vec<usize> = away
+                .iter()
+                .map(|place| place.as_u64().expect("a place") as usize)
+                .collect();
+            match places.as_slice() {
+                [one] => return Some(*one),
+                many => panic!("identify moved more than one unit: {many:?}"),
+            }
         }
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
@@ -194,18 +240,13 @@ async fn identify(browser: &Browser, station: u8) {
 }
 
 /// Identifies the unit of `station` and returns the place of the one simulated ball
-/// that moves. A move the page announced but the simulator never showed is asked
-/// again (twice at most), and said on stderr.
+/// that moves, watched from before the tap. Asked once: a 202 is a move.
 async fn identify_and_watch(browser: &Browser, station: u8) -> usize {
-    for attempt in 1..=3 {
-        identify(browser, station).await;
-        if let Some(place) = the_one_that_moves(browser, Duration::from_secs(3)).await {
-            return place;
-        }
-        eprintln!("identify {station}: no simulated unit moved (attempt {attempt})");
-        tap(browser, "[data-testid=cancel-identify]").await;
-    }
-    panic!("identify {station}: no simulated unit moved in three attempts");
+    watch_the_simulator(browser).await;
+    identify(browser, station).await;
+    the_one_that_moves(browser, Duration::from_secs(3))
+        .await
+        .unwrap_or_else(|| panic!("identify {station}: 202, and no simulated unit moved"))
 }
 
 #[tokio::test]

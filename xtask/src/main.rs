@@ -16,6 +16,8 @@
 //! - [`scale_bench`]: one bridge playing to 100 UIM2503 gateways over TCP, with figures.
 //! - [`qprogram_report`]: the Q program compiler on a 10-minute show, with figures.
 //! - [`scl_bench`]: the SCL e-stop's latency on RS-485 lines and eSCL, with figures.
+//! - [`identify_repeat`]: Identify repeated on simulated gateways under load; every
+//!   202 must move its unit (issue 36).
 //! - [`create_bench`]: the Create page's cost of one change in the app as served,
 //!   with figures.
 //! - [`load_bench`]: the release app's compressed sizes and its cold load time in
@@ -24,6 +26,7 @@
 mod app;
 mod create_bench;
 mod fuzz;
+mod identify_repeat;
 mod load_bench;
 mod mbox_bench;
 mod qprogram_report;
@@ -64,6 +67,10 @@ commands:
   scl-bench  press the e-stop on 8 simulated MOONS' drives polled every 20 ms: RS-485
          at 9600 and 115200 baud, and eSCL; print WebSocket -> first SK byte median/max
          options: --presses N (default 50)
+  identify-repeat  identify simulated units over and over with every core busy;
+         fail on a 202 whose unit did not move (issue 36); print the run time and
+         202 -> move seen median/max
+         options: --repeats N (default 200)
   load-bench  build the release app; print the raw/gzip/brotli sizes of its wasm, js
          and css, and the median time to a usable app on cold loads in headless
          Chromium throttled to 20 Mbit/s 30 ms and 9 Mbit/s 60 ms
@@ -88,6 +95,7 @@ fn main() -> ExitCode {
         Some("scale-bench") => scale_bench::scale_bench(&args[1..]),
         Some("qprogram-report") => qprogram_report::qprogram_report(&args[1..]),
         Some("scl-bench") => scl_bench::scl_bench(&args[1..]),
+        Some("identify-repeat") => identify_repeat::identify_repeat(&args[1..]),
         Some("load-bench") => load_bench::load_bench(&args[1..]),
         Some("create-bench") => create_bench::create_bench(&args[1..]),
         Some("-h" | "--help" | "help") => {
