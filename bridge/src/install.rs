@@ -42,7 +42,7 @@ use floatball_shared::params;
 use floatball_shared::plan::report::GATEWAY_BAUDS;
 use floatball_shared::plan::{DriveKind, Installation};
 
-use crate::config::{self, Config, ConfigError, Overrides, edit};
+use crate::config::{self, Config, ConfigError, Family, Overrides, edit};
 use crate::playback::ReconfigureError;
 use crate::ports::uim2503::BaudError;
 use crate::state::AppState;
@@ -351,7 +351,7 @@ async fn save_and_apply(
     let before = state.gateways().links();
     // MBOX boxes and MOONS' drives keep their sockets and links: their gateways did
     // not change (`put` refuses that).
-    let fixed = config.mbox.is_some() || config.scl.is_some();
+    let fixed = config.family != Family::Uim2503;
     let (links, opened) = if fixed {
         (Arc::clone(&before), Vec::new())
     } else {
@@ -361,8 +361,7 @@ async fn save_and_apply(
         (links, reopened.opened)
     };
     let mbox = config
-        .mbox
-        .as_ref()
+        .mbox()
         .map(|mbox| crate::state::mbox_player_config(&config.installation, mbox));
     // The units' health of the new links: new monitors, which know the new stations.
     let (health, health_views) = crate::commission::health_channels(links.len());

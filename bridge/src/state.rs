@@ -23,7 +23,7 @@ use crate::commission::sim_units::SimUnits;
 use crate::estop::Latch;
 
 use crate::auth::{Clock, LoginLimiter, Password, PasswordError, Tokens};
-use crate::config::{Config, MboxConfig, MboxTarget, SclConfig, SclGateway};
+use crate::config::{Config, Family, MboxConfig, MboxTarget, SclConfig, SclGateway};
 use crate::gateways::Gateways;
 use crate::playback::Playback;
 use crate::playlist::{PlaylistError, PlaylistStore};
@@ -241,8 +241,8 @@ impl AppState {
         let gateways = Gateways::open(&config, &latch, &paths.data_dir, sim)?;
         let (health, health_views) = crate::commission::health_channels(gateways.links().len());
         let mut scl_sims = None;
-        let (playback, mbox_sims) = match (&config.mbox, &config.scl) {
-            (_, Some(scl)) => {
+        let (playback, mbox_sims) = match &config.family {
+            Family::Scl(scl) => {
                 let (scl, sims) = open_drives(scl)?;
                 scl_sims = sims;
                 let drives = SclNet::open(&scl, &latch).map_err(OpenError::Scl)?;
@@ -256,7 +256,7 @@ impl AppState {
                     Vec::new(),
                 )
             }
-            (Some(mbox), None) => {
+            Family::Mbox(mbox) => {
                 let (boxes, sims) = open_boxes(mbox, &latch)?;
                 let player = mbox_player_config(&config.installation, mbox);
                 (
@@ -264,7 +264,7 @@ impl AppState {
                     sims,
                 )
             }
-            (None, None) => (
+            Family::Uim2503 => (
                 Playback::spawn_with_health(
                     config.installation.clone(),
                     gateways.links().to_vec(),

@@ -366,7 +366,7 @@ async fn stored_programs_are_started_without_an_upload() {
         &Overrides::default(),
     )
     .expect("valid");
-    let scl = config.scl.as_ref().expect("scl");
+    let scl = config.scl().expect("scl");
     let compiler =
         floatball_bridge::ports::scl::program::qprogram_config(&config.installation, scl);
     let show = floatball_shared::show::Show::from_json(std::str::from_utf8(&show()).unwrap())

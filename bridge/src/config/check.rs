@@ -23,8 +23,8 @@ use super::raw::{RawConfig, RawGateway, RawMatrix, RawMbox, RawSafety};
 use super::scl::{SclEntry, SclGateway, default_addresses};
 use super::{
     BAUD_RANGE, Config, ConfigError, DEFAULT_MAX_DURATION, DEFAULT_MBOX_HOST_PORT,
-    DEFAULT_MBOX_PERIOD, DEFAULT_SERIAL_BAUD, DEFAULT_SIM_BAUD, MAX_DURATION_RANGE, MboxBox,
-    MboxConfig, MboxTarget, Overrides, Uploads,
+    DEFAULT_MBOX_PERIOD, DEFAULT_SERIAL_BAUD, DEFAULT_SIM_BAUD, Family, MAX_DURATION_RANGE,
+    MboxBox, MboxConfig, MboxTarget, Overrides, Uploads,
 };
 use crate::origin::normalise_origin;
 
@@ -233,15 +233,13 @@ impl Checker<'_> {
             ),
         };
         let (gateways, units, boxes, drives) = gateways?;
-        let mbox = if boxes.is_empty() {
-            None
+        // Every gateway is of the first one's kind (`gateway` refuses another).
+        let family = if !boxes.is_empty() {
+            Family::Mbox(self.keep(self.mbox(&raw.mbox, boxes))?)
+        } else if !drives.is_empty() {
+            Family::Scl(self.keep(self.scl(&raw.scl, drives))?)
         } else {
-            Some(self.keep(self.mbox(&raw.mbox, boxes))?)
-        };
-        let scl = if drives.is_empty() {
-            None
-        } else {
-            Some(self.keep(self.scl(&raw.scl, drives))?)
+            Family::Uim2503
         };
         let installation = Installation {
             limits: matrix.limits,
@@ -262,8 +260,7 @@ impl Checker<'_> {
                 max_bytes,
                 max_duration: max_duration?,
             },
-            mbox,
-            scl,
+            family,
         })
     }
 

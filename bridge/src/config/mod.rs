@@ -74,12 +74,38 @@ pub struct Config {
     pub estop: Vec<Instruction>,
     /// Show uploads.
     pub uploads: Uploads,
-    /// The MBOX boxes and their UDP settings, when the gateways are MBOX boxes
-    /// (`kind = "mbox"`); `None` for a UIM2503 installation.
-    pub mbox: Option<MboxConfig>,
-    /// The MOONS' drives and their settings, when the gateways are SCL gateway entries
-    /// (`kind = "scl"`); `None` otherwise.
-    pub scl: Option<SclConfig>,
+    /// The kind of drive every gateway is, with its own settings: chosen once, here
+    /// (the check refuses gateways of different kinds).
+    pub family: Family,
+}
+
+/// The drive family of an installation, with what only that family needs.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Family {
+    /// UIM2503 gateways (`kind = "uim2503"`, the default) on serial lines.
+    Uim2503,
+    /// MBOX boxes (`kind = "mbox"`) and their UDP settings.
+    Mbox(MboxConfig),
+    /// MOONS' drives (`kind = "scl"`) and their settings.
+    Scl(SclConfig),
+}
+
+impl Config {
+    /// The MBOX boxes' settings, when the gateways are MBOX boxes.
+    pub fn mbox(&self) -> Option<&MboxConfig> {
+        match &self.family {
+            Family::Mbox(mbox) => Some(mbox),
+            _ => None,
+        }
+    }
+
+    /// The MOONS' drives' settings, when the gateways are SCL gateway entries.
+    pub fn scl(&self) -> Option<&SclConfig> {
+        match &self.family {
+            Family::Scl(scl) => Some(scl),
+            _ => None,
+        }
+    }
 }
 
 /// An installation of MBOX boxes: the host's UDP socket, the frame period and every

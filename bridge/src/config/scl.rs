@@ -72,8 +72,7 @@ pub fn qprogram_config(
 #[must_use]
 pub fn overrides(config: &super::Config) -> QProgramOverrides {
     config
-        .scl
-        .as_ref()
+        .scl()
         .map_or_else(QProgramOverrides::default, scl_overrides)
 }
 

@@ -377,7 +377,7 @@ const MBOX: &str = "[matrix]\nrows = 2\ncols = 10\n\
 #[test]
 fn mbox_boxes_are_gateways_whose_units_are_axes() {
     let config = parse(MBOX).expect("mbox");
-    let mbox = config.mbox.as_ref().expect("an MBOX installation");
+    let mbox = config.mbox().expect("an MBOX installation");
     assert_eq!(mbox.host_port, 0);
     assert_eq!(mbox.frame_period, Duration::from_millis(10));
     assert_eq!(mbox.time, floatball_shared::mbox::TimeMode::Absolute);
@@ -399,10 +399,10 @@ fn mbox_boxes_are_gateways_whose_units_are_axes() {
             .all(|g| g.kind == DriveKind::Mbox)
     );
     assert_eq!(installation.stations_on(1), (1..=10).collect::<Vec<u8>>());
-    assert!(parse("").expect("defaults").mbox.is_none());
+    assert!(parse("").expect("defaults").mbox().is_none());
     let defaults = parse("[[gateway]]\nkind = \"mbox\"\nport = \"sim\"\n[matrix]\nrows = 1\n")
         .expect("defaults");
-    let mbox = defaults.mbox.expect("mbox");
+    let mbox = defaults.mbox().cloned().expect("mbox");
     assert_eq!(mbox.host_port, DEFAULT_MBOX_HOST_PORT);
     assert_eq!(mbox.frame_period, DEFAULT_MBOX_PERIOD);
     assert_eq!(mbox.time, floatball_shared::mbox::TimeMode::Relative);
@@ -486,8 +486,8 @@ escl = [\"192.168.0.11\", \"192.168.0.12:7000\"]
 fn scl_gateways_and_their_settings() {
     use floatball_shared::scl::{Address, InputCondition, IoPoint};
     let config = parse(SCL).expect("valid");
-    assert!(config.mbox.is_none());
-    let scl = config.scl.expect("an SCL installation");
+    assert!(config.mbox().is_none());
+    let scl = config.scl().cloned().expect("an SCL installation");
     let address = |c| Address::new(c).expect("address");
     assert_eq!(
         scl.gateways,
@@ -532,7 +532,7 @@ fn scl_gateways_and_their_settings() {
     let plain =
         parse("[matrix]\nrows = 2\ncols = 2\n[[gateway]]\nkind = \"scl\"\nport = \"/dev/ttyS0\"\n")
             .expect("valid");
-    let scl = plain.scl.expect("scl");
+    let scl = plain.scl().cloned().expect("scl");
     assert_eq!(
         scl.gateways,
         vec![SclGateway::Serial {
@@ -644,7 +644,7 @@ fn simulated_scl_drives_count_their_units() {
         "[matrix]\nrows = 2\ncols = 3\n[scl]\ntrigger = \"0:2\"\n{sim}{sim}"
     ))
     .expect("valid");
-    let scl = config.scl.expect("scl");
+    let scl = config.scl().cloned().expect("scl");
     assert_eq!(
         scl.gateways,
         vec![SclGateway::Sim { drives: 3 }, SclGateway::Sim { drives: 3 }]

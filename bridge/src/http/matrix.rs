@@ -133,8 +133,7 @@ pub async fn plan(
         let show = planning.shows().load(&name).map_err(store_failure)?;
         let config = planning.config();
         let Some(scl) = config
-            .scl
-            .as_ref()
+            .scl()
             .filter(|scl| scl.programs == SclPrograms::Upload)
         else {
             // The show is planned as it is freed: never whole beside its plan.

@@ -89,7 +89,7 @@ fn installation(time: &str) -> (Installation, MboxPlayer, TimeMode, usize) {
     let text = CONFIG.replace("TIME", time);
     let config = Config::parse(Path::new("floatball.toml"), &text, &Overrides::default())
         .expect("the golden configuration");
-    let mbox = config.mbox.as_ref().expect("MBOX boxes");
+    let mbox = config.mbox().expect("MBOX boxes");
     let player_config = crate::state::mbox_player_config(&config.installation, mbox);
     assert_eq!(player_config.period_us, 20_000);
     (
