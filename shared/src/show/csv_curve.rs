@@ -19,13 +19,16 @@
 //!    3.9 % and 14 % high. Both ends are at rest because every track starts at rest
 //!    (the show format) and a run ends at rest rather than braking past its last
 //!    keyframe; a file that does not start or end at rest gets the least abrupt curve
-//!    that does.
+//!    that does. A **hold** — three or more equal keyframes in a row — is at rest too
+//!    (velocity 0 at each of its keyframes), so a ball stays still where the file says
+//!    so instead of the spline swinging through it; two equal keyframes are not a
+//!    hold, since a sine sampled either side of its peak gives them.
 //!
 //! 2. **Speed and acceleration, only where the keyframes themselves keep them.** The
 //!    "straight keyframes" of a gap are the straight line between its keyframes — in
-//!    the first and last gap, the constant acceleration from or to rest — and their
-//!    acceleration at a keyframe is the change of slope there (the second divided
-//!    difference `2 (d₁ − d₀) / (h₀ + h₁)`; at the first keyframe `2 d / h` from rest).
+//!    a gap beside a rest (the ends, a hold), the constant acceleration from or to
+//!    rest — and their acceleration at a keyframe is the change of slope there (the
+//!    second divided difference `2 (d₁ − d₀) / (h₀ + h₁)`; at a rest `2 d / h`).
 //!    Only a gap whose straight keyframes keep a limit is held to it:
 //!    - acceleration: the cubic's acceleration at each end of a gap is linear in its two
 //!      velocities, so an end over the top acceleration is brought to it by the least
@@ -174,24 +177,48 @@ impl Gaps<'_> {
         )
     }
 
+    /// Whether the ball is at rest at keyframe `k`: the first, the last, and every
+    /// keyframe of a hold — three or more equal keyframes in a row. (Two equal
+    /// keyframes are not a hold: a sine sampled either side of its peak gives them.)
+    fn at_rest(&self, k: usize) -> bool {
+        let p = self.positions_mm;
+        let last = self.len() - 1;
+        let equal = |a: usize, b: usize| p[a] == p[b];
+        k == 0
+            || k >= last
+            || (equal(k - 1, k) && equal(k, k + 1))
+            || (k >= 2 && equal(k - 2, k - 1) && equal(k - 1, k))
+            || (k + 2 <= last && equal(k, k + 1) && equal(k + 1, k + 2))
+    }
+
     /// The straight keyframes' acceleration at keyframe `k`: the change of slope
-    /// there, from rest at the first and to rest at the last.
+    /// there; at a keyframe at rest, the larger of stopping from the slope before and
+    /// starting to the slope after (`2 d / h`).
     fn keyframe_accel(&self, k: usize) -> f64 {
         let last = self.len() - 1;
-        if k == 0 {
-            2.0 * self.slope(0) / self.h(0)
-        } else if k == last {
-            -2.0 * self.slope(last - 1) / self.h(last - 1)
+        if self.at_rest(k) {
+            let stop = if k > 0 {
+                (2.0 * self.slope(k - 1) / self.h(k - 1)).abs()
+            } else {
+                0.0
+            };
+            let start = if k < last {
+                (2.0 * self.slope(k) / self.h(k)).abs()
+            } else {
+                0.0
+            };
+            stop.max(start)
         } else {
             2.0 * (self.slope(k) - self.slope(k - 1)) / (self.h(k - 1) + self.h(k))
         }
     }
 }
 
-/// Step 1: the clamped cubic spline's velocities (0 at both ends), by the tridiagonal
-/// (Thomas) solve of the C² conditions at the interior keyframes:
-/// `v₋/h₀ + 2 (1/h₀ + 1/h₁) v + v₊/h₁ = 3 (d₀/h₀ + d₁/h₁)`. The system is strictly
-/// diagonally dominant, so the solve is stable.
+/// Step 1: the clamped cubic spline's velocities (0 at both ends and through every
+/// hold), by the tridiagonal (Thomas) solve of the C² conditions at the other
+/// keyframes: `v₋/h₀ + 2 (1/h₀ + 1/h₁) v + v₊/h₁ = 3 (d₀/h₀ + d₁/h₁)`. The system is
+/// strictly diagonally dominant, so the solve is stable; a keyframe at rest splits it
+/// into independent pieces.
 fn spline(gaps: &Gaps<'_>, velocities: &mut [f64], scratch: &mut Vec<f64>) {
     let n = gaps.len();
     scratch.clear();
@@ -199,20 +226,30 @@ fn spline(gaps: &Gaps<'_>, velocities: &mut [f64], scratch: &mut Vec<f64>) {
     // Forward: velocities[i] holds the reduced right-hand side, scratch[i] the
     // reduced super-diagonal.
     let mut previous = (0.0, 0.0);
-    for i in 1..n - 1 {
+    for i in 0..n {
+        if gaps.at_rest(i) {
+            velocities[i] = 0.0;
+            scratch[i] = 0.0;
+            previous = (0.0, 0.0);
+            continue;
+        }
         let (h0, h1) = (gaps.h(i - 1), gaps.h(i));
         let (sub, sup) = (1.0 / h0, 1.0 / h1);
         let diagonal = 2.0 * (sub + sup);
         let rhs = 3.0 * (gaps.slope(i - 1) * sub + gaps.slope(i) * sup);
         let (c_prev, r_prev) = previous;
         let pivot = diagonal - sub * c_prev;
-        let c = if i + 1 < n - 1 { sup / pivot } else { 0.0 };
+        let c = if gaps.at_rest(i + 1) {
+            0.0
+        } else {
+            sup / pivot
+        };
         let r = (rhs - sub * r_prev) / pivot;
         scratch[i] = c;
         velocities[i] = r;
         previous = (c, r);
     }
-    for i in (1..n - 2).rev() {
+    for i in (1..n - 1).rev() {
         velocities[i] -= scratch[i] * velocities[i + 1];
     }
 }
@@ -266,12 +303,11 @@ fn limit_speed_and_accel(
 }
 
 /// The straight keyframes of gap `i` (module docs, step 2): their end velocities,
-/// their speed and their largest acceleration; `None` for a lone gap, at rest at both
+/// their speed and their largest acceleration; `None` for a gap at rest at both
 /// ends, where there is nothing to choose.
 fn straight(gaps: &Gaps<'_>, i: usize) -> Option<(f64, f64, f64, f64)> {
-    let last_gap = gaps.len() - 2;
     let d = gaps.slope(i);
-    let (target0, target1, speed) = match (i == 0, i == last_gap) {
+    let (target0, target1, speed) = match (gaps.at_rest(i), gaps.at_rest(i + 1)) {
         (true, true) => return None,
         (true, false) => (0.0, 2.0 * d, 2.0 * d.abs()),
         (false, true) => (2.0 * d, 0.0, 2.0 * d.abs()),
@@ -318,8 +354,8 @@ fn limit_accel(gaps: &Gaps<'_>, limits: CurveLimits, velocities: &mut [f64], i: 
         return false;
     }
     let (h, d) = (gaps.h(i), gaps.slope(i));
-    let free0 = if i == 0 { 0.0 } else { 1.0 };
-    let free1 = if i + 2 == gaps.len() { 0.0 } else { 1.0 };
+    let free0 = if gaps.at_rest(i) { 0.0 } else { 1.0 };
+    let free1 = if gaps.at_rest(i + 1) { 0.0 } else { 1.0 };
     let mut changed = false;
     // a_start = (6d − 4v₀ − 2v₁)/h, a_end = (2v₀ + 4v₁ − 6d)/h: (offset, ∂/∂v₀, ∂/∂v₁).
     for (offset, g0, g1) in [
@@ -464,6 +500,25 @@ mod tests {
             let exact = 500.0 * omega * (omega * t).sin();
             assert!((v[i] - exact).abs() < 0.5, "{i}: {} vs {exact}", v[i]);
         }
+    }
+
+    #[test]
+    fn a_hold_stays_still_and_two_equal_keyframes_are_a_peak() {
+        // Down, hold over three gaps, back up: at rest through the hold.
+        let times = [0, 200, 400, 600, 800, 1000];
+        let v = velocities(
+            &times,
+            &[0.0, 20.0, 20.0, 20.0, 20.0, 0.0],
+            CurveLimits::DEFAULT,
+        );
+        assert_eq!(v, [0.0; 6]);
+        // A peak between two samples: both keep their velocity.
+        let v = velocities(
+            &times,
+            &[0.0, 10.0, 20.0, 20.0, 10.0, 0.0],
+            CurveLimits::DEFAULT,
+        );
+        assert!(v[2] > 0.0 && v[3] < 0.0, "{v:?}");
     }
 
     #[test]
