@@ -15,6 +15,7 @@
 //! - [`mbox_bench`]: one bridge streaming to many simulated MBOX boxes, with figures.
 //! - [`scale_bench`]: one bridge playing to 100 UIM2503 gateways over TCP, with figures.
 //! - [`qprogram_report`]: the Q program compiler on a 10-minute show, with figures.
+//! - [`csv_report`]: CSV import against the analytic curves it samples, with figures.
 //! - [`scl_bench`]: the SCL e-stop's latency on RS-485 lines and eSCL, with figures.
 //! - [`identify_repeat`]: Identify repeated on simulated gateways under load; every
 //!   202 must move its unit (issue 36).
@@ -25,6 +26,7 @@
 
 mod app;
 mod create_bench;
+mod csv_report;
 mod fuzz;
 mod identify_repeat;
 mod load_bench;
@@ -64,6 +66,10 @@ commands:
          print moves kept, lines/segments, max deviation mm and where, compile ms
          options: --rows R --cols C (default 10 x 10)  --minutes M (default 10)
                   --period-s P (default 4)  --row-ms MS (default 200)
+  csv-report  sample analytic curves (sines, a smooth step, a damped bounce) at 25, 10
+         and 5 keyframes/s, import them as CSV; print the largest position error, peak
+         speed and acceleration against the analytic ones, and whether the analytic
+         curve is within the limits and the CSV accepted
   scl-bench  press the e-stop on 8 simulated MOONS' drives polled every 20 ms: RS-485
          at 9600 and 115200 baud, and eSCL; print WebSocket -> first SK byte median/max
          options: --presses N (default 50)
@@ -94,6 +100,7 @@ fn main() -> ExitCode {
         Some("mbox-bench") => mbox_bench::mbox_bench(&args[1..]),
         Some("scale-bench") => scale_bench::scale_bench(&args[1..]),
         Some("qprogram-report") => qprogram_report::qprogram_report(&args[1..]),
+        Some("csv-report") => csv_report::csv_report(&args[1..]),
         Some("scl-bench") => scl_bench::scl_bench(&args[1..]),
         Some("identify-repeat") => identify_repeat::identify_repeat(&args[1..]),
         Some("load-bench") => load_bench::load_bench(&args[1..]),

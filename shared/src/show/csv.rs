@@ -16,10 +16,12 @@
 //!
 //! Conversion: every keyframe becomes a PVT row ending exactly on it. The ball starts at
 //! rest on the first keyframe and ends at rest on the last; the velocity at each interior
-//! keyframe follows the monotone (Fritsch–Carlson) rule, so between two keyframes the
-//! ball never goes beyond either of them — hence never above 0 or below the travel when
-//! the keyframes are within it. Gaps over 255 ms are split into equal rows on the same
-//! cubic; gaps under 10 ms are an error.
+//! keyframe is that of the smooth curve through the keyframes (the clamped cubic
+//! spline), not forced to 0 at turning points, and limited only where the curve would
+//! pass 0 or the travel, or break a speed or acceleration limit the keyframes joined by
+//! straight lines keep ([`super::csv_curve`], with the installation's
+//! [`CurveLimits`]). Gaps over 255 ms are split into equal rows on the same cubic; gaps
+//! under 10 ms are an error.
 //!
 //! Every error names the line and the column (1-based; on the layout line the column is
 //! the character position, elsewhere the field number, 1 = `time_ms`).
@@ -44,6 +46,7 @@ use thiserror::Error;
 use crate::codes::{Code, Coded, Params};
 use crate::params;
 
+use super::csv_curve::{CurveLimits, keyframe_velocities};
 use super::{DEFAULT_PITCH_MM, Layout, Show, Track, TrackRow, json_len};
 use crate::uim2503::pvt::{ROW_MAX_MS, ROW_MIN_MS, Segment};
 
@@ -54,14 +57,18 @@ pub const MAX_TOTAL_ROWS: usize = 10_000_000;
 /// The latest keyframe time accepted, ms (24 hours).
 pub const MAX_TIME_MS: f64 = 86_400_000.0;
 
-/// Bounds on what an import may produce, checked before the show is built.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Bounds on what an import may produce, checked before the show is built, and the
+/// installation's limits the curve is kept within ([`CurveLimits`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ImportLimits {
     /// Longest show, ms: the last keyframe's time.
     pub max_duration_ms: u64,
     /// Largest native show file (compact JSON, [`Show::to_json`]) the import may
     /// produce, bytes.
     pub max_json_bytes: usize,
+    /// The travel, speed and acceleration the keyframes' velocities respect
+    /// ([`super::csv_curve`]).
+    pub curve: CurveLimits,
 }
 
 /// Why [`import_csv_within`] refuses a file.
@@ -241,12 +248,13 @@ pub enum CsvProblem {
 
 /// Imports CSV keyframes as a show named `name`. `installation` is the layout used when
 /// the file has no `# rows=… cols=…` line (its pitch also when the line omits
-/// `pitch_mm`).
+/// `pitch_mm`). The curve is kept within the default installation's travel, speed and
+/// acceleration ([`CurveLimits::DEFAULT`]); [`import_csv_within`] takes others.
 ///
 /// # Errors
 /// A [`CsvError`] naming the line and column of the first problem.
 pub fn import_csv(name: &str, text: &str, installation: Layout) -> Result<Show, CsvError> {
-    convert(name, text, Some(installation))
+    convert(name, text, Some(installation), CurveLimits::DEFAULT)
 }
 
 /// Imports CSV keyframes as [`import_csv`] does, but first checks, from the keyframes
@@ -267,18 +275,19 @@ pub fn import_csv_within(
 }
 
 /// [`import_csv`], where an unknown installation (`None`) lays a file without a layout
-/// line out as [`square_layout`].
+/// line out as [`square_layout`], and the curve is kept within `curve`.
 pub(super) fn convert(
     name: &str,
     text: &str,
     installation: Option<Layout>,
+    curve: CurveLimits,
 ) -> Result<Show, CsvError> {
     let (layout, keyframes) = read(text, installation, MAX_TIME_MS as u64)?;
     Ok(Show {
         outputs: Vec::new(),
         name: name.to_owned(),
         layout,
-        tracks: keyframes.into_tracks(),
+        tracks: keyframes.into_tracks(curve),
     })
 }
 
@@ -314,7 +323,7 @@ pub(super) fn convert_within(
     if least > limits.max_json_bytes {
         return Err(too_large(least, false));
     }
-    let bytes = header + keyframes.tracks_json_bytes();
+    let bytes = header + keyframes.tracks_json_bytes(limits.curve);
     if bytes > limits.max_json_bytes {
         return Err(too_large(bytes, true));
     }
@@ -322,7 +331,7 @@ pub(super) fn convert_within(
         outputs: Vec::new(),
         name: name.to_owned(),
         layout,
-        tracks: keyframes.into_tracks(),
+        tracks: keyframes.into_tracks(limits.curve),
     })
 }
 
@@ -643,12 +652,19 @@ impl Keyframes {
     /// built, so the keyframes and the show are never both whole in memory (a
     /// 10,000-ball minute of 5 keyframes a second is 24 MB of keyframes for 72 MB of
     /// rows).
-    fn into_tracks(mut self) -> Vec<Track> {
+    fn into_tracks(mut self, limits: CurveLimits) -> Vec<Track> {
         let mut velocities_mm_s = vec![0.0; self.times_ms.len()];
+        let mut scratch = Vec::new();
         std::mem::take(&mut self.positions_mm)
             .into_iter()
             .map(|positions_mm| {
-                monotone_velocities(&self.times_ms, &positions_mm, &mut velocities_mm_s);
+                keyframe_velocities(
+                    &self.times_ms,
+                    &positions_mm,
+                    limits,
+                    &mut velocities_mm_s,
+                    &mut scratch,
+                );
                 self.track(&positions_mm, &velocities_mm_s)
             })
             .collect()
@@ -656,13 +672,20 @@ impl Keyframes {
 
     /// The bytes the tracks take in a show file (compact JSON, with the commas between
     /// them), computed row by row without keeping any.
-    fn tracks_json_bytes(&self) -> usize {
+    fn tracks_json_bytes(&self, limits: CurveLimits) -> usize {
         let mut velocities_mm_s = vec![0.0; self.times_ms.len()];
+        let mut scratch = Vec::new();
         let tracks: usize = self
             .positions_mm
             .iter()
             .map(|positions_mm| {
-                monotone_velocities(&self.times_ms, positions_mm, &mut velocities_mm_s);
+                keyframe_velocities(
+                    &self.times_ms,
+                    positions_mm,
+                    limits,
+                    &mut velocities_mm_s,
+                    &mut scratch,
+                );
                 let empty = Track {
                     start_mm: positions_mm.first().copied().unwrap_or_default(),
                     rows: Vec::new(),
@@ -723,26 +746,6 @@ impl Keyframes {
 /// A row's duration; rows are at most 255 ms, so this never saturates.
 fn ms_u32(ms: u64) -> u32 {
     u32::try_from(ms).unwrap_or(u32::MAX)
-}
-
-/// Velocities at the keyframes (mm/s) by the Fritsch–Carlson rule with the
-/// Fritsch–Butland weights (as in PCHIP): zero at the ends and at every local extremum,
-/// elsewhere a weighted harmonic mean of the neighbouring slopes. The cubic Hermite
-/// curve through the keyframes with these velocities is monotone between each pair of
-/// keyframes: it never overshoots them.
-fn monotone_velocities(times_ms: &[u64], positions_mm: &[f64], velocities_mm_s: &mut [f64]) {
-    velocities_mm_s.fill(0.0);
-    for i in 1..times_ms.len().saturating_sub(1) {
-        let h0 = (times_ms[i] - times_ms[i - 1]) as f64 / 1000.0;
-        let h1 = (times_ms[i + 1] - times_ms[i]) as f64 / 1000.0;
-        let d0 = (positions_mm[i] - positions_mm[i - 1]) / h0;
-        let d1 = (positions_mm[i + 1] - positions_mm[i]) / h1;
-        if d0 * d1 > 0.0 {
-            let w0 = 2.0 * h1 + h0;
-            let w1 = h1 + 2.0 * h0;
-            velocities_mm_s[i] = (w0 + w1) / (w0 / d0 + w1 / d1);
-        }
-    }
 }
 
 impl Coded for CsvError {
@@ -882,18 +885,20 @@ pub(super) mod tests {
             .map(|r| (r.position_mm, r.duration_ms))
             .collect();
         assert_eq!(rows, [(200.0, 100), (400.0, 100), (400.0, 100)]);
-        // Rising then flat: the velocity at 200 is positive, at the plateau 0, at the end 0.
+        // Rising into a hold: the velocity at 200 is positive, at the end 0 (at rest).
         assert!(track.rows[0].velocity_mm_s > 0.0);
-        assert_eq!(track.rows[1].velocity_mm_s, 0.0);
         assert_eq!(track.rows[2].velocity_mm_s, 0.0);
-        // The local maximum of ball 1 at 200 mm gets zero velocity.
-        assert_eq!(show.tracks[1].rows[0].velocity_mm_s, 0.0);
+        // Velocities are the smooth curve's (the clamped spline), not forced to 0 where
+        // the slope changes: ball 1, level and then falling, is already moving up at
+        // 100 ms.
+        assert!(show.tracks[1].rows[0].velocity_mm_s < 0.0);
         show.check().unwrap();
     }
 
     const ROOMY: ImportLimits = ImportLimits {
         max_duration_ms: 30 * 60 * 1000,
         max_json_bytes: 32 * 1024 * 1024,
+        curve: CurveLimits::DEFAULT,
     };
 
     #[test]
@@ -942,6 +947,7 @@ pub(super) mod tests {
         let long = ImportLimits {
             max_duration_ms: 86_400_000,
             max_json_bytes: 1024 * 1024,
+            curve: CurveLimits::DEFAULT,
         };
         match import_csv_within("far", text, ONE_BY_TWO, long) {
             Err(ImportError::TooLarge {
@@ -956,11 +962,91 @@ pub(super) mod tests {
         }
     }
 
+    /// `centre − amplitude · cos(2π t / period)` sampled at `rate` keyframes a second
+    /// for whole periods (so from rest to rest), positions to 0.001 mm as a 3D tool
+    /// exports them.
+    fn sampled_sine(period_s: f64, amplitude: f64, centre: f64, periods: u32, rate: u32) -> String {
+        let w = 2.0 * std::f64::consts::PI / period_s;
+        let frames = (period_s * f64::from(periods * rate)).round() as u32;
+        let mut text = String::from("time_ms,u0\n");
+        for k in 0..=frames {
+            let t = f64::from(k) / f64::from(rate);
+            let p = centre - amplitude * (w * t).cos();
+            text.push_str(&format!("{},{p:.3}\n", (t * 1000.0).round()));
+        }
+        text
+    }
+
     #[test]
-    fn harmonic_mean_velocity() {
-        // Equal spacing, slopes 1000 and 3000 mm/s: weights equal, harmonic mean 1500.
-        let show = import("time_ms,u0,u1\n0,0,0\n100,100,0\n200,400,0\n").unwrap();
-        assert!((show.tracks[0].rows[0].velocity_mm_s - 1500.0).abs() < 1e-9);
+    fn a_sampled_sine_is_kept_and_accepted() {
+        use crate::show::{Limits, Refused, ShowFormat, UploadLimits, import};
+        let one = Layout {
+            rows: 1,
+            cols: 1,
+            pitch_mm: 500.0,
+        };
+        let upload = UploadLimits {
+            motion: Limits::for_layout(1, 1),
+            max_duration_ms: 30 * 60 * 1000,
+            max_json_bytes: 1 << 20,
+            mbox_boxes: None,
+        };
+        let admit = |text: &str| {
+            import(
+                "s",
+                text.as_bytes(),
+                ShowFormat::Csv,
+                Some(one),
+                Some(&upload),
+            )
+        };
+        // The issue's wave: 3 s, 880 mm (peaks 1843 mm/s, 3860 mm/s²), 10 keyframes a
+        // second, three periods. Accepted, and within 0.5 mm of the sine everywhere.
+        let w = 2.0 * std::f64::consts::PI / 3.0;
+        let show = admit(&sampled_sine(3.0, 880.0, 1500.0, 3, 10)).expect("accepted");
+        let mut largest: f64 = 0.0;
+        for (start_ms, segment) in show.tracks[0].segments() {
+            for i in 0..=(segment.duration_s * 1000.0).round() as u32 {
+                let tau = f64::from(i) / 1000.0;
+                let t = start_ms as f64 / 1000.0 + tau;
+                largest =
+                    largest.max((segment.position(tau) - (1500.0 - 880.0 * (w * t).cos())).abs());
+            }
+        }
+        assert!(largest <= 0.5, "{largest} mm");
+        // Its peak acceleration is the sine's to within 1 %.
+        let peak = show.tracks[0]
+            .segments()
+            .map(|(_, segment)| segment.peak_acceleration().value)
+            .fold(0.0, f64::max);
+        assert!((peak / (880.0 * w * w) - 1.0).abs() < 0.01, "{peak}");
+        // The raised cosine of the issue, from rest at the top: accepted at 10 a second.
+        assert!(admit(&sampled_sine(2.9, 750.0, 750.0, 2, 10)).is_ok());
+        // Exactly when the sine is within the limits: 940 mm (4123 mm/s²) is refused
+        // for its acceleration, at every rate.
+        for rate in [25, 10, 5] {
+            assert!(
+                admit(&sampled_sine(3.0, 880.0, 1500.0, 3, rate)).is_ok(),
+                "{rate}"
+            );
+            let Err(Refused::Unfit(violations)) = admit(&sampled_sine(3.0, 940.0, 1500.0, 3, rate))
+            else {
+                panic!("940 mm at {rate} a second accepted");
+            };
+            assert!(
+                violations
+                    .iter()
+                    .all(|v| matches!(v.kind, crate::show::ViolationKind::Acceleration { .. }))
+            );
+        }
+    }
+
+    #[test]
+    fn interior_velocity_is_the_clamped_splines() {
+        // Equal spacing, slopes 10 and 30 mm/s, at rest at both ends: the C² condition
+        // 2 (10 + 10) v = 3 (10·10 + 30·10) gives v = 30 mm/s.
+        let show = import("time_ms,u0,u1\n0,0,0\n100,1,0\n200,4,0\n").unwrap();
+        assert!((show.tracks[0].rows[0].velocity_mm_s - 30.0).abs() < 1e-9);
     }
 
     #[test]
@@ -1002,12 +1088,18 @@ pub(super) mod tests {
         assert_eq!(square_layout(2).pitch_mm, DEFAULT_PITCH_MM);
 
         let four = "time_ms,u0,u1,u2,u3\n0,100,100,100,100\n500,200,300,400,500\n";
-        let show = convert("four", four, None).unwrap();
+        let show = convert("four", four, None, CurveLimits::DEFAULT).unwrap();
         assert_eq!(show.layout, square_layout(4));
         assert_eq!(show.name, "four");
         assert_eq!(show.duration_ms(), 500);
         // A layout line still wins, with the assumed pitch when it names none.
-        let show = convert("t", "# rows=1 cols=2\ntime_ms,u0,u1\n0,1,2\n", None).unwrap();
+        let show = convert(
+            "t",
+            "# rows=1 cols=2\ntime_ms,u0,u1\n0,1,2\n",
+            None,
+            CurveLimits::DEFAULT,
+        )
+        .unwrap();
         assert_eq!(
             show.layout,
             Layout {
@@ -1017,7 +1109,13 @@ pub(super) mod tests {
             }
         );
         // And it is checked against the columns as with an installation.
-        let error = convert("t", "# rows=2 cols=2\ntime_ms,u0,u1\n0,1,2\n", None).unwrap_err();
+        let error = convert(
+            "t",
+            "# rows=2 cols=2\ntime_ms,u0,u1\n0,1,2\n",
+            None,
+            CurveLimits::DEFAULT,
+        )
+        .unwrap_err();
         assert_eq!((error.line, error.column), (2, 4));
         assert!(matches!(
             error.problem,
@@ -1259,7 +1357,11 @@ mod proptests {
             let layout = Layout { rows: 1, cols: u32::try_from(units).unwrap(), pitch_mm: 500.0 };
             let show = import_csv("p", &text, layout).unwrap();
             let bytes = show.to_json().unwrap().len();
-            let limits = |max_json_bytes| ImportLimits { max_duration_ms: 86_400_000, max_json_bytes };
+            let limits = |max_json_bytes| ImportLimits {
+                max_duration_ms: 86_400_000,
+                max_json_bytes,
+                curve: CurveLimits::DEFAULT,
+            };
             prop_assert_eq!(import_csv_within("p", &text, layout, limits(bytes)), Ok(show));
             prop_assert!(
                 matches!(
@@ -1280,17 +1382,16 @@ mod proptests {
                 let keyframe = |i: usize| frames[i].1[unit];
                 prop_assert_eq!(track.start_mm, keyframe(0));
                 // Walk the rows: every keyframe time is a row end exactly on the keyframe,
-                // and between two keyframes the curve stays between them.
+                // and the curve never leaves 0 … travel (it may pass its keyframes: turning
+                // points are not flattened).
                 let mut next = 1;
                 for (start_ms, segment) in track.segments() {
                     let end_ms = start_ms + (segment.duration_s * 1000.0).round() as u64;
                     let (a, b) = (keyframe(next - 1), keyframe(next));
                     let range = segment.position_range();
                     let slack = 1e-9 * DEFAULT_TRAVEL_MM;
-                    prop_assert!(range.min.value >= a.min(b) - slack, "{range:?} {a} {b}");
-                    prop_assert!(range.max.value <= a.max(b) + slack, "{range:?} {a} {b}");
-                    prop_assert!(range.min.value >= -slack);
-                    prop_assert!(range.max.value <= DEFAULT_TRAVEL_MM + slack);
+                    prop_assert!(range.min.value >= -slack, "{range:?} {a} {b}");
+                    prop_assert!(range.max.value <= DEFAULT_TRAVEL_MM + slack, "{range:?} {a} {b}");
                     prop_assert!((10..=255).contains(&((segment.duration_s * 1000.0).round() as u64)));
                     if end_ms == times_ms[next] {
                         prop_assert_eq!(segment.p1, b);
@@ -1308,6 +1409,40 @@ mod proptests {
                 v.kind,
                 ViolationKind::AboveTop { .. } | ViolationKind::BelowTravel { .. }
             )), "{violations:?}");
+        }
+
+        #[test]
+        fn any_travel_is_kept(
+            (units, frames) in keyframes(),
+            travel in 50.0..=DEFAULT_TRAVEL_MM,
+            speed in 100.0..3000.0f64,
+            accel in 100.0..6000.0f64,
+        ) {
+            // The same keyframes scaled into a shorter travel, with other limits.
+            let scale = travel / DEFAULT_TRAVEL_MM;
+            let frames: Vec<_> = frames
+                .into_iter()
+                .map(|(gap, positions)| (gap, positions.iter().map(|p| p * scale).collect()))
+                .collect();
+            let (text, _) = csv(units, &frames);
+            let layout = Layout { rows: 1, cols: u32::try_from(units).unwrap(), pitch_mm: 500.0 };
+            let limits = ImportLimits {
+                max_duration_ms: 86_400_000,
+                max_json_bytes: usize::MAX,
+                curve: CurveLimits { travel_mm: travel, max_speed_mm_s: speed, max_accel_mm_s2: accel },
+            };
+            let show = import_csv_within("p", &text, layout, limits).unwrap();
+            for (unit, track) in show.tracks.iter().enumerate() {
+                prop_assert_eq!(track.start_mm, frames[0].1[unit]);
+                for (_, segment) in track.segments() {
+                    let range = segment.position_range();
+                    // The keyframes, scaled, may lie a rounding beyond the travel.
+                    let slack = 1e-9 * DEFAULT_TRAVEL_MM;
+                    let bottom = travel.max(segment.p0).max(segment.p1);
+                    prop_assert!(range.min.value >= -slack, "{range:?}");
+                    prop_assert!(range.max.value <= bottom + slack, "{range:?} {travel}");
+                }
+            }
         }
 
         #[test]

@@ -34,6 +34,7 @@ use crate::codes::{Code, Coded, Params};
 use crate::params;
 
 use super::csv::{self, CsvError, CsvProblem, ImportError, ImportLimits};
+use super::csv_curve::CurveLimits;
 use super::{Layout, Limits, Show, ShowError, Violation, output_box_message, validate};
 
 /// Most problems [`Refused::details`] lists; the rest are counted.
@@ -301,7 +302,9 @@ fn read(
     let text = utf8(bytes)?;
     match format {
         ShowFormat::Json => from_json(name, text),
-        ShowFormat::Csv => csv::convert(name, text, layout).map_err(Refused::Csv),
+        ShowFormat::Csv => {
+            csv::convert(name, text, layout, CurveLimits::DEFAULT).map_err(Refused::Csv)
+        }
     }
 }
 
@@ -320,6 +323,7 @@ fn admit(
             let within = ImportLimits {
                 max_duration_ms: limits.max_duration_ms,
                 max_json_bytes: limits.max_json_bytes,
+                curve: CurveLimits::from(&limits.motion),
             };
             csv::convert_within(name, text, layout, within).map_err(|error| match error {
                 ImportError::TooLarge {

@@ -43,6 +43,7 @@
 //! ```
 
 pub mod csv;
+pub mod csv_curve;
 pub mod demo;
 pub mod import;
 pub mod outputs;
@@ -57,6 +58,7 @@ use crate::params;
 use crate::uim2503::pvt::Segment;
 
 pub use csv::{CsvError, CsvProblem, ImportError, ImportLimits, import_csv, import_csv_within};
+pub use csv_curve::CurveLimits;
 pub use import::{Refused, ShowFormat, UploadLimits, import};
 pub use outputs::{AnalogKey, DigitalKey, OutputProblem, OutputSample, OutputTrack};
 pub use sample::Sampler;
