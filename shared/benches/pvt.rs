@@ -6,7 +6,8 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use floatball_shared::uim2503::pvt::{PvtTable, Segment};
+use floatball_shared::motion::Segment;
+use floatball_shared::uim2503::pvt::PvtTable;
 
 fn segment(c: &mut Criterion) {
     let row = Segment::new(0.0, 0.0, 1000.0, 8000.0, 0.1);

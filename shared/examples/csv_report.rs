@@ -16,7 +16,7 @@
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 
-use floatball_shared::pvt::Segment;
+use floatball_shared::motion::Segment;
 use floatball_shared::show::{Layout, Limits, Show, ShowFormat, UploadLimits, import};
 
 /// An analytic curve: position, velocity, acceleration (mm, mm/s, mm/s²) at t (s).

@@ -23,7 +23,9 @@
 //!   what the document makes invalid; and [`mbox::twin`], a simulated box (registers,
 //!   replies, axes moving over each frame's time, e-stop, counters), and
 //!   [`mbox::console`], the operator's text syntax for register operations.
-//! - [`motion`]: motion profiles outside the PVT table — point-to-point moves
+//! - [`motion`]: the one evaluation of a PVT row as a cubic Hermite segment
+//!   ([`motion::Segment`]), shared by every family, validation and the preview; and
+//!   motion profiles outside the PVT table — point-to-point moves
 //!   ([`motion::Trapezoid`]) and braking — used by the player's timing and the simulator.
 //! - [`plan`]: the installation (gateways, kinds of drive, which unit hangs where),
 //!   the gateways' `port` settings, and the bandwidth / feasibility report with its

@@ -50,8 +50,8 @@ use super::catalogue::{self, PatternSpec};
 use super::params::{ParamKind, Value};
 use super::recipe::{EASE_S, MAX_TRANSITION_S, Recipe, Span};
 use super::{CreateError, Field, Grid, Note, number, smooth_step};
+use crate::motion::Segment as Cubic;
 use crate::show::{Layout, Limits, Show, Track, TrackRow};
-use crate::uim2503::pvt::Segment as Cubic;
 
 /// A rendered recipe: the show and what was changed to keep it within the limits.
 #[derive(Debug, Clone, PartialEq)]

@@ -48,7 +48,8 @@ use crate::params;
 
 use super::csv_curve::{CurveLimits, keyframe_velocities};
 use super::{DEFAULT_PITCH_MM, Layout, Show, Track, TrackRow, json_len};
-use crate::uim2503::pvt::{ROW_MAX_MS, ROW_MIN_MS, Segment};
+use crate::motion::Segment;
+use crate::uim2503::pvt::{ROW_MAX_MS, ROW_MIN_MS};
 
 /// The most PVT rows an import may produce over all balls (about 240 MB), so that a
 /// small file with huge gaps cannot exhaust memory.

@@ -65,7 +65,7 @@
 
 use super::DEFAULT_TRAVEL_MM;
 use super::validate::{DEFAULT_MAX_ACCEL_MM_S2, DEFAULT_MAX_SPEED_MM_S, Limits};
-use crate::pvt::Segment;
+use crate::motion::Segment;
 
 /// What the curve through CSV keyframes is kept within (module docs, steps 2 and 3).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -54,8 +54,8 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::codes::{Code, Coded, Params};
+use crate::motion::Segment;
 use crate::params;
-use crate::uim2503::pvt::Segment;
 
 pub use csv::{CsvError, CsvProblem, ImportError, ImportLimits, import_csv, import_csv_within};
 pub use csv_curve::CurveLimits;

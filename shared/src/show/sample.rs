@@ -35,7 +35,7 @@
 //! ```
 
 use super::{Layout, Show, Track};
-use crate::uim2503::pvt::hermite_position;
+use crate::motion::hermite_position;
 
 /// The colour of a ball whose track has no colour keyframes: white.
 pub const DEFAULT_COLOUR: [u8; 3] = [255, 255, 255];

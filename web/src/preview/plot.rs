@@ -3,7 +3,7 @@
 //! violations marked in red.
 //!
 //! [`BallPlot::new`] evaluates the ball's track with the shared PVT evaluator
-//! ([`floatball_shared::uim2503::pvt::Segment`], as the simulator and validation do) at a few
+//! ([`floatball_shared::motion::Segment`], as the simulator and validation do) at a few
 //! points inside every row; [`PlotLayout`] maps values to pixels; only [`draw`]
 //! touches the canvas. Position is drawn growing downwards (the ball goes down on the
 //! plot as it goes down in the room) and so is velocity (positive = moving down).

@@ -1,4 +1,4 @@
-//! From a show's [`Track`] (PVT rows, evaluated with the one [`crate::uim2503::pvt::Segment`])
+//! From a show's [`Track`] (PVT rows, evaluated with the one [`crate::motion::Segment`])
 //! to what the compiler works on: the ball's position on a fine time grid
 //! ([`Samples`], every [`GRID_MS`]) and the candidate keyframes a move may end at
 //! ([`candidates`]): the start and the end, every turning point, the two ends of every

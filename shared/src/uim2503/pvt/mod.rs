@@ -1,15 +1,12 @@
 //! PVT (position–velocity–time) motion as the UFQ750 runs it (PROTOCOL §1.6, manual §7).
 //!
-//! - [`segment`]: one row as a cubic Hermite segment — position, velocity and
-//!   acceleration at any instant, analytic peaks — the evaluation shared by the
-//!   simulator, the planner, show validation and the preview.
+//! - a row is evaluated as a cubic Hermite segment ([`crate::motion::Segment`]), the
+//!   evaluation shared by the simulator, the planner, show validation and the preview;
 //! - [`table`]: a unit's 256-row table with its `MP` parameters and the FIFO,
 //!   single-sequence and loop runs, as a state machine advanced by time.
 
-pub mod segment;
 pub mod table;
 
-pub use segment::{Extremum, Kinematics, PositionRange, Segment, hermite_position};
 pub use table::{
     EndReason, Events, Mode, PvtError, PvtTable, ROW_MAX_MS, ROW_MIN_MS, Row, RowStart, RunEnd,
     Stopped, TABLE_ROWS, Watermark,

@@ -42,7 +42,7 @@
 
 use thiserror::Error;
 
-use super::segment::{Kinematics, Segment};
+use crate::motion::{Kinematics, Segment};
 
 /// Number of rows in a unit's PVT table.
 pub const TABLE_ROWS: usize = 256;

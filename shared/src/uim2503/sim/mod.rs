@@ -19,7 +19,7 @@
 //!   then the line keeps its speed.
 //!
 //! Each unit keeps a [`PvtTable`](crate::uim2503::pvt::PvtTable) and moves PVT rows with the
-//! shared [`Segment`](crate::uim2503::pvt::Segment) evaluator; point-to-point moves are
+//! shared [`Segment`](crate::motion::Segment) evaluator; point-to-point moves are
 //! [`Trapezoid`](crate::motion::Trapezoid)s. Time is µs since [`Gateway::new`], and the
 //! units' system time (the clock `BG=N;` refers to) is that time modulo 2³². Nothing
 //! here reads a clock or draws a random number: the same configuration and inputs give

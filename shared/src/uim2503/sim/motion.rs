@@ -3,8 +3,8 @@
 //! for the simulated unit's limit stops. The motion profiles themselves are in
 //! [`crate::motion`].
 
+use crate::motion::Segment;
 use crate::motion::Trapezoid;
-use crate::uim2503::pvt::Segment;
 
 /// How far past a limit (counts) a motion may reach before it counts as leaving the
 /// travel: float noise on a row that ends exactly at 0 is not a limit hit.

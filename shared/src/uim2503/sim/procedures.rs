@@ -13,8 +13,8 @@ use std::f64::consts::PI;
 
 use super::tests::{ack, sent};
 use super::{Gateway, GatewayConfig};
+use crate::motion::Segment;
 use crate::uim2503::feedback::Ack;
-use crate::uim2503::pvt::Segment;
 
 #[cfg(target_arch = "wasm32")]
 use wasm_bindgen_test::wasm_bindgen_test as test;

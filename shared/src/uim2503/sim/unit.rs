@@ -11,9 +11,10 @@
 //! The unit is internal to the simulator; see [`Gateway`](super::Gateway) for an
 //! example of the whole.
 
+use crate::motion::{Kinematics, Segment};
 use crate::uim2503::ascii::Instruction;
 use crate::uim2503::feedback::{Ack, Feedback, Frame, Notification, UnitError, code};
-use crate::uim2503::pvt::{Events, Kinematics, PvtError, PvtTable, Segment};
+use crate::uim2503::pvt::{Events, PvtError, PvtTable};
 
 use super::config::Limits;
 use super::motion;

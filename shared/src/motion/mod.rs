@@ -1,4 +1,6 @@
-//! Motion profiles: point-to-point moves (`SP`, `PA`, `BG`) with a trapezoidal speed
+//! Motion: one PVT row as a cubic Hermite segment ([`segment`]: the single evaluation
+//! every family, the preview, validation and the simulators share), and motion
+//! profiles: point-to-point moves (`SP`, `PA`, `BG`) with a trapezoidal speed
 //! profile, and braking with a constant deceleration — the model of how a unit moves
 //! outside its PVT table.
 //!
@@ -20,7 +22,9 @@
 //! assert_eq!(ptp.kinematics(0.7).position, 10_000.0);
 //! ```
 
-use crate::uim2503::pvt::{Kinematics, Segment};
+pub mod segment;
+
+pub use segment::{Extremum, Kinematics, PositionRange, Segment, hermite_position};
 
 /// Most pieces of a point-to-point move: stop, speed up (or slow down to the speed),
 /// cruise, slow down to the target.

@@ -12,7 +12,7 @@
 //! `p1`/`v1`.
 //!
 //! ```
-//! use floatball_shared::uim2503::pvt::Segment;
+//! use floatball_shared::motion::Segment;
 //!
 //! // The first row of the manual's example table: from rest at 0 to 1000 counts,
 //! // arriving at 8000 counts/s after 100 ms.
