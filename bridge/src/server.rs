@@ -149,8 +149,9 @@ pub fn is_hashed_asset(path: &str) -> bool {
             .all(|byte| byte.is_ascii_digit() || (b'a'..=b'f').contains(&byte))
 }
 
-/// Serves on `listener` until `shutdown` completes (and arms the playlist's first
-/// entry while the matrix is idle: [`crate::arming`]); then open WebSockets are closed
+/// Serves on `listener` until `shutdown` completes (and completes the show index in
+/// the background: [`crate::store`]; and arms the playlist's first entry while the
+/// matrix is idle: [`crate::arming`]); then open WebSockets are closed
 /// and requests under way finish. Handlers see each client's address (for the login
 /// limit).
 ///
@@ -162,6 +163,9 @@ pub async fn run(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
     let stopping = state.clone();
+    // The listener is bound: the shows are indexed from now on, on a thread of their
+    // own (`crate::store`), while the API, the WebSocket and the e-stop answer.
+    state.shows().start_indexing();
     crate::arming::spawn(state.clone());
     axum::serve(
         listener,
