@@ -182,8 +182,9 @@ pub const MAX_CONNECTIONS: usize = 512;
 /// connection (out of file descriptors).
 const ACCEPT_RETRY: Duration = Duration::from_secs(1);
 
-/// Serves on `listener` until `shutdown` completes (and arms the playlist's first
-/// entry while the matrix is idle: [`crate::arming`]); then open WebSockets are closed
+/// Serves on `listener` until `shutdown` completes (and completes the show index in
+/// the background: [`crate::store`]; and arms the playlist's first entry while the
+/// matrix is idle: [`crate::arming`]); then open WebSockets are closed
 /// and requests under way finish. Handlers see each client's address (for the login
 /// limit).
 ///
@@ -202,6 +203,9 @@ pub async fn run(
     state: AppState,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
+    // The listener is bound: the shows are indexed from now on, on a thread of their
+    // own (`crate::store`), while the API, the WebSocket and the e-stop answer.
+    state.shows().start_indexing();
     crate::arming::spawn(state.clone());
     let app = router(state.clone());
     let permits = Arc::new(Semaphore::new(MAX_CONNECTIONS));

@@ -234,7 +234,9 @@ impl AppState {
             source,
         })?;
         let password = Password::open(&paths.data_dir)?;
-        let shows = ShowStore::open(&paths.data_dir)?;
+        // No show is read here: the index is completed once the bridge listens
+        // (`server::run`).
+        let shows = ShowStore::open_deferred(&paths.data_dir)?;
         let playlist = PlaylistStore::open(&paths.data_dir)?;
         let tokens = Tokens::open(&paths.data_dir, clock.now());
         let latch = Arc::new(Latch::new());

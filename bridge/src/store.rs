@@ -12,14 +12,19 @@
 //! gets here) and writes its native file atomically ([`crate::durable`]);
 //! [`ShowStore::load`] reads one back through the same import. Only a download takes
 //! the stored file as it is ([`ShowStore::file`]). A summary of every show (size,
-//! SHA-256, time, units, duration) is kept in memory, built at start from the complete
-//! files, so listing does not reread them.
+//! SHA-256, time, units, duration) is kept in memory, so listing does not reread them,
+//! and in the show index ([`INDEX_FILE`], written atomically with each show), so a
+//! start reads no show: the index is checked against the files' sizes and times, and
+//! the shows it lacks (an upgrade, a lost index, files copied in by hand) are
+//! summarised by a thread of their own while the bridge already serves
+//! ([`ShowStore::indexed`]).
 
 use std::collections::BTreeMap;
 use std::fmt;
 use std::io;
 use std::path::{Path, PathBuf};
-use std::sync::{Mutex, PoisonError};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::SystemTime;
 
 use floatball_shared::api::{Problem, ShowSummary};
@@ -250,24 +255,176 @@ pub enum StoreError {
     },
 }
 
+/// The show index's file in the data directory: every show's summary and the size
+/// and modification time of the file it was made from ([`Indexed`]).
+pub const INDEX_FILE: &str = "show-index.json";
+
+/// The version of [`INDEX_FILE`]'s format; another is rebuilt.
+const INDEX_VERSION: u32 = 1;
+
+/// Summaries made while the index is rebuilt are written to [`INDEX_FILE`] every this
+/// many, so a restart in the middle keeps what was done.
+const INDEX_WRITE_EVERY: usize = 32;
+
+/// What a show file looked like on disk: its size and modification time. A summary
+/// is of the file while both are the same.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Stamp {
+    bytes: u64,
+    modified_ns: u64,
+}
+
+impl Stamp {
+    fn of(metadata: &std::fs::Metadata) -> Self {
+        let modified_ns = metadata
+            .modified()
+            .ok()
+            .and_then(|modified| modified.duration_since(SystemTime::UNIX_EPOCH).ok())
+            .map_or(0, |since| {
+                u64::try_from(since.as_nanos()).unwrap_or(u64::MAX)
+            });
+        Self {
+            bytes: metadata.len(),
+            modified_ns,
+        }
+    }
+}
+
+/// One show in the index: its summary and when its file was last modified, ns since
+/// 1970 (with `summary.bytes`, the file's [`Stamp`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+struct Indexed {
+    summary: ShowSummary,
+    modified_ns: u64,
+}
+
+impl Indexed {
+    fn stamp(&self) -> Stamp {
+        Stamp {
+            bytes: self.summary.bytes,
+            modified_ns: self.modified_ns,
+        }
+    }
+}
+
+/// [`INDEX_FILE`] as written.
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
+struct IndexFile {
+    version: u32,
+    shows: Vec<Indexed>,
+}
+
+/// Reads [`INDEX_FILE`]: the summaries by name; empty (all to be rebuilt) when it is
+/// missing, unreadable or of another version.
+fn read_index(data_dir: &Path) -> BTreeMap<ShowName, Indexed> {
+    let path = data_dir.join(INDEX_FILE);
+    let bytes = match std::fs::read(&path) {
+        Ok(bytes) => bytes,
+        Err(error) if error.kind() == io::ErrorKind::NotFound => return BTreeMap::new(),
+        Err(error) => {
+            tracing::warn!("{}: {error}; the show index is rebuilt", path.display());
+            return BTreeMap::new();
+        }
+    };
+    match serde_json::from_slice::<IndexFile>(&bytes) {
+        Ok(file) if file.version == INDEX_VERSION => file
+            .shows
+            .into_iter()
+            .filter_map(|indexed| {
+                let name = ShowName::parse(&indexed.summary.name).ok()?;
+                Some((name, indexed))
+            })
+            .collect(),
+        Ok(file) => {
+            tracing::warn!(
+                "{}: version {} is not {INDEX_VERSION}; the show index is rebuilt",
+                path.display(),
+                file.version
+            );
+            BTreeMap::new()
+        }
+        Err(error) => {
+            tracing::warn!("{}: {error}; the show index is rebuilt", path.display());
+            BTreeMap::new()
+        }
+    }
+}
+
+/// What the store knows about its shows.
+#[derive(Debug, Default)]
+struct Known {
+    /// The shows checked against the disk (or stored since the start), by name.
+    index: BTreeMap<ShowName, Indexed>,
+    /// The index file as read at the start, until the shows on disk are checked
+    /// against it ([`Library::scan`]); kept in the file meanwhile.
+    loaded: Option<BTreeMap<ShowName, Indexed>>,
+    /// Show files whose summary is missing or stale, with the stamp they had when
+    /// found: summarised in the background ([`Library::summarise_pending`]).
+    pending: BTreeMap<ShowName, Stamp>,
+}
+
+/// The shows on disk and a summary of each; shared with the indexing thread.
+#[derive(Debug)]
+struct Library {
+    data_dir: PathBuf,
+    dir: PathBuf,
+    known: Mutex<Known>,
+    /// Held while a file (a show or the index) is written or removed, so the index
+    /// follows the disk.
+    writing: Mutex<()>,
+    /// `true` once every show on disk is in the index.
+    indexed: tokio::sync::watch::Sender<bool>,
+    /// Whether the indexing thread was started ([`ShowStore::start_indexing`]).
+    started: AtomicBool,
+}
+
 /// The shows on disk and a summary of each.
 #[derive(Debug)]
 pub struct ShowStore {
-    dir: PathBuf,
-    index: Mutex<BTreeMap<ShowName, ShowSummary>>,
-    /// Held while a file is written or removed, so the index follows the disk.
-    writing: Mutex<()>,
+    library: Arc<Library>,
 }
 
 impl ShowStore {
-    /// Opens `<data_dir>/shows/`, creating it if needed, removing what interrupted
+    /// Opens `<data_dir>/shows/`, creating it if needed, and removes what interrupted
     /// writes left there and in the data directory itself (the temporary files of the
-    /// playlist, password, sessions and configuration), and summarising every complete
-    /// show.
+    /// playlist, password, sessions, configuration and show index). No show is read
+    /// here: the summaries come from the show index ([`INDEX_FILE`]), checked against
+    /// the files on disk by a thread of its own, which also summarises every show the
+    /// index lacks or has stale (and writes the index again). Until that is done,
+    /// [`indexed`](Self::indexed) is `false` and [`list`](Self::list) may lack shows.
     ///
     /// # Errors
     /// If a directory cannot be created, read or cleaned.
     pub fn open(data_dir: &Path) -> Result<Self, StoreError> {
+        let store = Self::open_deferred(data_dir)?;
+        store.start_indexing();
+        Ok(store)
+    }
+
+    /// Starts the indexing thread (once; later calls do nothing). The bridge calls it
+    /// once it listens ([`crate::server::run`]), so no show is read before the API,
+    /// the WebSocket and the e-stop are up.
+    pub fn start_indexing(&self) {
+        if self.library.started.swap(true, Ordering::SeqCst) {
+            return;
+        }
+        let indexing = Arc::clone(&self.library);
+        let spawned = std::thread::Builder::new()
+            .name("show-index".into())
+            .spawn(move || indexing.index());
+        if let Err(error) = spawned {
+            // No thread to spare: index here (the caller waits for it).
+            tracing::warn!("cannot start the show index's thread ({error}); indexing now");
+            self.library.index();
+        }
+    }
+
+    /// As [`open`](Self::open), without indexing: nothing is listed until
+    /// [`start_indexing`](Self::start_indexing) has run.
+    ///
+    /// # Errors
+    /// As [`open`](Self::open).
+    pub fn open_deferred(data_dir: &Path) -> Result<Self, StoreError> {
         let removed = durable::remove_temporaries(data_dir).map_err(|source| StoreError::Io {
             path: data_dir.to_owned(),
             source,
@@ -291,38 +448,55 @@ impl ShowStore {
                 dir.display()
             );
         }
-        let mut index = BTreeMap::new();
-        for entry in std::fs::read_dir(&dir).map_err(io_error)? {
-            let entry = entry.map_err(io_error)?;
-            let file_name = entry.file_name();
-            let Some(name) = file_name.to_str().and_then(ShowName::from_file_name) else {
-                tracing::warn!("ignoring {}: not a show file name", entry.path().display());
-                continue;
-            };
-            match summarise_file(&entry.path(), &name) {
-                Ok(summary) => {
-                    index.insert(name, summary);
-                }
-                Err(reason) => {
-                    tracing::warn!("ignoring {}: {reason}", entry.path().display());
-                }
-            }
-        }
-        Ok(Self {
+        let library = Arc::new(Library {
+            data_dir: data_dir.to_owned(),
             dir,
-            index: Mutex::new(index),
+            known: Mutex::new(Known {
+                index: BTreeMap::new(),
+                loaded: Some(read_index(data_dir)),
+                pending: BTreeMap::new(),
+            }),
             writing: Mutex::new(()),
-        })
+            indexed: tokio::sync::watch::Sender::new(false),
+            started: AtomicBool::new(false),
+        });
+        Ok(Self { library })
     }
 
-    /// Every show, by name.
+    /// Whether every show on disk is in the index (and so in [`list`](Self::list)).
+    pub fn indexed(&self) -> bool {
+        *self.library.indexed.borrow()
+    }
+
+    /// Waits until every show is in the index, at most `limit`; returns whether it is.
+    pub async fn wait_indexed(&self, limit: std::time::Duration) -> bool {
+        let mut indexed = self.library.indexed.subscribe();
+        tokio::time::timeout(limit, indexed.wait_for(|indexed| *indexed))
+            .await
+            .is_ok_and(|done| done.is_ok())
+    }
+
+    /// Every show in the index, by name: every stored show once
+    /// [`indexed`](Self::indexed).
     pub fn list(&self) -> Vec<ShowSummary> {
-        self.index().values().cloned().collect()
+        self.library
+            .known()
+            .index
+            .values()
+            .map(|indexed| indexed.summary.clone())
+            .collect()
     }
 
-    /// Whether a show of that name is stored.
+    /// Whether a show of that name is stored (asking the disk while the index is not
+    /// complete).
     pub fn contains(&self, name: &str) -> bool {
-        ShowName::parse(name).is_ok_and(|name| self.index().contains_key(&name))
+        let Ok(name) = ShowName::parse(name) else {
+            return false;
+        };
+        if self.library.known().index.contains_key(&name) {
+            return true;
+        }
+        !self.indexed() && self.library.dir.join(name.file_name()).is_file()
     }
 
     /// The stored native file of a show, byte for byte (what a download serves).
@@ -330,7 +504,7 @@ impl ShowStore {
     /// # Errors
     /// [`StoreError::NotFound`], or an I/O error.
     pub fn file(&self, name: &ShowName) -> Result<Vec<u8>, StoreError> {
-        let path = self.dir.join(name.file_name());
+        let path = self.library.dir.join(name.file_name());
         std::fs::read(&path).map_err(|source| match source.kind() {
             io::ErrorKind::NotFound => StoreError::NotFound(name.clone()),
             _ => StoreError::Io { path, source },
@@ -346,7 +520,7 @@ impl ShowStore {
     /// minute is about 90 MB of JSON); one that does not read is read again whole for
     /// the same words as an upload's refusal.
     pub fn load(&self, name: &ShowName) -> Result<Show, StoreError> {
-        let path = self.dir.join(name.file_name());
+        let path = self.library.dir.join(name.file_name());
         let file = std::fs::File::open(&path).map_err(|source| match source.kind() {
             io::ErrorKind::NotFound => StoreError::NotFound(name.clone()),
             _ => StoreError::Io {
@@ -364,8 +538,8 @@ impl ShowStore {
     }
 
     /// Stores a show (already [imported](fn@show::import) with this installation's
-    /// limits) under `name`, replacing one of the same name. Returns its summary and
-    /// whether it is new.
+    /// limits) under `name`, replacing one of the same name, and writes the show index
+    /// after it. Returns its summary and whether it is new.
     ///
     /// # Errors
     /// [`StoreError::Unwritable`], or an I/O error; the store is then as before.
@@ -373,11 +547,14 @@ impl ShowStore {
     /// The file is written as it is serialised (hashed on the way), never held whole in
     /// memory: a 10,000-ball minute is about 90 MB of JSON.
     pub fn put(&self, name: &ShowName, show: &Show) -> Result<(ShowSummary, bool), StoreError> {
-        let _writing = self.writing.lock().unwrap_or_else(PoisonError::into_inner);
+        let library = &self.library;
+        let _writing = library.lock_writing();
         let file_name = name.file_name();
+        let path = library.dir.join(&file_name);
+        let existed = path.is_file();
         let mut unwritable = None;
         let mut written = None;
-        durable::write_atomic_with(&self.dir, &file_name, |file| {
+        durable::write_atomic_with(&library.dir, &file_name, |file| {
             let mut writer = io::BufWriter::with_capacity(READ_BUFFER_BYTES, Digesting::new(file));
             if let Err(source) = show.write_json(&mut writer) {
                 // An I/O error comes back from the writer in serde's words; anything
@@ -398,39 +575,226 @@ impl ShowStore {
                 source,
             },
             None => StoreError::Io {
-                path: self.dir.join(&file_name),
+                path: path.clone(),
                 source,
             },
         })?;
-        let modified = std::fs::metadata(self.dir.join(&file_name))
-            .and_then(|metadata| metadata.modified())
-            .unwrap_or_else(|_| SystemTime::now());
         let (bytes, sha256) = written.unwrap_or_default();
+        let metadata = std::fs::metadata(&path).ok();
+        let modified = metadata
+            .as_ref()
+            .and_then(|metadata| metadata.modified().ok())
+            .unwrap_or_else(SystemTime::now);
         let summary = summary(name, bytes, &sha256, show, modified);
-        let created = self.index().insert(name.clone(), summary.clone()).is_none();
-        Ok((summary, created))
+        let indexed = Indexed {
+            summary: summary.clone(),
+            modified_ns: metadata.map_or(0, |metadata| Stamp::of(&metadata).modified_ns),
+        };
+        {
+            let mut known = library.known();
+            known.pending.remove(name);
+            known.index.insert(name.clone(), indexed);
+        }
+        library.write_index();
+        Ok((summary, !existed))
     }
 
-    /// Removes a show.
+    /// Removes a show (and its summary from the show index).
     ///
     /// # Errors
     /// [`StoreError::NotFound`], or an I/O error.
     pub fn delete(&self, name: &ShowName) -> Result<(), StoreError> {
-        let _writing = self.writing.lock().unwrap_or_else(PoisonError::into_inner);
+        let library = &self.library;
+        let _writing = library.lock_writing();
         let file_name = name.file_name();
-        durable::remove(&self.dir, &file_name).map_err(|source| match source.kind() {
+        durable::remove(&library.dir, &file_name).map_err(|source| match source.kind() {
             io::ErrorKind::NotFound => StoreError::NotFound(name.clone()),
             _ => StoreError::Io {
-                path: self.dir.join(&file_name),
+                path: library.dir.join(&file_name),
                 source,
             },
         })?;
-        self.index().remove(name);
+        {
+            let mut known = library.known();
+            known.pending.remove(name);
+            known.index.remove(name);
+            if let Some(loaded) = known.loaded.as_mut() {
+                loaded.remove(name);
+            }
+        }
+        library.write_index();
         Ok(())
     }
+}
 
-    fn index(&self) -> std::sync::MutexGuard<'_, BTreeMap<ShowName, ShowSummary>> {
-        self.index.lock().unwrap_or_else(PoisonError::into_inner)
+impl Library {
+    fn known(&self) -> std::sync::MutexGuard<'_, Known> {
+        self.known.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    fn lock_writing(&self) -> std::sync::MutexGuard<'_, ()> {
+        self.writing.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// The indexing thread: [`scan`](Self::scan), then
+    /// [`summarise_pending`](Self::summarise_pending); says when it is done.
+    fn index(&self) {
+        let started = std::time::Instant::now();
+        let (stale, changed) = self.scan();
+        if stale > 0 {
+            tracing::info!("summarising {stale} show(s) missing from the show index");
+        }
+        let summarised = self.summarise_pending();
+        if changed || summarised > 0 {
+            let _writing = self.lock_writing();
+            self.write_index();
+        }
+        self.indexed.send_replace(true);
+        if stale > 0 {
+            tracing::info!(
+                "the show index is complete: {summarised} show(s) summarised in {:.1} s",
+                started.elapsed().as_secs_f64()
+            );
+        }
+    }
+
+    /// Checks the show files on disk against the index read at the start (by size and
+    /// modification time, no show is read): the shows whose summary is current go in
+    /// the index, the others are marked pending. Returns how many are pending and
+    /// whether the index file needs writing (a show or a summary to drop or add).
+    fn scan(&self) -> (usize, bool) {
+        let _writing = self.lock_writing();
+        let mut on_disk = Vec::new();
+        match std::fs::read_dir(&self.dir) {
+            Ok(entries) => {
+                for entry in entries.filter_map(Result::ok) {
+                    let file_name = entry.file_name();
+                    let Some(name) = file_name.to_str().and_then(ShowName::from_file_name) else {
+                        if !file_name.to_str().is_some_and(durable::is_temporary) {
+                            tracing::warn!(
+                                "ignoring {}: not a show file name",
+                                entry.path().display()
+                            );
+                        }
+                        continue;
+                    };
+                    match entry.metadata() {
+                        Ok(metadata) if metadata.is_file() => {
+                            on_disk.push((name, Stamp::of(&metadata)));
+                        }
+                        Ok(_) => {
+                            tracing::warn!("ignoring {}: not a file", entry.path().display());
+                        }
+                        Err(error) => {
+                            tracing::warn!("ignoring {}: {error}", entry.path().display());
+                        }
+                    }
+                }
+            }
+            Err(error) => {
+                tracing::error!("cannot list {}: {error}", self.dir.display());
+            }
+        }
+        let mut known = self.known();
+        let mut loaded = known.loaded.take().unwrap_or_default();
+        let loaded_count = loaded.len();
+        let mut kept = 0;
+        for (name, stamp) in on_disk {
+            if known.index.contains_key(&name) {
+                // Stored since the start.
+                continue;
+            }
+            match loaded.remove(&name) {
+                Some(indexed) if indexed.stamp() == stamp => {
+                    known.index.insert(name, indexed);
+                    kept += 1;
+                }
+                _ => {
+                    known.pending.insert(name, stamp);
+                }
+            }
+        }
+        (
+            known.pending.len(),
+            kept != loaded_count || !known.pending.is_empty(),
+        )
+    }
+
+    /// Summarises every pending show, one at a time, reading each whole without
+    /// holding any lock; a show stored or deleted meanwhile is left as that made it.
+    /// Returns how many were summarised.
+    fn summarise_pending(&self) -> usize {
+        let mut summarised = 0;
+        loop {
+            let Some((name, stamp)) = self
+                .known()
+                .pending
+                .iter()
+                .next()
+                .map(|(name, stamp)| (name.clone(), *stamp))
+            else {
+                return summarised;
+            };
+            let path = self.dir.join(name.file_name());
+            let result = summarise_file(&path, &name);
+            let _writing = self.lock_writing();
+            let mut known = self.known();
+            if known.pending.get(&name) != Some(&stamp) {
+                // Stored or deleted meanwhile: the store's own summary stands.
+                continue;
+            }
+            known.pending.remove(&name);
+            match result {
+                Ok(summary) => {
+                    known.index.insert(
+                        name,
+                        Indexed {
+                            summary,
+                            modified_ns: stamp.modified_ns,
+                        },
+                    );
+                    summarised += 1;
+                    if summarised % INDEX_WRITE_EVERY == 0 {
+                        drop(known);
+                        self.write_index();
+                    }
+                }
+                Err(reason) => {
+                    tracing::warn!("ignoring {}: {reason}", path.display());
+                }
+            }
+        }
+    }
+
+    /// Writes [`INDEX_FILE`] from what is known (and, until the scan, what was read);
+    /// the caller holds [`writing`](Self::writing). A failure is logged: the index is
+    /// rebuilt at the next start.
+    fn write_index(&self) {
+        let file = {
+            let known = self.known();
+            let mut shows: Vec<Indexed> = known.index.values().cloned().collect();
+            if let Some(loaded) = &known.loaded {
+                shows.extend(
+                    loaded
+                        .iter()
+                        .filter(|(name, _)| !known.index.contains_key(*name))
+                        .map(|(_, indexed)| indexed.clone()),
+                );
+            }
+            IndexFile {
+                version: INDEX_VERSION,
+                shows,
+            }
+        };
+        let written = serde_json::to_vec(&file)
+            .map_err(io::Error::other)
+            .and_then(|bytes| durable::write_atomic(&self.data_dir, INDEX_FILE, &bytes));
+        if let Err(error) = written {
+            tracing::warn!(
+                "cannot write {}: {error}; it is rebuilt at the next start",
+                self.data_dir.join(INDEX_FILE).display()
+            );
+        }
     }
 }
 
@@ -572,6 +936,17 @@ pub(crate) mod tests {
         }
     }
 
+    /// Opens the store in `dir` and waits until its index is complete.
+    pub(crate) fn open_indexed(dir: &Path) -> ShowStore {
+        let store = ShowStore::open(dir).expect("open");
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+        while !store.indexed() {
+            assert!(std::time::Instant::now() < deadline, "indexed within 10 s");
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        store
+    }
+
     #[test]
     fn names_in_any_script_are_allowed() {
         for name in ["波浪", "Welle 1", "موجة", "a.b", "x-y_z (2)"] {
@@ -626,7 +1001,7 @@ pub(crate) mod tests {
     #[test]
     fn a_file_that_does_not_read_is_refused_as_an_upload_of_it_would_be() {
         let dir = tempfile::tempdir().expect("temp dir");
-        let store = ShowStore::open(dir.path()).expect("open");
+        let store = open_indexed(dir.path());
         let name = ShowName::parse("odd").expect("name");
         for bytes in [
             &br#"{"format":"blender-scene","version":3}"#[..],
@@ -647,7 +1022,7 @@ pub(crate) mod tests {
     #[test]
     fn shows_are_stored_listed_read_and_deleted() {
         let dir = tempfile::tempdir().expect("temp dir");
-        let store = ShowStore::open(dir.path()).expect("open");
+        let store = open_indexed(dir.path());
         let name = ShowName::parse("波浪").expect("name");
         let mut stored = show(1, 2);
         stored.name = name.to_string();
@@ -665,7 +1040,7 @@ pub(crate) mod tests {
         assert_eq!(store.load(&name).expect("load"), stored);
         assert!(!store.put(&name, &stored).expect("replace").1);
 
-        let reopened = ShowStore::open(dir.path()).expect("reopen");
+        let reopened = open_indexed(dir.path());
         assert_eq!(reopened.list(), store.list());
         assert!(reopened.contains("波浪"));
 
@@ -687,7 +1062,7 @@ pub(crate) mod tests {
         std::fs::write(shows.join(".61.json.0a0b.tmp"), b"{\"half").expect("write");
         std::fs::write(shows.join("readme.txt"), b"hello").expect("write");
         std::fs::write(shows.join("61.json"), b"{\"broken").expect("write");
-        let store = ShowStore::open(dir.path()).expect("open");
+        let store = open_indexed(dir.path());
         assert!(store.list().is_empty());
         assert!(!shows.join(".61.json.0a0b.tmp").exists());
         // Broken on disk: loading it says so, in the parser's words.
@@ -707,5 +1082,161 @@ pub(crate) mod tests {
             error.to_string().starts_with("the show file is not valid"),
             "{error}"
         );
+    }
+
+    /// Stores `names` (a 1 × 2 show each, a different depth each) in a new store in
+    /// `dir`; returns the list.
+    fn stored(dir: &Path, names: &[&str]) -> Vec<ShowSummary> {
+        let store = open_indexed(dir);
+        for (index, name) in names.iter().enumerate() {
+            let name = ShowName::parse(name).expect("name");
+            let mut one = show(1, 2);
+            one.tracks[0].rows[0] = TrackRow::new(10.0 + index as f64, 0.0, 250);
+            store.put(&name, &one).expect("put");
+        }
+        store.list()
+    }
+
+    fn index_path(dir: &Path) -> PathBuf {
+        dir.join(INDEX_FILE)
+    }
+
+    #[test]
+    fn the_index_is_written_with_each_show_and_a_start_reads_no_show() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let list = stored(dir.path(), &["波浪", "rain"]);
+        let file: IndexFile =
+            serde_json::from_slice(&std::fs::read(index_path(dir.path())).expect("index"))
+                .expect("an index");
+        assert_eq!(file.version, INDEX_VERSION);
+        let mut summaries: Vec<ShowSummary> = file
+            .shows
+            .into_iter()
+            .map(|indexed| indexed.summary)
+            .collect();
+        summaries.sort_by(|a, b| a.name.cmp(&b.name));
+        assert_eq!(summaries, list);
+
+        // Garbage of the same size and time in a show file: the start takes the
+        // summary from the index without reading the show.
+        let name = ShowName::parse("rain").expect("name");
+        let path = dir.path().join(DIR_NAME).join(name.file_name());
+        let modified = std::fs::metadata(&path)
+            .and_then(|meta| meta.modified())
+            .expect("time");
+        let garbage = vec![b'x'; usize::try_from(list[0].bytes).expect("size")];
+        std::fs::write(&path, garbage).expect("write");
+        std::fs::File::options()
+            .write(true)
+            .open(&path)
+            .and_then(|file| file.set_modified(modified))
+            .expect("set the time back");
+        assert_eq!(open_indexed(dir.path()).list(), list);
+    }
+
+    #[test]
+    fn a_missing_or_corrupt_index_is_rebuilt_from_the_shows() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let list = stored(dir.path(), &["波浪", "rain", "snow"]);
+        for index in [
+            None,
+            Some(&b"{\"version\":1,\"shows\":[{\"summ"[..]),
+            Some(b"\xff\x00"),
+            Some(b"{\"version\":99,\"shows\":[]}"),
+        ] {
+            match index {
+                None => std::fs::remove_file(index_path(dir.path())).expect("remove"),
+                Some(bytes) => std::fs::write(index_path(dir.path()), bytes).expect("write"),
+            }
+            let store = open_indexed(dir.path());
+            assert_eq!(store.list(), list, "{index:?}");
+            let file: IndexFile =
+                serde_json::from_slice(&std::fs::read(index_path(dir.path())).expect("index"))
+                    .expect("written again whole");
+            assert_eq!(file.shows.len(), 3);
+        }
+    }
+
+    #[test]
+    fn stale_and_unknown_entries_are_summarised_again_or_dropped() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let list = stored(dir.path(), &["a", "b", "c"]);
+        let shows = dir.path().join(DIR_NAME);
+        let file_of = |name: &str| shows.join(ShowName::parse(name).expect("name").file_name());
+        // "a" changed behind the store's back, "b" deleted, "d" copied in by hand.
+        let changed = show(1, 3).to_json().expect("json");
+        std::fs::write(file_of("a"), &changed).expect("write a");
+        std::fs::remove_file(file_of("b")).expect("remove b");
+        std::fs::copy(file_of("c"), file_of("d")).expect("copy d");
+        let store = open_indexed(dir.path());
+        let now = store.list();
+        let names: Vec<&str> = now.iter().map(|summary| summary.name.as_str()).collect();
+        assert_eq!(names, ["a", "c", "d"]);
+        assert_eq!(now[0].units, 3);
+        assert_eq!(
+            now[0].sha256,
+            durable::hex(&Sha256::digest(changed.as_bytes()))
+        );
+        assert_eq!(now[1], list[2]);
+        assert_eq!(now[2].sha256, list[2].sha256);
+        // The index now says so too.
+        drop(store);
+        let file: IndexFile =
+            serde_json::from_slice(&std::fs::read(index_path(dir.path())).expect("index"))
+                .expect("index");
+        assert_eq!(file.shows.len(), 3);
+        assert_eq!(open_indexed(dir.path()).list(), now);
+    }
+
+    #[test]
+    fn shows_stored_or_deleted_while_indexing_are_as_the_store_left_them() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        stored(dir.path(), &["old", "gone", "replaced"]);
+        std::fs::remove_file(index_path(dir.path())).expect("no index");
+        let store = ShowStore::open_deferred(dir.path()).expect("open");
+        assert!(!store.indexed());
+        assert!(store.list().is_empty(), "nothing is listed before the scan");
+        // Still, the playlist may name a stored show.
+        assert!(store.contains("old"));
+        assert!(!store.contains("nothing"));
+
+        let name = |text: &str| ShowName::parse(text).expect("name");
+        // Stored before the scan.
+        let (new, created) = store.put(&name("new"), &show(1, 1)).expect("put");
+        assert!(created);
+        store.library.scan();
+        assert_eq!(
+            store.library.known().pending.len(),
+            3,
+            "old, gone, replaced"
+        );
+        // Stored and deleted after the scan, before they are summarised.
+        let (replaced, created) = store.put(&name("replaced"), &show(2, 2)).expect("put");
+        assert!(!created, "it was on disk");
+        store.delete(&name("gone")).expect("delete");
+        assert_eq!(store.library.summarise_pending(), 1, "only old");
+        store.library.index();
+        assert!(store.indexed());
+        let list = store.list();
+        let names: Vec<&str> = list.iter().map(|summary| summary.name.as_str()).collect();
+        assert_eq!(names, ["new", "old", "replaced"]);
+        assert_eq!(list[0], new);
+        assert_eq!(list[2], replaced);
+        assert_eq!(open_indexed(dir.path()).list(), list);
+    }
+
+    #[test]
+    fn an_interrupted_index_write_leaves_the_old_index() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let list = stored(dir.path(), &["a", "b"]);
+        // What a kill during the index's write leaves: its temporary file.
+        std::fs::write(
+            dir.path().join(format!(".{INDEX_FILE}.00ff.tmp")),
+            b"{\"ver",
+        )
+        .expect("write");
+        let store = open_indexed(dir.path());
+        assert_eq!(store.list(), list);
+        assert!(!dir.path().join(format!(".{INDEX_FILE}.00ff.tmp")).exists());
     }
 }

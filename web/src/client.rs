@@ -310,7 +310,18 @@ impl Client {
     /// # Errors
     /// [`Failure`] as the bridge answered.
     pub async fn shows(&self) -> Result<Vec<ShowSummary>, Failure> {
-        self.call_json(Method::Get, "/api/shows", None).await
+        self.shows_listed().await.map(|(shows, _complete)| shows)
+    }
+
+    /// `GET /api/shows`, and whether the list is complete: right after a start, a
+    /// bridge still indexing its library answers the shows so far with `Retry-After`
+    /// (and `Floatball-Library: indexing`).
+    ///
+    /// # Errors
+    /// [`Failure`] as the bridge answered.
+    pub async fn shows_listed(&self) -> Result<(Vec<ShowSummary>, bool), Failure> {
+        let response = self.call(Method::Get, "/api/shows", None, None).await?;
+        Ok((parse(&response)?, response.retry_after.is_none()))
     }
 
     /// `PUT /api/shows/{name}` with the file's text, reporting progress as it goes.
@@ -620,6 +631,23 @@ mod tests {
         assert_eq!(run(client.shows()), Ok(Vec::new()));
         assert_eq!(fake.requests.borrow()[0].bearer.as_deref(), Some("abc"));
         assert_eq!(fake.requests.borrow()[0].url, "/api/shows");
+    }
+
+    #[test]
+    fn a_list_with_retry_after_is_not_complete() {
+        let client = Client::new(bridge(200, "[]"), "");
+        assert_eq!(run(client.shows_listed()), Ok((Vec::new(), true)));
+        let indexing = Rc::new(Canned {
+            response: Ok(Response {
+                status: 200,
+                retry_after: Some("1".into()),
+                body: "[]".into(),
+            }),
+            requests: RefCell::new(Vec::new()),
+        });
+        let client = Client::new(indexing, "");
+        assert_eq!(run(client.shows_listed()), Ok((Vec::new(), false)));
+        assert_eq!(run(client.shows()), Ok(Vec::new()));
     }
 
     #[test]

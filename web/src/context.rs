@@ -30,6 +30,10 @@ use crate::playlist::PlaylistEditor;
 use crate::session::{Origin, Session};
 use crate::store::LocalStore;
 
+/// How soon the list of controller files is asked for again while the bridge is still
+/// indexing its library, ms.
+pub const LIBRARY_RETRY_MS: u64 = 1000;
+
 /// How long a success toast stays, ms.
 pub const TOAST_MS: u64 = 4_000;
 
@@ -104,6 +108,9 @@ pub struct Ctx {
     pub local_files: RwSignal<Listing<LocalFile>>,
     /// Controller files.
     pub controller_files: RwSignal<Listing<ShowSummary>>,
+    /// The bridge is still indexing its library (after a start): the list of
+    /// controller files is not complete yet, and is asked for again.
+    pub library_indexing: RwSignal<bool>,
     /// The playlist being edited.
     pub playlist: RwSignal<PlaylistEditor>,
     /// Decoded feedback frames for the console.
@@ -227,6 +234,7 @@ impl Ctx {
             bridge_error: RwSignal::new(None),
             local_files: RwSignal::new(Listing::default()),
             controller_files: RwSignal::new(Listing::default()),
+            library_indexing: RwSignal::new(false),
             playlist: RwSignal::new(PlaylistEditor::default()),
             feedback: RwSignal::new(FeedbackLog::default()),
             preview: RwSignal::new(None),
@@ -431,13 +439,24 @@ impl Ctx {
     }
 
     /// Fetches the controller's files and the playlist again (after a login, a
-    /// reconnect, an upload).
+    /// reconnect, an upload), and again every [`LIBRARY_RETRY_MS`] while the bridge
+    /// says its list is not complete yet ([`Ctx::library_indexing`]).
     pub fn refresh(&self) {
         let Some(client) = self.client() else { return };
         let ctx = *self;
         spawn_local(async move {
-            match client.shows().await {
-                Ok(shows) => ctx.controller_files.update(|list| list.replace(shows)),
+            match client.shows_listed().await {
+                Ok((shows, complete)) => {
+                    ctx.controller_files.update(|list| list.replace(shows));
+                    ctx.library_indexing.set(!complete);
+                    if !complete {
+                        // The bridge is still indexing its library: ask again.
+                        set_timeout(
+                            move || ctx.refresh(),
+                            std::time::Duration::from_millis(LIBRARY_RETRY_MS),
+                        );
+                    }
+                }
                 Err(failure) => {
                     ctx.failed(&failure);
                     return;

@@ -151,6 +151,8 @@ texts! {
     NoLocalFiles => "还没有本地文件。点“添加文件”，从设备中选择 CSV 或 JSON 动作文件。", "No local files yet. Tap “Add files” to pick CSV or JSON show files from this device.";
     /// No files on the controller.
     NoControllerFiles => "控制器上还没有文件。", "There are no files on the controller yet.";
+    /// The controller is still indexing its library after a start.
+    LibraryIndexing => "控制器正在读取浮球文件，列表还不完整……", "The controller is still reading its files; the list is not complete yet…";
     /// Not connected: what works.
     OfflineHint => "未连接：不能上传和下载，本地文件仍可预览。", "Not connected: upload and download are unavailable; local files can still be previewed.";
     /// Upload finished.

@@ -23,6 +23,8 @@
 //!   with figures.
 //! - [`load_bench`]: the release app's compressed sizes and its cold load time in
 //!   Chromium on throttled links, with figures.
+//! - [`startup_bench`]: the bridge's start-up with a large library of shows, with
+//!   figures.
 
 mod app;
 mod create_bench;
@@ -35,6 +37,7 @@ mod qprogram_report;
 mod scale_bench;
 mod scl_bench;
 mod stages;
+mod startup_bench;
 mod stress;
 mod tools;
 
@@ -87,6 +90,11 @@ commands:
          in the app as served (wasm-release) in headless Chromium; print the median
          and largest time to the new picture, and generating, handing to the stage
          and the limit check after it
+  startup-bench  start the release bridge on a generated library of shows (kept under
+         target/tmp/startup-bench/); print the median time to the first HTTP answer,
+         to the WebSocket's estop_sent and to the complete show list, with the show
+         index kept and removed
+         options: --library-mb N (default 1024)  --runs R (default 5)
 ";
 
 fn main() -> ExitCode {
@@ -105,6 +113,7 @@ fn main() -> ExitCode {
         Some("identify-repeat") => identify_repeat::identify_repeat(&args[1..]),
         Some("load-bench") => load_bench::load_bench(&args[1..]),
         Some("create-bench") => create_bench::create_bench(&args[1..]),
+        Some("startup-bench") => startup_bench::startup_bench(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())

@@ -1,6 +1,8 @@
 //! The show files and the playlist over HTTP.
 //!
-//! - `GET /api/shows`: 200, every show's summary.
+//! - `GET /api/shows`: 200, every show's summary; after a start, once the show index
+//!   is complete (waiting for it up to [`LIST_WAIT`], then the shows indexed so far
+//!   with `Floatball-Library: indexing`).
 //! - `PUT /api/shows/{name}`: native JSON or CSV; 201 with the summary of a new show,
 //!   200 when it replaced one; 400 bad name (also one with invisible or text-direction
 //!   characters); 413 over the size limit (the upload, or the show as stored: a CSV
@@ -144,12 +146,31 @@ fn import_upload(
     )
 }
 
-/// `GET /api/shows`.
-pub async fn list_shows(
-    State(state): State<AppState>,
-    _session: Session,
-) -> Json<Vec<ShowSummary>> {
-    Json(state.shows().list())
+/// How long `GET /api/shows` waits for the show index after a start before it answers
+/// the shows indexed so far ([`LIBRARY_HEADER`]).
+pub const LIST_WAIT: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// The header of a show list that is not complete yet: `Floatball-Library: indexing`.
+pub const LIBRARY_HEADER: &str = "floatball-library";
+
+/// `GET /api/shows`: every show, once the show index is complete (it waits up to
+/// [`LIST_WAIT`] after a start; then the shows indexed so far, marked with
+/// [`LIBRARY_HEADER`]).
+pub async fn list_shows(State(state): State<AppState>, _session: Session) -> Response {
+    let complete = state.shows().wait_indexed(LIST_WAIT).await;
+    let list: Json<Vec<ShowSummary>> = Json(state.shows().list());
+    if complete {
+        list.into_response()
+    } else {
+        (
+            [
+                (LIBRARY_HEADER, "indexing"),
+                (header::RETRY_AFTER.as_str(), "1"),
+            ],
+            list,
+        )
+            .into_response()
+    }
 }
 
 /// `GET /api/shows/{name}`.

@@ -486,6 +486,9 @@ fn ControllerTab(message: RwSignal<Option<Message>>) -> impl IntoView {
                 on_confirm=delete
             />
         </div>
+        <Show when=move || ctx.library_indexing.get()>
+            <p class="muted" data-testid="library-indexing">{ctx.tr(Text::LibraryIndexing)}</p>
+        </Show>
         <table class="list table" data-testid="controller-list">
             <thead>
                 <tr>
