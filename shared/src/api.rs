@@ -578,6 +578,10 @@ pub struct SimUnit {
     pub motor_on: bool,
     /// The ball is moving (point-to-point or PVT).
     pub moving: bool,
+    /// Point-to-point moves begun since the unit's power-on: counts a move however
+    /// short (an identify of 1 mm is over in a fraction of a second).
+    #[serde(default)]
+    pub ptp_moves: u64,
 }
 
 /// One simulated MBOX box (`floatball_shared::mbox::twin`), at the twin's time: where

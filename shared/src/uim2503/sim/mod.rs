@@ -310,6 +310,7 @@ impl Gateway {
             velocity_counts_s: state.velocity,
             motor_on: unit.motor_on,
             moving: unit.moving(self.now_us, &self.limits),
+            ptp_moves: unit.ptp_moves,
         }
     }
 
@@ -838,10 +839,20 @@ mod tests {
         assert!((peak - 20_000.0).abs() < 1e-9, "{peak}");
         assert_eq!(position(&gateway, 0), 100_000.0);
         assert_eq!(gateway.next_event_us(), None);
+        // One move counted, and a BG to where the ball is already moves it nowhere.
+        assert_eq!(gateway.unit(0).unwrap().ptp_moves, 1);
+        gateway.receive(6_100_000, b"BG;");
+        gateway.advance(6_200_000);
+        assert_eq!(
+            gateway.unit(0).unwrap().ptp_moves,
+            1,
+            "no move, none counted"
+        );
         // Asked for more than the unit can: the top speed, 200000 counts/s.
         gateway.receive(7_000_000, b"SP=2000000000;PA=0;BG;");
         gateway.advance(7_500_000);
         assert_eq!(gateway.unit(0).unwrap().velocity_counts_s, -200_000.0);
+        assert_eq!(gateway.unit(0).unwrap().ptp_moves, 2);
     }
 
     #[test]
@@ -1145,6 +1156,7 @@ mod tests {
                 velocity_counts_s: 0.0,
                 motor_on: true,
                 moving: false,
+                ptp_moves: 0,
             }
         );
         assert_eq!(positions.units[1], unit);

@@ -132,6 +132,10 @@ pub(super) struct Unit {
     motion: Motion,
     /// A `BG=N;` waiting for its time, µs of gateway time.
     begin_at_us: Option<u64>,
+    /// Point-to-point moves begun since power-on (a `BG` in point-to-point mode that
+    /// moved the ball): what an observer counts to know a move was made, however
+    /// short.
+    pub ptp_moves: u64,
 }
 
 impl Unit {
@@ -154,6 +158,7 @@ impl Unit {
             info_enabled: INFO_AT_POWER_ON,
             motion: Motion::Rest { position: 0.0 },
             begin_at_us: None,
+            ptp_moves: 0,
         }
     }
 
@@ -322,6 +327,7 @@ impl Unit {
                         position: from.position,
                     }
                 } else {
+                    self.ptp_moves += 1;
                     Motion::Ptp {
                         start_us: at_us,
                         end_us: at_us.saturating_add(micros(trapezoid.duration_s())),
