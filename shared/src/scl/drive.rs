@@ -22,9 +22,11 @@
 //!   then read back with `QU` and compared;
 //! - **play**: `QX1` to every drive (lanes by line); with a trigger, then the trigger
 //!   output low, 100 ms, high (every program waits for that edge); the show's time 0
-//!   is when the first `QX1` went (or the trigger went low), and the show plays (the
-//!   status says `playing`) once every drive was started; then the show's length,
-//!   and `SC` to each drive until no program runs and no motor moves (at most 10 s).
+//!   ([`Drive::show_start_us`]) is when the first `QX1` reached its drive (or the
+//!   trigger's `SO…L` reached the trigger drive: the edge), as the caller says with
+//!   [`SclDrive::delivered`] — the status says `playing` from then on; then the
+//!   show's length, and `SC` to each drive until no program runs and no motor moves
+//!   (at most 10 s).
 //!
 //! A refusal, a missed answer or a drive that does not arrive fails the step with a
 //! sentence naming the drive; the sequencer stops the matrix.
