@@ -119,8 +119,7 @@ async fn run_once(config: &str) -> Run {
             while let Some(Ok(frame)) = ws.next().await {
                 let arrived = Instant::now();
                 let Message::Text(text) = frame else { continue };
-                if let Ok(ServerMessage::Status(status)) = serde_json::from_str(text.as_str())
-                {
+                if let Ok(ServerMessage::Status(status)) = serde_json::from_str(text.as_str()) {
                     let done = status.state == PlayerState::Idle && status.progress >= 1.0;
                     let failed = matches!(status.state, PlayerState::Error | PlayerState::Stopped);
                     statuses.lock().unwrap().push((arrived, status));

@@ -124,7 +124,10 @@ impl Family for SclFamily {
                             .await;
                         (answer.map_err(|error| error.to_string()), delivered)
                     }
-                    None => (Err(format!("there is no SCL gateway {}", ask.gateway)), None),
+                    None => (
+                        Err(format!("there is no SCL gateway {}", ask.gateway)),
+                        None,
+                    ),
                 };
                 let delivered_us = delivered.map(|at| {
                     u64::try_from(at.saturating_duration_since(epoch).as_micros())
@@ -135,11 +138,7 @@ impl Family for SclFamily {
         }
     }
 
-    fn apply(
-        sequencer: &mut Sequencer<SclDrive>,
-        now_us: u64,
-        (id, answer, delivered_us): Answer,
-    ) {
+    fn apply(sequencer: &mut Sequencer<SclDrive>, now_us: u64, (id, answer, delivered_us): Answer) {
         let drive = sequencer.drive_mut();
         if let Some(delivered_us) = delivered_us {
             drive.delivered(id, delivered_us);

@@ -306,9 +306,7 @@ impl<D: Drive> Sequencer<D> {
                     show_time_ms,
                     progress,
                 } => (show_time_ms, progress, None),
-                ShowClock::Given { starts_in_us } => {
-                    (0, 0.0, Some(starts_in_us.div_ceil(1_000)))
-                }
+                ShowClock::Given { starts_in_us } => (0, 0.0, Some(starts_in_us.div_ceil(1_000))),
                 ShowClock::NotGiven => (0, 0.0, None),
             },
             _ => (0, self.progress, None),
@@ -338,7 +336,10 @@ impl<D: Drive> Sequencer<D> {
                 starts_in_us: start_us - now_us,
             };
         }
-        let duration_ms = self.entries.get(self.entry).map_or(0, |run| run.duration_ms);
+        let duration_ms = self
+            .entries
+            .get(self.entry)
+            .map_or(0, |run| run.duration_ms);
         let elapsed_ms = (now_us - start_us) / 1_000;
         let show_time_ms = if self.drive.show_repeats() && duration_ms > 0 {
             elapsed_ms % duration_ms

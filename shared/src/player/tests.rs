@@ -310,7 +310,10 @@ fn the_status_clock_is_the_units_clock_at_the_instant_it_is_made() {
     sequencer.start(0, vec![run("a", 0, 1)], false).unwrap();
     // Home 0–5 s, approach 5–10 s, play from 10 s: the units start 30 ms later.
     run_until(&mut sequencer, 0, 10_000_000);
-    assert_eq!(sequencer.drive().log.last().unwrap(), "10000000 play a last");
+    assert_eq!(
+        sequencer.drive().log.last().unwrap(),
+        "10000000 play a last"
+    );
     let given = sequencer.status_at(10_010_000);
     assert_eq!(given.state, PlayerState::Loading);
     assert_eq!(given.show_starts_in_ms, Some(20));

@@ -921,8 +921,12 @@ impl<'a> Owner<'a> {
                 .drives
                 .get(job.drive)
                 .is_some_and(|drive| drive.address.is_some());
-            job.delivered =
-                Some(Instant::now() + self.shared.line_time(job.text.len() + 1 + usize::from(address)));
+            job.delivered = Some(
+                Instant::now()
+                    + self
+                        .shared
+                        .line_time(job.text.len() + 1 + usize::from(address)),
+            );
             let answer_bytes = match job.expect {
                 Expect::One => ANSWER_BYTES,
                 Expect::Upload => ANSWER_BYTES * 64,

@@ -452,7 +452,11 @@ fn the_state_is_playing_from_the_first_drives_start_and_counts_from_its_arrival(
                 .filter(|ask| ask.text == "QX1"),
         );
         let status = rig.sequencer.status_at(rig.now_us);
-        assert_eq!(status.state, PlayerState::Playing, "the first drive started");
+        assert_eq!(
+            status.state,
+            PlayerState::Playing,
+            "the first drive started"
+        );
         assert_eq!(
             rig.sequencer.drive().started_us(),
             first_delivered_us,
