@@ -2,10 +2,13 @@
 //! `floatball` binary on each family's simulated matrix: UIM2503 gateways, MBOX boxes,
 //! MOONS' drives started by `QX1` and by a trigger's edge.
 //!
-//! A show moves three balls from rest from its time 0, so the units' time 0 is the
-//! instant the simulated units begin to move: `GET /api/sim/positions` is asked over
-//! and over while Start runs, and the first answer in which a ball moves again after
-//! the approach brackets that instant (between the question before and this answer).
+//! `GET /api/sim/positions` is asked over and over while Start runs. The show moves
+//! three balls from rest along one cubic (100 → 600 mm), so where UIM2503 units and
+//! MBOX boxes follow the show exactly, a ball's position says the units' show time at
+//! each answer, and the units' time 0 is the median of each answer's instant less that
+//! time (its uncertainty: half the time one answer takes). MOONS' drives run the
+//! compiled program, not the cubic: there the units' time 0 is bracketed by the last
+//! answer in which no drive moves after the approach and the first in which one does.
 //! Every `playing` status the WebSocket brings says the show's time 0 is its arrival
 //! less its `show_time_ms`; the offset is that instant less the units' time 0
 //! (positive: the status runs behind the units). Also: how long after the balls began
@@ -51,20 +54,52 @@ fn show() -> Vec<u8> {
     native_show("ramp", 1, 3, units)
 }
 
-/// The families, each with its configuration.
-fn families() -> Vec<(&'static str, String)> {
+/// Where the show's balls are at `s` of its length (0 to 1), mm.
+fn show_mm(s: f64) -> f64 {
+    100.0 + 500.0 * (3.0 * s * s - 2.0 * s * s * s)
+}
+
+/// The share of the show at which its balls are at `position_mm` (the cubic is
+/// monotonic: bisection).
+fn show_share(position_mm: f64) -> f64 {
+    let (mut low, mut high) = (0.0_f64, 1.0_f64);
+    for _ in 0..60 {
+        let middle = (low + high) / 2.0;
+        if show_mm(middle) < position_mm {
+            low = middle;
+        } else {
+            high = middle;
+        }
+    }
+    (low + high) / 2.0
+}
+
+/// How the units' time 0 is found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Clock {
+    /// From the positions along the show's cubic.
+    Curve,
+    /// From the first answer in which a ball moves after the approach.
+    Onset,
+}
+
+/// The families, each with how its time 0 is found and its configuration.
+fn families() -> Vec<(&'static str, Clock, String)> {
     let matrix = "[matrix]\nrows = 1\ncols = 3\n[safety]\napproach_speed_mm_s = 1000.0\n";
     vec![
         (
             "UIM2503, 115200 baud",
+            Clock::Curve,
             format!("{matrix}[[gateway]]\nport = \"sim\"\nbaud = 115200\n"),
         ),
         (
             "MBOX, 20 ms frames",
+            Clock::Curve,
             format!("{matrix}[[gateway]]\nkind = \"mbox\"\nport = \"sim\"\naxes = 3\n"),
         ),
         (
             "MOONS', QX1 over eSCL",
+            Clock::Onset,
             format!(
                 "{matrix}[scl]\npoll_ms = 50\ntolerance_mm = 50.0\n\
                  [[gateway]]\nkind = \"scl\"\nport = \"sim\"\nunits = 3\n"
@@ -72,6 +107,7 @@ fn families() -> Vec<(&'static str, String)> {
         ),
         (
             "MOONS', trigger edge",
+            Clock::Onset,
             format!(
                 "{matrix}[scl]\npoll_ms = 50\ntolerance_mm = 50.0\ntrigger = \"0:2\"\n\
                  [[gateway]]\nkind = \"scl\"\nport = \"sim\"\nunits = 3\n"
@@ -93,19 +129,35 @@ struct Run {
     announced: bool,
 }
 
-/// Whether any simulated ball moves.
-fn moving(positions: &SimPositions) -> bool {
-    positions
+/// Whether any simulated ball moves, and the first ball's position, mm (100 counts
+/// or pulses a mm).
+fn look(positions: &SimPositions) -> (bool, f64) {
+    let moving = positions
         .gateways
         .iter()
         .flat_map(|gateway| &gateway.units)
         .any(|unit| unit.moving)
         || positions.boxes.iter().any(|one| one.moving)
-        || positions.drives.iter().any(|drive| drive.moving)
+        || positions.drives.iter().any(|drive| drive.moving);
+    let counts = positions
+        .gateways
+        .first()
+        .and_then(|gateway| gateway.units.first())
+        .map(|unit| unit.position_counts)
+        .or_else(|| {
+            positions
+                .boxes
+                .first()
+                .and_then(|one| one.positions_pulses.first())
+                .map(|&pulses| f64::from(pulses).abs())
+        })
+        .or_else(|| positions.drives.first().map(|drive| drive.position_counts))
+        .unwrap_or(0.0);
+    (moving, counts / 100.0)
 }
 
 /// Plays the show once on `config`'s matrix.
-async fn run_once(config: &str) -> Run {
+async fn run_once(clock: Clock, config: &str) -> Run {
     let bridge = Process::start(config);
     let token = bridge.prepare_show("ramp", &show(), false).await;
     let mut ws = bridge.ws(&token).await;
@@ -130,21 +182,13 @@ async fn run_once(config: &str) -> Run {
             }
         })
     };
-    // The positions, asked back to back: (asked, answered, moving).
+    // The positions, asked back to back: (asked, answered, moving, first ball mm).
     let mut looks = Vec::new();
     let deadline = Instant::now() + Duration::from_secs(60);
     while !reader.is_finished() && Instant::now() < deadline {
         let asked = Instant::now();
-        let reply = bridge
-            .request(
-                axum::http::Method::GET,
-                "/api/sim/positions",
-                Some(&token),
-                None,
-            )
-            .await;
-        let answered = Instant::now();
-        looks.push((asked, answered, moving(&reply.json())));
+        let (moving, position_mm) = look(&bridge.sim_positions(&token).await);
+        looks.push((asked, Instant::now(), moving, position_mm));
     }
     reader.await.expect("the status reader");
     let statuses = statuses.lock().unwrap().clone();
@@ -156,36 +200,10 @@ async fn run_once(config: &str) -> Run {
     );
     let last = statuses.last().map(|(_, status)| status.clone()).unwrap();
     assert_eq!(last.state, PlayerState::Idle, "{last:?}\n{}", bridge.log());
-    // The approach ends before the show: the last status that was not yet `loading`
-    // or `playing`, then the balls at rest, then moving again.
-    let before_show = statuses
-        .iter()
-        .rev()
-        .find(|(_, status)| {
-            !matches!(
-                status.state,
-                PlayerState::Loading | PlayerState::Playing | PlayerState::Idle
-            )
-        })
-        .map(|(at, _)| *at)
-        .expect("an approach before the show");
-    let mut at_rest = false;
-    let mut units_start = None;
-    for (index, &(asked, answered, moving)) in looks.iter().enumerate() {
-        if asked < before_show {
-            continue;
-        }
-        if !moving {
-            at_rest = true;
-        } else if at_rest {
-            let since = index.checked_sub(1).map_or(asked, |before| looks[before].0);
-            units_start = Some((since, answered));
-            break;
-        }
-    }
-    let (since, until) = units_start.expect("the balls began to move after the approach");
-    // The units' time 0 is within [since, until]: its middle, ± half the bracket.
-    let units_t0 = since + (until - since) / 2;
+    let (units_t0, uncertainty) = match clock {
+        Clock::Curve => from_curve(&looks),
+        Clock::Onset => from_onset(&looks, &statuses),
+    };
     let ms = |later: Instant, earlier: Instant| {
         if later >= earlier {
             (later - earlier).as_secs_f64() * 1e3
@@ -194,7 +212,7 @@ async fn run_once(config: &str) -> Run {
         }
     };
     let mut run = Run {
-        bracket_ms: ms(until, since),
+        bracket_ms: uncertainty.as_secs_f64() * 1e3,
         ..Run::default()
     };
     for (arrived, status) in &statuses {
@@ -217,6 +235,57 @@ async fn run_once(config: &str) -> Run {
     run
 }
 
+/// An answer: asked, answered, some ball moving, the first ball's position (mm).
+type Look = (Instant, Instant, bool, f64);
+
+/// The units' time 0 from the answers along the show's cubic, and its uncertainty:
+/// the median of each answer's middle less the show time its position says.
+fn from_curve(looks: &[Look]) -> (Instant, Duration) {
+    let show = Duration::from_millis(SHOW_MS);
+    let mut starts: Vec<(Instant, Duration)> = looks
+        .iter()
+        .filter(|(_, _, _, mm)| *mm > show_mm(0.02) && *mm < show_mm(0.98))
+        .map(|&(asked, answered, _, mm)| {
+            let middle = asked + (answered - asked) / 2;
+            (middle - show.mul_f64(show_share(mm)), (answered - asked) / 2)
+        })
+        .collect();
+    assert!(starts.len() >= 5, "only {} answers along the show", starts.len());
+    starts.sort();
+    starts[starts.len() / 2]
+}
+
+/// The units' time 0 from the first answer in which a ball moves after the approach
+/// (the last status before `loading` or `playing`), and half its bracket.
+fn from_onset(
+    looks: &[Look],
+    statuses: &[(Instant, floatball_shared::api::Status)],
+) -> (Instant, Duration) {
+    let before_show = statuses
+        .iter()
+        .rev()
+        .find(|(_, status)| {
+            !matches!(
+                status.state,
+                PlayerState::Loading | PlayerState::Playing | PlayerState::Idle
+            )
+        })
+        .map(|(at, _)| *at)
+        .expect("an approach before the show");
+    let mut at_rest = None;
+    for &(asked, answered, moving, _) in looks {
+        if asked < before_show {
+            continue;
+        }
+        if !moving {
+            at_rest = Some(asked);
+        } else if let Some(since) = at_rest {
+            return (since + (answered - since) / 2, (answered - since) / 2);
+        }
+    }
+    panic!("the balls did not begin to move after the approach");
+}
+
 /// The `q` quantile of sorted `values`.
 fn quantile(values: &[f64], q: f64) -> f64 {
     let index = ((values.len() - 1) as f64 * q).round() as usize;
@@ -234,15 +303,15 @@ async fn the_status_clock_follows_the_units_on_every_family() {
     );
     println!(
         "{:<24} {:>8} {:>8} {:>8} {:>8} {:>14} {:>10} {:>9}",
-        "family", "p50", "p99", "max |x|", "statuses", "playing after", "bracket", "announced"
+        "family", "p50", "p99", "max |x|", "statuses", "playing after", "± t0", "announced"
     );
-    for (name, config) in families() {
+    for (name, clock, config) in families() {
         let mut offsets = Vec::new();
         let mut playing_after = Vec::new();
         let mut brackets = Vec::new();
         let mut announced = 0;
         for _ in 0..runs {
-            let run = run_once(&config).await;
+            let run = run_once(clock, &config).await;
             offsets.extend(run.offsets_ms);
             playing_after.push(run.playing_after_ms);
             brackets.push(run.bracket_ms);
