@@ -247,10 +247,17 @@ fn from_curve(looks: &[Look]) -> (Instant, Duration) {
         .filter(|(_, _, _, mm)| *mm > show_mm(0.02) && *mm < show_mm(0.98))
         .map(|&(asked, answered, _, mm)| {
             let middle = asked + (answered - asked) / 2;
-            (middle - show.mul_f64(show_share(mm)), (answered - asked) / 2)
+            (
+                middle - show.mul_f64(show_share(mm)),
+                (answered - asked) / 2,
+            )
         })
         .collect();
-    assert!(starts.len() >= 5, "only {} answers along the show", starts.len());
+    assert!(
+        starts.len() >= 5,
+        "only {} answers along the show",
+        starts.len()
+    );
     starts.sort();
     starts[starts.len() / 2]
 }
