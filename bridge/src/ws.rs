@@ -61,7 +61,7 @@ use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade, close_
 use axum::extract::{Query, State};
 use axum::http::{HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
-use floatball_shared::api::{ClientMessage, FeedbackFrame, ServerMessage};
+use floatball_shared::api::{ClientMessage, FeedbackFrame, PlayerState, ServerMessage, Status};
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::mbox::console::{self as mbox_console, Operation};
 use floatball_shared::mbox::{BoxAddress, Route};
@@ -316,6 +316,31 @@ async fn send_replies(
 type Sink = futures_util::stream::SplitSink<WebSocket, Message>;
 type Stream = futures_util::stream::SplitStream<WebSocket>;
 
+/// A status made `age` ago, as it stands when it is sent: a show's time runs on
+/// the units' clock, so a status held back for the client's rate is brought to the
+/// instant it goes (issue 34, item 5: the show's time a client sees is the units'
+/// within a few milliseconds, not up to a status period behind). Nothing else in it
+/// changes with time alone; a show's end is left to the next status.
+fn as_sent(mut status: Status, age: Duration) -> Status {
+    let age_ms = u64::try_from(age.as_millis()).unwrap_or(u64::MAX);
+    match status.state {
+        PlayerState::Playing => {
+            let show_time_ms = status.show_time_ms.saturating_add(age_ms);
+            if show_time_ms < status.show_duration_ms {
+                status.show_time_ms = show_time_ms;
+                status.progress = show_time_ms as f64 / status.show_duration_ms as f64;
+            }
+        }
+        PlayerState::Loading => {
+            if let Some(starts_in_ms) = &mut status.show_starts_in_ms {
+                *starts_in_ms = starts_in_ms.saturating_sub(age_ms);
+            }
+        }
+        _ => {}
+    }
+    status
+}
+
 /// One client's session: a reading half that acts on every message the moment it
 /// arrives (so an `estop` is pressed even while the writing half waits for a slow
 /// client to take a status), and a writing half that sends statuses, feedback and
@@ -346,12 +371,17 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
         },
     ));
     let _stop_reading = AbortOnDrop(reader);
-    let first = ServerMessage::Status(status.borrow_and_update().clone());
+    let first = status.borrow_and_update().clone();
+    let mut sent_state = first.state;
+    let first = ServerMessage::Status(first);
     if send(&mut sink, &first).await.is_err() {
         return;
     }
     let status_interval = Duration::from_secs(1) / STATUS_PER_S;
     let mut status_sent_at = Instant::now();
+    // When the latest status was made: the playback task publishes each the instant
+    // it builds it, and this half learns of it at once.
+    let mut status_made = Instant::now();
     let mut status_pending = false;
     let mut token_check = tokio::time::interval(TOKEN_CHECK_INTERVAL);
     let mut stopping = state.stopping();
@@ -369,18 +399,32 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
                     .await;
                 Step::Close
             }
-            changed = status.changed(), if !status_pending => {
+            changed = status.changed() => {
                 if changed.is_err() {
                     Step::Close
                 } else {
-                    status_pending = true;
-                    Step::Continue
+                    // Seen (the next change wakes this again); sent within the rate,
+                    // but a new state at once (`playing` as the balls start).
+                    let state = status.borrow_and_update().state;
+                    status_made = Instant::now();
+                    if state == sent_state {
+                        status_pending = true;
+                        Step::Continue
+                    } else {
+                        status_pending = false;
+                        status_sent_at = Instant::now();
+                        sent_state = state;
+                        let latest = status.borrow().clone();
+                        sent(send(&mut sink, &ServerMessage::Status(latest)).await)
+                    }
                 }
             }
             () = tokio::time::sleep_until(status_sent_at + status_interval), if status_pending => {
                 status_pending = false;
                 status_sent_at = Instant::now();
-                let message = ServerMessage::Status(status.borrow_and_update().clone());
+                let latest = status.borrow().clone();
+                sent_state = latest.state;
+                let message = ServerMessage::Status(as_sent(latest, status_made.elapsed()));
                 sent(send(&mut sink, &message).await)
             }
             changed = relay_wanted.changed() => {
@@ -886,5 +930,39 @@ mod tests {
             matches!(outbox.next(), Next::Reply(reply) if matches!(*reply, ServerMessage::EstopSent { .. }))
         );
         assert!(matches!(outbox.next(), Next::Flooded));
+    }
+
+    #[test]
+    fn a_status_held_back_is_brought_to_the_instant_it_is_sent() {
+        let playing = Status {
+            state: PlayerState::Playing,
+            show_time_ms: 1_000,
+            show_duration_ms: 4_000,
+            progress: 0.25,
+            ..Status::default()
+        };
+        let sent = as_sent(playing.clone(), Duration::from_millis(18));
+        assert_eq!(sent.show_time_ms, 1_018);
+        assert!((sent.progress - 1_018.0 / 4_000.0).abs() < 1e-12);
+        // Never past the show's end: that is the next status's to say.
+        let late = as_sent(
+            Status {
+                show_time_ms: 3_995,
+                ..playing
+            },
+            Duration::from_millis(18),
+        );
+        assert_eq!(late.show_time_ms, 3_995);
+        let given = Status {
+            state: PlayerState::Loading,
+            show_starts_in_ms: Some(30),
+            ..Status::default()
+        };
+        assert_eq!(
+            as_sent(given, Duration::from_millis(12)).show_starts_in_ms,
+            Some(18)
+        );
+        let idle = Status::default();
+        assert_eq!(as_sent(idle.clone(), Duration::from_millis(50)), idle);
     }
 }

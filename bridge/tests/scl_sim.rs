@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use common::process::{Process, links_up};
 use common::{Ws, native_show, send_text, until};
-use floatball_shared::api::{PlanReport, PlayerState, SimDrive, SimPositions};
+use floatball_shared::api::{PlanReport, PlayerState, SimDrive};
 
 /// Ball `ball`'s end position, mm.
 fn end_mm(ball: usize) -> f64 {
@@ -47,16 +47,7 @@ async fn operator(bridge: &Process) -> (Ws, String) {
 }
 
 async fn drives(bridge: &Process, token: &str) -> Vec<SimDrive> {
-    let reply = bridge
-        .request(
-            axum::http::Method::GET,
-            "/api/sim/positions",
-            Some(token),
-            None,
-        )
-        .await;
-    let positions: SimPositions = reply.json();
-    positions.drives
+    bridge.sim_positions(token).await.drives
 }
 
 /// Start plays the show to its end; every drive stored its program, was started

@@ -119,11 +119,19 @@ async fn status_is_sent_at_most_ten_times_a_second_and_the_latest_wins() {
     send_text(&mut ws, r#"{"type":"home"}"#).await;
     let started = Instant::now();
     let mut received = 0;
+    // A new state goes out at once, beside the rate.
+    let mut states = 0;
+    let mut last_state = None;
     let mut homed = false;
     while started.elapsed() < Duration::from_secs(60) {
         match next_message(&mut ws).await {
             ServerMessage::Status(status) => {
-                received += 1;
+                if last_state == Some(status.state) {
+                    received += 1;
+                } else {
+                    states += 1;
+                }
+                last_state = Some(status.state);
                 if status.state == PlayerState::Homing {
                     homed = true;
                 }
@@ -141,8 +149,9 @@ async fn status_is_sent_at_most_ten_times_a_second_and_the_latest_wins() {
     let allowed = (elapsed_s * 10.0).ceil() as usize + 1;
     assert!(
         received <= allowed,
-        "{received} statuses in {elapsed_s:.2} s (at most {allowed})"
+        "{received} statuses without a new state in {elapsed_s:.2} s (at most {allowed})"
     );
+    assert!(states >= 2, "every new state is sent: {states}");
     assert!(
         received >= 2,
         "changes are sent while they happen: {received}"

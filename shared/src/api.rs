@@ -1071,8 +1071,13 @@ pub struct Status {
     /// Name of the show being played, if any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub show: Option<String>,
-    /// Time into the show, ms.
+    /// Time into the show, ms: the units' own show time at the instant the status was
+    /// made (0 until they start).
     pub show_time_ms: u64,
+    /// While `loading` a show whose common start is already given: the units start
+    /// this many ms after the status was made (the state turns `playing` then).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub show_starts_in_ms: Option<u64>,
     /// Length of the show, ms (0 when none).
     pub show_duration_ms: u64,
     /// Which cycle of the entry is playing (1-based; 0 when none).

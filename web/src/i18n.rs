@@ -699,6 +699,15 @@ impl Lang {
         self.coded(error.code().as_str(), &error.params(), &error.to_string())
     }
 
+    /// A show's given start, `ms` from now: `Starting in 0.1 s`.
+    pub fn starting_in(self, ms: u64) -> String {
+        let seconds = ms as f64 / 1_000.0;
+        match self {
+            Lang::Zh => format!("{seconds:.1} 秒后开始"),
+            Lang::En => format!("Starting in {seconds:.1} s"),
+        }
+    }
+
     /// Why a show file cannot be read or is refused, as the preview says it: the
     /// parser's problem (with its line and column) when the file does not read.
     pub fn refused(self, refused: &floatball_shared::show::Refused) -> String {

@@ -222,6 +222,15 @@ pub fn homing_text(lang: Lang, status: &Status) -> Option<String> {
     })
 }
 
+/// `Starting in 0.1 s` while `loading` a show whose start is given for an instant
+/// (`show_starts_in_ms`), else `None`.
+pub fn starting_text(lang: Lang, status: &Status) -> Option<String> {
+    status
+        .show_starts_in_ms
+        .filter(|_| status.state == PlayerState::Loading)
+        .map(|ms| lang.starting_in(ms))
+}
+
 /// The progress of the current phase, clamped to 0.0–1.0 (0 for nonsense).
 pub fn progress(status: &Status) -> f64 {
     if status.progress.is_finite() {
@@ -478,5 +487,26 @@ mod tests {
             homing_text(Lang::Zh, &status).as_deref(),
             Some("回原点中… 42 %")
         );
+        assert_eq!(starting_text(Lang::En, &status), None);
+    }
+
+    #[test]
+    fn a_given_start_counts_down_while_loading() {
+        let mut status = Status {
+            state: PlayerState::Loading,
+            show: Some("wave".into()),
+            show_starts_in_ms: Some(80),
+            ..Status::default()
+        };
+        assert_eq!(
+            starting_text(Lang::En, &status).as_deref(),
+            Some("Starting in 0.1 s")
+        );
+        assert_eq!(
+            starting_text(Lang::Zh, &status).as_deref(),
+            Some("0.1 秒后开始")
+        );
+        status.state = PlayerState::Playing;
+        assert_eq!(starting_text(Lang::En, &status), None);
     }
 }

@@ -94,6 +94,7 @@ mod tests {
             entry: Some(0),
             show: Some("wave".into()),
             show_time_ms: 0,
+            show_starts_in_ms: None,
             show_duration_ms: 8000,
             cycle: 0,
             progress: 0.0,

@@ -38,6 +38,7 @@ mod scale_bench;
 mod scl_bench;
 mod stages;
 mod startup_bench;
+mod status_clock;
 mod stress;
 mod tools;
 
@@ -95,6 +96,10 @@ commands:
          to the WebSocket's estop_sent and to the complete show list, with the show
          index kept and removed
          options: --library-mb N (default 1024)  --runs R (default 5)
+  status-clock  play a short show on each family's simulated matrix (UIM2503, MBOX,
+         MOONS' by QX1 and by trigger); print the offset of the status's show time
+         from the units' own p50/p99/max and how late `playing` arrived
+         options: --runs N (default 10)
 ";
 
 fn main() -> ExitCode {
@@ -114,6 +119,7 @@ fn main() -> ExitCode {
         Some("load-bench") => load_bench::load_bench(&args[1..]),
         Some("create-bench") => create_bench::create_bench(&args[1..]),
         Some("startup-bench") => startup_bench::startup_bench(&args[1..]),
+        Some("status-clock") => status_clock::status_clock(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())

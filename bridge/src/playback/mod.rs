@@ -402,7 +402,8 @@ impl Playback {
     ) -> Self {
         let (requests, inbox) = mpsc::unbounded_channel();
         let (list_tx, list) = watch::channel(Listed::default());
-        let (status_tx, status) = watch::channel(sequenced::status(&sequencer, &family, &list_tx));
+        let (status_tx, status) =
+            watch::channel(sequenced::status(&sequencer, 0, &family, &list_tx));
         let started = Self {
             sequenced: prepare,
             ..Self::started(requests, (status, list), installation, latch)

@@ -26,8 +26,9 @@ use crate::ports::scl::program::{
     DriveRef, Uncompilable, compile_show, drives_of, qprogram_config,
 };
 
-/// An answer: the request's id, and its lines or why there are none.
-pub type Answer = (u64, Result<Vec<String>, String>);
+/// An answer: the request's id, its lines or why there are none, and when the request
+/// reached its drive (µs on the task's clock), if it was sent.
+pub type Answer = (u64, Result<Vec<String>, String>, Option<u64>);
 
 /// The drives of an installation, as a family.
 #[derive(Debug)]
@@ -108,7 +109,7 @@ impl Family for SclFamily {
     fn carry_out(
         &mut self,
         drive: &mut SclDrive,
-        _epoch: Instant,
+        epoch: Instant,
         generation: u64,
         inputs: &mpsc::UnboundedSender<Answer>,
     ) {
@@ -116,20 +117,33 @@ impl Family for SclFamily {
             let net = self.net.clone();
             let inputs = inputs.clone();
             tokio::spawn(async move {
-                let answer = match net.links().get(ask.gateway) {
-                    Some(link) => link
-                        .request(ask.drive, ask.text, ask.expect, generation)
-                        .await
-                        .map_err(|error| error.to_string()),
-                    None => Err(format!("there is no SCL gateway {}", ask.gateway)),
+                let (answer, delivered) = match net.links().get(ask.gateway) {
+                    Some(link) => {
+                        let (answer, delivered) = link
+                            .request_delivered(ask.drive, ask.text, ask.expect, generation)
+                            .await;
+                        (answer.map_err(|error| error.to_string()), delivered)
+                    }
+                    None => (
+                        Err(format!("there is no SCL gateway {}", ask.gateway)),
+                        None,
+                    ),
                 };
-                let _ = inputs.send((ask.id, answer));
+                let delivered_us = delivered.map(|at| {
+                    u64::try_from(at.saturating_duration_since(epoch).as_micros())
+                        .unwrap_or(u64::MAX)
+                });
+                let _ = inputs.send((ask.id, answer, delivered_us));
             });
         }
     }
 
-    fn apply(sequencer: &mut Sequencer<SclDrive>, now_us: u64, (id, answer): Answer) {
-        sequencer.drive_mut().answer(now_us, id, answer);
+    fn apply(sequencer: &mut Sequencer<SclDrive>, now_us: u64, (id, answer, delivered_us): Answer) {
+        let drive = sequencer.drive_mut();
+        if let Some(delivered_us) = delivered_us {
+            drive.delivered(id, delivered_us);
+        }
+        drive.answer(now_us, id, answer);
     }
 
     fn reconfigure(

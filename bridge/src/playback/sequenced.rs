@@ -128,13 +128,15 @@ pub(super) const INPUTS_PER_TURN: usize = 1024;
 /// the task. The clients read it ten times a second at most.
 pub(super) const STATUS_PERIOD: Duration = Duration::from_millis(20);
 
-/// The status: the sequencer's, with every gateway's.
+/// The status at `now_us`: the sequencer's (a show's time on the units' clock at that
+/// instant), with every gateway's.
 pub(super) fn status<F: Family>(
     sequencer: &Sequencer<F::Drive>,
+    now_us: u64,
     family: &F,
     list: &watch::Sender<Listed>,
 ) -> Status {
-    let mut status = sequencer.status();
+    let mut status = sequencer.status_at(now_us);
     (status.gateways, status.gateway_summary) = summarise(family.statuses(sequencer.drive()), list);
     status
 }
@@ -250,6 +252,11 @@ pub(super) async fn run<F: Family>(
             .unwrap_or(now + 100_000)
             .min(now + 100_000);
         let mut sleep_until = epoch + Duration::from_micros(wake_us.saturating_sub(lead_us));
+        // A show's given start turns the state `playing` on the clock alone: the
+        // status goes out at that instant (not ahead by the lead).
+        if let Some(change_us) = sequencer.next_state_change_us(now) {
+            sleep_until = sleep_until.min(epoch + Duration::from_micros(change_us));
+        }
         if let Some(due) = Instant::now().checked_add(publisher.due_in()) {
             sleep_until = sleep_until.min(due);
         }
@@ -284,7 +291,7 @@ pub(super) async fn run<F: Family>(
             urgent = true;
         }
         if let Some(Request::Reconfigure(change)) = request {
-            let state = sequencer.status().state;
+            let state = sequencer.state_at(now_us());
             let result = idle_for_reconfigure(state, sequencer.is_running())
                 .and_then(|()| family.reconfigure(&change, &inputs_tx))
                 .map(|drive| sequencer = Sequencer::new(drive));
@@ -337,8 +344,9 @@ pub(super) async fn run<F: Family>(
         arming
             .disarms
             .store(sequencer.drive().disarms(), Ordering::Release);
-        if publisher.due(urgent, sequencer.status().state) {
-            publish(&status_tx, status(&sequencer, &family, &list));
+        let now = now_us();
+        if publisher.due(urgent, sequencer.state_at(now)) {
+            publish(&status_tx, status(&sequencer, now, &family, &list));
         }
     }
 }

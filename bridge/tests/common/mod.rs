@@ -178,6 +178,15 @@ impl Remote {
         .await
     }
 
+    /// `GET /api/sim/positions`: every simulated unit, box and drive as it is now.
+    pub async fn sim_positions(&self, token: &str) -> floatball_shared::api::SimPositions {
+        let reply = self
+            .request(Method::GET, "/api/sim/positions", Some(token), None)
+            .await;
+        assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+        reply.json()
+    }
+
     /// Sends a request from a chosen loopback address with extra headers.
     pub async fn request_from(
         &self,

@@ -337,8 +337,11 @@ impl Drive for MboxDrive {
         self.progress
     }
 
-    fn show_time_ms(&self) -> u64 {
-        self.show_time_ms
+    fn show_start_us(&self) -> Option<u64> {
+        match self.step {
+            Step::Playing { start_us, .. } => Some(start_us),
+            _ => None,
+        }
     }
 
     fn stop(&mut self) {

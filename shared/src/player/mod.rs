@@ -118,16 +118,21 @@ pub trait Drive {
         None
     }
 
-    /// How far the step under way is, 0 to 1.
+    /// How far a move or a load under way is, 0 to 1 (a show's progress is the
+    /// sequencer's, from its clock).
     fn progress(&self) -> f64;
 
-    /// The show's time while it plays, ms.
-    fn show_time_ms(&self) -> u64;
+    /// **The units' clock**: once a show was begun, when the units' show time 0 is on
+    /// the caller's clock, µs — as soon as the drive knows it, which may be ahead of
+    /// time (a start given for a set instant). `None` until then. The status counts
+    /// the show's time from it and says `playing` from that instant on, `loading`
+    /// before (with the time left, [`Status::show_starts_in_ms`]).
+    fn show_start_us(&self) -> Option<u64>;
 
-    /// Whether the units were started, once a show was begun: until then the status
-    /// says `loading` (the start is being given), not `playing`.
-    fn has_started(&self) -> bool {
-        true
+    /// Whether the units repeat the show on their own (a table looping on the units):
+    /// the show's time then starts over at each length.
+    fn show_repeats(&self) -> bool {
+        false
     }
 
     /// The e-stop (or a failure): drop what is queued; positions become unknown.
@@ -179,6 +184,17 @@ enum AfterMove {
     Rest,
 }
 
+/// A show's clock at an instant ([`Sequencer::status_at`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum ShowClock {
+    /// The drive has not given the start yet.
+    NotGiven,
+    /// The start is given: the units start this many µs from now.
+    Given { starts_in_us: u64 },
+    /// The units play: their show time, and the share of the show behind them.
+    Running { show_time_ms: u64, progress: f64 },
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Step {
     Idle,
@@ -202,7 +218,8 @@ pub struct Sequencer<D: Drive> {
     /// The balls' positions are unknown: the next Start homes first.
     needs_home: bool,
     last_error: Option<String>,
-    show_time_ms: u64,
+    /// The latest time the sequencer was given, µs ([`Sequencer::status`]).
+    now_us: u64,
     progress: f64,
     /// The sequencer failed on its own: the caller must press the e-stop.
     estop_wanted: bool,
@@ -220,7 +237,7 @@ impl<D: Drive> Sequencer<D> {
             step: Step::Idle,
             needs_home: true,
             last_error: None,
-            show_time_ms: 0,
+            now_us: 0,
             progress: 0.0,
             estop_wanted: false,
         }
@@ -236,10 +253,18 @@ impl<D: Drive> Sequencer<D> {
         &mut self.drive
     }
 
-    /// The playlist's state as the status shows it (the caller adds the links).
+    /// The playlist's state as the status shows it (the caller adds the links), at the
+    /// latest time the sequencer was given; [`Sequencer::status_at`] for another.
     #[must_use]
     pub fn status(&self) -> Status {
-        let state = match self.step {
+        self.status_at(self.now_us)
+    }
+
+    /// The state at `now_us` alone ([`Sequencer::status_at`]'s, without building the
+    /// rest).
+    #[must_use]
+    pub fn state_at(&self, now_us: u64) -> PlayerState {
+        match self.step {
             Step::Idle => PlayerState::Idle,
             Step::Waiting { .. } => PlayerState::Waiting,
             Step::Moving {
@@ -251,11 +276,21 @@ impl<D: Drive> Sequencer<D> {
                 ..
             } => PlayerState::Homing,
             Step::Loading => PlayerState::Loading,
-            Step::Playing if !self.drive.has_started() => PlayerState::Loading,
-            Step::Playing => PlayerState::Playing,
+            Step::Playing => match self.show_clock(now_us) {
+                ShowClock::Running { .. } => PlayerState::Playing,
+                ShowClock::Given { .. } | ShowClock::NotGiven => PlayerState::Loading,
+            },
             Step::Stopped => PlayerState::Stopped,
             Step::Failed => PlayerState::Error,
-        };
+        }
+    }
+
+    /// The playlist's state as the status shows it at `now_us` (the caller adds the
+    /// links): while a show plays, its time is the units' clock at `now_us`
+    /// ([`Drive::show_start_us`]), so a status is as exact as the instant it is made.
+    #[must_use]
+    pub fn status_at(&self, now_us: u64) -> Status {
+        let state = self.state_at(now_us);
         let homing_to_rest = matches!(
             self.step,
             Step::Moving {
@@ -265,17 +300,71 @@ impl<D: Drive> Sequencer<D> {
         );
         let active = self.is_running() && !homing_to_rest;
         let entry = active.then(|| self.entries.get(self.entry)).flatten();
+        let (show_time_ms, progress, starts_in_ms) = match self.step {
+            Step::Playing => match self.show_clock(now_us) {
+                ShowClock::Running {
+                    show_time_ms,
+                    progress,
+                } => (show_time_ms, progress, None),
+                ShowClock::Given { starts_in_us } => (0, 0.0, Some(starts_in_us.div_ceil(1_000))),
+                ShowClock::NotGiven => (0, 0.0, None),
+            },
+            _ => (0, self.progress, None),
+        };
         let mut status = PlaylistProgress {
             state,
             playing: entry.map(|run| (self.entry, run.name.clone(), run.duration_ms)),
-            show_time_ms: self.show_time_ms,
+            show_time_ms,
+            starts_in_ms,
             cycle: self.cycle,
-            progress: self.progress,
+            progress,
             last_error: self.last_error.clone(),
         }
         .status();
         status.armed = self.drive.armed();
         status
+    }
+
+    /// The show's clock at `now_us`: the units' show time and the progress once they
+    /// started, or how long until they start.
+    fn show_clock(&self, now_us: u64) -> ShowClock {
+        let Some(start_us) = self.drive.show_start_us() else {
+            return ShowClock::NotGiven;
+        };
+        if now_us < start_us {
+            return ShowClock::Given {
+                starts_in_us: start_us - now_us,
+            };
+        }
+        let duration_ms = self
+            .entries
+            .get(self.entry)
+            .map_or(0, |run| run.duration_ms);
+        let elapsed_ms = (now_us - start_us) / 1_000;
+        let show_time_ms = if self.drive.show_repeats() && duration_ms > 0 {
+            elapsed_ms % duration_ms
+        } else {
+            elapsed_ms.min(duration_ms)
+        };
+        let progress = if duration_ms == 0 {
+            1.0
+        } else {
+            show_time_ms as f64 / duration_ms as f64
+        };
+        ShowClock::Running {
+            show_time_ms,
+            progress,
+        }
+    }
+
+    /// When the state changes on the clock alone — a show's given start — µs: the
+    /// caller publishes the status then.
+    #[must_use]
+    pub fn next_state_change_us(&self, now_us: u64) -> Option<u64> {
+        match (self.step, self.drive.show_start_us()) {
+            (Step::Playing, Some(start_us)) if start_us > now_us => Some(start_us),
+            _ => None,
+        }
     }
 
     /// Whether a playlist (or a homing move) is under way.
@@ -323,8 +412,13 @@ impl<D: Drive> Sequencer<D> {
                     .map_or(until_us, |wake_us| wake_us.min(until_us))
                     .max(now_us),
             ),
-            Step::Moving { .. } | Step::Loading | Step::Playing => {
-                self.drive.next_wakeup_us(now_us)
+            Step::Moving { .. } | Step::Loading => self.drive.next_wakeup_us(now_us),
+            Step::Playing => {
+                let drive = self.drive.next_wakeup_us(now_us);
+                match (drive, self.next_state_change_us(now_us)) {
+                    (Some(a), Some(b)) => Some(a.min(b)),
+                    (a, b) => a.or(b),
+                }
             }
         }
     }
@@ -341,6 +435,7 @@ impl<D: Drive> Sequencer<D> {
         entries: Vec<Run<D::Entry>>,
         loop_playlist: bool,
     ) -> Result<(), StartError> {
+        self.now_us = self.now_us.max(now_us);
         if self.is_running() {
             return Err(StartError::Busy);
         }
@@ -394,6 +489,7 @@ impl<D: Drive> Sequencer<D> {
 
     /// Home (the caller sent the stop first): stops, brings every ball home and rests.
     pub fn home(&mut self, now_us: u64) {
+        self.now_us = self.now_us.max(now_us);
         self.estop();
         self.last_error = None;
         self.drive.begin_run(now_us, None);
@@ -445,6 +541,7 @@ impl<D: Drive> Sequencer<D> {
     /// the drive once in the step under way, moving on when it is over; while idle,
     /// lets the drive arm ([`Drive::poll_idle`]).
     pub fn poll(&mut self, now_us: u64) {
+        self.now_us = self.now_us.max(now_us);
         if self.is_idle() {
             self.drive.poll_idle(now_us);
             return;
@@ -489,9 +586,8 @@ impl<D: Drive> Sequencer<D> {
         if !self.in_drive_step() {
             return;
         }
-        self.progress = self.drive.progress();
-        if self.step == Step::Playing {
-            self.show_time_ms = self.drive.show_time_ms();
+        if self.step != Step::Playing {
+            self.progress = self.drive.progress();
         }
         match phase {
             Phase::Pending => {}
@@ -541,7 +637,6 @@ impl<D: Drive> Sequencer<D> {
     fn begin_entry(&mut self, now_us: u64, entry: usize) {
         self.entry = entry;
         self.cycle = 1;
-        self.show_time_ms = 0;
         self.progress = 0.0;
         let delay_us = self
             .entries
@@ -560,7 +655,6 @@ impl<D: Drive> Sequencer<D> {
         let Some(run) = self.entries.get_mut(self.entry) else {
             return;
         };
-        self.show_time_ms = 0;
         self.step = Step::Moving {
             kind: MoveKind::Approach,
             after: AfterMove::Play,
@@ -604,7 +698,6 @@ impl<D: Drive> Sequencer<D> {
         let Some(run) = self.entries.get_mut(self.entry) else {
             return;
         };
-        self.show_time_ms = 0;
         self.progress = 0.0;
         self.step = Step::Playing;
         self.drive.begin_play(now_us, &mut run.prepared, last);

@@ -15,6 +15,8 @@ pub(crate) struct PlaylistProgress {
     /// entry is (idle, stopped, homing to rest).
     pub(crate) playing: Option<(usize, String, u64)>,
     pub(crate) show_time_ms: u64,
+    /// The show's start is given and comes in this many ms.
+    pub(crate) starts_in_ms: Option<u64>,
     pub(crate) cycle: u32,
     pub(crate) progress: f64,
     pub(crate) last_error: Option<String>,
@@ -38,6 +40,7 @@ impl PlaylistProgress {
             entry,
             show,
             show_time_ms: if counting { self.show_time_ms } else { 0 },
+            show_starts_in_ms: self.starts_in_ms.filter(|_| playing),
             show_duration_ms,
             cycle: if playing { self.cycle } else { 0 },
             progress: self.progress,

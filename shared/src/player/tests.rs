@@ -16,12 +16,17 @@ struct Timed {
     fails_at: Option<&'static str>,
     current: &'static str,
     log: Vec<String>,
+    /// A show's units start this long after its play step begins, µs.
+    start_lead_us: u64,
+    /// When the show under way starts on the units, µs.
+    show_start_us: Option<u64>,
 }
 
 impl Timed {
     fn begin(&mut self, now_us: u64, what: &'static str, detail: String) {
         self.log.push(format!("{now_us} {what}{detail}"));
         self.current = what;
+        self.show_start_us = (what == "play").then_some(now_us + self.start_lead_us);
         self.ends_us = Some(now_us + self.step_us);
     }
 }
@@ -83,8 +88,8 @@ impl Drive for Timed {
         0.5
     }
 
-    fn show_time_ms(&self) -> u64 {
-        7
+    fn show_start_us(&self) -> Option<u64> {
+        self.show_start_us
     }
 
     fn stop(&mut self) {
@@ -288,6 +293,43 @@ fn the_status_counts_show_time_only_while_playing() {
     sequencer.poll(250);
     let status = sequencer.status();
     assert_eq!(status.state, PlayerState::Playing);
-    assert_eq!((status.show_time_ms, status.show_duration_ms), (7, 1_000));
-    assert_eq!(status.progress, 0.5);
+    assert_eq!((status.show_time_ms, status.show_duration_ms), (0, 1_000));
+    assert_eq!(status.progress, 0.0);
+}
+
+/// Issue 34, item 5: the status counts the show on the units' clock, at the instant it
+/// is made, and says `playing` from the instant the units start — announced ahead
+/// while the start is given.
+#[test]
+fn the_status_clock_is_the_units_clock_at_the_instant_it_is_made() {
+    let mut sequencer = Sequencer::new(Timed {
+        step_us: 5_000_000,
+        start_lead_us: 30_000,
+        ..Timed::default()
+    });
+    sequencer.start(0, vec![run("a", 0, 1)], false).unwrap();
+    // Home 0–5 s, approach 5–10 s, play from 10 s: the units start 30 ms later.
+    run_until(&mut sequencer, 0, 10_000_000);
+    assert_eq!(
+        sequencer.drive().log.last().unwrap(),
+        "10000000 play a last"
+    );
+    let given = sequencer.status_at(10_010_000);
+    assert_eq!(given.state, PlayerState::Loading);
+    assert_eq!(given.show_starts_in_ms, Some(20));
+    assert_eq!(given.show_time_ms, 0);
+    assert_eq!(sequencer.state_at(10_029_999), PlayerState::Loading);
+    // The start is a wake-up of its own: the status goes out then.
+    assert_eq!(sequencer.next_wakeup_us(10_010_000), Some(10_030_000));
+    assert_eq!(sequencer.next_state_change_us(10_010_000), Some(10_030_000));
+    assert_eq!(sequencer.state_at(10_030_000), PlayerState::Playing);
+    // Between polls, a status is exact to its own instant.
+    let playing = sequencer.status_at(10_030_000 + 567_890);
+    assert_eq!(playing.state, PlayerState::Playing);
+    assert_eq!(playing.show_time_ms, 567);
+    assert_eq!(playing.show_starts_in_ms, None);
+    assert!((playing.progress - 0.567).abs() < 1e-9);
+    assert_eq!(sequencer.next_state_change_us(10_030_000), None);
+    // Never past the show's length.
+    assert_eq!(sequencer.status_at(12_000_000).show_time_ms, 1_000);
 }

@@ -22,9 +22,11 @@
 //!   then read back with `QU` and compared;
 //! - **play**: `QX1` to every drive (lanes by line); with a trigger, then the trigger
 //!   output low, 100 ms, high (every program waits for that edge); the show's time 0
-//!   is when the first `QX1` went (or the trigger went low), and the show plays (the
-//!   status says `playing`) once every drive was started; then the show's length,
-//!   and `SC` to each drive until no program runs and no motor moves (at most 10 s).
+//!   ([`Drive::show_start_us`]) is when the first `QX1` reached its drive (or the
+//!   trigger's `SO…L` reached the trigger drive: the edge), as the caller says with
+//!   [`SclDrive::delivered`] — the status says `playing` from then on; then the
+//!   show's length, and `SC` to each drive until no program runs and no motor moves
+//!   (at most 10 s).
 //!
 //! A refusal, a missed answer or a drive that does not arrive fails the step with a
 //! sentence naming the drive; the sequencer stops the matrix.
@@ -232,10 +234,9 @@ enum Action {
     Sleep(u64),
     /// Wait until the show's length has passed since its time 0.
     ShowEnd,
-    /// The show's time 0 is now.
+    /// The show's time 0 is when the request answered last on this lane reached its
+    /// drive (the first `QX1`, the trigger's edge).
     Started,
-    /// Every drive has been started: the show plays.
-    AllStarted,
     /// A unit's programs are written.
     Loaded,
 }
@@ -245,6 +246,12 @@ struct Lane {
     actions: VecDeque<Action>,
     /// The request out, and what it was.
     waiting: Option<(u64, Action)>,
+    /// When the request out reached its drive, µs, once the caller said so
+    /// ([`SclDrive::delivered`]).
+    waiting_delivered_us: Option<u64>,
+    /// When the request answered last reached its drive (or was answered, if the
+    /// caller did not say), µs.
+    answered_delivered_us: Option<u64>,
     sleeping_until_us: Option<u64>,
 }
 
@@ -280,8 +287,6 @@ pub struct SclDrive {
     started_us: Option<u64>,
     duration_ms: u64,
     playing: bool,
-    /// Every drive was started (the trigger's edge, or the last `QX1`).
-    all_started: bool,
     /// Loading: units written of all.
     loaded: usize,
     loading: bool,
@@ -316,7 +321,6 @@ impl SclDrive {
             started_us: None,
             duration_ms: 0,
             playing: false,
-            all_started: false,
             loaded: 0,
             loading: false,
             now_us: 0,
@@ -340,20 +344,34 @@ impl SclDrive {
         self.started_us.filter(|_| self.playing)
     }
 
+    /// Request `id` reached its drive at `at_us` (its last byte through the line):
+    /// said before its answer, it times what the request does — a `QX1` or the
+    /// trigger's edge is the show's time 0. Without it, the answer's time stands in.
+    pub fn delivered(&mut self, id: u64, at_us: u64) {
+        if let Some(lane) = Self::lane_waiting_for(&mut self.stages, id) {
+            lane.waiting_delivered_us = Some(at_us);
+        }
+    }
+
+    fn lane_waiting_for(stages: &mut VecDeque<Stage>, id: u64) -> Option<&mut Lane> {
+        stages.front_mut().and_then(|stage| {
+            stage
+                .iter_mut()
+                .find(|lane| lane.waiting.as_ref().is_some_and(|(out, _)| *out == id))
+        })
+    }
+
     /// The answer to request `id` at `now_us`: its lines (addresses removed), or why
     /// there is none. Answers to requests of a step that ended are ignored.
     pub fn answer(&mut self, now_us: u64, id: u64, answer: Result<Vec<String>, String>) {
         self.now_us = self.now_us.max(now_us);
-        let Some(lane) = self.stages.front_mut().and_then(|stage| {
-            stage
-                .iter_mut()
-                .find(|lane| lane.waiting.as_ref().is_some_and(|(out, _)| *out == id))
-        }) else {
+        let Some(lane) = Self::lane_waiting_for(&mut self.stages, id) else {
             return;
         };
         let Some((_, action)) = lane.waiting.take() else {
             return;
         };
+        lane.answered_delivered_us = Some(lane.waiting_delivered_us.take().unwrap_or(now_us));
         let Action::Ask {
             unit,
             command,
@@ -508,8 +526,11 @@ impl SclDrive {
                                 lane.sleeping_until_us = Some(end_us);
                             }
                         }
-                        Action::Started => self.started_us = Some(now_us),
-                        Action::AllStarted => self.all_started = true,
+                        Action::Started => {
+                            let at_us = lane.answered_delivered_us.unwrap_or(now_us);
+                            self.started_us =
+                                Some(self.started_us.map_or(at_us, |first| first.min(at_us)));
+                        }
                         Action::Loaded => self.loaded += 1,
                     }
                 }
@@ -738,7 +759,6 @@ impl Drive for SclDrive {
         self.playing = true;
         self.loading = false;
         self.started_us = None;
-        self.all_started = false;
         self.duration_ms = entry.duration_ms;
         let execute = |unit| {
             Segment::new(1)
@@ -749,12 +769,15 @@ impl Drive for SclDrive {
         let mut stages = Vec::new();
         match self.config.trigger.clone() {
             None => {
+                // Each line's first drive starts when its `QX1` is through: the
+                // earliest is the show's time 0 (the others follow one request each).
                 let mut fire = self.by_line(execute);
-                if let Some(first) = fire.first_mut() {
-                    first.actions.push_front(Action::Started);
+                for lane in &mut fire {
+                    if !lane.actions.is_empty() {
+                        lane.actions.insert(1, Action::Started);
+                    }
                 }
                 stages.push(fire);
-                stages.push(vec![Lane::of([Action::AllStarted])]);
             }
             Some(Trigger { drive, output, .. }) => {
                 stages.push(self.by_line(execute));
@@ -778,7 +801,6 @@ impl Drive for SclDrive {
                 stages.push(vec![Lane::of([
                     set(Level::Low),
                     Action::Started,
-                    Action::AllStarted,
                     Action::Sleep(TRIGGER_PULSE_US),
                     set(Level::High),
                 ])]);
@@ -807,30 +829,15 @@ impl Drive for SclDrive {
         }
     }
 
-    fn has_started(&self) -> bool {
-        self.all_started
+    fn show_start_us(&self) -> Option<u64> {
+        self.started_us.filter(|_| self.playing)
     }
 
     fn progress(&self) -> f64 {
         if self.loading {
             return self.loaded as f64 / self.config.units.len().max(1) as f64;
         }
-        if self.playing {
-            return match self.duration_ms {
-                0 => 1.0,
-                duration_ms => self.show_time_ms() as f64 / duration_ms as f64,
-            };
-        }
         0.0
-    }
-
-    fn show_time_ms(&self) -> u64 {
-        match self.started_us {
-            Some(started_us) if self.playing => {
-                (self.now_us.saturating_sub(started_us) / 1_000).min(self.duration_ms)
-            }
-            _ => 0,
-        }
     }
 
     fn stop(&mut self) {
@@ -838,7 +845,6 @@ impl Drive for SclDrive {
         self.asks.clear();
         self.failure = None;
         self.playing = false;
-        self.all_started = false;
         self.loading = false;
         self.started_us = None;
     }

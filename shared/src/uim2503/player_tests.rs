@@ -308,11 +308,9 @@ fn follow(rig: &mut Rig, show: &Show) -> f64 {
 /// Steps until the show ends, comparing every ball with the show every 100 ms; the
 /// player reached `Playing` at `start_us`. Returns the largest deviation, mm.
 fn compare_from(rig: &mut Rig, show: &Show, start_us: u64) -> f64 {
-    // The units began when `*0;BG;`, written at the start's instant, finished crossing
-    // the line.
-    let begin_us = start_us
-        + super::player::START_LEAD_US
-        + crate::line::Line::new(rig.installation.gateways[0].baud).time_us(6);
+    // The state turns `playing` when the units begin (`*0;BG;`, written at the
+    // start's instant, through the line): the show's time 0 (issue 34, item 5).
+    let begin_us = start_us;
     let mut sampler = Sampler::new(show);
     let mut expected = vec![0.0f32; show.tracks.len()];
     let mut worst: f64 = 0.0;

@@ -40,7 +40,7 @@ use crate::page::Page;
 use crate::playlist::{PlaylistEditor, Verdict, format_delay_s};
 use crate::status::{
     PROBLEMS_LISTED, gateway_text, homing_text, link_key, lowest_text, problem_text, progress,
-    shows_progress, state_key, streams, summarised, time_text,
+    shows_progress, starting_text, state_key, streams, summarised, time_text,
 };
 
 /// How often the open list of every gateway is fetched again, ms.
@@ -805,8 +805,11 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
         .entry
         .map(|entry| (entry + 1).to_string())
         .unwrap_or_default();
-    // Homing shows its own progress where a show's time would be.
-    let time = homing_text(lang, &status).unwrap_or_else(|| time_text(&status));
+    // Homing shows its own progress where a show's time would be, a given start its
+    // countdown.
+    let time = homing_text(lang, &status)
+        .or_else(|| starting_text(lang, &status))
+        .unwrap_or_else(|| time_text(&status));
     let cycle = if status.cycle > 0 {
         status.cycle.to_string()
     } else {

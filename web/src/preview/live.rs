@@ -78,6 +78,7 @@ pub(crate) mod tests {
             entry: Some(0),
             show: Some(show.into()),
             show_time_ms,
+            show_starts_in_ms: None,
             show_duration_ms: 60_000,
             cycle: 1,
             progress: 0.0,

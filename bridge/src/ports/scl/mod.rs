@@ -115,8 +115,15 @@ struct Job {
     expect: Expect,
     generation: u64,
     purpose: Purpose,
-    done: Option<oneshot::Sender<Result<Vec<String>, SclError>>>,
+    /// When its last byte reached the drive (written, and through the line): set when
+    /// it is sent.
+    delivered: Option<Instant>,
+    done: Option<oneshot::Sender<Answered>>,
 }
+
+/// A request's answer lines (or why there are none), and when the request reached its
+/// drive, if it was sent.
+pub type Answered = (Result<Vec<String>, SclError>, Option<Instant>);
 
 /// Who waits for an answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -407,7 +414,7 @@ impl SclLink {
         expect: Expect,
         generation: u64,
         purpose: Purpose,
-    ) -> oneshot::Receiver<Result<Vec<String>, SclError>> {
+    ) -> oneshot::Receiver<Answered> {
         let (done, answer) = oneshot::channel();
         if purpose == Purpose::Player {
             self.shared.program_jobs.fetch_add(1, Ordering::AcqRel);
@@ -419,6 +426,7 @@ impl SclLink {
             expect,
             generation,
             purpose,
+            delivered: None,
             done: Some(done),
         };
         if let Err(err) = self.events.send(Event::Job(job))
@@ -446,11 +454,29 @@ impl SclLink {
         expect: Expect,
         generation: u64,
     ) -> Result<Vec<String>, SclError> {
+        self.request_delivered(drive, text, expect, generation)
+            .await
+            .0
+    }
+
+    /// [`SclLink::request`], also saying when the request reached its drive: its
+    /// last byte written and through the line (at the line's speed; on UDP, when the
+    /// datagram went) — the instant a `QX` or an `SO` acts.
+    pub async fn request_delivered(
+        &self,
+        drive: usize,
+        text: String,
+        expect: Expect,
+        generation: u64,
+    ) -> Answered {
         let inert = is_inert_text(&text);
         let answer = self.submit(drive, text, inert, expect, generation, Purpose::Player);
-        answer
-            .await
-            .unwrap_or_else(|_| Err(SclError::Gone("the SCL link is closed".to_owned())))
+        answer.await.unwrap_or_else(|_| {
+            (
+                Err(SclError::Gone("the SCL link is closed".to_owned())),
+                None,
+            )
+        })
     }
 
     /// Hands a console `request` (its address already resolved to `drive`) to the
@@ -509,7 +535,7 @@ fn finish(shared: &LinkShared, mut job: Job, result: Result<Vec<String>, SclErro
         Purpose::Player => {}
     }
     if let Some(done) = job.done.take() {
-        let _ = done.send(result);
+        let _ = done.send((result, job.delivered));
     }
 }
 
@@ -888,6 +914,19 @@ impl<'a> Owner<'a> {
                 self.lose(format!("write failed: {err}"));
                 return;
             }
+            let mut job = job;
+            // The address, the text and the CR through the line.
+            let address = self
+                .shared
+                .drives
+                .get(job.drive)
+                .is_some_and(|drive| drive.address.is_some());
+            job.delivered = Some(
+                Instant::now()
+                    + self
+                        .shared
+                        .line_time(job.text.len() + 1 + usize::from(address)),
+            );
             let answer_bytes = match job.expect {
                 Expect::One => ANSWER_BYTES,
                 Expect::Upload => ANSWER_BYTES * 64,
@@ -973,6 +1012,7 @@ impl<'a> Owner<'a> {
                     expect: Expect::One,
                     generation: self.seen_generation,
                     purpose: Purpose::Poll,
+                    delivered: None,
                     done: None,
                 };
                 if let Some(queue) = self.queues.get_mut(channel) {

@@ -389,7 +389,7 @@ fn with_a_trigger_every_program_is_executed_then_the_trigger_pulses() {
 }
 
 #[test]
-fn the_state_is_playing_only_once_every_drive_was_started() {
+fn the_state_is_playing_from_the_first_drives_start_and_counts_from_its_arrival() {
     let mut rig = Rig::new();
     let config = rig.sequencer.drive().config().clone();
     rig.sequencer
@@ -427,11 +427,19 @@ fn the_state_is_playing_only_once_every_drive_was_started() {
         "starting, not playing yet"
     );
     assert_eq!(status.show_time_ms, 0);
-    // The drives take their starts, one after the other on the line.
+    // The drives take their starts, one after the other on the line: the first
+    // `QX1` to reach its drive is the show's time 0 (issue 34, item 5), and the state
+    // is `playing` from then on, not once the last drive answered.
+    let mut first_delivered_us = None;
     while let Some(ask) = starts.pop() {
+        rig.now_us += 7_000;
+        // Through the line 4 ms before its answer came back.
+        let delivered_us = rig.now_us - 4_000;
+        first_delivered_us.get_or_insert(delivered_us);
         let answer = rig.twins[ask.drive]
-            .receive_line(&ask.text, rig.now_us)
+            .receive_line(&ask.text, delivered_us)
             .unwrap_or_default();
+        rig.sequencer.drive_mut().delivered(ask.id, delivered_us);
         rig.sequencer
             .drive_mut()
             .answer(rig.now_us, ask.id, Ok(lines_of(&answer)));
@@ -443,11 +451,20 @@ fn the_state_is_playing_only_once_every_drive_was_started() {
                 .into_iter()
                 .filter(|ask| ask.text == "QX1"),
         );
-        let state = rig.sequencer.status().state;
-        if starts.is_empty() {
-            assert_eq!(state, PlayerState::Playing, "every drive started");
-        } else {
-            assert_eq!(state, PlayerState::Loading);
-        }
+        let status = rig.sequencer.status_at(rig.now_us);
+        assert_eq!(
+            status.state,
+            PlayerState::Playing,
+            "the first drive started"
+        );
+        assert_eq!(
+            rig.sequencer.drive().started_us(),
+            first_delivered_us,
+            "time 0 is the first start's arrival"
+        );
+        assert_eq!(
+            status.show_time_ms,
+            (rig.now_us - first_delivered_us.unwrap()) / 1_000
+        );
     }
 }

@@ -268,7 +268,6 @@ impl Uim2503Drive {
             total_rows: armed.total_rows,
             loaded_rows: armed.loaded_rows,
         };
-        self.show_time_ms = 0;
         true
     }
 }

@@ -38,7 +38,6 @@ impl Uim2503Drive {
             total_rows,
             loaded_rows: if reuse { total_rows } else { 0 },
         };
-        self.show_time_ms = 0;
         self.poll_loading(&[]);
     }
 

@@ -161,7 +161,6 @@ pub struct Uim2503Drive {
     loaded_entry: Option<usize>,
     lowest_level: Vec<Option<u16>>,
     commands: Vec<Command>,
-    show_time_ms: u64,
     progress: f64,
     /// The links as last polled.
     links: Vec<LinkView>,
@@ -195,7 +194,6 @@ impl Uim2503Drive {
             loaded_entry: None,
             lowest_level: vec![None; gateway_count],
             commands: Vec::new(),
-            show_time_ms: 0,
             progress: 0.0,
             links: Vec::new(),
             arming: None,
@@ -372,8 +370,22 @@ impl Drive for Uim2503Drive {
         self.progress
     }
 
-    fn show_time_ms(&self) -> u64 {
-        self.show_time_ms
+    fn show_start_us(&self) -> Option<u64> {
+        match &self.step {
+            // Every gateway's units begin once `*0;BG;` is through their line; the
+            // first gateway's are the show's clock (as for the show's end).
+            Step::Playing { start_us, .. } => start_us.first().copied(),
+            _ => None,
+        }
+    }
+
+    fn show_repeats(&self) -> bool {
+        matches!(self.step, Step::Playing { .. })
+            && self.plan.as_ref().is_some_and(|plan| {
+                plan.gateways
+                    .iter()
+                    .all(|run| run.mode == crate::uim2503::plan::RunMode::Loop)
+            })
     }
 
     fn stop(&mut self) {

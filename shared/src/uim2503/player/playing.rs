@@ -33,7 +33,6 @@ impl Uim2503Drive {
             .iter_mut()
             .for_each(|position| *position = None);
         self.step = Step::Playing { start_us, next_row };
-        self.show_time_ms = 0;
         self.progress = 0.0;
     }
 
@@ -51,16 +50,6 @@ impl Uim2503Drive {
         let elapsed_us = now_us.saturating_sub(first_start);
         let looping = plan.gateways.iter().all(|run| run.mode == RunMode::Loop);
         let duration_us = plan.duration_ms * 1000;
-        self.show_time_ms = if looping && duration_us > 0 {
-            (elapsed_us % duration_us) / 1000
-        } else {
-            (elapsed_us / 1000).min(plan.duration_ms)
-        };
-        self.progress = if plan.duration_ms == 0 {
-            1.0
-        } else {
-            self.show_time_ms as f64 / plan.duration_ms as f64
-        };
         let mut commands = Vec::new();
         for (index, run) in plan.gateways.iter().enumerate() {
             if run.mode != RunMode::Fifo {
