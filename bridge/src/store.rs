@@ -18,13 +18,23 @@
 //! the shows it lacks (an upgrade, a lost index, files copied in by hand) are
 //! summarised by a thread of their own while the bridge already serves
 //! ([`ShowStore::indexed`]).
+//!
+//! **Concurrency.** What the store knows ([`Known`]) is behind one mutex, held only to
+//! read or change it — never across a file's reading or writing, nor while another
+//! lock is taken. The index file has one writer, a thread of its own
+//! ([`IndexWriter`]): asked after each change, it writes the latest summaries, so two
+//! writes never race and a slow disk holds up no one but the caller waiting for its
+//! own write. Two writes of the same show are ordered by their caller (the API's
+//! catalogue lock); the indexing thread's summaries give way to any store or delete
+//! that came meanwhile.
 
 use std::collections::BTreeMap;
 use std::fmt;
 use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::mpsc::{Receiver, Sender, SyncSender, channel, sync_channel};
+use std::sync::{Arc, Mutex, PoisonError, Weak};
 use std::time::SystemTime;
 
 use floatball_shared::api::{Problem, ShowSummary};
@@ -369,9 +379,8 @@ struct Library {
     data_dir: PathBuf,
     dir: PathBuf,
     known: Mutex<Known>,
-    /// Held while a file (a show or the index) is written or removed, so the index
-    /// follows the disk.
-    writing: Mutex<()>,
+    /// The index file's writer.
+    index_writer: IndexWriter,
     /// `true` once every show on disk is in the index.
     indexed: tokio::sync::watch::Sender<bool>,
     /// Whether the indexing thread was started ([`ShowStore::start_indexing`]).
@@ -448,6 +457,7 @@ impl ShowStore {
                 dir.display()
             );
         }
+        let (requests, waiting) = channel();
         let library = Arc::new(Library {
             data_dir: data_dir.to_owned(),
             dir,
@@ -456,10 +466,18 @@ impl ShowStore {
                 loaded: Some(read_index(data_dir)),
                 pending: BTreeMap::new(),
             }),
-            writing: Mutex::new(()),
+            index_writer: IndexWriter { requests },
             indexed: tokio::sync::watch::Sender::new(false),
             started: AtomicBool::new(false),
         });
+        let writer = Arc::downgrade(&library);
+        std::thread::Builder::new()
+            .name("show-index-writer".into())
+            .spawn(move || IndexWriter::run(&writer, &waiting))
+            .map_err(|source| StoreError::Io {
+                path: data_dir.join(INDEX_FILE),
+                source,
+            })?;
         Ok(Self { library })
     }
 
@@ -548,7 +566,6 @@ impl ShowStore {
     /// memory: a 10,000-ball minute is about 90 MB of JSON.
     pub fn put(&self, name: &ShowName, show: &Show) -> Result<(ShowSummary, bool), StoreError> {
         let library = &self.library;
-        let _writing = library.lock_writing();
         let file_name = name.file_name();
         let path = library.dir.join(&file_name);
         let existed = path.is_file();
@@ -595,7 +612,7 @@ impl ShowStore {
             known.pending.remove(name);
             known.index.insert(name.clone(), indexed);
         }
-        library.write_index();
+        library.index_writer.write_and_wait();
         Ok((summary, !existed))
     }
 
@@ -605,7 +622,6 @@ impl ShowStore {
     /// [`StoreError::NotFound`], or an I/O error.
     pub fn delete(&self, name: &ShowName) -> Result<(), StoreError> {
         let library = &self.library;
-        let _writing = library.lock_writing();
         let file_name = name.file_name();
         durable::remove(&library.dir, &file_name).map_err(|source| match source.kind() {
             io::ErrorKind::NotFound => StoreError::NotFound(name.clone()),
@@ -622,7 +638,7 @@ impl ShowStore {
                 loaded.remove(name);
             }
         }
-        library.write_index();
+        library.index_writer.write_and_wait();
         Ok(())
     }
 }
@@ -630,10 +646,6 @@ impl ShowStore {
 impl Library {
     fn known(&self) -> std::sync::MutexGuard<'_, Known> {
         self.known.lock().unwrap_or_else(PoisonError::into_inner)
-    }
-
-    fn lock_writing(&self) -> std::sync::MutexGuard<'_, ()> {
-        self.writing.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
     /// The indexing thread: [`scan`](Self::scan), then
@@ -646,8 +658,7 @@ impl Library {
         }
         let summarised = self.summarise_pending();
         if changed || summarised > 0 {
-            let _writing = self.lock_writing();
-            self.write_index();
+            self.index_writer.write_and_wait();
         }
         self.indexed.send_replace(true);
         if stale > 0 {
@@ -662,8 +673,10 @@ impl Library {
     /// modification time, no show is read): the shows whose summary is current go in
     /// the index, the others are marked pending. Returns how many are pending and
     /// whether the index file needs writing (a show or a summary to drop or add).
+    ///
+    /// A show deleted between the listing and the check is found pending and dropped
+    /// when its summary cannot be read; one stored meanwhile is in the index already.
     fn scan(&self) -> (usize, bool) {
-        let _writing = self.lock_writing();
         let mut on_disk = Vec::new();
         match std::fs::read_dir(&self.dir) {
             Ok(entries) => {
@@ -737,7 +750,6 @@ impl Library {
             };
             let path = self.dir.join(name.file_name());
             let result = summarise_file(&path, &name);
-            let _writing = self.lock_writing();
             let mut known = self.known();
             if known.pending.get(&name) != Some(&stamp) {
                 // Stored or deleted meanwhile: the store's own summary stands.
@@ -756,7 +768,7 @@ impl Library {
                     summarised += 1;
                     if summarised % INDEX_WRITE_EVERY == 0 {
                         drop(known);
-                        self.write_index();
+                        self.index_writer.write();
                     }
                 }
                 Err(reason) => {
@@ -766,11 +778,10 @@ impl Library {
         }
     }
 
-    /// Writes [`INDEX_FILE`] from what is known (and, until the scan, what was read);
-    /// the caller holds [`writing`](Self::writing). A failure is logged: the index is
-    /// rebuilt at the next start.
-    fn write_index(&self) {
-        let file = {
+    /// What [`INDEX_FILE`] holds now: what is known (and, until the scan, what was
+    /// read).
+    fn index_file(&self) -> IndexFile {
+        {
             let known = self.known();
             let mut shows: Vec<Indexed> = known.index.values().cloned().collect();
             if let Some(loaded) = &known.loaded {
@@ -785,15 +796,59 @@ impl Library {
                 version: INDEX_VERSION,
                 shows,
             }
-        };
-        let written = serde_json::to_vec(&file)
-            .map_err(io::Error::other)
-            .and_then(|bytes| durable::write_atomic(&self.data_dir, INDEX_FILE, &bytes));
-        if let Err(error) = written {
-            tracing::warn!(
-                "cannot write {}: {error}; it is rebuilt at the next start",
-                self.data_dir.join(INDEX_FILE).display()
-            );
+        }
+    }
+}
+
+/// A request to the index writer: write, and say so on the sender if one is given.
+type IndexRequest = Option<SyncSender<()>>;
+
+/// The one writer of [`INDEX_FILE`]: a thread that, asked, takes every request
+/// waiting, writes what the store knows then, and answers them all (see the
+/// [module documentation](self)). It ends with the store.
+#[derive(Debug)]
+struct IndexWriter {
+    requests: Sender<IndexRequest>,
+}
+
+impl IndexWriter {
+    /// Asks for a write of the index and waits until one that began after the
+    /// request is written (or failed, which is logged).
+    fn write_and_wait(&self) {
+        let (done, written) = sync_channel(1);
+        if self.requests.send(Some(done)).is_ok() {
+            let _ = written.recv();
+        }
+    }
+
+    /// Asks for a write of the index without waiting.
+    fn write(&self) {
+        let _ = self.requests.send(None);
+    }
+
+    /// The thread: each request (with those waiting behind it) is one write of what
+    /// `library` knows then; ends when the store is gone.
+    fn run(library: &Weak<Library>, requests: &Receiver<IndexRequest>) {
+        while let Ok(first) = requests.recv() {
+            let mut waiting: Vec<SyncSender<()>> = first.into_iter().collect();
+            waiting.extend(requests.try_iter().flatten());
+            let Some(library) = library.upgrade() else {
+                return;
+            };
+            let file = library.index_file();
+            let written = serde_json::to_vec(&file)
+                .map_err(io::Error::other)
+                .and_then(|bytes| durable::write_atomic(&library.data_dir, INDEX_FILE, &bytes));
+            if let Err(error) = written {
+                tracing::warn!(
+                    "cannot write {}: {error}; it is rebuilt at the next start",
+                    library.data_dir.join(INDEX_FILE).display()
+                );
+            }
+            drop(library);
+            for done in waiting {
+                let _ = done.send(());
+            }
         }
     }
 }
@@ -1131,6 +1186,59 @@ pub(crate) mod tests {
             .open(&path)
             .and_then(|file| file.set_modified(modified))
             .expect("set the time back");
+        assert_eq!(open_indexed(dir.path()).list(), list);
+    }
+
+    /// Shows stored and deleted from many threads at once: each call returns with
+    /// the index written after its own change, and the index in the end is exactly
+    /// the shows on disk (writes of the index never overtake one another).
+    #[test]
+    fn the_index_follows_stores_and_deletes_from_many_threads() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let store = Arc::new(open_indexed(dir.path()));
+        let workers: Vec<_> = (0..4)
+            .map(|worker| {
+                let store = Arc::clone(&store);
+                std::thread::spawn(move || {
+                    for round in 0..12 {
+                        let name = ShowName::parse(&format!("w{worker}-{round}")).expect("name");
+                        let mut one = show(1, 2);
+                        one.tracks[0].rows[0] = TrackRow::new(10.0 + round as f64, 0.0, 250);
+                        store.put(&name, &one).expect("put");
+                        let file: IndexFile = serde_json::from_slice(
+                            &std::fs::read(index_path(store.library.data_dir.as_path()))
+                                .expect("index"),
+                        )
+                        .expect("an index");
+                        assert!(
+                            file.shows
+                                .iter()
+                                .any(|indexed| indexed.summary.name == name.as_str()),
+                            "{name} is in the index once put returns"
+                        );
+                        if round % 3 == 0 {
+                            store.delete(&name).expect("delete");
+                        }
+                    }
+                })
+            })
+            .collect();
+        for worker in workers {
+            worker.join().expect("a worker");
+        }
+        let list = store.list();
+        assert_eq!(list.len(), 4 * 8);
+        let file: IndexFile =
+            serde_json::from_slice(&std::fs::read(index_path(dir.path())).expect("index"))
+                .expect("an index");
+        let mut summaries: Vec<ShowSummary> = file
+            .shows
+            .into_iter()
+            .map(|indexed| indexed.summary)
+            .collect();
+        summaries.sort_by(|a, b| a.name.cmp(&b.name));
+        assert_eq!(summaries, list, "the index is the last word");
+        drop(store);
         assert_eq!(open_indexed(dir.path()).list(), list);
     }
 
