@@ -20,15 +20,11 @@
 //! anew from the code as it is — only ever from code whose wire is known to be right:
 //! `FLOATBALL_BLESS=1 cargo test -p floatball-bridge --lib mbox::tests`.
 //!
-//! Two lines of today's behaviour are pinned as they are, and are expected to change
-//! under the issue that fixes them (re-bless the files then, and check the diff is
-//! only that):
-//! - the first frame of a show is sampled 2 periods into the show (the player starts
-//!   the show at the slot of the move's last settle frame, so the next slot is
-//!   already 20 ms in and samples 40 ms ahead): the sample at 20 ms is never sent;
-//! - with `time = "absolute"`, every frame of a move (homing, approach, and their
-//!   settle frames) carries the same time code (the move's arrival), so the time
-//!   code repeats instead of counting on.
+//! One line of today's behaviour is pinned as it is, and is expected to change under
+//! the issue that fixes it (re-bless the files then, and check the diff is only
+//! that): with `time = "absolute"`, every frame of a move (homing, approach, and their
+//! settle frames) carries the same time code (the move's arrival), so the time code
+//! repeats instead of counting on.
 
 use std::collections::VecDeque;
 use std::fmt::Write as _;
