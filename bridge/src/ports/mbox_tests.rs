@@ -31,9 +31,9 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::PlayerState;
+use floatball_shared::mbox::player::{MboxFrame, MboxPlayer};
 use floatball_shared::mbox::twin::{MboxTwin, TwinConfig};
 use floatball_shared::mbox::{AxisCount, Datagram, TimeCode, TimeMode};
-use floatball_shared::mbox::player::{MboxFrame, MboxPlayer};
 use floatball_shared::plan::Installation;
 use floatball_shared::player::Entry;
 use floatball_shared::show::demo::Wave;
