@@ -215,10 +215,18 @@ async fn a_lossy_network_still_ends_at_the_last_positions_and_counts_missed_repl
     assert_eq!(reached(&simulator.stop()), last_pulses());
 }
 
+/// In absolute time (the other tests play relative): the boxes take each frame's time
+/// from the difference of its time code and the last, and count no time code that
+/// repeats or goes back.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn simulated_boxes_in_the_bridge_play_the_show() {
     let sim = "port = \"sim\"".to_owned();
-    let bridge = Process::start(&config(&[sim.clone(), sim]));
+    let text = config(&[sim.clone(), sim]).replace(
+        "frame_period_ms = 20\n",
+        "frame_period_ms = 20\ntime = \"absolute\"\n",
+    );
+    assert!(text.contains("time = \"absolute\""));
+    let bridge = Process::start(&text);
     let (mut ws, token) = operator_ws(&bridge).await;
     play_to_end(&mut ws, "start").await;
     tokio::time::sleep(Duration::from_millis(200)).await;
@@ -233,6 +241,10 @@ async fn simulated_boxes_in_the_bridge_play_the_show() {
     let positions: SimPositions = reply.json();
     assert!(positions.gateways.is_empty());
     assert_eq!(reached(&positions.boxes), last_pulses());
+    for one in &positions.boxes {
+        assert!(one.counters.motion_frames > 100, "{:?}", one.counters);
+        assert_eq!(one.counters.time_code_faults, 0, "{:?}", one.counters);
+    }
 }
 
 /// WebSocket `estop` → the first e-stop datagram at a box: printed, not asserted (the

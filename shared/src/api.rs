@@ -642,6 +642,10 @@ pub struct SimBoxCounters {
     /// Numbered motion frames whose sequence was not above the last one (repeats and
     /// frames from the past).
     pub sequence_repeats: u64,
+    /// Absolute motion frames whose time code was not after the last one (a repeat or
+    /// a rewind: the document gives such a frame no time, the twin its default).
+    #[serde(default)]
+    pub time_code_faults: u64,
     /// Datagrams the decoder refused, by reason.
     pub malformed: SimMalformed,
 }

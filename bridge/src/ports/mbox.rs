@@ -483,11 +483,23 @@ fn estop_datagram(value: u16) -> Vec<u8> {
 /// Turns the player's frames into the motion datagrams the sender puts on the wire:
 /// the time code of the configured [`TimeMode`], and each box's own sequence number
 /// (1 for its first frame, counting on and wrapping past 0 to 1).
+///
+/// **Time codes.** A frame takes `time_ms` (a move's frames the time left, show and
+/// settle frames the period). Relative: the time code is that time. Absolute: the box
+/// takes a frame's time code minus the previous frame's (the document: 「指令的执行时间
+/// 是当前指令里的绝对时间减去上一条指令里的绝对时间」), so each box's time code counts
+/// on from the last one it was sent by exactly the frame's time, from 0 when the
+/// bridge starts: the first frame's code is its own time (what a box whose last code
+/// is 0 takes). Frames never sent (dropped by an e-stop) do not count. Past `u32::MAX`
+/// ms (49.7 days of frames and moves) the code starts over from the frame's time,
+/// which a box takes as a rewind (its default time for that one frame).
 #[derive(Debug)]
 struct FrameEncoder {
     time: TimeMode,
     /// Per box: the sequence number of the last frame it was sent.
     sequence: Vec<u32>,
+    /// Per box: the absolute time code of the last frame it was sent, ms (0: none).
+    absolute_ms: Vec<u32>,
 }
 
 impl FrameEncoder {
@@ -495,30 +507,32 @@ impl FrameEncoder {
         Self {
             time,
             sequence: vec![0; boxes],
+            absolute_ms: vec![0; boxes],
         }
     }
 
-    /// The time code of `frame`: its duration (relative), or the moment to arrive, ms
-    /// on the player's clock (absolute; never 0).
-    fn time_code(&self, frame: &MboxFrame) -> TimeCode {
+    /// Box `index`'s time code of `frame`, counted on when `frame` is absolute: its
+    /// time (relative), or box `index`'s last time code plus its time (absolute; never
+    /// 0).
+    fn time_code(&mut self, frame: &MboxFrame, index: usize) -> Option<TimeCode> {
+        let time_ms = frame.time_ms.max(1);
         match self.time {
-            TimeMode::Relative => TimeCode::from_ms(frame.time_ms),
-            TimeMode::Absolute => TimeCode::from_ms(
-                u32::try_from(frame.slot_us / 1_000)
-                    .unwrap_or(u32::MAX)
-                    .saturating_add(frame.time_ms)
-                    .max(1),
-            ),
+            TimeMode::Relative => Some(TimeCode::from_ms(time_ms)),
+            TimeMode::Absolute => {
+                let last_ms = self.absolute_ms.get_mut(index)?;
+                *last_ms = last_ms.checked_add(time_ms).unwrap_or(time_ms);
+                Some(TimeCode::from_ms(*last_ms))
+            }
         }
     }
 
-    /// Box `index`'s datagram of `frame`, counted in the box's sequence; `None` (and
-    /// not counted) when the frame has no valid axis count for it or the box is not
-    /// configured.
+    /// Box `index`'s datagram of `frame`, counted in the box's sequence (and its
+    /// absolute time code); `None` (and not counted) when the frame has no valid axis
+    /// count for it or the box is not configured.
     fn datagram(&mut self, frame: &MboxFrame, index: usize) -> Option<Vec<u8>> {
-        let time_code = self.time_code(frame);
         let positions_pulses =
             AxisPositions::from_slice(frame.positions_pulses.get(index)?).ok()?;
+        let time_code = self.time_code(frame, index)?;
         let sequence = self.sequence.get_mut(index)?;
         *sequence = sequence.wrapping_add(1).max(1);
         let output = frame.outputs.get(index).copied().unwrap_or_default();

@@ -20,15 +20,10 @@
 //! anew from the code as it is — only ever from code whose wire is known to be right:
 //! `FLOATBALL_BLESS=1 cargo test -p floatball-bridge --lib mbox::tests`.
 //!
-//! Two lines of today's behaviour are pinned as they are, and are expected to change
-//! under the issue that fixes them (re-bless the files then, and check the diff is
-//! only that):
-//! - the first frame of a show is sampled 2 periods into the show (the player starts
-//!   the show at the slot of the move's last settle frame, so the next slot is
-//!   already 20 ms in and samples 40 ms ahead): the sample at 20 ms is never sent;
-//! - with `time = "absolute"`, every frame of a move (homing, approach, and their
-//!   settle frames) carries the same time code (the move's arrival), so the time
-//!   code repeats instead of counting on.
+//! The two wires of a run carry the same frames, but for the function code and the time
+//! code: [`absolute_time_codes_count_on_by_each_frames_time`] checks that each box's
+//! absolute time code counts on by exactly the time the relative wire gives the same
+//! frame, and that twins fed the absolute wire count no time-code fault.
 
 use std::collections::VecDeque;
 use std::fmt::Write as _;
@@ -36,8 +31,9 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::PlayerState;
-use floatball_shared::mbox::TimeMode;
 use floatball_shared::mbox::player::{MboxFrame, MboxPlayer};
+use floatball_shared::mbox::twin::{MboxTwin, TwinConfig};
+use floatball_shared::mbox::{AxisCount, Datagram, TimeCode, TimeMode};
 use floatball_shared::plan::Installation;
 use floatball_shared::player::Entry;
 use floatball_shared::show::demo::Wave;
@@ -492,4 +488,79 @@ fn the_wire_carries_exactly_the_golden_datagrams_for_a_playlist() {
 fn the_wire_carries_exactly_the_golden_datagrams_for_estop_home_start_and_reset() {
     assert_golden("mbox_operator_relative.txt", &operator_wire("relative"));
     assert_golden("mbox_operator_absolute.txt", &operator_wire("absolute"));
+}
+
+/// The motion frames of a golden wire: (µs, box, the frame).
+fn motion_frames(wire: &str) -> Vec<(u64, usize, floatball_shared::mbox::MotionFrame)> {
+    wire.lines()
+        .filter(|line| !line.starts_with('#'))
+        .filter_map(|line| {
+            let fields: Vec<&str> = line.split(' ').collect();
+            if fields[2] != "frame" {
+                return None;
+            }
+            let bytes: Vec<u8> = (0..fields[3].len())
+                .step_by(2)
+                .map(|at| u8::from_str_radix(&fields[3][at..at + 2], 16).expect("hex"))
+                .collect();
+            let Ok(Datagram::Motion(frame)) = Datagram::decode(&bytes) else {
+                panic!("not a motion frame: {line}");
+            };
+            Some((
+                fields[0].parse().expect("µs"),
+                fields[1].parse().expect("box"),
+                frame,
+            ))
+        })
+        .collect()
+}
+
+#[test]
+fn absolute_time_codes_count_on_by_each_frames_time() {
+    let wires = [
+        (playlist_wire("relative"), playlist_wire("absolute")),
+        (operator_wire("relative"), operator_wire("absolute")),
+    ];
+    for (relative, absolute) in wires {
+        let relative = motion_frames(&relative);
+        let absolute = motion_frames(&absolute);
+        assert_eq!(relative.len(), absolute.len());
+        let mut last_code = [0u32; 2];
+        let mut twins = [0, 1].map(|_| {
+            MboxTwin::new(TwinConfig::new(
+                floatball_shared::mbox::FACTORY_IP,
+                AxisCount::Three,
+            ))
+        });
+        for ((at_us, index, relative), (absolute_at_us, absolute_index, absolute)) in
+            relative.iter().zip(&absolute)
+        {
+            assert_eq!((at_us, index), (absolute_at_us, absolute_index));
+            assert_eq!(relative.mode, TimeMode::Relative);
+            assert_eq!(absolute.mode, TimeMode::Absolute);
+            // Homing, approach, settle and show frames alike: the box takes the code
+            // minus the last one, exactly the time the frame asks for.
+            let (TimeCode::Ms(time_ms), TimeCode::Ms(code)) =
+                (relative.time_code, absolute.time_code)
+            else {
+                panic!("a time code of 0 at {at_us} µs");
+            };
+            assert_eq!(
+                code.get(),
+                last_code[*index] + time_ms.get(),
+                "box {index} at {at_us} µs"
+            );
+            last_code[*index] = code.get();
+            assert_eq!(
+                (relative.positions_pulses, relative.digital, relative.analog),
+                (absolute.positions_pulses, absolute.digital, absolute.analog),
+            );
+            twins[*index].receive(*at_us, &floatball_shared::mbox::Encode::encode(absolute));
+        }
+        for twin in &twins {
+            let counters = twin.counters();
+            assert!(counters.motion_frames > 50, "{counters:?}");
+            assert_eq!(counters.time_code_faults, 0, "{counters:?}");
+        }
+    }
 }

@@ -12,8 +12,14 @@
 //!   repeated.
 //! - A show is sampled by the preview's evaluator ([`Sampler`]) one period ahead, so
 //!   each frame tells every box where to be at the end of the period; its outputs are
-//!   sampled at the frame's show time. Frames of moves, and the settle frames after the
-//!   last show, carry every output 0.
+//!   sampled at the frame's show time. The show's first frame goes at its time 0 (the
+//!   slot after the approach's last frame) with the sample one period in: every
+//!   sample is sent, and each frame asks for exactly the period it covers. Frames of
+//!   moves, and the settle frames after the last show, carry every output 0.
+//! - Every frame says how long the box takes (`time_ms`): a move's frames the time
+//!   left (at least a period), show and settle frames the period. In absolute time
+//!   the bridge's time code counts on by exactly that much a frame (see
+//!   `bridge/src/ports/mbox.rs`).
 //! - Only the latest due slot is sent when the caller is late: a box goes to the
 //!   newest position.
 
@@ -192,7 +198,11 @@ impl MboxDrive {
                     self.believed_mm = Some(targets_mm);
                     self.progress = 1.0;
                     self.step = Step::Idle;
-                    Phase::Done { at_us: slot_us }
+                    // Over when its last frame's period is: the next step's first
+                    // frame takes the next slot.
+                    Phase::Done {
+                        at_us: slot_us + period,
+                    }
                 } else {
                     let span = arrive_us.saturating_sub(began_us).max(1) as f64;
                     let done = slot_us.saturating_sub(began_us) as f64;
@@ -314,12 +324,13 @@ impl Drive for MboxDrive {
     }
 
     fn begin_play(&mut self, now_us: u64, _entry: &mut MboxEntry, last: bool) {
+        // The show's time 0 is a slot: its frame (the sample one period in) is the
+        // show's first.
+        let start_us = now_us.max(self.next_slot_us);
+        self.next_slot_us = start_us;
         self.show_time_ms = 0;
         self.progress = 0.0;
-        self.step = Step::Playing {
-            start_us: now_us,
-            last,
-        };
+        self.step = Step::Playing { start_us, last };
     }
 
     fn poll(&mut self, now_us: u64, entry: Option<&mut MboxEntry>) -> Phase {

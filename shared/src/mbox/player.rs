@@ -8,7 +8,8 @@
 //!   entry: wait `delay_ms`; **approach** (every axis from its last commanded position
 //!   to the show's first, at the installation's approach speed); **play** the show,
 //!   one frame per period, sampled by the preview's evaluator ([`Sampler`]) one period
-//!   ahead, so each frame tells every box where to be at the end of the period; repeat
+//!   ahead, so each frame tells every box where to be at the end of the period (the
+//!   first, at the show's time 0, carries the sample one period in); repeat
 //!   `cycles` times; next entry; after the last, stop or start over (loop).
 //! - A box cannot report where its axes are, so the player tracks the last commanded
 //!   positions. A move whose start is unknown (homing after an e-stop) lasts as long

@@ -325,8 +325,12 @@ fn frames_carry_the_outputs_at_their_show_time_and_0_outside_the_show() {
             .unwrap()
     };
     // The approach's last frame (at the show's first positions, outputs 0) leaves
-    // the player playing at 0 ms; the show's first frame is one period later.
-    assert_eq!(at(0), vec![(0, [0, 0]); 2]);
+    // the player playing at 0 ms; the show's first frame, at show time 0 too, carries
+    // the outputs at 0.
+    let at_0: Vec<_> = played.iter().filter(|(time, _)| *time == 0).collect();
+    assert_eq!(at_0.len(), 2);
+    assert_eq!(at_0[0].1, vec![(0, [0, 0]); 2]);
+    assert_eq!(at_0[1].1, vec![(0b101, [0, 0]), (0, [0, 0])]);
     assert_eq!(at(20), vec![(0b101, [20, 0]), (0, [0, 0])]);
     assert_eq!(at(180), vec![(0b101, [180, 0]), (0, [0, 0])]);
     assert_eq!(at(200), vec![(0b101, [200, 0]), (0x0FFF, [0, 0])]);
@@ -441,4 +445,85 @@ fn the_report_codes_outputs_for_a_box_the_installation_lacks() {
     assert_eq!(reason.code, "output_box");
     assert_eq!(reason.params["box"], "2");
     assert_eq!(reason.params["boxes"], "2");
+}
+
+/// `show`'s positions at `t_ms` as the boxes' frames carry them (box, then axis).
+fn show_pulses(player: &MboxPlayer, show: &crate::show::Show, t_ms: u64) -> Vec<Vec<i32>> {
+    let config = player.config();
+    let mut sampler = crate::show::Sampler::new(show);
+    let mut samples = vec![0.0; sampler.unit_count()];
+    sampler.sample(t_ms as f64, &mut samples, None);
+    let mut positions: Vec<Vec<i32>> = config
+        .boxes
+        .iter()
+        .map(|calibration| vec![calibration.pulses(0.0); calibration.axes])
+        .collect();
+    for (address, &mm) in config.installation.units.iter().zip(&samples) {
+        let calibration = config.boxes[address.gateway];
+        positions[address.gateway][usize::from(address.station) - 1] =
+            calibration.pulses(f64::from(mm));
+    }
+    positions
+}
+
+/// The frames of a whole run: Start with the positions unknown, `entry` its only show.
+fn frames_of(player: &mut MboxPlayer, entry: Entry) -> Vec<MboxFrame> {
+    let mut twins = twins();
+    let mut now = 0;
+    player.start(now, vec![entry], false).unwrap();
+    let mut frames = Vec::new();
+    run_logged(player, &mut twins, &mut now, &mut |_, frame, _| {
+        frames.push(frame.clone());
+    });
+    frames
+}
+
+#[test]
+fn a_show_frame_is_sent_for_every_sample_the_first_included() {
+    let mut player = player();
+    let entry = entry(1, 0);
+    let show = entry.show.clone();
+    let duration_ms = show.duration_ms();
+    let period_ms = DEFAULT_PERIOD_US / 1_000;
+    assert_eq!(duration_ms % period_ms, 0);
+    let frames = frames_of(&mut player, entry);
+    let first_position = show_pulses(&player, &show, 0);
+    // The show's sample one period in differs from its first position: the first
+    // frame that leaves the approach's target is the show's first.
+    assert_ne!(show_pulses(&player, &show, period_ms), first_position);
+    // The approach's frames (and its settle frames) carry the show's first position.
+    let approach = frames
+        .iter()
+        .position(|frame| frame.positions_pulses == first_position)
+        .expect("the approach to the show's first position");
+    let first = approach
+        + frames[approach..]
+            .iter()
+            .take_while(|frame| frame.positions_pulses == first_position)
+            .count();
+    let approach_end = &frames[first - 1];
+    // Every period of the show has its frame: the target at the period's end, to be
+    // reached in exactly one period, the first period included.
+    let show_frames = usize::try_from(duration_ms / period_ms).unwrap();
+    for k in 0..show_frames {
+        let frame = &frames[first + k];
+        let k_u64 = u64::try_from(k).unwrap();
+        assert_eq!(
+            frame.slot_us,
+            approach_end.slot_us + (k_u64 + 1) * DEFAULT_PERIOD_US,
+            "frame {k} of the show"
+        );
+        assert_eq!(u64::from(frame.time_ms), period_ms, "frame {k} of the show");
+        assert_eq!(
+            frame.positions_pulses,
+            show_pulses(&player, &show, (k_u64 + 1) * period_ms),
+            "frame {k} of the show: the sample at {} ms",
+            (k_u64 + 1) * period_ms
+        );
+    }
+    // Then the settle frames hold the last position.
+    let last = show_pulses(&player, &show, duration_ms);
+    let settle = &frames[first + show_frames..];
+    assert_eq!(settle.len(), usize::try_from(SETTLE_FRAMES).unwrap());
+    assert!(settle.iter().all(|frame| frame.positions_pulses == last));
 }

@@ -348,18 +348,25 @@ impl MboxTwin {
 
     /// How long a frame takes, ms: a relative time as it is; an absolute time code
     /// minus the last one; 0, or an absolute frame with no earlier time code or one not
-    /// after it, the box's default.
+    /// after it, the box's default. An absolute time code not after the last one (a
+    /// repeat or a rewind) is counted as a fault (`time_code_faults`): the document
+    /// gives such a frame no time to take.
     fn frame_ms(&mut self, mode: TimeMode, time_code: TimeCode) -> u32 {
         let default = self.config.default_frame_ms;
         match (mode, time_code) {
             (_, TimeCode::BoxDefault) => default,
             (TimeMode::Relative, TimeCode::Ms(ms)) => ms.get(),
             (TimeMode::Absolute, TimeCode::Ms(code)) => {
-                let previous = self.last_time_code.replace(code.get());
-                previous
-                    .and_then(|previous| code.get().checked_sub(previous))
-                    .filter(|&ms| ms > 0)
-                    .unwrap_or(default)
+                let Some(previous) = self.last_time_code.replace(code.get()) else {
+                    return default;
+                };
+                match code.get().checked_sub(previous).filter(|&ms| ms > 0) {
+                    Some(ms) => ms,
+                    None => {
+                        self.counters.time_code_faults += 1;
+                        default
+                    }
+                }
             }
         }
     }

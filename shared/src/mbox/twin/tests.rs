@@ -122,6 +122,42 @@ fn an_absolute_frame_lasts_from_the_last_time_code_to_its_own() {
         twin.receive(now_us, &frame(TimeMode::Absolute, sequence, code, pulses));
         assert_eq!(twin.next_event_us(), Some(end_us), "time code {code}");
     }
+    // The rewind was a fault; the first frame and time code 0 were not.
+    assert_eq!(twin.counters().time_code_faults, 1);
+}
+
+#[test]
+fn a_repeated_or_decreasing_absolute_time_code_is_a_fault() {
+    let mut twin = twin();
+    // (time code ms, a fault)
+    let codes = [
+        (4_394, false),
+        // The same code again: a move in 0 ms.
+        (4_394, true),
+        (4_394, true),
+        (4_414, false),
+        // Back in time.
+        (4_400, true),
+        (4_420, false),
+        (4_440, false),
+    ];
+    let mut faults = 0;
+    for (sequence, (code, fault)) in (1..).zip(codes) {
+        let now_us = u64::from(sequence) * 20_000;
+        twin.receive(now_us, &frame(TimeMode::Absolute, sequence, code, 1_000));
+        faults += u64::from(fault);
+        assert_eq!(twin.counters().time_code_faults, faults, "time code {code}");
+    }
+    // Relative frames have no time code to repeat.
+    for sequence in 8..10 {
+        twin.receive(200_000, &frame(TimeMode::Relative, sequence, 20, 1_000));
+    }
+    assert_eq!(twin.snapshot().counters.time_code_faults, faults);
+    // A reset starts the time base over: the next code is no fault, whatever it is.
+    twin.receive(300_000, &hex(RESET));
+    twin.receive(400_000, &frame(TimeMode::Absolute, 10, 20, 0));
+    twin.receive(420_000, &frame(TimeMode::Absolute, 11, 40, 0));
+    assert_eq!(twin.counters().time_code_faults, faults);
 }
 
 #[test]
