@@ -125,7 +125,6 @@ pub struct MboxDrive {
     next_slot_us: u64,
     frames: Vec<MboxFrame>,
     samples: Vec<f32>,
-    show_time_ms: u64,
     progress: f64,
 }
 
@@ -140,7 +139,6 @@ impl MboxDrive {
             next_slot_us: 0,
             frames: Vec::new(),
             samples: Vec::new(),
-            show_time_ms: 0,
             progress: 0.0,
         }
     }
@@ -223,12 +221,8 @@ impl MboxDrive {
                     .sampler
                     .sample(ahead_ms as f64, &mut self.samples, None);
                 let targets_mm: Vec<f64> = self.samples.iter().map(|&mm| f64::from(mm)).collect();
-                self.show_time_ms = t_ms.min(duration_ms);
-                self.progress = if duration_ms == 0 {
-                    1.0
-                } else {
-                    (self.show_time_ms as f64 / duration_ms as f64).min(1.0)
-                };
+                // The show's time and progress are the sequencer's, from
+                // `show_start_us`.
                 self.push_frame(slot_us, period, &targets_mm, Some((&entry.show, t_ms)));
                 let settle_ms = if last {
                     SETTLE_FRAMES * period / 1_000
@@ -307,7 +301,6 @@ impl Drive for MboxDrive {
         self.samples.resize(entry.sampler.unit_count(), 0.0);
         entry.sampler.sample(0.0, &mut self.samples, None);
         let targets: Vec<f64> = self.samples.iter().map(|&mm| f64::from(mm)).collect();
-        self.show_time_ms = 0;
         self.begin_move(now_us, targets);
         true
     }
@@ -328,7 +321,6 @@ impl Drive for MboxDrive {
         // show's first.
         let start_us = now_us.max(self.next_slot_us);
         self.next_slot_us = start_us;
-        self.show_time_ms = 0;
         self.progress = 0.0;
         self.step = Step::Playing { start_us, last };
     }

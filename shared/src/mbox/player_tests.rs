@@ -146,8 +146,12 @@ fn a_playlist_homes_approaches_plays_and_ends_at_the_last_positions() {
             PlayerState::Homing,
             PlayerState::Waiting,
             PlayerState::Approaching,
+            // The show's first frame goes at the slot after the approach's last:
+            // until it does, the start is given, not yet under way.
+            PlayerState::Loading,
             PlayerState::Playing,
             PlayerState::Approaching,
+            PlayerState::Loading,
             PlayerState::Playing,
             PlayerState::Idle
         ]
@@ -233,6 +237,7 @@ fn reset_homes_and_plays_and_a_refused_reset_stays_stopped() {
         [
             PlayerState::Homing,
             PlayerState::Approaching,
+            PlayerState::Loading,
             PlayerState::Playing,
             PlayerState::Idle
         ]
@@ -324,13 +329,12 @@ fn frames_carry_the_outputs_at_their_show_time_and_0_outside_the_show() {
             .map(|(_, sent)| sent.clone())
             .unwrap()
     };
-    // The approach's last frame (at the show's first positions, outputs 0) leaves
-    // the player playing at 0 ms; the show's first frame, at show time 0 too, carries
-    // the outputs at 0.
+    // The approach's last frame (at the show's first positions, outputs 0) goes
+    // while the show's start is given (`loading`, issue 34 item 5); the show's first
+    // frame, at show time 0, is the first while playing and carries the outputs at 0.
     let at_0: Vec<_> = played.iter().filter(|(time, _)| *time == 0).collect();
-    assert_eq!(at_0.len(), 2);
-    assert_eq!(at_0[0].1, vec![(0, [0, 0]); 2]);
-    assert_eq!(at_0[1].1, vec![(0b101, [0, 0]), (0, [0, 0])]);
+    assert_eq!(at_0.len(), 1);
+    assert_eq!(at_0[0].1, vec![(0b101, [0, 0]), (0, [0, 0])]);
     assert_eq!(at(20), vec![(0b101, [20, 0]), (0, [0, 0])]);
     assert_eq!(at(180), vec![(0b101, [180, 0]), (0, [0, 0])]);
     assert_eq!(at(200), vec![(0b101, [200, 0]), (0x0FFF, [0, 0])]);
