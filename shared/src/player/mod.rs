@@ -412,13 +412,11 @@ impl<D: Drive> Sequencer<D> {
                     .map_or(until_us, |wake_us| wake_us.min(until_us))
                     .max(now_us),
             ),
-            Step::Moving { .. } | Step::Loading => self.drive.next_wakeup_us(now_us),
-            Step::Playing => {
-                let drive = self.drive.next_wakeup_us(now_us);
-                match (drive, self.next_state_change_us(now_us)) {
-                    (Some(a), Some(b)) => Some(a.min(b)),
-                    (a, b) => a.or(b),
-                }
+            // A given start is not a poll's business (the drive's clock may run ahead
+            // of the caller's): the caller asks for it apart,
+            // [`Sequencer::next_state_change_us`].
+            Step::Moving { .. } | Step::Loading | Step::Playing => {
+                self.drive.next_wakeup_us(now_us)
             }
         }
     }

@@ -319,9 +319,10 @@ fn the_status_clock_is_the_units_clock_at_the_instant_it_is_made() {
     assert_eq!(given.show_starts_in_ms, Some(20));
     assert_eq!(given.show_time_ms, 0);
     assert_eq!(sequencer.state_at(10_029_999), PlayerState::Loading);
-    // The start is a wake-up of its own: the status goes out then.
-    assert_eq!(sequencer.next_wakeup_us(10_010_000), Some(10_030_000));
+    // The start is an instant of its own for the caller (the status goes out then),
+    // not a poll: the drive's next wake-up stands.
     assert_eq!(sequencer.next_state_change_us(10_010_000), Some(10_030_000));
+    assert_eq!(sequencer.next_wakeup_us(10_010_000), Some(15_000_000));
     assert_eq!(sequencer.state_at(10_030_000), PlayerState::Playing);
     // Between polls, a status is exact to its own instant.
     let playing = sequencer.status_at(10_030_000 + 567_890);
