@@ -21,6 +21,8 @@
 //! - eSCL: [`Request::to_escl`], [`Reply::from_escl`], … with the header
 //!   [`escl::HEADER`] and the port [`escl::UDP_PORT`] ([`escl`]).
 //!
+//! - [`units`]: what a drive holds of the numbers it is sent (`VE`, `AC`/`DE`, `WT`:
+//!   steps and ranges), which the compiler writes and the twin runs.
 //! - [`qprogram`]: a show's track compiled to a Q program a drive stores and runs
 //!   (segments of `FP` moves, `WT` rests, the start input), with its deviation report.
 //!
@@ -63,6 +65,7 @@ pub mod response;
 #[cfg(test)]
 mod tests;
 pub mod twin;
+pub mod units;
 
 pub use command::{
     Address, Command, Decimal, InputCondition, IoPoint, JumpCondition, Level, MathOp, QLine,

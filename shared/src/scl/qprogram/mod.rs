@@ -51,6 +51,7 @@ use std::fmt::Write as _;
 use thiserror::Error;
 
 use super::command::{Command, Decimal, InputCondition, IoPoint, QLine, Segment};
+use super::units;
 use crate::codes::{Code, Coded, Params};
 use crate::params;
 use crate::show::Track;
@@ -58,15 +59,18 @@ use keyframes::Samples;
 use moves::{Trapezoid, solve_speed};
 use reduce::{Count, Edge, Limits, Step};
 
-/// Decimals written in `VE` (rev/s): 0.0001 rev/s is 2 counts/s at 20 000 steps/rev.
-pub const VE_DECIMALS: u8 = 4;
-/// Decimals written in `AC` and `DE` (rev/s²).
-pub const AC_DECIMALS: u8 = 3;
-/// Decimals written in `WT` (s): whole milliseconds.
-pub const WT_DECIMALS: u8 = 3;
+/// Decimals written in `VE` (rev/s); a drive holds whole steps of 1/240 rev/s
+/// ([`units::VELOCITY`]: 83⅓ counts/s at 20 000 steps/rev).
+pub const VE_DECIMALS: u8 = units::VELOCITY.decimals;
+/// Decimals written in `AC` and `DE` (rev/s²); a drive holds whole steps of 1/6 rev/s²
+/// ([`units::ACCELERATION`]).
+pub const AC_DECIMALS: u8 = units::ACCELERATION.decimals;
+/// Decimals written in `WT` (s): whole hundredths ([`units::WAIT`]).
+pub const WT_DECIMALS: u8 = units::WAIT.decimals;
 /// A move keeps the `VE` of the one before (a line saved) when that ends it at most
-/// this far from its keyframe's time, s.
-pub const KEEP_SPEED_S: f64 = 0.004;
+/// this far from its keyframe's time, s; a move that no `VE` ends that close ends
+/// early and waits: half a step of `WT`, so every keyframe is met within this.
+pub const KEEP_SPEED_S: f64 = 0.005;
 /// While choosing moves, an edge's deviation is measured every this many grid samples
 /// (10 ms); the report measures it on every sample (1 ms).
 const COST_STRIDE: usize = 10;
@@ -327,7 +331,8 @@ pub(crate) fn compile_within(
             .enumerate()
             .map(|(level, accel_rev_s2)| {
                 let limits = Limits {
-                    accel_counts_s2: accel_rev_s2.to_f64() * steps_per_rev,
+                    accel_counts_s2: units::ACCELERATION.held(accel_rev_s2).unwrap_or(0.0)
+                        * steps_per_rev,
                     max_speed_counts_s,
                     steps_per_rev,
                     counts_per_mm: config.counts_per_mm,
@@ -537,11 +542,11 @@ fn accelerations(
     let mut written: Vec<Decimal> = rev_s2
         .into_iter()
         .filter_map(|value| {
-            // Round down, so the limit is never exceeded; at least the smallest step.
-            let mantissa = (value * 10_f64.powi(i32::from(AC_DECIMALS)))
-                .floor()
-                .max(1.0);
-            Decimal::new(mantissa as i64, AC_DECIMALS)
+            // Whole steps of the drive, rounded down so the limit is never exceeded; at
+            // least the smallest step, at most the largest.
+            let steps = (value / units::ACCELERATION.step + 1e-9).floor() as i64;
+            units::ACCELERATION
+                .write(steps.clamp(units::ACCELERATION.min_steps, units::ACCELERATION.max_steps))
         })
         .collect();
     written.dedup();
@@ -621,22 +626,27 @@ impl<'a> Writer<'a> {
         self.limits = limits;
     }
 
-    /// `WT` for `seconds` rounded to the millisecond, if that is any time.
+    /// `WT` for `seconds` in whole steps of the drive (the nearest), if that is any
+    /// time; a wait longer than the largest `WT` is written as several.
     fn wait(&mut self, seconds: f64) {
-        let ms = (seconds * 1000.0).round();
-        if ms >= 1.0
-            && let Some(s) = Decimal::new(ms as i64, WT_DECIMALS)
-        {
+        let mut steps = (seconds / units::WAIT.step).round() as i64;
+        while steps >= 1 {
+            let now = steps.min(units::WAIT.max_steps);
+            let Some(s) = units::WAIT.write(now) else {
+                return;
+            };
             self.lines.push(Command::WaitTime { s });
-            self.now_s += ms / 1000.0;
+            self.now_s += now as f64 * units::WAIT.step;
+            steps -= now;
         }
     }
 
-    /// The trapezoid the drive runs for `distance` counts at `VE` `speed`.
+    /// The trapezoid the drive runs for `distance` counts at `VE` `speed` (as the drive
+    /// holds it).
     fn trapezoid(&self, distance: f64, speed: Decimal) -> Trapezoid {
         Trapezoid {
             distance,
-            speed: speed.to_f64() * self.limits.steps_per_rev,
+            speed: units::VELOCITY.held(speed).unwrap_or(0.0) * self.limits.steps_per_rev,
             accel: self.limits.accel_counts_s2,
             decel: self.limits.accel_counts_s2,
         }
@@ -688,9 +698,15 @@ impl<'a> Writer<'a> {
         let duration_s = target_s - self.now_s;
         let speed = solve_speed(distance, duration_s, self.limits.accel_counts_s2)
             .ok_or(too_fast.clone())?;
-        let exact = speed / self.limits.steps_per_rev * 10_f64.powi(i32::from(VE_DECIMALS));
-        let up = Decimal::new(exact.ceil().max(1.0) as i64, VE_DECIMALS).ok_or(too_fast)?;
-        let down = Decimal::new(exact.floor().max(1.0) as i64, VE_DECIMALS).unwrap_or(up);
+        // In the drive's steps: at least the smallest `VE`.
+        let exact = speed / self.limits.steps_per_rev / units::VELOCITY.step;
+        let min = units::VELOCITY.min_steps;
+        let up = units::VELOCITY
+            .write((exact.ceil() as i64).max(min))
+            .ok_or(too_fast)?;
+        let down = units::VELOCITY
+            .write((exact.floor() as i64).max(min))
+            .unwrap_or(up);
         let off =
             |speed: Decimal| (self.trapezoid(distance, speed).duration_s() - duration_s).abs();
         let mut closer = if off(down) < off(up) { down } else { up };
@@ -698,8 +714,8 @@ impl<'a> Writer<'a> {
         // (when the last move kept an earlier speed and ended a little off, taking
         // that back in this one's speed would make the next need a new one again) …
         let ideal = solve_speed(distance, ideal_s, self.limits.accel_counts_s2).and_then(|speed| {
-            let exact = speed / self.limits.steps_per_rev * 10_f64.powi(i32::from(VE_DECIMALS));
-            Decimal::new(exact.round().max(1.0) as i64, VE_DECIMALS)
+            let exact = speed / self.limits.steps_per_rev / units::VELOCITY.step;
+            units::VELOCITY.write((exact.round() as i64).max(min))
         });
         if let Some(ideal) = ideal.filter(|&ideal| off(ideal) <= KEEP_SPEED_S) {
             closer = ideal;
@@ -765,14 +781,16 @@ impl<'a> Writer<'a> {
         }
         if self.config.loop_show && self.at_counts != start_counts {
             // Home stretch: back to the start at the speed limit, before `QG`.
-            let top = self.limits.max_speed_counts_s / self.limits.steps_per_rev
-                * 10_f64.powi(i32::from(VE_DECIMALS));
-            let speed = Decimal::new(top.floor().max(1.0) as i64, VE_DECIMALS).ok_or(
-                QProgramError::OutOfRange {
+            let top =
+                self.limits.max_speed_counts_s / self.limits.steps_per_rev / units::VELOCITY.step;
+            let top =
+                (top.floor() as i64).clamp(units::VELOCITY.min_steps, units::VELOCITY.max_steps);
+            let speed = units::VELOCITY
+                .write(top)
+                .ok_or(QProgramError::OutOfRange {
                     at_ms: track.duration_ms(),
                     position_mm: track.start_mm,
-                },
-            )?;
+                })?;
             let end_ms = (self.now_s * 1000.0).round() as u64;
             self.feed(start_counts, speed, end_ms)?;
             self.keyframes.push(Keyframe {
@@ -899,13 +917,10 @@ impl<'a> Writer<'a> {
     }
 }
 
-/// `AC` (and `DE`) for an acceleration, rev/s².
+/// `AC` (and `DE`) for an acceleration (a whole number of the drive's steps), rev/s².
 fn accel_decimal(limits: &Limits) -> Option<Decimal> {
     let per_rev = limits.accel_counts_s2 / limits.steps_per_rev;
-    Decimal::new(
-        (per_rev * 10_f64.powi(i32::from(AC_DECIMALS))).round() as i64,
-        AC_DECIMALS,
-    )
+    units::ACCELERATION.write((per_rev / units::ACCELERATION.step).round() as i64)
 }
 
 /// Segment 1 alone.

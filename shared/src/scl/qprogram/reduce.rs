@@ -15,18 +15,20 @@
 
 use super::keyframes::Samples;
 use super::moves::{Trapezoid, solve_speed};
+use crate::scl::units;
 
 /// What the drive does along an edge.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Step {
     /// Stay (`WT`): the two keyframes are at the same count.
     Wait,
-    /// An `FP` move whose cruise speed is `speed_counts_s` (before rounding);
-    /// `then_wait` when it is so slow that rounding `VE` could miss its time by more
-    /// than a millisecond: it then runs at the rounded-up speed and a `WT` makes up the
-    /// difference.
+    /// An `FP` move whose cruise speed is `speed_counts_s`; `then_wait` when it is so
+    /// slow that a whole step of `VE` could miss its time by more than
+    /// [`super::KEEP_SPEED_S`] (or slower than the smallest `VE`): it then runs at the
+    /// speed rounded up to a step, which is its `speed_counts_s`, and a `WT` makes up
+    /// the difference.
     Move {
-        /// The exact cruise speed, counts/s.
+        /// The cruise speed, counts/s: exact, or rounded up to a step when it waits.
         speed_counts_s: f64,
         /// Whether a `WT` follows.
         then_wait: bool,
@@ -90,13 +92,11 @@ pub(crate) struct Limits {
 /// half a millisecond of `WT` rounding).
 const CLOCK_SLACK_S: f64 = 0.005;
 
-/// A `VE` written with [`super::VE_DECIMALS`] decimals is at most half this from the
-/// exact speed, rev/s.
-const VE_STEP_REV_S: f64 = 1e-4;
-
-/// A move whose speed is below `duration_s × this` (rev/s) could end more than about
-/// half a millisecond off its time once `VE` is rounded: it gets a `WT` after it.
-const SLOW_REV_S_PER_S: f64 = 0.1;
+/// A move whose speed (rev/s) is below `duration_s ×` this could end more than
+/// [`super::KEEP_SPEED_S`] off its time at the nearest step of `VE` (one step changes
+/// the time by at most `duration × step / speed`; half a step, with a tenth to spare):
+/// it gets a `WT` after it.
+const SLOW_REV_S_PER_S: f64 = units::VELOCITY.step / (2.0 * 0.9 * super::KEEP_SPEED_S);
 
 /// The step from one keyframe to another, or `None` when no move within the limits
 /// makes it: `distance_counts` (not negative) in `duration_s`.
@@ -116,9 +116,20 @@ pub(crate) fn plan_step(distance_counts: f64, duration_s: f64, limits: &Limits) 
     }
     let speed = solve_speed(distance_counts, duration_s, limits.accel_counts_s2)?;
     let rev_s = speed / limits.steps_per_rev;
-    let then_wait = rev_s < (duration_s * SLOW_REV_S_PER_S).max(100.0 * VE_STEP_REV_S);
+    let then_wait = rev_s < (duration_s * SLOW_REV_S_PER_S).max(units::VELOCITY.step * 2.0);
+    if !then_wait {
+        return Some(Step::Move {
+            speed_counts_s: speed,
+            then_wait,
+        });
+    }
+    // As the writer runs it: the speed rounded up to a whole step, at least the
+    // smallest `VE`.
+    let steps = (rev_s / units::VELOCITY.step - 1e-9)
+        .ceil()
+        .max(units::VELOCITY.min_steps as f64);
     Some(Step::Move {
-        speed_counts_s: speed,
+        speed_counts_s: steps * units::VELOCITY.step * limits.steps_per_rev,
         then_wait,
     })
 }

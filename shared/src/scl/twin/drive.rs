@@ -10,8 +10,8 @@ use crate::scl::command::{
     Address, Command, Decimal, InputCondition, IoPoint, JumpCondition, Level, MathOp, Register,
     Request, Segment,
 };
-use crate::scl::escl;
 use crate::scl::response::{Answer, QueueUpload, Reply};
+use crate::scl::{escl, units};
 
 /// Alarm code bits the twin raises (HCR p. 27, `AL`).
 pub mod alarm {
@@ -108,9 +108,7 @@ const PAUSE_S: f64 = 0.001;
 pub(super) const EPSILON_S: f64 = 1e-9;
 /// The refusal code for a value out of range (HCR p. 251: `?5`).
 const OUT_OF_RANGE: u16 = 5;
-/// Highest `VE`, rev/s; highest `AC`/`DE`, rev/s²; `EG` range (the twin's limits).
-const MAX_VELOCITY_REV_S: f64 = 100.0;
-const MAX_ACCEL_REV_S2: f64 = 5000.0;
+/// `EG` range (the twin's limits; `VE`, `AC`, `DE` and `WT`: [`units`]).
 const STEPS_PER_REV_RANGE: std::ops::RangeInclusive<u32> = 200..=51_200;
 /// Registers `'0'` to `'z'`.
 const REGISTERS: usize = (b'z' - b'0' + 1) as usize;
@@ -232,16 +230,19 @@ fn class(command: &Command) -> Class {
     }
 }
 
-/// Whether a command's values are in the twin's ranges (else `?5`).
+/// Whether a command's values are in the twin's ranges (else `?5`): `VE`, `AC`, `DE`
+/// and `WT` as a drive takes them ([`units`]: `VE` from 0.0042 rev/s, `AC`/`DE` from
+/// 0.167 rev/s²).
 fn in_range(command: &Command) -> bool {
-    let rate = |value: Option<Decimal>, max: f64| {
-        value.is_none_or(|v| v.to_f64() > 0.0 && v.to_f64() <= max)
+    let held = |value: Option<Decimal>, resolution: units::Resolution| {
+        value.is_none_or(|v| resolution.steps(v).is_some())
     };
     match *command {
-        Command::Velocity { rev_s } => rate(rev_s, MAX_VELOCITY_REV_S),
+        Command::Velocity { rev_s } => held(rev_s, units::VELOCITY),
         Command::Acceleration { rev_s2 } | Command::Deceleration { rev_s2 } => {
-            rate(rev_s2, MAX_ACCEL_REV_S2)
+            held(rev_s2, units::ACCELERATION)
         }
+        Command::WaitTime { s } => held(Some(s), units::WAIT),
         Command::ElectronicGearing { steps_per_rev } => {
             steps_per_rev.is_none_or(|s| STEPS_PER_REV_RANGE.contains(&s))
         }
@@ -882,7 +883,7 @@ impl Drive {
             }
             Command::WaitTime { s } => {
                 self.wait = Wait::Until {
-                    at_s: self.clock_s + s.to_f64(),
+                    at_s: self.clock_s + units::WAIT.held(s).unwrap_or(0.0),
                     wt: true,
                 };
                 Step::Next
@@ -1046,7 +1047,7 @@ impl Drive {
 
     /// Slows the motion down to rest at `DE`.
     fn stop_motion(&mut self) {
-        let decel = self.counts(self.decel_rev_s2);
+        let decel = self.counts(self.decel_rev_s2, units::ACCELERATION);
         if let Some(motion) = &self.motion
             && motion.kind != MotionKind::Stopping
         {
@@ -1062,9 +1063,10 @@ impl Drive {
         }
     }
 
-    /// A rev/s (or rev/s²) value in counts/s (counts/s²).
-    fn counts(&self, rev: Decimal) -> f64 {
-        rev.to_f64() * f64::from(self.steps_per_rev)
+    /// A rev/s (or rev/s²) value, as the drive holds it in `resolution`'s steps, in
+    /// counts/s (counts/s²).
+    fn counts(&self, rev: Decimal, resolution: units::Resolution) -> f64 {
+        resolution.held(rev).unwrap_or(0.0) * f64::from(self.steps_per_rev)
     }
 
     /// Raises an alarm: the move is not made, the buffer and the program are killed.
@@ -1081,9 +1083,9 @@ impl Drive {
         }
         let here = self.rest_counts;
         let (speed, accel, decel) = (
-            self.counts(self.velocity_rev_s),
-            self.counts(self.accel_rev_s2),
-            self.counts(self.decel_rev_s2),
+            self.counts(self.velocity_rev_s, units::VELOCITY),
+            self.counts(self.accel_rev_s2, units::ACCELERATION),
+            self.counts(self.decel_rev_s2, units::ACCELERATION),
         );
         let distance = f64::from(self.distance_counts);
         let (profile, kind) = match command {

@@ -550,6 +550,45 @@ fn qw_stores_a_segment_and_qu_reads_it_back() {
 }
 
 #[test]
+fn values_below_a_drives_range_are_refused_and_the_rest_run_in_its_steps() {
+    let mut d = drive();
+    // The issue's creep: VE0.0006 … VE0.0024 are below the smallest VE (0.0042 rev/s);
+    // AC/DE below 0.167 rev/s²; a negative or over-long WT (issue 34, item 3).
+    for line in [
+        "VE0.0006", "VE0.0024", "VE0.0041", "AC0.1", "DE0.166", "WT320.01", "VE100.01",
+    ] {
+        assert_eq!(d.receive_line(line, 0).as_deref(), Some("?5\r"), "{line}");
+    }
+    // Refused values are not taken.
+    assert_eq!(d.receive_line("VE", 0).as_deref(), Some("VE=10\r"));
+    for line in ["VE0.0042", "AC0.167", "DE0.167", "WT320", "WT0"] {
+        assert_eq!(d.receive_line(line, 0).as_deref(), Some("*\r"), "{line}");
+    }
+    // VE0.6910 is held as 166 steps of 1/240 rev/s (0.69167 rev/s), AC2.5 as 15 steps
+    // of 1/6 rev/s²: a 110 000-count FL lasts exactly what those give.
+    let mut d = drive();
+    for line in ["VE0.6910", "AC2.5", "DE2.5", "DI110000", "FL"] {
+        d.receive_line(line, 0);
+    }
+    d.advance(20 * S);
+    let (speed, accel) = (166.0 / 240.0 * 20_000.0, 15.0 / 6.0 * 20_000.0);
+    let duration_s = speed / accel + 110_000.0 / speed;
+    let end = d.move_ends()[0];
+    assert!(
+        (end.at_s - duration_s).abs() < 1e-9,
+        "{end:?} vs {duration_s}"
+    );
+    // … and WT0.504 waits 0.50 s (whole hundredths).
+    let mut d = drive();
+    for line in ["WT0.504", "DI100", "FL"] {
+        d.receive_line(line, 0);
+    }
+    d.advance(S);
+    let start_s = d.move_ends()[0].at_s - (100.0_f64 / (100.0 * 20_000.0)).sqrt() * 2.0;
+    assert!((start_s - 0.5).abs() < 1e-9, "{start_s}");
+}
+
+#[test]
 fn refusals_and_alarms() {
     let mut d = Drive::new(DriveConfig {
         soft_limits_counts: Some((-1_000, 1_000)),
