@@ -2,10 +2,10 @@
 //! strays from the show, and how long it takes. Run by `cargo xtask qprogram-report`
 //! (release build); prints figures, asserts nothing.
 //!
-//! `qprogram_report [--rows R] [--cols C] [--minutes M] [--period-s P] [--row-ms MS]`:
-//! the demo wave (`show::demo`) on R × C balls (default 10 × 10) for M minutes
-//! (default 10), one wave every P s (default 4, the standard wave), rows of MS ms
-//! (default 200); compiled with the default `QProgramConfig` except the tolerance,
+//! `qprogram_report [--rows R] [--cols C] [--minutes M] [--period-s P] [--row-ms MS]
+//! [--amplitude-mm A]`: the demo wave (`show::demo`) on R × C balls (default 10 × 10)
+//! for M minutes (default 10), one wave every P s (default 4, the standard wave), rows
+//! of MS ms (default 200), swinging ±A mm (default 500); compiled with the default `QProgramConfig` except the tolerance,
 //! which is lifted so that every ball reports its figure instead of being refused.
 
 use std::time::Instant;
@@ -19,6 +19,7 @@ fn main() {
     let mut minutes = 10.0_f64;
     let mut period_s = 4.0_f64;
     let mut row_ms = 200_u32;
+    let mut amplitude_mm = None;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut pairs = args.chunks(2);
     while let Some([flag, value]) = pairs.next() {
@@ -32,13 +33,16 @@ fn main() {
             "--minutes" => minutes = number,
             "--period-s" => period_s = number,
             "--row-ms" => row_ms = number as u32,
+            "--amplitude-mm" => amplitude_mm = Some(number),
             _ => return eprintln!("unknown option {flag}"),
         }
     }
     let rows_per_ball = (minutes * 60_000.0 / f64::from(row_ms)).round() as usize;
+    let standard = Wave::new(rows, cols, rows_per_ball, row_ms);
     let show = Wave {
         period_s,
-        ..Wave::new(rows, cols, rows_per_ball, row_ms)
+        amplitude_mm: amplitude_mm.unwrap_or(standard.amplitude_mm),
+        ..standard
     }
     .show();
     let config = QProgramConfig {

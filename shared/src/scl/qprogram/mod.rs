@@ -9,19 +9,22 @@
 //!
 //! What a program is:
 //! - every move is an absolute `FP` (`DI` = mm × `counts_per_mm`) **from rest to
-//!   rest**, a trapezoid (`AC` = `DE`, rev/s² with 3 decimals, from a ladder: the limit,
-//!   the limit / √2, / 2, … and the one that suits the show's typical move; set in
-//!   segment 1 for the first move, written again only when it changes) whose cruise
-//!   speed (`VE`, rev/s, 4 decimals) is solved so the move ends at its keyframe's time;
-//!   where the ball rests, `WT` (s, 3 decimals: whole milliseconds);
-//! - the compiler keeps the drive's clock: it times every move from the rounded values
-//!   it writes, as the drive computes the trapezoid, and gives the next move what is
-//!   left to its keyframe, so rounding never accumulates: every move ends within
-//!   [`KEEP_SPEED_S`] (4 ms) of its keyframe (so within a player's tick,
-//!   [`crate::uim2503::player::TICK_US`]) at exactly its count. A move keeps the `VE` of
-//!   the one before when that ends it within those 4 ms (a line saved: a periodic show
-//!   needs `DI` and `FP` alone); a move that no rounded `VE` ends that close (a very
-//!   slow one) runs at the rounded-up speed and a `WT` makes up the rest;
+//!   rest**, a trapezoid (`AC` = `DE`, rev/s², from a ladder: the limit, the limit / √2,
+//!   / 2, … and the one that suits the show's typical move; set in segment 1 for the
+//!   first move, written again only when it changes) whose cruise speed (`VE`, rev/s) is
+//!   solved so the move ends at its keyframe's time; where the ball rests, `WT` (s);
+//! - every value is one a drive takes, a whole number of the steps it holds
+//!   ([`super::units`]: `VE` 1/240 rev/s from 0.0042, `AC`/`DE` 1/6 rev/s² from 0.167,
+//!   `WT` 0.01 s), written so that any drive holds exactly that step;
+//! - the compiler keeps the drive's clock: it times every move from the values as the
+//!   drive holds them, as the drive computes the trapezoid, and gives the next move what
+//!   is left to its keyframe, so rounding never accumulates: every move ends at exactly
+//!   its count and the ball stands there within [`KEEP_SPEED_S`] (5 ms) of its
+//!   keyframe's time (so within a player's tick, [`crate::uim2503::player::TICK_US`]). A
+//!   move keeps the `VE` of the one before when that ends it within those 5 ms (a line
+//!   saved: a periodic show needs `DI` and `FP` alone); a move that no step of `VE` ends
+//!   that close (a slow one, or one slower than the smallest `VE`) runs at the speed
+//!   rounded up to a step, arrives early, and a `WT` makes up the rest;
 //! - `MT0` (moves block the program); time 0 is when the program starts, or when the
 //!   start input meets its condition (`WI`, line 1) if one is configured; the drive
 //!   must stand at the track's start position then (the bridge brings it there);
