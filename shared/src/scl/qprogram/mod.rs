@@ -19,12 +19,12 @@
 //! - the compiler keeps the drive's clock: it times every move from the values as the
 //!   drive holds them, as the drive computes the trapezoid, and gives the next move what
 //!   is left to its keyframe, so rounding never accumulates: every move ends at exactly
-//!   its count and the ball stands there within [`KEEP_SPEED_S`] (5 ms) of its
-//!   keyframe's time (so within a player's tick, [`crate::uim2503::player::TICK_US`]). A
-//!   move keeps the `VE` of the one before when that ends it within those 5 ms (a line
-//!   saved: a periodic show needs `DI` and `FP` alone); a move that no step of `VE` ends
-//!   that close (a slow one, or one slower than the smallest `VE`) runs at the speed
-//!   rounded up to a step, arrives early, and a `WT` makes up the rest;
+//!   its count, at most [`LATE_S`] (5 ms) late and [`KEEP_SPEED_S`] (10 ms, a player's
+//!   tick, [`crate::uim2503::player::TICK_US`]) early. A move keeps the `VE` of the one
+//!   before when that ends it within that window (a line saved: a periodic show needs
+//!   `DI` and `FP` alone); a move that no step of `VE` ends within it (a slow one, or
+//!   one slower than the smallest `VE`) runs at the speed rounded up to a step, arrives
+//!   early, and a `WT` makes up the rest;
 //! - `MT0` (moves block the program); time 0 is when the program starts, or when the
 //!   start input meets its condition (`WI`, line 1) if one is configured; the drive
 //!   must stand at the track's start position then (the bridge brings it there);
@@ -70,10 +70,17 @@ pub const VE_DECIMALS: u8 = units::VELOCITY.decimals;
 pub const AC_DECIMALS: u8 = units::ACCELERATION.decimals;
 /// Decimals written in `WT` (s): whole hundredths ([`units::WAIT`]).
 pub const WT_DECIMALS: u8 = units::WAIT.decimals;
-/// A move keeps the `VE` of the one before (a line saved) when that ends it at most
-/// this far from its keyframe's time, s; a move that no `VE` ends that close ends
-/// early and waits: half a step of `WT`, so every keyframe is met within this.
-pub const KEEP_SPEED_S: f64 = 0.005;
+/// How early before its keyframe's time a move may end, s: a player's tick
+/// ([`crate::uim2503::player::TICK_US`]); and [`LATE_S`], how late. A move keeps the
+/// `VE` of the one before (a line saved) when that ends it within these; a move that no
+/// step of `VE` ends within them ends early and waits (`WT`, to half a hundredth). One
+/// step of `VE` (1/240 rev/s) moves the end of a move of `T` s at `v` rev/s by up to
+/// `T / (240 v)` s — 13 ms for a 1 m swing in 4 s — so the 4 ms the compiler kept
+/// with `VE`s of 0.0001 rev/s (finer than a drive holds them) cannot be kept.
+pub const KEEP_SPEED_S: f64 = 0.010;
+/// How late after its keyframe's time a move may end, s (the next move is planned this
+/// much quicker).
+pub const LATE_S: f64 = 0.005;
 /// While choosing moves, an edge's deviation is measured every this many grid samples
 /// (10 ms); the report measures it on every sample (1 ms).
 const COST_STRIDE: usize = 10;
@@ -710,9 +717,20 @@ impl<'a> Writer<'a> {
         let down = units::VELOCITY
             .write((exact.floor() as i64).max(min))
             .unwrap_or(up);
-        let off =
-            |speed: Decimal| (self.trapezoid(distance, speed).duration_s() - duration_s).abs();
-        let mut closer = if off(down) < off(up) { down } else { up };
+        // How far off its time the move ends at `speed`, and whether that is within
+        // the window: at most `KEEP_SPEED_S` early, `LATE_S` late.
+        let late = |speed: Decimal| self.trapezoid(distance, speed).duration_s() - duration_s;
+        let off = |speed: Decimal| {
+            let late = late(speed);
+            if (-KEEP_SPEED_S..=LATE_S).contains(&late) {
+                0.0
+            } else {
+                late.abs()
+            }
+        };
+        // The step within the window, else the nearer; of two within it, the nearer.
+        let key = |speed: Decimal| (off(speed), late(speed).abs());
+        let mut closer = if key(down) < key(up) { down } else { up };
         // The speed of the keyframe-to-keyframe move, if it ends this one close enough
         // (when the last move kept an earlier speed and ended a little off, taking
         // that back in this one's speed would make the next need a new one again) …
@@ -720,14 +738,14 @@ impl<'a> Writer<'a> {
             let exact = speed / self.limits.steps_per_rev / units::VELOCITY.step;
             units::VELOCITY.write((exact.round() as i64).max(min))
         });
-        if let Some(ideal) = ideal.filter(|&ideal| off(ideal) <= KEEP_SPEED_S) {
+        if let Some(ideal) = ideal.filter(|&ideal| off(ideal) == 0.0) {
             closer = ideal;
         }
         // … and better, the `VE` already set: a line saved.
-        if let Some(previous) = self.speed.filter(|&previous| off(previous) <= KEEP_SPEED_S) {
+        if let Some(previous) = self.speed.filter(|&previous| off(previous) == 0.0) {
             closer = previous;
         }
-        if then_wait || off(closer) > KEEP_SPEED_S {
+        if then_wait || off(closer) > 0.0 {
             self.feed(to_counts, up, target_ms)?;
             self.keyframes.push(Keyframe {
                 time_ms: target_ms,

@@ -88,15 +88,14 @@ pub(crate) struct Limits {
 }
 
 /// A move is planned to be made this much quicker than its keyframes are apart, s: the
-/// compiler's clock may be up to [`super::KEEP_SPEED_S`] late when it writes it (and
-/// half a millisecond of `WT` rounding).
-const CLOCK_SLACK_S: f64 = 0.005;
+/// compiler's clock may be up to [`super::KEEP_SPEED_S`] late when it writes it.
+const CLOCK_SLACK_S: f64 = super::LATE_S + 0.001;
 
-/// A move whose speed (rev/s) is below `duration_s ×` this could end more than
-/// [`super::KEEP_SPEED_S`] off its time at the nearest step of `VE` (one step changes
-/// the time by at most `duration × step / speed`; half a step, with a tenth to spare):
-/// it gets a `WT` after it.
-const SLOW_REV_S_PER_S: f64 = units::VELOCITY.step / (2.0 * 0.9 * super::KEEP_SPEED_S);
+/// A move whose speed (rev/s) is below `duration_s ×` this might have no step of `VE`
+/// that ends it within its window ([`super::KEEP_SPEED_S`] early to [`super::LATE_S`]
+/// late: one step changes the time by at most `duration × step / speed`; with a tenth
+/// to spare): it gets a `WT` after it.
+const SLOW_REV_S_PER_S: f64 = units::VELOCITY.step / (0.9 * (super::KEEP_SPEED_S + super::LATE_S));
 
 /// The step from one keyframe to another, or `None` when no move within the limits
 /// makes it: `distance_counts` (not negative) in `duration_s`.
