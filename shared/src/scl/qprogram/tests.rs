@@ -537,7 +537,7 @@ fn a_compiled_show_on_a_hundred_twins_ends_every_move_at_its_keyframe() {
         // The twin holds every value as a drive does and runs the listing as the
         // compiler counted it; every keyframe is met within the compiler's window.
         let ran = run(&program, &config, start_counts as f64);
-        twin_runs_the_listing(&ends, &ran, start_us as f64 / 1e6);
+        twin_runs_the_listing(ends, &ran, start_us as f64 / 1e6);
         meets_its_keyframes(&program, &config, &ran);
         assert!(!drive.is_moving() && !drive.is_executing(), "ball {ball}");
     }
@@ -574,7 +574,7 @@ fn reduced_resting_and_looping_programs_run_on_a_twin_as_compiled() {
         let mut drive = load(&program, start_counts, 0);
         drive.advance(track.duration_ms() * 1000 + 5_000_000);
         let ran = run(&program, &lenient(), start_counts as f64);
-        twin_runs_the_listing(&drive.move_ends(), &ran, 0.0);
+        twin_runs_the_listing(drive.move_ends(), &ran, 0.0);
         meets_its_keyframes(&program, &lenient(), &ran);
     }
 }
@@ -696,7 +696,7 @@ fn a_slow_creep_is_written_in_values_a_drive_takes_and_meets_its_keyframes() {
         // On a twin that refuses what a drive refuses (`load` wants every line `*`).
         let mut drive = load(&program, start_counts, 0);
         drive.advance(creep.duration_ms() * 1000 + 5_000_000);
-        twin_runs_the_listing(&drive.move_ends(), &ran, 0.0);
+        twin_runs_the_listing(drive.move_ends(), &ran, 0.0);
     }
     // The other shows of the tests too.
     for track in [tiny(), wave(60, 4.0), wave(120, 12.0)] {
