@@ -776,7 +776,7 @@ impl<'a> Writer<'a> {
         for edge in path {
             let target_ms = samples.times_ms[candidates[edge.to]];
             match edge.step {
-                Step::Wait => self.wait(target_ms as f64 / 1000.0 - self.now_s),
+                Step::Wait { .. } => self.wait(target_ms as f64 / 1000.0 - self.now_s),
                 Step::Move { then_wait, .. } => {
                     self.accelerate(edge.level);
                     let from_ms = samples.times_ms[candidates[edge.from]];

@@ -21,7 +21,10 @@ use crate::scl::units;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Step {
     /// Stay (`WT`): the two keyframes are at the same count.
-    Wait,
+    Wait {
+        /// `WT` lines: one for every 320 s (the longest `WT`) or part of it.
+        lines: usize,
+    },
     /// An `FP` move whose cruise speed is `speed_counts_s`; `then_wait` when it is so
     /// slow that a whole step of `VE` could miss its time by more than
     /// [`super::KEEP_SPEED_S`] (or slower than the smallest `VE`): it then runs at the
@@ -47,12 +50,12 @@ pub(crate) enum Count {
 }
 
 impl Step {
-    /// The lines the step writes: `WT`; or `DI`, `VE` (if `count` says so), `FP`
+    /// The lines the step writes: `WT` (one or more); or `DI`, `VE` (if `count` says so), `FP`
     /// (and `WT`).
     pub fn lines(self, count: Count) -> usize {
         let speed = usize::from(count == Count::Surely);
         match self {
-            Self::Wait => 1,
+            Self::Wait { lines } => lines,
             Self::Move { then_wait, .. } => 2 + speed + usize::from(then_wait),
         }
     }
@@ -101,7 +104,10 @@ const SLOW_REV_S_PER_S: f64 = units::VELOCITY.step / (0.9 * (super::KEEP_SPEED_S
 /// makes it: `distance_counts` (not negative) in `duration_s`.
 pub(crate) fn plan_step(distance_counts: f64, duration_s: f64, limits: &Limits) -> Option<Step> {
     if distance_counts == 0.0 {
-        return (duration_s >= 0.0).then_some(Step::Wait);
+        // One `WT` for every longest wait a drive takes (320 s) or part of one.
+        let longest_s = units::WAIT.max_steps as f64 * units::WAIT.step;
+        let lines = ((duration_s / longest_s).ceil() as usize).max(1);
+        return (duration_s >= 0.0).then_some(Step::Wait { lines });
     }
     // Keep time in hand: the move before may have ended up to 4 ms late
     // (`KEEP_SPEED_S`), and the move must still be made in what is left.
@@ -186,7 +192,7 @@ fn cost(
     let from_mm = c0 as f64 / limits.counts_per_mm;
     let sign = if c1 >= c0 { 1.0 } else { -1.0 };
     let trapezoid = match step {
-        Step::Wait => None,
+        Step::Wait { .. } => None,
         Step::Move { speed_counts_s, .. } => Some(Trapezoid {
             distance: (c1 - c0).abs() as f64,
             speed: speed_counts_s,

@@ -698,6 +698,25 @@ fn a_slow_creep_is_written_in_values_a_drive_takes_and_meets_its_keyframes() {
         drive.advance(creep.duration_ms() * 1000 + 5_000_000);
         twin_runs_the_listing(drive.move_ends(), &ran, 0.0);
     }
+    // The rest of 400 s is longer than the longest `WT` (320 s): two lines, planned as
+    // two.
+    let limits = reduce::Limits {
+        accel_counts_s2: 400_000.0,
+        max_speed_counts_s: 200_000.0,
+        steps_per_rev: 20_000.0,
+        counts_per_mm: 100.0,
+    };
+    let rest = reduce::plan_step(0.0, 400.0, &limits).unwrap();
+    assert_eq!(rest, reduce::Step::Wait { lines: 2 });
+    assert_eq!(rest.lines(reduce::Count::Surely), 2);
+    // (The rests of a show are candidates a second apart; an edge that long comes
+    // from a show of hours, whose candidates are thinned.) The writer splits it.
+    let config = QProgramConfig::default();
+    let mut writer = Writer::new(&config, &[], 0);
+    writer.wait(700.004);
+    let waits: Vec<String> = writer.lines.iter().map(ToString::to_string).collect();
+    assert_eq!(waits, ["WT320.00", "WT320.00", "WT60.00"]);
+    assert!((writer.now_s - 700.0).abs() < 1e-9);
     // The other shows of the tests too.
     for track in [tiny(), wave(60, 4.0), wave(120, 12.0)] {
         true_to_the_drive(&compile(&track, &lenient()).unwrap());
