@@ -109,8 +109,8 @@ pub(crate) fn plan_step(distance_counts: f64, duration_s: f64, limits: &Limits) 
         let lines = ((duration_s / longest_s).ceil() as usize).max(1);
         return (duration_s >= 0.0).then_some(Step::Wait { lines });
     }
-    // Keep time in hand: the move before may have ended up to 4 ms late
-    // (`KEEP_SPEED_S`), and the move must still be made in what is left.
+    // Keep time in hand: the move before may have ended up to 5 ms late (`LATE_S`),
+    // and the move must still be made in what is left.
     let speed = solve_speed(
         distance_counts,
         duration_s - CLOCK_SLACK_S,
