@@ -145,6 +145,11 @@ enum MotionKind {
         speed_counts_s: f64,
         accel_counts_s2: f64,
     },
+    /// Jogging (`CJ`) in `direction` (1 or −1): until `SJ`, `ST` or `SK`.
+    Jog {
+        /// 1 forward, −1 backward.
+        direction: f64,
+    },
     /// Slowing down after `ST` or `SK`.
     Stopping,
 }
@@ -238,7 +243,11 @@ fn in_range(command: &Command) -> bool {
         value.is_none_or(|v| resolution.steps(v).is_some())
     };
     match *command {
-        Command::Velocity { rev_s } => held(rev_s, units::VELOCITY),
+        Command::Velocity { rev_s } | Command::JogSpeed { rev_s } => held(rev_s, units::VELOCITY),
+        Command::ChangeSpeed { rev_s } => held(Some(rev_s), units::VELOCITY),
+        Command::JogAcceleration { rev_s2 } | Command::JogDeceleration { rev_s2 } => {
+            held(rev_s2, units::ACCELERATION)
+        }
         Command::Acceleration { rev_s2 } | Command::Deceleration { rev_s2 } => {
             held(rev_s2, units::ACCELERATION)
         }
@@ -262,6 +271,8 @@ fn takes_time(command: &Command) -> bool {
         Command::FeedToLength
             | Command::FeedToPosition
             | Command::FeedToSensor { .. }
+            | Command::CommenceJogging
+            | Command::StopJogging
             | Command::WaitTime { .. }
             | Command::WaitForInput { .. }
     )
@@ -286,6 +297,9 @@ pub struct Drive {
     velocity_rev_s: Decimal,
     accel_rev_s2: Decimal,
     decel_rev_s2: Decimal,
+    jog_speed_rev_s: Decimal,
+    jog_accel_rev_s2: Decimal,
+    jog_decel_rev_s2: Decimal,
     steps_per_rev: u32,
     pub(super) multitasking: bool,
     enabled: bool,
@@ -331,6 +345,9 @@ impl Drive {
             velocity_rev_s: config.velocity_rev_s,
             accel_rev_s2: config.accel_rev_s2,
             decel_rev_s2: config.decel_rev_s2,
+            jog_speed_rev_s: config.velocity_rev_s,
+            jog_accel_rev_s2: config.accel_rev_s2,
+            jog_decel_rev_s2: config.decel_rev_s2,
             steps_per_rev: config.steps_per_rev,
             config,
             clock_s: 0.0,
@@ -526,6 +543,13 @@ impl Drive {
             Command::Velocity { rev_s: None } => value("VE", self.velocity_rev_s.to_string()),
             Command::Acceleration { rev_s2: None } => value("AC", self.accel_rev_s2.to_string()),
             Command::Deceleration { rev_s2: None } => value("DE", self.decel_rev_s2.to_string()),
+            Command::JogSpeed { rev_s: None } => value("JS", self.jog_speed_rev_s.to_string()),
+            Command::JogAcceleration { rev_s2: None } => {
+                value("JA", self.jog_accel_rev_s2.to_string())
+            }
+            Command::JogDeceleration { rev_s2: None } => {
+                value("JL", self.jog_decel_rev_s2.to_string())
+            }
             Command::ElectronicGearing {
                 steps_per_rev: None,
             } => value("EG", self.steps_per_rev.to_string()),
@@ -881,6 +905,52 @@ impl Drive {
                 }
                 Step::Next
             }
+            Command::CommenceJogging => {
+                match self.motion.as_ref().map(|motion| motion.kind) {
+                    // Already jogging: nothing more.
+                    Some(MotionKind::Jog { .. }) => return Step::Next,
+                    Some(_) => {
+                        self.wait = Wait::Motion;
+                        return Step::Again;
+                    }
+                    None => {}
+                }
+                if !self.enabled || self.alarm != 0 {
+                    self.fault(alarm::NO_MOVE);
+                    return Step::Stop;
+                }
+                let direction = if self.distance_counts < 0 { -1.0 } else { 1.0 };
+                let speed = direction * self.counts(self.jog_speed_rev_s, units::VELOCITY);
+                let (accel, decel) = self.jog_rates();
+                self.motion = Some(Motion {
+                    start_s: self.clock_s,
+                    profile: Profile::run(self.rest_counts, 0.0, speed, accel, decel),
+                    kind: MotionKind::Jog { direction },
+                    offset_counts: 0.0,
+                });
+                // A jog never ends by itself: the program goes on (even with `MT0`).
+                Step::Next
+            }
+            Command::StopJogging => {
+                if let Some(motion) = &self.motion
+                    && let MotionKind::Jog { .. } = motion.kind
+                {
+                    let (x, v) = motion.at(self.clock_s);
+                    let (_, decel) = self.jog_rates();
+                    self.motion = Some(Motion {
+                        start_s: self.clock_s,
+                        profile: Profile::stop(x, v, decel),
+                        kind: MotionKind::Move,
+                        offset_counts: 0.0,
+                    });
+                    // A stop that takes no time ends the motion now.
+                    self.set_clock(self.clock_s);
+                    if !self.multitasking {
+                        self.wait = Wait::Motion;
+                    }
+                }
+                Step::Next
+            }
             Command::WaitTime { s } => {
                 self.wait = Wait::Until {
                     at_s: self.clock_s + units::WAIT.held(s).unwrap_or(0.0),
@@ -927,6 +997,26 @@ impl Drive {
             Command::Velocity { rev_s: Some(v) } => self.velocity_rev_s = v,
             Command::Acceleration { rev_s2: Some(a) } => self.accel_rev_s2 = a,
             Command::Deceleration { rev_s2: Some(d) } => self.decel_rev_s2 = d,
+            Command::JogSpeed { rev_s: Some(v) } => self.jog_speed_rev_s = v,
+            Command::JogAcceleration { rev_s2: Some(a) } => self.jog_accel_rev_s2 = a,
+            Command::JogDeceleration { rev_s2: Some(d) } => self.jog_decel_rev_s2 = d,
+            Command::ChangeSpeed { rev_s } => {
+                // The jog speed from now on; while jogging, reached at `JA` (or `JL`).
+                self.jog_speed_rev_s = rev_s;
+                if let Some(motion) = &self.motion
+                    && let MotionKind::Jog { direction } = motion.kind
+                {
+                    let (x, v) = motion.at(self.clock_s);
+                    let speed = direction * self.counts(rev_s, units::VELOCITY);
+                    let (accel, decel) = self.jog_rates();
+                    self.motion = Some(Motion {
+                        start_s: self.clock_s,
+                        profile: Profile::run(x, v, speed, accel, decel),
+                        kind: MotionKind::Jog { direction },
+                        offset_counts: 0.0,
+                    });
+                }
+            }
             Command::ElectronicGearing {
                 steps_per_rev: Some(s),
             } => self.steps_per_rev = s,
@@ -1061,6 +1151,14 @@ impl Drive {
             // A stop that takes no time ends the motion now.
             self.set_clock(self.clock_s);
         }
+    }
+
+    /// `JA` and `JL` as the drive holds them, counts/s².
+    fn jog_rates(&self) -> (f64, f64) {
+        (
+            self.counts(self.jog_accel_rev_s2, units::ACCELERATION),
+            self.counts(self.jog_decel_rev_s2, units::ACCELERATION),
+        )
     }
 
     /// A rev/s (or rev/s²) value, as the drive holds it in `resolution`'s steps, in

@@ -791,3 +791,38 @@ mod proptests {
         }
     }
 }
+
+#[test]
+fn a_jog_speeds_up_at_ja_changes_speed_and_stops_at_jl() {
+    // JA = JL = 10 rev/s² (200 000 counts/s²), JS 1 rev/s, backwards (DI's sign); 1 s
+    // later CS2, 1 s later SJ: with MT0 the program waits for the stop, then SO1L.
+    let mut d = drive();
+    store(
+        &mut d,
+        1,
+        "JA10\nJL10\nJS1\nDI-1\nCJ\nWT1\nCS2\nWT1\nSJ\nSO1L",
+        0,
+    );
+    assert_eq!(d.receive_line("QX1", 0).as_deref(), Some("%\r"));
+    d.advance(S / 2);
+    // Up to 20 000 counts/s in 0.1 s (1000 counts), then 0.4 s at it.
+    assert!(
+        (d.position_counts() + 9_000.0).abs() < 1e-6,
+        "{}",
+        d.position_counts()
+    );
+    assert!(d.is_moving() && d.is_executing());
+    d.advance(3 * S);
+    // 19 000 by 1 s; 20 000 → 40 000 in 0.1 s (3000), 0.9 s at 40 000 (36 000); the
+    // stop from 40 000 at 200 000 counts/s² (4000) ends at 2.2 s.
+    assert!((d.position_counts() + 62_000.0).abs() < 1e-6);
+    let end = d.move_ends()[0];
+    assert!((end.at_s - 2.2).abs() < 1e-9, "{end:?}");
+    let low = d.output_changes()[0];
+    assert!((low.at_s - 2.2).abs() < 1e-9, "{low:?}");
+    // Its values as asked, and refused below a drive's range.
+    assert_eq!(d.receive_line("JS", 3 * S).as_deref(), Some("JS=2\r"));
+    assert_eq!(d.receive_line("JA", 3 * S).as_deref(), Some("JA=10\r"));
+    assert_eq!(d.receive_line("CS0.001", 3 * S).as_deref(), Some("?5\r"));
+    assert_eq!(d.receive_line("JL0.1", 3 * S).as_deref(), Some("?5\r"));
+}
