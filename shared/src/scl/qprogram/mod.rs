@@ -43,6 +43,7 @@
 //!   acceleration, counted so. The hopeful ones are written out and kept only if they
 //!   fit (asked again with less room, up to 8 times, when they do not).
 
+mod jog;
 mod keyframes;
 mod moves;
 mod reduce;
@@ -54,6 +55,7 @@ use std::fmt::Write as _;
 use thiserror::Error;
 
 use super::command::{Command, Decimal, InputCondition, IoPoint, QLine, Segment};
+use super::twin::Profile;
 use super::units;
 use crate::codes::{Code, Coded, Params};
 use crate::params;
@@ -116,14 +118,14 @@ pub struct QProgramConfig {
 pub const DEFAULT_STEPS_PER_REV: u32 = 20_000;
 
 /// The largest deviation from the show a program may have unless configured, mm.
-pub const DEFAULT_TOLERANCE_MM: f64 = 10.0;
+pub const DEFAULT_TOLERANCE_MM: f64 = 5.0;
 
 /// The common start input unless configured (`WI3F`: input 3, a falling edge).
 pub const DEFAULT_START_INPUT: u8 = 3;
 
 impl Default for QProgramConfig {
     /// 100 counts/mm, 20 000 steps/rev, start on a falling edge of input 3, no loop,
-    /// 10 mm tolerance, 2000 mm/s, 4000 mm/s².
+    /// 5 mm tolerance, 2000 mm/s, 4000 mm/s².
     fn default() -> Self {
         Self {
             counts_per_mm: 100.0,
@@ -324,6 +326,26 @@ pub(crate) fn compile_within(
     config: &QProgramConfig,
     budget_lines: usize,
 ) -> Result<QProgram, QProgramError> {
+    compile_moves(track, config, budget_lines, true)
+}
+
+/// [`compile`] from rest to rest only, never jogging (the tests of those moves).
+#[cfg(test)]
+pub(crate) fn compile_rest_to_rest(
+    track: &Track,
+    config: &QProgramConfig,
+    budget_lines: usize,
+) -> Result<QProgram, QProgramError> {
+    compile_moves(track, config, budget_lines, false)
+}
+
+/// [`compile`] with at most `budget_lines` move lines, trying jogs if `jogs`.
+fn compile_moves(
+    track: &Track,
+    config: &QProgramConfig,
+    budget_lines: usize,
+    jogs: bool,
+) -> Result<QProgram, QProgramError> {
     check(config)?;
     let samples = keyframes::sample(track);
     let candidates = keyframes::candidates(&samples);
@@ -440,6 +462,58 @@ pub(crate) fn compile_within(
                 }
                 Err(_) => break,
             }
+        }
+    }
+    // Then jogging through every stretch (issue 34, item 2): taken if it comes closer.
+    if let Some(accel) = jog::accel(&samples, config).filter(|_| jogs) {
+        let times_s: Vec<f64> = candidates
+            .iter()
+            .map(|&k| samples.times_ms[k] as f64 / 1000.0)
+            .collect();
+        let jog = |step_s: f64| {
+            let plan = jog::Plan { accel, step_s };
+            Writer::new(config, &all_limits, counts.first().copied().unwrap_or(0)).write_jog(
+                &plan,
+                (&samples, &candidates, &counts),
+                track,
+                budget_lines,
+            )
+        };
+        // The shortest step that fits: from the estimate, longer while the lines are
+        // over, then shorter while they fit (at most 12 tries).
+        let mut step_s = jog::step_for(&counts, &times_s, room);
+        let mut best: Option<QProgram> = None;
+        let mut shorter = true;
+        for _ in 0..12 {
+            match jog(step_s) {
+                Ok(jogged) => {
+                    let closer = best.as_ref().is_none_or(|best| {
+                        jogged.report.max_deviation_mm < best.report.max_deviation_mm
+                    });
+                    if closer {
+                        best = Some(jogged);
+                    }
+                    if !shorter || step_s <= jog::MIN_STEP_S + 1e-9 {
+                        break;
+                    }
+                    step_s = ((step_s - 0.01) * 100.0).round() / 100.0;
+                }
+                Err(QProgramError::TooManyLines { lines, .. }) => {
+                    if best.is_some() {
+                        break;
+                    }
+                    // Longer steps, for what was over and 5 % more.
+                    shorter = false;
+                    let longer = step_s * lines as f64 / room.max(1) as f64 * 1.05;
+                    step_s = (longer * 100.0).ceil().max(step_s * 100.0 + 1.0) / 100.0;
+                }
+                Err(_) => break,
+            }
+        }
+        if let Some(jogged) = best
+            && jogged.report.max_deviation_mm < program.report.max_deviation_mm
+        {
+            program = jogged;
         }
     }
     if program.report.max_deviation_mm > config.tolerance_mm {
@@ -563,13 +637,16 @@ fn accelerations(
     written
 }
 
-/// A move the program makes, for the deviation: it starts at `start_s` from `from`.
-#[derive(Debug, Clone, Copy)]
+/// A move the program makes, for the deviation: it starts at `start_s` from `from`
+/// (an `FP` trapezoid), or a piece of a jog (`profile`: where the drive is, in counts,
+/// from `start_s` on, until the next one starts).
+#[derive(Debug, Clone)]
 struct Timed {
     start_s: f64,
     from_counts: i64,
     to_counts: i64,
     trapezoid: Trapezoid,
+    profile: Option<Profile>,
 }
 
 /// Writes the chosen path as commands, keeping the drive's clock.
@@ -591,6 +668,8 @@ struct Writer<'a> {
     lines: Vec<Command>,
     timed: Vec<Timed>,
     keyframes: Vec<Keyframe>,
+    /// `JA` and `JL` of a program that jogs ([`mod@jog`]), set in segment 1.
+    jog_accel: Option<Decimal>,
 }
 
 impl<'a> Writer<'a> {
@@ -612,6 +691,7 @@ impl<'a> Writer<'a> {
             lines: Vec::new(),
             timed: Vec::new(),
             keyframes: Vec::new(),
+            jog_accel: None,
         }
     }
 
@@ -683,6 +763,7 @@ impl<'a> Writer<'a> {
             from_counts: self.at_counts,
             to_counts,
             trapezoid,
+            profile: None,
         });
         self.now_s += trapezoid.duration_s();
         self.at_counts = to_counts;
@@ -785,6 +866,17 @@ impl<'a> Writer<'a> {
                 }
             }
         }
+        self.finish(samples, track, budget_lines, start_counts)
+    }
+
+    /// What follows the moves: the deviation, the loop, the layout and the report.
+    fn finish(
+        mut self,
+        samples: &Samples,
+        track: &Track,
+        budget_lines: usize,
+        start_counts: i64,
+    ) -> Result<QProgram, QProgramError> {
         let (max_deviation_mm, at_ms) = self.deviation(samples);
         // A loop goes back past segment 1's `AC` and `DE`: the first move's
         // acceleration is set again before the show repeats.
@@ -827,12 +919,13 @@ impl<'a> Writer<'a> {
         }
         let segments = self.layout()?;
         let lines = segments.iter().map(|(_, commands)| commands.len()).sum();
+        let moves = self.keyframes.len();
         Ok(QProgram {
             segments,
             keyframes: self.keyframes,
             report: Reduction {
                 track_rows: track.rows.len(),
-                moves: self.timed.len(),
+                moves,
                 lines,
                 max_deviation_mm,
                 at_ms,
@@ -854,8 +947,13 @@ impl<'a> Writer<'a> {
             while next < self.timed.len() && self.timed[next].start_s <= t_s {
                 next += 1;
             }
-            let program_counts = match next.checked_sub(1).map(|index| self.timed[index]) {
+            let program_counts = match next.checked_sub(1).map(|index| &self.timed[index]) {
                 None => start_counts as f64,
+                Some(Timed {
+                    start_s,
+                    profile: Some(profile),
+                    ..
+                }) => profile.at(t_s - start_s).0,
                 Some(timed) => {
                     let sign = if timed.to_counts >= timed.from_counts {
                         1.0
@@ -885,6 +983,14 @@ impl<'a> Writer<'a> {
                 rev_s2: Some(rev_s2),
             });
             setup.push(Command::Deceleration {
+                rev_s2: Some(rev_s2),
+            });
+        }
+        if let Some(rev_s2) = self.jog_accel {
+            setup.push(Command::JogAcceleration {
+                rev_s2: Some(rev_s2),
+            });
+            setup.push(Command::JogDeceleration {
                 rev_s2: Some(rev_s2),
             });
         }

@@ -33,6 +33,11 @@ fn wave(seconds: usize, period_s: f64) -> Track {
     show.tracks[0].clone()
 }
 
+/// The rest-to-rest compiler alone (no jogs), with all the room.
+fn rest(track: &Track, config: &QProgramConfig) -> Result<QProgram, QProgramError> {
+    compile_rest_to_rest(track, config, MOVE_LINES)
+}
+
 fn lenient() -> QProgramConfig {
     QProgramConfig {
         tolerance_mm: f64::INFINITY,
@@ -229,7 +234,7 @@ fn a_move_too_fast_for_the_limits_is_refused_with_its_time() {
 
 #[test]
 fn a_tiny_show_compiles_to_the_expected_listing() {
-    let program = compile(&tiny(), &QProgramConfig::default()).unwrap();
+    let program = rest(&tiny(), &QProgramConfig::default()).unwrap();
     assert_eq!(
         program.text(),
         "[segment 1: main, 10 lines]\nWI3F\nMT0\nAC2.500\nDE2.500\nDI110000\nVE0.6917\nFP\n\
@@ -295,7 +300,7 @@ fn the_start_line_waits_on_the_configured_input_or_is_left_out() {
 fn every_move_ends_at_its_keyframe_within_a_tick_and_exactly_at_its_count() {
     for track in [tiny(), wave(60, 4.0), wave(120, 12.0)] {
         let config = lenient();
-        let program = compile(&track, &config).unwrap();
+        let program = rest(&track, &config).unwrap();
         let ran = run(
             &program,
             &config,
@@ -357,7 +362,7 @@ fn a_loop_goes_back_to_the_first_call_after_returning_to_the_start() {
         loop_show: true,
         ..lenient()
     };
-    let program = compile(&wave(301, 8.0), &config).unwrap();
+    let program = rest(&wave(301, 8.0), &config).unwrap();
     let main = &program.segments[0].1;
     assert!(program.segments.len() > 1);
     let first_call = main
@@ -374,7 +379,7 @@ fn a_loop_goes_back_to_the_first_call_after_returning_to_the_start() {
     assert_eq!(last.position_mm, track.start_mm);
     assert!(last.time_ms > track.duration_ms());
     // A small program loops within segment 1, to its first move.
-    let tiny_loop = compile(
+    let tiny_loop = rest(
         &tiny(),
         &QProgramConfig {
             loop_show: true,
@@ -528,7 +533,7 @@ fn a_compiled_show_on_a_hundred_twins_ends_every_move_at_its_keyframe() {
     let start_us = 1_000_000;
     let end_us = start_us + show.duration_ms() * 1000 + 1_000_000;
     for (ball, track) in show.tracks.iter().enumerate() {
-        let program = compile(track, &config).unwrap();
+        let program = rest(track, &config).unwrap();
         let start_counts = (track.start_mm * config.counts_per_mm).round() as i64;
         let mut drive = load(&program, start_counts, start_us);
         drive.advance(end_us);
@@ -557,16 +562,16 @@ fn reduced_resting_and_looping_programs_run_on_a_twin_as_compiled() {
             .collect(),
         colours: Vec::new(),
     };
-    let fast = compile(&zigzag, &lenient()).unwrap();
+    let fast = rest(&zigzag, &lenient()).unwrap();
     assert_eq!(fast.report.moves, 40, "{:?}", fast.report);
     let cases = [
         (fast, zigzag),
-        (compile(&tiny(), &lenient()).unwrap(), tiny()),
+        (rest(&tiny(), &lenient()).unwrap(), tiny()),
         (
-            compile_within(&wave(60, 4.0), &lenient(), 24).unwrap(),
+            compile_rest_to_rest(&wave(60, 4.0), &lenient(), 24).unwrap(),
             wave(60, 4.0),
         ),
-        (compile(&wave(61, 8.0), &looping).unwrap(), wave(61, 8.0)),
+        (rest(&wave(61, 8.0), &looping).unwrap(), wave(61, 8.0)),
     ];
     for (program, track) in cases {
         assert!(program.keyframes.len() >= 2, "{:?}", program.report);
@@ -600,7 +605,7 @@ fn a_looping_program_plays_the_show_again_with_the_same_timing() {
         rows,
         colours: Vec::new(),
     };
-    let program = compile(&track, &config).unwrap();
+    let program = rest(&track, &config).unwrap();
     let accelerations = program
         .segments
         .iter()
@@ -645,9 +650,13 @@ fn a_show_of_hours_is_compiled_in_bounded_memory_and_time() {
 fn true_to_the_drive(program: &QProgram) {
     for command in program.segments.iter().flat_map(|(_, commands)| commands) {
         let (value, resolution) = match *command {
-            Command::Velocity { rev_s: Some(v) } => (v, units::VELOCITY),
+            Command::Velocity { rev_s: Some(v) }
+            | Command::JogSpeed { rev_s: Some(v) }
+            | Command::ChangeSpeed { rev_s: v } => (v, units::VELOCITY),
             Command::Acceleration { rev_s2: Some(a) }
-            | Command::Deceleration { rev_s2: Some(a) } => (a, units::ACCELERATION),
+            | Command::Deceleration { rev_s2: Some(a) }
+            | Command::JogAcceleration { rev_s2: Some(a) }
+            | Command::JogDeceleration { rev_s2: Some(a) } => (a, units::ACCELERATION),
             Command::WaitTime { s } => (s, units::WAIT),
             _ => continue,
         };
@@ -720,5 +729,75 @@ fn a_slow_creep_is_written_in_values_a_drive_takes_and_meets_its_keyframes() {
     // The other shows of the tests too.
     for track in [tiny(), wave(60, 4.0), wave(120, 12.0)] {
         true_to_the_drive(&compile(&track, &lenient()).unwrap());
+    }
+}
+
+/// A sine wave ±`amplitude_mm` around 3 m, one every `period_s`, `periods` of them in
+/// rows of 200 ms: it starts and ends at rest at its top.
+fn sine(period_s: f64, periods: usize, amplitude_mm: f64) -> Track {
+    let rows = (period_s * periods as f64 / 0.2).round() as usize;
+    let omega = std::f64::consts::TAU / period_s;
+    Track {
+        start_mm: 3000.0 - amplitude_mm,
+        rows: (1..=rows)
+            .map(|row| {
+                let t = row as f64 * 0.2;
+                TrackRow::new(
+                    3000.0 - amplitude_mm * (omega * t).cos(),
+                    amplitude_mm * omega * (omega * t).sin(),
+                    200,
+                )
+            })
+            .collect(),
+        colours: Vec::new(),
+    }
+}
+
+#[test]
+fn a_smooth_wave_jogs_on_a_twin_within_five_millimetres() {
+    // Issue 34, item 2: 40 s of a ±400 mm wave every 8 s, and 39 s of one every 3 s,
+    // starting and ending at rest (within the limits): jogged, not rest to rest.
+    for (track, goal_mm) in [(sine(8.0, 5, 400.0), 5.0), (sine(3.0, 13, 400.0), 5.0)] {
+        let config = QProgramConfig::default();
+        let program = compile(&track, &config).unwrap();
+        let report = program.report;
+        assert!(report.max_deviation_mm <= goal_mm, "{report:?}");
+        assert!(
+            program.text().contains("\nCJ\n") && program.text().contains("\nCS"),
+            "not jogged: {report:?}"
+        );
+        true_to_the_drive(&program);
+        // The twin (which refuses what a drive refuses) runs it as compiled: where
+        // the ball is every 10 ms, against the show.
+        let start_counts = (track.start_mm * config.counts_per_mm).round() as i64;
+        let mut drive = load(&program, start_counts, 0);
+        let samples = keyframes::sample(&track);
+        let mut worst: f64 = 0.0;
+        for (&t_ms, &show_mm) in samples
+            .times_ms
+            .iter()
+            .zip(&samples.positions_mm)
+            .step_by(10)
+        {
+            drive.advance(t_ms * 1000);
+            let off = (drive.position_counts() / config.counts_per_mm - show_mm).abs();
+            worst = worst.max(off);
+        }
+        assert!(
+            worst <= report.max_deviation_mm + 1e-6,
+            "{worst} vs {report:?}"
+        );
+        assert!(
+            worst >= report.max_deviation_mm - 0.5,
+            "{worst} vs {report:?}"
+        );
+        drive.advance(track.duration_ms() * 1000 + 1_000_000);
+        assert!(!drive.is_moving() && !drive.is_executing());
+        let end = program.keyframes.last().unwrap();
+        assert_eq!(
+            drive.position_counts(),
+            end.position_mm * config.counts_per_mm
+        );
+        assert_eq!(drive.alarm_code(), 0);
     }
 }
