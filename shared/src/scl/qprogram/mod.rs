@@ -5,9 +5,14 @@
 //! This module owns the API ([`QProgramConfig`], [`compile`], [`QProgram`] and its
 //! listing [`QProgram::text`], [`Keyframe`], [`Reduction`], [`QProgramError`]) and the
 //! layout of the segments; [`mod@keyframes`] samples the show and finds the candidate
-//! keyframes, [`mod@reduce`] chooses the moves, [`mod@moves`] is the drive's trapezoid.
+//! keyframes, [`mod@reduce`] chooses the moves, [`mod@moves`] is the drive's trapezoid,
+//! [`mod@jog`] writes smooth shows as jogs.
 //!
-//! What a program is:
+//! Two programs are compiled and the one closer to the show is kept: the ball
+//! **jogging** through every stretch it moves one way, its speed changed every step
+//! ([`mod@jog`], issue 34 item 2), and moves **from rest to rest**, below.
+//!
+//! What a rest-to-rest program is:
 //! - every move is an absolute `FP` (`DI` = mm × `counts_per_mm`) **from rest to
 //!   rest**, a trapezoid (`AC` = `DE`, rev/s², from a ladder: the limit, the limit / √2,
 //!   / 2, … and the one that suits the show's typical move; set in segment 1 for the
