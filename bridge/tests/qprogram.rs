@@ -37,6 +37,24 @@ async fn a_ball_s_program_is_listed_downloaded_or_refused() {
         .await;
     assert_eq!(reply.status, StatusCode::CREATED, "{:?}", reply.body);
 
+    // A smooth wave, ±400 mm every 8 s for 40 s (issue 34, item 2): jogged, within
+    // the default tolerance of 5 mm.
+    let wave = csv_show(201, 200, |step| {
+        let t_s = step as f64 * 0.2;
+        (400.0 - 400.0 * (std::f64::consts::TAU * t_s / 8.0).cos()).round() as u32
+    });
+    let reply = bridge
+        .upload(&token, "wave", "text/csv", wave.as_bytes())
+        .await;
+    assert_eq!(reply.status, StatusCode::CREATED, "{:?}", reply.body);
+    let reply = bridge
+        .request(Method::GET, "/api/qprogram/wave?unit=0", Some(&token), None)
+        .await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    let listing: QProgramListing = reply.json();
+    assert!(listing.max_deviation_mm <= 5.0, "{listing:?}");
+    assert!(listing.text.contains("\nCJ\n"), "{}", listing.text);
+
     let reply = bridge
         .request(Method::GET, "/api/qprogram/dip?unit=7", Some(&token), None)
         .await;
@@ -92,7 +110,7 @@ async fn a_ball_s_program_is_listed_downloaded_or_refused() {
     assert_eq!(reply.status, StatusCode::UNAUTHORIZED);
 
     // 1000 turns of 30 mm, 400 ms apart: more moves than a drive holds, and what fits
-    // strays more than the 10 mm tolerance.
+    // strays more than the 5 mm tolerance.
     let zigzag = csv_show(1000, 400, |step| if step % 2 == 0 { 0 } else { 30 });
     let reply = bridge
         .upload(&token, "zigzag", "text/csv", zigzag.as_bytes())
@@ -110,7 +128,7 @@ async fn a_ball_s_program_is_listed_downloaded_or_refused() {
     let body = reply.error();
     let error = &body.error;
     assert!(
-        error.contains("mm off the show at") && error.contains("tolerance of 10 mm"),
+        error.contains("mm off the show at") && error.contains("tolerance of 5 mm"),
         "{error}"
     );
     // The reason as a code too, for the app to say in the operator's language.
@@ -118,7 +136,7 @@ async fn a_ball_s_program_is_listed_downloaded_or_refused() {
     assert_eq!(body.problems.len(), 1, "{body:?}");
     assert_eq!(body.problems[0].code, "qprogram_too_far");
     assert_eq!(body.problems[0].params["unit"], "u3");
-    assert_eq!(body.problems[0].params["tolerance_mm"], "10");
+    assert_eq!(body.problems[0].params["tolerance_mm"], "5");
     assert!(
         body.details[0].starts_with("ball u3: the program would be"),
         "{body:?}"

@@ -18,14 +18,29 @@ fn end_mm(ball: usize) -> f64 {
     5.0 * (ball as f64 + 1.0)
 }
 
-/// Six balls that each go down 20 mm and come up to their end position, in 1 s.
+/// Six balls that each go down 20 mm and come up to their end position, in 1 s; the
+/// last one instead goes past its end and creeps back 0.3 mm in 0.5 s (60 counts/s,
+/// slower than the smallest `VE` a drive takes: the twins refuse `VE0.0030`, which
+/// the compiler wrote before it kept to a drive's ranges, issue 34 item 3).
 fn show() -> Vec<u8> {
     let units = (0..6)
         .map(|ball| {
-            serde_json::json!({
-                "start_mm": 0.0,
-                "rows": [[10.0, 0.0, 250], [20.0, 0.0, 250], [10.0, 0.0, 250], [end_mm(ball), 0.0, 250]],
-            })
+            let rows = if ball == 5 {
+                serde_json::json!([
+                    [10.0, 0.0, 250],
+                    [end_mm(ball) + 0.3, 0.0, 250],
+                    [end_mm(ball) + 0.15, 0.0, 250],
+                    [end_mm(ball), 0.0, 250]
+                ])
+            } else {
+                serde_json::json!([
+                    [10.0, 0.0, 250],
+                    [20.0, 0.0, 250],
+                    [10.0, 0.0, 250],
+                    [end_mm(ball), 0.0, 250]
+                ])
+            };
+            serde_json::json!({"start_mm": 0.0, "rows": rows})
         })
         .collect();
     native_show("drop", 2, 3, units)

@@ -2,15 +2,17 @@
 //! strays from the show, and how long it takes. Run by `cargo xtask qprogram-report`
 //! (release build); prints figures, asserts nothing.
 //!
-//! `qprogram_report [--rows R] [--cols C] [--minutes M] [--period-s P] [--row-ms MS]`:
-//! the demo wave (`show::demo`) on R × C balls (default 10 × 10) for M minutes
-//! (default 10), one wave every P s (default 4, the standard wave), rows of MS ms
-//! (default 200); compiled with the default `QProgramConfig` except the tolerance,
+//! `qprogram_report [--rows R] [--cols C] [--minutes M] [--period-s P] [--row-ms MS]
+//! [--amplitude-mm A] [--from-rest 1]`: the demo wave (`show::demo`) on R × C balls (default 10 × 10)
+//! for M minutes (default 10), one wave every P s (default 4, the standard wave), rows
+//! of MS ms (default 200), swinging ±A mm (default 500); with `--from-rest 1` every
+//! ball swings the same sine from rest at its top instead (no abrupt start); compiled with the default `QProgramConfig` except the tolerance,
 //! which is lifted so that every ball reports its figure instead of being refused.
 
 use std::time::Instant;
 
 use floatball_shared::scl::qprogram::{QProgramConfig, compile};
+use floatball_shared::show::TrackRow;
 use floatball_shared::show::demo::Wave;
 
 fn main() {
@@ -19,6 +21,8 @@ fn main() {
     let mut minutes = 10.0_f64;
     let mut period_s = 4.0_f64;
     let mut row_ms = 200_u32;
+    let mut amplitude_mm = None;
+    let mut from_rest = false;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut pairs = args.chunks(2);
     while let Some([flag, value]) = pairs.next() {
@@ -32,15 +36,36 @@ fn main() {
             "--minutes" => minutes = number,
             "--period-s" => period_s = number,
             "--row-ms" => row_ms = number as u32,
+            "--amplitude-mm" => amplitude_mm = Some(number),
+            "--from-rest" => from_rest = number != 0.0,
             _ => return eprintln!("unknown option {flag}"),
         }
     }
     let rows_per_ball = (minutes * 60_000.0 / f64::from(row_ms)).round() as usize;
-    let show = Wave {
+    let standard = Wave::new(rows, cols, rows_per_ball, row_ms);
+    let amplitude_mm = amplitude_mm.unwrap_or(standard.amplitude_mm);
+    let mut show = Wave {
         period_s,
-        ..Wave::new(rows, cols, rows_per_ball, row_ms)
+        amplitude_mm,
+        ..standard
     }
     .show();
+    if from_rest {
+        // Every ball the same sine, starting (and, over whole periods, ending) at rest
+        // at the top of its swing: a wave within the limits from its first row.
+        let omega = std::f64::consts::TAU / period_s;
+        for track in &mut show.tracks {
+            track.start_mm = standard.centre_mm - amplitude_mm;
+            for (index, row) in track.rows.iter_mut().enumerate() {
+                let t_s = (index + 1) as f64 * f64::from(row_ms) / 1000.0;
+                *row = TrackRow::new(
+                    standard.centre_mm - amplitude_mm * (omega * t_s).cos(),
+                    amplitude_mm * omega * (omega * t_s).sin(),
+                    row_ms,
+                );
+            }
+        }
+    }
     let config = QProgramConfig {
         tolerance_mm: f64::INFINITY,
         ..QProgramConfig::default()

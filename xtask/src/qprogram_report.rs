@@ -6,7 +6,8 @@
 //! lifted, so that every ball gives its figure); it prints per ball the moves kept,
 //! the lines and segments used, the largest deviation from the show in mm and where
 //! (ms), and the compile time, then the extremes over all balls. Options go to the
-//! example unchanged: `--rows R --cols C --minutes M --period-s P --row-ms MS`.
+//! example unchanged: `--rows R --cols C --minutes M --period-s P --row-ms MS
+//! --amplitude-mm A --from-rest 1` (every ball the same sine from rest).
 //! Nothing is asserted.
 
 use crate::tools;

@@ -410,6 +410,31 @@ pub enum Command {
         /// The deceleration, or `None` to ask.
         rev_s2: Option<Decimal>,
     },
+    /// `JS`: the jog speed, rev/s (what `CJ` runs at).
+    JogSpeed {
+        /// The speed, or `None` to ask.
+        rev_s: Option<Decimal>,
+    },
+    /// `JA`: the jog acceleration, rev/s².
+    JogAcceleration {
+        /// The acceleration, or `None` to ask.
+        rev_s2: Option<Decimal>,
+    },
+    /// `JL`: the jog deceleration, rev/s².
+    JogDeceleration {
+        /// The deceleration, or `None` to ask.
+        rev_s2: Option<Decimal>,
+    },
+    /// `CJ`: commence jogging at `JS`, in the direction of the sign of `DI`.
+    CommenceJogging,
+    /// `CS`: change the speed while jogging, rev/s (reached at `JA`, or `JL` when
+    /// slower).
+    ChangeSpeed {
+        /// The new speed, rev/s (not negative).
+        rev_s: Decimal,
+    },
+    /// `SJ`: stop jogging (slowing down at `JL`).
+    StopJogging,
     /// `EG`: electronic gearing, steps per revolution.
     ElectronicGearing {
         /// Steps per revolution, or `None` to ask.
@@ -569,10 +594,11 @@ pub enum Command {
 
 impl Command {
     /// Every mnemonic, for error messages and tests (the math commands as `R+` … `R&`).
-    pub const MNEMONICS: [&'static str; 43] = [
+    pub const MNEMONICS: [&'static str; 49] = [
         "FL", "FP", "FS", "DI", "VE", "AC", "DE", "EG", "SP", "EP", "IP", "WI", "WT", "QG", "QR",
         "QJ", "QC", "QL", "QS", "QX", "QE", "QW", "QU", "TI", "TR", "CR", "MT", "SO", "R+", "R-",
-        "R*", "R/", "R|", "R&", "RX", "RM", "SK", "ST", "ME", "MD", "SC", "AL", "AR",
+        "R*", "R/", "R|", "R&", "RX", "RM", "SK", "ST", "ME", "MD", "SC", "AL", "AR", "JS", "JA",
+        "JL", "CJ", "CS", "SJ",
     ];
 
     /// The mnemonic.
@@ -586,6 +612,12 @@ impl Command {
             Self::Velocity { .. } => "VE",
             Self::Acceleration { .. } => "AC",
             Self::Deceleration { .. } => "DE",
+            Self::JogSpeed { .. } => "JS",
+            Self::JogAcceleration { .. } => "JA",
+            Self::JogDeceleration { .. } => "JL",
+            Self::CommenceJogging => "CJ",
+            Self::ChangeSpeed { .. } => "CS",
+            Self::StopJogging => "SJ",
             Self::ElectronicGearing { .. } => "EG",
             Self::SetPosition { .. } => "SP",
             Self::EncoderPosition { .. } => "EP",
@@ -636,6 +668,9 @@ impl Command {
                 | Self::Velocity { rev_s: None }
                 | Self::Acceleration { rev_s2: None }
                 | Self::Deceleration { rev_s2: None }
+                | Self::JogSpeed { rev_s: None }
+                | Self::JogAcceleration { rev_s2: None }
+                | Self::JogDeceleration { rev_s2: None }
                 | Self::ElectronicGearing {
                     steps_per_rev: None
                 }
@@ -667,8 +702,12 @@ impl fmt::Display for Command {
             Self::Distance { counts }
             | Self::SetPosition { counts }
             | Self::EncoderPosition { counts } => optional(f, counts),
-            Self::Velocity { rev_s } => optional(f, rev_s),
-            Self::Acceleration { rev_s2 } | Self::Deceleration { rev_s2 } => optional(f, rev_s2),
+            Self::Velocity { rev_s } | Self::JogSpeed { rev_s } => optional(f, rev_s),
+            Self::Acceleration { rev_s2 }
+            | Self::Deceleration { rev_s2 }
+            | Self::JogAcceleration { rev_s2 }
+            | Self::JogDeceleration { rev_s2 } => optional(f, rev_s2),
+            Self::ChangeSpeed { rev_s } => write!(f, "{rev_s}"),
             Self::ElectronicGearing { steps_per_rev } => optional(f, steps_per_rev),
             Self::WaitTime { s } => write!(f, "{s}"),
             Self::QueueGoto { line } => write!(f, "{line}"),
@@ -710,7 +749,9 @@ impl fmt::Display for Command {
             | Self::MotorDisable
             | Self::StatusCode
             | Self::AlarmCode
-            | Self::AlarmReset => Ok(()),
+            | Self::AlarmReset
+            | Self::CommenceJogging
+            | Self::StopJogging => Ok(()),
         }
     }
 }

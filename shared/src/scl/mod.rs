@@ -7,9 +7,10 @@
 //! This module owns:
 //! - [`Command`]: every command the seed's Q programs use (`FL FP FS DI VE AC DE EG SP
 //!   WI WT QG QR QJ TI TR CR QC MT SO`, `R+ R- R* R/ R| R&`, `RX RM`) and what a host
-//!   needs to run drives safely (`SK ST ME MD IP EP SC AL AR QL QS QX QE QW QU`), typed with
-//!   units (`DI` counts, `VE` rev/s, `AC`/`DE` rev/s², `WT` s); a value of `None` is
-//!   the query form (`VE` alone asks). Its text is `Display` ([`command`]).
+//!   needs to run drives safely (`SK ST ME MD IP EP SC AL AR QL QS QX QE QW QU`), and
+//!   jogging for smooth shows (`JS JA JL CJ CS SJ`, unconfirmed: `docs/protocol-notes.md`
+//!   §8), typed with units (`DI` counts, `VE` rev/s, `AC`/`DE` rev/s², `WT` s); a value
+//!   of `None` is the query form (`VE` alone asks). Its text is `Display` ([`command`]).
 //! - [`Request`]: a command with the optional RS-485 [`Address`] before it, its wire
 //!   form with the carriage return ([`Request::to_wire`]), and [`parse_script`] /
 //!   [`Request::parse`] for command lines ([`parse`]).
@@ -21,6 +22,8 @@
 //! - eSCL: [`Request::to_escl`], [`Reply::from_escl`], … with the header
 //!   [`escl::HEADER`] and the port [`escl::UDP_PORT`] ([`escl`]).
 //!
+//! - [`units`]: what a drive holds of the numbers it is sent (`VE`, `AC`/`DE`, `WT`:
+//!   steps and ranges), which the compiler writes and the twin runs.
 //! - [`qprogram`]: a show's track compiled to a Q program a drive stores and runs
 //!   (segments of `FP` moves, `WT` rests, the start input), with its deviation report.
 //!
@@ -63,6 +66,7 @@ pub mod response;
 #[cfg(test)]
 mod tests;
 pub mod twin;
+pub mod units;
 
 pub use command::{
     Address, Command, Decimal, InputCondition, IoPoint, JumpCondition, Level, MathOp, QLine,

@@ -350,6 +350,27 @@ impl<'a> Cursor<'a> {
                 rev_s2: self
                     .optional(|c| c.non_negative_decimal(mnemonic, "a deceleration in rev/s²"))?,
             },
+            "JS" => Command::JogSpeed {
+                rev_s: self.optional(|c| c.non_negative_decimal(mnemonic, "a speed in rev/s"))?,
+            },
+            "JA" => Command::JogAcceleration {
+                rev_s2: self
+                    .optional(|c| c.non_negative_decimal(mnemonic, "an acceleration in rev/s²"))?,
+            },
+            "JL" => Command::JogDeceleration {
+                rev_s2: self
+                    .optional(|c| c.non_negative_decimal(mnemonic, "a deceleration in rev/s²"))?,
+            },
+            "CJ" => Command::CommenceJogging,
+            "SJ" => Command::StopJogging,
+            "CS" => {
+                if query {
+                    return Err(self.missing(mnemonic, "a speed in rev/s"));
+                }
+                Command::ChangeSpeed {
+                    rev_s: self.non_negative_decimal(mnemonic, "a speed in rev/s")?,
+                }
+            }
             "EG" => Command::ElectronicGearing {
                 steps_per_rev: self
                     .optional(|c| c.number(mnemonic, "steps per revolution", "0 to 4294967295"))?,

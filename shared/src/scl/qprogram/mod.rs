@@ -5,23 +5,31 @@
 //! This module owns the API ([`QProgramConfig`], [`compile`], [`QProgram`] and its
 //! listing [`QProgram::text`], [`Keyframe`], [`Reduction`], [`QProgramError`]) and the
 //! layout of the segments; [`mod@keyframes`] samples the show and finds the candidate
-//! keyframes, [`mod@reduce`] chooses the moves, [`mod@moves`] is the drive's trapezoid.
+//! keyframes, [`mod@reduce`] chooses the moves, [`mod@moves`] is the drive's trapezoid,
+//! [`mod@jog`] writes smooth shows as jogs.
 //!
-//! What a program is:
+//! Two programs are compiled and the one closer to the show is kept: the ball
+//! **jogging** through every stretch it moves one way, its speed changed every step
+//! ([`mod@jog`], issue 34 item 2), and moves **from rest to rest**, below.
+//!
+//! What a rest-to-rest program is:
 //! - every move is an absolute `FP` (`DI` = mm × `counts_per_mm`) **from rest to
-//!   rest**, a trapezoid (`AC` = `DE`, rev/s² with 3 decimals, from a ladder: the limit,
-//!   the limit / √2, / 2, … and the one that suits the show's typical move; set in
-//!   segment 1 for the first move, written again only when it changes) whose cruise
-//!   speed (`VE`, rev/s, 4 decimals) is solved so the move ends at its keyframe's time;
-//!   where the ball rests, `WT` (s, 3 decimals: whole milliseconds);
-//! - the compiler keeps the drive's clock: it times every move from the rounded values
-//!   it writes, as the drive computes the trapezoid, and gives the next move what is
-//!   left to its keyframe, so rounding never accumulates: every move ends within
-//!   [`KEEP_SPEED_S`] (4 ms) of its keyframe (so within a player's tick,
-//!   [`crate::uim2503::player::TICK_US`]) at exactly its count. A move keeps the `VE` of
-//!   the one before when that ends it within those 4 ms (a line saved: a periodic show
-//!   needs `DI` and `FP` alone); a move that no rounded `VE` ends that close (a very
-//!   slow one) runs at the rounded-up speed and a `WT` makes up the rest;
+//!   rest**, a trapezoid (`AC` = `DE`, rev/s², from a ladder: the limit, the limit / √2,
+//!   / 2, … and the one that suits the show's typical move; set in segment 1 for the
+//!   first move, written again only when it changes) whose cruise speed (`VE`, rev/s) is
+//!   solved so the move ends at its keyframe's time; where the ball rests, `WT` (s);
+//! - every value is one a drive takes, a whole number of the steps it holds
+//!   ([`super::units`]: `VE` 1/240 rev/s from 0.0042, `AC`/`DE` 1/6 rev/s² from 0.167,
+//!   `WT` 0.01 s), written so that any drive holds exactly that step;
+//! - the compiler keeps the drive's clock: it times every move from the values as the
+//!   drive holds them, as the drive computes the trapezoid, and gives the next move what
+//!   is left to its keyframe, so rounding never accumulates: every move ends at exactly
+//!   its count, at most [`LATE_S`] (5 ms) late and [`KEEP_SPEED_S`] (10 ms, a player's
+//!   tick, [`crate::uim2503::player::TICK_US`]) early. A move keeps the `VE` of the one
+//!   before when that ends it within that window (a line saved: a periodic show needs
+//!   `DI` and `FP` alone); a move that no step of `VE` ends within it (a slow one, or
+//!   one slower than the smallest `VE`) runs at the speed rounded up to a step, arrives
+//!   early, and a `WT` makes up the rest;
 //! - `MT0` (moves block the program); time 0 is when the program starts, or when the
 //!   start input meets its condition (`WI`, line 1) if one is configured; the drive
 //!   must stand at the track's start position then (the bridge brings it there);
@@ -40,6 +48,7 @@
 //!   acceleration, counted so. The hopeful ones are written out and kept only if they
 //!   fit (asked again with less room, up to 8 times, when they do not).
 
+mod jog;
 mod keyframes;
 mod moves;
 mod reduce;
@@ -51,6 +60,8 @@ use std::fmt::Write as _;
 use thiserror::Error;
 
 use super::command::{Command, Decimal, InputCondition, IoPoint, QLine, Segment};
+use super::twin::Profile;
+use super::units;
 use crate::codes::{Code, Coded, Params};
 use crate::params;
 use crate::show::Track;
@@ -58,15 +69,25 @@ use keyframes::Samples;
 use moves::{Trapezoid, solve_speed};
 use reduce::{Count, Edge, Limits, Step};
 
-/// Decimals written in `VE` (rev/s): 0.0001 rev/s is 2 counts/s at 20 000 steps/rev.
-pub const VE_DECIMALS: u8 = 4;
-/// Decimals written in `AC` and `DE` (rev/s²).
-pub const AC_DECIMALS: u8 = 3;
-/// Decimals written in `WT` (s): whole milliseconds.
-pub const WT_DECIMALS: u8 = 3;
-/// A move keeps the `VE` of the one before (a line saved) when that ends it at most
-/// this far from its keyframe's time, s.
-pub const KEEP_SPEED_S: f64 = 0.004;
+/// Decimals written in `VE` (rev/s); a drive holds whole steps of 1/240 rev/s
+/// ([`units::VELOCITY`]: 83⅓ counts/s at 20 000 steps/rev).
+pub const VE_DECIMALS: u8 = units::VELOCITY.decimals;
+/// Decimals written in `AC` and `DE` (rev/s²); a drive holds whole steps of 1/6 rev/s²
+/// ([`units::ACCELERATION`]).
+pub const AC_DECIMALS: u8 = units::ACCELERATION.decimals;
+/// Decimals written in `WT` (s): whole hundredths ([`units::WAIT`]).
+pub const WT_DECIMALS: u8 = units::WAIT.decimals;
+/// How early before its keyframe's time a move may end, s: a player's tick
+/// ([`crate::uim2503::player::TICK_US`]); and [`LATE_S`], how late. A move keeps the
+/// `VE` of the one before (a line saved) when that ends it within these; a move that no
+/// step of `VE` ends within them ends early and waits (`WT`, to half a hundredth). One
+/// step of `VE` (1/240 rev/s) moves the end of a move of `T` s at `v` rev/s by up to
+/// `T / (240 v)` s — 13 ms for a 1 m swing in 4 s — so the 4 ms the compiler kept
+/// with `VE`s of 0.0001 rev/s (finer than a drive holds them) cannot be kept.
+pub const KEEP_SPEED_S: f64 = 0.010;
+/// How late after its keyframe's time a move may end, s (the next move is planned this
+/// much quicker).
+pub const LATE_S: f64 = 0.005;
 /// While choosing moves, an edge's deviation is measured every this many grid samples
 /// (10 ms); the report measures it on every sample (1 ms).
 const COST_STRIDE: usize = 10;
@@ -102,14 +123,14 @@ pub struct QProgramConfig {
 pub const DEFAULT_STEPS_PER_REV: u32 = 20_000;
 
 /// The largest deviation from the show a program may have unless configured, mm.
-pub const DEFAULT_TOLERANCE_MM: f64 = 10.0;
+pub const DEFAULT_TOLERANCE_MM: f64 = 5.0;
 
 /// The common start input unless configured (`WI3F`: input 3, a falling edge).
 pub const DEFAULT_START_INPUT: u8 = 3;
 
 impl Default for QProgramConfig {
     /// 100 counts/mm, 20 000 steps/rev, start on a falling edge of input 3, no loop,
-    /// 10 mm tolerance, 2000 mm/s, 4000 mm/s².
+    /// 5 mm tolerance, 2000 mm/s, 4000 mm/s².
     fn default() -> Self {
         Self {
             counts_per_mm: 100.0,
@@ -310,6 +331,26 @@ pub(crate) fn compile_within(
     config: &QProgramConfig,
     budget_lines: usize,
 ) -> Result<QProgram, QProgramError> {
+    compile_moves(track, config, budget_lines, true)
+}
+
+/// [`compile`] from rest to rest only, never jogging (the tests of those moves).
+#[cfg(test)]
+pub(crate) fn compile_rest_to_rest(
+    track: &Track,
+    config: &QProgramConfig,
+    budget_lines: usize,
+) -> Result<QProgram, QProgramError> {
+    compile_moves(track, config, budget_lines, false)
+}
+
+/// [`compile`] with at most `budget_lines` move lines, trying jogs if `jogs`.
+fn compile_moves(
+    track: &Track,
+    config: &QProgramConfig,
+    budget_lines: usize,
+    jogs: bool,
+) -> Result<QProgram, QProgramError> {
     check(config)?;
     let samples = keyframes::sample(track);
     let candidates = keyframes::candidates(&samples);
@@ -327,7 +368,8 @@ pub(crate) fn compile_within(
             .enumerate()
             .map(|(level, accel_rev_s2)| {
                 let limits = Limits {
-                    accel_counts_s2: accel_rev_s2.to_f64() * steps_per_rev,
+                    accel_counts_s2: units::ACCELERATION.held(accel_rev_s2).unwrap_or(0.0)
+                        * steps_per_rev,
                     max_speed_counts_s,
                     steps_per_rev,
                     counts_per_mm: config.counts_per_mm,
@@ -425,6 +467,58 @@ pub(crate) fn compile_within(
                 }
                 Err(_) => break,
             }
+        }
+    }
+    // Then jogging through every stretch (issue 34, item 2): taken if it comes closer.
+    if let Some(accel) = jog::accel(&samples, config).filter(|_| jogs) {
+        let times_s: Vec<f64> = candidates
+            .iter()
+            .map(|&k| samples.times_ms[k] as f64 / 1000.0)
+            .collect();
+        let jog = |step_s: f64| {
+            let plan = jog::Plan { accel, step_s };
+            Writer::new(config, &all_limits, counts.first().copied().unwrap_or(0)).write_jog(
+                &plan,
+                (&samples, &candidates, &counts),
+                track,
+                budget_lines,
+            )
+        };
+        // The shortest step that fits: from the estimate, longer while the lines are
+        // over, then shorter while they fit (at most 12 tries).
+        let mut step_s = jog::step_for(&counts, &times_s, room);
+        let mut best: Option<QProgram> = None;
+        let mut shorter = true;
+        for _ in 0..12 {
+            match jog(step_s) {
+                Ok(jogged) => {
+                    let closer = best.as_ref().is_none_or(|best| {
+                        jogged.report.max_deviation_mm < best.report.max_deviation_mm
+                    });
+                    if closer {
+                        best = Some(jogged);
+                    }
+                    if !shorter || step_s <= jog::MIN_STEP_S + 1e-9 {
+                        break;
+                    }
+                    step_s = ((step_s - 0.01) * 100.0).round() / 100.0;
+                }
+                Err(QProgramError::TooManyLines { lines, .. }) => {
+                    if best.is_some() {
+                        break;
+                    }
+                    // Longer steps, for what was over and 5 % more.
+                    shorter = false;
+                    let longer = step_s * lines as f64 / room.max(1) as f64 * 1.05;
+                    step_s = (longer * 100.0).ceil().max(step_s * 100.0 + 1.0) / 100.0;
+                }
+                Err(_) => break,
+            }
+        }
+        if let Some(jogged) = best
+            && jogged.report.max_deviation_mm < program.report.max_deviation_mm
+        {
+            program = jogged;
         }
     }
     if program.report.max_deviation_mm > config.tolerance_mm {
@@ -537,24 +631,27 @@ fn accelerations(
     let mut written: Vec<Decimal> = rev_s2
         .into_iter()
         .filter_map(|value| {
-            // Round down, so the limit is never exceeded; at least the smallest step.
-            let mantissa = (value * 10_f64.powi(i32::from(AC_DECIMALS)))
-                .floor()
-                .max(1.0);
-            Decimal::new(mantissa as i64, AC_DECIMALS)
+            // Whole steps of the drive, rounded down so the limit is never exceeded; at
+            // least the smallest step, at most the largest.
+            let steps = (value / units::ACCELERATION.step + 1e-9).floor() as i64;
+            units::ACCELERATION
+                .write(steps.clamp(units::ACCELERATION.min_steps, units::ACCELERATION.max_steps))
         })
         .collect();
     written.dedup();
     written
 }
 
-/// A move the program makes, for the deviation: it starts at `start_s` from `from`.
-#[derive(Debug, Clone, Copy)]
+/// A move the program makes, for the deviation: it starts at `start_s` from `from`
+/// (an `FP` trapezoid), or a piece of a jog (`profile`: where the drive is, in counts,
+/// from `start_s` on, until the next one starts).
+#[derive(Debug, Clone)]
 struct Timed {
     start_s: f64,
     from_counts: i64,
     to_counts: i64,
     trapezoid: Trapezoid,
+    profile: Option<Profile>,
 }
 
 /// Writes the chosen path as commands, keeping the drive's clock.
@@ -576,6 +673,8 @@ struct Writer<'a> {
     lines: Vec<Command>,
     timed: Vec<Timed>,
     keyframes: Vec<Keyframe>,
+    /// `JA` and `JL` of a program that jogs ([`mod@jog`]), set in segment 1.
+    jog_accel: Option<Decimal>,
 }
 
 impl<'a> Writer<'a> {
@@ -597,6 +696,7 @@ impl<'a> Writer<'a> {
             lines: Vec::new(),
             timed: Vec::new(),
             keyframes: Vec::new(),
+            jog_accel: None,
         }
     }
 
@@ -621,22 +721,27 @@ impl<'a> Writer<'a> {
         self.limits = limits;
     }
 
-    /// `WT` for `seconds` rounded to the millisecond, if that is any time.
+    /// `WT` for `seconds` in whole steps of the drive (the nearest), if that is any
+    /// time; a wait longer than the largest `WT` is written as several.
     fn wait(&mut self, seconds: f64) {
-        let ms = (seconds * 1000.0).round();
-        if ms >= 1.0
-            && let Some(s) = Decimal::new(ms as i64, WT_DECIMALS)
-        {
+        let mut steps = (seconds / units::WAIT.step).round() as i64;
+        while steps >= 1 {
+            let now = steps.min(units::WAIT.max_steps);
+            let Some(s) = units::WAIT.write(now) else {
+                return;
+            };
             self.lines.push(Command::WaitTime { s });
-            self.now_s += ms / 1000.0;
+            self.now_s += now as f64 * units::WAIT.step;
+            steps -= now;
         }
     }
 
-    /// The trapezoid the drive runs for `distance` counts at `VE` `speed`.
+    /// The trapezoid the drive runs for `distance` counts at `VE` `speed` (as the drive
+    /// holds it).
     fn trapezoid(&self, distance: f64, speed: Decimal) -> Trapezoid {
         Trapezoid {
             distance,
-            speed: speed.to_f64() * self.limits.steps_per_rev,
+            speed: units::VELOCITY.held(speed).unwrap_or(0.0) * self.limits.steps_per_rev,
             accel: self.limits.accel_counts_s2,
             decel: self.limits.accel_counts_s2,
         }
@@ -663,6 +768,7 @@ impl<'a> Writer<'a> {
             from_counts: self.at_counts,
             to_counts,
             trapezoid,
+            profile: None,
         });
         self.now_s += trapezoid.duration_s();
         self.at_counts = to_counts;
@@ -688,27 +794,44 @@ impl<'a> Writer<'a> {
         let duration_s = target_s - self.now_s;
         let speed = solve_speed(distance, duration_s, self.limits.accel_counts_s2)
             .ok_or(too_fast.clone())?;
-        let exact = speed / self.limits.steps_per_rev * 10_f64.powi(i32::from(VE_DECIMALS));
-        let up = Decimal::new(exact.ceil().max(1.0) as i64, VE_DECIMALS).ok_or(too_fast)?;
-        let down = Decimal::new(exact.floor().max(1.0) as i64, VE_DECIMALS).unwrap_or(up);
-        let off =
-            |speed: Decimal| (self.trapezoid(distance, speed).duration_s() - duration_s).abs();
-        let mut closer = if off(down) < off(up) { down } else { up };
+        // In the drive's steps: at least the smallest `VE`.
+        let exact = speed / self.limits.steps_per_rev / units::VELOCITY.step;
+        let min = units::VELOCITY.min_steps;
+        let up = units::VELOCITY
+            .write((exact.ceil() as i64).max(min))
+            .ok_or(too_fast)?;
+        let down = units::VELOCITY
+            .write((exact.floor() as i64).max(min))
+            .unwrap_or(up);
+        // How far off its time the move ends at `speed`, and whether that is within
+        // the window: at most `KEEP_SPEED_S` early, `LATE_S` late.
+        let late = |speed: Decimal| self.trapezoid(distance, speed).duration_s() - duration_s;
+        let off = |speed: Decimal| {
+            let late = late(speed);
+            if (-KEEP_SPEED_S..=LATE_S).contains(&late) {
+                0.0
+            } else {
+                late.abs()
+            }
+        };
+        // The step within the window, else the nearer; of two within it, the nearer.
+        let key = |speed: Decimal| (off(speed), late(speed).abs());
+        let mut closer = if key(down) < key(up) { down } else { up };
         // The speed of the keyframe-to-keyframe move, if it ends this one close enough
         // (when the last move kept an earlier speed and ended a little off, taking
         // that back in this one's speed would make the next need a new one again) …
         let ideal = solve_speed(distance, ideal_s, self.limits.accel_counts_s2).and_then(|speed| {
-            let exact = speed / self.limits.steps_per_rev * 10_f64.powi(i32::from(VE_DECIMALS));
-            Decimal::new(exact.round().max(1.0) as i64, VE_DECIMALS)
+            let exact = speed / self.limits.steps_per_rev / units::VELOCITY.step;
+            units::VELOCITY.write((exact.round() as i64).max(min))
         });
-        if let Some(ideal) = ideal.filter(|&ideal| off(ideal) <= KEEP_SPEED_S) {
+        if let Some(ideal) = ideal.filter(|&ideal| off(ideal) == 0.0) {
             closer = ideal;
         }
         // … and better, the `VE` already set: a line saved.
-        if let Some(previous) = self.speed.filter(|&previous| off(previous) <= KEEP_SPEED_S) {
+        if let Some(previous) = self.speed.filter(|&previous| off(previous) == 0.0) {
             closer = previous;
         }
-        if then_wait || off(closer) > KEEP_SPEED_S {
+        if then_wait || off(closer) > 0.0 {
             self.feed(to_counts, up, target_ms)?;
             self.keyframes.push(Keyframe {
                 time_ms: target_ms,
@@ -739,7 +862,7 @@ impl<'a> Writer<'a> {
         for edge in path {
             let target_ms = samples.times_ms[candidates[edge.to]];
             match edge.step {
-                Step::Wait => self.wait(target_ms as f64 / 1000.0 - self.now_s),
+                Step::Wait { .. } => self.wait(target_ms as f64 / 1000.0 - self.now_s),
                 Step::Move { then_wait, .. } => {
                     self.accelerate(edge.level);
                     let from_ms = samples.times_ms[candidates[edge.from]];
@@ -748,6 +871,17 @@ impl<'a> Writer<'a> {
                 }
             }
         }
+        self.finish(samples, track, budget_lines, start_counts)
+    }
+
+    /// What follows the moves: the deviation, the loop, the layout and the report.
+    fn finish(
+        mut self,
+        samples: &Samples,
+        track: &Track,
+        budget_lines: usize,
+        start_counts: i64,
+    ) -> Result<QProgram, QProgramError> {
         let (max_deviation_mm, at_ms) = self.deviation(samples);
         // A loop goes back past segment 1's `AC` and `DE`: the first move's
         // acceleration is set again before the show repeats.
@@ -765,14 +899,16 @@ impl<'a> Writer<'a> {
         }
         if self.config.loop_show && self.at_counts != start_counts {
             // Home stretch: back to the start at the speed limit, before `QG`.
-            let top = self.limits.max_speed_counts_s / self.limits.steps_per_rev
-                * 10_f64.powi(i32::from(VE_DECIMALS));
-            let speed = Decimal::new(top.floor().max(1.0) as i64, VE_DECIMALS).ok_or(
-                QProgramError::OutOfRange {
+            let top =
+                self.limits.max_speed_counts_s / self.limits.steps_per_rev / units::VELOCITY.step;
+            let top =
+                (top.floor() as i64).clamp(units::VELOCITY.min_steps, units::VELOCITY.max_steps);
+            let speed = units::VELOCITY
+                .write(top)
+                .ok_or(QProgramError::OutOfRange {
                     at_ms: track.duration_ms(),
                     position_mm: track.start_mm,
-                },
-            )?;
+                })?;
             let end_ms = (self.now_s * 1000.0).round() as u64;
             self.feed(start_counts, speed, end_ms)?;
             self.keyframes.push(Keyframe {
@@ -788,12 +924,13 @@ impl<'a> Writer<'a> {
         }
         let segments = self.layout()?;
         let lines = segments.iter().map(|(_, commands)| commands.len()).sum();
+        let moves = self.keyframes.len();
         Ok(QProgram {
             segments,
             keyframes: self.keyframes,
             report: Reduction {
                 track_rows: track.rows.len(),
-                moves: self.timed.len(),
+                moves,
                 lines,
                 max_deviation_mm,
                 at_ms,
@@ -815,8 +952,13 @@ impl<'a> Writer<'a> {
             while next < self.timed.len() && self.timed[next].start_s <= t_s {
                 next += 1;
             }
-            let program_counts = match next.checked_sub(1).map(|index| self.timed[index]) {
+            let program_counts = match next.checked_sub(1).map(|index| &self.timed[index]) {
                 None => start_counts as f64,
+                Some(Timed {
+                    start_s,
+                    profile: Some(profile),
+                    ..
+                }) => profile.at(t_s - start_s).0,
                 Some(timed) => {
                     let sign = if timed.to_counts >= timed.from_counts {
                         1.0
@@ -846,6 +988,14 @@ impl<'a> Writer<'a> {
                 rev_s2: Some(rev_s2),
             });
             setup.push(Command::Deceleration {
+                rev_s2: Some(rev_s2),
+            });
+        }
+        if let Some(rev_s2) = self.jog_accel {
+            setup.push(Command::JogAcceleration {
+                rev_s2: Some(rev_s2),
+            });
+            setup.push(Command::JogDeceleration {
                 rev_s2: Some(rev_s2),
             });
         }
@@ -899,13 +1049,10 @@ impl<'a> Writer<'a> {
     }
 }
 
-/// `AC` (and `DE`) for an acceleration, rev/s².
+/// `AC` (and `DE`) for an acceleration (a whole number of the drive's steps), rev/s².
 fn accel_decimal(limits: &Limits) -> Option<Decimal> {
     let per_rev = limits.accel_counts_s2 / limits.steps_per_rev;
-    Decimal::new(
-        (per_rev * 10_f64.powi(i32::from(AC_DECIMALS))).round() as i64,
-        AC_DECIMALS,
-    )
+    units::ACCELERATION.write((per_rev / units::ACCELERATION.step).round() as i64)
 }
 
 /// Segment 1 alone.

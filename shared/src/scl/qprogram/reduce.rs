@@ -15,18 +15,23 @@
 
 use super::keyframes::Samples;
 use super::moves::{Trapezoid, solve_speed};
+use crate::scl::units;
 
 /// What the drive does along an edge.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Step {
     /// Stay (`WT`): the two keyframes are at the same count.
-    Wait,
-    /// An `FP` move whose cruise speed is `speed_counts_s` (before rounding);
-    /// `then_wait` when it is so slow that rounding `VE` could miss its time by more
-    /// than a millisecond: it then runs at the rounded-up speed and a `WT` makes up the
-    /// difference.
+    Wait {
+        /// `WT` lines: one for every 320 s (the longest `WT`) or part of it.
+        lines: usize,
+    },
+    /// An `FP` move whose cruise speed is `speed_counts_s`; `then_wait` when it is so
+    /// slow that a whole step of `VE` could miss its time by more than
+    /// [`super::KEEP_SPEED_S`] (or slower than the smallest `VE`): it then runs at the
+    /// speed rounded up to a step, which is its `speed_counts_s`, and a `WT` makes up
+    /// the difference.
     Move {
-        /// The exact cruise speed, counts/s.
+        /// The cruise speed, counts/s: exact, or rounded up to a step when it waits.
         speed_counts_s: f64,
         /// Whether a `WT` follows.
         then_wait: bool,
@@ -45,12 +50,12 @@ pub(crate) enum Count {
 }
 
 impl Step {
-    /// The lines the step writes: `WT`; or `DI`, `VE` (if `count` says so), `FP`
+    /// The lines the step writes: `WT` (one or more); or `DI`, `VE` (if `count` says so), `FP`
     /// (and `WT`).
     pub fn lines(self, count: Count) -> usize {
         let speed = usize::from(count == Count::Surely);
         match self {
-            Self::Wait => 1,
+            Self::Wait { lines } => lines,
             Self::Move { then_wait, .. } => 2 + speed + usize::from(then_wait),
         }
     }
@@ -86,26 +91,26 @@ pub(crate) struct Limits {
 }
 
 /// A move is planned to be made this much quicker than its keyframes are apart, s: the
-/// compiler's clock may be up to [`super::KEEP_SPEED_S`] late when it writes it (and
-/// half a millisecond of `WT` rounding).
-const CLOCK_SLACK_S: f64 = 0.005;
+/// compiler's clock may be up to [`super::KEEP_SPEED_S`] late when it writes it.
+const CLOCK_SLACK_S: f64 = super::LATE_S + 0.001;
 
-/// A `VE` written with [`super::VE_DECIMALS`] decimals is at most half this from the
-/// exact speed, rev/s.
-const VE_STEP_REV_S: f64 = 1e-4;
-
-/// A move whose speed is below `duration_s × this` (rev/s) could end more than about
-/// half a millisecond off its time once `VE` is rounded: it gets a `WT` after it.
-const SLOW_REV_S_PER_S: f64 = 0.1;
+/// A move whose speed (rev/s) is below `duration_s ×` this might have no step of `VE`
+/// that ends it within its window ([`super::KEEP_SPEED_S`] early to [`super::LATE_S`]
+/// late: one step changes the time by at most `duration × step / speed`; with a tenth
+/// to spare): it gets a `WT` after it.
+const SLOW_REV_S_PER_S: f64 = units::VELOCITY.step / (0.9 * (super::KEEP_SPEED_S + super::LATE_S));
 
 /// The step from one keyframe to another, or `None` when no move within the limits
 /// makes it: `distance_counts` (not negative) in `duration_s`.
 pub(crate) fn plan_step(distance_counts: f64, duration_s: f64, limits: &Limits) -> Option<Step> {
     if distance_counts == 0.0 {
-        return (duration_s >= 0.0).then_some(Step::Wait);
+        // One `WT` for every longest wait a drive takes (320 s) or part of one.
+        let longest_s = units::WAIT.max_steps as f64 * units::WAIT.step;
+        let lines = ((duration_s / longest_s).ceil() as usize).max(1);
+        return (duration_s >= 0.0).then_some(Step::Wait { lines });
     }
-    // Keep time in hand: the move before may have ended up to 4 ms late
-    // (`KEEP_SPEED_S`), and the move must still be made in what is left.
+    // Keep time in hand: the move before may have ended up to 5 ms late (`LATE_S`),
+    // and the move must still be made in what is left.
     let speed = solve_speed(
         distance_counts,
         duration_s - CLOCK_SLACK_S,
@@ -116,9 +121,20 @@ pub(crate) fn plan_step(distance_counts: f64, duration_s: f64, limits: &Limits) 
     }
     let speed = solve_speed(distance_counts, duration_s, limits.accel_counts_s2)?;
     let rev_s = speed / limits.steps_per_rev;
-    let then_wait = rev_s < (duration_s * SLOW_REV_S_PER_S).max(100.0 * VE_STEP_REV_S);
+    let then_wait = rev_s < (duration_s * SLOW_REV_S_PER_S).max(units::VELOCITY.step * 2.0);
+    if !then_wait {
+        return Some(Step::Move {
+            speed_counts_s: speed,
+            then_wait,
+        });
+    }
+    // As the writer runs it: the speed rounded up to a whole step, at least the
+    // smallest `VE`.
+    let steps = (rev_s / units::VELOCITY.step - 1e-9)
+        .ceil()
+        .max(units::VELOCITY.min_steps as f64);
     Some(Step::Move {
-        speed_counts_s: speed,
+        speed_counts_s: steps * units::VELOCITY.step * limits.steps_per_rev,
         then_wait,
     })
 }
@@ -176,7 +192,7 @@ fn cost(
     let from_mm = c0 as f64 / limits.counts_per_mm;
     let sign = if c1 >= c0 { 1.0 } else { -1.0 };
     let trapezoid = match step {
-        Step::Wait => None,
+        Step::Wait { .. } => None,
         Step::Move { speed_counts_s, .. } => Some(Trapezoid {
             distance: (c1 - c0).abs() as f64,
             speed: speed_counts_s,

@@ -10,8 +10,8 @@ use crate::scl::command::{
     Address, Command, Decimal, InputCondition, IoPoint, JumpCondition, Level, MathOp, Register,
     Request, Segment,
 };
-use crate::scl::escl;
 use crate::scl::response::{Answer, QueueUpload, Reply};
+use crate::scl::{escl, units};
 
 /// Alarm code bits the twin raises (HCR p. 27, `AL`).
 pub mod alarm {
@@ -108,9 +108,7 @@ const PAUSE_S: f64 = 0.001;
 pub(super) const EPSILON_S: f64 = 1e-9;
 /// The refusal code for a value out of range (HCR p. 251: `?5`).
 const OUT_OF_RANGE: u16 = 5;
-/// Highest `VE`, rev/s; highest `AC`/`DE`, rev/s²; `EG` range (the twin's limits).
-const MAX_VELOCITY_REV_S: f64 = 100.0;
-const MAX_ACCEL_REV_S2: f64 = 5000.0;
+/// `EG` range (the twin's limits; `VE`, `AC`, `DE` and `WT`: [`units`]).
 const STEPS_PER_REV_RANGE: std::ops::RangeInclusive<u32> = 200..=51_200;
 /// Registers `'0'` to `'z'`.
 const REGISTERS: usize = (b'z' - b'0' + 1) as usize;
@@ -146,6 +144,11 @@ enum MotionKind {
         decel_counts_s2: f64,
         speed_counts_s: f64,
         accel_counts_s2: f64,
+    },
+    /// Jogging (`CJ`) in `direction` (1 or −1): until `SJ`, `ST` or `SK`.
+    Jog {
+        /// 1 forward, −1 backward.
+        direction: f64,
     },
     /// Slowing down after `ST` or `SK`.
     Stopping,
@@ -232,16 +235,23 @@ fn class(command: &Command) -> Class {
     }
 }
 
-/// Whether a command's values are in the twin's ranges (else `?5`).
+/// Whether a command's values are in the twin's ranges (else `?5`): `VE`, `AC`, `DE`
+/// and `WT` as a drive takes them ([`units`]: `VE` from 0.0042 rev/s, `AC`/`DE` from
+/// 0.167 rev/s²).
 fn in_range(command: &Command) -> bool {
-    let rate = |value: Option<Decimal>, max: f64| {
-        value.is_none_or(|v| v.to_f64() > 0.0 && v.to_f64() <= max)
+    let held = |value: Option<Decimal>, resolution: units::Resolution| {
+        value.is_none_or(|v| resolution.steps(v).is_some())
     };
     match *command {
-        Command::Velocity { rev_s } => rate(rev_s, MAX_VELOCITY_REV_S),
-        Command::Acceleration { rev_s2 } | Command::Deceleration { rev_s2 } => {
-            rate(rev_s2, MAX_ACCEL_REV_S2)
+        Command::Velocity { rev_s } | Command::JogSpeed { rev_s } => held(rev_s, units::VELOCITY),
+        Command::ChangeSpeed { rev_s } => held(Some(rev_s), units::VELOCITY),
+        Command::JogAcceleration { rev_s2 } | Command::JogDeceleration { rev_s2 } => {
+            held(rev_s2, units::ACCELERATION)
         }
+        Command::Acceleration { rev_s2 } | Command::Deceleration { rev_s2 } => {
+            held(rev_s2, units::ACCELERATION)
+        }
+        Command::WaitTime { s } => held(Some(s), units::WAIT),
         Command::ElectronicGearing { steps_per_rev } => {
             steps_per_rev.is_none_or(|s| STEPS_PER_REV_RANGE.contains(&s))
         }
@@ -261,6 +271,8 @@ fn takes_time(command: &Command) -> bool {
         Command::FeedToLength
             | Command::FeedToPosition
             | Command::FeedToSensor { .. }
+            | Command::CommenceJogging
+            | Command::StopJogging
             | Command::WaitTime { .. }
             | Command::WaitForInput { .. }
     )
@@ -285,6 +297,9 @@ pub struct Drive {
     velocity_rev_s: Decimal,
     accel_rev_s2: Decimal,
     decel_rev_s2: Decimal,
+    jog_speed_rev_s: Decimal,
+    jog_accel_rev_s2: Decimal,
+    jog_decel_rev_s2: Decimal,
     steps_per_rev: u32,
     pub(super) multitasking: bool,
     enabled: bool,
@@ -330,6 +345,9 @@ impl Drive {
             velocity_rev_s: config.velocity_rev_s,
             accel_rev_s2: config.accel_rev_s2,
             decel_rev_s2: config.decel_rev_s2,
+            jog_speed_rev_s: config.velocity_rev_s,
+            jog_accel_rev_s2: config.accel_rev_s2,
+            jog_decel_rev_s2: config.decel_rev_s2,
             steps_per_rev: config.steps_per_rev,
             config,
             clock_s: 0.0,
@@ -525,6 +543,13 @@ impl Drive {
             Command::Velocity { rev_s: None } => value("VE", self.velocity_rev_s.to_string()),
             Command::Acceleration { rev_s2: None } => value("AC", self.accel_rev_s2.to_string()),
             Command::Deceleration { rev_s2: None } => value("DE", self.decel_rev_s2.to_string()),
+            Command::JogSpeed { rev_s: None } => value("JS", self.jog_speed_rev_s.to_string()),
+            Command::JogAcceleration { rev_s2: None } => {
+                value("JA", self.jog_accel_rev_s2.to_string())
+            }
+            Command::JogDeceleration { rev_s2: None } => {
+                value("JL", self.jog_decel_rev_s2.to_string())
+            }
             Command::ElectronicGearing {
                 steps_per_rev: None,
             } => value("EG", self.steps_per_rev.to_string()),
@@ -880,9 +905,55 @@ impl Drive {
                 }
                 Step::Next
             }
+            Command::CommenceJogging => {
+                match self.motion.as_ref().map(|motion| motion.kind) {
+                    // Already jogging: nothing more.
+                    Some(MotionKind::Jog { .. }) => return Step::Next,
+                    Some(_) => {
+                        self.wait = Wait::Motion;
+                        return Step::Again;
+                    }
+                    None => {}
+                }
+                if !self.enabled || self.alarm != 0 {
+                    self.fault(alarm::NO_MOVE);
+                    return Step::Stop;
+                }
+                let direction = if self.distance_counts < 0 { -1.0 } else { 1.0 };
+                let speed = direction * self.counts(self.jog_speed_rev_s, units::VELOCITY);
+                let (accel, decel) = self.jog_rates();
+                self.motion = Some(Motion {
+                    start_s: self.clock_s,
+                    profile: Profile::run(self.rest_counts, 0.0, speed, accel, decel),
+                    kind: MotionKind::Jog { direction },
+                    offset_counts: 0.0,
+                });
+                // A jog never ends by itself: the program goes on (even with `MT0`).
+                Step::Next
+            }
+            Command::StopJogging => {
+                if let Some(motion) = &self.motion
+                    && let MotionKind::Jog { .. } = motion.kind
+                {
+                    let (x, v) = motion.at(self.clock_s);
+                    let (_, decel) = self.jog_rates();
+                    self.motion = Some(Motion {
+                        start_s: self.clock_s,
+                        profile: Profile::stop(x, v, decel),
+                        kind: MotionKind::Move,
+                        offset_counts: 0.0,
+                    });
+                    // A stop that takes no time ends the motion now.
+                    self.set_clock(self.clock_s);
+                    if !self.multitasking {
+                        self.wait = Wait::Motion;
+                    }
+                }
+                Step::Next
+            }
             Command::WaitTime { s } => {
                 self.wait = Wait::Until {
-                    at_s: self.clock_s + s.to_f64(),
+                    at_s: self.clock_s + units::WAIT.held(s).unwrap_or(0.0),
                     wt: true,
                 };
                 Step::Next
@@ -926,6 +997,26 @@ impl Drive {
             Command::Velocity { rev_s: Some(v) } => self.velocity_rev_s = v,
             Command::Acceleration { rev_s2: Some(a) } => self.accel_rev_s2 = a,
             Command::Deceleration { rev_s2: Some(d) } => self.decel_rev_s2 = d,
+            Command::JogSpeed { rev_s: Some(v) } => self.jog_speed_rev_s = v,
+            Command::JogAcceleration { rev_s2: Some(a) } => self.jog_accel_rev_s2 = a,
+            Command::JogDeceleration { rev_s2: Some(d) } => self.jog_decel_rev_s2 = d,
+            Command::ChangeSpeed { rev_s } => {
+                // The jog speed from now on; while jogging, reached at `JA` (or `JL`).
+                self.jog_speed_rev_s = rev_s;
+                if let Some(motion) = &self.motion
+                    && let MotionKind::Jog { direction } = motion.kind
+                {
+                    let (x, v) = motion.at(self.clock_s);
+                    let speed = direction * self.counts(rev_s, units::VELOCITY);
+                    let (accel, decel) = self.jog_rates();
+                    self.motion = Some(Motion {
+                        start_s: self.clock_s,
+                        profile: Profile::run(x, v, speed, accel, decel),
+                        kind: MotionKind::Jog { direction },
+                        offset_counts: 0.0,
+                    });
+                }
+            }
             Command::ElectronicGearing {
                 steps_per_rev: Some(s),
             } => self.steps_per_rev = s,
@@ -1046,7 +1137,7 @@ impl Drive {
 
     /// Slows the motion down to rest at `DE`.
     fn stop_motion(&mut self) {
-        let decel = self.counts(self.decel_rev_s2);
+        let decel = self.counts(self.decel_rev_s2, units::ACCELERATION);
         if let Some(motion) = &self.motion
             && motion.kind != MotionKind::Stopping
         {
@@ -1062,9 +1153,18 @@ impl Drive {
         }
     }
 
-    /// A rev/s (or rev/s²) value in counts/s (counts/s²).
-    fn counts(&self, rev: Decimal) -> f64 {
-        rev.to_f64() * f64::from(self.steps_per_rev)
+    /// `JA` and `JL` as the drive holds them, counts/s².
+    fn jog_rates(&self) -> (f64, f64) {
+        (
+            self.counts(self.jog_accel_rev_s2, units::ACCELERATION),
+            self.counts(self.jog_decel_rev_s2, units::ACCELERATION),
+        )
+    }
+
+    /// A rev/s (or rev/s²) value, as the drive holds it in `resolution`'s steps, in
+    /// counts/s (counts/s²).
+    fn counts(&self, rev: Decimal, resolution: units::Resolution) -> f64 {
+        resolution.held(rev).unwrap_or(0.0) * f64::from(self.steps_per_rev)
     }
 
     /// Raises an alarm: the move is not made, the buffer and the program are killed.
@@ -1081,9 +1181,9 @@ impl Drive {
         }
         let here = self.rest_counts;
         let (speed, accel, decel) = (
-            self.counts(self.velocity_rev_s),
-            self.counts(self.accel_rev_s2),
-            self.counts(self.decel_rev_s2),
+            self.counts(self.velocity_rev_s, units::VELOCITY),
+            self.counts(self.accel_rev_s2, units::ACCELERATION),
+            self.counts(self.decel_rev_s2, units::ACCELERATION),
         );
         let distance = f64::from(self.distance_counts);
         let (profile, kind) = match command {

@@ -550,6 +550,45 @@ fn qw_stores_a_segment_and_qu_reads_it_back() {
 }
 
 #[test]
+fn values_below_a_drives_range_are_refused_and_the_rest_run_in_its_steps() {
+    let mut d = drive();
+    // The issue's creep: VE0.0006 … VE0.0024 are below the smallest VE (0.0042 rev/s);
+    // AC/DE below 0.167 rev/s²; a negative or over-long WT (issue 34, item 3).
+    for line in [
+        "VE0.0006", "VE0.0024", "VE0.0041", "AC0.1", "DE0.166", "WT320.01", "VE100.01",
+    ] {
+        assert_eq!(d.receive_line(line, 0).as_deref(), Some("?5\r"), "{line}");
+    }
+    // Refused values are not taken.
+    assert_eq!(d.receive_line("VE", 0).as_deref(), Some("VE=10\r"));
+    for line in ["VE0.0042", "AC0.167", "DE0.167", "WT320", "WT0"] {
+        assert_eq!(d.receive_line(line, 0).as_deref(), Some("*\r"), "{line}");
+    }
+    // VE0.6910 is held as 166 steps of 1/240 rev/s (0.69167 rev/s), AC2.5 as 15 steps
+    // of 1/6 rev/s²: a 110 000-count FL lasts exactly what those give.
+    let mut d = drive();
+    for line in ["VE0.6910", "AC2.5", "DE2.5", "DI110000", "FL"] {
+        d.receive_line(line, 0);
+    }
+    d.advance(20 * S);
+    let (speed, accel) = (166.0 / 240.0 * 20_000.0, 15.0 / 6.0 * 20_000.0);
+    let duration_s = speed / accel + 110_000.0 / speed;
+    let end = d.move_ends()[0];
+    assert!(
+        (end.at_s - duration_s).abs() < 1e-9,
+        "{end:?} vs {duration_s}"
+    );
+    // … and WT0.504 waits 0.50 s (whole hundredths).
+    let mut d = drive();
+    for line in ["WT0.504", "DI100", "FL"] {
+        d.receive_line(line, 0);
+    }
+    d.advance(S);
+    let start_s = d.move_ends()[0].at_s - (100.0_f64 / (100.0 * 20_000.0)).sqrt() * 2.0;
+    assert!((start_s - 0.5).abs() < 1e-9, "{start_s}");
+}
+
+#[test]
 fn refusals_and_alarms() {
     let mut d = Drive::new(DriveConfig {
         soft_limits_counts: Some((-1_000, 1_000)),
@@ -751,4 +790,39 @@ mod proptests {
             bus.advance(now + 10 * S);
         }
     }
+}
+
+#[test]
+fn a_jog_speeds_up_at_ja_changes_speed_and_stops_at_jl() {
+    // JA = JL = 10 rev/s² (200 000 counts/s²), JS 1 rev/s, backwards (DI's sign); 1 s
+    // later CS2, 1 s later SJ: with MT0 the program waits for the stop, then SO1L.
+    let mut d = drive();
+    store(
+        &mut d,
+        1,
+        "JA10\nJL10\nJS1\nDI-1\nCJ\nWT1\nCS2\nWT1\nSJ\nSO1L",
+        0,
+    );
+    assert_eq!(d.receive_line("QX1", 0).as_deref(), Some("%\r"));
+    d.advance(S / 2);
+    // Up to 20 000 counts/s in 0.1 s (1000 counts), then 0.4 s at it.
+    assert!(
+        (d.position_counts() + 9_000.0).abs() < 1e-6,
+        "{}",
+        d.position_counts()
+    );
+    assert!(d.is_moving() && d.is_executing());
+    d.advance(3 * S);
+    // 19 000 by 1 s; 20 000 → 40 000 in 0.1 s (3000), 0.9 s at 40 000 (36 000); the
+    // stop from 40 000 at 200 000 counts/s² (4000) ends at 2.2 s.
+    assert!((d.position_counts() + 62_000.0).abs() < 1e-6);
+    let end = d.move_ends()[0];
+    assert!((end.at_s - 2.2).abs() < 1e-9, "{end:?}");
+    let low = d.output_changes()[0];
+    assert!((low.at_s - 2.2).abs() < 1e-9, "{low:?}");
+    // Its values as asked, and refused below a drive's range.
+    assert_eq!(d.receive_line("JS", 3 * S).as_deref(), Some("JS=2\r"));
+    assert_eq!(d.receive_line("JA", 3 * S).as_deref(), Some("JA=10\r"));
+    assert_eq!(d.receive_line("CS0.001", 3 * S).as_deref(), Some("?5\r"));
+    assert_eq!(d.receive_line("JL0.1", 3 * S).as_deref(), Some("?5\r"));
 }
