@@ -34,6 +34,7 @@
 use std::collections::VecDeque;
 
 use super::qprogram::QProgram;
+use super::units;
 use super::{Answer, Command, Decimal, IoPoint, Level, QueueUpload, Reply, Segment};
 use crate::player::{Drive, Phase};
 
@@ -431,13 +432,14 @@ impl SclDrive {
 
     fn move_stages(&self, targets_counts: &[i32]) -> Vec<Stage> {
         let per_rev = f64::from(self.config.steps_per_rev);
-        let velocity = decimal(
+        // In whole steps as a drive holds them, never faster nor harder than set.
+        let velocity = at_most(
+            &units::VELOCITY,
             self.config.approach_speed_mm_s * self.config.counts_per_mm / per_rev,
-            4,
         );
-        let accel = decimal(
+        let accel = at_most(
+            &units::ACCELERATION,
             self.config.max_accel_mm_s2 * self.config.counts_per_mm / per_rev,
-            3,
         );
         let target = |unit: usize| targets_counts.get(unit).copied().unwrap_or(0);
         let feed = self.by_line(|unit| {
@@ -553,10 +555,14 @@ fn ask(unit: usize, command: Command, check: Check) -> Action {
 }
 
 /// `value` with `scale` decimals, as a parameter.
-fn decimal(value: f64, scale: u8) -> Decimal {
-    let mantissa = (value * 10f64.powi(i32::from(scale))).round();
-    // Within i64 by the limits the configuration checks.
-    Decimal::new(mantissa as i64, scale).unwrap_or(Decimal::from_int(0))
+/// `value` in whole steps of `resolution` ([`units`]): at most `value`, within the
+/// drive's range (its smallest value when `value` is below it).
+fn at_most(resolution: &units::Resolution, value: f64) -> Decimal {
+    let steps = (value / resolution.step + 1e-9).floor() as i64;
+    let steps = steps.clamp(resolution.min_steps.max(1), resolution.max_steps);
+    resolution
+        .write(steps)
+        .unwrap_or_else(|| Decimal::from_int(0))
 }
 
 enum Verdict {

@@ -468,3 +468,59 @@ fn the_state_is_playing_from_the_first_drives_start_and_counts_from_its_arrival(
         );
     }
 }
+
+/// Issue 34, item 3: the approach's `VE`, `AC` and `DE` are whole steps as a drive
+/// holds them, never faster than set, and a crawl below the smallest `VE` is written
+/// as the smallest (not a value the drive refuses).
+#[test]
+fn the_approach_writes_values_a_drive_holds() {
+    let mut config = config(None);
+    for (speed_mm_s, accel_mm_s2) in [(1_000.0, 4_000.0), (0.1, 3.0), (777.7, 1_234.5)] {
+        config.approach_speed_mm_s = speed_mm_s;
+        config.max_accel_mm_s2 = accel_mm_s2;
+        let mut sequencer = Sequencer::new(SclDrive::new(config.clone()));
+        sequencer.home(0);
+        // Each drive's lines one after the other: every one answered at once.
+        let mut asked = Vec::new();
+        for _ in 0..8 {
+            for ask in sequencer.drive_mut().take_asks() {
+                asked.push(ask.text.clone());
+                sequencer
+                    .drive_mut()
+                    .answer(0, ask.id, Ok(vec!["%".to_owned()]));
+            }
+            sequencer.poll(0);
+        }
+        let value = |mnemonic: &str| {
+            let text = asked
+                .iter()
+                .find(|text| text.starts_with(mnemonic))
+                .map(|text| text[mnemonic.len()..].to_owned())
+                .expect("asked");
+            let decimal = match crate::scl::Request::parse(&format!("{mnemonic}{text}"))
+                .expect("a command")
+                .command
+            {
+                Command::Velocity { rev_s: Some(v) } => v,
+                Command::Acceleration { rev_s2: Some(a) }
+                | Command::Deceleration { rev_s2: Some(a) } => a,
+                other => panic!("{other:?}"),
+            };
+            decimal
+        };
+        let per_rev = f64::from(config.steps_per_rev);
+        let ve = value("VE");
+        let steps = units::VELOCITY.steps(ve).expect("a VE the drive takes");
+        assert!(steps >= 1);
+        assert!(
+            (units::VELOCITY.held(ve).unwrap() - ve.to_f64()).abs() < units::VELOCITY.step / 40.0,
+            "{ve} is a whole step"
+        );
+        let set = speed_mm_s * config.counts_per_mm / per_rev;
+        assert!(ve.to_f64() <= set.max(units::VELOCITY.smallest().unwrap().to_f64()) + 1e-9);
+        for mnemonic in ["AC", "DE"] {
+            let a = value(mnemonic);
+            assert!(units::ACCELERATION.steps(a).is_some(), "{mnemonic}{a}");
+        }
+    }
+}
