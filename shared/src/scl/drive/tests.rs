@@ -497,7 +497,7 @@ fn the_approach_writes_values_a_drive_holds() {
                 .find(|text| text.starts_with(mnemonic))
                 .map(|text| text[mnemonic.len()..].to_owned())
                 .expect("asked");
-            let decimal = match crate::scl::Request::parse(&format!("{mnemonic}{text}"))
+            match crate::scl::Request::parse(&format!("{mnemonic}{text}"))
                 .expect("a command")
                 .command
             {
@@ -505,8 +505,7 @@ fn the_approach_writes_values_a_drive_holds() {
                 Command::Acceleration { rev_s2: Some(a) }
                 | Command::Deceleration { rev_s2: Some(a) } => a,
                 other => panic!("{other:?}"),
-            };
-            decimal
+            }
         };
         let per_rev = f64::from(config.steps_per_rev);
         let ve = value("VE");
