@@ -306,8 +306,9 @@ impl<D: Drive> Sequencer<D> {
                     show_time_ms,
                     progress,
                 } => (show_time_ms, progress, None),
-                ShowClock::Given { starts_in_us } => (0, 0.0, Some(starts_in_us.div_ceil(1_000))),
-                ShowClock::NotGiven => (0, 0.0, None),
+                // Loaded, the start under way: the `loading` phase is complete.
+                ShowClock::Given { starts_in_us } => (0, 1.0, Some(starts_in_us.div_ceil(1_000))),
+                ShowClock::NotGiven => (0, 1.0, None),
             },
             _ => (0, self.progress, None),
         };

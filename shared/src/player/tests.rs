@@ -318,6 +318,7 @@ fn the_status_clock_is_the_units_clock_at_the_instant_it_is_made() {
     assert_eq!(given.state, PlayerState::Loading);
     assert_eq!(given.show_starts_in_ms, Some(20));
     assert_eq!(given.show_time_ms, 0);
+    assert_eq!(given.progress, 1.0, "loaded: the start is under way");
     assert_eq!(sequencer.state_at(10_029_999), PlayerState::Loading);
     // The start is an instant of its own for the caller (the status goes out then),
     // not a poll: the drive's next wake-up stands.
