@@ -225,3 +225,39 @@ async fn the_rare_pages_are_chunks_outside_the_first_load() {
     pages.sort_unstable();
     assert_eq!(pages, ["commission", "create", "installation"]);
 }
+
+/// The planner worker (`static/plan-worker.js`) loads the app's module and, on its
+/// first request, the Create chunk its planner is in (issue 35): the answer to a
+/// recipe that is not one is the recipe reader's, from the chunk — not that the
+/// chunk could not be loaded, nor the worker failing to start.
+#[tokio::test]
+async fn the_plan_worker_runs_the_planner_from_the_create_chunk() {
+    let bridge = Bridge::start().await;
+    let browser = Browser::open(&bridge).await;
+    browser
+        .wait_for_attribute(INDICATOR, "data-state", "disconnected", UI_TIMEOUT)
+        .await;
+    let answer = browser
+        .client
+        .execute_async(
+            r"
+            const done = arguments[arguments.length - 1];
+            const worker = new Worker('/plan-worker.js', { type: 'module' });
+            worker.onmessage = (event) => done(event.data);
+            worker.onerror = (event) => done({ failed: String(event.message) });
+            worker.postMessage({
+                module: document.querySelector('link[rel=modulepreload]').href,
+                id: 7, recipe: '{}', installation: '{}',
+            });",
+            Vec::new(),
+        )
+        .await
+        .expect("ask the worker");
+    assert_eq!(answer["id"], 7, "{answer}");
+    let error = answer["error"].as_str().unwrap_or_default();
+    assert!(
+        error.contains("not a Floatball recipe"),
+        "the worker did not plan in the chunk: {answer}"
+    );
+    browser.client.close().await.expect("close the browser");
+}
