@@ -3,7 +3,29 @@
 // static/pkg/ under content-hashed names and writes the page static/pkg/index.html,
 // whose modulepreload link names the app's js (and a preload fetches its wasm); the
 // js loads the wasm by its hashed name.
+//
+// The pages an operator rarely opens (Create, Commissioning, Installation) are in
+// wasm chunks the app fetches when they are opened (web/src/lazy.rs). The page's
+// `<meta name="floatball-chunks" content="create=/pkg/a.wasm /pkg/b.wasm;…">` names
+// each one's chunks: opened at such a page (a reload on #/create), their download
+// starts now, beside the app's, rather than after it.
 try {
+  const chunks = document.querySelector('meta[name="floatball-chunks"]');
+  const opened = location.hash.replace(/^#\/?/, '');
+  for (const entry of (chunks?.content ?? '').split(';')) {
+    const [page, files] = entry.split('=');
+    if (page === opened && files) {
+      for (const href of files.split(' ')) {
+        const preload = document.createElement('link');
+        preload.rel = 'preload';
+        preload.as = 'fetch';
+        preload.type = 'application/wasm';
+        preload.crossOrigin = 'anonymous';
+        preload.href = href;
+        document.head.append(preload);
+      }
+    }
+  }
   const link = document.querySelector('link[rel="modulepreload"]');
   if (!link) {
     throw new Error('no app in the page: static/pkg/index.html is not built');

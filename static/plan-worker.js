@@ -3,7 +3,9 @@
 // every button for that long, the E-STOP too. The page sends
 // { module, id, recipe, installation }: `module` the app's js (the page's
 // modulepreload link), the recipe and the installation as JSON. The worker loads the
-// app once, renders the recipe and plans it exactly as the page would, and answers
+// app once (the planner itself is in the Create chunk, which `plan_recipe` fetches
+// on its first call: the page has it cached by then), renders the recipe and plans
+// it exactly as the page would, and answers
 // { id, report } (the PlanReport as JSON) or { id, error }.
 //
 // Only the latest request is planned: requests that arrive while a plan runs wait in
@@ -34,7 +36,7 @@ async function run() {
       latest = null;
       try {
         const loaded = await load(module);
-        self.postMessage({ id, report: loaded.plan_recipe(recipe, installation) });
+        self.postMessage({ id, report: await loaded.plan_recipe(recipe, installation) });
       } catch (err) {
         self.postMessage({ id, error: String(err) });
       }

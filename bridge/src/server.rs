@@ -300,6 +300,10 @@ mod tests {
             "/pkg/floatball_bg-0123456789abcdef.wasm",
             "/pkg/style-fedcba9876543210.css",
             "/pkg/floatball-0123456789abcdef.js.br",
+            // The chunk loader and the lazily loaded pages' chunks (issue 35).
+            "/pkg/floatball_split-0123456789abcdef.js",
+            "/pkg/split_create-0123456789abcdef.wasm",
+            "/pkg/chunk_4-0123456789abcdef.wasm.gz",
         ] {
             assert!(is_hashed_asset(hashed), "{hashed}");
         }

@@ -109,3 +109,155 @@ async fn the_app_arrives_compressed_with_hashed_names_and_cache_headers() {
     );
     browser.client.close().await.expect("close the browser");
 }
+
+/// One GET of `path` from the bridge at `addr` with `Accept-Encoding: br`: the
+/// answer's head (lower case) and its body's length as sent.
+async fn get_br(addr: std::net::SocketAddr, path: &str) -> (String, usize) {
+    use tokio::io::{AsyncReadExt as _, AsyncWriteExt as _};
+    let mut stream = tokio::net::TcpStream::connect(addr)
+        .await
+        .expect("connect to the bridge");
+    stream
+        .write_all(
+            format!(
+                "GET {path} HTTP/1.1\r\nHost: {addr}\r\nAccept-Encoding: br\r\nConnection: close\r\n\r\n"
+            )
+            .as_bytes(),
+        )
+        .await
+        .expect("send the request");
+    let mut answer = Vec::new();
+    stream
+        .read_to_end(&mut answer)
+        .await
+        .expect("read the answer");
+    let split = answer
+        .windows(4)
+        .position(|window| window == b"\r\n\r\n")
+        .unwrap_or_else(|| panic!("{path}: no answer head"));
+    let head = String::from_utf8_lossy(&answer[..split]).to_ascii_lowercase();
+    assert!(head.starts_with("http/1.1 200"), "{path}: {head}");
+    assert!(!head.contains("transfer-encoding"), "{path}: {head}");
+    (head, answer.len() - split - 4)
+}
+
+/// The value of `attribute` in every tag of `page` that contains `marker`.
+fn attributes<'a>(page: &'a str, marker: &str, attribute: &str) -> Vec<&'a str> {
+    page.split('<')
+        .filter(|tag| tag.contains(marker))
+        .filter_map(|tag| {
+            let start = tag.find(&format!("{attribute}=\""))? + attribute.len() + 2;
+            let end = start + tag[start..].find('"')?;
+            Some(&tag[start..end])
+        })
+        .collect()
+}
+
+/// The pages an operator rarely opens (Create, Commissioning, Installation) are wasm
+/// chunks (issue 35): the page names each one's chunks for `boot.js` and preloads
+/// none of them; they are served as brotli and cached as immutable like the rest.
+/// Prints the first load and every chunk as sent with `Accept-Encoding: br` (of
+/// whichever build `static/pkg` holds: the sizes that matter are the release
+/// build's, which `cargo xtask load-bench` measures and holds to its budget).
+#[tokio::test]
+async fn the_rare_pages_are_chunks_outside_the_first_load() {
+    let bridge = Bridge::start().await;
+    let pkg = floatball_e2e::static_dir().join("pkg");
+    let page = std::fs::read_to_string(pkg.join("index.html"))
+        .expect("static/pkg/index.html: build the app with `cargo xtask build`");
+    let js = attributes(&page, "rel=\"modulepreload\"", "href");
+    let wasm = attributes(&page, "as=\"fetch\"", "href");
+    let css = attributes(&page, "rel=\"stylesheet\"", "href");
+    assert_eq!((js.len(), wasm.len(), css.len()), (1, 1, 1), "{page}");
+    // The loader of the chunks, which the glue imports.
+    let glue =
+        std::fs::read_to_string(pkg.join(js[0].trim_start_matches("/pkg/"))).expect("the js");
+    let loader: Vec<&str> = glue
+        .split('"')
+        .filter(|part| part.starts_with("./floatball_split-") && part.ends_with(".js"))
+        .collect();
+    assert!(!loader.is_empty(), "the glue imports no chunk loader");
+    let loader = format!("/pkg/{}", loader[0].trim_start_matches("./"));
+    let mut first_load = 0;
+    println!("first load (as sent with Accept-Encoding: br):");
+    for path in ["/", "/boot.js", js[0], loader.as_str(), wasm[0], css[0]] {
+        let (head, bytes) = get_br(bridge.addr, path).await;
+        if path.starts_with("/pkg/") {
+            assert!(head.contains("content-encoding: br"), "{path}: {head}");
+        }
+        println!("  {path:<48} {:>9.1} KB", bytes as f64 / 1000.0);
+        first_load += bytes;
+    }
+    println!("  {:<48} {:>9.1} KB", "total", first_load as f64 / 1000.0);
+    let first_files = [js[0], loader.as_str(), wasm[0], css[0]];
+
+    // Each rarely opened page's chunks, by the page's meta: none is in the first load.
+    let chunks = attributes(&page, "name=\"floatball-chunks\"", "content");
+    assert_eq!(chunks.len(), 1, "{page}");
+    let mut pages = Vec::new();
+    println!("chunks loaded when a page is opened:");
+    for entry in chunks[0].split(';') {
+        let (name, files) = entry.split_once('=').expect("page=files");
+        let mut total = 0;
+        for file in files.split(' ') {
+            assert!(
+                file.starts_with("/pkg/") && file.ends_with(".wasm"),
+                "{file}"
+            );
+            assert!(!first_files.contains(&file), "{file} is in the first load");
+            assert!(
+                !page.contains(&format!("href=\"{file}\"")),
+                "{file} is preloaded"
+            );
+            let (head, bytes) = get_br(bridge.addr, file).await;
+            assert!(head.contains("content-encoding: br"), "{file}: {head}");
+            assert!(head.contains("immutable"), "{file}: {head}");
+            println!("  {name:<13} {file:<48} {:>9.1} KB", bytes as f64 / 1000.0);
+            total += bytes;
+        }
+        println!(
+            "  {name:<13} {:<48} {:>9.1} KB",
+            "(all it needs)",
+            total as f64 / 1000.0
+        );
+        pages.push(name);
+    }
+    pages.sort_unstable();
+    assert_eq!(pages, ["commission", "create", "installation"]);
+}
+
+/// The planner worker (`static/plan-worker.js`) loads the app's module and, on its
+/// first request, the Create chunk its planner is in (issue 35): the answer to a
+/// recipe that is not one is the recipe reader's, from the chunk — not that the
+/// chunk could not be loaded, nor the worker failing to start.
+#[tokio::test]
+async fn the_plan_worker_runs_the_planner_from_the_create_chunk() {
+    let bridge = Bridge::start().await;
+    let browser = Browser::open(&bridge).await;
+    browser
+        .wait_for_attribute(INDICATOR, "data-state", "disconnected", UI_TIMEOUT)
+        .await;
+    let answer = browser
+        .client
+        .execute_async(
+            r"
+            const done = arguments[arguments.length - 1];
+            const worker = new Worker('/plan-worker.js', { type: 'module' });
+            worker.onmessage = (event) => done(event.data);
+            worker.onerror = (event) => done({ failed: String(event.message) });
+            worker.postMessage({
+                module: document.querySelector('link[rel=modulepreload]').href,
+                id: 7, recipe: '{}', installation: '{}',
+            });",
+            Vec::new(),
+        )
+        .await
+        .expect("ask the worker");
+    assert_eq!(answer["id"], 7, "{answer}");
+    let error = answer["error"].as_str().unwrap_or_default();
+    assert!(
+        error.contains("not a Floatball recipe"),
+        "the worker did not plan in the chunk: {answer}"
+    );
+    browser.client.close().await.expect("close the browser");
+}

@@ -413,3 +413,60 @@ async fn the_draft_outlives_a_reload_right_after_a_change() {
         .await;
     browser.client.close().await.expect("close the browser");
 }
+
+/// The Create page's code is a chunk fetched when the page is opened (issue 35): a
+/// chunk that cannot be fetched (offline, a stale cache after an update) shows an
+/// error and a Retry while the top bar, its E-STOP and the other pages keep working,
+/// and Retry fetches it again.
+#[tokio::test]
+async fn a_create_chunk_that_cannot_be_fetched_shows_a_retry_and_breaks_nothing_else() {
+    let bridge = Bridge::start().await;
+    let browser = Browser::open_in(&bridge, "en-US").await;
+    browser.first_login("floor-2468").await;
+    let offline = |on: bool| {
+        let script = "
+            if (arguments[0]) {
+                window.__online ??= window.fetch;
+                window.fetch = (url, ...rest) => String(url).endsWith('.wasm')
+                    ? Promise.reject(new TypeError('offline (test)'))
+                    : window.__online(url, ...rest);
+            } else {
+                window.fetch = window.__online;
+            }";
+        browser.client.execute(script, vec![Value::from(on)])
+    };
+    offline(true).await.expect("go offline");
+    browser.click("[data-testid=nav-create]").await;
+    browser.wait_for("[data-testid=chunk-error]").await;
+    browser
+        .wait_for_text("[data-testid=chunk-error]", "could not be loaded")
+        .await;
+    // The E-STOP works meanwhile, and so do the other pages; Create fails again
+    // while offline.
+    browser.click(".topbar [data-testid=estop]").await;
+    browser
+        .wait_for_attribute(
+            ".topbar [data-testid=estop]",
+            "data-ack",
+            "stopped",
+            UI_TIMEOUT,
+        )
+        .await;
+    browser.click("[data-testid=nav-files]").await;
+    browser.wait_for("[data-testid=page-files]").await;
+    browser.click("[data-testid=nav-create]").await;
+    browser.wait_for("[data-testid=chunk-retry]").await;
+    // Back online, Retry loads the page.
+    offline(false).await.expect("go online");
+    browser.click("[data-testid=chunk-retry]").await;
+    browser.wait_for("[data-testid=preview-canvas]").await;
+    assert!(
+        browser
+            .client
+            .find_all(fantoccini::Locator::Css("[data-testid=chunk-error]"))
+            .await
+            .expect("look for the error")
+            .is_empty()
+    );
+    browser.client.close().await.expect("close the browser");
+}

@@ -171,6 +171,10 @@ texts! {
     NoShowSelected => "没有选择动作文件。", "No show selected.";
     /// Preview: loading a controller file.
     Loading => "加载中…", "Loading…";
+    /// A page's code could not be downloaded (offline, or an old copy after an update).
+    ChunkFailed => "无法加载此页面（网络断开或应用已更新）。", "This page could not be loaded (offline, or the app was updated).";
+    /// Try loading the page's code again.
+    Retry => "重试", "Retry";
     /// Preview: restart.
     Restart => "重新播放", "Restart";
     /// Preview: step back.

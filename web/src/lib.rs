@@ -18,6 +18,8 @@
 //! - [`files`]: local and controller file lists, formats, CSV preview layout;
 //! - [`installation`]: the installation's limits for the preview, its settings form,
 //!   stations as ranges, and the units' health warnings before Start;
+//! - [`lazy`]: the pages loaded when opened (Create, Commissioning, Installation),
+//!   each a split point whose code the release build moves into its own wasm chunk;
 //! - [`json`]: the bridge's JSON read with structs as objects only (less code);
 //! - [`i18n`]: the two languages (中文 / English) and every user-visible string,
 //!   including a text for every error code of the bridge and the shared parsers;
@@ -50,6 +52,7 @@ pub mod http;
 pub mod i18n;
 pub mod installation;
 pub mod json;
+pub mod lazy;
 pub mod page;
 pub mod plan_worker;
 pub mod playlist;
@@ -69,11 +72,14 @@ pub fn start() {
 }
 
 /// Entry point called by `static/plan-worker.js`, off the page's thread: the
-/// planner's verdict on a recipe for an installation ([`create::plan_recipe`]).
+/// planner's verdict on a recipe for an installation ([`create::plan_recipe`]), in
+/// the Create chunk, which the worker loads on its first request ([`lazy`]).
 ///
 /// # Errors
-/// What cannot be read or made, in words.
+/// What cannot be read or made, in words; or that the chunk could not be loaded.
 #[wasm_bindgen]
-pub fn plan_recipe(recipe_json: &str, installation_json: &str) -> Result<String, String> {
-    create::plan_recipe(recipe_json, installation_json)
+pub async fn plan_recipe(recipe_json: String, installation_json: String) -> Result<String, String> {
+    lazy::plan_recipe(recipe_json, installation_json)
+        .await
+        .map_err(|lazy::ChunkError| "the Create page's code could not be loaded".to_owned())?
 }

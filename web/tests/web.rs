@@ -2517,3 +2517,70 @@ async fn the_gateways_feedback_is_relayed_only_while_the_console_is_open() {
     assert_eq!(*socket.relay.borrow(), [true, false]);
     assert!(all(&container, "console-input").is_empty());
 }
+
+thread_local! {
+    /// Whether the test chunk below fails to load, and how often it was asked for.
+    static CHUNK_OFFLINE: Cell<bool> = const { Cell::new(true) };
+    static CHUNK_LOADS: Cell<u32> = const { Cell::new(0) };
+}
+
+/// A page "in a chunk" that cannot be fetched while [`CHUNK_OFFLINE`] says so.
+fn load_test_chunk() -> std::pin::Pin<
+    Box<
+        dyn std::future::Future<
+                Output = Result<floatball_web::lazy::PageView, floatball_web::lazy::ChunkError>,
+            >,
+    >,
+> {
+    Box::pin(async {
+        CHUNK_LOADS.set(CHUNK_LOADS.get() + 1);
+        if CHUNK_OFFLINE.get() {
+            Err(floatball_web::lazy::ChunkError)
+        } else {
+            let page: floatball_web::lazy::PageView =
+                || view! { <p data-testid="lazy-page">"in the chunk"</p> }.into_any();
+            Ok(page)
+        }
+    })
+}
+
+#[wasm_bindgen_test]
+async fn a_page_whose_chunk_fails_shows_an_error_and_retry_loads_it_in_both_languages() {
+    use floatball_web::lazy::LazyPage;
+    let (container, ctx, socket, _bridge) = mount_online("test-lazy", || {
+        view! { <EstopButton /> <LazyPage load=load_test_chunk /> }
+    });
+    // Loading until the chunk answers.
+    assert_eq!(text(&container, "chunk-loading"), "Loading…");
+    until("the chunk's error", || {
+        !all(&container, "chunk-error").is_empty()
+    })
+    .await;
+    assert_eq!(
+        text(&container, "chunk-error"),
+        "This page could not be loaded (offline, or the app was updated).Retry"
+    );
+    ctx.lang.set(Lang::Zh);
+    tick().await;
+    assert_eq!(
+        text(&container, "chunk-error"),
+        "无法加载此页面（网络断开或应用已更新）。重试"
+    );
+    // The E-STOP beside it still works.
+    element(&container, "estop").click();
+    tick().await;
+    assert_eq!(*socket.sent.borrow(), [ClientMessage::Estop]);
+    // Retry while still offline: the error again, after a new attempt.
+    element(&container, "chunk-retry").click();
+    until("a second attempt", || CHUNK_LOADS.get() == 2).await;
+    until("the error again", || {
+        !all(&container, "chunk-error").is_empty()
+    })
+    .await;
+    // Back online: Retry shows the page.
+    CHUNK_OFFLINE.set(false);
+    element(&container, "chunk-retry").click();
+    until("the page", || !all(&container, "lazy-page").is_empty()).await;
+    assert!(all(&container, "chunk-error").is_empty());
+    assert_eq!(CHUNK_LOADS.get(), 3);
+}

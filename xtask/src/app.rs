@@ -1,17 +1,31 @@
 //! Building the web app into `static/pkg/`, as the bridge serves it.
 //!
-//! `floatball-web` is compiled to wasm32 and `wasm-bindgen` writes its js glue into a
-//! staging directory under the target directory; a release build then goes through
-//! `wasm-opt -Oz --converge --zero-filled-memory` ([`build_web`] says why).
-//! [`package`] gives the wasm, the js and `static/style.css` content-hashed names
-//! (`floatball_bg-<16 hex>.wasm`, `floatball-<16 hex>.js`, `style-<16 hex>.css`; the js
-//! is rewritten to load the hashed wasm) and renders the page `pkg/index.html` from the
-//! template `static/index.html`: its stylesheet link names the hashed css, and a
+//! `floatball-web` is compiled to wasm32 with `--cfg floatball_split` and the linker's
+//! relocations kept (`-C link-arg=--emit-relocs`, given by `cargo rustc` to the app's
+//! crate only, so the dependencies the browser tests compiled are reused). Then
+//! [`split_wasm`] cuts it at its split points (`web/src/lazy.rs`: the Create,
+//! Commissioning and Installation pages) with `wasm_split_cli_support`, as
+//! cargo-leptos' `--split` does: a main module, a chunk per page (and one per group
+//! of functions several pages share), and the chunks' loader module, which the main
+//! module imports and which fetches a chunk the first time its page is opened.
+//! `wasm-bindgen` writes the main module's js glue into a staging directory under the
+//! target directory (`--keep-lld-exports`: the chunks import the table and the stack
+//! pointer); a release build then goes through `wasm-opt -Oz --converge` (main and
+//! chunks; [`build_web`] says why the flags).
+//! [`package`] gives every wasm, the js, the loader and `static/style.css`
+//! content-hashed names (`floatball_bg-<16 hex>.wasm`, `split_create-<16 hex>.wasm`,
+//! `floatball-<16 hex>.js`, `floatball_split-<16 hex>.js`, `style-<16 hex>.css`),
+//! points every reference at them, and renders the page `pkg/index.html` from the
+//! template `static/index.html`: its stylesheet link names the hashed css, a
 //! `modulepreload` of the js (which `static/boot.js` imports) and a `preload` of the
-//! wasm start both downloads while the page is still parsed. [`write_pkg`] replaces
-//! `static/pkg/` with these files and a brotli (`.br`) and gzip (`.gz`) copy of each,
-//! which the bridge serves by `Accept-Encoding` (see `bridge/src/server.rs` for the
-//! caching headers).
+//! main wasm start both downloads while the page is still parsed, and a
+//! `<meta name="floatball-chunks">` names each lazily loaded page's chunks (no chunk
+//! is in the first load; `boot.js` preloads a page's chunks when the app is opened at
+//! it). [`write_pkg`] replaces `static/pkg/` with these files and a brotli (`.br`)
+//! and gzip (`.gz`) copy of each, which the bridge serves by `Accept-Encoding` (see
+//! `bridge/src/server.rs` for the caching headers). [`first_load`] is what a phone
+//! downloads before the app is usable; `cargo xtask load-bench` holds it to
+//! [`FIRST_LOAD_BUDGET_BYTES`].
 
 use std::io::Write as _;
 use std::path::Path;
@@ -75,14 +89,34 @@ pub struct Levels {
 /// The hashed names and contents of one build, before compression.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Packaged {
-    /// The wasm's file name in `pkg/`.
+    /// The main wasm's file name in `pkg/`.
     pub wasm_name: String,
     /// The js glue's file name in `pkg/`.
     pub js_name: String,
+    /// The chunks' loader module's file name in `pkg/`.
+    pub link_name: String,
     /// The stylesheet's file name in `pkg/`.
     pub css_name: String,
-    /// Every file of `pkg/` (name, content): the three above and `index.html`.
+    /// The chunks' file names in `pkg/`.
+    pub chunk_names: Vec<String>,
+    /// Every file of `pkg/` (name, content): the ones above and `index.html`.
     pub files: Vec<(String, Vec<u8>)>,
+}
+
+/// A split build as wasm-bindgen and wasm-split left it, before hashing.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Built {
+    /// The main wasm.
+    pub wasm: Vec<u8>,
+    /// wasm-bindgen's js glue, importing the loader as `./__wasm_split.js`.
+    pub js: String,
+    /// The loader module, importing the glue as `./floatball.js` and fetching the
+    /// chunks as `./<stem>.wasm`.
+    pub link_js: String,
+    /// The chunks: file stem, content.
+    pub chunks: Vec<(String, Vec<u8>)>,
+    /// Each split point (a page's key) and the chunks (stems) it needs.
+    pub pages: Vec<(String, Vec<String>)>,
 }
 
 /// Builds the app into `static/pkg/`.
@@ -91,8 +125,10 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
         "xtask: building the web app ({} profile) into static/pkg/",
         build.profile()
     );
+    // `cargo rustc` gives the cfg and the link argument to the app's crate only: its
+    // dependencies stay as the browser tests and clippy compiled them.
     tools::run_command(tools::cargo(env).args([
-        "build",
+        "rustc",
         "--package",
         "floatball-web",
         "--lib",
@@ -100,20 +136,29 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
         "wasm32-unknown-unknown",
         "--profile",
         build.profile(),
+        "--",
+        "--cfg",
+        "floatball_split",
+        "-C",
+        "link-arg=--emit-relocs",
     ]))?;
     let wasm = env
         .target_dir
         .join("wasm32-unknown-unknown")
         .join(build.dir())
         .join("floatball_web.wasm");
+    let split_dir = env.target_dir.join("web-split").join(build.dir());
     let staging = env.target_dir.join("web-bindgen").join(build.dir());
-    if staging.exists() {
-        std::fs::remove_dir_all(&staging)
-            .map_err(|err| format!("cannot clear {}: {err}", staging.display()))?;
+    for dir in [&split_dir, &staging] {
+        if dir.exists() {
+            std::fs::remove_dir_all(dir)
+                .map_err(|err| format!("cannot clear {}: {err}", dir.display()))?;
+        }
     }
+    let split = split_wasm(&read(&wasm)?, &split_dir)?;
     tools::run_command(
         tools::program(env, "wasm-bindgen")
-            .arg(&wasm)
+            .arg(&split.main)
             .arg("--out-dir")
             .arg(&staging)
             .args([
@@ -122,6 +167,10 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
                 "--target",
                 "web",
                 "--no-typescript",
+                // The chunks import the table, the stack pointer and the other
+                // linker symbols the main module exports.
+                "--keep-lld-exports",
+                "--no-demangle",
             ]),
     )?;
     // Only the js and the wasm are packaged: glue with JS snippets (`inline_js`,
@@ -142,37 +191,106 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
     let bindgen_wasm = staging.join("floatball_bg.wasm");
     if build == Build::Release {
         let wasm_opt = tools::ensure_wasm_opt(env)?;
-        tools::run_command(
-            tools::program(env, &wasm_opt.to_string_lossy())
-                // `--converge` repeats the passes while the module still shrinks
-                // (about 2 KB of brotli). The memory a wasm module defines starts
-                // zeroed (`--zero-filled-memory`). Not `--low-memory-unused`
-                // (another 2 KB): the stack sits at the bottom of memory, and a
-                // stack about to overflow must trap, not be optimised around.
-                .args(["-Oz", "--converge", "--zero-filled-memory"])
-                .args(tools::WASM_FEATURES)
-                .arg(&bindgen_wasm)
-                .arg("-o")
-                .arg(&bindgen_wasm),
-        )?;
+        let optimise = |path: &Path, zero_filled: bool| {
+            tools::run_command(
+                tools::program(env, &wasm_opt.to_string_lossy())
+                    // `--converge` repeats the passes while the module still shrinks
+                    // (about 2 KB of brotli). The memory the main module defines
+                    // starts zeroed (`--zero-filled-memory`); a chunk imports that
+                    // memory long after it was written, so not for the chunks. Not
+                    // `--low-memory-unused` (another 2 KB): the stack sits at the
+                    // bottom of memory, and a stack about to overflow must trap, not
+                    // be optimised around.
+                    .args(["-Oz", "--converge"])
+                    .args(zero_filled.then_some("--zero-filled-memory"))
+                    .args(tools::WASM_FEATURES)
+                    .arg(path)
+                    .arg("-o")
+                    .arg(path),
+            )
+        };
+        optimise(&bindgen_wasm, true)?;
+        for chunk in &split.chunks {
+            optimise(chunk, false)?;
+        }
     }
+    let chunks = split
+        .chunks
+        .iter()
+        .map(|path| {
+            let stem = path
+                .file_stem()
+                .map(|stem| stem.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            Ok((stem, read(path)?))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
     let static_dir = env.root.join("static");
     let packaged = package(
-        read(&bindgen_wasm)?,
-        &read_text(&staging.join("floatball.js"))?,
+        Built {
+            wasm: read(&bindgen_wasm)?,
+            js: read_text(&staging.join("floatball.js"))?,
+            link_js: read_text(&split_dir.join(LINK_NAME))?,
+            chunks,
+            pages: split.pages,
+        },
         read(&static_dir.join("style.css"))?,
         &read_text(&static_dir.join("index.html"))?,
     )?;
     let pkg = static_dir.join("pkg");
     write_pkg(&pkg, &packaged, build.levels())?;
     println!(
-        "xtask: wrote {} with {}, {} and {} (and .br/.gz copies)",
+        "xtask: wrote {} with {}, {}, {} and {} chunk(s) (and .br/.gz copies)",
         pkg.join("index.html").display(),
         packaged.js_name,
         packaged.wasm_name,
-        packaged.css_name
+        packaged.css_name,
+        packaged.chunk_names.len()
     );
     Ok(())
+}
+
+/// The name the split's loader module is written under, and how the main module
+/// imports it.
+const LINK_NAME: &str = "__wasm_split.js";
+
+/// What [`split_wasm`] wrote.
+struct Split {
+    /// The main module, for wasm-bindgen.
+    main: std::path::PathBuf,
+    /// The chunks.
+    chunks: Vec<std::path::PathBuf>,
+    /// Each split point's module name (a page's key: `create`) and the chunks (file
+    /// stems) it needs, in load order.
+    pages: Vec<(String, Vec<String>)>,
+}
+
+/// Splits the linked app at its split points (`web/src/lazy.rs`) with
+/// `wasm_split_cli_support`, as cargo-leptos' `--split` does: into `dir` go the main
+/// module, a wasm chunk per split point (and one per group of functions several
+/// points share), and the loader module [`LINK_NAME`] through which the main module
+/// fetches them.
+fn split_wasm(input: &[u8], dir: &Path) -> Result<Split, String> {
+    std::fs::create_dir_all(dir)
+        .map_err(|err| format!("cannot create {}: {err}", dir.display()))?;
+    let main = dir.join("floatball_web_split.wasm");
+    let link_name = format!("./{LINK_NAME}");
+    let mut options = wasm_split_cli_support::Options::new(input);
+    options.output_dir = dir;
+    options.main_out_path = &main;
+    options.main_module = "./floatball.js";
+    options.link_name = &link_name;
+    let split =
+        wasm_split_cli_support::transform(options).map_err(|err| format!("wasm-split: {err:#}"))?;
+    let mut pages: Vec<(String, Vec<String>)> = split.prefetch_map.into_iter().collect();
+    pages.sort();
+    let mut chunks = split.split_modules;
+    chunks.sort();
+    Ok(Split {
+        main,
+        chunks,
+        pages,
+    })
 }
 
 fn read(path: &Path) -> Result<Vec<u8>, String> {
@@ -197,31 +315,123 @@ pub fn hashed_name(stem: &str, extension: &str, content: &[u8]) -> String {
 /// The name wasm-bindgen's glue loads the wasm by.
 const BINDGEN_WASM_NAME: &str = "floatball_bg.wasm";
 
-/// Names the wasm and js by their content, points the js at the hashed wasm and
-/// renders the page from `template` (see the module doc).
-pub fn package(wasm: Vec<u8>, js: &str, css: Vec<u8>, template: &str) -> Result<Packaged, String> {
-    let wasm_name = hashed_name("floatball_bg", "wasm", &wasm);
-    let quoted = format!("'{BINDGEN_WASM_NAME}'");
-    let references = js.matches(&quoted).count();
-    if references != 1 {
+/// Replaces `from` by `to` in `text`, which must contain it `expected` times
+/// (`None`: at least once).
+fn replace_counted(
+    text: &str,
+    from: &str,
+    to: &str,
+    expected: Option<usize>,
+    what: &str,
+) -> Result<String, String> {
+    let count = text.matches(from).count();
+    let fine = match expected {
+        Some(expected) => count == expected,
+        None => count > 0,
+    };
+    if !fine {
         return Err(format!(
-            "the js glue names {quoted} {references} times, expected once: did wasm-bindgen change how it loads the wasm?"
+            "{what} names {from} {count} times, expected {}: did wasm-bindgen or wasm-split change how it loads its files?",
+            expected.map_or("at least once".to_owned(), |n| n.to_string())
         ));
     }
-    let js = js.replace(&quoted, &format!("'{wasm_name}'"));
-    let js_name = hashed_name("floatball", "js", js.as_bytes());
+    Ok(text.replace(from, to))
+}
+
+/// Names the wasm, the chunks and the js by their content, points every reference at
+/// the hashed names and renders the page from `template` (see the module doc).
+///
+/// The glue imports the loader and the loader imports the glue: both are named by
+/// one hash of the two together, so a change in either renames both.
+pub fn package(built: Built, css: Vec<u8>, template: &str) -> Result<Packaged, String> {
+    let wasm_name = hashed_name("floatball_bg", "wasm", &built.wasm);
+    let js = replace_counted(
+        &built.js,
+        &format!("'{BINDGEN_WASM_NAME}'"),
+        &format!("'{wasm_name}'"),
+        Some(1),
+        "the js glue",
+    )?;
+    let mut link_js = built.link_js;
+    let mut chunk_files = Vec::new();
+    let mut stems = std::collections::HashMap::new();
+    for (stem, content) in built.chunks {
+        let clean: String = stem
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() {
+                    c.to_ascii_lowercase()
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        let name = hashed_name(&clean, "wasm", &content);
+        link_js = replace_counted(
+            &link_js,
+            &format!("\"./{stem}.wasm\""),
+            &format!("\"./{name}\""),
+            Some(1),
+            "the chunk loader",
+        )?;
+        stems.insert(stem, name.clone());
+        chunk_files.push((name, content));
+    }
+    let both = format!("{js}\0{link_js}");
+    let digits = hashed_name("h", "x", both.as_bytes());
+    let digits = &digits[2..18];
+    let js_name = format!("floatball-{digits}.js");
+    let link_name = format!("floatball_split-{digits}.js");
+    // Only the module imports: the keys of the wasm's import object keep the name the
+    // wasm imports from.
+    let js = replace_counted(
+        &js,
+        &format!("from \"./{LINK_NAME}\""),
+        &format!("from \"./{link_name}\""),
+        None,
+        "the js glue",
+    )?;
+    let link_js = replace_counted(
+        &link_js,
+        "\"./floatball.js\"",
+        &format!("\"./{js_name}\""),
+        Some(1),
+        "the chunk loader",
+    )?;
+    let pages = built
+        .pages
+        .into_iter()
+        .map(|(page, needs)| {
+            let files = needs
+                .iter()
+                .map(|stem| {
+                    stems
+                        .get(stem)
+                        .cloned()
+                        .ok_or_else(|| format!("wasm-split named a chunk {stem} it did not write"))
+                })
+                .collect::<Result<Vec<_>, String>>()?;
+            Ok((page, files))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
     let css_name = hashed_name("style", "css", &css);
-    let page = render_page(template, &js_name, &wasm_name, &css_name)?;
+    let page = render_page(template, &js_name, &wasm_name, &css_name, &pages)?;
+    let chunk_names = chunk_files.iter().map(|(name, _)| name.clone()).collect();
+    let mut files = vec![
+        (wasm_name.clone(), built.wasm),
+        (js_name.clone(), js.into_bytes()),
+        (link_name.clone(), link_js.into_bytes()),
+        (css_name.clone(), css),
+        ("index.html".to_owned(), page.into_bytes()),
+    ];
+    files.extend(chunk_files);
     Ok(Packaged {
-        files: vec![
-            (wasm_name.clone(), wasm),
-            (js_name.clone(), js.into_bytes()),
-            (css_name.clone(), css),
-            ("index.html".to_owned(), page.into_bytes()),
-        ],
+        files,
         wasm_name,
         js_name,
+        link_name,
         css_name,
+        chunk_names,
     })
 }
 
@@ -229,12 +439,15 @@ pub fn package(wasm: Vec<u8>, js: &str, css: Vec<u8>, template: &str) -> Result<
 const TEMPLATE_STYLESHEET: &str = r#"<link rel="stylesheet" href="/style.css">"#;
 
 /// The built page: the template with the hashed stylesheet and, before `</head>`,
-/// preloads of the js (which `boot.js` imports by this link) and the wasm.
+/// preloads of the js (which `boot.js` imports by this link) and the wasm, and the
+/// chunks each lazily loaded page needs (`<meta name="floatball-chunks">`, read by
+/// `boot.js`, which preloads them when the app is opened at such a page).
 pub fn render_page(
     template: &str,
     js_name: &str,
     wasm_name: &str,
     css_name: &str,
+    pages: &[(String, Vec<String>)],
 ) -> Result<String, String> {
     for anchor in [TEMPLATE_STYLESHEET, "</head>"] {
         if template.matches(anchor).count() != 1 {
@@ -243,9 +456,18 @@ pub fn render_page(
             ));
         }
     }
+    let chunks = pages
+        .iter()
+        .map(|(page, files)| {
+            let files: Vec<String> = files.iter().map(|file| format!("/pkg/{file}")).collect();
+            format!("{page}={}", files.join(" "))
+        })
+        .collect::<Vec<_>>()
+        .join(";");
     let preloads = format!(
         "  <link rel=\"modulepreload\" href=\"/pkg/{js_name}\">\n  \
-         <link rel=\"preload\" href=\"/pkg/{wasm_name}\" as=\"fetch\" type=\"application/wasm\" crossorigin>\n</head>"
+         <link rel=\"preload\" href=\"/pkg/{wasm_name}\" as=\"fetch\" type=\"application/wasm\" crossorigin>\n  \
+         <meta name=\"floatball-chunks\" content=\"{chunks}\">\n</head>"
     );
     Ok(template
         .replace(
@@ -253,6 +475,54 @@ pub fn render_page(
             &format!(r#"<link rel="stylesheet" href="/pkg/{css_name}">"#),
         )
         .replace("</head>", &preloads))
+}
+
+/// The most a phone may download before the app is usable (issue 35): the page,
+/// `boot.js`, the js glue, the chunk loader, the main wasm and the css, as sent to a
+/// browser that accepts brotli. `cargo xtask load-bench` fails above it.
+pub const FIRST_LOAD_BUDGET_BYTES: u64 = 400_000;
+
+/// The first load of the app built into `static_dir/pkg` as the bridge sends it with
+/// `Accept-Encoding: br` (the `.br` copy where there is one): each file (its path
+/// as requested) and its size.
+pub fn first_load(static_dir: &Path) -> Result<Vec<(String, u64)>, String> {
+    let pkg = static_dir.join("pkg");
+    let page = read_text(&pkg.join("index.html"))?;
+    let href = |marker: &str| -> Result<String, String> {
+        page.split('<')
+            .find(|tag| tag.contains(marker))
+            .and_then(|tag| tag.split("href=\"").nth(1))
+            .and_then(|rest| rest.split('"').next())
+            .and_then(|href| href.strip_prefix("/pkg/"))
+            .map(str::to_owned)
+            .ok_or_else(|| format!("{} names no {marker}", pkg.join("index.html").display()))
+    };
+    let js = href("rel=\"modulepreload\"")?;
+    let digits = js
+        .strip_prefix("floatball-")
+        .and_then(|rest| rest.strip_suffix(".js"))
+        .ok_or_else(|| format!("unexpected js name {js}"))?;
+    let sent = |dir: &Path, name: &str| -> Result<u64, String> {
+        let br = dir.join(format!("{name}.br"));
+        let path = if br.is_file() { br } else { dir.join(name) };
+        std::fs::metadata(&path)
+            .map(|meta| meta.len())
+            .map_err(|err| format!("cannot read {}: {err}", path.display()))
+    };
+    let mut files = vec![
+        ("/".to_owned(), sent(&pkg, "index.html")?),
+        ("/boot.js".to_owned(), sent(static_dir, "boot.js")?),
+    ];
+    for name in [
+        js.clone(),
+        format!("floatball_split-{digits}.js"),
+        href("as=\"fetch\"")?,
+        href("rel=\"stylesheet\"")?,
+    ] {
+        let size = sent(&pkg, &name)?;
+        files.push((format!("/pkg/{name}"), size));
+    }
+    Ok(files)
 }
 
 /// The brotli copy of `content` at `quality` (0–11).
@@ -318,7 +588,33 @@ mod tests {
     use std::io::Read as _;
 
     const TEMPLATE: &str = "<html><head>\n  <link rel=\"stylesheet\" href=\"/style.css\">\n</head><body><script type=\"module\" src=\"/boot.js\"></script></body></html>";
-    const GLUE: &str = "if (typeof module_or_path === 'undefined') {\n    module_or_path = new URL('floatball_bg.wasm', import.meta.url);\n}";
+    const GLUE: &str = "import * as import1 from \"./__wasm_split.js\"\nconst imports = { \"./__wasm_split.js\": import1 };\nif (typeof module_or_path === 'undefined') {\n    module_or_path = new URL('floatball_bg.wasm', import.meta.url);\n}";
+    const LINK: &str = "import { initSync } from \"./floatball.js\";\nconst __chunk_0 = makeLoad(() => fetch(new URL(\"./chunk_0_create.wasm\", import.meta.url)), []);\nexport const __wasm_split_load_create = wrapAsyncCb(makeLoad(() => fetch(new URL(\"./split_create.wasm\", import.meta.url)), [__chunk_0]));";
+
+    fn built(wasm: &[u8], glue: &str, link: &str) -> Built {
+        Built {
+            wasm: wasm.to_vec(),
+            js: glue.to_owned(),
+            link_js: link.to_owned(),
+            chunks: vec![
+                ("chunk_0_create".to_owned(), b"shared".to_vec()),
+                ("split_create".to_owned(), b"create".to_vec()),
+            ],
+            pages: vec![(
+                "create".to_owned(),
+                vec!["chunk_0_create".to_owned(), "split_create".to_owned()],
+            )],
+        }
+    }
+
+    fn file(packaged: &Packaged, name: &str) -> String {
+        let (_, content) = packaged
+            .files
+            .iter()
+            .find(|(file, _)| file == name)
+            .unwrap();
+        String::from_utf8(content.clone()).unwrap()
+    }
 
     #[test]
     fn names_carry_16_hex_digits_of_the_content_hash() {
@@ -329,28 +625,46 @@ mod tests {
     }
 
     #[test]
-    fn the_js_loads_the_hashed_wasm_and_the_page_preloads_both() {
-        let packaged = package(b"wasm".to_vec(), GLUE, b"css".to_vec(), TEMPLATE).unwrap();
-        let file = |name: &str| {
-            let (_, content) = packaged
-                .files
-                .iter()
-                .find(|(file, _)| file == name)
-                .unwrap();
-            String::from_utf8(content.clone()).unwrap()
-        };
-        let js = file(&packaged.js_name);
+    fn every_reference_names_a_hashed_file_and_the_page_preloads_the_first_load() {
+        let packaged = package(built(b"wasm", GLUE, LINK), b"css".to_vec(), TEMPLATE).unwrap();
+        let js = file(&packaged, &packaged.js_name);
         assert!(!js.contains("'floatball_bg.wasm'"), "{js}");
         assert!(js.contains(&format!("'{}'", packaged.wasm_name)), "{js}");
+        assert!(
+            js.contains(&format!("\"./{}\"", packaged.link_name)),
+            "{js}"
+        );
+        let link = file(&packaged, &packaged.link_name);
+        assert!(
+            link.contains(&format!("\"./{}\"", packaged.js_name)),
+            "{link}"
+        );
+        assert_eq!(packaged.chunk_names.len(), 2);
+        for chunk in &packaged.chunk_names {
+            assert!(
+                link.contains(&format!("\"./{chunk}\"")),
+                "{chunk} in {link}"
+            );
+        }
         assert_eq!(
-            packaged.js_name,
-            hashed_name("floatball", "js", js.as_bytes())
+            packaged.chunk_names[1],
+            hashed_name("split_create", "wasm", b"create")
         );
         assert_eq!(
             packaged.wasm_name,
             hashed_name("floatball_bg", "wasm", b"wasm")
         );
-        let page = file("index.html");
+        // The glue and the loader share one hash, of both.
+        assert_eq!(packaged.js_name[10..26], packaged.link_name[16..32]);
+        let other = package(
+            built(b"wasm", GLUE, &LINK.replace("makeLoad", "makeLoad2")),
+            b"css".to_vec(),
+            TEMPLATE,
+        )
+        .unwrap();
+        assert_ne!(other.js_name, packaged.js_name);
+        assert_ne!(other.link_name, packaged.link_name);
+        let page = file(&packaged, "index.html");
         assert!(!page.contains("/style.css"), "{page}");
         for expected in [
             format!(
@@ -365,8 +679,16 @@ mod tests {
                 r#"<link rel="preload" href="/pkg/{}" as="fetch""#,
                 packaged.wasm_name
             ),
+            format!(
+                r#"<meta name="floatball-chunks" content="create=/pkg/{} /pkg/{}">"#,
+                packaged.chunk_names[0], packaged.chunk_names[1]
+            ),
         ] {
             assert!(page.contains(&expected), "{expected} in {page}");
+        }
+        // No chunk is preloaded by the first load.
+        for chunk in &packaged.chunk_names {
+            assert!(!page.contains(&format!("href=\"/pkg/{chunk}")), "{page}");
         }
         assert!(page.find("modulepreload") < page.find("</head>"), "{page}");
         assert!(page.contains(r#"<script type="module" src="/boot.js">"#));
@@ -375,23 +697,24 @@ mod tests {
     #[test]
     fn a_glue_that_names_the_wasm_otherwise_stops_the_build() {
         let error = package(
-            b"w".to_vec(),
-            "fetch('other.wasm')",
+            built(b"w", "fetch('other.wasm')", LINK),
             b"c".to_vec(),
             TEMPLATE,
         )
         .unwrap_err();
         assert!(error.contains("0 times"), "{error}");
         let twice = format!("{GLUE}{GLUE}");
-        assert!(package(b"w".to_vec(), &twice, b"c".to_vec(), TEMPLATE).is_err());
-        assert!(render_page("<html></html>", "a.js", "b.wasm", "c.css").is_err());
+        assert!(package(built(b"w", &twice, LINK), b"c".to_vec(), TEMPLATE).is_err());
+        let no_chunk = LINK.replace("./split_create.wasm", "./other.wasm");
+        assert!(package(built(b"w", GLUE, &no_chunk), b"c".to_vec(), TEMPLATE).is_err());
+        assert!(render_page("<html></html>", "a.js", "b.wasm", "c.css", &[]).is_err());
     }
 
     #[test]
     fn the_real_template_renders() {
         let template =
             std::fs::read_to_string(tools::workspace_root().join("static/index.html")).unwrap();
-        let page = render_page(&template, "f-0.js", "g-0.wasm", "s-0.css").unwrap();
+        let page = render_page(&template, "f-0.js", "g-0.wasm", "s-0.css", &[]).unwrap();
         assert!(page.contains(r#"href="/pkg/s-0.css""#), "{page}");
         // The Content-Security-Policy forbids inline scripts: the page adds none.
         assert_eq!(
@@ -400,6 +723,41 @@ mod tests {
         );
         let boot = std::fs::read_to_string(tools::workspace_root().join("static/boot.js")).unwrap();
         assert!(boot.contains("link[rel=\"modulepreload\"]"), "{boot}");
+        assert!(boot.contains("meta[name=\"floatball-chunks\"]"), "{boot}");
+    }
+
+    #[test]
+    fn the_first_load_counts_what_a_brotli_browser_gets_and_no_chunk() {
+        let dir = tempfile::tempdir().unwrap();
+        let pkg = dir.path().join("pkg");
+        std::fs::create_dir_all(&pkg).unwrap();
+        std::fs::write(dir.path().join("boot.js"), [0; 1000]).unwrap();
+        let content: Vec<u8> = (0..200_000u32)
+            .flat_map(|n| (n.wrapping_mul(2_654_435_761)).to_le_bytes())
+            .collect();
+        let packaged = package(built(&content, GLUE, LINK), b"body{}".to_vec(), TEMPLATE).unwrap();
+        write_pkg(&pkg, &packaged, Build::Test.levels()).unwrap();
+        let files = first_load(dir.path()).unwrap();
+        let names: Vec<&str> = files.iter().map(|(name, _)| name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "/".to_owned(),
+                "/boot.js".to_owned(),
+                format!("/pkg/{}", packaged.js_name),
+                format!("/pkg/{}", packaged.link_name),
+                format!("/pkg/{}", packaged.wasm_name),
+                format!("/pkg/{}", packaged.css_name),
+            ]
+        );
+        let wasm_br = std::fs::metadata(pkg.join(format!("{}.br", packaged.wasm_name)))
+            .unwrap()
+            .len();
+        assert_eq!(files[4].1, wasm_br);
+        assert_eq!(files[1].1, 1000, "boot.js has no .br copy: sent as it is");
+        // 800 KB of hardly compressible wasm: over the budget.
+        let total: u64 = files.iter().map(|(_, size)| size).sum();
+        assert!(total > FIRST_LOAD_BUDGET_BYTES, "{total}");
     }
 
     #[test]
@@ -411,14 +769,14 @@ mod tests {
         let content: Vec<u8> = (0..50_000u32)
             .flat_map(|n| (n % 251).to_le_bytes())
             .collect();
-        let packaged = package(content.clone(), GLUE, b"body{}".to_vec(), TEMPLATE).unwrap();
+        let packaged = package(built(&content, GLUE, LINK), b"body{}".to_vec(), TEMPLATE).unwrap();
         write_pkg(&pkg, &packaged, Build::Test.levels()).unwrap();
         let mut names: Vec<String> = std::fs::read_dir(&pkg)
             .unwrap()
             .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
         names.sort();
-        assert_eq!(names.len(), 12, "{names:?}");
+        assert_eq!(names.len(), 21, "{names:?}");
         assert!(!names.contains(&"floatball-0000000000000000.js".to_owned()));
         let wasm = pkg.join(&packaged.wasm_name);
         assert_eq!(std::fs::read(&wasm).unwrap(), content);

@@ -1,22 +1,29 @@
 //! `cargo xtask load-bench`: how heavy the release app is and how soon it is usable
 //! on a slow link.
 //!
-//! Builds the release app (see [`crate::app`]) and the bridge, prints the raw, gzip
-//! and brotli sizes of the wasm, js and css in `static/pkg/`, then starts the bridge
+//! Builds the release app (see [`crate::app`]) and the bridge, prints the first load
+//! as sent with brotli ([`crate::app::first_load`]) and the raw, gzip and brotli
+//! sizes of each lazily loaded page's chunks, then starts the bridge
 //! with a fresh data directory and loads the app cold (a new Chromium session with an
 //! empty profile each run) through ChromeDriver with the network throttled by the
 //! DevTools protocol (`Network.emulateNetworkConditions`, sent through ChromeDriver's
 //! `goog/cdp/execute`). "Usable" is the moment the app has rendered its top bar (the
 //! connection indicator), measured in the page from the start of navigation. Prints
 //! the median, minimum and maximum over the runs of each link profile and the bytes
-//! transferred. A figure printer, not a test: nothing fails on a slow machine.
+//! transferred; then, in the same session, opens the Create page (whose code is a
+//! chunk fetched when it is opened, see `web/src/lazy.rs`) and prints how much later
+//! it is usable (its name field shown) and what that fetched. The sizes are printed
+//! as the first load (the page's js, chunk loader, main wasm and css) and each
+//! lazily loaded page's chunks. A figure printer, not a test: nothing fails on a slow
+//! machine — except the first load's size: over [`crate::app::FIRST_LOAD_BUDGET_BYTES`]
+//! the command fails, after printing every figure.
 //!
 //! ChromeDriver is spoken to directly over HTTP/1.1 (WebDriver is JSON over HTTP), so
 //! the xtask needs no async runtime.
 
 use std::io::{BufRead as _, BufReader, Read as _, Write as _};
 use std::net::{SocketAddr, TcpStream};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
@@ -51,6 +58,9 @@ const LINKS: [Link; 2] = [
 /// The element whose appearance makes the app usable: the top bar's connection
 /// indicator (`tests/src/lib.rs` waits for the same).
 const USABLE_SELECTOR: &str = "[data-testid=connection]";
+
+/// The element whose appearance makes the Create page usable: its show's name.
+const CREATE_SELECTOR: &str = "[data-testid=create-name]";
 
 /// Runs the benchmark; `args` are its options (`--runs N`, `--no-build`, `--host IP`).
 pub fn load_bench(args: &[String]) -> Result<(), String> {
@@ -89,12 +99,12 @@ pub fn load_bench(args: &[String]) -> Result<(), String> {
         ]))?;
     }
     let static_dir = root.join("static");
-    print_sizes(&static_dir.join("pkg"))?;
+    let first_load = print_sizes(&static_dir.join("pkg"))?;
 
     let data = std::env::temp_dir().join(format!("floatball-load-bench-{}", std::process::id()));
     std::fs::create_dir_all(&data)
         .map_err(|err| format!("cannot create {}: {err}", data.display()))?;
-    let result = (|| {
+    let result: Result<(), String> = (|| {
         let mut bridge = Guard(
             Command::new(env.target_dir.join("release").join("floatball"))
                 .arg("--listen")
@@ -117,15 +127,21 @@ pub fn load_bench(args: &[String]) -> Result<(), String> {
             "{:<18} {:>10} {:>10} {:>10} {:>14}",
             "link", "median ms", "min ms", "max ms", "transferred"
         );
+        let mut create = Vec::new();
         for link in LINKS {
             let mut usable_ms = Vec::new();
+            let mut create_ms = Vec::new();
             let mut transferred_bytes = 0;
+            let mut create_bytes = 0;
             for _ in 0..runs {
-                let (ms, bytes) = cold_load(&driver_addr, &url, link)?;
-                usable_ms.push(ms);
-                transferred_bytes = bytes;
+                let load = cold_load(&driver_addr, &url, link)?;
+                usable_ms.push(load.usable_ms);
+                create_ms.push(load.create_ms);
+                transferred_bytes = load.bytes;
+                create_bytes = load.create_bytes;
             }
             usable_ms.sort_by(f64::total_cmp);
+            create_ms.sort_by(f64::total_cmp);
             println!(
                 "{:<18} {:>10.0} {:>10.0} {:>10.0} {:>14}",
                 link.name,
@@ -134,11 +150,35 @@ pub fn load_bench(args: &[String]) -> Result<(), String> {
                 usable_ms[usable_ms.len() - 1],
                 kb(transferred_bytes)
             );
+            create.push((link, create_ms, create_bytes));
+        }
+        println!("\nthen opening Create the first time (its chunks fetched), ms more:");
+        println!(
+            "{:<18} {:>10} {:>10} {:>10} {:>14}",
+            "link", "median ms", "min ms", "max ms", "transferred"
+        );
+        for (link, create_ms, create_bytes) in create {
+            println!(
+                "{:<18} {:>10.0} {:>10.0} {:>10.0} {:>14}",
+                link.name,
+                median(&create_ms),
+                create_ms[0],
+                create_ms[create_ms.len() - 1],
+                kb(create_bytes)
+            );
         }
         Ok(())
     })();
     let _ = std::fs::remove_dir_all(&data);
-    result
+    result?;
+    if first_load > app::FIRST_LOAD_BUDGET_BYTES {
+        return Err(format!(
+            "the first load is {}, over its budget of {}",
+            kb(first_load),
+            kb(app::FIRST_LOAD_BUDGET_BYTES)
+        ));
+    }
+    Ok(())
 }
 
 /// Kills the child when dropped.
@@ -164,59 +204,82 @@ fn median(sorted: &[f64]) -> f64 {
     }
 }
 
-/// Prints raw, gzip and brotli sizes of the wasm, js and css in `pkg`.
-fn print_sizes(pkg: &Path) -> Result<(), String> {
-    let size = |path: PathBuf| {
+/// Prints raw, gzip and brotli sizes of the first load's files in `pkg` (the ones
+/// the page names, and the chunk loader), then of each lazily loaded page's chunks
+/// (the page's `<meta name="floatball-chunks">`).
+fn print_sizes(pkg: &Path) -> Result<u64, String> {
+    let size = |name: &str| {
+        let path = pkg.join(name);
         std::fs::metadata(&path)
             .map(|meta| meta.len())
-            .map_err(|err| format!("cannot read {}: {err}", path.display()))
+            .map_err(|err| {
+                format!(
+                    "cannot read {}: {err}; build with `cargo xtask build`",
+                    path.display()
+                )
+            })
     };
-    println!("\nthe app's files in {}:", pkg.display());
+    let sizes = |name: &str| -> Result<[u64; 3], String> {
+        Ok([
+            size(name)?,
+            size(&format!("{name}.gz"))?,
+            size(&format!("{name}.br"))?,
+        ])
+    };
+    let page = std::fs::read_to_string(pkg.join("index.html")).map_err(|err| {
+        format!(
+            "cannot read {}: {err}; build with `cargo xtask build`",
+            pkg.join("index.html").display()
+        )
+    })?;
+    println!("\nthe first load, as sent with Accept-Encoding: br:");
+    let first = app::first_load(pkg.parent().unwrap_or(pkg))?;
+    for (name, size) in &first {
+        println!("{name:<56} {:>12}", kb(*size));
+    }
+    let total: u64 = first.iter().map(|(_, size)| size).sum();
     println!(
-        "{:<36} {:>12} {:>12} {:>12}",
-        "file", "raw", "gzip", "brotli"
+        "{:<56} {:>12} (budget {})",
+        "first load",
+        kb(total),
+        kb(app::FIRST_LOAD_BUDGET_BYTES)
     );
-    let mut totals = [0_u64; 3];
-    for extension in ["wasm", "js", "css"] {
-        let entries = std::fs::read_dir(pkg).map_err(|err| {
-            format!(
-                "cannot list {}: {err}; build with `cargo xtask run`",
-                pkg.display()
-            )
-        })?;
-        for entry in entries {
-            let name = entry
-                .map_err(|err| format!("cannot list {}: {err}", pkg.display()))?
-                .file_name()
-                .to_string_lossy()
-                .into_owned();
-            if !name.ends_with(&format!(".{extension}")) {
-                continue;
-            }
-            let sizes = [
-                size(pkg.join(&name))?,
-                size(pkg.join(format!("{name}.gz")))?,
-                size(pkg.join(format!("{name}.br")))?,
-            ];
+    let chunks = page
+        .split("name=\"floatball-chunks\" content=\"")
+        .nth(1)
+        .and_then(|rest| rest.split('"').next())
+        .unwrap_or_default();
+    println!("\neach lazily loaded page's chunks (fetched when it is first opened):");
+    println!(
+        "{:<44} {:>12} {:>12} {:>12}",
+        "page: file", "raw", "gzip", "brotli"
+    );
+    for entry in chunks.split(';').filter(|entry| !entry.is_empty()) {
+        let (page, files) = entry.split_once('=').unwrap_or((entry, ""));
+        let mut totals = [0_u64; 3];
+        for file in files.split(' ') {
+            let name = file.trim_start_matches("/pkg/");
+            let sizes = sizes(name)?;
             for (total, size) in totals.iter_mut().zip(sizes) {
                 *total += size;
             }
             println!(
-                "{name:<36} {:>12} {:>12} {:>12}",
+                "{:<44} {:>12} {:>12} {:>12}",
+                format!("{page}: {name}"),
                 kb(sizes[0]),
                 kb(sizes[1]),
                 kb(sizes[2])
             );
         }
+        println!(
+            "{:<44} {:>12} {:>12} {:>12}",
+            format!("{page}: all it needs"),
+            kb(totals[0]),
+            kb(totals[1]),
+            kb(totals[2])
+        );
     }
-    println!(
-        "{:<36} {:>12} {:>12} {:>12}",
-        "wasm + js + css",
-        kb(totals[0]),
-        kb(totals[1]),
-        kb(totals[2])
-    );
-    Ok(())
+    Ok(total)
 }
 
 /// The bridge's URL from its first line on stdout; the rest is read and dropped, so
@@ -270,8 +333,32 @@ fn observer_script() -> String {
     )
 }
 
-/// One cold load over `link`: the time to usable in ms and the bytes transferred.
-fn cold_load(driver: &SocketAddr, url: &str, link: Link) -> Result<(f64, u64), String> {
+/// What one cold load measured.
+struct ColdLoad {
+    /// From the start of navigation to a usable app, ms.
+    usable_ms: f64,
+    /// Bytes transferred until then.
+    bytes: u64,
+    /// From the click on Create to a usable Create page, ms.
+    create_ms: f64,
+    /// Bytes transferred for it.
+    create_bytes: u64,
+}
+
+/// Opens Create and records in the page how long until it is usable.
+fn create_script() -> String {
+    format!(
+        "const started = performance.now(); window.__floatballBytes = \
+         performance.getEntries().reduce((sum, e) => sum + (e.transferSize || 0), 0); \
+         new MutationObserver((_, observer) => {{ if (document.querySelector('{CREATE_SELECTOR}')) {{ \
+         window.__floatballCreateMs = performance.now() - started; observer.disconnect(); }} }})\
+         .observe(document, {{ childList: true, subtree: true }}); \
+         document.querySelector('[data-testid=nav-create]').click();"
+    )
+}
+
+/// One cold load over `link`, then Create opened.
+fn cold_load(driver: &SocketAddr, url: &str, link: Link) -> Result<ColdLoad, String> {
     static SESSIONS: AtomicUsize = AtomicUsize::new(0);
     let profile = std::env::temp_dir().join(format!(
         "floatball-load-bench-profile-{}-{}",
@@ -299,6 +386,37 @@ fn cold_load(driver: &SocketAddr, url: &str, link: Link) -> Result<(f64, u64), S
         .as_str()
         .ok_or("ChromeDriver returned no session id")?
         .to_owned();
+    let execute = |script: &str| {
+        webdriver(
+            driver,
+            "POST",
+            &format!("/session/{id}/execute/sync"),
+            Some(&json!({ "script": script, "args": [] })),
+        )
+    };
+    let open_create = |usable_ms: f64, bytes: u64| -> Result<ColdLoad, String> {
+        execute(&create_script())?;
+        let started = Instant::now();
+        while started.elapsed() < Duration::from_secs(60) {
+            let answer = execute(
+                "return [window.__floatballCreateMs ?? null, \
+                 performance.getEntries().reduce((sum, e) => sum + (e.transferSize || 0), 0) - window.__floatballBytes];",
+            )?;
+            if let Some(create_ms) = answer[0].as_f64() {
+                return Ok(ColdLoad {
+                    usable_ms,
+                    bytes,
+                    create_ms,
+                    create_bytes: answer[1].as_f64().unwrap_or(0.0) as u64,
+                });
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        Err(format!(
+            "Create was not usable within 60 s on {}",
+            link.name
+        ))
+    };
     let result = (|| {
         let cdp = |cmd: &str, params: Value| {
             webdriver(
@@ -344,7 +462,7 @@ fn cold_load(driver: &SocketAddr, url: &str, link: Link) -> Result<(f64, u64), S
             )?;
             if let Some(ms) = answer[0].as_f64() {
                 let bytes = answer[1].as_f64().unwrap_or(0.0) as u64;
-                return Ok((ms, bytes));
+                return open_create(ms, bytes);
             }
             std::thread::sleep(Duration::from_millis(20));
         }

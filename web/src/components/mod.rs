@@ -32,6 +32,7 @@ use crate::connection::Link;
 use crate::context::{Ctx, Sender, Services};
 use crate::http::XhrTransport;
 use crate::i18n::Lang;
+use crate::lazy::LazyPage;
 use crate::page::Page;
 use crate::session::{Origin, Session};
 use crate::socket::Socket;
@@ -301,13 +302,17 @@ pub fn Shell() -> impl IntoView {
             {move || match shown.get() {
                 Page::Login => view! { <login::LoginPage /> }.into_any(),
                 Page::Files => view! { <files::FilesPage /> }.into_any(),
-                Page::Create => view! { <create::CreatePage /> }.into_any(),
+                Page::Create => view! { <LazyPage load=crate::lazy::load_create /> }.into_any(),
                 Page::Preview => view! { <preview::PreviewScreen /> }.into_any(),
                 Page::Control => view! { <control::ControlPage /> }.into_any(),
                 Page::Settings => view! { <control::SettingsPage /> }.into_any(),
                 Page::Console => view! { <console::ConsolePage /> }.into_any(),
-                Page::Installation => view! { <installation::InstallationPage /> }.into_any(),
-                Page::Commission => view! { <commission::CommissionPage /> }.into_any(),
+                Page::Installation => {
+                    view! { <LazyPage load=crate::lazy::load_installation /> }.into_any()
+                }
+                Page::Commission => {
+                    view! { <LazyPage load=crate::lazy::load_commission /> }.into_any()
+                }
             }}
         </main>
         <widgets::ToastArea />
