@@ -1156,12 +1156,10 @@ pub(crate) mod tests {
         dir.join(INDEX_FILE)
     }
 
-    #[test]
-    fn the_index_is_written_with_each_show_and_a_start_reads_no_show() {
-        let dir = tempfile::tempdir().expect("temp dir");
-        let list = stored(dir.path(), &["波浪", "rain"]);
+    /// The summaries [`INDEX_FILE`] holds (of this version), by name.
+    fn index_summaries(dir: &Path) -> Vec<ShowSummary> {
         let file: IndexFile =
-            serde_json::from_slice(&std::fs::read(index_path(dir.path())).expect("index"))
+            serde_json::from_slice(&std::fs::read(index_path(dir)).expect("index"))
                 .expect("an index");
         assert_eq!(file.version, INDEX_VERSION);
         let mut summaries: Vec<ShowSummary> = file
@@ -1170,7 +1168,14 @@ pub(crate) mod tests {
             .map(|indexed| indexed.summary)
             .collect();
         summaries.sort_by(|a, b| a.name.cmp(&b.name));
-        assert_eq!(summaries, list);
+        summaries
+    }
+
+    #[test]
+    fn the_index_is_written_with_each_show_and_a_start_reads_no_show() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let list = stored(dir.path(), &["波浪", "rain"]);
+        assert_eq!(index_summaries(dir.path()), list);
 
         // Garbage of the same size and time in a show file: the start takes the
         // summary from the index without reading the show.
@@ -1228,16 +1233,11 @@ pub(crate) mod tests {
         }
         let list = store.list();
         assert_eq!(list.len(), 4 * 8);
-        let file: IndexFile =
-            serde_json::from_slice(&std::fs::read(index_path(dir.path())).expect("index"))
-                .expect("an index");
-        let mut summaries: Vec<ShowSummary> = file
-            .shows
-            .into_iter()
-            .map(|indexed| indexed.summary)
-            .collect();
-        summaries.sort_by(|a, b| a.name.cmp(&b.name));
-        assert_eq!(summaries, list, "the index is the last word");
+        assert_eq!(
+            index_summaries(dir.path()),
+            list,
+            "the index is the last word"
+        );
         drop(store);
         assert_eq!(open_indexed(dir.path()).list(), list);
     }

@@ -175,22 +175,13 @@ impl Writer<'_> {
                 let (end, _) = Profile::run(x, v, direction * speed, rate, rate).at(step);
                 direction * (end - want)
             });
-            let (written, held) = held_speed(speed, steps_per_rev, max_steps);
-            self.lines.push(if jogging {
-                Command::ChangeSpeed { rev_s: written }
-            } else {
-                Command::JogSpeed {
-                    rev_s: Some(written),
-                }
-            });
-            if !jogging {
-                self.lines.push(Command::CommenceJogging);
-                jogging = true;
-            }
-            let profile = Profile::run(x, v, direction * held, rate, rate);
-            (x, v) = profile.at(step);
-            self.push_profile(profile);
-            self.wait(step);
+            (x, v) = self.jog_for(
+                (x, v),
+                &mut jogging,
+                direction * speed,
+                step,
+                (rate, steps_per_rev, max_steps),
+            );
         }
         // The last speed and the wait before `SJ`: the stop ends at `to_counts`, as
         // near `target_s` as the 10 ms of `WT` allow.
@@ -223,22 +214,13 @@ impl Writer<'_> {
         }
         let (_, wait_s, speed) = best.unwrap_or((0.0, 0.0, 0.0));
         if wait_s > 0.0 {
-            let (written, held) = held_speed(speed, steps_per_rev, max_steps);
-            self.lines.push(if jogging {
-                Command::ChangeSpeed { rev_s: written }
-            } else {
-                Command::JogSpeed {
-                    rev_s: Some(written),
-                }
-            });
-            if !jogging {
-                self.lines.push(Command::CommenceJogging);
-                jogging = true;
-            }
-            let profile = Profile::run(x, v, direction * held, rate, rate);
-            (x, v) = profile.at(wait_s);
-            self.push_profile(profile);
-            self.wait(wait_s);
+            (x, v) = self.jog_for(
+                (x, v),
+                &mut jogging,
+                direction * speed,
+                wait_s,
+                (rate, steps_per_rev, max_steps),
+            );
         }
         if jogging {
             self.lines.push(Command::StopJogging);
@@ -285,6 +267,37 @@ impl Writer<'_> {
         units::VELOCITY
             .write(top.clamp(units::VELOCITY.min_steps, units::VELOCITY.max_steps))
             .unwrap_or(Decimal::from_int(1))
+    }
+
+    /// Jogs from `(x, v)` (counts, counts/s) at `velocity` (counts/s, signed) for
+    /// `for_s`: `JS` and `CJ` when not yet `jogging`, else `CS`, then the `WT`; the
+    /// speed as the drive holds it ([`held_speed`]; `rate` counts/s², `max_steps` of
+    /// `VE`). Returns where the drive is then.
+    fn jog_for(
+        &mut self,
+        (x, v): (f64, f64),
+        jogging: &mut bool,
+        velocity: f64,
+        for_s: f64,
+        (rate, steps_per_rev, max_steps): (f64, f64, i64),
+    ) -> (f64, f64) {
+        let (written, held) = held_speed(velocity.abs(), steps_per_rev, max_steps);
+        self.lines.push(if *jogging {
+            Command::ChangeSpeed { rev_s: written }
+        } else {
+            Command::JogSpeed {
+                rev_s: Some(written),
+            }
+        });
+        if !*jogging {
+            self.lines.push(Command::CommenceJogging);
+            *jogging = true;
+        }
+        let profile = Profile::run(x, v, velocity.signum() * held, rate, rate);
+        let end = profile.at(for_s);
+        self.push_profile(profile);
+        self.wait(for_s);
+        end
     }
 
     /// A piece of the program from now on, for the deviation.
