@@ -416,8 +416,8 @@ async fn the_draft_outlives_a_reload_right_after_a_change() {
 
 /// The Create page's code is a chunk fetched when the page is opened (issue 35): a
 /// chunk that cannot be fetched (offline, a stale cache after an update) shows an
-/// error and a Retry while the top bar, its E-STOP and the other pages keep working,
-/// and Retry fetches it again.
+/// error, a Retry and a Reload while the top bar, its E-STOP and the other pages
+/// keep working; Retry fetches it again, Reload loads the app again.
 #[tokio::test]
 async fn a_create_chunk_that_cannot_be_fetched_shows_a_retry_and_breaks_nothing_else() {
     let bridge = Bridge::start().await;
@@ -468,5 +468,36 @@ async fn a_create_chunk_that_cannot_be_fetched_shows_a_retry_and_breaks_nothing_
             .expect("look for the error")
             .is_empty()
     );
+
+    // The console's parsers, offline (or stale after an update): the Console page is
+    // there, its check says the checker is missing and nothing can be sent; Reload
+    // loads the app again (the page served now names the chunks that exist) and
+    // the Console checks lines.
+    offline(true).await.expect("go offline");
+    browser.click("[data-testid=nav-console]").await;
+    browser.wait_for("[data-testid=console-input]").await;
+    set_value(&browser, "[data-testid=console-input]", "*5;PV;").await;
+    browser
+        .wait_for_attribute(
+            "[data-testid=console-check]",
+            "data-state",
+            "unavailable",
+            UI_TIMEOUT,
+        )
+        .await;
+    browser
+        .wait_for_text("[data-testid=console-check]", "checker could not be loaded")
+        .await;
+    browser.click("[data-testid=console-reload]").await;
+    browser.wait_for("[data-testid=console-input]").await;
+    set_value(&browser, "[data-testid=console-input]", "*5;PV;").await;
+    browser
+        .wait_for_attribute(
+            "[data-testid=console-check]",
+            "data-state",
+            "ok",
+            UI_TIMEOUT,
+        )
+        .await;
     browser.client.close().await.expect("close the browser");
 }

@@ -43,6 +43,43 @@ pub enum Check {
     },
     /// The parser's error, with line and column (shown in the current language).
     Invalid(Refusal),
+    /// The parsers are still being fetched ([`Parsers`]): nothing can be sent yet.
+    Loading,
+    /// The parsers could not be fetched: nothing can be sent until they are.
+    Unavailable,
+}
+
+/// The console's parsers as the app has them (their code is a chunk of its own,
+/// [`crate::lazy::console_parsers`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub enum Parsers {
+    /// Not asked for yet.
+    #[default]
+    NotLoaded,
+    /// Being fetched.
+    Loading,
+    /// The chunk could not be fetched (a Retry asks again).
+    Failed,
+    /// Ready to check lines.
+    Ready(crate::lazy::ConsoleParsers),
+}
+
+impl Parsers {
+    /// `text` checked by `family`'s parser, MBOX commands without a box of their own
+    /// going to `selected`; [`Check::Loading`] or [`Check::Unavailable`] without the
+    /// parsers, unless there is nothing to check.
+    pub fn check(self, family: Family, text: &str, selected: Route) -> Check {
+        match self {
+            _ if text.trim().is_empty() => Check::Empty,
+            Parsers::NotLoaded | Parsers::Loading => Check::Loading,
+            Parsers::Failed => Check::Unavailable,
+            Parsers::Ready(parsers) => match family {
+                Family::Mbox => (parsers.mbox)(text, selected),
+                Family::Scl => (parsers.scl)(text),
+                Family::Uim2503 => (parsers.uim2503)(text),
+            },
+        }
+    }
 }
 
 /// Checks the console's text with the shared parser (the same the bridge uses).
@@ -441,6 +478,49 @@ mod tests {
             code,
             data: data.to_vec(),
         }
+    }
+
+    #[test]
+    fn lines_wait_for_the_parsers_and_each_family_gets_its_own() {
+        let text = "*5;PV;";
+        let to = Route::BROADCAST;
+        for family in [Family::Uim2503, Family::Mbox, Family::Scl] {
+            for parsers in [Parsers::NotLoaded, Parsers::Loading, Parsers::Failed] {
+                assert_eq!(parsers.check(family, " \n", to), Check::Empty);
+            }
+            assert_eq!(Parsers::Loading.check(family, text, to), Check::Loading);
+            assert_eq!(Parsers::NotLoaded.check(family, text, to), Check::Loading);
+            assert_eq!(Parsers::Failed.check(family, text, to), Check::Unavailable);
+        }
+        let ready = Parsers::Ready(crate::lazy::ConsoleParsers {
+            uim2503: check,
+            mbox: check_mbox,
+            scl: check_scl,
+        });
+        assert_eq!(ready.check(Family::Uim2503, text, to), check(text));
+        assert!(matches!(
+            ready.check(Family::Uim2503, text, to),
+            Check::Ready {
+                instructions: 2,
+                ..
+            }
+        ));
+        let mbox = "read FN 0x20 4";
+        assert_eq!(ready.check(Family::Mbox, mbox, to), check_mbox(mbox, to));
+        assert!(matches!(
+            ready.check(Family::Mbox, mbox, to),
+            Check::Ready { .. }
+        ));
+        assert_eq!(ready.check(Family::Scl, "0IP", to), check_scl("0IP"));
+        assert!(matches!(
+            ready.check(Family::Scl, "0IP", to),
+            Check::Ready { .. }
+        ));
+        // Each family's text is refused by the others' parsers.
+        assert!(matches!(
+            ready.check(Family::Scl, text, to),
+            Check::Invalid(_)
+        ));
     }
 
     #[test]

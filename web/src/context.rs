@@ -16,7 +16,7 @@ use floatball_shared::api::{
     ClientMessage, InstallationInfo, PlayerState, Problem, ServerMessage, ShowSummary, Status,
 };
 use floatball_shared::codes::{Code, Coded, Params};
-use floatball_shared::show::{Show, ShowFormat, import};
+use floatball_shared::show::{Refused, Show, ShowFormat, read_json};
 use leptos::prelude::*;
 use leptos::task::spawn_local;
 
@@ -115,6 +115,8 @@ pub struct Ctx {
     pub playlist: RwSignal<PlaylistEditor>,
     /// Decoded feedback frames for the console.
     pub feedback: RwSignal<FeedbackLog>,
+    /// The console's parsers ([`Ctx::load_console_parsers`]), kept once fetched.
+    pub console_parsers: RwSignal<crate::console::Parsers>,
     /// What the Preview page shows.
     pub preview: RwSignal<Option<PreviewItem>>,
     /// The last E-stop press (its number and outcome), shown on every E-stop button
@@ -128,6 +130,9 @@ pub struct Ctx {
     pub installation: RwSignal<Option<InstallationInfo>>,
     /// The show being made on the Create page, kept while other pages are open.
     pub create: RwSignal<crate::create::Draft>,
+    /// Whether the draft kept in the browser was read back into [`Ctx::create`]
+    /// (the Create page does it when first opened, its code being a chunk).
+    pub create_restored: StoredValue<bool>,
     origin: StoredValue<Origin>,
     services: StoredValue<Services, LocalStorage>,
 }
@@ -237,11 +242,13 @@ impl Ctx {
             library_indexing: RwSignal::new(false),
             playlist: RwSignal::new(PlaylistEditor::default()),
             feedback: RwSignal::new(FeedbackLog::default()),
+            console_parsers: RwSignal::new(crate::console::Parsers::default()),
             preview: RwSignal::new(None),
             estop_ack: RwSignal::new(None),
             toast: RwSignal::new(None),
             installation: RwSignal::new(None),
             create: RwSignal::new(crate::create::Draft::new()),
+            create_restored: StoredValue::new(false),
             origin: StoredValue::new(origin),
             services: StoredValue::new_local(services),
         }
@@ -310,6 +317,26 @@ impl Ctx {
         {
             sender.relay_feedback(on);
         }
+    }
+
+    /// Fetches the console's parsers (their chunk) unless they are here or on their
+    /// way; after a failure, asks again.
+    pub fn load_console_parsers(&self) {
+        use crate::console::Parsers;
+        if matches!(
+            self.console_parsers.get_untracked(),
+            Parsers::Loading | Parsers::Ready(_)
+        ) {
+            return;
+        }
+        self.console_parsers.set(Parsers::Loading);
+        let parsers = self.console_parsers;
+        leptos::task::spawn_local(async move {
+            let _ = parsers.try_set(match crate::lazy::console_parsers().await {
+                Ok(loaded) => Parsers::Ready(loaded),
+                Err(crate::lazy::ChunkError) => Parsers::Failed,
+            });
+        });
     }
 
     /// Takes the matrix's status (`None`: none known). The E-stop acknowledgement
@@ -483,17 +510,42 @@ impl Ctx {
         });
     }
 
-    /// Opens the Preview page on a local file.
+    /// Opens the Preview page on a local file: a JSON file at once; a CSV file once
+    /// the CSV reader, a chunk of its own ([`crate::lazy::read_csv`]), is here.
     pub fn preview_local(&self, file: &LocalFile) {
-        let item = match file.to_show() {
-            Ok(show) => PreviewItem::Ready(file.name.clone(), Arc::new(show)),
-            Err(refused) => PreviewItem::Failed(
-                file.name.clone(),
-                self.lang.get_untracked().refused(&refused),
-            ),
-        };
-        self.preview.set(Some(item));
+        fn ready(name: String, lang: Lang, read: Result<Show, Refused>) -> PreviewItem {
+            match read {
+                Ok(show) => PreviewItem::Ready(name, Arc::new(show)),
+                Err(refused) => PreviewItem::Failed(name, lang.refused(&refused)),
+            }
+        }
+        let name = file.name.clone();
+        if file.kind == ShowFormat::Json {
+            let read = read_json(file.show_name(), file.text.as_bytes());
+            self.preview
+                .set(Some(ready(name, self.lang.get_untracked(), read)));
+            self.page.set(Page::Preview);
+            return;
+        }
+        self.preview.set(Some(PreviewItem::Loading(name.clone())));
         self.page.set(Page::Preview);
+        let ctx = *self;
+        let file = file.clone();
+        spawn_local(async move {
+            let lang = ctx.lang.get_untracked();
+            let item = match crate::lazy::read_csv(file).await {
+                Ok(read) => ready(name.clone(), lang, read),
+                Err(crate::lazy::ChunkError) => {
+                    PreviewItem::Failed(name.clone(), lang.t(Text::CsvReaderFailed).to_owned())
+                }
+            };
+            // Only if the operator has not picked another file meanwhile.
+            ctx.preview.update(|preview| {
+                if matches!(preview, Some(PreviewItem::Loading(loading)) if *loading == name) {
+                    *preview = Some(item);
+                }
+            });
+        });
     }
 
     /// Opens the Preview page on a controller file, fetching it first.
@@ -505,7 +557,7 @@ impl Ctx {
         let ctx = *self;
         spawn_local(async move {
             let item = match client.download(&name).await {
-                Ok(json) => match import(&name, json.as_bytes(), ShowFormat::Json, None, None) {
+                Ok(json) => match read_json(&name, json.as_bytes()) {
                     Ok(show) => PreviewItem::Ready(name.clone(), Arc::new(show)),
                     Err(refused) => PreviewItem::Failed(
                         name.clone(),

@@ -173,8 +173,18 @@ texts! {
     Loading => "加载中…", "Loading…";
     /// A page's code could not be downloaded (offline, or an old copy after an update).
     ChunkFailed => "无法加载此页面（网络断开或应用已更新）。", "This page could not be loaded (offline, or the app was updated).";
+    /// A part of a page (a panel, a form) could not be downloaded.
+    PartFailed => "无法加载这一部分（网络断开或应用已更新）。", "This part could not be loaded (offline, or the app was updated).";
     /// Try loading the page's code again.
     Retry => "重试", "Retry";
+    /// Load the app again (its page names the files of the version now served).
+    ReloadApp => "重新载入应用", "Reload the app";
+    /// The console's instruction checker could not be downloaded.
+    CheckerFailed => "无法加载指令检查程序（网络断开或应用已更新）。", "The instruction checker could not be loaded (offline, or the app was updated).";
+    /// The CSV reader (for a local file's preview) could not be downloaded.
+    CsvReaderFailed => "无法加载 CSV 读取程序（网络断开或应用已更新）：请重新载入应用。", "The CSV reader could not be loaded (offline, or the app was updated): reload the app.";
+    /// The console's instruction checker is being downloaded.
+    CheckerLoading => "正在加载指令检查程序…", "Loading the instruction checker…";
     /// Preview: restart.
     Restart => "重新播放", "Restart";
     /// Preview: step back.

@@ -1,6 +1,8 @@
 //! The pages an operator on the show floor never opens, loaded when opened: Create
 //! (its patterns, text and picture decoders, the recipe model and the planner the
-//! worker runs), Commissioning and Installation.
+//! worker runs), Commissioning, Installation and Settings; and two tools of the
+//! operator's pages needed only now and then: the console's parsers and the CSV
+//! reader of a local file's preview.
 //!
 //! Each is a split point of `wasm_split_helpers` (the runtime under Leptos'
 //! `#[lazy]`, re-exported as [`leptos::wasm_split`]): built with `--cfg
@@ -14,7 +16,11 @@
 //! every point is a plain `async fn` in the one module.
 //!
 //! What the first load must carry — the top bar, the E-STOP, the WebSocket, Login,
-//! Files, Preview, Control, Settings and Console — is never behind a split point.
+//! Files, Preview, Control and Console — is never behind a split point. Two tools
+//! of those pages are: the console's parsers ([`console_parsers`]: the Console page
+//! opens at once, and its check of a typed line waits the few milliseconds its
+//! chunk takes, fetched as the page opens) and the CSV reader ([`read_csv`]: a
+//! local CSV file's preview waits for it; native show files need no chunk).
 
 use std::future::Future;
 use std::pin::Pin;
@@ -22,7 +28,8 @@ use std::pin::Pin;
 use leptos::prelude::*;
 use leptos::task::spawn_local;
 
-use crate::i18n::Text;
+use crate::context::tr_in;
+use crate::i18n::{Lang, Text};
 
 /// A chunk could not be loaded (offline, or a stale cache after an update): the
 /// browser's console says why.
@@ -46,7 +53,7 @@ pub type Loader = fn() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkErro
 /// loaded; the function is `async` and fails with [`ChunkError`] when the chunk
 /// cannot be loaded.
 macro_rules! split {
-    ($module:ident, $(#[$attr:meta])* pub fn $name:ident($($arg:ident: $ty:ty),*) -> $ret:ty $body:block) => {
+    ($module:ident, $(#[$attr:meta])* pub fn $name:ident($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty $body:block) => {
         #[cfg(floatball_split)]
         #[leptos::wasm_split::wasm_split(
             $module,
@@ -84,11 +91,117 @@ split!(
     }
 );
 
+/// The console's parsers, one per drive family (UIM2503 ASCII instructions, MBOX box
+/// commands, SCL lines): with their command tables and error words they are some
+/// 40 KB of the app, needed only once a line is typed on the Console page.
+#[derive(Debug, Clone, Copy)]
+pub struct ConsoleParsers {
+    /// UIM2503 gateways ([`crate::console::check`]).
+    pub uim2503: fn(&str) -> crate::console::Check,
+    /// MBOX boxes, commands without a box going to the selected one
+    /// ([`crate::console::check_mbox`]).
+    pub mbox: fn(&str, floatball_shared::mbox::Route) -> crate::console::Check,
+    /// MOONS' drives ([`crate::console::check_scl`]).
+    pub scl: fn(&str) -> crate::console::Check,
+}
+
+split!(
+    console,
+    /// The console's parsers, in their own chunk: the Console page shows at once and
+    /// checks the typed lines once they arrive (see [`ConsoleParsers`]).
+    pub fn console_parsers() -> ConsoleParsers {
+        ConsoleParsers {
+            uim2503: crate::console::check,
+            mbox: crate::console::check_mbox,
+            scl: crate::console::check_scl,
+        }
+    }
+);
+
+split!(
+    csv,
+    /// A local CSV file read for the preview ([`crate::files::LocalFile::to_show`]):
+    /// the CSV reader (keyframes, curves, their error words) is a chunk of its own,
+    /// fetched when the first CSV file is previewed.
+    pub fn read_csv(
+        file: crate::files::LocalFile,
+    ) -> Result<floatball_shared::show::Show, floatball_shared::show::Refused> {
+        file.to_show()
+    }
+);
+
+/// The Preview's performance panel ([`crate::preview::perf::PerfPanel`]), given the
+/// language of its labels.
+pub type PerfView = fn(Signal<Lang>) -> AnyView;
+
+split!(
+    perf,
+    /// The Preview's performance panel: a device check opened now and then, with the
+    /// synthetic shows it draws.
+    pub fn perf_panel() -> PerfView {
+        |lang| view! { <crate::preview::perf::PerfPanel lang /> }.into_any()
+    }
+);
+
+/// The Preview's plot of one ball ([`crate::preview::PlotPanel`]): the ball's plot,
+/// the language, the show time on screen (ms) and what closes it.
+pub type PlotView =
+    fn(crate::preview::plot::BallPlot, Signal<Lang>, Signal<f64>, Callback<()>) -> AnyView;
+
+split!(
+    plot,
+    /// The Preview's plot of a tapped ball (its curves, figures and problems), drawn
+    /// when a ball is tapped.
+    pub fn plot_panel() -> PlotView {
+        |plot, lang, t_ms, on_close| {
+            view! { <crate::preview::PlotPanel plot lang t_ms on_close=move || on_close.run(()) /> }
+                .into_any()
+        }
+    }
+);
+
+/// The Files page's Q program panel ([`crate::components::qprogram::QProgramPanel`]),
+/// given the selected controller show.
+pub type QProgramView = fn(Signal<Option<String>>) -> AnyView;
+
+split!(
+    qprogram,
+    /// The Q program panel of the Files page, shown only on an installation with
+    /// MOONS' drives.
+    pub fn qprogram_panel() -> QProgramView {
+        |selected| view! { <crate::components::qprogram::QProgramPanel selected /> }.into_any()
+    }
+);
+
+/// The forced change of the factory password at login
+/// ([`crate::components::password::PasswordForm`]), given the password typed at login.
+pub type PasswordView = fn(RwSignal<Option<String>>) -> AnyView;
+
+split!(
+    password,
+    /// The forced password change: once per installation, at its first login.
+    pub fn forced_password_form() -> PasswordView {
+        |remembered| {
+            view! { <crate::components::password::PasswordForm forced=true remembered=remembered /> }
+                .into_any()
+        }
+    }
+);
+
 split!(
     commission,
     /// The Commissioning page.
     pub fn commission_page() -> PageView {
         || view! { <crate::components::commission::CommissionPage /> }.into_any()
+    }
+);
+
+split!(
+    settings,
+    /// The Settings page (defaults for new entries, the loop, the password): opened
+    /// now and then from Control, never needed on the show floor.
+    pub fn settings_page() -> PageView {
+        || view! { <crate::components::control::SettingsPage /> }.into_any()
     }
 );
 
@@ -110,33 +223,57 @@ pub fn load_commission() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkEr
     Box::pin(commission_page())
 }
 
+/// [`settings_page`] as a [`Loader`].
+pub fn load_settings() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkError>>>> {
+    Box::pin(settings_page())
+}
+
 /// [`installation_page`] as a [`Loader`].
 pub fn load_installation() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkError>>>> {
     Box::pin(installation_page())
 }
 
-/// Where a page's chunk is.
+/// What a chunk gave, as far as it came.
 #[derive(Debug, Clone, Copy)]
-enum Chunk {
+enum Chunk<T> {
     Loading,
     Failed,
-    Ready(PageView),
+    Ready(T),
 }
 
-/// A page whose code is in a chunk: "Loading…" while it is fetched, then the page;
-/// when the chunk cannot be loaded, an error and a Retry. The rest of the app — the
-/// top bar, the E-STOP — is never held.
-#[component]
-pub fn LazyPage(load: Loader) -> impl IntoView {
-    let ctx = expect_context::<crate::context::Ctx>();
+/// Loads the app again, page and all: after an update the chunks' old names are
+/// gone from the bridge, and only the page served now names the new ones (the page
+/// is never cached, see `bridge/src/server.rs`). The page opened stays open (its
+/// `#/…`), and so does the login.
+pub fn reload_app() {
+    if let Err(error) = window().location().reload() {
+        leptos::logging::warn!("cannot reload the app: {error:?}");
+    }
+}
+
+/// A view whose code is in a chunk: `load` fetches the chunk and gives what makes the
+/// view, `render` makes it. "Loading…" while it is fetched; when it cannot be
+/// fetched, `failed` (in `lang`), a Retry (offline: try again) and a Reload (a stale
+/// copy after an update: the page names the chunks of the version now served). The
+/// rest of the app — the top bar, the E-STOP — is never held.
+pub fn chunk_view<T, F>(
+    lang: Signal<Lang>,
+    failed: Text,
+    load: impl Fn() -> F + Copy + Send + Sync + 'static,
+    render: impl Fn(T) -> AnyView + Send + Sync + 'static,
+) -> impl IntoView
+where
+    T: Clone + Send + Sync + 'static,
+    F: Future<Output = Result<T, ChunkError>> + 'static,
+{
     let chunk = RwSignal::new(Chunk::Loading);
     let start = move || {
         chunk.set(Chunk::Loading);
         spawn_local(async move {
             let loaded = load().await;
-            // The page may have been left meanwhile (its signal then is gone).
+            // The view may be gone meanwhile (its signal then is gone too).
             let _ = chunk.try_set(match loaded {
-                Ok(page) => Chunk::Ready(page),
+                Ok(made) => Chunk::Ready(made),
                 Err(ChunkError) => Chunk::Failed,
             });
         });
@@ -145,19 +282,34 @@ pub fn LazyPage(load: Loader) -> impl IntoView {
     move || match chunk.get() {
         Chunk::Loading => view! {
             <p class="chunk-loading" data-testid="chunk-loading" aria-busy="true">
-                {ctx.tr(Text::Loading)}
+                {tr_in(lang, Text::Loading)}
             </p>
         }
         .into_any(),
         Chunk::Failed => view! {
             <div class="note error" data-testid="chunk-error" role="alert">
-                <p>{ctx.tr(Text::ChunkFailed)}</p>
+                <p>{tr_in(lang, failed)}</p>
                 <button data-testid="chunk-retry" on:click=move |_| start()>
-                    {ctx.tr(Text::Retry)}
+                    {tr_in(lang, Text::Retry)}
+                </button>
+                <button data-testid="chunk-reload" on:click=move |_| reload_app()>
+                    {tr_in(lang, Text::ReloadApp)}
                 </button>
             </div>
         }
         .into_any(),
-        Chunk::Ready(page) => page(),
+        Chunk::Ready(made) => render(made),
     }
+}
+
+/// A page whose code is in a chunk ([`chunk_view`]).
+#[component]
+pub fn LazyPage(load: Loader) -> impl IntoView {
+    let ctx = expect_context::<crate::context::Ctx>();
+    chunk_view(
+        ctx.lang.into(),
+        Text::ChunkFailed,
+        load,
+        |page: PageView| page(),
+    )
 }

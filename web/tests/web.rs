@@ -2558,13 +2558,13 @@ async fn a_page_whose_chunk_fails_shows_an_error_and_retry_loads_it_in_both_lang
     .await;
     assert_eq!(
         text(&container, "chunk-error"),
-        "This page could not be loaded (offline, or the app was updated).Retry"
+        "This page could not be loaded (offline, or the app was updated).RetryReload the app"
     );
     ctx.lang.set(Lang::Zh);
     tick().await;
     assert_eq!(
         text(&container, "chunk-error"),
-        "无法加载此页面（网络断开或应用已更新）。重试"
+        "无法加载此页面（网络断开或应用已更新）。重试重新载入应用"
     );
     // The E-STOP beside it still works.
     element(&container, "estop").click();

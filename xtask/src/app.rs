@@ -40,13 +40,23 @@ pub enum Build {
     /// Small and fast, as operators get it (`cargo xtask run`): the `wasm-release`
     /// profile of the workspace `Cargo.toml`, `wasm-opt -Oz --converge`, brotli at its best.
     Release,
-    /// For the end-to-end tests: the dev profile, which reuses what the browser tests
-    /// already compiled instead of compiling every dependency again; no `wasm-opt`
-    /// and a quick brotli level (the tests check the headers, not the size).
+    /// Quick, for a developer's edit-and-look loop (`cargo xtask build --test`): the
+    /// dev profile, which reuses what the browser tests already compiled instead of
+    /// compiling every dependency again; no `wasm-opt` and a quick brotli level. Not
+    /// what operators get: `cargo xtask test` runs the end-to-end tests on a release
+    /// build, which they hold to the first-load budget.
     Test,
 }
 
 impl Build {
+    /// The build's name in the page (`<meta name="floatball-build">`).
+    pub fn label(self) -> &'static str {
+        match self {
+            Build::Release => "release",
+            Build::Test => "test",
+        }
+    }
+
     fn profile(self) -> &'static str {
         match self {
             Build::Release => "wasm-release",
@@ -117,6 +127,9 @@ pub struct Built {
     pub chunks: Vec<(String, Vec<u8>)>,
     /// Each split point (a page's key) and the chunks (stems) it needs.
     pub pages: Vec<(String, Vec<String>)>,
+    /// Which build it is (`release`, `test`), for the page's
+    /// `<meta name="floatball-build">`: the first-load budget holds a release build.
+    pub build: &'static str,
 }
 
 /// Builds the app into `static/pkg/`.
@@ -233,6 +246,7 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
             link_js: read_text(&split_dir.join(LINK_NAME))?,
             chunks,
             pages: split.pages,
+            build: build.label(),
         },
         read(&static_dir.join("style.css"))?,
         &read_text(&static_dir.join("index.html"))?,
@@ -415,7 +429,14 @@ pub fn package(built: Built, css: Vec<u8>, template: &str) -> Result<Packaged, S
         })
         .collect::<Result<Vec<_>, String>>()?;
     let css_name = hashed_name("style", "css", &css);
-    let page = render_page(template, &js_name, &wasm_name, &css_name, &pages)?;
+    let page = render_page(
+        template,
+        &js_name,
+        &wasm_name,
+        &css_name,
+        &pages,
+        built.build,
+    )?;
     let chunk_names = chunk_files.iter().map(|(name, _)| name.clone()).collect();
     let mut files = vec![
         (wasm_name.clone(), built.wasm),
@@ -439,15 +460,18 @@ pub fn package(built: Built, css: Vec<u8>, template: &str) -> Result<Packaged, S
 const TEMPLATE_STYLESHEET: &str = r#"<link rel="stylesheet" href="/style.css">"#;
 
 /// The built page: the template with the hashed stylesheet and, before `</head>`,
-/// preloads of the js (which `boot.js` imports by this link) and the wasm, and the
+/// preloads of the js (which `boot.js` imports by this link) and the wasm, the
 /// chunks each lazily loaded page needs (`<meta name="floatball-chunks">`, read by
-/// `boot.js`, which preloads them when the app is opened at such a page).
+/// `boot.js`, which preloads them when the app is opened at such a page) and which
+/// build it is (`<meta name="floatball-build">`, `release` or `test`: the end-to-end
+/// tests hold a release build to the first-load budget).
 pub fn render_page(
     template: &str,
     js_name: &str,
     wasm_name: &str,
     css_name: &str,
     pages: &[(String, Vec<String>)],
+    build: &str,
 ) -> Result<String, String> {
     for anchor in [TEMPLATE_STYLESHEET, "</head>"] {
         if template.matches(anchor).count() != 1 {
@@ -467,7 +491,8 @@ pub fn render_page(
     let preloads = format!(
         "  <link rel=\"modulepreload\" href=\"/pkg/{js_name}\">\n  \
          <link rel=\"preload\" href=\"/pkg/{wasm_name}\" as=\"fetch\" type=\"application/wasm\" crossorigin>\n  \
-         <meta name=\"floatball-chunks\" content=\"{chunks}\">\n</head>"
+         <meta name=\"floatball-chunks\" content=\"{chunks}\">\n  \
+         <meta name=\"floatball-build\" content=\"{build}\">\n</head>"
     );
     Ok(template
         .replace(
@@ -604,6 +629,7 @@ mod tests {
                 "create".to_owned(),
                 vec!["chunk_0_create".to_owned(), "split_create".to_owned()],
             )],
+            build: "test",
         }
     }
 
@@ -707,15 +733,19 @@ mod tests {
         assert!(package(built(b"w", &twice, LINK), b"c".to_vec(), TEMPLATE).is_err());
         let no_chunk = LINK.replace("./split_create.wasm", "./other.wasm");
         assert!(package(built(b"w", GLUE, &no_chunk), b"c".to_vec(), TEMPLATE).is_err());
-        assert!(render_page("<html></html>", "a.js", "b.wasm", "c.css", &[]).is_err());
+        assert!(render_page("<html></html>", "a.js", "b.wasm", "c.css", &[], "test").is_err());
     }
 
     #[test]
     fn the_real_template_renders() {
         let template =
             std::fs::read_to_string(tools::workspace_root().join("static/index.html")).unwrap();
-        let page = render_page(&template, "f-0.js", "g-0.wasm", "s-0.css", &[]).unwrap();
+        let page = render_page(&template, "f-0.js", "g-0.wasm", "s-0.css", &[], "release").unwrap();
         assert!(page.contains(r#"href="/pkg/s-0.css""#), "{page}");
+        assert!(
+            page.contains(r#"<meta name="floatball-build" content="release">"#),
+            "{page}"
+        );
         // The Content-Security-Policy forbids inline scripts: the page adds none.
         assert_eq!(
             page.matches("<script").count(),

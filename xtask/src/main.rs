@@ -53,7 +53,7 @@ commands:
          options: --listen ADDR (default 0.0.0.0:8080)  --data-dir DIR (default ./data)
                   anything after `--` is passed to `floatball` unchanged
   build  build the web app into static/pkg/ (hashed names, .br/.gz copies, the page)
-         options: --test (the quick dev build the end-to-end tests use: no wasm-opt)
+         options: --test (a quick dev build for looking at a change: no wasm-opt)
   test   install what is missing, then run every check and test
   fuzz   run the fuzz targets (readers of untrusted bytes) in an optimised build
          options: --bytes N (per target, default 10000000)  --target NAME  --seed S
@@ -195,7 +195,7 @@ fn run(args: &[String]) -> Result<(), String> {
     tools::run_command(&mut command)
 }
 
-/// `cargo xtask build [--test]`: the web app alone, as `run` (or the tests) build it.
+/// `cargo xtask build [--test]`: the web app alone, as `run` and the tests build it (or a quick dev build).
 fn build(args: &[String]) -> Result<(), String> {
     let build = match args {
         [] => app::Build::Release,

@@ -97,8 +97,10 @@ pub fn test() -> Result<(), String> {
                 .arg("web"),
         )
     });
-    stage("build the app and the bridge", &|env| {
-        app::build_web(env, app::Build::Test)?;
+    // The app as operators get it (release, `wasm-opt`): the end-to-end tests run it
+    // and hold its first load to the budget (issue 35).
+    stage("build the app (release) and the bridge", &|env| {
+        app::build_web(env, app::Build::Release)?;
         tools::run_command(tools::cargo(env).args([
             "build",
             "--package",

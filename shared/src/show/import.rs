@@ -292,6 +292,16 @@ pub fn import(
     }
 }
 
+/// A native (JSON) show file as it is, without limits: what [`import`] gives for
+/// [`ShowFormat::Json`] without limits, for a caller that must not carry the CSV
+/// reader (the web app's first load; its CSV reading is a chunk of its own).
+///
+/// # Errors
+/// [`Refused`]: not UTF-8, not a show file.
+pub fn read_json(name: &str, bytes: &[u8]) -> Result<Show, Refused> {
+    from_json(name, utf8(bytes)?)
+}
+
 /// The show file as it is, without limits.
 fn read(
     name: &str,
@@ -541,6 +551,25 @@ mod tests {
 
     fn refused(bytes: &[u8], format: ShowFormat, limits: &UploadLimits) -> Refused {
         import("test", bytes, format, Some(ONE_BY_TWO), Some(limits)).unwrap_err()
+    }
+
+    #[test]
+    fn read_json_is_import_of_a_json_file_without_limits() {
+        let json = down_and_up().to_json().unwrap();
+        let read = read_json("named", json.as_bytes()).unwrap();
+        assert_eq!(read.name, "named");
+        assert_eq!(
+            read,
+            import("named", json.as_bytes(), ShowFormat::Json, None, None).unwrap()
+        );
+        assert!(matches!(
+            read_json("x", b"\xff"),
+            Err(Refused::NotUtf8 { byte: 1 })
+        ));
+        assert!(matches!(
+            read_json("x", b"time_ms,0_0"),
+            Err(Refused::Unreadable(_))
+        ));
     }
 
     #[test]

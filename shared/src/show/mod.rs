@@ -59,7 +59,7 @@ use crate::params;
 
 pub use csv::{CsvError, CsvProblem, ImportError, ImportLimits, import_csv, import_csv_within};
 pub use csv_curve::CurveLimits;
-pub use import::{Refused, ShowFormat, UploadLimits, import};
+pub use import::{Refused, ShowFormat, UploadLimits, import, read_json};
 pub use outputs::{AnalogKey, DigitalKey, OutputProblem, OutputSample, OutputTrack};
 pub use sample::Sampler;
 pub use validate::{Limits, UnitRef, Violation, ViolationKind, validate};

@@ -11,7 +11,7 @@ use floatball_shared::api::ClientMessage;
 use leptos::prelude::*;
 
 use crate::components::widgets::{BridgeError, Field};
-use crate::console::{Check, Family, check, check_mbox, check_scl, mbox_route};
+use crate::console::{Check, Family, mbox_route};
 use crate::context::Ctx;
 use crate::i18n::Text;
 
@@ -25,6 +25,8 @@ pub fn ConsolePage() -> impl IntoView {
     // The gateways' answers are relayed only while the console is open.
     ctx.relay_feedback(true);
     on_cleanup(move || ctx.relay_feedback(false));
+    // The parsers are a chunk of their own, fetched as the page opens.
+    ctx.load_console_parsers();
     let text = RwSignal::new(String::new());
     let gateway = RwSignal::new(None::<usize>);
     let sent = RwSignal::new(Vec::<String>::new());
@@ -36,17 +38,19 @@ pub fn ConsolePage() -> impl IntoView {
                 .with(|status| Family::of_either(installation.as_ref(), status.as_ref()))
         })
     });
-    let checked = Memo::new(move |_| match family.get() {
-        Family::Mbox => {
-            let selected = ctx.installation.with(|installation| {
+    let checked = Memo::new(move |_| {
+        let family = family.get();
+        let selected = if family == Family::Mbox {
+            ctx.installation.with(|installation| {
                 ctx.status.with(|status| {
                     mbox_route(status.as_ref(), installation.as_ref(), gateway.get())
                 })
-            });
-            text.with(|text| check_mbox(text, selected))
-        }
-        Family::Scl => text.with(|text| check_scl(text)),
-        Family::Uim2503 => text.with(|text| check(text)),
+            })
+        } else {
+            floatball_shared::mbox::Route::BROADCAST
+        };
+        let parsers = ctx.console_parsers.get();
+        text.with(|text| parsers.check(family, text, selected))
     });
     let ready = move || matches!(checked.get(), Check::Ready { .. }) && ctx.connected();
     let send = move |_| {
@@ -67,7 +71,8 @@ pub fn ConsolePage() -> impl IntoView {
             }
         }
     };
-    let verdict = move || match checked.get() {
+    let verdict = move || {
+        match checked.get() {
         Check::Empty => view! {
             <p class="muted" data-testid="console-check" data-state="empty">
                 {move || {
@@ -94,6 +99,25 @@ pub fn ConsolePage() -> impl IntoView {
             </p>
         }
         .into_any(),
+        Check::Loading => view! {
+            <p class="muted" data-testid="console-check" data-state="loading" aria-busy="true">
+                {ctx.tr(Text::CheckerLoading)}
+            </p>
+        }
+        .into_any(),
+        Check::Unavailable => view! {
+            <div class="note error" data-testid="console-check" data-state="unavailable" role="alert">
+                <p>{ctx.tr(Text::CheckerFailed)}</p>
+                <button data-testid="console-retry" on:click=move |_| ctx.load_console_parsers()>
+                    {ctx.tr(Text::Retry)}
+                </button>
+                <button data-testid="console-reload" on:click=move |_| crate::lazy::reload_app()>
+                    {ctx.tr(Text::ReloadApp)}
+                </button>
+            </div>
+        }
+        .into_any(),
+    }
     };
     // Every gateway by its index and port: the installation's, else those the status
     // details. A Memo, so that a status that changes no port leaves the options alone.

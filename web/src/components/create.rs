@@ -11,6 +11,7 @@
 
 use std::rc::Rc;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 use floatball_shared::api::PlanReport;
 use floatball_shared::create::recipe::{MAX_SEGMENTS, MAX_SHOW_S, MAX_TRANSITION_S, Recipe};
@@ -25,6 +26,7 @@ use wasm_bindgen_futures::JsFuture;
 
 use crate::client::{OnProgress, UploadProgress};
 use crate::components::files::{Message, save_text, upload_show};
+use crate::components::{store, stored};
 use crate::context::Ctx;
 use crate::create::{Draft, Made, Target, format_number};
 use crate::files::LocalFile;
@@ -56,10 +58,90 @@ fn now_ms() -> f64 {
         .map_or_else(js_sys::Date::now, |performance| performance.now())
 }
 
+/// Where the draft is kept in the browser (as a recipe), so a reload keeps the work.
+const RECIPE_KEY: &str = "floatball.recipe";
+/// The draft is saved this long after its last change (or when the page is hidden
+/// or left).
+const DRAFT_SAVE_MS: u64 = 400;
+
+/// The draft across reloads, for as long as the page is open: read back from the
+/// browser the first time the page opens (its code is in this page's chunk, so the
+/// app's first load does not carry the recipe reader), then saved a moment after
+/// the last change — not on every one (a dragged slider changes it every frame, and
+/// a recipe with a picture is large) — and at once when the browser hides or leaves
+/// the app or the operator leaves the page. Only this page changes the draft. A
+/// storage too full for a large picture only costs the draft across reloads.
+fn keep_draft(ctx: Ctx) {
+    if !ctx.create_restored.get_value() {
+        ctx.create_restored.set_value(true);
+        if let Some(draft) = stored(RECIPE_KEY)
+            .and_then(|text| Recipe::from_json(&text).ok())
+            .and_then(|recipe| Draft::from_recipe(recipe, crate::create::DEFAULT_GRID).ok())
+        {
+            ctx.create.set(draft);
+        }
+    }
+    // Counted outside the page's reactive arena: the saves at cleanup and after the
+    // pause must still see them once the page is gone.
+    let changes = Arc::new(AtomicU32::new(0));
+    let save = {
+        let changes = Arc::clone(&changes);
+        let saved = AtomicU32::new(0);
+        Arc::new(move || {
+            let change = changes.load(Ordering::Relaxed);
+            if saved.swap(change, Ordering::Relaxed) != change {
+                let text = ctx
+                    .create
+                    .try_with_untracked(|draft| draft.recipe().to_json().ok())
+                    .flatten();
+                store(RECIPE_KEY, text.as_deref());
+            }
+        })
+    };
+    {
+        let save = Arc::clone(&save);
+        Effect::new(move |first: Option<()>| {
+            ctx.create.track();
+            if first.is_none() {
+                // The draft as it was read back (or the default): nothing to save.
+                return;
+            }
+            let change = changes.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
+            let (changes, save) = (Arc::clone(&changes), Arc::clone(&save));
+            set_timeout(
+                move || {
+                    if changes.load(Ordering::Relaxed) == change {
+                        save();
+                    }
+                },
+                std::time::Duration::from_millis(DRAFT_SAVE_MS),
+            );
+        });
+    }
+    let when_hidden = {
+        let save = Arc::clone(&save);
+        window_event_listener_untyped("visibilitychange", move |_| {
+            if document().visibility_state() == web_sys::VisibilityState::Hidden {
+                save();
+            }
+        })
+    };
+    let when_left = {
+        let save = Arc::clone(&save);
+        window_event_listener_untyped("pagehide", move |_| save())
+    };
+    on_cleanup(move || {
+        save();
+        when_hidden.remove();
+        when_left.remove();
+    });
+}
+
 /// The Create page.
 #[component]
 pub fn CreatePage() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
+    keep_draft(ctx);
     let draft = ctx.create;
     let target = Memo::new(move |_| {
         let installation = ctx.installation_now();

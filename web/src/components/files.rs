@@ -12,7 +12,7 @@ use wasm_bindgen::JsCast;
 use wasm_bindgen_futures::JsFuture;
 
 use crate::client::{Client, Failure, OnProgress, UploadProgress};
-use crate::components::qprogram::{QProgramPanel, has_scl_drives};
+use crate::components::qprogram::has_scl_drives;
 use crate::components::widgets::{
     ActionButton, ConfirmButton, EmptyItem, ProblemList, RowButton, TabButton,
 };
@@ -521,7 +521,12 @@ fn ControllerTab(message: RwSignal<Option<Message>>) -> impl IntoView {
             </tbody>
         </table>
         <Show when=move || has_scl_drives(ctx)>
-            <QProgramPanel selected=Signal::derive(selected) />
+            {crate::lazy::chunk_view(
+                ctx.lang.into(),
+                Text::PartFailed,
+                crate::lazy::qprogram_panel,
+                move |panel: crate::lazy::QProgramView| panel(Signal::derive(selected)),
+            )}
         </Show>
     }
 }

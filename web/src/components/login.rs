@@ -9,7 +9,6 @@ use leptos::prelude::*;
 use leptos::task::spawn_local;
 
 use crate::client::Failure;
-use crate::components::password::PasswordForm;
 use crate::components::widgets::{ErrorNote, TextField};
 use crate::context::Ctx;
 use crate::i18n::{Lang, Text};
@@ -32,7 +31,13 @@ pub fn LoginPage() -> impl IntoView {
             {move || match ctx.session.get() {
                 None => view! { <LoginForm remembered=remembered /> }.into_any(),
                 Some(session) if session.must_change_password => {
-                    view! { <PasswordForm forced=true remembered=remembered /> }.into_any()
+                    crate::lazy::chunk_view(
+                        ctx.lang.into(),
+                        Text::PartFailed,
+                        crate::lazy::forced_password_form,
+                        move |form: crate::lazy::PasswordView| form(remembered),
+                    )
+                    .into_any()
                 }
                 Some(session) => view! { <LoggedIn address=session.address /> }.into_any(),
             }}

@@ -44,20 +44,17 @@ pub use topbar::{ConnectionIndicator, EstopButton, LanguageSwitch, TopBar};
 const LANG_KEY: &str = "floatball.lang";
 /// Where the login is remembered (see [`crate::session`] for why `localStorage`).
 const SESSION_KEY: &str = "floatball.session";
-/// The Create page's draft, as a recipe, so a reload keeps the work.
-const RECIPE_KEY: &str = "floatball.recipe";
-/// The draft is saved this long after its last change (or when the page is hidden).
-const DRAFT_SAVE_MS: u64 = 400;
-
 fn storage() -> Option<web_sys::Storage> {
     window().local_storage().ok().flatten()
 }
 
-fn stored(key: &str) -> Option<String> {
+/// The value kept in the browser's `localStorage` under `key`.
+pub(crate) fn stored(key: &str) -> Option<String> {
     storage()?.get_item(key).ok().flatten()
 }
 
-fn store(key: &str, value: Option<&str>) {
+/// Keeps `value` in the browser's `localStorage` under `key` (`None`: forgets it).
+pub(crate) fn store(key: &str, value: Option<&str>) {
     if let Some(storage) = storage() {
         // A full or disabled storage only costs the memory across reloads.
         let _ = match value {
@@ -133,14 +130,6 @@ pub fn App() -> impl IntoView {
         .set(stored(SESSION_KEY).and_then(|text| crate::json::from_str::<Session>(&text).ok()));
     ctx.page
         .set(Page::from_hash(&location.hash().unwrap_or_default()));
-    if let Some(draft) = stored(RECIPE_KEY)
-        .and_then(|text| floatball_shared::create::recipe::Recipe::from_json(&text).ok())
-        .and_then(|recipe| {
-            crate::create::Draft::from_recipe(recipe, crate::create::DEFAULT_GRID).ok()
-        })
-    {
-        ctx.create.set(draft);
-    }
     provide_context(ctx);
 
     // The language is stored only once the operator chose one, so that a browser in
@@ -159,46 +148,6 @@ pub fn App() -> impl IntoView {
             .with(|session| session.as_ref().and_then(|s| serde_json::to_string(s).ok()));
         store(SESSION_KEY, text.as_deref());
     });
-
-    // The Create page's draft: saved a moment after the last change, not on every
-    // one (a dragged slider changes it every frame, and a recipe with a picture is
-    // large), and at once when the page is hidden or left. A storage too full for a
-    // large picture only costs the draft across reloads.
-    let draft_changes = StoredValue::new(0u32);
-    let draft_saved = StoredValue::new(0u32);
-    let save_draft = move || {
-        let change = draft_changes.get_value();
-        if draft_saved.get_value() != change {
-            draft_saved.set_value(change);
-            let text = ctx
-                .create
-                .with_untracked(|draft| draft.recipe().to_json().ok());
-            store(RECIPE_KEY, text.as_deref());
-        }
-    };
-    Effect::new(move |first: Option<()>| {
-        ctx.create.track();
-        if first.is_none() {
-            // The draft as it was loaded (or the default): nothing to save.
-            return;
-        }
-        let change = draft_changes.get_value().wrapping_add(1);
-        draft_changes.set_value(change);
-        set_timeout(
-            move || {
-                if draft_changes.get_value() == change {
-                    save_draft();
-                }
-            },
-            std::time::Duration::from_millis(DRAFT_SAVE_MS),
-        );
-    });
-    let save_when_hidden = window_event_listener_untyped("visibilitychange", move |_| {
-        if document().visibility_state() == web_sys::VisibilityState::Hidden {
-            save_draft();
-        }
-    });
-    let save_when_left = window_event_listener_untyped("pagehide", move |_| save_draft());
 
     // The page in the URL, so a reload and the back button keep it.
     Effect::new(move |_| {
@@ -272,8 +221,6 @@ pub fn App() -> impl IntoView {
         wake_on("visibilitychange"),
         wake_on("pageshow"),
         wake_on("online"),
-        save_when_hidden,
-        save_when_left,
     ];
     on_cleanup(move || listeners.into_iter().for_each(|listener| listener.remove()));
 
@@ -305,7 +252,7 @@ pub fn Shell() -> impl IntoView {
                 Page::Create => view! { <LazyPage load=crate::lazy::load_create /> }.into_any(),
                 Page::Preview => view! { <preview::PreviewScreen /> }.into_any(),
                 Page::Control => view! { <control::ControlPage /> }.into_any(),
-                Page::Settings => view! { <control::SettingsPage /> }.into_any(),
+                Page::Settings => view! { <LazyPage load=crate::lazy::load_settings /> }.into_any(),
                 Page::Console => view! { <console::ConsolePage /> }.into_any(),
                 Page::Installation => {
                     view! { <LazyPage load=crate::lazy::load_installation /> }.into_any()

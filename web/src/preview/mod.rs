@@ -45,7 +45,6 @@ use crate::files::format_duration_ms;
 use crate::i18n::{Lang, Text};
 use gestures::{Gesture, Gestures};
 use model::{Clock, Mode, ViewChoice};
-use perf::PerfPanel;
 use playback::{Playback, SPEEDS};
 use plot::BallPlot;
 use stage::{Matrix, RendererKind, Stage, now_ms};
@@ -458,12 +457,22 @@ pub fn PreviewPage(
                 plot.get()
                     .map(|plot| {
                         let t_ms = Signal::derive(t_ms);
-                        let on_close = move || view_choice.update(|view| view.select(None));
-                        view! { <PlotPanel plot lang t_ms on_close /> }
+                        let on_close = Callback::new(move |()| view_choice.update(|view| view.select(None)));
+                        crate::lazy::chunk_view(
+                            lang,
+                            Text::PartFailed,
+                            crate::lazy::plot_panel,
+                            move |panel: crate::lazy::PlotView| panel(plot.clone(), lang, t_ms, on_close),
+                        )
                     })
             }}
             <Show when=move || view_choice.with(ViewChoice::perf_open)>
-                <PerfPanel lang />
+                {crate::lazy::chunk_view(
+                    lang,
+                    Text::PartFailed,
+                    crate::lazy::perf_panel,
+                    move |panel: crate::lazy::PerfView| panel(lang),
+                )}
             </Show>
             <Show when=move || show.with(Option::is_some)>
                 {move || checked.with(|checked| problems_view(checked.as_ref(), lang))}
@@ -655,7 +664,7 @@ fn animate(step: Rc<dyn Fn()>, alive: Arc<AtomicBool>) {
 /// The tapped ball's plot, its figures and its problems, with the time on screen
 /// marked.
 #[component]
-fn PlotPanel(
+pub fn PlotPanel(
     plot: BallPlot,
     #[prop(into)] lang: Signal<Lang>,
     /// The show time on screen, ms.
