@@ -265,8 +265,8 @@ impl Action {
     /// What the button sends.
     pub fn message(self) -> ClientMessage {
         match self {
-            Action::Start => ClientMessage::Start,
-            Action::Reset => ClientMessage::Reset,
+            Action::Start => ClientMessage::start(),
+            Action::Reset => ClientMessage::reset(),
             Action::Home => ClientMessage::Home,
         }
     }
@@ -442,8 +442,8 @@ mod tests {
             );
         }
         assert_eq!(Action::Home.message(), ClientMessage::Home);
-        assert_eq!(Action::Reset.message(), ClientMessage::Reset);
-        assert_eq!(Action::Start.message(), ClientMessage::Start);
+        assert_eq!(Action::Reset.message(), ClientMessage::reset());
+        assert_eq!(Action::Start.message(), ClientMessage::start());
         assert_eq!(Action::Home.key(), "home");
     }
 

@@ -988,14 +988,14 @@ async fn start_and_reset_ignore_the_checkboxes_and_status_is_live() {
     tick().await;
     assert_eq!(
         *socket.sent.borrow(),
-        [ClientMessage::Start],
+        [ClientMessage::start()],
         "Reset asks first"
     );
     element(&container, "confirm-yes").click();
     tick().await;
     assert_eq!(
         *socket.sent.borrow(),
-        [ClientMessage::Start, ClientMessage::Reset]
+        [ClientMessage::start(), ClientMessage::reset()]
     );
 
     ctx.receive(ServerMessage::Status(Status {
@@ -1208,7 +1208,7 @@ async fn a_refused_start_and_a_failed_verdict_read_in_the_chosen_language() {
 
     element(&container, "start").click();
     tick().await;
-    assert_eq!(*socket.sent.borrow(), [ClientMessage::Start]);
+    assert_eq!(*socket.sent.borrow(), [ClientMessage::start()]);
     let param = |pairs: &[(&str, &str)]| {
         pairs
             .iter()
@@ -1296,7 +1296,7 @@ async fn reset_home_and_start_after_an_estop_ask_first_and_homing_shows_its_prog
     tick().await;
     element(&container, "confirm-yes").click();
     tick().await;
-    assert_eq!(*socket.sent.borrow(), [ClientMessage::Reset]);
+    assert_eq!(*socket.sent.borrow(), [ClientMessage::reset()]);
     assert!(all(&container, "confirm").is_empty());
 
     // The E-stop never asks; its badge clears once the matrix leaves `stopped`.
@@ -1304,7 +1304,7 @@ async fn reset_home_and_start_after_an_estop_ask_first_and_homing_shows_its_prog
     tick().await;
     assert_eq!(
         *socket.sent.borrow(),
-        [ClientMessage::Reset, ClientMessage::Estop]
+        [ClientMessage::reset(), ClientMessage::Estop]
     );
     assert!(all(&container, "confirm").is_empty());
     assert_eq!(text(&container, "estop-ack"), "E-stop sent");
@@ -1376,7 +1376,7 @@ async fn reset_home_and_start_after_an_estop_ask_first_and_homing_shows_its_prog
     assert_eq!(text(&container, "status-time"), "");
     element(&container, "start").click();
     tick().await;
-    assert_eq!(socket.sent.borrow().last(), Some(&ClientMessage::Start));
+    assert_eq!(socket.sent.borrow().last(), Some(&ClientMessage::start()));
     assert!(all(&container, "confirm").is_empty());
 }
 

@@ -63,6 +63,16 @@ pub enum StartError {
         /// The show's length, ms.
         duration_ms: u64,
     },
+    /// A start from a time inside a show on drives that play programs stored on
+    /// them (MOONS' drives with `programs = "stored"`): nothing can be cut there.
+    #[error(
+        "entry {entry} cannot start from a time: the drives play the programs stored on them; \
+         start it from its beginning, or let the bridge upload programs"
+    )]
+    NoCut {
+        /// The 1-based entry.
+        entry: usize,
+    },
     /// The E-stop was pressed after this request was made: the request is void and
     /// the matrix stays stopped.
     #[error("the E-stop was pressed after this request was made; the matrix stays stopped")]
@@ -79,6 +89,7 @@ impl Coded for StartError {
             Self::Busy => Code::PlayerBusy,
             Self::NoSuchEntry { .. } => Code::StartNoSuchEntry,
             Self::PastTheEnd { .. } => Code::StartPastTheEnd,
+            Self::NoCut { .. } => Code::StartNoCut,
             Self::Superseded => Code::Superseded,
         }
     }
@@ -103,6 +114,7 @@ impl Coded for StartError {
                 "fixes" => self.fix_sentences().join("; "),
             },
             Self::NotConnected { gateway } => params! {"gateway" => gateway},
+            Self::NoCut { entry } => params! {"entry" => entry},
             Self::NoSuchEntry { entry, entries } => {
                 params! {"entry" => entry, "entries" => entries}
             }
