@@ -98,7 +98,7 @@ enum Request {
         /// The entry it begins at (0-based), and the lead when it begins at a time
         /// inside it: the show's time at the cut's start, and the cut prepared as a
         /// one-entry playlist.
-        at: (usize, Option<(u64, Result<PreparedRuns, StartError>)>),
+        at: (usize, Option<PreparedLead>),
         reply: Reply,
     },
     Home {
@@ -120,6 +120,10 @@ enum Request {
     /// Drop what is armed.
     Disarm,
 }
+
+/// A lead as a request carries it: the show's time at the cut's start, and the cut
+/// prepared as a one-entry playlist.
+type PreparedLead = (u64, Result<PreparedRuns, StartError>);
 
 /// A new installation for the player, with its links (UIM2503) or its boxes'
 /// calibration (MBOX).

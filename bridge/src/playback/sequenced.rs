@@ -164,7 +164,7 @@ fn runs_of<D: Drive + 'static>(
 /// time at the cut's start, and the cut prepared as a one-entry playlist).
 fn start_at<D: Drive + 'static>(
     entry: usize,
-    lead: Option<(u64, Result<PreparedRuns, StartError>)>,
+    lead: Option<super::PreparedLead>,
 ) -> Result<StartAt<D::Entry>, StartError> {
     let lead = match lead {
         None => None,

@@ -89,6 +89,9 @@ pub struct StartAt<E> {
     pub lead: Option<Lead<E>>,
 }
 
+/// A playlist as the drive plays it, and where it begins ([`Sequencer::reset_at`]).
+pub type RunsAt<E> = (Vec<Run<E>>, StartAt<E>);
+
 /// The first cycle of a start from a time: the entry's show cut there, as the drive
 /// plays it.
 #[derive(Debug, Clone)]
@@ -604,7 +607,7 @@ impl<D: Drive> Sequencer<D> {
     pub fn reset_at(
         &mut self,
         now_us: u64,
-        entries: Result<(Vec<Run<D::Entry>>, StartAt<D::Entry>), StartError>,
+        entries: Result<RunsAt<D::Entry>, StartError>,
         loop_playlist: bool,
     ) -> Result<(), StartError> {
         self.estop();
