@@ -354,8 +354,6 @@ mod tests {
     #[cfg(target_arch = "wasm32")]
     use wasm_bindgen_test::wasm_bindgen_test as test;
 
-    use proptest::prelude::*;
-
     use super::*;
     use crate::show::demo;
     use crate::show::validate::{Limits, validate};
@@ -373,7 +371,7 @@ mod tests {
         last
     }
 
-    fn check_cut(show: &Show, from_ms: u64, accel: f64) -> Cut {
+    pub(super) fn check_cut(show: &Show, from_ms: u64, accel: f64) -> Cut {
         let cut = show.from_time(from_ms, accel).expect("cut");
         cut.show.check().expect("consistent");
         assert!(cut.joins_ms >= from_ms || cut.joins_ms == 0, "{cut:?}");
@@ -529,6 +527,14 @@ mod tests {
         assert_eq!(colours[1].time_ms, 1_000 - start);
         assert_eq!(colours.len(), 3);
     }
+}
+
+#[cfg(all(test, not(target_arch = "wasm32")))]
+mod proptests {
+    use proptest::prelude::*;
+
+    use super::tests::check_cut;
+    use crate::show::demo;
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(48))]
