@@ -11,7 +11,8 @@ use std::rc::Rc;
 
 use floatball_shared::api::{
     ClientMessage, FeedbackFrame, GatewayKind, GatewayStatus, LinkState, MboxRegisters, MboxReply,
-    PlayerState, Playlist, Problem, QProgramListing, SclReply, ServerMessage, ShowSummary, Status,
+    PlayerState, Playlist, Problem, QProgramListing, SclReply, ServerMessage, ShowSummary,
+    StartFrom, Status,
 };
 use floatball_shared::show::{Layout, Show, Track, TrackRow};
 use floatball_web::client::{
@@ -1378,6 +1379,49 @@ async fn reset_home_and_start_after_an_estop_ask_first_and_homing_shows_its_prog
     tick().await;
     assert_eq!(socket.sent.borrow().last(), Some(&ClientMessage::start()));
     assert!(all(&container, "confirm").is_empty());
+}
+
+#[wasm_bindgen_test]
+async fn start_begins_at_the_entry_and_time_typed_beside_it() {
+    let bridge = FakeBridge::new(|request| match (request.method, request.url.as_str()) {
+        (Method::Get, url) if url.starts_with("/api/plan/") => response(500, "boom"),
+        _ => response(404, ""),
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let (container, _ctx) = mount_control(&bridge, &socket, "test-start-from").await;
+    until("the verdicts fail", || {
+        let verdicts = all(&container, "verdict");
+        !verdicts.is_empty()
+            && verdicts
+                .iter()
+                .all(|v| v.get_attribute("data-verdict").as_deref() == Some("failed"))
+    })
+    .await;
+    // A time that does not read: nothing is sent, the note says what is expected.
+    type_into(&container, "start-time", "1:75");
+    element(&container, "start").click();
+    tick().await;
+    assert!(
+        socket.sent.borrow().is_empty(),
+        "{:?}",
+        socket.sent.borrow()
+    );
+    assert!(
+        text(&container, "control-note").contains("m:ss"),
+        "{}",
+        text(&container, "control-note")
+    );
+    type_into(&container, "start-entry", "2");
+    type_into(&container, "start-time", "1:30");
+    element(&container, "start").click();
+    tick().await;
+    assert_eq!(
+        *socket.sent.borrow(),
+        [ClientMessage::Start(StartFrom {
+            entry: Some(2),
+            time_ms: Some(90_000)
+        })]
+    );
 }
 
 #[wasm_bindgen_test]
