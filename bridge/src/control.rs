@@ -136,7 +136,7 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
         Control::Start(from) | Control::Reset(from) => {
             // The playlist is locked from this read on (PUT /api/playlist).
             let _pending = state.start_pending().await;
-            let at = at(state, from).await?;
+            let at = begin_at(state, from).await?;
             let playlist = playlist(state).await?;
             let mut status = state.subscribe_status();
             let reset = matches!(control, Control::Reset(_));
@@ -160,12 +160,14 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
 /// Where a Start or Reset begins ([`StartFrom`], its entry 1-based): the entry
 /// (0-based) and, for a time inside it, its show cut there (read from the store and
 /// cut on a blocking thread; the run-ups at half the installation's top
-/// acceleration).
+/// acceleration), for [`crate::playback::Playback::play_at`]. The one way any
+/// request names a start inside the playlist (the WebSocket's Start and Reset now;
+/// a timecode locate or an OSC start later).
 ///
 /// # Errors
 /// An entry the playlist lacks, a time at or past its show's end, a show that cannot
 /// be read, a family that cannot start inside a show.
-async fn at(state: &AppState, from: StartFrom) -> Result<At, ServerMessage> {
+pub async fn begin_at(state: &AppState, from: StartFrom) -> Result<At, ServerMessage> {
     let refused = |error: StartError| refusal(&PlaybackError::Refused(error));
     let playlist = state.playlist().get();
     let entries = playlist.entries.len();

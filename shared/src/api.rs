@@ -705,14 +705,6 @@ pub struct StartFrom {
     pub time_ms: Option<u64>,
 }
 
-impl StartFrom {
-    /// Whether it names anything but the playlist's start.
-    #[must_use]
-    pub fn is_given(&self) -> bool {
-        self.entry.is_some_and(|entry| entry != 1) || self.time_ms.is_some_and(|t| t > 0)
-    }
-}
-
 /// A message from a client (the web app, a test) to the bridge over `/ws`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
@@ -1274,8 +1266,6 @@ mod tests {
             serde_json::to_string(&ClientMessage::Start(from)).unwrap(),
             r#"{"type":"start","entry":2,"time_ms":30000}"#
         );
-        assert!(from.is_given());
-        assert!(!StartFrom::default().is_given());
         assert!(serde_json::from_str::<ClientMessage>(r#"{"type":"start","entry":-1}"#).is_err());
     }
 
