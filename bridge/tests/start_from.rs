@@ -8,7 +8,8 @@
 //! the hold (after the cut's run-up, its join with the show), every simulated ball is
 //! within 2 mm of where the show has it at that time. The hold makes the check
 //! independent of when the positions are read: a status before and one after the
-//! reading both say the show is in the hold. At the first `playing` status (the
+//! reading both say the show is in the hold (and, on UIM2503, a Reset to the same
+//! time homes and plays the cut again). At the first `playing` status (the
 //! cut starts at the show's time 50 ms, its run-up of 450 ms joining the show at
 //! 500 ms) the status counts the full show's time from 50 ms, and every ball is
 //! within 5 mm of its run-up (the cut's position then). Printed: the largest
@@ -198,6 +199,24 @@ async fn start_from_the_middle(family: &str, config: &str, refusals: bool) -> ((
          the show {hold:.3} mm"
     );
     assert!(hold <= 2.0, "{family}: {hold} mm off\n{}", bridge.log());
+    if refusals {
+        // Reset takes the same: it stops, homes, and plays the cut again.
+        send_text(&mut ws, r#"{"type":"reset","entry":1,"time_ms":500}"#).await;
+        let mut homed = false;
+        loop {
+            let status = tokio::time::timeout(Duration::from_secs(60), next_status(&mut ws))
+                .await
+                .unwrap_or_else(|_| panic!("{family}: no status after Reset\n{}", bridge.log()));
+            homed |= status.state == PlayerState::Homing;
+            if homed && status.state == PlayerState::Playing {
+                assert!(
+                    (cut.start_ms..=cut.start_ms + 200).contains(&status.show_time_ms),
+                    "{family}: {status:?}"
+                );
+                break;
+            }
+        }
+    }
     ((first, off_cut), hold)
 }
 
