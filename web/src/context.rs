@@ -117,6 +117,10 @@ pub struct Ctx {
     pub feedback: RwSignal<FeedbackLog>,
     /// What the Preview page shows.
     pub preview: RwSignal<Option<PreviewItem>>,
+    /// Where the Preview page opens its next show, paused, ms (the Control page's
+    /// start time: where a Start from there begins); `None`: from its start,
+    /// playing.
+    pub preview_from_ms: RwSignal<Option<u64>>,
     /// The last E-stop press (its number and outcome), shown on every E-stop button
     /// until it times out.
     pub estop_ack: RwSignal<Option<(u32, EstopAck)>>,
@@ -238,6 +242,7 @@ impl Ctx {
             playlist: RwSignal::new(PlaylistEditor::default()),
             feedback: RwSignal::new(FeedbackLog::default()),
             preview: RwSignal::new(None),
+            preview_from_ms: RwSignal::new(None),
             estop_ack: RwSignal::new(None),
             toast: RwSignal::new(None),
             installation: RwSignal::new(None),
@@ -492,6 +497,7 @@ impl Ctx {
                 self.lang.get_untracked().refused(&refused),
             ),
         };
+        self.preview_from_ms.set(None);
         self.preview.set(Some(item));
         self.page.set(Page::Preview);
     }
@@ -500,6 +506,7 @@ impl Ctx {
     pub fn preview_controller(&self, name: &str) {
         let Some(client) = self.client() else { return };
         let name = name.to_owned();
+        self.preview_from_ms.set(None);
         self.preview.set(Some(PreviewItem::Loading(name.clone())));
         self.page.set(Page::Preview);
         let ctx = *self;

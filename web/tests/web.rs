@@ -1388,7 +1388,7 @@ async fn start_begins_at_the_entry_and_time_typed_beside_it() {
         _ => response(404, ""),
     });
     let socket = Rc::new(FakeSocket::default());
-    let (container, _ctx) = mount_control(&bridge, &socket, "test-start-from").await;
+    let (container, ctx) = mount_control(&bridge, &socket, "test-start-from").await;
     until("the verdicts fail", || {
         let verdicts = all(&container, "verdict");
         !verdicts.is_empty()
@@ -1422,6 +1422,16 @@ async fn start_begins_at_the_entry_and_time_typed_beside_it() {
             time_ms: Some(90_000)
         })]
     );
+    // The Preview opens entry 2's show, to wait at that time.
+    element(&container, "start-preview").click();
+    tick().await;
+    assert_eq!(ctx.page.get_untracked(), Page::Preview);
+    assert_eq!(ctx.preview_from_ms.get_untracked(), Some(90_000));
+    let previewed = ctx.preview.with_untracked(|item| match item {
+        Some(PreviewItem::Loading(name) | PreviewItem::Failed(name, _)) => Some(name.clone()),
+        _ => None,
+    });
+    assert_eq!(previewed.as_deref(), Some("b"));
 }
 
 #[wasm_bindgen_test]

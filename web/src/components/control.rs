@@ -13,7 +13,8 @@
 //! Home and a Start after an E-stop turn into a one-tap confirmation that says what
 //! will move, with Cancel beside it; the E-stop never asks. Beside Start, an entry
 //! and a time say where Start and Reset begin ([`crate::control::start_from`]:
-//! nothing typed, the playlist's start).
+//! nothing typed, the playlist's start); "Preview from there" opens the entry's show
+//! in the Preview, paused at that time.
 //!
 //! Every edit is applied to [`crate::playlist::PlaylistEditor`] and then stored on
 //! the bridge (`PUT /api/playlist`); what the bridge answers is what the page shows.
@@ -214,6 +215,22 @@ pub fn ControlPage() -> impl IntoView {
             None
         }
     };
+    // The Preview, paused where a Start from what is typed begins.
+    let preview_from = move || {
+        let from = match start_from(&from_entry.get_untracked(), &from_time.get_untracked()) {
+            Ok(from) => from,
+            Err(why) => return refuse(why),
+        };
+        let index = from.entry.unwrap_or(1) - 1;
+        let Some(show) = ctx
+            .playlist
+            .with_untracked(|editor| editor.entries().get(index).map(|entry| entry.show.clone()))
+        else {
+            return refuse(Text::BadStartFrom);
+        };
+        ctx.preview_controller(&show);
+        ctx.preview_from_ms.set(Some(from.time_ms.unwrap_or(0)));
+    };
     // The action waiting for its confirmation, if any.
     let asking = RwSignal::new(None::<Action>);
     let press = move |action: Action| match action.confirmation(state.get_untracked()) {
@@ -310,6 +327,9 @@ pub fn ControlPage() -> impl IntoView {
                     test_id="start-time"
                     inputmode="decimal"
                 />
+                <button data-testid="start-preview" on:click=move |_| preview_from()>
+                    {ctx.tr(Text::PreviewFrom)}
+                </button>
             </div>
             <div class="actions">
                 {action_button(Action::Start, "start primary", Text::Start)}
