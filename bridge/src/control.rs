@@ -5,12 +5,12 @@
 //! make it run — why and the fixes also as coded problems) and the same as an English
 //! sentence.
 
-use floatball_shared::api::ServerMessage;
+use floatball_shared::api::{ServerMessage, StartFrom};
 use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::params;
 use floatball_shared::player::{Entry, StartError};
 
-use crate::playback::{PlaybackError, Playlist, PlaylistKey};
+use crate::playback::{At, PlaybackError, Playlist, PlaylistKey};
 use crate::playlist;
 use crate::state::AppState;
 use crate::store::ShowName;
@@ -22,10 +22,12 @@ const RUN_SHOWN_WITHIN: std::time::Duration = std::time::Duration::from_secs(2);
 /// What the operator asked for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Control {
-    /// Play the playlist from its first entry (homing first after an e-stop).
-    Start,
-    /// Stop, home, and play the playlist from its first entry.
-    Reset,
+    /// Play the playlist from its first entry, or from where [`StartFrom`] says
+    /// (homing first after an e-stop).
+    Start(StartFrom),
+    /// Stop, home, and play the playlist from its first entry, or from where
+    /// [`StartFrom`] says.
+    Reset(StartFrom),
     /// Stop, home, and stay idle.
     Home,
 }
@@ -131,14 +133,14 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
     let playback = state.playback();
     let result = match control {
         Control::Home => playback.home_issued(generation).await,
-        Control::Start | Control::Reset => {
+        Control::Start(from) | Control::Reset(from) => {
             // The playlist is locked from this read on (PUT /api/playlist).
             let _pending = state.start_pending().await;
+            let at = begin_at(state, from).await?;
             let playlist = playlist(state).await?;
             let mut status = state.subscribe_status();
-            let taken = playback
-                .play(playlist, generation, control == Control::Reset)
-                .await;
+            let reset = matches!(control, Control::Reset(_));
+            let taken = playback.play_at(playlist, at, generation, reset).await;
             if taken.is_ok() {
                 // The player answers before its next status is out (MOONS' drives
                 // report through their own task): the playlist stays locked until
@@ -153,6 +155,81 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
         }
     };
     result.map_err(|error| refusal(&error))
+}
+
+/// Where a Start or Reset begins ([`StartFrom`], its entry 1-based): the entry
+/// (0-based) and, for a time inside it, its show cut there (read from the store and
+/// cut on a blocking thread; the run-ups at half the installation's top
+/// acceleration), for [`crate::playback::Playback::play_at`]. The one way any
+/// request names a start inside the playlist (the WebSocket's Start and Reset now;
+/// a timecode locate or an OSC start later).
+///
+/// # Errors
+/// An entry the playlist lacks, a time at or past its show's end, a show that cannot
+/// be read, a family that cannot start inside a show.
+pub async fn begin_at(state: &AppState, from: StartFrom) -> Result<At, ServerMessage> {
+    let refused = |error: StartError| refusal(&PlaybackError::Refused(error));
+    let playlist = state.playlist().get();
+    let entries = playlist.entries.len();
+    let entry = from.entry.unwrap_or(1);
+    let Some(named) = entry
+        .checked_sub(1)
+        .and_then(|index| playlist.entries.get(index))
+    else {
+        return Err(refused(if entries == 0 {
+            StartError::Empty
+        } else {
+            StartError::NoSuchEntry { entry, entries }
+        }));
+    };
+    let time_ms = from.time_ms.unwrap_or(0);
+    if time_ms == 0 {
+        return Ok(At {
+            entry: entry - 1,
+            cut: None,
+        });
+    }
+    if !state.playback().cuts() {
+        return Err(refused(StartError::NoCut { entry }));
+    }
+    let name = named.show.clone();
+    let reading = state.clone();
+    let accel_mm_s2 = state.playback().installation().limits.max_accel_mm_s2 / 2.0;
+    let cut = tokio::task::spawn_blocking(move || {
+        let show = ShowName::parse(&name)
+            .map_err(|error| error.to_string())
+            .and_then(|parsed| {
+                reading
+                    .shows()
+                    .load(&parsed)
+                    .map_err(|error| error.to_string())
+            })
+            .map_err(|reason| {
+                ServerMessage::from_template(
+                    Code::EntryUnreadable,
+                    params! {"entry" => entry, "show" => name, "reason" => reason},
+                )
+            })?;
+        show.from_time(time_ms, accel_mm_s2).ok_or_else(|| {
+            refused(StartError::PastTheEnd {
+                entry,
+                time_ms,
+                duration_ms: show.duration_ms(),
+            })
+        })
+    })
+    .await
+    .map_err(|error| {
+        ServerMessage::error(
+            Code::Internal,
+            format!("the show cannot be read: {error}"),
+            params! {"what" => "the show cannot be read"},
+        )
+    })??;
+    Ok(At {
+        entry: entry - 1,
+        cut: Some(cut),
+    })
 }
 
 fn describe(error: &PlaybackError) -> String {

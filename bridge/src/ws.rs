@@ -726,19 +726,19 @@ fn answer(
             }
             Some(ServerMessage::EstopSent { unreached })
         }
-        ClientMessage::Start | ClientMessage::Reset | ClientMessage::Home
+        ClientMessage::Start(_) | ClientMessage::Reset(_) | ClientMessage::Home
             if state.password().is_default() =>
         {
             Some(templated(Code::MustChangePasswordFirst))
         }
-        ClientMessage::Start | ClientMessage::Reset | ClientMessage::Home => {
+        ClientMessage::Start(_) | ClientMessage::Reset(_) | ClientMessage::Home => {
             let control = match message {
-                ClientMessage::Reset => Control::Reset,
-                ClientMessage::Home => Control::Home,
-                _ => Control::Start,
+                ClientMessage::Reset(from) => Control::Reset(from),
+                ClientMessage::Start(from) => Control::Start(from),
+                _ => Control::Home,
             };
             // Reset and Home stop at once; every one of them is tagged now.
-            if control != Control::Start {
+            if !matches!(control, Control::Start(_)) {
                 state.playback().estop();
             }
             let generation = state.playback().latch().generation();

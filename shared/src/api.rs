@@ -691,16 +691,32 @@ impl SimMalformed {
 // WebSocket
 // ----------------------------------------------------------------------------------
 
+/// Where a Start or Reset begins ("play from anywhere"): both absent, the playlist's
+/// first entry from its start.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StartFrom {
+    /// The entry, **1-based** as the app numbers them; absent: the first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub entry: Option<usize>,
+    /// The time inside the entry's show, ms; absent or 0: its start (after its
+    /// delay). Every ball approaches where the show needs it, then the show plays on
+    /// from there (`docs/api.md`, "Start from a time").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_ms: Option<u64>,
+}
+
 /// A message from a client (the web app, a test) to the bridge over `/ws`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum ClientMessage {
-    /// Play the playlist from its first entry.
-    Start,
+    /// Play the playlist from its first entry, or from where [`StartFrom`] says
+    /// (`{"type": "start"}`, `{"type": "start", "entry": 2, "time_ms": 30000}`).
+    Start(StartFrom),
     /// Stop every ball at once (sent ahead of anything queued).
     Estop,
-    /// Stop, return every ball home and restart from the first entry.
-    Reset,
+    /// Stop, return every ball home and restart from the first entry, or from where
+    /// [`StartFrom`] says.
+    Reset(StartFrom),
     /// Stop, return every ball home and stay idle there.
     Home,
     /// A console line of instructions, checked by the codec before it is sent.
@@ -720,6 +736,20 @@ pub enum ClientMessage {
         /// `true`: relay them; `false`: none from now on.
         relay: bool,
     },
+}
+
+impl ClientMessage {
+    /// Start from the playlist's first entry.
+    #[must_use]
+    pub fn start() -> Self {
+        Self::Start(StartFrom::default())
+    }
+
+    /// Reset, then play from the playlist's first entry.
+    #[must_use]
+    pub fn reset() -> Self {
+        Self::Reset(StartFrom::default())
+    }
 }
 
 /// A message from the bridge to a client over `/ws`.
@@ -1206,6 +1236,37 @@ mod tests {
         );
         let estop: ClientMessage = serde_json::from_str(r#"{"type":"estop"}"#).expect("estop");
         assert_eq!(estop, ClientMessage::Estop);
+    }
+
+    #[test]
+    fn start_and_reset_may_name_an_entry_and_a_time() {
+        let read = |text: &str| serde_json::from_str::<ClientMessage>(text).expect(text);
+        assert_eq!(read(r#"{"type":"start"}"#), ClientMessage::start());
+        assert_eq!(read(r#"{"type":"reset"}"#), ClientMessage::reset());
+        let from = StartFrom {
+            entry: Some(2),
+            time_ms: Some(30_000),
+        };
+        assert_eq!(
+            read(r#"{"type":"start","entry":2,"time_ms":30000}"#),
+            ClientMessage::Start(from)
+        );
+        assert_eq!(
+            read(r#"{"type":"reset","time_ms":500}"#),
+            ClientMessage::Reset(StartFrom {
+                entry: None,
+                time_ms: Some(500)
+            })
+        );
+        assert_eq!(
+            serde_json::to_string(&ClientMessage::start()).unwrap(),
+            r#"{"type":"start"}"#
+        );
+        assert_eq!(
+            serde_json::to_string(&ClientMessage::Start(from)).unwrap(),
+            r#"{"type":"start","entry":2,"time_ms":30000}"#
+        );
+        assert!(serde_json::from_str::<ClientMessage>(r#"{"type":"start","entry":-1}"#).is_err());
     }
 
     fn gateway(index: usize, link: LinkState, level: Option<u16>) -> GatewayStatus {

@@ -379,6 +379,15 @@ codes! {
     /// The matrix is already running a playlist.
     PlayerBusy = "player_busy" []
         => "The matrix is already running a playlist; press E-stop or Reset first";
+    /// A start at an entry the playlist lacks.
+    StartNoSuchEntry = "start_no_such_entry" ["entry", "entries"]
+        => "There is no entry {entry}: the playlist has {entries} entries";
+    /// A start at a time at or after the end of the entry's show.
+    StartPastTheEnd = "start_past_the_end" ["entry", "time_ms", "duration_ms"]
+        => "Entry {entry} cannot start at {time_ms} ms: its show ends at {duration_ms} ms";
+    /// A start from a time on drives that play their stored programs.
+    StartNoCut = "start_no_cut" ["entry"]
+        => "Entry {entry} cannot start from a time: the drives play the programs stored on them; start it from its beginning, or let the bridge upload programs";
     /// The E-stop was pressed after the request; the matrix stays stopped.
     Superseded = "superseded" []
         => "The E-stop was pressed after this request; the matrix stays stopped";

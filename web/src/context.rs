@@ -119,6 +119,10 @@ pub struct Ctx {
     pub console_parsers: RwSignal<crate::console::Parsers>,
     /// What the Preview page shows.
     pub preview: RwSignal<Option<PreviewItem>>,
+    /// Where the Preview page opens its next show, paused, ms (the Control page's
+    /// start time: where a Start from there begins); `None`: from its start,
+    /// playing.
+    pub preview_from_ms: RwSignal<Option<u64>>,
     /// The last E-stop press (its number and outcome), shown on every E-stop button
     /// until it times out.
     pub estop_ack: RwSignal<Option<(u32, EstopAck)>>,
@@ -244,6 +248,7 @@ impl Ctx {
             feedback: RwSignal::new(FeedbackLog::default()),
             console_parsers: RwSignal::new(crate::console::Parsers::default()),
             preview: RwSignal::new(None),
+            preview_from_ms: RwSignal::new(None),
             estop_ack: RwSignal::new(None),
             toast: RwSignal::new(None),
             installation: RwSignal::new(None),
@@ -520,6 +525,7 @@ impl Ctx {
             }
         }
         let name = file.name.clone();
+        self.preview_from_ms.set(None);
         if file.kind == ShowFormat::Json {
             let read = read_json(file.show_name(), file.text.as_bytes());
             self.preview
@@ -552,6 +558,7 @@ impl Ctx {
     pub fn preview_controller(&self, name: &str) {
         let Some(client) = self.client() else { return };
         let name = name.to_owned();
+        self.preview_from_ms.set(None);
         self.preview.set(Some(PreviewItem::Loading(name.clone())));
         self.page.set(Page::Preview);
         let ctx = *self;

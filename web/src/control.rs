@@ -13,9 +13,13 @@
 //!   ([`edit_lock`], as the bridge refuses such edits with `playlist_locked`), Start
 //!   says why it cannot be pressed ([`start_block`]), and Reset, Home and a Start
 //!   after an E-stop ask for a one-tap confirmation that says what will move
-//!   ([`Action`]); the E-stop never asks.
+//!   ([`Action`]); the E-stop never asks;
+//! - where Start and Reset begin ([`start_from`]): an entry and a time inside its
+//!   show, typed beside Start ("play from anywhere").
 
-use floatball_shared::api::{ApiError, ClientMessage, PlayerState, Playlist, PlaylistEntry};
+use floatball_shared::api::{
+    ApiError, ClientMessage, PlayerState, Playlist, PlaylistEntry, StartFrom,
+};
 use floatball_shared::codes::Code;
 
 use crate::client::Failure;
@@ -250,6 +254,49 @@ pub fn start_reason_key(why: Text) -> &'static str {
     }
 }
 
+/// Where Start and Reset begin, as typed beside Start: `entry` 1-based (empty: the
+/// first), `time` inside the entry's show as `m:ss`, `m:ss.s` or seconds (`90`,
+/// `90.5`; empty: its start), to the millisecond. Nothing typed: the playlist's
+/// start, as before.
+///
+/// # Errors
+/// [`Text::BadStartFrom`]: an entry that is not a whole number from 1, or a time
+/// that is not one of those forms.
+pub fn start_from(entry: &str, time: &str) -> Result<StartFrom, Text> {
+    let entry = entry.trim();
+    let entry = if entry.is_empty() {
+        None
+    } else {
+        match entry.parse::<usize>() {
+            Ok(entry) if entry >= 1 => Some(entry),
+            _ => return Err(Text::BadStartFrom),
+        }
+    };
+    let time = time.trim();
+    let time_ms = if time.is_empty() {
+        None
+    } else {
+        let (minutes, seconds) = match time.split_once(':') {
+            Some((minutes, seconds)) => (
+                minutes
+                    .trim()
+                    .parse::<u64>()
+                    .map_err(|_| Text::BadStartFrom)?,
+                seconds.trim(),
+            ),
+            None => (0, time),
+        };
+        let seconds: f64 = seconds.parse().map_err(|_| Text::BadStartFrom)?;
+        if !seconds.is_finite() || seconds < 0.0 || (time.contains(':') && seconds >= 60.0) {
+            return Err(Text::BadStartFrom);
+        }
+        // Within a u64 of ms for any time a show can have.
+        let ms = (seconds * 1000.0).round() as u64;
+        Some(minutes.saturating_mul(60_000).saturating_add(ms)).filter(|&ms| ms > 0)
+    };
+    Ok(StartFrom { entry, time_ms })
+}
+
 /// A control button that moves the balls (the E-stop is not one: it never asks).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Action {
@@ -264,9 +311,14 @@ pub enum Action {
 impl Action {
     /// What the button sends.
     pub fn message(self) -> ClientMessage {
+        self.message_from(StartFrom::default())
+    }
+
+    /// What the button sends when Start and Reset begin `from` (Home goes home).
+    pub fn message_from(self, from: StartFrom) -> ClientMessage {
         match self {
-            Action::Start => ClientMessage::Start,
-            Action::Reset => ClientMessage::Reset,
+            Action::Start => ClientMessage::Start(from),
+            Action::Reset => ClientMessage::Reset(from),
             Action::Home => ClientMessage::Home,
         }
     }
@@ -442,9 +494,44 @@ mod tests {
             );
         }
         assert_eq!(Action::Home.message(), ClientMessage::Home);
-        assert_eq!(Action::Reset.message(), ClientMessage::Reset);
-        assert_eq!(Action::Start.message(), ClientMessage::Start);
+        assert_eq!(Action::Reset.message(), ClientMessage::reset());
+        assert_eq!(Action::Start.message(), ClientMessage::start());
         assert_eq!(Action::Home.key(), "home");
+    }
+
+    #[test]
+    fn start_and_reset_begin_where_typed() {
+        let from = |entry: &str, time: &str| start_from(entry, time);
+        assert_eq!(from("", ""), Ok(StartFrom::default()));
+        assert_eq!(from(" ", "0"), Ok(StartFrom::default()));
+        assert_eq!(
+            from("2", "1:30"),
+            Ok(StartFrom {
+                entry: Some(2),
+                time_ms: Some(90_000)
+            })
+        );
+        assert_eq!(from("", "90.25").unwrap().time_ms, Some(90_250));
+        assert_eq!(from("", "0:02.5").unwrap().time_ms, Some(2_500));
+        assert_eq!(from("1", "").unwrap().entry, Some(1));
+        for (entry, time) in [
+            ("0", ""),
+            ("x", ""),
+            ("", "1:75"),
+            ("", "-3"),
+            ("", "a:10"),
+            ("", "1:"),
+        ] {
+            assert_eq!(
+                from(entry, time),
+                Err(Text::BadStartFrom),
+                "{entry:?} {time:?}"
+            );
+        }
+        let at = from("3", "12").unwrap();
+        assert_eq!(Action::Start.message_from(at), ClientMessage::Start(at));
+        assert_eq!(Action::Reset.message_from(at), ClientMessage::Reset(at));
+        assert_eq!(Action::Home.message_from(at), ClientMessage::Home);
     }
 
     #[test]

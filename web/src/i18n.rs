@@ -261,6 +261,14 @@ texts! {
     Start => "开始", "Start";
     /// Reset: home and start over.
     Reset => "重置", "Reset";
+    /// Control: where Start and Reset begin, the entry.
+    StartEntry => "从第几项", "From entry";
+    /// Control: where Start and Reset begin, the time inside the entry's show.
+    StartTime => "从时间（分:秒）", "At time (m:ss)";
+    /// Control: open the Preview where a Start from the entry and time typed begins.
+    PreviewFrom => "预览起点", "Preview from there";
+    /// Control: an entry or time beside Start that cannot be read.
+    BadStartFrom => "起始项须为从 1 开始的整数，时间须为 分:秒 或 秒（如 1:30 或 90）", "The entry must be a whole number from 1 and the time m:ss or seconds (e.g. 1:30 or 90)";
     /// Empty playlist.
     EmptyPlaylist => "配置为空。点“添加”选择浮球文件。", "The playlist is empty. Tap “Add” to pick controller files.";
     /// Pick a show to add.

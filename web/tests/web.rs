@@ -11,7 +11,8 @@ use std::rc::Rc;
 
 use floatball_shared::api::{
     ClientMessage, FeedbackFrame, GatewayKind, GatewayStatus, LinkState, MboxRegisters, MboxReply,
-    PlayerState, Playlist, Problem, QProgramListing, SclReply, ServerMessage, ShowSummary, Status,
+    PlayerState, Playlist, Problem, QProgramListing, SclReply, ServerMessage, ShowSummary,
+    StartFrom, Status,
 };
 use floatball_shared::show::{Layout, Show, Track, TrackRow};
 use floatball_web::client::{
@@ -988,14 +989,14 @@ async fn start_and_reset_ignore_the_checkboxes_and_status_is_live() {
     tick().await;
     assert_eq!(
         *socket.sent.borrow(),
-        [ClientMessage::Start],
+        [ClientMessage::start()],
         "Reset asks first"
     );
     element(&container, "confirm-yes").click();
     tick().await;
     assert_eq!(
         *socket.sent.borrow(),
-        [ClientMessage::Start, ClientMessage::Reset]
+        [ClientMessage::start(), ClientMessage::reset()]
     );
 
     ctx.receive(ServerMessage::Status(Status {
@@ -1208,7 +1209,7 @@ async fn a_refused_start_and_a_failed_verdict_read_in_the_chosen_language() {
 
     element(&container, "start").click();
     tick().await;
-    assert_eq!(*socket.sent.borrow(), [ClientMessage::Start]);
+    assert_eq!(*socket.sent.borrow(), [ClientMessage::start()]);
     let param = |pairs: &[(&str, &str)]| {
         pairs
             .iter()
@@ -1296,7 +1297,7 @@ async fn reset_home_and_start_after_an_estop_ask_first_and_homing_shows_its_prog
     tick().await;
     element(&container, "confirm-yes").click();
     tick().await;
-    assert_eq!(*socket.sent.borrow(), [ClientMessage::Reset]);
+    assert_eq!(*socket.sent.borrow(), [ClientMessage::reset()]);
     assert!(all(&container, "confirm").is_empty());
 
     // The E-stop never asks; its badge clears once the matrix leaves `stopped`.
@@ -1304,7 +1305,7 @@ async fn reset_home_and_start_after_an_estop_ask_first_and_homing_shows_its_prog
     tick().await;
     assert_eq!(
         *socket.sent.borrow(),
-        [ClientMessage::Reset, ClientMessage::Estop]
+        [ClientMessage::reset(), ClientMessage::Estop]
     );
     assert!(all(&container, "confirm").is_empty());
     assert_eq!(text(&container, "estop-ack"), "E-stop sent");
@@ -1376,8 +1377,61 @@ async fn reset_home_and_start_after_an_estop_ask_first_and_homing_shows_its_prog
     assert_eq!(text(&container, "status-time"), "");
     element(&container, "start").click();
     tick().await;
-    assert_eq!(socket.sent.borrow().last(), Some(&ClientMessage::Start));
+    assert_eq!(socket.sent.borrow().last(), Some(&ClientMessage::start()));
     assert!(all(&container, "confirm").is_empty());
+}
+
+#[wasm_bindgen_test]
+async fn start_begins_at_the_entry_and_time_typed_beside_it() {
+    let bridge = FakeBridge::new(|request| match (request.method, request.url.as_str()) {
+        (Method::Get, url) if url.starts_with("/api/plan/") => response(500, "boom"),
+        _ => response(404, ""),
+    });
+    let socket = Rc::new(FakeSocket::default());
+    let (container, ctx) = mount_control(&bridge, &socket, "test-start-from").await;
+    until("the verdicts fail", || {
+        let verdicts = all(&container, "verdict");
+        !verdicts.is_empty()
+            && verdicts
+                .iter()
+                .all(|v| v.get_attribute("data-verdict").as_deref() == Some("failed"))
+    })
+    .await;
+    // A time that does not read: nothing is sent, the note says what is expected.
+    type_into(&container, "start-time", "1:75");
+    element(&container, "start").click();
+    tick().await;
+    assert!(
+        socket.sent.borrow().is_empty(),
+        "{:?}",
+        socket.sent.borrow()
+    );
+    assert!(
+        text(&container, "control-note").contains("m:ss"),
+        "{}",
+        text(&container, "control-note")
+    );
+    type_into(&container, "start-entry", "2");
+    type_into(&container, "start-time", "1:30");
+    element(&container, "start").click();
+    tick().await;
+    assert_eq!(
+        *socket.sent.borrow(),
+        [ClientMessage::Start(StartFrom {
+            entry: Some(2),
+            time_ms: Some(90_000)
+        })]
+    );
+    // The Preview opens entry 2's show, to wait at that time.
+    element(&container, "start-preview").click();
+    tick().await;
+    assert_eq!(ctx.page.get_untracked(), Page::Preview);
+    assert_eq!(ctx.preview_from_ms.get_untracked(), Some(90_000));
+    let previewed = ctx.preview.with_untracked(|item| match item {
+        Some(PreviewItem::Loading(name) | PreviewItem::Failed(name, _)) => Some(name.clone()),
+        _ => None,
+    });
+    assert_eq!(previewed.as_deref(), Some("b"));
 }
 
 #[wasm_bindgen_test]

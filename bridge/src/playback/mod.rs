@@ -44,6 +44,13 @@
 //! instead of reading and planning the shows again, and its plans (`Arc`) are the
 //! drive's own.
 //!
+//! **Play from anywhere.** A Start or Reset may name an entry and a time inside it
+//! ([`At`]): the entry's show cut there ([`floatball_shared::show::Show::from_time`])
+//! is prepared by the family as any one-entry playlist is (UIM2503 plans it, MBOX
+//! samples it, MOONS' drives compile it) and handed to the sequencer as the entry's
+//! first cycle ([`floatball_shared::player::Lead`]). It is never kept: the playlist
+//! prepared last stays the full one.
+//!
 //! **A stalled link is a fault.** While a playlist runs, a link that has bytes queued
 //! and writes nothing for [`stall_limit`] stops the show on every gateway and sets the
 //! state `error`, naming the gateway.
@@ -58,6 +65,7 @@ use floatball_shared::mbox::player::MboxPlayerConfig;
 use floatball_shared::plan::Installation;
 use floatball_shared::player::{Entry, LinkView, Sequencer, StartError};
 use floatball_shared::scl::drive::SclDrive;
+use floatball_shared::show::Cut;
 use floatball_shared::uim2503::player::{PlayerConfig, Prepared, Uim2503Drive, prepare, runs};
 use tokio::sync::{mpsc, oneshot, watch};
 
@@ -87,6 +95,10 @@ enum Request {
         prepared: Result<PreparedRuns, StartError>,
         loop_playlist: bool,
         reset: bool,
+        /// The entry it begins at (0-based), and the lead when it begins at a time
+        /// inside it: the show's time at the cut's start, and the cut prepared as a
+        /// one-entry playlist.
+        at: (usize, Option<PreparedLead>),
         reply: Reply,
     },
     Home {
@@ -108,6 +120,10 @@ enum Request {
     /// Drop what is armed.
     Disarm,
 }
+
+/// A lead as a request carries it: the show's time at the cut's start, and the cut
+/// prepared as a one-entry playlist.
+type PreparedLead = (u64, Result<PreparedRuns, StartError>);
 
 /// A new installation for the player, with its links (UIM2503) or its boxes'
 /// calibration (MBOX).
@@ -241,6 +257,17 @@ impl Playlist {
             key: None,
         }
     }
+}
+
+/// Where a Start or Reset begins: an entry (0-based) from its start, or the entry's
+/// show cut at a time ([`floatball_shared::show::Cut`], made by the caller from the
+/// entry's show).
+#[derive(Debug, Default)]
+pub struct At {
+    /// The entry, 0-based.
+    pub entry: usize,
+    /// The entry's show cut at the time asked for; `None`: from its start.
+    pub cut: Option<Cut>,
 }
 
 /// How long after [`Playback::disarm`] nothing is armed: a console session or a
@@ -540,6 +567,29 @@ impl Playback {
         generation: u64,
         reset: bool,
     ) -> Result<(), PlaybackError> {
+        self.play_at(playlist, At::default(), generation, reset)
+            .await
+    }
+
+    /// As [`Playback::play`], beginning where `at` says: at an entry, from its start
+    /// or from a time inside its show (the cut prepared here, as a one-entry
+    /// playlist, and not kept).
+    ///
+    /// # Errors
+    /// As [`Playback::start`]; a cut that cannot run is refused as its entry would be.
+    pub async fn play_at(
+        &self,
+        playlist: Playlist,
+        at: At,
+        generation: u64,
+        reset: bool,
+    ) -> Result<(), PlaybackError> {
+        let entry = at.entry;
+        let lead = match at.cut {
+            Some(cut) => Some((cut.start_ms, self.prepare_lead(entry, cut.show).await?)),
+            None => None,
+        };
+        let at = (entry, lead);
         if let Some(prepare) = &self.sequenced {
             let Playlist::Read {
                 entries,
@@ -562,6 +612,7 @@ impl Playback {
                     prepared,
                     loop_playlist,
                     reset,
+                    at,
                     reply,
                 })
                 .await;
@@ -573,9 +624,53 @@ impl Playback {
             prepared: prepared.map(|(runs, _)| Box::new(runs) as PreparedRuns),
             loop_playlist,
             reset,
+            at,
             reply,
         })
         .await
+    }
+
+    /// The cut `show` of entry `entry` (0-based) prepared as the family prepares a
+    /// one-entry playlist, on a blocking thread; a refusal names the entry.
+    async fn prepare_lead(
+        &self,
+        entry: usize,
+        show: floatball_shared::show::Show,
+    ) -> Result<Result<PreparedRuns, StartError>, PlaybackError> {
+        let installation = self.installation();
+        let entries = vec![Entry {
+            show,
+            delay_ms: 0,
+            cycles: 1,
+        }];
+        let sequenced = self.sequenced.clone();
+        let views = link_views(&self.links());
+        let prepared = tokio::task::spawn_blocking(move || match sequenced {
+            Some(prepare) => prepare.prepare(&installation, entries),
+            None => prepare(&installation, entries, false, &views)
+                .map(|prepared| Box::new(runs(prepared).0) as PreparedRuns),
+        })
+        .await
+        .map_err(|_| PlaybackError::Gone)?;
+        Ok(prepared.map_err(|error| match error {
+            StartError::Invalid { show, reason, .. } => StartError::Invalid {
+                entry: entry + 1,
+                show,
+                reason,
+            },
+            StartError::Infeasible {
+                show,
+                reason,
+                fixes,
+                ..
+            } => StartError::Infeasible {
+                entry: entry + 1,
+                show,
+                reason,
+                fixes,
+            },
+            other => other,
+        }))
     }
 
     /// Home: stop now, bring every ball home, and stay idle there.
@@ -647,6 +742,12 @@ impl Playback {
                 prepared: prepared.clone(),
             });
         }
+    }
+
+    /// Whether a Start may begin inside a show here: every family cuts a show, except
+    /// MOONS' drives that play the programs stored on them.
+    pub fn cuts(&self) -> bool {
+        self.sequenced.as_ref().is_none_or(|prepare| prepare.cuts())
     }
 
     /// Whether a playlist is planned for serial lines here ([`Playback::prepare_blocking`]):

@@ -171,6 +171,10 @@ pub struct SclPrepare {
 }
 
 impl Prepare for SclPrepare {
+    fn cuts(&self) -> bool {
+        self.scl.programs == SclPrograms::Upload
+    }
+
     fn prepare(
         &self,
         installation: &Installation,

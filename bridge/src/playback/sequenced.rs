@@ -26,7 +26,7 @@ use std::time::{Duration, Instant};
 
 use floatball_shared::api::{GatewayStatus, PlayerState, Status};
 use floatball_shared::plan::Installation;
-use floatball_shared::player::{Drive, Run, Sequencer};
+use floatball_shared::player::{Drive, Lead, Run, Sequencer, StartAt};
 use floatball_shared::player::{Entry, LinkView, StartError};
 use tokio::sync::{mpsc, watch};
 
@@ -52,6 +52,12 @@ pub(super) trait Prepare: Send + Sync + std::fmt::Debug {
         installation: &Installation,
         entries: Vec<Entry>,
     ) -> Result<PreparedRuns, StartError>;
+
+    /// Whether a show cut at a time plays as it is prepared (not on drives that play
+    /// their stored programs).
+    fn cuts(&self) -> bool {
+        true
+    }
 }
 
 /// A drive family in the bridge: its drive under the sequencer, and the port that
@@ -154,6 +160,28 @@ fn runs_of<D: Drive + 'static>(
     })
 }
 
+/// Where a request's run begins: at `entry`, with the lead it carries (the show's
+/// time at the cut's start, and the cut prepared as a one-entry playlist).
+fn start_at<D: Drive + 'static>(
+    entry: usize,
+    lead: Option<super::PreparedLead>,
+) -> Result<StartAt<D::Entry>, StartError> {
+    let lead = match lead {
+        None => None,
+        Some((from_ms, prepared)) => {
+            let run = runs_of::<D>(prepared)?
+                .into_iter()
+                .next()
+                .ok_or(StartError::Empty)?;
+            Some(Lead {
+                from_ms,
+                prepared: run.prepared,
+            })
+        }
+    };
+    Ok(StartAt { entry, lead })
+}
+
 /// Carries out a Start, Reset or Home on the sequencer, if no e-stop came since it was
 /// issued and every link is up; returns its generation, where to answer, and the
 /// answer. Arming requests are carried out here too (they answer nothing).
@@ -171,19 +199,21 @@ fn handle<D: Drive + 'static>(
             prepared,
             loop_playlist,
             reset,
+            at: (entry, lead),
             reply,
         } => {
-            let runs = runs_of::<D>(prepared);
+            let runs =
+                runs_of::<D>(prepared).and_then(|runs| Ok((runs, start_at::<D>(entry, lead)?)));
             let result = if reset {
                 let admitted =
                     runs.and_then(|runs| admit(latch, generation, views, gateways).map(|()| runs));
-                sequencer.reset(now_us, admitted, loop_playlist)
+                sequencer.reset_at(now_us, admitted, loop_playlist)
             } else if sequencer.is_running() {
                 Err(StartError::Busy)
             } else {
-                runs.and_then(|runs| {
+                runs.and_then(|(runs, at)| {
                     admit(latch, generation, views, gateways)?;
-                    sequencer.start(now_us, runs, loop_playlist)
+                    sequencer.start_at(now_us, runs, loop_playlist, at)
                 })
             };
             (generation, reply, result)

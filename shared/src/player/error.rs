@@ -44,6 +44,35 @@ pub enum StartError {
     /// The matrix is already playing (press E-stop or Reset first).
     #[error("the matrix is already running a playlist")]
     Busy,
+    /// A start at an entry the playlist lacks.
+    #[error("there is no entry {entry}: the playlist has {entries} entries")]
+    NoSuchEntry {
+        /// The 1-based entry asked for.
+        entry: usize,
+        /// How many entries the playlist has.
+        entries: usize,
+    },
+    /// A start at a time at or after the end of the entry's show (or within its last
+    /// 10 ms, where nothing can start).
+    #[error("entry {entry} cannot start at {time_ms} ms: its show ends at {duration_ms} ms")]
+    PastTheEnd {
+        /// The 1-based entry.
+        entry: usize,
+        /// The time asked for, ms.
+        time_ms: u64,
+        /// The show's length, ms.
+        duration_ms: u64,
+    },
+    /// A start from a time inside a show on drives that play programs stored on
+    /// them (MOONS' drives with `programs = "stored"`): nothing can be cut there.
+    #[error(
+        "entry {entry} cannot start from a time: the drives play the programs stored on them; \
+         start it from its beginning, or let the bridge upload programs"
+    )]
+    NoCut {
+        /// The 1-based entry.
+        entry: usize,
+    },
     /// The E-stop was pressed after this request was made: the request is void and
     /// the matrix stays stopped.
     #[error("the E-stop was pressed after this request was made; the matrix stays stopped")]
@@ -58,6 +87,9 @@ impl Coded for StartError {
             Self::Infeasible { .. } => Code::EntryInfeasible,
             Self::NotConnected { .. } => Code::GatewayNotConnected,
             Self::Busy => Code::PlayerBusy,
+            Self::NoSuchEntry { .. } => Code::StartNoSuchEntry,
+            Self::PastTheEnd { .. } => Code::StartPastTheEnd,
+            Self::NoCut { .. } => Code::StartNoCut,
             Self::Superseded => Code::Superseded,
         }
     }
@@ -82,6 +114,15 @@ impl Coded for StartError {
                 "fixes" => self.fix_sentences().join("; "),
             },
             Self::NotConnected { gateway } => params! {"gateway" => gateway},
+            Self::NoCut { entry } => params! {"entry" => entry},
+            Self::NoSuchEntry { entry, entries } => {
+                params! {"entry" => entry, "entries" => entries}
+            }
+            Self::PastTheEnd {
+                entry,
+                time_ms,
+                duration_ms,
+            } => params! {"entry" => entry, "time_ms" => time_ms, "duration_ms" => duration_ms},
         }
     }
 }

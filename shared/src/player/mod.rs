@@ -15,6 +15,13 @@
 //!   the show's first position); **load** what the show needs on the units, if the
 //!   drive has anything to load for this cycle; **play** it from a common start;
 //!   repeat `cycles` times; next entry; after the last, rest or start over (loop).
+//! - **Start at** an entry and a time inside it ([`Sequencer::start_at`], "play from
+//!   anywhere"): the playlist begins at that entry; with a time, its first cycle
+//!   plays a [`Lead`] — the entry's show cut at that time
+//!   ([`crate::show::Show::from_time`]), prepared by the family as any show — without
+//!   the entry's delay, and the status counts the show's time from the cut's start on
+//!   the full show's clock (its time, length and progress). The entry's other cycles
+//!   and the entries after it play in full, as after any start.
 //! - **E-stop** (the caller sent the stop ahead of everything): the sequencer stops,
 //!   the drive drops what it queued and forgets where the balls are, so the next Start
 //!   homes first and begins at the first entry — it never resumes mid-show. A failure
@@ -71,6 +78,36 @@ pub struct Run<E> {
     pub prepared: E,
 }
 
+/// Where a Start begins ([`Sequencer::start_at`]): at `entry` (0-based), from its
+/// start or, with a `lead`, from a time inside its show.
+#[derive(Debug, Clone)]
+pub struct StartAt<E> {
+    /// The entry, 0-based.
+    pub entry: usize,
+    /// The entry's show cut at a time, played as its first cycle; `None`: the entry
+    /// from its start (after its delay).
+    pub lead: Option<Lead<E>>,
+}
+
+/// A playlist as the drive plays it, and where it begins ([`Sequencer::reset_at`]).
+pub type RunsAt<E> = (Vec<Run<E>>, StartAt<E>);
+
+/// The first cycle of a start from a time: the entry's show cut there, as the drive
+/// plays it.
+#[derive(Debug, Clone)]
+pub struct Lead<E> {
+    /// The show's time at the cut's time 0, ms ([`crate::show::Cut::start_ms`]): the
+    /// status counts the show's time from it.
+    pub from_ms: u64,
+    /// The cut as the drive's family prepared it.
+    pub prepared: E,
+}
+
+/// The index a drive is given for a [`Lead`]'s load ([`Drive::begin_load`]): not an
+/// entry of the playlist, so nothing loaded for it is taken for an entry's own (the
+/// entry's next cycle, counted from 1 again, loads in full).
+pub const LEAD_INDEX: usize = usize::MAX;
+
 /// A drive family under the sequencer: what the units are told, and when a step is
 /// over. The sequencer calls one `begin_*` per step, then [`Drive::poll`] until the
 /// step is [`Phase::Done`] or [`Phase::Failed`].
@@ -90,7 +127,9 @@ pub trait Drive {
     fn begin_approach(&mut self, now_us: u64, entry: &mut Self::Entry) -> bool;
 
     /// Loads what cycle `cycle` of entry `index` needs on the units before its start;
-    /// `false` when there is nothing to load (the show plays at once).
+    /// `false` when there is nothing to load (the show plays at once). A [`Lead`] is
+    /// loaded as cycle 1 of entry [`LEAD_INDEX`], and the entry's cycles after it are
+    /// counted from 1.
     fn begin_load(
         &mut self,
         now_us: u64,
@@ -223,6 +262,11 @@ pub struct Sequencer<D: Drive> {
     progress: f64,
     /// The sequencer failed on its own: the caller must press the e-stop.
     estop_wanted: bool,
+    /// Where the run under way began ([`Sequencer::start_at`]): the entry, and the
+    /// lead until it has played.
+    start_at: StartAt<D::Entry>,
+    /// The entry's first cycle was a lead: the drive counts its cycles from the next.
+    led: bool,
 }
 
 impl<D: Drive> Sequencer<D> {
@@ -240,7 +284,33 @@ impl<D: Drive> Sequencer<D> {
             now_us: 0,
             progress: 0.0,
             estop_wanted: false,
+            start_at: StartAt {
+                entry: 0,
+                lead: None,
+            },
+            led: false,
         }
+    }
+
+    /// The lead, while it is what the entry under way plays.
+    fn lead(&self) -> Option<&Lead<D::Entry>> {
+        self.start_at
+            .lead
+            .as_ref()
+            .filter(|_| self.entry == self.start_at.entry)
+    }
+
+    /// The drive, and what it plays for the entry under way: its lead, or its
+    /// prepared form.
+    fn drive_and_current(&mut self) -> (&mut D, Option<&mut D::Entry>) {
+        let current = match self.start_at.lead.as_mut() {
+            Some(lead) if self.entry == self.start_at.entry => Some(&mut lead.prepared),
+            _ => self
+                .entries
+                .get_mut(self.entry)
+                .map(|run| &mut run.prepared),
+        };
+        (&mut self.drive, current)
     }
 
     /// The drive.
@@ -342,7 +412,10 @@ impl<D: Drive> Sequencer<D> {
             .get(self.entry)
             .map_or(0, |run| run.duration_ms);
         let elapsed_ms = (now_us - start_us) / 1_000;
-        let show_time_ms = if self.drive.show_repeats() && duration_ms > 0 {
+        let show_time_ms = if let Some(lead) = self.lead() {
+            // The cut's clock is the full show's from the cut's start.
+            (lead.from_ms + elapsed_ms).min(duration_ms)
+        } else if self.drive.show_repeats() && duration_ms > 0 {
             elapsed_ms % duration_ms
         } else {
             elapsed_ms.min(duration_ms)
@@ -434,6 +507,30 @@ impl<D: Drive> Sequencer<D> {
         entries: Vec<Run<D::Entry>>,
         loop_playlist: bool,
     ) -> Result<(), StartError> {
+        self.start_at(
+            now_us,
+            entries,
+            loop_playlist,
+            StartAt {
+                entry: 0,
+                lead: None,
+            },
+        )
+    }
+
+    /// Start at an entry, from its start or from a time inside it ([`StartAt`]; see
+    /// the [module documentation](self)): homes first if the positions are unknown.
+    ///
+    /// # Errors
+    /// As [`Sequencer::start`]; [`StartError::NoSuchEntry`] for an entry the playlist
+    /// lacks, [`StartError::PastTheEnd`] for a lead from the show's end or later.
+    pub fn start_at(
+        &mut self,
+        now_us: u64,
+        entries: Vec<Run<D::Entry>>,
+        loop_playlist: bool,
+        at: StartAt<D::Entry>,
+    ) -> Result<(), StartError> {
         self.now_us = self.now_us.max(now_us);
         if self.is_running() {
             return Err(StartError::Busy);
@@ -441,15 +538,32 @@ impl<D: Drive> Sequencer<D> {
         if entries.is_empty() {
             return Err(StartError::Empty);
         }
+        let Some(run) = entries.get(at.entry) else {
+            return Err(StartError::NoSuchEntry {
+                entry: at.entry.saturating_add(1),
+                entries: entries.len(),
+            });
+        };
+        if let Some(lead) = &at.lead
+            && lead.from_ms >= run.duration_ms
+        {
+            return Err(StartError::PastTheEnd {
+                entry: at.entry + 1,
+                time_ms: lead.from_ms,
+                duration_ms: run.duration_ms,
+            });
+        }
         self.entries = entries;
         self.loop_playlist = loop_playlist;
         self.last_error = None;
-        let first = self.entries.first_mut().map(|run| &mut run.prepared);
-        self.drive.begin_run(now_us, first);
+        self.start_at = at;
+        self.entry = self.start_at.entry;
+        let (drive, first) = self.drive_and_current();
+        drive.begin_run(now_us, first);
         if self.needs_home {
             self.begin_home(now_us, AfterMove::First);
         } else {
-            self.begin_entry(now_us, 0);
+            self.begin_entry(now_us, self.start_at.entry);
         }
         Ok(())
     }
@@ -463,6 +577,7 @@ impl<D: Drive> Sequencer<D> {
         self.needs_home = true;
         self.drive.stop();
         self.progress = 0.0;
+        self.start_at.lead = None;
     }
 
     /// Reset (the caller sent the stop first): stops, then homes and plays `entries`
@@ -477,9 +592,28 @@ impl<D: Drive> Sequencer<D> {
         entries: Result<Vec<Run<D::Entry>>, StartError>,
         loop_playlist: bool,
     ) -> Result<(), StartError> {
+        let at = StartAt {
+            entry: 0,
+            lead: None,
+        };
+        self.reset_at(now_us, entries.map(|entries| (entries, at)), loop_playlist)
+    }
+
+    /// Reset to an entry, from its start or a time inside it ([`StartAt`]): as
+    /// [`Sequencer::reset`], then as [`Sequencer::start_at`].
+    ///
+    /// # Errors
+    /// Why the playlist cannot run.
+    pub fn reset_at(
+        &mut self,
+        now_us: u64,
+        entries: Result<RunsAt<D::Entry>, StartError>,
+        loop_playlist: bool,
+    ) -> Result<(), StartError> {
         self.estop();
         self.step = Step::Stopped;
-        let result = entries.and_then(|entries| self.start(now_us, entries, loop_playlist));
+        let result =
+            entries.and_then(|(entries, at)| self.start_at(now_us, entries, loop_playlist, at));
         if let Err(error) = &result {
             self.last_error = Some(error.to_string());
         }
@@ -562,11 +696,8 @@ impl<D: Drive> Sequencer<D> {
         if !self.in_drive_step() {
             return;
         }
-        let entry = self
-            .entries
-            .get_mut(self.entry)
-            .map(|run| &mut run.prepared);
-        let phase = self.drive.poll(now_us, entry);
+        let (drive, entry) = self.drive_and_current();
+        let phase = drive.poll(now_us, entry);
         self.advance(phase);
     }
 
@@ -607,25 +738,37 @@ impl<D: Drive> Sequencer<D> {
                         self.step = Step::Idle;
                         self.progress = 1.0;
                     }
-                    AfterMove::First => self.begin_entry(at_us, 0),
+                    AfterMove::First => self.begin_entry(at_us, self.start_at.entry),
                     AfterMove::Play => self.begin_load(at_us),
                 }
             }
             Step::Loading => self.begin_play(at_us),
-            Step::Playing => match next_run(
-                &self.timings(),
-                self.entry,
-                &mut self.cycle,
-                self.loop_playlist,
-            ) {
-                NextRun::Cycle => self.begin_approach(at_us),
-                NextRun::Entry(entry) => self.begin_entry(at_us, entry),
-                NextRun::Rest => {
-                    self.step = Step::Idle;
-                    self.progress = 1.0;
+            Step::Playing => {
+                // A lead played: the entry's next cycle is the full show.
+                if self.lead().is_some() {
+                    self.start_at.lead = None;
+                    self.led = true;
                 }
-            },
+                self.after_play(at_us);
+            }
             Step::Idle | Step::Waiting { .. } | Step::Stopped | Step::Failed => {}
+        }
+    }
+
+    /// A show's cycle is over at `at_us`: the next cycle, the next entry, or rest.
+    fn after_play(&mut self, at_us: u64) {
+        match next_run(
+            &self.timings(),
+            self.entry,
+            &mut self.cycle,
+            self.loop_playlist,
+        ) {
+            NextRun::Cycle => self.begin_approach(at_us),
+            NextRun::Entry(entry) => self.begin_entry(at_us, entry),
+            NextRun::Rest => {
+                self.step = Step::Idle;
+                self.progress = 1.0;
+            }
         }
     }
 
@@ -636,11 +779,16 @@ impl<D: Drive> Sequencer<D> {
     fn begin_entry(&mut self, now_us: u64, entry: usize) {
         self.entry = entry;
         self.cycle = 1;
+        self.led = false;
         self.progress = 0.0;
-        let delay_us = self
-            .entries
-            .get(entry)
-            .map_or(0, |run| run.timing.delay_ms.saturating_mul(1_000));
+        // A start from inside a show does not wait out the delay before it.
+        let delay_us = if self.lead().is_some() {
+            0
+        } else {
+            self.entries
+                .get(entry)
+                .map_or(0, |run| run.timing.delay_ms.saturating_mul(1_000))
+        };
         if delay_us > 0 {
             self.step = Step::Waiting {
                 until_us: now_us + delay_us,
@@ -651,14 +799,14 @@ impl<D: Drive> Sequencer<D> {
     }
 
     fn begin_approach(&mut self, now_us: u64) {
-        let Some(run) = self.entries.get_mut(self.entry) else {
-            return;
-        };
         self.step = Step::Moving {
             kind: MoveKind::Approach,
             after: AfterMove::Play,
         };
-        if self.drive.begin_approach(now_us, &mut run.prepared) {
+        let (drive, Some(prepared)) = self.drive_and_current() else {
+            return;
+        };
+        if drive.begin_approach(now_us, prepared) {
             self.progress = self.drive.progress();
         } else {
             self.begin_load(now_us);
@@ -675,14 +823,17 @@ impl<D: Drive> Sequencer<D> {
     }
 
     fn begin_load(&mut self, now_us: u64) {
-        let (entry, cycle) = (self.entry, self.cycle);
-        let Some(run) = self.entries.get_mut(entry) else {
+        // A lead is an entry of its own to the drive; the entry's cycles after it are
+        // counted from 1.
+        let (index, cycle) = if self.lead().is_some() {
+            (LEAD_INDEX, 1)
+        } else {
+            (self.entry, self.cycle - u32::from(self.led))
+        };
+        let (drive, Some(prepared)) = self.drive_and_current() else {
             return;
         };
-        if self
-            .drive
-            .begin_load(now_us, entry, &mut run.prepared, cycle)
-        {
+        if drive.begin_load(now_us, index, prepared, cycle) {
             self.step = Step::Loading;
             self.progress = self.drive.progress();
         } else {
@@ -694,12 +845,12 @@ impl<D: Drive> Sequencer<D> {
         let last = self.entry + 1 == self.entries.len()
             && self.cycle >= self.entries[self.entry].timing.cycles.max(1)
             && !self.loop_playlist;
-        let Some(run) = self.entries.get_mut(self.entry) else {
-            return;
-        };
         self.progress = 0.0;
         self.step = Step::Playing;
-        self.drive.begin_play(now_us, &mut run.prepared, last);
+        let (drive, Some(prepared)) = self.drive_and_current() else {
+            return;
+        };
+        drive.begin_play(now_us, prepared, last);
     }
 }
 

@@ -335,3 +335,123 @@ fn the_status_clock_is_the_units_clock_at_the_instant_it_is_made() {
     // Never past the show's length.
     assert_eq!(sequencer.status_at(12_000_000).show_time_ms, 1_000);
 }
+
+fn lead_at(entry: usize, from_ms: u64) -> StartAt<&'static str> {
+    StartAt {
+        entry,
+        lead: Some(Lead {
+            from_ms,
+            prepared: "cut",
+        }),
+    }
+}
+
+#[test]
+fn a_start_from_a_time_plays_the_cut_first_then_the_entry_in_full() {
+    let mut sequencer = timed(true);
+    sequencer
+        .start_at(
+            0,
+            vec![run("a", 5, 1), run("b", 5, 2), run("c", 0, 1)],
+            false,
+            lead_at(1, 400),
+        )
+        .unwrap();
+    // Into the cut's play (its units start at once): the full show's clock.
+    run_until(&mut sequencer, 0, 350);
+    let status = sequencer.status_at(350);
+    assert_eq!(status.state, PlayerState::Playing);
+    assert_eq!(status.entry, Some(1));
+    assert_eq!(status.show.as_deref(), Some("b"));
+    assert_eq!(status.show_duration_ms, 1_000);
+    assert_eq!(status.cycle, 1);
+    assert_eq!(status.show_time_ms, 400);
+    assert!((status.progress - 0.4).abs() < 1e-9);
+    assert_eq!(sequencer.status_at(2_300).show_time_ms, 402);
+    run_until(&mut sequencer, 0, 100_000);
+    assert_eq!(
+        sequencer.drive().log,
+        [
+            "0 run",
+            "0 home",
+            // No delay before a start from inside the show.
+            "100 approach cut",
+            "200 load cut #18446744073709551615",
+            "300 play cut",
+            // b's second cycle is the drive's first of b in full: it loads, on b's
+            // clock from 0.
+            "400 approach b",
+            "500 load b #1",
+            "600 play b",
+            "700 approach c",
+            "800 load c #2",
+            "900 play c last",
+        ]
+    );
+}
+
+#[test]
+fn after_the_cut_the_entry_counts_its_own_time_and_an_estop_forgets_the_cut() {
+    let mut sequencer = timed(false);
+    sequencer
+        .start_at(0, vec![run("a", 0, 2)], false, lead_at(0, 900))
+        .unwrap();
+    run_until(&mut sequencer, 0, 250);
+    assert_eq!(sequencer.status_at(250).show_time_ms, 900);
+    // The second cycle: a in full, from its start.
+    run_until(&mut sequencer, 250, 450);
+    let status = sequencer.status_at(450);
+    assert_eq!((status.state, status.cycle), (PlayerState::Playing, 2));
+    assert_eq!(status.show_time_ms, 0);
+    sequencer.estop();
+    sequencer.drive_mut().log.clear();
+    sequencer.start(1_000, vec![run("a", 0, 1)], false).unwrap();
+    run_until(&mut sequencer, 1_000, 1_250);
+    assert_eq!(
+        sequencer.drive().log,
+        [
+            "1000 run",
+            "1000 home",
+            "1100 approach a",
+            "1200 play a last"
+        ]
+    );
+}
+
+#[test]
+fn a_start_at_an_entry_without_a_time_waits_its_delay_and_a_bad_start_is_refused() {
+    let mut sequencer = timed(false);
+    let entries = || vec![run("a", 0, 1), run("b", 1, 1)];
+    assert_eq!(
+        sequencer.start_at(0, entries(), false, lead_at(2, 10)),
+        Err(StartError::NoSuchEntry {
+            entry: 3,
+            entries: 2
+        })
+    );
+    assert_eq!(
+        sequencer.start_at(0, entries(), false, lead_at(1, 1_000)),
+        Err(StartError::PastTheEnd {
+            entry: 2,
+            time_ms: 1_000,
+            duration_ms: 1_000
+        })
+    );
+    assert!(sequencer.is_idle());
+    sequencer
+        .start_at(
+            0,
+            entries(),
+            false,
+            StartAt {
+                entry: 1,
+                lead: None,
+            },
+        )
+        .unwrap();
+    run_until(&mut sequencer, 0, 10_000);
+    assert_eq!(
+        sequencer.drive().log,
+        ["0 run", "0 home", "1100 approach b", "1200 play b last"]
+    );
+}

@@ -15,6 +15,7 @@
 //!   in words the user can act on, and checked against an installation before it is
 //!   stored;
 //! - [`csv`]: keyframe import from 3D tools;
+//! - [`mod@cut`]: a show cut at a time, for a start from inside it;
 //! - [`demo`]: the demo show (a travelling wave) the tests and benches share;
 //! - [`mod@outputs`]: MBOX output tracks and their values at any time;
 //! - [`mod@validate`]: checks against an installation's limits;
@@ -44,6 +45,7 @@
 
 pub mod csv;
 pub mod csv_curve;
+pub mod cut;
 pub mod demo;
 pub mod import;
 pub mod outputs;
@@ -59,6 +61,7 @@ use crate::params;
 
 pub use csv::{CsvError, CsvProblem, ImportError, ImportLimits, import_csv, import_csv_within};
 pub use csv_curve::CurveLimits;
+pub use cut::Cut;
 pub use import::{Refused, ShowFormat, UploadLimits, import, read_json};
 pub use outputs::{AnalogKey, DigitalKey, OutputProblem, OutputSample, OutputTrack};
 pub use sample::Sampler;

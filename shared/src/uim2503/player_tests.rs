@@ -9,7 +9,7 @@ use wasm_bindgen_test::wasm_bindgen_test as test;
 use std::collections::VecDeque;
 
 use super::plan::tests::wave;
-use super::player::{Command, Entry, LinkView, Player, PlayerConfig, StartError};
+use super::player::{Command, Entry, LinkView, Player, PlayerConfig, StartError, prepare};
 use crate::api::PlayerState;
 use crate::plan::Installation;
 use crate::show::{Sampler, Show};
@@ -892,4 +892,51 @@ fn a_start_of_another_show_loads_it_in_full() {
         rig.wire_since(&marks).contains("MP[0]"),
         "the table was cleared"
     );
+}
+
+#[test]
+fn a_start_from_a_time_plays_the_cut_then_the_whole_show_for_the_next_cycle() {
+    let show = wave(1, 3, 20, 200);
+    let installation = installation(1, 3, &[115_200]);
+    let mut rig = Rig::new(installation.clone());
+    let cut = show.from_time(1_500, 2_000.0).unwrap();
+    assert_eq!(cut.joins_ms, 1_500);
+    let links = rig.links();
+    let prepared = prepare(
+        &installation,
+        vec![entry(show.clone(), 0, 2)],
+        false,
+        &links,
+    )
+    .unwrap();
+    let lead = prepare(
+        &installation,
+        vec![entry(cut.show.clone(), 0, 1)],
+        false,
+        &links,
+    )
+    .unwrap();
+    rig.player
+        .start_prepared_at(
+            rig.now_us,
+            prepared,
+            (0, Some((cut.start_ms, lead))),
+            &links,
+        )
+        .unwrap();
+    rig.carry_out();
+    rig.run_until(120_000_000, |rig| rig.state() == PlayerState::Playing);
+    let status = rig.player.status();
+    assert_eq!((status.cycle, status.show_duration_ms), (1, 4_000));
+    assert!(status.show_time_ms >= cut.start_ms && status.show_time_ms <= cut.start_ms + 20);
+    // The cut as planned, then the whole show in the entry's second cycle (its tables
+    // loaded anew, not the cut's taken for them).
+    let start_us = rig.now_us;
+    let worst = compare_from(&mut rig, &cut.show, start_us);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off the cut");
+    let worst = follow(&mut rig, &show);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+    assert_eq!(rig.player.status().cycle, 0);
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
 }

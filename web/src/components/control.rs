@@ -11,7 +11,10 @@
 //! While the matrix runs, the icons are disabled with the reason beside them (the
 //! bridge refuses such edits too) and Start says why it cannot be pressed. Reset,
 //! Home and a Start after an E-stop turn into a one-tap confirmation that says what
-//! will move, with Cancel beside it; the E-stop never asks.
+//! will move, with Cancel beside it; the E-stop never asks. Beside Start, an entry
+//! and a time say where Start and Reset begin ([`crate::control::start_from`]:
+//! nothing typed, the playlist's start); "Preview from there" opens the entry's show
+//! in the Preview, paused at that time.
 //!
 //! Every edit is applied to [`crate::playlist::PlaylistEditor`] and then stored on
 //! the bridge (`PUT /api/playlist`); what the bridge answers is what the page shows.
@@ -31,7 +34,7 @@ use crate::components::widgets::{
 use crate::context::Ctx;
 use crate::control::{
     Action, Panel, PlanVerdicts, TimingForm, begin_save, edit_lock, is_locked_refusal, is_running,
-    needs_checks, settle_save, start_block, start_reason_key,
+    needs_checks, settle_save, start_block, start_from, start_reason_key,
 };
 use crate::files::format_duration_ms;
 use crate::i18n::{Lang, Text};
@@ -197,13 +200,46 @@ pub fn ControlPage() -> impl IntoView {
         ctx.bridge_error.set(None);
         ctx.send(&message);
     };
+    // Where Start and Reset begin, as typed beside Start.
+    let from_entry = RwSignal::new(String::new());
+    let from_time = RwSignal::new(String::new());
+    // The action's message with where it begins; `None` (and why, in the note) when
+    // what is typed cannot be read.
+    let message = move |action: Action| match start_from(
+        &from_entry.get_untracked(),
+        &from_time.get_untracked(),
+    ) {
+        Ok(from) => Some(action.message_from(from)),
+        Err(why) => {
+            refuse(why);
+            None
+        }
+    };
+    // The Preview, paused where a Start from what is typed begins.
+    let preview_from = move || {
+        let from = match start_from(&from_entry.get_untracked(), &from_time.get_untracked()) {
+            Ok(from) => from,
+            Err(why) => return refuse(why),
+        };
+        let index = from.entry.unwrap_or(1) - 1;
+        let Some(show) = ctx
+            .playlist
+            .with_untracked(|editor| editor.entries().get(index).map(|entry| entry.show.clone()))
+        else {
+            return refuse(Text::BadStartFrom);
+        };
+        ctx.preview_controller(&show);
+        ctx.preview_from_ms.set(Some(from.time_ms.unwrap_or(0)));
+    };
     // The action waiting for its confirmation, if any.
     let asking = RwSignal::new(None::<Action>);
     let press = move |action: Action| match action.confirmation(state.get_untracked()) {
         Some(_) => asking.set(Some(action)),
         None => {
             asking.set(None);
-            send(action.message());
+            if let Some(message) = message(action) {
+                send(message);
+            }
         }
     };
     // A confirmation that no longer applies (Start once the matrix is idle again)
@@ -278,6 +314,23 @@ pub fn ControlPage() -> impl IntoView {
             }}
             <PlaylistView />
             <UnitsWarning />
+            <div class="start-from">
+                <TextField
+                    label=Text::StartEntry
+                    value=from_entry
+                    test_id="start-entry"
+                    inputmode="numeric"
+                />
+                <TextField
+                    label=Text::StartTime
+                    value=from_time
+                    test_id="start-time"
+                    inputmode="decimal"
+                />
+                <button data-testid="start-preview" on:click=move |_| preview_from()>
+                    {ctx.tr(Text::PreviewFrom)}
+                </button>
+            </div>
             <div class="actions">
                 {action_button(Action::Start, "start primary", Text::Start)}
                 <EstopButton />
@@ -296,7 +349,9 @@ pub fn ControlPage() -> impl IntoView {
                                     disabled=move || !enabled(action)
                                     on:click=move |_| {
                                         asking.set(None);
-                                        send(action.message());
+                                        if let Some(message) = message(action) {
+                                            send(message);
+                                        }
                                     }
                                 >
                                     {ctx.tr(text)}

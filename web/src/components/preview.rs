@@ -126,6 +126,7 @@ pub fn PreviewScreen() -> impl IntoView {
                     name=Signal::derive(current)
                     status=ctx.status
                     installation=Signal::derive(move || ctx.installation_now())
+                    from_ms=Signal::derive(move || ctx.preview_from_ms.get())
                 />
             </div>
         </section>

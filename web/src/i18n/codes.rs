@@ -191,6 +191,18 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
     ),
     (Code::GatewayNotConnected, "网关 {gateway} 未连接"),
     (Code::PlayerBusy, "矩阵正在运行配置；请先急停或重置"),
+    (
+        Code::StartNoSuchEntry,
+        "没有第 {entry} 项：播放列表共有 {entries} 项",
+    ),
+    (
+        Code::StartPastTheEnd,
+        "第 {entry} 项无法从 {time_ms} 毫秒开始：其演出在 {duration_ms} 毫秒结束",
+    ),
+    (
+        Code::StartNoCut,
+        "第 {entry} 项无法从某个时间开始：驱动器播放其存储的程序；请从头开始，或让控制器上传程序",
+    ),
     (Code::Superseded, "请求之后按下了急停；矩阵保持停止"),
     (Code::PlayerGone, "播放器没有运行（控制器正在关闭）"),
     // ---- the WebSocket and the console ----

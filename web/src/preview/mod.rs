@@ -121,6 +121,10 @@ pub fn PreviewPage(
     /// and pitch; the defaults and the show's pitch without it.
     #[prop(optional, into)]
     installation: MaybeProp<InstallationInfo>,
+    /// Where a new show opens, paused, ms (the Control page's start time); none: from
+    /// its start, playing.
+    #[prop(optional, into)]
+    from_ms: MaybeProp<u64>,
 ) -> impl IntoView {
     let clock = RwSignal::new(Clock::new(now_ms()));
     let view_choice = RwSignal::new(ViewChoice::default());
@@ -172,10 +176,12 @@ pub fn PreviewPage(
         view_choice,
     };
 
-    // A new show: from its start, nothing chosen.
+    // A new show: from its start (or the start time it was opened at), nothing
+    // chosen.
     Effect::new(move |_| {
         let duration_ms = show.with(|show| show.as_deref().map_or(0, Show::duration_ms));
-        clock.update(|clock| clock.for_show(duration_ms));
+        let from_ms = from_ms.get_untracked();
+        clock.update(|clock| clock.for_show_from(duration_ms, from_ms));
         view_choice.update(|view| view.select(None));
     });
 

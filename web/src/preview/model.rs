@@ -48,6 +48,15 @@ impl Clock {
         self.playback = self.playback.for_show(duration_ms);
     }
 
+    /// A new show of `duration_ms` as [`Clock::for_show`], or, `from_ms` given,
+    /// paused at that time (where a Start from there begins).
+    pub fn for_show_from(&mut self, duration_ms: u64, from_ms: Option<u64>) {
+        self.for_show(duration_ms);
+        if let Some(from_ms) = from_ms {
+            self.playback.follow(from_ms as f64);
+        }
+    }
+
     /// Takes the bridge's status (none while disconnected) that came at `now_ms` for
     /// the show named `name`: live mode is offered only while the matrix plays it, and
     /// ends when it stops.
@@ -294,5 +303,18 @@ mod tests {
         assert!(view.toggle_perf());
         assert!(view.perf_open());
         assert!(!view.toggle_perf());
+    }
+
+    #[test]
+    fn a_show_opened_from_a_start_time_waits_there() {
+        let mut clock = Clock::new(0.0);
+        clock.for_show_from(10_000, Some(2_500));
+        assert_eq!(clock.t_ms(), 2_500.0);
+        assert!(!clock.playback().playing());
+        clock.for_show_from(2_000, Some(2_500));
+        assert_eq!(clock.t_ms(), 2_000.0, "within the show");
+        clock.for_show_from(10_000, None);
+        assert_eq!(clock.t_ms(), 0.0);
+        assert!(clock.playback().playing());
     }
 }

@@ -61,7 +61,13 @@ fn config(trigger: Option<Trigger>) -> SclDriveConfig {
 }
 
 fn entry(config: &SclDriveConfig, cycles: u32) -> Run<SclEntry> {
-    let show = show();
+    // The approach goes 1 mm below each show's start (the tests see it in the lines).
+    entry_of(config, &show(), cycles, 1.0)
+}
+
+/// `show` as an entry of `cycles` cycles, its programs compiled, its approach
+/// `below_mm` below each ball's start.
+fn entry_of(config: &SclDriveConfig, show: &Show, cycles: u32, below_mm: f64) -> Run<SclEntry> {
     let settings = QProgramConfig {
         counts_per_mm: COUNTS_PER_MM,
         start: None,
@@ -82,7 +88,7 @@ fn entry(config: &SclDriveConfig, cycles: u32) -> Run<SclEntry> {
         },
         prepared: SclEntry::new(
             config,
-            show.tracks.iter().map(|track| track.start_mm + 1.0),
+            show.tracks.iter().map(|track| track.start_mm + below_mm),
             Some(programs),
             show.duration_ms(),
         ),
@@ -522,4 +528,42 @@ fn the_approach_writes_values_a_drive_holds() {
             assert!(units::ACCELERATION.steps(a).is_some(), "{mnemonic}{a}");
         }
     }
+}
+
+#[test]
+fn a_start_from_a_time_uploads_the_cut_then_the_whole_show_for_the_next_cycle() {
+    let mut rig = Rig::new();
+    let config = rig.sequencer.drive().config().clone();
+    let cut = show().from_time(375, 2_000.0).unwrap();
+    assert!(cut.start_ms > 0 && cut.joins_ms == 375, "{cut:?}");
+    let lead = entry_of(&config, &cut.show, 1, 0.0);
+    rig.sequencer
+        .start_at(
+            0,
+            vec![entry(&config, 2)],
+            false,
+            crate::player::StartAt {
+                entry: 0,
+                lead: Some(crate::player::Lead {
+                    from_ms: cut.start_ms,
+                    prepared: lead.prepared,
+                }),
+            },
+        )
+        .unwrap();
+    while rig.sequencer.status().state != PlayerState::Playing {
+        let at_us = rig.now_us + 1_000;
+        rig.run_until(at_us);
+    }
+    // The lead plays on the full show's clock.
+    let status = rig.sequencer.status();
+    assert_eq!((status.cycle, status.show_duration_ms), (1, 1_000));
+    assert!(status.show_time_ms >= cut.start_ms && status.show_time_ms <= cut.start_ms + 2);
+    rig.run_until(60_000_000);
+    assert_eq!(rig.sequencer.status().state, PlayerState::Idle);
+    assert_eq!(rig.positions(), [500, 1_000, 1_500]);
+    let lines = rig.commands(1);
+    // Two uploads: the cut's, then the whole show's for the entry's second cycle.
+    assert_eq!(lines.iter().filter(|line| *line == "QW1").count(), 2);
+    assert_eq!(lines.iter().filter(|line| *line == "QX1").count(), 2);
 }

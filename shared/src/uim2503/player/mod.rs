@@ -539,6 +539,36 @@ impl Player {
         self.sequencer.start(now_us, runs, loop_playlist)
     }
 
+    /// Start at entry `entry` (0-based) of a playlist [`prepare`]d already, from a time
+    /// inside its show with `lead`: the show's time at the cut's start and the cut
+    /// prepared as a one-entry playlist ([`crate::show::Show::from_time`],
+    /// [`Sequencer::start_at`]).
+    ///
+    /// # Errors
+    /// As [`Player::start_prepared`], and [`Sequencer::start_at`]'s refusals.
+    pub fn start_prepared_at(
+        &mut self,
+        now_us: u64,
+        prepared: Prepared,
+        (entry, lead): (usize, Option<(u64, Prepared)>),
+        links: &[LinkView],
+    ) -> Result<(), StartError> {
+        if self.sequencer.is_running() {
+            return Err(StartError::Busy);
+        }
+        check_links(self.installation(), links)?;
+        let (entries, loop_playlist) = runs(prepared);
+        let lead = lead.and_then(|(from_ms, cut)| {
+            let plan = runs(cut).0.into_iter().next()?.prepared;
+            Some(crate::player::Lead {
+                from_ms,
+                prepared: plan,
+            })
+        });
+        let at = crate::player::StartAt { entry, lead };
+        self.sequencer.start_at(now_us, entries, loop_playlist, at)
+    }
+
     /// The e-stop was sent (by the caller, ahead of everything on every gateway): the
     /// player stops, forgets where the balls are, and homes before the next show. A
     /// failure stays a failure (its reason stays visible).
