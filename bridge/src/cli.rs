@@ -219,6 +219,15 @@ async fn serve(
         );
     }
     let listen = config.listen;
+    let osc = match config.osc.clone() {
+        Some(osc) => {
+            let socket = crate::osc::bind(&osc)
+                .await
+                .with_context(|| format!("cannot listen for OSC on udp {}", osc.listen))?;
+            Some((socket, osc))
+        }
+        None => None,
+    };
     let state = AppState::open_with(
         config,
         Paths {
@@ -234,6 +243,15 @@ async fn serve(
     let addr = listener
         .local_addr()
         .context("cannot read the listening address")?;
+    if let Some((socket, osc)) = osc {
+        tracing::info!(
+            "OSC on udp {} (e-stop {}, motion {})",
+            osc.listen,
+            if osc.estop { "on" } else { "off" },
+            if osc.motion { "on" } else { "off" }
+        );
+        crate::osc::spawn(state.clone(), socket, osc);
+    }
     // The first line on stdout is the URL: people read it, and tests parse it.
     println!("floatball listening on http://{addr}");
     server::run(listener, state, shutdown_signal()).await?;

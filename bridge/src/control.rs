@@ -122,6 +122,23 @@ pub async fn playlist(state: &AppState) -> Result<Playlist, ServerMessage> {
     })?
 }
 
+/// Takes `control` as it arrives, from any client (the WebSocket, OSC): Reset and
+/// Home press the e-stop at once ([`crate::playback::Playback::estop`]), and every
+/// request is tagged now with the e-stop generation, so that an e-stop arriving after
+/// it voids it even while it is being prepared. Returns the rest of the work, for the
+/// caller to spawn: [`run`] at that generation.
+pub fn issue(
+    state: &AppState,
+    control: Control,
+) -> impl std::future::Future<Output = Result<(), ServerMessage>> + Send + 'static {
+    if !matches!(control, Control::Start(_)) {
+        state.playback().estop();
+    }
+    let generation = state.playback().latch().generation();
+    let state = state.clone();
+    async move { run(&state, control, generation).await }
+}
+
 /// Carries out `control`, a request issued at e-stop `generation` (for Reset and
 /// Home, after their own stop was pressed).
 ///

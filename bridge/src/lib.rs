@@ -54,6 +54,9 @@
 //!   watchdog (`playback/uim2503.rs`), MBOX boxes (`playback/mbox.rs`), MOONS' drives
 //!   (`playback/scl.rs`).
 //! - [`control`]: Start, Reset and Home as the WebSocket asks for them.
+//! - [`osc`]: show control over OSC on UDP (`[osc]`, off by default): commands from
+//!   the allowed senders carried out by the same functions as the WebSocket's, and
+//!   feedback of the state, the entry and the show time.
 //! - [`install`]: a new installation (`PUT /api/installation`, a gateway's line
 //!   speed) checked, saved into `floatball.toml` (`config/edit.rs`) and applied while
 //!   idle, without a restart.
@@ -84,6 +87,7 @@ pub mod generate;
 pub mod http;
 pub mod install;
 pub mod origin;
+pub mod osc;
 pub mod playback;
 pub mod playlist;
 pub mod ports;

@@ -738,13 +738,10 @@ fn answer(
                 _ => Control::Home,
             };
             // Reset and Home stop at once; every one of them is tagged now.
-            if !matches!(control, Control::Start(_)) {
-                state.playback().estop();
-            }
-            let generation = state.playback().latch().generation();
-            let (state, replies) = (state.clone(), replies.clone());
+            let running = control::issue(state, control);
+            let replies = replies.clone();
             tokio::spawn(async move {
-                if let Err(refusal) = control::run(&state, control, generation).await {
+                if let Err(refusal) = running.await {
                     if let ServerMessage::Error { message, .. } = &refusal {
                         tracing::warn!("{control:?} refused: {message}");
                     }

@@ -232,6 +232,7 @@ impl Checker<'_> {
                     }),
             ),
         };
+        let osc = self.keep(self.osc(&raw.osc));
         let (gateways, units, boxes, drives) = gateways?;
         // Every gateway is of the first one's kind (`gateway` refuses another).
         let family = if !boxes.is_empty() {
@@ -261,6 +262,7 @@ impl Checker<'_> {
                 max_duration: max_duration?,
             },
             family,
+            osc: osc?,
         })
     }
 

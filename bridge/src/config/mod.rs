@@ -11,6 +11,7 @@
 //!   line, the column and the reason, e.g.
 //!   `data/floatball.toml line 12, column 8: baud 300 is out of range (1200 to 921600)`.
 //! - `scl`: the MOONS' drives' gateway entries and the `[scl]` table.
+//! - `osc`: the `[osc]` table, show control over OSC.
 //!
 //! The check goes on past a problem and lists every one ([`Config::parse_all`]), for
 //! `floatball check`, for the start, and for `PUT /api/installation`, which writes
@@ -23,11 +24,13 @@
 
 mod check;
 pub mod edit;
+pub mod osc;
 mod raw;
 pub mod scl;
 #[cfg(test)]
 mod tests;
 
+pub use osc::{OscConfig, Source};
 pub use scl::{
     DEFAULT_SCL_HOST_PORT, DEFAULT_SCL_POLL, DEFAULT_START_INPUT, DEFAULT_STEPS_PER_REV,
     DEFAULT_TOLERANCE_MM, SclConfig, SclGateway, SclPrograms, default_addresses,
@@ -77,6 +80,8 @@ pub struct Config {
     /// The kind of drive every gateway is, with its own settings: chosen once, here
     /// (the check refuses gateways of different kinds).
     pub family: Family,
+    /// Show control over OSC (`[osc]`), when it is on.
+    pub osc: Option<OscConfig>,
 }
 
 /// The drive family of an installation, with what only that family needs.

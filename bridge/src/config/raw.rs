@@ -25,6 +25,8 @@ pub(super) struct RawConfig {
     pub(super) mbox: RawMbox,
     #[serde(default)]
     pub(super) scl: RawScl,
+    #[serde(default)]
+    pub(super) osc: RawOsc,
 }
 
 /// `[matrix]`.
@@ -116,4 +118,16 @@ pub(super) struct RawScl {
     pub(super) tolerance_mm: Option<Spanned<f64>>,
     pub(super) poll_ms: Option<Spanned<u32>>,
     pub(super) host_port: Option<Spanned<u16>>,
+}
+
+/// `[osc]`: show control over OSC (off unless `listen` is given).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawOsc {
+    pub(super) listen: Option<Spanned<String>>,
+    #[serde(default)]
+    pub(super) allow: Vec<Spanned<String>>,
+    pub(super) estop: Option<Spanned<bool>>,
+    pub(super) motion: Option<Spanned<bool>>,
+    pub(super) feedback: Option<Spanned<String>>,
 }

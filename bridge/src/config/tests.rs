@@ -761,3 +761,62 @@ fn network_ports_are_taken_and_bad_ones_refused_naming_the_forms() {
         "{error}"
     );
 }
+
+#[test]
+fn osc_is_off_unless_listen_is_given_and_its_switches_default_to_estop_only() {
+    assert_eq!(parse("").expect("empty").osc, None);
+    assert_eq!(
+        parse("[osc]\nallow = [\"10.0.0.1\"]\n").expect("no listen").osc,
+        None
+    );
+    let config = parse(
+        "[osc]\nlisten = \"0.0.0.0:9000\"\nallow = [\"192.168.1.20\", \"10.0.0.0/24\"]\n",
+    )
+    .expect("osc");
+    let osc = config.osc.expect("on");
+    assert_eq!(osc.listen, "0.0.0.0:9000".parse().expect("addr"));
+    assert_eq!(osc.allow.len(), 2);
+    assert!(osc.allow[1].contains("10.0.0.7".parse().expect("ip")));
+    assert!(osc.estop);
+    assert!(!osc.motion);
+    assert_eq!(osc.feedback, None);
+    let osc = parse(
+        "[osc]\nlisten = \"127.0.0.1:9000\"\nallow = [\"127.0.0.1\"]\nestop = false\n\
+         motion = true\nfeedback = \"127.0.0.1:9001\"\n",
+    )
+    .expect("osc")
+    .osc
+    .expect("on");
+    assert!(!osc.estop && osc.motion);
+    assert_eq!(osc.feedback, Some("127.0.0.1:9001".parse().expect("addr")));
+}
+
+#[test]
+fn wrong_osc_values_name_their_line() {
+    for (text, expected) in [
+        (
+            "[osc]\nlisten = \"9000\"\nallow = [\"10.0.0.1\"]\n",
+            "line 2, column 10: [osc] listen = \"9000\" is not an address and UDP port",
+        ),
+        (
+            "[osc]\nlisten = \"0.0.0.0:9000\"\nallow = [\"10.0.0.1\", \"pc.local\"]\n",
+            "line 3, column 22: [osc] allow: \"pc.local\" is not an address",
+        ),
+        (
+            "[osc]\nlisten = \"0.0.0.0:9000\"\n",
+            "line 2, column 10: [osc] allow lists no sender",
+        ),
+        (
+            "[osc]\nlisten = \"0.0.0.0:9000\"\nallow = [\"10.0.0.1\"]\nfeedback = \"0.0.0.0:9001\"\n",
+            "line 4, column 12: [osc] feedback = \"0.0.0.0:9001\" must name the address",
+        ),
+        (
+            "[osc]\nlisten = \"0.0.0.0:9000\"\nallow = [\"10.0.0.1\"]\nmotion = \"yes\"\n",
+            "line 4, column 10",
+        ),
+        ("[osc]\nport = 9000\n", "line 2, column 1"),
+    ] {
+        let message = parse(text).expect_err(text).to_string();
+        assert!(message.contains(expected), "{text}: {message}");
+    }
+}
