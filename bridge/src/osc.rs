@@ -157,7 +157,10 @@ fn handle(
                 tracing::debug!("OSC from {sender}: {:?} 0 (a release) ignored", osc.addr);
             }
             Command::Estop if !config.estop => {
-                refuse(&osc.addr, "the e-stop over OSC is switched off ([osc] estop)");
+                refuse(
+                    &osc.addr,
+                    "the e-stop over OSC is switched off ([osc] estop)",
+                );
             }
             Command::Estop => {
                 let unreached = state.playback().estop();
@@ -289,7 +292,12 @@ fn entry_number(arg: &OscType) -> Result<usize, String> {
     number(arg)
         .filter(|entry| entry.fract() == 0.0 && (1.0..=1e6).contains(entry))
         .map(|entry| entry as usize)
-        .ok_or_else(|| format!("the entry must be a whole number from 1, not {}", shown(arg)))
+        .ok_or_else(|| {
+            format!(
+                "the entry must be a whole number from 1, not {}",
+                shown(arg)
+            )
+        })
 }
 
 /// A time inside a show, seconds (an int or a float) from 0 to 24 hours, in ms.
@@ -297,7 +305,12 @@ fn time_ms(arg: &OscType) -> Result<u64, String> {
     number(arg)
         .filter(|time| (0.0..=MAX_TIME_S).contains(time))
         .map(|time| (time * 1000.0).round() as u64)
-        .ok_or_else(|| format!("the time must be seconds from 0 to 86400, not {}", shown(arg)))
+        .ok_or_else(|| {
+            format!(
+                "the time must be seconds from 0 to 86400, not {}",
+                shown(arg)
+            )
+        })
 }
 
 /// An argument in a refusal: a number's value, or the kind of anything else (never
@@ -427,7 +440,10 @@ mod tests {
     #[test]
     fn commands_take_an_entry_and_a_time_in_seconds() {
         let start = |entry, time_ms| {
-            Ok(Command::Control(Control::Start(StartFrom { entry, time_ms })))
+            Ok(Command::Control(Control::Start(StartFrom {
+                entry,
+                time_ms,
+            })))
         };
         assert_eq!(command(&osc("/floatball/start", vec![])), start(None, None));
         assert_eq!(
@@ -547,7 +563,11 @@ mod tests {
                 "/floatball/start"
             ]
         );
-        assert!(decode(&[0; MAX_PACKET_BYTES + 1]).unwrap_err().contains("over"));
+        assert!(
+            decode(&[0; MAX_PACKET_BYTES + 1])
+                .unwrap_err()
+                .contains("over")
+        );
         assert!(decode(b"hello").unwrap_err().starts_with("not OSC"));
     }
 
@@ -608,7 +628,7 @@ mod tests {
         arrays.extend(std::iter::repeat_n(b'[', depth));
         arrays.extend(std::iter::repeat_n(b']', depth));
         arrays.push(0);
-        while arrays.len() % 4 != 0 {
+        while !arrays.len().is_multiple_of(4) {
             arrays.push(0);
         }
         read(&arrays);

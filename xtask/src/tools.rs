@@ -2,7 +2,7 @@
 //!
 //! Every install says what it installs and why before it starts. Nothing is
 //! downloaded outside the package registries: Rust tools come from crates.io through
-//! `cargo install`, the browser and `ser2net` from Debian's packages through
+//! `cargo install`, the browser, `ser2net` and `liblo-tools` from Debian's packages through
 //! `apt-get`, `wasm-opt` from npm's `binaryen` package into the target directory.
 
 use std::ffi::OsString;
@@ -337,6 +337,27 @@ pub fn ensure_ser2net(env: &Env) -> Result<(), String> {
         env,
         &["ser2net"],
         "ser2net (the bridge's tcp:// and rfc2217:// gateways are tested through a real serial device server)",
+    )
+}
+
+/// The programs of Debian's `liblo-tools` (a real OSC client: `oscsend` sends,
+/// `oscdump` receives) that `bridge/tests/osc.rs` drives the bridge's OSC control with.
+pub const LIBLO_TOOLS: [&str; 2] = ["/usr/bin/oscsend", "/usr/bin/oscdump"];
+
+/// The variable that makes missing `liblo-tools` fail `bridge/tests/osc.rs` instead of
+/// skipping it (`cargo xtask test` sets it, having installed them).
+pub const REQUIRE_LIBLO: &str = "FLOATBALL_REQUIRE_LIBLO";
+
+/// Installs Debian's `liblo-tools` when `oscsend` or `oscdump` is missing (as root;
+/// otherwise stops with the command to run).
+pub fn ensure_liblo_tools(env: &Env) -> Result<(), String> {
+    if LIBLO_TOOLS.iter().all(|tool| Path::new(tool).is_file()) {
+        return Ok(());
+    }
+    apt_install(
+        env,
+        &["liblo-tools"],
+        "liblo-tools (the bridge's OSC control is tested with a real OSC client, oscsend and oscdump)",
     )
 }
 

@@ -173,7 +173,14 @@ mod tests {
         let v6 = Source::parse("fd00::/64").unwrap();
         assert!(v6.contains("fd00::1:2".parse().unwrap()));
         assert!(!v6.contains("fd01::1".parse().unwrap()));
-        for wrong in ["", "host", "10.0.0.0/33", "10.0.0.0/", "10.0.0.0/+8", "::/129"] {
+        for wrong in [
+            "",
+            "host",
+            "10.0.0.0/33",
+            "10.0.0.0/",
+            "10.0.0.0/+8",
+            "::/129",
+        ] {
             assert_eq!(Source::parse(wrong), None, "{wrong}");
         }
     }

@@ -766,13 +766,14 @@ fn network_ports_are_taken_and_bad_ones_refused_naming_the_forms() {
 fn osc_is_off_unless_listen_is_given_and_its_switches_default_to_estop_only() {
     assert_eq!(parse("").expect("empty").osc, None);
     assert_eq!(
-        parse("[osc]\nallow = [\"10.0.0.1\"]\n").expect("no listen").osc,
+        parse("[osc]\nallow = [\"10.0.0.1\"]\n")
+            .expect("no listen")
+            .osc,
         None
     );
-    let config = parse(
-        "[osc]\nlisten = \"0.0.0.0:9000\"\nallow = [\"192.168.1.20\", \"10.0.0.0/24\"]\n",
-    )
-    .expect("osc");
+    let config =
+        parse("[osc]\nlisten = \"0.0.0.0:9000\"\nallow = [\"192.168.1.20\", \"10.0.0.0/24\"]\n")
+            .expect("osc");
     let osc = config.osc.expect("on");
     assert_eq!(osc.listen, "0.0.0.0:9000".parse().expect("addr"));
     assert_eq!(osc.allow.len(), 2);

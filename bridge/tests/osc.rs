@@ -1,0 +1,297 @@
+//! Show control over OSC (issue 37, item 4) from a real OSC client: Debian's
+//! `liblo-tools` (`oscsend` sends, `oscdump` receives the feedback), to the real
+//! `floatball` binary on the simulated UIM2503 gateway.
+//!
+//! With `motion = true`: an allowed `/floatball/start 1 0.5` plays entry 1 from
+//! 0.5 s (the first `playing` status's show time is the cut's); the feedback says
+//! `playing`, entry 1 and the show time; an e-stop from a sender `allow` does not
+//! list is ignored and logged with its address (the show plays on); an allowed
+//! `/floatball/estop` stops, and the feedback says the e-stop is latched. With the
+//! defaults (`motion = false`): `/floatball/start` is refused, logged and reported to
+//! the feedback address, while `/floatball/estop` works; unknown addresses and packets
+//! that are not OSC are refused and logged.
+//!
+//! `oscsend` and `oscdump` are found on the `PATH`. Without them the test says so and
+//! passes — unless `FLOATBALL_REQUIRE_LIBLO=1` (`cargo xtask test` sets it, having
+//! installed `liblo-tools`), when their absence fails it.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::net::UdpSocket;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use common::process::{Process, links_up, wave_json};
+use common::{Ws, next_message};
+use floatball_shared::api::{PlayerState, ServerMessage, Status};
+use floatball_shared::show::Show;
+use floatball_shared::show::validate::DEFAULT_MAX_ACCEL_MM_S2;
+use rosc::{OscMessage, OscPacket, OscType};
+
+/// The 1 × 3 matrix on the simulated gateway, and `[osc]` with `osc` added.
+fn config(osc: &str) -> String {
+    format!(
+        "[matrix]\nrows = 1\ncols = 3\n[safety]\napproach_speed_mm_s = 2000.0\n\
+         [[gateway]]\nport = \"sim\"\nbaud = 115200\n[osc]\n{osc}"
+    )
+}
+
+/// Whether `program` is on the `PATH`.
+fn on_path(program: &str) -> bool {
+    std::env::var_os("PATH")
+        .is_some_and(|path| std::env::split_paths(&path).any(|dir| dir.join(program).is_file()))
+}
+
+/// Whether `oscsend` and `oscdump` are there; `false` (with the reason said) when the
+/// test is to be skipped.
+fn liblo_tools() -> bool {
+    if on_path("oscsend") && on_path("oscdump") {
+        return true;
+    }
+    let required = std::env::var("FLOATBALL_REQUIRE_LIBLO").is_ok_and(|value| value == "1");
+    assert!(
+        !required,
+        "oscsend and oscdump are not on the PATH and FLOATBALL_REQUIRE_LIBLO=1: install \
+         them with `apt-get install -y liblo-tools` (cargo xtask test does)"
+    );
+    eprintln!(
+        "SKIPPED: oscsend and oscdump are not on the PATH (install them with \
+         `apt-get install -y liblo-tools`)"
+    );
+    false
+}
+
+/// A free UDP port on the loopback.
+fn free_port() -> u16 {
+    UdpSocket::bind("127.0.0.1:0")
+        .and_then(|socket| socket.local_addr())
+        .expect("a free port")
+        .port()
+}
+
+/// `oscsend 127.0.0.1 <port> <address> <types> <values…>`.
+fn oscsend(port: u16, address: &str, typed: &[&str]) {
+    let status = Command::new("oscsend")
+        .arg("127.0.0.1")
+        .arg(port.to_string())
+        .arg(address)
+        .args(typed)
+        .status()
+        .expect("run oscsend");
+    assert!(status.success(), "oscsend {address} {typed:?}: {status}");
+}
+
+/// `oscdump` on a port: every line it prints (without its time stamp).
+struct Dump {
+    child: Child,
+    lines: Arc<Mutex<Vec<String>>>,
+}
+
+impl Dump {
+    fn start(port: u16) -> Self {
+        let mut child = Command::new("oscdump")
+            .args(["-L", &port.to_string()])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("run oscdump");
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let stdout = child.stdout.take().expect("stdout");
+        let seen = Arc::clone(&lines);
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                // `eeb5ec3d.738d4fde /floatball/state s "playing"`
+                let message = line.split_once(' ').map_or(line.as_str(), |(_, rest)| rest);
+                seen.lock().unwrap().push(message.to_owned());
+            }
+        });
+        Self { child, lines }
+    }
+
+    /// Waits up to 10 s for a line that starts with `prefix` and passes `check`;
+    /// returns it.
+    async fn until(&self, prefix: &str, check: impl Fn(&str) -> bool) -> String {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        loop {
+            if let Some(line) = self
+                .lines
+                .lock()
+                .unwrap()
+                .iter()
+                .rev()
+                .find(|line| line.starts_with(prefix) && check(line))
+            {
+                return line.clone();
+            }
+            assert!(
+                Instant::now() < deadline,
+                "oscdump saw no {prefix} that fits: {:?}",
+                self.lines.lock().unwrap()
+            );
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    }
+}
+
+impl Drop for Dump {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Waits up to 10 s for `bridge`'s log to hold `text`.
+async fn logged(bridge: &Process, text: &str) -> String {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        let log = bridge.log();
+        if let Some(line) = log.lines().find(|line| line.contains(text)) {
+            return line.to_owned();
+        }
+        assert!(Instant::now() < deadline, "the log has no {text:?}:\n{log}");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+/// The next status that passes `check`, within 30 s.
+async fn status_until(ws: &mut Ws, what: &str, check: impl Fn(&Status) -> bool) -> Status {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(30);
+    loop {
+        let message = tokio::time::timeout_at(deadline, next_message(ws))
+            .await
+            .unwrap_or_else(|_| panic!("no status: {what}"));
+        if let ServerMessage::Status(status) = message
+            && check(&status)
+        {
+            return status;
+        }
+    }
+}
+
+/// Sends `message` to `port` from `from` (an address such as `127.0.0.2:0`).
+fn send_from(from: &str, port: u16, message: OscMessage) {
+    let socket = UdpSocket::bind(from).expect("bind the sender");
+    let bytes = rosc::encoder::encode(&OscPacket::Message(message)).expect("encode");
+    socket.send_to(&bytes, ("127.0.0.1", port)).expect("send");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn osc_starts_stops_and_refuses_as_configured() {
+    if !liblo_tools() {
+        return;
+    }
+    // Motion allowed: start from a time, feedback, a stranger ignored, the e-stop.
+    let (port, feedback) = (free_port(), free_port());
+    let dump = Dump::start(feedback);
+    let bridge = Process::start(&config(&format!(
+        "listen = \"127.0.0.1:{port}\"\nallow = [\"127.0.0.1\"]\nmotion = true\n\
+         feedback = \"127.0.0.1:{feedback}\"\n"
+    )));
+    let file = wave_json("wave", 1, 3, 4_000, 100.0);
+    let token = bridge.prepare_show("wave", &file, false).await;
+    let mut ws = bridge.ws(&token).await;
+    assert!(links_up(&mut ws).await, "{}", bridge.log());
+    dump.until("/floatball/state s", |line| line.ends_with("\"idle\""))
+        .await;
+    let show = Show::from_json(std::str::from_utf8(&file).unwrap()).unwrap();
+    let cut = show
+        .from_time(500, DEFAULT_MAX_ACCEL_MM_S2 / 2.0)
+        .expect("a cut at 0.5 s");
+    oscsend(port, "/floatball/start", &["if", "1", "0.5"]);
+    let playing = status_until(&mut ws, "playing", |status| {
+        status.state == PlayerState::Playing
+    })
+    .await;
+    assert_eq!(playing.entry, Some(0));
+    assert!(
+        (cut.start_ms..=cut.start_ms + 200).contains(&playing.show_time_ms),
+        "played from {} ms, not the cut at {} ms",
+        playing.show_time_ms,
+        cut.start_ms
+    );
+    dump.until("/floatball/state s", |line| line.ends_with("\"playing\""))
+        .await;
+    dump.until("/floatball/entry i 1", |_| true).await;
+    dump.until("/floatball/show s \"wave\"", |_| true).await;
+    dump.until("/floatball/time f", |line| {
+        line.rsplit(' ')
+            .next()
+            .and_then(|time| time.parse::<f64>().ok())
+            .is_some_and(|time| time >= 0.5)
+    })
+    .await;
+    send_from(
+        "127.0.0.2:0",
+        port,
+        OscMessage {
+            addr: "/floatball/estop".into(),
+            args: vec![],
+        },
+    );
+    let refused = logged(&bridge, "OSC from 127.0.0.2:").await;
+    assert!(refused.contains("not in [osc] allow"), "{refused}");
+    let still = status_until(&mut ws, "a status", |_| true).await;
+    assert_eq!(still.state, PlayerState::Playing, "a stranger stopped it");
+    oscsend(port, "/floatball/estop", &[]);
+    status_until(&mut ws, "stopped", |status| {
+        status.state == PlayerState::Stopped
+    })
+    .await;
+    logged(&bridge, "e-stop requested over OSC by 127.0.0.1:").await;
+    dump.until("/floatball/latched i 1", |_| true).await;
+    drop(bridge);
+    drop(dump);
+
+    // The defaults: the e-stop only.
+    let port = free_port();
+    let feedback = UdpSocket::bind("127.0.0.1:0").expect("feedback socket");
+    feedback
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
+    let bridge = Process::start(&config(&format!(
+        "listen = \"127.0.0.1:{port}\"\nallow = [\"127.0.0.1\"]\nfeedback = \"{}\"\n",
+        feedback.local_addr().unwrap()
+    )));
+    let token = bridge.prepare_show("wave", &file, false).await;
+    let mut ws = bridge.ws(&token).await;
+    assert!(links_up(&mut ws).await, "{}", bridge.log());
+    oscsend(port, "/floatball/start", &["i", "1"]);
+    let refused = logged(&bridge, "\"/floatball/start\" refused").await;
+    assert!(
+        refused.contains("OSC from 127.0.0.1:") && refused.contains("[osc] motion = false"),
+        "{refused}"
+    );
+    // The refusal reaches the feedback address too.
+    let mut buffer = [0u8; 1500];
+    let reported = loop {
+        let length = feedback.recv(&mut buffer).expect("feedback");
+        let (_, packet) = rosc::decoder::decode_udp(&buffer[..length]).expect("OSC");
+        if let OscPacket::Message(message) = packet
+            && message.addr == "/floatball/refused"
+        {
+            break message.args;
+        }
+    };
+    assert!(
+        matches!(&reported[..], [OscType::String(address), OscType::String(why)]
+            if address == "/floatball/start" && why.contains("motion")),
+        "{reported:?}"
+    );
+    oscsend(port, "/floatball/jump", &[]);
+    let unknown = logged(&bridge, "\"/floatball/jump\" refused").await;
+    assert!(unknown.contains("unknown address"), "{unknown}");
+    UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .send_to(b"not OSC at all", ("127.0.0.1", port))
+        .unwrap();
+    logged(&bridge, "refused: not OSC").await;
+    let idle = status_until(&mut ws, "a status", |_| true).await;
+    assert_eq!(idle.state, PlayerState::Idle, "a refused start moved");
+    oscsend(port, "/floatball/estop", &[]);
+    status_until(&mut ws, "stopped", |status| {
+        status.state == PlayerState::Stopped
+    })
+    .await;
+}
