@@ -17,11 +17,15 @@
 //! `allow` does not list (never answered), a packet over [`MAX_PACKET_BYTES`] or that
 //! is not OSC, an unknown address, wrong arguments, a command switched off, motion
 //! before the initial password is changed, and a Start, Reset, Home or goto the player
-//! refuses. Refusals of an allowed sender also go to the feedback address as
-//! `/floatball/refused <address> <why>`. Bundles are taken apart and their messages
-//! carried out at once, in order (their time tags are not waited for). A packet's
-//! size is checked before it is decoded, which bounds how deep bundles and arrays can
-//! nest: no bytes can exhaust the stack, and nothing here panics on any bytes.
+//! refuses ([`REFUSALS_LOGGED_PER_S`] a second one by one, the rest of a flood
+//! counted). Refusals of an allowed sender also go to the feedback address as
+//! `/floatball/refused <address> <why>`, except of messages on the feedback's own
+//! addresses ([`FEEDBACK_ADDRESSES`]: two bridges would answer each other for ever).
+//!
+//! Bundles are taken apart and their messages carried out at once, in order (their
+//! time tags are not waited for). A packet's size is checked before it is decoded,
+//! which bounds how deep bundles and arrays can nest: no bytes can exhaust the stack,
+//! and nothing here panics on any bytes.
 //!
 //! Feedback ([`feedback_messages`]): `/floatball/state`, `/floatball/entry`,
 //! `/floatball/show`, `/floatball/time`, `/floatball/latched`, each its own datagram,
@@ -55,6 +59,21 @@ pub const FEEDBACK_REFRESH: Duration = Duration::from_secs(1);
 
 /// The longest show time a command may name, seconds (the longest show accepted).
 const MAX_TIME_S: f64 = 24.0 * 60.0 * 60.0;
+
+/// Most refusals logged one by one in a second: beyond, they are counted and the count
+/// logged with their senders once the second is over, so that a flood of datagrams
+/// cannot fill the log.
+pub const REFUSALS_LOGGED_PER_S: u32 = 20;
+
+/// The addresses the feedback is sent on ([`feedback_messages`], and refusals).
+pub const FEEDBACK_ADDRESSES: [&str; 6] = [
+    "/floatball/state",
+    "/floatball/entry",
+    "/floatball/show",
+    "/floatball/time",
+    "/floatball/latched",
+    "/floatball/refused",
+];
 
 /// A command the bridge carries out.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -93,18 +112,87 @@ async fn receive(state: AppState, socket: Arc<UdpSocket>, config: Arc<OscConfig>
     let mut stopping = state.stopping();
     // Room for any datagram, so that one too large is seen as such (not cut short).
     let mut buffer = vec![0u8; 65_536];
+    let mut refusals = Refusals::new();
     loop {
+        let due = refusals.due();
         let received = tokio::select! {
             _ = stopping.changed() => return,
             received = socket.recv_from(&mut buffer) => received,
+            () = tokio::time::sleep_until(due.unwrap_or_else(Instant::now)), if due.is_some() => {
+                refusals.flush();
+                continue;
+            }
         };
         match received {
             Ok((length, sender)) => {
                 let packet = buffer.get(..length).unwrap_or_default();
-                handle(&state, &socket, &config, packet, sender);
+                handle(&state, &socket, &config, &mut refusals, packet, sender);
             }
             Err(error) => tracing::debug!("OSC: receiving: {error}"),
         }
+    }
+}
+
+/// The log of refusals: at most [`REFUSALS_LOGGED_PER_S`] a second one by one, the
+/// rest counted, with their senders, and the count logged once the second is over.
+#[derive(Debug)]
+struct Refusals {
+    since: Instant,
+    logged: u32,
+    unlogged: u32,
+    senders: Vec<std::net::IpAddr>,
+}
+
+/// How many senders the count of refusals not logged one by one names at most.
+const SENDERS_NAMED: usize = 8;
+
+impl Refusals {
+    fn new() -> Self {
+        Self {
+            since: Instant::now(),
+            logged: 0,
+            unlogged: 0,
+            senders: Vec::new(),
+        }
+    }
+
+    /// Logs that `sender`'s `what` was refused, `why`.
+    fn log(&mut self, sender: SocketAddr, what: &str, why: &str) {
+        if self.since.elapsed() >= Duration::from_secs(1) {
+            self.flush();
+        }
+        if self.logged < REFUSALS_LOGGED_PER_S {
+            self.logged += 1;
+            tracing::warn!("OSC from {sender}{what} refused: {why}");
+        } else {
+            self.unlogged += 1;
+            if self.senders.len() < SENDERS_NAMED && !self.senders.contains(&sender.ip()) {
+                self.senders.push(sender.ip());
+            }
+        }
+    }
+
+    /// When the count of refusals not logged is due, if there is one.
+    fn due(&self) -> Option<Instant> {
+        (self.unlogged > 0).then_some(self.since + Duration::from_secs(1))
+    }
+
+    /// Logs the count of refusals not logged one by one, and starts a new second.
+    fn flush(&mut self) {
+        if self.unlogged > 0 {
+            let senders: Vec<String> = self.senders.iter().map(ToString::to_string).collect();
+            tracing::warn!(
+                "OSC: {} more refusals in a second, not logged one by one, from {}{}",
+                self.unlogged,
+                senders.join(", "),
+                if self.senders.len() == SENDERS_NAMED {
+                    " and maybe more"
+                } else {
+                    ""
+                }
+            );
+        }
+        *self = Self::new();
     }
 }
 
@@ -113,6 +201,7 @@ fn handle(
     state: &AppState,
     socket: &Arc<UdpSocket>,
     config: &Arc<OscConfig>,
+    refusals: &mut Refusals,
     packet: &[u8],
     sender: SocketAddr,
 ) {
@@ -121,12 +210,16 @@ fn handle(
         .iter()
         .any(|source| source.contains(sender.ip()))
     {
-        tracing::warn!("OSC from {sender} refused: the sender is not in [osc] allow");
+        refusals.log(sender, "", "the sender is not in [osc] allow");
         return;
     }
-    let refuse = |address: &str, why: &str| {
-        tracing::warn!("OSC from {sender}: {address:?} refused: {why}");
-        if let Some(to) = config.feedback {
+    let mut refuse = |address: &str, why: &str| {
+        refusals.log(sender, &format!(": {address:?}"), why);
+        // Never about feedback (another bridge's, or this one's sent back to it): two
+        // bridges would answer each other's answers for ever.
+        if let Some(to) = config.feedback
+            && !FEEDBACK_ADDRESSES.contains(&address)
+        {
             send(
                 socket,
                 to,
@@ -569,6 +662,27 @@ mod tests {
                 .contains("over")
         );
         assert!(decode(b"hello").unwrap_err().starts_with("not OSC"));
+    }
+
+    #[test]
+    fn a_flood_of_refusals_is_counted_past_the_limit() {
+        let mut refusals = Refusals::new();
+        for sender in 0..(REFUSALS_LOGGED_PER_S + 12) {
+            let sender = SocketAddr::from(([10, 0, 0, (sender % 10) as u8], 9000));
+            refusals.log(sender, "", "the sender is not in [osc] allow");
+        }
+        assert_eq!(refusals.logged, REFUSALS_LOGGED_PER_S);
+        assert_eq!(refusals.unlogged, 12);
+        assert_eq!(refusals.senders.len(), SENDERS_NAMED);
+        assert_eq!(
+            refusals.due(),
+            Some(refusals.since + Duration::from_secs(1))
+        );
+        refusals.flush();
+        assert_eq!(
+            (refusals.logged, refusals.unlogged, refusals.due()),
+            (0, 0, None)
+        );
     }
 
     /// No bytes make decoding or reading a command panic or exhaust the stack: random

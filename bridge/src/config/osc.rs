@@ -122,6 +122,19 @@ impl Checker<'_> {
                 ),
             ));
         }
+        if let Some(feedback) = feedback
+            && feedback.port() == listen.port()
+            && (feedback.ip() == listen.ip()
+                || (listen.ip().is_unspecified() && feedback.ip().is_loopback()))
+        {
+            return Err(self.wrong(
+                raw.feedback.as_ref().map(toml::Spanned::span).as_ref(),
+                format!(
+                    "[osc] feedback = \"{feedback}\" is the bridge's own OSC port: give the \
+                     address and port of the client that receives the feedback"
+                ),
+            ));
+        }
         let mut allow = Vec::with_capacity(raw.allow.len());
         for source in &raw.allow {
             allow.push(Source::parse(source.get_ref()).ok_or_else(|| {

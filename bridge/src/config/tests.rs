@@ -815,6 +815,10 @@ fn wrong_osc_values_name_their_line() {
             "[osc]\nlisten = \"0.0.0.0:9000\"\nallow = [\"10.0.0.1\"]\nmotion = \"yes\"\n",
             "line 4, column 10",
         ),
+        (
+            "[osc]\nlisten = \"0.0.0.0:9000\"\nallow = [\"127.0.0.1\"]\nfeedback = \"127.0.0.1:9000\"\n",
+            "line 4, column 12: [osc] feedback = \"127.0.0.1:9000\" is the bridge's own OSC port",
+        ),
         ("[osc]\nport = 9000\n", "line 2, column 1"),
     ] {
         let message = parse(text).expect_err(text).to_string();
