@@ -493,16 +493,18 @@ async fn feedback(state: AppState, socket: Arc<UdpSocket>, to: SocketAddr) {
     let mut sent: Option<Feedback> = None;
     let mut sent_at = Instant::now();
     loop {
-        let current = {
+        // Copied out: the guard is dropped before anything else is looked at.
+        let mut current = {
             let status = status.borrow_and_update();
             Feedback {
                 state: status.state,
                 entry: status.entry.map_or(0, |entry| entry + 1),
                 show: status.show.clone().unwrap_or_default(),
                 show_time_ms: status.show_time_ms,
-                latched: state.playback().latch().is_latched(),
+                latched: false,
             }
         };
+        current.latched = state.playback().latch().is_latched();
         if sent.as_ref() != Some(&current) || sent_at.elapsed() >= FEEDBACK_REFRESH {
             for message in feedback_messages(&current) {
                 send(&socket, to, message);

@@ -170,6 +170,17 @@ async fn status_until(ws: &mut Ws, what: &str, check: impl Fn(&Status) -> bool) 
     }
 }
 
+/// Reads statuses for `duration`: every one must say `state` (a command refused
+/// moved nothing; the player publishes a change within a turn, 10 ms).
+async fn stays(ws: &mut Ws, state: PlayerState, duration: Duration) {
+    let until = tokio::time::Instant::now() + duration;
+    while let Ok(message) = tokio::time::timeout_at(until, next_message(ws)).await {
+        if let ServerMessage::Status(status) = message {
+            assert_eq!(status.state, state, "{status:?}");
+        }
+    }
+}
+
 /// Sends `message` to `port` from `from` (an address such as `127.0.0.2:0`).
 fn send_from(from: &str, port: u16, message: OscMessage) {
     let socket = UdpSocket::bind(from).expect("bind the sender");
@@ -232,8 +243,7 @@ async fn osc_starts_stops_and_refuses_as_configured() {
     );
     let refused = logged(&bridge, "OSC from 127.0.0.2:").await;
     assert!(refused.contains("not in [osc] allow"), "{refused}");
-    let still = status_until(&mut ws, "a status", |_| true).await;
-    assert_eq!(still.state, PlayerState::Playing, "a stranger stopped it");
+    stays(&mut ws, PlayerState::Playing, Duration::from_millis(500)).await;
     oscsend(port, "/floatball/estop", &[]);
     status_until(&mut ws, "stopped", |status| {
         status.state == PlayerState::Stopped
@@ -287,8 +297,7 @@ async fn osc_starts_stops_and_refuses_as_configured() {
         .send_to(b"not OSC at all", ("127.0.0.1", port))
         .unwrap();
     logged(&bridge, "refused: not OSC").await;
-    let idle = status_until(&mut ws, "a status", |_| true).await;
-    assert_eq!(idle.state, PlayerState::Idle, "a refused start moved");
+    stays(&mut ws, PlayerState::Idle, Duration::from_millis(500)).await;
     oscsend(port, "/floatball/estop", &[]);
     status_until(&mut ws, "stopped", |status| {
         status.state == PlayerState::Stopped
