@@ -200,6 +200,18 @@ fn check(data_dir: &std::path::Path) -> anyhow::Result<()> {
         config.installation.limits.cols,
         config.installation.gateways.len()
     );
+    if let Some(osc) = &config.osc {
+        let allow: Vec<String> = osc.allow.iter().map(ToString::to_string).collect();
+        println!(
+            "OSC on udp {} from {} (e-stop {}, motion {}), feedback {}",
+            osc.listen,
+            allow.join(", "),
+            if osc.estop { "on" } else { "off" },
+            if osc.motion { "on" } else { "off" },
+            osc.feedback
+                .map_or_else(|| "off".to_owned(), |to| format!("to {to}"))
+        );
+    }
     Ok(())
 }
 
