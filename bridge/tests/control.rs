@@ -104,13 +104,21 @@ async fn an_uploaded_show_plays_from_the_websocket_and_an_estop_stops_it() {
         s.state == PlayerState::Stopped
     })
     .await;
-    let stopped = positions(&bridge, &token).await;
-    assert!(
-        stopped.gateways[0]
-            .units
-            .iter()
-            .all(|unit| !unit.moving && !unit.motor_on)
-    );
+    // `stopped` is said once the stop is written; the units take it as it arrives
+    // over their line, a moment later.
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(1);
+    loop {
+        let stopped = positions(&bridge, &token).await;
+        let units = &stopped.gateways[0].units;
+        if units.iter().all(|unit| !unit.moving && !unit.motor_on) {
+            break;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "still moving 1 s after the e-stop: {units:?}"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -51,6 +51,11 @@ async fn the_entries_are_locked_while_a_show_plays_and_home_stays_idle() {
         .prepare_show("wave", &wave_json("wave", 2, 2, 20_000, 150.0), false)
         .await;
     let mut ws = bridge.ws(&token).await;
+    // A Start before the simulated gateway's link is up is refused (not connected).
+    assert!(
+        common::process::links_up(&mut ws).await,
+        "the link comes up"
+    );
     send_text(&mut ws, r#"{"type":"start"}"#).await;
     status_until(&mut ws, Duration::from_secs(20), |s| {
         s.state == PlayerState::Playing

@@ -337,17 +337,26 @@ pub async fn status_until(
     within: Duration,
     what: impl Fn(&floatball_shared::api::Status) -> bool,
 ) -> floatball_shared::api::Status {
-    tokio::time::timeout(within, async {
+    use floatball_shared::api::ServerMessage;
+    // What came meanwhile, for the failure's message: a refused request says why.
+    let mut last_status = None;
+    let mut others = Vec::new();
+    let found = tokio::time::timeout(within, async {
         loop {
-            if let floatball_shared::api::ServerMessage::Status(status) = next_message(ws).await
-                && what(&status)
-            {
-                return status;
+            match next_message(ws).await {
+                ServerMessage::Status(status) if what(&status) => return status,
+                ServerMessage::Status(status) => last_status = Some(status),
+                other => others.push(other),
             }
         }
     })
-    .await
-    .expect("the status never matched")
+    .await;
+    found.unwrap_or_else(|_| {
+        panic!(
+            "the status never matched within {within:?}; the last status: {last_status:?}; \
+             the other messages: {others:?}"
+        )
+    })
 }
 
 /// Sends a text frame.
