@@ -222,10 +222,41 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
                     .arg(path),
             )
         };
-        optimise(&bindgen_wasm, true)?;
-        for chunk in &split.chunks {
-            optimise(chunk, false)?;
-        }
+        // The npm build of `wasm-opt` runs one module on one core, and most chunks
+        // are small (its start-up is most of their time): as many at once as there
+        // are cores, the largest first.
+        let mut modules: Vec<(&Path, bool)> = std::iter::once((bindgen_wasm.as_path(), true))
+            .chain(split.chunks.iter().map(|chunk| (chunk.as_path(), false)))
+            .collect();
+        modules.sort_by_key(|(path, _)| {
+            std::cmp::Reverse(std::fs::metadata(path).map_or(0, |meta| meta.len()))
+        });
+        let queue = std::sync::Mutex::new(modules.into_iter());
+        let workers = std::thread::available_parallelism().map_or(2, usize::from);
+        std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..workers)
+                .map(|_| {
+                    scope.spawn(|| {
+                        loop {
+                            // The lock is held only to take the next module.
+                            let next = queue.lock().map_or(None, |mut modules| modules.next());
+                            match next {
+                                Some((path, zero_filled)) => optimise(path, zero_filled)?,
+                                None => return Ok(()),
+                            }
+                        }
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|handle| {
+                    handle
+                        .join()
+                        .unwrap_or_else(|_| Err("wasm-opt's worker panicked".to_owned()))
+                })
+                .collect::<Result<Vec<()>, String>>()
+        })?;
     }
     let chunks = split
         .chunks
