@@ -9,8 +9,8 @@
 //! [`Playback::estop`](crate::playback::Playback::estop) right in the receiving task
 //! (no lock, no await: [`crate::estop`]), the others by [`control::issue`] (which
 //! tags them with the e-stop generation on arrival, Reset and Home stopping first).
-//! Only an operator-equivalent Start, Reset, Home or goto releases an e-stop, and only
-//! when `motion = true`; `estop = true` (the default) and `motion = false` (the
+//! Nothing from OSC releases an e-stop: while it is latched, Start, Reset, Home and
+//! goto are refused (only an operator's Start, Reset or Home in the app releases it); `estop = true` (the default) and `motion = false` (the
 //! default) let an installation take only the e-stop from OSC.
 //!
 //! Refused, each logged at warn level with the sender's address and why: a sender
@@ -266,6 +266,13 @@ fn handle(
                 &osc.addr,
                 "motion over OSC is switched off ([osc] motion = false): only the e-stop \
                  is obeyed",
+            ),
+            // Only an operator in the app releases an e-stop: a Start, Reset, Home or
+            // goto from OSC would release it (it homes and plays).
+            Command::Control(_) if state.playback().latch().is_latched() => refuse(
+                &osc.addr,
+                "the e-stop is latched: only an operator's Start, Reset or Home in the app \
+                 releases it",
             ),
             Command::Control(_) if state.password().is_default() => refuse(
                 &osc.addr,

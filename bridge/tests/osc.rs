@@ -251,6 +251,15 @@ async fn osc_starts_stops_and_refuses_as_configured() {
     .await;
     logged(&bridge, "e-stop requested over OSC by 127.0.0.1:").await;
     dump.until("/floatball/latched i 1", |_| true).await;
+    // Nothing from OSC releases the e-stop: a Start is refused and nothing moves.
+    oscsend(port, "/floatball/start", &[]);
+    let refused = logged(
+        &bridge,
+        "\"/floatball/start\" refused: the e-stop is latched",
+    )
+    .await;
+    assert!(refused.contains("only an operator"), "{refused}");
+    stays(&mut ws, PlayerState::Stopped, Duration::from_millis(500)).await;
     drop(bridge);
     drop(dump);
 
