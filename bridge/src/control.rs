@@ -139,6 +139,48 @@ pub fn issue(
     async move { run(&state, control, generation).await }
 }
 
+/// An e-stop is latched (or was pressed as the request was issued): a source other
+/// than an operator in the app may not release it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Latched;
+
+impl std::fmt::Display for Latched {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(
+            "the e-stop is latched: only an operator's Start, Reset or Home in the app \
+             releases it",
+        )
+    }
+}
+
+/// [`issue`] for a source that must never release an e-stop — OSC, the schedule,
+/// timecode: refused while one is latched, and void when one is pressed before the
+/// request is accepted ([`crate::estop::unreleasing_generation`]: the generation is
+/// read before the latch is looked at, and an e-stop pressed with a Reset's or Home's
+/// own stop is seen).
+///
+/// # Errors
+/// [`Latched`]: nothing was issued (a Reset or Home pressed no stop).
+pub fn issue_unless_latched(
+    state: &AppState,
+    control: Control,
+) -> Result<impl std::future::Future<Output = Result<(), ServerMessage>> + Send + 'static, Latched>
+{
+    let playback = state.playback();
+    let stop = || {
+        playback.estop();
+    };
+    let own_stop: Option<&dyn Fn()> = if matches!(control, Control::Start(_)) {
+        None
+    } else {
+        Some(&stop)
+    };
+    let generation =
+        crate::estop::unreleasing_generation(playback.latch(), own_stop).ok_or(Latched)?;
+    let state = state.clone();
+    Ok(async move { run(&state, control, generation).await })
+}
+
 /// Carries out `control`, a request issued at e-stop `generation` (for Reset and
 /// Home, after their own stop was pressed).
 ///

@@ -124,6 +124,28 @@ impl Latch {
     }
 }
 
+/// The generation to issue a request at for a source that must never release an
+/// e-stop (OSC, the schedule, timecode): `None` while one is latched, or when one is
+/// pressed while `own_stop` runs (Reset and Home press their own stop first; a Start
+/// presses none). The generation is read before the latch is looked at, so an e-stop
+/// pressed after the look makes the request stale ([`Latch::release`] refuses it);
+/// an e-stop pressed together with the request's own stop is seen as a second press.
+pub fn unreleasing_generation(latch: &Latch, own_stop: Option<&dyn Fn()>) -> Option<u64> {
+    let seen = latch.generation();
+    if latch.is_latched() {
+        return None;
+    }
+    match own_stop {
+        None => Some(seen),
+        Some(stop) => {
+            stop();
+            // Ours is exactly one press: anything more is somebody's e-stop.
+            let after = latch.generation();
+            (after == seen + 1).then_some(after)
+        }
+    }
+}
+
 /// What the e-stop reaches: a UIM2503 link's writer, the MBOX boxes' sender, the
 /// owners of the MOONS' drives' links — each obeying the same latch.
 pub trait StopPort {
@@ -167,6 +189,51 @@ mod tests {
         assert_eq!(sent, REPEATS);
         assert_eq!(now - start, REPEAT_INTERVAL * REPEATS);
         assert_eq!(repeats.value(), None);
+    }
+
+    #[test]
+    fn an_unreleasing_request_is_refused_while_latched_and_stale_after_a_press() {
+        let latch = Latch::new();
+        let issued = unreleasing_generation(&latch, None).expect("nothing latched");
+        assert_eq!(issued, 0);
+        // An e-stop pressed after the look: the request is stale, the latch stays.
+        latch.trip();
+        assert!(!latch.release(issued));
+        assert!(latch.is_latched());
+        assert_eq!(unreleasing_generation(&latch, None), None);
+        let pressed_by_own_stop = std::cell::Cell::new(false);
+        assert_eq!(
+            unreleasing_generation(&latch, Some(&|| pressed_by_own_stop.set(true))),
+            None,
+            "a Reset from OSC or the schedule does not even press its stop while latched"
+        );
+        assert!(!pressed_by_own_stop.get());
+    }
+
+    #[test]
+    fn an_e_stop_pressed_with_an_unreleasing_reset_stays_latched() {
+        let latch = Latch::new();
+        // Reset's own stop, and an operator's e-stop in the same instant.
+        let generation = unreleasing_generation(
+            &latch,
+            Some(&|| {
+                latch.trip();
+                latch.trip();
+            }),
+        );
+        assert_eq!(generation, None, "the operator's e-stop is not released");
+        assert!(latch.is_latched());
+        // Alone, its own stop is released by its own acceptance.
+        let latch = Latch::new();
+        let generation = unreleasing_generation(
+            &latch,
+            Some(&|| {
+                latch.trip();
+            }),
+        )
+        .expect("only its own stop");
+        assert!(latch.release(generation));
+        assert!(!latch.is_latched());
     }
 
     #[test]

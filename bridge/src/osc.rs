@@ -267,20 +267,22 @@ fn handle(
                 "motion over OSC is switched off ([osc] motion = false): only the e-stop \
                  is obeyed",
             ),
-            // Only an operator in the app releases an e-stop: a Start, Reset, Home or
-            // goto from OSC would release it (it homes and plays).
-            Command::Control(_) if state.playback().latch().is_latched() => refuse(
-                &osc.addr,
-                "the e-stop is latched: only an operator's Start, Reset or Home in the app \
-                 releases it",
-            ),
             Command::Control(_) if state.password().is_default() => refuse(
                 &osc.addr,
                 "the initial password has not been changed yet: change it in the app first",
             ),
             Command::Control(control) => {
+                // Only an operator in the app releases an e-stop: a Start, Reset, Home
+                // or goto from OSC is refused while one is latched, and void if one is
+                // pressed as it is issued.
+                let running = match control::issue_unless_latched(state, control) {
+                    Ok(running) => running,
+                    Err(latched) => {
+                        refuse(&osc.addr, &latched.to_string());
+                        continue;
+                    }
+                };
                 tracing::info!("OSC from {sender}: {control:?}");
-                let running = control::issue(state, control);
                 let (socket, config, address) =
                     (Arc::clone(socket), Arc::clone(config), osc.addr.clone());
                 tokio::spawn(async move {
