@@ -10,6 +10,7 @@
 //! - [`app`]: building the web app into `static/pkg/` (hashed names, wasm-opt,
 //!   brotli and gzip copies, the page that loads them).
 //! - [`stages`]: the test stages and their summary.
+//! - [`side_by_side`]: a stage's test binaries run two (or more) at a time.
 //! - [`fuzz`]: `cargo xtask fuzz`, the fuzz targets at length.
 //! - [`stress`]: the engine's race and load tests, many times in a row.
 //! - [`mbox_bench`]: one bridge streaming to many simulated MBOX boxes, with figures.
@@ -36,6 +37,7 @@ mod mbox_bench;
 mod qprogram_report;
 mod scale_bench;
 mod scl_bench;
+mod side_by_side;
 mod stages;
 mod startup_bench;
 mod status_clock;
@@ -55,6 +57,8 @@ commands:
   build  build the web app into static/pkg/ (hashed names, .br/.gz copies, the page)
          options: --test (a quick dev build for looking at a change: no wasm-opt)
   test   install what is missing, then run every check and test
+         options: --only WORDS (only the stages whose name contains WORDS, e.g.
+                  `--only 'native tests'`; for repeating one stage by hand)
   fuzz   run the fuzz targets (readers of untrusted bytes) in an optimised build
          options: --bytes N (per target, default 10000000)  --target NAME  --seed S
   stress run the e-stop race and load tests many times in a row, with figures
@@ -107,7 +111,7 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("run") => run(&args[1..]),
         Some("build") => build(&args[1..]),
-        Some("test") => stages::test(),
+        Some("test") => stages::test(&args[1..]),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("stress") => stress::stress(&args[1..]),
         Some("mbox-bench") => mbox_bench::mbox_bench(&args[1..]),

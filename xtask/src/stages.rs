@@ -7,7 +7,62 @@
 use std::time::Instant;
 
 use crate::app;
+use crate::side_by_side;
 use crate::tools::{self, Env};
+
+/// The native test binaries: those whose figures or deadlines need the machine to
+/// themselves run alone; the rest two (or more) at a time, longest first (seconds
+/// from a CI run).
+const NATIVE: side_by_side::Plan = side_by_side::Plan {
+    solo: &[
+        "estop_race",
+        "status_clock",
+        "stress",
+        "scale_bench",
+        "mbox_bench",
+        "scl_bench",
+        "startup_bench",
+        "login_load",
+        "ws_flood",
+        // Measures the simulated line's throughput against the baud rate.
+        "link_sim",
+    ],
+    seconds: &[
+        ("playback", 23),
+        ("arming", 19),
+        ("start_from", 15),
+        ("commission", 15),
+        ("mbox", 14),
+        ("ser2net", 13),
+        ("hardening", 11),
+        ("greeting", 11),
+        ("link_net", 10),
+        ("link_serial", 9),
+        ("installation", 6),
+        ("scl", 5),
+        ("scl_golden", 5),
+        ("simulate", 5),
+        ("link_sim", 4),
+    ],
+    doc_tests: true,
+};
+
+/// The end-to-end test binaries (each a bridge and a browser): commissioning 100
+/// units from the app, the longest by far, runs beside all the others.
+const END_TO_END: side_by_side::Plan = side_by_side::Plan {
+    solo: &[],
+    seconds: &[
+        ("commission", 146),
+        ("create", 42),
+        ("operator_mbox", 38),
+        ("screens", 33),
+        ("controls", 24),
+        ("operator_scl", 21),
+        ("operator", 16),
+        ("files", 9),
+    ],
+    doc_tests: false,
+};
 
 /// One line of the summary.
 struct Outcome {
@@ -16,8 +71,14 @@ struct Outcome {
     error: Option<String>,
 }
 
-/// Runs every stage and prints the summary.
-pub fn test() -> Result<(), String> {
+/// Runs every stage (or, with `--only WORDS`, those whose name contains the words)
+/// and prints the summary.
+pub fn test(args: &[String]) -> Result<(), String> {
+    let only = match args {
+        [] => None,
+        [flag, words] if flag == "--only" => Some(words.clone()),
+        _ => return Err(format!("unknown options {args:?}: see `cargo xtask`")),
+    };
     let root = tools::workspace_root();
     let env = Env::discover(&root)?;
     println!(
@@ -27,6 +88,12 @@ pub fn test() -> Result<(), String> {
     );
     let mut outcomes = Vec::new();
     let mut stage = |name: &'static str, body: &dyn Fn(&Env) -> Result<(), String>| {
+        if only
+            .as_ref()
+            .is_some_and(|words| !name.contains(words.as_str()))
+        {
+            return;
+        }
         println!("\nxtask: ==> {name}");
         let started = Instant::now();
         let error = body(&env).err();
@@ -73,13 +140,16 @@ pub fn test() -> Result<(), String> {
         ]))
     });
     stage("native tests", &|env| {
-        tools::run_command(
-            tools::cargo(env)
-                .args(["test", "--workspace", "--exclude", "floatball-e2e"])
-                // ser2net and liblo-tools were installed above: their absence is a
-                // failure, not a skip.
-                .env(tools::REQUIRE_SER2NET, "1")
-                .env(tools::REQUIRE_LIBLO, "1"),
+        side_by_side::run(
+            env,
+            &["--workspace", "--exclude", "floatball-e2e"],
+            // ser2net and liblo-tools were installed above: their absence is a
+            // failure, not a skip.
+            &[
+                (tools::REQUIRE_SER2NET, "1".into()),
+                (tools::REQUIRE_LIBLO, "1".into()),
+            ],
+            &NATIVE,
         )
     });
     stage("shared tests on wasm32 (Node.js)", &|env| {
@@ -110,15 +180,18 @@ pub fn test() -> Result<(), String> {
     stage(
         "end-to-end tests (real bridge, headless Chromium)",
         &|env| {
-            tools::run_command(
-                tools::cargo(env)
-                    .args(["test", "--package", "floatball-e2e"])
-                    .env(
+            side_by_side::run(
+                env,
+                &["--package", "floatball-e2e"],
+                &[
+                    (
                         "FLOATBALL_BIN",
-                        env.target_dir.join("debug").join("floatball"),
-                    )
-                    .env("FLOATBALL_STATIC_DIR", env.root.join("static"))
-                    .env("CHROMEDRIVER", tools::CHROMEDRIVER),
+                        env.target_dir.join("debug").join("floatball").into(),
+                    ),
+                    ("FLOATBALL_STATIC_DIR", env.root.join("static").into()),
+                    ("CHROMEDRIVER", tools::CHROMEDRIVER.into()),
+                ],
+                &END_TO_END,
             )
         },
     );

@@ -1,0 +1,341 @@
+//! Test binaries run side by side: `cargo test --no-run` builds them, then they run
+//! as many at a time as the machine has cores (at least two), longest first, each
+//! one's output printed whole when it ends; the doc tests run after them with
+//! `cargo test --doc`.
+//!
+//! Most of the project's test binaries spend their time waiting — on a bridge's
+//! start-up, a simulated 9600-baud line, a browser — so two of them share two cores
+//! well and the stage takes about half as long. The few whose figures or deadlines
+//! depend on having the machine to themselves (the e-stop races, the short versions
+//! of the benchmarks) are named in [`Plan::solo`]: they run afterwards, one at a time,
+//! with nothing else running.
+//!
+//! Every binary runs as `cargo test` runs it: from its package's directory, with
+//! `CARGO_MANIFEST_DIR` and `CARGO_PKG_NAME` set, and the arguments given after `--`.
+
+use std::collections::VecDeque;
+use std::ffi::OsString;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::Instant;
+
+use crate::tools;
+
+/// How to run one stage's test binaries.
+pub struct Plan<'a> {
+    /// Binaries that run alone, after the others (their file names without `.rs`,
+    /// as in `tests/<name>.rs`).
+    pub solo: &'a [&'a str],
+    /// About how long each binary took in CI, s (the same names): the longest start
+    /// first, so the last to end is a short one. Unlisted ones count as a few seconds.
+    pub seconds: &'a [(&'a str, u32)],
+    /// Run the doc tests too (`cargo test --doc` with the same arguments).
+    pub doc_tests: bool,
+}
+
+/// A test binary as `cargo test --no-run` built it.
+#[derive(Debug, Clone)]
+struct Binary {
+    /// What the summary calls it: `floatball-bridge tests/playback.rs`.
+    label: String,
+    /// The target's name (`playback`; the crate's name for unit tests).
+    name: String,
+    /// Whether it is an integration test (`tests/*.rs`) rather than unit tests.
+    integration: bool,
+    package: String,
+    package_dir: PathBuf,
+    executable: PathBuf,
+}
+
+/// One binary's end.
+struct Ended {
+    label: String,
+    seconds: f64,
+    passed: bool,
+}
+
+/// Builds the test binaries of `cargo test <args>`, then runs them side by side (see
+/// the module doc). `envs` are set for the build and for every binary.
+///
+/// # Errors
+/// The build failed, or which binaries failed.
+pub fn run(
+    env: &tools::Env,
+    args: &[&str],
+    envs: &[(&str, OsString)],
+    plan: &Plan,
+) -> Result<(), String> {
+    let binaries = build(env, args, envs)?;
+    let mut pooled: Vec<Binary> = Vec::new();
+    let mut solo: Vec<Binary> = Vec::new();
+    for binary in binaries {
+        if binary.integration && plan.solo.contains(&binary.name.as_str()) {
+            solo.push(binary);
+        } else {
+            pooled.push(binary);
+        }
+    }
+    let expected = |binary: &Binary| {
+        plan.seconds
+            .iter()
+            .find(|(name, _)| binary.integration && *name == binary.name)
+            .map_or(3, |(_, seconds)| *seconds)
+    };
+    pooled.sort_by_key(|binary| std::cmp::Reverse(expected(binary)));
+    let jobs = std::thread::available_parallelism()
+        .map(std::num::NonZero::get)
+        .unwrap_or(2)
+        .max(2);
+    println!(
+        "xtask: {} test binaries, {jobs} at a time; then {} alone: {}",
+        pooled.len(),
+        solo.len(),
+        solo.iter()
+            .map(|binary| binary.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let started = Instant::now();
+    let mut ended = run_pool(pooled, jobs, envs);
+    println!(
+        "xtask: side by side: {:.1} s",
+        started.elapsed().as_secs_f64()
+    );
+    let started = Instant::now();
+    ended.extend(run_pool(solo, 1, envs));
+    println!("xtask: alone: {:.1} s", started.elapsed().as_secs_f64());
+
+    let mut failures: Vec<String> = ended
+        .iter()
+        .filter(|end| !end.passed)
+        .map(|end| end.label.clone())
+        .collect();
+    ended.sort_by(|a, b| b.seconds.total_cmp(&a.seconds));
+    println!("xtask: the longest test binaries:");
+    for end in ended.iter().take(8) {
+        println!("  {:>6.1} s  {}", end.seconds, end.label);
+    }
+    if plan.doc_tests {
+        let mut command = tools::cargo(env);
+        command.args(["test", "--doc"]).args(args);
+        for (key, value) in envs {
+            command.env(key, value);
+        }
+        if let Err(why) = tools::run_command(&mut command) {
+            failures.push(why);
+        }
+    }
+    if failures.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("failed: {}", failures.join(", ")))
+    }
+}
+
+/// `cargo test <args> --no-run`: the test binaries it built.
+fn build(
+    env: &tools::Env,
+    args: &[&str],
+    envs: &[(&str, OsString)],
+) -> Result<Vec<Binary>, String> {
+    let mut command = tools::cargo(env);
+    command
+        .args([
+            "test",
+            "--no-run",
+            "--message-format=json-render-diagnostics",
+        ])
+        .args(args)
+        .stdout(Stdio::piped());
+    for (key, value) in envs {
+        command.env(key, value);
+    }
+    println!("xtask: $ {}", tools::describe(&command));
+    let mut child = command
+        .spawn()
+        .map_err(|err| format!("cannot start cargo: {err}"))?;
+    let stdout = child.stdout.take().ok_or("cargo's output was not piped")?;
+    let mut binaries = Vec::new();
+    for line in BufReader::new(stdout).lines() {
+        let line = line.map_err(|err| format!("reading cargo's output: {err}"))?;
+        let Ok(message) = serde_json::from_str::<serde_json::Value>(&line) else {
+            println!("{line}");
+            continue;
+        };
+        if let Some(binary) = binary_of(&message) {
+            binaries.push(binary);
+        }
+    }
+    let status = child
+        .wait()
+        .map_err(|err| format!("waiting for cargo: {err}"))?;
+    if !status.success() {
+        return Err(format!("building the tests failed ({status})"));
+    }
+    Ok(binaries)
+}
+
+/// The test binary a `compiler-artifact` message of cargo's describes, if it is one.
+fn binary_of(message: &serde_json::Value) -> Option<Binary> {
+    if message["reason"] != "compiler-artifact" || message["profile"]["test"] != true {
+        return None;
+    }
+    let executable = PathBuf::from(message["executable"].as_str()?);
+    let target = &message["target"];
+    let name = target["name"].as_str()?.to_owned();
+    let kinds = target["kind"].as_array()?;
+    let integration = kinds.iter().any(|kind| kind == "test");
+    let package_dir = Path::new(message["manifest_path"].as_str()?)
+        .parent()?
+        .to_path_buf();
+    // `path+file:///…/bridge#floatball-bridge@0.1.0`, or `…#0.1.0` when the package is
+    // named as its folder.
+    let package_id = message["package_id"].as_str().unwrap_or_default();
+    let package = package_id
+        .rsplit_once('#')
+        .map(|(path, rest)| match rest.split_once('@') {
+            Some((package, _)) => package.to_owned(),
+            None => path.rsplit('/').next().unwrap_or(path).to_owned(),
+        })
+        .unwrap_or_else(|| name.clone());
+    let label = if integration {
+        format!("{package} tests/{name}.rs")
+    } else {
+        format!("{package} unit tests ({})", kinds_label(kinds))
+    };
+    Some(Binary {
+        label,
+        name,
+        integration,
+        package,
+        package_dir,
+        executable,
+    })
+}
+
+fn kinds_label(kinds: &[serde_json::Value]) -> String {
+    kinds
+        .iter()
+        .filter_map(serde_json::Value::as_str)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Runs `binaries`, `jobs` at a time; prints each one's output whole as it ends.
+fn run_pool(binaries: Vec<Binary>, jobs: usize, envs: &[(&str, OsString)]) -> Vec<Ended> {
+    let queue = Arc::new(Mutex::new(VecDeque::from(binaries)));
+    let ended = Arc::new(Mutex::new(Vec::new()));
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            let (queue, ended) = (Arc::clone(&queue), Arc::clone(&ended));
+            scope.spawn(move || {
+                loop {
+                    let next = queue
+                        .lock()
+                        .unwrap_or_else(PoisonError::into_inner)
+                        .pop_front();
+                    let Some(binary) = next else { break };
+                    let end = run_one(&binary, envs);
+                    ended
+                        .lock()
+                        .unwrap_or_else(PoisonError::into_inner)
+                        .push(end);
+                }
+            });
+        }
+    });
+    Arc::try_unwrap(ended)
+        .map(|ended| ended.into_inner().unwrap_or_else(PoisonError::into_inner))
+        .unwrap_or_default()
+}
+
+/// Runs one binary as `cargo test` would; prints its output whole.
+fn run_one(binary: &Binary, envs: &[(&str, OsString)]) -> Ended {
+    let started = Instant::now();
+    let mut command = Command::new(&binary.executable);
+    command
+        .current_dir(&binary.package_dir)
+        .env("CARGO_MANIFEST_DIR", &binary.package_dir)
+        .env("CARGO_PKG_NAME", &binary.package);
+    for (key, value) in envs {
+        command.env(key, value);
+    }
+    let output = command.stdin(Stdio::null()).output();
+    let seconds = started.elapsed().as_secs_f64();
+    let (passed, text) = match output {
+        Ok(output) => {
+            let mut text = String::from_utf8_lossy(&output.stdout).into_owned();
+            text.push_str(&String::from_utf8_lossy(&output.stderr));
+            (output.status.success(), text)
+        }
+        Err(err) => (
+            false,
+            format!("cannot start {}: {err}\n", binary.executable.display()),
+        ),
+    };
+    // One block per binary: `println!` holds stdout's lock for the whole block.
+    println!(
+        "\n     Running {} ({}) — {} in {seconds:.1} s\n{text}",
+        binary.label,
+        binary.executable.display(),
+        if passed { "ok" } else { "FAILED" },
+    );
+    Ended {
+        label: binary.label.clone(),
+        seconds,
+        passed,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_test_binary_is_read_from_cargos_message() {
+        let message = serde_json::json!({
+            "reason": "compiler-artifact",
+            "package_id": "path+file:///work/main/bridge#floatball-bridge@0.1.0",
+            "manifest_path": "/work/main/bridge/Cargo.toml",
+            "target": {"kind": ["test"], "name": "playback", "src_path": "/work/main/bridge/tests/playback.rs"},
+            "profile": {"test": true},
+            "executable": "/work/main/target/debug/deps/playback-5744b8ecdcc223db"
+        });
+        let binary = binary_of(&message).expect("a test binary");
+        assert!(binary.integration);
+        assert_eq!(binary.name, "playback");
+        assert_eq!(binary.package, "floatball-bridge");
+        assert_eq!(binary.label, "floatball-bridge tests/playback.rs");
+        assert_eq!(binary.package_dir, Path::new("/work/main/bridge"));
+
+        let unit = serde_json::json!({
+            "reason": "compiler-artifact",
+            "package_id": "path+file:///work/main/xtask#0.1.0",
+            "manifest_path": "/work/main/xtask/Cargo.toml",
+            "target": {"kind": ["bin"], "name": "xtask"},
+            "profile": {"test": true},
+            "executable": "/work/main/target/debug/deps/xtask-1"
+        });
+        let binary = binary_of(&unit).expect("unit tests");
+        assert!(!binary.integration);
+        assert_eq!(binary.package, "xtask");
+        assert_eq!(binary.label, "xtask unit tests (bin)");
+    }
+
+    #[test]
+    fn a_library_or_a_non_test_artifact_is_not_a_test_binary() {
+        let library = serde_json::json!({
+            "reason": "compiler-artifact",
+            "package_id": "path+file:///work/main/shared#floatball-shared@0.1.0",
+            "manifest_path": "/work/main/shared/Cargo.toml",
+            "target": {"kind": ["lib"], "name": "floatball_shared"},
+            "profile": {"test": false},
+            "executable": null
+        });
+        assert!(binary_of(&library).is_none());
+        let finished = serde_json::json!({"reason": "build-finished", "success": true});
+        assert!(binary_of(&finished).is_none());
+    }
+}
