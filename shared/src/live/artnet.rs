@@ -64,9 +64,8 @@ impl PortAddress {
     /// The Port-Address `net:sub_net:universe` (7, 4 and 4 bits), if each is in range.
     #[must_use]
     pub fn new(net: u8, sub_net: u8, universe: u8) -> Option<Self> {
-        (net < 128 && sub_net < 16 && universe < 16).then(|| {
-            Self((u16::from(net) << 8) | (u16::from(sub_net) << 4) | u16::from(universe))
-        })
+        (net < 128 && sub_net < 16 && universe < 16)
+            .then(|| Self((u16::from(net) << 8) | (u16::from(sub_net) << 4) | u16::from(universe)))
     }
 
     /// The Port-Address of its 15-bit number.
@@ -259,7 +258,12 @@ pub fn encode_dmx(sequence: u8, port_address: PortAddress, data: &[u8]) -> Vec<u
     out.extend_from_slice(&ID);
     out.extend_from_slice(&OP_DMX.to_le_bytes());
     out.extend_from_slice(&PROTOCOL_VERSION.to_be_bytes());
-    out.extend_from_slice(&[sequence, 0, (port_address.0 & 0xff) as u8, port_address.net()]);
+    out.extend_from_slice(&[
+        sequence,
+        0,
+        (port_address.0 & 0xff) as u8,
+        port_address.net(),
+    ]);
     out.extend_from_slice(&(length as u16).to_be_bytes());
     out.extend_from_slice(data);
     out.resize(DMX_HEADER_LEN + length, 0);
@@ -422,6 +426,9 @@ fn put_text(field: &mut [u8], text: &str) {
 
 #[cfg(test)]
 mod tests {
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
+
     use super::*;
 
     /// An `ArtDmx` to Port-Address 1:2:3 with 4 slots, byte by byte as Art-Net 4's
@@ -467,7 +474,10 @@ mod tests {
             decode(&with(11, 13)),
             Err(ArtNetError::OldVersion { version: 13 })
         );
-        assert!(matches!(decode(&with(10, 1)), Ok(Packet::Dmx(_))), "version 270");
+        assert!(
+            matches!(decode(&with(10, 1)), Ok(Packet::Dmx(_))),
+            "version 270"
+        );
         assert_eq!(
             decode(&with(17, 3)),
             Err(ArtNetError::BadLength { length: 3 })
@@ -479,18 +489,30 @@ mod tests {
         let mut long = with(16, 2);
         long[17] = 2; // 514
         assert_eq!(decode(&long), Err(ArtNetError::BadLength { length: 514 }));
-        assert_eq!(decode(&with(15, 0x80)), Err(ArtNetError::BadNet { net: 0x80 }));
+        assert_eq!(
+            decode(&with(15, 0x80)),
+            Err(ArtNetError::BadNet { net: 0x80 })
+        );
         assert_eq!(
             decode(&with(17, 6)),
-            Err(ArtNetError::Truncated { len: 22, needed: 24 })
+            Err(ArtNetError::Truncated {
+                len: 22,
+                needed: 24
+            })
         );
         assert_eq!(
             decode(&DMX[..17]),
-            Err(ArtNetError::Truncated { len: 17, needed: 18 })
+            Err(ArtNetError::Truncated {
+                len: 17,
+                needed: 18
+            })
         );
         assert_eq!(
             decode(&DMX[..11]),
-            Err(ArtNetError::Truncated { len: 11, needed: 12 })
+            Err(ArtNetError::Truncated {
+                len: 11,
+                needed: 12
+            })
         );
         assert_eq!(
             decode(&DMX[..3]),
@@ -517,7 +539,13 @@ mod tests {
                 diag_priority: 0x10
             }))
         );
-        assert_eq!(encode_poll(ArtPoll { flags: 2, diag_priority: 0x10 }), poll);
+        assert_eq!(
+            encode_poll(ArtPoll {
+                flags: 2,
+                diag_priority: 0x10
+            }),
+            poll
+        );
         // 12 bytes: accepted, missing fields zero.
         assert_eq!(
             decode(&poll[..12]),
@@ -559,7 +587,9 @@ mod tests {
             oem: OEM_UNKNOWN,
             esta: ESTA_PROTOTYPE,
             short_name: "Floatball".into(),
-            long_name: "Floatball kinetic matrix bridge, a name longer than sixty-three bytes is cut".into(),
+            long_name:
+                "Floatball kinetic matrix bridge, a name longer than sixty-three bytes is cut"
+                    .into(),
             node_report: "#0001 [0001] Power On Tests successful".into(),
             outputs: Vec::new(),
             receiving: [true, false, false, false],
@@ -572,7 +602,11 @@ mod tests {
     #[test]
     fn the_poll_reply_has_art_net_4s_layout() {
         let replies = PollReply::for_universes(&template(), &[1, 2, 0x124]);
-        assert_eq!(replies.len(), 2, "0:0:0 and 0:0:1 share a reply, 1:2:3 its own");
+        assert_eq!(
+            replies.len(),
+            2,
+            "0:0:0 and 0:0:1 share a reply, 1:2:3 its own"
+        );
         let reply = replies[0].encode();
         assert_eq!(reply.len(), 239);
         assert_eq!(&reply[..8], b"Art-Net\0");
@@ -590,7 +624,11 @@ mod tests {
         assert_eq!(&reply[44..107], &template().long_name.as_bytes()[..63]);
         assert_eq!(&reply[108..113], b"#0001");
         assert_eq!(reply[172..174], [0, 2], "NumPorts, big-endian");
-        assert_eq!(reply[174..178], [0x80, 0x80, 0, 0], "outputs from Art-Net, DMX512");
+        assert_eq!(
+            reply[174..178],
+            [0x80, 0x80, 0, 0],
+            "outputs from Art-Net, DMX512"
+        );
         assert_eq!(reply[178..182], [0; 4], "no inputs");
         assert_eq!(reply[182..186], [0x80, 0, 0, 0], "GoodOutputA");
         assert_eq!(reply[186..190], [0; 4], "SwIn");

@@ -191,7 +191,12 @@ impl MotionFilter {
     /// One step of one ball: towards `target_mm` (clamped into the travel; `None` or
     /// not finite: hold), at most `speed_limit_mm_s` (the ball's channel, if patched)
     /// and the installation's limits.
-    pub fn step(&self, state: &mut BallState, target_mm: Option<f64>, speed_limit_mm_s: Option<f64>) {
+    pub fn step(
+        &self,
+        state: &mut BallState,
+        target_mm: Option<f64>,
+        speed_limit_mm_s: Option<f64>,
+    ) {
         let travel = self.limits.travel_mm;
         let (dt, h) = (self.dt_s, self.h);
         let p = if state.position_mm.is_finite() {
@@ -230,12 +235,18 @@ impl MotionFilter {
         let hi_travel = up_forward.min(up_backward);
         lo = lo.max(lo_travel);
         hi = hi.min(hi_travel);
-        let target = target_mm.filter(|x| x.is_finite()).map(|x| x.clamp(0.0, travel));
+        let target = target_mm
+            .filter(|x| x.is_finite())
+            .map(|x| x.clamp(0.0, travel));
         let wanted = match target {
             Some(x) => self.signed_forward((x - p) / dt - v / 2.0),
             None => 0.0,
         };
-        let next_v = if lo <= hi { wanted.clamp(lo, hi) } else { brake };
+        let next_v = if lo <= hi {
+            wanted.clamp(lo, hi)
+        } else {
+            brake
+        };
         let mut next_p = (p + (v + next_v) * dt / 2.0).clamp(0.0, travel);
         let mut next_v = next_v;
         if let Some(x) = target
@@ -307,23 +318,124 @@ impl Approach {
 
 #[cfg(test)]
 mod tests {
-    use proptest::prelude::*;
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
 
     use super::*;
 
-    const LIMITS: FilterLimits = FilterLimits {
+    pub(super) const LIMITS: FilterLimits = FilterLimits {
         travel_mm: 7500.0,
         max_speed_mm_s: 2000.0,
         max_accel_mm_s2: 4000.0,
         dt_ms: 20,
     };
 
-    /// Relative tolerance of every limit: floating-point rounding only.
-    const EPS: f64 = 1e-6;
-
-    fn filter() -> MotionFilter {
+    pub(super) fn filter() -> MotionFilter {
         MotionFilter::new(LIMITS).unwrap()
     }
+
+    #[test]
+    fn the_stopping_distance_is_the_grid_braking() {
+        let filter = filter();
+        // h = 80 mm/s per step of 20 ms.
+        assert_eq!(filter.stopping_distance_mm(0.0), 0.0);
+        assert!((filter.stopping_distance_mm(40.0) - 0.4).abs() < 1e-12);
+        // 160 → 80 → 0: 2.4 + 0.8 mm.
+        assert!((filter.stopping_distance_mm(160.0) - 3.2).abs() < 1e-12);
+        assert!((filter.stopping_distance_mm(-160.0) - 3.2).abs() < 1e-12);
+        for speed in [1.0, 79.0, 80.0, 81.0, 1000.0, 2000.0] {
+            let continuous = speed * speed / (2.0 * 4000.0);
+            let grid = filter.stopping_distance_mm(speed);
+            assert!(
+                grid >= continuous - 1e-12
+                    && grid <= continuous + 4000.0 * 0.02 * 0.02 / 8.0 + 1e-12
+            );
+        }
+        // forward inverts B: from forward(s), one step and a stop cover s·dt.
+        for s in [0.0, 1.0, 40.0, 80.0, 1234.5, 1e6] {
+            let u = filter.forward(s);
+            let covered = u * filter.dt_s() / 2.0 + filter.stopping_distance_mm(u);
+            assert!(
+                (covered - s * filter.dt_s()).abs() < 1e-9 * s.max(1.0),
+                "{s}"
+            );
+        }
+        for r in [0.0, 1.0, 80.0, 1234.5, 1e6] {
+            let u = filter.backward(r);
+            let back = filter.stopping_distance_mm(u) - u * filter.dt_s() / 2.0;
+            assert!(
+                (back - r * filter.dt_s()).abs() < 1e-9 * r.max(1.0) || u < filter.h,
+                "{r}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_speed_limit_channel_slows_the_ball_at_the_top_acceleration() {
+        let filter = filter();
+        let mut state = BallState::at_rest(0.0);
+        for _ in 0..40 {
+            filter.step(&mut state, Some(7500.0), None);
+        }
+        assert_eq!(state.velocity_mm_s, 2000.0);
+        filter.step(&mut state, Some(7500.0), Some(500.0));
+        assert_eq!(state.velocity_mm_s, 1920.0, "one step of a_max·dt slower");
+        for _ in 0..30 {
+            filter.step(&mut state, Some(7500.0), Some(500.0));
+        }
+        assert_eq!(state.velocity_mm_s, 500.0);
+        filter.step(&mut state, Some(7500.0), Some(0.0));
+        assert_eq!(state.velocity_mm_s, 420.0);
+    }
+
+    #[test]
+    fn limits_must_be_positive() {
+        assert!(MotionFilter::new(FilterLimits { dt_ms: 0, ..LIMITS }).is_err());
+        assert!(
+            MotionFilter::new(FilterLimits {
+                travel_mm: f64::NAN,
+                ..LIMITS
+            })
+            .is_err()
+        );
+        assert!(
+            MotionFilter::new(FilterLimits {
+                max_accel_mm_s2: -1.0,
+                ..LIMITS
+            })
+            .is_err()
+        );
+    }
+
+    #[test]
+    fn the_approach_brings_every_ball_to_rest_on_its_target() {
+        let from = [
+            BallState::at_rest(0.0),
+            BallState {
+                position_mm: 3000.0,
+                velocity_mm_s: -500.0,
+            },
+        ];
+        let approach = Approach::new(&from, &[Some(1000.0), None], 500.0, 4000.0);
+        // Ball 0: 1000 mm at 500 mm/s, accelerating 0.125 s each way: 2.125 s.
+        assert!((approach.duration_s() - 2.125).abs() < 1e-9);
+        assert_eq!(approach.state(0, 2.125), Some(BallState::at_rest(1000.0)));
+        let stopped = approach.state(1, 1.0).unwrap();
+        assert!((stopped.position_mm - (3000.0 - 500.0 * 500.0 / 8000.0)).abs() < 1e-9);
+        assert_eq!(stopped.velocity_mm_s, 0.0);
+        assert_eq!(approach.state(2, 0.0), None);
+    }
+}
+
+#[cfg(all(test, not(target_arch = "wasm32")))]
+mod proptests {
+    use proptest::prelude::*;
+
+    use super::tests::{LIMITS, filter};
+    use super::*;
+
+    /// Relative tolerance of every limit: floating-point rounding only.
+    const EPS: f64 = 1e-6;
 
     /// One step from `before` to `after` keeps every limit, at every instant (the
     /// step is a parabola: its speed peaks at an end, its position at an end or where
@@ -491,70 +603,5 @@ mod tests {
             filter.step(&mut state, None, None);
             prop_assert_eq!(state, rest);
         }
-    }
-
-    #[test]
-    fn the_stopping_distance_is_the_grid_braking() {
-        let filter = filter();
-        // h = 80 mm/s per step of 20 ms.
-        assert_eq!(filter.stopping_distance_mm(0.0), 0.0);
-        assert!((filter.stopping_distance_mm(40.0) - 0.4).abs() < 1e-12);
-        // 160 → 80 → 0: 2.4 + 0.8 mm.
-        assert!((filter.stopping_distance_mm(160.0) - 3.2).abs() < 1e-12);
-        assert!((filter.stopping_distance_mm(-160.0) - 3.2).abs() < 1e-12);
-        for speed in [1.0, 79.0, 80.0, 81.0, 1000.0, 2000.0] {
-            let continuous = speed * speed / (2.0 * 4000.0);
-            let grid = filter.stopping_distance_mm(speed);
-            assert!(grid >= continuous - 1e-12 && grid <= continuous + 4000.0 * 0.02 * 0.02 / 8.0 + 1e-12);
-        }
-        // forward inverts B: from forward(s), one step and a stop cover s·dt.
-        for s in [0.0, 1.0, 40.0, 80.0, 1234.5, 1e6] {
-            let u = filter.forward(s);
-            let covered = u * filter.dt_s() / 2.0 + filter.stopping_distance_mm(u);
-            assert!((covered - s * filter.dt_s()).abs() < 1e-9 * s.max(1.0), "{s}");
-        }
-        for r in [0.0, 1.0, 80.0, 1234.5, 1e6] {
-            let u = filter.backward(r);
-            let back = filter.stopping_distance_mm(u) - u * filter.dt_s() / 2.0;
-            assert!((back - r * filter.dt_s()).abs() < 1e-9 * r.max(1.0) || u < filter.h, "{r}");
-        }
-    }
-
-    #[test]
-    fn a_speed_limit_channel_slows_the_ball_at_the_top_acceleration() {
-        let filter = filter();
-        let mut state = BallState::at_rest(0.0);
-        for _ in 0..40 {
-            filter.step(&mut state, Some(7500.0), None);
-        }
-        assert_eq!(state.velocity_mm_s, 2000.0);
-        filter.step(&mut state, Some(7500.0), Some(500.0));
-        assert_eq!(state.velocity_mm_s, 1920.0, "one step of a_max·dt slower");
-        for _ in 0..30 {
-            filter.step(&mut state, Some(7500.0), Some(500.0));
-        }
-        assert_eq!(state.velocity_mm_s, 500.0);
-        filter.step(&mut state, Some(7500.0), Some(0.0));
-        assert_eq!(state.velocity_mm_s, 420.0);
-    }
-
-    #[test]
-    fn limits_must_be_positive() {
-        assert!(MotionFilter::new(FilterLimits { dt_ms: 0, ..LIMITS }).is_err());
-        assert!(MotionFilter::new(FilterLimits { travel_mm: f64::NAN, ..LIMITS }).is_err());
-        assert!(MotionFilter::new(FilterLimits { max_accel_mm_s2: -1.0, ..LIMITS }).is_err());
-    }
-
-    #[test]
-    fn the_approach_brings_every_ball_to_rest_on_its_target() {
-        let from = [BallState::at_rest(0.0), BallState { position_mm: 3000.0, velocity_mm_s: -500.0 }];
-        let approach = Approach::new(&from, &[Some(1000.0), None], 500.0, 4000.0);
-        // Ball 0: 1000 mm at 500 mm/s, accelerating 0.125 s each way: 2.125 s.
-        assert!((approach.duration_s() - 2.125).abs() < 1e-9);
-        assert_eq!(approach.state(0, 2.125), Some(BallState::at_rest(1000.0)));
-        let stopped = approach.state(1, 1.0).unwrap();
-        assert!((stopped.position_mm - (3000.0 - 500.0 * 500.0 / 8000.0)).abs() < 1e-9);
-        assert_eq!(stopped.velocity_mm_s, 0.0);
-        assert_eq!(approach.state(2, 0.0), None);
     }
 }

@@ -238,6 +238,9 @@ impl Merge {
 
 #[cfg(test)]
 mod tests {
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
+
     use super::super::artnet::{self, PortAddress};
     use super::super::sacn::{Options, Packet};
     use super::*;
@@ -300,25 +303,44 @@ mod tests {
         merge.sacn(&sacn_packet(A, 200, 0, &[1]), 0);
         merge.sacn(&sacn_packet(B, 50, 0, &[2]), 1000);
         assert_eq!(merge.slots(1, 2500), Some(&[1u8][..]), "2.5 s: still live");
-        assert_eq!(merge.slots(1, 2501), Some(&[2u8][..]), "A lost, B takes over");
+        assert_eq!(
+            merge.slots(1, 2501),
+            Some(&[2u8][..]),
+            "A lost, B takes over"
+        );
         assert_eq!(merge.slots(1, 3501), None, "both lost");
         assert_eq!(merge.expire(2501), 1);
         assert_eq!(merge.source_count(1), 1);
         assert_eq!(merge.expire(3501), 1);
         assert_eq!(merge.source_count(1), 0);
         // A source back after a loss starts a new sequence.
-        assert_eq!(merge.sacn(&sacn_packet(A, 100, 7, &[3]), 10_000), Fed::Accepted);
-        assert_eq!(merge.sacn(&sacn_packet(A, 100, 3, &[4]), 12_501), Fed::Accepted);
+        assert_eq!(
+            merge.sacn(&sacn_packet(A, 100, 7, &[3]), 10_000),
+            Fed::Accepted
+        );
+        assert_eq!(
+            merge.sacn(&sacn_packet(A, 100, 3, &[4]), 12_501),
+            Fed::Accepted
+        );
     }
 
     #[test]
     fn out_of_sequence_preview_and_other_start_codes_are_not_used() {
         let mut merge = Merge::new([1], 2500);
         assert_eq!(merge.sacn(&sacn_packet(A, 100, 10, &[1]), 0), Fed::Accepted);
-        assert_eq!(merge.sacn(&sacn_packet(A, 100, 9, &[2]), 1), Fed::OutOfSequence);
-        assert_eq!(merge.sacn(&sacn_packet(A, 100, 10, &[2]), 1), Fed::OutOfSequence);
+        assert_eq!(
+            merge.sacn(&sacn_packet(A, 100, 9, &[2]), 1),
+            Fed::OutOfSequence
+        );
+        assert_eq!(
+            merge.sacn(&sacn_packet(A, 100, 10, &[2]), 1),
+            Fed::OutOfSequence
+        );
         assert_eq!(merge.slots(1, 1), Some(&[1u8][..]));
-        assert_eq!(merge.sacn(&sacn_packet(A, 100, 246, &[3]), 2), Fed::Accepted);
+        assert_eq!(
+            merge.sacn(&sacn_packet(A, 100, 246, &[3]), 2),
+            Fed::Accepted
+        );
         let mut preview = sacn_packet(A, 100, 247, &[4]);
         preview.options.preview = true;
         assert_eq!(merge.sacn(&preview, 3), Fed::Preview);
@@ -336,12 +358,21 @@ mod tests {
     fn sources_are_bounded_per_universe() {
         let mut merge = Merge::new([1], 2500);
         for i in 0..MAX_SOURCES as u8 {
-            assert_eq!(merge.artnet([10, 0, 0, i], &artdmx(&[i, 0]), 0), Fed::Accepted);
+            assert_eq!(
+                merge.artnet([10, 0, 0, i], &artdmx(&[i, 0]), 0),
+                Fed::Accepted
+            );
         }
-        assert_eq!(merge.artnet([10, 0, 1, 0], &artdmx(&[9, 0]), 0), Fed::TooManySources);
+        assert_eq!(
+            merge.artnet([10, 0, 1, 0], &artdmx(&[9, 0]), 0),
+            Fed::TooManySources
+        );
         assert_eq!(merge.slots(1, 0), Some(&[MAX_SOURCES as u8 - 1, 0][..]));
         // Once they are lost, a new one gets in.
-        assert_eq!(merge.artnet([10, 0, 1, 0], &artdmx(&[9, 0]), 2501), Fed::Accepted);
+        assert_eq!(
+            merge.artnet([10, 0, 1, 0], &artdmx(&[9, 0]), 2501),
+            Fed::Accepted
+        );
         assert_eq!(merge.source_count(1), 1);
     }
 

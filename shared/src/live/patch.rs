@@ -129,7 +129,9 @@ pub enum PatchProblem {
         footprint: u16,
     },
     /// Two balls share slots.
-    #[error("ball {ball} and ball {other} share slots in universe {universe} from address {address}")]
+    #[error(
+        "ball {ball} and ball {other} share slots in universe {universe} from address {address}"
+    )]
     Overlap {
         /// Row-major index of the ball.
         ball: usize,
@@ -406,6 +408,9 @@ impl Patch {
 
 #[cfg(test)]
 mod tests {
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
+
     use super::*;
 
     const SCALE: Scale = Scale {
@@ -431,7 +436,10 @@ mod tests {
         assert_eq!(patch.balls[256].universe, 2);
         assert_eq!(patch.balls[256].address, 1);
         assert_eq!(patch.balls[9999].universe, 40);
-        assert_eq!(patch.balls[9999].address, 31, "the last universe holds 16 balls");
+        assert_eq!(
+            patch.balls[9999].address, 31,
+            "the last universe holds 16 balls"
+        );
         assert!(patch.problems(10_000).is_empty());
     }
 

@@ -97,11 +97,8 @@ impl Recording {
                 return;
             }
         }
-        self.rows.push(TrackRow::new(
-            next.position_mm,
-            next.velocity_mm_s,
-            dt_ms,
-        ));
+        self.rows
+            .push(TrackRow::new(next.position_mm, next.velocity_mm_s, dt_ms));
         self.row_start = self.last;
         self.last = next;
     }
@@ -172,8 +169,8 @@ impl Recorder {
             .zip(&lead_ins)
             .map(|(state, speeds)| {
                 let behind = filter.stopping_distance_mm(state.velocity_mm_s);
-                let rest = (state.position_mm - state.velocity_mm_s.signum() * behind)
-                    .clamp(0.0, travel);
+                let rest =
+                    (state.position_mm - state.velocity_mm_s.signum() * behind).clamp(0.0, travel);
                 let mut recording = Recording::at_rest(rest);
                 for _ in speeds.len()..lead_in_steps {
                     recording.push(BallState::at_rest(rest), dt_ms);
@@ -279,26 +276,27 @@ impl Recorder {
 
 #[cfg(test)]
 mod tests {
-    use proptest::prelude::*;
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
 
     use super::super::filter::FilterLimits;
     use super::*;
     use crate::show::{Limits, validate};
 
-    const LIMITS: FilterLimits = FilterLimits {
+    pub(super) const LIMITS: FilterLimits = FilterLimits {
         travel_mm: 7500.0,
         max_speed_mm_s: 2000.0,
         max_accel_mm_s2: 4000.0,
         dt_ms: 20,
     };
 
-    const LAYOUT: Layout = Layout {
+    pub(super) const LAYOUT: Layout = Layout {
         rows: 2,
         cols: 3,
         pitch_mm: 500.0,
     };
 
-    fn limits() -> Limits {
+    pub(super) fn limits() -> Limits {
         Limits {
             travel_mm: LIMITS.travel_mm,
             max_speed_mm_s: LIMITS.max_speed_mm_s,
@@ -307,6 +305,74 @@ mod tests {
             cols: LAYOUT.cols,
         }
     }
+
+    #[test]
+    fn a_recording_started_while_moving_begins_at_rest_inside_the_travel() {
+        let filter = MotionFilter::new(LIMITS).unwrap();
+        // Three balls: leaving the top as fast as they can, at full speed upwards,
+        // and at rest.
+        let mut states = vec![
+            BallState::at_rest(0.0),
+            BallState::at_rest(7000.0),
+            BallState::at_rest(300.0),
+            BallState::at_rest(0.0),
+            BallState::at_rest(7500.0),
+            BallState::at_rest(10.0),
+        ];
+        let targets = [
+            Some(7500.0),
+            Some(0.0),
+            None,
+            Some(7500.0),
+            Some(0.0),
+            Some(10.0),
+        ];
+        for _ in 0..3 {
+            for (state, target) in states.iter_mut().zip(targets) {
+                filter.step(state, target, None);
+            }
+        }
+        assert_eq!(states[0].velocity_mm_s, 240.0);
+        let recorder = Recorder::new("moving", LAYOUT, filter, &states).unwrap();
+        assert_eq!(recorder.lead_in_ms(), 60);
+        let show = recorder.finish();
+        assert_eq!(show.tracks[0].start_mm, 0.0, "it came from rest at the top");
+        assert_eq!(show.tracks[2].start_mm, 300.0);
+        assert!(validate(&show, &limits()).is_empty());
+        // Rows of equal acceleration are merged: ball 2 at rest is one row per 255 ms.
+        assert!(show.tracks[2].rows.len() <= 2, "{:?}", show.tracks[2].rows);
+    }
+
+    #[test]
+    fn refuses_steps_that_are_no_row_and_a_wrong_ball_count() {
+        let fast = MotionFilter::new(FilterLimits { dt_ms: 5, ..LIMITS }).unwrap();
+        assert_eq!(
+            Recorder::new("x", LAYOUT, fast, &[BallState::default(); 6]).err(),
+            Some(RecordError::Step {
+                dt_ms: 5,
+                min_ms: 10,
+                max_ms: 255
+            })
+        );
+        let filter = MotionFilter::new(LIMITS).unwrap();
+        assert_eq!(
+            Recorder::new("x", LAYOUT, filter, &[BallState::default(); 5]).err(),
+            Some(RecordError::Balls {
+                states: 5,
+                balls: 6
+            })
+        );
+    }
+}
+
+#[cfg(all(test, not(target_arch = "wasm32")))]
+mod proptests {
+    use proptest::prelude::*;
+
+    use super::super::filter::FilterLimits;
+    use super::tests::{LAYOUT, LIMITS, limits};
+    use super::*;
+    use crate::show::validate;
 
     /// A fader: a target per step, jumping now and then, some steps lost.
     fn faders() -> impl Strategy<Value = Vec<Vec<Option<f64>>>> {
@@ -379,56 +445,5 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn a_recording_started_while_moving_begins_at_rest_inside_the_travel() {
-        let filter = MotionFilter::new(LIMITS).unwrap();
-        // Three balls: leaving the top as fast as they can, at full speed upwards,
-        // and at rest.
-        let mut states = vec![
-            BallState::at_rest(0.0),
-            BallState::at_rest(7000.0),
-            BallState::at_rest(300.0),
-            BallState::at_rest(0.0),
-            BallState::at_rest(7500.0),
-            BallState::at_rest(10.0),
-        ];
-        let targets = [Some(7500.0), Some(0.0), None, Some(7500.0), Some(0.0), Some(10.0)];
-        for _ in 0..3 {
-            for (state, target) in states.iter_mut().zip(targets) {
-                filter.step(state, target, None);
-            }
-        }
-        assert_eq!(states[0].velocity_mm_s, 240.0);
-        let recorder = Recorder::new("moving", LAYOUT, filter, &states).unwrap();
-        assert_eq!(recorder.lead_in_ms(), 60);
-        let show = recorder.finish();
-        assert_eq!(show.tracks[0].start_mm, 0.0, "it came from rest at the top");
-        assert_eq!(show.tracks[2].start_mm, 300.0);
-        assert!(validate(&show, &limits()).is_empty());
-        // Rows of equal acceleration are merged: ball 2 at rest is one row per 255 ms.
-        assert!(show.tracks[2].rows.len() <= 2, "{:?}", show.tracks[2].rows);
-    }
-
-    #[test]
-    fn refuses_steps_that_are_no_row_and_a_wrong_ball_count() {
-        let fast = MotionFilter::new(FilterLimits { dt_ms: 5, ..LIMITS }).unwrap();
-        assert_eq!(
-            Recorder::new("x", LAYOUT, fast, &[BallState::default(); 6]).err(),
-            Some(RecordError::Step {
-                dt_ms: 5,
-                min_ms: 10,
-                max_ms: 255
-            })
-        );
-        let filter = MotionFilter::new(LIMITS).unwrap();
-        assert_eq!(
-            Recorder::new("x", LAYOUT, filter, &[BallState::default(); 5]).err(),
-            Some(RecordError::Balls {
-                states: 5,
-                balls: 6
-            })
-        );
     }
 }

@@ -95,8 +95,16 @@ impl Options {
     #[must_use]
     pub const fn byte(self) -> u8 {
         (if self.preview { OPTION_PREVIEW } else { 0 })
-            | (if self.terminated { OPTION_TERMINATED } else { 0 })
-            | (if self.force_sync { OPTION_FORCE_SYNC } else { 0 })
+            | (if self.terminated {
+                OPTION_TERMINATED
+            } else {
+                0
+            })
+            | (if self.force_sync {
+                OPTION_FORCE_SYNC
+            } else {
+                0
+            })
     }
 }
 
@@ -181,7 +189,9 @@ pub enum SacnError {
     BadIdentifier,
     /// A flags & length field whose flags are not 0x7 or whose length disagrees with
     /// the datagram.
-    #[error("{layer:?} layer flags & length {field:#06x}: flags 0x7 and length {expected} expected")]
+    #[error(
+        "{layer:?} layer flags & length {field:#06x}: flags 0x7 and length {expected} expected"
+    )]
     BadLength {
         /// The layer.
         layer: Layer,
@@ -348,7 +358,10 @@ pub fn decode(datagram: &[u8]) -> Result<Packet<'_>, SacnError> {
         return Err(SacnError::BadUniverse { universe });
     }
     let name = &datagram[44..108];
-    let name_len = name.iter().position(|&byte| byte == 0).unwrap_or(name.len());
+    let name_len = name
+        .iter()
+        .position(|&byte| byte == 0)
+        .unwrap_or(name.len());
     Ok(Packet::Data(DataPacket {
         cid,
         source_name: &name[..name_len],
@@ -425,6 +438,9 @@ fn flags_length(length: usize) -> [u8; 2] {
 
 #[cfg(test)]
 mod tests {
+    #[cfg(target_arch = "wasm32")]
+    use wasm_bindgen_test::wasm_bindgen_test as test;
+
     use super::*;
 
     const CID: [u8; 16] = [
@@ -438,8 +454,8 @@ mod tests {
         let mut packet = vec![
             0x00, 0x10, // preamble size
             0x00, 0x00, // post-amble size
-            0x41, 0x53, 0x43, 0x2d, 0x45, 0x31, 0x2e, 0x31, 0x37, 0x00, 0x00, 0x00,
-            0x70, 0x71, // flags & length: 0x7, 129 - 16 = 113
+            0x41, 0x53, 0x43, 0x2d, 0x45, 0x31, 0x2e, 0x31, 0x37, 0x00, 0x00, 0x00, 0x70,
+            0x71, // flags & length: 0x7, 129 - 16 = 113
             0x00, 0x00, 0x00, 0x04, // VECTOR_ROOT_E131_DATA
         ];
         packet.extend_from_slice(&CID);
@@ -545,10 +561,7 @@ mod tests {
                 expected: 113
             })
         );
-        assert_eq!(
-            with(21, 5),
-            Err(SacnError::BadRootVector { vector: 5 })
-        );
+        assert_eq!(with(21, 5), Err(SacnError::BadRootVector { vector: 5 }));
         assert!(matches!(
             with(39, 0x5c),
             Err(SacnError::BadLength {
@@ -556,10 +569,7 @@ mod tests {
                 ..
             })
         ));
-        assert_eq!(
-            with(43, 3),
-            Err(SacnError::BadFramingVector { vector: 3 })
-        );
+        assert_eq!(with(43, 3), Err(SacnError::BadFramingVector { vector: 3 }));
         assert!(matches!(
             with(116, 0x0f),
             Err(SacnError::BadLength {
@@ -578,7 +588,10 @@ mod tests {
                 expected: 4
             })
         );
-        assert_eq!(with(108, 201), Err(SacnError::BadPriority { priority: 201 }));
+        assert_eq!(
+            with(108, 201),
+            Err(SacnError::BadPriority { priority: 201 })
+        );
         assert_eq!(with(114, 0), Err(SacnError::BadUniverse { universe: 0 }));
         let mut high = table_4_1();
         high[113..115].copy_from_slice(&64000u16.to_be_bytes());
@@ -589,7 +602,10 @@ mod tests {
         let bytes = table_4_1();
         assert_eq!(
             decode(&bytes[..40]),
-            Err(SacnError::Truncated { len: 40, needed: 44 })
+            Err(SacnError::Truncated {
+                len: 40,
+                needed: 44
+            })
         );
         // Cut short with every length field consistent: still too short for DMP.
         let mut short = bytes[..120].to_vec();
@@ -597,7 +613,10 @@ mod tests {
         short[38..40].copy_from_slice(&flags_length(120 - 38));
         assert_eq!(
             decode(&short),
-            Err(SacnError::Truncated { len: 120, needed: 126 })
+            Err(SacnError::Truncated {
+                len: 120,
+                needed: 126
+            })
         );
         let mut long = bytes.clone();
         long.resize(700, 0);
@@ -621,7 +640,10 @@ mod tests {
         sync[40..44].copy_from_slice(&VECTOR_E131_EXTENDED_SYNCHRONIZATION.to_be_bytes());
         assert_eq!(decode(&sync), Ok(Packet::Sync { cid: CID }));
         sync[43] = 9;
-        assert_eq!(decode(&sync), Err(SacnError::BadFramingVector { vector: 9 }));
+        assert_eq!(
+            decode(&sync),
+            Err(SacnError::BadFramingVector { vector: 9 })
+        );
     }
 
     #[test]

@@ -1160,7 +1160,10 @@ pub fn artnet(seed: u64, bytes: usize) -> Report {
             }
             Ok(artnet::Packet::Poll(_)) => report.count("polls", 1),
             Ok(artnet::Packet::Other { .. }) => {
-                assert!(!intact, "seed {seed}: a valid packet read as another OpCode");
+                assert!(
+                    !intact,
+                    "seed {seed}: a valid packet read as another OpCode"
+                );
                 report.count("other op codes", 1);
             }
             Err(error) => {
@@ -1214,7 +1217,11 @@ fn random_sacn(rng: &mut SplitMix, wire: &mut Vec<u8>, sequence: u8) {
         } else {
             1 + rng.below(4) as u16
         },
-        start_code: if rng.below(8) == 0 { rng.next_u64() as u8 } else { 0 },
+        start_code: if rng.below(8) == 0 {
+            rng.next_u64() as u8
+        } else {
+            0
+        },
         data: &data,
     };
     wire.extend(sacn::encode_data(&packet));
@@ -1253,8 +1260,9 @@ pub fn sacn(seed: u64, bytes: usize) -> Report {
             4 | 5 => {
                 // One field damaged, the lengths intact: vectors, DMP fields, count,
                 // priority, universe.
-                const FIELDS: [usize; 13] =
-                    [21, 43, 108, 113, 114, 117, 118, 119, 120, 121, 122, 123, 124];
+                const FIELDS: [usize; 13] = [
+                    21, 43, 108, 113, 114, 117, 118, 119, 120, 121, 122, 123, 124,
+                ];
                 random_sacn(rng, &mut wire, sequence);
                 let at = FIELDS[rng.below(FIELDS.len() as u64) as usize];
                 let value = rng.next_u64() as u8;

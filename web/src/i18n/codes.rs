@@ -551,10 +551,7 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
         Code::PatchBallCount,
         "配接表有 {patched} 个球；装置有 {balls} 个球",
     ),
-    (
-        Code::PatchUniverse,
-        "球 {ball}：域 {universe} 超出 1–{max}",
-    ),
+    (Code::PatchUniverse, "球 {ball}：域 {universe} 超出 1–{max}"),
     (Code::PatchAddress, "球 {ball}：地址 {address} 超出 1–512"),
     (
         Code::PatchFootprint,
