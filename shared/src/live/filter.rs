@@ -10,8 +10,9 @@
 //! - a constant target is reached without overshoot or oscillation, in the least time
 //!   the limits allow on the step grid (within the continuous time-optimal bound plus
 //!   one step and a quarter — the quarter is the grid's own rounding: a speed ramp
-//!   cannot end exactly at the top speed unless it is a multiple of `a_max·dt`), and
-//!   then held exactly.
+//!   cannot end exactly at the top speed unless it is a multiple of `a_max·dt`, nor a
+//!   short triangle exactly at its peak; a move shorter than `a_max·dt²` takes two
+//!   steps, one to start and one to stop), and then held exactly.
 //!
 //! # How
 //!
@@ -547,8 +548,15 @@ mod proptests {
             // One step for the grid, and a quarter more: a speed ramp on the grid
             // cannot end exactly at the top speed (at most a_max·dt²/8 mm lost per
             // ramp, a_max·dt/(4·v_max) ≤ 1/4 step for both), nor a triangle exactly
-            // at its peak (at most (3 − 2√2) ≈ 0.17 step).
-            let bound_s = optimal_s((target - start).abs(), LIMITS) + 1.25 * filter.dt_s();
+            // at its peak (at most 2m + 2 − 2√(m(m+1)) − 1 ≤ 0.17 step for a move of
+            // 2m + 2 ≥ 4 steps). A move shorter than a_max·dt² takes two steps (one
+            // to start, one to stop), however short.
+            let distance = (target - start).abs();
+            let bound_s = if distance > LIMITS.max_accel_mm_s2 * filter.dt_s().powi(2) {
+                optimal_s(distance, LIMITS) + 1.25 * filter.dt_s()
+            } else {
+                2.0 * filter.dt_s()
+            };
             let steps = (bound_s / filter.dt_s()).floor() as usize + 1;
             let direction = (target - start).signum();
             let mut reached = None;

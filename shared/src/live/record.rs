@@ -149,7 +149,12 @@ impl Recorder {
         let lead_ins: Vec<Vec<f64>> = states
             .iter()
             .map(|state| {
-                let speed = state.velocity_mm_s.abs();
+                // A filter's state is finite; anything else has no lead-in.
+                let speed = if state.velocity_mm_s.is_finite() {
+                    state.velocity_mm_s.abs()
+                } else {
+                    0.0
+                };
                 let mut speeds = Vec::new();
                 let mut at = speed;
                 while at > 0.0 {
@@ -168,9 +173,12 @@ impl Recorder {
             .iter()
             .zip(&lead_ins)
             .map(|(state, speeds)| {
-                let behind = filter.stopping_distance_mm(state.velocity_mm_s);
-                let rest =
-                    (state.position_mm - state.velocity_mm_s.signum() * behind).clamp(0.0, travel);
+                let rest = if speeds.is_empty() {
+                    state.position_mm.clamp(0.0, travel)
+                } else {
+                    let behind = filter.stopping_distance_mm(state.velocity_mm_s);
+                    (state.position_mm - state.velocity_mm_s.signum() * behind).clamp(0.0, travel)
+                };
                 let mut recording = Recording::at_rest(rest);
                 for _ in speeds.len()..lead_in_steps {
                     recording.push(BallState::at_rest(rest), dt_ms);
