@@ -370,6 +370,14 @@ impl PollReply {
                 }
             }
         }
+        if replies.is_empty() {
+            // No universe patched: the node still answers, with no ports.
+            let mut reply = template.clone();
+            reply.outputs.clear();
+            reply.bind_ip = template.ip;
+            reply.bind_index = 1;
+            replies.push(reply);
+        }
         replies
     }
 
@@ -655,6 +663,9 @@ mod tests {
         let ports: Vec<usize> = replies.iter().map(|reply| reply.outputs.len()).collect();
         assert_eq!(ports, [4, 4, 2]);
         assert_eq!(replies[2].outputs, [8, 9]);
+        let none = PollReply::for_universes(&template(), &[0, 40000]);
+        assert_eq!(none.len(), 1, "no Art-Net universe: one reply, no ports");
+        assert_eq!(none[0].encode()[172..178], [0; 6]);
         let cut = "é".repeat(40);
         let mut named = template();
         named.short_name = cut;

@@ -31,6 +31,9 @@
 //! move begin at rest ([`super::record`]). Braking (the hold) satisfies every one of
 //! these at once, so a step always has an answer.
 //!
+//! A state the filter did not produce (moving towards an end faster than it can stop
+//! there) is braked at the top acceleration, its position kept inside the travel.
+//!
 //! Limits hold up to floating-point rounding: the property tests allow 1e-6 (relative)
 //! on speed, acceleration and position, nothing more.
 //!
