@@ -733,6 +733,25 @@ codes! {
     /// A serial too long for the gateway's 20 characters.
     CommissionSerialTooLong = "commission_serial_too_long" ["serial", "max"]
         => "Serial {serial} is too long: `SN[X]=s/n;` holds at most {max} characters";
+    // ---- live input: the patch ----
+    /// The patch has another number of balls than the installation.
+    PatchBallCount = "patch_ball_count" ["patched", "balls"]
+        => "The patch has {patched} balls; the installation has {balls}";
+    /// A ball's universe outside 1–63999.
+    PatchUniverse = "patch_universe" ["ball", "universe", "max"]
+        => "Ball {ball}: universe {universe} is outside 1–{max}";
+    /// A ball's start address outside 1–512.
+    PatchAddress = "patch_address" ["ball", "address"]
+        => "Ball {ball}: address {address} is outside 1–512";
+    /// A ball's channels pass slot 512.
+    PatchFootprint = "patch_footprint" ["ball", "address", "footprint"]
+        => "Ball {ball}: {footprint} channels from address {address} pass slot 512";
+    /// Two balls share slots.
+    PatchOverlap = "patch_overlap" ["ball", "other", "universe", "address"]
+        => "Ball {ball} and ball {other} share slots in universe {universe} from address {address}";
+    /// A speed-limit channel of neither 8 nor 16 bits.
+    PatchSpeedBits = "patch_speed_bits" ["ball", "bits"]
+        => "Ball {ball}: a speed limit of {bits} bits; 8 or 16 expected";
 }
 
 #[cfg(test)]

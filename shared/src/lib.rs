@@ -14,6 +14,9 @@
 //!   surface, noise, text, picture) described as data for the app's sliders and the
 //!   CLI, recipes (a timeline of segments with transitions, as JSON) and their
 //!   rendering into a show within the installation's limits by construction.
+//! - [`live`]: live input: Art-Net and sACN receivers, the merge of their sources, the
+//!   patch of balls to DMX slots, the motion filter within the installation's limits
+//!   and the recording of live motion as a show.
 //! - [`mod@line`]: a serial line's timing (8N1: 10 bit times a byte): byte time, bytes per
 //!   second, time for N bytes — used by the planner, the player, the simulator and the
 //!   bridge's pacer.
@@ -62,6 +65,7 @@ pub mod api;
 pub mod codes;
 pub mod create;
 pub mod line;
+pub mod live;
 pub mod mbox;
 pub mod motion;
 pub mod plan;

@@ -54,6 +54,70 @@ proptest! {
     fn the_scl_twin_survives_noise_and_answers_its_roll_calls(seed in any::<u64>()) {
         targets::scl_twin(seed, CASE_BYTES / 4);
     }
+
+    #[test]
+    fn the_artnet_decoder_survives_any_datagram(seed in any::<u64>()) {
+        targets::artnet(seed, CASE_BYTES);
+    }
+
+    #[test]
+    fn the_sacn_decoder_survives_any_datagram(seed in any::<u64>()) {
+        targets::sacn(seed, CASE_BYTES);
+    }
+
+    #[test]
+    fn the_live_merge_keeps_its_rule_for_any_packets(seed in any::<u64>()) {
+        targets::live_merge(seed, CASE_BYTES);
+    }
+}
+
+/// The Art-Net and sACN targets reach every refusal and acceptance, the merge target
+/// every outcome.
+#[test]
+fn the_live_targets_reach_every_outcome() {
+    assert_reaches(
+        &targets::artnet(1, CASE_BYTES),
+        &[
+            "dmx",
+            "polls",
+            "other op codes",
+            "truncated",
+            "bad id",
+            "old version",
+            "bad length",
+            "bad net",
+        ],
+    );
+    assert_reaches(
+        &targets::sacn(1, CASE_BYTES),
+        &[
+            "data",
+            "discovery",
+            "truncated",
+            "too long",
+            "bad preamble",
+            "bad identifier",
+            "bad length",
+            "bad root vector",
+            "bad framing vector",
+            "bad dmp",
+            "bad count",
+            "bad priority",
+            "bad universe",
+        ],
+    );
+    assert_reaches(
+        &targets::live_merge(1, CASE_BYTES),
+        &[
+            "accepted",
+            "terminated",
+            "not patched",
+            "out of sequence",
+            "preview",
+            "start code",
+            "refused",
+        ],
+    );
 }
 
 /// The SCL target accepts and refuses scripts, answers and datagrams alike, so that

@@ -1,7 +1,8 @@
 //! Fuzz targets for every reader of untrusted bytes: the gateway's streaming
 //! instruction reader, the simulated gateway behind its serial line, the bridge's
 //! feedback decoder, its console parser, the MBOX datagram decoder, the MBOX console's
-//! parser and the SCL parsers (MOONS' drives: command lines, answers, eSCL datagrams).
+//! parser, the SCL parsers (MOONS' drives: command lines, answers, eSCL datagrams),
+//! and live input's Art-Net and sACN decoders and the merge they feed.
 //!
 //! Each target takes a seed and a number of bytes, makes a reproducible stream of
 //! line noise ([`LineNoise`]: binary chunks and instruction fragments) mixed with
@@ -13,6 +14,9 @@
 
 use std::collections::BTreeSet;
 
+use floatball_shared::live::artnet::{self, ArtNetError, PortAddress};
+use floatball_shared::live::merge::{Fed, MAX_SOURCES, Merge};
+use floatball_shared::live::sacn::{self, SacnError};
 use floatball_shared::mbox::console::{self as mbox_console, ConsoleErrorKind};
 use floatball_shared::mbox::{
     AxisCount, AxisPositions, BoxAddress, Datagram, DecodeError, DigitalOutputs, Encode,
@@ -57,7 +61,7 @@ impl Report {
 pub type Target = fn(u64, usize) -> Report;
 
 /// Every target, by name.
-pub const TARGETS: [(&str, Target); 8] = [
+pub const TARGETS: [(&str, Target); 11] = [
     ("reader", reader),
     ("gateway", gateway),
     ("decoder", decoder),
@@ -66,6 +70,9 @@ pub const TARGETS: [(&str, Target); 8] = [
     ("mbox-console", mbox_console),
     ("scl", scl),
     ("scl-twin", scl_twin),
+    ("artnet", artnet),
+    ("sacn", sacn),
+    ("live-merge", live_merge),
 ];
 
 /// The roll call the liveness property sends after the noise: end whatever
@@ -1086,4 +1093,336 @@ fn console_refusal(kind: &ConsoleErrorKind) -> &'static str {
         .into_iter()
         .find(|&name| name == variant)
         .unwrap_or_else(|| panic!("{variant} is not in CONSOLE_REFUSALS"))
+}
+
+/// A random valid `ArtDmx` or `ArtPoll`, and whether it is a poll.
+fn random_artnet(rng: &mut SplitMix, wire: &mut Vec<u8>) -> bool {
+    if rng.below(6) == 0 {
+        wire.extend(artnet::encode_poll(artnet::ArtPoll {
+            flags: rng.next_u64() as u8,
+            diag_priority: rng.next_u64() as u8,
+        }));
+        return true;
+    }
+    let address = PortAddress::from_raw(rng.below(0x8000) as u16).expect("15 bits");
+    let len = 2 * (1 + rng.below(256) as usize);
+    let data: Vec<u8> = (0..len).map(|_| rng.next_u64() as u8).collect();
+    wire.extend(artnet::encode_dmx(rng.next_u64() as u8, address, &data));
+    false
+}
+
+/// The Art-Net decoder on single datagrams: random bytes, random bytes behind a valid
+/// ID, valid packets and damaged ones ([`mutate`]). It never panics, every refusal has
+/// a message, an accepted `ArtDmx` has an even 2–512 slots inside the datagram and a
+/// 15-bit Port-Address, and an undamaged packet decodes to what was sent.
+pub fn artnet(seed: u64, bytes: usize) -> Report {
+    let mut noise = LineNoise::new(seed);
+    let mut report = Report::default();
+    let mut wire = Vec::new();
+    while (report.bytes as usize) < bytes {
+        let rng = noise.rng();
+        wire.clear();
+        let intact = match rng.below(8) {
+            0 => {
+                let len = rng.below(600) as usize;
+                wire.extend((0..len).map(|_| rng.next_u64() as u8));
+                false
+            }
+            1 => {
+                wire.extend(artnet::ID);
+                let op = [0x5000u16, 0x2000, 0x2100, 0x5200][rng.below(4) as usize];
+                wire.extend(op.to_le_bytes());
+                let len = rng.below(600) as usize;
+                wire.extend((0..len).map(|_| rng.next_u64() as u8));
+                false
+            }
+            2 => {
+                random_artnet(rng, &mut wire);
+                true
+            }
+            _ => {
+                random_artnet(rng, &mut wire);
+                mutate(rng, &mut wire);
+                false
+            }
+        };
+        report.bytes += wire.len() as u64;
+        match artnet::decode(&wire) {
+            Ok(artnet::Packet::Dmx(dmx)) => {
+                assert!(dmx.data.len() >= 2 && dmx.data.len() <= 512 && dmx.data.len() % 2 == 0);
+                assert!(dmx.port_address.raw() < 0x8000);
+                assert!(wire.len() >= artnet::DMX_HEADER_LEN + dmx.data.len());
+                if intact {
+                    let again = artnet::encode_dmx(dmx.sequence, dmx.port_address, dmx.data);
+                    assert_eq!(again, wire, "seed {seed}: {dmx:?}");
+                }
+                report.count("dmx", 1);
+            }
+            Ok(artnet::Packet::Poll(_)) => report.count("polls", 1),
+            Ok(artnet::Packet::Other { .. }) => {
+                assert!(
+                    !intact,
+                    "seed {seed}: a valid packet read as another OpCode"
+                );
+                report.count("other op codes", 1);
+            }
+            Err(error) => {
+                assert!(!intact, "seed {seed}: refused {error}");
+                assert!(!error.to_string().is_empty());
+                report.count(
+                    match error {
+                        ArtNetError::Truncated { .. } => "truncated",
+                        ArtNetError::BadId => "bad id",
+                        ArtNetError::OldVersion { .. } => "old version",
+                        ArtNetError::BadLength { .. } => "bad length",
+                        ArtNetError::BadNet { .. } => "bad net",
+                    },
+                    1,
+                );
+            }
+        }
+    }
+    report
+}
+
+/// A few CIDs, so that sources repeat.
+fn random_cid(rng: &mut SplitMix) -> [u8; 16] {
+    [rng.below(4) as u8 + 1; 16]
+}
+
+/// A random valid sACN data packet (universes 1–4 mostly) or discovery packet.
+fn random_sacn(rng: &mut SplitMix, wire: &mut Vec<u8>, sequence: u8) {
+    let cid = random_cid(rng);
+    if rng.below(10) == 0 {
+        let universes: Vec<u16> = (0..rng.below(600)).map(|u| u as u16 + 1).collect();
+        wire.extend(sacn::encode_discovery(cid, &universes));
+        return;
+    }
+    let len = rng.below(513) as usize;
+    let data: Vec<u8> = (0..len).map(|_| rng.next_u64() as u8).collect();
+    let options = rng.next_u64() as u8;
+    let packet = sacn::DataPacket {
+        cid,
+        source_name: b"fuzz",
+        priority: rng.below(201) as u8,
+        sync_address: 0,
+        sequence,
+        options: sacn::Options {
+            preview: options & 0x7 == 0,
+            terminated: options & 0x38 == 0,
+            force_sync: options & 0x40 == 0,
+        },
+        universe: if rng.below(8) == 0 {
+            1 + rng.below(u64::from(sacn::MAX_UNIVERSE)) as u16
+        } else {
+            1 + rng.below(4) as u16
+        },
+        start_code: if rng.below(8) == 0 {
+            rng.next_u64() as u8
+        } else {
+            0
+        },
+        data: &data,
+    };
+    wire.extend(sacn::encode_data(&packet));
+}
+
+/// The sACN decoder on single datagrams, as [`artnet`]: never a panic, refusals with
+/// messages, an accepted data packet within E1.31's ranges that encodes and decodes
+/// back to itself, an undamaged one decoded to exactly its bytes.
+pub fn sacn(seed: u64, bytes: usize) -> Report {
+    let mut noise = LineNoise::new(seed);
+    let mut report = Report::default();
+    let mut wire = Vec::new();
+    let mut sequence = 0u8;
+    while (report.bytes as usize) < bytes {
+        let rng = noise.rng();
+        wire.clear();
+        sequence = sequence.wrapping_add(1);
+        let intact = match rng.below(8) {
+            0 => {
+                let len = rng.below(700) as usize;
+                wire.extend((0..len).map(|_| rng.next_u64() as u8));
+                false
+            }
+            1 => {
+                random_sacn(rng, &mut wire, sequence);
+                let keep = rng.below(wire.len() as u64 + 1) as usize;
+                for byte in &mut wire[keep..] {
+                    *byte = rng.next_u64() as u8;
+                }
+                false
+            }
+            2 | 3 => {
+                random_sacn(rng, &mut wire, sequence);
+                true
+            }
+            4 | 5 => {
+                // One field damaged, the lengths intact: vectors, DMP fields, count,
+                // priority, universe.
+                const FIELDS: [usize; 13] = [
+                    21, 43, 108, 113, 114, 117, 118, 119, 120, 121, 122, 123, 124,
+                ];
+                random_sacn(rng, &mut wire, sequence);
+                let at = FIELDS[rng.below(FIELDS.len() as u64) as usize];
+                let value = rng.next_u64() as u8;
+                if let Some(byte) = wire.get_mut(at) {
+                    // A priority from 128 up: above 200 four times in nine.
+                    *byte = if at == 108 { value | 0x80 } else { value };
+                }
+                false
+            }
+            _ => {
+                random_sacn(rng, &mut wire, sequence);
+                mutate(rng, &mut wire);
+                false
+            }
+        };
+        report.bytes += wire.len() as u64;
+        match sacn::decode(&wire) {
+            Ok(sacn::Packet::Data(packet)) => {
+                assert!(packet.priority <= sacn::MAX_PRIORITY);
+                assert!((1..=sacn::MAX_UNIVERSE).contains(&packet.universe));
+                assert!(packet.data.len() <= 512);
+                let again = sacn::encode_data(&packet);
+                assert_eq!(sacn::decode(&again), Ok(sacn::Packet::Data(packet.clone())));
+                if intact {
+                    assert_eq!(again, wire, "seed {seed}");
+                }
+                report.count("data", 1);
+            }
+            Ok(sacn::Packet::Discovery { .. }) => report.count("discovery", 1),
+            Ok(sacn::Packet::Sync { .. }) => report.count("sync", 1),
+            Err(error) => {
+                assert!(!intact, "seed {seed}: refused {error}");
+                assert!(!error.to_string().is_empty());
+                report.count(
+                    match error {
+                        SacnError::Truncated { .. } => "truncated",
+                        SacnError::TooLong { .. } => "too long",
+                        SacnError::BadPreamble { .. } => "bad preamble",
+                        SacnError::BadIdentifier => "bad identifier",
+                        SacnError::BadLength { .. } => "bad length",
+                        SacnError::BadRootVector { .. } => "bad root vector",
+                        SacnError::BadFramingVector { .. } => "bad framing vector",
+                        SacnError::BadDmp => "bad dmp",
+                        SacnError::BadCount { .. } => "bad count",
+                        SacnError::BadPriority { .. } => "bad priority",
+                        SacnError::BadUniverse { .. } => "bad universe",
+                    },
+                    1,
+                );
+            }
+        }
+    }
+    report
+}
+
+/// The merge fed the packets the decoders accept (Art-Net and sACN, valid and
+/// damaged, from a few senders, time advancing by random steps): it never panics,
+/// keeps at most [`MAX_SOURCES`] sources per universe, an accepted packet's source
+/// wins its universe at once unless a live source of higher priority holds it, a
+/// terminated source never wins, and after the timeout nothing does.
+pub fn live_merge(seed: u64, bytes: usize) -> Report {
+    const TIMEOUT_MS: u64 = 2500;
+    let mut noise = LineNoise::new(seed);
+    let mut report = Report::default();
+    let mut merge = Merge::new([1, 2, 3], TIMEOUT_MS);
+    let mut wire = Vec::new();
+    let mut now_ms = 0u64;
+    let mut sequences = [0u8; 256];
+    while (report.bytes as usize) < bytes {
+        let rng = noise.rng();
+        now_ms += match rng.below(100) {
+            0 => 3000,
+            1..=10 => rng.below(500),
+            _ => rng.below(25),
+        };
+        wire.clear();
+        let artnet_source = rng.below(2) == 0;
+        if artnet_source {
+            let address = PortAddress::from_raw(rng.below(4) as u16).expect("15 bits");
+            let len = 2 * (1 + rng.below(256) as usize);
+            let data: Vec<u8> = (0..len).map(|_| rng.next_u64() as u8).collect();
+            wire.extend(artnet::encode_dmx(0, address, &data));
+        } else {
+            let cid = random_cid(rng);
+            let sequence = &mut sequences[usize::from(cid[0])];
+            // Mostly in order, now and then late or restarted.
+            *sequence = match rng.below(10) {
+                0 => sequence.wrapping_sub(rng.below(40) as u8),
+                _ => sequence.wrapping_add(1),
+            };
+            let seq = *sequence;
+            random_sacn(rng, &mut wire, seq);
+            wire[22..38].copy_from_slice(&cid);
+        }
+        if rng.below(4) == 0 {
+            mutate(rng, &mut wire);
+        }
+        report.bytes += wire.len() as u64;
+        let sender = [10, 0, 0, rng.below(3) as u8];
+        let (fed, universe, priority, source) = if artnet_source {
+            match artnet::decode(&wire) {
+                Ok(artnet::Packet::Dmx(dmx)) => (
+                    merge.artnet(sender, &dmx, now_ms),
+                    dmx.port_address.universe(),
+                    sacn::DEFAULT_PRIORITY,
+                    floatball_shared::live::merge::SourceId::ArtNet(sender),
+                ),
+                _ => {
+                    report.count("refused", 1);
+                    continue;
+                }
+            }
+        } else {
+            match sacn::decode(&wire) {
+                Ok(sacn::Packet::Data(packet)) => (
+                    merge.sacn(&packet, now_ms),
+                    packet.universe,
+                    packet.priority,
+                    floatball_shared::live::merge::SourceId::Sacn(packet.cid),
+                ),
+                _ => {
+                    report.count("refused", 1);
+                    continue;
+                }
+            }
+        };
+        for universe in merge.universes().collect::<Vec<_>>() {
+            assert!(merge.source_count(universe) <= MAX_SOURCES);
+            if let Some(winner) = merge.winner(universe, now_ms) {
+                assert!(winner.slots.len() <= 512);
+            }
+        }
+        match fed {
+            Fed::Accepted => {
+                let winner = merge.winner(universe, now_ms).expect("a winner");
+                assert!(winner.priority >= priority, "seed {seed}");
+                if winner.priority == priority {
+                    assert_eq!(winner.source, source, "seed {seed}: the latest wins");
+                }
+                report.count("accepted", 1);
+            }
+            Fed::Terminated => {
+                if let Some(winner) = merge.winner(universe, now_ms) {
+                    assert_ne!(winner.source, source, "seed {seed}: terminated yet winning");
+                }
+                report.count("terminated", 1);
+            }
+            Fed::NotPatched => report.count("not patched", 1),
+            Fed::OutOfSequence => report.count("out of sequence", 1),
+            Fed::Preview => report.count("preview", 1),
+            Fed::StartCode => report.count("start code", 1),
+            Fed::TooManySources => report.count("too many sources", 1),
+        }
+        if rng.below(50) == 0 {
+            merge.expire(now_ms);
+            let later = now_ms + TIMEOUT_MS + 1;
+            for universe in [1, 2, 3] {
+                assert!(merge.winner(universe, later).is_none());
+            }
+        }
+    }
+    report
 }

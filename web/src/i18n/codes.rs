@@ -546,4 +546,23 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
         Code::CommissionSerialTooLong,
         "序列号 {serial} 太长：`SN[X]=s/n;` 最多 {max} 个字符",
     ),
+    // ---- live input: the patch ----
+    (
+        Code::PatchBallCount,
+        "配接表有 {patched} 个球；装置有 {balls} 个球",
+    ),
+    (Code::PatchUniverse, "球 {ball}：域 {universe} 超出 1–{max}"),
+    (Code::PatchAddress, "球 {ball}：地址 {address} 超出 1–512"),
+    (
+        Code::PatchFootprint,
+        "球 {ball}：从地址 {address} 起的 {footprint} 个通道超过了第 512 个通道",
+    ),
+    (
+        Code::PatchOverlap,
+        "球 {ball} 与球 {other} 在域 {universe} 从地址 {address} 起共用通道",
+    ),
+    (
+        Code::PatchSpeedBits,
+        "球 {ball}：限速通道为 {bits} 位；应为 8 或 16 位",
+    ),
 ];
