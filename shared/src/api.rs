@@ -1504,9 +1504,6 @@ pub struct ScheduleStatus {
     pub enabled: bool,
     /// Its time zone.
     pub time_zone: String,
-    /// The local time the scheduler last looked at.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub now: Option<String>,
     /// The window open now, `HH:MM–HH:MM` style (`start` and `end` as local times).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub window: Option<ScheduleWindowNow>,
