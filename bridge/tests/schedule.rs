@@ -22,14 +22,14 @@ use common::process::{Process, links_up};
 use common::{PASSWORD, Ws, native_show, next_message, send_text};
 use floatball_shared::api::{PlayerState, ScheduleStatus, ServerMessage, SimPositions, Status};
 
-/// The show: three balls held at 300 mm for 2 s (rows of 250 ms).
+/// The show: three balls held at 150 mm for 2 s (rows of 250 ms).
 fn show() -> Vec<u8> {
     let units = (0..3)
         .map(|_| {
             let rows: Vec<serde_json::Value> = (0..8)
-                .map(|_| serde_json::json!([300.0, 0.0, 250]))
+                .map(|_| serde_json::json!([150.0, 0.0, 250]))
                 .collect();
-            serde_json::json!({ "start_mm": 300.0, "rows": rows })
+            serde_json::json!({ "start_mm": 150.0, "rows": rows })
         })
         .collect();
     native_show("hold", 1, 3, units)
@@ -225,7 +225,7 @@ async fn a_window_starts_and_ends_the_show(family: &str, config: &str, uim2503: 
         "schedule_ended_motors_on"
     };
     assert_eq!(
-        last_code(&ended),
+        last_code(ended),
         expected,
         "{family}: {ended:?}\n{}",
         bridge.log()
@@ -283,6 +283,17 @@ async fn a_window_starts_and_ends_the_show(family: &str, config: &str, uim2503: 
     assert_eq!(fresh.status.state, PlayerState::Stopped, "{family}");
 
     if uim2503 {
+        // `floatball check` says the schedule is on and when it starts next (by the
+        // system's clock: a window opens every day).
+        let check = std::process::Command::new(env!("CARGO_BIN_EXE_floatball"))
+            .arg("check")
+            .arg("--data-dir")
+            .arg(bridge.data.path())
+            .output()
+            .expect("floatball check");
+        let said = String::from_utf8_lossy(&check.stdout);
+        assert!(said.contains("schedule: on, next start 20"), "{said}");
+        assert!(said.contains(" 10:00 (UTC)"), "{said}");
         // A restart in the middle of a window resumes its program.
         drop(ws);
         let bridge = bridge.restart(&["--test-clock-at", "2026-12-02T11:00:00Z"]);

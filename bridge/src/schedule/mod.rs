@@ -65,9 +65,11 @@ impl Schedules {
             Err(error) if error.kind() == io::ErrorKind::NotFound => Schedule::default(),
             Err(error) => return Err(format!("{}: {error}", path.display())),
         };
+        // What the scheduler will publish first when the schedule is off, so that it
+        // wakes no client then.
         let status = ScheduleStatus {
-            enabled: false,
-            time_zone: String::new(),
+            enabled: current.enabled,
+            time_zone: current.time_zone.clone(),
             ..ScheduleStatus::default()
         };
         Ok(Self {
@@ -213,9 +215,11 @@ mod tests {
         let dir = tempfile::tempdir().expect("dir");
         let schedules = Schedules::open(dir.path()).expect("open");
         assert_eq!(schedules.get(), Schedule::default());
-        let mut schedule = Schedule::default();
-        schedule.enabled = true;
-        schedule.time_zone = "Asia/Shanghai".to_owned();
+        let schedule = Schedule {
+            enabled: true,
+            time_zone: "Asia/Shanghai".to_owned(),
+            ..Schedule::default()
+        };
         schedules.put(schedule.clone()).expect("put");
         assert!(!schedules.set_clock(Some(Timestamp::UNIX_EPOCH)));
         assert_ne!(schedules.now(), Timestamp::UNIX_EPOCH);

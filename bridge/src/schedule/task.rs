@@ -193,7 +193,24 @@ impl Scheduler {
             }
             other => return Some((Code::ScheduleNotIdle, params! {"state" => other.as_str()})),
         }
-        for gateway in self.state.gateway_list() {
+        // The status's own gateways when it lists them all (it is the newest); the
+        // full list (published a little behind) for a large installation.
+        let summary = &status.gateway_summary;
+        let gateways = if summary.complete {
+            status.gateways.clone()
+        } else {
+            self.state.gateway_list()
+        };
+        if summary.up < summary.total
+            && gateways.iter().all(|gateway| gateway.link == LinkState::Up)
+        {
+            let gateway = summary.problems.first().copied().unwrap_or_default();
+            return Some((
+                Code::ScheduleLinkDown,
+                params! {"gateway" => gateway, "link" => "not up"},
+            ));
+        }
+        for gateway in gateways {
             if gateway.link != LinkState::Up {
                 let link = match gateway.link {
                     LinkState::Up => "up",
