@@ -300,7 +300,12 @@ impl Scheduler {
             }
             Err((code, params)) => {
                 self.attempt = Some((occasion, Instant::now()));
-                self.memory.run_ended = false;
+                // A loop starting over is tried again while the window lasts (a link
+                // that dropped between two runs) — but not once an operator pressed
+                // the e-stop: they have taken over until the window's end.
+                if code == Code::ScheduleEstopLatched {
+                    self.memory.run_ended = false;
+                }
                 self.record(now, false, code, params);
                 false
             }
