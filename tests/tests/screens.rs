@@ -247,9 +247,13 @@ impl Tour<'_> {
             }
             if page == "schedule" {
                 // The schedule read from the bridge: a window added to Monday.
-                self.browser.wait_for("[data-testid=schedule-time-zone]").await;
+                self.browser
+                    .wait_for("[data-testid=schedule-time-zone]")
+                    .await;
                 self.browser.click("[data-testid=day0-add]").await;
-                self.browser.wait_for("[data-testid=day0-window0-start]").await;
+                self.browser
+                    .wait_for("[data-testid=day0-window0-start]")
+                    .await;
             }
             self.shoot(page, lang, true).await;
         }
