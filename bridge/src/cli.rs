@@ -54,6 +54,13 @@ pub struct Cli {
     /// station 5, to be commissioned (units already given stations keep them).
     #[arg(long)]
     pub sim_factory_fresh: bool,
+    /// Tests only: `POST /api/test/clock` sets the scheduler's clock.
+    #[arg(long, hide = true)]
+    pub test_clock: bool,
+    /// Tests only: as `--test-clock`, the clock set to this instant (RFC 3339) from
+    /// the start.
+    #[arg(long, hide = true, value_name = "INSTANT")]
+    pub test_clock_at: Option<String>,
 }
 
 /// The subcommands.
@@ -179,7 +186,13 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
             let sim = SimUnits {
                 factory_fresh: cli.sim_factory_fresh,
             };
-            serve(&cli.data_dir, &overrides, cli.static_dir, sim).await
+            let test_clock = match cli.test_clock_at {
+                Some(at) => Some(Some(at.parse::<jiff::Timestamp>().with_context(|| {
+                    format!("--test-clock-at {at:?} is not an RFC 3339 instant")
+                })?)),
+                None => cli.test_clock.then_some(None),
+            };
+            serve(&cli.data_dir, &overrides, cli.static_dir, sim, test_clock).await
         }
     }
 }
@@ -200,6 +213,7 @@ fn check(data_dir: &std::path::Path) -> anyhow::Result<()> {
         config.installation.limits.cols,
         config.installation.gateways.len()
     );
+    print_schedule(data_dir);
     if let Some(osc) = &config.osc {
         let allow: Vec<String> = osc.allow.iter().map(ToString::to_string).collect();
         println!(
@@ -215,12 +229,42 @@ fn check(data_dir: &std::path::Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `floatball check`'s line about the schedule: off, or its next start.
+fn print_schedule(data_dir: &std::path::Path) {
+    use floatball_shared::schedule::{Memory, decide};
+    let schedule = match crate::schedule::Schedules::open(data_dir) {
+        Ok(schedules) => schedules.get(),
+        Err(error) => {
+            println!("schedule: {error}");
+            return;
+        }
+    };
+    if !schedule.enabled {
+        println!("schedule: off");
+        return;
+    }
+    if let Err(problems) = crate::schedule::check(&schedule) {
+        for problem in problems {
+            println!("schedule: {problem}");
+        }
+        return;
+    }
+    let zone = jiff::tz::TimeZone::get(&schedule.time_zone).unwrap_or(jiff::tz::TimeZone::UTC);
+    let next = crate::schedule::local(jiff::Timestamp::now(), &zone)
+        .and_then(|now| decide(&schedule, now, &Memory::default()).next_start);
+    match next {
+        Some(next) => println!("schedule: on, next start {next} ({})", schedule.time_zone),
+        None => println!("schedule: on, no start ahead"),
+    }
+}
+
 /// Serves the app and the API until Ctrl-C or SIGTERM.
 async fn serve(
     data_dir: &std::path::Path,
     overrides: &Overrides,
     static_dir: PathBuf,
     sim: SimUnits,
+    test_clock: Option<Option<jiff::Timestamp>>,
 ) -> anyhow::Result<()> {
     create_data_dir(data_dir)?;
     let config = Config::load_or_create(data_dir, overrides)?;
@@ -249,6 +293,11 @@ async fn serve(
         Clock::system(),
         sim,
     )?;
+    if let Some(at) = test_clock {
+        state.schedules().enable_test_clock();
+        state.schedules().set_clock(at);
+        tracing::warn!("--test-clock: POST /api/test/clock sets the scheduler's clock");
+    }
     let listener = tokio::net::TcpListener::bind(listen)
         .await
         .with_context(|| format!("cannot listen on {listen}"))?;

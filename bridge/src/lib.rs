@@ -57,6 +57,9 @@
 //! - [`osc`]: show control over OSC on UDP (`[osc]`, off by default): commands from
 //!   the allowed senders carried out by the same functions as the WebSocket's, and
 //!   feedback of the state, the entry and the show time.
+//! - [`schedule`]: the weekly schedule: `<data-dir>/schedule.json`, and the one
+//!   scheduler task that starts the playlist in its windows and ends them (home,
+//!   motors off), never releasing an e-stop nor clearing an error.
 //! - [`install`]: a new installation (`PUT /api/installation`, a gateway's line
 //!   speed) checked, saved into `floatball.toml` (`config/edit.rs`) and applied while
 //!   idle, without a restart.
@@ -91,6 +94,7 @@ pub mod osc;
 pub mod playback;
 pub mod playlist;
 pub mod ports;
+pub mod schedule;
 pub mod server;
 pub mod simulate;
 pub mod state;

@@ -207,6 +207,7 @@ pub async fn run(
     // own (`crate::store`), while the API, the WebSocket and the e-stop answer.
     state.shows().start_indexing();
     crate::arming::spawn(state.clone());
+    crate::schedule::spawn(state.clone());
     let app = router(state.clone());
     let permits = Arc::new(Semaphore::new(MAX_CONNECTIONS));
     // Every connection's task holds a receiver: the sender is told to close them, and

@@ -65,6 +65,9 @@ pub enum OpenError {
     /// An SCL link cannot start.
     #[error("{0}")]
     Scl(String),
+    /// The schedule file cannot be read.
+    #[error("{0}")]
+    Schedule(String),
 }
 
 /// Where the bridge keeps and finds its files.
@@ -107,6 +110,8 @@ struct Inner {
     /// The simulated MOONS' drives of every `kind = "scl"`, `port = "sim"` entry.
     scl_sims: Option<SimDrives>,
     stopping: watch::Sender<bool>,
+    /// The weekly schedule and its scheduler's state.
+    schedules: crate::schedule::Schedules,
 }
 
 /// Opens the MBOX boxes' socket, starting a simulated box on loopback for each
@@ -238,6 +243,8 @@ impl AppState {
         // (`server::run`).
         let shows = ShowStore::open_deferred(&paths.data_dir)?;
         let playlist = PlaylistStore::open(&paths.data_dir)?;
+        let schedules =
+            crate::schedule::Schedules::open(&paths.data_dir).map_err(OpenError::Schedule)?;
         let tokens = Tokens::open(&paths.data_dir, clock.now());
         let latch = Arc::new(Latch::new());
         let gateways = Gateways::open(&config, &latch, &paths.data_dir, sim)?;
@@ -303,6 +310,7 @@ impl AppState {
                 mbox_sims,
                 scl_sims,
                 stopping: watch::channel(false).0,
+                schedules,
             }),
         })
     }
@@ -435,6 +443,11 @@ impl AppState {
     /// The player: Start, E-stop, Reset.
     pub fn playback(&self) -> &Playback {
         &self.inner.playback
+    }
+
+    /// The weekly schedule and its scheduler's state.
+    pub fn schedules(&self) -> &crate::schedule::Schedules {
+        &self.inner.schedules
     }
 
     /// Tells long-lived connections (WebSockets) that the server is stopping.

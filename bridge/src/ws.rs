@@ -348,6 +348,7 @@ fn as_sent(mut status: Status, age: Duration) -> Status {
 async fn session(socket: WebSocket, state: AppState, token: String) {
     let (mut sink, stream) = socket.split();
     let mut status = state.subscribe_status();
+    let mut schedule = state.schedules().subscribe();
     let (relay, mut relay_wanted) = watch::channel(true);
     let mut feedback = Some(state.gateways().subscribe_feedback());
     let mut mbox_replies = state.playback().boxes().map(MboxNet::subscribe_replies);
@@ -375,6 +376,16 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
     let mut sent_state = first.state;
     let first = ServerMessage::Status(first);
     if send(&mut sink, &first).await.is_err() {
+        return;
+    }
+    // The scheduler's state, when there is one to tell (a schedule followed, or what
+    // it did last); then whenever it changes.
+    let scheduled = schedule.borrow_and_update().clone();
+    if (scheduled.enabled || scheduled.last.is_some())
+        && send(&mut sink, &ServerMessage::Schedule(scheduled))
+            .await
+            .is_err()
+    {
         return;
     }
     let status_interval = Duration::from_secs(1) / STATUS_PER_S;
@@ -417,6 +428,14 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
                         let latest = status.borrow().clone();
                         sent(send(&mut sink, &ServerMessage::Status(latest)).await)
                     }
+                }
+            }
+            changed = schedule.changed() => {
+                if changed.is_err() {
+                    Step::Close
+                } else {
+                    let latest = schedule.borrow_and_update().clone();
+                    sent(send(&mut sink, &ServerMessage::Schedule(latest)).await)
                 }
             }
             () = tokio::time::sleep_until(status_sent_at + status_interval), if status_pending => {

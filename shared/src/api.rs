@@ -775,6 +775,9 @@ pub enum ServerMessage {
     MboxReply(MboxReply),
     /// A MOONS' drive's answer to a console line (SCL installations).
     SclReply(SclReply),
+    /// The scheduler's state: sent on connect and whenever it changes
+    /// ([`ScheduleStatus`]).
+    Schedule(ScheduleStatus),
     /// A request was refused; the connection stays open.
     Error {
         /// What was wrong, in English words an operator can act on.
@@ -1490,4 +1493,53 @@ mod tests {
     fn unknown_types_are_refused() {
         assert!(serde_json::from_str::<ClientMessage>(r#"{"type":"dance"}"#).is_err());
     }
+}
+
+/// What the bridge's scheduler is doing (`docs/show-control.md`, "Schedule"): in
+/// [`ServerMessage::Schedule`] and `GET /api/schedule/status`. Times are the
+/// installation's local time, `YYYY-MM-DD HH:MM`.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct ScheduleStatus {
+    /// Whether the schedule is followed.
+    pub enabled: bool,
+    /// Its time zone.
+    pub time_zone: String,
+    /// The window open now, `HH:MM–HH:MM` style (`start` and `end` as local times).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub window: Option<ScheduleWindowNow>,
+    /// The next start (a window's, or an every-N slot's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub next_start: Option<String>,
+    /// What the scheduler did last.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub last: Option<ScheduleOutcome>,
+}
+
+/// The window the scheduler is in ([`ScheduleStatus::window`]).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ScheduleWindowNow {
+    /// When it opened (local).
+    pub start: String,
+    /// When it closes (local).
+    pub end: String,
+    /// What plays.
+    pub program: crate::schedule::Program,
+}
+
+/// One thing the scheduler did, or did not do and why ([`ScheduleStatus::last`]): a
+/// code ([`crate::codes::Code`], `schedule_…`) and its parameters, as the app words
+/// it, and the English sentence.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ScheduleOutcome {
+    /// When (local).
+    pub at: String,
+    /// Whether it was done (a start or an end), `false` when it was not.
+    pub done: bool,
+    /// The code.
+    pub code: String,
+    /// Its parameters.
+    #[serde(default, skip_serializing_if = "Params::is_empty")]
+    pub params: Params,
+    /// The same in English.
+    pub message: String,
 }

@@ -752,6 +752,67 @@ codes! {
     /// A speed-limit channel of neither 8 nor 16 bits.
     PatchSpeedBits = "patch_speed_bits" ["ball", "bits"]
         => "Ball {ball}: a speed limit of {bits} bits; 8 or 16 expected";
+    // ---- the schedule (issue 37, item 2) ----
+    /// A schedule that cannot be stored (`problems` say why).
+    ScheduleInvalid = "schedule_invalid" []
+        => "The schedule is not valid";
+    /// The schedule's time zone is not known.
+    ScheduleUnknownTimeZone = "schedule_unknown_time_zone" ["zone"]
+        => "unknown time zone \"{zone}\": give an IANA name such as Europe/Zurich, Asia/Shanghai or UTC";
+    /// A window whose end is not after its start (a window never crosses midnight).
+    ScheduleEndNotAfterStart = "schedule_end_not_after_start" ["day", "window", "start", "end"]
+        => "{day}, window {window}: it ends at {end}, not after its start {start}";
+    /// Two windows of a day overlap.
+    ScheduleWindowsOverlap = "schedule_windows_overlap" ["day", "first", "second"]
+        => "{day}: windows {first} and {second} overlap";
+    /// An every-N program's N out of range.
+    ScheduleEveryOutOfRange = "schedule_every_out_of_range" ["day", "window", "minutes", "min", "max"]
+        => "{day}, window {window}: every {minutes} minutes is out of range ({min}–{max})";
+    /// Too many windows on a day.
+    ScheduleTooManyWindows = "schedule_too_many_windows" ["day", "windows", "max"]
+        => "{day} has {windows} windows; at most {max} are allowed";
+    /// Too many exceptions.
+    ScheduleTooManyExceptions = "schedule_too_many_exceptions" ["exceptions", "max"]
+        => "the schedule has {exceptions} exceptions; at most {max} are allowed";
+    /// Two exceptions for one date.
+    ScheduleExceptionTwice = "schedule_exception_twice" ["date"]
+        => "{date} has two exceptions";
+    /// The scheduler started a loop program.
+    ScheduleStartedLoop = "schedule_started_loop" []
+        => "Started the playlist, over and over until the window ends";
+    /// The scheduler started an every-N program's slot.
+    ScheduleStartedEvery = "schedule_started_every" ["minutes"]
+        => "Started the playlist once (every {minutes} minutes)";
+    /// The scheduler did not start: the matrix was not idle.
+    ScheduleNotIdle = "schedule_not_idle" ["state"]
+        => "Did not start: the matrix is {state}, not idle";
+    /// The scheduler did not start: the matrix is in error.
+    ScheduleInError = "schedule_in_error" ["error"]
+        => "Did not start: the matrix is in error ({error}); only an operator clears it";
+    /// The scheduler did not start: the e-stop is latched.
+    ScheduleEstopLatched = "schedule_estop_latched" []
+        => "Did not start: the e-stop is latched; only an operator in the app releases it";
+    /// The scheduler did not start: a link is not up.
+    ScheduleLinkDown = "schedule_link_down" ["gateway", "link"]
+        => "Did not start: the link of gateway {gateway} is {link}";
+    /// The scheduler did not start: units are missing.
+    ScheduleUnitsMissing = "schedule_units_missing" ["gateway", "stations"]
+        => "Did not start: units missing on gateway {gateway} (stations {stations})";
+    /// The scheduler did not start: the player refused the Start.
+    ScheduleStartRefused = "schedule_start_refused" ["reason"]
+        => "Did not start: {reason}";
+    /// A window ended: home, then motors off.
+    ScheduleEnded = "schedule_ended" []
+        => "The window ended: the balls went home and the motors are off";
+    /// A window ended on a family the bridge cannot switch the motors off on.
+    ScheduleEndedMotorsOn = "schedule_ended_motors_on" []
+        => "The window ended: the balls went home (the motors stay on: this family has no motors-off the bridge can send)";
+    /// A window's end could not home: the e-stop is latched.
+    ScheduleEndLatched = "schedule_end_latched" []
+        => "The window ended, but the balls did not go home: the e-stop is latched";
+    /// A window's end could not home for another reason.
+    ScheduleEndRefused = "schedule_end_refused" ["reason"]
+        => "The window ended, but the balls did not go home: {reason}";
 }
 
 #[cfg(test)]

@@ -39,6 +39,8 @@
 //!   [`mbox::drive`]; MOONS' drives: [`scl::drive`]).
 //! - [`playlist`]: the playlist's limits and the one check of its ranges, used by the
 //!   bridge and the app alike.
+//! - [`schedule`]: the weekly schedule (windows per weekday in local time, dated
+//!   exceptions), its checks, and the decision of what to do at a given local time.
 //! - [`scl`]: MOONS' drives' serial command language: typed commands with units and
 //!   their text, the drives' answers (`%`, `*`, `?code`, `XX=value`), RS-485 address
 //!   characters, eSCL datagrams (UDP), and the parser for command lines and answers;
@@ -71,6 +73,7 @@ pub mod motion;
 pub mod plan;
 pub mod player;
 pub mod playlist;
+pub mod schedule;
 pub mod scl;
 pub mod show;
 pub mod uim2503;

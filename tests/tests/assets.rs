@@ -263,6 +263,7 @@ async fn the_rare_pages_are_chunks_outside_the_first_load() {
             "perf",
             "plot",
             "qprogram",
+            "schedule",
             "settings"
         ]
     );

@@ -170,6 +170,10 @@ impl Tour<'_> {
                 self.browser.click("[data-testid=nav-control]").await;
                 self.browser.click("[data-testid=subtab-commission]").await;
             }
+            "schedule" => {
+                self.browser.click("[data-testid=nav-control]").await;
+                self.browser.click("[data-testid=subtab-schedule]").await;
+            }
             _ => {
                 self.browser
                     .click(&format!("[data-testid=nav-{page}]"))
@@ -190,6 +194,7 @@ impl Tour<'_> {
             "settings",
             "console",
             "commission",
+            "schedule",
         ] {
             self.open(page).await;
             if page == "preview" {
@@ -239,6 +244,16 @@ impl Tour<'_> {
             if page == "commission" {
                 // The grid of the simulated gateway, and the line-speed choice.
                 self.browser.wait_for("[data-testid=grid]").await;
+            }
+            if page == "schedule" {
+                // The schedule read from the bridge: a window added to Monday.
+                self.browser
+                    .wait_for("[data-testid=schedule-time-zone]")
+                    .await;
+                self.browser.click("[data-testid=day0-add]").await;
+                self.browser
+                    .wait_for("[data-testid=day0-window0-start]")
+                    .await;
             }
             self.shoot(page, lang, true).await;
         }

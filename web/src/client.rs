@@ -390,6 +390,27 @@ impl Client {
         }
     }
 
+    /// `GET /api/schedule`: the weekly schedule.
+    ///
+    /// # Errors
+    /// [`Failure`] as the bridge answered.
+    pub async fn schedule(&self) -> Result<floatball_shared::schedule::Schedule, Failure> {
+        self.call_json(Method::Get, "/api/schedule", None).await
+    }
+
+    /// `PUT /api/schedule`; returns the schedule as stored.
+    ///
+    /// # Errors
+    /// [`Failure::Rejected`] with every problem (422); [`Failure`] as the bridge
+    /// answered otherwise.
+    pub async fn put_schedule(
+        &self,
+        schedule: &floatball_shared::schedule::Schedule,
+    ) -> Result<floatball_shared::schedule::Schedule, Failure> {
+        self.call_json(Method::Put, "/api/schedule", Some(json(schedule)?))
+            .await
+    }
+
     /// `GET /api/qprogram/{name}?unit=N`: ball `unit`'s Q program for MOONS' drives
     /// (the listing and the compiler's report).
     ///

@@ -102,6 +102,8 @@ pub struct Ctx {
     pub login_notice: RwSignal<Option<Text>>,
     /// The latest status from the bridge.
     pub status: RwSignal<Option<Status>>,
+    /// The scheduler's state as the bridge last said it (`schedule` messages).
+    pub schedule: RwSignal<Option<floatball_shared::api::ScheduleStatus>>,
     /// The latest request the bridge refused over the WebSocket.
     pub bridge_error: RwSignal<Option<Refusal>>,
     /// Local files.
@@ -240,6 +242,7 @@ impl Ctx {
             session: RwSignal::new(None),
             login_notice: RwSignal::new(None),
             status: RwSignal::new(None),
+            schedule: RwSignal::new(None),
             bridge_error: RwSignal::new(None),
             local_files: RwSignal::new(Listing::default()),
             controller_files: RwSignal::new(Listing::default()),
@@ -366,6 +369,7 @@ impl Ctx {
             ServerMessage::Feedback(frame) => self.feedback.update(|log| log.push(&frame)),
             ServerMessage::MboxReply(reply) => self.feedback.update(|log| log.push_mbox(&reply)),
             ServerMessage::SclReply(reply) => self.feedback.update(|log| log.push_scl(&reply)),
+            ServerMessage::Schedule(schedule) => self.schedule.set(Some(schedule)),
             ServerMessage::Error {
                 message,
                 code,

@@ -213,6 +213,19 @@ split!(
     }
 );
 
+split!(
+    schedule,
+    /// The Schedule page: edited now and then, never needed on the show floor.
+    pub fn schedule_page() -> PageView {
+        || view! { <crate::components::schedule::SchedulePage /> }.into_any()
+    }
+);
+
+/// [`schedule_page`] as a [`Loader`].
+pub fn load_schedule() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkError>>>> {
+    Box::pin(schedule_page())
+}
+
 /// [`create_page`] as a [`Loader`].
 pub fn load_create() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkError>>>> {
     Box::pin(create_page())

@@ -18,6 +18,8 @@
 //! - [`files`]: local and controller file lists, formats, CSV preview layout;
 //! - [`installation`]: the installation's limits for the preview, its settings form,
 //!   stations as ranges, and the units' health warnings before Start;
+//! - [`schedule`]: the Schedule page's form (the weekly schedule as typed) and what
+//!   the Control page says of the scheduler.
 //! - [`lazy`]: the pages loaded when opened (Create, Commissioning, Installation),
 //!   each a split point whose code the release build moves into its own wasm chunk;
 //! - [`json`]: the bridge's JSON read with structs as objects only (less code);
@@ -57,6 +59,7 @@ pub mod page;
 pub mod plan_worker;
 pub mod playlist;
 pub mod preview;
+pub mod schedule;
 pub mod session;
 pub mod socket;
 pub mod status;

@@ -56,6 +56,7 @@ pub fn decode(text: &str) -> Result<ServerMessage, serde_json::Error> {
         },
         "mbox_reply" => ServerMessage::MboxReply(from_str(text)?),
         "scl_reply" => ServerMessage::SclReply(from_str(text)?),
+        "schedule" => ServerMessage::Schedule(from_str(text)?),
         "error" => {
             let refused: Refused = from_str(text)?;
             ServerMessage::Error {
@@ -160,6 +161,19 @@ mod tests {
                 request: "2IP".into(),
                 text: "IP = 1200".into(),
                 raw: "IP=1200".into(),
+            }),
+            ServerMessage::Schedule(floatball_shared::api::ScheduleStatus {
+                enabled: true,
+                time_zone: "Asia/Shanghai".into(),
+                window: None,
+                next_start: Some("2026-11-30 10:00".into()),
+                last: Some(floatball_shared::api::ScheduleOutcome {
+                    at: "2026-11-29 22:00".into(),
+                    done: true,
+                    code: "schedule_ended".into(),
+                    params: Params::new(),
+                    message: "The window ended".into(),
+                }),
             }),
             ServerMessage::Error {
                 message: "no such show".into(),

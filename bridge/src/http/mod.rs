@@ -10,6 +10,7 @@
 //! - [`commission`]: a UIM2503 gateway's roll call, station assignment and identify
 //!   moves;
 //! - [`status`]: every gateway's status in full (the live status summarises many);
+//! - [`schedule`]: the weekly schedule, the scheduler's state, and the test clock;
 //!
 //! Every error answer is an [`ApiError`] JSON body with the right status code
 //! ([`Failure`]); so are unknown `/api` paths (404) and methods (405), and the
@@ -20,6 +21,7 @@ pub mod commission;
 pub mod library;
 pub mod matrix;
 pub mod qprogram;
+pub mod schedule;
 pub mod session;
 pub mod status;
 
@@ -74,6 +76,12 @@ pub fn router(state: &AppState) -> Router<AppState> {
         .route("/gateways/{gateway}/assign", post(commission::assign))
         .route("/gateways/{gateway}/identify", post(commission::identify))
         .route("/status/gateways", get(status::gateways))
+        .route(
+            "/schedule",
+            get(schedule::get_schedule).put(schedule::put_schedule),
+        )
+        .route("/schedule/status", get(schedule::get_status))
+        .route("/test/clock", post(schedule::set_test_clock))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(map_response(json_errors))

@@ -104,6 +104,7 @@ pub fn ControlTabs() -> impl IntoView {
         <div class="subtabs">
             {tab(Page::Control, Text::NavControl)} {tab(Page::Settings, Text::NavSettings)}
             {tab(Page::Commission, Text::NavCommission)}
+            {tab(Page::Schedule, Text::NavSchedule)}
         </div>
     }
 }
@@ -383,6 +384,7 @@ pub fn ControlPage() -> impl IntoView {
             <div class="control-side">
                 <PlanView plans=plans />
                 <StatusView />
+                <ScheduleLine />
             </div>
             </div>
         </section>
@@ -928,6 +930,44 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
                     </p>
                 }
             })}
+    }
+}
+
+/// The schedule's next start and what it did last (`schedule` messages), when a
+/// schedule is followed or did something; a tap opens the Schedule page.
+#[component]
+fn ScheduleLine() -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    move || {
+        ctx.schedule.with(|schedule| {
+            let schedule = crate::schedule::shown(schedule.as_ref())?;
+            let lang = ctx.lang.get();
+            let next = schedule.next_start.as_ref().map_or_else(
+                || lang.t(Text::ScheduleNone).to_owned(),
+                |next| format!("{next} ({})", schedule.time_zone),
+            );
+            let last = schedule.last.as_ref().map(|last| {
+                format!(
+                    "{}: {} {}",
+                    lang.t(Text::ScheduleLast),
+                    last.at,
+                    lang.coded(&last.code, &last.params, &last.message)
+                )
+            });
+            let class = if schedule.last.as_ref().is_some_and(|last| !last.done) {
+                "note error"
+            } else {
+                "note"
+            };
+            Some(view! {
+                <div class="schedule-line" data-testid="schedule-line">
+                    <p class="note" data-testid="schedule-next">
+                        {lang.t(Text::ScheduleNextStart)} ": " {next}
+                    </p>
+                    {last.map(|last| view! { <p class=class data-testid="schedule-last">{last}</p> })}
+                </div>
+            })
+        })
     }
 }
 

@@ -19,6 +19,7 @@ pub mod login;
 pub mod password;
 pub mod preview;
 pub mod qprogram;
+pub mod schedule;
 pub mod topbar;
 pub mod widgets;
 
@@ -259,6 +260,9 @@ pub fn Shell() -> impl IntoView {
                 }
                 Page::Commission => {
                     view! { <LazyPage load=crate::lazy::load_commission /> }.into_any()
+                }
+                Page::Schedule => {
+                    view! { <LazyPage load=crate::lazy::load_schedule /> }.into_any()
                 }
             }}
         </main>

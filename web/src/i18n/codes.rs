@@ -565,4 +565,73 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
         Code::PatchSpeedBits,
         "球 {ball}：限速通道为 {bits} 位；应为 8 或 16 位",
     ),
+    // ---- the schedule ----
+    (Code::ScheduleInvalid, "时间表无效"),
+    (
+        Code::ScheduleUnknownTimeZone,
+        "未知时区“{zone}”：请填写 IANA 名称，例如 Europe/Zurich、Asia/Shanghai 或 UTC",
+    ),
+    (
+        Code::ScheduleEndNotAfterStart,
+        "{day}，时段 {window}：结束时间 {end} 不晚于开始时间 {start}",
+    ),
+    (
+        Code::ScheduleWindowsOverlap,
+        "{day}：时段 {first} 和 {second} 重叠",
+    ),
+    (
+        Code::ScheduleEveryOutOfRange,
+        "{day}，时段 {window}：每 {minutes} 分钟超出范围（{min}–{max}）",
+    ),
+    (
+        Code::ScheduleTooManyWindows,
+        "{day} 有 {windows} 个时段；最多允许 {max} 个",
+    ),
+    (
+        Code::ScheduleTooManyExceptions,
+        "时间表有 {exceptions} 个例外日期；最多允许 {max} 个",
+    ),
+    (Code::ScheduleExceptionTwice, "{date} 有两个例外"),
+    (
+        Code::ScheduleStartedLoop,
+        "已开始播放列表，循环播放到时段结束",
+    ),
+    (
+        Code::ScheduleStartedEvery,
+        "已开始播放列表一次（每 {minutes} 分钟）",
+    ),
+    (
+        Code::ScheduleNotIdle,
+        "未开始：矩阵状态为 {state}，不是空闲",
+    ),
+    (
+        Code::ScheduleInError,
+        "未开始：矩阵出错（{error}）；只有操作员可以清除",
+    ),
+    (
+        Code::ScheduleEstopLatched,
+        "未开始：急停已锁定；只有操作员在应用中可以解除",
+    ),
+    (
+        Code::ScheduleLinkDown,
+        "未开始：网关 {gateway} 的连接状态为 {link}",
+    ),
+    (
+        Code::ScheduleUnitsMissing,
+        "未开始：网关 {gateway} 缺少单元（站号 {stations}）",
+    ),
+    (Code::ScheduleStartRefused, "未开始：{reason}"),
+    (Code::ScheduleEnded, "时段结束：小球已回原点，电机已关闭"),
+    (
+        Code::ScheduleEndedMotorsOn,
+        "时段结束：小球已回原点（电机保持通电：此类驱动没有控制器可发送的关闭电机指令）",
+    ),
+    (
+        Code::ScheduleEndLatched,
+        "时段结束，但小球没有回原点：急停已锁定",
+    ),
+    (
+        Code::ScheduleEndRefused,
+        "时段结束，但小球没有回原点：{reason}",
+    ),
 ];
