@@ -179,6 +179,8 @@ texts! {
     Retry => "重试", "Retry";
     /// Load the app again (its page names the files of the version now served).
     ReloadApp => "重新载入应用", "Reload the app";
+    /// The Preview: the check of a show against the limits could not be loaded.
+    CheckFailed => "无法检查此节目是否超出限制（网络断开或应用已更新）。", "The show could not be checked against the limits (offline, or the app was updated).";
     /// The console's instruction checker could not be downloaded.
     CheckerFailed => "无法加载指令检查程序（网络断开或应用已更新）。", "The instruction checker could not be loaded (offline, or the app was updated).";
     /// The CSV reader (for a local file's preview) could not be downloaded.

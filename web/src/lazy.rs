@@ -16,11 +16,13 @@
 //! every point is a plain `async fn` in the one module.
 //!
 //! What the first load must carry — the top bar, the E-STOP, the WebSocket, Login,
-//! Files, Preview, Control and Console — is never behind a split point. Two tools
-//! of those pages are: the console's parsers ([`console_parsers`]: the Console page
-//! opens at once, and its check of a typed line waits the few milliseconds its
-//! chunk takes, fetched as the page opens) and the CSV reader ([`read_csv`]: a
-//! local CSV file's preview waits for it; native show files need no chunk).
+//! Files, Preview, Control and Console — is never behind a split point. Tools of
+//! those pages that can come a moment later are: the console's parsers
+//! ([`console_parsers`]: the Console page opens at once, and its check of a typed
+//! line waits the few milliseconds its chunk takes, fetched as the page opens), the
+//! CSV reader ([`read_csv`]: a local CSV file's preview waits for it; native show
+//! files need no chunk) and the Preview's check of a show against the limits
+//! ([`show_violations`]: the show is on screen first, its problems a moment after).
 
 use std::future::Future;
 use std::pin::Pin;
@@ -157,6 +159,19 @@ split!(
             view! { <crate::preview::PlotPanel plot lang t_ms on_close=move || on_close.run(()) /> }
                 .into_any()
         }
+    }
+);
+
+split!(
+    check,
+    /// The Preview's check of a show against the limits
+    /// ([`floatball_shared::show::validate`], every row of every ball): run a moment
+    /// after a show is on screen, so its code can come a moment later too.
+    pub fn show_violations(
+        show: std::sync::Arc<floatball_shared::show::Show>,
+        limits: floatball_shared::show::Limits,
+    ) -> Vec<floatball_shared::show::Violation> {
+        floatball_shared::show::validate(&show, &limits)
     }
 );
 

@@ -33,7 +33,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use floatball_shared::api::{InstallationInfo, Status};
-use floatball_shared::show::{Limits, Show, Violation, validate};
+use floatball_shared::show::{Limits, Show, Violation};
 use glam::Vec2;
 use leptos::html::Canvas;
 use leptos::prelude::*;
@@ -65,24 +65,29 @@ struct Checked {
 }
 
 impl Checked {
-    fn of(show: &Show, installation: Option<&InstallationInfo>) -> Self {
+    /// Checks `show` with the check's code, a chunk of its own
+    /// ([`crate::lazy::show_violations`]).
+    async fn of(
+        show: Arc<Show>,
+        installation: Option<&InstallationInfo>,
+    ) -> Result<Self, crate::lazy::ChunkError> {
         let limits = installation.map_or_else(
             || Limits::for_layout(show.layout.rows, show.layout.cols),
             crate::installation::limits_of,
         );
-        let violations = validate(show, &limits);
+        let violations = crate::lazy::show_violations(show, limits).await?;
         let mut beyond: Vec<usize> = violations
             .iter()
             .filter_map(|violation| violation.unit.map(|unit| unit.index))
             .collect();
         beyond.sort_unstable();
         beyond.dedup();
-        Self {
+        Ok(Self {
             limits,
             installed: installation.is_some(),
             violations,
             beyond,
-        }
+        })
     }
 }
 
@@ -132,11 +137,14 @@ pub fn PreviewPage(
     // a large show is on screen at once, and its balls beyond a limit turn red and
     // its problems are listed a moment after. The latest request wins.
     let checked = RwSignal::new(None::<Checked>);
+    // The check's code could not be loaded (offline, or the app was updated).
+    let check_failed = RwSignal::new(false);
     let check_due = StoredValue::new(0u32);
     Effect::new(move |_| {
         show.track();
         installation.track();
         checked.set(None);
+        check_failed.set(false);
         let due = check_due.get_value().wrapping_add(1);
         check_due.set_value(due);
         request_animation_frame(move || {
@@ -144,13 +152,25 @@ pub fn PreviewPage(
                 if check_due.get_value() != due {
                     return;
                 }
-                let result = installation.with_untracked(|installation| {
-                    show.with_untracked(|show| {
-                        show.as_ref()
-                            .map(|show| Checked::of(show, installation.as_ref()))
-                    })
+                let Some(show) = show.with_untracked(Clone::clone) else {
+                    return;
+                };
+                let installation = installation.get_untracked();
+                leptos::task::spawn_local(async move {
+                    let result = Checked::of(show, installation.as_ref()).await;
+                    // A newer show (or the page gone) makes this check void.
+                    if check_due.try_get_value() != Some(due) {
+                        return;
+                    }
+                    match result {
+                        Ok(result) => {
+                            checked.try_set(Some(result));
+                        }
+                        Err(crate::lazy::ChunkError) => {
+                            check_failed.try_set(true);
+                        }
+                    }
                 });
-                checked.set(result);
             });
         });
     });
@@ -481,7 +501,20 @@ pub fn PreviewPage(
                 )}
             </Show>
             <Show when=move || show.with(Option::is_some)>
-                {move || checked.with(|checked| problems_view(checked.as_ref(), lang))}
+                {move || {
+                    if check_failed.get() {
+                        return view! {
+                            <p class="note error" data-testid="preview-check-failed">
+                                {tr_in(lang, Text::CheckFailed)} " "
+                                <button on:click=move |_| crate::lazy::reload_app()>
+                                    {tr_in(lang, Text::ReloadApp)}
+                                </button>
+                            </p>
+                        }
+                        .into_any();
+                    }
+                    checked.with(|checked| problems_view(checked.as_ref(), lang))
+                }}
             </Show>
         </div>
     }
