@@ -752,6 +752,12 @@ codes! {
     /// A speed-limit channel of neither 8 nor 16 bits.
     PatchSpeedBits = "patch_speed_bits" ["ball", "bits"]
         => "Ball {ball}: a speed limit of {bits} bits; 8 or 16 expected";
+    /// `PUT /api/live/patch` refused: `problems` problems, each in `problems[]`.
+    PatchInvalid = "patch_invalid" ["problems"]
+        => "The patch has {problems} problem(s) and was not saved";
+    /// The patch changes only while the player is idle (`state`: what it is doing).
+    PatchBusy = "patch_busy" ["state"]
+        => "The matrix is {state}: the patch changes only while it is idle";
 }
 
 #[cfg(test)]

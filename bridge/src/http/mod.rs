@@ -10,6 +10,7 @@
 //! - [`commission`]: a UIM2503 gateway's roll call, station assignment and identify
 //!   moves;
 //! - [`status`]: every gateway's status in full (the live status summarises many);
+//! - [`live`]: the patch of live input (`[live]` in `floatball.toml`);
 //!
 //! Every error answer is an [`ApiError`] JSON body with the right status code
 //! ([`Failure`]); so are unknown `/api` paths (404) and methods (405), and the
@@ -18,6 +19,7 @@
 
 pub mod commission;
 pub mod library;
+pub mod live;
 pub mod matrix;
 pub mod qprogram;
 pub mod session;
@@ -74,6 +76,12 @@ pub fn router(state: &AppState) -> Router<AppState> {
         .route("/gateways/{gateway}/assign", post(commission::assign))
         .route("/gateways/{gateway}/identify", post(commission::identify))
         .route("/status/gateways", get(status::gateways))
+        .route(
+            "/live/patch",
+            get(live::get_patch)
+                .put(live::put_patch)
+                .layer(DefaultBodyLimit::max(live::MAX_PATCH_BYTES)),
+        )
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(map_response(json_errors))

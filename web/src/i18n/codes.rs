@@ -565,4 +565,6 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
         Code::PatchSpeedBits,
         "球 {ball}：限速通道为 {bits} 位；应为 8 或 16 位",
     ),
+    (Code::PatchInvalid, "配接表有 {problems} 个问题，未保存"),
+    (Code::PatchBusy, "矩阵正在{state}：只能在空闲时更改配接表"),
 ];
