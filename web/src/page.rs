@@ -25,6 +25,9 @@ pub enum Page {
     /// Commissioning: roll call, stations, the units' places in the grid, line speed
     /// (reached from Control's tabs).
     Commission,
+    /// The patch of live input: each ball's universe, address and profile (reached
+    /// from Control's tabs).
+    Patch,
 }
 
 impl Page {
@@ -39,7 +42,7 @@ impl Page {
     ];
 
     /// Every page.
-    pub const ALL: [Page; 9] = [
+    pub const ALL: [Page; 10] = [
         Page::Login,
         Page::Files,
         Page::Create,
@@ -49,6 +52,7 @@ impl Page {
         Page::Console,
         Page::Installation,
         Page::Commission,
+        Page::Patch,
     ];
 
     /// The page's name in the URL and in `data-testid`s.
@@ -63,6 +67,7 @@ impl Page {
             Page::Console => "console",
             Page::Installation => "installation",
             Page::Commission => "commission",
+            Page::Patch => "patch",
         }
     }
 
@@ -85,7 +90,12 @@ impl Page {
     pub fn needs_login(self) -> bool {
         matches!(
             self,
-            Page::Control | Page::Settings | Page::Console | Page::Installation | Page::Commission
+            Page::Control
+                | Page::Settings
+                | Page::Console
+                | Page::Installation
+                | Page::Commission
+                | Page::Patch
         )
     }
 

@@ -104,6 +104,7 @@ pub fn ControlTabs() -> impl IntoView {
         <div class="subtabs">
             {tab(Page::Control, Text::NavControl)} {tab(Page::Settings, Text::NavSettings)}
             {tab(Page::Commission, Text::NavCommission)}
+            {tab(Page::Patch, Text::NavPatch)}
         </div>
     }
 }

@@ -17,6 +17,7 @@ pub mod files;
 pub mod installation;
 pub mod login;
 pub mod password;
+pub mod patch;
 pub mod preview;
 pub mod qprogram;
 pub mod topbar;
@@ -260,6 +261,7 @@ pub fn Shell() -> impl IntoView {
                 Page::Commission => {
                     view! { <LazyPage load=crate::lazy::load_commission /> }.into_any()
                 }
+                Page::Patch => view! { <LazyPage load=crate::lazy::load_patch /> }.into_any(),
             }}
         </main>
         <widgets::ToastArea />

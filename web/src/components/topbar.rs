@@ -129,6 +129,7 @@ pub fn page_name(page: Page) -> Text {
         Page::Console => Text::NavConsole,
         Page::Installation => Text::InstallationTitle,
         Page::Commission => Text::NavCommission,
+        Page::Patch => Text::NavPatch,
     }
 }
 
