@@ -323,7 +323,7 @@ pub fn PatchPage() -> impl IntoView {
                         </span>
                         <button
                             data-testid="patch-next"
-                            disabled=move || page.get() + 1 >= page_count()
+                            disabled=move || { page.get() + 1 >= page_count() }
                             on:click=move |_| page.update(|p| *p += 1)
                         >
                             {ctx.tr(Text::PatchNext)}
