@@ -366,6 +366,20 @@ async fn the_patch_is_checked_saved_with_the_comments_and_read_back(bridge: &Pro
         text.contains("[[live.ball]]\nball = 1\nuniverse = 9\naddress = 1\n"),
         "{text}"
     );
+
+    // The installation is checked against the patch: one column fewer leaves
+    // `[[live.ball]] ball = 1` without its ball.
+    let mut smaller = get_installation(bridge, token).await;
+    smaller.cols = 1;
+    smaller.gateways[0].stations = vec![1];
+    let reply = put_installation(bridge, Some(token), &smaller).await;
+    assert_eq!(reply.status, StatusCode::UNPROCESSABLE_ENTITY);
+    let details = reply.error().details.join("\n");
+    assert!(
+        details.contains("[[live.ball]] ball = 1: the installation has balls 0–0"),
+        "{details}"
+    );
+    assert_eq!(file(bridge), text);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
