@@ -226,6 +226,7 @@ fn check(data_dir: &std::path::Path) -> anyhow::Result<()> {
                 .map_or_else(|| "off".to_owned(), |to| format!("to {to}"))
         );
     }
+    println!("{}", config.live.summary());
     Ok(())
 }
 

@@ -287,7 +287,7 @@ async fn commissioning_done(state: &AppState) -> Result<(), InstallError> {
 }
 
 /// Refused unless the player is idle and no Start is pending.
-fn idle(state: &AppState) -> Result<(), InstallError> {
+pub(crate) fn idle(state: &AppState) -> Result<(), InstallError> {
     if state.line_speed_changing() {
         return Err(InstallError::Busy {
             state: "changing a line speed".to_owned(),

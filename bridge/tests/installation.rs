@@ -1,7 +1,8 @@
 //! `PUT /api/installation` through the real `floatball` binary: a new installation is
 //! checked (every problem listed), saved into `floatball.toml` with its comments
 //! kept, applied without a restart (a following show plays on the new stations) and
-//! kept by a restart; refused while a show plays.
+//! kept by a restart; refused while a show plays. And the patch of live input
+//! (`GET` / `PUT /api/live/patch`), written into the same file.
 
 mod common;
 
@@ -11,8 +12,9 @@ use axum::http::{Method, StatusCode};
 use common::process::Process;
 use common::{Remote, send_text, status_until};
 use floatball_shared::api::{
-    InstallationInfo, LinkState, LoginResponse, PlayerState, RollCall, SimPositions,
+    InstallationInfo, LinkState, LivePatch, LoginResponse, PlayerState, RollCall, SimPositions,
 };
+use floatball_shared::live::patch::{Patch, Profile};
 
 /// A small matrix on the simulated gateway, with the installer's comments.
 const HALL: &str = "# The test hall: keep this comment.\n\
@@ -262,6 +264,122 @@ async fn an_invalid_installation_lists_every_problem_and_changes_nothing() {
 
     assert_eq!(file(&bridge), HALL);
     assert_eq!(get_installation(&bridge, &token).await, before);
+
+    the_patch_is_checked_saved_with_the_comments_and_read_back(&bridge, &token).await;
+}
+
+async fn put_patch(remote: &Remote, token: Option<&str>, patch: &Patch) -> common::Reply {
+    remote
+        .request(
+            Method::PUT,
+            "/api/live/patch",
+            token,
+            Some(("application/json", serde_json::to_vec(patch).expect("json"))),
+        )
+        .await
+}
+
+async fn get_patch(remote: &Remote, token: &str) -> LivePatch {
+    let reply = remote
+        .request(Method::GET, "/api/live/patch", Some(token), None)
+        .await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    reply.json()
+}
+
+/// `GET` / `PUT /api/live/patch` on [`HALL`] (no `[live]` yet): the default patch,
+/// a login needed, a wrong patch refused with every problem coded and nothing
+/// written, a right one saved into `[live]` with the installer's comments kept.
+async fn the_patch_is_checked_saved_with_the_comments_and_read_back(bridge: &Process, token: &str) {
+    let live = get_patch(bridge, token).await;
+    assert_eq!((live.rows, live.cols), (1, 2));
+    assert!(!live.enabled && live.artnet && live.sacn);
+    assert_eq!(live.hold_after_ms, 1000);
+    assert_eq!(
+        live.patch,
+        Patch::matrix(2, Profile::default(), 1, 1).expect("matrix")
+    );
+    assert_eq!(live.universes, [1]);
+    let reply = bridge
+        .request(Method::GET, "/api/live/patch", None, None)
+        .await;
+    assert_eq!(reply.status, StatusCode::UNAUTHORIZED);
+    assert_eq!(
+        put_patch(bridge, None, &live.patch).await.status,
+        StatusCode::UNAUTHORIZED
+    );
+
+    // Three balls for two, the third on the second's slots, a 12-bit speed limit.
+    let mut wrong = Patch::matrix(3, Profile::default(), 1, 1).expect("matrix");
+    wrong.balls[2].address = 4;
+    wrong.balls[1].profile = Some(Profile {
+        speed_limit_bits: Some(12),
+        ..Profile::default()
+    });
+    let reply = put_patch(bridge, Some(token), &wrong).await;
+    assert_eq!(reply.status, StatusCode::UNPROCESSABLE_ENTITY);
+    let error = reply.error();
+    assert_eq!(error.code, "patch_invalid");
+    let codes: Vec<&str> = error.problems.iter().map(|p| p.code.as_str()).collect();
+    assert_eq!(
+        codes,
+        ["patch_ball_count", "patch_speed_bits", "patch_overlap"],
+        "{error:?}"
+    );
+    assert_eq!(error.params["problems"], "3");
+    assert_eq!(error.problems[1].params["bits"], "12");
+    assert_eq!(file(bridge), HALL);
+
+    // Not JSON of a patch: 400.
+    let reply = bridge
+        .request(
+            Method::PUT,
+            "/api/live/patch",
+            Some(token),
+            Some(("application/json", b"{\"balls\": 3}".to_vec())),
+        )
+        .await;
+    assert_eq!(reply.status, StatusCode::BAD_REQUEST);
+
+    // A DMX winch's profile from universe 7 address 101; the second ball apart.
+    let profile = Profile {
+        speed_limit_bits: Some(8),
+        enable: true,
+        colour: false,
+    };
+    let mut right = Patch::matrix(2, profile, 7, 101).expect("matrix");
+    right.balls[1].universe = 9;
+    right.balls[1].address = 1;
+    let reply = put_patch(bridge, Some(token), &right).await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    let saved: LivePatch = reply.json();
+    assert_eq!(saved.patch, right);
+    assert_eq!(saved.universes, [7, 9]);
+    assert_eq!(get_patch(bridge, token).await, saved);
+    let text = file(bridge);
+    assert!(text.starts_with(HALL), "{text}");
+    assert!(
+        text.contains("matrix = { universe = 7, address = 101 }"),
+        "{text}"
+    );
+    assert!(
+        text.contains("[[live.ball]]\nball = 1\nuniverse = 9\naddress = 1\n"),
+        "{text}"
+    );
+
+    // The installation is checked against the patch: one column fewer leaves
+    // `[[live.ball]] ball = 1` without its ball.
+    let mut smaller = get_installation(bridge, token).await;
+    smaller.cols = 1;
+    smaller.gateways[0].stations = vec![1];
+    let reply = put_installation(bridge, Some(token), &smaller).await;
+    assert_eq!(reply.status, StatusCode::UNPROCESSABLE_ENTITY);
+    let details = reply.error().details.join("\n");
+    assert!(
+        details.contains("[[live.ball]] ball = 1: the installation has balls 0–0"),
+        "{details}"
+    );
+    assert_eq!(file(bridge), text);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -297,6 +415,14 @@ async fn stations_saved_as_a_list_are_used_by_the_next_show_and_refused_while_it
     assert_eq!(error.code, "installation_busy");
     assert_eq!(error.params["state"], "playing");
     assert!(file(&bridge).contains("stations = [2, 1]"));
+    // The patch too.
+    let patch = get_patch(&bridge, &token).await.patch;
+    let reply = put_patch(&bridge, Some(&token), &patch).await;
+    assert_eq!(reply.status, StatusCode::CONFLICT, "{:?}", reply.body);
+    let error = reply.error();
+    assert_eq!(error.code, "patch_busy");
+    assert_eq!(error.params["state"], "playing");
+    assert!(!file(&bridge).contains("[live]"));
 
     status_until(&mut ws, Duration::from_secs(15), |status| {
         status.state == PlayerState::Idle

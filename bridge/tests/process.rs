@@ -20,6 +20,14 @@ fn the_first_start_writes_the_documented_defaults() {
     assert!(output.status.success(), "{output:?}");
     let stdout = String::from_utf8_lossy(&output.stdout);
     assert!(stdout.contains("10 × 10 balls on 1 gateway(s)"), "{stdout}");
+    // The patch of live input, off, the matrix from universe 1, address 1.
+    assert!(
+        stdout.contains(
+            "live input off (Art-Net and sACN; hold after 1000 ms): 100 balls patched on 1 \
+             universe(s), universe 1; profile 16-bit position (2 channels)"
+        ),
+        "{stdout}"
+    );
     let written = std::fs::read_to_string(data.path().join("floatball.toml")).expect("written");
     assert_eq!(written, floatball_bridge::config::DEFAULT_FILE);
 }

@@ -688,6 +688,35 @@ impl SimMalformed {
 }
 
 // ----------------------------------------------------------------------------------
+// Live input: the patch (`/api/live/patch`)
+// ----------------------------------------------------------------------------------
+
+/// The patch as the app needs it (`GET /api/live/patch`, and the answer to
+/// `PUT /api/live/patch`, whose body is the [`crate::live::patch::Patch`] alone): the
+/// grid it is for, the `[live]` settings read from `floatball.toml`, every ball's
+/// universe, address and profile, and the universes in use.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LivePatch {
+    /// Rows of balls.
+    pub rows: u32,
+    /// Columns of balls.
+    pub cols: u32,
+    /// `[live] enabled`: whether live input is switched on in the file (the receivers
+    /// come in a later step).
+    pub enabled: bool,
+    /// `[live] hold_after_ms`: input lost this long → the balls hold.
+    pub hold_after_ms: u32,
+    /// `[live] artnet`: Art-Net is received.
+    pub artnet: bool,
+    /// `[live] sacn`: sACN (E1.31) is received.
+    pub sacn: bool,
+    /// Every ball's universe, address and profile, row-major.
+    pub patch: crate::live::patch::Patch,
+    /// The universes the patch uses, in order.
+    pub universes: Vec<u16>,
+}
+
+// ----------------------------------------------------------------------------------
 // WebSocket
 // ----------------------------------------------------------------------------------
 

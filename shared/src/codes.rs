@@ -813,6 +813,12 @@ codes! {
     /// A window's end could not home for another reason.
     ScheduleEndRefused = "schedule_end_refused" ["reason"]
         => "The window ended, but the balls did not go home: {reason}";
+    /// `PUT /api/live/patch` refused: `problems` problems, each in `problems[]`.
+    PatchInvalid = "patch_invalid" ["problems"]
+        => "The patch has {problems} problem(s) and was not saved";
+    /// The patch changes only while the player is idle (`state`: what it is doing).
+    PatchBusy = "patch_busy" ["state"]
+        => "The matrix is {state}: the patch changes only while it is idle";
 }
 
 #[cfg(test)]

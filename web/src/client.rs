@@ -455,6 +455,28 @@ impl Client {
             .await
     }
 
+    /// `GET /api/live/patch`: the patch of live input.
+    ///
+    /// # Errors
+    /// [`Failure`] as the bridge answered (a bridge older than the call: not found).
+    pub async fn live_patch(&self) -> Result<floatball_shared::api::LivePatch, Failure> {
+        self.call_json(Method::Get, "/api/live/patch", None).await
+    }
+
+    /// `PUT /api/live/patch`: a whole new patch, checked, saved into `floatball.toml`;
+    /// answers the patch now.
+    ///
+    /// # Errors
+    /// [`Failure::Rejected`] with every problem (422), or while the matrix is not
+    /// idle (409); [`Failure`] as the bridge answered otherwise.
+    pub async fn put_live_patch(
+        &self,
+        patch: &floatball_shared::live::patch::Patch,
+    ) -> Result<floatball_shared::api::LivePatch, Failure> {
+        self.call_json(Method::Put, "/api/live/patch", Some(json(patch)?))
+            .await
+    }
+
     /// `PUT /api/installation`: the changed installation, checked by the bridge as
     /// `floatball check` does, saved and applied; answers the installation now.
     ///

@@ -241,6 +241,19 @@ pub fn load_schedule() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkErro
     Box::pin(schedule_page())
 }
 
+split!(
+    patch,
+    /// The Patch page (live input's patch).
+    pub fn patch_page() -> PageView {
+        || view! { <crate::components::patch::PatchPage /> }.into_any()
+    }
+);
+
+/// [`patch_page`] as a [`Loader`].
+pub fn load_patch() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkError>>>> {
+    Box::pin(patch_page())
+}
+
 /// [`create_page`] as a [`Loader`].
 pub fn load_create() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkError>>>> {
     Box::pin(create_page())

@@ -56,6 +56,7 @@ pub mod installation;
 pub mod json;
 pub mod lazy;
 pub mod page;
+pub mod patch;
 pub mod plan_worker;
 pub mod playlist;
 pub mod preview;

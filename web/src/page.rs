@@ -28,6 +28,9 @@ pub enum Page {
     /// The weekly schedule: opening windows per weekday, exceptions, the time zone
     /// (reached from Control's tabs).
     Schedule,
+    /// The patch of live input: each ball's universe, address and profile (reached
+    /// from Control's tabs).
+    Patch,
 }
 
 impl Page {
@@ -53,6 +56,7 @@ impl Page {
         Page::Installation,
         Page::Commission,
         Page::Schedule,
+        Page::Patch,
     ];
 
     /// The page's name in the URL and in `data-testid`s.
@@ -68,6 +72,7 @@ impl Page {
             Page::Installation => "installation",
             Page::Commission => "commission",
             Page::Schedule => "schedule",
+            Page::Patch => "patch",
         }
     }
 
@@ -96,6 +101,7 @@ impl Page {
                 | Page::Installation
                 | Page::Commission
                 | Page::Schedule
+                | Page::Patch
         )
     }
 

@@ -2638,3 +2638,179 @@ async fn a_page_whose_chunk_fails_shows_an_error_and_retry_loads_it_in_both_lang
     assert!(all(&container, "chunk-error").is_empty());
     assert_eq!(CHUNK_LOADS.get(), 3);
 }
+
+// ----------------------------------------------------------------------------------
+// The Patch page (live input)
+// ----------------------------------------------------------------------------------
+
+/// A 100 × 100 matrix patched from universe 1 address 1 (40 universes), as
+/// `GET /api/live/patch` says it.
+fn live_patch_json() -> String {
+    use floatball_shared::live::patch::{Patch, Profile};
+
+    let patch = Patch::matrix(10_000, Profile::default(), 1, 1).unwrap();
+    serde_json::to_string(&floatball_shared::api::LivePatch {
+        rows: 100,
+        cols: 100,
+        enabled: false,
+        hold_after_ms: 1000,
+        artnet: true,
+        sacn: true,
+        universes: patch.universes(),
+        patch,
+    })
+    .unwrap()
+}
+
+#[wasm_bindgen_test]
+fn the_whole_matrix_helper_and_the_universe_summary() {
+    use floatball_shared::live::patch::{PatchProblem, Profile};
+    use floatball_web::patch::{page_rows, pages, universe_ranges, whole_matrix};
+
+    // A DMX winch's 5 slots: 102 balls a universe, 10,000 balls on 99 universes.
+    let winch = Profile {
+        speed_limit_bits: Some(16),
+        enable: true,
+        colour: false,
+    };
+    let patch = whole_matrix(100, 100, winch, 3, 1).unwrap();
+    let ranges = universe_ranges(&patch);
+    assert_eq!(ranges.len(), 99);
+    assert_eq!(ranges[0].universe, 3);
+    assert_eq!((ranges[0].balls, ranges[0].last_slot), (102, 510));
+    assert_eq!((ranges[1].first_ball, ranges[1].first_slot), (102, 1));
+    assert_eq!(ranges[98].universe, 101);
+    assert_eq!(ranges[98].balls, 10_000 - 98 * 102);
+    assert_eq!(pages(&patch), 100);
+    let second = page_rows(&patch, 100, 1);
+    assert_eq!((second[0].ball, second[0].row, second[0].col), (100, 2, 1));
+    assert_eq!(
+        whole_matrix(1, 2, Profile::default(), 1, 512),
+        Err(PatchProblem::Footprint {
+            ball: 0,
+            address: 512,
+            footprint: 2
+        })
+    );
+    assert_eq!(
+        Lang::En.profile_channels(winch),
+        "5 channels: position (coarse), position (fine), speed limit (coarse), speed limit \
+         (fine), enable"
+    );
+    assert_eq!(
+        Lang::Zh.profile_channels(Profile::default()),
+        "2 个通道：位置（高）、位置（低）"
+    );
+}
+
+#[wasm_bindgen_test]
+async fn the_patch_page_patches_the_whole_matrix_in_one_tap_and_shows_refusals_in_both_languages() {
+    let bridge = FakeBridge::new(
+        move |request| match (request.method, request.url.as_str()) {
+            (Method::Get, "/api/live/patch") => response(200, &live_patch_json()),
+            (Method::Put, "/api/live/patch") => response(
+                422,
+                &serde_json::json!({
+                    "error": "The patch has 1 problem(s) and was not saved",
+                    "code": "patch_invalid",
+                    "params": {"problems": "1"},
+                    "details": ["ball 1 and ball 0 share slots in universe 1 from address 2"],
+                    "problems": [{"code": "patch_overlap", "params":
+                        {"ball": "1", "other": "0", "universe": "1", "address": "2"}}]
+                })
+                .to_string(),
+            ),
+            _ => response(500, ""),
+        },
+    );
+    let socket = Rc::new(FakeSocket::default());
+    let container = fresh_container();
+    let ctx = context(&bridge, &socket, "test-patch");
+    online(ctx);
+    let mounted = mount_to(container.clone(), move || {
+        provide_context(ctx);
+        view! { <floatball_web::components::patch::PatchPage /> }
+    });
+    std::mem::forget(mounted);
+    until("the patch is shown", || {
+        !all(&container, "patch-summary").is_empty()
+    })
+    .await;
+    // 10,000 balls: 40 universe lines, 100 ball rows a page.
+    assert_eq!(
+        text(&container, "patch-summary"),
+        "10000 balls on 40 universe(s)"
+    );
+    assert_eq!(all(&container, "patch-universe").len(), 40);
+    assert_eq!(all(&container, "patch-ball").len(), 100);
+    assert_eq!(text(&container, "patch-page"), "Page 1 of 100");
+    assert!(text(&container, "patch-live").starts_with("Live input off"));
+
+    // An 8-bit speed limit and an enable channel, from universe 5, address 1: 4 slots,
+    // 128 balls a universe, 79 universes.
+    element(&container, "patch-speed-8").click();
+    element(&container, "patch-enable").click();
+    tick().await;
+    assert!(
+        text(&container, "patch-channels").starts_with("4 channels:"),
+        "{}",
+        text(&container, "patch-channels")
+    );
+    // The profile alone makes the balls overlap: said before anything is sent.
+    assert!(!all(&container, "patch-local-problems").is_empty());
+    set_value(&container, "patch-matrix-universe", "5", "input");
+    element(&container, "patch-matrix-apply").click();
+    tick().await;
+    assert_eq!(
+        text(&container, "patch-summary"),
+        "10000 balls on 79 universe(s)"
+    );
+    assert_eq!(all(&container, "patch-universe").len(), 79);
+    assert!(all(&container, "patch-local-problems").is_empty());
+    let next = element(&container, "patch-next");
+    assert!(
+        !next.has_attribute("disabled"),
+        "the next page is disabled: {:?} {}",
+        next.get_attribute("disabled"),
+        text(&container, "patch-page")
+    );
+    next.click();
+    until("the second page", || {
+        text(&container, "patch-page") == "Page 2 of 100"
+    })
+    .await;
+    let first = &all(&container, "patch-ball")[0];
+    assert!(
+        first.text_content().unwrap_or_default().contains("5.401"),
+        "{:?}",
+        first.text_content()
+    );
+
+    // Save: the bridge's refusal, in English, then in 中文.
+    element(&container, "patch-save").click();
+    until("the refusal is shown", || {
+        !all(&container, "patch-problems").is_empty()
+    })
+    .await;
+    let sent: floatball_shared::live::patch::Patch = serde_json::from_str(
+        bridge.requests_to(Method::Put, "/api/live/patch")[0]
+            .body
+            .as_deref()
+            .unwrap(),
+    )
+    .unwrap();
+    assert_eq!(sent.balls.len(), 10_000);
+    assert_eq!(sent.balls[100].universe, 5);
+    assert_eq!(sent.profile.speed_limit_bits, Some(8));
+    let listed = text(&container, "patch-problems");
+    assert!(
+        listed.contains("Ball 1 and ball 0 share slots in universe 1 from address 2"),
+        "{listed}"
+    );
+    ctx.lang.set(Lang::Zh);
+    element(&container, "patch-save").click();
+    until("the refusal is shown in 中文", || {
+        text(&container, "patch-problems").contains("球 1 与球 0 在域 1 从地址 2 起共用通道")
+    })
+    .await;
+}

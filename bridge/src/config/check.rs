@@ -233,6 +233,8 @@ impl Checker<'_> {
             ),
         };
         let osc = self.keep(self.osc(&raw.osc));
+        let balls = matrix.limits.rows as usize * matrix.limits.cols as usize;
+        let live = self.keep(self.live(&raw.live, balls));
         let (gateways, units, boxes, drives) = gateways?;
         // Every gateway is of the first one's kind (`gateway` refuses another).
         let family = if !boxes.is_empty() {
@@ -263,6 +265,7 @@ impl Checker<'_> {
             },
             family,
             osc: osc?,
+            live: live?,
         })
     }
 

@@ -12,6 +12,7 @@
 //!   `data/floatball.toml line 12, column 8: baud 300 is out of range (1200 to 921600)`.
 //! - `scl`: the MOONS' drives' gateway entries and the `[scl]` table.
 //! - `osc`: the `[osc]` table, show control over OSC.
+//! - `live`: the `[live]` table, live input and the patch.
 //!
 //! The check goes on past a problem and lists every one ([`Config::parse_all`]), for
 //! `floatball check`, for the start, and for `PUT /api/installation`, which writes
@@ -24,12 +25,14 @@
 
 mod check;
 pub mod edit;
+pub mod live;
 pub mod osc;
 mod raw;
 pub mod scl;
 #[cfg(test)]
 mod tests;
 
+pub use live::LiveConfig;
 pub use osc::{OscConfig, Source};
 pub use scl::{
     DEFAULT_SCL_HOST_PORT, DEFAULT_SCL_POLL, DEFAULT_START_INPUT, DEFAULT_STEPS_PER_REV,
@@ -82,6 +85,8 @@ pub struct Config {
     pub family: Family,
     /// Show control over OSC (`[osc]`), when it is on.
     pub osc: Option<OscConfig>,
+    /// Live input and the patch (`[live]`; off unless `enabled`).
+    pub live: LiveConfig,
 }
 
 /// The drive family of an installation, with what only that family needs.

@@ -27,6 +27,8 @@ pub(super) struct RawConfig {
     pub(super) scl: RawScl,
     #[serde(default)]
     pub(super) osc: RawOsc,
+    #[serde(default)]
+    pub(super) live: RawLive,
 }
 
 /// `[matrix]`.
@@ -130,4 +132,45 @@ pub(super) struct RawOsc {
     pub(super) estop: Option<Spanned<bool>>,
     pub(super) motion: Option<Spanned<bool>>,
     pub(super) feedback: Option<Spanned<String>>,
+}
+
+/// `[live]`: live input and the patch (`super::live`).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawLive {
+    pub(super) enabled: Option<Spanned<bool>>,
+    pub(super) artnet: Option<Spanned<bool>>,
+    pub(super) sacn: Option<Spanned<bool>>,
+    pub(super) hold_after_ms: Option<Spanned<u32>>,
+    pub(super) profile: Option<Spanned<RawProfile>>,
+    pub(super) matrix: Option<Spanned<RawLiveMatrix>>,
+    #[serde(default)]
+    pub(super) ball: Vec<Spanned<RawLiveBall>>,
+}
+
+/// A ball's channels: `{ speed_limit_bits = 8, enable = true, colour = false }`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawProfile {
+    pub(super) speed_limit_bits: Option<Spanned<u8>>,
+    pub(super) enable: Option<Spanned<bool>>,
+    pub(super) colour: Option<Spanned<bool>>,
+}
+
+/// `[live] matrix = { universe = 1, address = 1 }`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawLiveMatrix {
+    pub(super) universe: Option<Spanned<i64>>,
+    pub(super) address: Option<Spanned<i64>>,
+}
+
+/// One `[[live.ball]]`: a ball patched apart from the matrix.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawLiveBall {
+    pub(super) ball: Option<Spanned<usize>>,
+    pub(super) universe: Option<Spanned<i64>>,
+    pub(super) address: Option<Spanned<i64>>,
+    pub(super) profile: Option<Spanned<RawProfile>>,
 }

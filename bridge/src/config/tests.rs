@@ -825,3 +825,169 @@ fn wrong_osc_values_name_their_line() {
         assert!(message.contains(expected), "{text}: {message}");
     }
 }
+
+#[test]
+fn live_is_off_and_patches_the_matrix_from_universe_1_address_1_unless_told() {
+    use floatball_shared::live::patch::{Patch, Profile};
+
+    let config = parse("").expect("empty");
+    assert!(!config.live.enabled);
+    assert!(config.live.artnet && config.live.sacn);
+    assert_eq!(config.live.hold_after_ms, live::DEFAULT_HOLD_AFTER_MS);
+    assert_eq!(
+        config.live.patch,
+        Patch::matrix(100, Profile::default(), 1, 1).expect("matrix")
+    );
+    assert_eq!(
+        config.live.summary(),
+        "live input off (Art-Net and sACN; hold after 1000 ms): 100 balls patched on 1 \
+         universe(s), universe 1; profile 16-bit position (2 channels)"
+    );
+    // 100 × 100 balls with the profile of a DMX winch, from universe 5 address 11,
+    // and two balls apart, one with its own profile.
+    let text = "[matrix]\nrows = 100\ncols = 100\n\n[live]\nenabled = true\nsacn = false\n\
+                hold_after_ms = 250\nprofile = { speed_limit_bits = 16, enable = true }\n\
+                matrix = { universe = 5, address = 11 }\n\n[[live.ball]]\nball = 9999\n\
+                universe = 300\naddress = 1\n\n[[live.ball]]\nball = 17\nuniverse = 200\n\
+                address = 7\nprofile = { colour = true }\n";
+    let live = parse(&format!("{text}{}", hundred_gateways()))
+        .expect("patched")
+        .live;
+    let profile = Profile {
+        speed_limit_bits: Some(16),
+        enable: true,
+        colour: false,
+    };
+    let mut expected = Patch::matrix(10_000, profile, 5, 11).expect("matrix");
+    expected.balls[9999].universe = 300;
+    expected.balls[9999].address = 1;
+    expected.balls[17].universe = 200;
+    expected.balls[17].address = 7;
+    expected.balls[17].profile = Some(Profile {
+        colour: true,
+        ..Profile::default()
+    });
+    assert_eq!(live.patch, expected);
+    assert!(live.enabled && live.artnet && !live.sacn);
+    assert_eq!(live.hold_after_ms, 250);
+    assert_eq!(live.matrix_start, (5, 11));
+    assert!(
+        live.summary().contains(
+            "10000 balls patched on 101 universe(s), universes 5–300; profile 16-bit position \
+             + 16-bit speed limit + enable (5 channels) (1 with their own profile)"
+        ),
+        "{}",
+        live.summary()
+    );
+}
+
+#[test]
+fn wrong_live_values_name_their_line_and_the_patch_is_checked_against_the_installation() {
+    for (text, expected) in [
+        (
+            "[live]\nhold_after_ms = 10\n",
+            "line 2, column 17: [live] hold_after_ms = 10 must be from 100 to 60000 ms",
+        ),
+        (
+            "[live]\nprofile = { speed_limit_bits = 12 }\n",
+            "line 2, column 32: [live] speed_limit_bits = 12 must be 8 or 16",
+        ),
+        (
+            "[live]\nmatrix = { universe = 0, address = 1 }\n",
+            "line 2, column 23: [live] matrix universe = 0 is outside 1–63999",
+        ),
+        (
+            "[live]\nmatrix = { universe = 1 }\n",
+            "line 2, column 10: [live] matrix needs a universe and an address",
+        ),
+        (
+            "[live]\nmatrix = { universe = 1, address = 512 }\n",
+            "line 2, column 10: [live] matrix: ball 0: 2 channels from address 512 pass slot 512",
+        ),
+        (
+            "[live]\nmatrix = { universe = 63999, address = 1 }\n[matrix]\nrows = 20\ncols = 20\n",
+            "line 2, column 10: [live] matrix: ball 256: universe 64000 is outside 1-63999",
+        ),
+        (
+            "[[live.ball]]\nball = 100\nuniverse = 2\n",
+            "line 2, column 8: [[live.ball]] ball = 100: the installation has balls 0–99",
+        ),
+        (
+            "[[live.ball]]\nuniverse = 2\n",
+            "line 1, column 1: [[live.ball]] needs the ball's number",
+        ),
+        (
+            "[[live.ball]]\nball = 3\n[[live.ball]]\nball = 3\n",
+            "line 4, column 8: [[live.ball]] ball = 3 is patched twice",
+        ),
+        (
+            "[[live.ball]]\nball = 3\naddress = 513\n",
+            "line 3, column 11: [live] address = 513 is outside 1–512",
+        ),
+        // Ball 5 moved onto ball 4's slots: found by the patch's own check, named at
+        // the ball's entry.
+        (
+            "[[live.ball]]\nball = 5\naddress = 8\n",
+            "line 1, column 1: [live] ball 5 and ball 3 share slots in universe 1 from address 8",
+        ),
+        ("[live]\nprotocol = \"artnet\"\n", "line 2, column 1"),
+        ("[live]\nenabled = \"yes\"\n", "line 2, column 11"),
+    ] {
+        let message = parse(text).expect_err(text).to_string();
+        assert!(message.contains(expected), "{text}: {message}");
+    }
+}
+
+#[test]
+fn a_patch_is_written_back_compactly_and_reads_back_as_it_was() {
+    use floatball_shared::live::patch::{Patch, Profile};
+
+    let text = "# the installer's words\n[matrix]\nrows = 100\ncols = 100 # a big one\n\n\
+                [live]\nenabled = true # on\nmatrix = { universe = 1, address = 1 }\n\n\
+                [[live.ball]]\nball = 3\nuniverse = 500\n";
+    let profile = Profile {
+        speed_limit_bits: Some(8),
+        enable: false,
+        colour: false,
+    };
+    let mut patch = Patch::matrix(10_000, profile, 7, 4).expect("matrix");
+    patch.balls[42].universe = 1000;
+    patch.balls[42].address = 1;
+    patch.balls[43].profile = Some(Profile {
+        speed_limit_bits: None,
+        enable: true,
+        colour: true,
+    });
+    patch.balls[43].universe = 1001;
+    patch.balls[43].address = 1;
+    let written = live::edit_patch(text, &patch, (1, 1)).expect("edited");
+    assert!(
+        written.starts_with("# the installer's words\n"),
+        "{written}"
+    );
+    assert!(written.contains("cols = 100 # a big one"), "{written}");
+    assert!(written.contains("enabled = true # on"), "{written}");
+    assert!(
+        written.contains("matrix = { universe = 7, address = 4 }"),
+        "{written}"
+    );
+    assert!(!written.contains("universe = 500"), "{written}");
+    assert_eq!(written.matches("[[live.ball]]").count(), 2, "{written}");
+    assert!(written.lines().count() < 40, "{written}");
+    let config = parse(&format!("{written}{}", hundred_gateways())).expect("reads back");
+    assert_eq!(config.live.patch, patch);
+    assert!(config.live.enabled);
+    // Into a file without [live]: the table is added.
+    let plain = Patch::matrix(100, Profile::default(), 3, 1).expect("matrix");
+    let written = live::edit_patch("[matrix]\nrows = 10\n", &plain, (1, 1)).expect("edited");
+    assert_eq!(
+        written,
+        "[matrix]\nrows = 10\n\n[live]\nmatrix = { universe = 3, address = 1 }\n"
+    );
+    assert_eq!(parse(&written).expect("reads back").live.patch, plain);
+}
+
+/// 100 simulated gateways: room for 10,000 balls.
+fn hundred_gateways() -> String {
+    "\n[[gateway]]\nport = \"sim\"\n".repeat(100)
+}

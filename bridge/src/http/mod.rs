@@ -11,6 +11,7 @@
 //!   moves;
 //! - [`status`]: every gateway's status in full (the live status summarises many);
 //! - [`schedule`]: the weekly schedule, the scheduler's state, and the test clock;
+//! - [`live`]: the patch of live input (`[live]` in `floatball.toml`);
 //!
 //! Every error answer is an [`ApiError`] JSON body with the right status code
 //! ([`Failure`]); so are unknown `/api` paths (404) and methods (405), and the
@@ -19,6 +20,7 @@
 
 pub mod commission;
 pub mod library;
+pub mod live;
 pub mod matrix;
 pub mod qprogram;
 pub mod schedule;
@@ -82,6 +84,12 @@ pub fn router(state: &AppState) -> Router<AppState> {
         )
         .route("/schedule/status", get(schedule::get_status))
         .route("/test/clock", post(schedule::set_test_clock))
+        .route(
+            "/live/patch",
+            get(live::get_patch)
+                .put(live::put_patch)
+                .layer(DefaultBodyLimit::max(live::MAX_PATCH_BYTES)),
+        )
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(map_response(json_errors))

@@ -105,6 +105,7 @@ pub fn ControlTabs() -> impl IntoView {
             {tab(Page::Control, Text::NavControl)} {tab(Page::Settings, Text::NavSettings)}
             {tab(Page::Commission, Text::NavCommission)}
             {tab(Page::Schedule, Text::NavSchedule)}
+            {tab(Page::Patch, Text::NavPatch)}
         </div>
     }
 }

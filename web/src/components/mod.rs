@@ -17,6 +17,7 @@ pub mod files;
 pub mod installation;
 pub mod login;
 pub mod password;
+pub mod patch;
 pub mod preview;
 pub mod qprogram;
 pub mod schedule;
@@ -264,6 +265,7 @@ pub fn Shell() -> impl IntoView {
                 Page::Schedule => {
                     view! { <LazyPage load=crate::lazy::load_schedule /> }.into_any()
                 }
+                Page::Patch => view! { <LazyPage load=crate::lazy::load_patch /> }.into_any(),
             }}
         </main>
         <widgets::ToastArea />

@@ -130,6 +130,7 @@ pub fn page_name(page: Page) -> Text {
         Page::Installation => Text::InstallationTitle,
         Page::Commission => Text::NavCommission,
         Page::Schedule => Text::NavSchedule,
+        Page::Patch => Text::NavPatch,
     }
 }
 

@@ -634,4 +634,6 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
         Code::ScheduleEndRefused,
         "时段结束，但小球没有回原点：{reason}",
     ),
+    (Code::PatchInvalid, "配接表有 {problems} 个问题，未保存"),
+    (Code::PatchBusy, "矩阵正在{state}：只能在空闲时更改配接表"),
 ];
