@@ -45,7 +45,7 @@ impl Page {
     ];
 
     /// Every page.
-    pub const ALL: [Page; 10] = [
+    pub const ALL: [Page; 11] = [
         Page::Login,
         Page::Files,
         Page::Create,
