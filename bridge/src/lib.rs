@@ -57,6 +57,9 @@
 //! - [`osc`]: show control over OSC on UDP (`[osc]`, off by default): commands from
 //!   the allowed senders carried out by the same functions as the WebSocket's, and
 //!   feedback of the state, the entry and the show time.
+//! - [`timecode`]: timecode chase (`[timecode]`, off by default): Art-Net or MIDI
+//!   timecode in, the playlist started and located in step through
+//!   [`control::issue_unless_latched`].
 //! - [`install`]: a new installation (`PUT /api/installation`, a gateway's line
 //!   speed) checked, saved into `floatball.toml` (`config/edit.rs`) and applied while
 //!   idle, without a restart.
@@ -95,4 +98,5 @@ pub mod server;
 pub mod simulate;
 pub mod state;
 pub mod store;
+pub mod timecode;
 pub mod ws;

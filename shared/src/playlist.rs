@@ -57,6 +57,13 @@ pub enum PlaylistProblem {
         /// The delay given, ms.
         delay_ms: u64,
     },
+    /// An entry's timecode start that is not a timecode `HH:MM:SS:FF`.
+    Timecode {
+        /// The entry, from 1.
+        entry: usize,
+        /// The text given.
+        timecode: String,
+    },
 }
 
 impl fmt::Display for PlaylistProblem {
@@ -86,6 +93,11 @@ impl fmt::Display for PlaylistProblem {
                     " is {delay_ms}; it must be at most {MAX_DELAY_MS} (one day)"
                 )
             }
+            Self::Timecode { entry, timecode } => write!(
+                f,
+                "entry {entry}: timecode_start \"{timecode}\" is not a timecode such as \
+                 10:00:00:00 (HH:MM:SS:FF)"
+            ),
         }
     }
 }
@@ -99,6 +111,7 @@ impl Coded for PlaylistProblem {
             Self::Cycles { entry: None, .. } => Code::DefaultCycles,
             Self::Delay { entry: Some(_), .. } => Code::EntryDelay,
             Self::Delay { entry: None, .. } => Code::DefaultDelay,
+            Self::Timecode { .. } => Code::EntryTimecode,
         }
     }
 
@@ -111,6 +124,9 @@ impl Coded for PlaylistProblem {
             Self::Cycles { cycles, .. } => params! {"cycles" => cycles, "max" => MAX_CYCLES},
             Self::Delay { delay_ms, .. } => {
                 params! {"delay_ms" => delay_ms, "max_ms" => MAX_DELAY_MS}
+            }
+            Self::Timecode { entry, timecode } => {
+                params! {"entry" => entry, "timecode" => timecode}
             }
         };
         if let Self::Cycles {
@@ -152,6 +168,14 @@ pub fn problems(playlist: &Playlist, show_exists: impl Fn(&str) -> bool) -> Vec<
         }
         problems.extend(cycles(Some(number), entry.cycles));
         problems.extend(delay(Some(number), entry.delay_ms));
+        if let Some(timecode) = &entry.timecode_start
+            && !crate::timecode::timecode_text_valid(timecode)
+        {
+            problems.push(PlaylistProblem::Timecode {
+                entry: number,
+                timecode: timecode.clone(),
+            });
+        }
     }
     problems.extend(cycles(None, playlist.default_cycles));
     problems.extend(delay(None, playlist.default_delay_ms));
@@ -173,6 +197,7 @@ mod tests {
                 show: show.into(),
                 delay_ms,
                 cycles,
+                timecode_start: None,
             })
             .collect()
     }

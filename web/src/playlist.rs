@@ -83,6 +83,7 @@ impl PlaylistEditor {
             show: show.to_owned(),
             delay_ms: self.playlist.default_delay_ms,
             cycles: self.playlist.default_cycles.max(1),
+            timecode_start: None,
         });
         self.checked.push(false);
     }
@@ -299,7 +300,8 @@ mod tests {
             [PlaylistEntry {
                 show: "wave".into(),
                 delay_ms: 1500,
-                cycles: 3
+                cycles: 3,
+                timecode_start: None,
             }]
         );
         assert!(!editor.is_checked(0));

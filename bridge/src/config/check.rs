@@ -233,6 +233,7 @@ impl Checker<'_> {
             ),
         };
         let osc = self.keep(self.osc(&raw.osc));
+        let timecode = self.keep(self.timecode(&raw.timecode));
         let (gateways, units, boxes, drives) = gateways?;
         // Every gateway is of the first one's kind (`gateway` refuses another).
         let family = if !boxes.is_empty() {
@@ -263,6 +264,7 @@ impl Checker<'_> {
             },
             family,
             osc: osc?,
+            timecode: timecode?,
         })
     }
 

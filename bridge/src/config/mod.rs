@@ -12,6 +12,7 @@
 //!   `data/floatball.toml line 12, column 8: baud 300 is out of range (1200 to 921600)`.
 //! - `scl`: the MOONS' drives' gateway entries and the `[scl]` table.
 //! - `osc`: the `[osc]` table, show control over OSC.
+//! - `timecode`: the `[timecode]` table, timecode chase.
 //!
 //! The check goes on past a problem and lists every one ([`Config::parse_all`]), for
 //! `floatball check`, for the start, and for `PUT /api/installation`, which writes
@@ -29,12 +30,14 @@ mod raw;
 pub mod scl;
 #[cfg(test)]
 mod tests;
+pub mod timecode;
 
 pub use osc::{OscConfig, Source};
 pub use scl::{
     DEFAULT_SCL_HOST_PORT, DEFAULT_SCL_POLL, DEFAULT_START_INPUT, DEFAULT_STEPS_PER_REV,
     DEFAULT_TOLERANCE_MM, SclConfig, SclGateway, SclPrograms, default_addresses,
 };
+pub use timecode::{TimecodeConfig, TimecodeSource};
 
 use std::io;
 use std::net::SocketAddr;
@@ -82,6 +85,8 @@ pub struct Config {
     pub family: Family,
     /// Show control over OSC (`[osc]`), when it is on.
     pub osc: Option<OscConfig>,
+    /// Timecode chase (`[timecode]`), when it is on.
+    pub timecode: Option<TimecodeConfig>,
 }
 
 /// The drive family of an installation, with what only that family needs.

@@ -27,6 +27,8 @@ pub(super) struct RawConfig {
     pub(super) scl: RawScl,
     #[serde(default)]
     pub(super) osc: RawOsc,
+    #[serde(default)]
+    pub(super) timecode: RawTimecode,
 }
 
 /// `[matrix]`.
@@ -130,4 +132,19 @@ pub(super) struct RawOsc {
     pub(super) estop: Option<Spanned<bool>>,
     pub(super) motion: Option<Spanned<bool>>,
     pub(super) feedback: Option<Spanned<String>>,
+}
+
+/// `[timecode]`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawTimecode {
+    pub(super) source: Option<Spanned<String>>,
+    pub(super) listen: Option<Spanned<String>>,
+    pub(super) device: Option<Spanned<String>>,
+    pub(super) rate: Option<Spanned<String>>,
+    pub(super) start: Option<Spanned<String>>,
+    pub(super) loss_ms: Option<Spanned<u64>>,
+    pub(super) on_loss: Option<Spanned<String>>,
+    pub(super) locate_threshold_ms: Option<Spanned<u64>>,
+    pub(super) lead_ms: Option<Spanned<u64>>,
 }

@@ -383,6 +383,7 @@ pub fn ControlPage() -> impl IntoView {
             <div class="control-side">
                 <PlanView plans=plans />
                 <StatusView />
+                <TimecodeView />
             </div>
             </div>
         </section>
@@ -654,6 +655,51 @@ fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
                 </ul>
             </div>
         </Show>
+    }
+}
+
+/// The timecode chase, when the bridge has it on: the timecode, the chase's state,
+/// the offset of the show from the timecode, the lead and the drift.
+#[component]
+fn TimecodeView() -> impl IntoView {
+    use floatball_shared::timecode::chase::ChaseState;
+    let ctx = expect_context::<Ctx>();
+    move || {
+        let chase = ctx.timecode.get().filter(|_| ctx.connected())?;
+        let state = match chase.state {
+            ChaseState::NoTimecode => Text::ChaseNoTimecode,
+            ChaseState::Waiting => Text::ChaseWaiting,
+            ChaseState::Cued => Text::ChaseCued,
+            ChaseState::Chasing => Text::ChaseChasing,
+            ChaseState::Locating => Text::ChaseLocating,
+            ChaseState::Holding => Text::ChaseHolding,
+            ChaseState::Stopped => Text::ChaseStopped,
+            ChaseState::Lost => Text::ChaseLost,
+        };
+        let signed = |ms: i64| format!("{ms:+} ms");
+        let drift = chase
+            .drift_ms
+            .map(|drift| format!("{} / {} s", signed(drift), chase.drift_over_ms / 1000));
+        Some(view! {
+            <div class="card status" data-testid="timecode">
+                <h3>{ctx.tr(Text::TimecodeTitle)} " · " {chase.source.clone()}</h3>
+                <p data-testid="timecode-now">
+                    <strong>{chase.timecode.clone().unwrap_or_else(|| "--:--:--:--".into())}</strong>
+                    {chase.rate.map(|rate| format!(" @ {rate}"))}
+                    " · "
+                    <span data-testid="timecode-state">{ctx.tr(state)}</span>
+                </p>
+                <p>
+                    {ctx.tr(Text::TimecodeOffset)} ": "
+                    <span data-testid="timecode-offset">
+                        {chase.offset_ms.map_or_else(|| "–".to_owned(), signed)}
+                    </span>
+                    " · " {ctx.tr(Text::TimecodeLead)} ": " {format!("{} ms", chase.lead_ms)}
+                    {drift.map(|drift| view! { " · " {ctx.tr(Text::TimecodeDrift)} ": " {drift} })}
+                </p>
+                {chase.refused.clone().map(|why| view! { <p class="muted">{why}</p> })}
+            </div>
+        })
     }
 }
 
