@@ -69,7 +69,8 @@ pub struct ChaseConfig {
     pub loss_ms: u64,
     /// What a loss does.
     pub on_loss: OnLoss,
-    /// The lead assumed until one is measured, ms (a locate's: twice this).
+    /// The lead assumed until one is measured, ms (a locate's: one and a half times
+    /// this).
     pub lead_ms: u64,
 }
 
@@ -300,7 +301,7 @@ impl Chase {
             locked: None,
             phase: Phase::Idle,
             lead_ms: config.lead_ms,
-            locate_lead_ms: config.lead_ms * 2,
+            locate_lead_ms: config.lead_ms * 3 / 2,
             lead_measured: false,
             started: None,
             locates: 0,
@@ -412,8 +413,9 @@ impl Chase {
             } else {
                 self.lead_ms = lead;
                 if !self.lead_measured {
-                    // Until a locate is measured: a start's lead plus its own again.
-                    self.locate_lead_ms = lead * 2;
+                    // Until a locate is measured: a start's lead and half again (it
+                    // stops and homes first).
+                    self.locate_lead_ms = lead * 3 / 2;
                 }
             }
             self.lead_measured = true;
@@ -777,7 +779,7 @@ mod tests {
         );
         assert_eq!(chase.status(2_000).offset_ms, Some(0));
         // …then 600 ms behind, after the settling second: a locate, aimed at the
-        // timecode plus the locate's lead (twice the start's until one is measured).
+        // timecode plus the locate's lead (1.5 × the start's until one is measured).
         let actions = run(&mut chase, 10 * 3_600_000 + 22_000, 2_000, 1_000);
         assert!(actions.is_empty(), "{actions:?}");
         chase.player(
@@ -795,7 +797,7 @@ mod tests {
                 3_120,
                 Action::Locate {
                     entry: 0,
-                    time_ms: 23_120 + 4_000
+                    time_ms: 23_120 + 3_000
                 }
             )]
         );
@@ -822,7 +824,7 @@ mod tests {
                 2_080,
                 Action::Locate {
                     entry: 1,
-                    time_ms: 10_000 + 4_000
+                    time_ms: 10_000 + 3_000
                 }
             )]
         );
@@ -831,7 +833,7 @@ mod tests {
         chase.player(
             PlayerView::Playing {
                 entry: 1,
-                show_time_ms: 14_000,
+                show_time_ms: 13_000,
             },
             6_080,
         );
