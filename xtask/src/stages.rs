@@ -76,10 +76,11 @@ pub fn test() -> Result<(), String> {
         tools::run_command(
             tools::cargo(env)
                 .args(["test", "--workspace", "--exclude", "floatball-e2e"])
-                // ser2net and liblo-tools were installed above: their absence is a
+                // ser2net, liblo-tools and ola were installed above: their absence is a
                 // failure, not a skip.
                 .env(tools::REQUIRE_SER2NET, "1")
-                .env(tools::REQUIRE_LIBLO, "1"),
+                .env(tools::REQUIRE_LIBLO, "1")
+                .env(tools::REQUIRE_OLA, "1"),
         )
     });
     stage("shared tests on wasm32 (Node.js)", &|env| {
@@ -149,5 +150,6 @@ fn install_tools(env: &Env) -> Result<(), String> {
     tools::ensure_wasm_pack(env)?;
     tools::ensure_chromium(env)?;
     tools::ensure_ser2net(env)?;
-    tools::ensure_liblo_tools(env)
+    tools::ensure_liblo_tools(env)?;
+    tools::ensure_ola(env)
 }
