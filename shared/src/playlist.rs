@@ -253,4 +253,24 @@ mod tests {
             ["the playlist has 1001 entries; at most 1000 are allowed"]
         );
     }
+
+    #[test]
+    fn a_timecode_start_must_be_a_timecode() {
+        let mut playlist = Playlist {
+            entries: entries(&[("rain", 0, 1), ("snow", 0, 1), ("hail", 0, 1)]),
+            ..Playlist::default()
+        };
+        playlist.entries[0].timecode_start = Some("10:00:00:00".into());
+        playlist.entries[1].timecode_start = Some("00:01:00;02".into());
+        playlist.entries[2].timecode_start = Some("10:00:00:30".into());
+        let found = problems(&playlist, |_| true);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert_eq!(found[0].code(), Code::EntryTimecode);
+        assert_eq!(found[0].params()["entry"], "3");
+        assert_eq!(
+            found[0].to_string(),
+            "entry 3: timecode_start \"10:00:00:30\" is not a timecode such as 10:00:00:00 \
+             (HH:MM:SS:FF)"
+        );
+    }
 }

@@ -140,7 +140,7 @@ impl Timecode {
             && minutes < 60
             && seconds < 60
             && u32::from(frames) < rate.frames_per_second()
-            && !(rate.drop_frame() && seconds == 0 && frames < 2 && minutes % 10 != 0);
+            && !(rate.drop_frame() && seconds == 0 && frames < 2 && !minutes.is_multiple_of(10));
         valid.then_some(Self {
             hours,
             minutes,
