@@ -269,6 +269,10 @@ texts! {
     PreviewFrom => "预览起点", "Preview from there";
     /// Control: an entry or time beside Start that cannot be read.
     BadStartFrom => "起始项须为从 1 开始的整数，时间须为 分:秒 或 秒（如 1:30 或 90）", "The entry must be a whole number from 1 and the time m:ss or seconds (e.g. 1:30 or 90)";
+    /// Control's edit panel: an entry's timecode start.
+    TimecodeStart => "时间码起点（时:分:秒:帧，可空）", "Timecode start (HH:MM:SS:FF, optional)";
+    /// Control's edit panel: a timecode start that cannot be read.
+    BadTimecodeStart => "时间码起点须为 时:分:秒:帧，如 10:00:00:00", "The timecode start must be HH:MM:SS:FF, such as 10:00:00:00";
     /// Control: the timecode chase's card title.
     TimecodeTitle => "时间码跟随", "Timecode chase";
     /// Control: the offset of the show from the timecode.

@@ -549,16 +549,31 @@ fn EditPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Int
         .with_untracked(|editor| TimingForm::of_entry(editor.first_checked()));
     let delay = RwSignal::new(form.delay_s);
     let cycles = RwSignal::new(form.cycles);
+    // The first checked entry's timecode start (chased with `[timecode]`).
+    let timecode = RwSignal::new(ctx.playlist.with_untracked(|editor| {
+        editor
+            .first_checked()
+            .and_then(|entry| entry.timecode_start.clone())
+            .unwrap_or_default()
+    }));
     let error = RwSignal::new(None::<String>);
     let apply = move |event: leptos::ev::SubmitEvent| {
         event.prevent_default();
         let lang = ctx.lang.get_untracked();
+        let start = timecode.get_untracked().trim().to_owned();
+        if !start.is_empty() && !floatball_shared::timecode::timecode_text_valid(&start) {
+            error.set(Some(lang.t(Text::BadTimecodeStart).into()));
+            return;
+        }
         match TimingForm::parse(&delay.get_untracked(), &cycles.get_untracked()) {
             Err(input) => error.set(Some(lang.input_error(input).into())),
             Ok(timing) => {
                 error.set(None);
                 edit_and_save(ctx, note, move |editor| {
-                    editor.edit_checked(timing.delay_ms, timing.cycles) > 0
+                    let timed = editor.edit_checked(timing.delay_ms, timing.cycles) > 0;
+                    let started =
+                        editor.set_timecode_checked(Some(start.as_str()).filter(|s| !s.is_empty()));
+                    timed || started > 0
                 });
                 panel.set(Panel::None);
             }
@@ -568,6 +583,7 @@ fn EditPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Int
         <form class="card panel form" data-testid="edit-panel" on:submit=apply>
             <TextField label=Text::DelayS value=delay test_id="edit-delay" inputmode="decimal" />
             <TextField label=Text::Cycles value=cycles test_id="edit-cycles" inputmode="numeric" />
+            <TextField label=Text::TimecodeStart value=timecode test_id="edit-timecode" />
             <ErrorNote text=error test_id="edit-error" />
             <div class="row-buttons">
                 <button type="submit" class="primary" data-testid="edit-apply">
