@@ -3,7 +3,9 @@
 //! says so and passes at once. Nothing about speed is asserted.
 //!
 //! Through the real `floatball` binary on each family's simulated matrix (1 × 3 balls:
-//! UIM2503 at 115200 baud, MBOX, MOONS'), Art-Net timecode at 25 fps from this bench
+//! UIM2503 at 115200 baud, MBOX, MOONS' with `tolerance_mm = 100` — a wave of 300
+//! one-second periods is more than a drive's 12 segments of 62 lines follow within
+//! 50 mm; the figures are about time), Art-Net timecode at 25 fps from this bench
 //! (the shared encoder) on the loopback, the playlist's timecode start 10:00:00:00:
 //! - **chasing error**: a wave of N seconds chased from its cue; every chase status
 //!   while `chasing` gives the offset of the show's time from the timecode (the
@@ -16,6 +18,9 @@
 //!   baud), the time from a jump of the timecode to the chase `chasing` again at the
 //!   new point (stop, home, approach, play), for the first locate (its lead estimated)
 //!   and the second (measured).
+//!
+//! `TIMECODE_BENCH_FAMILY` (`UIM2503`, `MBOX`, `MOONS'`) runs the chase of one family
+//! only (then the locate); `TIMECODE_BENCH_LOCATE_ONLY` the locate only.
 
 mod common;
 
@@ -144,6 +149,9 @@ fn percentile(sorted: &[i64], p: f64) -> i64 {
 
 /// One family's chase of a `seconds` long wave: prints its figures.
 async fn chasing_error(family: &str, gateways: &str, seconds: u64) {
+    if std::env::var("TIMECODE_BENCH_FAMILY").is_ok_and(|only| only != family) {
+        return;
+    }
     let matrix = "[matrix]\nrows = 1\ncols = 3\n[safety]\napproach_speed_mm_s = 2000.0\n";
     let show = wave(1, 3, seconds * 1_000, 100.0);
     let (bridge, mut ws, to) = bridge(&format!("{matrix}{gateways}"), &show).await;
@@ -154,7 +162,18 @@ async fn chasing_error(family: &str, gateways: &str, seconds: u64) {
     let mut last_chase = None;
     let deadline = Instant::now() + Duration::from_secs(seconds + 60);
     let mut played = false;
+    let began = Instant::now();
     while Instant::now() < deadline {
+        if !played && began.elapsed() > Duration::from_secs(60) {
+            println!(
+                "{family}: did not play within 60 s: {:?}\n{}",
+                last_chase
+                    .as_ref()
+                    .and_then(|chase: &TimecodeStatus| chase.refused.clone()),
+                bridge.log()
+            );
+            return;
+        }
         next(&mut ws, &mut status, &mut chase).await;
         let playing = status
             .as_ref()
@@ -287,7 +306,7 @@ async fn timecode_figures() {
     .await;
     chasing_error(
         "MOONS'",
-        "[scl]\npoll_ms = 50\ntolerance_mm = 50.0\n\
+        "[scl]\npoll_ms = 50\ntolerance_mm = 100.0\n\
          [[gateway]]\nkind = \"scl\"\nport = \"sim\"\nunits = 3\n",
         seconds,
     )

@@ -9,8 +9,8 @@
 //! [`control::issue_unless_latched`] — a Start as `Control::Start` at an entry and a
 //! time, a locate as `Control::Reset` (stop, home, approach the new point, play from
 //! there), a stop on loss as `Control::Home` — so the chase is refused while an e-stop
-//! is latched and can never release one. A refusal is logged (when its reason
-//! changes) and the chase tries again a second later.
+//! is latched and can never release one. A refusal is logged (once, until the show
+//! plays) and the chase tries again a second later.
 //!
 //! The cues (where each entry sits on the timecode) are read from the stored playlist
 //! — each entry's `timecode_start`, or the layout from `[timecode] start` — and
@@ -161,6 +161,10 @@ async fn chase(
                     return;
                 }
                 let seen = view(&status.borrow_and_update());
+                if matches!(seen, PlayerView::Playing { .. }) {
+                    // Played: the next refusal is logged even if it is the last one's.
+                    last_refusal = None;
+                }
                 chase.player(seen, ms(Instant::now()));
             }
             outcome = outcomes.recv() => {
@@ -214,7 +218,6 @@ fn issue(
         Err(latched) => note_refusal(chase, last_refusal, latched.to_string(), now_ms),
         Ok(run) => {
             tracing::info!("timecode: {action:?}");
-            *last_refusal = None;
             let results = results.clone();
             tokio::spawn(async move {
                 let outcome = run.await.err().map(|refused| match refused {
@@ -227,7 +230,8 @@ fn issue(
     }
 }
 
-/// Tells the chase its action was refused; logs the reason when it changed.
+/// Tells the chase its action was refused; logs the reason when it is not the last
+/// one's (a refusal repeated every retry is logged once until the show plays).
 fn note_refusal(chase: &mut Chase, last: &mut Option<String>, why: String, now_ms: u64) {
     if last.as_deref() != Some(why.as_str()) {
         tracing::warn!("timecode: refused: {why}");
