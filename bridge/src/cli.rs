@@ -227,6 +227,25 @@ fn check(data_dir: &std::path::Path) -> anyhow::Result<()> {
         );
     }
     println!("{}", config.live.summary());
+    if let Some(timecode) = &config.timecode {
+        println!(
+            "timecode chase: {} at {} fps, playlist start {}, loss after {} ms: {}, \
+             locate beyond {} ms, first lead {} ms",
+            timecode.source,
+            timecode.rate,
+            timecode.start_ms.map_or_else(
+                || "none (entries' own)".to_owned(),
+                |ms| floatball_shared::timecode::Timecode::from_ms(ms, timecode.rate).to_string()
+            ),
+            timecode.chase.loss_ms,
+            match timecode.chase.on_loss {
+                floatball_shared::timecode::chase::OnLoss::Hold => "hold",
+                floatball_shared::timecode::chase::OnLoss::Stop => "stop",
+            },
+            timecode.chase.locate_threshold_ms,
+            timecode.chase.lead_ms
+        );
+    }
     Ok(())
 }
 
@@ -285,6 +304,14 @@ async fn serve(
         }
         None => None,
     };
+    let timecode = match config.timecode.clone() {
+        Some(timecode) => {
+            let socket = crate::timecode::bind(&timecode)
+                .with_context(|| format!("cannot receive {}", timecode.source))?;
+            Some((socket, timecode))
+        }
+        None => None,
+    };
     let state = AppState::open_with(
         config,
         Paths {
@@ -313,6 +340,14 @@ async fn serve(
             if osc.motion { "on" } else { "off" }
         );
         crate::osc::spawn(state.clone(), socket, osc);
+    }
+    if let Some((socket, timecode)) = timecode {
+        tracing::info!(
+            "timecode chase: {} at {} fps",
+            timecode.source,
+            timecode.rate
+        );
+        crate::timecode::spawn(state.clone(), timecode, socket);
     }
     // The first line on stdout is the URL: people read it, and tests parse it.
     println!("floatball listening on http://{addr}");

@@ -60,6 +60,9 @@
 //! - [`schedule`]: the weekly schedule: `<data-dir>/schedule.json`, and the one
 //!   scheduler task that starts the playlist in its windows and ends them (home,
 //!   motors off), never releasing an e-stop nor clearing an error.
+//! - [`timecode`]: timecode chase (`[timecode]`, off by default): Art-Net or MIDI
+//!   timecode in, the playlist started and located in step through
+//!   [`control::issue_unless_latched`].
 //! - [`install`]: a new installation (`PUT /api/installation`, a gateway's line
 //!   speed) checked, saved into `floatball.toml` (`config/edit.rs`) and applied while
 //!   idle, without a restart.
@@ -99,4 +102,5 @@ pub mod server;
 pub mod simulate;
 pub mod state;
 pub mod store;
+pub mod timecode;
 pub mod ws;

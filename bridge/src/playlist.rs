@@ -154,6 +154,7 @@ mod tests {
             show: show.into(),
             delay_ms,
             cycles,
+            timecode_start: None,
         }
     }
 

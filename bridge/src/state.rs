@@ -112,6 +112,8 @@ struct Inner {
     stopping: watch::Sender<bool>,
     /// The weekly schedule and its scheduler's state.
     schedules: crate::schedule::Schedules,
+    /// The timecode chase's status (`crate::timecode`); `None` while it is off.
+    timecode: watch::Sender<Option<floatball_shared::timecode::chase::TimecodeStatus>>,
 }
 
 /// Opens the MBOX boxes' socket, starting a simulated box on loopback for each
@@ -311,6 +313,7 @@ impl AppState {
                 scl_sims,
                 stopping: watch::channel(false).0,
                 schedules,
+                timecode: watch::Sender::new(None),
             }),
         })
     }
@@ -458,6 +461,24 @@ impl AppState {
     /// A receiver that turns `true` when the server is stopping.
     pub fn stopping(&self) -> watch::Receiver<bool> {
         self.inner.stopping.subscribe()
+    }
+
+    /// A receiver that sees every change of the timecode chase's status.
+    pub fn subscribe_timecode(
+        &self,
+    ) -> watch::Receiver<Option<floatball_shared::timecode::chase::TimecodeStatus>> {
+        self.inner.timecode.subscribe()
+    }
+
+    /// Publishes the timecode chase's status (its one writer: `crate::timecode`).
+    pub fn publish_timecode(&self, status: floatball_shared::timecode::chase::TimecodeStatus) {
+        self.inner.timecode.send_if_modified(|now| {
+            let changed = now.as_ref() != Some(&status);
+            if changed {
+                *now = Some(status);
+            }
+            changed
+        });
     }
 
     /// A receiver that sees every status change (the playback task owns the status).

@@ -388,6 +388,17 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
     {
         return;
     }
+    // The timecode chase's status, when it is on: now, then on every change (its
+    // task publishes at most ten a second).
+    let mut timecode = state.subscribe_timecode();
+    let chase = timecode.borrow_and_update().clone();
+    if let Some(chase) = chase
+        && send(&mut sink, &ServerMessage::Timecode(chase))
+            .await
+            .is_err()
+    {
+        return;
+    }
     let status_interval = Duration::from_secs(1) / STATUS_PER_S;
     let mut status_sent_at = Instant::now();
     // When the latest status was made: the playback task publishes each the instant
@@ -445,6 +456,13 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
                 sent_state = latest.state;
                 let message = ServerMessage::Status(as_sent(latest, status_made.elapsed()));
                 sent(send(&mut sink, &message).await)
+            }
+            changed = timecode.changed() => {
+                let chase = if changed.is_ok() { timecode.borrow_and_update().clone() } else { None };
+                match chase {
+                    Some(chase) => sent(send(&mut sink, &ServerMessage::Timecode(chase)).await),
+                    None => Step::Continue,
+                }
             }
             changed = relay_wanted.changed() => {
                 if changed.is_ok() {

@@ -636,6 +636,7 @@ async fn the_playlist_is_checked_and_stored() {
             show: "雨".into(),
             delay_ms: 500,
             cycles: 3,
+            timecode_start: None,
         }],
         loop_playlist: true,
         default_delay_ms: 1000,
@@ -663,6 +664,7 @@ async fn the_playlist_is_checked_and_stored() {
         show: "snow".into(),
         delay_ms: 0,
         cycles: 0,
+        timecode_start: None,
     });
     let refused = put(&unknown).await;
     assert_eq!(refused.status, StatusCode::UNPROCESSABLE_ENTITY);
@@ -730,6 +732,7 @@ async fn a_restart_finds_exactly_the_complete_files_and_the_playlist() {
             show: "二".into(),
             delay_ms: 0,
             cycles: 1,
+            timecode_start: None,
         }],
         ..Playlist::default()
     };

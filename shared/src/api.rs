@@ -155,6 +155,11 @@ pub struct PlaylistEntry {
     pub delay_ms: u64,
     /// How many times the entry plays in a row (the vendor app's "period"); at least 1.
     pub cycles: u32,
+    /// The timecode at which the entry's show starts when the bridge chases timecode
+    /// (`HH:MM:SS:FF`, `[timecode]`); absent: it follows the entry before it, or the
+    /// playlist's timecode start.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub timecode_start: Option<String>,
 }
 
 /// `GET` / `PUT /api/playlist`.
@@ -828,6 +833,10 @@ pub enum ServerMessage {
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
         fix_problems: Vec<Problem>,
     },
+    /// The timecode chase (`[timecode]`): the timecode, the offset between show time
+    /// and timecode, the chase's state, the lead and the drift; sent on connect when
+    /// the chase is on and on every change, at most ten times a second.
+    Timecode(crate::timecode::chase::TimecodeStatus),
 }
 
 impl ServerMessage {

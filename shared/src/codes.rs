@@ -595,6 +595,9 @@ codes! {
     /// The default delay out of range.
     DefaultDelay = "default_delay" ["delay_ms", "max_ms"]
         => "default_delay_ms is {delay_ms}; it must be at most {max_ms} (one day)";
+    /// An entry's timecode start is not a timecode.
+    EntryTimecode = "entry_timecode" ["entry", "timecode"]
+        => "entry {entry}: timecode_start \"{timecode}\" is not a timecode such as 10:00:00:00 (HH:MM:SS:FF)";
     // ---- engineering calls ----
     /// A query parameter that is wrong (`reason` in English).
     BadQuery = "bad_query" ["reason"]

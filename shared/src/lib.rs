@@ -49,6 +49,8 @@
 //! - [`show`]: the show model and its native file format, CSV keyframe import,
 //!   validation against an installation's limits, sampling for the preview, and the
 //!   demo wave the tests and benches share ([`show::demo`]).
+//! - [`timecode`]: timecode chase — frame rates and timecode ↔ ms (drop-frame
+//!   correct), Art-Net's OpTimeCode, MIDI timecode, and the chase state machine.
 //! - [`uim2503`]: UIM2503 gateways with UFQ750 units, the whole family: the ASCII
 //!   instruction language ([`uim2503::ascii`]) and the binary feedback frames
 //!   ([`uim2503::feedback`]), PVT rows and tables ([`uim2503::pvt`]), the planner
@@ -76,4 +78,5 @@ pub mod playlist;
 pub mod schedule;
 pub mod scl;
 pub mod show;
+pub mod timecode;
 pub mod uim2503;

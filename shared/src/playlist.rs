@@ -57,6 +57,13 @@ pub enum PlaylistProblem {
         /// The delay given, ms.
         delay_ms: u64,
     },
+    /// An entry's timecode start that is not a timecode `HH:MM:SS:FF`.
+    Timecode {
+        /// The entry, from 1.
+        entry: usize,
+        /// The text given.
+        timecode: String,
+    },
 }
 
 impl fmt::Display for PlaylistProblem {
@@ -86,6 +93,11 @@ impl fmt::Display for PlaylistProblem {
                     " is {delay_ms}; it must be at most {MAX_DELAY_MS} (one day)"
                 )
             }
+            Self::Timecode { entry, timecode } => write!(
+                f,
+                "entry {entry}: timecode_start \"{timecode}\" is not a timecode such as \
+                 10:00:00:00 (HH:MM:SS:FF)"
+            ),
         }
     }
 }
@@ -99,6 +111,7 @@ impl Coded for PlaylistProblem {
             Self::Cycles { entry: None, .. } => Code::DefaultCycles,
             Self::Delay { entry: Some(_), .. } => Code::EntryDelay,
             Self::Delay { entry: None, .. } => Code::DefaultDelay,
+            Self::Timecode { .. } => Code::EntryTimecode,
         }
     }
 
@@ -111,6 +124,9 @@ impl Coded for PlaylistProblem {
             Self::Cycles { cycles, .. } => params! {"cycles" => cycles, "max" => MAX_CYCLES},
             Self::Delay { delay_ms, .. } => {
                 params! {"delay_ms" => delay_ms, "max_ms" => MAX_DELAY_MS}
+            }
+            Self::Timecode { entry, timecode } => {
+                params! {"entry" => entry, "timecode" => timecode}
             }
         };
         if let Self::Cycles {
@@ -152,6 +168,14 @@ pub fn problems(playlist: &Playlist, show_exists: impl Fn(&str) -> bool) -> Vec<
         }
         problems.extend(cycles(Some(number), entry.cycles));
         problems.extend(delay(Some(number), entry.delay_ms));
+        if let Some(timecode) = &entry.timecode_start
+            && !crate::timecode::timecode_text_valid(timecode)
+        {
+            problems.push(PlaylistProblem::Timecode {
+                entry: number,
+                timecode: timecode.clone(),
+            });
+        }
     }
     problems.extend(cycles(None, playlist.default_cycles));
     problems.extend(delay(None, playlist.default_delay_ms));
@@ -173,6 +197,7 @@ mod tests {
                 show: show.into(),
                 delay_ms,
                 cycles,
+                timecode_start: None,
             })
             .collect()
     }
@@ -226,6 +251,26 @@ mod tests {
                 .map(ToString::to_string)
                 .collect::<Vec<_>>(),
             ["the playlist has 1001 entries; at most 1000 are allowed"]
+        );
+    }
+
+    #[test]
+    fn a_timecode_start_must_be_a_timecode() {
+        let mut playlist = Playlist {
+            entries: entries(&[("rain", 0, 1), ("snow", 0, 1), ("hail", 0, 1)]),
+            ..Playlist::default()
+        };
+        playlist.entries[0].timecode_start = Some("10:00:00:00".into());
+        playlist.entries[1].timecode_start = Some("00:01:00;02".into());
+        playlist.entries[2].timecode_start = Some("10:00:00:30".into());
+        let found = problems(&playlist, |_| true);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert_eq!(found[0].code(), Code::EntryTimecode);
+        assert_eq!(found[0].params()["entry"], "3");
+        assert_eq!(
+            found[0].to_string(),
+            "entry 3: timecode_start \"10:00:00:30\" is not a timecode such as 10:00:00:00 \
+             (HH:MM:SS:FF)"
         );
     }
 }

@@ -136,6 +136,8 @@ pub struct Ctx {
     pub installation: RwSignal<Option<InstallationInfo>>,
     /// The show being made on the Create page, kept while other pages are open.
     pub create: RwSignal<crate::create::Draft>,
+    /// The bridge's timecode chase, when it has one on (`ServerMessage::Timecode`).
+    pub timecode: RwSignal<Option<floatball_shared::timecode::chase::TimecodeStatus>>,
     /// Whether the draft kept in the browser was read back into [`Ctx::create`]
     /// (the Create page does it when first opened, its code being a chunk).
     pub create_restored: StoredValue<bool>,
@@ -256,6 +258,7 @@ impl Ctx {
             toast: RwSignal::new(None),
             installation: RwSignal::new(None),
             create: RwSignal::new(crate::create::Draft::new()),
+            timecode: RwSignal::new(None),
             create_restored: StoredValue::new(false),
             origin: StoredValue::new(origin),
             services: StoredValue::new_local(services),
@@ -395,6 +398,7 @@ impl Ctx {
                     fix_problems: Vec::new(),
                 }));
             }
+            ServerMessage::Timecode(chase) => self.timecode.set(Some(chase)),
             ServerMessage::Pong | ServerMessage::EstopSent { .. } => {}
         }
     }

@@ -547,6 +547,7 @@ mod tests {
             show: "a".into(),
             delay_ms: 1500,
             cycles: 3,
+            timecode_start: None,
         };
         let form = TimingForm::of_entry(Some(&entry));
         assert_eq!((form.delay_s.as_str(), form.cycles.as_str()), ("1.5", "3"));

@@ -272,6 +272,34 @@ texts! {
     PreviewFrom => "预览起点", "Preview from there";
     /// Control: an entry or time beside Start that cannot be read.
     BadStartFrom => "起始项须为从 1 开始的整数，时间须为 分:秒 或 秒（如 1:30 或 90）", "The entry must be a whole number from 1 and the time m:ss or seconds (e.g. 1:30 or 90)";
+    /// Control's edit panel: an entry's timecode start.
+    TimecodeStart => "时间码起点（时:分:秒:帧，可空）", "Timecode start (HH:MM:SS:FF, optional)";
+    /// Control's edit panel: a timecode start that cannot be read.
+    BadTimecodeStart => "时间码起点须为 时:分:秒:帧，如 10:00:00:00", "The timecode start must be HH:MM:SS:FF, such as 10:00:00:00";
+    /// Control: the timecode chase's card title.
+    TimecodeTitle => "时间码跟随", "Timecode chase";
+    /// Control: the offset of the show from the timecode.
+    TimecodeOffset => "演出与时间码之差", "Show − timecode";
+    /// Control: the chase's lead (from a start until the show is at its time).
+    TimecodeLead => "提前量", "Lead";
+    /// Control: the drift of the units' clock against the timecode.
+    TimecodeDrift => "漂移", "Drift";
+    /// Chase state: no timecode has arrived.
+    ChaseNoTimecode => "无时间码", "No timecode";
+    /// Chase state: waiting for a cue.
+    ChaseWaiting => "等待起点", "Waiting for a cue";
+    /// Chase state: a start was issued.
+    ChaseCued => "已起动，等待演出", "Cued: starting";
+    /// Chase state: in step.
+    ChaseChasing => "跟随中", "Chasing";
+    /// Chase state: a locate was issued.
+    ChaseLocating => "定位中", "Locating";
+    /// Chase state: the timecode was lost, the show plays on.
+    ChaseHolding => "时间码丢失：继续演出", "Timecode lost: playing on";
+    /// Chase state: the timecode was lost, the matrix stopped.
+    ChaseStopped => "时间码丢失：已停止", "Timecode lost: stopped";
+    /// Chase state: the timecode was lost while nothing played.
+    ChaseLost => "时间码丢失", "Timecode lost";
     /// Empty playlist.
     EmptyPlaylist => "配置为空。点“添加”选择浮球文件。", "The playlist is empty. Tap “Add” to pick controller files.";
     /// Pick a show to add.

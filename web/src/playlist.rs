@@ -83,6 +83,7 @@ impl PlaylistEditor {
             show: show.to_owned(),
             delay_ms: self.playlist.default_delay_ms,
             cycles: self.playlist.default_cycles.max(1),
+            timecode_start: None,
         });
         self.checked.push(false);
     }
@@ -137,6 +138,19 @@ impl PlaylistEditor {
             if *checked {
                 entry.delay_ms = delay_ms;
                 entry.cycles = cycles;
+                count += 1;
+            }
+        }
+        count
+    }
+
+    /// Gives every checked entry the timecode start `start` (`None`: none); returns
+    /// how many changed.
+    pub fn set_timecode_checked(&mut self, start: Option<&str>) -> usize {
+        let mut count = 0;
+        for (entry, checked) in self.playlist.entries.iter_mut().zip(&self.checked) {
+            if *checked && entry.timecode_start.as_deref() != start {
+                entry.timecode_start = start.map(str::to_owned);
                 count += 1;
             }
         }
@@ -299,7 +313,8 @@ mod tests {
             [PlaylistEntry {
                 show: "wave".into(),
                 delay_ms: 1500,
-                cycles: 3
+                cycles: 3,
+                timecode_start: None,
             }]
         );
         assert!(!editor.is_checked(0));
@@ -347,6 +362,30 @@ mod tests {
         assert_eq!(editor.delete_checked(), 3);
         assert_eq!(names(&editor), ["b"]);
         assert_eq!(editor.checked_count(), 0);
+    }
+
+    #[test]
+    fn a_timecode_start_goes_to_the_checked_entries_and_is_cleared_by_none() {
+        let mut editor = editor(&["a", "b", "c"]);
+        check(&mut editor, &[0, 2]);
+        assert_eq!(editor.set_timecode_checked(Some("10:00:00:00")), 2);
+        assert_eq!(editor.set_timecode_checked(Some("10:00:00:00")), 0);
+        let starts: Vec<_> = editor
+            .entries()
+            .iter()
+            .map(|entry| entry.timecode_start.clone())
+            .collect();
+        assert_eq!(
+            starts,
+            [Some("10:00:00:00".into()), None, Some("10:00:00:00".into())]
+        );
+        assert_eq!(editor.set_timecode_checked(None), 2);
+        assert!(
+            editor
+                .entries()
+                .iter()
+                .all(|entry| entry.timecode_start.is_none())
+        );
     }
 
     #[test]

@@ -57,6 +57,7 @@ pub fn decode(text: &str) -> Result<ServerMessage, serde_json::Error> {
         "mbox_reply" => ServerMessage::MboxReply(from_str(text)?),
         "scl_reply" => ServerMessage::SclReply(from_str(text)?),
         "schedule" => ServerMessage::Schedule(from_str(text)?),
+        "timecode" => ServerMessage::Timecode(from_str(text)?),
         "error" => {
             let refused: Refused = from_str(text)?;
             ServerMessage::Error {
@@ -174,6 +175,22 @@ mod tests {
                     params: Params::new(),
                     message: "The window ended".into(),
                 }),
+            }),
+            ServerMessage::Timecode(floatball_shared::timecode::chase::TimecodeStatus {
+                source: "artnet".into(),
+                state: floatball_shared::timecode::chase::ChaseState::Chasing,
+                timecode: Some("10:00:01:05".into()),
+                rate: Some(floatball_shared::timecode::FrameRate::Df2997),
+                running: true,
+                entry: Some(1),
+                offset_ms: Some(-12),
+                lead_ms: 1800,
+                locate_lead_ms: 4200,
+                lead_measured: true,
+                drift_ms: Some(1),
+                drift_over_ms: 60_000,
+                locates: 1,
+                refused: None,
             }),
             ServerMessage::Error {
                 message: "no such show".into(),

@@ -26,6 +26,7 @@
 //!   Chromium on throttled links, with figures.
 //! - [`startup_bench`]: the bridge's start-up with a large library of shows, with
 //!   figures.
+//! - [`timecode_bench`]: the timecode chase on each family, with figures.
 
 mod app;
 mod create_bench;
@@ -42,6 +43,7 @@ mod stages;
 mod startup_bench;
 mod status_clock;
 mod stress;
+mod timecode_bench;
 mod tools;
 
 use std::path::PathBuf;
@@ -104,6 +106,10 @@ commands:
          MOONS' by QX1 and by trigger); print the offset of the status's show time
          from the units' own p50/p99/max and how late `playing` arrived
          options: --runs N (default 10)
+  timecode-bench  chase Art-Net timecode on each family's simulated matrix; print
+         show - timecode p50/p99/max and the drift, the lead from the cue to the start,
+         and locate -> playing again on a 10 x 10 UIM2503 matrix at 115200 baud
+         options: --seconds N (default 300)
 ";
 
 fn main() -> ExitCode {
@@ -124,6 +130,7 @@ fn main() -> ExitCode {
         Some("create-bench") => create_bench::create_bench(&args[1..]),
         Some("startup-bench") => startup_bench::startup_bench(&args[1..]),
         Some("status-clock") => status_clock::status_clock(&args[1..]),
+        Some("timecode-bench") => timecode_bench::timecode_bench(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())

@@ -26,6 +26,8 @@ const NATIVE: side_by_side::Plan = side_by_side::Plan {
         "ws_flood",
         // Measures the simulated line's throughput against the baud rate.
         "link_sim",
+        // Chases timecode in step (and runs olad on Art-Net's and OLA's fixed ports).
+        "timecode",
     ],
     seconds: &[
         ("playback", 23),
@@ -143,11 +145,12 @@ pub fn test(args: &[String]) -> Result<(), String> {
         side_by_side::run(
             env,
             &["--workspace", "--exclude", "floatball-e2e"],
-            // ser2net and liblo-tools were installed above: their absence is a
+            // ser2net, liblo-tools and ola were installed above: their absence is a
             // failure, not a skip.
             &[
                 (tools::REQUIRE_SER2NET, "1".into()),
                 (tools::REQUIRE_LIBLO, "1".into()),
+                (tools::REQUIRE_OLA, "1".into()),
             ],
             &NATIVE,
         )
@@ -222,5 +225,6 @@ fn install_tools(env: &Env) -> Result<(), String> {
     tools::ensure_wasm_pack(env)?;
     tools::ensure_chromium(env)?;
     tools::ensure_ser2net(env)?;
-    tools::ensure_liblo_tools(env)
+    tools::ensure_liblo_tools(env)?;
+    tools::ensure_ola(env)
 }

@@ -2,7 +2,7 @@
 //!
 //! Every install says what it installs and why before it starts. Nothing is
 //! downloaded outside the package registries: Rust tools come from crates.io through
-//! `cargo install`, the browser, `ser2net` and `liblo-tools` from Debian's packages through
+//! `cargo install`, the browser, `ser2net`, `liblo-tools` and `ola` from Debian's packages through
 //! `apt-get`, `wasm-opt` from npm's `binaryen` package into the target directory.
 
 use std::ffi::OsString;
@@ -358,6 +358,28 @@ pub fn ensure_liblo_tools(env: &Env) -> Result<(), String> {
         env,
         &["liblo-tools"],
         "liblo-tools (the bridge's OSC control is tested with a real OSC client, oscsend and oscdump)",
+    )
+}
+
+/// The programs of Debian's `ola` (the Open Lighting Architecture: `olad` with its
+/// Art-Net plugin, `ola_timecode`) that `bridge/tests/timecode.rs` sends Art-Net
+/// timecode to the bridge with.
+pub const OLA_TOOLS: [&str; 2] = ["/usr/bin/olad", "/usr/bin/ola_timecode"];
+
+/// The variable that makes a missing `ola` fail `bridge/tests/timecode.rs` instead of
+/// skipping its real sender (`cargo xtask test` sets it, having installed it).
+pub const REQUIRE_OLA: &str = "FLOATBALL_REQUIRE_OLA";
+
+/// Installs Debian's `ola` when `olad` or `ola_timecode` is missing (as root;
+/// otherwise stops with the command to run).
+pub fn ensure_ola(env: &Env) -> Result<(), String> {
+    if OLA_TOOLS.iter().all(|tool| Path::new(tool).is_file()) {
+        return Ok(());
+    }
+    apt_install(
+        env,
+        &["ola"],
+        "ola (the bridge's timecode chase is tested with a real Art-Net timecode sender, olad and ola_timecode)",
     )
 }
 

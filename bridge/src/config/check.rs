@@ -235,6 +235,7 @@ impl Checker<'_> {
         let osc = self.keep(self.osc(&raw.osc));
         let balls = matrix.limits.rows as usize * matrix.limits.cols as usize;
         let live = self.keep(self.live(&raw.live, balls));
+        let timecode = self.keep(self.timecode(&raw.timecode));
         let (gateways, units, boxes, drives) = gateways?;
         // Every gateway is of the first one's kind (`gateway` refuses another).
         let family = if !boxes.is_empty() {
@@ -266,6 +267,7 @@ impl Checker<'_> {
             family,
             osc: osc?,
             live: live?,
+            timecode: timecode?,
         })
     }
 

@@ -13,6 +13,7 @@
 //! - `scl`: the MOONS' drives' gateway entries and the `[scl]` table.
 //! - `osc`: the `[osc]` table, show control over OSC.
 //! - `live`: the `[live]` table, live input and the patch.
+//! - `timecode`: the `[timecode]` table, timecode chase.
 //!
 //! The check goes on past a problem and lists every one ([`Config::parse_all`]), for
 //! `floatball check`, for the start, and for `PUT /api/installation`, which writes
@@ -31,6 +32,7 @@ mod raw;
 pub mod scl;
 #[cfg(test)]
 mod tests;
+pub mod timecode;
 
 pub use live::LiveConfig;
 pub use osc::{OscConfig, Source};
@@ -38,6 +40,7 @@ pub use scl::{
     DEFAULT_SCL_HOST_PORT, DEFAULT_SCL_POLL, DEFAULT_START_INPUT, DEFAULT_STEPS_PER_REV,
     DEFAULT_TOLERANCE_MM, SclConfig, SclGateway, SclPrograms, default_addresses,
 };
+pub use timecode::{TimecodeConfig, TimecodeSource};
 
 use std::io;
 use std::net::SocketAddr;
@@ -87,6 +90,8 @@ pub struct Config {
     pub osc: Option<OscConfig>,
     /// Live input and the patch (`[live]`; off unless `enabled`).
     pub live: LiveConfig,
+    /// Timecode chase (`[timecode]`), when it is on.
+    pub timecode: Option<TimecodeConfig>,
 }
 
 /// The drive family of an installation, with what only that family needs.

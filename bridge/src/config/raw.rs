@@ -29,6 +29,8 @@ pub(super) struct RawConfig {
     pub(super) osc: RawOsc,
     #[serde(default)]
     pub(super) live: RawLive,
+    #[serde(default)]
+    pub(super) timecode: RawTimecode,
 }
 
 /// `[matrix]`.
@@ -173,4 +175,19 @@ pub(super) struct RawLiveBall {
     pub(super) universe: Option<Spanned<i64>>,
     pub(super) address: Option<Spanned<i64>>,
     pub(super) profile: Option<Spanned<RawProfile>>,
+}
+
+/// `[timecode]`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawTimecode {
+    pub(super) source: Option<Spanned<String>>,
+    pub(super) listen: Option<Spanned<String>>,
+    pub(super) device: Option<Spanned<String>>,
+    pub(super) rate: Option<Spanned<String>>,
+    pub(super) start: Option<Spanned<String>>,
+    pub(super) loss_ms: Option<Spanned<u64>>,
+    pub(super) on_loss: Option<Spanned<String>>,
+    pub(super) locate_threshold_ms: Option<Spanned<u64>>,
+    pub(super) lead_ms: Option<Spanned<u64>>,
 }

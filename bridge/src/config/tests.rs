@@ -991,3 +991,44 @@ fn a_patch_is_written_back_compactly_and_reads_back_as_it_was() {
 fn hundred_gateways() -> String {
     "\n[[gateway]]\nport = \"sim\"\n".repeat(100)
 }
+
+#[test]
+fn timecode_is_off_unless_a_source_is_given_and_checked() {
+    use floatball_shared::timecode::chase::OnLoss;
+    assert_eq!(parse("").expect("empty").timecode, None);
+    let config = parse("[timecode]\nsource = \"artnet\"\nstart = \"10:00:00:00\"\n")
+        .expect("artnet")
+        .timecode
+        .expect("on");
+    assert_eq!(
+        config.source,
+        TimecodeSource::ArtNet("0.0.0.0:6454".parse().unwrap())
+    );
+    assert_eq!(config.start_ms, Some(36_000_000));
+    assert_eq!(config.chase.on_loss, OnLoss::Hold);
+    assert_eq!(config.chase.lead_ms, timecode::DEFAULT_LEAD_MS);
+    let mtc = parse(
+        "[timecode]\nsource = \"mtc\"\ndevice = \"/dev/snd/midiC1D0\"\nrate = \"29.97df\"\n\
+         on_loss = \"stop\"\nloss_ms = 500\n",
+    )
+    .expect("mtc")
+    .timecode
+    .expect("on");
+    assert_eq!(mtc.source.name(), "mtc");
+    assert_eq!(mtc.chase.on_loss, OnLoss::Stop);
+    assert_eq!(mtc.chase.loss_ms, 500);
+    for (wrong, says) in [
+        ("source = \"ltc\"\n", "line 2"),
+        ("source = \"mtc\"\n", "needs device"),
+        ("source = \"artnet\"\nrate = \"29\"\n", "line 3"),
+        ("source = \"artnet\"\nstart = \"10:00:00:25\"\n", "line 3"),
+        ("source = \"artnet\"\non_loss = \"pause\"\n", "line 3"),
+        ("source = \"artnet\"\nloss_ms = 10\n", "line 3"),
+        ("source = \"artnet\"\nlisten = \"6454\"\n", "line 3"),
+    ] {
+        let message = parse(&format!("[timecode]\n{wrong}"))
+            .expect_err(wrong)
+            .to_string();
+        assert!(message.contains(says), "{wrong}: {message}");
+    }
+}

@@ -386,6 +386,7 @@ pub fn ControlPage() -> impl IntoView {
                 <PlanView plans=plans />
                 <StatusView />
                 <ScheduleLine />
+                <TimecodeView />
             </div>
             </div>
         </section>
@@ -551,16 +552,31 @@ fn EditPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Int
         .with_untracked(|editor| TimingForm::of_entry(editor.first_checked()));
     let delay = RwSignal::new(form.delay_s);
     let cycles = RwSignal::new(form.cycles);
+    // The first checked entry's timecode start (chased with `[timecode]`).
+    let timecode = RwSignal::new(ctx.playlist.with_untracked(|editor| {
+        editor
+            .first_checked()
+            .and_then(|entry| entry.timecode_start.clone())
+            .unwrap_or_default()
+    }));
     let error = RwSignal::new(None::<String>);
     let apply = move |event: leptos::ev::SubmitEvent| {
         event.prevent_default();
         let lang = ctx.lang.get_untracked();
+        let start = timecode.get_untracked().trim().to_owned();
+        if !start.is_empty() && !floatball_shared::timecode::timecode_text_valid(&start) {
+            error.set(Some(lang.t(Text::BadTimecodeStart).into()));
+            return;
+        }
         match TimingForm::parse(&delay.get_untracked(), &cycles.get_untracked()) {
             Err(input) => error.set(Some(lang.input_error(input).into())),
             Ok(timing) => {
                 error.set(None);
                 edit_and_save(ctx, note, move |editor| {
-                    editor.edit_checked(timing.delay_ms, timing.cycles) > 0
+                    let timed = editor.edit_checked(timing.delay_ms, timing.cycles) > 0;
+                    let started =
+                        editor.set_timecode_checked(Some(start.as_str()).filter(|s| !s.is_empty()));
+                    timed || started > 0
                 });
                 panel.set(Panel::None);
             }
@@ -570,6 +586,7 @@ fn EditPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Int
         <form class="card panel form" data-testid="edit-panel" on:submit=apply>
             <TextField label=Text::DelayS value=delay test_id="edit-delay" inputmode="decimal" />
             <TextField label=Text::Cycles value=cycles test_id="edit-cycles" inputmode="numeric" />
+            <TextField label=Text::TimecodeStart value=timecode test_id="edit-timecode" />
             <ErrorNote text=error test_id="edit-error" />
             <div class="row-buttons">
                 <button type="submit" class="primary" data-testid="edit-apply">
@@ -657,6 +674,51 @@ fn PlanView(plans: RwSignal<PlanVerdicts>) -> impl IntoView {
                 </ul>
             </div>
         </Show>
+    }
+}
+
+/// The timecode chase, when the bridge has it on: the timecode, the chase's state,
+/// the offset of the show from the timecode, the lead and the drift.
+#[component]
+fn TimecodeView() -> impl IntoView {
+    use floatball_shared::timecode::chase::ChaseState;
+    let ctx = expect_context::<Ctx>();
+    move || {
+        let chase = ctx.timecode.get().filter(|_| ctx.connected())?;
+        let state = match chase.state {
+            ChaseState::NoTimecode => Text::ChaseNoTimecode,
+            ChaseState::Waiting => Text::ChaseWaiting,
+            ChaseState::Cued => Text::ChaseCued,
+            ChaseState::Chasing => Text::ChaseChasing,
+            ChaseState::Locating => Text::ChaseLocating,
+            ChaseState::Holding => Text::ChaseHolding,
+            ChaseState::Stopped => Text::ChaseStopped,
+            ChaseState::Lost => Text::ChaseLost,
+        };
+        let signed = |ms: i64| format!("{ms:+} ms");
+        let drift = chase
+            .drift_ms
+            .map(|drift| format!("{} / {} s", signed(drift), chase.drift_over_ms / 1000));
+        Some(view! {
+            <div class="card status" data-testid="timecode">
+                <h3>{ctx.tr(Text::TimecodeTitle)} " · " {chase.source.clone()}</h3>
+                <p data-testid="timecode-now">
+                    <strong>{chase.timecode.clone().unwrap_or_else(|| "--:--:--:--".into())}</strong>
+                    {chase.rate.map(|rate| format!(" @ {rate}"))}
+                    " · "
+                    <span data-testid="timecode-state">{ctx.tr(state)}</span>
+                </p>
+                <p>
+                    {ctx.tr(Text::TimecodeOffset)} ": "
+                    <span data-testid="timecode-offset">
+                        {chase.offset_ms.map_or_else(|| "–".to_owned(), signed)}
+                    </span>
+                    " · " {ctx.tr(Text::TimecodeLead)} ": " {format!("{} ms", chase.lead_ms)}
+                    {drift.map(|drift| view! { " · " {ctx.tr(Text::TimecodeDrift)} ": " {drift} })}
+                </p>
+                {chase.refused.clone().map(|why| view! { <p class="muted">{why}</p> })}
+            </div>
+        })
     }
 }
 

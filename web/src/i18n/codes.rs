@@ -392,6 +392,10 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
         Code::DefaultDelay,
         "默认延时 {delay_ms} 毫秒无效；最多 {max_ms} 毫秒（一天）",
     ),
+    (
+        Code::EntryTimecode,
+        "第 {entry} 项：时间码起点“{timecode}”无效；格式为 10:00:00:00（时:分:秒:帧）",
+    ),
     // ---- engineering calls ----
     (Code::BadQuery, "查询参数错误：{reason}"),
     (
