@@ -254,6 +254,7 @@ async fn the_rare_pages_are_chunks_outside_the_first_load() {
     assert_eq!(
         pages,
         [
+            "check",
             "commission",
             "console",
             "create",
@@ -265,7 +266,8 @@ async fn the_rare_pages_are_chunks_outside_the_first_load() {
             "plot",
             "qprogram",
             "schedule",
-            "settings"
+            "settings",
+            "showcontrol"
         ]
     );
 }

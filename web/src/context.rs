@@ -229,7 +229,7 @@ pub fn set_document_lang(lang: Lang) {
 /// a type, and code, of its own).
 pub fn tr_in(
     lang: Signal<Lang>,
-    text: Text,
+    text: impl crate::i18n::Words,
 ) -> impl Fn() -> &'static str + Copy + Send + Sync + 'static {
     move || lang.get().t(text)
 }
@@ -266,13 +266,16 @@ impl Ctx {
     }
 
     /// `text` in the current language (tracked).
-    pub fn t(&self, text: Text) -> &'static str {
+    pub fn t(&self, text: impl crate::i18n::Words) -> &'static str {
         self.lang.get().t(text)
     }
 
     /// `text` in the current language as a view or an attribute that follows a
     /// language switch ([`tr_in`]).
-    pub fn tr(self, text: Text) -> impl Fn() -> &'static str + Copy + Send + Sync + 'static {
+    pub fn tr(
+        self,
+        text: impl crate::i18n::Words,
+    ) -> impl Fn() -> &'static str + Copy + Send + Sync + 'static {
         tr_in(self.lang.into(), text)
     }
 

@@ -10,7 +10,6 @@
 mod codes;
 mod commission;
 pub mod create;
-mod patch;
 
 use floatball_shared::api::{
     ApiError, LinkState, PlanReport, PlayerState, Problem, QProgramListing,
@@ -31,27 +30,45 @@ pub enum Lang {
 }
 
 macro_rules! texts {
-    ($($(#[$doc:meta])* $name:ident => $zh:literal, $en:literal;)*) => {
-        /// A fixed user-visible string.
+    ($(#[$enum_doc:meta])* $enum:ident; $($(#[$doc:meta])* $name:ident => $zh:literal, $en:literal;)*) => {
+        $(#[$enum_doc])*
         #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-        pub enum Text {
+        pub enum $enum {
             $($(#[$doc])* $name,)*
         }
 
-        impl Text {
+        impl $enum {
             /// Every string, for tests that check both languages.
-            pub const ALL: &'static [Text] = &[$(Text::$name),*];
+            pub const ALL: &'static [$enum] = &[$($enum::$name),*];
+        }
 
+        impl $crate::i18n::Words for $enum {
             fn pair(self) -> (&'static str, &'static str) {
                 match self {
-                    $(Text::$name => ($zh, $en),)*
+                    $($enum::$name => ($zh, $en),)*
                 }
             }
         }
     };
 }
 
+/// A fixed string in both languages (中文, English). [`Text`] holds those of the
+/// first load; a page in a chunk of its own keeps its own table (e.g.
+/// [`ScheduleText`], [`PatchText`]), so its strings come with its chunk.
+pub trait Words: Copy + Send + Sync + 'static {
+    /// The string in Chinese and in English.
+    fn pair(self) -> (&'static str, &'static str);
+}
+
+mod patch;
+mod schedule;
+
+pub use patch::PatchText;
+pub use schedule::ScheduleText;
+
 texts! {
+    /// A fixed user-visible string of the first load.
+    Text;
     /// The top bar when the bridge is reachable.
     Connected => "已连接", "Connected";
     /// The top bar when it is not.
@@ -274,8 +291,6 @@ texts! {
     BadStartFrom => "起始项须为从 1 开始的整数，时间须为 分:秒 或 秒（如 1:30 或 90）", "The entry must be a whole number from 1 and the time m:ss or seconds (e.g. 1:30 or 90)";
     /// Control's edit panel: an entry's timecode start.
     TimecodeStart => "时间码起点（时:分:秒:帧，可空）", "Timecode start (HH:MM:SS:FF, optional)";
-    /// Control's edit panel: a timecode start that cannot be read.
-    BadTimecodeStart => "时间码起点须为 时:分:秒:帧，如 10:00:00:00", "The timecode start must be HH:MM:SS:FF, such as 10:00:00:00";
     /// Control: the timecode chase's card title.
     TimecodeTitle => "时间码跟随", "Timecode chase";
     /// Control: the offset of the show from the timecode.
@@ -658,64 +673,6 @@ texts! {
     // ---- the Schedule page and the Control page's schedule line ----
     /// Control's fourth tab and the page's title: Schedule.
     NavSchedule => "时间表", "Schedule";
-    /// Schedule: what the page is for and what the schedule never does.
-    ScheduleIntro => "按星期设置开放时段和播放内容：时段开始时控制器播放播放列表，时段结束时小球回原点、电机关闭。它只在空闲、所有连接正常、没有缺少单元时开始，从不解除急停，也不清除错误。", "Opening windows per weekday and what plays in them: when a window opens the controller starts the playlist; at its end the balls go home and the motors go off. It starts only from idle, with every link up and no unit missing, and never releases an E-stop nor clears an error.";
-    /// Schedule: the switch.
-    ScheduleEnabled => "按时间表运行", "Follow the schedule";
-    /// Schedule: the time zone field.
-    ScheduleTimeZone => "时区（IANA 名称，例如 Asia/Shanghai）", "Time zone (IANA name, e.g. Europe/Zurich)";
-    /// Monday.
-    Monday => "星期一", "Monday";
-    /// Tuesday.
-    Tuesday => "星期二", "Tuesday";
-    /// Wednesday.
-    Wednesday => "星期三", "Wednesday";
-    /// Thursday.
-    Thursday => "星期四", "Thursday";
-    /// Friday.
-    Friday => "星期五", "Friday";
-    /// Saturday.
-    Saturday => "星期六", "Saturday";
-    /// Sunday.
-    Sunday => "星期日", "Sunday";
-    /// Schedule: a window's start.
-    ScheduleFrom => "从", "From";
-    /// Schedule: a window's end.
-    ScheduleTo => "到（24:00 为午夜）", "To (24:00: midnight)";
-    /// Schedule: the loop program.
-    ScheduleLoop => "循环播放播放列表", "The playlist over and over";
-    /// Schedule: the every-N program.
-    ScheduleEvery => "每 N 分钟播放一次", "The playlist every N minutes";
-    /// Schedule: N.
-    ScheduleMinutes => "N（分钟）", "N (minutes)";
-    /// Schedule: add a window.
-    ScheduleAddWindow => "添加时段", "Add a window";
-    /// Schedule: remove a window or an exception.
-    ScheduleRemove => "删除", "Remove";
-    /// Schedule: the exceptions' heading.
-    ScheduleExceptions => "例外日期（休息日、特别日）", "Exceptions (closed days, special days)";
-    /// Schedule: an exception's date.
-    ScheduleDate => "日期（YYYY-MM-DD）", "Date (YYYY-MM-DD)";
-    /// Schedule: an exception's note.
-    ScheduleNote => "备注", "Note";
-    /// Schedule: an exception without windows.
-    ScheduleClosed => "全天关闭", "Closed all day";
-    /// Schedule: add an exception.
-    ScheduleAddException => "添加例外日期", "Add an exception";
-    /// Schedule: the save button.
-    ScheduleSave => "保存时间表", "Save the schedule";
-    /// Schedule: saved.
-    ScheduleSaved => "时间表已保存", "Schedule saved";
-    /// Schedule: a window's number.
-    ScheduleWindow => "时段", "window";
-    /// Schedule: an exception's number.
-    ScheduleException => "例外", "exception";
-    /// Schedule: a time that cannot be read.
-    ScheduleBadTime => "时间必须是 HH:MM（00:00–24:00）", "A time must be HH:MM (00:00–24:00)";
-    /// Schedule: N that cannot be read.
-    ScheduleBadMinutes => "N 必须是 1 到 1440 的整数", "N must be a whole number from 1 to 1440";
-    /// Schedule: a date that cannot be read.
-    ScheduleBadDate => "日期必须是 YYYY-MM-DD", "A date must be YYYY-MM-DD";
     /// Control: the next start of the schedule.
     ScheduleNextStart => "时间表下次开始", "Schedule's next start";
     /// Control: no start ahead.
@@ -725,56 +682,6 @@ texts! {
     // ---- the Patch page (live input) ----
     /// Control's subtab and the page's title.
     NavPatch => "配接", "Patch";
-    /// The patch could not be loaded.
-    PatchUnavailable => "无法读取配接表（需要登录并连接控制器）", "The patch cannot be loaded (log in and connect to the controller)";
-    /// The profile card's heading.
-    PatchProfile => "通道配置", "Profile";
-    /// The speed-limit channel's choice.
-    PatchSpeedLimit => "限速通道", "Speed-limit channel";
-    /// No speed-limit channel.
-    PatchSpeedNone => "无", "None";
-    /// An 8-bit speed-limit channel.
-    PatchSpeed8 => "8 位", "8-bit";
-    /// A 16-bit speed-limit channel.
-    PatchSpeed16 => "16 位", "16-bit";
-    /// The enable channel's checkbox.
-    PatchEnable => "使能通道", "Enable channel";
-    /// The colour channels' checkbox.
-    PatchColour => "颜色通道（红、绿、蓝）", "Colour channels (red, green, blue)";
-    /// The whole-matrix card's heading.
-    PatchWholeMatrix => "整体配接", "Whole matrix";
-    /// The universe field.
-    PatchUniverse => "域", "Universe";
-    /// The address field.
-    PatchAddress => "地址", "Address";
-    /// The one-tap button.
-    PatchWholeMatrixButton => "从该域和地址起逐行配接整个矩阵", "Patch the whole matrix from this universe and address, row by row";
-    /// The universes card's heading.
-    PatchUniverses => "使用的域", "Universes in use";
-    /// The ball table's heading.
-    PatchBalls => "各球", "Balls";
-    /// Column: ball.
-    PatchBall => "球", "Ball";
-    /// Column: row, column.
-    PatchRowCol => "行, 列", "Row, col";
-    /// Column: the balls of a universe.
-    PatchBallsIn => "球", "Balls";
-    /// Column: slots.
-    PatchSlots => "通道", "Slots";
-    /// The previous page of the table.
-    PatchPrevious => "上一页", "Previous";
-    /// The next page of the table.
-    PatchNext => "下一页", "Next";
-    /// The save button.
-    PatchSave => "保存配接表", "Save the patch";
-    /// Saved.
-    PatchSaved => "配接表已保存", "Patch saved";
-    /// Problems the app finds before saving.
-    PatchProblems => "配接表有以下问题：", "The patch has these problems:";
-    /// The receivers come later.
-    PatchLater => "Art-Net 与 sACN 接收器和实时模式将在下一步提供；配接表现在即可保存和检查。", "The Art-Net and sACN receivers and live mode come in a later step; the patch is saved and checked now.";
-    /// A ball's own profile in the table.
-    PatchOwnProfile => "（单独）", " (its own)";
 }
 
 impl Lang {
@@ -1014,7 +921,7 @@ impl Lang {
     }
 
     /// `text` in this language.
-    pub fn t(self, text: Text) -> &'static str {
+    pub fn t(self, text: impl Words) -> &'static str {
         let (zh, en) = text.pair();
         match self {
             Lang::Zh => zh,
@@ -1336,11 +1243,17 @@ mod tests {
 
     #[test]
     fn every_text_differs_between_the_languages() {
-        for text in Text::ALL {
-            let (zh, en) = (Lang::Zh.t(*text), Lang::En.t(*text));
-            assert!(!zh.is_empty() && !en.is_empty(), "{text:?}");
-            assert_ne!(zh, en, "{text:?} is not translated");
+        fn check<T: Words + std::fmt::Debug>(texts: &[T]) {
+            for text in texts {
+                let (zh, en) = (Lang::Zh.t(*text), Lang::En.t(*text));
+                assert!(!zh.is_empty() && !en.is_empty(), "{text:?}");
+                assert_ne!(zh, en, "{text:?} is not translated");
+            }
         }
+        check(Text::ALL);
+        // The tables of the pages in chunks of their own.
+        check(ScheduleText::ALL);
+        check(PatchText::ALL);
     }
 
     #[test]

@@ -21,8 +21,10 @@
 //! ([`console_parsers`]: the Console page opens at once, and its check of a typed
 //! line waits the few milliseconds its chunk takes, fetched as the page opens), the
 //! CSV reader ([`read_csv`]: a local CSV file's preview waits for it; native show
-//! files need no chunk) and the Preview's check of a show against the limits
-//! ([`show_violations`]: the show is on screen first, its problems a moment after).
+//! files need no chunk), the Preview's check of a show against the limits
+//! ([`show_violations`]: the show is on screen first, its problems a moment after)
+//! and the reading of the schedule's and the timecode chase's messages
+//! ([`read_show_control`]: fetched when the bridge first sends one).
 
 use std::future::Future;
 use std::pin::Pin;
@@ -172,6 +174,23 @@ split!(
         limits: floatball_shared::show::Limits,
     ) -> Vec<floatball_shared::show::Violation> {
         floatball_shared::show::validate(&show, &limits)
+    }
+);
+
+split!(
+    showcontrol,
+    /// A `schedule` or `timecode` message read ([`crate::wire::read_show_control`]):
+    /// their readers come with this chunk, fetched when the bridge first sends one
+    /// (a schedule followed, a timecode chase on). `None` when it does not read (the
+    /// browser's console says why).
+    pub fn read_show_control(text: String) -> Option<floatball_shared::api::ServerMessage> {
+        crate::wire::read_show_control(&text)
+            .map_err(|err| {
+                leptos::logging::warn!(
+                    "ignoring a show-control message the app does not understand: {err}"
+                );
+            })
+            .ok()
     }
 );
 

@@ -16,7 +16,7 @@ use wasm_bindgen::closure::Closure;
 use web_sys::{Event, MessageEvent, WebSocket};
 
 use crate::connection::{Connection, Link, PING_INTERVAL_MS, SILENCE_TIMEOUT_MS};
-use crate::wire::decode;
+use crate::wire::{Decoded, decode};
 
 /// A self-reconnecting WebSocket to the bridge. Dropping every clone does not close
 /// the socket; call [`Socket::close`] for that.
@@ -49,6 +49,11 @@ struct Inner {
     on_ws_message: Option<Handler<MessageEvent>>,
     last_heard_ms: f64,
     closed: bool,
+    /// `schedule` and `timecode` frames received, and the last handed on after its
+    /// reading in the show-control chunk ([`Decoded::ShowControl`]): an older one
+    /// read later is dropped.
+    show_control_sent: u64,
+    show_control_handed: u64,
 }
 
 impl Socket {
@@ -73,6 +78,8 @@ impl Socket {
             on_ws_message: None,
             last_heard_ms: 0.0,
             closed: false,
+            show_control_sent: 0,
+            show_control_handed: 0,
         }));
         open(&inner);
         let weak = Rc::downgrade(&inner);
@@ -211,13 +218,44 @@ fn received(weak: &Weak<RefCell<Inner>>, generation: u64, event: &MessageEvent) 
         link.set(Link::Connected);
         // A new session relays every feedback frame until told otherwise.
         let relay = this.borrow().relay_feedback.get();
-        Socket { inner: this }.send(&ClientMessage::Feedback { relay });
+        Socket {
+            inner: Rc::clone(&this),
+        }
+        .send(&ClientMessage::Feedback { relay });
     }
     let Some(text) = event.data().as_string() else {
         return;
     };
     match decode(&text) {
-        Ok(message) => on_message(message),
+        Ok(Decoded::Message(message)) => on_message(message),
+        Ok(Decoded::ShowControl(text)) => {
+            // Read in its chunk; handed on in the order the frames came, and only
+            // while this socket is the current one.
+            let order = {
+                let mut inner = this.borrow_mut();
+                inner.show_control_sent += 1;
+                inner.show_control_sent
+            };
+            let weak = Rc::downgrade(&this);
+            leptos::task::spawn_local(async move {
+                let read = crate::lazy::read_show_control(text).await;
+                let Some(this) = weak.upgrade() else { return };
+                let mut inner = this.borrow_mut();
+                if inner.generation != generation || order <= inner.show_control_handed {
+                    return;
+                }
+                inner.show_control_handed = order;
+                let on_message = Rc::clone(&inner.on_message);
+                drop(inner);
+                match read {
+                    Ok(Some(message)) => on_message(message),
+                    Ok(None) => {}
+                    Err(crate::lazy::ChunkError) => leptos::logging::warn!(
+                        "a schedule or timecode message could not be read: its chunk did not load"
+                    ),
+                }
+            });
+        }
         Err(err) => leptos::logging::warn!("ignoring a message the app does not understand: {err}"),
     }
 }

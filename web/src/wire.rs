@@ -40,13 +40,53 @@ struct Refused {
     fix_problems: Vec<Problem>,
 }
 
+/// A frame read: a message, or one whose reader comes with the chunk that shows it.
+#[derive(Debug, Clone, PartialEq)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "made once per frame and handed on at once, as the message itself was"
+)]
+pub enum Decoded {
+    /// Read now.
+    Message(ServerMessage),
+    /// A `schedule` or `timecode` message, read by [`read_show_control`] in the
+    /// `showcontrol` chunk ([`crate::lazy::read_show_control`]): shown only where a
+    /// schedule or a timecode chase is used, its reading stays out of the first load.
+    ShowControl(String),
+}
+
 /// Reads one WebSocket text frame from the bridge.
 ///
 /// # Errors
 /// Not JSON, no `"type"`, a type this app does not know, or a variant's fields that
 /// do not read.
-pub fn decode(text: &str) -> Result<ServerMessage, serde_json::Error> {
+pub fn decode(text: &str) -> Result<Decoded, serde_json::Error> {
     let tag: Tag = from_str(text)?;
+    if matches!(tag.kind.as_str(), "schedule" | "timecode") {
+        return Ok(Decoded::ShowControl(text.to_owned()));
+    }
+    read(&tag, text).map(Decoded::Message)
+}
+
+/// Reads a `schedule` or `timecode` message ([`Decoded::ShowControl`]).
+///
+/// # Errors
+/// Not JSON, another type, or fields that do not read.
+pub fn read_show_control(text: &str) -> Result<ServerMessage, serde_json::Error> {
+    let tag: Tag = from_str(text)?;
+    Ok(match tag.kind.as_str() {
+        "schedule" => ServerMessage::Schedule(from_str(text)?),
+        "timecode" => ServerMessage::Timecode(from_str(text)?),
+        other => {
+            return Err(serde::de::Error::custom(format_args!(
+                "`{other}` is not a show-control message"
+            )));
+        }
+    })
+}
+
+/// Reads a message of every other type.
+fn read(tag: &Tag, text: &str) -> Result<ServerMessage, serde_json::Error> {
     Ok(match tag.kind.as_str() {
         "status" => ServerMessage::Status(from_str(text)?),
         "feedback" => ServerMessage::Feedback(from_str(text)?),
@@ -56,8 +96,6 @@ pub fn decode(text: &str) -> Result<ServerMessage, serde_json::Error> {
         },
         "mbox_reply" => ServerMessage::MboxReply(from_str(text)?),
         "scl_reply" => ServerMessage::SclReply(from_str(text)?),
-        "schedule" => ServerMessage::Schedule(from_str(text)?),
-        "timecode" => ServerMessage::Timecode(from_str(text)?),
         "error" => {
             let refused: Refused = from_str(text)?;
             ServerMessage::Error {
@@ -205,12 +243,29 @@ mod tests {
         ];
         for message in messages {
             let text = serde_json::to_string(&message).expect("json");
-            assert_eq!(decode(&text).expect(&text), message);
+            let read = match decode(&text).expect(&text) {
+                Decoded::Message(read) => read,
+                // Read later, in the show-control chunk.
+                Decoded::ShowControl(later) => {
+                    assert!(matches!(
+                        message,
+                        ServerMessage::Schedule(_) | ServerMessage::Timecode(_)
+                    ));
+                    read_show_control(&later).expect(&later)
+                }
+            };
+            assert_eq!(read, message);
         }
         let mbox = r#"{"type":"mbox_reply","gateway":1,"text":"FN0090 = 1","registers":{"bank":"FN","start":144,"values":[1]}}"#;
-        assert!(matches!(decode(mbox), Ok(ServerMessage::MboxReply(_))));
+        assert!(matches!(
+            decode(mbox),
+            Ok(Decoded::Message(ServerMessage::MboxReply(_)))
+        ));
         let old = decode(r#"{"type":"error","message":"no"}"#).expect("an older bridge");
-        assert!(matches!(old, ServerMessage::Error { code, .. } if code.is_empty()));
+        assert!(
+            matches!(old, Decoded::Message(ServerMessage::Error { code, .. }) if code.is_empty())
+        );
+        assert!(read_show_control(r#"{"type":"pong"}"#).is_err());
     }
 
     #[test]

@@ -282,6 +282,10 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
         read(&static_dir.join("style.css"))?,
         &read_text(&static_dir.join("index.html"))?,
     )?;
+    let mut packaged = packaged;
+    if build == Build::Release {
+        minify_js(env, &mut packaged)?;
+    }
     let pkg = static_dir.join("pkg");
     write_pkg(&pkg, &packaged, build.levels())?;
     println!(
@@ -292,6 +296,33 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
         packaged.css_name,
         packaged.chunk_names.len()
     );
+    Ok(())
+}
+
+/// Minifies the js glue and the chunks' loader in `packaged` with `terser` (release
+/// builds: about 3 KB of the first load's brotli). Their names stay the hash of the
+/// text wasm-bindgen wrote, so a build of the same sources names the same files.
+fn minify_js(env: &Env, packaged: &mut Packaged) -> Result<(), String> {
+    let terser = tools::ensure_terser(env)?;
+    let scratch = env.target_dir.join("web-terser");
+    std::fs::create_dir_all(&scratch)
+        .map_err(|err| format!("cannot create {}: {err}", scratch.display()))?;
+    for name in [packaged.js_name.clone(), packaged.link_name.clone()] {
+        let Some((_, content)) = packaged.files.iter_mut().find(|(file, _)| *file == name) else {
+            return Err(format!("the package has no {name} to minify"));
+        };
+        let input = scratch.join(&name);
+        let output = scratch.join(format!("min-{name}"));
+        std::fs::write(&input, &*content)
+            .map_err(|err| format!("cannot write {}: {err}", input.display()))?;
+        tools::run_command(
+            tools::program(env, &terser.to_string_lossy())
+                .arg(&input)
+                .args(["--module", "--compress", "--mangle", "-o"])
+                .arg(&output),
+        )?;
+        *content = read(&output)?;
+    }
     Ok(())
 }
 

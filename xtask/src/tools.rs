@@ -286,6 +286,36 @@ pub fn ensure_wasm_opt(env: &Env) -> Result<PathBuf, String> {
     Ok(wasm_opt)
 }
 
+/// The version of npm's `terser` whose minifier shrinks the release app's js.
+pub const TERSER_VERSION: &str = "5.51.4";
+
+/// The path of `terser`, installing npm's `terser` package at [`TERSER_VERSION`]
+/// under `<target>/xtask-tools/terser` if it is not there (npm comes with `wasm-opt`,
+/// [`ensure_wasm_opt`]).
+pub fn ensure_terser(env: &Env) -> Result<PathBuf, String> {
+    let prefix = env.target_dir.join("xtask-tools").join("terser");
+    let terser = prefix.join("node_modules").join(".bin").join("terser");
+    let have = output_of(program(env, &terser.to_string_lossy()).arg("--version"));
+    if have.is_some_and(|text| text.contains(TERSER_VERSION)) {
+        return Ok(terser);
+    }
+    println!(
+        "xtask: installing terser (npm package terser {TERSER_VERSION}) into {}; it shrinks the release app's js",
+        prefix.display()
+    );
+    std::fs::create_dir_all(&prefix)
+        .map_err(|err| format!("cannot create {}: {err}", prefix.display()))?;
+    run_command(
+        program(env, "npm")
+            .arg("install")
+            .arg("--prefix")
+            .arg(&prefix)
+            .args(["--no-audit", "--no-fund"])
+            .arg(format!("terser@{TERSER_VERSION}")),
+    )?;
+    Ok(terser)
+}
+
 /// The path of ChromeDriver.
 pub const CHROMEDRIVER: &str = "/usr/bin/chromedriver";
 /// The path of Chromium.

@@ -563,11 +563,9 @@ fn EditPanel(panel: RwSignal<Panel>, note: RwSignal<Option<String>>) -> impl Int
     let apply = move |event: leptos::ev::SubmitEvent| {
         event.prevent_default();
         let lang = ctx.lang.get_untracked();
+        // Checked by the bridge (`entry_timecode`, shown in both languages): its
+        // reader of timecodes stays out of the app's first load.
         let start = timecode.get_untracked().trim().to_owned();
-        if !start.is_empty() && !floatball_shared::timecode::timecode_text_valid(&start) {
-            error.set(Some(lang.t(Text::BadTimecodeStart).into()));
-            return;
-        }
         match TimingForm::parse(&delay.get_untracked(), &cycles.get_untracked()) {
             Err(input) => error.set(Some(lang.input_error(input).into())),
             Ok(timing) => {

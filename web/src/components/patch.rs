@@ -19,7 +19,7 @@ use leptos::task::spawn_local;
 use crate::client::Failure;
 use crate::components::widgets::{ErrorNote, ProblemList};
 use crate::context::Ctx;
-use crate::i18n::Text;
+use crate::i18n::{PatchText, Text};
 use crate::page::Page;
 use crate::patch::{page_rows, pages, universe_ranges, whole_matrix, with_profile};
 
@@ -119,7 +119,7 @@ pub fn PatchPage() -> impl IntoView {
                     draft.set(Some(now.patch.clone()));
                     live.set(Some(now));
                     saved.set(true);
-                    ctx.notify(lang.t(Text::PatchSaved));
+                    ctx.notify(lang.t(PatchText::PatchSaved));
                 }
                 Err(failure) => {
                     if let Failure::Rejected(refusal) = &failure {
@@ -159,7 +159,7 @@ pub fn PatchPage() -> impl IntoView {
     let balls = move || {
         let cols = grid().1;
         let lang = ctx.lang.get();
-        let own = lang.t(Text::PatchOwnProfile);
+        let own = lang.t(PatchText::PatchOwnProfile);
         draft.with(|draft| {
             let Some(patch) = draft else {
                 return Vec::new();
@@ -182,7 +182,7 @@ pub fn PatchPage() -> impl IntoView {
         })
     };
     let page_count = move || draft.with(|d| d.as_ref().map_or(1, pages));
-    let speed_choice = move |bits: Option<u8>, text: Text, test_id: &'static str| {
+    let speed_choice = move |bits: Option<u8>, text: PatchText, test_id: &'static str| {
         view! {
             <label>
                 <input
@@ -201,12 +201,12 @@ pub fn PatchPage() -> impl IntoView {
         <section class="patch">
             <crate::components::control::ControlTabs />
             <h2>{ctx.tr(Text::NavPatch)}</h2>
-            <p class="muted small">{ctx.tr(Text::PatchLater)}</p>
+            <p class="muted small">{ctx.tr(PatchText::PatchLater)}</p>
             <Show
                 when=move || draft.with(Option::is_some)
                 fallback=move || {
                     view! {
-                        <p class="muted" data-testid="patch-unavailable">{ctx.tr(Text::PatchUnavailable)}</p>
+                        <p class="muted" data-testid="patch-unavailable">{ctx.tr(PatchText::PatchUnavailable)}</p>
                         <ErrorNote text=error test_id="patch-error" alert=true />
                     }
                 }
@@ -215,12 +215,12 @@ pub fn PatchPage() -> impl IntoView {
                     {move || live.with(|l| l.as_ref().map(|l| ctx.lang.get().live_settings(l)))}
                 </p>
                 <div class="card" data-testid="patch-profile">
-                    <h3>{ctx.tr(Text::PatchProfile)}</h3>
+                    <h3>{ctx.tr(PatchText::PatchProfile)}</h3>
                     <fieldset>
-                        <legend>{ctx.tr(Text::PatchSpeedLimit)}</legend>
-                        {speed_choice(None, Text::PatchSpeedNone, "patch-speed-none")}
-                        {speed_choice(Some(8), Text::PatchSpeed8, "patch-speed-8")}
-                        {speed_choice(Some(16), Text::PatchSpeed16, "patch-speed-16")}
+                        <legend>{ctx.tr(PatchText::PatchSpeedLimit)}</legend>
+                        {speed_choice(None, PatchText::PatchSpeedNone, "patch-speed-none")}
+                        {speed_choice(Some(8), PatchText::PatchSpeed8, "patch-speed-8")}
+                        {speed_choice(Some(16), PatchText::PatchSpeed16, "patch-speed-16")}
                     </fieldset>
                     <label>
                         <input
@@ -232,7 +232,7 @@ pub fn PatchPage() -> impl IntoView {
                                 set_profile(&|p| p.enable = on);
                             }
                         />
-                        {ctx.tr(Text::PatchEnable)}
+                        {ctx.tr(PatchText::PatchEnable)}
                     </label>
                     <label>
                         <input
@@ -244,16 +244,16 @@ pub fn PatchPage() -> impl IntoView {
                                 set_profile(&|p| p.colour = on);
                             }
                         />
-                        {ctx.tr(Text::PatchColour)}
+                        {ctx.tr(PatchText::PatchColour)}
                     </label>
                     <p class="muted small" data-testid="patch-channels">
                         {move || ctx.lang.get().profile_channels(profile())}
                     </p>
                 </div>
                 <div class="card" data-testid="patch-matrix">
-                    <h3>{ctx.tr(Text::PatchWholeMatrix)}</h3>
+                    <h3>{ctx.tr(PatchText::PatchWholeMatrix)}</h3>
                     <label>
-                        <span>{ctx.tr(Text::PatchUniverse)}</span>
+                        <span>{ctx.tr(PatchText::PatchUniverse)}</span>
                         <input
                             inputmode="numeric"
                             data-testid="patch-matrix-universe"
@@ -262,7 +262,7 @@ pub fn PatchPage() -> impl IntoView {
                         />
                     </label>
                     <label>
-                        <span>{ctx.tr(Text::PatchAddress)}</span>
+                        <span>{ctx.tr(PatchText::PatchAddress)}</span>
                         <input
                             inputmode="numeric"
                             data-testid="patch-matrix-address"
@@ -271,11 +271,11 @@ pub fn PatchPage() -> impl IntoView {
                         />
                     </label>
                     <button data-testid="patch-matrix-apply" on:click=patch_matrix>
-                        {ctx.tr(Text::PatchWholeMatrixButton)}
+                        {ctx.tr(PatchText::PatchWholeMatrixButton)}
                     </button>
                 </div>
                 <div class="card">
-                    <h3>{ctx.tr(Text::PatchUniverses)}</h3>
+                    <h3>{ctx.tr(PatchText::PatchUniverses)}</h3>
                     <p data-testid="patch-summary">
                         {move || {
                             draft.with(|d| {
@@ -288,24 +288,24 @@ pub fn PatchPage() -> impl IntoView {
                     <table class="patch-universes">
                         <thead>
                             <tr>
-                                <th>{ctx.tr(Text::PatchUniverse)}</th>
-                                <th>{ctx.tr(Text::PatchBallsIn)}</th>
-                                <th>{ctx.tr(Text::PatchRowCol)}</th>
-                                <th>{ctx.tr(Text::PatchSlots)}</th>
+                                <th>{ctx.tr(PatchText::PatchUniverse)}</th>
+                                <th>{ctx.tr(PatchText::PatchBallsIn)}</th>
+                                <th>{ctx.tr(PatchText::PatchRowCol)}</th>
+                                <th>{ctx.tr(PatchText::PatchSlots)}</th>
                             </tr>
                         </thead>
                         <tbody>{universes}</tbody>
                     </table>
                 </div>
                 <div class="card">
-                    <h3>{ctx.tr(Text::PatchBalls)}</h3>
+                    <h3>{ctx.tr(PatchText::PatchBalls)}</h3>
                     <table class="patch-balls">
                         <thead>
                             <tr>
-                                <th>{ctx.tr(Text::PatchBall)}</th>
-                                <th>{ctx.tr(Text::PatchRowCol)}</th>
-                                <th>{ctx.tr(Text::PatchUniverse)} "." {ctx.tr(Text::PatchAddress)}</th>
-                                <th>{ctx.tr(Text::PatchProfile)}</th>
+                                <th>{ctx.tr(PatchText::PatchBall)}</th>
+                                <th>{ctx.tr(PatchText::PatchRowCol)}</th>
+                                <th>{ctx.tr(PatchText::PatchUniverse)} "." {ctx.tr(PatchText::PatchAddress)}</th>
+                                <th>{ctx.tr(PatchText::PatchProfile)}</th>
                             </tr>
                         </thead>
                         <tbody>{balls}</tbody>
@@ -316,7 +316,7 @@ pub fn PatchPage() -> impl IntoView {
                             disabled=move || page.get() == 0
                             on:click=move |_| page.update(|p| *p = p.saturating_sub(1))
                         >
-                            {ctx.tr(Text::PatchPrevious)}
+                            {ctx.tr(PatchText::PatchPrevious)}
                         </button>
                         <span data-testid="patch-page">
                             {move || ctx.lang.get().table_page(page.get() + 1, page_count())}
@@ -326,7 +326,7 @@ pub fn PatchPage() -> impl IntoView {
                             disabled=move || { page.get() + 1 >= page_count() }
                             on:click=move |_| page.update(|p| *p += 1)
                         >
-                            {ctx.tr(Text::PatchNext)}
+                            {ctx.tr(PatchText::PatchNext)}
                         </button>
                     </div>
                 </div>
@@ -335,13 +335,13 @@ pub fn PatchPage() -> impl IntoView {
                     (!found.is_empty())
                         .then(|| {
                             view! {
-                                <p class="note">{ctx.tr(Text::PatchProblems)}</p>
+                                <p class="note">{ctx.tr(PatchText::PatchProblems)}</p>
                                 <ProblemList problems=found test_id="patch-local-problems" />
                             }
                         })
                 }}
                 <button class="primary" data-testid="patch-save" disabled=move || busy.get() on:click=save>
-                    {ctx.tr(Text::PatchSave)}
+                    {ctx.tr(PatchText::PatchSave)}
                 </button>
                 <ErrorNote text=error test_id="patch-error" alert=true />
                 {move || {
@@ -351,7 +351,7 @@ pub fn PatchPage() -> impl IntoView {
                 }}
                 {move || {
                     (saved.get() && error.with(Option::is_none))
-                        .then(|| view! { <p class="note done" data-testid="patch-saved">{ctx.tr(Text::PatchSaved)}</p> })
+                        .then(|| view! { <p class="note done" data-testid="patch-saved">{ctx.tr(PatchText::PatchSaved)}</p> })
                 }}
                 <button data-testid="patch-back" on:click=move |_| ctx.page.set(Page::Control)>
                     "← " {ctx.tr(Text::NavControl)}

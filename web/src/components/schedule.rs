@@ -12,7 +12,7 @@ use super::control::ControlTabs;
 use super::widgets::ErrorNote;
 use crate::client::Failure;
 use crate::context::Ctx;
-use crate::i18n::{Lang, Text};
+use crate::i18n::{Lang, ScheduleText};
 use crate::schedule::{ExceptionForm, FormError, FormProblem, ScheduleForm, WindowForm};
 
 /// Where a list of windows is: a weekday (0 = Monday) or an exception (0-based).
@@ -32,32 +32,35 @@ fn windows_mut(form: &mut ScheduleForm, place: Place) -> Option<&mut Vec<WindowF
     }
 }
 
-fn day_text(day: Weekday) -> Text {
+fn day_text(day: Weekday) -> ScheduleText {
     match day {
-        Weekday::Monday => Text::Monday,
-        Weekday::Tuesday => Text::Tuesday,
-        Weekday::Wednesday => Text::Wednesday,
-        Weekday::Thursday => Text::Thursday,
-        Weekday::Friday => Text::Friday,
-        Weekday::Saturday => Text::Saturday,
-        Weekday::Sunday => Text::Sunday,
+        Weekday::Monday => ScheduleText::Monday,
+        Weekday::Tuesday => ScheduleText::Tuesday,
+        Weekday::Wednesday => ScheduleText::Wednesday,
+        Weekday::Thursday => ScheduleText::Thursday,
+        Weekday::Friday => ScheduleText::Friday,
+        Weekday::Saturday => ScheduleText::Saturday,
+        Weekday::Sunday => ScheduleText::Sunday,
     }
 }
 
 /// A field the form cannot read, in `lang`: where, then what.
 fn form_problem(lang: Lang, problem: FormProblem) -> String {
     let what = lang.t(match problem.error {
-        FormError::Time => Text::ScheduleBadTime,
-        FormError::Minutes => Text::ScheduleBadMinutes,
-        FormError::Date => Text::ScheduleBadDate,
+        FormError::Time => ScheduleText::ScheduleBadTime,
+        FormError::Minutes => ScheduleText::ScheduleBadMinutes,
+        FormError::Date => ScheduleText::ScheduleBadDate,
     });
     let mut place = match (problem.weekday, problem.exception) {
         (Some(day), _) => lang.t(day_text(day)).to_owned(),
-        (None, Some(number)) => format!("{} {number}", lang.t(Text::ScheduleException)),
+        (None, Some(number)) => format!("{} {number}", lang.t(ScheduleText::ScheduleException)),
         (None, None) => String::new(),
     };
     if let Some(window) = problem.window {
-        place.push_str(&format!(", {} {window}", lang.t(Text::ScheduleWindow)));
+        place.push_str(&format!(
+            ", {} {window}",
+            lang.t(ScheduleText::ScheduleWindow)
+        ));
     }
     format!("{place}: {what}")
 }
@@ -113,7 +116,7 @@ pub fn SchedulePage() -> impl IntoView {
                 Ok(stored) => {
                     form.set(Some(ScheduleForm::of(&stored)));
                     saved.set(true);
-                    ctx.notify(ctx.lang.get_untracked().t(Text::ScheduleSaved));
+                    ctx.notify(ctx.lang.get_untracked().t(ScheduleText::ScheduleSaved));
                 }
                 Err(failure) => {
                     let lang = ctx.lang.get_untracked();
@@ -148,7 +151,7 @@ pub fn SchedulePage() -> impl IntoView {
                 view! {
                     <div class="schedule-window" data-testid=id.clone()>
                         <label>
-                            <span>{ctx.tr(Text::ScheduleFrom)}</span>
+                            <span>{ctx.tr(ScheduleText::ScheduleFrom)}</span>
                             <input
                                 data-testid=format!("{id}-start")
                                 placeholder="HH:MM"
@@ -157,7 +160,7 @@ pub fn SchedulePage() -> impl IntoView {
                             />
                         </label>
                         <label>
-                            <span>{ctx.tr(Text::ScheduleTo)}</span>
+                            <span>{ctx.tr(ScheduleText::ScheduleTo)}</span>
                             <input
                                 data-testid=format!("{id}-end")
                                 placeholder="HH:MM"
@@ -171,12 +174,12 @@ pub fn SchedulePage() -> impl IntoView {
                                 at(|w, v| w.every = v == "every", event_target_value(&ev))
                             }
                         >
-                            <option value="loop" selected=!every>{ctx.tr(Text::ScheduleLoop)}</option>
-                            <option value="every" selected=every>{ctx.tr(Text::ScheduleEvery)}</option>
+                            <option value="loop" selected=!every>{ctx.tr(ScheduleText::ScheduleLoop)}</option>
+                            <option value="every" selected=every>{ctx.tr(ScheduleText::ScheduleEvery)}</option>
                         </select>
                         {every.then(|| view! {
                             <label>
-                                <span>{ctx.tr(Text::ScheduleMinutes)}</span>
+                                <span>{ctx.tr(ScheduleText::ScheduleMinutes)}</span>
                                 <input
                                     data-testid=format!("{id}-minutes")
                                     inputmode="numeric"
@@ -198,7 +201,7 @@ pub fn SchedulePage() -> impl IntoView {
                                 });
                             }
                         >
-                            {ctx.tr(Text::ScheduleRemove)}
+                            {ctx.tr(ScheduleText::ScheduleRemove)}
                         </button>
                     </div>
                 }
@@ -217,7 +220,7 @@ pub fn SchedulePage() -> impl IntoView {
                     });
                 }
             >
-                {ctx.tr(Text::ScheduleAddWindow)}
+                {ctx.tr(ScheduleText::ScheduleAddWindow)}
             </button>
         }
     };
@@ -253,7 +256,7 @@ pub fn SchedulePage() -> impl IntoView {
                 view! {
                     <fieldset class="schedule-exception" data-testid=format!("schedule-exception{index}")>
                         <label>
-                            <span>{ctx.tr(Text::ScheduleDate)}</span>
+                            <span>{ctx.tr(ScheduleText::ScheduleDate)}</span>
                             <input
                                 data-testid=format!("exception{index}-date")
                                 placeholder="YYYY-MM-DD"
@@ -262,14 +265,14 @@ pub fn SchedulePage() -> impl IntoView {
                             />
                         </label>
                         <label>
-                            <span>{ctx.tr(Text::ScheduleNote)}</span>
+                            <span>{ctx.tr(ScheduleText::ScheduleNote)}</span>
                             <input
                                 data-testid=format!("exception{index}-note")
                                 prop:value=exception.note
                                 on:change=move |ev| set(|e, v| e.note = v, event_target_value(&ev))
                             />
                         </label>
-                        {closed.then(|| view! { <p class="note">{ctx.tr(Text::ScheduleClosed)}</p> })}
+                        {closed.then(|| view! { <p class="note">{ctx.tr(ScheduleText::ScheduleClosed)}</p> })}
                         {window_rows(Place::Exception(index), exception.windows)}
                         <button
                             type="button"
@@ -282,7 +285,7 @@ pub fn SchedulePage() -> impl IntoView {
                                 });
                             }
                         >
-                            {ctx.tr(Text::ScheduleRemove)}
+                            {ctx.tr(ScheduleText::ScheduleRemove)}
                         </button>
                     </fieldset>
                 }
@@ -299,10 +302,10 @@ pub fn SchedulePage() -> impl IntoView {
                         edit(&|form| form.enabled = on);
                     }
                 />
-                <span>{ctx.tr(Text::ScheduleEnabled)}</span>
+                <span>{ctx.tr(ScheduleText::ScheduleEnabled)}</span>
             </label>
             <label>
-                <span>{ctx.tr(Text::ScheduleTimeZone)}</span>
+                <span>{ctx.tr(ScheduleText::ScheduleTimeZone)}</span>
                 <input
                     data-testid="schedule-time-zone"
                     prop:value=current.time_zone.clone()
@@ -313,14 +316,14 @@ pub fn SchedulePage() -> impl IntoView {
                 />
             </label>
             {days}
-            <h3>{ctx.tr(Text::ScheduleExceptions)}</h3>
+            <h3>{ctx.tr(ScheduleText::ScheduleExceptions)}</h3>
             {exceptions}
             <button
                 type="button"
                 data-testid="schedule-add-exception"
                 on:click=move |_| edit(&|form| form.exceptions.push(ExceptionForm::default()))
             >
-                {ctx.tr(Text::ScheduleAddException)}
+                {ctx.tr(ScheduleText::ScheduleAddException)}
             </button>
         })
     };
@@ -328,7 +331,7 @@ pub fn SchedulePage() -> impl IntoView {
         <section class="control">
             <ControlTabs />
             <form class="card form schedule" data-testid="schedule-form" on:submit=save>
-                <p class="note">{ctx.tr(Text::ScheduleIntro)}</p>
+                <p class="note">{ctx.tr(ScheduleText::ScheduleIntro)}</p>
                 {body}
                 <button
                     type="submit"
@@ -336,7 +339,7 @@ pub fn SchedulePage() -> impl IntoView {
                     data-testid="schedule-save"
                     prop:disabled=move || busy.get() || form.with(Option::is_none)
                 >
-                    {ctx.tr(Text::ScheduleSave)}
+                    {ctx.tr(ScheduleText::ScheduleSave)}
                 </button>
                 <ErrorNote text=error test_id="schedule-error" />
                 <ul class="problems" data-testid="schedule-problems">
@@ -344,7 +347,7 @@ pub fn SchedulePage() -> impl IntoView {
                 </ul>
                 {move || {
                     (saved.get() && error.with(Option::is_none))
-                        .then(|| view! { <p class="note done" data-testid="schedule-saved">{ctx.tr(Text::ScheduleSaved)}</p> })
+                        .then(|| view! { <p class="note done" data-testid="schedule-saved">{ctx.tr(ScheduleText::ScheduleSaved)}</p> })
                 }}
             </form>
         </section>
