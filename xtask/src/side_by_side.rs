@@ -25,8 +25,9 @@ use crate::tools;
 
 /// How to run one stage's test binaries.
 pub struct Plan<'a> {
-    /// Binaries that run alone, after the others (their file names without `.rs`,
-    /// as in `tests/<name>.rs`).
+    /// Binaries that run alone, after the others: an integration test by its file
+    /// name without `.rs` (`tests/<name>.rs`), a crate's unit tests by the crate's
+    /// name (`floatball_bridge`).
     pub solo: &'a [&'a str],
     /// About how long each binary took in CI, s (the same names): the longest start
     /// first, so the last to end is a short one. Unlisted ones count as a few seconds.
@@ -71,7 +72,7 @@ pub fn run(
     let mut pooled: Vec<Binary> = Vec::new();
     let mut solo: Vec<Binary> = Vec::new();
     for binary in binaries {
-        if binary.integration && plan.solo.contains(&binary.name.as_str()) {
+        if plan.solo.contains(&binary.name.as_str()) {
             solo.push(binary);
         } else {
             pooled.push(binary);

@@ -28,6 +28,8 @@ const NATIVE: side_by_side::Plan = side_by_side::Plan {
         "link_sim",
         // Chases timecode in step (and runs olad on Art-Net's and OLA's fixed ports).
         "timecode",
+        // The bridge's unit tests: the SCL line's e-stop within 20 ms of the press.
+        "floatball_bridge",
     ],
     seconds: &[
         ("playback", 23),
