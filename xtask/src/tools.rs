@@ -252,55 +252,80 @@ pub const WASM_FEATURES: [&str; 6] = [
 /// The path of `wasm-opt`, installing npm's `binaryen` package at
 /// [`BINARYEN_VERSION`] under `<target>/xtask-tools/binaryen` if it is not there.
 pub fn ensure_wasm_opt(env: &Env) -> Result<PathBuf, String> {
-    let prefix = env.target_dir.join("xtask-tools").join("binaryen");
-    let wasm_opt = prefix.join("node_modules").join(".bin").join("wasm-opt");
     let major = BINARYEN_VERSION
         .split('.')
         .next()
         .unwrap_or(BINARYEN_VERSION);
-    let have = output_of(program(env, &wasm_opt.to_string_lossy()).arg("--version"));
-    if have.is_some_and(|text| text.contains(&format!("version {major} "))) {
-        return Ok(wasm_opt);
-    }
-    if output_of(program(env, "npm").arg("--version")).is_none() {
-        apt_install(
-            env,
-            &["nodejs", "npm"],
-            "Node.js and npm (wasm-opt, which shrinks the release app, comes from npm)",
-        )?;
-    }
-    println!(
-        "xtask: installing wasm-opt (npm package binaryen {BINARYEN_VERSION}) into {}; it shrinks the release app",
-        prefix.display()
-    );
-    std::fs::create_dir_all(&prefix)
-        .map_err(|err| format!("cannot create {}: {err}", prefix.display()))?;
-    run_command(
-        program(env, "npm")
-            .arg("install")
-            .arg("--prefix")
-            .arg(&prefix)
-            .args(["--no-audit", "--no-fund"])
-            .arg(format!("binaryen@{BINARYEN_VERSION}")),
-    )?;
-    Ok(wasm_opt)
+    npm_tool(
+        env,
+        NpmTool {
+            package: "binaryen",
+            version: BINARYEN_VERSION,
+            bin: "wasm-opt",
+            version_says: &format!("version {major} "),
+            purpose: "it shrinks the release app",
+        },
+    )
 }
 
 /// The version of npm's `terser` whose minifier shrinks the release app's js.
 pub const TERSER_VERSION: &str = "5.51.4";
 
 /// The path of `terser`, installing npm's `terser` package at [`TERSER_VERSION`]
-/// under `<target>/xtask-tools/terser` if it is not there (npm comes with `wasm-opt`,
-/// [`ensure_wasm_opt`]).
+/// under `<target>/xtask-tools/terser` if it is not there.
 pub fn ensure_terser(env: &Env) -> Result<PathBuf, String> {
-    let prefix = env.target_dir.join("xtask-tools").join("terser");
-    let terser = prefix.join("node_modules").join(".bin").join("terser");
-    let have = output_of(program(env, &terser.to_string_lossy()).arg("--version"));
-    if have.is_some_and(|text| text.contains(TERSER_VERSION)) {
-        return Ok(terser);
+    npm_tool(
+        env,
+        NpmTool {
+            package: "terser",
+            version: TERSER_VERSION,
+            bin: "terser",
+            version_says: TERSER_VERSION,
+            purpose: "it shrinks the release app's js",
+        },
+    )
+}
+
+/// A tool that comes from an npm package.
+struct NpmTool<'a> {
+    /// The npm package.
+    package: &'a str,
+    /// Its version.
+    version: &'a str,
+    /// The program under `node_modules/.bin`.
+    bin: &'a str,
+    /// What the program's `--version` says when it is the right one.
+    version_says: &'a str,
+    /// What it is for, for the message that installs it.
+    purpose: &'a str,
+}
+
+/// The path of an npm package's program, installing the package (and Node.js and npm
+/// when they are missing) under `<target>/xtask-tools/<package>` if the right version
+/// is not there.
+fn npm_tool(env: &Env, tool: NpmTool<'_>) -> Result<PathBuf, String> {
+    let NpmTool {
+        package,
+        version,
+        bin,
+        version_says,
+        purpose,
+    } = tool;
+    let prefix = env.target_dir.join("xtask-tools").join(package);
+    let path = prefix.join("node_modules").join(".bin").join(bin);
+    let have = output_of(program(env, &path.to_string_lossy()).arg("--version"));
+    if have.is_some_and(|text| text.contains(version_says)) {
+        return Ok(path);
+    }
+    if output_of(program(env, "npm").arg("--version")).is_none() {
+        apt_install(
+            env,
+            &["nodejs", "npm"],
+            &format!("Node.js and npm ({bin}, which shrinks the release app, comes from npm)"),
+        )?;
     }
     println!(
-        "xtask: installing terser (npm package terser {TERSER_VERSION}) into {}; it shrinks the release app's js",
+        "xtask: installing {bin} (npm package {package} {version}) into {}; {purpose}",
         prefix.display()
     );
     std::fs::create_dir_all(&prefix)
@@ -311,9 +336,9 @@ pub fn ensure_terser(env: &Env) -> Result<PathBuf, String> {
             .arg("--prefix")
             .arg(&prefix)
             .args(["--no-audit", "--no-fund"])
-            .arg(format!("terser@{TERSER_VERSION}")),
+            .arg(format!("{package}@{version}")),
     )?;
-    Ok(terser)
+    Ok(path)
 }
 
 /// The path of ChromeDriver.
