@@ -59,6 +59,18 @@ fn read_lines(master: &mut TTYPort, wait: Duration) -> Vec<(Instant, String)> {
     lines
 }
 
+/// Reads until `count` lines came (or `limit` passed: a failure, not a figure), then
+/// `quiet` more, so a line that should not be there yet shows.
+fn read_count(master: &mut TTYPort, count: usize, limit: Duration, quiet: Duration) -> Vec<String> {
+    let until = Instant::now() + limit;
+    let mut lines = Vec::new();
+    while lines.len() < count && Instant::now() < until {
+        lines.extend(read_lines(master, Duration::from_millis(5)));
+    }
+    lines.extend(read_lines(master, quiet));
+    lines.into_iter().map(|(_, text)| text).collect()
+}
+
 async fn until_up(net: &SclNet) {
     for _ in 0..200 {
         if net.links()[0].is_up() {
@@ -119,20 +131,18 @@ async fn a_line_carries_one_request_at_a_time_and_the_estop_goes_first() {
     let script = tokio::task::spawn_blocking({
         let (latch, net) = (Arc::clone(&latch), net.clone());
         move || {
-            let texts = |lines: Vec<(Instant, String)>| -> Vec<String> {
-                lines.into_iter().map(|(_, text)| text).collect()
-            };
-            // Only the first is on the line until it is answered.
-            let first = texts(read_lines(&mut master, Duration::from_millis(40)));
+            // Only the first is on the line until it is answered (the quiet read
+            // would show a second).
+            let limit = Duration::from_secs(5);
+            let quiet = Duration::from_millis(40);
+            let first = read_count(&mut master, 1, limit, quiet);
             master.write_all(b"0%\r").expect("answer");
-            let second = texts(read_lines(&mut master, Duration::from_millis(40)));
+            let second = read_count(&mut master, 1, limit, quiet);
             // The e-stop while 1DI200 waits for its answer and 2DI300 is queued.
-            let pressed = Instant::now();
             crate::estop::press(&latch, &[]);
             net.wake();
-            let stops = read_lines(&mut master, Duration::from_millis(40));
-            let after = stops.first().map(|(at, _)| *at - pressed);
-            (first, second, texts(stops), after)
+            let stops = read_count(&mut master, 3, limit, quiet);
+            (first, second, stops)
         }
     });
     // Queued in this order (join! polls them in order).
@@ -141,12 +151,12 @@ async fn a_line_carries_one_request_at_a_time_and_the_estop_goes_first() {
         link.request(1, "DI200".to_owned(), Expect::One, generation),
         link.request(2, "DI300".to_owned(), Expect::One, generation),
     );
-    let (first, second, stops, after) = script.await.expect("the drives' side");
+    let (first, second, stops) = script.await.expect("the drives' side");
     assert_eq!(first, ["0DI100"]);
     assert_eq!(second, ["1DI200"]);
-    // SK to every drive, back to back, and both requests left are void.
+    // SK to every drive, back to back, and both requests left are void (how soon
+    // after the press is `cargo xtask scl-bench`'s figure, not a test's bound).
     assert_eq!(stops, ["0SK", "1SK", "2SK"]);
-    assert!(after.expect("a stop") < Duration::from_millis(20));
     assert_eq!(answers.0, Ok(vec!["%".to_owned()]));
     assert_eq!(answers.1, Err(SclError::Void));
     assert_eq!(answers.2, Err(SclError::Void));
