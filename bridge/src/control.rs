@@ -10,7 +10,7 @@ use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::params;
 use floatball_shared::player::{Entry, StartError};
 
-use crate::playback::{At, PlaybackError, Playlist, PlaylistKey};
+use crate::playback::{At, Begin, PlaybackError, Playlist, PlaylistKey};
 use crate::playlist;
 use crate::state::AppState;
 use crate::store::ShowName;
@@ -30,6 +30,10 @@ pub enum Control {
     Reset(StartFrom),
     /// Stop, home, and stay idle.
     Home,
+    /// A locate (the timecode jumped): the show under way ends without an e-stop,
+    /// and the balls go from where they are to where [`StartFrom`] says, and play on
+    /// from there; as a Start when nothing runs.
+    Locate(StartFrom),
 }
 
 /// The stored playlist with its shows, and its loop flag.
@@ -131,7 +135,7 @@ pub fn issue(
     state: &AppState,
     control: Control,
 ) -> impl std::future::Future<Output = Result<(), ServerMessage>> + Send + 'static {
-    if !matches!(control, Control::Start(_)) {
+    if matches!(control, Control::Reset(_) | Control::Home) {
         state.playback().estop();
     }
     let generation = state.playback().latch().generation();
@@ -170,10 +174,10 @@ pub fn issue_unless_latched(
     let stop = || {
         playback.estop();
     };
-    let own_stop: Option<&dyn Fn()> = if matches!(control, Control::Start(_)) {
-        None
-    } else {
+    let own_stop: Option<&dyn Fn()> = if matches!(control, Control::Reset(_) | Control::Home) {
         Some(&stop)
+    } else {
+        None
     };
     let generation =
         crate::estop::unreleasing_generation(playback.latch(), own_stop).ok_or(Latched)?;
@@ -192,14 +196,18 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
     let playback = state.playback();
     let result = match control {
         Control::Home => playback.home_issued(generation).await,
-        Control::Start(from) | Control::Reset(from) => {
+        Control::Start(from) | Control::Reset(from) | Control::Locate(from) => {
             // The playlist is locked from this read on (PUT /api/playlist).
             let _pending = state.start_pending().await;
             let at = begin_at(state, from).await?;
             let playlist = playlist(state).await?;
             let mut status = state.subscribe_status();
-            let reset = matches!(control, Control::Reset(_));
-            let taken = playback.play_at(playlist, at, generation, reset).await;
+            let begin = match control {
+                Control::Reset(_) => Begin::Reset,
+                Control::Locate(_) => Begin::Locate,
+                _ => Begin::Start,
+            };
+            let taken = playback.play_at(playlist, at, generation, begin).await;
             if taken.is_ok() {
                 // The player answers before its next status is out (MOONS' drives
                 // report through their own task): the playlist stays locked until

@@ -5,7 +5,7 @@ use std::io::{Read, Write};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use floatball_bridge::playback::{Playback, Playlist, PlaylistKey};
+use floatball_bridge::playback::{Begin, Playback, Playlist, PlaylistKey};
 use floatball_bridge::ports::uim2503::{Link, LinkConfig};
 use floatball_shared::api::{LinkState, PlayerState, Status};
 use floatball_shared::plan::{GatewaySpec, Installation};
@@ -205,7 +205,7 @@ async fn a_playlist_is_planned_once_and_its_plan_shared_by_the_armer_the_player_
         .play(
             Playlist::Prepared(armed),
             playback.latch().generation(),
-            false,
+            Begin::Start,
         )
         .await
         .unwrap();

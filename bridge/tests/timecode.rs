@@ -354,6 +354,8 @@ impl Drop for Sender {
 struct Seen {
     status: Option<Status>,
     chase: Option<TimecodeStatus>,
+    /// Every state the statuses went through (each once in a row).
+    states: Vec<PlayerState>,
 }
 
 impl Seen {
@@ -376,11 +378,18 @@ impl Seen {
                 bridge.log()
             );
             match next_message(ws).await {
-                ServerMessage::Status(status) => self.status = Some(status),
+                ServerMessage::Status(status) => self.saw(status),
                 ServerMessage::Timecode(chase) => self.chase = Some(chase),
                 _ => {}
             }
         }
+    }
+
+    fn saw(&mut self, status: Status) {
+        if self.states.last() != Some(&status.state) {
+            self.states.push(status.state);
+        }
+        self.status = Some(status);
     }
 
     /// The next status (the chase kept up to date meanwhile).
@@ -388,7 +397,7 @@ impl Seen {
         loop {
             match next_message(ws).await {
                 ServerMessage::Status(status) => {
-                    self.status = Some(status.clone());
+                    self.saw(status.clone());
                     return status;
                 }
                 ServerMessage::Timecode(chase) => self.chase = Some(chase),
@@ -444,6 +453,7 @@ async fn chase_family(family: &str, gateway: &str, wire: Wire, source: &str, the
     let mut seen = Seen {
         status: None,
         chase: None,
+        states: Vec::new(),
     };
     let show = Show::from_json(std::str::from_utf8(&file).unwrap()).unwrap();
     let mut sampler = Sampler::new(&show);
@@ -513,14 +523,19 @@ async fn chase_family(family: &str, gateway: &str, wire: Wire, source: &str, the
         LOCATE_BACK_TO_MS
     });
     let jumped = Instant::now();
+    seen.states.clear();
     seen.until(&mut ws, "the locate", long, &bridge, |seen| {
         seen.chase.as_ref().is_some_and(|chase| chase.locates >= 1)
     })
     .await;
     let error = loop {
+        // In step at the new point (after a relocation when the first locate's lead,
+        // a start's until one is measured, was off by more than the threshold).
         seen.until(&mut ws, "playing at the new point", long, &bridge, |seen| {
-            seen.chase_state() == Some(ChaseState::Chasing)
-                && seen.show_time_in((HOLD_B_MS.0 + 200, HOLD_B_MS.1 - 1_500))
+            seen.chase.as_ref().is_some_and(|chase| {
+                chase.state == ChaseState::Chasing
+                    && chase.offset_ms.is_some_and(|offset| offset.abs() <= 400)
+            }) && seen.show_time_in((HOLD_B_MS.0 + 200, HOLD_B_MS.1 - 1_500))
         })
         .await;
         let at = seen.status.as_ref().map_or(0, |status| status.show_time_ms);
@@ -540,6 +555,16 @@ async fn chase_family(family: &str, gateway: &str, wire: Wire, source: &str, the
         chase.offset_ms
     );
     assert!(error <= 2.0, "{family}: {error} mm off\n{}", bridge.log());
+    // The locate stopped nothing with an e-stop and homed nothing: from the show
+    // straight to the approach to the new point.
+    assert!(
+        !seen
+            .states
+            .iter()
+            .any(|state| matches!(state, PlayerState::Homing | PlayerState::Stopped)),
+        "{family}: {:?}",
+        seen.states
+    );
     assert!(
         chase.offset_ms.is_some_and(|offset| offset.abs() <= 400),
         "{family}: {chase:?}"

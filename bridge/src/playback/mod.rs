@@ -87,14 +87,28 @@ pub use uim2503::stall_limit;
 
 type Reply = oneshot::Sender<Result<(), StartError>>;
 
+/// How a playlist begins ([`Playback::play_at`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Begin {
+    /// Start: only while nothing runs (homing first when the positions are unknown).
+    Start,
+    /// Reset: its stop was pressed; home, then play.
+    Reset,
+    /// A locate (a timecode jump): the run under way ends without an e-stop and
+    /// the balls go from where they are to the new point
+    /// ([`floatball_shared::player::Sequencer::locate_at`]); as a Start when nothing
+    /// runs.
+    Locate,
+}
+
 enum Request {
-    /// Start or Reset (`reset`): the playlist prepared for the family's drive
-    /// (UIM2503 plans, MBOX samplers, MOONS' programs: [`PreparedRuns`]).
+    /// Start, Reset or a locate (`begin`): the playlist prepared for the family's
+    /// drive (UIM2503 plans, MBOX samplers, MOONS' programs: [`PreparedRuns`]).
     Play {
         generation: u64,
         prepared: Result<PreparedRuns, StartError>,
         loop_playlist: bool,
-        reset: bool,
+        begin: Begin,
         /// The entry it begins at (0-based), and the lead when it begins at a time
         /// inside it: the show's time at the cut's start, and the cut prepared as a
         /// one-entry playlist.
@@ -160,8 +174,11 @@ pub enum ReconfigureError {
 impl std::fmt::Debug for Request {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
-            Request::Play { reset: true, .. } => "Reset",
-            Request::Play { .. } => "Start",
+            Request::Play { begin, .. } => match begin {
+                Begin::Start => "Start",
+                Begin::Reset => "Reset",
+                Begin::Locate => "Locate",
+            },
             Request::Home { .. } => "Home",
             Request::Estop => "Estop",
             Request::Reconfigure(_) => "Reconfigure",
@@ -523,8 +540,12 @@ impl Playback {
         loop_playlist: bool,
         generation: u64,
     ) -> Result<(), PlaybackError> {
-        self.play(Playlist::read(entries, loop_playlist), generation, false)
-            .await
+        self.play(
+            Playlist::read(entries, loop_playlist),
+            generation,
+            Begin::Start,
+        )
+        .await
     }
 
     /// Reset: stop now, home, and play the playlist from its first entry.
@@ -551,13 +572,17 @@ impl Playback {
         loop_playlist: bool,
         generation: u64,
     ) -> Result<(), PlaybackError> {
-        self.play(Playlist::read(entries, loop_playlist), generation, true)
-            .await
+        self.play(
+            Playlist::read(entries, loop_playlist),
+            generation,
+            Begin::Reset,
+        )
+        .await
     }
 
     /// Plans the playlist (unless it is [prepared](Playlist::Prepared) already), then
-    /// hands it to the task as a Start (or, `reset`, a Reset), as a request issued at
-    /// e-stop `generation`.
+    /// hands it to the task as a Start, Reset or locate (`begin`), as a request issued
+    /// at e-stop `generation`.
     ///
     /// # Errors
     /// As [`Playback::start`].
@@ -565,9 +590,9 @@ impl Playback {
         &self,
         playlist: Playlist,
         generation: u64,
-        reset: bool,
+        begin: Begin,
     ) -> Result<(), PlaybackError> {
-        self.play_at(playlist, At::default(), generation, reset)
+        self.play_at(playlist, At::default(), generation, begin)
             .await
     }
 
@@ -582,7 +607,7 @@ impl Playback {
         playlist: Playlist,
         at: At,
         generation: u64,
-        reset: bool,
+        begin: Begin,
     ) -> Result<(), PlaybackError> {
         let entry = at.entry;
         let lead = match at.cut {
@@ -611,7 +636,7 @@ impl Playback {
                     generation,
                     prepared,
                     loop_playlist,
-                    reset,
+                    begin,
                     at,
                     reply,
                 })
@@ -623,7 +648,7 @@ impl Playback {
             generation,
             prepared: prepared.map(|(runs, _)| Box::new(runs) as PreparedRuns),
             loop_playlist,
-            reset,
+            begin,
             at,
             reply,
         })

@@ -31,7 +31,7 @@ use floatball_shared::player::{Entry, LinkView, StartError};
 use tokio::sync::{mpsc, watch};
 
 use super::{
-    ArmingShared, Listed, Reconfigure, ReconfigureError, Reply, Request, admit,
+    ArmingShared, Begin, Listed, Reconfigure, ReconfigureError, Reply, Request, admit,
     idle_for_reconfigure, publish, summarise,
 };
 use crate::estop::{self, Latch, StopPort};
@@ -198,16 +198,21 @@ fn handle<D: Drive + 'static>(
             generation,
             prepared,
             loop_playlist,
-            reset,
+            begin,
             at: (entry, lead),
             reply,
         } => {
             let runs =
                 runs_of::<D>(prepared).and_then(|runs| Ok((runs, start_at::<D>(entry, lead)?)));
-            let result = if reset {
+            let result = if begin == Begin::Reset {
                 let admitted =
                     runs.and_then(|runs| admit(latch, generation, views, gateways).map(|()| runs));
                 sequencer.reset_at(now_us, admitted, loop_playlist)
+            } else if begin == Begin::Locate {
+                // No stop was pressed: refused, the show under way plays on.
+                let admitted =
+                    runs.and_then(|runs| admit(latch, generation, views, gateways).map(|()| runs));
+                sequencer.locate_at(now_us, admitted, loop_playlist)
             } else if sequencer.is_running() {
                 Err(StartError::Busy)
             } else {

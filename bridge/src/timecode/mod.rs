@@ -7,8 +7,9 @@
 //! from a raw MIDI device on a thread), the player's status from its watch, and asks
 //! the chase every [`POLL`] what to do. The chase's actions are issued ONLY through
 //! [`control::issue_unless_latched`] — a Start as `Control::Start` at an entry and a
-//! time, a locate as `Control::Reset` (stop, home, approach the new point, play from
-//! there), a stop on loss as `Control::Home` — so the chase is refused while an e-stop
+//! time, a locate as `Control::Locate` (the show under way ends without an e-stop,
+//! the balls go from where they are to the new point and play on from there), a stop
+//! on loss as `Control::Home` — so the chase is refused while an e-stop
 //! is latched and can never release one. A refusal is logged (once, until the show
 //! plays) and the chase tries again a second later.
 //!
@@ -208,7 +209,7 @@ fn issue(
             entry: Some(entry + 1),
             time_ms: Some(time_ms),
         }),
-        Action::Locate { entry, time_ms } => Control::Reset(StartFrom {
+        Action::Locate { entry, time_ms } => Control::Locate(StartFrom {
             entry: Some(entry + 1),
             time_ms: Some(time_ms),
         }),

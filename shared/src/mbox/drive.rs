@@ -224,13 +224,15 @@ impl MboxDrive {
                 // The show's time and progress are the sequencer's, from
                 // `show_start_us`.
                 self.push_frame(slot_us, period, &targets_mm, Some((&entry.show, t_ms)));
+                // Where the boxes are at the end of the frame's period (a locate moves
+                // on from there).
+                self.believed_mm = Some(targets_mm);
                 let settle_ms = if last {
                     SETTLE_FRAMES * period / 1_000
                 } else {
                     0
                 };
                 if t_ms + period / 1_000 >= duration_ms + settle_ms {
-                    self.believed_mm = Some(targets_mm);
                     self.step = Step::Idle;
                     Phase::Done {
                         at_us: slot_us + period,
@@ -352,6 +354,19 @@ impl Drive for MboxDrive {
         self.believed_mm = None;
         self.frames.clear();
         self.progress = 0.0;
+    }
+
+    /// A locate: the boxes follow frames, so the next move's frames take them on
+    /// from where the last frame sent them — a show's frame says where they are at
+    /// its period's end; a move's only where they head for (then the next move is
+    /// timed for the whole travel, as from unknown positions).
+    fn interrupt(&mut self, _now_us: u64) -> bool {
+        if matches!(self.step, Step::Moving { .. }) {
+            self.believed_mm = None;
+        }
+        self.step = Step::Idle;
+        self.progress = 0.0;
+        true
     }
 
     fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {

@@ -23,6 +23,11 @@ const CALIBRATION: BoxCalibration = BoxCalibration {
 
 /// A 2 × 3 matrix on two 3-axis boxes.
 fn player() -> MboxPlayer {
+    MboxPlayer::new(config())
+}
+
+/// The configuration of [`player`].
+fn config() -> MboxPlayerConfig {
     let mut limits = Limits::for_layout(2, 3);
     limits.max_accel_mm_s2 = 40_000.0;
     let wanted = vec![
@@ -48,11 +53,11 @@ fn player() -> MboxPlayer {
     }
     installation.units = units;
     installation.approach_speed_mm_s = 2_000.0;
-    MboxPlayer::new(MboxPlayerConfig {
+    MboxPlayerConfig {
         installation,
         boxes: vec![CALIBRATION; 2],
         period_us: DEFAULT_PERIOD_US,
-    })
+    }
 }
 
 fn entry(cycles: u32, delay_ms: u64) -> Entry {
@@ -530,4 +535,61 @@ fn a_show_frame_is_sent_for_every_sample_the_first_included() {
     let settle = &frames[first + show_frames..];
     assert_eq!(settle.len(), usize::try_from(SETTLE_FRAMES).unwrap());
     assert!(settle.iter().all(|frame| frame.positions_pulses == last));
+}
+
+#[test]
+fn a_locate_moves_on_from_the_last_frame_and_after_a_move_from_anywhere() {
+    use crate::player::{Drive, Phase};
+    let config = config();
+    let period_us = config.period_us;
+    let travel_mm = config.installation.limits.travel_mm;
+    let speed = config.installation.approach_speed_mm_s;
+    let mut drive = MboxDrive::new(config);
+    let mut show = MboxEntry::new(demo::wave(2, 3, 10, 100));
+    drive.begin_run(0, None);
+    drive.begin_play(0, &mut show, true);
+    let mut now_us = 0;
+    while now_us < 500_000 {
+        assert_eq!(drive.poll(now_us, Some(&mut show)), Phase::Pending);
+        now_us += period_us;
+    }
+    let last = drive.take_frames().pop().expect("show frames");
+    // The timecode jumped: the show ends without an e-stop, and the move to the new
+    // point goes from where the last frame sent the boxes, timed for that distance.
+    assert!(drive.interrupt(now_us));
+    assert_eq!(drive.show_start_us(), None);
+    let mut target = MboxEntry::new(
+        demo::wave(2, 3, 10, 100)
+            .from_time(500, 1_000.0)
+            .unwrap()
+            .show,
+    );
+    assert!(drive.begin_approach(now_us, &mut target));
+    drive.poll(now_us, Some(&mut target));
+    let first = drive.take_frames().remove(0);
+    let mut samples = vec![0.0; 6];
+    target.sampler.sample(0.0, &mut samples, None);
+    let from = &last.positions_pulses;
+    let farthest_mm = samples
+        .iter()
+        .enumerate()
+        .map(|(unit, &mm)| {
+            let to = CALIBRATION.pulses(f64::from(mm));
+            f64::from((to - from[unit / 3][unit % 3]).abs()) / CALIBRATION.pulses_per_mm
+        })
+        .fold(0.0, f64::max);
+    let expected_ms = (farthest_mm / speed * 1e3).ceil() as u32;
+    assert!(
+        first.time_ms.abs_diff(expected_ms) <= 1 + (period_us / 1_000) as u32,
+        "{} ms for {farthest_mm} mm",
+        first.time_ms
+    );
+    // A locate during a move: the boxes are somewhere between, so the next move is
+    // timed for the whole travel.
+    assert!(drive.interrupt(now_us));
+    assert!(drive.begin_approach(now_us, &mut target));
+    drive.poll(now_us + period_us, Some(&mut target));
+    let frame = drive.take_frames().remove(0);
+    let whole_ms = (travel_mm / speed * 1e3) as u32;
+    assert!(frame.time_ms + 50 >= whole_ms, "{} ms", frame.time_ms);
 }

@@ -28,6 +28,10 @@
 //!   stays a failure (its reason stays visible).
 //! - **Reset** stops the same way, then starts: homing first, the playlist from its
 //!   first entry. **Home** stops, homes and rests.
+//! - **A locate** ([`Sequencer::locate_at`], a timecode jump) stops without an
+//!   e-stop: the drive ends the run under way where the balls are
+//!   ([`Drive::interrupt`]), and the playlist begins at the new point as a start at
+//!   it does — an approach from where the balls are, no homing.
 //! - A drive's failure (a unit's error, a lost link, a ball that does not arrive)
 //!   stops the matrix and says what happened, in words: the caller presses the e-stop
 //!   when [`Sequencer::take_estop`] says so.
@@ -177,6 +181,16 @@ pub trait Drive {
     /// The e-stop (or a failure): drop what is queued; positions become unknown.
     fn stop(&mut self);
 
+    /// **A locate** ([`Sequencer::locate_at`]): the step under way ends without an
+    /// e-stop — the drive drops what it queued and leaves the balls where its next
+    /// move can take them from (the units' own stop, or the next move's first
+    /// command, ends the show under way); the positions stay as known as they were.
+    /// `false`: the drive cannot (nothing changed), and the locate is refused while a
+    /// playlist runs. The default: it cannot.
+    fn interrupt(&mut self, _now_us: u64) -> bool {
+        false
+    }
+
     /// When the step under way next needs a poll, µs.
     fn next_wakeup_us(&self, now_us: u64) -> Option<u64>;
 
@@ -210,6 +224,27 @@ pub trait Drive {
 
     /// Lets time pass while the matrix is idle (an arming loads its next round).
     fn poll_idle(&mut self, _now_us: u64) {}
+}
+
+/// Why `entries` cannot begin at `at`, if they cannot.
+fn refusal<E>(entries: &[Run<E>], at: &StartAt<E>) -> Option<StartError> {
+    if entries.is_empty() {
+        return Some(StartError::Empty);
+    }
+    let Some(run) = entries.get(at.entry) else {
+        return Some(StartError::NoSuchEntry {
+            entry: at.entry.saturating_add(1),
+            entries: entries.len(),
+        });
+    };
+    match &at.lead {
+        Some(lead) if lead.from_ms >= run.duration_ms => Some(StartError::PastTheEnd {
+            entry: at.entry + 1,
+            time_ms: lead.from_ms,
+            duration_ms: run.duration_ms,
+        }),
+        _ => None,
+    }
 }
 
 /// What follows a move.
@@ -535,23 +570,8 @@ impl<D: Drive> Sequencer<D> {
         if self.is_running() {
             return Err(StartError::Busy);
         }
-        if entries.is_empty() {
-            return Err(StartError::Empty);
-        }
-        let Some(run) = entries.get(at.entry) else {
-            return Err(StartError::NoSuchEntry {
-                entry: at.entry.saturating_add(1),
-                entries: entries.len(),
-            });
-        };
-        if let Some(lead) = &at.lead
-            && lead.from_ms >= run.duration_ms
-        {
-            return Err(StartError::PastTheEnd {
-                entry: at.entry + 1,
-                time_ms: lead.from_ms,
-                duration_ms: run.duration_ms,
-            });
+        if let Some(refusal) = refusal(&entries, &at) {
+            return Err(refusal);
         }
         self.entries = entries;
         self.loop_playlist = loop_playlist;
@@ -618,6 +638,38 @@ impl<D: Drive> Sequencer<D> {
             self.last_error = Some(error.to_string());
         }
         result
+    }
+
+    /// **A locate** (a timecode jump): the run under way, if any, ends without an
+    /// e-stop ([`Drive::interrupt`]), then the playlist begins at `entries`' start
+    /// point as [`Sequencer::start_at`] does — from where the balls are, without
+    /// homing (unless the positions were unknown). Nothing was sent to stop anything:
+    /// the caller presses no e-stop.
+    ///
+    /// # Errors
+    /// Why the playlist cannot run, or [`StartError::Busy`] when the drive cannot
+    /// interrupt the run under way: then nothing changed (a show under way plays on).
+    pub fn locate_at(
+        &mut self,
+        now_us: u64,
+        entries: Result<RunsAt<D::Entry>, StartError>,
+        loop_playlist: bool,
+    ) -> Result<(), StartError> {
+        self.now_us = self.now_us.max(now_us);
+        // A locate that cannot begin leaves the show under way playing.
+        let (entries, at) = entries?;
+        if let Some(refusal) = refusal(&entries, &at) {
+            return Err(refusal);
+        }
+        if self.is_running() {
+            if !self.drive.interrupt(now_us) {
+                return Err(StartError::Busy);
+            }
+            self.step = Step::Stopped;
+            self.progress = 0.0;
+            self.start_at.lead = None;
+        }
+        self.start_at(now_us, entries, loop_playlist, at)
     }
 
     /// Home (the caller sent the stop first): stops, brings every ball home and rests.

@@ -20,6 +20,8 @@ struct Timed {
     start_lead_us: u64,
     /// When the show under way starts on the units, µs.
     show_start_us: Option<u64>,
+    /// It can end a run without an e-stop ([`Drive::interrupt`]).
+    interrupts: bool,
 }
 
 impl Timed {
@@ -95,6 +97,14 @@ impl Drive for Timed {
     fn stop(&mut self) {
         self.log.push("stop".into());
         self.ends_us = None;
+    }
+
+    fn interrupt(&mut self, now_us: u64) -> bool {
+        if self.interrupts {
+            self.log.push(format!("{now_us} interrupt"));
+            self.ends_us = None;
+        }
+        self.interrupts
     }
 
     fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
@@ -455,5 +465,77 @@ fn a_start_at_an_entry_without_a_time_waits_its_delay_and_a_bad_start_is_refused
     assert_eq!(
         sequencer.drive().log,
         ["0 run", "0 home", "1100 approach b", "1200 play b last"]
+    );
+}
+
+#[test]
+fn a_locate_ends_the_show_without_a_stop_and_approaches_the_new_point_without_homing() {
+    let mut sequencer = timed(false);
+    sequencer.drive_mut().interrupts = true;
+    sequencer
+        .start(0, vec![run("a", 0, 1), run("b", 0, 1)], false)
+        .unwrap();
+    run_until(&mut sequencer, 0, 250);
+    assert_eq!(sequencer.status_at(250).state, PlayerState::Playing);
+    sequencer.drive_mut().log.clear();
+    sequencer
+        .locate_at(
+            250,
+            Ok((vec![run("a", 0, 1), run("b", 0, 1)], lead_at(1, 600))),
+            false,
+        )
+        .unwrap();
+    run_until(&mut sequencer, 250, 10_000);
+    assert_eq!(
+        sequencer.drive().log,
+        [
+            "250 interrupt",
+            "250 run",
+            // From where the balls are: no stop, no home.
+            "250 approach cut",
+            // b's only cycle, the playlist's last.
+            "350 play cut last",
+        ]
+    );
+    assert!(!sequencer.needs_home());
+}
+
+#[test]
+fn a_locate_that_cannot_begin_leaves_the_show_playing() {
+    let mut sequencer = timed(false);
+    sequencer.start(0, vec![run("a", 0, 1)], false).unwrap();
+    run_until(&mut sequencer, 0, 250);
+    // This drive cannot end a run without an e-stop: refused, nothing changed.
+    assert_eq!(
+        sequencer.locate_at(250, Ok((vec![run("a", 0, 1)], lead_at(0, 500))), false),
+        Err(StartError::Busy)
+    );
+    sequencer.drive_mut().interrupts = true;
+    // Past the show's end, or no such entry: refused before anything is interrupted.
+    assert!(matches!(
+        sequencer.locate_at(250, Ok((vec![run("a", 0, 1)], lead_at(0, 1_000))), false),
+        Err(StartError::PastTheEnd { .. })
+    ));
+    assert!(matches!(
+        sequencer.locate_at(250, Ok((vec![run("a", 0, 1)], lead_at(3, 0))), false),
+        Err(StartError::NoSuchEntry { .. })
+    ));
+    assert!(
+        !sequencer
+            .drive()
+            .log
+            .iter()
+            .any(|line| line.contains("interrupt"))
+    );
+    assert_eq!(sequencer.status_at(260).state, PlayerState::Playing);
+    // Idle: a locate is a start (homing first when the positions are unknown).
+    let mut idle = timed(false);
+    idle.drive_mut().interrupts = true;
+    idle.locate_at(0, Ok((vec![run("a", 0, 1)], lead_at(0, 500))), false)
+        .unwrap();
+    run_until(&mut idle, 0, 1_000);
+    assert_eq!(
+        idle.drive().log,
+        ["0 run", "0 home", "100 approach cut", "200 play cut last"]
     );
 }

@@ -292,6 +292,9 @@ pub struct SclDrive {
     loaded: usize,
     loading: bool,
     now_us: u64,
+    /// A locate ended the run under way: the next move first stops every drive and
+    /// kills its program (`SK`, at its deceleration), then feeds on.
+    kill_first: bool,
 }
 
 impl SclDrive {
@@ -325,6 +328,7 @@ impl SclDrive {
             loaded: 0,
             loading: false,
             now_us: 0,
+            kill_first: false,
         }
     }
 
@@ -477,7 +481,11 @@ impl SclDrive {
     fn begin_move(&mut self, now_us: u64, targets_counts: &[i32]) {
         self.playing = false;
         self.loading = false;
-        let stages = self.move_stages(targets_counts);
+        let mut stages = self.move_stages(targets_counts);
+        if std::mem::take(&mut self.kill_first) {
+            let kill = self.by_line(|unit| vec![ask(unit, Command::StopKill, Check::NotRefused)]);
+            stages.insert(0, kill);
+        }
         self.begin_stages(now_us, stages);
     }
 
@@ -853,6 +861,16 @@ impl Drive for SclDrive {
         self.playing = false;
         self.loading = false;
         self.started_us = None;
+        self.kill_first = false;
+    }
+
+    /// A locate: what was queued is dropped, and the next move begins with `SK` to
+    /// every drive (their programs end, their motion stops at `DE`); the drives keep
+    /// their positions, and the move's `FP` takes them on from there.
+    fn interrupt(&mut self, _now_us: u64) -> bool {
+        self.stop();
+        self.kill_first = true;
+        true
     }
 
     fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {

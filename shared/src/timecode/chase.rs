@@ -15,13 +15,15 @@
 //!   preload, a cut's run-up) — [`Action::Start`] of that entry at the time the show
 //!   will have then: 0 when on time, later when the timecode started inside the cue.
 //!   The lead is the configured estimate until the first start is seen playing; from
-//!   then on the lead measured at the last start (separately for starts and locates,
-//!   which stop and home first).
+//!   then on the lead measured at the last start (separately for starts and
+//!   locates); a locate's is a start's until one is measured.
 //! - **Locate**: a sample more than the threshold away from where the running
 //!   timecode was expected (a jump), or the show more than the threshold out of step
-//!   while chasing, after the first second: [`Action::Locate`] (stop, home, approach
-//!   the new point and play from there) at the show time the timecode will have a
-//!   locate's lead later, or [`Action::Stop`] when the new time is in no cue.
+//!   while chasing, after the first second: [`Action::Locate`] (the show under way
+//!   ends without an e-stop, the balls go from where they are to the new point and
+//!   play from there) at the show time the timecode will have a locate's lead later,
+//!   or [`Action::Stop`] when the new time is in no cue. The lead is measured once
+//!   the player was seen not playing since (until then `playing` is the old show).
 //! - **Loss**: no timecode, or a timecode that does not advance, for longer than the
 //!   loss time while the chase has the matrix: [`OnLoss::Hold`] lets the show play on
 //!   on the units' own clock (the chase takes it back when the timecode returns, with
@@ -151,7 +153,8 @@ pub enum Action {
         /// The show time, ms.
         time_ms: u64,
     },
-    /// Stop, home, and play `entry` (0-based) from `time_ms` (a Reset).
+    /// End the show under way without an e-stop, go from where the balls are to
+    /// `entry` (0-based) at `time_ms`, and play from there (a locate).
     Locate {
         /// The entry, 0-based.
         entry: usize,
@@ -240,6 +243,10 @@ enum Phase {
         issued_at_ms: u64,
         /// The entry's delay, waited before a start at time 0.
         delay_ms: u64,
+        /// The player was seen not playing since the action was issued: a locate
+        /// ends the show under way without a stop, so until then `playing` is the
+        /// old show's.
+        left_playing: bool,
     },
     /// Playing in step since `since_ms`.
     Chasing { since_ms: u64 },
@@ -301,7 +308,7 @@ impl Chase {
             locked: None,
             phase: Phase::Idle,
             lead_ms: config.lead_ms,
-            locate_lead_ms: config.lead_ms * 3 / 2,
+            locate_lead_ms: config.lead_ms,
             lead_measured: false,
             started: None,
             locates: 0,
@@ -386,6 +393,9 @@ impl Chase {
         } = view
         else {
             self.offset = None;
+            if let Phase::Pending { left_playing, .. } = &mut self.phase {
+                *left_playing = true;
+            }
             return;
         };
         let timecode_ms = self.timecode_ms(at_ms);
@@ -401,6 +411,7 @@ impl Chase {
             target_ms,
             issued_at_ms,
             delay_ms,
+            left_playing: true,
         } = self.phase
             && wanted == entry
         {
@@ -413,9 +424,9 @@ impl Chase {
             } else {
                 self.lead_ms = lead;
                 if !self.lead_measured {
-                    // Until a locate is measured: a start's lead and half again (it
-                    // stops and homes first).
-                    self.locate_lead_ms = lead * 3 / 2;
+                    // Until a locate is measured: a start's (it approaches from where
+                    // the balls are, as a start does).
+                    self.locate_lead_ms = lead;
                 }
             }
             self.lead_measured = true;
@@ -566,6 +577,7 @@ impl Chase {
             target_ms: time_ms,
             issued_at_ms: now_ms,
             delay_ms,
+            left_playing: !matches!(self.player, PlayerView::Playing { .. }),
         };
         Some(Action::Start {
             entry: cue.entry,
@@ -594,6 +606,7 @@ impl Chase {
             target_ms: time_ms,
             issued_at_ms: now_ms,
             delay_ms: 0,
+            left_playing: !matches!(self.player, PlayerView::Playing { .. }),
         };
         Some(Action::Locate {
             entry: cue.entry,
@@ -779,7 +792,7 @@ mod tests {
         );
         assert_eq!(chase.status(2_000).offset_ms, Some(0));
         // …then 600 ms behind, after the settling second: a locate, aimed at the
-        // timecode plus the locate's lead (1.5 × the start's until one is measured).
+        // timecode plus the locate's lead (the start's until one is measured).
         let actions = run(&mut chase, 10 * 3_600_000 + 22_000, 2_000, 1_000);
         assert!(actions.is_empty(), "{actions:?}");
         chase.player(
@@ -797,11 +810,32 @@ mod tests {
                 3_120,
                 Action::Locate {
                     entry: 0,
-                    time_ms: 23_120 + 3_000
+                    time_ms: 23_120 + 2_000
                 }
             )]
         );
         assert_eq!(chase.status(3_120).locates, 1);
+        // The old show plays on until the locate ends it: not taken for the new one.
+        chase.player(
+            PlayerView::Playing {
+                entry: 0,
+                show_time_ms: 23_100,
+            },
+            3_200,
+        );
+        assert_eq!(chase.status(3_200).state, ChaseState::Locating);
+        chase.player(PlayerView::Busy, 3_300);
+        chase.player(
+            PlayerView::Playing {
+                entry: 0,
+                show_time_ms: 25_120,
+            },
+            3_600,
+        );
+        let status = chase.status(3_600);
+        assert_eq!(status.state, ChaseState::Chasing);
+        // At the time asked for 480 ms after the locate was issued.
+        assert_eq!(status.locate_lead_ms, 480);
     }
 
     #[test]
@@ -824,16 +858,17 @@ mod tests {
                 2_080,
                 Action::Locate {
                     entry: 1,
-                    time_ms: 10_000 + 3_000
+                    time_ms: 10_000 + 2_000
                 }
             )]
         );
         assert_eq!(chase.status(2_080).state, ChaseState::Locating);
         // Playing again; then a jump to 12:00, in no cue.
+        chase.player(PlayerView::Busy, 2_100);
         chase.player(
             PlayerView::Playing {
                 entry: 1,
-                show_time_ms: 13_000,
+                show_time_ms: 12_000,
             },
             6_080,
         );

@@ -496,6 +496,41 @@ fn reset_stops_homes_and_restarts_from_the_first_entry() {
 }
 
 #[test]
+fn a_locate_ends_the_show_without_a_stop_and_approaches_the_new_entry_without_homing() {
+    let first = wave(1, 2, 60, 200);
+    let mut second = wave(1, 2, 60, 200);
+    second.name = "second".into();
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    let playlist = vec![entry(first.clone(), 0, 1), entry(second.clone(), 0, 1)];
+    rig.start(playlist.clone(), false).unwrap();
+    rig.run_until(60_000_000, |rig| {
+        rig.player.status().entry == Some(0)
+            && rig.state() == PlayerState::Playing
+            && rig.player.status().show_time_ms > 3_000
+    });
+    rig.states.clear();
+    // No MO=0 is sent: the approach's `PA=…;BG;` ends the table on every unit.
+    let links = rig.links();
+    rig.player
+        .locate(rig.now_us, playlist, false, 1, &links)
+        .unwrap();
+    rig.carry_out();
+    assert_eq!(rig.state(), PlayerState::Approaching);
+    rig.run_until(60_000_000, |rig| {
+        rig.player.status().entry == Some(1) && rig.state() == PlayerState::Playing
+    });
+    let states: Vec<PlayerState> = rig.states.iter().map(|(_, state)| *state).collect();
+    assert!(!states.contains(&PlayerState::Homing), "{states:?}");
+    // Every unit's motor stayed on, and the second show plays as written.
+    for line in &rig.lines {
+        assert!(line.gateway.units().all(|unit| unit.motor_on));
+    }
+    assert_eq!(rig.player.status().show.as_deref(), Some("second"));
+    let error_mm = follow(&mut rig, &second);
+    assert!(error_mm < 1.0, "{error_mm} mm");
+}
+
+#[test]
 fn delays_cycles_and_loop_behave_as_specified() {
     let show = wave(1, 2, 20, 100); // 2 s
     let mut rig = Rig::new(installation(1, 2, &[115_200]));

@@ -9,7 +9,7 @@ use wasm_bindgen_test::wasm_bindgen_test as test;
 use super::*;
 use crate::api::PlayerState;
 use crate::player::EntryTiming;
-use crate::player::{Run, Sequencer};
+use crate::player::{Run, Sequencer, StartAt};
 use crate::scl::qprogram::{QProgramConfig, compile};
 use crate::scl::twin::{self, DriveConfig};
 use crate::show::{Layout, Show, Track, TrackRow};
@@ -566,4 +566,42 @@ fn a_start_from_a_time_uploads_the_cut_then_the_whole_show_for_the_next_cycle() 
     // Two uploads: the cut's, then the whole show's for the entry's second cycle.
     assert_eq!(lines.iter().filter(|line| *line == "QW1").count(), 2);
     assert_eq!(lines.iter().filter(|line| *line == "QX1").count(), 2);
+}
+
+#[test]
+fn a_locate_kills_the_programs_and_feeds_on_from_where_the_balls_stopped() {
+    let mut rig = Rig::new();
+    let config = rig.sequencer.drive().config().clone();
+    rig.sequencer
+        .start(0, vec![entry(&config, 1)], false)
+        .unwrap();
+    while rig.sequencer.status().state != PlayerState::Playing {
+        let at_us = rig.now_us + 1_000;
+        rig.run_until(at_us);
+    }
+    let at_us = rig.now_us + 300_000;
+    rig.run_until(at_us);
+    assert_eq!(rig.sequencer.status().state, PlayerState::Playing);
+    rig.commands(0);
+    // The timecode jumped back to the entry's start: no e-stop, no homing.
+    let at = StartAt {
+        entry: 0,
+        lead: None,
+    };
+    rig.sequencer
+        .locate_at(rig.now_us, Ok((vec![entry(&config, 1)], at)), false)
+        .unwrap();
+    assert_eq!(rig.sequencer.status().state, PlayerState::Approaching);
+    rig.run_until(rig.now_us + 60_000_000);
+    let lines = rig.commands(0);
+    // The program is killed where the ball is (SK, at DE), then the feed to the
+    // show's start: never DI0 (home).
+    assert_eq!(
+        lines[..6],
+        ["SK", "VE5.0000", "AC20.000", "DE20.000", "DI100", "FP"]
+    );
+    assert!(!lines.iter().any(|line| line == "DI0"), "{lines:?}");
+    assert!(!rig.sequencer.needs_home());
+    assert_eq!(rig.sequencer.status().state, PlayerState::Idle);
+    assert_eq!(rig.positions(), [500, 1_000, 1_500]);
 }

@@ -51,7 +51,7 @@ use super::plan::Plan;
 use super::stream::WATERMARK_ROWS;
 use crate::api::{ArmedShow, Status};
 use crate::plan::Installation;
-use crate::player::{Drive, Phase, Run, Sequencer};
+use crate::player::{Drive, Phase, Run, Sequencer, StartAt};
 pub use crate::player::{Entry, EntryTiming, LinkView};
 use crate::uim2503::ascii::Batch;
 use crate::uim2503::feedback::{Ack, Feedback, Frame, Notification};
@@ -399,6 +399,15 @@ impl Drive for Uim2503Drive {
         self.progress = 0.0;
     }
 
+    /// A locate: what was queued is dropped and the positions are unknown (the balls
+    /// stop wherever the show had them); the next move's `PA=…;BG;` ends the PVT
+    /// motion on every unit ("another mode", PROTOCOL §1.6) and takes each ball on
+    /// from where it is, asked for until it arrives.
+    fn interrupt(&mut self, _now_us: u64) -> bool {
+        self.stop();
+        true
+    }
+
     fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
         Some(now_us + TICK_US)
     }
@@ -610,6 +619,31 @@ impl Player {
         let loop_playlist = checked.as_ref().is_ok_and(|(_, looping)| *looping);
         self.sequencer
             .reset(now_us, checked.map(|(runs, _)| runs), loop_playlist)
+    }
+
+    /// A locate to entry `entry` (0-based) from its start: the show under way ends
+    /// without an e-stop ([`Sequencer::locate_at`]) and every ball goes from where it
+    /// is to the entry's start, then plays.
+    ///
+    /// # Errors
+    /// Why the playlist cannot run (nothing changed: a show under way plays on).
+    pub fn locate(
+        &mut self,
+        now_us: u64,
+        entries: Vec<Entry>,
+        loop_playlist: bool,
+        entry: usize,
+        links: &[LinkView],
+    ) -> Result<(), StartError> {
+        let prepared = prepare(self.installation(), entries, loop_playlist, links);
+        let checked = prepared.and_then(|prepared| {
+            check_links(self.installation(), links)?;
+            Ok(runs(prepared))
+        });
+        let loop_playlist = checked.as_ref().is_ok_and(|(_, looping)| *looping);
+        let at = StartAt { entry, lead: None };
+        self.sequencer
+            .locate_at(now_us, checked.map(|(runs, _)| (runs, at)), loop_playlist)
     }
 
     /// Home: stop (the caller sent the stop first), bring every ball to the home
