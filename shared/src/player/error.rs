@@ -73,6 +73,12 @@ pub enum StartError {
         /// The 1-based entry.
         entry: usize,
     },
+    /// Live mode asked of a drive family that does not carry it (yet): nothing moved.
+    #[error("live mode is not available on {family}")]
+    LiveUnsupported {
+        /// The family, in words ("UIM2503 units").
+        family: &'static str,
+    },
     /// The E-stop was pressed after this request was made: the request is void and
     /// the matrix stays stopped.
     #[error("the E-stop was pressed after this request was made; the matrix stays stopped")]
@@ -90,6 +96,7 @@ impl Coded for StartError {
             Self::NoSuchEntry { .. } => Code::StartNoSuchEntry,
             Self::PastTheEnd { .. } => Code::StartPastTheEnd,
             Self::NoCut { .. } => Code::StartNoCut,
+            Self::LiveUnsupported { .. } => Code::LiveUnsupported,
             Self::Superseded => Code::Superseded,
         }
     }
@@ -114,6 +121,7 @@ impl Coded for StartError {
                 "fixes" => self.fix_sentences().join("; "),
             },
             Self::NotConnected { gateway } => params! {"gateway" => gateway},
+            Self::LiveUnsupported { family } => params! {"family" => family},
             Self::NoCut { entry } => params! {"entry" => entry},
             Self::NoSuchEntry { entry, entries } => {
                 params! {"entry" => entry, "entries" => entries}
