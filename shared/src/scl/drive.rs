@@ -703,6 +703,14 @@ fn judge(
 impl Drive for SclDrive {
     type Entry = SclEntry;
 
+    /// Not yet: live motion on MOONS' drives (position commands at the rate the line
+    /// carries, `docs/live.md`) is a later step.
+    fn live_setup(&self) -> Result<crate::player::LiveSetup, crate::player::StartError> {
+        Err(crate::player::StartError::LiveUnsupported {
+            family: "MOONS' drives",
+        })
+    }
+
     fn begin_run(&mut self, now_us: u64, _first: Option<&mut SclEntry>) {
         self.now_us = now_us;
     }

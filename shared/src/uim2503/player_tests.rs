@@ -940,3 +940,22 @@ fn a_start_from_a_time_plays_the_cut_then_the_whole_show_for_the_next_cycle() {
     rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
     assert_eq!(rig.player.status().last_error, None);
 }
+
+#[test]
+fn live_mode_is_refused_with_its_code_and_nothing_is_sent() {
+    use crate::player::Sequencer;
+    use crate::uim2503::player::Uim2503Drive;
+    let config = PlayerConfig {
+        installation: installation(2, 2, &[115_200]),
+    };
+    let mut sequencer = Sequencer::new(Uim2503Drive::new(config));
+    let refused = sequencer.go_live(0);
+    assert_eq!(
+        refused,
+        Err(crate::player::StartError::LiveUnsupported {
+            family: "UIM2503 units"
+        })
+    );
+    assert!(sequencer.is_idle() && !sequencer.is_live());
+    assert!(sequencer.drive_mut().take_commands().is_empty());
+}

@@ -567,3 +567,17 @@ fn a_start_from_a_time_uploads_the_cut_then_the_whole_show_for_the_next_cycle() 
     assert_eq!(lines.iter().filter(|line| *line == "QW1").count(), 2);
     assert_eq!(lines.iter().filter(|line| *line == "QX1").count(), 2);
 }
+
+#[test]
+fn live_mode_is_refused_with_its_code_and_nothing_is_asked() {
+    let mut rig = Rig::new();
+    let refused = rig.sequencer.go_live(0);
+    assert_eq!(
+        refused,
+        Err(crate::player::StartError::LiveUnsupported {
+            family: "MOONS' drives"
+        })
+    );
+    assert!(rig.sequencer.is_idle() && !rig.sequencer.is_live());
+    assert!(rig.sequencer.drive_mut().take_asks().is_empty());
+}

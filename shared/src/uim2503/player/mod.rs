@@ -304,6 +304,14 @@ impl Uim2503Drive {
 impl Drive for Uim2503Drive {
     type Entry = Arc<Plan>;
 
+    /// Not yet: live motion on UIM2503 units (PVT rows streamed into a short FIFO,
+    /// `docs/live.md`) is a later step.
+    fn live_setup(&self) -> Result<crate::player::LiveSetup, crate::player::StartError> {
+        Err(crate::player::StartError::LiveUnsupported {
+            family: "UIM2503 units",
+        })
+    }
+
     fn begin_run(&mut self, _now_us: u64, first: Option<&mut Arc<Plan>>) {
         if let Some(first) = first {
             self.loaded_entry = None;
