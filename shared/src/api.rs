@@ -1175,7 +1175,8 @@ pub struct Status {
     pub gateway_summary: GatewaySummary,
     /// While live mode is on (issue 38): its phase, whether the input is lost, the
     /// period and the latency the drive family gives, the recording; absent otherwise
-    /// (old clients ignore it). The state is `homing` or `approaching` on the way in,
+    /// (old clients ignore it). The state is `homing`, `loading` (the drive prepares)
+    /// or `approaching` on the way in,
     /// `playing` while the balls follow, hold or brake to leave.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub live: Option<LiveStatus>,
@@ -1187,6 +1188,8 @@ pub struct Status {
 pub enum LivePhase {
     /// The positions were unknown: the balls home first.
     Homing,
+    /// The drive prepares live motion (UIM2503 units: their FIFO and its first rows).
+    Preparing,
     /// The balls move to the first live positions at the approach speed.
     Approaching,
     /// The balls follow the input through the motion filter.
@@ -1203,6 +1206,7 @@ impl LivePhase {
     pub fn as_str(self) -> &'static str {
         match self {
             Self::Homing => "homing",
+            Self::Preparing => "preparing",
             Self::Approaching => "approaching",
             Self::Following => "following",
             Self::Holding => "holding",

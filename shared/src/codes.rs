@@ -391,6 +391,9 @@ codes! {
     /// Live mode on a drive family that does not carry it (yet).
     LiveUnsupported = "live_unsupported" ["family"]
         => "Live mode is not available on {family}";
+    /// Live mode on a UIM2503 line too slow for a row of its units.
+    LiveLineTooSlow = "live_line_too_slow" ["gateway", "units", "row_ms", "max_ms"]
+        => "Live mode: gateway {gateway}'s line needs {row_ms} ms for a row of its {units} units, more than the {max_ms} ms a row may last";
     /// A recording asked for while the balls do not follow live input.
     RecordNotLive = "record_not_live" []
         => "Recording needs live mode with the balls following the input";

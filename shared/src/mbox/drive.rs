@@ -389,11 +389,12 @@ impl Drive for MboxDrive {
         }
     }
 
-    fn begin_live(&mut self, now_us: u64, _states: &[BallState]) {
+    fn begin_live(&mut self, now_us: u64, _states: &[BallState]) -> bool {
         self.step = Step::Idle;
         self.believed_mm = None;
         self.progress = 0.0;
         self.next_slot_us = self.next_slot_us.max(now_us);
+        false
     }
 
     fn live_step(&mut self, slot_us: u64, states: &[BallState]) {

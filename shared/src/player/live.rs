@@ -9,9 +9,17 @@
 //!   ([`super::StartError::LiveUnsupported`]).
 //! - **Homing** first when the balls' positions are unknown (at start-up, after an
 //!   e-stop or a failure), as Start does.
-//! - **Approach**: from the known positions to the latest live targets at the
-//!   installation's approach speed (at most the top speed) and the top acceleration
-//!   ([`crate::live::filter::Approach`]); a ball without a target stays.
+//! - **Prepare**, for a drive that must load something before motion (UIM2503
+//!   units: their FIFO and its first rows, [`super::Drive::begin_live`] returns
+//!   `true`): the sequencer polls the drive until it says when motion begins.
+//! - **Approach**: from the known positions to the latest live targets (taken when
+//!   it begins) at the installation's approach speed (at most the top speed) and the
+//!   top acceleration: the motion filter's own steps towards fixed targets with the
+//!   approach speed as the speed limit, so every period has a constant acceleration
+//!   as when following (a PVT row is then exactly the motion, which a point-to-point
+//!   profile switching mid-period is not); a ball without a target stays. Its
+//!   progress is counted against the continuous move's time
+//!   ([`crate::live::filter::Approach`]).
 //! - **Follow**: each period the sequencer steps one [`MotionFilter`] (the
 //!   installation's travel, top speed and top acceleration; the step is the drive's
 //!   period) from the latest input ([`LiveInput`], handed with
@@ -38,6 +46,7 @@
 
 use thiserror::Error;
 
+use super::Phase;
 use crate::api::{LivePhase, LiveStatus};
 use crate::codes::{Code, Coded, Params};
 use crate::live::filter::{Approach, BallState, FilterLimits, MotionFilter};
@@ -122,12 +131,26 @@ impl Coded for RecordStartError {
 pub(super) enum Motion {
     /// Homing first (the sequencer's step is a home move).
     Homing,
+    /// The drive prepares live motion; the approach waits.
+    Preparing { approach: ApproachMove },
     /// From the known positions to the first targets, begun at `began_us`.
-    Approaching { approach: Approach, began_us: u64 },
+    Approaching {
+        approach: ApproachMove,
+        began_us: u64,
+    },
     /// Through the filter.
     Following,
     /// Braking to rest; then `settled` periods at rest.
     Leaving { settled: u32 },
+}
+
+/// The approach: fixed targets, and how long the continuous move takes (for the
+/// progress).
+#[derive(Debug, Clone)]
+pub(super) struct ApproachMove {
+    targets_mm: Vec<Option<f64>>,
+    speed_mm_s: f64,
+    duration_s: f64,
 }
 
 /// Live mode's state in the sequencer.
@@ -209,9 +232,14 @@ impl Live {
             .approach_speed_mm_s
             .min(limits.max_speed_mm_s)
             .max(f64::MIN_POSITIVE);
-        let approach = Approach::new(&self.states, &targets, speed, limits.max_accel_mm_s2);
+        let duration_s =
+            Approach::new(&self.states, &targets, speed, limits.max_accel_mm_s2).duration_s();
         self.motion = Motion::Approaching {
-            approach,
+            approach: ApproachMove {
+                targets_mm: targets,
+                speed_mm_s: speed,
+                duration_s,
+            },
             began_us: now_us,
         };
         self.next_slot_us = now_us;
@@ -238,22 +266,18 @@ impl Live {
         }
     }
 
-    /// One period from `slot_us`: every ball's state at its end (in
-    /// [`Live::states`]). Whether the period was filtered (a recording takes it).
-    pub(super) fn period(&mut self, slot_us: u64) -> (Period, bool) {
-        let period_us = self.setup.period_us();
+    /// One period: every ball's state at its end (in [`Live::states`]). Whether the
+    /// period follows the input (a recording takes it).
+    pub(super) fn period(&mut self) -> (Period, bool) {
         match &self.motion {
-            Motion::Homing => (Period::Going, false),
-            Motion::Approaching { approach, began_us } => {
-                let t_s = (slot_us + period_us).saturating_sub(*began_us) as f64 / 1e6;
-                let done = t_s >= approach.duration_s();
+            Motion::Homing | Motion::Preparing { .. } => (Period::Going, false),
+            Motion::Approaching { approach, .. } => {
+                let mut done = true;
                 for (ball, state) in self.states.iter_mut().enumerate() {
-                    if let Some(next) = approach.state(ball, t_s.min(approach.duration_s())) {
-                        *state = next;
-                    }
-                    if done {
-                        state.velocity_mm_s = 0.0;
-                    }
+                    let target = approach.targets_mm.get(ball).copied().flatten();
+                    self.filter.step(state, target, Some(approach.speed_mm_s));
+                    done &= state.velocity_mm_s == 0.0
+                        && target.is_none_or(|mm| state.position_mm == mm);
                 }
                 if done {
                     self.motion = Motion::Following;
@@ -296,6 +320,7 @@ impl Live {
     pub(super) fn phase(&self) -> LivePhase {
         match self.motion {
             Motion::Homing => LivePhase::Homing,
+            Motion::Preparing { .. } => LivePhase::Preparing,
             Motion::Approaching { .. } => LivePhase::Approaching,
             Motion::Following if self.lost => LivePhase::Holding,
             Motion::Following => LivePhase::Following,
@@ -306,9 +331,9 @@ impl Live {
     /// The approach's share behind at `now_us` (1 once following).
     pub(super) fn progress(&self, now_us: u64) -> f64 {
         match &self.motion {
-            Motion::Homing => 0.0,
+            Motion::Homing | Motion::Preparing { .. } => 0.0,
             Motion::Approaching { approach, began_us } => {
-                let duration_s = approach.duration_s();
+                let duration_s = approach.duration_s;
                 if duration_s <= 0.0 {
                     1.0
                 } else {
@@ -490,8 +515,36 @@ impl<D: super::Drive> super::Sequencer<D> {
             return;
         };
         live.begin_approach(at_us, &positions);
-        self.drive.begin_live(at_us, &live.states);
         self.step = super::Step::Live;
+        if self.drive.begin_live(at_us, &live.states)
+            && let Motion::Approaching { approach, .. } = &live.motion
+        {
+            live.motion = Motion::Preparing {
+                approach: approach.clone(),
+            };
+        }
+    }
+
+    /// While the drive prepares live motion: what it said (after a poll, or an input
+    /// of its own that ended the preparation); done, the approach begins at `at_us`.
+    pub(super) fn live_prepared(&mut self, phase: Phase) {
+        let Some(live) = self.live.as_mut() else {
+            return;
+        };
+        let Motion::Preparing { approach } = &live.motion else {
+            return;
+        };
+        match phase {
+            Phase::Pending => {}
+            Phase::Failed(reason) => self.fail(reason),
+            Phase::Done { at_us } => {
+                live.motion = Motion::Approaching {
+                    approach: approach.clone(),
+                    began_us: at_us,
+                };
+                live.next_slot_us = at_us;
+            }
+        }
     }
 
     /// Live motion's period, when due: skips the periods missed (the filter's time
@@ -500,6 +553,11 @@ impl<D: super::Drive> super::Sequencer<D> {
         let Some(live) = self.live.as_mut() else {
             return;
         };
+        if matches!(live.motion, Motion::Preparing { .. }) {
+            let phase = self.drive.poll(now_us, None);
+            self.live_prepared(phase);
+            return;
+        }
         if now_us < live.next_slot_us {
             return;
         }
@@ -507,7 +565,7 @@ impl<D: super::Drive> super::Sequencer<D> {
         let behind = (now_us - live.next_slot_us) / period_us;
         let slot_us = live.next_slot_us + behind * period_us;
         live.next_slot_us = slot_us + period_us;
-        let (period, filtered) = live.period(slot_us);
+        let (period, filtered) = live.period();
         if filtered && let Some(recorder) = self.recorder.as_mut() {
             recorder.push(&live.states, live.colours());
         }

@@ -119,10 +119,11 @@ impl Drive for Recording {
         self.rest_mm.clone().filter(|_| !self.moving)
     }
 
-    fn begin_live(&mut self, now_us: u64, states: &[BallState]) {
+    fn begin_live(&mut self, now_us: u64, states: &[BallState]) -> bool {
         self.log.push(format!("{now_us} live"));
         assert!(states.iter().all(|state| state.velocity_mm_s == 0.0));
         self.rest_mm = None;
+        false
     }
 
     fn live_step(&mut self, slot_us: u64, states: &[BallState]) {

@@ -240,9 +240,12 @@ pub trait Drive {
         None
     }
 
-    /// Live motion begins at `now_us` (the first period's slot), the balls resting at
-    /// `states`.
-    fn begin_live(&mut self, _now_us: u64, _states: &[BallState]) {}
+    /// Live motion begins at `now_us`, the balls resting at `states`: `false` when
+    /// the first period's slot is `now_us`; `true` when the drive prepares first (the
+    /// sequencer polls it, and takes [`Phase::Done`]'s `at_us` as the first slot).
+    fn begin_live(&mut self, _now_us: u64, _states: &[BallState]) -> bool {
+        false
+    }
 
     /// One live period from `slot_us`: every ball is to be at `states` (position and
     /// velocity) one period later. Called once per period, the slots in order.
@@ -419,6 +422,7 @@ impl<D: Drive> Sequencer<D> {
                 ShowClock::Given { .. } | ShowClock::NotGiven => PlayerState::Loading,
             },
             Step::Live => match self.live.as_ref().map(|live| &live.motion) {
+                Some(Motion::Preparing { .. }) => PlayerState::Loading,
                 Some(Motion::Approaching { .. }) => PlayerState::Approaching,
                 _ => PlayerState::Playing,
             },
@@ -573,7 +577,13 @@ impl<D: Drive> Sequencer<D> {
             Step::Moving { .. } | Step::Loading | Step::Playing => {
                 self.drive.next_wakeup_us(now_us)
             }
-            Step::Live => self.live.as_ref().map(|live| live.next_slot_us.max(now_us)),
+            Step::Live => match self.live.as_ref() {
+                Some(live) if matches!(live.motion, Motion::Preparing { .. }) => {
+                    self.drive.next_wakeup_us(now_us)
+                }
+                Some(live) => Some(live.next_slot_us.max(now_us)),
+                None => None,
+            },
         }
     }
 
@@ -801,6 +811,10 @@ impl<D: Drive> Sequencer<D> {
     /// that ended it (an answer, a unit's feedback) — taken: the next step begins
     /// when it is over, the matrix stops when it failed.
     pub fn advance(&mut self, phase: Phase) {
+        if self.step == Step::Live {
+            self.live_prepared(phase);
+            return;
+        }
         if !self.in_drive_step() {
             return;
         }

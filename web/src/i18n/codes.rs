@@ -204,6 +204,10 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
         "第 {entry} 项无法从某个时间开始：驱动器播放其存储的程序；请从头开始，或让控制器上传程序",
     ),
     (Code::LiveUnsupported, "{family} 不支持实时模式"),
+    (
+        Code::LiveLineTooSlow,
+        "实时模式：网关 {gateway} 的线路为其 {units} 个单元写一行需要 {row_ms} 毫秒，超过一行最长的 {max_ms} 毫秒",
+    ),
     (Code::RecordNotLive, "录制需要实时模式且球正在跟随输入"),
     (
         Code::RecordStep,
