@@ -1178,8 +1178,9 @@ pub struct Status {
     /// (old clients ignore it). The state is `homing`, `loading` (the drive prepares)
     /// or `approaching` on the way in,
     /// `playing` while the balls follow, hold or brake to leave.
+    /// (Boxed: a status stays small in every message.)
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub live: Option<LiveStatus>,
+    pub live: Option<Box<LiveStatus>>,
 }
 
 /// Where live mode stands ([`Status::live`]).

@@ -599,9 +599,9 @@ fn live_frames_every_period_follow_the_filter_and_the_twins_take_them() {
     assert_eq!(player.status().state, PlayerState::Homing);
     // Homing (the whole travel at the approach speed), then the approach.
     let mut frames = run_live(&mut player, &mut twins, &mut now, 10_000_000, &first);
-    let status = player.status();
-    assert_eq!(status.live.unwrap().phase, LivePhase::Following);
-    assert_eq!(status.live.unwrap().latency_ms, 40);
+    let live = player.status().live.unwrap();
+    assert_eq!(live.phase, LivePhase::Following);
+    assert_eq!(live.latency_ms, 40);
     let at_1000: Vec<i32> = twins.iter().flat_map(MboxTwin::positions_pulses).collect();
     assert_eq!(at_1000, vec![CALIBRATION.pulses(1000.0); 6]);
     // A snap to the bottom and back on half the balls: frames every period, each a

@@ -28,6 +28,10 @@ const EPS: f64 = 1e-6;
 struct Recording {
     /// Refuses live mode.
     unsupported: bool,
+    /// Prepares live motion for this long first.
+    prepares_us: Option<u64>,
+    /// Preparing live motion until then.
+    prepared_at_us: Option<u64>,
     log: Vec<String>,
     ends_us: Option<u64>,
     rest_mm: Option<Vec<f64>>,
@@ -69,6 +73,14 @@ impl Drive for Recording {
     }
 
     fn poll(&mut self, now_us: u64, _entry: Option<&mut &'static str>) -> Phase {
+        if let Some(at_us) = self.prepared_at_us {
+            if now_us < at_us {
+                return Phase::Pending;
+            }
+            self.prepared_at_us = None;
+            self.log.push(format!("{at_us} prepared"));
+            return Phase::Done { at_us };
+        }
         match self.ends_us {
             Some(at_us) if now_us >= at_us => {
                 self.ends_us = None;
@@ -91,12 +103,15 @@ impl Drive for Recording {
     fn stop(&mut self) {
         self.log.push("stop".into());
         self.ends_us = None;
+        self.prepared_at_us = None;
         self.moving = false;
         self.rest_mm = None;
     }
 
     fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
-        self.ends_us.map(|at| at.max(now_us))
+        self.ends_us
+            .or(self.prepared_at_us)
+            .map(|at| at.max(now_us))
     }
 
     fn live_setup(&self) -> Result<LiveSetup, StartError> {
@@ -123,7 +138,8 @@ impl Drive for Recording {
         self.log.push(format!("{now_us} live"));
         assert!(states.iter().all(|state| state.velocity_mm_s == 0.0));
         self.rest_mm = None;
-        false
+        self.prepared_at_us = self.prepares_us.map(|us| now_us + us);
+        self.prepared_at_us.is_some()
     }
 
     fn live_step(&mut self, slot_us: u64, states: &[BallState]) {
@@ -543,4 +559,35 @@ fn a_late_caller_skips_periods_and_the_filter_never_runs_ahead() {
     let periods = &sequencer.drive().periods[skip..];
     assert_eq!(periods.len(), 50);
     check_limits(&from, periods);
+}
+
+#[test]
+fn a_drive_that_prepares_first_starts_the_approach_when_it_is_ready() {
+    let mut sequencer = homed();
+    sequencer.drive_mut().prepares_us = Some(250_000);
+    sequencer.set_live_input(input(&[Some(100.0); BALLS], false));
+    sequencer.go_live(1_000).unwrap();
+    let status = sequencer.status();
+    assert_eq!(status.state, PlayerState::Loading);
+    assert_eq!(status.live.unwrap().phase, LivePhase::Preparing);
+    assert_eq!(sequencer.next_wakeup_us(1_000), Some(251_000));
+    sequencer.poll(100_000);
+    assert!(
+        sequencer.drive().periods.is_empty(),
+        "nothing moves while preparing"
+    );
+    run_live(&mut sequencer, 100_000, 400_000, &mut |_| {
+        (vec![Some(100.0); BALLS], false)
+    });
+    assert_eq!(sequencer.drive().log, ["1000 live", "251000 prepared"]);
+    let periods = &sequencer.drive().periods;
+    assert_eq!(periods[0].0, 251_000, "the first slot is the drive's start");
+    check_limits(&[BallState::at_rest(0.0); BALLS], periods);
+    // An e-stop while preparing leaves live mode.
+    let mut preparing = homed();
+    preparing.drive_mut().prepares_us = Some(250_000);
+    preparing.go_live(0).unwrap();
+    preparing.estop();
+    assert!(!preparing.is_live() && preparing.needs_home());
+    assert_eq!(preparing.status().live, None);
 }

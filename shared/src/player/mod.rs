@@ -477,7 +477,7 @@ impl<D: Drive> Sequencer<D> {
         status.live = self
             .live
             .as_ref()
-            .map(|live| live.status(self.recorder.as_ref()));
+            .map(|live| Box::new(live.status(self.recorder.as_ref())));
         status
     }
 

@@ -703,8 +703,10 @@ fn judge(
 impl Drive for SclDrive {
     type Entry = SclEntry;
 
-    /// Not yet: live motion on MOONS' drives (position commands at the rate the line
-    /// carries, `docs/live.md`) is a later step.
+    /// Not yet: live motion on MOONS' drives is refused. An `FP` sent while a drive
+    /// moves waits for the move under way to end, so position updates would each
+    /// start from rest; jogging (`CJ`, `CS`) continues a motion but is unconfirmed
+    /// (`docs/live.md`, "What each family carries").
     fn live_setup(&self) -> Result<crate::player::LiveSetup, crate::player::StartError> {
         Err(crate::player::StartError::LiveUnsupported {
             family: "MOONS' drives",
