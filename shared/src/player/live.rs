@@ -7,6 +7,8 @@
 //!   mode, and nothing here releases an e-stop. It is refused while a playlist runs
 //!   ([`super::StartError::Busy`]) and on a family that does not carry live motion
 //!   ([`super::StartError::LiveUnsupported`]).
+//! - A show armed on the units ([`super::Drive::arm`]) is disarmed: live motion
+//!   overwrites their tables.
 //! - **Homing** first when the balls' positions are unknown (at start-up, after an
 //!   e-stop or a failure), as Start does.
 //! - **Prepare**, for a drive that must load something before motion (UIM2503
@@ -401,6 +403,8 @@ impl<D: super::Drive> super::Sequencer<D> {
         self.recorder = None;
         self.last_error = None;
         self.progress = 0.0;
+        // Live motion overwrites what was armed on the units (UIM2503 tables).
+        self.drive.disarm();
         self.drive.begin_run(now_us, None);
         let rest = if self.needs_home {
             None

@@ -1095,3 +1095,27 @@ fn the_live_row_time_is_what_the_line_carries_for_its_units() {
         Some(7)
     );
 }
+
+#[test]
+fn going_live_disarms_an_armed_show_and_the_show_then_plays_in_full() {
+    let show = wave(2, 2, 20, 100);
+    let mut rig = Rig::new(installation(2, 2, &[115_200]));
+    arm_fully(&mut rig, &show);
+    assert!(rig.player.armed().is_some());
+    rig.player.sequencer_mut().go_live(rig.now_us).unwrap();
+    rig.carry_out();
+    assert_eq!(
+        rig.player.armed(),
+        None,
+        "live motion overwrites the tables"
+    );
+    rig.run_until(30_000_000, |rig| {
+        rig.player.status().live.map(|live| live.phase) == Some(crate::api::LivePhase::Following)
+    });
+    rig.player.sequencer_mut().leave_live(rig.now_us);
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &show);
+    assert!(worst < 1.0, "{worst} mm off the show");
+    assert_eq!(rig.state(), PlayerState::Idle);
+}
