@@ -379,6 +379,7 @@ impl Drive for MboxDrive {
             approach_speed_mm_s: installation.approach_speed_mm_s,
             layout: installation.layout(),
             latency_us: 2 * u64::from(dt_ms) * 1_000,
+            every_period: false,
         })
     }
 

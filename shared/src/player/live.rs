@@ -27,9 +27,11 @@
 //!   period) from the latest input ([`LiveInput`], handed with
 //!   [`super::Sequencer::set_live_input`]) and gives the drive the filtered
 //!   [`BallState`]s for the period's end ([`super::Drive::live_step`]). When the
-//!   caller is late it skips the periods missed and steps once: the filter's time
+//!   caller is late it skips the periods missed and steps once — the filter's time
 //!   runs slower than the caller's, never faster, so no ball is asked for more than
-//!   the limits.
+//!   the limits — unless the drive's units run the outputs on their own clock
+//!   ([`LiveSetup::every_period`], a FIFO of rows): then every period missed is
+//!   stepped and given, in order.
 //! - **Input lost** (the caller says so, after its configured time): every ball
 //!   holds — the filter brakes it within the limits and it stays — and the status
 //!   says `holding` ([`crate::api::LivePhase::Holding`]); input back, the balls
@@ -70,6 +72,11 @@ pub struct LiveSetup {
     pub layout: Layout,
     /// From an input to the balls following it, at most, µs (for the status).
     pub latency_us: u64,
+    /// Every period needs its output even when the caller is late: the units run
+    /// the outputs on their own clock (a FIFO of rows), so the sequencer steps once
+    /// for each period missed. `false`: only the latest period is given (a box goes
+    /// to the newest position; the filter's time runs slower, never faster).
+    pub every_period: bool,
 }
 
 impl LiveSetup {
@@ -373,7 +380,8 @@ impl<D: super::Drive> super::Sequencer<D> {
     /// **Go live** (the operator's request, never a packet's): from rest — idle,
     /// stopped or after an error — homes first when the positions are unknown, then
     /// the balls approach the latest input ([`super::Sequencer::set_live_input`];
-    /// give it first) and follow it. A previous error is cleared.
+    /// give it first) and follow it. A previous error is cleared, and a recording
+    /// not taken ([`super::Sequencer::stop_recording`]) is dropped.
     ///
     /// # Errors
     /// [`super::StartError::Busy`] while a playlist runs or live mode is on;
@@ -562,24 +570,28 @@ impl<D: super::Drive> super::Sequencer<D> {
             self.live_prepared(phase);
             return;
         }
-        if now_us < live.next_slot_us {
-            return;
-        }
         let period_us = live.setup.period_us();
-        let behind = (now_us - live.next_slot_us) / period_us;
-        let slot_us = live.next_slot_us + behind * period_us;
-        live.next_slot_us = slot_us + period_us;
-        let (period, filtered) = live.period();
-        if filtered && let Some(recorder) = self.recorder.as_mut() {
-            recorder.push(&live.states, live.colours());
-        }
-        self.drive.live_step(slot_us, &live.states);
-        if period == Period::Left {
-            self.drive.end_live(slot_us + period_us, &live.states);
-            self.live = None;
-            self.needs_home = false;
-            self.progress = 1.0;
-            self.step = super::Step::Idle;
+        while now_us >= live.next_slot_us {
+            let behind = (now_us - live.next_slot_us) / period_us;
+            let slot_us = if live.setup.every_period {
+                live.next_slot_us
+            } else {
+                live.next_slot_us + behind * period_us
+            };
+            live.next_slot_us = slot_us + period_us;
+            let (period, filtered) = live.period();
+            if filtered && let Some(recorder) = self.recorder.as_mut() {
+                recorder.push(&live.states, live.colours());
+            }
+            self.drive.live_step(slot_us, &live.states);
+            if period == Period::Left {
+                self.drive.end_live(slot_us + period_us, &live.states);
+                self.live = None;
+                self.needs_home = false;
+                self.progress = 1.0;
+                self.step = super::Step::Idle;
+                return;
+            }
         }
     }
 }

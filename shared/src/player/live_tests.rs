@@ -127,6 +127,7 @@ impl Drive for Recording {
                 pitch_mm: 100.0,
             },
             latency_us: 2 * PERIOD_US,
+            every_period: false,
         })
     }
 
@@ -590,4 +591,29 @@ fn a_drive_that_prepares_first_starts_the_approach_when_it_is_ready() {
     preparing.estop();
     assert!(!preparing.is_live() && preparing.needs_home());
     assert_eq!(preparing.status().live, None);
+}
+
+#[test]
+fn a_drive_that_runs_its_own_clock_gets_every_period_from_a_late_caller() {
+    let (mut sequencer, now) = following(&[Some(0.0); BALLS]);
+    // As the drive's setup would say it.
+    if let Some(live) = sequencer.live.as_mut() {
+        live.setup.every_period = true;
+    }
+    let from = sequencer.live_states().to_vec();
+    let skip = sequencer.drive().periods.len();
+    let first_slot = sequencer.next_wakeup_us(now).unwrap();
+    sequencer.set_live_input(input(&[Some(7500.0); BALLS], false));
+    // Polled every 70 ms: three or four periods each time, none missed.
+    let mut t = now;
+    for _ in 0..50 {
+        t += 70_000;
+        sequencer.poll(t);
+    }
+    let periods = &sequencer.drive().periods[skip..];
+    assert_eq!(periods.len() as u64, (t - first_slot) / PERIOD_US + 1);
+    for (index, (slot_us, _)) in periods.iter().enumerate() {
+        assert_eq!(*slot_us, first_slot + index as u64 * PERIOD_US);
+    }
+    check_limits(&from, periods);
 }

@@ -138,6 +138,9 @@ impl Uim2503Drive {
             approach_speed_mm_s: installation.approach_speed_mm_s,
             layout: installation.layout(),
             latency_us: (LIVE_FIFO_ROWS as u64 + 1) * row_us,
+            // The units take a row from their FIFO every row time, late caller or
+            // not: every row is written.
+            every_period: true,
         })
     }
 
