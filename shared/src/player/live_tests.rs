@@ -617,3 +617,82 @@ fn a_drive_that_runs_its_own_clock_gets_every_period_from_a_late_caller() {
     }
     check_limits(&from, periods);
 }
+
+#[cfg(not(target_arch = "wasm32"))]
+mod proptests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// One stretch of input: each ball's target (or none), lost or not, held for some
+    /// periods, polled every so many µs (late callers included); or the operator
+    /// leaving.
+    #[derive(Debug, Clone)]
+    enum Stretch {
+        Input {
+            targets: Vec<Option<f64>>,
+            lost: bool,
+            periods: u8,
+            poll_us: u64,
+        },
+        Leave,
+    }
+
+    fn stretch() -> impl Strategy<Value = Stretch> {
+        let target = prop_oneof![
+            4 => (0.0..7500.0f64).prop_map(Some),
+            1 => (-2000.0..10_000.0f64).prop_map(Some),
+            1 => Just(None),
+        ];
+        prop_oneof![
+            12 => (
+                prop::collection::vec(target, BALLS),
+                prop::bool::weighted(0.15),
+                1..60u8,
+                prop_oneof![Just(20_000u64), 1_000..90_000u64],
+            )
+                .prop_map(|(targets, lost, periods, poll_us)| Stretch::Input {
+                    targets,
+                    lost,
+                    periods,
+                    poll_us,
+                }),
+            1 => Just(Stretch::Leave),
+        ]
+    }
+
+    proptest! {
+        #[test]
+        fn no_live_output_breaks_a_limit_for_any_input(
+            first in prop::collection::vec(0.0..7500.0f64, BALLS),
+            stretches in prop::collection::vec(stretch(), 1..12),
+        ) {
+            let mut sequencer = homed();
+            let first: Vec<Option<f64>> = first.into_iter().map(Some).collect();
+            sequencer.set_live_input(input(&first, false));
+            sequencer.go_live(0).unwrap();
+            let mut now = 0;
+            for stretch in stretches {
+                match stretch {
+                    Stretch::Leave => {
+                        sequencer.leave_live(now);
+                    }
+                    Stretch::Input { targets, lost, periods, poll_us } => {
+                        let until = now + u64::from(periods) * PERIOD_US;
+                        while now < until {
+                            now += poll_us;
+                            sequencer.set_live_input(input(&targets, lost));
+                            sequencer.poll(now);
+                        }
+                    }
+                }
+            }
+            check_limits(&[BallState::at_rest(0.0); BALLS], &sequencer.drive().periods);
+            // Left: at rest, and the drive was told where.
+            if !sequencer.is_live() {
+                let (_, rest) = sequencer.drive().ended.clone().unwrap();
+                prop_assert!(rest.iter().all(|state| state.velocity_mm_s == 0.0));
+            }
+        }
+    }
+}
