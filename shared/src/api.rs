@@ -1173,6 +1173,69 @@ pub struct Status {
     /// those with a problem (`GET /api/status/gateways` gives every one).
     #[serde(default)]
     pub gateway_summary: GatewaySummary,
+    /// While live mode is on (issue 38): its phase, whether the input is lost, the
+    /// period and the latency the drive family gives, the recording; absent otherwise
+    /// (old clients ignore it). The state is `homing`, `loading` (the drive prepares)
+    /// or `approaching` on the way in,
+    /// `playing` while the balls follow, hold or brake to leave.
+    /// (Boxed: a status stays small in every message.)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub live: Option<Box<LiveStatus>>,
+}
+
+/// Where live mode stands ([`Status::live`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LivePhase {
+    /// The positions were unknown: the balls home first.
+    Homing,
+    /// The drive prepares live motion (UIM2503 units: their FIFO and its first rows).
+    Preparing,
+    /// The balls move to the first live positions at the approach speed.
+    Approaching,
+    /// The balls follow the input through the motion filter.
+    Following,
+    /// The input is lost: the balls decelerate within the limits and stay.
+    Holding,
+    /// The operator left live mode: the balls brake to rest, then the matrix is idle.
+    Leaving,
+}
+
+impl LivePhase {
+    /// The phase's name in the API (`following`).
+    #[must_use]
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Homing => "homing",
+            Self::Preparing => "preparing",
+            Self::Approaching => "approaching",
+            Self::Following => "following",
+            Self::Holding => "holding",
+            Self::Leaving => "leaving",
+        }
+    }
+}
+
+/// Live mode in the status.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LiveStatus {
+    /// Its phase.
+    pub phase: LivePhase,
+    /// The input is lost (longer than the configured time): the balls hold.
+    #[serde(default)]
+    pub input_lost: bool,
+    /// The drive's live period: one filter step and one output per period, ms.
+    pub period_ms: u32,
+    /// From an input to the balls following it, at most, ms: the drive family's
+    /// (a period and the frame's move for MBOX boxes, the FIFO's depth for UIM2503
+    /// units, the line's round for MOONS' drives).
+    pub latency_ms: u32,
+    /// The filtered motion is being recorded.
+    #[serde(default)]
+    pub recording: bool,
+    /// How much is recorded so far, ms.
+    #[serde(default)]
+    pub recorded_ms: u64,
 }
 
 /// With more gateways than this, a status lists in full only the gateways with a

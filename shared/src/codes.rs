@@ -388,6 +388,18 @@ codes! {
     /// A start from a time on drives that play their stored programs.
     StartNoCut = "start_no_cut" ["entry"]
         => "Entry {entry} cannot start from a time: the drives play the programs stored on them; start it from its beginning, or let the bridge upload programs";
+    /// Live mode on a drive family that does not carry it (yet).
+    LiveUnsupported = "live_unsupported" ["family"]
+        => "Live mode is not available on {family}";
+    /// Live mode on a UIM2503 line too slow for a row of its units.
+    LiveLineTooSlow = "live_line_too_slow" ["gateway", "units", "row_ms", "max_ms"]
+        => "Live mode: gateway {gateway}'s line needs {row_ms} ms for a row of its {units} units, more than the {max_ms} ms a row may last";
+    /// A recording asked for while the balls do not follow live input.
+    RecordNotLive = "record_not_live" []
+        => "Recording needs live mode with the balls following the input";
+    /// A recording whose step is no row duration.
+    RecordStep = "record_step" ["dt_ms", "min_ms", "max_ms"]
+        => "A live period of {dt_ms} ms cannot be recorded: rows last {min_ms}-{max_ms} ms";
     /// The E-stop was pressed after the request; the matrix stays stopped.
     Superseded = "superseded" []
         => "The E-stop was pressed after this request; the matrix stays stopped";

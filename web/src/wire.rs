@@ -179,6 +179,14 @@ mod tests {
                 problems: vec![0],
                 complete: false,
             },
+            live: Some(Box::new(floatball_shared::api::LiveStatus {
+                phase: floatball_shared::api::LivePhase::Holding,
+                input_lost: true,
+                period_ms: 20,
+                latency_ms: 40,
+                recording: true,
+                recorded_ms: 1200,
+            })),
         };
         let mut params = Params::new();
         params.insert("name".into(), "波浪".into());

@@ -22,9 +22,16 @@
 //!   `bridge/src/ports/mbox.rs`).
 //! - Only the latest due slot is sent when the caller is late: a box goes to the
 //!   newest position.
+//! - **Live mode** ([`crate::player::live`]): one frame per period, the same frame as
+//!   a show's, from the sequencer's filtered states for the period's end (`time_ms`
+//!   the period, every output 0). The filter's step is the frame period. An input
+//!   waits at most a period for the next slot, and its frame takes a period: the
+//!   latency is two periods (40 ms at 20 ms). Boxes take frames over Ethernet, so no
+//!   line limits the number of balls that move.
 
+use crate::live::filter::{BallState, FilterLimits};
 use crate::plan::Installation;
-use crate::player::{Drive, Phase};
+use crate::player::{Drive, LiveSetup, Phase, StartError};
 use crate::show::{OutputSample, Sampler, Show};
 
 /// Frames sent after a move or the playlist's end, holding the final positions.
@@ -371,5 +378,51 @@ impl Drive for MboxDrive {
 
     fn next_wakeup_us(&self, now_us: u64) -> Option<u64> {
         Some(self.next_slot_us.max(now_us))
+    }
+
+    fn live_setup(&self) -> Result<LiveSetup, StartError> {
+        let installation = &self.config.installation;
+        let limits = installation.limits;
+        let dt_ms = u32::try_from(self.period_us() / 1_000).unwrap_or(u32::MAX);
+        Ok(LiveSetup {
+            limits: FilterLimits {
+                travel_mm: limits.travel_mm,
+                max_speed_mm_s: limits.max_speed_mm_s,
+                max_accel_mm_s2: limits.max_accel_mm_s2,
+                dt_ms,
+            },
+            approach_speed_mm_s: installation.approach_speed_mm_s,
+            layout: installation.layout(),
+            latency_us: 2 * u64::from(dt_ms) * 1_000,
+            every_period: false,
+        })
+    }
+
+    fn rest_positions_mm(&self) -> Option<Vec<f64>> {
+        match self.step {
+            Step::Idle => self.believed_mm.clone(),
+            _ => None,
+        }
+    }
+
+    fn begin_live(&mut self, now_us: u64, _states: &[BallState]) -> bool {
+        self.step = Step::Idle;
+        self.believed_mm = None;
+        self.progress = 0.0;
+        self.next_slot_us = self.next_slot_us.max(now_us);
+        false
+    }
+
+    fn live_step(&mut self, slot_us: u64, states: &[BallState]) {
+        let period_us = self.config.period_us.max(1_000) / 1_000 * 1_000;
+        let targets_mm: Vec<f64> = states.iter().map(|state| state.position_mm).collect();
+        self.push_frame(slot_us, period_us, &targets_mm, None);
+        self.next_slot_us = slot_us + period_us;
+    }
+
+    fn end_live(&mut self, at_us: u64, states: &[BallState]) {
+        self.believed_mm = Some(states.iter().map(|state| state.position_mm).collect());
+        self.next_slot_us = self.next_slot_us.max(at_us);
+        self.progress = 1.0;
     }
 }

@@ -185,6 +185,21 @@ impl MboxPlayer {
     pub fn poll(&mut self, now_us: u64) {
         self.sequencer.poll(now_us);
     }
+
+    /// Live mode ([`crate::player::live`]): the sequencer under the player, for
+    /// [`Sequencer::go_live`], [`Sequencer::set_live_input`],
+    /// [`Sequencer::leave_live`], [`Sequencer::start_recording`] and
+    /// [`Sequencer::stop_recording`]; frames come out of [`MboxPlayer::take_frames`]
+    /// as for a show.
+    pub fn sequencer_mut(&mut self) -> &mut Sequencer<MboxDrive> {
+        &mut self.sequencer
+    }
+
+    /// The sequencer under the player.
+    #[must_use]
+    pub fn sequencer(&self) -> &Sequencer<MboxDrive> {
+        &self.sequencer
+    }
 }
 
 /// Why `show` cannot play on the MBOX `installation`: the first violation of its

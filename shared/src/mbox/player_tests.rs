@@ -593,3 +593,154 @@ fn a_locate_moves_on_from_the_last_frame_and_after_a_move_from_anywhere() {
     let whole_ms = (travel_mm / speed * 1e3) as u32;
     assert!(frame.time_ms + 50 >= whole_ms, "{} ms", frame.time_ms);
 }
+
+/// Sends `frame` to the twins as the bridge does (one datagram a box).
+fn send(frame: &MboxFrame, twins: &mut [MboxTwin]) {
+    let boxes = frame.positions_pulses.iter().zip(&frame.outputs);
+    for (twin, (positions, outputs)) in twins.iter_mut().zip(boxes) {
+        let datagram = MotionFrame {
+            mode: TimeMode::Relative,
+            route: Route::BROADCAST_SILENT,
+            sequence: 0,
+            time_code: TimeCode::from_ms(frame.time_ms),
+            positions_pulses: AxisPositions::from_slice(positions).unwrap(),
+            digital: DigitalOutputs::from_bits(outputs.digital_bits),
+            analog: outputs.analog,
+        };
+        twin.receive(frame.slot_us, &datagram.encode());
+    }
+}
+
+/// Polls the player live until `until_us`, handing `targets(t)` before each poll and
+/// sending every frame to the twins; returns the frames.
+fn run_live(
+    player: &mut MboxPlayer,
+    twins: &mut [MboxTwin],
+    now_us: &mut u64,
+    until_us: u64,
+    targets: &dyn Fn(u64) -> Vec<Option<f64>>,
+) -> Vec<MboxFrame> {
+    let mut frames = Vec::new();
+    while let Some(wake) = player.next_wakeup_us(*now_us) {
+        if wake > until_us {
+            break;
+        }
+        *now_us = wake.max(*now_us);
+        let targets = targets(*now_us);
+        player
+            .sequencer_mut()
+            .set_live_input(crate::player::LiveInput {
+                targets_mm: &targets,
+                ..Default::default()
+            });
+        player.poll(*now_us);
+        for frame in player.take_frames() {
+            send(&frame, twins);
+            frames.push(frame);
+        }
+    }
+    *now_us = until_us.max(*now_us);
+    frames
+}
+
+#[test]
+fn live_frames_every_period_follow_the_filter_and_the_twins_take_them() {
+    use crate::api::LivePhase;
+    let mut player = player();
+    let mut twins = twins();
+    let limits = player.config().installation.limits;
+    let mut now = 0;
+    let first = |_| vec![Some(1000.0); 6];
+    player
+        .sequencer_mut()
+        .set_live_input(crate::player::LiveInput {
+            targets_mm: &first(0),
+            ..Default::default()
+        });
+    player.sequencer_mut().go_live(now).unwrap();
+    assert_eq!(player.status().state, PlayerState::Homing);
+    // Homing (the whole travel at the approach speed), then the approach.
+    let mut frames = run_live(&mut player, &mut twins, &mut now, 10_000_000, &first);
+    let live = player.status().live.unwrap();
+    assert_eq!(live.phase, LivePhase::Following);
+    assert_eq!(live.latency_ms, 40);
+    let at_1000: Vec<i32> = twins.iter().flat_map(MboxTwin::positions_pulses).collect();
+    assert_eq!(at_1000, vec![CALIBRATION.pulses(1000.0); 6]);
+    // A snap to the bottom and back on half the balls: frames every period, each a
+    // move the limits allow.
+    let from = now;
+    let snap = move |t: u64| {
+        let down = (t - from) < 1_500_000;
+        (0..6)
+            .map(|ball| {
+                Some(if ball % 2 == 0 && down {
+                    7000.0
+                } else {
+                    1000.0
+                })
+            })
+            .collect()
+    };
+    let live_from = frames.len();
+    frames.extend(run_live(
+        &mut player,
+        &mut twins,
+        &mut now,
+        from + 6_000_000,
+        &snap,
+    ));
+    let live = &frames[live_from..];
+    assert_eq!(live.len() as u64, 6_000_000 / DEFAULT_PERIOD_US);
+    let per_frame_pulses = limits.max_speed_mm_s * 0.02 * CALIBRATION.pulses_per_mm;
+    for pair in live.windows(2) {
+        assert_eq!(pair[1].slot_us - pair[0].slot_us, DEFAULT_PERIOD_US);
+        assert_eq!(pair[1].time_ms, 20);
+        for (a, b) in pair[0]
+            .positions_pulses
+            .iter()
+            .zip(&pair[1].positions_pulses)
+        {
+            for (a, b) in a.iter().zip(b) {
+                assert!(f64::from((b - a).abs()) <= per_frame_pulses + 1.0);
+            }
+        }
+    }
+    let back: Vec<i32> = twins.iter().flat_map(MboxTwin::positions_pulses).collect();
+    assert_eq!(back, vec![CALIBRATION.pulses(1000.0); 6]);
+    for twin in &twins {
+        let counters = twin.snapshot().counters;
+        assert_eq!(
+            counters.motion_frames,
+            frames.len() as u64,
+            "every frame taken"
+        );
+        assert_eq!(counters.datagrams, counters.motion_frames);
+    }
+    // Leave: braked to rest, idle, and a show then approaches without homing.
+    player.sequencer_mut().leave_live(now);
+    let until = now + 2_000_000;
+    run_live(&mut player, &mut twins, &mut now, until, &snap);
+    assert_eq!(player.status().state, PlayerState::Idle);
+    assert_eq!(player.status().live, None);
+    player.start(now, vec![entry(1, 0)], false).unwrap();
+    assert_eq!(player.status().state, PlayerState::Approaching);
+}
+
+#[test]
+fn live_after_an_estop_homes_first_and_a_live_request_during_a_show_is_refused() {
+    let mut player = player();
+    let mut twins = twins();
+    let mut now = 0;
+    player.start(now, vec![entry(1, 0)], false).unwrap();
+    assert_eq!(player.sequencer_mut().go_live(now), Err(StartError::Busy));
+    player.estop();
+    player.sequencer_mut().go_live(now).unwrap();
+    run_live(&mut player, &mut twins, &mut now, 20_000_000, &|_| {
+        vec![Some(500.0); 6]
+    });
+    player.estop();
+    assert_eq!(player.status().state, PlayerState::Stopped);
+    assert!(player.take_frames().is_empty());
+    player.sequencer_mut().go_live(now).unwrap();
+    assert_eq!(player.status().state, PlayerState::Homing);
+}

@@ -73,6 +73,28 @@ pub enum StartError {
         /// The 1-based entry.
         entry: usize,
     },
+    /// Live mode asked of a drive family that does not carry it (yet): nothing moved.
+    #[error("live mode is not available on {family}")]
+    LiveUnsupported {
+        /// The family, in words ("UIM2503 units").
+        family: &'static str,
+    },
+    /// Live mode on UIM2503 units whose line cannot carry a row for each of its units
+    /// within the longest row a unit takes.
+    #[error(
+        "live mode: gateway {gateway}'s line needs {row_ms} ms for a row of its {units} units, \
+         more than the {max_ms} ms a row may last"
+    )]
+    LiveLineTooSlow {
+        /// The gateway.
+        gateway: usize,
+        /// Its units.
+        units: usize,
+        /// The row time its line needs, ms.
+        row_ms: u64,
+        /// The longest row, ms.
+        max_ms: u64,
+    },
     /// The E-stop was pressed after this request was made: the request is void and
     /// the matrix stays stopped.
     #[error("the E-stop was pressed after this request was made; the matrix stays stopped")]
@@ -90,6 +112,8 @@ impl Coded for StartError {
             Self::NoSuchEntry { .. } => Code::StartNoSuchEntry,
             Self::PastTheEnd { .. } => Code::StartPastTheEnd,
             Self::NoCut { .. } => Code::StartNoCut,
+            Self::LiveUnsupported { .. } => Code::LiveUnsupported,
+            Self::LiveLineTooSlow { .. } => Code::LiveLineTooSlow,
             Self::Superseded => Code::Superseded,
         }
     }
@@ -114,6 +138,18 @@ impl Coded for StartError {
                 "fixes" => self.fix_sentences().join("; "),
             },
             Self::NotConnected { gateway } => params! {"gateway" => gateway},
+            Self::LiveUnsupported { family } => params! {"family" => family},
+            Self::LiveLineTooSlow {
+                gateway,
+                units,
+                row_ms,
+                max_ms,
+            } => params! {
+                "gateway" => gateway,
+                "units" => units,
+                "row_ms" => row_ms,
+                "max_ms" => max_ms,
+            },
             Self::NoCut { entry } => params! {"entry" => entry},
             Self::NoSuchEntry { entry, entries } => {
                 params! {"entry" => entry, "entries" => entries}

@@ -35,15 +35,26 @@
 //! - A drive's failure (a unit's error, a lost link, a ball that does not arrive)
 //!   stops the matrix and says what happened, in words: the caller presses the e-stop
 //!   when [`Sequencer::take_estop`] says so.
+//! - **Live mode** ([`live`]): on the caller's request alone, from rest (homing first
+//!   when the positions are unknown), the balls approach the live targets, then follow
+//!   them through the motion filter, one step and one output per drive period
+//!   ([`Drive::live_step`]); input lost → they hold; leaving brakes them to rest; the
+//!   e-stop ends it as it stops everything. The filtered motion can be recorded as a
+//!   show.
 
 mod error;
+pub mod live;
 mod playlist;
 
 pub use error::StartError;
+pub use live::{LIVE_SETTLE_PERIODS, LiveInput, LiveSetup, RecordStartError};
 pub use playlist::{Entry, EntryTiming, LinkView};
 pub(crate) use playlist::{NextRun, PlaylistProgress, next_run};
 
 use crate::api::{ArmedShow, PlayerState, Status};
+use crate::live::filter::BallState;
+use crate::live::record::Recorder;
+use live::{Live, Motion};
 
 /// How a step the drive carries out stands after a poll.
 #[derive(Debug, Clone, PartialEq)]
@@ -224,6 +235,39 @@ pub trait Drive {
 
     /// Lets time pass while the matrix is idle (an arming loads its next round).
     fn poll_idle(&mut self, _now_us: u64) {}
+
+    /// **Live mode** ([`live`]): how the drive carries live motion — the limits, the
+    /// period, the latency — or why it cannot. The default: it cannot
+    /// ([`StartError::LiveUnsupported`]).
+    ///
+    /// # Errors
+    /// Why the family cannot carry live motion.
+    fn live_setup(&self) -> Result<LiveSetup, StartError> {
+        Err(StartError::LiveUnsupported {
+            family: "this drive family",
+        })
+    }
+
+    /// Where the balls rest, mm (row-major), when the drive knows it (after a home, a
+    /// show, live mode); `None` when it does not (live mode homes first).
+    fn rest_positions_mm(&self) -> Option<Vec<f64>> {
+        None
+    }
+
+    /// Live motion begins at `now_us`, the balls resting at `states`: `false` when
+    /// the first period's slot is `now_us`; `true` when the drive prepares first (the
+    /// sequencer polls it, and takes [`Phase::Done`]'s `at_us` as the first slot).
+    fn begin_live(&mut self, _now_us: u64, _states: &[BallState]) -> bool {
+        false
+    }
+
+    /// One live period from `slot_us`: every ball is to be at `states` (position and
+    /// velocity) one period later. Called once per period, the slots in order.
+    fn live_step(&mut self, _slot_us: u64, _states: &[BallState]) {}
+
+    /// Live motion is over at `at_us`: the balls rest at `states` (their positions
+    /// are known).
+    fn end_live(&mut self, _at_us: u64, _states: &[BallState]) {}
 }
 
 /// Why `entries` cannot begin at `at`, if they cannot.
@@ -256,6 +300,8 @@ enum AfterMove {
     First,
     /// Rest.
     Rest,
+    /// Begin live motion (the approach to the live targets).
+    Live,
 }
 
 /// A show's clock at an instant ([`Sequencer::status_at`]).
@@ -272,10 +318,17 @@ enum ShowClock {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Step {
     Idle,
-    Waiting { until_us: u64 },
-    Moving { kind: MoveKind, after: AfterMove },
+    Waiting {
+        until_us: u64,
+    },
+    Moving {
+        kind: MoveKind,
+        after: AfterMove,
+    },
     Loading,
     Playing,
+    /// Live motion: approaching, following, holding or leaving ([`live`]).
+    Live,
     Stopped,
     Failed,
 }
@@ -302,7 +355,22 @@ pub struct Sequencer<D: Drive> {
     start_at: StartAt<D::Entry>,
     /// The entry's first cycle was a lead: the drive counts its cycles from the next.
     led: bool,
+    /// Live mode, from the request until it is left or stopped.
+    live: Option<Live>,
+    /// A recording of live motion, until it is taken.
+    recorder: Option<Recorder>,
+    /// Live input handed before live mode began (targets, speed limits, colours,
+    /// lost): the approach's targets.
+    live_input: Option<LiveInputs>,
 }
+
+/// Live input kept ([`Sequencer::set_live_input`] before [`Sequencer::go_live`]).
+type LiveInputs = (
+    Vec<Option<f64>>,
+    Vec<Option<f64>>,
+    Vec<Option<[u8; 3]>>,
+    bool,
+);
 
 impl<D: Drive> Sequencer<D> {
     /// A sequencer over `drive`, idle, positions unknown (the first Start homes).
@@ -324,6 +392,9 @@ impl<D: Drive> Sequencer<D> {
                 lead: None,
             },
             led: false,
+            live: None,
+            recorder: None,
+            live_input: None,
         }
     }
 
@@ -385,6 +456,11 @@ impl<D: Drive> Sequencer<D> {
                 ShowClock::Running { .. } => PlayerState::Playing,
                 ShowClock::Given { .. } | ShowClock::NotGiven => PlayerState::Loading,
             },
+            Step::Live => match self.live.as_ref().map(|live| &live.motion) {
+                Some(Motion::Preparing { .. }) => PlayerState::Loading,
+                Some(Motion::Approaching { .. }) => PlayerState::Approaching,
+                _ => PlayerState::Playing,
+            },
             Step::Stopped => PlayerState::Stopped,
             Step::Failed => PlayerState::Error,
         }
@@ -403,7 +479,7 @@ impl<D: Drive> Sequencer<D> {
                 ..
             }
         );
-        let active = self.is_running() && !homing_to_rest;
+        let active = self.is_running() && !homing_to_rest && self.live.is_none();
         let entry = active.then(|| self.entries.get(self.entry)).flatten();
         let (show_time_ms, progress, starts_in_ms) = match self.step {
             Step::Playing => match self.show_clock(now_us) {
@@ -415,6 +491,11 @@ impl<D: Drive> Sequencer<D> {
                 ShowClock::Given { starts_in_us } => (0, 1.0, Some(starts_in_us.div_ceil(1_000))),
                 ShowClock::NotGiven => (0, 1.0, None),
             },
+            Step::Live => (
+                0,
+                self.live.as_ref().map_or(1.0, |live| live.progress(now_us)),
+                None,
+            ),
             _ => (0, self.progress, None),
         };
         let mut status = PlaylistProgress {
@@ -428,6 +509,10 @@ impl<D: Drive> Sequencer<D> {
         }
         .status();
         status.armed = self.drive.armed();
+        status.live = self
+            .live
+            .as_ref()
+            .map(|live| Box::new(live.status(self.recorder.as_ref())));
         status
     }
 
@@ -481,7 +566,7 @@ impl<D: Drive> Sequencer<D> {
     pub fn is_running(&self) -> bool {
         matches!(
             self.step,
-            Step::Waiting { .. } | Step::Moving { .. } | Step::Loading | Step::Playing
+            Step::Waiting { .. } | Step::Moving { .. } | Step::Loading | Step::Playing | Step::Live
         )
     }
 
@@ -527,6 +612,13 @@ impl<D: Drive> Sequencer<D> {
             Step::Moving { .. } | Step::Loading | Step::Playing => {
                 self.drive.next_wakeup_us(now_us)
             }
+            Step::Live => match self.live.as_ref() {
+                Some(live) if matches!(live.motion, Motion::Preparing { .. }) => {
+                    self.drive.next_wakeup_us(now_us)
+                }
+                Some(live) => Some(live.next_slot_us.max(now_us)),
+                None => None,
+            },
         }
     }
 
@@ -598,6 +690,8 @@ impl<D: Drive> Sequencer<D> {
         self.drive.stop();
         self.progress = 0.0;
         self.start_at.lead = None;
+        self.live = None;
+        self.recorder = None;
     }
 
     /// Reset (the caller sent the stop first): stops, then homes and plays `entries`
@@ -737,6 +831,10 @@ impl<D: Drive> Sequencer<D> {
             self.fail(reason);
             return;
         }
+        if self.step == Step::Live {
+            self.poll_live(now_us);
+            return;
+        }
         match self.step {
             Step::Waiting { until_us } if now_us < until_us => {
                 self.progress = 0.0;
@@ -765,6 +863,10 @@ impl<D: Drive> Sequencer<D> {
     /// that ended it (an answer, a unit's feedback) — taken: the next step begins
     /// when it is over, the matrix stops when it failed.
     pub fn advance(&mut self, phase: Phase) {
+        if self.step == Step::Live {
+            self.live_prepared(phase);
+            return;
+        }
         if !self.in_drive_step() {
             return;
         }
@@ -792,6 +894,7 @@ impl<D: Drive> Sequencer<D> {
                     }
                     AfterMove::First => self.begin_entry(at_us, self.start_at.entry),
                     AfterMove::Play => self.begin_load(at_us),
+                    AfterMove::Live => self.begin_live_motion(at_us),
                 }
             }
             Step::Loading => self.begin_play(at_us),
@@ -803,7 +906,7 @@ impl<D: Drive> Sequencer<D> {
                 }
                 self.after_play(at_us);
             }
-            Step::Idle | Step::Waiting { .. } | Step::Stopped | Step::Failed => {}
+            Step::Idle | Step::Waiting { .. } | Step::Live | Step::Stopped | Step::Failed => {}
         }
     }
 
@@ -906,5 +1009,7 @@ impl<D: Drive> Sequencer<D> {
     }
 }
 
+#[cfg(test)]
+mod live_tests;
 #[cfg(test)]
 mod tests;

@@ -48,6 +48,7 @@ impl PlaylistProgress {
             last_error: self.last_error,
             armed: None,
             gateway_summary: crate::api::GatewaySummary::default(),
+            live: None,
         }
     }
 }

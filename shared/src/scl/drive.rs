@@ -711,6 +711,16 @@ fn judge(
 impl Drive for SclDrive {
     type Entry = SclEntry;
 
+    /// Not yet: live motion on MOONS' drives is refused. An `FP` sent while a drive
+    /// moves waits for the move under way to end, so position updates would each
+    /// start from rest; jogging (`CJ`, `CS`) continues a motion but is unconfirmed
+    /// (`docs/live.md`, "What each family carries").
+    fn live_setup(&self) -> Result<crate::player::LiveSetup, crate::player::StartError> {
+        Err(crate::player::StartError::LiveUnsupported {
+            family: "MOONS' drives",
+        })
+    }
+
     fn begin_run(&mut self, now_us: u64, _first: Option<&mut SclEntry>) {
         self.now_us = now_us;
     }

@@ -975,3 +975,182 @@ fn a_start_from_a_time_plays_the_cut_then_the_whole_show_for_the_next_cycle() {
     rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
     assert_eq!(rig.player.status().last_error, None);
 }
+
+/// Steps the rig live until `until_us`, handing `targets(t)` before each step;
+/// checks every ball's true speed on the way (the units' own motion, every ms).
+fn run_live(rig: &mut Rig, until_us: u64, targets: &dyn Fn(u64) -> Vec<Option<f64>>) {
+    let max_speed = rig.installation.limits.max_speed_mm_s;
+    let mut before = rig.positions_mm();
+    while rig.now_us < until_us {
+        let targets = targets(rig.now_us);
+        rig.player
+            .sequencer_mut()
+            .set_live_input(crate::player::LiveInput {
+                targets_mm: &targets,
+                ..Default::default()
+            });
+        rig.step();
+        let after = rig.positions_mm();
+        for (ball, (a, b)) in before.iter().zip(&after).enumerate() {
+            let speed = (b - a).abs() / (STEP_US as f64 / 1e6);
+            assert!(
+                speed <= max_speed * 1.01 + 1.0,
+                "ball {ball} at {} µs: {speed} mm/s",
+                rig.now_us
+            );
+        }
+        before = after;
+        assert_ne!(
+            rig.state(),
+            PlayerState::Error,
+            "{:?}",
+            rig.player.status().last_error
+        );
+    }
+}
+
+#[test]
+fn live_rows_stream_into_the_fifo_and_the_units_follow_within_the_limits() {
+    use crate::api::LivePhase;
+    let mut rig = Rig::new(installation(2, 2, &[115_200]));
+    let first = |_| vec![Some(1000.0), Some(1500.0), Some(2000.0), None];
+    rig.player
+        .sequencer_mut()
+        .set_live_input(crate::player::LiveInput {
+            targets_mm: &first(0),
+            ..Default::default()
+        });
+    rig.player.sequencer_mut().go_live(0).unwrap();
+    rig.carry_out();
+    assert_eq!(rig.state(), PlayerState::Homing);
+    let phase = |rig: &Rig| rig.player.status().live.map(|live| live.phase);
+    rig.run_until(30_000_000, |rig| phase(rig) == Some(LivePhase::Preparing));
+    rig.run_until(5_000_000, |rig| phase(rig) == Some(LivePhase::Approaching));
+    let live = rig.player.status().live.unwrap();
+    // Four units at 115,200 baud: a 14 ms row; the FIFO six rows deep.
+    assert_eq!(live.period_ms, 14, "{live:?}");
+    assert_eq!(live.latency_ms, 7 * 14);
+    let until = rig.now_us + 5_000_000;
+    run_live(&mut rig, until, &first);
+    assert_eq!(phase(&rig), Some(LivePhase::Following));
+    let at = rig.positions_mm();
+    for (ball, want) in [1000.0, 1500.0, 2000.0].into_iter().enumerate() {
+        assert!((at[ball] - want).abs() < 0.5, "ball {ball} at {}", at[ball]);
+    }
+    // A snap across the travel and back: followed within the limits, then held.
+    let from = rig.now_us;
+    let snap = move |t: u64| {
+        let down = t - from < 1_000_000;
+        vec![
+            Some(if down { 7000.0 } else { 1000.0 }),
+            Some(1500.0),
+            Some(if down { 0.0 } else { 2000.0 }),
+            None,
+        ]
+    };
+    run_live(&mut rig, from + 6_000_000, &snap);
+    let at = rig.positions_mm();
+    for (ball, want) in [1000.0, 1500.0, 2000.0].into_iter().enumerate() {
+        assert!((at[ball] - want).abs() < 0.5, "ball {ball} at {}", at[ball]);
+    }
+    // Leave: braked to rest, idle, positions known; a show then needs no homing.
+    rig.player.sequencer_mut().leave_live(rig.now_us);
+    let until = rig.now_us + 3_000_000;
+    run_live(&mut rig, until, &snap);
+    assert_eq!(rig.state(), PlayerState::Idle);
+    assert!(!rig.anyone_moving());
+    rig.start(vec![entry(wave(2, 2, 20, 100), 0, 1)], false)
+        .unwrap();
+    assert_eq!(rig.state(), PlayerState::Approaching);
+}
+
+#[test]
+fn live_mode_stops_with_the_estop_and_a_slow_line_is_refused() {
+    let mut rig = Rig::new(installation(2, 2, &[115_200]));
+    rig.player.sequencer_mut().go_live(0).unwrap();
+    rig.carry_out();
+    rig.run_until(30_000_000, |rig| {
+        rig.player.status().live.map(|live| live.phase) == Some(crate::api::LivePhase::Following)
+    });
+    rig.estop();
+    assert_eq!(rig.state(), PlayerState::Stopped);
+    assert_eq!(rig.player.status().live, None);
+    rig.run_until(1_000_000, |rig| !rig.anyone_moving());
+    // The next live request homes first.
+    rig.player.sequencer_mut().go_live(rig.now_us).unwrap();
+    assert_eq!(rig.state(), PlayerState::Homing);
+    // Eight units on a 9,600-baud line need a longer row than a unit takes.
+    let mut slow = Rig::new(installation(2, 4, &[9_600]));
+    let refused = slow.player.sequencer_mut().go_live(0).unwrap_err();
+    assert!(
+        matches!(
+            refused,
+            StartError::LiveLineTooSlow {
+                gateway: 0,
+                units: 8,
+                max_ms: 255,
+                ..
+            }
+        ),
+        "{refused:?}"
+    );
+    assert_eq!(
+        crate::codes::Coded::code(&refused),
+        crate::codes::Code::LiveLineTooSlow
+    );
+    assert!(slow.player.take_commands().is_empty());
+}
+
+/// The row time live mode streams at, per line speed and units on the line: the
+/// figures in `docs/live.md`.
+#[test]
+fn the_live_row_time_is_what_the_line_carries_for_its_units() {
+    use crate::uim2503::player::Uim2503Drive;
+    let row_ms = |units: u32, baud: u32| {
+        let drive = Uim2503Drive::new(PlayerConfig {
+            installation: installation(1, units, &[baud]),
+        });
+        crate::player::Drive::live_setup(&drive).map(|setup| setup.limits.dt_ms)
+    };
+    // 115,200 baud: about 3 ms a unit; 9,600 baud: about 36 ms a unit.
+    assert_eq!(row_ms(1, 115_200), Ok(10), "the shortest row");
+    assert_eq!(row_ms(4, 115_200), Ok(14));
+    assert_eq!(row_ms(16, 115_200), Ok(51));
+    assert_eq!(row_ms(64, 115_200), Ok(200));
+    assert_eq!(row_ms(1, 9_600), Ok(52));
+    assert_eq!(row_ms(4, 9_600), Ok(161));
+    assert_eq!(row_ms(6, 9_600), Ok(233));
+    // The most units a line carries in a row of at most 255 ms.
+    assert_eq!(
+        (1..200).find(|&units| row_ms(units, 115_200).is_err()),
+        Some(82)
+    );
+    assert_eq!(
+        (1..20).find(|&units| row_ms(units, 9_600).is_err()),
+        Some(7)
+    );
+}
+
+#[test]
+fn going_live_disarms_an_armed_show_and_the_show_then_plays_in_full() {
+    let show = wave(2, 2, 20, 100);
+    let mut rig = Rig::new(installation(2, 2, &[115_200]));
+    arm_fully(&mut rig, &show);
+    assert!(rig.player.armed().is_some());
+    rig.player.sequencer_mut().go_live(rig.now_us).unwrap();
+    rig.carry_out();
+    assert_eq!(
+        rig.player.armed(),
+        None,
+        "live motion overwrites the tables"
+    );
+    rig.run_until(30_000_000, |rig| {
+        rig.player.status().live.map(|live| live.phase) == Some(crate::api::LivePhase::Following)
+    });
+    rig.player.sequencer_mut().leave_live(rig.now_us);
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &show);
+    assert!(worst < 1.0, "{worst} mm off the show");
+    assert_eq!(rig.state(), PlayerState::Idle);
+}

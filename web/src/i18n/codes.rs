@@ -203,6 +203,16 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
         Code::StartNoCut,
         "第 {entry} 项无法从某个时间开始：驱动器播放其存储的程序；请从头开始，或让控制器上传程序",
     ),
+    (Code::LiveUnsupported, "{family} 不支持实时模式"),
+    (
+        Code::LiveLineTooSlow,
+        "实时模式：网关 {gateway} 的线路为其 {units} 个单元写一行需要 {row_ms} 毫秒，超过一行最长的 {max_ms} 毫秒",
+    ),
+    (Code::RecordNotLive, "录制需要实时模式且球正在跟随输入"),
+    (
+        Code::RecordStep,
+        "{dt_ms} 毫秒的实时周期无法录制：每行须为 {min_ms}-{max_ms} 毫秒",
+    ),
     (Code::Superseded, "请求之后按下了急停；矩阵保持停止"),
     (Code::PlayerGone, "播放器没有运行（控制器正在关闭）"),
     // ---- the WebSocket and the console ----

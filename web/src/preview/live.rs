@@ -86,6 +86,7 @@ pub(crate) mod tests {
             last_error: None,
             armed: None,
             gateway_summary: Default::default(),
+            live: None,
         }
     }
 

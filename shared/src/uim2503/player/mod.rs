@@ -33,9 +33,12 @@
 //! - `loading`: configuring the units, preloading rows and arming them;
 //! - `playing`: the synchronised start and refill rounds while a show runs;
 //! - `arming`: loading the first entry's tables while the matrix is idle, so that Start
-//!   needs only the approach ([`Player::arm`], [`Player::disarm`]).
+//!   needs only the approach ([`Player::arm`], [`Player::disarm`]);
+//! - [`live`]: live mode's rows streamed into a short FIFO on every unit
+//!   ([`crate::player::live`]).
 
 mod arming;
+pub mod live;
 mod loading;
 mod moving;
 mod playing;
@@ -170,6 +173,8 @@ pub struct Uim2503Drive {
     preloaded: Option<arming::Arming>,
     /// Disarms so far ([`Player::disarms`]).
     disarms: u64,
+    /// Live mode's rows on the units, while live.
+    live: Option<live::LiveStream>,
 }
 
 impl Uim2503Drive {
@@ -199,6 +204,7 @@ impl Uim2503Drive {
             arming: None,
             preloaded: None,
             disarms: 0,
+            live: None,
         }
     }
 
@@ -279,6 +285,10 @@ impl Uim2503Drive {
                 let phase = drive.poll_moving(now_us);
                 sequencer.advance(phase);
             }
+            Feedback::Ack(Ack::PvtStart { value }) if drive.live.is_some() => {
+                let phase = drive.live_barrier_answered(now_us, gateway, frame.station(), value);
+                sequencer.advance(phase);
+            }
             Feedback::Ack(Ack::PvtStart { value }) => {
                 let phase = drive.barrier_answered(now_us, gateway, frame.station(), value);
                 sequencer.advance(phase);
@@ -303,6 +313,26 @@ impl Uim2503Drive {
 
 impl Drive for Uim2503Drive {
     type Entry = Arc<Plan>;
+
+    fn live_setup(&self) -> Result<crate::player::LiveSetup, StartError> {
+        self.live_setup_uim()
+    }
+
+    fn rest_positions_mm(&self) -> Option<Vec<f64>> {
+        self.rest_mm()
+    }
+
+    fn begin_live(&mut self, _now_us: u64, states: &[crate::live::filter::BallState]) -> bool {
+        self.begin_live_stream(states)
+    }
+
+    fn live_step(&mut self, _slot_us: u64, states: &[crate::live::filter::BallState]) {
+        self.live_rows(states);
+    }
+
+    fn end_live(&mut self, _at_us: u64, states: &[crate::live::filter::BallState]) {
+        self.end_live_stream(states);
+    }
 
     fn begin_run(&mut self, _now_us: u64, first: Option<&mut Arc<Plan>>) {
         if let Some(first) = first {
@@ -390,6 +420,7 @@ impl Drive for Uim2503Drive {
 
     fn stop(&mut self) {
         self.step = Step::Idle;
+        self.live = None;
         self.loaded_entry = None;
         self.preloaded = None;
         self.disarm_tables();
@@ -686,5 +717,12 @@ impl Player {
     pub fn poll(&mut self, now_us: u64, links: &[LinkView]) {
         self.sequencer.drive_mut().set_links(links);
         self.sequencer.poll(now_us);
+    }
+
+    /// The sequencer under the player: live mode ([`Sequencer::go_live`],
+    /// [`Sequencer::set_live_input`], [`Sequencer::leave_live`], the recording); its
+    /// rows come out of [`Player::take_commands`] as a show's do.
+    pub fn sequencer_mut(&mut self) -> &mut Sequencer<Uim2503Drive> {
+        &mut self.sequencer
     }
 }

@@ -1,0 +1,332 @@
+//! Live mode on UIM2503 units ([`crate::player::live`]): the filtered motion streamed
+//! as PVT rows into a short FIFO on every unit, one row per period.
+//!
+//! - **The row time** is what each gateway's line carries: every unit on a gateway
+//!   needs a row each period (a FIFO unit that runs out of rows stops, so a ball that
+//!   stands still costs a row too), so a period must carry a row for every unit of
+//!   the gateway — `*N;QP[i]p;QV[i]v;` each, at their longest values, and one shared
+//!   `*0;QT[i]t;` — at the planner's share of the line
+//!   ([`schedule::planned_byte_ms`]). The slowest gateway sets the period for all
+//!   (every unit takes the same rows at the same time), at least [`ROW_MIN_MS`]; more
+//!   than [`ROW_MAX_MS`] is refused ([`StartError::LiveLineTooSlow`]).
+//! - **Prepare**: every gateway's units are configured for FIFO mode (motor on, the
+//!   table cleared, the watermark notice), given [`LIVE_FIFO_ROWS`] rows at rest where
+//!   they stand, armed (`PV=0`) and confirmed with the `PV;` barrier (it answers the
+//!   water level); then `*0;BG;` goes on every gateway's priority lane at one instant
+//!   ([`START_LEAD_US`] ahead), and the units' start is the first period's slot.
+//! - **Stream**: each period one row per unit with the filtered position and velocity
+//!   at the period's end — a filter step has a constant acceleration, so the unit's
+//!   cubic between rows is the filter's parabola exactly — written into the table
+//!   round (`row % 256`), rows every unit of a gateway shares broadcast once
+//!   ([`stream::rows`]). The FIFO stays [`LIVE_FIFO_ROWS`] deep: a row written at a
+//!   slot runs that many rows later, so the latency is `(LIVE_FIFO_ROWS + 1)` row
+//!   times (one more for an input that just missed a slot).
+//! - **Rounding**: rows are whole counts, so the filter runs a little under the
+//!   installation's speed and acceleration (what half a count at each end of a row can
+//!   add): no row asks a unit for more than it has.
+//! - **End**: the last rows hold the balls at rest; the FIFO runs out after them and
+//!   the units stop where the rows end, their positions known.
+
+use super::{Command, Phase, START_LEAD_US, Step, Uim2503Drive};
+use crate::live::filter::{BallState, FilterLimits};
+use crate::player::{LiveSetup, StartError};
+use crate::uim2503::ascii::{Batch, Instruction};
+use crate::uim2503::plan::{GatewayRun, Plan, RunMode, UnitPlan};
+use crate::uim2503::pvt::{ROW_MAX_MS, ROW_MIN_MS, Row, TABLE_ROWS};
+use crate::uim2503::{schedule, stream};
+
+/// Rows every unit's FIFO holds ahead while live.
+pub const LIVE_FIFO_ROWS: usize = 6;
+
+/// Live motion under way on the units.
+#[derive(Debug, Clone)]
+pub(super) struct LiveStream {
+    /// The units' rows: a table's round of rows per unit, the next at `next_row % 256`.
+    plan: Plan,
+    row_ms: u8,
+    next_row: usize,
+    /// Per run: the barrier answered.
+    confirmed: Vec<bool>,
+    started: bool,
+}
+
+impl Uim2503Drive {
+    /// The bytes of one live row for every unit on `gateway`, at their longest.
+    fn live_row_bytes(&self, gateway: usize) -> usize {
+        let installation = &self.config.installation;
+        let limits = installation.limits;
+        let longest = |mm: f64| installation.counts(mm).map_or(i32::MIN, |c| -c.abs());
+        let position = longest(limits.travel_mm).min(longest(0.0));
+        let velocity = longest(limits.max_speed_mm_s);
+        let mut batch = Batch::new();
+        let mut push = |instruction: Instruction| {
+            let _ = batch.push(&instruction, stream::FORM);
+        };
+        for unit in installation.units_on(gateway) {
+            push(Instruction::Select {
+                station: installation.units[unit].station,
+            });
+            push(Instruction::PvtPosition {
+                row: 255,
+                position_counts: Some(position),
+            });
+            push(Instruction::PvtVelocity {
+                row: 255,
+                velocity_counts_s: Some(velocity),
+            });
+        }
+        push(Instruction::Select { station: 0 });
+        push(Instruction::PvtTime {
+            row: 255,
+            duration_ms: Some(ROW_MAX_MS),
+        });
+        batch.len()
+    }
+
+    /// The row time the lines carry (the slowest gateway's), ms.
+    ///
+    /// # Errors
+    /// [`StartError::LiveLineTooSlow`] for a gateway that needs more than a row may
+    /// last.
+    pub(super) fn live_row_ms(&self) -> Result<u8, StartError> {
+        let installation = &self.config.installation;
+        let mut row_ms = u64::from(ROW_MIN_MS);
+        for (gateway, spec) in installation.gateways.iter().enumerate() {
+            let units = installation.units_on(gateway).count();
+            if units == 0 {
+                continue;
+            }
+            let line = crate::line::Line::new(spec.baud);
+            let bytes = self.live_row_bytes(gateway);
+            let needs_ms = (bytes as f64 * schedule::planned_byte_ms(line)).ceil() as u64;
+            if needs_ms > u64::from(ROW_MAX_MS) {
+                return Err(StartError::LiveLineTooSlow {
+                    gateway,
+                    units,
+                    row_ms: needs_ms,
+                    max_ms: u64::from(ROW_MAX_MS),
+                });
+            }
+            row_ms = row_ms.max(needs_ms);
+        }
+        Ok(u8::try_from(row_ms).unwrap_or(ROW_MAX_MS))
+    }
+
+    pub(super) fn live_setup_uim(&self) -> Result<LiveSetup, StartError> {
+        let row_ms = self.live_row_ms()?;
+        let installation = &self.config.installation;
+        let limits = installation.limits;
+        let row_us = u64::from(row_ms) * 1_000;
+        // Rows are whole counts: a position off by half a count at each end of a row
+        // (and a velocity by half a count/s) bends its cubic by up to 6/T² + 3/T
+        // counts/s² and 1.5/T counts/s. The filter keeps that much under the limits,
+        // so no row asks the unit for more than it has (the unit refuses a row over
+        // its limits).
+        let t_s = f64::from(row_ms) / 1000.0;
+        let per_mm = installation.counts_per_mm.abs().max(f64::MIN_POSITIVE);
+        let accel_margin = (6.0 / (t_s * t_s) + 6.0 / t_s) / per_mm;
+        let speed_margin = (3.0 / t_s + 1.0) / per_mm;
+        Ok(LiveSetup {
+            limits: FilterLimits {
+                travel_mm: limits.travel_mm,
+                max_speed_mm_s: (limits.max_speed_mm_s - speed_margin)
+                    .max(limits.max_speed_mm_s / 2.0),
+                max_accel_mm_s2: (limits.max_accel_mm_s2 - accel_margin)
+                    .max(limits.max_accel_mm_s2 / 2.0),
+                dt_ms: u32::from(row_ms),
+            },
+            approach_speed_mm_s: installation.approach_speed_mm_s,
+            layout: installation.layout(),
+            latency_us: (LIVE_FIFO_ROWS as u64 + 1) * row_us,
+            // The units take a row from their FIFO every row time, late caller or
+            // not: every row is written.
+            every_period: true,
+        })
+    }
+
+    /// Where the balls rest, mm, when every one is known and nothing moves.
+    pub(super) fn rest_mm(&self) -> Option<Vec<f64>> {
+        if !matches!(self.step, Step::Idle) || self.live.is_some() {
+            return None;
+        }
+        let per_mm = self.config.installation.counts_per_mm;
+        self.believed
+            .iter()
+            .map(|counts| counts.map(|counts| f64::from(counts) / per_mm))
+            .collect()
+    }
+
+    /// A ball's state as a row of `row_ms`.
+    fn live_row(&self, state: BallState, row_ms: u8) -> Row {
+        let installation = &self.config.installation;
+        Row {
+            position_counts: installation.counts(state.position_mm).unwrap_or(0),
+            velocity_counts_s: installation.counts(state.velocity_mm_s).unwrap_or(0),
+            duration_ms: row_ms,
+        }
+    }
+
+    /// Configures every unit for FIFO mode, preloads [`LIVE_FIFO_ROWS`] rows at rest
+    /// at `states` and arms them with the barrier.
+    pub(super) fn begin_live_stream(&mut self, states: &[BallState]) -> bool {
+        let Ok(row_ms) = self.live_row_ms() else {
+            return false;
+        };
+        let installation = &self.config.installation;
+        let units: Vec<UnitPlan> = installation
+            .units
+            .iter()
+            .enumerate()
+            .map(|(unit, address)| {
+                let state = states.get(unit).copied().unwrap_or_default();
+                let rest = self.live_row(BallState::at_rest(state.position_mm), row_ms);
+                UnitPlan {
+                    address: *address,
+                    start_counts: rest.position_counts,
+                    rows: vec![rest; TABLE_ROWS],
+                    row_start_ms: Vec::new(),
+                }
+            })
+            .collect();
+        let gateways: Vec<GatewayRun> = installation
+            .gateways
+            .iter()
+            .enumerate()
+            .filter_map(|(gateway, spec)| {
+                let members: Vec<usize> = installation.units_on(gateway).collect();
+                (!members.is_empty()).then(|| GatewayRun {
+                    gateway,
+                    mode: RunMode::Fifo,
+                    units: members,
+                    preload_rows: LIVE_FIFO_ROWS,
+                    line: crate::line::Line::new(spec.baud),
+                })
+            })
+            .collect();
+        let counts = |mm: f64| installation.counts(mm).unwrap_or(0);
+        let plan = Plan {
+            show: "live".into(),
+            duration_ms: 0,
+            units,
+            gateways,
+            approach_speed_counts_s: counts(installation.approach_speed_mm_s).max(1),
+            home_counts: counts(installation.home_mm),
+            stop_decel_counts_s2: u32::try_from(counts(installation.stop_decel_mm_s2).max(1))
+                .unwrap_or(1),
+        };
+        for run in &plan.gateways {
+            let Some(&first) = run.units.first() else {
+                continue;
+            };
+            let mut batch = stream::configure(&plan, run);
+            batch.extend(&stream::rows(&plan, run, 0, LIVE_FIFO_ROWS));
+            batch.extend(&stream::arm_and_confirm(plan.units[first].address.station));
+            self.commands.push(Command::Bulk {
+                gateway: run.gateway,
+                batch,
+            });
+        }
+        self.believed.iter_mut().for_each(|counts| *counts = None);
+        self.step = Step::Idle;
+        self.progress = 0.0;
+        self.live = Some(LiveStream {
+            confirmed: vec![false; plan.gateways.len()],
+            plan,
+            row_ms,
+            next_row: LIVE_FIFO_ROWS,
+            started: false,
+        });
+        true
+    }
+
+    /// The answer to a gateway's `PV;` barrier while live mode prepares: once every
+    /// gateway answered its water level, every gateway starts at one instant, and the
+    /// units' start is live motion's first slot.
+    pub(super) fn live_barrier_answered(
+        &mut self,
+        now_us: u64,
+        gateway: usize,
+        station: u8,
+        value: u16,
+    ) -> Phase {
+        let Some(live) = self.live.as_mut() else {
+            return Phase::Pending;
+        };
+        if live.started {
+            return Phase::Pending;
+        }
+        let Some(index) = live
+            .plan
+            .gateways
+            .iter()
+            .position(|run| run.gateway == gateway)
+        else {
+            return Phase::Pending;
+        };
+        let run = &live.plan.gateways[index];
+        let Some(&first) = run.units.first() else {
+            return Phase::Pending;
+        };
+        if live.plan.units[first].address.station != station {
+            return Phase::Pending;
+        }
+        if usize::from(value) != LIVE_FIFO_ROWS {
+            let who = self.describe_unit(first);
+            return Phase::Failed(format!(
+                "{who} answered PV with {value} while preparing live mode, expected {LIVE_FIFO_ROWS}; the matrix was stopped"
+            ));
+        }
+        live.confirmed[index] = true;
+        if !live.confirmed.iter().all(|&done| done) {
+            return Phase::Pending;
+        }
+        live.started = true;
+        let begin = stream::begin();
+        let at_us = now_us + START_LEAD_US;
+        let mut start_us = None;
+        for run in &live.plan.gateways {
+            start_us.get_or_insert(at_us + run.line.time_us(begin.len()));
+            self.commands.push(Command::Priority {
+                gateway: run.gateway,
+                batch: begin.clone(),
+                at_us,
+            });
+        }
+        self.progress = 1.0;
+        Phase::Done {
+            at_us: start_us.unwrap_or(at_us),
+        }
+    }
+
+    /// One period's rows: every unit's state at the period's end.
+    pub(super) fn live_rows(&mut self, states: &[BallState]) {
+        let Some(mut live) = self.live.take() else {
+            return;
+        };
+        if live.started {
+            let index = live.next_row % TABLE_ROWS;
+            for (unit, plan) in live.plan.units.iter_mut().enumerate() {
+                let state = states.get(unit).copied().unwrap_or_default();
+                plan.rows[index] = self.live_row(state, live.row_ms);
+            }
+            for run in &live.plan.gateways {
+                self.commands.push(Command::Bulk {
+                    gateway: run.gateway,
+                    batch: stream::rows(&live.plan, run, index, index + 1),
+                });
+            }
+            live.next_row += 1;
+        }
+        self.live = Some(live);
+    }
+
+    /// Live motion is over: the balls rest at `states`.
+    pub(super) fn end_live_stream(&mut self, states: &[BallState]) {
+        self.live = None;
+        let installation = &self.config.installation;
+        for (believed, state) in self.believed.iter_mut().zip(states) {
+            *believed = installation.counts(state.position_mm);
+        }
+        self.step = Step::Idle;
+    }
+}
