@@ -100,6 +100,11 @@ impl Drive for Recording {
         None
     }
 
+    fn interrupt(&mut self, _now_us: u64) -> bool {
+        self.log.push("interrupt".into());
+        true
+    }
+
     fn stop(&mut self) {
         self.log.push("stop".into());
         self.ends_us = None;
@@ -429,8 +434,21 @@ fn live_is_refused_while_a_show_plays_and_a_show_while_live() {
     assert!(!sequencer.is_live());
     sequencer.estop();
     let (mut live, now) = following(&[Some(10.0); BALLS]);
-    assert_eq!(live.start(now, vec![run], false), Err(StartError::Busy));
+    assert_eq!(
+        live.start(now, vec![run.clone()], false),
+        Err(StartError::Busy)
+    );
     assert_eq!(live.go_live(now), Err(StartError::Busy));
+    // Nor does a timecode locate end live mode (only the operator leaves it).
+    let at = StartAt {
+        entry: 0,
+        lead: None,
+    };
+    assert_eq!(
+        live.locate_at(now, Ok((vec![run.clone()], at)), false),
+        Err(StartError::Busy)
+    );
+    assert!(live.is_live() && !live.drive().log.iter().any(|line| line == "interrupt"));
     // A family without live output refuses, nothing moves.
     let mut refusing = Sequencer::new(Recording {
         unsupported: true,

@@ -742,7 +742,8 @@ impl<D: Drive> Sequencer<D> {
     ///
     /// # Errors
     /// Why the playlist cannot run, or [`StartError::Busy`] when the drive cannot
-    /// interrupt the run under way: then nothing changed (a show under way plays on).
+    /// interrupt the run under way or the matrix is live: then nothing changed (a show
+    /// under way plays on).
     pub fn locate_at(
         &mut self,
         now_us: u64,
@@ -756,7 +757,8 @@ impl<D: Drive> Sequencer<D> {
             return Err(refusal);
         }
         if self.is_running() {
-            if !self.drive.interrupt(now_us) {
+            // Live mode is left only by the operator (braking within the limits).
+            if self.is_live() || !self.drive.interrupt(now_us) {
                 return Err(StartError::Busy);
             }
             self.step = Step::Stopped;
