@@ -19,7 +19,8 @@
 //! 5. malformed datagrams (and noise) on both ports are counted by reason;
 //! 6. a new patch (`PUT /api/live/patch`) moves ball 3 to universe 7: its multicast
 //!    group is joined without a restart and ball 3 follows;
-//! 7. silence: the input is lost once `hold_after_ms` passed.
+//! 7. silence: the input is lost once `hold_after_ms` passed;
+//! 8. ArtTimeCode on the shared socket reaches the chase, not live input.
 //!
 //! `olad`, `ola_set_dmx`, `ola_streaming_client` and `ola_patch` are found on the
 //! `PATH`; without them this test's own Art-Net and sACN (unicast) senders stand in
@@ -30,18 +31,22 @@
 
 mod common;
 
+use std::io::Write;
 use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
 use std::process::{Child, Command, Stdio};
-use std::io::Write;
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use axum::http::{Method, StatusCode};
+use common::next_message;
 use common::process::Process;
 use floatball_bridge::live::LiveStatus;
+use floatball_shared::api::ServerMessage;
 use floatball_shared::live::artnet::{self, ArtPoll, PollReply, PortAddress};
 use floatball_shared::live::sacn::{self, DataPacket, Options};
+use floatball_shared::timecode::artnet as timecode_artnet;
+use floatball_shared::timecode::{FrameRate, Timecode};
 
 /// `[matrix] travel_mm`: position 65535 is this deep.
 const TRAVEL_MM: f64 = 2000.0;
@@ -425,12 +430,7 @@ fn follows(status: &LiveStatus, value: u16, step: u16) -> bool {
 
 /// A malformed count.
 fn malformed(status: &LiveStatus, reason: &str) -> u64 {
-    status
-        .counters
-        .malformed
-        .get(reason)
-        .copied()
-        .unwrap_or(0)
+    status.counters.malformed.get(reason).copied().unwrap_or(0)
 }
 
 /// Whether a multicast datagram sent the default way reaches a member on this host
@@ -568,7 +568,10 @@ async fn consoles_move_the_targets_over_art_net_and_sacn() {
     );
     // The stream terminated: sACN drops out, Art-Net has the universe again.
     if ola_sacn {
-        assert!(ola_run("ola_patch", &["-r", "-d", "2", "-p", "0", "-u", "1"]));
+        assert!(ola_run(
+            "ola_patch",
+            &["-r", "-d", "2", "-p", "0", "-u", "1"]
+        ));
         drop(stream);
     } else {
         drop(stream);
@@ -626,7 +629,11 @@ async fn consoles_move_the_targets_over_art_net_and_sacn() {
     let mut ours: Vec<PollReply> = Vec::new();
     let deadline = Instant::now() + Duration::from_secs(5);
     while ours.is_empty() {
-        assert!(Instant::now() < deadline, "no ArtPollReply\n{}", bridge.log());
+        assert!(
+            Instant::now() < deadline,
+            "no ArtPollReply\n{}",
+            bridge.log()
+        );
         poller
             .send_to(&poll, ("127.255.255.255", artnet::PORT))
             .expect("poll sent");
@@ -651,7 +658,10 @@ async fn consoles_move_the_targets_over_art_net_and_sacn() {
 
     // 5. Malformed datagrams and noise, on both ports.
     let before = status_until(&bridge, &token, "counters", |_| true).await;
-    wire.raw(artnet::PORT, &artnet::encode_dmx(0, PortAddress::of_universe(1).expect("1"), &[1, 2])[..16]);
+    wire.raw(
+        artnet::PORT,
+        &artnet::encode_dmx(0, PortAddress::of_universe(1).expect("1"), &[1, 2])[..16],
+    );
     wire.raw(sacn::PORT, b"ASC-E1.17 is not how it starts");
     let mut noise = 0x2545_f491_4f6c_dd1du64;
     for length in 0..200usize {
@@ -703,7 +713,10 @@ async fn consoles_move_the_targets_over_art_net_and_sacn() {
         .await;
     assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
     status_until(&bridge, &token, "universe 7 patched", |status| {
-        status.universes.iter().any(|universe| universe.universe == 7)
+        status
+            .universes
+            .iter()
+            .any(|universe| universe.universe == 7)
     })
     .await;
     if ola_sacn {
@@ -728,6 +741,37 @@ async fn consoles_move_the_targets_over_art_net_and_sacn() {
     );
     assert!(status.targets.iter().all(Option::is_none), "{status:?}");
     assert!(status.universes.iter().all(|universe| !universe.live));
+
+    // 8. The timecode chase reads the same socket: ArtTimeCode reaches it, and is not
+    // live input's.
+    let before = status_until(&bridge, &token, "counters", |_| true).await;
+    let mut ws = bridge.ws(&token).await;
+    let sent = Instant::now();
+    let mut ms = 10 * 3_600_000;
+    let chased = loop {
+        assert!(
+            sent.elapsed() < Duration::from_secs(5),
+            "the chase saw no timecode\n{}",
+            bridge.log()
+        );
+        ms += 40;
+        wire.raw(
+            artnet::PORT,
+            &timecode_artnet::encode(Timecode::from_ms(ms, FrameRate::Ebu25)),
+        );
+        let message = tokio::time::timeout(Duration::from_millis(40), next_message(&mut ws)).await;
+        if let Ok(ServerMessage::Timecode(chase)) = message
+            && chase.timecode.is_some()
+        {
+            break chase;
+        }
+    };
+    let after = status_until(&bridge, &token, "counters", |_| true).await;
+    assert_eq!(
+        after.counters.artnet_packets, before.counters.artnet_packets,
+        "{after:?}"
+    );
+    println!("the chase reads the shared socket: {:?}", chased.timecode);
 
     drop(olad);
     println!("live input checked in {:?}", started.elapsed());

@@ -629,7 +629,11 @@ impl Live {
     /// Counts a malformed datagram (logged at debug level).
     fn malformed(&mut self, reason: &str, datagram: &Datagram, error: &dyn std::fmt::Display) {
         tracing::debug!("live input from {}: {error}", datagram.from);
-        *self.counters.malformed.entry(reason.to_owned()).or_default() += 1;
+        *self
+            .counters
+            .malformed
+            .entry(reason.to_owned())
+            .or_default() += 1;
     }
 
     /// What the merge did with a DMX packet.
@@ -792,7 +796,8 @@ impl Live {
                 };
                 for &ball in self.balls_of.get(universe).into_iter().flatten() {
                     if let Some(target) = targets.get_mut(ball) {
-                        *target = slots.and_then(|slots| self.patch.target(ball, slots, self.scale));
+                        *target =
+                            slots.and_then(|slots| self.patch.target(ball, slots, self.scale));
                     }
                 }
             }
@@ -1013,5 +1018,180 @@ pub fn status(input: &LiveInput, now: Instant, from: usize, count: usize) -> Liv
                 })
             })
             .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use floatball_shared::live::artnet::PortAddress;
+    use floatball_shared::live::sacn::{DataPacket, Options};
+
+    use super::*;
+    use crate::config::Overrides;
+
+    /// 1 × 4 balls, travel 2000 mm, balls 0–2 on universe 1, ball 3 on universe 2.
+    fn config(ball_3_universe: u16) -> Config {
+        let text = format!(
+            "[matrix]\nrows = 1\ncols = 4\ntravel_mm = 2000.0\n\
+             [[gateway]]\nport = \"sim\"\n\
+             [live]\nenabled = true\nhold_after_ms = 500\n\
+             [[live.ball]]\nball = 3\nuniverse = {ball_3_universe}\naddress = 1\n"
+        );
+        Config::parse(
+            Path::new("data/floatball.toml"),
+            &text,
+            &Overrides::default(),
+        )
+        .unwrap()
+    }
+
+    fn artnet(live: &mut Live, universe: u16, data: &[u8], at: Instant) {
+        live.take(&Datagram {
+            protocol: Protocol::Artnet,
+            bytes: artnet::encode_dmx(0, PortAddress::of_universe(universe).unwrap(), data),
+            from: "10.0.0.5:6454".parse().unwrap(),
+            at,
+        });
+    }
+
+    fn sacn(live: &mut Live, universe: u16, sequence: u8, data: &[u8], at: Instant) {
+        live.take(&Datagram {
+            protocol: Protocol::Sacn,
+            bytes: sacn::encode_data(&DataPacket {
+                cid: [7; 16],
+                source_name: b"desk",
+                priority: 150,
+                sync_address: 0,
+                sequence,
+                options: Options::default(),
+                universe,
+                start_code: 0,
+                data,
+            }),
+            from: "10.0.0.6:5568".parse().unwrap(),
+            at,
+        });
+    }
+
+    fn position(input: &LiveInput, ball: usize) -> Option<f64> {
+        input.targets[ball].map(|target| target.position_mm)
+    }
+
+    #[tokio::test]
+    async fn merges_patches_and_loses_input() {
+        let start = Instant::now();
+        let mut live = Live::new(&config(2), None, None, start);
+        assert!(live.snapshot(start).lost);
+        let at = start + Duration::from_millis(10);
+        artnet(&mut live, 1, &[0x80, 0, 0xff, 0xff, 0, 0], at);
+        assert!(live.due(at));
+        let input = live.snapshot(at);
+        assert!(!input.lost);
+        assert_eq!(position(&input, 0), Some(0x8000 as f64 / 65535.0 * 2000.0));
+        assert_eq!(position(&input, 1), Some(2000.0));
+        assert_eq!(position(&input, 2), Some(0.0));
+        assert_eq!(position(&input, 3), None, "universe 2 has no source");
+        assert!(!live.due(at), "nothing changed");
+        // sACN at 150 wins; out of sequence is dropped and counted.
+        sacn(&mut live, 1, 10, &[0x10, 0], at);
+        sacn(&mut live, 1, 5, &[0x20, 0], at);
+        let input = live.snapshot(at);
+        assert_eq!(position(&input, 0), Some(0x1000 as f64 / 65535.0 * 2000.0));
+        assert_eq!(
+            position(&input, 1),
+            None,
+            "sACN's slots do not reach ball 1"
+        );
+        assert_eq!(input.counters.out_of_sequence, 1);
+        assert_eq!(
+            input.sources.iter().filter(|source| source.winning).count(),
+            1
+        );
+        // Silence for longer than hold_after_ms: lost, no targets.
+        let later = at + Duration::from_millis(501);
+        assert!(live.due(later));
+        let input = live.snapshot(later);
+        assert!(input.lost);
+        assert!(input.targets.iter().all(Option::is_none));
+        assert!(!live.due(later));
+    }
+
+    #[tokio::test]
+    async fn a_new_patch_takes_new_universes() {
+        let start = Instant::now();
+        let mut live = Live::new(&config(2), None, None, start);
+        artnet(&mut live, 9, &[1, 2], start);
+        assert_eq!(live.counters.not_patched, 1);
+        live.reconfigure(&config(9));
+        artnet(&mut live, 9, &[0xff, 0xff], start);
+        let input = live.snapshot(start);
+        assert_eq!(position(&input, 3), Some(2000.0));
+        assert_eq!(
+            input
+                .universes
+                .iter()
+                .map(|one| one.universe)
+                .collect::<Vec<_>>(),
+            [1, 9]
+        );
+    }
+
+    #[tokio::test]
+    async fn every_datagram_is_counted_and_none_is_fatal() {
+        let start = Instant::now();
+        let mut live = Live::new(&config(2), None, None, start);
+        let mut noise = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            noise ^= noise << 13;
+            noise ^= noise >> 7;
+            noise ^= noise << 17;
+            noise
+        };
+        let valid_dmx = artnet::encode_dmx(0, PortAddress::of_universe(1).unwrap(), &[1; 8]);
+        let valid_sacn = sacn::encode_data(&DataPacket {
+            cid: [1; 16],
+            source_name: b"x",
+            priority: 100,
+            sync_address: 0,
+            sequence: 1,
+            options: Options::default(),
+            universe: 1,
+            start_code: 0,
+            data: &[1; 8],
+        });
+        for round in 0..20_000usize {
+            let protocol = if round % 2 == 0 {
+                Protocol::Artnet
+            } else {
+                Protocol::Sacn
+            };
+            // Valid packets with a few bytes changed, or noise.
+            let mut bytes = match (round % 3, protocol) {
+                (0, _) => (0..(next() % 700) as usize).map(|_| next() as u8).collect(),
+                (_, Protocol::Artnet) => valid_dmx.clone(),
+                (_, Protocol::Sacn) => valid_sacn.clone(),
+            };
+            for _ in 0..(next() % 4) {
+                if !bytes.is_empty() {
+                    let at = (next() as usize) % bytes.len();
+                    bytes[at] = next() as u8;
+                }
+            }
+            bytes.truncate(bytes.len() - (next() as usize % 3).min(bytes.len()));
+            live.take(&Datagram {
+                protocol,
+                bytes,
+                from: "10.0.0.9:1234".parse().unwrap(),
+                at: start,
+            });
+        }
+        let input = live.snapshot(start);
+        let counters = &input.counters;
+        assert_eq!(counters.artnet_packets + counters.sacn_packets, 20_000);
+        let malformed: u64 = counters.malformed.values().sum();
+        assert!(malformed > 1_000, "{counters:?}");
+        assert!(counters.accepted > 0, "{counters:?}");
     }
 }

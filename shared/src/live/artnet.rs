@@ -436,7 +436,10 @@ impl PollReply {
             return None;
         }
         let text = |field: &[u8]| {
-            let end = field.iter().position(|&byte| byte == 0).unwrap_or(field.len());
+            let end = field
+                .iter()
+                .position(|&byte| byte == 0)
+                .unwrap_or(field.len());
             String::from_utf8_lossy(&field[..end]).into_owned()
         };
         let ports = usize::from(u16::from_be_bytes([datagram[172], datagram[173]])).min(4);
