@@ -486,7 +486,7 @@ async fn consoles_move_the_targets_over_art_net_and_sacn() {
     let bridge = Process::start(&config);
     let token = bridge.operator().await;
     let console = Console { ola };
-    let mut wire = Wire::new();
+    let wire = Wire::new();
 
     let status = status_until(&bridge, &token, "running", |status| status.running).await;
     assert!(status.lost, "{status:?}");
