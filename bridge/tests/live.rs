@@ -20,7 +20,9 @@
 //! 6. a new patch (`PUT /api/live/patch`) moves ball 3 to universe 7: its multicast
 //!    group is joined without a restart and ball 3 follows;
 //! 7. silence: the input is lost once `hold_after_ms` passed;
-//! 8. ArtTimeCode on the shared socket reaches the chase, not live input.
+//! 8. ArtTimeCode on the shared socket reaches the chase, not live input;
+//! 9. where the kernel loops multicast back on `lo`, a second bridge joining on
+//!    `sacn_interface = "127.0.0.1"` takes this test's own multicast sACN.
 //!
 //! `olad`, `ola_set_dmx`, `ola_streaming_client` and `ola_patch` are found on the
 //! `PATH`; without them this test's own Art-Net and sACN (unicast) senders stand in
@@ -460,6 +462,45 @@ fn multicast_works() -> bool {
     member.recv_from(&mut buffer).is_ok()
 }
 
+/// A socket sending multicast out of the loopback interface.
+fn loopback_multicast_sender() -> UdpSocket {
+    use socket2::{Domain, Protocol, Socket, Type};
+    let socket = Socket::new(Domain::IPV4, Type::DGRAM, Some(Protocol::UDP)).expect("socket");
+    socket
+        .set_multicast_if_v4(&Ipv4Addr::LOCALHOST)
+        .expect("multicast out of lo");
+    socket.set_multicast_loop_v4(true).expect("loop");
+    let address: SocketAddr = ([127, 0, 0, 1], 0).into();
+    socket.bind(&address.into()).expect("bind");
+    UdpSocket::from(socket)
+}
+
+/// Whether multicast sent out of the loopback reaches a member joined on it.
+fn loopback_multicast_works() -> bool {
+    let group = Ipv4Addr::new(239, 255, 77, 78);
+    let Ok(member) = UdpSocket::bind("0.0.0.0:0") else {
+        return false;
+    };
+    let Ok(port) = member.local_addr().map(|address| address.port()) else {
+        return false;
+    };
+    if member
+        .join_multicast_v4(&group, &Ipv4Addr::LOCALHOST)
+        .is_err()
+    {
+        return false;
+    }
+    let _ = member.set_read_timeout(Some(Duration::from_millis(500)));
+    if loopback_multicast_sender()
+        .send_to(b"probe", (group, port))
+        .is_err()
+    {
+        return false;
+    }
+    let mut buffer = [0u8; 16];
+    member.recv_from(&mut buffer).is_ok()
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn consoles_move_the_targets_over_art_net_and_sacn() {
     let started = Instant::now();
@@ -772,6 +813,50 @@ async fn consoles_move_the_targets_over_art_net_and_sacn() {
         "{after:?}"
     );
     println!("the chase reads the shared socket: {:?}", chased.timecode);
+
+    drop(ws);
+    drop(bridge);
+
+    // 9. Multicast on the loopback (where the kernel allows it): a bridge joining on
+    // sacn_interface = 127.0.0.1 takes this test's own multicast sACN.
+    if loopback_multicast_works() {
+        let bridge = Process::start(&format!(
+            "[matrix]\nrows = 1\ncols = 4\ntravel_mm = {TRAVEL_MM:.1}\n\
+             [[gateway]]\nport = \"sim\"\nbaud = 115200\n\
+             [live]\nenabled = true\nartnet = false\nsacn_interface = \"127.0.0.1\"\n"
+        ));
+        let token = bridge.token().await;
+        let sender = loopback_multicast_sender();
+        let group = SocketAddr::from((sacn::multicast_address(1), sacn::PORT));
+        let deadline = Instant::now() + Duration::from_secs(5);
+        for sequence in 0u8.. {
+            let packet = sacn::encode_data(&DataPacket {
+                cid: CID,
+                source_name: b"floatball test multicast",
+                priority: 100,
+                sync_address: 0,
+                sequence,
+                options: Options::default(),
+                universe: 1,
+                start_code: 0,
+                data: &slots(0x5000, 0x100),
+            });
+            sender.send_to(&packet, group).expect("multicast sent");
+            let status = status_until(&bridge, &token, "counters", |_| true).await;
+            if follows(&status, 0x5000, 0x100) {
+                println!("multicast on the loopback: {:?}", status.sources);
+                break;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "multicast on lo not taken: {status:?}\n{}",
+                bridge.log()
+            );
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    } else {
+        eprintln!("SKIPPED multicast on the loopback: this kernel does not loop it back");
+    }
 
     drop(olad);
     println!("live input checked in {:?}", started.elapsed());
