@@ -307,10 +307,29 @@ async fn serve(
     let timecode = match config.timecode.clone() {
         Some(timecode) => {
             let socket = crate::timecode::bind(&timecode)
-                .with_context(|| format!("cannot receive {}", timecode.source))?;
+                .with_context(|| format!("cannot receive {}", timecode.source))?
+                .map(Arc::new);
             Some((socket, timecode))
         }
         None => None,
+    };
+    let live = if config.live.enabled {
+        let shared = match &timecode {
+            Some((
+                Some(socket),
+                crate::config::TimecodeConfig {
+                    source: crate::config::TimecodeSource::ArtNet(listen),
+                    ..
+                },
+            )) => Some((socket, *listen)),
+            _ => None,
+        };
+        Some(
+            crate::live::bind(&config.live, shared)
+                .context("cannot receive live input (Art-Net, sACN)")?,
+        )
+    } else {
+        None
     };
     let state = AppState::open_with(
         config,
@@ -341,13 +360,37 @@ async fn serve(
         );
         crate::osc::spawn(state.clone(), socket, osc);
     }
+    let live_feed = match live {
+        Some(bound) => {
+            let live = &state.config().live;
+            tracing::info!(
+                "live input: {}{}{}",
+                if live.artnet {
+                    format!("Art-Net on udp {}", live.artnet_listen)
+                } else {
+                    String::new()
+                },
+                if live.artnet && live.sacn { ", " } else { "" },
+                if live.sacn {
+                    format!(
+                        "sACN on udp {} (multicast on {})",
+                        live.sacn_listen, live.sacn_interface
+                    )
+                } else {
+                    String::new()
+                }
+            );
+            crate::live::spawn(state.clone(), bound)
+        }
+        None => None,
+    };
     if let Some((socket, timecode)) = timecode {
         tracing::info!(
             "timecode chase: {} at {} fps",
             timecode.source,
             timecode.rate
         );
-        crate::timecode::spawn(state.clone(), timecode, socket);
+        crate::timecode::spawn(state.clone(), timecode, socket, live_feed);
     }
     // The first line on stdout is the URL: people read it, and tests parse it.
     println!("floatball listening on http://{addr}");

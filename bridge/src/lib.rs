@@ -63,6 +63,10 @@
 //! - [`timecode`]: timecode chase (`[timecode]`, off by default): Art-Net or MIDI
 //!   timecode in, the playlist started and located in step through
 //!   [`control::issue_unless_latched`].
+//! - [`live`]: live input's receivers (`[live] enabled`): Art-Net (one socket with
+//!   the timecode chase's) and sACN in, merged and patched into each ball's target,
+//!   published as a [`live::LiveInput`] snapshot for the live mode; counters and
+//!   `GET /api/live/status`.
 //! - [`install`]: a new installation (`PUT /api/installation`, a gateway's line
 //!   speed) checked, saved into `floatball.toml` (`config/edit.rs`) and applied while
 //!   idle, without a restart.
@@ -92,6 +96,7 @@ pub mod gateways;
 pub mod generate;
 pub mod http;
 pub mod install;
+pub mod live;
 pub mod origin;
 pub mod osc;
 pub mod playback;

@@ -114,6 +114,8 @@ struct Inner {
     schedules: crate::schedule::Schedules,
     /// The timecode chase's status (`crate::timecode`); `None` while it is off.
     timecode: watch::Sender<Option<floatball_shared::timecode::chase::TimecodeStatus>>,
+    /// The live input as received (`crate::live`; its one writer is the live task).
+    live: watch::Sender<Arc<crate::live::LiveInput>>,
 }
 
 /// Opens the MBOX boxes' socket, starting a simulated box on loopback for each
@@ -314,6 +316,7 @@ impl AppState {
                 stopping: watch::channel(false).0,
                 schedules,
                 timecode: watch::Sender::new(None),
+                live: watch::Sender::new(Arc::new(crate::live::LiveInput::default())),
             }),
         })
     }
@@ -479,6 +482,27 @@ impl AppState {
             }
             changed
         });
+    }
+
+    /// A receiver that sees every change of the configuration (it is replaced whole).
+    pub fn subscribe_config(&self) -> watch::Receiver<Arc<Config>> {
+        self.inner.config.subscribe()
+    }
+
+    /// A receiver of the live input as received ([`crate::live::LiveInput`], a new
+    /// snapshot whenever input changes or is lost; the live mode reads it each step).
+    pub fn subscribe_live(&self) -> watch::Receiver<Arc<crate::live::LiveInput>> {
+        self.inner.live.subscribe()
+    }
+
+    /// The live input now.
+    pub fn live_input(&self) -> Arc<crate::live::LiveInput> {
+        Arc::clone(&self.inner.live.borrow())
+    }
+
+    /// Publishes the live input (its one writer: the live task, `crate::live`).
+    pub fn publish_live(&self, input: Arc<crate::live::LiveInput>) {
+        self.inner.live.send_replace(input);
     }
 
     /// A receiver that sees every status change (the playback task owns the status).

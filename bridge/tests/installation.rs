@@ -308,6 +308,17 @@ async fn the_patch_is_checked_saved_with_the_comments_and_read_back(bridge: &Pro
         put_patch(bridge, None, &live.patch).await.status,
         StatusCode::UNAUTHORIZED
     );
+    // Live input off: its status says so, and needs a login too.
+    let reply = bridge
+        .request(Method::GET, "/api/live/status", None, None)
+        .await;
+    assert_eq!(reply.status, StatusCode::UNAUTHORIZED);
+    let reply = bridge
+        .request(Method::GET, "/api/live/status", Some(token), None)
+        .await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    let status: floatball_bridge::live::LiveStatus = reply.json();
+    assert!(!status.running && status.targets.is_empty(), "{status:?}");
 
     // Three balls for two, the third on the second's slots, a 12-bit speed limit.
     let mut wrong = Patch::matrix(3, Profile::default(), 1, 1).expect("matrix");

@@ -28,6 +28,8 @@ const NATIVE: side_by_side::Plan = side_by_side::Plan {
         "link_sim",
         // Chases timecode in step (and runs olad on Art-Net's and OLA's fixed ports).
         "timecode",
+        // Live input from olad's Art-Net and sACN (fixed ports 6454 and 5568).
+        "live",
         // The bridge's unit tests: the SCL line's e-stop within 20 ms of the press.
         "floatball_bridge",
     ],
@@ -47,6 +49,7 @@ const NATIVE: side_by_side::Plan = side_by_side::Plan {
         ("scl_golden", 5),
         ("simulate", 5),
         ("link_sim", 4),
+        ("live", 4),
     ],
     doc_tests: true,
 };

@@ -417,12 +417,20 @@ pub fn ensure_liblo_tools(env: &Env) -> Result<(), String> {
 }
 
 /// The programs of Debian's `ola` (the Open Lighting Architecture: `olad` with its
-/// Art-Net plugin, `ola_timecode`) that `bridge/tests/timecode.rs` sends Art-Net
-/// timecode to the bridge with.
-pub const OLA_TOOLS: [&str; 2] = ["/usr/bin/olad", "/usr/bin/ola_timecode"];
+/// Art-Net and E1.31 plugins, `ola_timecode`, `ola_set_dmx`, `ola_streaming_client`,
+/// `ola_patch`) that `bridge/tests/timecode.rs` sends Art-Net timecode to the bridge
+/// with, and `bridge/tests/live.rs` Art-Net and sACN.
+pub const OLA_TOOLS: [&str; 5] = [
+    "/usr/bin/olad",
+    "/usr/bin/ola_timecode",
+    "/usr/bin/ola_set_dmx",
+    "/usr/bin/ola_streaming_client",
+    "/usr/bin/ola_patch",
+];
 
-/// The variable that makes a missing `ola` fail `bridge/tests/timecode.rs` instead of
-/// skipping its real sender (`cargo xtask test` sets it, having installed it).
+/// The variable that makes a missing `ola` fail `bridge/tests/timecode.rs` and
+/// `bridge/tests/live.rs` instead of skipping their real senders (`cargo xtask test`
+/// sets it, having installed it).
 pub const REQUIRE_OLA: &str = "FLOATBALL_REQUIRE_OLA";
 
 /// Installs Debian's `ola` when `olad` or `ola_timecode` is missing (as root;
@@ -434,7 +442,7 @@ pub fn ensure_ola(env: &Env) -> Result<(), String> {
     apt_install(
         env,
         &["ola"],
-        "ola (the bridge's timecode chase is tested with a real Art-Net timecode sender, olad and ola_timecode)",
+        "ola (the bridge's timecode chase and live input are tested with real Art-Net and sACN senders: olad and its clients)",
     )
 }
 

@@ -15,6 +15,8 @@
 //! `[[live.ball]]` per ball that differs from it — a patch of 10,000 balls made in
 //! one tap stays two lines.
 
+use std::net::{Ipv4Addr, SocketAddr};
+
 use floatball_shared::live::patch::{MAX_UNIVERSE, Patch, PatchEntry, PatchProblem, Profile};
 use toml::Spanned;
 use toml_edit::{ArrayOfTables, DocumentMut, InlineTable, Item, Table, Value};
@@ -26,6 +28,14 @@ use super::raw::{RawLive, RawProfile};
 
 /// `hold_after_ms` unless configured.
 pub const DEFAULT_HOLD_AFTER_MS: u32 = 1000;
+
+/// `artnet_listen` unless configured.
+pub const DEFAULT_ARTNET_LISTEN: SocketAddr =
+    SocketAddr::new(std::net::IpAddr::V4(Ipv4Addr::UNSPECIFIED), 6454);
+
+/// `sacn_listen` unless configured.
+pub const DEFAULT_SACN_LISTEN: SocketAddr =
+    SocketAddr::new(std::net::IpAddr::V4(Ipv4Addr::UNSPECIFIED), 5568);
 
 /// The shortest and longest `hold_after_ms` accepted.
 pub const HOLD_AFTER_RANGE_MS: std::ops::RangeInclusive<u32> = 100..=60_000;
@@ -39,6 +49,14 @@ pub struct LiveConfig {
     pub artnet: bool,
     /// sACN (E1.31) received (default: yes).
     pub sacn: bool,
+    /// Where Art-Net is received (`artnet_listen`, default `0.0.0.0:6454`); one socket
+    /// with the timecode chase's when `[timecode] listen` is the same.
+    pub artnet_listen: SocketAddr,
+    /// Where sACN is received (`sacn_listen`, default `0.0.0.0:5568`).
+    pub sacn_listen: SocketAddr,
+    /// The interface (its IPv4 address) the sACN multicast groups are joined on
+    /// (`sacn_interface`, default `0.0.0.0`: the one the system routes multicast to).
+    pub sacn_interface: Ipv4Addr,
     /// Input lost this long → the balls hold.
     pub hold_after_ms: u32,
     /// Every ball's channels.
@@ -141,8 +159,49 @@ impl Checker<'_> {
             })
     }
 
+    /// An address and UDP port as written (`artnet_listen`, `sacn_listen`).
+    fn live_listen(
+        &self,
+        value: Option<&Spanned<String>>,
+        key: &str,
+        default: SocketAddr,
+    ) -> Result<SocketAddr, ConfigError> {
+        let Some(value) = value else {
+            return Ok(default);
+        };
+        value.get_ref().trim().parse().map_err(|_| {
+            self.at(
+                &value.span(),
+                format!(
+                    "[live] {key} = {:?} is not an address and UDP port such as \"{default}\"",
+                    value.get_ref()
+                ),
+            )
+        })
+    }
+
     /// `[live]` for an installation of `balls` balls.
     pub(super) fn live(&self, raw: &RawLive, balls: usize) -> Result<LiveConfig, ConfigError> {
+        let artnet_listen = self.live_listen(
+            raw.artnet_listen.as_ref(),
+            "artnet_listen",
+            DEFAULT_ARTNET_LISTEN,
+        )?;
+        let sacn_listen =
+            self.live_listen(raw.sacn_listen.as_ref(), "sacn_listen", DEFAULT_SACN_LISTEN)?;
+        let sacn_interface = match &raw.sacn_interface {
+            Some(interface) => interface.get_ref().trim().parse().map_err(|_| {
+                self.at(
+                    &interface.span(),
+                    format!(
+                        "[live] sacn_interface = {:?} is not an IPv4 address such as \
+                         \"192.168.1.10\" (the interface's) or \"0.0.0.0\"",
+                        interface.get_ref()
+                    ),
+                )
+            })?,
+            None => Ipv4Addr::UNSPECIFIED,
+        };
         let hold_after_ms = match &raw.hold_after_ms {
             Some(hold) if !HOLD_AFTER_RANGE_MS.contains(hold.get_ref()) => {
                 return Err(self.at(
@@ -270,6 +329,9 @@ impl Checker<'_> {
             enabled: raw.enabled.as_ref().is_some_and(|on| *on.get_ref()),
             artnet: raw.artnet.as_ref().is_none_or(|on| *on.get_ref()),
             sacn: raw.sacn.as_ref().is_none_or(|on| *on.get_ref()),
+            artnet_listen,
+            sacn_listen,
+            sacn_interface,
             hold_after_ms,
             patch,
             matrix_start: start,

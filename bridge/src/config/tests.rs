@@ -1032,3 +1032,31 @@ fn timecode_is_off_unless_a_source_is_given_and_checked() {
         assert!(message.contains(says), "{wrong}: {message}");
     }
 }
+
+#[test]
+fn live_receives_on_the_art_net_and_sacn_ports_unless_told() {
+    let config = parse("").expect("empty");
+    assert_eq!(config.live.artnet_listen, live::DEFAULT_ARTNET_LISTEN);
+    assert_eq!(config.live.artnet_listen.to_string(), "0.0.0.0:6454");
+    assert_eq!(config.live.sacn_listen.to_string(), "0.0.0.0:5568");
+    assert!(config.live.sacn_interface.is_unspecified());
+    let config = parse(
+        "[live]\nartnet_listen = \"10.0.0.2:6454\"\nsacn_listen = \"10.0.0.2:5568\"\n\
+         sacn_interface = \"10.0.0.2\"\n",
+    )
+    .expect("addresses");
+    assert_eq!(config.live.artnet_listen.to_string(), "10.0.0.2:6454");
+    assert_eq!(config.live.sacn_listen.to_string(), "10.0.0.2:5568");
+    assert_eq!(config.live.sacn_interface.to_string(), "10.0.0.2");
+    for (wrong, says) in [
+        ("artnet_listen = \"6454\"\n", "line 2"),
+        ("sacn_listen = \"somewhere\"\n", "line 2"),
+        ("sacn_interface = \"eth0\"\n", "line 2"),
+        ("enabled = true\nsacn_interface = \"::1\"\n", "line 3"),
+    ] {
+        let message = parse(&format!("[live]\n{wrong}"))
+            .expect_err(wrong)
+            .to_string();
+        assert!(message.contains(says), "{wrong}: {message}");
+    }
+}

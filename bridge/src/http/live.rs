@@ -13,11 +13,16 @@
 //!    `installation_invalid` should anything else in it be wrong), saved atomically
 //!    ([`crate::durable::write_atomic`]) and made the configuration every reader gets.
 //!
-//! Nothing reads the patch yet but this API: the receivers and live mode come later.
+//! The live input's receivers ([`crate::live`]) take the new patch from the
+//! configuration at once (new universes merged, their multicast groups joined).
+//!
+//! `GET /api/live/status`: what the receivers see ([`crate::live::LiveStatus`]):
+//! counters, sources, universes, whether input is lost, and the targets of the balls
+//! `from`… (`count`, 100 unless given, at most [`crate::live::MAX_STATUS_TARGETS`]).
 
 use axum::Json;
 use axum::body::Bytes;
-use axum::extract::State;
+use axum::extract::{Query, State};
 use axum::http::StatusCode;
 use floatball_shared::api::{LivePatch, Problem};
 use floatball_shared::codes::{Code, Coded};
@@ -47,6 +52,32 @@ pub fn live_patch(config: &Config) -> LivePatch {
         universes: live.patch.universes(),
         patch: live.patch.clone(),
     }
+}
+
+/// `GET /api/live/status`'s query: `?from=0&count=100`.
+#[derive(Debug, Clone, Copy, Default, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StatusQuery {
+    /// The first ball whose target is given.
+    #[serde(default)]
+    pub from: usize,
+    /// How many balls' targets (100 unless given).
+    pub count: Option<usize>,
+}
+
+/// `GET /api/live/status` (see the module).
+pub async fn get_status(
+    State(state): State<AppState>,
+    _session: Session,
+    Query(query): Query<StatusQuery>,
+) -> Json<crate::live::LiveStatus> {
+    let input = state.live_input();
+    Json(crate::live::status(
+        &input,
+        tokio::time::Instant::now(),
+        query.from,
+        query.count.unwrap_or(100),
+    ))
 }
 
 /// `GET /api/live/patch`.

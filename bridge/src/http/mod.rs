@@ -90,6 +90,7 @@ pub fn router(state: &AppState) -> Router<AppState> {
                 .put(live::put_patch)
                 .layer(DefaultBodyLimit::max(live::MAX_PATCH_BYTES)),
         )
+        .route("/live/status", get(live::get_status))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(map_response(json_errors))

@@ -25,6 +25,7 @@
 
 pub mod receive;
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use floatball_shared::api::{PlayerState, StartFrom, Status};
@@ -64,12 +65,19 @@ pub fn bind(config: &TimecodeConfig) -> std::io::Result<Option<UdpSocket>> {
 }
 
 /// Runs the chase for `state` as `config` says, its Art-Net `socket` bound already
-/// ([`bind`]); ends when the bridge stops. Must run inside the async runtime.
-pub fn spawn(state: AppState, config: TimecodeConfig, socket: Option<UdpSocket>) {
+/// ([`bind`]), what is not timecode on it handed to `live` (live input sharing the
+/// socket, [`crate::live`]); ends when the bridge stops. Must run inside the async
+/// runtime.
+pub fn spawn(
+    state: AppState,
+    config: TimecodeConfig,
+    socket: Option<Arc<UdpSocket>>,
+    live: Option<crate::live::Feed>,
+) {
     let (samples, received) = mpsc::channel(SAMPLES_QUEUED);
     match (&config.source, socket) {
         (TimecodeSource::ArtNet(_), Some(socket)) => {
-            tokio::spawn(receive::artnet(socket, samples, state.stopping()));
+            tokio::spawn(receive::artnet(socket, samples, live, state.stopping()));
         }
         (TimecodeSource::Mtc(device), _) => receive::spawn_mtc(device.clone(), samples),
         (TimecodeSource::ArtNet(listen), None) => {

@@ -6,12 +6,14 @@
 //! The Art-Net socket is bound with `SO_REUSEADDR`, so that other Art-Net software on
 //! the same host (a lighting desk, `olad`) may listen on port 6454 too — broadcast
 //! timecode reaches every socket. It reads every Art-Net packet and dispatches on the
-//! OpCode ([`artnet::decode`]): OpTimeCode to the chase; the others (OpDmx, OpPoll…)
-//! are where a later Art-Net input would take them from the same socket.
+//! OpCode ([`artnet::decode`]): OpTimeCode to the chase; everything else (OpDmx,
+//! OpPoll…, and what is not Art-Net at all) to live input ([`crate::live`]) when it
+//! takes Art-Net on the same address — one socket, one reader.
 
 use std::io::Read;
 use std::net::SocketAddr;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Duration;
 
 use floatball_shared::timecode::Timecode;
@@ -49,10 +51,12 @@ pub fn bind_artnet(listen: SocketAddr) -> std::io::Result<UdpSocket> {
     UdpSocket::from_std(socket.into())
 }
 
-/// Reads Art-Net from `socket` until the bridge stops.
+/// Reads Art-Net from `socket` until the bridge stops: timecode to `samples`, every
+/// other datagram to `live` (live input sharing the socket), if given.
 pub async fn artnet(
-    socket: UdpSocket,
+    socket: Arc<UdpSocket>,
     samples: mpsc::Sender<(Sample, Instant)>,
+    mut live: Option<crate::live::Feed>,
     mut stopping: watch::Receiver<bool>,
 ) {
     let mut buffer = vec![0u8; 2048];
@@ -70,7 +74,17 @@ pub async fn artnet(
                 continue;
             }
         };
-        match artnet::decode(buffer.get(..length).unwrap_or_default()) {
+        let datagram = buffer.get(..length).unwrap_or_default();
+        let decoded = artnet::decode(datagram);
+        if let Some(feed) = &live
+            && !matches!(decoded, Ok(Packet::TimeCode { .. }))
+        {
+            if !feed.offer(crate::live::Protocol::Artnet, datagram, sender, at) {
+                live = None;
+            }
+            continue;
+        }
+        match decoded {
             Ok(Packet::TimeCode { timecode, .. }) => {
                 if samples.try_send((Sample::Running(timecode), at)).is_err() && samples.is_closed()
                 {

@@ -422,6 +422,72 @@ impl PollReply {
     }
 }
 
+impl PollReply {
+    /// Reads an `ArtPollReply` (another node's, or the bridge's own in its tests):
+    /// `None` unless `datagram` is one of at least the 207 bytes up to the MAC; the
+    /// bind IP and index are read when present. The output ports are those whose
+    /// PortTypes say "output" among the first `NumPorts`.
+    #[must_use]
+    pub fn decode(datagram: &[u8]) -> Option<Self> {
+        if datagram.len() < 207
+            || datagram[..ID.len()] != ID
+            || u16::from_le_bytes([datagram[8], datagram[9]]) != OP_POLL_REPLY
+        {
+            return None;
+        }
+        let text = |field: &[u8]| {
+            let end = field
+                .iter()
+                .position(|&byte| byte == 0)
+                .unwrap_or(field.len());
+            String::from_utf8_lossy(&field[..end]).into_owned()
+        };
+        let ports = usize::from(u16::from_be_bytes([datagram[172], datagram[173]])).min(4);
+        let mut outputs = Vec::new();
+        let mut receiving = [false; 4];
+        for port in 0..ports {
+            if datagram[174 + port] & PORT_OUTPUT_DMX != 0 {
+                receiving[outputs.len()] = datagram[182 + port] & 0x80 != 0;
+                outputs.push(datagram[190 + port] & 0x0f);
+            }
+        }
+        let mut ip = [0; 4];
+        ip.copy_from_slice(&datagram[10..14]);
+        let mut mac = [0; 6];
+        mac.copy_from_slice(&datagram[201..207]);
+        let mut bind_ip = [0; 4];
+        if let Some(bind) = datagram.get(207..211) {
+            bind_ip.copy_from_slice(bind);
+        }
+        Some(Self {
+            ip,
+            version: u16::from_be_bytes([datagram[16], datagram[17]]),
+            net: datagram[18] & 0x7f,
+            sub_net: datagram[19] & 0x0f,
+            oem: u16::from_be_bytes([datagram[20], datagram[21]]),
+            esta: u16::from_le_bytes([datagram[24], datagram[25]]),
+            short_name: text(&datagram[26..44]),
+            long_name: text(&datagram[44..108]),
+            node_report: text(&datagram[108..172]),
+            outputs,
+            receiving,
+            mac,
+            bind_ip,
+            bind_index: datagram.get(211).copied().unwrap_or(0),
+        })
+    }
+
+    /// The universes of its output ports (numbered from 1, as [`PortAddress::universe`]).
+    #[must_use]
+    pub fn universes(&self) -> Vec<u16> {
+        self.outputs
+            .iter()
+            .filter_map(|&low| PortAddress::new(self.net, self.sub_net, low & 0x0f))
+            .map(PortAddress::universe)
+            .collect()
+    }
+}
+
 /// Writes `text` into a fixed, NUL-terminated field (cut at a character boundary).
 fn put_text(field: &mut [u8], text: &str) {
     let max = field.len() - 1;
@@ -452,6 +518,37 @@ mod tests {
         0x00, 0x04, // Length 4, big-endian
         0xff, 0x80, 0x00, 0x01,
     ];
+
+    #[test]
+    fn reads_back_every_poll_reply_it_writes() {
+        let template = PollReply {
+            ip: [10, 0, 0, 9],
+            version: 3,
+            net: 0,
+            sub_net: 0,
+            oem: OEM_UNKNOWN,
+            esta: ESTA_PROTOTYPE,
+            short_name: "Floatball".to_owned(),
+            long_name: "Floatball long".to_owned(),
+            node_report: "#0001 [0001] ok".to_owned(),
+            outputs: Vec::new(),
+            receiving: [false; 4],
+            mac: [1, 2, 3, 4, 5, 6],
+            bind_ip: [0; 4],
+            bind_index: 0,
+        };
+        let mut replies = PollReply::for_universes(&template, &[1, 2, 3, 4, 5, 300]);
+        replies[0].receiving = [true, false, true, false];
+        let mut universes = Vec::new();
+        for reply in &replies {
+            let read = PollReply::decode(&reply.encode()).expect("a poll reply");
+            assert_eq!(&read, reply);
+            universes.extend(read.universes());
+        }
+        assert_eq!(universes, [1, 2, 3, 4, 5, 300]);
+        assert_eq!(PollReply::decode(&replies[0].encode()[..206]), None);
+        assert_eq!(PollReply::decode(&DMX), None);
+    }
 
     #[test]
     fn reads_an_art_dmx_packet() {
