@@ -387,6 +387,7 @@ pub fn ControlPage() -> impl IntoView {
                 <StatusView />
                 <ScheduleLine />
                 <TimecodeView />
+                <LiveSlot />
             </div>
             </div>
         </section>
@@ -991,6 +992,42 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
                     </p>
                 }
             })}
+    }
+}
+
+/// Where the Live card goes (live mode, recording): a button that opens it, or the
+/// card itself (its code in a chunk, [`crate::lazy::live_card`]) once opened or
+/// while the matrix is live. Only with a login (an operator's).
+#[component]
+fn LiveSlot() -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    let opened = RwSignal::new(false);
+    let shown = Memo::new(move |_| {
+        ctx.logged_in()
+            && (opened.get()
+                || ctx
+                    .status
+                    .with(|status| status.as_ref().is_some_and(|status| status.live.is_some())))
+    });
+    move || {
+        if shown.get() {
+            crate::lazy::chunk_view(
+                ctx.lang.into(),
+                Text::ChunkFailed,
+                crate::lazy::load_live,
+                |card: crate::lazy::PageView| card(),
+            )
+            .into_any()
+        } else if ctx.logged_in() {
+            view! {
+                <button class="live-open" data-testid="live-open" on:click=move |_| opened.set(true)>
+                    {ctx.tr(Text::LiveMode)}
+                </button>
+            }
+            .into_any()
+        } else {
+            ().into_any()
+        }
     }
 }
 
