@@ -320,7 +320,10 @@ impl AppState {
             }),
         };
         // The playback task reads live input from the receivers' snapshots.
-        opened.inner.playback.attach_live(opened.inner.live.subscribe());
+        opened
+            .inner
+            .playback
+            .attach_live(opened.inner.live.subscribe());
         Ok(opened)
     }
 

@@ -41,8 +41,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use axum::http::{Method, StatusCode};
-use common::{next_message, send_text};
 use common::process::Process;
+use common::{next_message, send_text};
 use floatball_bridge::live::LiveStatus;
 use floatball_shared::api::ServerMessage;
 use floatball_shared::live::artnet::{self, ArtPoll, PollReply, PortAddress};
@@ -1005,7 +1005,10 @@ impl Fader {
         if let Self::Sacn { ola: true, .. } = &self {
             // olad would go on sending the last values: its port is unpatched (which
             // terminates the stream, as a console switched off does).
-            assert!(ola_run("ola_patch", &["-r", "-d", "2", "-p", "0", "-u", "1"]));
+            assert!(ola_run(
+                "ola_patch",
+                &["-r", "-d", "2", "-p", "0", "-u", "1"]
+            ));
         }
         drop(self);
     }
@@ -1145,8 +1148,9 @@ async fn live_mode(bridge: &Process, family: &str, fader: impl Fn(u16) -> Fader)
         )
         .await;
     assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
-    let show = floatball_shared::show::Show::from_json(std::str::from_utf8(&reply.body).expect("utf-8"))
-        .expect("a native show file");
+    let show =
+        floatball_shared::show::Show::from_json(std::str::from_utf8(&reply.body).expect("utf-8"))
+            .expect("a native show file");
     show.check().expect("a valid show");
     assert_eq!(show.layout.rows, 1);
     let plan = bridge

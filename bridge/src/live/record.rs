@@ -28,7 +28,11 @@ use crate::store::ShowName;
 
 /// Carries out a live-mode message away from the session's reader; a refusal or the
 /// answer goes to `replies`.
-pub fn spawn_request(state: &AppState, message: ClientMessage, replies: mpsc::Sender<ServerMessage>) {
+pub fn spawn_request(
+    state: &AppState,
+    message: ClientMessage,
+    replies: mpsc::Sender<ServerMessage>,
+) {
     let state = state.clone();
     tokio::spawn(async move {
         if let Some(reply) = carry_out(&state, message).await {
@@ -114,16 +118,12 @@ async fn store(state: &AppState, show: Show) -> Result<ServerMessage, ServerMess
         let mut bytes = Vec::new();
         show.write_json(&mut bytes)
             .map_err(|error| internal("the recording could not be written", &error))?;
-        let imported = crate::http::library::import_upload(
-            &name,
-            &bytes,
-            ShowFormat::Json,
-            &storing.config(),
-        )
-        .map_err(|refused| {
-            let refused: crate::store::Refused = refused.into();
-            ServerMessage::error(refused.code, refused.error, refused.params)
-        })?;
+        let imported =
+            crate::http::library::import_upload(&name, &bytes, ShowFormat::Json, &storing.config())
+                .map_err(|refused| {
+                    let refused: crate::store::Refused = refused.into();
+                    ServerMessage::error(refused.code, refused.error, refused.params)
+                })?;
         let duration_ms = imported.duration_ms();
         storing
             .shows()
@@ -134,7 +134,10 @@ async fn store(state: &AppState, show: Show) -> Result<ServerMessage, ServerMess
     .await
     .map_err(|error| internal("a background task failed", &error))??;
     let (name, duration_ms) = stored;
-    tracing::info!("stored the recording \"{}\" ({duration_ms} ms)", name.as_str());
+    tracing::info!(
+        "stored the recording \"{}\" ({duration_ms} ms)",
+        name.as_str()
+    );
     Ok(ServerMessage::Recorded {
         name: name.as_str().to_owned(),
         duration_ms,

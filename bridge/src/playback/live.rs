@@ -39,9 +39,7 @@ pub type LiveWatch = watch::Receiver<Arc<crate::live::LiveInput>>;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LiveError {
     /// The e-stop is latched: going live does not release it.
-    #[error(
-        "live mode cannot start while the E-stop is latched: press Start, Reset or Home first"
-    )]
+    #[error("live mode cannot start while the E-stop is latched: press Start, Reset or Home first")]
     EstopLatched,
     /// The player refused (a playlist runs, the family carries no live motion…).
     #[error(transparent)]
@@ -70,16 +68,16 @@ pub(super) enum LiveRequest {
         reply: oneshot::Sender<Result<(), LiveError>>,
     },
     /// Stop recording: the show, if one was under way.
-    RecordStop { reply: oneshot::Sender<Option<Show>> },
+    RecordStop {
+        reply: oneshot::Sender<Option<Show>>,
+    },
 }
 
 impl Playback {
     /// Hands the playback task the receivers' snapshots of live input (once, as the
     /// bridge starts).
     pub fn attach_live(&self, input: LiveWatch) {
-        let _ = self
-            .requests
-            .send(Request::Live(LiveRequest::Feed(input)));
+        let _ = self.requests.send(Request::Live(LiveRequest::Feed(input)));
     }
 
     /// The operator's Go live (`on`) or Leave live.

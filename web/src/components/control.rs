@@ -1002,13 +1002,17 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
 fn LiveSlot() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     let opened = RwSignal::new(false);
-    let shown = Memo::new(move |_| {
-        ctx.logged_in()
-            && (opened.get()
-                || ctx
-                    .status
-                    .with(|status| status.as_ref().is_some_and(|status| status.live.is_some())))
+    let live_now = Memo::new(move |_| {
+        ctx.status
+            .with(|status| status.as_ref().is_some_and(|status| status.live.is_some()))
     });
+    // Once live, the card stays after live mode ends (its phase says "not live").
+    Effect::new(move |_| {
+        if live_now.get() {
+            opened.set(true);
+        }
+    });
+    let shown = Memo::new(move |_| ctx.logged_in() && (opened.get() || live_now.get()));
     move || {
         if shown.get() {
             crate::lazy::chunk_view(

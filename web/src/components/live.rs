@@ -35,8 +35,11 @@ fn can_record(live: Option<&LiveStatus>) -> bool {
 pub fn LiveCard() -> impl IntoView {
     let ctx = expect_context::<Ctx>();
     let live = Memo::new(move |_| {
-        ctx.status
-            .with(|status| status.as_ref().and_then(|status| status.live.as_deref().copied()))
+        ctx.status.with(|status| {
+            status
+                .as_ref()
+                .and_then(|status| status.live.as_deref().copied())
+        })
     });
     let name = RwSignal::new(String::new());
     let needs_name = RwSignal::new(false);
@@ -198,8 +201,10 @@ mod tests {
             LivePhase::Holding,
             LivePhase::Leaving,
         ];
-        let texts: std::collections::BTreeSet<_> =
-            phases.iter().map(|&phase| format!("{:?}", phase_text(phase))).collect();
+        let texts: std::collections::BTreeSet<_> = phases
+            .iter()
+            .map(|&phase| format!("{:?}", phase_text(phase)))
+            .collect();
         assert_eq!(texts.len(), phases.len());
     }
 }
