@@ -8,7 +8,7 @@
 //! - **Prepare** (after the sequencer homed when the positions were unknown): `JS`
 //!   at its smallest, `JA` and `JL` (the jog's ramps) at the installation's
 //!   acceleration, and `VE AC DE` for the last exact feed, to every drive — in the
-//!   drive's steps, never above ([`at_most`]).
+//!   drive's steps, never above (`at_most`).
 //! - **Each period** the sequencer hands every ball's filtered state for the period's
 //!   end (the approach too: the filter's steps at the approach speed). Each drive is
 //!   told a speed: `CS` while it jogs that way (sent only when the held speed
@@ -18,7 +18,7 @@
 //!   `SJ DI∓1 CJ CS` (the `CJ` waits for the stop); at rest `SJ`. The drive's own ramp
 //!   (`JA`/`JL`) keeps the acceleration within the limits, and no speed asked is above
 //!   the top speed.
-//! - **The speed**: the drive keeps a [`Model`] of each drive — the twin's own
+//! - **The speed**: the drive keeps a model of each drive — the twin's own
 //!   profiles ([`Profile`]) for the requests it took, when they reached it, shifted
 //!   to the last position it read (`IP`, one drive per line per period,
 //!   round-robin). The speed asked is the filtered speed when the request reaches the

@@ -455,7 +455,14 @@ fn the_live_period_is_what_the_line_carries() {
     ] {
         println!("{line:?} × {drives}: {:?}", figures(line, drives));
     }
+    for baud in [9_600, 19_200, 38_400, 57_600, 115_200] {
+        let most = (1..200)
+            .take_while(|&drives| figures(SclLine::Rs485 { baud }, drives).is_ok())
+            .last();
+        println!("{baud} baud: at most {most:?} drives");
+    }
     assert_eq!(figures(SclLine::Rs485 { baud: 115_200 }, 1), Ok((10, 30)));
+    assert!(figures(SclLine::Rs485 { baud: 9_600 }, 14).is_err());
     assert_eq!(figures(SclLine::Escl, 100), Ok((10, 22)));
     let (period_ms, _) = figures(SclLine::Rs485 { baud: 9_600 }, 4).unwrap();
     assert!(period_ms > 50, "{period_ms}");
