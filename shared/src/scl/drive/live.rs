@@ -858,17 +858,14 @@ impl SclDrive {
     }
 }
 
-/// `command` (a `CS`) for `unit` on `lane`: replaces the unit's speed not yet sent
-/// (a `CS`, or the `JS` before its `CJ`), or goes last.
+/// `command` (a `CS`) for `unit` on `lane`: replaces the unit's last request when it
+/// is a speed not yet sent, or goes last.
 fn queue_speed(lane: &mut Lane, unit: usize, command: Command) {
-    let Command::ChangeSpeed { rev_s } = command else {
-        return;
-    };
-    let mut last = lane
+    let last = lane
         .actions
         .iter_mut()
         .rev()
-        .filter_map(|action| match action {
+        .find_map(|action| match action {
             Action::Ask {
                 unit: of,
                 command: Some(command),
@@ -876,21 +873,12 @@ fn queue_speed(lane: &mut Lane, unit: usize, command: Command) {
             } if *of == unit => Some(command),
             _ => None,
         });
-    match last.next() {
-        Some(last @ Command::ChangeSpeed { .. }) => {
-            *last = command;
-            return;
-        }
-        Some(Command::CommenceJogging) => {
-            if let Some(Command::JogSpeed { rev_s: speed }) = last.next() {
-                *speed = Some(rev_s);
-                return;
-            }
-        }
-        _ => {}
+    match last {
+        Some(last @ Command::ChangeSpeed { .. }) => *last = command,
+        _ => lane
+            .actions
+            .push_back(ask(unit, command, Check::NotRefused)),
     }
-    lane.actions
-        .push_back(ask(unit, command, Check::NotRefused));
 }
 
 /// Drops `unit`'s `CS` not yet sent on `lane`.
