@@ -545,3 +545,25 @@ fn the_live_period_is_what_the_line_carries() {
     let (period_ms, _) = figures(SclLine::Rs485 { baud: 9_600 }, 4).unwrap();
     assert!(period_ms > 50, "{period_ms}");
 }
+
+/// Snapped to either end of the travel: no twin passes it by more than a hair.
+#[test]
+fn snaps_to_the_ends_of_the_travel_stay_within_it() {
+    let mut rig = LiveRig::new();
+    rig.go_live(&[1_500.0, 1_500.0, 1_500.0]);
+    let mut lowest = f64::MAX;
+    let mut highest = f64::MIN;
+    for end in [0.0, 3_000.0, 0.0] {
+        for _ in 0..3_500 {
+            rig.input(&[end; 3], false);
+            rig.tick();
+            for mm in rig.twin_mm() {
+                lowest = lowest.min(mm);
+                highest = highest.max(mm);
+            }
+        }
+    }
+    println!("travel 0–3000 mm: the twins went from {lowest:.3} to {highest:.3} mm");
+    rig.within_limits();
+    assert!(lowest > -0.5 && highest < 3_000.5, "{lowest} {highest}");
+}
