@@ -386,6 +386,7 @@ fn a_step_far_beyond_the_speed_limit_is_followed_within_the_limits_then_held_and
     );
     rig.within_limits();
     for mm in rig.twin_mm() {
+        println!("at rest after the step: {:.3} mm off", mm - 2_800.0);
         assert!((mm - 2_800.0).abs() < 1.5, "{mm}");
     }
     // Input lost while moving: every ball brakes within the limits and stays.
@@ -541,6 +542,32 @@ fn the_live_period_is_what_the_line_carries() {
     }
     assert_eq!(figures(SclLine::Rs485 { baud: 115_200 }, 1), Ok((10, 30)));
     assert!(figures(SclLine::Rs485 { baud: 9_600 }, 14).is_err());
+    // Two lines: the slower sets the period for all; the refusal names its gateway.
+    let mut config = config(None);
+    config.gateways = 2;
+    config.units = (0..8)
+        .map(|unit| DriveSlot {
+            gateway: unit / 4,
+            drive: unit % 4,
+            name: format!("drive {unit}"),
+        })
+        .collect();
+    let two = |lines: Vec<SclLine>| {
+        let drive = SclDrive::new(config.clone()).with_live(live_config(lines, 8));
+        crate::player::Drive::live_setup(&drive).map(|setup| setup.period_us() / 1_000)
+    };
+    assert_eq!(
+        two(vec![SclLine::Escl, SclLine::Rs485 { baud: 9_600 }]),
+        figures(SclLine::Rs485 { baud: 9_600 }, 4).map(|(period_ms, _)| period_ms)
+    );
+    assert!(matches!(
+        two(vec![SclLine::Escl, SclLine::Rs485 { baud: 1_200 }]),
+        Err(StartError::LiveLineTooSlow {
+            gateway: 1,
+            units: 4,
+            ..
+        })
+    ));
     assert_eq!(figures(SclLine::Escl, 100), Ok((10, 22)));
     let (period_ms, _) = figures(SclLine::Rs485 { baud: 9_600 }, 4).unwrap();
     assert!(period_ms > 50, "{period_ms}");
