@@ -323,15 +323,7 @@ impl SclDrive {
     /// time its requests take.
     fn line_period_us(&self, line: SclLine, units: usize) -> (u64, u64) {
         let config = &self.config;
-        let Some(live) = &self.live_config else {
-            return (0, 0);
-        };
-        let per_rev = f64::from(config.steps_per_rev);
-        let speed = at_most(
-            &units::VELOCITY,
-            live.max_speed_mm_s * config.counts_per_mm / per_rev,
-        );
-        let cs = Self::wire_len(&Command::ChangeSpeed { rev_s: speed });
+        let (cs, _) = self.speed_bytes();
         let answer = 3; // `1*` or `1%`, CR
         let travel = config.counts(config.travel_mm).unsigned_abs();
         let ip = Self::wire_len(&Command::ImmediatePosition) + format!("IP=-{travel}").len() + 2;
@@ -403,16 +395,21 @@ impl SclDrive {
     }
 
     /// The top speed and acceleration as a drive holds them (`CS`, `JA`), mm/s and
-    /// mm/s², and their texts.
+    /// mm/s²: never above the installation's.
     fn held_limits(&self) -> Option<(f64, f64)> {
         let live = self.live_config.as_ref()?;
         let config = &self.config;
         let mm_per_rev = f64::from(config.steps_per_rev) / config.counts_per_mm;
-        let speed = at_most(&units::VELOCITY, live.max_speed_mm_s / mm_per_rev);
-        let accel = at_most(&units::ACCELERATION, config.max_accel_mm_s2 / mm_per_rev);
+        let held = |resolution: &units::Resolution, value: f64| {
+            resolution
+                .held(at_most(resolution, value))
+                .unwrap_or(0.0)
+                .min(value)
+                * mm_per_rev
+        };
         Some((
-            speed.to_f64().min(live.max_speed_mm_s / mm_per_rev) * mm_per_rev,
-            accel.to_f64().min(config.max_accel_mm_s2 / mm_per_rev) * mm_per_rev,
+            held(&units::VELOCITY, live.max_speed_mm_s / mm_per_rev),
+            held(&units::ACCELERATION, config.max_accel_mm_s2 / mm_per_rev),
         ))
     }
 
