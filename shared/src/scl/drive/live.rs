@@ -11,7 +11,7 @@
 //!   drive's steps, never above (`at_most`).
 //! - **Each period** the sequencer hands every ball's filtered state for the period's
 //!   end (the approach too: the filter's steps at the approach speed). Each drive is
-//!   told a speed: `CS` while it jogs that way (sent only when the held speed
+//!   told a speed for the step it runs next: `CS` while it jogs that way (sent only when the held speed
 //!   changes); from rest `CJ CS` (`DI±1` first when the direction changes: `CJ`
 //!   starts at once at the `JS` the drive has, never above the top speed, and the
 //!   speed follows in the next request); when the filtered velocity turns round
@@ -21,11 +21,15 @@
 //! - **The speed**: the drive keeps a model of each drive — the twin's own
 //!   profiles ([`Profile`]) for the requests it took, when they reached it, shifted
 //!   to the last position it read (`IP`, one drive per line per period,
-//!   round-robin). The speed asked is the filtered speed when the request reaches the
-//!   drive (after what its lane has queued), plus a correction of how far the model
-//!   says the drive would then be from the filter one period on: spread over two
+//!   round-robin). The speed asked is the step's speed one period after the request
+//!   reaches the drive (after what its lane has queued), plus a correction of how far
+//!   the model says the drive would then be from the step: spread over two
 //!   periods, at most the speed headroom, and no more than the drive's spare
 //!   acceleration can take back (so it catches up without overshooting).
+//! - **One period behind**: the drives run each period's filter step during the next
+//!   period ([`LIVE_DELAY_PERIODS`]), while that period's requests go out on the
+//!   line, so a drive's speed changes in time for the step it is for; the latency is
+//!   three periods (up to one waiting for the slot, the step, the delay).
 //! - **Headroom**: the filter runs at [`FOLLOW_SPEED_SHARE`] of the top speed and
 //!   [`FOLLOW_ACCEL_SHARE`] of the top acceleration, as the drive holds them: a drive
 //!   whose request arrives late (the line's requests go one after the other) ramps a
@@ -50,6 +54,10 @@ use crate::player::{LiveSetup, StartError};
 use crate::scl::twin::Profile;
 use crate::scl::units;
 use crate::show::Layout;
+
+/// Periods the drives run the filtered motion later than the filter: a period's
+/// requests go out on the line while the drives run the period before.
+pub const LIVE_DELAY_PERIODS: u64 = 1;
 
 /// The shortest live period, ms.
 pub const LIVE_PERIOD_MIN_MS: u32 = 10;
@@ -117,7 +125,9 @@ pub(in crate::scl) struct LiveUnit {
     pub(in crate::scl) mode: Mode,
     /// The speed last asked, steps of `VE`'s resolution.
     sent_steps: i64,
-    /// The filtered state at the period's start and end.
+    /// The filtered states a period before the period's start, at its start and at
+    /// its end: the drive runs them one period later.
+    pub(in crate::scl) prev: BallState,
     pub(in crate::scl) from: BallState,
     pub(in crate::scl) to: BallState,
     /// What the drive does, as its answers tell: see [`Model`].
@@ -262,19 +272,36 @@ impl Model {
     }
 }
 
+/// Position and velocity `tau_s` into a filter step from `a` to `b` lasting `dt_s`
+/// (constant acceleration; past its end, at `b`'s velocity).
+fn along(a: BallState, b: BallState, tau_s: f64, dt_s: f64) -> (f64, f64) {
+    if tau_s > dt_s {
+        return (
+            b.position_mm + b.velocity_mm_s * (tau_s - dt_s),
+            b.velocity_mm_s,
+        );
+    }
+    let accel = (b.velocity_mm_s - a.velocity_mm_s) / dt_s;
+    (
+        a.position_mm + a.velocity_mm_s * tau_s + 0.5 * accel * tau_s * tau_s,
+        a.velocity_mm_s + accel * tau_s,
+    )
+}
+
 impl LiveRun {
-    /// Where the filtered motion has unit `unit` at `at_us`, mm.
+    /// Where the drive is to have unit `unit` at `at_us`, mm: the filtered motion one
+    /// period later ([`LIVE_DELAY_PERIODS`]).
     #[cfg(test)]
     pub(in crate::scl) fn reference_mm(&self, unit: usize, at_us: u64) -> Option<f64> {
         let state = self.units.get(unit)?;
         let dt = self.period_us as f64 / 1e6;
-        let tau = at_us.saturating_sub(self.slot_us) as f64 / 1e6;
-        let (from, to) = (state.from, state.to);
-        Some(if tau <= dt {
-            let a = (to.velocity_mm_s - from.velocity_mm_s) / dt;
-            from.position_mm + from.velocity_mm_s * tau + 0.5 * a * tau * tau
+        let tau = (at_us as f64 - self.slot_us as f64) / 1e6;
+        Some(if tau < 0.0 {
+            state.prev.position_mm + state.prev.velocity_mm_s * tau
+        } else if tau <= dt {
+            along(state.prev, state.from, tau, dt).0
         } else {
-            to.position_mm + to.velocity_mm_s * (tau - dt)
+            along(state.from, state.to, tau - dt, dt).0
         })
     }
 
@@ -414,7 +441,7 @@ impl SclDrive {
     }
 
     pub(super) fn live_setup_scl(&self) -> Result<LiveSetup, StartError> {
-        let (period_us, busy_us) = self.live_period_us()?;
+        let (period_us, _) = self.live_period_us()?;
         let Some(live) = &self.live_config else {
             return Err(StartError::LiveUnsupported {
                 family: "MOONS' drives without their lines' settings",
@@ -431,8 +458,8 @@ impl SclDrive {
             approach_speed_mm_s: self.config.approach_speed_mm_s,
             layout: live.layout,
             // Up to a period waiting for the slot, the period's filter step, and the
-            // line's time to the last drive on it.
-            latency_us: 2 * period_us + busy_us,
+            // period the drives run it later (its requests go out meanwhile).
+            latency_us: (2 + LIVE_DELAY_PERIODS) * period_us,
             every_period: false,
         })
     }
@@ -500,6 +527,7 @@ impl SclDrive {
                 LiveUnit {
                     mode: Mode::Rest,
                     sent_steps: 0,
+                    prev: state,
                     from: state,
                     to: state,
                     model: Model::at_rest(
@@ -604,15 +632,20 @@ impl SclDrive {
             .collect();
         for (unit, state) in run.units.iter_mut().enumerate() {
             let next = states.get(unit).copied().unwrap_or(state.to);
+            state.prev = state.from;
             state.from = state.to;
             state.to = next;
-            let velocity = next.velocity_mm_s;
+            // The drive runs this period's filter step during the next period: it
+            // moves if the filter moves at either end of the step, the way it goes at
+            // the step's start (or, from rest, at its end).
+            let velocity = if state.from.velocity_mm_s.abs() >= run.step_mm_s {
+                state.from.velocity_mm_s
+            } else {
+                next.velocity_mm_s
+            };
             let moving = velocity.abs() >= run.step_mm_s;
             let forward = velocity > 0.0;
-            // The filtered speed when this one reaches the drive (the period's
-            // acceleration on), in the same direction.
             let period_s = run.period_us as f64 / 1e6;
-            let accel = (next.velocity_mm_s - state.from.velocity_mm_s) / period_s;
             let write = |steps: i64| {
                 units::VELOCITY
                     .write(steps)
@@ -670,8 +703,13 @@ impl SclDrive {
                 *queued = before;
             }
             let lead_s = before as f64 * state.exchange_s;
-            let ahead = velocity + accel * lead_s;
-            let ahead = if (ahead > 0.0) == forward { ahead } else { 0.0 };
+            // The speed it is to have one period after this one arrives.
+            let (goal_mm, goal_mm_s) = along(state.from, next, lead_s, period_s);
+            let ahead = if (goal_mm_s > 0.0) == forward {
+                goal_mm_s
+            } else {
+                0.0
+            };
             // The drive as its requests under way leave it, when this one arrives.
             let lead_us = (lead_s * 1e6) as u64;
             let arrives_us = slot_us + lead_us;
@@ -699,10 +737,9 @@ impl SclDrive {
                     }
                 }
             }
-            // Where the filter is one period after it arrives.
+            // Where it is to be one period after this one arrives.
             let until_us = arrives_us + run.period_us;
-            let beyond_s = lead_us as f64 / 1e6;
-            let target = (next.position_mm + next.velocity_mm_s * beyond_s) * run.counts_per_mm;
+            let target = goal_mm * run.counts_per_mm;
             let sign = if forward { 1.0 } else { -1.0 };
             let short = |steps: i64| {
                 let mut trial = model.clone();
@@ -711,8 +748,8 @@ impl SclDrive {
                 }
                 sign * (target - trial.at(until_us).0)
             };
-            // The filtered speed when it arrives, and a correction of what the drive
-            // would then be short of the filter one period on (or past it), spread
+            // The step's speed one period after it arrives, and a correction of what
+            // the drive would then be short of the step (or past it), spread
             // over two periods and bounded: the drive's ramp keeps the acceleration.
             let to_steps = |mm_s: f64| {
                 ((mm_s / mm_per_rev / units::VELOCITY.step + 1e-9).floor() as i64)
