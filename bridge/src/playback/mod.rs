@@ -64,7 +64,6 @@ use floatball_shared::mbox::drive::MboxDrive;
 use floatball_shared::mbox::player::MboxPlayerConfig;
 use floatball_shared::plan::Installation;
 use floatball_shared::player::{Entry, LinkView, Sequencer, StartError};
-use floatball_shared::scl::drive::SclDrive;
 use floatball_shared::show::Cut;
 use floatball_shared::uim2503::player::{PlayerConfig, Prepared, Uim2503Drive, prepare, runs};
 use tokio::sync::{mpsc, oneshot, watch};
@@ -416,11 +415,7 @@ impl Playback {
         latch: Arc<Latch>,
     ) -> Self {
         let scl = Arc::new(scl);
-        let sequencer = Sequencer::new(SclDrive::new(scl::drive_config(
-            &installation,
-            &scl,
-            &drives,
-        )));
+        let sequencer = Sequencer::new(scl::drive(&installation, &scl, &drives));
         let family = scl::SclFamily {
             net: drives.clone(),
             scl: Arc::clone(&scl),

@@ -14,12 +14,14 @@ use std::time::Instant;
 use floatball_shared::api::GatewayStatus;
 use floatball_shared::plan::Installation;
 use floatball_shared::player::{Entry, LinkView, Run, Sequencer, StartError};
-use floatball_shared::scl::drive::{DriveSlot, SclDrive, SclDriveConfig, SclEntry, Trigger};
+use floatball_shared::scl::drive::{
+    DriveSlot, SclDrive, SclDriveConfig, SclEntry, SclLine, SclLiveConfig, Trigger,
+};
 use tokio::sync::mpsc;
 
 use super::sequenced::{Family, Prepare, PreparedRuns};
 use super::{Reconfigure, ReconfigureError};
-use crate::config::{SclConfig, SclPrograms};
+use crate::config::{SclConfig, SclGateway, SclPrograms};
 use crate::estop::StopPort;
 use crate::ports::scl::SclNet;
 use crate::ports::scl::program::{
@@ -37,6 +39,24 @@ pub struct SclFamily {
     pub net: SclNet,
     /// The `[scl]` settings.
     pub scl: Arc<SclConfig>,
+}
+
+/// The drive for `installation` on `net` with `scl`, live mode on its lines
+/// included (each RS-485 line at its baud; eSCL and simulated drives over UDP).
+pub fn drive(installation: &Installation, scl: &SclConfig, net: &SclNet) -> SclDrive {
+    let lines = scl
+        .gateways
+        .iter()
+        .map(|gateway| match gateway {
+            SclGateway::Serial { baud, .. } => SclLine::Rs485 { baud: *baud },
+            SclGateway::Escl(_) | SclGateway::Sim { .. } => SclLine::Escl,
+        })
+        .collect();
+    SclDrive::new(drive_config(installation, scl, net)).with_live(SclLiveConfig {
+        lines,
+        max_speed_mm_s: installation.limits.max_speed_mm_s,
+        layout: installation.layout(),
+    })
 }
 
 /// What the drive needs of `installation` on `net` with `scl`.
@@ -153,11 +173,7 @@ impl Family for SclFamily {
     ) -> Result<SclDrive, ReconfigureError> {
         // The drives stay (their gateway entries did not change); the drive takes the
         // matrix's new calibration and limits.
-        Ok(SclDrive::new(drive_config(
-            &change.installation,
-            &self.scl,
-            &self.net,
-        )))
+        Ok(drive(&change.installation, &self.scl, &self.net))
     }
 }
 

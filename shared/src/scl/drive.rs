@@ -28,6 +28,10 @@
 //!   show's length, and `SC` to each drive until no program runs and no motor moves
 //!   (at most 10 s).
 //!
+//! - **live** ([`live`], given the lines with [`SclDrive::with_live`]): every drive
+//!   jogs, its speed changed each period (`CS`) from the filtered motion; the period
+//!   is what the lines carry.
+//!
 //! A refusal, a missed answer or a drive that does not arrive fails the step with a
 //! sentence naming the drive; the sequencer stops the matrix.
 
@@ -36,7 +40,12 @@ use std::collections::VecDeque;
 use super::qprogram::QProgram;
 use super::units;
 use super::{Answer, Command, Decimal, IoPoint, Level, QueueUpload, Reply, Segment};
+use crate::live::filter::BallState;
 use crate::player::{Drive, Phase};
+
+pub mod live;
+
+pub use live::{LIVE_PERIOD_MAX_MS, LIVE_PERIOD_MIN_MS, SclLine, SclLiveConfig};
 
 /// How often the drive asks while it waits for the drives (`IP`, `SC`), µs.
 pub const WAIT_POLL_US: u64 = 20_000;
@@ -222,6 +231,8 @@ enum Check {
         segment: Segment,
         commands: Vec<Command>,
     },
+    /// Live mode's `IP`: the position read, for the position correction.
+    Read,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -295,6 +306,19 @@ pub struct SclDrive {
     /// A locate ended the run under way: the next move first stops every drive and
     /// kills its program (`SK`, at its deceleration), then feeds on.
     kill_first: bool,
+    /// How live mode jogs on these lines ([`SclDrive::with_live`]); `None`: live mode
+    /// is refused.
+    live_config: Option<SclLiveConfig>,
+    /// Live motion under way ([`live`]).
+    live: Option<live::LiveRun>,
+    /// Where every drive rests, counts, when known (after a home or an approach, or
+    /// live mode's end); `None` otherwise.
+    believed_counts: Option<Vec<i32>>,
+    /// The targets of the move under way, taken as known when it ends.
+    moving_to: Option<Vec<i32>>,
+    /// Live mode's last stages (`SJ`, the exact `FP`, the arrival) run on while idle:
+    /// a step begun meanwhile runs after them.
+    ending: bool,
 }
 
 impl SclDrive {
@@ -329,7 +353,19 @@ impl SclDrive {
             loading: false,
             now_us: 0,
             kill_first: false,
+            live_config: None,
+            live: None,
+            believed_counts: None,
+            moving_to: None,
+            ending: false,
         }
+    }
+
+    /// The drive with live mode on these lines ([`live`]).
+    #[must_use]
+    pub fn with_live(mut self, live: SclLiveConfig) -> Self {
+        self.live_config = Some(live);
+        self
     }
 
     /// The installation it drives.
@@ -394,8 +430,25 @@ impl SclDrive {
             .slots
             .get(*unit)
             .map_or_else(String::new, |slot| slot.name.clone());
+        let read = match (&check, &answer) {
+            (Check::Read, Ok(lines)) => lines
+                .first()
+                .and_then(|line| Reply::parse(line).ok())
+                .and_then(|reply| reply.answer.value_i64()),
+            _ => None,
+        };
+        let read_at_us = lane.answered_delivered_us.unwrap_or(now_us);
         match judge(&name, command.as_ref(), check, answer, limit_ms) {
-            Verdict::Ok => {}
+            Verdict::Ok => {
+                if let Some(live) = self.live.as_mut() {
+                    if let Some(counts) = read {
+                        live.read(*unit, read_at_us, counts);
+                    } else if let Some(command) = command {
+                        let per_rev = f64::from(self.config.steps_per_rev);
+                        live.took(*unit, command, read_at_us, per_rev);
+                    }
+                }
+            }
             Verdict::Again(why) => {
                 if now_us >= deadline_us {
                     self.failure.get_or_insert(why);
@@ -408,11 +461,22 @@ impl SclDrive {
                 self.failure.get_or_insert(why);
             }
         }
+        // Live mode (and its end) is not polled between its periods: the lane's next
+        // request goes now.
+        if self.live.is_some() || self.ending {
+            self.advance(now_us);
+        }
     }
 
     fn begin_stages(&mut self, now_us: u64, stages: Vec<Stage>) {
         self.now_us = now_us;
-        self.stages = stages.into();
+        let mut kept = if std::mem::take(&mut self.ending) {
+            std::mem::take(&mut self.stages)
+        } else {
+            VecDeque::new()
+        };
+        kept.extend(stages);
+        self.stages = kept;
         self.stage_began_us = now_us;
         self.failure = None;
         self.advance(now_us);
@@ -481,6 +545,8 @@ impl SclDrive {
     fn begin_move(&mut self, now_us: u64, targets_counts: &[i32]) {
         self.playing = false;
         self.loading = false;
+        self.believed_counts = None;
+        self.moving_to = Some(targets_counts.to_vec());
         let mut stages = self.move_stages(targets_counts);
         if std::mem::take(&mut self.kill_first) {
             let kill = self.by_line(|unit| vec![ask(unit, Command::StopKill, Check::NotRefused)]);
@@ -596,7 +662,7 @@ fn judge(
     let first = lines.first().map(|line| Reply::parse(line));
     let unparsed = || format!("{name} answered {:?}", lines.join(" "));
     match check {
-        Check::NotRefused | Check::Position { .. } | Check::Ended => {
+        Check::NotRefused | Check::Position { .. } | Check::Ended | Check::Read => {
             if let Some(Ok(Reply {
                 answer: Answer::Refused { code },
                 ..
@@ -711,14 +777,66 @@ fn judge(
 impl Drive for SclDrive {
     type Entry = SclEntry;
 
-    /// Not yet: live motion on MOONS' drives is refused. An `FP` sent while a drive
-    /// moves waits for the move under way to end, so position updates would each
-    /// start from rest; jogging (`CJ`, `CS`) continues a motion but is unconfirmed
-    /// (`docs/live.md`, "What each family carries").
+    /// Live motion by jogging ([`live`]): the period from what the lines carry.
     fn live_setup(&self) -> Result<crate::player::LiveSetup, crate::player::StartError> {
-        Err(crate::player::StartError::LiveUnsupported {
-            family: "MOONS' drives",
-        })
+        self.live_setup_scl()
+    }
+
+    fn rest_positions_mm(&self) -> Option<Vec<f64>> {
+        if self.live.is_some() {
+            return None;
+        }
+        let per_mm = self.config.counts_per_mm;
+        self.believed_counts
+            .as_ref()
+            .map(|counts| counts.iter().map(|&c| f64::from(c) / per_mm).collect())
+    }
+
+    fn begin_live(&mut self, now_us: u64, states: &[BallState]) -> bool {
+        self.begin_live_scl(now_us, states)
+    }
+
+    fn live_step(&mut self, slot_us: u64, states: &[BallState]) {
+        self.live_step_scl(slot_us, states);
+    }
+
+    fn end_live(&mut self, at_us: u64, states: &[BallState]) {
+        self.end_live_scl(at_us, states);
+    }
+
+    /// A refusal or a missed answer while live (the sequencer does not poll the drive
+    /// between periods).
+    fn fault(&mut self) -> Option<String> {
+        if self.live.is_some() {
+            self.failure.take()
+        } else {
+            None
+        }
+    }
+
+    fn idle_wakeup_us(&self, now_us: u64) -> Option<u64> {
+        if self.ending {
+            self.next_wakeup_us(now_us)
+        } else {
+            None
+        }
+    }
+
+    /// Live mode's end runs on while idle; should it fail, the positions are unknown
+    /// (the next Start or live mode homes first).
+    fn poll_idle(&mut self, now_us: u64) {
+        if !self.ending {
+            return;
+        }
+        self.now_us = self.now_us.max(now_us);
+        let done = self.advance(now_us);
+        if self.failure.take().is_some() {
+            self.stages.clear();
+            self.believed_counts = None;
+            self.ending = false;
+        } else if done {
+            self.ending = false;
+        }
     }
 
     fn begin_run(&mut self, now_us: u64, _first: Option<&mut SclEntry>) {
@@ -737,6 +855,7 @@ impl Drive for SclDrive {
     }
 
     fn begin_load(&mut self, now_us: u64, _index: usize, entry: &mut SclEntry, cycle: u32) -> bool {
+        self.believed_counts = None;
         let Some(programs) = entry.programs.as_ref().filter(|_| cycle == 1) else {
             return false;
         };
@@ -780,6 +899,7 @@ impl Drive for SclDrive {
     }
 
     fn begin_play(&mut self, now_us: u64, entry: &mut SclEntry, _last: bool) {
+        self.believed_counts = None;
         self.playing = true;
         self.loading = false;
         self.started_us = None;
@@ -843,10 +963,14 @@ impl Drive for SclDrive {
         let done = self.advance(now_us);
         if let Some(why) = self.failure.take() {
             self.stages.clear();
+            self.moving_to = None;
             return Phase::Failed(why);
         }
         if done {
             self.loading = false;
+            if let Some(targets) = self.moving_to.take() {
+                self.believed_counts = Some(targets);
+            }
             Phase::Done { at_us: now_us }
         } else {
             Phase::Pending
@@ -872,6 +996,10 @@ impl Drive for SclDrive {
         self.loading = false;
         self.started_us = None;
         self.kill_first = false;
+        self.live = None;
+        self.believed_counts = None;
+        self.moving_to = None;
+        self.ending = false;
     }
 
     /// A locate: what was queued is dropped, and the next move begins with `SK` to

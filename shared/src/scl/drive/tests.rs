@@ -606,16 +606,4 @@ fn a_locate_kills_the_programs_and_feeds_on_from_where_the_balls_stopped() {
     assert_eq!(rig.positions(), [500, 1_000, 1_500]);
 }
 
-#[test]
-fn live_mode_is_refused_with_its_code_and_nothing_is_asked() {
-    let mut rig = Rig::new();
-    let refused = rig.sequencer.go_live(0);
-    assert_eq!(
-        refused,
-        Err(crate::player::StartError::LiveUnsupported {
-            family: "MOONS' drives"
-        })
-    );
-    assert!(rig.sequencer.is_idle() && !rig.sequencer.is_live());
-    assert!(rig.sequencer.drive_mut().take_asks().is_empty());
-}
+mod live;
