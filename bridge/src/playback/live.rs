@@ -188,15 +188,17 @@ impl Feed {
             }
             LiveRequest::Live { on: true, reply } => {
                 let generation = latch.generation();
-                let result = if latch.is_latched() {
-                    Err(LiveError::EstopLatched)
+                let (result, went) = if latch.is_latched() {
+                    (Err(LiveError::EstopLatched), None)
                 } else if sequencer.is_live() {
-                    Ok(())
+                    // Live already: nothing changes.
+                    (Ok(()), None)
                 } else {
                     self.feed(sequencer);
-                    sequencer.go_live(now_us).map_err(LiveError::from)
+                    let result = sequencer.go_live(now_us).map_err(LiveError::from);
+                    let went = result.is_ok().then_some(generation);
+                    (result, went)
                 };
-                let went = result.is_ok().then_some(generation);
                 let _ = reply.send(result);
                 went
             }
