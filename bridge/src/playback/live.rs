@@ -2,7 +2,7 @@
 //! Leave live, Record and Stop recording as requests to the one task that owns the
 //! sequencer, and the live input fed to the sequencer each live period.
 //!
-//! **Only the operator goes live.** [`Playback::go_live`] is a request like Start:
+//! **Only the operator goes live.** [`Playback::live_mode`] is a request like Start:
 //! the task refuses it while the e-stop is latched ([`LiveError::EstopLatched`]:
 //! going live never releases the latch; only an operator's Start, Reset or Home
 //! does), while a playlist runs, and on a family that does not carry live motion.
