@@ -15,9 +15,10 @@
 //! [`crate::live::LiveInput`] snapshot from its watch — the `Arc` is cloned and the
 //! borrow dropped at once — and hands the sequencer each ball's target
 //! ([`floatball_shared::live::patch::BallTarget::filter_input`]), speed limit and
-//! colour, rebuilt only when the snapshot changed. The input is **lost** when the
-//! snapshot says so or its latest packet is older than `hold_after_ms` (the
-//! receivers publish only on change: a silent network publishes nothing new).
+//! colour, rebuilt (and handed) only when the snapshot or the loss changed. The input
+//! is **lost** when the snapshot says so or its latest packet is older than
+//! `hold_after_ms` (the receivers publish only on change: a silent network publishes
+//! nothing new).
 //!
 //! **Recording** is the sequencer's ([`floatball_shared::player::Sequencer::start_recording`]);
 //! the show it gives at the stop is stored by the caller (`crate::ws`).
@@ -122,6 +123,10 @@ pub(super) struct Feed {
     input: Option<LiveWatch>,
     /// The generation of the snapshot the vectors were built from.
     built: Option<u64>,
+    /// The snapshot's generation and the loss last handed to the sequencer: the
+    /// sequencer keeps the input, so the same is not handed again (a poll comes with
+    /// every batch of answers; copying every ball's input each time is wasted).
+    fed: Option<(u64, bool)>,
     targets_mm: Vec<Option<f64>>,
     speed_limits_mm_s: Vec<Option<f64>>,
     colours: Vec<Option<[u8; 3]>>,
@@ -131,6 +136,7 @@ impl Feed {
     /// Hands `sequencer` the latest live input (see the module's doc).
     pub(super) fn feed<D: Drive>(&mut self, sequencer: &mut Sequencer<D>) {
         let Some(input) = &self.input else {
+            self.fed = None;
             sequencer.set_live_input(LiveInput {
                 lost: true,
                 ..LiveInput::default()
@@ -158,6 +164,10 @@ impl Feed {
             || snapshot
                 .received_at
                 .is_none_or(|at| at.elapsed() > hold_after);
+        if self.fed == Some((snapshot.generation, lost)) {
+            return;
+        }
+        self.fed = Some((snapshot.generation, lost));
         sequencer.set_live_input(LiveInput {
             targets_mm: &self.targets_mm,
             speed_limits_mm_s: &self.speed_limits_mm_s,
@@ -179,6 +189,7 @@ impl Feed {
             LiveRequest::Feed(input) => {
                 self.input = Some(input);
                 self.built = None;
+                self.fed = None;
                 None
             }
             LiveRequest::Live { on: false, reply } => {
@@ -194,6 +205,8 @@ impl Feed {
                     // Live already: nothing changes.
                     (Ok(()), None)
                 } else {
+                    // Handed anew: going live takes the input kept for the approach.
+                    self.fed = None;
                     self.feed(sequencer);
                     let result = sequencer.go_live(now_us).map_err(LiveError::from);
                     let went = result.is_ok().then_some(generation);
