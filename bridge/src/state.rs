@@ -295,7 +295,7 @@ impl AppState {
             Arc::clone(&starts_pending),
             health,
         );
-        Ok(Self {
+        let opened = Self {
             inner: Arc::new(Inner {
                 config: watch::channel(Arc::new(config)).0,
                 paths,
@@ -318,7 +318,13 @@ impl AppState {
                 timecode: watch::Sender::new(None),
                 live: watch::Sender::new(Arc::new(crate::live::LiveInput::default())),
             }),
-        })
+        };
+        // The playback task reads live input from the receivers' snapshots.
+        opened
+            .inner
+            .playback
+            .attach_live(opened.inner.live.subscribe());
+        Ok(opened)
     }
 
     /// The installation's configuration now: a snapshot, which a new installation

@@ -787,6 +787,15 @@ fn answer(
             });
             None
         }
+        ClientMessage::Live { .. } | ClientMessage::Record { .. } | ClientMessage::RecordStop
+            if state.password().is_default() =>
+        {
+            Some(templated(Code::MustChangePasswordFirst))
+        }
+        ClientMessage::Live { .. } | ClientMessage::Record { .. } | ClientMessage::RecordStop => {
+            crate::live::record::spawn_request(state, message, replies.clone());
+            None
+        }
         ClientMessage::Raw { .. } if state.password().is_default() => {
             Some(templated(Code::MustChangePasswordFirst))
         }

@@ -23,6 +23,13 @@
 //! 8. ArtTimeCode on the shared socket reaches the chase, not live input;
 //! 9. where the kernel loops multicast back on `lo`, a second bridge joining on
 //!    `sacn_interface = "127.0.0.1"` takes this test's own multicast sACN.
+//! 10. (and 11., 12.) live mode end to end through the WebSocket on a bridge of each
+//!     family — UIM2503 gateways fed over Art-Net, MBOX boxes over sACN, MOONS'
+//!     drives (jogging) over Art-Net: go live, the simulated balls follow a fader
+//!     ramp, a 1,000 mm step is followed at the top speed (sampled on the
+//!     simulation's clock), silence → holding, a recording stored as a show that
+//!     plans, Leave live, and the e-stop: stopped while input keeps coming, `live on`
+//!     refused while latched.
 //!
 //! `olad`, `ola_set_dmx`, `ola_streaming_client` and `ola_patch` are found on the
 //! `PATH`; without them this test's own Art-Net and sACN (unicast) senders stand in
@@ -41,8 +48,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use axum::http::{Method, StatusCode};
-use common::next_message;
 use common::process::Process;
+use common::{next_message, send_text};
 use floatball_bridge::live::LiveStatus;
 use floatball_shared::api::ServerMessage;
 use floatball_shared::live::artnet::{self, ArtPoll, PollReply, PortAddress};
@@ -815,6 +822,31 @@ async fn consoles_move_the_targets_over_art_net_and_sacn() {
     println!("the chase reads the shared socket: {:?}", chased.timecode);
 
     drop(ws);
+
+    // 10. Live mode on UIM2503 gateways (this bridge: a new installation with the
+    // live-mode limits), fed over Art-Net.
+    drop(bridge);
+    let bridge = Process::start(&live_mode_config(
+        4,
+        "[[gateway]]\nport = \"sim\"\nbaud = 115200\n",
+    ));
+    live_mode(&bridge, "UIM2503", |value| Fader::artnet(ola, value)).await;
+    drop(bridge);
+
+    // 11. Live mode on MBOX boxes, fed over sACN.
+    let bridge = Process::start(&live_mode_config(
+        3,
+        "[mbox]\nhost_port = 0\n[[gateway]]\nkind = \"mbox\"\nport = \"sim\"\naxes = 3\n",
+    ));
+    live_mode(&bridge, "MBOX", |value| Fader::sacn(ola_sacn, value)).await;
+    drop(bridge);
+
+    // 12. Live mode on MOONS' drives (jogging), fed over Art-Net.
+    let bridge = Process::start(&live_mode_config(
+        3,
+        "[scl]\nhost_port = 0\n[[gateway]]\nkind = \"scl\"\nport = \"sim\"\nunits = 3\n",
+    ));
+    live_mode(&bridge, "MOONS'", |value| Fader::artnet(ola, value)).await;
     drop(bridge);
 
     // 9. Multicast on the loopback (where the kernel allows it): a bridge joining on
@@ -860,4 +892,368 @@ async fn consoles_move_the_targets_over_art_net_and_sacn() {
 
     drop(olad);
     println!("live input checked in {:?}", started.elapsed());
+}
+
+/// `[matrix] max_speed_mm_s` of the live-mode cases: a step is followed at this speed
+/// at most.
+const TOP_SPEED_MM_S: f64 = 1000.0;
+
+/// The bridge's configuration for the live-mode cases (10, 11): a 1 × `cols` matrix
+/// of `gateway`, live input on, the top speed [`TOP_SPEED_MM_S`].
+fn live_mode_config(cols: u32, gateway: &str) -> String {
+    format!(
+        "[matrix]\nrows = 1\ncols = {cols}\ntravel_mm = {TRAVEL_MM:.1}\n\
+         max_speed_mm_s = {TOP_SPEED_MM_S:.1}\nmax_accel_mm_s2 = 4000.0\n\
+         [safety]\napproach_speed_mm_s = {TOP_SPEED_MM_S:.1}\n\
+         {gateway}\
+         [live]\nenabled = true\nhold_after_ms = {HOLD_AFTER_MS}\n\
+         artnet_listen = \"0.0.0.0:6454\"\nsacn_listen = \"0.0.0.0:5568\"\n"
+    )
+}
+
+/// Each simulated ball's position, mm (100 counts or pulses a mm), and the
+/// simulation's clock, µs.
+async fn sim_balls(bridge: &Process, token: &str) -> (Vec<f64>, u64) {
+    let reply = bridge
+        .request(Method::GET, "/api/sim/positions", Some(token), None)
+        .await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    let positions: floatball_shared::api::SimPositions = reply.json();
+    if let Some(gateway) = positions.gateways.first() {
+        let mm = gateway
+            .units
+            .iter()
+            .map(|unit| unit.position_counts / 100.0)
+            .collect();
+        (mm, gateway.time_us)
+    } else if let Some(one) = positions.boxes.first() {
+        let mm = one
+            .positions_pulses
+            .iter()
+            .map(|&pulses| f64::from(pulses).abs() / 100.0)
+            .collect();
+        (mm, one.time_us)
+    } else {
+        // MOONS' drive twins have no clock of their own: this test's.
+        assert!(
+            !positions.drives.is_empty(),
+            "a simulated gateway, box or drive"
+        );
+        let mm = positions
+            .drives
+            .iter()
+            .map(|drive| drive.position_counts / 100.0)
+            .collect();
+        let epoch = *SIM_EPOCH.get_or_init(Instant::now);
+        (
+            mm,
+            u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX),
+        )
+    }
+}
+
+/// The clock of samples from simulated MOONS' drives (which have none of their own).
+static SIM_EPOCH: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
+
+/// Until balls 0–2 are within 3 mm of `mm` (at most 5 s).
+async fn balls_at(bridge: &Process, token: &str, what: &str, mm: f64) -> Vec<f64> {
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let (balls, _) = sim_balls(bridge, token).await;
+        if balls.len() >= 3 && balls[..3].iter().all(|&at| (at - mm).abs() < 3.0) {
+            return balls;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "{what}: the balls are at {balls:?}, not at {mm:.1} mm\n{}",
+            bridge.log()
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+/// The next error from the bridge (statuses skipped), within 5 s: its code.
+async fn next_error(ws: &mut common::Ws) -> String {
+    loop {
+        match next_message(ws).await {
+            ServerMessage::Error { code, .. } => return code,
+            ServerMessage::Status(_) | ServerMessage::Timecode(_) | ServerMessage::Schedule(_) => {}
+            other => panic!("an error expected, not {other:?}"),
+        }
+    }
+}
+
+/// The live phase of a status.
+fn phase(status: &floatball_shared::api::Status) -> Option<floatball_shared::api::LivePhase> {
+    status.live.as_ref().map(|live| live.phase)
+}
+
+/// A console's fader for balls 0–3 (each ball at the same 16-bit position): Art-Net
+/// repeated every 100 ms (through `olad` or this test's socket), or an sACN stream
+/// at priority 150 on universe 1 (through `ola_streaming_client` or this test's
+/// unicast).
+enum Fader {
+    Artnet {
+        value: Arc<std::sync::atomic::AtomicU16>,
+        _repeat: Repeat,
+    },
+    Sacn {
+        stream: SacnStream,
+        ola: bool,
+    },
+}
+
+impl Fader {
+    fn artnet(ola: bool, value: u16) -> Self {
+        let shared = Arc::new(std::sync::atomic::AtomicU16::new(value));
+        let now = Arc::clone(&shared);
+        Self::Artnet {
+            value: shared,
+            _repeat: Repeat::start(move || {
+                Console { ola }.artnet(&four(now.load(Ordering::SeqCst)));
+            }),
+        }
+    }
+
+    fn sacn(ola: bool, value: u16) -> Self {
+        if ola {
+            // OLA universe 1 out on E1.31 universe 1 (unpatched again by `stop`).
+            assert!(ola_run("ola_patch", &["-d", "2", "-p", "0", "-u", "1"]));
+        }
+        Self::Sacn {
+            stream: SacnStream::start(ola, 1, &four(value)),
+            ola,
+        }
+    }
+
+    fn set(&self, value: u16) {
+        match self {
+            Self::Artnet { value: now, .. } => now.store(value, Ordering::SeqCst),
+            Self::Sacn { stream, .. } => stream.set(&four(value)),
+        }
+    }
+
+    /// The console goes silent (an sACN stream is not terminated: it just stops).
+    fn stop(self) {
+        if let Self::Sacn { ola: true, .. } = &self {
+            // olad would go on sending the last values: its port is unpatched (which
+            // terminates the stream, as a console switched off does).
+            assert!(ola_run(
+                "ola_patch",
+                &["-r", "-d", "2", "-p", "0", "-u", "1"]
+            ));
+        }
+        drop(self);
+    }
+}
+
+/// Balls 0–3 at the same 16-bit position.
+fn four(value: u16) -> Vec<u8> {
+    (0..4).flat_map(|_| value.to_be_bytes()).collect()
+}
+
+/// Live mode end to end on `bridge` (10: UIM2503 over Art-Net; 11: MBOX over sACN;
+/// 12: MOONS' drives over Art-Net):
+/// go live over the WebSocket, a fader ramp followed by the simulated balls, a step
+/// far beyond the top speed followed within it, input lost → holding, Leave live,
+/// Record → Stop recording → the show stored, and the e-stop: stopped, input keeps
+/// coming and nothing moves, a `live on` while latched refused.
+async fn live_mode(bridge: &Process, family: &str, fader: impl Fn(u16) -> Fader) {
+    use floatball_shared::api::{LivePhase, PlayerState};
+    let started = Instant::now();
+    let token = bridge.operator().await;
+    let mut ws = bridge.ws(&token).await;
+    let long = Duration::from_secs(15);
+
+    // Go live: the balls home, approach the input and follow it.
+    let console = fader(0x1000);
+    send_text(&mut ws, r#"{"type":"live","on":true}"#).await;
+    let status = common::status_until(&mut ws, long, |status| {
+        phase(status) == Some(LivePhase::Following)
+    })
+    .await;
+    let live = status.live.as_deref().expect("live");
+    assert!(!live.input_lost && live.period_ms > 0, "{family}: {live:?}");
+    println!(
+        "{family}: following after {:?}: period {} ms, latency {} ms",
+        started.elapsed(),
+        live.period_ms,
+        live.latency_ms
+    );
+    // A fader ramp.
+    for value in [0x1000u16, 0x1800, 0x2000, 0x2800] {
+        console.set(value);
+        balls_at(bridge, &token, &format!("{family}: the ramp"), mm(value)).await;
+    }
+    // A step of 1,000 mm: followed at the top speed, not in one jump. The
+    // simulation's own clock times the samples.
+    let (from, to) = (mm(0x2800), mm(0x2800) + 1_000.0);
+    console.set((to / TRAVEL_MM * 65535.0).round() as u16);
+    let mut samples: Vec<(u64, f64)> = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let (balls, at_us) = sim_balls(bridge, &token).await;
+        samples.push((at_us, balls[0]));
+        if (balls[0] - to).abs() < 3.0 {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "{family}: the step not followed: {balls:?}\n{}",
+            bridge.log()
+        );
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    let mut fastest_mm_s = 0.0f64;
+    let mut i = 0;
+    for j in 1..samples.len() {
+        let (t0, p0) = samples[i];
+        let (t1, p1) = samples[j];
+        // Windows of a quarter of a second: a box's 20 ms frame (or an HTTP round
+        // trip) is then under a tenth of the distance.
+        if t1.saturating_sub(t0) >= 250_000 {
+            fastest_mm_s = fastest_mm_s.max((p1 - p0).abs() / ((t1 - t0) as f64 / 1e6));
+            i = j;
+        }
+    }
+    let took_s = (samples.last().expect("samples").0 - samples[0].0) as f64 / 1e6;
+    assert!(
+        fastest_mm_s <= TOP_SPEED_MM_S * 1.15,
+        "{family}: {fastest_mm_s:.0} mm/s over the top speed: {samples:?}"
+    );
+    assert!(
+        fastest_mm_s >= TOP_SPEED_MM_S * 0.5 && took_s >= (to - from) / TOP_SPEED_MM_S * 0.9,
+        "{family}: the step took {took_s:.2} s at {fastest_mm_s:.0} mm/s at most: {samples:?}"
+    );
+    println!(
+        "{family}: a {:.0} mm step followed in {took_s:.2} s, {fastest_mm_s:.0} mm/s at most \
+         ({} samples)",
+        to - from,
+        samples.len()
+    );
+
+    // Loss: the console stops; the balls hold, the status says so.
+    console.stop();
+    let status = common::status_until(&mut ws, long, |status| {
+        phase(status) == Some(LivePhase::Holding)
+    })
+    .await;
+    assert!(status.live.as_deref().is_some_and(|live| live.input_lost));
+    let (held, _) = sim_balls(bridge, &token).await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let (still, _) = sim_balls(bridge, &token).await;
+    assert!(
+        held.iter().zip(&still).all(|(a, b)| (a - b).abs() < 1.0),
+        "{family}: moved while holding: {held:?} → {still:?}"
+    );
+
+    // Input back: following again; a recording.
+    let console = fader(0x2000);
+    common::status_until(&mut ws, long, |status| {
+        phase(status) == Some(LivePhase::Following)
+    })
+    .await;
+    let take = format!("take {family}");
+    send_text(
+        &mut ws,
+        &serde_json::json!({"type": "record", "name": take}).to_string(),
+    )
+    .await;
+    common::status_until(&mut ws, long, |status| {
+        status.live.as_deref().is_some_and(|live| live.recording)
+    })
+    .await;
+    console.set(0x2400);
+    tokio::time::sleep(Duration::from_millis(600)).await;
+    send_text(&mut ws, r#"{"type":"record_stop"}"#).await;
+    let recorded = loop {
+        match next_message(&mut ws).await {
+            ServerMessage::Recorded { name, duration_ms } => break (name, duration_ms),
+            ServerMessage::Error { message, .. } => panic!("{family}: {message}"),
+            _ => {}
+        }
+    };
+    assert_eq!(recorded.0, take);
+    assert!(recorded.1 >= 500, "{family}: {recorded:?}");
+    let reply = bridge
+        .request(
+            Method::GET,
+            &format!("/api/shows/{}", common::encode_path(&take)),
+            Some(&token),
+            None,
+        )
+        .await;
+    assert_eq!(reply.status, StatusCode::OK, "{:?}", reply.body);
+    let show =
+        floatball_shared::show::Show::from_json(std::str::from_utf8(&reply.body).expect("utf-8"))
+            .expect("a native show file");
+    show.check().expect("a valid show");
+    assert_eq!(show.layout.rows, 1);
+    let plan = bridge
+        .request(
+            Method::GET,
+            &format!("/api/plan/{}", common::encode_path(&take)),
+            Some(&token),
+            None,
+        )
+        .await;
+    assert_eq!(plan.status, StatusCode::OK, "{:?}", plan.body);
+    let plan: floatball_shared::api::PlanReport = plan.json();
+    assert!(plan.feasible, "{family}: {plan:?}");
+    // The same name again: refused (a recording never replaces a show).
+    send_text(
+        &mut ws,
+        &serde_json::json!({"type": "record", "name": take}).to_string(),
+    )
+    .await;
+    assert_eq!(next_error(&mut ws).await, "record_name_taken");
+    println!("{family}: recorded {recorded:?}");
+
+    // Leave live: the balls brake to rest, the matrix is idle; then live again (the
+    // positions known: no homing).
+    send_text(&mut ws, r#"{"type":"live","on":false}"#).await;
+    common::status_until(&mut ws, long, |status| {
+        status.state == PlayerState::Idle && status.live.is_none()
+    })
+    .await;
+    send_text(&mut ws, r#"{"type":"live","on":true}"#).await;
+    common::status_until(&mut ws, long, |status| {
+        phase(status) == Some(LivePhase::Following)
+    })
+    .await;
+
+    // The e-stop: stopped; the input keeps coming and nothing moves; live mode does
+    // not come back by itself, and a `live on` while latched is refused.
+    send_text(&mut ws, r#"{"type":"estop"}"#).await;
+    common::status_until(&mut ws, long, |status| {
+        status.state == PlayerState::Stopped && status.live.is_none()
+    })
+    .await;
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let (stopped, _) = sim_balls(bridge, &token).await;
+    for value in [0x3000u16, 0x6000, 0x1000] {
+        console.set(value);
+        tokio::time::sleep(Duration::from_millis(250)).await;
+    }
+    let (after, _) = sim_balls(bridge, &token).await;
+    assert!(
+        stopped.iter().zip(&after).all(|(a, b)| (a - b).abs() < 1.0),
+        "{family}: moved after the e-stop: {stopped:?} → {after:?}"
+    );
+    send_text(&mut ws, r#"{"type":"live","on":true}"#).await;
+    assert_eq!(next_error(&mut ws).await, "live_estop_latched");
+    // Nothing comes back by itself meanwhile (input still coming).
+    let _ = tokio::time::timeout(Duration::from_millis(500), async {
+        loop {
+            if let ServerMessage::Status(status) = next_message(&mut ws).await {
+                assert!(
+                    status.state == PlayerState::Stopped && status.live.is_none(),
+                    "{family}: {status:?}"
+                );
+            }
+        }
+    })
+    .await;
+    console.stop();
+    println!("{family}: live mode checked in {:?}", started.elapsed());
 }

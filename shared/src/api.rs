@@ -770,6 +770,25 @@ pub enum ClientMessage {
         /// `true`: relay them; `false`: none from now on.
         relay: bool,
     },
+    /// Go live (`{"type": "live", "on": true}`): the balls approach the live input
+    /// and follow it (homing first when their positions are unknown); `on: false`
+    /// leaves live mode (the balls brake to rest, then the matrix is idle). An
+    /// operator's request only: refused while the E-stop is latched (going live does
+    /// not release it), while a playlist runs, and while `[live]` is off.
+    Live {
+        /// `true`: go live; `false`: leave live mode.
+        on: bool,
+    },
+    /// Record the live motion from now on as a show named `name`
+    /// (`{"type": "record", "name": "take 1"}`): refused unless the balls follow live
+    /// input, and when a show of that name is stored already.
+    Record {
+        /// The show's name in the store.
+        name: String,
+    },
+    /// Stop recording (`{"type": "record_stop"}`): the show is written to the store
+    /// (braked to rest) and the bridge answers [`ServerMessage::Recorded`].
+    RecordStop,
 }
 
 impl ClientMessage {
@@ -837,6 +856,14 @@ pub enum ServerMessage {
     /// and timecode, the chase's state, the lead and the drift; sent on connect when
     /// the chase is on and on every change, at most ten times a second.
     Timecode(crate::timecode::chase::TimecodeStatus),
+    /// The answer to [`ClientMessage::RecordStop`]: the recording is stored as the
+    /// show `name` (it lists, previews and plays as any other).
+    Recorded {
+        /// The show's name in the store.
+        name: String,
+        /// Its duration, ms.
+        duration_ms: u64,
+    },
 }
 
 impl ServerMessage {

@@ -400,6 +400,19 @@ codes! {
     /// A recording whose step is no row duration.
     RecordStep = "record_step" ["dt_ms", "min_ms", "max_ms"]
         => "A live period of {dt_ms} ms cannot be recorded: rows last {min_ms}-{max_ms} ms";
+    /// Live mode asked for while the E-stop is latched: only an operator's Start,
+    /// Reset or Home releases it, going live does not.
+    LiveEstopLatched = "live_estop_latched" []
+        => "Live mode cannot start while the E-stop is latched: press Start, Reset or Home first (going live does not release the E-stop)";
+    /// Live mode asked for while live input is off (`[live] enabled = false`).
+    LiveOff = "live_off" []
+        => "Live input is off: set enabled = true in the [live] section of the configuration";
+    /// A recording named as a show already in the store.
+    RecordNameTaken = "record_name_taken" ["name"]
+        => "A show named \"{name}\" exists already: choose another name for the recording";
+    /// Stop recording while no recording is under way (or an E-stop dropped it).
+    RecordNothing = "record_nothing" []
+        => "No recording is under way (an E-stop drops one)";
     /// The E-stop was pressed after the request; the matrix stays stopped.
     Superseded = "superseded" []
         => "The E-stop was pressed after this request; the matrix stays stopped";

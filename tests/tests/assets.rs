@@ -260,6 +260,7 @@ async fn the_rare_pages_are_chunks_outside_the_first_load() {
             "create",
             "csv",
             "installation",
+            "live",
             "password",
             "patch",
             "perf",

@@ -178,3 +178,87 @@ async fn the_playlist_locks_while_playing_reset_and_home_ask_first_and_home_stay
 
     browser.client.close().await.expect("close the browser");
 }
+
+/// An ArtDmx packet (Art-Net 4) for Port-Address 0 (the bridge's universe 1) with
+/// `data` (written here, not with the bridge's encoder).
+fn art_dmx(data: &[u8]) -> Vec<u8> {
+    let mut packet = b"Art-Net\0".to_vec();
+    packet.extend_from_slice(&0x5000u16.to_le_bytes());
+    packet.extend_from_slice(&[0, 14, 0, 0, 0, 0]);
+    packet.extend_from_slice(&u16::try_from(data.len()).expect("length").to_be_bytes());
+    packet.extend_from_slice(data);
+    packet
+}
+
+/// The Live card on Control (issue 38): Go live shows the phase until the balls
+/// follow a console's Art-Net (this test's own datagrams), Record a take and Stop
+/// recording → the take is among the controller's files, Leave live → off.
+#[tokio::test]
+async fn go_live_shows_the_phase_a_recorded_take_is_listed_and_leave_live_ends_it() {
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").expect("a socket");
+    let port = {
+        let probe = std::net::UdpSocket::bind("127.0.0.1:0").expect("a free port");
+        probe.local_addr().expect("address").port()
+    };
+    let bridge = Bridge::start_with_config(&format!(
+        "[matrix]\nrows = 1\ncols = 4\n[safety]\napproach_speed_mm_s = 2000.0\n\
+         [[gateway]]\nport = \"sim\"\n\
+         [live]\nenabled = true\nsacn = false\nartnet_listen = \"127.0.0.1:{port}\"\n"
+    ))
+    .await;
+    // A console: every ball at a quarter of the travel, 20 times a second.
+    let sending = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(true));
+    let console = {
+        let sending = std::sync::Arc::clone(&sending);
+        std::thread::spawn(move || {
+            let packet = art_dmx(&[0x40, 0, 0x40, 0, 0x40, 0, 0x40, 0]);
+            while sending.load(std::sync::atomic::Ordering::SeqCst) {
+                let _ = socket.send_to(&packet, ("127.0.0.1", port));
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        })
+    };
+    let browser = Browser::open(&bridge).await;
+    browser.first_login("night-show-7").await;
+    browser.click("[data-testid=nav-control]").await;
+    browser.click("[data-testid=live-open]").await;
+    browser
+        .wait_for_attribute("[data-testid=live-phase]", "data-phase", "off", UI_TIMEOUT)
+        .await;
+    browser.click("[data-testid=go-live]").await;
+    browser
+        .wait_for_attribute(
+            "[data-testid=live-phase]",
+            "data-phase",
+            "following",
+            PLAY_TIMEOUT,
+        )
+        .await;
+    assert!(enabled(&browser, "[data-testid=leave-live]").await);
+    assert!(!enabled(&browser, "[data-testid=go-live]").await);
+    assert!(!browser.text("[data-testid=live-timing]").await.is_empty());
+
+    browser.type_into("[data-testid=record-name]", "take").await;
+    browser.click("[data-testid=record-start]").await;
+    browser.wait_for("[data-testid=live-recorded]").await;
+    tokio::time::sleep(Duration::from_millis(700)).await;
+    browser.click("[data-testid=record-stop]").await;
+    browser.click("[data-testid=nav-files]").await;
+    browser.click("[data-testid=tab-controller]").await;
+    browser
+        .wait_for("[data-testid=controller-file][data-name=take]")
+        .await;
+
+    browser.click("[data-testid=nav-control]").await;
+    browser.click("[data-testid=leave-live]").await;
+    browser
+        .wait_for_attribute(
+            "[data-testid=live-phase]",
+            "data-phase",
+            "off",
+            PLAY_TIMEOUT,
+        )
+        .await;
+    sending.store(false, std::sync::atomic::Ordering::SeqCst);
+    console.join().expect("the console thread");
+}

@@ -402,6 +402,15 @@ impl Ctx {
                 }));
             }
             ServerMessage::Timecode(chase) => self.timecode.set(Some(chase)),
+            ServerMessage::Recorded { name, .. } => {
+                // A live recording is a show in the store now: list it.
+                let lang = self.lang.get_untracked();
+                self.notify(format!(
+                    "{} \u{201c}{name}\u{201d}",
+                    lang.t(Text::RecordedAs)
+                ));
+                self.refresh();
+            }
             ServerMessage::Pong | ServerMessage::EstopSent { .. } => {}
         }
     }

@@ -60,9 +60,11 @@ pub trait Words: Copy + Send + Sync + 'static {
     fn pair(self) -> (&'static str, &'static str);
 }
 
+mod live;
 mod patch;
 mod schedule;
 
+pub use live::LiveText;
 pub use patch::PatchText;
 pub use schedule::ScheduleText;
 
@@ -675,6 +677,10 @@ texts! {
     NavSchedule => "时间表", "Schedule";
     /// Control: the next start of the schedule.
     ScheduleNextStart => "时间表下次开始", "Schedule's next start";
+    /// The Live card's heading and its opener on Control (the card is in a chunk).
+    LiveMode => "实时模式", "Live mode";
+    /// A live recording stored as a show (the show's name follows).
+    RecordedAs => "录制已保存为演出", "Recording stored as the show";
     /// Control: no start ahead.
     ScheduleNone => "无", "none";
     /// Control: what the schedule did last.
@@ -1254,6 +1260,7 @@ mod tests {
         // The tables of the pages in chunks of their own.
         check(ScheduleText::ALL);
         check(PatchText::ALL);
+        check(LiveText::ALL);
     }
 
     #[test]

@@ -24,7 +24,8 @@
 //! files need no chunk), the Preview's check of a show against the limits
 //! ([`show_violations`]: the show is on screen first, its problems a moment after)
 //! and the reading of the schedule's and the timecode chase's messages
-//! ([`read_show_control`]: fetched when the bridge first sends one).
+//! ([`read_show_control`]: fetched when the bridge first sends one), and Control's
+//! Live card ([`live_card`]: fetched when it is opened or the matrix is live).
 
 use std::future::Future;
 use std::pin::Pin;
@@ -267,6 +268,20 @@ split!(
         || view! { <crate::components::patch::PatchPage /> }.into_any()
     }
 );
+
+split!(
+    live,
+    /// The Control page's Live card (live mode and recording): fetched when the card
+    /// is opened or the matrix is live.
+    pub fn live_card() -> PageView {
+        || view! { <crate::components::live::LiveCard /> }.into_any()
+    }
+);
+
+/// [`live_card`] as a [`Loader`].
+pub fn load_live() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkError>>>> {
+    Box::pin(live_card())
+}
 
 /// [`patch_page`] as a [`Loader`].
 pub fn load_patch() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkError>>>> {

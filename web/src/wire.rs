@@ -26,6 +26,13 @@ struct EstopSent {
     unreached: Vec<String>,
 }
 
+/// [`ServerMessage::Recorded`]'s fields.
+#[derive(Deserialize)]
+struct Recorded {
+    name: String,
+    duration_ms: u64,
+}
+
 /// [`ServerMessage::Error`]'s fields.
 #[derive(Deserialize)]
 struct Refused {
@@ -96,6 +103,13 @@ fn read(tag: &Tag, text: &str) -> Result<ServerMessage, serde_json::Error> {
         },
         "mbox_reply" => ServerMessage::MboxReply(from_str(text)?),
         "scl_reply" => ServerMessage::SclReply(from_str(text)?),
+        "recorded" => {
+            let recorded: Recorded = from_str(text)?;
+            ServerMessage::Recorded {
+                name: recorded.name,
+                duration_ms: recorded.duration_ms,
+            }
+        }
         "error" => {
             let refused: Refused = from_str(text)?;
             ServerMessage::Error {
@@ -238,6 +252,10 @@ mod tests {
                 locates: 1,
                 refused: None,
             }),
+            ServerMessage::Recorded {
+                name: "take 1".into(),
+                duration_ms: 12_340,
+            },
             ServerMessage::Error {
                 message: "no such show".into(),
                 code: "show_not_found".into(),

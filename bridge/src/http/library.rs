@@ -131,7 +131,7 @@ fn upload_limits(config: &Config) -> UploadLimits {
 }
 
 /// An upload as the show `name`, if this installation takes it.
-fn import_upload(
+pub(crate) fn import_upload(
     name: &ShowName,
     body: &[u8],
     format: ShowFormat,

@@ -39,6 +39,7 @@
 //! ([`status`]) reports them.
 
 pub mod receive;
+pub mod record;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};

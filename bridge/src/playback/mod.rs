@@ -75,10 +75,13 @@ use crate::ports::mbox::MboxNet;
 use crate::ports::scl::SclNet;
 use crate::ports::uim2503::Link;
 
+mod live;
 mod mbox;
 mod scl;
 mod sequenced;
 mod uim2503;
+
+pub use live::{LiveError, LiveWatch};
 
 use sequenced::{Prepare, PreparedRuns};
 use uim2503::link_views;
@@ -132,6 +135,8 @@ enum Request {
     },
     /// Drop what is armed.
     Disarm,
+    /// Live mode: its input, Go live / Leave live, recording ([`live`]).
+    Live(live::LiveRequest),
 }
 
 /// A lead as a request carries it: the show's time at the cut's start, and the cut
@@ -183,6 +188,7 @@ impl std::fmt::Debug for Request {
             Request::Reconfigure(_) => "Reconfigure",
             Request::Arm { .. } => "Arm",
             Request::Disarm => "Disarm",
+            Request::Live(_) => "Live",
         })
     }
 }

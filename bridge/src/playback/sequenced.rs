@@ -254,7 +254,7 @@ fn handle<D: Drive + 'static>(
             sequencer.drive_mut().disarm();
             return None;
         }
-        Request::Estop | Request::Reconfigure(_) => return None,
+        Request::Estop | Request::Reconfigure(_) | Request::Live(_) => return None,
     })
 }
 
@@ -276,6 +276,7 @@ pub(super) async fn run<F: Family>(
     let mut publisher = Publisher::new();
     let mut polled = Instant::now();
     let mut poll_owed = false;
+    let mut live_feed = super::live::Feed::default();
     loop {
         let now = now_us();
         let lead_us = family.lead_us();
@@ -333,6 +334,13 @@ pub(super) async fn run<F: Family>(
             let _ = change.reply.send(result);
             request = None;
         }
+        if let Some(Request::Live(live)) = request {
+            let now = now_us();
+            if let Some(generation) = live_feed.handle(&mut sequencer, &latch, live, now) {
+                run_generation = generation;
+            }
+            request = None;
+        }
         if let Some(request) = request
             && let Some((generation, reply, result)) = handle(
                 &mut sequencer,
@@ -359,6 +367,9 @@ pub(super) async fn run<F: Family>(
                 urgent = true;
             }
             family.before_poll(sequencer.drive_mut());
+            if sequencer.is_live() {
+                live_feed.feed(&mut sequencer);
+            }
             sequencer.poll(now_us() + lead_us);
         }
         if sequencer.take_estop() {

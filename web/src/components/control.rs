@@ -387,6 +387,7 @@ pub fn ControlPage() -> impl IntoView {
                 <StatusView />
                 <ScheduleLine />
                 <TimecodeView />
+                <LiveSlot />
             </div>
             </div>
         </section>
@@ -991,6 +992,46 @@ fn status_details(ctx: Ctx, status: Status) -> impl IntoView {
                     </p>
                 }
             })}
+    }
+}
+
+/// Where the Live card goes (live mode, recording): a button that opens it, or the
+/// card itself (its code in a chunk, [`crate::lazy::live_card`]) once opened or
+/// while the matrix is live. Only with a login (an operator's).
+#[component]
+fn LiveSlot() -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    let opened = RwSignal::new(false);
+    let live_now = Memo::new(move |_| {
+        ctx.status
+            .with(|status| status.as_ref().is_some_and(|status| status.live.is_some()))
+    });
+    // Once live, the card stays after live mode ends (its phase says "not live").
+    Effect::new(move |_| {
+        if live_now.get() {
+            opened.set(true);
+        }
+    });
+    let shown = Memo::new(move |_| ctx.logged_in() && (opened.get() || live_now.get()));
+    move || {
+        if shown.get() {
+            crate::lazy::chunk_view(
+                ctx.lang.into(),
+                Text::ChunkFailed,
+                crate::lazy::load_live,
+                |card: crate::lazy::PageView| card(),
+            )
+            .into_any()
+        } else if ctx.logged_in() {
+            view! {
+                <button class="live-open" data-testid="live-open" on:click=move |_| opened.set(true)>
+                    {ctx.tr(Text::LiveMode)}
+                </button>
+            }
+            .into_any()
+        } else {
+            ().into_any()
+        }
     }
 }
 

@@ -15,6 +15,7 @@ pub mod control;
 pub mod create;
 pub mod files;
 pub mod installation;
+pub mod live;
 pub mod login;
 pub mod password;
 pub mod patch;

@@ -213,6 +213,19 @@ pub(super) const ERROR_TEXTS: &[(Code, &str)] = &[
         Code::RecordStep,
         "{dt_ms} 毫秒的实时周期无法录制：每行须为 {min_ms}-{max_ms} 毫秒",
     ),
+    (
+        Code::LiveEstopLatched,
+        "急停锁定时无法进入实时模式：请先按开始、复位或回零（进入实时模式不会解除急停）",
+    ),
+    (
+        Code::LiveOff,
+        "实时输入已关闭：请在配置的 [live] 部分设置 enabled = true",
+    ),
+    (
+        Code::RecordNameTaken,
+        "已有名为“{name}”的演出：请为录制另取一个名字",
+    ),
+    (Code::RecordNothing, "没有正在进行的录制（急停会丢弃录制）"),
     (Code::Superseded, "请求之后按下了急停；矩阵保持停止"),
     (Code::PlayerGone, "播放器没有运行（控制器正在关闭）"),
     // ---- the WebSocket and the console ----
