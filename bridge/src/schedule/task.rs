@@ -12,7 +12,8 @@
 //!   and no unit is missing. Otherwise it records why it did not start and tries
 //!   again every [`RETRY`] while the occasion lasts. A loop's playlist that comes to
 //!   its end by itself (no e-stop, Reset or Home since it started) is started again;
-//!   one stopped by an operator is left alone until the window's end.
+//!   one stopped by an operator, or a matrix an operator took live, is left alone until
+//!   the window's end.
 //! - **End** of a window it started something in — Home (also only through
 //!   [`control::issue_unless_latched`]; never from an error, which only an operator
 //!   clears), then, once every ball is home and the player idle, the motors off where
@@ -47,6 +48,10 @@ pub const MAX_SLEEP: Duration = Duration::from_secs(30);
 
 /// How soon a start that did not happen is tried again.
 pub const RETRY: Duration = Duration::from_secs(2);
+
+/// The state a refusal names while an operator has the matrix live (the matrix is
+/// theirs until the window's end, as after an e-stop).
+const LIVE: &str = "live";
 
 /// How long a window's Home may take before the motors are left on and the outcome
 /// says so.
@@ -161,7 +166,9 @@ impl Scheduler {
         let latch = self.state.playback().latch();
         if latch.generation() != run.generation
             || matches!(status.state, PlayerState::Stopped | PlayerState::Error)
+            || status.live.is_some()
         {
+            // Stopped, or an operator took the matrix live: left alone.
             self.run = None;
         } else if playlist::locked(status.state) {
             run.seen_running = true;
@@ -183,6 +190,9 @@ impl Scheduler {
             return Some((Code::ScheduleNotIdle, params! {"state" => "starting"}));
         }
         let status = self.state.subscribe_status().borrow().clone();
+        if status.live.is_some() {
+            return Some((Code::ScheduleNotIdle, params! {"state" => LIVE}));
+        }
         match status.state {
             PlayerState::Idle => {}
             PlayerState::Error => {
@@ -303,7 +313,9 @@ impl Scheduler {
                 // A loop starting over is tried again while the window lasts (a link
                 // that dropped between two runs) — but not once an operator pressed
                 // the e-stop: they have taken over until the window's end.
-                if code == Code::ScheduleEstopLatched {
+                // So has one who took the matrix live.
+                let live = params.get("state").is_some_and(|state| state == LIVE);
+                if code == Code::ScheduleEstopLatched || live {
                     self.memory.run_ended = false;
                 }
                 self.record(now, false, code, params);
