@@ -10,7 +10,8 @@
 //! time, a locate as `Control::Reset` (stop, home, approach the new point, play from
 //! there), a stop on loss as `Control::Home` — so the chase is refused while an e-stop
 //! is latched and can never release one. A refusal is logged (once, until the show
-//! plays) and the chase tries again a second later.
+//! plays) and the chase tries again a second later, backing off (doubling, up to
+//! 30 s) while the same action is refused again (`Chase::refused`).
 //!
 //! The cues (where each entry sits on the timecode) are read from the stored playlist
 //! — each entry's `timecode_start`, or the layout from `[timecode] start` — and

@@ -26,6 +26,13 @@
 //!   loss time while the chase has the matrix: [`OnLoss::Hold`] lets the show play on
 //!   on the units' own clock (the chase takes it back when the timecode returns, with
 //!   a locate if it is out of step); [`OnLoss::Stop`] stops and homes.
+//! - **Refusals back off**: a refused action is tried again after [`RETRY_MS`], and
+//!   each further refusal of the same action (a Start, or a Locate, of the same
+//!   entry) doubles the wait up to [`RETRY_MAX_MS`] — a refused Start prepares the
+//!   show each time (on MOONS' drives it compiles every ball's Q program). The wait
+//!   is back to [`RETRY_MS`] (and the next try due at once) when the cues change
+//!   (the playlist was edited), the player's state changes (an operator cleared the
+//!   e-stop, the show played) or the timecode jumps.
 //! - A cue the chase started and that was then stopped from elsewhere (an operator's
 //!   Home) is not started again until the timecode leaves it or jumps.
 //! - **Offset and drift**: the offset is the show's time less the timecode's show
@@ -42,8 +49,11 @@ pub const START_AT_ZERO_WITHIN_MS: u64 = 40;
 /// After going `playing`, how long the offset is not acted on (the status's show time
 /// settles).
 pub const SETTLE_MS: u64 = 1_000;
-/// How long a refused action is not tried again.
+/// How long a refused action is not tried again (the first time).
 pub const RETRY_MS: u64 = 1_000;
+/// The longest a refused action waits before it is tried again: each refusal of the
+/// same action (a Start, or a Locate, of the same entry) doubles the wait, up to this.
+pub const RETRY_MAX_MS: u64 = 30_000;
 /// How long a Start or Locate may take to show `playing` before the chase gives up
 /// waiting for it.
 pub const PENDING_TIMEOUT_MS: u64 = 120_000;
@@ -284,6 +294,10 @@ pub struct Chase {
     locates: u32,
     refused: Option<String>,
     retry_at_ms: u64,
+    /// The action issued last, as refusals count it: (a locate, its entry).
+    issued: Option<(bool, usize)>,
+    /// The last refused action and how long it waits now, ms.
+    backoff: Option<((bool, usize), u64)>,
 }
 
 impl Chase {
@@ -307,12 +321,30 @@ impl Chase {
             locates: 0,
             refused: None,
             retry_at_ms: 0,
+            issued: None,
+            backoff: None,
         }
     }
 
-    /// The cues now (the playlist changed).
+    /// The cues now (the playlist changed): a refusal's back-off starts over.
     pub fn set_cues(&mut self, cues: Vec<Cue>) {
+        if cues != self.cues {
+            self.reset_backoff();
+        }
         self.cues = cues;
+    }
+
+    /// Forgets the refusals' back-off: the next try is due at once.
+    fn reset_backoff(&mut self) {
+        if self.backoff.take().is_some() {
+            self.retry_at_ms = 0;
+        }
+    }
+
+    /// How long the last refused action waits before it is tried again, ms (0: none
+    /// refused).
+    pub fn retry_wait_ms(&self) -> u64 {
+        self.backoff.map_or(0, |(_, wait)| wait)
     }
 
     /// The cues.
@@ -329,6 +361,7 @@ impl Chase {
                 let expected = self.expected_at(last, at_ms);
                 if tc_ms.abs_diff(expected) > self.config.locate_threshold_ms {
                     self.jumped = true;
+                    self.reset_backoff();
                 }
                 tc_ms > last.tc_ms
             }
@@ -352,6 +385,7 @@ impl Chase {
                 > self.config.locate_threshold_ms
         {
             self.jumped = true;
+            self.reset_backoff();
         }
         self.last = Some(Sample {
             tc_ms: timecode.to_ms(),
@@ -379,6 +413,9 @@ impl Chase {
 
     /// What the player does, from a status made at `at_ms`.
     pub fn player(&mut self, view: PlayerView, at_ms: u64) {
+        if std::mem::discriminant(&view) != std::mem::discriminant(&self.player) {
+            self.reset_backoff();
+        }
         self.player = view;
         let PlayerView::Playing {
             entry,
@@ -436,10 +473,18 @@ impl Chase {
     }
 
     /// An action was refused (`why`) at `now_ms`: nothing is waited on, and it is
-    /// tried again (as the timecode is then) after [`RETRY_MS`].
+    /// tried again (as the timecode is then) after [`RETRY_MS`], or twice the last
+    /// wait (at most [`RETRY_MAX_MS`]) when the same action was refused last.
     pub fn refused(&mut self, why: String, now_ms: u64) {
         self.refused = Some(why);
-        self.retry_at_ms = now_ms + RETRY_MS;
+        let wait_ms = match (self.backoff, self.issued) {
+            (Some((last, wait_ms)), Some(issued)) if last == issued => {
+                (wait_ms * 2).min(RETRY_MAX_MS)
+            }
+            _ => RETRY_MS,
+        };
+        self.backoff = self.issued.map(|issued| (issued, wait_ms));
+        self.retry_at_ms = now_ms + wait_ms;
         self.started = None;
         if matches!(self.phase, Phase::Pending { .. }) {
             self.phase = Phase::Idle;
@@ -467,6 +512,7 @@ impl Chase {
                     OnLoss::Stop => {
                         self.phase = Phase::Stopped;
                         self.started = None;
+                        self.issued = None;
                         Some(Action::Stop)
                     }
                 },
@@ -560,6 +606,7 @@ impl Chase {
         }
         self.started = Some(cue.entry);
         self.refused = None;
+        self.issued = Some((false, cue.entry));
         self.phase = Phase::Pending {
             locate: false,
             entry: cue.entry,
@@ -580,6 +627,7 @@ impl Chase {
         self.locked = None;
         self.refused = None;
         let Some(cue) = self.cue_at(due) else {
+            self.issued = None;
             self.phase = Phase::Idle;
             self.started = None;
             return matches!(self.player, PlayerView::Idle)
@@ -587,6 +635,7 @@ impl Chase {
                 .map_or(Some(Action::Stop), |()| None);
         };
         self.started = Some(cue.entry);
+        self.issued = Some((true, cue.entry));
         let time_ms = due - cue.start_ms;
         self.phase = Phase::Pending {
             locate: true,
@@ -919,6 +968,76 @@ mod tests {
                 }
             )]
         );
+    }
+
+    #[test]
+    fn refusals_of_the_same_start_back_off_to_30_s_and_a_change_starts_over() {
+        // One entry of 200 s at 10:00:00:00.
+        let long = || {
+            cues(
+                &[CueEntry {
+                    start_ms: None,
+                    delay_ms: 0,
+                    duration_ms: 200_000,
+                    cycles: 1,
+                }],
+                Some(10 * 3_600_000),
+            )
+        };
+        let mut chase = Chase::new(config(OnLoss::Hold), "artnet", long());
+        let from = 10 * 3_600_000 - 2_000;
+        // Refused each time it is tried: the waits double, 1, 2, 4, 8, 16, 30, 30 s.
+        let mut at = 0;
+        let mut tries = Vec::new();
+        let mut refusals = 0;
+        while at <= 100_000 {
+            chase.timecode(Timecode::from_ms(from + at, RATE), at);
+            if let Some(Action::Start { entry: 0, .. }) = chase.poll(at) {
+                tries.push(at);
+                chase.refused("the show cannot be compiled".to_owned(), at);
+                refusals += 1;
+            }
+            at += 40;
+        }
+        assert_eq!(refusals, tries.len());
+        let waits: Vec<u64> = tries.windows(2).map(|w| w[1] - w[0]).collect();
+        assert_eq!(
+            waits,
+            [1_000, 2_000, 4_000, 8_000, 16_000, 30_000, 30_000],
+            "{tries:?}"
+        );
+        assert_eq!(chase.retry_wait_ms(), RETRY_MAX_MS);
+        // The playlist edited: tried again at once, then after a second.
+        let mut edited = long();
+        edited[0].duration_ms += 1_000;
+        chase.set_cues(edited);
+        assert_eq!(chase.retry_wait_ms(), 0);
+        chase.timecode(Timecode::from_ms(from + at, RATE), at);
+        assert!(matches!(
+            chase.poll(at),
+            Some(Action::Start { entry: 0, .. })
+        ));
+        chase.refused("the show cannot be compiled".to_owned(), at);
+        assert_eq!(chase.retry_wait_ms(), RETRY_MS);
+        chase.refused("the show cannot be compiled".to_owned(), at);
+        assert_eq!(chase.retry_wait_ms(), 2 * RETRY_MS);
+        // The player's state changed (an operator's Home cleared an e-stop): at once.
+        chase.player(PlayerView::Busy, at + 10);
+        chase.player(PlayerView::Idle, at + 20);
+        assert_eq!(chase.retry_wait_ms(), 0);
+        chase.timecode(Timecode::from_ms(from + at + 40, RATE), at + 40);
+        assert!(matches!(
+            chase.poll(at + 40),
+            Some(Action::Start { entry: 0, .. })
+        ));
+        chase.refused("the e-stop is latched".to_owned(), at + 40);
+        chase.refused("the e-stop is latched".to_owned(), at + 40);
+        assert_eq!(chase.retry_wait_ms(), 2 * RETRY_MS);
+        // A jump of the timecode: back-off forgotten, the locate is due at once.
+        let jumped = 10 * 3_600_000 + 150_000;
+        chase.timecode(Timecode::from_ms(jumped, RATE), at + 80);
+        assert_eq!(chase.retry_wait_ms(), 0);
+        assert!(chase.poll(at + 80).is_some());
     }
 
     #[test]
