@@ -119,6 +119,12 @@ enum Request {
     },
     /// Drop what is armed.
     Disarm,
+    /// A timecode chase's clock trim: entry `entry`'s (0-based) show has its time 0 at
+    /// `show_start` by the timecode ([`Playback::trim_clock`]).
+    Trim {
+        entry: usize,
+        show_start: Instant,
+    },
 }
 
 /// A lead as a request carries it: the show's time at the cut's start, and the cut
@@ -167,6 +173,7 @@ impl std::fmt::Debug for Request {
             Request::Reconfigure(_) => "Reconfigure",
             Request::Arm { .. } => "Arm",
             Request::Disarm => "Disarm",
+            Request::Trim { .. } => "Trim",
         })
     }
 }
@@ -902,6 +909,15 @@ impl Playback {
     /// Drops what is armed (or being armed): the next Start loads every table again,
     /// and nothing is armed for [`ARM_QUIET`]. Call it before anything that could change
     /// what the units hold or what the first entry is: a console line to a gateway, a
+    /// A timecode chase's clock trim (`docs/show-control.md`, drift): the show of
+    /// entry `entry` (0-based) has its time 0 at `show_start` by the timecode; the
+    /// drive pulls the units' clock toward it where its family can (MBOX exactly,
+    /// UIM2503 streamed rows ±1 ms each, MOONS' drives not at all). Ignored unless
+    /// that entry plays. Takes no lock and waits for nothing.
+    pub fn trim_clock(&self, entry: usize, show_start: Instant) {
+        let _ = self.requests.send(Request::Trim { entry, show_start });
+    }
+
     /// new playlist, a changed show of the playlist, a new installation, a
     /// commissioning command. Takes no lock the task holds and waits for nothing.
     pub fn disarm(&self) {

@@ -249,7 +249,7 @@ fn handle<D: Drive + 'static>(
             sequencer.drive_mut().disarm();
             return None;
         }
-        Request::Estop | Request::Reconfigure(_) => return None,
+        Request::Estop | Request::Reconfigure(_) | Request::Trim { .. } => return None,
     })
 }
 
@@ -302,6 +302,13 @@ pub(super) async fn run<F: Family>(
             }
             Some(received) = inputs.recv() => input = Some(received),
             () = tokio::time::sleep_until(sleep_until.into()) => {}
+        }
+        // A clock trim is not news: applied at once, it wakes nothing else.
+        if let Some(Request::Trim { entry, show_start }) = request {
+            let start_us = u64::try_from(show_start.saturating_duration_since(epoch).as_micros())
+                .unwrap_or(u64::MAX);
+            sequencer.trim_clock(now_us(), entry, start_us);
+            request = None;
         }
         let by_input = input.is_some();
         // The answers waiting, in the order they came.

@@ -18,6 +18,12 @@
 //! read again every [`CUES_EVERY`], so a playlist edited meanwhile is chased as
 //! stored.
 //!
+//! While chasing, and unless `[timecode] correct_drift = false`, the chase hands the
+//! player its clock trim every [`TRIM_EVERY`] (`Playback::trim_clock`: the instant
+//! the timecode puts the show's time 0 at): MBOX frames then follow the timecode
+//! exactly, UIM2503 rows not yet sent absorb at most ±1 ms each, MOONS' drives cannot
+//! be trimmed (only relocated).
+//!
 //! The chase's status ([`TimecodeStatus`]: the timecode, the offset of the show from
 //! it, the state, the leads, the drift) is published to the app clients
 //! ([`AppState::publish_timecode`], sent as `ServerMessage::Timecode`) at most
@@ -44,6 +50,10 @@ pub const POLL: Duration = Duration::from_millis(10);
 
 /// How often the cues are read again from the stored playlist.
 pub const CUES_EVERY: Duration = Duration::from_secs(1);
+
+/// How often the chase hands its clock trim to the player while chasing
+/// (`[timecode] correct_drift`).
+pub const TRIM_EVERY: Duration = Duration::from_millis(50);
 
 /// Most status publications a second.
 pub const PUBLISH_PER_S: u32 = 10;
@@ -137,6 +147,7 @@ async fn chase(
     let mut published = Instant::now() - Duration::from_secs(1);
     let mut last_refusal: Option<String> = None;
     let mut warned_rate = false;
+    let mut trimmed = Instant::now();
     chase.player(view(&status.borrow_and_update()), 0);
     state.publish_timecode(chase.status(0));
     loop {
@@ -184,6 +195,15 @@ async fn chase(
                 }
                 if let Some(action) = chase.poll(ms(now)) {
                     issue(&state, &mut chase, &mut last_refusal, action, &results, ms(now));
+                }
+                if config.correct_drift && now.duration_since(trimmed) >= TRIM_EVERY {
+                    trimmed = now;
+                    if let Some((entry, start_ms)) = chase.trim(ms(now))
+                        && let Ok(start_ms) = u64::try_from(start_ms)
+                    {
+                        let show_start = epoch + Duration::from_millis(start_ms);
+                        state.playback().trim_clock(entry, show_start.into_std());
+                    }
                 }
                 if now.duration_since(published) >= Duration::from_secs(1) / PUBLISH_PER_S {
                     published = now;

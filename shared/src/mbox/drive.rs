@@ -22,6 +22,11 @@
 //!   `bridge/src/ports/mbox.rs`).
 //! - Only the latest due slot is sent when the caller is late: a box goes to the
 //!   newest position.
+//! - **Clock trim** ([`Drive::trim_clock`], a timecode chase): the show's time 0
+//!   becomes the instant the timecode puts it at, so each frame's sample time follows
+//!   the timecode exactly rather than the bridge's free-running clock (never going
+//!   back: a frame's show time is at least the one before's). Without a trim nothing
+//!   changes.
 
 use crate::plan::Installation;
 use crate::player::{Drive, Phase};
@@ -111,6 +116,8 @@ enum Step {
         start_us: u64,
         /// Nothing follows: settle frames end the show.
         last: bool,
+        /// The show time of the last frame, ms (a trim never takes it back).
+        last_t_ms: u64,
     },
 }
 
@@ -208,13 +215,20 @@ impl MboxDrive {
                     Phase::Pending
                 }
             }
-            Step::Playing { start_us, last } => {
-                let (start_us, last) = (*start_us, *last);
+            Step::Playing {
+                start_us,
+                last,
+                last_t_ms,
+            } => {
+                let (start_us, last, last_t_ms) = (*start_us, *last, *last_t_ms);
                 let Some(entry) = entry else {
                     return Phase::Pending;
                 };
                 let duration_ms = entry.sampler.duration_ms();
-                let t_ms = slot_us.saturating_sub(start_us) / 1_000;
+                let t_ms = (slot_us.saturating_sub(start_us) / 1_000).max(last_t_ms);
+                if let Step::Playing { last_t_ms, .. } = &mut self.step {
+                    *last_t_ms = t_ms;
+                }
                 self.samples.resize(entry.sampler.unit_count(), 0.0);
                 let ahead_ms = (t_ms + period / 1_000).min(duration_ms);
                 entry
@@ -322,7 +336,11 @@ impl Drive for MboxDrive {
         let start_us = now_us.max(self.next_slot_us);
         self.next_slot_us = start_us;
         self.progress = 0.0;
-        self.step = Step::Playing { start_us, last };
+        self.step = Step::Playing {
+            start_us,
+            last,
+            last_t_ms: 0,
+        };
     }
 
     fn poll(&mut self, now_us: u64, entry: Option<&mut MboxEntry>) -> Phase {
@@ -344,6 +362,12 @@ impl Drive for MboxDrive {
         match self.step {
             Step::Playing { start_us, .. } => Some(start_us),
             _ => None,
+        }
+    }
+
+    fn trim_clock(&mut self, _now_us: u64, show_start_us: u64) {
+        if let Step::Playing { start_us, .. } = &mut self.step {
+            *start_us = show_start_us;
         }
     }
 

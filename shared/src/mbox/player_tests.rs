@@ -531,3 +531,46 @@ fn a_show_frame_is_sent_for_every_sample_the_first_included() {
     assert_eq!(settle.len(), usize::try_from(SETTLE_FRAMES).unwrap());
     assert!(settle.iter().all(|frame| frame.positions_pulses == last));
 }
+
+#[test]
+fn with_a_clock_trim_each_frame_samples_the_show_at_the_given_clock() {
+    let mut player = player();
+    let entry = entry(1, 0);
+    let show = entry.show.clone();
+    let period_us = DEFAULT_PERIOD_US;
+    let mut now = 0;
+    player.start(now, vec![entry], false).unwrap();
+    while player.status().state != PlayerState::Playing {
+        now = player.next_wakeup_us(now).unwrap().max(now);
+        player.poll(now);
+        player.take_frames();
+    }
+    let start_us = now;
+    // A clock 0.5 % fast from the show's start: its show time at `t` is
+    // 1.005 × (t − start); its time 0, seen from `t`, is `t − 1.005 × (t − start)`.
+    let given_start = |t: u64| t - (t - start_us) * 1_005 / 1_000;
+    let mut checked = 0;
+    while player.status().state == PlayerState::Playing && now < start_us + 800_000 {
+        now = player.next_wakeup_us(now).unwrap().max(now);
+        player.trim_clock(now, 0, given_start(now));
+        player.poll(now);
+        for frame in player.take_frames() {
+            let t_ms = (frame.slot_us - given_start(now)) / 1_000;
+            assert_eq!(
+                frame.positions_pulses,
+                show_pulses(&player, &show, t_ms + period_us / 1_000),
+                "the frame at {} µs samples the given clock's {t_ms} ms, a period on",
+                frame.slot_us
+            );
+            checked += 1;
+        }
+        // The status counts the given clock's show time.
+        let status = player.status();
+        assert_eq!(status.show_time_ms, (now - given_start(now)) / 1_000);
+    }
+    assert!(checked >= 30, "{checked} frames");
+    // A trim for another entry is not this show's: nothing changes.
+    let before = player.status().show_time_ms;
+    player.trim_clock(now, 1, 0);
+    assert_eq!(player.status().show_time_ms, before);
+}

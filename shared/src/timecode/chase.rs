@@ -35,9 +35,19 @@
 //!   e-stop, the show played) or the timecode jumps.
 //! - A cue the chase started and that was then stopped from elsewhere (an operator's
 //!   Home) is not started again until the timecode leaves it or jumps.
+//! - **Where the timecode is**: the running timecode's origin on the clock is the
+//!   earliest its last second of samples puts it at ([`WINDOW_MS`]) — a sample is
+//!   late, never early (its frame began before it was sent; it took time to arrive),
+//!   so neither the frames' steps nor a late datagram shake the show's clock.
 //! - **Offset and drift**: the offset is the show's time less the timecode's show
 //!   time, taken at each status; the drift is how much the offset moved since the
 //!   chase locked on (the units' clock against the timecode's).
+//! - **Clock trim** ([`Chase::trim`]): while chasing, the instant the timecode puts
+//!   the show's time 0 at (the offset locked on kept), for the drive to pull the
+//!   units' clock toward — so the drift is corrected where the family allows, without
+//!   a locate.
+
+use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
 
@@ -49,6 +59,11 @@ pub const START_AT_ZERO_WITHIN_MS: u64 = 40;
 /// After going `playing`, how long the offset is not acted on (the status's show time
 /// settles).
 pub const SETTLE_MS: u64 = 1_000;
+/// How far back the running timecode's samples are read for where it is now, ms: a
+/// frame's time comes late (it is sent when the frame began, or later, and takes time
+/// to arrive), so the earliest origin over this window is the truest.
+pub const WINDOW_MS: u64 = 1_000;
+
 /// How long a refused action is not tried again (the first time).
 pub const RETRY_MS: u64 = 1_000;
 /// The longest a refused action waits before it is tried again: each refusal of the
@@ -296,6 +311,9 @@ pub struct Chase {
     retry_at_ms: u64,
     /// The action issued last, as refusals count it: (a locate, its entry).
     issued: Option<(bool, usize)>,
+    /// The running timecode's last [`WINDOW_MS`] of samples: when each arrived, and
+    /// that less its time (where it puts the timecode's origin on the clock).
+    window: VecDeque<(u64, i64)>,
     /// The last refused action and how long it waits now, ms.
     backoff: Option<((bool, usize), u64)>,
 }
@@ -323,6 +341,7 @@ impl Chase {
             retry_at_ms: 0,
             issued: None,
             backoff: None,
+            window: VecDeque::new(),
         }
     }
 
@@ -369,6 +388,19 @@ impl Chase {
         if advancing || self.last.is_none() {
             self.advanced_at_ms = at_ms;
         }
+        if self.jumped || !advancing {
+            self.window.clear();
+        }
+        if advancing {
+            while self
+                .window
+                .front()
+                .is_some_and(|&(at, _)| at + WINDOW_MS < at_ms)
+            {
+                self.window.pop_front();
+            }
+            self.window.push_back((at_ms, at_ms as i64 - tc_ms as i64));
+        }
         self.last = Some(Sample {
             tc_ms,
             at_ms,
@@ -400,7 +432,15 @@ impl Chase {
     fn expected_at(&self, last: Sample, at_ms: u64) -> u64 {
         let elapsed = at_ms.saturating_sub(last.at_ms);
         if last.advancing && elapsed <= self.config.loss_ms {
-            last.tc_ms + elapsed
+            // A sample is never ahead of the time it arrives at (its frame began
+            // before, and it took time to come): the earliest the last second's
+            // samples put the clock's origin at is the truest.
+            match self.window.iter().map(|&(_, origin)| origin).min() {
+                Some(origin) => u64::try_from(at_ms as i64 - origin)
+                    .unwrap_or(0)
+                    .max(last.tc_ms),
+                None => last.tc_ms + elapsed,
+            }
         } else {
             last.tc_ms
         }
@@ -648,6 +688,31 @@ impl Chase {
             entry: cue.entry,
             time_ms,
         })
+    }
+
+    /// The clock trim while chasing: the entry (0-based) and the instant, ms on the
+    /// clock the chase is given, at which the timecode puts that entry's show time 0
+    /// — the offset locked on kept, so the trim removes the drift, not the offset.
+    /// `None` unless chasing a running timecode, locked on.
+    pub fn trim(&self, now_ms: u64) -> Option<(usize, i64)> {
+        let Phase::Chasing { .. } = self.phase else {
+            return None;
+        };
+        let PlayerView::Playing { entry, .. } = self.player else {
+            return None;
+        };
+        let last = self.last.filter(|last| last.advancing)?;
+        if now_ms.saturating_sub(last.at_ms) > self.config.loss_ms {
+            return None;
+        }
+        let (locked, _) = self.locked?;
+        let cue = self.cue_of(entry)?;
+        // show(t) = tc(t) − cue start + locked = t − start  ⇒
+        // start = last.at − last.tc + cue start − locked.
+        Some((
+            entry,
+            last.at_ms as i64 - last.tc_ms as i64 + cue.start_ms as i64 - locked,
+        ))
     }
 
     /// The chase as clients see it at `now_ms`.
@@ -1038,6 +1103,37 @@ mod tests {
         chase.timecode(Timecode::from_ms(jumped, RATE), at + 80);
         assert_eq!(chase.retry_wait_ms(), 0);
         assert!(chase.poll(at + 80).is_some());
+    }
+
+    #[test]
+    fn the_trim_puts_the_show_s_start_where_the_timecode_has_it_keeping_the_offset() {
+        let mut chase = Chase::new(config(OnLoss::Hold), "artnet", two_cues());
+        run(&mut chase, 10 * 3_600_000 - 2_000, 0, 0);
+        assert_eq!(chase.trim(0), None, "not chasing");
+        run(&mut chase, 10 * 3_600_000 - 1_960, 40, 1_960);
+        // Playing at 2 s, 30 ms ahead of the timecode: locked on at +30.
+        chase.player(
+            PlayerView::Playing {
+                entry: 0,
+                show_time_ms: 30,
+            },
+            2_000,
+        );
+        assert_eq!(chase.trim(2_000), Some((0, 2_000 - 30)));
+        // The timecode runs 0.5 % fast: 10 s on the clock are 10.05 s of timecode. The
+        // show's time 0 by the timecode is then 50 ms earlier on the clock.
+        // Frame n arrives at the instant the sender's clock reaches it.
+        let mut at = 2_000;
+        for frame in 1..=251u64 {
+            at = 2_000 + frame * 40 * 1_000 / 1_005;
+            chase.timecode(Timecode::from_ms(10 * 3_600_000 + frame * 40, RATE), at);
+        }
+        assert_eq!(at, 11_990);
+        let (entry, start_ms) = chase.trim(12_000).unwrap();
+        assert_eq!(entry, 0);
+        assert!((start_ms - (2_000 - 30 - 50)).abs() <= 1, "{start_ms}");
+        // Lost: no trim.
+        assert_eq!(chase.trim(11_990 + 1_001), None);
     }
 
     #[test]
