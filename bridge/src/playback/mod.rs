@@ -55,7 +55,7 @@
 //! and writes nothing for [`stall_limit`] stops the show on every gateway and sets the
 //! state `error`, naming the gateway.
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
@@ -288,6 +288,9 @@ struct ArmingShared {
     disarms: AtomicU64,
     /// No arming before this.
     quiet_until: Mutex<Instant>,
+    /// The balls' positions are unknown (the next Start homes first), as the task
+    /// last saw it.
+    needs_home: AtomicBool,
 }
 
 impl Default for ArmingShared {
@@ -295,6 +298,7 @@ impl Default for ArmingShared {
         Self {
             disarms: AtomicU64::new(0),
             quiet_until: Mutex::new(Instant::now() + ARM_QUIET),
+            needs_home: AtomicBool::new(true),
         }
     }
 }
@@ -894,6 +898,12 @@ impl Playback {
     /// is accepted only if no disarm came since.
     pub fn disarms(&self) -> u64 {
         self.arming.disarms.load(Ordering::Acquire)
+    }
+
+    /// Whether the balls' positions are unknown (the next Start homes first), as the
+    /// player last said (a timecode chase's lead estimate, `crate::timecode::lead`).
+    pub fn needs_home(&self) -> bool {
+        self.arming.needs_home.load(Ordering::Acquire)
     }
 
     /// Whether the quiet time after the last [`Playback::disarm`] is over.

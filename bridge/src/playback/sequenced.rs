@@ -305,8 +305,13 @@ pub(super) async fn run<F: Family>(
         }
         // A clock trim is not news: applied at once, it wakes nothing else.
         if let Some(Request::Trim { entry, show_start }) = request {
-            let start_us = u64::try_from(show_start.saturating_duration_since(epoch).as_micros())
-                .unwrap_or(u64::MAX);
+            // Signed: a show located into may have its time 0 before the task began.
+            let start_us = match show_start.checked_duration_since(epoch) {
+                Some(after) => i64::try_from(after.as_micros()).unwrap_or(i64::MAX),
+                None => {
+                    -i64::try_from(epoch.duration_since(show_start).as_micros()).unwrap_or(i64::MAX)
+                }
+            };
             sequencer.trim_clock(now_us(), entry, start_us);
             request = None;
         }
@@ -381,6 +386,9 @@ pub(super) async fn run<F: Family>(
         arming
             .disarms
             .store(sequencer.drive().disarms(), Ordering::Release);
+        arming
+            .needs_home
+            .store(sequencer.needs_home(), Ordering::Release);
         let now = now_us();
         if publisher.due(urgent, sequencer.state_at(now)) {
             publish(&status_tx, status(&sequencer, now, &family, &list));

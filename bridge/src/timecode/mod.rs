@@ -13,6 +13,9 @@
 //! plays) and the chase tries again a second later, backing off (doubling, up to
 //! 30 s) while the same action is refused again (`Chase::refused`).
 //!
+//! Before a cue is due the chase asks for its lead, which [`lead::estimate_ms`]
+//! estimates from the plan (approach and load); measured leads correct it.
+//!
 //! The cues (where each entry sits on the timecode) are read from the stored playlist
 //! — each entry's `timecode_start`, or the layout from `[timecode] start` — and
 //! read again every [`CUES_EVERY`], so a playlist edited meanwhile is chased as
@@ -29,6 +32,7 @@
 //! ([`AppState::publish_timecode`], sent as `ServerMessage::Timecode`) at most
 //! [`PUBLISH_PER_S`] times a second.
 
+pub mod lead;
 pub mod receive;
 
 use std::time::Duration;
@@ -148,6 +152,8 @@ async fn chase(
     let mut last_refusal: Option<String> = None;
     let mut warned_rate = false;
     let mut trimmed = Instant::now();
+    let (estimates_tx, mut estimates) = mpsc::channel::<((usize, u64), Option<(u64, u64)>)>(4);
+    let mut estimating = None;
     chase.player(view(&status.borrow_and_update()), 0);
     state.publish_timecode(chase.status(0));
     loop {
@@ -179,6 +185,18 @@ async fn chase(
                 }
                 chase.player(seen, ms(Instant::now()));
             }
+            Some(((entry, time_ms), estimate)) = estimates.recv() => {
+                estimating = None;
+                if let Some((lead_ms, locate_ms)) = estimate {
+                    tracing::info!(
+                        "timecode: entry {}'s lead estimated at {lead_ms} ms (a locate's {locate_ms} ms)",
+                        entry + 1
+                    );
+                }
+                let configured = (config.chase.lead_ms, config.chase.lead_ms * 3 / 2);
+                let (lead_ms, locate_ms) = estimate.unwrap_or(configured);
+                chase.set_lead_estimate(entry, time_ms, lead_ms, locate_ms);
+            }
             outcome = outcomes.recv() => {
                 if let Some(Some(why)) = outcome {
                     note_refusal(&mut chase, &mut last_refusal, why, ms(Instant::now()));
@@ -193,16 +211,34 @@ async fn chase(
                         chase.set_cues(fresh);
                     }
                 }
+                if let Some(wanted) = chase.lead_wanted(ms(now))
+                    && estimating != Some(wanted)
+                {
+                    // Reads the show (on a blocking thread): once a cue, and again after
+                    // a jump.
+                    estimating = Some(wanted);
+                    chase.estimating(ms(now));
+                    let (state, estimates) = (state.clone(), estimates_tx.clone());
+                    tokio::task::spawn_blocking(move || {
+                        let (entry, time_ms) = wanted;
+                        let _ = estimates.try_send((wanted, lead::estimate_ms(&state, entry, time_ms)));
+                    });
+                }
                 if let Some(action) = chase.poll(ms(now)) {
                     issue(&state, &mut chase, &mut last_refusal, action, &results, ms(now));
                 }
                 if config.correct_drift && now.duration_since(trimmed) >= TRIM_EVERY {
                     trimmed = now;
+                    // (The show's time 0 may lie before the chase began: a show
+                    // located into.)
                     if let Some((entry, start_ms)) = chase.trim(ms(now))
-                        && let Ok(start_ms) = u64::try_from(start_ms)
+                        && let Some(show_start) = if start_ms >= 0 {
+                            epoch.into_std().checked_add(Duration::from_millis(start_ms.unsigned_abs()))
+                        } else {
+                            epoch.into_std().checked_sub(Duration::from_millis(start_ms.unsigned_abs()))
+                        }
                     {
-                        let show_start = epoch + Duration::from_millis(start_ms);
-                        state.playback().trim_clock(entry, show_start.into_std());
+                        state.playback().trim_clock(entry, show_start);
                     }
                 }
                 if now.duration_since(published) >= Duration::from_secs(1) / PUBLISH_PER_S {

@@ -23,10 +23,10 @@
 //! - Only the latest due slot is sent when the caller is late: a box goes to the
 //!   newest position.
 //! - **Clock trim** ([`Drive::trim_clock`], a timecode chase): the show's time 0
-//!   becomes the instant the timecode puts it at, so each frame's sample time follows
-//!   the timecode exactly rather than the bridge's free-running clock (never going
-//!   back: a frame's show time is at least the one before's). Without a trim nothing
-//!   changes.
+//!   moves as far as the timecode puts it since the first trim, so each frame's
+//!   sample time follows the timecode exactly rather than the bridge's free-running
+//!   clock (never going back: a frame's show time is at least the one before's).
+//!   Without a trim nothing changes.
 
 use crate::plan::Installation;
 use crate::player::{Drive, Phase};
@@ -118,6 +118,8 @@ enum Step {
         last: bool,
         /// The show time of the last frame, ms (a trim never takes it back).
         last_t_ms: u64,
+        /// The first clock trim: the show's start then, and the start it gave, µs.
+        trimmed_from: Option<(u64, i64)>,
     },
 }
 
@@ -219,6 +221,7 @@ impl MboxDrive {
                 start_us,
                 last,
                 last_t_ms,
+                ..
             } => {
                 let (start_us, last, last_t_ms) = (*start_us, *last, *last_t_ms);
                 let Some(entry) = entry else {
@@ -340,6 +343,7 @@ impl Drive for MboxDrive {
             start_us,
             last,
             last_t_ms: 0,
+            trimmed_from: None,
         };
     }
 
@@ -365,9 +369,16 @@ impl Drive for MboxDrive {
         }
     }
 
-    fn trim_clock(&mut self, _now_us: u64, show_start_us: u64) {
-        if let Step::Playing { start_us, .. } = &mut self.step {
-            *start_us = show_start_us;
+    fn trim_clock(&mut self, _now_us: u64, show_start_us: i64) {
+        if let Step::Playing {
+            start_us,
+            trimmed_from,
+            ..
+        } = &mut self.step
+        {
+            // The show's start moves as far as the timecode's has since the first.
+            let (own_us, first_us) = *trimmed_from.get_or_insert((*start_us, show_start_us));
+            *start_us = own_us.saturating_add_signed(show_start_us - first_us);
         }
     }
 

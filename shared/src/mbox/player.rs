@@ -182,7 +182,7 @@ impl MboxPlayer {
 
     /// A timecode chase's clock trim: entry `entry`'s (0-based) show has its time 0
     /// at `show_start_us` ([`crate::player::Drive::trim_clock`]: the frames follow it).
-    pub fn trim_clock(&mut self, now_us: u64, entry: usize, show_start_us: u64) {
+    pub fn trim_clock(&mut self, now_us: u64, entry: usize, show_start_us: i64) {
         self.sequencer.trim_clock(now_us, entry, show_start_us);
     }
 

@@ -14,9 +14,12 @@
 //!   long from a Start until the show's clock is at the time asked for (approach,
 //!   preload, a cut's run-up) — [`Action::Start`] of that entry at the time the show
 //!   will have then: 0 when on time, later when the timecode started inside the cue.
-//!   The lead is the configured estimate until the first start is seen playing; from
-//!   then on the lead measured at the last start (separately for starts and locates,
-//!   which stop and home first).
+//!   The lead is the plan's estimate for the cue when the bridge gives one
+//!   ([`Chase::lead_wanted`], [`Chase::set_lead_estimate`]: approach and load,
+//!   [`super::lead`]), corrected by how far the last measured lead was from its
+//!   estimate; without one the configured lead until the first start is seen
+//!   playing, and from then on the lead measured at the last start (separately for
+//!   starts and locates, which stop and home first).
 //! - **Locate**: a sample more than the threshold away from where the running
 //!   timecode was expected (a jump), or the show more than the threshold out of step
 //!   while chasing, after the first second: [`Action::Locate`] (stop, home, approach
@@ -41,7 +44,8 @@
 //!   so neither the frames' steps nor a late datagram shake the show's clock.
 //! - **Offset and drift**: the offset is the show's time less the timecode's show
 //!   time, taken at each status; the drift is how much the offset moved since the
-//!   chase locked on (the units' clock against the timecode's).
+//!   chase locked on, a second after the show began playing (the units' clock against
+//!   the timecode's).
 //! - **Clock trim** ([`Chase::trim`]): while chasing, the instant the timecode puts
 //!   the show's time 0 at (the offset locked on kept), for the drive to pull the
 //!   units' clock toward — so the drift is corrected where the family allows, without
@@ -63,6 +67,9 @@ pub const SETTLE_MS: u64 = 1_000;
 /// frame's time comes late (it is sent when the frame began, or later, and takes time
 /// to arrive), so the earliest origin over this window is the truest.
 pub const WINDOW_MS: u64 = 1_000;
+
+/// How long a Start waits for a lead being estimated ([`Chase::estimating`]), ms.
+pub const ESTIMATE_WAIT_MS: u64 = 500;
 
 /// How long a refused action is not tried again (the first time).
 pub const RETRY_MS: u64 = 1_000;
@@ -304,6 +311,7 @@ pub struct Chase {
     lead_ms: u64,
     locate_lead_ms: u64,
     lead_measured: bool,
+    locate_measured: bool,
     /// The cue (its entry) the chase started last.
     started: Option<usize>,
     locates: u32,
@@ -311,6 +319,15 @@ pub struct Chase {
     retry_at_ms: u64,
     /// The action issued last, as refusals count it: (a locate, its entry).
     issued: Option<(bool, usize)>,
+    /// The leads estimated from the plan ([`Chase::set_lead_estimate`]): per entry,
+    /// the show time it was for, a Start's lead and a locate's, ms.
+    estimates: Vec<(usize, u64, u64, u64)>,
+    /// The estimate the last Start was issued with, ms.
+    estimate_used: Option<u64>,
+    /// Since when the bridge is estimating a lead ([`Chase::estimating`]), ms.
+    estimating_since: Option<u64>,
+    /// How much longer the last measured lead was than its estimate, ms.
+    estimate_error_ms: Option<i64>,
     /// The running timecode's last [`WINDOW_MS`] of samples: when each arrived, and
     /// that less its time (where it puts the timecode's origin on the clock).
     window: VecDeque<(u64, i64)>,
@@ -335,6 +352,7 @@ impl Chase {
             lead_ms: config.lead_ms,
             locate_lead_ms: config.lead_ms * 3 / 2,
             lead_measured: false,
+            locate_measured: false,
             started: None,
             locates: 0,
             refused: None,
@@ -342,6 +360,10 @@ impl Chase {
             issued: None,
             backoff: None,
             window: VecDeque::new(),
+            estimates: Vec::new(),
+            estimate_used: None,
+            estimating_since: None,
+            estimate_error_ms: None,
         }
     }
 
@@ -455,6 +477,10 @@ impl Chase {
     pub fn player(&mut self, view: PlayerView, at_ms: u64) {
         if std::mem::discriminant(&view) != std::mem::discriminant(&self.player) {
             self.reset_backoff();
+            if self.phase == Phase::Idle {
+                // Where the balls are changed (a Home, a show's end): estimated again.
+                self.estimates.clear();
+            }
         }
         self.player = view;
         let PlayerView::Playing {
@@ -487,9 +513,13 @@ impl Chase {
                 u64::try_from(at_target - issued_at_ms as i64 - delay_ms as i64).unwrap_or(0);
             if locate {
                 self.locate_lead_ms = lead;
+                self.locate_measured = true;
             } else {
                 self.lead_ms = lead;
-                if !self.lead_measured {
+                if let Some(estimate) = self.estimate_used.take() {
+                    self.estimate_error_ms = Some(lead as i64 - estimate as i64);
+                }
+                if !self.locate_measured {
                     // Until a locate is measured: a start's lead and half again (it
                     // stops and homes first).
                     self.locate_lead_ms = lead * 3 / 2;
@@ -497,6 +527,13 @@ impl Chase {
             }
             self.lead_measured = true;
             self.phase = Phase::Chasing { since_ms: at_ms };
+            self.locked = None;
+        }
+        // Locked on once the show's time settled (its first second of playing).
+        if let Phase::Chasing { since_ms } = self.phase
+            && self.locked.is_none()
+            && at_ms >= since_ms + SETTLE_MS
+        {
             self.locked = self.offset;
         }
     }
@@ -616,22 +653,38 @@ impl Chase {
             return None;
         }
         if self
+            .estimating_since
+            .is_some_and(|since| now_ms < since + ESTIMATE_WAIT_MS)
+            && self.lead_wanted(now_ms).is_some()
+        {
+            // The cue's lead is being estimated: a moment more.
+            return None;
+        }
+        if self
             .started
             .and_then(|entry| self.cue_of(entry))
             .is_some_and(|cue| {
-                tc_ms + self.lead_ms < cue.start_ms || tc_ms >= cue.start_ms + cue.duration_ms
+                tc_ms + self.lead_for(cue.entry) < cue.start_ms
+                    || tc_ms >= cue.start_ms + cue.duration_ms
             })
         {
             self.started = None;
         }
-        let due = tc_ms + self.lead_ms;
         // Due: from its start less the lead and its delay (a start at time 0 waits
         // the delay) to its end.
         let cue = self.cues.iter().copied().find(|cue| {
+            let due = tc_ms + self.lead_for(cue.entry);
             due + cue.delay_ms >= cue.start_ms && due + MIN_LEFT_MS < cue.start_ms + cue.duration_ms
         })?;
         if self.started == Some(cue.entry) {
             return None;
+        }
+        let lead_ms = self.lead_for(cue.entry);
+        let due = tc_ms + lead_ms;
+        self.estimate_used = self.estimate_of(cue.entry);
+        if self.estimate_used.is_some() {
+            // The status shows the lead the Start goes with.
+            self.lead_ms = lead_ms;
         }
         let mut time_ms = due.saturating_sub(cue.start_ms);
         let mut delay_ms = 0;
@@ -662,7 +715,7 @@ impl Chase {
 
     /// A locate to where the timecode `tc_ms` will be a locate's lead from `now_ms`.
     fn locate(&mut self, tc_ms: u64, now_ms: u64) -> Option<Action> {
-        let due = tc_ms + self.locate_lead_ms;
+        let due = tc_ms + self.locate_lead_for(tc_ms);
         self.locates += 1;
         self.locked = None;
         self.refused = None;
@@ -690,6 +743,87 @@ impl Chase {
         })
     }
 
+    /// The plan's estimate of entry `entry`'s lead, if one was given.
+    fn estimate_of(&self, entry: usize) -> Option<u64> {
+        self.estimates
+            .iter()
+            .find(|(of, ..)| *of == entry)
+            .map(|&(_, _, lead_ms, _)| lead_ms)
+    }
+
+    /// The lead of a locate from timecode `tc_ms`: measured, or the plan's estimate
+    /// for the cue there (or the next), or a start's and half again.
+    fn locate_lead_for(&self, tc_ms: u64) -> u64 {
+        if self.locate_measured {
+            return self.locate_lead_ms;
+        }
+        self.cues
+            .iter()
+            .filter(|cue| tc_ms < cue.start_ms + cue.duration_ms)
+            .min_by_key(|cue| cue.start_ms)
+            .and_then(|cue| {
+                self.estimates
+                    .iter()
+                    .find(|(of, ..)| *of == cue.entry)
+                    .map(|&(_, _, _, locate_ms)| locate_ms)
+            })
+            .unwrap_or(self.locate_lead_ms)
+    }
+
+    /// The lead a Start of `entry` is reckoned with: the plan's estimate for it,
+    /// corrected by how far the last measured lead was from its estimate; without an
+    /// estimate the lead measured last, or the configured one.
+    fn lead_for(&self, entry: usize) -> u64 {
+        match self.estimate_of(entry) {
+            Some(estimate) => {
+                u64::try_from(estimate as i64 + self.estimate_error_ms.unwrap_or(0)).unwrap_or(0)
+            }
+            None => self.lead_ms,
+        }
+    }
+
+    /// The cue whose lead the chase wants estimated at `now_ms`: the next one due
+    /// (entry, 0-based, and the show time a Start of it would ask for), unless its
+    /// estimate is there already (for a time within a second of it). `None` when
+    /// no cue is ahead or nothing is wanted.
+    pub fn lead_wanted(&self, now_ms: u64) -> Option<(usize, u64)> {
+        let tc_ms = self.timecode_ms(now_ms)?;
+        let cue = self
+            .cues
+            .iter()
+            .copied()
+            .filter(|cue| tc_ms + MIN_LEFT_MS < cue.start_ms + cue.duration_ms)
+            .min_by_key(|cue| cue.start_ms)?;
+        let time_ms = (tc_ms + self.lead_for(cue.entry)).saturating_sub(cue.start_ms);
+        let time_ms = if time_ms < START_AT_ZERO_WITHIN_MS {
+            0
+        } else {
+            time_ms
+        };
+        let known = self
+            .estimates
+            .iter()
+            .any(|&(entry, at_ms, ..)| entry == cue.entry && at_ms.abs_diff(time_ms) <= 1_000);
+        (!known).then_some((cue.entry, time_ms))
+    }
+
+    /// The bridge is estimating the lead [`Chase::lead_wanted`] asked for, since
+    /// `now_ms`: a Start of that cue waits for it (at most [`ESTIMATE_WAIT_MS`]).
+    pub fn estimating(&mut self, now_ms: u64) {
+        self.estimating_since = Some(now_ms);
+    }
+
+    /// The plan's estimate of the lead of a Start of `entry` at show time `time_ms`
+    /// (approach and load, [`super::lead`]), and of a locate into it (which homes
+    /// first): the chase starts that cue with it (and what the last measured lead
+    /// taught it) rather than the configured lead, and locates with the other until a
+    /// locate was measured.
+    pub fn set_lead_estimate(&mut self, entry: usize, time_ms: u64, lead_ms: u64, locate_ms: u64) {
+        self.estimating_since = None;
+        self.estimates.retain(|(of, ..)| *of != entry);
+        self.estimates.push((entry, time_ms, lead_ms, locate_ms));
+    }
+
     /// The clock trim while chasing: the entry (0-based) and the instant, ms on the
     /// clock the chase is given, at which the timecode puts that entry's show time 0
     /// — the offset locked on kept, so the trim removes the drift, not the offset.
@@ -708,10 +842,12 @@ impl Chase {
         let (locked, _) = self.locked?;
         let cue = self.cue_of(entry)?;
         // show(t) = tc(t) − cue start + locked = t − start  ⇒
-        // start = last.at − last.tc + cue start − locked.
+        // start = t − tc(t) + cue start − locked (the timecode where the offsets
+        // take it, `expected_at`).
+        let tc_ms = self.expected_at(last, now_ms);
         Some((
             entry,
-            last.at_ms as i64 - last.tc_ms as i64 + cue.start_ms as i64 - locked,
+            now_ms as i64 - tc_ms as i64 + cue.start_ms as i64 - locked,
         ))
     }
 
@@ -1119,21 +1255,73 @@ mod tests {
             },
             2_000,
         );
-        assert_eq!(chase.trim(2_000), Some((0, 2_000 - 30)));
+        // Locked on after the settling second.
+        assert_eq!(chase.trim(2_000), None);
+        run(&mut chase, 10 * 3_600_000 + 40, 2_040, 960);
+        chase.player(
+            PlayerView::Playing {
+                entry: 0,
+                show_time_ms: 1_030,
+            },
+            3_000,
+        );
+        assert_eq!(chase.trim(3_000), Some((0, 2_000 - 30)));
         // The timecode runs 0.5 % fast: 10 s on the clock are 10.05 s of timecode. The
         // show's time 0 by the timecode is then 50 ms earlier on the clock.
         // Frame n arrives at the instant the sender's clock reaches it.
-        let mut at = 2_000;
+        let mut at = 3_000;
         for frame in 1..=251u64 {
-            at = 2_000 + frame * 40 * 1_000 / 1_005;
-            chase.timecode(Timecode::from_ms(10 * 3_600_000 + frame * 40, RATE), at);
+            at = 3_000 + frame * 40 * 1_000 / 1_005;
+            chase.timecode(
+                Timecode::from_ms(10 * 3_600_000 + 1_000 + frame * 40, RATE),
+                at,
+            );
         }
-        assert_eq!(at, 11_990);
-        let (entry, start_ms) = chase.trim(12_000).unwrap();
+        assert_eq!(at, 12_990);
+        let (entry, start_ms) = chase.trim(13_000).unwrap();
         assert_eq!(entry, 0);
         assert!((start_ms - (2_000 - 30 - 50)).abs() <= 1, "{start_ms}");
         // Lost: no trim.
-        assert_eq!(chase.trim(11_990 + 1_001), None);
+        assert_eq!(chase.trim(12_990 + 1_001), None);
+    }
+
+    #[test]
+    fn a_planned_lead_starts_the_first_cue_and_a_measured_one_corrects_it() {
+        let mut chase = Chase::new(config(OnLoss::Hold), "artnet", two_cues());
+        run(&mut chase, 10 * 3_600_000 - 10_000, 0, 0);
+        // The next cue is entry 0 at its start: its lead is wanted once.
+        assert_eq!(chase.lead_wanted(0), Some((0, 0)));
+        chase.set_lead_estimate(0, 0, 3_500, 6_000);
+        assert_eq!(chase.lead_wanted(0), None);
+        // Started 3.5 s ahead of the cue (not the configured 2 s): at 6.5 s (the first
+        // poll past it).
+        let actions = run(&mut chase, 10 * 3_600_000 - 9_960, 40, 7_000);
+        assert_eq!(
+            actions,
+            vec![(
+                6_520,
+                Action::Start {
+                    entry: 0,
+                    time_ms: 0
+                }
+            )]
+        );
+        assert_eq!(chase.status(6_520).lead_ms, 3_500);
+        // It took 3.8 s: entry 1's estimate (4 s) is reckoned 300 ms longer.
+        chase.player(
+            PlayerView::Playing {
+                entry: 0,
+                show_time_ms: 0,
+            },
+            6_520 + 3_800,
+        );
+        assert_eq!(chase.status(10_320).lead_ms, 3_800);
+        chase.set_lead_estimate(1, 0, 4_000, 6_000);
+        assert_eq!(chase.lead_for(1), 4_300);
+        // Until a locate is measured, one into entry 1 is reckoned with its estimate.
+        assert_eq!(chase.locate_lead_for(10 * 3_600_000 + 61_000), 6_000);
+        // An entry without an estimate takes the measured lead.
+        assert_eq!(chase.lead_for(2), 3_800);
     }
 
     #[test]
@@ -1159,8 +1347,9 @@ mod tests {
                 tc_at,
             );
         }
+        // Locked on at the second status (the first second settles).
         let status = chase.status(at);
-        assert_eq!(status.drift_ms, Some(2));
-        assert_eq!(status.drift_over_ms, 20_000);
+        assert_eq!(status.drift_ms, Some(1));
+        assert_eq!(status.drift_over_ms, 10_000);
     }
 }

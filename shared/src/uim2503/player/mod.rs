@@ -145,7 +145,7 @@ enum Step {
         /// The stretch reached by the units at the last poll, ms.
         stretched_ms: f64,
         /// The first trim: when it came, and the show's start it gave, µs.
-        first_trim: Option<(u64, u64)>,
+        first_trim: Option<(u64, i64)>,
     },
 }
 
@@ -393,7 +393,7 @@ impl Drive for Uim2503Drive {
         }
     }
 
-    fn trim_clock(&mut self, now_us: u64, show_start_us: u64) {
+    fn trim_clock(&mut self, now_us: u64, show_start_us: i64) {
         self.trim_playing(now_us, show_start_us);
     }
 
@@ -590,7 +590,7 @@ impl Player {
     /// A timecode chase's clock trim: entry `entry`'s (0-based) show has its time 0 at
     /// `show_start_us` ([`Drive::trim_clock`]: streamed rows not yet sent absorb at
     /// most ±1 ms each).
-    pub fn trim_clock(&mut self, now_us: u64, entry: usize, show_start_us: u64) {
+    pub fn trim_clock(&mut self, now_us: u64, entry: usize, show_start_us: i64) {
         self.sequencer.trim_clock(now_us, entry, show_start_us);
     }
 

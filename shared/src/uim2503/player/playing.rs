@@ -47,10 +47,11 @@ impl Uim2503Drive {
         self.progress = 0.0;
     }
 
-    /// A clock trim: the timecode puts the show's time 0 at `show_start_us`. The rows
-    /// of streaming gateways not yet sent head for it (the units' start is the first
-    /// gateway's); a show whose rows are all in the tables cannot be trimmed.
-    pub(super) fn trim_playing(&mut self, now_us: u64, show_start_us: u64) {
+    /// A clock trim: the timecode puts the show's time 0 at `show_start_us`; the
+    /// rows of streaming gateways not yet sent head for the units' start moved as
+    /// far as that has since the first trim; a show whose rows are all in the tables
+    /// cannot be trimmed.
+    pub(super) fn trim_playing(&mut self, now_us: u64, show_start_us: i64) {
         let Some(plan) = self.plan.as_ref() else {
             return;
         };
@@ -81,7 +82,7 @@ impl Uim2503Drive {
         // The target where the rows sent next begin: where the drift will have taken
         // it when they play.
         let now_ms = now_us.saturating_sub(first_us) as f64 / 1_000.0 - *stretched_ms;
-        let target_ms = (show_start_us as f64 - first_us as f64) / 1_000.0
+        let target_ms = (show_start_us as f64 - first_start_us as f64) / 1_000.0
             + drift * (sent_to_ms - now_ms).max(0.0);
         stretch
             .get_or_insert_with(|| Stretch::new(longest_row_ms(plan)))

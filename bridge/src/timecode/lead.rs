@@ -1,0 +1,214 @@
+//! The lead of a chase's Start estimated from the plan, for the first cue after
+//! start-up (before any lead was measured): [`estimate_ms`] — the approach from where
+//! the balls are (home first when the player does not know: after start-up, after an
+//! e-stop) to where the entry's show is at the time asked for, plus what the family
+//! loads before its common start ([`floatball_shared::timecode::lead`]):
+//!
+//! - UIM2503: the table's preload (each unit's first 256 rows from that time) through
+//!   each gateway's line at its baud rate, and the start's lead (100 ms); nothing
+//!   when that entry is armed already (loaded while idle);
+//! - MBOX: the settle frames after each move;
+//! - MOONS' drives: the approach only (a Q program's upload is not modelled).
+//!
+//! A locate's lead is estimated the same way with the positions unknown (it stops and
+//! homes first). The chase corrects them with what the measured leads teach it.
+
+use floatball_shared::plan::Installation;
+use floatball_shared::show::{Sampler, Show};
+use floatball_shared::timecode::lead::{Motion, row_bytes, table_load_ms};
+use floatball_shared::uim2503::player::START_LEAD_US;
+use floatball_shared::uim2503::pvt::TABLE_ROWS;
+
+use crate::config::Family;
+use crate::state::AppState;
+use crate::store::ShowName;
+
+/// Settle frames a move of the MBOX drive ends with (`floatball_shared::mbox::drive`).
+const MBOX_SETTLE_FRAMES: u64 = floatball_shared::mbox::drive::SETTLE_FRAMES;
+
+/// The estimated leads of a Start of playlist entry `entry` (0-based) at show time
+/// `time_ms`, and of a locate into it (which stops and homes first: positions then
+/// unknown, and no arming), ms; `None` when the entry or its show is not there.
+pub fn estimate_ms(state: &AppState, entry: usize, time_ms: u64) -> Option<(u64, u64)> {
+    let playlist = state.playlist().get();
+    let name = &playlist.entries.get(entry)?.show;
+    let show = state.shows().load(&ShowName::parse(name).ok()?).ok()?;
+    let playback = state.playback();
+    let installation = playback.installation();
+    let armed = state
+        .subscribe_status()
+        .borrow()
+        .armed
+        .as_ref()
+        .is_some_and(|armed| armed.entry == entry && armed.show == *name);
+    let family = match &state.config().family {
+        Family::Uim2503 if armed && time_ms == 0 => Load::Nothing,
+        Family::Uim2503 => Load::Table,
+        Family::Mbox(mbox) => Load::Settle {
+            period_ms: mbox.frame_period.as_secs_f64() * 1_000.0,
+        },
+        Family::Scl(_) => Load::Nothing,
+    };
+    let locate_family =
+        if family == Load::Nothing && matches!(state.config().family, Family::Uim2503) {
+            Load::Table
+        } else {
+            family
+        };
+    Some((
+        estimate(&installation, &show, time_ms, playback.needs_home(), family),
+        estimate(&installation, &show, time_ms, true, locate_family),
+    ))
+}
+
+/// What a family does between the approach and the start.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Load {
+    /// Nothing timed (MOONS' programs; an armed UIM2503 table).
+    Nothing,
+    /// UIM2503: the table's preload through the lines.
+    Table,
+    /// MBOX: the settle frames after each move, of this period.
+    Settle { period_ms: f64 },
+}
+
+fn estimate(
+    installation: &Installation,
+    show: &Show,
+    time_ms: u64,
+    needs_home: bool,
+    load: Load,
+) -> u64 {
+    // Homing from unknown positions: MBOX boxes cannot say where they are, so their
+    // drive gives it the whole travel; UIM2503 units and MOONS' drives move from where
+    // they are — somewhere the show took them, at most its farthest from home.
+    let home_span_mm = if matches!(load, Load::Settle { .. }) {
+        installation.limits.travel_mm
+    } else {
+        show.tracks
+            .iter()
+            .flat_map(|track| {
+                std::iter::once(track.start_mm).chain(track.rows.iter().map(|row| row.position_mm))
+            })
+            .map(|mm| (mm - installation.home_mm).abs())
+            .fold(0.0, f64::max)
+    };
+    // MBOX boxes are given each move's time and take it at one speed.
+    let accel_mm_s2 = if matches!(load, Load::Settle { .. }) {
+        f64::INFINITY
+    } else {
+        installation.limits.max_accel_mm_s2
+    };
+    let motion = Motion {
+        speed_mm_s: installation.approach_speed_mm_s,
+        accel_mm_s2,
+        travel_mm: home_span_mm,
+        home_mm: installation.home_mm,
+    };
+    let mut sampler = Sampler::new(show);
+    let mut to = vec![0.0f32; sampler.unit_count()];
+    sampler.sample(time_ms as f64, &mut to, None);
+    let to_mm: Vec<f64> = to.iter().map(|&mm| f64::from(mm)).collect();
+    // Known positions: the balls rest at home (after a Home, or the start-up homing);
+    // unknown: the Start homes first.
+    let home = vec![installation.home_mm; to_mm.len()];
+    let from = (!needs_home).then_some(home.as_slice());
+    let approach_ms = motion.approach_ms(from, &to_mm);
+    let moves = if needs_home { 2.0 } else { 1.0 };
+    let load_ms = match load {
+        Load::Nothing => 0.0,
+        Load::Settle { period_ms } => moves * MBOX_SETTLE_FRAMES as f64 * period_ms + period_ms,
+        Load::Table => table_ms(installation, show, time_ms) + START_LEAD_US as f64 / 1_000.0,
+    };
+    (approach_ms + load_ms).round() as u64
+}
+
+/// Each gateway's preload from `time_ms` through its line, the slowest's, ms.
+fn table_ms(installation: &Installation, show: &Show, time_ms: u64) -> f64 {
+    let counts_per_mm = installation.counts_per_mm;
+    let gateways = (0..installation.gateways.len()).map(|gateway| {
+        let bytes: usize = installation
+            .units_on(gateway)
+            .filter_map(|unit| show.tracks.get(unit))
+            .map(|track| {
+                // The rows from the one under way at `time_ms`.
+                let mut start_ms = 0u64;
+                let rows = track.rows.iter().skip_while(|row| {
+                    let end_ms = start_ms + u64::from(row.duration_ms);
+                    let before = end_ms <= time_ms;
+                    start_ms = end_ms;
+                    before
+                });
+                // `*N;` and each row's QP, QV, QT.
+                4 + rows
+                    .take(TABLE_ROWS)
+                    .enumerate()
+                    .map(|(index, row)| {
+                        row_bytes(
+                            index,
+                            (row.position_mm * counts_per_mm).round() as i64,
+                            (row.velocity_mm_s * counts_per_mm).round() as i64,
+                            row.duration_ms,
+                        )
+                    })
+                    .sum::<usize>()
+            })
+            .sum();
+        (installation.gateways[gateway].baud, bytes)
+    });
+    table_load_ms(gateways)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use floatball_shared::show::demo;
+
+    #[test]
+    fn the_estimate_adds_the_approach_and_what_the_family_loads() {
+        let mut installation = Installation::demo(1, 3, &[115_200]).unwrap();
+        installation.approach_speed_mm_s = 1_000.0;
+        let show = demo::wave(1, 3, 600, 100);
+        let nothing = estimate(&installation, &show, 0, false, Load::Nothing);
+        let homing = estimate(&installation, &show, 0, true, Load::Nothing);
+        // Unknown positions add a move home from the show's farthest point.
+        let farthest_mm = show
+            .tracks
+            .iter()
+            .flat_map(|track| {
+                std::iter::once(track.start_mm).chain(track.rows.iter().map(|row| row.position_mm))
+            })
+            .map(|mm| (mm - installation.home_mm).abs())
+            .fold(0.0, f64::max);
+        let motion = Motion {
+            speed_mm_s: 1_000.0,
+            accel_mm_s2: installation.limits.max_accel_mm_s2,
+            travel_mm: farthest_mm,
+            home_mm: installation.home_mm,
+        };
+        assert_eq!(homing - nothing, motion.move_ms(farthest_mm).round() as u64);
+        // MBOX boxes home across the whole travel.
+        let settle = Load::Settle { period_ms: 20.0 };
+        let mbox_homing = estimate(&installation, &show, 0, true, settle);
+        let mbox = estimate(&installation, &show, 0, false, settle);
+        let travel = (installation.limits.travel_mm / 1_000.0 * 1_000.0).round() as u64;
+        assert_eq!(mbox_homing - mbox, travel + 100);
+        // A table of 256 rows of three units at 115200 baud: about 30 bytes a row,
+        // 2 to 3 s, and the start's 100 ms.
+        let table = estimate(&installation, &show, 0, false, Load::Table) - nothing;
+        assert!((1_900..3_200).contains(&table), "{table} ms");
+        // Late in the show fewer rows are left to preload.
+        let late = estimate(&installation, &show, 55_000, false, Load::Table)
+            - estimate(&installation, &show, 55_000, false, Load::Nothing);
+        assert!(late < table / 2, "{late} ms");
+        // MBOX: the approach at one speed (no ramps), five frames of 20 ms after it,
+        // and a period.
+        let to_mm = show
+            .tracks
+            .iter()
+            .map(|track| (track.start_mm - installation.home_mm).abs())
+            .fold(0.0, f64::max);
+        let at_speed = (to_mm / 1_000.0 * 1_000.0).round() as u64;
+        assert_eq!(mbox, at_speed + 120);
+    }
+}
