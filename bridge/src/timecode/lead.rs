@@ -4,9 +4,9 @@
 //! e-stop) to where the entry's show is at the time asked for, plus what the family
 //! loads before its common start ([`floatball_shared::timecode::lead`]):
 //!
-//! - UIM2503: the table's preload (each unit's first 256 rows from that time) through
-//!   each gateway's line at its baud rate, and the start's lead (100 ms); nothing
-//!   when that entry is armed already (loaded while idle);
+//! - UIM2503: the table's preload (the rows the planner preloads of the show cut at
+//!   that time) through each gateway's line at its baud rate, and the start's lead
+//!   (100 ms); nothing when that entry is armed already (loaded while idle);
 //! - MBOX: the settle frames after each move;
 //! - MOONS' drives: the approach only (a Q program's upload is not modelled).
 //!
@@ -16,8 +16,10 @@
 use floatball_shared::plan::Installation;
 use floatball_shared::show::{Sampler, Show};
 use floatball_shared::timecode::lead::{Motion, row_bytes, table_load_ms};
+use floatball_shared::uim2503::plan::{Plan, PlanOptions};
 use floatball_shared::uim2503::player::START_LEAD_US;
 use floatball_shared::uim2503::pvt::TABLE_ROWS;
+use floatball_shared::uim2503::stream;
 
 use crate::config::Family;
 use crate::state::AppState;
@@ -123,8 +125,29 @@ fn estimate(
     (approach_ms + load_ms).round() as u64
 }
 
-/// Each gateway's preload from `time_ms` through its line, the slowest's, ms.
+/// Each gateway's preload from `time_ms` through its line, the slowest's, ms: the
+/// rows the planner preloads (all of a show that fits the table, a streamed one's
+/// chosen depth) of the show cut at that time, as the player would plan it; a show the
+/// planner refuses, every unit's first 256 rows.
 fn table_ms(installation: &Installation, show: &Show, time_ms: u64) -> f64 {
+    let cut = match show.from_time(time_ms, f64::NAN) {
+        Some(cut) => cut.show,
+        None => return 0.0,
+    };
+    if let Ok(plan) = Plan::new(&cut, installation, PlanOptions::default()) {
+        return table_load_ms(plan.gateways.iter().map(|run| {
+            let bytes = stream::rows(&plan, run, 0, run.preload_rows)
+                .as_bytes()
+                .len();
+            (installation.gateways[run.gateway].baud, bytes)
+        }));
+    }
+    full_table_ms(installation, show, time_ms)
+}
+
+/// Every unit's first 256 rows from `time_ms` through its gateway's line, the
+/// slowest's, ms.
+fn full_table_ms(installation: &Installation, show: &Show, time_ms: u64) -> f64 {
     let counts_per_mm = installation.counts_per_mm;
     let gateways = (0..installation.gateways.len()).map(|gateway| {
         let bytes: usize = installation
@@ -193,14 +216,27 @@ mod tests {
         let mbox = estimate(&installation, &show, 0, false, settle);
         let travel = (installation.limits.travel_mm / 1_000.0 * 1_000.0).round() as u64;
         assert_eq!(mbox_homing - mbox, travel + 100);
-        // A table of 256 rows of three units at 115200 baud: about 30 bytes a row,
-        // 2 to 3 s, and the start's 100 ms.
+        // A full table of 256 rows of three units at 115200 baud: about 30 bytes a
+        // row, 2 to 3 s.
+        let full = full_table_ms(&installation, &show, 0);
+        assert!((1_900.0..3_200.0).contains(&full), "{full} ms");
+        // The planner streams this 60 s show: it preloads less than the table, and
+        // the estimate is what it preloads, and the start's 100 ms.
+        let plan = Plan::new(&show, &installation, PlanOptions::default()).unwrap();
+        let run = &plan.gateways[0];
+        assert!(run.preload_rows < 256, "{}", run.preload_rows);
+        let bytes = stream::rows(&plan, run, 0, run.preload_rows)
+            .as_bytes()
+            .len();
+        let preload_ms = floatball_shared::line::Line::new(115_200).time_us(bytes) / 1_000;
         let table = estimate(&installation, &show, 0, false, Load::Table) - nothing;
-        assert!((1_900..3_200).contains(&table), "{table} ms");
+        assert!(
+            table.abs_diff(preload_ms + 100) <= 1,
+            "{table} vs {preload_ms} + 100 ms"
+        );
         // Late in the show fewer rows are left to preload.
-        let late = estimate(&installation, &show, 55_000, false, Load::Table)
-            - estimate(&installation, &show, 55_000, false, Load::Nothing);
-        assert!(late < table / 2, "{late} ms");
+        let late = full_table_ms(&installation, &show, 55_000);
+        assert!(late < full / 2.0, "{late} ms");
         // MBOX: the approach at one speed (no ramps), five frames of 20 ms after it,
         // and a period.
         let to_mm = show
