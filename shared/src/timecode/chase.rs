@@ -403,6 +403,7 @@ impl Chase {
                 if tc_ms.abs_diff(expected) > self.config.locate_threshold_ms {
                     self.jumped = true;
                     self.reset_backoff();
+                    self.estimates.clear();
                 }
                 tc_ms > last.tc_ms
             }
@@ -440,6 +441,7 @@ impl Chase {
         {
             self.jumped = true;
             self.reset_backoff();
+            self.estimates.clear();
         }
         self.last = Some(Sample {
             tc_ms: timecode.to_ms(),
@@ -784,8 +786,8 @@ impl Chase {
 
     /// The cue whose lead the chase wants estimated at `now_ms`: the next one due
     /// (entry, 0-based, and the show time a Start of it would ask for), unless its
-    /// estimate is there already (for a time within a second of it). `None` when
-    /// no cue is ahead or nothing is wanted.
+    /// estimate is there already (made again after a jump, or when the player's state
+    /// changed while idle). `None` when no cue is ahead or nothing is wanted.
     pub fn lead_wanted(&self, now_ms: u64) -> Option<(usize, u64)> {
         let tc_ms = self.timecode_ms(now_ms)?;
         let cue = self
@@ -800,10 +802,10 @@ impl Chase {
         } else {
             time_ms
         };
-        let known = self
-            .estimates
-            .iter()
-            .any(|&(entry, at_ms, ..)| entry == cue.entry && at_ms.abs_diff(time_ms) <= 1_000);
+        // Once a cue: again only after a jump or a change of the player's state while
+        // idle (estimating reads and plans the show; inside a running cue the time
+        // asked for moves on with the timecode).
+        let known = self.estimates.iter().any(|&(entry, ..)| entry == cue.entry);
         (!known).then_some((cue.entry, time_ms))
     }
 
