@@ -532,7 +532,11 @@ async fn chase_family(family: &str, gateway: &str, wire: Wire, source: &str, the
     // The locate, into the second hold: forward to 16 s, or back to 7 s when the show
     // is past 10 s already (after relocations).
     let show_time_ms = seen.status.as_ref().map_or(0, |status| status.show_time_ms);
-    sender.jump(if show_time_ms < 10_000 {
+    // (With the drift to measure after it, early enough for 6 s of chasing and a
+    // relocation more before the show's end: to 9 s.)
+    sender.jump(if fast_ppm > 0 && show_time_ms < 7_000 {
+        CUE_MS + 9_000
+    } else if show_time_ms < 10_000 {
         LOCATE_TO_MS
     } else {
         LOCATE_BACK_TO_MS
