@@ -129,7 +129,7 @@ fn balls(positions: &SimPositions) -> Vec<(f64, Option<bool>)> {
         positions
             .drives
             .iter()
-            .map(|drive| (drive.position_counts / 100.0, None))
+            .map(|drive| (drive.position_counts / 100.0, Some(drive.motor_enabled)))
             .collect()
     }
 }
@@ -219,10 +219,11 @@ async fn a_window_starts_and_ends_the_show(family: &str, config: &str, uim2503: 
     })
     .await;
     let ended = &latest.schedule;
-    let expected = if uim2503 {
-        "schedule_ended"
-    } else {
+    // MBOX boxes have no motors-off; UIM2503 units get MO=0, MOONS' drives MD.
+    let expected = if family == "MBOX" {
         "schedule_ended_motors_on"
+    } else {
+        "schedule_ended"
     };
     assert_eq!(
         last_code(ended),
@@ -235,7 +236,7 @@ async fn a_window_starts_and_ends_the_show(family: &str, config: &str, uim2503: 
         home.iter().all(|(mm, _)| mm.abs() < 1.0),
         "{family}: not home: {home:?}"
     );
-    if uim2503 {
+    if family != "MBOX" {
         // The motor-off goes out on the line after the homing: wait for it to arrive.
         let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
         loop {
@@ -249,6 +250,21 @@ async fn a_window_starts_and_ends_the_show(family: &str, config: &str, uim2503: 
             );
             tokio::time::sleep(Duration::from_millis(50)).await;
         }
+    }
+    if family == "MOONS'" {
+        // Disabled drives move again: a Start sends ME before its first move.
+        send_text(&mut ws, r#"{"type":"start"}"#).await;
+        until(&mut ws, &mut latest, family, |l| {
+            l.status.state == PlayerState::Playing
+        })
+        .await;
+        let drives = bridge.sim_positions(&token).await.drives;
+        assert!(
+            drives
+                .iter()
+                .all(|drive| drive.motor_enabled && drive.alarm_code == 0),
+            "{drives:?}"
+        );
     }
 
     // The e-stop latched: the next window starts nothing, and says why.

@@ -43,6 +43,12 @@
 //! goldens (before it, a Start on MOONS' drives never homed); a Start after Home goes
 //! straight to the approach.
 //!
+//! **Every run's first move begins with `ME`** (motor enable) to each drive — Start,
+//! Start again, Home, Start after Home, Start after the e-stop: the schedule disables
+//! the drives at a window's end (`MD`), and a disabled drive refuses to move (alarm
+//! `8000` No Move). That was the one change issue 37's motors-off made to these
+//! goldens (one `ME` line per drive per action that moves).
+//!
 //! Regenerate with `FLOATBALL_BLESS=1 cargo test -p floatball-bridge --test
 //! scl_golden` and read the diff.
 

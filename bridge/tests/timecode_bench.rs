@@ -20,7 +20,11 @@
 //!   and the second (measured).
 //!
 //! `TIMECODE_BENCH_FAMILY` (`UIM2503`, `MBOX`, `MOONS'`) runs the chase of one family
-//! only (then the locate); `TIMECODE_BENCH_LOCATE_ONLY` the locate only.
+//! only (then the locate); `TIMECODE_BENCH_LOCATE_ONLY` the locate only;
+//! `TIMECODE_BENCH_NO_LOCATE` the chases only. `TIMECODE_BENCH_FAST_PPM` runs the
+//! sender's clock that much fast (the drift to correct); `TIMECODE_BENCH_UNCORRECTED`
+//! sets `correct_drift = false` (the drift as it was). The sender sends each frame
+//! as it begins.
 
 mod common;
 
@@ -82,15 +86,24 @@ impl Sender {
         let base_ms = Arc::new(AtomicU64::new(from_ms));
         let running = Arc::new(AtomicBool::new(true));
         let (base, run) = (Arc::clone(&base_ms), Arc::clone(&running));
+        let fast_ppm = fast_ppm();
         std::thread::spawn(move || {
             let socket = UdpSocket::bind("127.0.0.1:0").expect("a socket");
+            // Its own clock, `fast_ppm` faster than the machine's; each frame sent as
+            // it begins, as a timecode source does.
+            let now_ms = || {
+                base.load(Ordering::SeqCst)
+                    + epoch.elapsed().as_micros() as u64 * (1_000_000 + fast_ppm) / 1_000_000_000
+            };
             while run.load(Ordering::SeqCst) {
-                let now_ms = base.load(Ordering::SeqCst) + epoch.elapsed().as_millis() as u64;
+                let now = now_ms();
+                let next = (now / 40 + 1) * 40;
+                let wait_us = (next - now) * 1_000_000_000 / (1_000_000 + fast_ppm);
+                std::thread::sleep(Duration::from_micros(wait_us));
                 let _ = socket.send_to(
-                    &artnet::encode(Timecode::from_ms(now_ms, FrameRate::Ebu25)),
+                    &artnet::encode(Timecode::from_ms(now_ms(), FrameRate::Ebu25)),
                     to,
                 );
-                std::thread::sleep(Duration::from_millis(40));
             }
         });
         Self {
@@ -101,7 +114,8 @@ impl Sender {
     }
 
     fn jump(&self, to_ms: u64) {
-        let elapsed = self.epoch.elapsed().as_millis() as u64;
+        let elapsed =
+            self.epoch.elapsed().as_micros() as u64 * (1_000_000 + fast_ppm()) / 1_000_000_000;
         self.base_ms.store(to_ms - elapsed, Ordering::SeqCst);
     }
 }
@@ -110,6 +124,20 @@ impl Drop for Sender {
     fn drop(&mut self) {
         self.running.store(false, Ordering::SeqCst);
     }
+}
+
+/// How much faster the sender's clock runs than the machine's, ppm
+/// (`TIMECODE_BENCH_FAST_PPM`, default 0).
+fn fast_ppm() -> u64 {
+    std::env::var("TIMECODE_BENCH_FAST_PPM")
+        .ok()
+        .and_then(|ppm| ppm.parse().ok())
+        .unwrap_or(0)
+}
+
+/// Whether the chase corrects the drift (`TIMECODE_BENCH_UNCORRECTED` unset).
+fn correct_drift() -> bool {
+    std::env::var_os("TIMECODE_BENCH_UNCORRECTED").is_none()
 }
 
 /// A bridge chasing Art-Net timecode on a free port, its show uploaded.
@@ -121,7 +149,8 @@ async fn bridge(matrix_and_gateways: &str, show: &[u8]) -> (Process, Ws, std::ne
     let config = format!(
         "{matrix_and_gateways}[timecode]\nsource = \"artnet\"\nlisten = \"127.0.0.1:{port}\"\n\
          rate = \"25\"\nstart = \"10:00:00:00\"\nloss_ms = 1000\nlocate_threshold_ms = 150\n\
-         lead_ms = 2000\n"
+         lead_ms = 2000\ncorrect_drift = {}\n",
+        correct_drift()
     );
     let bridge = Process::start(&config);
     let token = bridge.prepare_show("bench", show, false).await;
@@ -201,9 +230,11 @@ async fn chasing_error(family: &str, gateways: &str, seconds: u64) {
     let last = last_chase.unwrap_or_default();
     let (lead, first_offset) = first.unwrap_or_default();
     println!(
-        "{family}: chasing {seconds} s: |show − timecode| p50 {} ms, p99 {} ms, max {} ms \
-         over {} chase statuses; locates {}; drift {:?} ms over {} s; lead at the cue {lead} ms, \
-         first offset {first_offset:+} ms",
+        "{family}: chasing {seconds} s (timecode {} ppm fast, drift {}corrected): \
+         |show − timecode| p50 {} ms, p99 {} ms, max {} ms over {} chase statuses; locates {}; \
+         drift {:?} ms over {} s; lead at the cue {lead} ms, first offset {first_offset:+} ms",
+        fast_ppm(),
+        if correct_drift() { "" } else { "un" },
         percentile(&offsets, 0.5),
         percentile(&offsets, 0.99),
         offsets.last().copied().unwrap_or_default(),
@@ -311,5 +342,7 @@ async fn timecode_figures() {
         seconds,
     )
     .await;
-    locate_time().await;
+    if std::env::var_os("TIMECODE_BENCH_NO_LOCATE").is_none() {
+        locate_time().await;
+    }
 }

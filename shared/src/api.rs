@@ -533,6 +533,9 @@ pub struct SimDrive {
     pub moves_ended: usize,
     /// The alarm code (`AL`); 0 = none.
     pub alarm_code: u16,
+    /// The motor is enabled (`ME`; `MD` disables it).
+    #[serde(default)]
+    pub motor_enabled: bool,
 }
 
 /// One simulated gateway in [`SimPositions`].

@@ -109,7 +109,9 @@ commands:
   timecode-bench  chase Art-Net timecode on each family's simulated matrix; print
          show - timecode p50/p99/max and the drift, the lead from the cue to the start,
          and locate -> playing again on a 10 x 10 UIM2503 matrix at 115200 baud
-         options: --seconds N (default 300)
+         options: --seconds N (default 300), --fast-ppm PPM (the timecode's clock that
+         much fast), --uncorrected (correct_drift = false), --no-locate,
+         --release (default) or --debug
 ";
 
 fn main() -> ExitCode {

@@ -193,4 +193,5 @@ pub(super) struct RawTimecode {
     pub(super) on_loss: Option<Spanned<String>>,
     pub(super) locate_threshold_ms: Option<Spanned<u64>>,
     pub(super) lead_ms: Option<Spanned<u64>>,
+    pub(super) correct_drift: Option<bool>,
 }

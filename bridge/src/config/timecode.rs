@@ -63,6 +63,9 @@ pub struct TimecodeConfig {
     pub start_ms: Option<u64>,
     /// The chase's settings.
     pub chase: ChaseConfig,
+    /// While chasing, the units' clock is trimmed to the timecode's (where the
+    /// family allows: `docs/show-control.md`).
+    pub correct_drift: bool,
 }
 
 impl TimecodeConfig {
@@ -188,6 +191,7 @@ impl Checker<'_> {
                 )?,
                 lead_ms: ms(&raw.lead_ms, "lead_ms", DEFAULT_LEAD_MS, 0)?,
             },
+            correct_drift: raw.correct_drift.unwrap_or(true),
         }))
     }
 }

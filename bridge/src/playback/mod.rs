@@ -55,7 +55,7 @@
 //! and writes nothing for [`stall_limit`] stops the show on every gateway and sets the
 //! state `error`, naming the gateway.
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
@@ -137,6 +137,12 @@ enum Request {
     Disarm,
     /// Live mode: its input, Go live / Leave live, recording ([`live`]).
     Live(live::LiveRequest),
+    /// A timecode chase's clock trim: entry `entry`'s (0-based) show has its time 0 at
+    /// `show_start` by the timecode ([`Playback::trim_clock`]).
+    Trim {
+        entry: usize,
+        show_start: Instant,
+    },
 }
 
 /// A lead as a request carries it: the show's time at the cut's start, and the cut
@@ -189,6 +195,7 @@ impl std::fmt::Debug for Request {
             Request::Arm { .. } => "Arm",
             Request::Disarm => "Disarm",
             Request::Live(_) => "Live",
+            Request::Trim { .. } => "Trim",
         })
     }
 }
@@ -303,6 +310,9 @@ struct ArmingShared {
     disarms: AtomicU64,
     /// No arming before this.
     quiet_until: Mutex<Instant>,
+    /// The balls' positions are unknown (the next Start homes first), as the task
+    /// last saw it.
+    needs_home: AtomicBool,
 }
 
 impl Default for ArmingShared {
@@ -310,6 +320,7 @@ impl Default for ArmingShared {
         Self {
             disarms: AtomicU64::new(0),
             quiet_until: Mutex::new(Instant::now() + ARM_QUIET),
+            needs_home: AtomicBool::new(true),
         }
     }
 }
@@ -915,6 +926,12 @@ impl Playback {
         self.arming.disarms.load(Ordering::Acquire)
     }
 
+    /// Whether the balls' positions are unknown (the next Start homes first), as the
+    /// player last said (a timecode chase's lead estimate, `crate::timecode::lead`).
+    pub fn needs_home(&self) -> bool {
+        self.arming.needs_home.load(Ordering::Acquire)
+    }
+
     /// Whether the quiet time after the last [`Playback::disarm`] is over.
     pub fn arming_allowed(&self) -> bool {
         Instant::now()
@@ -928,6 +945,15 @@ impl Playback {
     /// Drops what is armed (or being armed): the next Start loads every table again,
     /// and nothing is armed for [`ARM_QUIET`]. Call it before anything that could change
     /// what the units hold or what the first entry is: a console line to a gateway, a
+    /// A timecode chase's clock trim (`docs/show-control.md`, drift): the show of
+    /// entry `entry` (0-based) has its time 0 at `show_start` by the timecode; the
+    /// drive pulls the units' clock toward it where its family can (MBOX exactly,
+    /// UIM2503 streamed rows ±1 ms each, MOONS' drives not at all). Ignored unless
+    /// that entry plays. Takes no lock and waits for nothing.
+    pub fn trim_clock(&self, entry: usize, show_start: Instant) {
+        let _ = self.requests.send(Request::Trim { entry, show_start });
+    }
+
     /// new playlist, a changed show of the playlist, a new installation, a
     /// commissioning command. Takes no lock the task holds and waits for nothing.
     pub fn disarm(&self) {

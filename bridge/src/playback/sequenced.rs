@@ -254,7 +254,9 @@ fn handle<D: Drive + 'static>(
             sequencer.drive_mut().disarm();
             return None;
         }
-        Request::Estop | Request::Reconfigure(_) | Request::Live(_) => return None,
+        Request::Estop | Request::Reconfigure(_) | Request::Live(_) | Request::Trim { .. } => {
+            return None;
+        }
     })
 }
 
@@ -308,6 +310,18 @@ pub(super) async fn run<F: Family>(
             }
             Some(received) = inputs.recv() => input = Some(received),
             () = tokio::time::sleep_until(sleep_until.into()) => {}
+        }
+        // A clock trim is not news: applied at once, it wakes nothing else.
+        if let Some(Request::Trim { entry, show_start }) = request {
+            // Signed: a show located into may have its time 0 before the task began.
+            let start_us = match show_start.checked_duration_since(epoch) {
+                Some(after) => i64::try_from(after.as_micros()).unwrap_or(i64::MAX),
+                None => {
+                    -i64::try_from(epoch.duration_since(show_start).as_micros()).unwrap_or(i64::MAX)
+                }
+            };
+            sequencer.trim_clock(now_us(), entry, start_us);
+            request = None;
         }
         let by_input = input.is_some();
         // The answers waiting, in the order they came.
@@ -390,6 +404,9 @@ pub(super) async fn run<F: Family>(
         arming
             .disarms
             .store(sequencer.drive().disarms(), Ordering::Release);
+        arming
+            .needs_home
+            .store(sequencer.needs_home(), Ordering::Release);
         let now = now_us();
         if publisher.due(urgent, sequencer.state_at(now)) {
             publish(&status_tx, status(&sequencer, now, &family, &list));

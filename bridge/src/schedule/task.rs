@@ -19,10 +19,11 @@
 //!   clears), then, once every ball is home and the player idle, the motors off where
 //!   the family has an instruction for it the bridge can send: UIM2503 units get
 //!   `*0;MO=0;` on every link (an inert instruction the e-stop path lets through, and
-//!   every later move turns the motors on again). MBOX boxes have no motors-off in
-//!   their protocol, and MOONS' drives' `MD` is not sent because nothing in the
-//!   bridge's start path enables them again (`ME`): both keep their motors on, and
-//!   the outcome says so.
+//!   every later move turns the motors on again); MOONS' drives get `MD` (motor
+//!   disable, inert: the e-stop path lets it through), each drive of every link in
+//!   turn, and the first move of every later run (Start, Reset, Home) sends `ME`
+//!   first ([`floatball_shared::scl::drive`]). MBOX boxes have no motors-off in their
+//!   protocol: they keep their motors on, and the outcome says so.
 
 use std::time::{Duration, Instant};
 
@@ -35,12 +36,15 @@ use floatball_shared::params;
 use floatball_shared::schedule::{
     Action, Decision, LocalDateTime, Memory, Occasion, Program, Schedule, decide,
 };
+use floatball_shared::scl::Command;
+use floatball_shared::scl::drive::Expect;
 use floatball_shared::uim2503::ascii::{Batch, Form, Instruction};
 use jiff::tz::TimeZone;
 
 use crate::config::Family;
 use crate::control::{self, Control};
 use crate::playlist;
+use crate::ports::scl::program::DriveRef;
 use crate::state::AppState;
 
 /// The longest the scheduler sleeps without looking at the clock.
@@ -381,7 +385,58 @@ impl Scheduler {
                 self.uim2503_motors_off().await.map_err(refused)?;
                 Ok(Code::ScheduleEnded)
             }
-            Family::Mbox(_) | Family::Scl(_) => Ok(Code::ScheduleEndedMotorsOn),
+            Family::Scl(_) => {
+                self.scl_motors_off().await.map_err(refused)?;
+                Ok(Code::ScheduleEnded)
+            }
+            Family::Mbox(_) => Ok(Code::ScheduleEndedMotorsOn),
+        }
+    }
+
+    /// `MD` to every MOONS' drive on every link: each motor disabled (the next run's
+    /// first move enables it again, `ME`).
+    async fn scl_motors_off(&self) -> Result<(), String> {
+        let playback = self.state.playback();
+        let Some(net) = playback.scl() else {
+            return Ok(());
+        };
+        let generation = playback.latch().generation();
+        let mut failed = Vec::new();
+        for link in net.links() {
+            for drive in 0..link.drives() {
+                let answer = link
+                    .request(
+                        drive,
+                        Command::MotorDisable.to_string(),
+                        Expect::One,
+                        generation,
+                    )
+                    .await;
+                let refused = match &answer {
+                    Ok(lines) => lines
+                        .first()
+                        .is_some_and(|line| line.trim_start().starts_with('?')),
+                    Err(_) => true,
+                };
+                if refused {
+                    failed.push(format!(
+                        "{}: {}",
+                        net.name(DriveRef {
+                            gateway: link.index(),
+                            drive
+                        }),
+                        answer.map_or_else(|error| error.to_string(), |lines| lines.join(" "))
+                    ));
+                }
+            }
+        }
+        if failed.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "the motors-off was not sent to {}",
+                failed.join("; ")
+            ))
         }
     }
 

@@ -261,6 +261,7 @@ impl SimDrives {
                                 .count(),
                             moves_ended: drive.move_ends().len(),
                             alarm_code: drive.alarm_code(),
+                            motor_enabled: drive.is_enabled(),
                         })
                     })
                 })

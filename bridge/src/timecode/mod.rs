@@ -11,18 +11,29 @@
 //! the balls go from where they are to the new point and play on from there), a stop
 //! on loss as `Control::Home` — so the chase is refused while an e-stop
 //! is latched and can never release one. A refusal is logged (once, until the show
-//! plays) and the chase tries again a second later.
+//! plays) and the chase tries again a second later, backing off (doubling, up to
+//! 30 s) while the same action is refused again (`Chase::refused`).
+//!
+//! Before a cue is due the chase asks for its lead, which [`lead::estimate_ms`]
+//! estimates from the plan (approach and load); measured leads correct it.
 //!
 //! The cues (where each entry sits on the timecode) are read from the stored playlist
 //! — each entry's `timecode_start`, or the layout from `[timecode] start` — and
 //! read again every [`CUES_EVERY`], so a playlist edited meanwhile is chased as
 //! stored.
 //!
+//! While chasing, and unless `[timecode] correct_drift = false`, the chase hands the
+//! player its clock trim every [`TRIM_EVERY`] (`Playback::trim_clock`: the instant
+//! the timecode puts the show's time 0 at): MBOX frames then follow the timecode
+//! exactly, UIM2503 rows not yet sent absorb at most ±1 ms each, MOONS' drives cannot
+//! be trimmed (only relocated).
+//!
 //! The chase's status ([`TimecodeStatus`]: the timecode, the offset of the show from
 //! it, the state, the leads, the drift) is published to the app clients
 //! ([`AppState::publish_timecode`], sent as `ServerMessage::Timecode`) at most
 //! [`PUBLISH_PER_S`] times a second.
 
+pub mod lead;
 pub mod receive;
 
 use std::sync::Arc;
@@ -45,6 +56,10 @@ pub const POLL: Duration = Duration::from_millis(10);
 
 /// How often the cues are read again from the stored playlist.
 pub const CUES_EVERY: Duration = Duration::from_secs(1);
+
+/// How often the chase hands its clock trim to the player while chasing
+/// (`[timecode] correct_drift`).
+pub const TRIM_EVERY: Duration = Duration::from_millis(50);
 
 /// Most status publications a second.
 pub const PUBLISH_PER_S: u32 = 10;
@@ -145,6 +160,9 @@ async fn chase(
     let mut published = Instant::now() - Duration::from_secs(1);
     let mut last_refusal: Option<String> = None;
     let mut warned_rate = false;
+    let mut trimmed = Instant::now();
+    let (estimates_tx, mut estimates) = mpsc::channel::<((usize, u64), Option<(u64, u64)>)>(4);
+    let mut estimating = None;
     chase.player(view(&status.borrow_and_update()), 0);
     state.publish_timecode(chase.status(0));
     loop {
@@ -176,6 +194,18 @@ async fn chase(
                 }
                 chase.player(seen, ms(Instant::now()));
             }
+            Some(((entry, time_ms), estimate)) = estimates.recv() => {
+                estimating = None;
+                if let Some((lead_ms, locate_ms)) = estimate {
+                    tracing::info!(
+                        "timecode: entry {}'s lead estimated at {lead_ms} ms (a locate's {locate_ms} ms)",
+                        entry + 1
+                    );
+                }
+                let configured = (config.chase.lead_ms, config.chase.lead_ms);
+                let (lead_ms, locate_ms) = estimate.unwrap_or(configured);
+                chase.set_lead_estimate(entry, time_ms, lead_ms, locate_ms);
+            }
             outcome = outcomes.recv() => {
                 if let Some(Some(why)) = outcome {
                     note_refusal(&mut chase, &mut last_refusal, why, ms(Instant::now()));
@@ -190,8 +220,35 @@ async fn chase(
                         chase.set_cues(fresh);
                     }
                 }
+                if let Some(wanted) = chase.lead_wanted(ms(now))
+                    && estimating != Some(wanted)
+                {
+                    // Reads the show (on a blocking thread): once a cue, and again after
+                    // a jump.
+                    estimating = Some(wanted);
+                    chase.estimating(ms(now));
+                    let (state, estimates) = (state.clone(), estimates_tx.clone());
+                    tokio::task::spawn_blocking(move || {
+                        let (entry, time_ms) = wanted;
+                        let _ = estimates.try_send((wanted, lead::estimate_ms(&state, entry, time_ms)));
+                    });
+                }
                 if let Some(action) = chase.poll(ms(now)) {
                     issue(&state, &mut chase, &mut last_refusal, action, &results, ms(now));
+                }
+                if config.correct_drift && now.duration_since(trimmed) >= TRIM_EVERY {
+                    trimmed = now;
+                    // (The show's time 0 may lie before the chase began: a show
+                    // located into.)
+                    if let Some((entry, start_ms)) = chase.trim(ms(now))
+                        && let Some(show_start) = if start_ms >= 0 {
+                            epoch.into_std().checked_add(Duration::from_millis(start_ms.unsigned_abs()))
+                        } else {
+                            epoch.into_std().checked_sub(Duration::from_millis(start_ms.unsigned_abs()))
+                        }
+                    {
+                        state.playback().trim_clock(entry, show_start);
+                    }
                 }
                 if now.duration_since(published) >= Duration::from_secs(1) / PUBLISH_PER_S {
                     published = now;

@@ -28,6 +28,11 @@
 //!   waits at most a period for the next slot, and its frame takes a period: the
 //!   latency is two periods (40 ms at 20 ms). Boxes take frames over Ethernet, so no
 //!   line limits the number of balls that move.
+//! - **Clock trim** ([`Drive::trim_clock`], a timecode chase): the show's time 0
+//!   moves as far as the timecode puts it since the first trim, so each frame's
+//!   sample time follows the timecode exactly rather than the bridge's free-running
+//!   clock (never going back: a frame's show time is at least the one before's).
+//!   Without a trim nothing changes.
 
 use crate::live::filter::{BallState, FilterLimits};
 use crate::plan::Installation;
@@ -118,6 +123,10 @@ enum Step {
         start_us: u64,
         /// Nothing follows: settle frames end the show.
         last: bool,
+        /// The show time of the last frame, ms (a trim never takes it back).
+        last_t_ms: u64,
+        /// The first clock trim: the show's start then, and the start it gave, µs.
+        trimmed_from: Option<(u64, i64)>,
     },
 }
 
@@ -215,13 +224,21 @@ impl MboxDrive {
                     Phase::Pending
                 }
             }
-            Step::Playing { start_us, last } => {
-                let (start_us, last) = (*start_us, *last);
+            Step::Playing {
+                start_us,
+                last,
+                last_t_ms,
+                ..
+            } => {
+                let (start_us, last, last_t_ms) = (*start_us, *last, *last_t_ms);
                 let Some(entry) = entry else {
                     return Phase::Pending;
                 };
                 let duration_ms = entry.sampler.duration_ms();
-                let t_ms = slot_us.saturating_sub(start_us) / 1_000;
+                let t_ms = (slot_us.saturating_sub(start_us) / 1_000).max(last_t_ms);
+                if let Step::Playing { last_t_ms, .. } = &mut self.step {
+                    *last_t_ms = t_ms;
+                }
                 self.samples.resize(entry.sampler.unit_count(), 0.0);
                 let ahead_ms = (t_ms + period / 1_000).min(duration_ms);
                 entry
@@ -331,7 +348,12 @@ impl Drive for MboxDrive {
         let start_us = now_us.max(self.next_slot_us);
         self.next_slot_us = start_us;
         self.progress = 0.0;
-        self.step = Step::Playing { start_us, last };
+        self.step = Step::Playing {
+            start_us,
+            last,
+            last_t_ms: 0,
+            trimmed_from: None,
+        };
     }
 
     fn poll(&mut self, now_us: u64, entry: Option<&mut MboxEntry>) -> Phase {
@@ -353,6 +375,19 @@ impl Drive for MboxDrive {
         match self.step {
             Step::Playing { start_us, .. } => Some(start_us),
             _ => None,
+        }
+    }
+
+    fn trim_clock(&mut self, _now_us: u64, show_start_us: i64) {
+        if let Step::Playing {
+            start_us,
+            trimmed_from,
+            ..
+        } = &mut self.step
+        {
+            // The show's start moves as far as the timecode's has since the first.
+            let (own_us, first_us) = *trimmed_from.get_or_insert((*start_us, show_start_us));
+            *start_us = own_us.saturating_add_signed(show_start_us - first_us);
         }
     }
 

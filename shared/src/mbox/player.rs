@@ -180,6 +180,12 @@ impl MboxPlayer {
         self.sequencer.fail_with(reason);
     }
 
+    /// A timecode chase's clock trim: entry `entry`'s (0-based) show has its time 0
+    /// at `show_start_us` ([`crate::player::Drive::trim_clock`]: the frames follow it).
+    pub fn trim_clock(&mut self, now_us: u64, entry: usize, show_start_us: i64) {
+        self.sequencer.trim_clock(now_us, entry, show_start_us);
+    }
+
     /// Moves on in time: emits the frames of every slot due by `now_us` (only the
     /// latest when late: a box goes to the newest position).
     pub fn poll(&mut self, now_us: u64) {

@@ -744,3 +744,55 @@ fn live_after_an_estop_homes_first_and_a_live_request_during_a_show_is_refused()
     player.sequencer_mut().go_live(now).unwrap();
     assert_eq!(player.status().state, PlayerState::Homing);
 }
+
+#[test]
+fn with_a_clock_trim_each_frame_samples_the_show_at_the_given_clock() {
+    let mut player = player();
+    let entry = entry(1, 0);
+    let show = entry.show.clone();
+    let period_us = DEFAULT_PERIOD_US;
+    let mut now = 0;
+    player.start(now, vec![entry], false).unwrap();
+    while player.status().state != PlayerState::Playing {
+        now = player.next_wakeup_us(now).unwrap().max(now);
+        player.poll(now);
+        player.take_frames();
+    }
+    // The show's time 0 is this slot: the first trim is where its clock is.
+    assert_eq!(player.status().show_time_ms, 0);
+    let start_us = now;
+    // A clock 0.5 % fast from the show's start: its show time at `t` is
+    // 1.005 × (t − start); its time 0, seen from `t`, is `t − 1.005 × (t − start)`.
+    let given_start = |t: u64| (t - (t - start_us) * 1_005 / 1_000) as i64;
+    player.trim_clock(now, 0, given_start(now));
+    let mut checked = 0;
+    while player.status().state == PlayerState::Playing && now < start_us + 800_000 {
+        now = player.next_wakeup_us(now).unwrap().max(now);
+        player.trim_clock(now, 0, given_start(now));
+        player.poll(now);
+        for frame in player.take_frames() {
+            let t_ms = (frame.slot_us as i64 - given_start(now)) as u64 / 1_000;
+            assert_eq!(
+                frame.positions_pulses,
+                show_pulses(&player, &show, t_ms + period_us / 1_000),
+                "the frame at {} µs samples the given clock's {t_ms} ms, a period on",
+                frame.slot_us
+            );
+            checked += 1;
+        }
+        // The status counts the given clock's show time.
+        let status = player.status();
+        assert_eq!(
+            status.show_time_ms,
+            (now as i64 - given_start(now)) as u64 / 1_000
+        );
+    }
+    assert!(checked >= 30, "{checked} frames");
+    // A trim for another entry is not this show's: nothing changes.
+    let before = player.status().show_time_ms;
+    player.trim_clock(now, 1, 0);
+    assert_eq!(player.status().show_time_ms, before);
+    // Only the trims' changes count: a constant error in them moves nothing.
+    player.trim_clock(now, 0, given_start(now) + 40_000);
+    assert_eq!(player.status().show_time_ms, before - 40);
+}

@@ -189,6 +189,19 @@ pub trait Drive {
         false
     }
 
+    /// **Clock trim** (a timecode chase, `docs/show-control.md`): the timecode puts
+    /// the show's time 0 of the show playing now at `show_start_us` on the caller's
+    /// clock (the offset the chase locked on kept). Only its changes count: the
+    /// show's clock where it was at the first trim of the show moves as far as that
+    /// instant moved since (a constant error in it — a status's latency — is not
+    /// taken for drift). The drive pulls its show's clock toward it as far as its
+    /// family can — MBOX frames follow it exactly, UIM2503
+    /// rows not yet sent absorb at most ±1 ms each — and says so through
+    /// [`Drive::show_start_us`]. Given only while a chase runs: without it nothing
+    /// changes on the wire. The default: the drive cannot be trimmed (MOONS' drives
+    /// run a Q program on their own clock) and ignores it.
+    fn trim_clock(&mut self, _now_us: u64, _show_start_us: i64) {}
+
     /// The e-stop (or a failure): drop what is queued; positions become unknown.
     fn stop(&mut self);
 
@@ -559,6 +572,21 @@ impl<D: Drive> Sequencer<D> {
             (Step::Playing, Some(start_us)) if start_us > now_us => Some(start_us),
             _ => None,
         }
+    }
+
+    /// A clock trim from a timecode chase ([`Drive::trim_clock`]): the show of entry
+    /// `entry` (0-based) has its time 0 at `show_start_us` by the timecode. Handed to
+    /// the drive only while that entry plays (a lead's cut starts that much later, at
+    /// its `from_ms`); ignored otherwise.
+    pub fn trim_clock(&mut self, now_us: u64, entry: usize, show_start_us: i64) {
+        if self.step != Step::Playing || self.entry != entry {
+            return;
+        }
+        let from_ms = self.lead().map_or(0, |lead| lead.from_ms);
+        self.drive.trim_clock(
+            now_us,
+            show_start_us.saturating_add((from_ms * 1_000) as i64),
+        );
     }
 
     /// Whether a playlist (or a homing move) is under way.

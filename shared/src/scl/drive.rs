@@ -14,7 +14,9 @@
 //! the lines work at once — and a lane is a list of requests, each sent when the one
 //! before it was answered:
 //! - **move** (home, approach): `VE AC DE DI FP` to every drive (lanes by line), at the
-//!   installation's approach speed and acceleration; then `IP` to each drive until it
+//!   installation's approach speed and acceleration — the first move of a run (a
+//!   Start, Reset or Home) preceded by `ME`, so a drive the schedule disabled at its
+//!   window's end (`MD`) moves again; then `IP` to each drive until it
 //!   stands at its target, every [`WAIT_POLL_US`], at most the whole travel at the
 //!   approach speed and 5 s more;
 //! - **load** (the first cycle of an entry, when programs are uploaded): for each drive
@@ -319,6 +321,9 @@ pub struct SclDrive {
     /// Live mode's last stages (`SJ`, the exact `FP`, the arrival) run on while idle:
     /// a step begun meanwhile runs after them.
     ending: bool,
+    /// The next move begins with `ME` (set by each run: a disabled drive refuses to
+    /// move, alarm `8000` No Move).
+    enable_first: bool,
 }
 
 impl SclDrive {
@@ -358,6 +363,7 @@ impl SclDrive {
             believed_counts: None,
             moving_to: None,
             ending: false,
+            enable_first: false,
         }
     }
 
@@ -498,7 +504,7 @@ impl SclDrive {
             .collect()
     }
 
-    fn move_stages(&self, targets_counts: &[i32]) -> Vec<Stage> {
+    fn move_stages(&self, targets_counts: &[i32], enable: bool) -> Vec<Stage> {
         let per_rev = f64::from(self.config.steps_per_rev);
         // In whole steps as a drive holds them, never faster nor harder than set.
         let velocity = at_most(
@@ -511,24 +517,26 @@ impl SclDrive {
         );
         let target = |unit: usize| targets_counts.get(unit).copied().unwrap_or(0);
         let feed = self.by_line(|unit| {
-            [
-                Command::Velocity {
-                    rev_s: Some(velocity),
-                },
-                Command::Acceleration {
-                    rev_s2: Some(accel),
-                },
-                Command::Deceleration {
-                    rev_s2: Some(accel),
-                },
-                Command::Distance {
-                    counts: Some(target(unit)),
-                },
-                Command::FeedToPosition,
-            ]
-            .into_iter()
-            .map(|command| ask(unit, command, Check::NotRefused))
-            .collect()
+            enable
+                .then_some(Command::MotorEnable)
+                .into_iter()
+                .chain([
+                    Command::Velocity {
+                        rev_s: Some(velocity),
+                    },
+                    Command::Acceleration {
+                        rev_s2: Some(accel),
+                    },
+                    Command::Deceleration {
+                        rev_s2: Some(accel),
+                    },
+                    Command::Distance {
+                        counts: Some(target(unit)),
+                    },
+                    Command::FeedToPosition,
+                ])
+                .map(|command| ask(unit, command, Check::NotRefused))
+                .collect()
         });
         let arrive = Lane::of((0..self.config.units.len()).map(|unit| {
             ask(
@@ -547,7 +555,8 @@ impl SclDrive {
         self.loading = false;
         self.believed_counts = None;
         self.moving_to = Some(targets_counts.to_vec());
-        let mut stages = self.move_stages(targets_counts);
+        let enable = std::mem::take(&mut self.enable_first);
+        let mut stages = self.move_stages(targets_counts, enable);
         if std::mem::take(&mut self.kill_first) {
             let kill = self.by_line(|unit| vec![ask(unit, Command::StopKill, Check::NotRefused)]);
             stages.insert(0, kill);
@@ -841,6 +850,7 @@ impl Drive for SclDrive {
 
     fn begin_run(&mut self, now_us: u64, _first: Option<&mut SclEntry>) {
         self.now_us = now_us;
+        self.enable_first = true;
     }
 
     fn begin_home(&mut self, now_us: u64) {

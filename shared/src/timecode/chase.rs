@@ -14,9 +14,12 @@
 //!   long from a Start until the show's clock is at the time asked for (approach,
 //!   preload, a cut's run-up) — [`Action::Start`] of that entry at the time the show
 //!   will have then: 0 when on time, later when the timecode started inside the cue.
-//!   The lead is the configured estimate until the first start is seen playing; from
-//!   then on the lead measured at the last start (separately for starts and
-//!   locates); a locate's is a start's until one is measured.
+//!   The lead is the plan's estimate for the cue when the bridge gives one
+//!   ([`Chase::lead_wanted`], [`Chase::set_lead_estimate`]: approach and load,
+//!   [`super::lead`]), corrected by how far the last measured lead was from its
+//!   estimate; without one the configured lead until the first start is seen
+//!   playing, and from then on the lead measured at the last start (separately for
+//!   starts and locates; a locate's is a start's until one is measured).
 //! - **Locate**: a sample more than the threshold away from where the running
 //!   timecode was expected (a jump), or the show more than the threshold out of step
 //!   while chasing, after the first second: [`Action::Locate`] (the show under way
@@ -28,11 +31,29 @@
 //!   loss time while the chase has the matrix: [`OnLoss::Hold`] lets the show play on
 //!   on the units' own clock (the chase takes it back when the timecode returns, with
 //!   a locate if it is out of step); [`OnLoss::Stop`] stops and homes.
+//! - **Refusals back off**: a refused action is tried again after [`RETRY_MS`], and
+//!   each further refusal of the same action (a Start, or a Locate, of the same
+//!   entry) doubles the wait up to [`RETRY_MAX_MS`] — a refused Start prepares the
+//!   show each time (on MOONS' drives it compiles every ball's Q program). The wait
+//!   is back to [`RETRY_MS`] (and the next try due at once) when the cues change
+//!   (the playlist was edited), the player's state changes (an operator cleared the
+//!   e-stop, the show played) or the timecode jumps.
 //! - A cue the chase started and that was then stopped from elsewhere (an operator's
 //!   Home) is not started again until the timecode leaves it or jumps.
+//! - **Where the timecode is**: the running timecode's origin on the clock is the
+//!   earliest its last second of samples puts it at ([`WINDOW_MS`]) — a sample is
+//!   late, never early (its frame began before it was sent; it took time to arrive),
+//!   so neither the frames' steps nor a late datagram shake the show's clock.
 //! - **Offset and drift**: the offset is the show's time less the timecode's show
 //!   time, taken at each status; the drift is how much the offset moved since the
-//!   chase locked on (the units' clock against the timecode's).
+//!   chase locked on, a second after the show began playing (the units' clock against
+//!   the timecode's).
+//! - **Clock trim** ([`Chase::trim`]): while chasing, the instant the timecode puts
+//!   the show's time 0 at (the offset locked on kept), for the drive to pull the
+//!   units' clock toward — so the drift is corrected where the family allows, without
+//!   a locate.
+
+use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
 
@@ -44,8 +65,19 @@ pub const START_AT_ZERO_WITHIN_MS: u64 = 40;
 /// After going `playing`, how long the offset is not acted on (the status's show time
 /// settles).
 pub const SETTLE_MS: u64 = 1_000;
-/// How long a refused action is not tried again.
+/// How far back the running timecode's samples are read for where it is now, ms: a
+/// frame's time comes late (it is sent when the frame began, or later, and takes time
+/// to arrive), so the earliest origin over this window is the truest.
+pub const WINDOW_MS: u64 = 1_000;
+
+/// How long a Start waits for a lead being estimated ([`Chase::estimating`]), ms.
+pub const ESTIMATE_WAIT_MS: u64 = 500;
+
+/// How long a refused action is not tried again (the first time).
 pub const RETRY_MS: u64 = 1_000;
+/// The longest a refused action waits before it is tried again: each refusal of the
+/// same action (a Start, or a Locate, of the same entry) doubles the wait, up to this.
+pub const RETRY_MAX_MS: u64 = 30_000;
 /// How long a Start or Locate may take to show `playing` before the chase gives up
 /// waiting for it.
 pub const PENDING_TIMEOUT_MS: u64 = 120_000;
@@ -286,11 +318,28 @@ pub struct Chase {
     lead_ms: u64,
     locate_lead_ms: u64,
     lead_measured: bool,
+    locate_measured: bool,
     /// The cue (its entry) the chase started last.
     started: Option<usize>,
     locates: u32,
     refused: Option<String>,
     retry_at_ms: u64,
+    /// The action issued last, as refusals count it: (a locate, its entry).
+    issued: Option<(bool, usize)>,
+    /// The leads estimated from the plan ([`Chase::set_lead_estimate`]): per entry,
+    /// the show time it was for, a Start's lead and a locate's, ms.
+    estimates: Vec<(usize, u64, u64, u64)>,
+    /// The estimate the last Start was issued with, ms.
+    estimate_used: Option<u64>,
+    /// Since when the bridge is estimating a lead ([`Chase::estimating`]), ms.
+    estimating_since: Option<u64>,
+    /// How much longer the last measured lead was than its estimate, ms.
+    estimate_error_ms: Option<i64>,
+    /// The running timecode's last [`WINDOW_MS`] of samples: when each arrived, and
+    /// that less its time (where it puts the timecode's origin on the clock).
+    window: VecDeque<(u64, i64)>,
+    /// The last refused action and how long it waits now, ms.
+    backoff: Option<((bool, usize), u64)>,
 }
 
 impl Chase {
@@ -310,16 +359,40 @@ impl Chase {
             lead_ms: config.lead_ms,
             locate_lead_ms: config.lead_ms,
             lead_measured: false,
+            locate_measured: false,
             started: None,
             locates: 0,
             refused: None,
             retry_at_ms: 0,
+            issued: None,
+            backoff: None,
+            window: VecDeque::new(),
+            estimates: Vec::new(),
+            estimate_used: None,
+            estimating_since: None,
+            estimate_error_ms: None,
         }
     }
 
-    /// The cues now (the playlist changed).
+    /// The cues now (the playlist changed): a refusal's back-off starts over.
     pub fn set_cues(&mut self, cues: Vec<Cue>) {
+        if cues != self.cues {
+            self.reset_backoff();
+        }
         self.cues = cues;
+    }
+
+    /// Forgets the refusals' back-off: the next try is due at once.
+    fn reset_backoff(&mut self) {
+        if self.backoff.take().is_some() {
+            self.retry_at_ms = 0;
+        }
+    }
+
+    /// How long the last refused action waits before it is tried again, ms (0: none
+    /// refused).
+    pub fn retry_wait_ms(&self) -> u64 {
+        self.backoff.map_or(0, |(_, wait)| wait)
     }
 
     /// The cues.
@@ -336,12 +409,27 @@ impl Chase {
                 let expected = self.expected_at(last, at_ms);
                 if tc_ms.abs_diff(expected) > self.config.locate_threshold_ms {
                     self.jumped = true;
+                    self.reset_backoff();
+                    self.estimates.clear();
                 }
                 tc_ms > last.tc_ms
             }
         };
         if advancing || self.last.is_none() {
             self.advanced_at_ms = at_ms;
+        }
+        if self.jumped || !advancing {
+            self.window.clear();
+        }
+        if advancing {
+            while self
+                .window
+                .front()
+                .is_some_and(|&(at, _)| at + WINDOW_MS < at_ms)
+            {
+                self.window.pop_front();
+            }
+            self.window.push_back((at_ms, at_ms as i64 - tc_ms as i64));
         }
         self.last = Some(Sample {
             tc_ms,
@@ -359,6 +447,8 @@ impl Chase {
                 > self.config.locate_threshold_ms
         {
             self.jumped = true;
+            self.reset_backoff();
+            self.estimates.clear();
         }
         self.last = Some(Sample {
             tc_ms: timecode.to_ms(),
@@ -373,7 +463,15 @@ impl Chase {
     fn expected_at(&self, last: Sample, at_ms: u64) -> u64 {
         let elapsed = at_ms.saturating_sub(last.at_ms);
         if last.advancing && elapsed <= self.config.loss_ms {
-            last.tc_ms + elapsed
+            // A sample is never ahead of the time it arrives at (its frame began
+            // before, and it took time to come): the earliest the last second's
+            // samples put the clock's origin at is the truest.
+            match self.window.iter().map(|&(_, origin)| origin).min() {
+                Some(origin) => u64::try_from(at_ms as i64 - origin)
+                    .unwrap_or(0)
+                    .max(last.tc_ms),
+                None => last.tc_ms + elapsed,
+            }
         } else {
             last.tc_ms
         }
@@ -386,6 +484,13 @@ impl Chase {
 
     /// What the player does, from a status made at `at_ms`.
     pub fn player(&mut self, view: PlayerView, at_ms: u64) {
+        if std::mem::discriminant(&view) != std::mem::discriminant(&self.player) {
+            self.reset_backoff();
+            if self.phase == Phase::Idle {
+                // Where the balls are changed (a Home, a show's end): estimated again.
+                self.estimates.clear();
+            }
+        }
         self.player = view;
         let PlayerView::Playing {
             entry,
@@ -421,9 +526,13 @@ impl Chase {
                 u64::try_from(at_target - issued_at_ms as i64 - delay_ms as i64).unwrap_or(0);
             if locate {
                 self.locate_lead_ms = lead;
+                self.locate_measured = true;
             } else {
                 self.lead_ms = lead;
-                if !self.lead_measured {
+                if let Some(estimate) = self.estimate_used.take() {
+                    self.estimate_error_ms = Some(lead as i64 - estimate as i64);
+                }
+                if !self.locate_measured {
                     // Until a locate is measured: a start's (it approaches from where
                     // the balls are, as a start does).
                     self.locate_lead_ms = lead;
@@ -431,6 +540,13 @@ impl Chase {
             }
             self.lead_measured = true;
             self.phase = Phase::Chasing { since_ms: at_ms };
+            self.locked = None;
+        }
+        // Locked on once the show's time settled (its first second of playing).
+        if let Phase::Chasing { since_ms } = self.phase
+            && self.locked.is_none()
+            && at_ms >= since_ms + SETTLE_MS
+        {
             self.locked = self.offset;
         }
     }
@@ -447,10 +563,18 @@ impl Chase {
     }
 
     /// An action was refused (`why`) at `now_ms`: nothing is waited on, and it is
-    /// tried again (as the timecode is then) after [`RETRY_MS`].
+    /// tried again (as the timecode is then) after [`RETRY_MS`], or twice the last
+    /// wait (at most [`RETRY_MAX_MS`]) when the same action was refused last.
     pub fn refused(&mut self, why: String, now_ms: u64) {
         self.refused = Some(why);
-        self.retry_at_ms = now_ms + RETRY_MS;
+        let wait_ms = match (self.backoff, self.issued) {
+            (Some((last, wait_ms)), Some(issued)) if last == issued => {
+                (wait_ms * 2).min(RETRY_MAX_MS)
+            }
+            _ => RETRY_MS,
+        };
+        self.backoff = self.issued.map(|issued| (issued, wait_ms));
+        self.retry_at_ms = now_ms + wait_ms;
         self.started = None;
         if matches!(self.phase, Phase::Pending { .. }) {
             self.phase = Phase::Idle;
@@ -478,6 +602,7 @@ impl Chase {
                     OnLoss::Stop => {
                         self.phase = Phase::Stopped;
                         self.started = None;
+                        self.issued = None;
                         Some(Action::Stop)
                     }
                 },
@@ -541,22 +666,38 @@ impl Chase {
             return None;
         }
         if self
+            .estimating_since
+            .is_some_and(|since| now_ms < since + ESTIMATE_WAIT_MS)
+            && self.lead_wanted(now_ms).is_some()
+        {
+            // The cue's lead is being estimated: a moment more.
+            return None;
+        }
+        if self
             .started
             .and_then(|entry| self.cue_of(entry))
             .is_some_and(|cue| {
-                tc_ms + self.lead_ms < cue.start_ms || tc_ms >= cue.start_ms + cue.duration_ms
+                tc_ms + self.lead_for(cue.entry) < cue.start_ms
+                    || tc_ms >= cue.start_ms + cue.duration_ms
             })
         {
             self.started = None;
         }
-        let due = tc_ms + self.lead_ms;
         // Due: from its start less the lead and its delay (a start at time 0 waits
         // the delay) to its end.
         let cue = self.cues.iter().copied().find(|cue| {
+            let due = tc_ms + self.lead_for(cue.entry);
             due + cue.delay_ms >= cue.start_ms && due + MIN_LEFT_MS < cue.start_ms + cue.duration_ms
         })?;
         if self.started == Some(cue.entry) {
             return None;
+        }
+        let lead_ms = self.lead_for(cue.entry);
+        let due = tc_ms + lead_ms;
+        self.estimate_used = self.estimate_of(cue.entry);
+        if self.estimate_used.is_some() {
+            // The status shows the lead the Start goes with.
+            self.lead_ms = lead_ms;
         }
         let mut time_ms = due.saturating_sub(cue.start_ms);
         let mut delay_ms = 0;
@@ -571,6 +712,7 @@ impl Chase {
         }
         self.started = Some(cue.entry);
         self.refused = None;
+        self.issued = Some((false, cue.entry));
         self.phase = Phase::Pending {
             locate: false,
             entry: cue.entry,
@@ -587,11 +729,12 @@ impl Chase {
 
     /// A locate to where the timecode `tc_ms` will be a locate's lead from `now_ms`.
     fn locate(&mut self, tc_ms: u64, now_ms: u64) -> Option<Action> {
-        let due = tc_ms + self.locate_lead_ms;
+        let due = tc_ms + self.locate_lead_for(tc_ms);
         self.locates += 1;
         self.locked = None;
         self.refused = None;
         let Some(cue) = self.cue_at(due) else {
+            self.issued = None;
             self.phase = Phase::Idle;
             self.started = None;
             return matches!(self.player, PlayerView::Idle)
@@ -599,6 +742,7 @@ impl Chase {
                 .map_or(Some(Action::Stop), |()| None);
         };
         self.started = Some(cue.entry);
+        self.issued = Some((true, cue.entry));
         let time_ms = due - cue.start_ms;
         self.phase = Phase::Pending {
             locate: true,
@@ -612,6 +756,114 @@ impl Chase {
             entry: cue.entry,
             time_ms,
         })
+    }
+
+    /// The plan's estimate of entry `entry`'s lead, if one was given.
+    fn estimate_of(&self, entry: usize) -> Option<u64> {
+        self.estimates
+            .iter()
+            .find(|(of, ..)| *of == entry)
+            .map(|&(_, _, lead_ms, _)| lead_ms)
+    }
+
+    /// The lead of a locate from timecode `tc_ms`: measured, or the plan's estimate
+    /// for the cue there (or the next), or a start's and half again.
+    fn locate_lead_for(&self, tc_ms: u64) -> u64 {
+        if self.locate_measured {
+            return self.locate_lead_ms;
+        }
+        self.cues
+            .iter()
+            .filter(|cue| tc_ms < cue.start_ms + cue.duration_ms)
+            .min_by_key(|cue| cue.start_ms)
+            .and_then(|cue| {
+                self.estimates
+                    .iter()
+                    .find(|(of, ..)| *of == cue.entry)
+                    .map(|&(_, _, _, locate_ms)| locate_ms)
+            })
+            .unwrap_or(self.locate_lead_ms)
+    }
+
+    /// The lead a Start of `entry` is reckoned with: the plan's estimate for it,
+    /// corrected by how far the last measured lead was from its estimate; without an
+    /// estimate the lead measured last, or the configured one.
+    fn lead_for(&self, entry: usize) -> u64 {
+        match self.estimate_of(entry) {
+            Some(estimate) => {
+                u64::try_from(estimate as i64 + self.estimate_error_ms.unwrap_or(0)).unwrap_or(0)
+            }
+            None => self.lead_ms,
+        }
+    }
+
+    /// The cue whose lead the chase wants estimated at `now_ms`: the next one due
+    /// (entry, 0-based, and the show time a Start of it would ask for), unless its
+    /// estimate is there already (made again after a jump, or when the player's state
+    /// changed while idle). `None` when no cue is ahead or nothing is wanted.
+    pub fn lead_wanted(&self, now_ms: u64) -> Option<(usize, u64)> {
+        let tc_ms = self.timecode_ms(now_ms)?;
+        let cue = self
+            .cues
+            .iter()
+            .copied()
+            .filter(|cue| tc_ms + MIN_LEFT_MS < cue.start_ms + cue.duration_ms)
+            .min_by_key(|cue| cue.start_ms)?;
+        let time_ms = (tc_ms + self.lead_for(cue.entry)).saturating_sub(cue.start_ms);
+        let time_ms = if time_ms < START_AT_ZERO_WITHIN_MS {
+            0
+        } else {
+            time_ms
+        };
+        // Once a cue: again only after a jump or a change of the player's state while
+        // idle (estimating reads and plans the show; inside a running cue the time
+        // asked for moves on with the timecode).
+        let known = self.estimates.iter().any(|&(entry, ..)| entry == cue.entry);
+        (!known).then_some((cue.entry, time_ms))
+    }
+
+    /// The bridge is estimating the lead [`Chase::lead_wanted`] asked for, since
+    /// `now_ms`: a Start of that cue waits for it (at most [`ESTIMATE_WAIT_MS`]).
+    pub fn estimating(&mut self, now_ms: u64) {
+        self.estimating_since = Some(now_ms);
+    }
+
+    /// The plan's estimate of the lead of a Start of `entry` at show time `time_ms`
+    /// (approach and load, [`super::lead`]), and of a locate into it (which homes
+    /// first): the chase starts that cue with it (and what the last measured lead
+    /// taught it) rather than the configured lead, and locates with the other until a
+    /// locate was measured.
+    pub fn set_lead_estimate(&mut self, entry: usize, time_ms: u64, lead_ms: u64, locate_ms: u64) {
+        self.estimating_since = None;
+        self.estimates.retain(|(of, ..)| *of != entry);
+        self.estimates.push((entry, time_ms, lead_ms, locate_ms));
+    }
+
+    /// The clock trim while chasing: the entry (0-based) and the instant, ms on the
+    /// clock the chase is given, at which the timecode puts that entry's show time 0
+    /// — the offset locked on kept, so the trim removes the drift, not the offset.
+    /// `None` unless chasing a running timecode, locked on.
+    pub fn trim(&self, now_ms: u64) -> Option<(usize, i64)> {
+        let Phase::Chasing { .. } = self.phase else {
+            return None;
+        };
+        let PlayerView::Playing { entry, .. } = self.player else {
+            return None;
+        };
+        let last = self.last.filter(|last| last.advancing)?;
+        if now_ms.saturating_sub(last.at_ms) > self.config.loss_ms {
+            return None;
+        }
+        let (locked, _) = self.locked?;
+        let cue = self.cue_of(entry)?;
+        // show(t) = tc(t) − cue start + locked = t − start  ⇒
+        // start = t − tc(t) + cue start − locked (the timecode where the offsets
+        // take it, `expected_at`).
+        let tc_ms = self.expected_at(last, now_ms);
+        Some((
+            entry,
+            now_ms as i64 - tc_ms as i64 + cue.start_ms as i64 - locked,
+        ))
     }
 
     /// The chase as clients see it at `now_ms`.
@@ -957,6 +1209,159 @@ mod tests {
     }
 
     #[test]
+    fn refusals_of_the_same_start_back_off_to_30_s_and_a_change_starts_over() {
+        // One entry of 200 s at 10:00:00:00.
+        let long = || {
+            cues(
+                &[CueEntry {
+                    start_ms: None,
+                    delay_ms: 0,
+                    duration_ms: 200_000,
+                    cycles: 1,
+                }],
+                Some(10 * 3_600_000),
+            )
+        };
+        let mut chase = Chase::new(config(OnLoss::Hold), "artnet", long());
+        let from = 10 * 3_600_000 - 2_000;
+        // Refused each time it is tried: the waits double, 1, 2, 4, 8, 16, 30, 30 s.
+        let mut at = 0;
+        let mut tries = Vec::new();
+        let mut refusals = 0;
+        while at <= 100_000 {
+            chase.timecode(Timecode::from_ms(from + at, RATE), at);
+            if let Some(Action::Start { entry: 0, .. }) = chase.poll(at) {
+                tries.push(at);
+                chase.refused("the show cannot be compiled".to_owned(), at);
+                refusals += 1;
+            }
+            at += 40;
+        }
+        assert_eq!(refusals, tries.len());
+        let waits: Vec<u64> = tries.windows(2).map(|w| w[1] - w[0]).collect();
+        assert_eq!(
+            waits,
+            [1_000, 2_000, 4_000, 8_000, 16_000, 30_000, 30_000],
+            "{tries:?}"
+        );
+        assert_eq!(chase.retry_wait_ms(), RETRY_MAX_MS);
+        // The playlist edited: tried again at once, then after a second.
+        let mut edited = long();
+        edited[0].duration_ms += 1_000;
+        chase.set_cues(edited);
+        assert_eq!(chase.retry_wait_ms(), 0);
+        chase.timecode(Timecode::from_ms(from + at, RATE), at);
+        assert!(matches!(
+            chase.poll(at),
+            Some(Action::Start { entry: 0, .. })
+        ));
+        chase.refused("the show cannot be compiled".to_owned(), at);
+        assert_eq!(chase.retry_wait_ms(), RETRY_MS);
+        chase.refused("the show cannot be compiled".to_owned(), at);
+        assert_eq!(chase.retry_wait_ms(), 2 * RETRY_MS);
+        // The player's state changed (an operator's Home cleared an e-stop): at once.
+        chase.player(PlayerView::Busy, at + 10);
+        chase.player(PlayerView::Idle, at + 20);
+        assert_eq!(chase.retry_wait_ms(), 0);
+        chase.timecode(Timecode::from_ms(from + at + 40, RATE), at + 40);
+        assert!(matches!(
+            chase.poll(at + 40),
+            Some(Action::Start { entry: 0, .. })
+        ));
+        chase.refused("the e-stop is latched".to_owned(), at + 40);
+        chase.refused("the e-stop is latched".to_owned(), at + 40);
+        assert_eq!(chase.retry_wait_ms(), 2 * RETRY_MS);
+        // A jump of the timecode: back-off forgotten, the locate is due at once.
+        let jumped = 10 * 3_600_000 + 150_000;
+        chase.timecode(Timecode::from_ms(jumped, RATE), at + 80);
+        assert_eq!(chase.retry_wait_ms(), 0);
+        assert!(chase.poll(at + 80).is_some());
+    }
+
+    #[test]
+    fn the_trim_puts_the_show_s_start_where_the_timecode_has_it_keeping_the_offset() {
+        let mut chase = Chase::new(config(OnLoss::Hold), "artnet", two_cues());
+        run(&mut chase, 10 * 3_600_000 - 2_000, 0, 0);
+        assert_eq!(chase.trim(0), None, "not chasing");
+        run(&mut chase, 10 * 3_600_000 - 1_960, 40, 1_960);
+        // Playing at 2 s, 30 ms ahead of the timecode: locked on at +30.
+        chase.player(
+            PlayerView::Playing {
+                entry: 0,
+                show_time_ms: 30,
+            },
+            2_000,
+        );
+        // Locked on after the settling second.
+        assert_eq!(chase.trim(2_000), None);
+        run(&mut chase, 10 * 3_600_000 + 40, 2_040, 960);
+        chase.player(
+            PlayerView::Playing {
+                entry: 0,
+                show_time_ms: 1_030,
+            },
+            3_000,
+        );
+        assert_eq!(chase.trim(3_000), Some((0, 2_000 - 30)));
+        // The timecode runs 0.5 % fast: 10 s on the clock are 10.05 s of timecode. The
+        // show's time 0 by the timecode is then 50 ms earlier on the clock.
+        // Frame n arrives at the instant the sender's clock reaches it.
+        let mut at = 3_000;
+        for frame in 1..=251u64 {
+            at = 3_000 + frame * 40 * 1_000 / 1_005;
+            chase.timecode(
+                Timecode::from_ms(10 * 3_600_000 + 1_000 + frame * 40, RATE),
+                at,
+            );
+        }
+        assert_eq!(at, 12_990);
+        let (entry, start_ms) = chase.trim(13_000).unwrap();
+        assert_eq!(entry, 0);
+        assert!((start_ms - (2_000 - 30 - 50)).abs() <= 1, "{start_ms}");
+        // Lost: no trim.
+        assert_eq!(chase.trim(12_990 + 1_001), None);
+    }
+
+    #[test]
+    fn a_planned_lead_starts_the_first_cue_and_a_measured_one_corrects_it() {
+        let mut chase = Chase::new(config(OnLoss::Hold), "artnet", two_cues());
+        run(&mut chase, 10 * 3_600_000 - 10_000, 0, 0);
+        // The next cue is entry 0 at its start: its lead is wanted once.
+        assert_eq!(chase.lead_wanted(0), Some((0, 0)));
+        chase.set_lead_estimate(0, 0, 3_500, 6_000);
+        assert_eq!(chase.lead_wanted(0), None);
+        // Started 3.5 s ahead of the cue (not the configured 2 s): at 6.5 s (the first
+        // poll past it).
+        let actions = run(&mut chase, 10 * 3_600_000 - 9_960, 40, 7_000);
+        assert_eq!(
+            actions,
+            vec![(
+                6_520,
+                Action::Start {
+                    entry: 0,
+                    time_ms: 0
+                }
+            )]
+        );
+        assert_eq!(chase.status(6_520).lead_ms, 3_500);
+        // It took 3.8 s: entry 1's estimate (4 s) is reckoned 300 ms longer.
+        chase.player(
+            PlayerView::Playing {
+                entry: 0,
+                show_time_ms: 0,
+            },
+            6_520 + 3_800,
+        );
+        assert_eq!(chase.status(10_320).lead_ms, 3_800);
+        chase.set_lead_estimate(1, 0, 4_000, 6_000);
+        assert_eq!(chase.lead_for(1), 4_300);
+        // Until a locate is measured, one into entry 1 is reckoned with its estimate.
+        assert_eq!(chase.locate_lead_for(10 * 3_600_000 + 61_000), 6_000);
+        // An entry without an estimate takes the measured lead.
+        assert_eq!(chase.lead_for(2), 3_800);
+    }
+
+    #[test]
     fn drift_is_the_offset_s_change_since_locking_on() {
         let mut chase = Chase::new(config(OnLoss::Hold), "artnet", two_cues());
         run(&mut chase, 10 * 3_600_000 - 2_000, 0, 0);
@@ -979,8 +1384,9 @@ mod tests {
                 tc_at,
             );
         }
+        // Locked on at the second status (the first second settles).
         let status = chase.status(at);
-        assert_eq!(status.drift_ms, Some(2));
-        assert_eq!(status.drift_over_ms, 20_000);
+        assert_eq!(status.drift_ms, Some(1));
+        assert_eq!(status.drift_over_ms, 10_000);
     }
 }

@@ -14,9 +14,12 @@
 //!   a time (eight of them, two frames' worth, with the direction), full-frame SysEx.
 //! - [`chase`]: the state machine that turns timecode samples (with their arrival
 //!   time) and the player's status into Start, Locate and Stop actions.
+//! - [`lead`]: the lead of a Start estimated from the plan (approach, table load)
+//!   before one was measured.
 
 pub mod artnet;
 pub mod chase;
+pub mod lead;
 pub mod mtc;
 
 use std::fmt;

@@ -19,6 +19,7 @@ pub mod pvt;
 pub mod schedule;
 pub mod sim;
 pub mod stream;
+pub mod stretch;
 
 #[cfg(test)]
 mod player_tests;

@@ -1154,3 +1154,76 @@ fn going_live_disarms_an_armed_show_and_the_show_then_plays_in_full() {
     assert!(worst < 1.0, "{worst} mm off the show");
     assert_eq!(rig.state(), PlayerState::Idle);
 }
+
+/// The row times (`QT`) written from `from_us` on, every gateway.
+fn row_times_ms(rig: &Rig, from_us: u64) -> Vec<u32> {
+    rig.lines
+        .iter()
+        .flat_map(|line| &line.wire)
+        .filter(|(at_us, _)| *at_us >= from_us)
+        .filter_map(|(_, bytes)| {
+            let text = std::str::from_utf8(bytes).ok()?;
+            let value = text.strip_prefix("QT[")?.split(']').nth(1)?;
+            value.trim_end_matches(';').parse().ok()
+        })
+        .collect()
+}
+
+#[test]
+fn a_clock_trim_shortens_streamed_rows_by_at_most_a_millisecond_to_follow_a_fast_clock() {
+    // 1200 rows of 100 ms per ball, streamed (the table's first 25.6 s preloaded, as
+    // planned: no trim reaches them); the timecode's clock runs 0.5 % fast.
+    let show = wave(2, 3, 1_200, 100);
+    let mut rig = Rig::new(installation(2, 3, &[115_200]));
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    rig.run_until(120_000_000, |rig| rig.state() == PlayerState::Playing);
+    let start_us = rig.now_us;
+    let given_start = |t: u64| (t - (t - start_us) * 1_005 / 1_000) as i64;
+    let mut sampler = Sampler::new(&show);
+    let mut expected = vec![0.0f32; show.tracks.len()];
+    let mut worst_late: f64 = 0.0;
+    let mut last_status_ms = 0;
+    while rig.state() == PlayerState::Playing {
+        if (rig.now_us - start_us).is_multiple_of(50_000) {
+            rig.player
+                .trim_clock(rig.now_us, 0, given_start(rig.now_us));
+        }
+        rig.step();
+        let given_ms = (rig.now_us as i64 - given_start(rig.now_us)) as f64 / 1_000.0;
+        if (rig.now_us - start_us).is_multiple_of(100_000)
+            && given_ms > 80_000.0
+            && given_ms < show.duration_ms() as f64 - 200.0
+        {
+            // Late in the show (the 0.5 % made good at up to 1 %) the balls are where the given clock has the show.
+            sampler.sample(given_ms, &mut expected, None);
+            for (actual, expected) in rig.positions_mm().iter().zip(&expected) {
+                worst_late = worst_late.max((actual - f64::from(*expected)).abs());
+            }
+            last_status_ms = rig.player.status().show_time_ms;
+            assert!(
+                (last_status_ms as f64 - given_ms).abs() <= 15.0,
+                "the status says {last_status_ms} ms, the given clock {given_ms} ms"
+            );
+        }
+    }
+    assert!(last_status_ms > 80_000);
+    // (Within the few ms the first trim found the units' start apart from it.)
+    assert!(
+        worst_late <= 2.0,
+        "a ball was {worst_late:.3} mm off the given clock's show"
+    );
+    // Every row written after the start lasts 100 ms ± 1, and the trim shortened some.
+    let times = row_times_ms(&rig, start_us);
+    assert!(times.len() > 100, "{} rows", times.len());
+    assert!(
+        times.iter().all(|&ms| (99..=100).contains(&ms)),
+        "{times:?}"
+    );
+    let shortened = times.iter().filter(|&&ms| ms == 99).count();
+    // 0.6 s made good (0.5 % of 120 s), a millisecond a row.
+    assert!(
+        (550..=650).contains(&shortened),
+        "{shortened} rows shortened"
+    );
+    assert_eq!(rig.player.status().last_error, None);
+}

@@ -13,8 +13,12 @@
 //! Everything is built with the codec ([`Batch`]), so only valid instructions result.
 
 use super::plan::{GatewayRun, Plan, RunMode, UnitPlan};
+use super::stretch::Stretch;
 use crate::uim2503::ascii::{Batch, Form, Instruction, MpParam};
 use crate::uim2503::pvt::TABLE_ROWS;
+
+/// The shortest row time the units take (`QT`), ms.
+const ROW_MS_MIN: i32 = 10;
 
 /// The form every planned instruction is written in.
 pub const FORM: Form = Form::Compact;
@@ -232,26 +236,51 @@ pub fn begin() -> Batch {
 /// Rows `from..to` of every unit of `run`'s gateway (each unit's rows clipped to its
 /// track), as one batch.
 pub fn rows(plan: &Plan, run: &GatewayRun, from: usize, to: usize) -> Batch {
+    rows_stretched(plan, run, from, to, None)
+}
+
+/// [`rows`] with each row's time field (`QT`) stretched as `stretch` says (at most
+/// ±1 ms a row, [`Stretch::row_ms`]); `None`: as planned (the same bytes as [`rows`]).
+pub fn rows_stretched(
+    plan: &Plan,
+    run: &GatewayRun,
+    from: usize,
+    to: usize,
+    stretch: Option<&Stretch>,
+) -> Batch {
     let mut batch = Batch::new();
     let units: Vec<&UnitPlan> = run.units.iter().map(|&unit| &plan.units[unit]).collect();
+    // A row as written: its duration stretched.
+    let row_of = |unit: &UnitPlan, row: usize| {
+        let mut values = unit.rows[row];
+        if let Some(stretch) = stretch {
+            let start_ms = unit.row_start_ms.get(row).copied().unwrap_or(0);
+            let gain = stretch.row_ms(start_ms, u64::from(values.duration_ms));
+            values.duration_ms = u8::try_from(
+                (i32::from(values.duration_ms) + gain).clamp(ROW_MS_MIN, i32::from(u8::MAX)),
+            )
+            .unwrap_or(values.duration_ms);
+        }
+        values
+    };
     let everyone_has_all = units.iter().all(|unit| unit.rows.len() >= to);
     let identical_rows = everyone_has_all
         && (from..to).all(|row| {
             units
                 .windows(2)
-                .all(|pair| pair[0].rows[row] == pair[1].rows[row])
+                .all(|pair| row_of(pair[0], row) == row_of(pair[1], row))
         });
     let shared_durations = everyone_has_all
         && (from..to).all(|row| {
             units
                 .windows(2)
-                .all(|pair| pair[0].rows[row].duration_ms == pair[1].rows[row].duration_ms)
+                .all(|pair| row_of(pair[0], row).duration_ms == row_of(pair[1], row).duration_ms)
         });
     // Rows never written since the table was cleared still hold zeros.
     let fresh = |row: usize| run.mode != RunMode::Fifo || row < TABLE_ROWS;
     let write_row = |batch: &mut Batch, unit: &UnitPlan, row: usize, with_time: bool| {
         let index = table_index(run.mode, row);
-        let values = unit.rows[row];
+        let values = row_of(unit, row);
         let skip_zeros = run.mode != RunMode::Fifo && fresh(row);
         if !(skip_zeros && values.position_counts == 0) {
             push(
@@ -305,7 +334,7 @@ pub fn rows(plan: &Plan, run: &GatewayRun, from: usize, to: usize) -> Batch {
                 &mut batch,
                 Instruction::PvtTime {
                     row: table_index(run.mode, row),
-                    duration_ms: Some(units[0].rows[row].duration_ms),
+                    duration_ms: Some(row_of(units[0], row).duration_ms),
                 },
             );
         }

@@ -564,32 +564,37 @@ impl SclDrive {
             &units::VELOCITY,
             self.config.approach_speed_mm_s * self.config.counts_per_mm / per_rev,
         );
+        // Enabled first when the run did not move them yet (a drive disabled at a
+        // schedule window's end refuses to move, alarm `8000` No Move).
+        let enable = std::mem::take(&mut self.enable_first);
         let prepare = self.by_line(|unit| {
-            [
-                // A jog starts at `JS`, its speed following in the next request: the
-                // smallest, never the power-up `JS`.
-                Command::JogSpeed {
-                    rev_s: units::VELOCITY.write(1),
-                },
-                Command::JogAcceleration {
-                    rev_s2: Some(accel),
-                },
-                Command::JogDeceleration {
-                    rev_s2: Some(accel),
-                },
-                Command::Velocity {
-                    rev_s: Some(velocity),
-                },
-                Command::Acceleration {
-                    rev_s2: Some(accel),
-                },
-                Command::Deceleration {
-                    rev_s2: Some(accel),
-                },
-            ]
-            .into_iter()
-            .map(|command| ask(unit, command, Check::NotRefused))
-            .collect()
+            enable
+                .then_some(Command::MotorEnable)
+                .into_iter()
+                .chain([
+                    // A jog starts at `JS`, its speed following in the next request: the
+                    // smallest, never the power-up `JS`.
+                    Command::JogSpeed {
+                        rev_s: units::VELOCITY.write(1),
+                    },
+                    Command::JogAcceleration {
+                        rev_s2: Some(accel),
+                    },
+                    Command::JogDeceleration {
+                        rev_s2: Some(accel),
+                    },
+                    Command::Velocity {
+                        rev_s: Some(velocity),
+                    },
+                    Command::Acceleration {
+                        rev_s2: Some(accel),
+                    },
+                    Command::Deceleration {
+                        rev_s2: Some(accel),
+                    },
+                ])
+                .map(|command| ask(unit, command, Check::NotRefused))
+                .collect()
         });
         self.begin_stages(now_us, vec![prepare]);
         true

@@ -221,14 +221,16 @@ fn a_show_homes_approaches_uploads_starts_and_ends_where_it_was_drawn() {
     // Every ball ends at 5 × (i + 1) mm, as drawn.
     assert_eq!(rig.positions(), [500, 1_000, 1_500]);
     let lines = rig.commands(1);
-    // Homing, then the approach to 1 mm, at 1000 mm/s (5 rev/s) and 4000 mm/s².
+    // The motor enabled (once a run), homing, then the approach to 1 mm, at
+    // 1000 mm/s (5 rev/s) and 4000 mm/s².
     assert_eq!(
-        lines[..10],
+        lines[..11],
         [
-            "VE5.0000", "AC20.000", "DE20.000", "DI0", "FP", "VE5.0000", "AC20.000", "DE20.000",
-            "DI100", "FP"
+            "ME", "VE5.0000", "AC20.000", "DE20.000", "DI0", "FP", "VE5.0000", "AC20.000",
+            "DE20.000", "DI100", "FP"
         ]
     );
+    assert_eq!(lines.iter().filter(|line| *line == "ME").count(), 1);
     // The upload of the first cycle only, read back; QX1 starts each cycle.
     assert_eq!(lines.iter().filter(|line| *line == "QW1").count(), 1);
     assert_eq!(lines.iter().filter(|line| *line == "QU1").count(), 1);
@@ -273,7 +275,9 @@ fn start_after_an_estop_homes_first() {
     let at_us = rig.now_us + 5_000;
     rig.run_until(at_us);
     assert_eq!(rig.sequencer.status().state, PlayerState::Approaching);
-    assert_eq!(rig.commands(0)[3], "DI100", "straight to the show's start");
+    let lines = rig.commands(0);
+    assert_eq!(lines[..2], ["ME", "VE5.0000"], "the motor enabled first");
+    assert_eq!(lines[4], "DI100", "straight to the show's start");
     // The e-stop (the caller sent SK): nothing more is asked of the drives.
     rig.sequencer.estop();
     for twin in &mut rig.twins {
@@ -290,8 +294,8 @@ fn start_after_an_estop_homes_first() {
     assert_eq!(rig.sequencer.status().state, PlayerState::Homing);
     rig.run_until(rig.now_us + 60_000_000);
     let lines = rig.commands(0);
-    assert_eq!(lines[3], "DI0", "home first: {lines:?}");
-    assert_eq!(lines[8], "DI100", "then the approach: {lines:?}");
+    assert_eq!(lines[4], "DI0", "home first: {lines:?}");
+    assert_eq!(lines[9], "DI100", "then the approach: {lines:?}");
     assert_eq!(rig.positions(), [500, 1_000, 1_500]);
 }
 
@@ -322,6 +326,38 @@ fn home_rests_at_home_and_a_refused_upload_fails_naming_the_drive() {
         "{error}"
     );
     assert!(rig.sequencer.take_estop(), "the matrix is stopped");
+}
+
+#[test]
+fn drives_disabled_at_a_window_s_end_move_again_at_the_next_start() {
+    let mut rig = Rig::new();
+    let config = rig.sequencer.drive().config().clone();
+    rig.sequencer.home(0);
+    rig.run_until(60_000_000);
+    // The schedule's end: MD to every drive (the bridge sends it, not the drive).
+    for twin in &mut rig.twins {
+        assert_eq!(twin.receive_line("MD", rig.now_us).as_deref(), Some("%\r"));
+        assert!(!twin.is_enabled());
+    }
+    // Without ME a move is refused (No Move): what a Start before this change met.
+    let mut bare = twin::Drive::new(DriveConfig::default());
+    bare.receive_line("MD", 0);
+    bare.receive_line("DI100", 0);
+    bare.receive_line("FP", 0);
+    bare.advance(1_000_000);
+    assert_eq!(bare.alarm_code(), twin::alarm::NO_MOVE);
+    assert_eq!(bare.position_integer(), 0);
+    // The Start enables them first, then plays as ever.
+    rig.commands(0);
+    rig.sequencer
+        .start(rig.now_us, vec![entry(&config, 1)], false)
+        .unwrap();
+    rig.run_until(rig.now_us + 60_000_000);
+    assert_eq!(rig.sequencer.status().state, PlayerState::Idle);
+    assert_eq!(rig.commands(0)[0], "ME");
+    assert!(rig.twins.iter().all(twin::Drive::is_enabled));
+    assert!(rig.twins.iter().all(|twin| twin.alarm_code() == 0));
+    assert_eq!(rig.positions(), [500, 1_000, 1_500]);
 }
 
 #[test]
@@ -594,11 +630,13 @@ fn a_locate_kills_the_programs_and_feeds_on_from_where_the_balls_stopped() {
     assert_eq!(rig.sequencer.status().state, PlayerState::Approaching);
     rig.run_until(rig.now_us + 60_000_000);
     let lines = rig.commands(0);
-    // The program is killed where the ball is (SK, at DE), then the feed to the
-    // show's start: never DI0 (home).
+    // The program is killed where the ball is (SK, at DE), then (enabled, as every
+    // run's first move is) the feed to the show's start: never DI0 (home).
     assert_eq!(
-        lines[..6],
-        ["SK", "VE5.0000", "AC20.000", "DE20.000", "DI100", "FP"]
+        lines[..7],
+        [
+            "SK", "ME", "VE5.0000", "AC20.000", "DE20.000", "DI100", "FP"
+        ]
     );
     assert!(!lines.iter().any(|line| line == "DI0"), "{lines:?}");
     assert!(!rig.sequencer.needs_home());

@@ -52,6 +52,7 @@ pub use prepare::{Prepared, StartError, prepare};
 
 use super::plan::Plan;
 use super::stream::WATERMARK_ROWS;
+use super::stretch::Stretch;
 use crate::api::{ArmedShow, Status};
 use crate::plan::Installation;
 use crate::player::{Drive, Phase, Run, Sequencer, StartAt};
@@ -141,6 +142,13 @@ enum Step {
         start_us: Vec<u64>,
         /// Per run: the next row to stream.
         next_row: Vec<usize>,
+        /// The clock trim of a timecode chase: the stretch of the rows not yet sent
+        /// ([`crate::uim2503::stretch`]); `None`: rows as planned.
+        stretch: Option<Stretch>,
+        /// The stretch reached by the units at the last poll, ms.
+        stretched_ms: f64,
+        /// The first trim: when it came, and the show's start it gave, µs.
+        first_trim: Option<(u64, i64)>,
     },
 }
 
@@ -404,9 +412,19 @@ impl Drive for Uim2503Drive {
         match &self.step {
             // Every gateway's units begin once `*0;BG;` is through their line; the
             // first gateway's are the show's clock (as for the show's end).
-            Step::Playing { start_us, .. } => start_us.first().copied(),
+            Step::Playing {
+                start_us,
+                stretched_ms,
+                ..
+            } => start_us.first().map(|&start_us| {
+                start_us.saturating_add_signed((stretched_ms * 1_000.0).round() as i64)
+            }),
             _ => None,
         }
+    }
+
+    fn trim_clock(&mut self, now_us: u64, show_start_us: i64) {
+        self.trim_playing(now_us, show_start_us);
     }
 
     fn show_repeats(&self) -> bool {
@@ -607,6 +625,13 @@ impl Player {
         });
         let at = crate::player::StartAt { entry, lead };
         self.sequencer.start_at(now_us, entries, loop_playlist, at)
+    }
+
+    /// A timecode chase's clock trim: entry `entry`'s (0-based) show has its time 0 at
+    /// `show_start_us` ([`Drive::trim_clock`]: streamed rows not yet sent absorb at
+    /// most ±1 ms each).
+    pub fn trim_clock(&mut self, now_us: u64, entry: usize, show_start_us: i64) {
+        self.sequencer.trim_clock(now_us, entry, show_start_us);
     }
 
     /// The e-stop was sent (by the caller, ahead of everything on every gateway): the

@@ -428,7 +428,12 @@ fn a_step_far_beyond_the_speed_limit_is_followed_within_the_limits_then_held_and
     assert!(rig.sent[0].last().is_some_and(|line| line == "IP"));
     assert!(rig.sent[0].iter().any(|line| line == "FP"));
     rig.within_limits();
-    // Live again: from there, without homing.
+    // The drives disabled meanwhile (`MD`, as at a schedule window's end), then live
+    // again: from there, without homing, enabled first.
+    for twin in &mut rig.twins {
+        twin.receive_line("MD", rig.now_us);
+    }
+    rig.sent.iter_mut().for_each(Vec::clear);
     rig.phases.clear();
     rig.go_live(&[1_000.0, 1_000.0, 1_000.0]);
     assert!(
@@ -436,6 +441,11 @@ fn a_step_far_beyond_the_speed_limit_is_followed_within_the_limits_then_held_and
         "{:?}",
         rig.phases
     );
+    assert_eq!(rig.sent[0].first().map(String::as_str), Some("ME"));
+    rig.run_for(2_000_000, |_| Some(vec![1_000.0, 1_000.0, 1_000.0]));
+    for mm in rig.twin_mm() {
+        assert!((mm - 1_000.0).abs() < 1.5, "{mm}");
+    }
 }
 
 #[test]
