@@ -290,12 +290,15 @@ async fn a_window_starts_and_ends_the_show(family: &str, config: &str, uim2503: 
         .await
         .json::<ScheduleStatus>();
     assert_eq!(last_code(&status), "schedule_estop_latched", "{status:?}");
-    let fresh = Latest::default();
-    let mut fresh = fresh;
-    until(&mut ws, &mut fresh, family, |l| {
+    // A status as it is now (a new connection is sent one at once; the old one hears
+    // of a change only, and a stopped matrix may not change for a while).
+    let mut fresh = Latest::default();
+    let mut now = bridge.ws(&token).await;
+    until(&mut now, &mut fresh, family, |l| {
         l.status.gateway_summary.total > 0
     })
     .await;
+    drop(now);
     assert_eq!(fresh.status.state, PlayerState::Stopped, "{family}");
 
     if uim2503 {
