@@ -27,12 +27,14 @@
 //! - [`startup_bench`]: the bridge's start-up with a large library of shows, with
 //!   figures.
 //! - [`timecode_bench`]: the timecode chase on each family, with figures.
+//! - [`live_bench`]: live input's latency, CPU and position error, with figures.
 
 mod app;
 mod create_bench;
 mod csv_report;
 mod fuzz;
 mod identify_repeat;
+mod live_bench;
 mod load_bench;
 mod mbox_bench;
 mod qprogram_report;
@@ -110,6 +112,12 @@ commands:
          show - timecode p50/p99/max and the drift, the lead from the cue to the start,
          and locate -> playing again on a 10 x 10 UIM2503 matrix at 115200 baud
          options: --seconds N (default 300)
+  live-bench  live input through the release bridge: Art-Net packet -> first MBOX
+         motion frame out p50/p99/max, the bridge's CPU with 10,000 simulated MBOX axes
+         and 40 universes x 44 packets/s, the largest position error against the
+         filtered input over a random fader
+         options: --debug  --changes N (default 200)  --cpu-seconds S (default 20)
+                  --seconds S (default 60)
 ";
 
 fn main() -> ExitCode {
@@ -131,6 +139,7 @@ fn main() -> ExitCode {
         Some("startup-bench") => startup_bench::startup_bench(&args[1..]),
         Some("status-clock") => status_clock::status_clock(&args[1..]),
         Some("timecode-bench") => timecode_bench::timecode_bench(&args[1..]),
+        Some("live-bench") => live_bench::live_bench(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())
