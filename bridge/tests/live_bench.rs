@@ -136,7 +136,7 @@ impl Drop for Repeat {
 }
 
 /// Goes live and waits until following (homing and the approach included).
-async fn go_live(bridge: &Process, within: Duration) -> (common::Ws, String) {
+async fn go_live(bridge: &Process, within: Duration) -> (common::Ws, String, u32) {
     let token = bridge.operator().await;
     let mut ws = bridge.ws(&token).await;
     send_text(&mut ws, r#"{"type":"live","on":true}"#).await;
@@ -149,7 +149,8 @@ async fn go_live(bridge: &Process, within: Duration) -> (common::Ws, String) {
         "  following: period {} ms, latency (the bridge's estimate) {} ms",
         live.period_ms, live.latency_ms
     );
-    (ws, token)
+    let period_ms = live.period_ms;
+    (ws, token, period_ms)
 }
 
 /// p50, p99, max of `values` (sorted here).
@@ -273,7 +274,7 @@ async fn mbox_latency(changes: u64) {
     let low = value(500.0);
     let high = value(520.0);
     let repeat = Repeat::start(to, 3, low);
-    let (_ws, _token) = go_live(&bridge, Duration::from_secs(30)).await;
+    let (_ws, _token, _) = go_live(&bridge, Duration::from_secs(30)).await;
     let socket = UdpSocket::bind("127.0.0.1:0").expect("a socket");
     let mut random = Random(0x9e37_79b9_7f4a_7c15);
     let mut latencies_ms = Vec::new();
@@ -302,6 +303,122 @@ async fn mbox_latency(changes: u64) {
         println!("  (ball 0's last frame: {pulses} pulses)");
     }
     drop(repeat);
+}
+
+/// Every `QP[i]p;` on `wire` from `from` on: (the offset its `;` ends at, p).
+fn qp_values(wire: &[u8], from: usize) -> Vec<(usize, i64)> {
+    let mut found = Vec::new();
+    let mut at = from;
+    while let Some(start) = wire[at..].windows(3).position(|w| w == b"QP[") {
+        let mut i = at + start + 3;
+        while i < wire.len() && wire[i] != b']' {
+            i += 1;
+        }
+        let number_from = i + 1;
+        let mut end = number_from;
+        while end < wire.len() && wire[end] != b';' {
+            end += 1;
+        }
+        if end >= wire.len() {
+            break;
+        }
+        if let Some(value) = std::str::from_utf8(&wire[number_from..end])
+            .ok()
+            .and_then(|text| text.parse().ok())
+        {
+            found.push((end + 1, value));
+        }
+        at = end;
+    }
+    found
+}
+
+async fn uim2503_latency(changes: u64) {
+    const UNITS: u32 = 50;
+    const BAUD: u32 = 115_200;
+    println!(
+        "UIM2503: packet → first row byte out carrying the change, 100 units at {BAUD} baud \
+         (two gateways of {UNITS}, each on a pseudo-terminal this bench reads, answering as \
+         a gateway with the shared simulator)"
+    );
+    let dir = tempfile::tempdir().expect("a dir");
+    let taps: Vec<common::process::Tap> = (0..2)
+        .map(|gateway| {
+            common::process::Tap::new(
+                dir.path(),
+                &format!("gateway{gateway}"),
+                BAUD,
+                floatball_shared::uim2503::sim::GatewayConfig::numbered(UNITS as u8),
+            )
+        })
+        .collect();
+    let port = free_port();
+    let to = SocketAddr::from(([127, 0, 0, 1], port));
+    let gateways: String = taps
+        .iter()
+        .map(|tap| {
+            format!(
+                "[[gateway]]\nport = \"{}\"\nbaud = {BAUD}\n",
+                tap.path.display()
+            )
+        })
+        .collect();
+    let bridge = Process::start(&config(10, 10, &gateways, port));
+    let low = value(500.0);
+    let high = value(520.0);
+    let repeat = Repeat::start(to, 100, low);
+    let (_ws, _token, period_ms) = go_live(&bridge, Duration::from_secs(90)).await;
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let socket = UdpSocket::bind("127.0.0.1:0").expect("a socket");
+    let mut random = Random(0x1234_5678_9abc_def1);
+    let mut latencies_ms = Vec::new();
+    let mut missed = 0;
+    for change in 0..changes {
+        std::thread::sleep(Duration::from_micros(
+            (random.next() * f64::from(period_ms) * 1000.0) as u64,
+        ));
+        let tap = &taps[0];
+        let (wire_before, _) = tap.wire_timed();
+        let resting = qp_values(&wire_before, wire_before.len().saturating_sub(4000))
+            .last()
+            .map(|(_, value)| *value);
+        let target = if change % 2 == 0 { high } else { low };
+        let sent = Instant::now();
+        send(&socket, to, 1, &slots(100, target));
+        repeat.value.store(target, Ordering::SeqCst);
+        std::thread::sleep(Duration::from_millis(700));
+        let (wire, arrivals) = tap.wire_timed();
+        let first = qp_values(&wire, wire_before.len())
+            .into_iter()
+            .find(|(_, value)| Some(*value) != resting);
+        let at = first.and_then(|(end, _)| {
+            arrivals
+                .iter()
+                .find(|(_, length)| *length >= end)
+                .map(|(at, _)| *at)
+        });
+        match at {
+            Some(at) if resting.is_some() => {
+                latencies_ms.push((at.saturating_duration_since(sent)).as_secs_f64() * 1000.0);
+            }
+            _ => missed += 1,
+        }
+    }
+    drop(repeat);
+    let (p50, p99, max) = percentiles(&mut latencies_ms);
+    let row_bytes = UNITS * 33 + 13;
+    println!(
+        "  {} changes ({missed} not seen within 700 ms): p50 {p50:.1} ms, p99 {p99:.1} ms, \
+         max {max:.1} ms to the read that completed the first QP carrying the change \
+         (as the line paces it); the row time (period) {period_ms} ms; the line's floor: one \
+         row round for {UNITS} units is at most {row_bytes} bytes = {:.0} ms at {BAUD} baud \
+         ({:.0} ms for 100 units on one line, which live mode refuses above 81 units); the \
+         ball moves {} rows later (the FIFO)",
+        latencies_ms.len(),
+        f64::from(row_bytes) * 10.0 / f64::from(BAUD) * 1000.0,
+        f64::from(100 * 33 + 13) * 10.0 / f64::from(BAUD) * 1000.0,
+        floatball_shared::uim2503::player::live::LIVE_FIFO_ROWS
+    );
 }
 
 /// utime + stime of `pid`, clock ticks.
@@ -346,7 +463,7 @@ async fn cpu(seconds: u64) {
         }
         (packets, started.elapsed())
     });
-    let (_ws, token) = go_live(&bridge, Duration::from_secs(120)).await;
+    let (_ws, token, _) = go_live(&bridge, Duration::from_secs(120)).await;
     let counters = || async {
         let reply = bridge
             .request(Method::GET, "/api/live/status", Some(&token), None)
@@ -391,7 +508,7 @@ async fn position_error(seconds: u64) {
     let start_mm = 1000.0;
     let inputs: Arc<Mutex<Vec<(Instant, f64)>>> = Arc::new(Mutex::new(Vec::new()));
     let repeat = Repeat::start(to, 3, value(start_mm));
-    let (_ws, token) = go_live(&bridge, Duration::from_secs(30)).await;
+    let (_ws, token, _) = go_live(&bridge, Duration::from_secs(30)).await;
     // At rest on the first value.
     let deadline = Instant::now() + Duration::from_secs(5);
     loop {
@@ -571,6 +688,9 @@ async fn live_bench() {
     let only = std::env::var("LIVE_BENCH_ONLY").unwrap_or_default();
     if only.is_empty() || only == "latency" {
         mbox_latency(from_env("LIVE_BENCH_CHANGES", 200)).await;
+    }
+    if only.is_empty() || only == "uim2503" {
+        uim2503_latency(from_env("LIVE_BENCH_UIM2503_CHANGES", 100)).await;
     }
     if only.is_empty() || only == "cpu" {
         cpu(from_env("LIVE_BENCH_CPU_SECONDS", 20)).await;
