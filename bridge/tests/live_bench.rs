@@ -421,6 +421,61 @@ async fn uim2503_latency(changes: u64) {
     );
 }
 
+async fn moons_latency(changes: u64) {
+    println!(
+        "MOONS': packet → first jog command (DI/CJ/CS/SJ) out to drive 0, three eSCL drives \
+         that are this bench's UDP sockets answering with the shared SCL twin"
+    );
+    let peer = common::scl_peer::Peer::udp(3);
+    let list: Vec<String> = peer.sockets.iter().map(|s| format!("\"{s}\"")).collect();
+    let port = free_port();
+    let to = SocketAddr::from(([127, 0, 0, 1], port));
+    let bridge = Process::start(&config(
+        1,
+        3,
+        &format!(
+            "[scl]\nhost_port = 0\n[[gateway]]\nkind = \"scl\"\nescl = [{}]\n",
+            list.join(", ")
+        ),
+        port,
+    ));
+    let low = value(500.0);
+    let high = value(520.0);
+    let repeat = Repeat::start(to, 3, low);
+    let (_ws, _token, period_ms) = go_live(&bridge, Duration::from_secs(60)).await;
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    let socket = UdpSocket::bind("127.0.0.1:0").expect("a socket");
+    let mut random = Random(0x0f1e_2d3c_4b5a_6978);
+    let mut latencies_ms = Vec::new();
+    let mut missed = 0;
+    let jog = |text: &str| ["DI", "CJ", "CS", "SJ"].iter().any(|c| text.starts_with(c));
+    for change in 0..changes {
+        std::thread::sleep(Duration::from_micros(
+            (random.next() * f64::from(period_ms) * 1000.0) as u64,
+        ));
+        let target = if change % 2 == 0 { high } else { low };
+        let sent = Instant::now();
+        send(&socket, to, 1, &slots(3, target));
+        repeat.value.store(target, Ordering::SeqCst);
+        std::thread::sleep(Duration::from_millis(500));
+        let first = peer
+            .since(sent)
+            .into_iter()
+            .find(|line| line.drive == Some(0) && jog(&line.text));
+        match first {
+            Some(line) => latencies_ms.push((line.at - sent).as_secs_f64() * 1000.0),
+            None => missed += 1,
+        }
+    }
+    drop(repeat);
+    let (p50, p99, max) = percentiles(&mut latencies_ms);
+    println!(
+        "  {} changes ({missed} without a jog command within 500 ms): p50 {p50:.1} ms, p99 \
+         {p99:.1} ms, max {max:.1} ms; the period {period_ms} ms",
+        latencies_ms.len()
+    );
+}
+
 /// utime + stime of `pid`, clock ticks.
 fn cpu_ticks(pid: u32) -> u64 {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).expect("/proc/pid/stat");
@@ -691,6 +746,9 @@ async fn live_bench() {
     }
     if only.is_empty() || only == "uim2503" {
         uim2503_latency(from_env("LIVE_BENCH_UIM2503_CHANGES", 100)).await;
+    }
+    if only.is_empty() || only == "moons" {
+        moons_latency(from_env("LIVE_BENCH_MOONS_CHANGES", 100)).await;
     }
     if only.is_empty() || only == "cpu" {
         cpu(from_env("LIVE_BENCH_CPU_SECONDS", 20)).await;
