@@ -14,6 +14,18 @@
 //!   first motion out carrying the change (decoded with `shared::mbox::Datagram`).
 //!   p50/p99/max against one frame period + 2 ms. A console's repeat of the current
 //!   value every 100 ms keeps the input from being lost;
+//! - **packet → first motion out, UIM2503**: 100 units at 115,200 baud — two
+//!   gateways of 50 (one line carries at most 81 in live mode), each a pseudo-terminal
+//!   this bench reads as a UART would and answers with the shared gateway simulator
+//!   (`common::process::Tap`). All 100 balls' targets move 20 mm; the first `QP[i]p;`
+//!   on gateway 0's wire after the packet whose value differs from the last one before
+//!   it is the first row carrying the change; the time is when the read that completed
+//!   it ended. Beside it the line's floor (one row round for 50 units at its longest,
+//!   `50 × 33 + 13` bytes, at 115,200 baud) and the row time; the ball moves
+//!   `LIVE_FIFO_ROWS` rows after its row is written;
+//! - **packet → first motion out, MOONS'**: three eSCL drives that are this bench's
+//!   UDP sockets (`common::scl_peer::Peer::udp`, the SCL twin answering); the first
+//!   jog command (`DI`, `CJ`, `CS` or `SJ`) to drive 0 after the packet;
 //! - **CPU**: 10,000 MBOX axes (1,000 simulated 10-axis boxes in the bridge,
 //!   `port = "sim"`), the whole-matrix patch (40 universes, 16-bit position), live,
 //!   40 universes × 44 packets/s for `LIVE_BENCH_CPU_SECONDS` (20): the bridge
@@ -23,16 +35,22 @@
 //!   random fader for `LIVE_BENCH_ERROR_SECONDS` (60): every 100 ms a new random
 //!   fader speed up to ±1,500 mm/s (the top speed is 1,000 mm/s), the value clamped
 //!   into 100–1,900 mm, sent at 44 packets/s. `GET /api/sim/positions` is sampled
-//!   every ~10 ms (each sample stamped on this bench's clock when the answer came).
-//!   The filtered input is computed here with `shared::live::filter::MotionFilter` on
-//!   the values sent (stepped every 20 ms, each step taking the latest value sent
-//!   before it, from rest where ball 0 was), and each sample of ball 0 is compared
-//!   with the filter's output `L` ms earlier (linear between steps), `L` the constant
-//!   lag (0–150 ms in 5 ms steps) that gives the smallest largest error — the
-//!   pipeline's delay, reported with it. The error against the raw input (the value
-//!   sent, same lag) is printed for context.
+//!   every ~10 ms; each sample is timed by the simulated box's own clock (`time_us`),
+//!   put on this bench's clock by the smallest offset seen (the fastest answer), so
+//!   no HTTP delay is in the times. The filtered input is computed here with
+//!   `shared::live::filter::MotionFilter` on the values sent (a step every 20 ms,
+//!   each taking the latest value sent before it, from rest where ball 0 was), and
+//!   each sample of ball 0 is compared with the filter's output `L` ms earlier
+//!   (linear between steps); the steps' phase (0–18 ms, 2 ms apart) and the constant
+//!   lag `L` (0–150 ms, 5 ms apart) are the ones that give the smallest largest error
+//!   — the pipeline's delay, reported with it. What remains includes which value
+//!   each of the bridge's steps took (the receivers publish every 10 ms; this
+//!   bench's steps see every packet). The error against the raw input (the value
+//!   sent, same lag, and at its own best lag) is printed for context.
 //!
-//! UIM2503 and MOONS' latency are not measured here (see docs/live.md, Figures).
+//! `LIVE_BENCH_ONLY` (`latency`, `uim2503`, `moons`, `cpu`, `error`) runs one part;
+//! `LIVE_BENCH_CHANGES`, `LIVE_BENCH_UIM2503_CHANGES`, `LIVE_BENCH_MOONS_CHANGES`,
+//! `LIVE_BENCH_CPU_SECONDS`, `LIVE_BENCH_ERROR_SECONDS` size them.
 
 mod common;
 

@@ -3,8 +3,10 @@
 //!
 //! Runs the bridge test `bridge/tests/live_bench.rs` (a release build unless
 //! `--debug`) with `LIVE_BENCH=1`: the real `floatball` binary fed Art-Net by the
-//! bench; it prints packet → first MBOX motion frame out (p50/p99/max over N changes,
-//! default 200, against one frame period + 2 ms), the bridge's CPU with 10,000
+//! bench; it prints packet → first motion out per family (p50/p99/max: the first MBOX
+//! frame over N changes, default 200, against one frame period + 2 ms; the first
+//! UIM2503 row for 100 units at 115200 baud, against the line's floor, and the first
+//! MOONS' jog command over eSCL, N / 2 changes each), the bridge's CPU with 10,000
 //! simulated MBOX axes and 40 universes × 44 packets/s for S seconds (default 20),
 //! and the largest position error against the filtered input over a random-fader
 //! run (default 60 s). Nothing about speed is asserted.
@@ -75,6 +77,14 @@ pub fn live_bench(args: &[String]) -> Result<(), String> {
             .args(["--test", "live_bench", "--", "--nocapture"])
             .env("LIVE_BENCH", "1")
             .env("LIVE_BENCH_CHANGES", options.changes.to_string())
+            .env(
+                "LIVE_BENCH_UIM2503_CHANGES",
+                (options.changes / 2).max(1).to_string(),
+            )
+            .env(
+                "LIVE_BENCH_MOONS_CHANGES",
+                (options.changes / 2).max(1).to_string(),
+            )
             .env("LIVE_BENCH_CPU_SECONDS", options.cpu_seconds.to_string())
             .env("LIVE_BENCH_ERROR_SECONDS", options.seconds.to_string()),
     )

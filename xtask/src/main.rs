@@ -112,11 +112,13 @@ commands:
          show - timecode p50/p99/max and the drift, the lead from the cue to the start,
          and locate -> playing again on a 10 x 10 UIM2503 matrix at 115200 baud
          options: --seconds N (default 300)
-  live-bench  live input through the release bridge: Art-Net packet -> first MBOX
-         motion frame out p50/p99/max, the bridge's CPU with 10,000 simulated MBOX axes
+  live-bench  live input through the release bridge: Art-Net packet -> first motion
+         out p50/p99/max (MBOX frame, UIM2503 row at 115200 baud for 100 units, MOONS'
+         jog command over eSCL), the bridge's CPU with 10,000 simulated MBOX axes
          and 40 universes x 44 packets/s, the largest position error against the
          filtered input over a random fader
-         options: --debug  --changes N (default 200)  --cpu-seconds S (default 20)
+         options: --debug  --changes N (MBOX; UIM2503 and MOONS' N/2; default 200)
+                  --cpu-seconds S (default 20)
                   --seconds S (default 60)
 ";
 
