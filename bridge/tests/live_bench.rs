@@ -607,7 +607,7 @@ async fn position_error(seconds: u64) {
             let now = Instant::now();
             at_mm = (at_mm + speed_mm_s * (now - last).as_secs_f64()).clamp(100.0, 1900.0);
             last = now;
-            if tick % 4 == 0 {
+            if tick.is_multiple_of(4) {
                 speed_mm_s = (random.next() * 2.0 - 1.0) * 1500.0;
             }
             let v = value(at_mm);
