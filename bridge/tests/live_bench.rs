@@ -653,6 +653,24 @@ async fn position_error(seconds: u64) {
     fader.join().expect("the fader");
     let inputs = inputs.lock().expect("inputs").clone();
 
+    let by_answer: Vec<(Instant, f64)> = answers.iter().map(|(at, _, ball)| (*at, *ball)).collect();
+    compare(
+        &inputs,
+        &samples,
+        first_mm,
+        "timed by the simulation's clock",
+    );
+    compare(
+        &inputs,
+        &by_answer,
+        first_mm,
+        "timed by the answer's arrival",
+    );
+}
+
+/// Prints the largest error of `samples` of ball 0 against the filtered input and the
+/// raw input (see the module's doc).
+fn compare(inputs: &[(Instant, f64)], samples: &[(Instant, f64)], first_mm: f64, what: &str) {
     // The filter offline, every 20 ms from the first input, on the latest value sent.
     let filter = MotionFilter::new(FilterLimits {
         travel_mm: TRAVEL_MM,
@@ -744,7 +762,7 @@ async fn position_error(seconds: u64) {
         .map(|step| worst(f64::from(step) * 0.005, &raw_at))
         .fold(f64::INFINITY, f64::min);
     println!(
-        "  {} samples of ball 0, {} packets: against the filtered input (steps at \
+        "  {what}: {} samples of ball 0, {} packets: against the filtered input (steps at \
          {phase_ms:.0} ms + k × 20 ms, lagged {lag_ms:.0} ms): max {error_mm:.1} mm (p50 {p50:.2} mm, p99 {p99:.1} mm); against the raw input: max \
          {raw_mm:.1} mm at that lag ({raw_at_best:.1} mm at its own best lag)",
         times.len(),
