@@ -27,12 +27,14 @@
 //! - [`startup_bench`]: the bridge's start-up with a large library of shows, with
 //!   figures.
 //! - [`timecode_bench`]: the timecode chase on each family, with figures.
+//! - [`live_bench`]: live input's latency, CPU and position error, with figures.
 
 mod app;
 mod create_bench;
 mod csv_report;
 mod fuzz;
 mod identify_repeat;
+mod live_bench;
 mod load_bench;
 mod mbox_bench;
 mod qprogram_report;
@@ -112,6 +114,14 @@ commands:
          options: --seconds N (default 300), --fast-ppm PPM (the timecode's clock that
          much fast), --uncorrected (correct_drift = false), --no-locate,
          --release (default) or --debug
+  live-bench  live input through the release bridge: Art-Net packet -> first motion
+         out p50/p99/max (MBOX frame, UIM2503 row at 115200 baud for 100 units, MOONS'
+         jog command over eSCL), the bridge's CPU with 10,000 simulated MBOX axes
+         and 40 universes x 44 packets/s, the largest position error against the
+         filtered input over a random fader
+         options: --debug  --changes N (MBOX; UIM2503 and MOONS' N/2; default 200)
+                  --cpu-seconds S (default 20)
+                  --seconds S (default 60)
 ";
 
 fn main() -> ExitCode {
@@ -133,6 +143,7 @@ fn main() -> ExitCode {
         Some("startup-bench") => startup_bench::startup_bench(&args[1..]),
         Some("status-clock") => status_clock::status_clock(&args[1..]),
         Some("timecode-bench") => timecode_bench::timecode_bench(&args[1..]),
+        Some("live-bench") => live_bench::live_bench(&args[1..]),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             Ok(())

@@ -22,6 +22,7 @@ const NATIVE: side_by_side::Plan = side_by_side::Plan {
         "mbox_bench",
         "scl_bench",
         "startup_bench",
+        "live_bench",
         "login_load",
         "ws_flood",
         // Measures the simulated line's throughput against the baud rate.

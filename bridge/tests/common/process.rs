@@ -112,6 +112,8 @@ impl Drop for Process {
 pub struct Tap {
     pub path: std::path::PathBuf,
     wire: Arc<Mutex<Vec<u8>>>,
+    /// When each read from the line ended, and the wire's length then.
+    arrivals: Arc<Mutex<Vec<(Instant, usize)>>>,
     answering: Arc<AtomicBool>,
     stop: Arc<AtomicBool>,
 }
@@ -128,12 +130,17 @@ impl Tap {
         let path = dir.join(name);
         std::os::unix::fs::symlink(slave_path, &path).expect("symlink");
         let wire = Arc::new(Mutex::new(Vec::new()));
+        let arrivals = Arc::new(Mutex::new(Vec::new()));
         let answering = Arc::new(AtomicBool::new(true));
         let stop = Arc::new(AtomicBool::new(false));
         let mut engine = SimEngine::new(units, baud).expect("simulated gateway");
         {
-            let (wire, answering, stop) =
-                (Arc::clone(&wire), Arc::clone(&answering), Arc::clone(&stop));
+            let (wire, arrivals, answering, stop) = (
+                Arc::clone(&wire),
+                Arc::clone(&arrivals),
+                Arc::clone(&answering),
+                Arc::clone(&stop),
+            );
             std::thread::spawn(move || {
                 let mut buffer = [0u8; 1024];
                 let mut answers = Vec::new();
@@ -165,7 +172,10 @@ impl Tap {
                         Ok(n) if n > 0 => {
                             let at = Instant::now();
                             line.accept(micros(at), n);
-                            wire.lock().expect("wire").extend_from_slice(&buffer[..n]);
+                            let mut bytes = wire.lock().expect("wire");
+                            bytes.extend_from_slice(&buffer[..n]);
+                            arrivals.lock().expect("arrivals").push((at, bytes.len()));
+                            drop(bytes);
                             engine.receive(at, &buffer[..n]);
                         }
                         Ok(_) => {}
@@ -184,9 +194,18 @@ impl Tap {
         Self {
             path,
             wire,
+            arrivals,
             answering,
             stop,
         }
+    }
+
+    /// Every byte the bridge wrote so far, and when each read of them ended (with the
+    /// wire's length then), as the line paced them.
+    pub fn wire_timed(&self) -> (Vec<u8>, Vec<(Instant, usize)>) {
+        let wire = self.wire.lock().expect("wire").clone();
+        let arrivals = self.arrivals.lock().expect("arrivals").clone();
+        (wire, arrivals)
     }
 
     /// Every byte the bridge wrote so far.

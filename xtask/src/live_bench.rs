@@ -1,0 +1,121 @@
+//! `cargo xtask live-bench [--debug] [--changes N] [--cpu-seconds S] [--seconds S]`:
+//! live input's figures (issue 38).
+//!
+//! Runs the bridge test `bridge/tests/live_bench.rs` (a release build unless
+//! `--debug`) with `LIVE_BENCH=1`: the real `floatball` binary fed Art-Net by the
+//! bench; it prints packet → first motion out per family (p50/p99/max: the first MBOX
+//! frame over N changes, default 200, against one frame period + 2 ms; the first
+//! UIM2503 row for 100 units at 115200 baud, against the line's floor, and the first
+//! MOONS' jog command over eSCL, N / 2 changes each), the bridge's CPU with 10,000
+//! simulated MBOX axes and 40 universes × 44 packets/s for S seconds (default 20),
+//! and the largest position error against the filtered input over a random-fader
+//! run (default 60 s). Nothing about speed is asserted.
+
+use crate::tools;
+
+/// The options.
+#[derive(Debug, PartialEq, Eq)]
+struct Options {
+    debug: bool,
+    changes: u64,
+    cpu_seconds: u64,
+    seconds: u64,
+}
+
+const USAGE: &str =
+    "usage: cargo xtask live-bench [--debug] [--changes N] [--cpu-seconds S] [--seconds S]";
+
+fn parse_options(args: &[String]) -> Result<Options, String> {
+    let mut options = Options {
+        debug: false,
+        changes: 200,
+        cpu_seconds: 20,
+        seconds: 60,
+    };
+    let mut args = args.iter();
+    while let Some(flag) = args.next() {
+        if flag == "--debug" {
+            options.debug = true;
+            continue;
+        }
+        let slot = match flag.as_str() {
+            "--changes" => &mut options.changes,
+            "--cpu-seconds" => &mut options.cpu_seconds,
+            "--seconds" => &mut options.seconds,
+            _ => return Err(USAGE.to_owned()),
+        };
+        *slot = args
+            .next()
+            .and_then(|value| value.parse().ok())
+            .filter(|value| *value > 0)
+            .ok_or_else(|| format!("{flag} needs a positive number"))?;
+    }
+    Ok(options)
+}
+
+/// Builds and runs the benchmark.
+///
+/// # Errors
+/// The build or the run failed.
+pub fn live_bench(args: &[String]) -> Result<(), String> {
+    let options = parse_options(args)?;
+    let root = tools::workspace_root();
+    let env = tools::Env::discover(&root)?;
+    println!(
+        "xtask: live input: {} changes to one MBOX box, {} s of 40 universes into 10,000 \
+         axes, a {} s random fader",
+        options.changes, options.cpu_seconds, options.seconds
+    );
+    let mut command = tools::cargo(&env);
+    command.arg("test");
+    if !options.debug {
+        command.arg("--release");
+    }
+    tools::run_command(
+        command
+            .args(["--package", "floatball-bridge"])
+            .args(["--test", "live_bench", "--", "--nocapture"])
+            .env("LIVE_BENCH", "1")
+            .env("LIVE_BENCH_CHANGES", options.changes.to_string())
+            .env(
+                "LIVE_BENCH_UIM2503_CHANGES",
+                (options.changes / 2).max(1).to_string(),
+            )
+            .env(
+                "LIVE_BENCH_MOONS_CHANGES",
+                (options.changes / 2).max(1).to_string(),
+            )
+            .env("LIVE_BENCH_CPU_SECONDS", options.cpu_seconds.to_string())
+            .env("LIVE_BENCH_ERROR_SECONDS", options.seconds.to_string()),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn options() {
+        let strings = |args: &[&str]| args.iter().map(|arg| (*arg).to_owned()).collect::<Vec<_>>();
+        assert_eq!(
+            parse_options(&[]),
+            Ok(Options {
+                debug: false,
+                changes: 200,
+                cpu_seconds: 20,
+                seconds: 60
+            })
+        );
+        assert_eq!(
+            parse_options(&strings(&["--debug", "--changes", "50", "--seconds", "10"])),
+            Ok(Options {
+                debug: true,
+                changes: 50,
+                cpu_seconds: 20,
+                seconds: 10
+            })
+        );
+        assert!(parse_options(&strings(&["--changes", "0"])).is_err());
+        assert!(parse_options(&strings(&["--fast"])).is_err());
+    }
+}
