@@ -494,7 +494,7 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
                     positions = wanted.then(|| {
                         positions.take().unwrap_or_else(|| {
                             let mut watch = state.playback().live_positions();
-                            // The latest goes out at once when live.
+                            // The latest goes out at once (empty when not live).
                             watch.mark_changed();
                             watch
                         })
