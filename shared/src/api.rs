@@ -1385,6 +1385,23 @@ mod tests {
     use super::*;
 
     #[test]
+    fn live_positions_are_ten_a_second_up_to_2000_balls_then_fewer() {
+        assert_eq!(live_positions_period_ms(0), 100);
+        assert_eq!(live_positions_period_ms(2_000), 100);
+        assert_eq!(live_positions_period_ms(10_000), 500);
+        let message = ServerMessage::LivePositions {
+            positions_mm: vec![0, 512],
+        };
+        assert_eq!(
+            serde_json::to_string(&message).expect("json"),
+            r#"{"type":"live_positions","positions_mm":[0,512]}"#
+        );
+        let wish: ClientMessage =
+            serde_json::from_str(r#"{"type":"live_positions","on":true}"#).expect("valid");
+        assert_eq!(wish, ClientMessage::LivePositions { on: true });
+    }
+
+    #[test]
     fn client_messages_use_the_documented_json() {
         let raw: ClientMessage =
             serde_json::from_str(r#"{"type":"raw","line":"*5;PV;"}"#).expect("valid raw");
