@@ -9,7 +9,11 @@
 //! [`STATUS_PER_S`] times a second (changes in between are merged: the latest wins),
 //! and every feedback frame of every gateway until it sends `{"type":"feedback",
 //! "relay":false}` (and again from `"relay":true`: the app asks for them only while its
-//! console is open). Its reading and writing are separate
+//! console is open). The balls' live positions (`live_positions`, whole mm, ten a
+//! second or fewer on a large matrix, one empty message when live mode ends) only
+//! after it sends `{"type":"live_positions","on":true}` (the app: while it shows the
+//! Preview or the Live card): copied out of the playback task's watch, no borrow
+//! held while sending. Its reading and writing are separate
 //! tasks: what the client sends is acted on as it arrives, even while a status waits
 //! for a client that reads slowly. Every message from the client counts as
 //! use of its token; when the token has expired or was ended by a logout, the
@@ -350,6 +354,8 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
     let mut status = state.subscribe_status();
     let mut schedule = state.schedules().subscribe();
     let (relay, mut relay_wanted) = watch::channel(true);
+    let (positions_wish, mut positions_wanted) = watch::channel(false);
+    let mut positions: Option<crate::playback::PositionsWatch> = None;
     let mut feedback = Some(state.gateways().subscribe_feedback());
     let mut mbox_replies = state.playback().boxes().map(MboxNet::subscribe_replies);
     let mut scl_replies = state.playback().scl().map(SclNet::subscribe_replies);
@@ -368,7 +374,10 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
             replies,
             outbox: Arc::clone(&outbox),
             inbound: inbound_tx,
-            relay,
+            relay: Wishes {
+                feedback: relay,
+                live_positions: positions_wish,
+            },
         },
     ));
     let _stop_reading = AbortOnDrop(reader);
@@ -479,6 +488,30 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
                 }
                 Step::Continue
             }
+            changed = positions_wanted.changed() => {
+                if changed.is_ok() {
+                    let wanted = *positions_wanted.borrow_and_update();
+                    positions = wanted.then(|| {
+                        positions.take().unwrap_or_else(|| {
+                            let mut watch = state.playback().live_positions();
+                            // The latest goes out at once (empty when not live).
+                            watch.mark_changed();
+                            watch
+                        })
+                    });
+                }
+                Step::Continue
+            }
+            latest = next_positions(positions.as_mut()) => match latest {
+                Some(positions_mm) => {
+                    let message = ServerMessage::LivePositions { positions_mm };
+                    sent(send(&mut sink, &message).await)
+                }
+                None => {
+                    positions = None;
+                    Step::Continue
+                }
+            },
             frame = next_frame(feedback.as_mut()) => match frame {
                 Ok(frame) => sent(send(&mut sink, &ServerMessage::Feedback(frame)).await),
                 Err(broadcast::error::RecvError::Lagged(missed)) => {
@@ -533,6 +566,30 @@ async fn session(socket: WebSocket, state: AppState, token: String) {
 
 /// The next answer to a console line (an MBOX box's to a read, a MOONS' drive's);
 /// `None` when there will be none; never when the installation has no such family.
+/// The balls' live positions when they next change (empty when live mode ended),
+/// copied out with the borrow dropped at once; never when this client did not ask for
+/// them; `None` when the playback task is gone.
+async fn next_positions(
+    positions: Option<&mut crate::playback::PositionsWatch>,
+) -> Option<Vec<i32>> {
+    match positions {
+        Some(positions) => {
+            positions.changed().await.ok()?;
+            let latest = positions.borrow_and_update().clone();
+            Some(latest.map(|mm| mm.to_vec()).unwrap_or_default())
+        }
+        None => std::future::pending().await,
+    }
+}
+
+/// What a client asked to be sent besides its status.
+struct Wishes {
+    /// The gateways' feedback frames.
+    feedback: watch::Sender<bool>,
+    /// The balls' live positions.
+    live_positions: watch::Sender<bool>,
+}
+
 /// The next feedback frame, or never when feedback is not relayed to this client.
 async fn next_frame(
     feedback: Option<&mut broadcast::Receiver<FeedbackFrame>>,
@@ -577,8 +634,8 @@ struct Senders {
     outbox: Arc<Outbox>,
     /// Session events for the writing half.
     inbound: mpsc::Sender<Inbound>,
-    /// Whether the client wants the gateways' feedback frames.
-    relay: watch::Sender<bool>,
+    /// Whether the client wants the gateways' feedback frames and the live positions.
+    relay: Wishes,
 }
 
 async fn read_messages(mut stream: Stream, state: AppState, token: String, senders: Senders) {
@@ -737,7 +794,7 @@ fn answer(
     state: &AppState,
     console_lines: &mpsc::Sender<ConsoleLine>,
     replies: &mpsc::Sender<ServerMessage>,
-    relay: &watch::Sender<bool>,
+    relay: &Wishes,
     text: &str,
 ) -> Option<ServerMessage> {
     let message = match serde_json::from_str::<ClientMessage>(text) {
@@ -752,7 +809,11 @@ fn answer(
     match message {
         ClientMessage::Ping => Some(ServerMessage::Pong),
         ClientMessage::Feedback { relay: wanted } => {
-            relay.send_replace(wanted);
+            relay.feedback.send_replace(wanted);
+            None
+        }
+        ClientMessage::LivePositions { on } => {
+            relay.live_positions.send_replace(on);
             None
         }
         ClientMessage::Estop => {

@@ -983,6 +983,22 @@ async fn next_error(ws: &mut common::Ws) -> String {
     }
 }
 
+/// The next `live_positions` message that `what` accepts (others and statuses
+/// skipped), within 5 s.
+async fn live_positions(ws: &mut common::Ws, what: impl Fn(&[i32]) -> bool) -> Vec<i32> {
+    tokio::time::timeout(Duration::from_secs(5), async {
+        loop {
+            if let ServerMessage::LivePositions { positions_mm } = next_message(ws).await
+                && what(&positions_mm)
+            {
+                return positions_mm;
+            }
+        }
+    })
+    .await
+    .expect("live positions within 5 s")
+}
+
 /// The live phase of a status.
 fn phase(status: &floatball_shared::api::Status) -> Option<floatball_shared::api::LivePhase> {
     status.live.as_ref().map(|live| live.phase)
@@ -1085,6 +1101,22 @@ async fn live_mode(bridge: &Process, family: &str, fader: impl Fn(u16) -> Fader)
         console.set(value);
         balls_at(bridge, &token, &format!("{family}: the ramp"), mm(value)).await;
     }
+    // The live positions, asked for: what the simulated balls show.
+    send_text(&mut ws, r#"{"type":"live_positions","on":true}"#).await;
+    let (sim, _) = sim_balls(bridge, &token).await;
+    let positions_mm = live_positions(&mut ws, |mm| !mm.is_empty()).await;
+    assert!(
+        !positions_mm.is_empty() && positions_mm.len() <= sim.len(),
+        "{family}: {positions_mm:?}"
+    );
+    assert!(
+        positions_mm
+            .iter()
+            .zip(&sim)
+            .all(|(&live, &at)| (f64::from(live) - at).abs() < 3.0),
+        "{family}: live positions {positions_mm:?}, the simulated balls at {sim:?}"
+    );
+    send_text(&mut ws, r#"{"type":"live_positions","on":false}"#).await;
     // A step of 1,000 mm: followed at the top speed, not in one jump. The
     // simulation's own clock times the samples.
     let (from, to) = (mm(0x2800), mm(0x2800) + 1_000.0);
@@ -1209,13 +1241,33 @@ async fn live_mode(bridge: &Process, family: &str, fader: impl Fn(u16) -> Fader)
     assert_eq!(next_error(&mut ws).await, "record_name_taken");
     println!("{family}: recorded {recorded:?}");
 
-    // Leave live: the balls brake to rest, the matrix is idle; then live again (the
-    // positions known: no homing).
+    // Leave live: the balls brake to rest, the matrix is idle, the live positions say
+    // so once and stop; then live again (the positions known: no homing).
+    send_text(&mut ws, r#"{"type":"live_positions","on":true}"#).await;
+    live_positions(&mut ws, |mm| !mm.is_empty()).await;
     send_text(&mut ws, r#"{"type":"live","on":false}"#).await;
-    common::status_until(&mut ws, long, |status| {
-        status.state == PlayerState::Idle && status.live.is_none()
+    // Once empty as live mode ends, none after it (the matrix idle by then too).
+    let (mut ended, mut idle) = (false, false);
+    tokio::time::timeout(long, async {
+        while !(ended && idle) {
+            match next_message(&mut ws).await {
+                ServerMessage::Status(status) => {
+                    idle = status.state == PlayerState::Idle && status.live.is_none();
+                }
+                ServerMessage::LivePositions { positions_mm } => {
+                    assert!(
+                        !ended,
+                        "{family}: live positions after leaving: {positions_mm:?}"
+                    );
+                    ended = positions_mm.is_empty();
+                }
+                _ => {}
+            }
+        }
     })
-    .await;
+    .await
+    .expect("the live positions end and the matrix is idle after leaving");
+    send_text(&mut ws, r#"{"type":"live_positions","on":false}"#).await;
     send_text(&mut ws, r#"{"type":"live","on":true}"#).await;
     common::status_until(&mut ws, long, |status| {
         phase(status) == Some(LivePhase::Following)

@@ -792,6 +792,14 @@ pub enum ClientMessage {
     /// Stop recording (`{"type": "record_stop"}`): the show is written to the store
     /// (braked to rest) and the bridge answers [`ServerMessage::Recorded`].
     RecordStop,
+    /// Whether this client wants the balls' live positions
+    /// ([`ServerMessage::LivePositions`]; off when a session opens): the app asks for
+    /// them only while it shows the Preview or the Live card
+    /// (`{"type": "live_positions", "on": true}`).
+    LivePositions {
+        /// `true`: send them while live; `false`: none from now on.
+        on: bool,
+    },
 }
 
 impl ClientMessage {
@@ -806,6 +814,19 @@ impl ClientMessage {
     pub fn reset() -> Self {
         Self::Reset(StartFrom::default())
     }
+}
+
+/// The most ball positions a second one client is sent in
+/// [`ServerMessage::LivePositions`]: ten messages a second up to 2,000 balls, fewer
+/// above (10,000 balls: two a second, about 50 KB each).
+pub const LIVE_POSITIONS_PER_S: u32 = 20_000;
+
+/// How often the live positions of `balls` balls are published, ms
+/// ([`LIVE_POSITIONS_PER_S`]; never more often than every 100 ms).
+#[must_use]
+pub fn live_positions_period_ms(balls: usize) -> u64 {
+    let balls = u64::try_from(balls).unwrap_or(u64::MAX);
+    (balls.saturating_mul(1000) / u64::from(LIVE_POSITIONS_PER_S)).max(100)
 }
 
 /// A message from the bridge to a client over `/ws`.
@@ -859,6 +880,15 @@ pub enum ServerMessage {
     /// and timecode, the chase's state, the lead and the drift; sent on connect when
     /// the chase is on and on every change, at most ten times a second.
     Timecode(crate::timecode::chase::TimecodeStatus),
+    /// Every ball's filtered live position, whole mm from the top, in ball order (row
+    /// by row): sent to the clients that asked ([`ClientMessage::LivePositions`])
+    /// while the matrix is live, ten times a second (less often on a large matrix:
+    /// at most [`LIVE_POSITIONS_PER_S`] positions a second); once empty when live mode
+    /// ends. Empty too before the approach has positions.
+    LivePositions {
+        /// Each ball's position, mm (rounded to whole mm).
+        positions_mm: Vec<i32>,
+    },
     /// The answer to [`ClientMessage::RecordStop`]: the recording is stored as the
     /// show `name` (it lists, previews and plays as any other).
     Recorded {
@@ -1356,6 +1386,23 @@ mod tests {
     use wasm_bindgen_test::wasm_bindgen_test as test;
 
     use super::*;
+
+    #[test]
+    fn live_positions_are_ten_a_second_up_to_2000_balls_then_fewer() {
+        assert_eq!(live_positions_period_ms(0), 100);
+        assert_eq!(live_positions_period_ms(2_000), 100);
+        assert_eq!(live_positions_period_ms(10_000), 500);
+        let message = ServerMessage::LivePositions {
+            positions_mm: vec![0, 512],
+        };
+        assert_eq!(
+            serde_json::to_string(&message).expect("json"),
+            r#"{"type":"live_positions","positions_mm":[0,512]}"#
+        );
+        let wish: ClientMessage =
+            serde_json::from_str(r#"{"type":"live_positions","on":true}"#).expect("valid");
+        assert_eq!(wish, ClientMessage::LivePositions { on: true });
+    }
 
     #[test]
     fn client_messages_use_the_documented_json() {

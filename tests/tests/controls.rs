@@ -192,7 +192,8 @@ fn art_dmx(data: &[u8]) -> Vec<u8> {
 
 /// The Live card on Control (issue 38): Go live shows the phase until the balls
 /// follow a console's Art-Net (this test's own datagrams), Record a take and Stop
-/// recording → the take is among the controller's files, Leave live → off.
+/// recording → the take is among the controller's files, Leave live → off. While
+/// live the card draws the balls' live positions, and they move with the console.
 #[tokio::test]
 async fn go_live_shows_the_phase_a_recorded_take_is_listed_and_leave_live_ends_it() {
     let socket = std::net::UdpSocket::bind("127.0.0.1:0").expect("a socket");
@@ -201,18 +202,21 @@ async fn go_live_shows_the_phase_a_recorded_take_is_listed_and_leave_live_ends_i
         probe.local_addr().expect("address").port()
     };
     let bridge = Bridge::start_with_config(&format!(
-        "[matrix]\nrows = 1\ncols = 4\n[safety]\napproach_speed_mm_s = 2000.0\n\
+        "[matrix]\nrows = 1\ncols = 4\ntravel_mm = 2000.0\n[safety]\napproach_speed_mm_s = 2000.0\n\
          [[gateway]]\nport = \"sim\"\n\
          [live]\nenabled = true\nsacn = false\nartnet_listen = \"127.0.0.1:{port}\"\n"
     ))
     .await;
-    // A console: every ball at a quarter of the travel, 20 times a second.
+    // A console: every ball at a quarter of the travel (then half), 20 times a second.
     let sending = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(true));
+    let fader = std::sync::Arc::new(std::sync::atomic::AtomicU8::new(0x40));
     let console = {
         let sending = std::sync::Arc::clone(&sending);
+        let fader = std::sync::Arc::clone(&fader);
         std::thread::spawn(move || {
-            let packet = art_dmx(&[0x40, 0, 0x40, 0, 0x40, 0, 0x40, 0]);
             while sending.load(std::sync::atomic::Ordering::SeqCst) {
+                let coarse = fader.load(std::sync::atomic::Ordering::SeqCst);
+                let packet = art_dmx(&[coarse, 0, coarse, 0, coarse, 0, coarse, 0]);
                 let _ = socket.send_to(&packet, ("127.0.0.1", port));
                 std::thread::sleep(Duration::from_millis(50));
             }
@@ -237,6 +241,25 @@ async fn go_live_shows_the_phase_a_recorded_take_is_listed_and_leave_live_ends_i
     assert!(enabled(&browser, "[data-testid=leave-live]").await);
     assert!(!enabled(&browser, "[data-testid=go-live]").await);
     assert!(!browser.text("[data-testid=live-timing]").await.is_empty());
+    // The live positions: every ball at a quarter of 2,000 mm, then at half.
+    browser
+        .wait_for_attribute(
+            "[data-testid=live-positions]",
+            "data-high-mm",
+            "500",
+            UI_TIMEOUT,
+        )
+        .await;
+    browser.wait_for("[data-testid=live-matrix]").await;
+    fader.store(0x80, std::sync::atomic::Ordering::SeqCst);
+    browser
+        .wait_for_attribute(
+            "[data-testid=live-positions]",
+            "data-low-mm",
+            "1000",
+            PLAY_TIMEOUT,
+        )
+        .await;
 
     browser.type_into("[data-testid=record-name]", "take").await;
     browser.click("[data-testid=record-start]").await;

@@ -138,6 +138,9 @@ pub struct Ctx {
     pub create: RwSignal<crate::create::Draft>,
     /// The bridge's timecode chase, when it has one on (`ServerMessage::Timecode`).
     pub timecode: RwSignal<Option<floatball_shared::timecode::chase::TimecodeStatus>>,
+    /// The balls' live positions, whole mm (`ServerMessage::LivePositions`, asked for
+    /// by the Live card while it is shown); empty while not live.
+    pub live_positions: RwSignal<Vec<i32>>,
     /// Whether the draft kept in the browser was read back into [`Ctx::create`]
     /// (the Create page does it when first opened, its code being a chunk).
     pub create_restored: StoredValue<bool>,
@@ -259,6 +262,7 @@ impl Ctx {
             installation: RwSignal::new(None),
             create: RwSignal::new(crate::create::Draft::new()),
             timecode: RwSignal::new(None),
+            live_positions: RwSignal::new(Vec::new()),
             create_restored: StoredValue::new(false),
             origin: StoredValue::new(origin),
             services: StoredValue::new_local(services),
@@ -402,6 +406,7 @@ impl Ctx {
                 }));
             }
             ServerMessage::Timecode(chase) => self.timecode.set(Some(chase)),
+            ServerMessage::LivePositions { positions_mm } => self.live_positions.set(positions_mm),
             ServerMessage::Recorded { name, .. } => {
                 // A live recording is a show in the store now: list it.
                 let lang = self.lang.get_untracked();

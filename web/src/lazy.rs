@@ -278,6 +278,20 @@ split!(
     }
 );
 
+split!(
+    live,
+    /// A `live_positions` message read ([`crate::wire::read_live_positions`]): its
+    /// reader comes with the Live card, the one asking for them. `None` when it does
+    /// not read (the browser's console says why).
+    pub fn read_live_positions(text: String) -> Option<floatball_shared::api::ServerMessage> {
+        crate::wire::read_live_positions(&text)
+            .map_err(|err| {
+                leptos::logging::warn!("ignoring live positions that do not read: {err}")
+            })
+            .ok()
+    }
+);
+
 /// [`live_card`] as a [`Loader`].
 pub fn load_live() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkError>>>> {
     Box::pin(live_card())

@@ -54,6 +54,9 @@ struct Inner {
     /// read later is dropped.
     show_control_sent: u64,
     show_control_handed: u64,
+    /// The same for `live_positions` frames ([`Decoded::LivePositions`]).
+    live_sent: u64,
+    live_handed: u64,
 }
 
 impl Socket {
@@ -80,6 +83,8 @@ impl Socket {
             closed: false,
             show_control_sent: 0,
             show_control_handed: 0,
+            live_sent: 0,
+            live_handed: 0,
         }));
         open(&inner);
         let weak = Rc::downgrade(&inner);
@@ -228,30 +233,49 @@ fn received(weak: &Weak<RefCell<Inner>>, generation: u64, event: &MessageEvent) 
     };
     match decode(&text) {
         Ok(Decoded::Message(message)) => on_message(message),
-        Ok(Decoded::ShowControl(text)) => {
-            // Read in its chunk; handed on in the order the frames came, and only
-            // while this socket is the current one.
+        Ok(decoded @ (Decoded::ShowControl(_) | Decoded::LivePositions(_))) => {
+            // Read in its chunk; handed on in the order the frames of its kind came,
+            // and only while this socket is the current one.
+            let live = matches!(decoded, Decoded::LivePositions(_));
+            let (Decoded::ShowControl(text) | Decoded::LivePositions(text)) = decoded else {
+                return;
+            };
             let order = {
                 let mut inner = this.borrow_mut();
-                inner.show_control_sent += 1;
-                inner.show_control_sent
+                let sent = if live {
+                    &mut inner.live_sent
+                } else {
+                    &mut inner.show_control_sent
+                };
+                *sent += 1;
+                *sent
             };
             let weak = Rc::downgrade(&this);
             leptos::task::spawn_local(async move {
-                let read = crate::lazy::read_show_control(text).await;
+                let read = if live {
+                    crate::lazy::read_live_positions(text).await
+                } else {
+                    crate::lazy::read_show_control(text).await
+                };
                 let Some(this) = weak.upgrade() else { return };
                 let mut inner = this.borrow_mut();
-                if inner.generation != generation || order <= inner.show_control_handed {
+                let current = inner.generation == generation;
+                let handed = if live {
+                    &mut inner.live_handed
+                } else {
+                    &mut inner.show_control_handed
+                };
+                if !current || order <= *handed {
                     return;
                 }
-                inner.show_control_handed = order;
+                *handed = order;
                 let on_message = Rc::clone(&inner.on_message);
                 drop(inner);
                 match read {
                     Ok(Some(message)) => on_message(message),
                     Ok(None) => {}
                     Err(crate::lazy::ChunkError) => leptos::logging::warn!(
-                        "a schedule or timecode message could not be read: its chunk did not load"
+                        "a schedule, timecode or live-positions message could not be read: its chunk did not load"
                     ),
                 }
             });

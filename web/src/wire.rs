@@ -60,6 +60,9 @@ pub enum Decoded {
     /// `showcontrol` chunk ([`crate::lazy::read_show_control`]): shown only where a
     /// schedule or a timecode chase is used, its reading stays out of the first load.
     ShowControl(String),
+    /// A `live_positions` message, read by [`read_live_positions`] in the `live`
+    /// chunk ([`crate::lazy::read_live_positions`]): asked for only by the Live card.
+    LivePositions(String),
 }
 
 /// Reads one WebSocket text frame from the bridge.
@@ -71,6 +74,9 @@ pub fn decode(text: &str) -> Result<Decoded, serde_json::Error> {
     let tag: Tag = from_str(text)?;
     if matches!(tag.kind.as_str(), "schedule" | "timecode") {
         return Ok(Decoded::ShowControl(text.to_owned()));
+    }
+    if tag.kind == "live_positions" {
+        return Ok(Decoded::LivePositions(text.to_owned()));
     }
     read(&tag, text).map(Decoded::Message)
 }
@@ -89,6 +95,23 @@ pub fn read_show_control(text: &str) -> Result<ServerMessage, serde_json::Error>
                 "`{other}` is not a show-control message"
             )));
         }
+    })
+}
+
+/// [`ServerMessage::LivePositions`]' fields.
+#[derive(Deserialize)]
+struct LivePositions {
+    positions_mm: Vec<i32>,
+}
+
+/// Reads a `live_positions` message ([`Decoded::LivePositions`]).
+///
+/// # Errors
+/// Not JSON or fields that do not read.
+pub fn read_live_positions(text: &str) -> Result<ServerMessage, serde_json::Error> {
+    let read: LivePositions = from_str(text)?;
+    Ok(ServerMessage::LivePositions {
+        positions_mm: read.positions_mm,
     })
 }
 
@@ -256,6 +279,9 @@ mod tests {
                 name: "take 1".into(),
                 duration_ms: 12_340,
             },
+            ServerMessage::LivePositions {
+                positions_mm: vec![0, 512, 3_999],
+            },
             ServerMessage::Error {
                 message: "no such show".into(),
                 code: "show_not_found".into(),
@@ -278,6 +304,11 @@ mod tests {
                         ServerMessage::Schedule(_) | ServerMessage::Timecode(_)
                     ));
                     read_show_control(&later).expect(&later)
+                }
+                // Read later, in the Live card's chunk.
+                Decoded::LivePositions(later) => {
+                    assert!(matches!(message, ServerMessage::LivePositions { .. }));
+                    read_live_positions(&later).expect(&later)
                 }
             };
             assert_eq!(read, message);

@@ -20,12 +20,20 @@
 //! `hold_after_ms` (the receivers publish only on change: a silent network publishes
 //! nothing new).
 //!
+//! **The positions** ([`Positions`]): while live, every ball's filtered position
+//! ([`Sequencer::live_states`]), rounded to whole mm, is published on a watch at most
+//! every [`floatball_shared::api::live_positions_period_ms`] (ten a second up to
+//! 2,000 balls), `None` once live mode ends; the WebSocket sessions that asked
+//! relay it (`crate::ws`). The task builds it after its turn's work: nothing of it is
+//! on the e-stop's path.
+//!
 //! **Recording** is the sequencer's ([`floatball_shared::player::Sequencer::start_recording`]);
 //! the show it gives at the stop is stored by the caller (`crate::ws`).
 
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
+use floatball_shared::api::live_positions_period_ms;
 use floatball_shared::player::{Drive, LiveInput, RecordStartError, Sequencer, StartError};
 use floatball_shared::show::Show;
 use tokio::sync::{oneshot, watch};
@@ -35,6 +43,52 @@ use crate::estop::Latch;
 
 /// The snapshots of live input, as the receivers publish them.
 pub type LiveWatch = watch::Receiver<Arc<crate::live::LiveInput>>;
+
+/// The balls' live positions, whole mm, as the task last published them; `None`
+/// while not live.
+pub type PositionsWatch = watch::Receiver<Option<Arc<[i32]>>>;
+
+/// The task's publisher of the balls' live positions (see the module's doc).
+#[derive(Debug)]
+pub(super) struct Positions {
+    tx: watch::Sender<Option<Arc<[i32]>>>,
+    /// When they were last published (`None`: not since live mode began).
+    at: Option<Instant>,
+}
+
+impl Positions {
+    /// A publisher and its watch.
+    pub(super) fn new() -> (Self, PositionsWatch) {
+        let (tx, rx) = watch::channel(None);
+        (Self { tx, at: None }, rx)
+    }
+
+    /// Publishes `sequencer`'s live positions when they are due, or `None` once live
+    /// mode has ended.
+    pub(super) fn publish<D: Drive>(&mut self, sequencer: &Sequencer<D>) {
+        if !sequencer.is_live() {
+            self.at = None;
+            // Only a change wakes the sessions.
+            self.tx.send_if_modified(|now| now.take().is_some());
+            return;
+        }
+        let states = sequencer.live_states();
+        let period = Duration::from_millis(live_positions_period_ms(states.len()));
+        if states.is_empty() || self.at.is_some_and(|at| at.elapsed() < period) {
+            return;
+        }
+        self.at = Some(Instant::now());
+        #[allow(
+            clippy::cast_possible_truncation,
+            reason = "positions within the travel, a few metres"
+        )]
+        let positions: Arc<[i32]> = states
+            .iter()
+            .map(|state| state.position_mm.round() as i32)
+            .collect();
+        self.tx.send_replace(Some(positions));
+    }
+}
 
 /// Why live mode or a recording was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -75,6 +129,12 @@ pub(super) enum LiveRequest {
 }
 
 impl Playback {
+    /// The balls' live positions, whole mm, ten times a second while live (less often
+    /// on a large matrix); `None` while not live.
+    pub fn live_positions(&self) -> PositionsWatch {
+        self.live_positions.clone()
+    }
+
     /// Hands the playback task the receivers' snapshots of live input (once, as the
     /// bridge starts).
     pub fn attach_live(&self, input: LiveWatch) {

@@ -81,7 +81,7 @@ mod scl;
 mod sequenced;
 mod uim2503;
 
-pub use live::{LiveError, LiveWatch};
+pub use live::{LiveError, LiveWatch, PositionsWatch};
 
 use sequenced::{Prepare, PreparedRuns};
 use uim2503::link_views;
@@ -205,6 +205,8 @@ impl std::fmt::Debug for Request {
 pub struct Playback {
     requests: mpsc::UnboundedSender<Request>,
     status: watch::Receiver<Status>,
+    /// The balls' live positions ([`live::Positions`]).
+    live_positions: live::PositionsWatch,
     /// Every gateway in full, in installation order, as the status was last built.
     gateway_list: watch::Receiver<Listed>,
     /// The installation and the links now: a snapshot, replaced when the task takes a
@@ -375,12 +377,14 @@ impl Playback {
     fn started(
         requests: mpsc::UnboundedSender<Request>,
         (status, gateway_list): (watch::Receiver<Status>, watch::Receiver<Listed>),
+        live_positions: live::PositionsWatch,
         installation: Arc<Installation>,
         latch: Arc<Latch>,
     ) -> Self {
         Self {
             requests,
             status,
+            live_positions,
             gateway_list,
             live: Arc::new(std::sync::RwLock::new(Live {
                 installation,
@@ -460,16 +464,17 @@ impl Playback {
         let (list_tx, list) = watch::channel(Listed::default());
         let (status_tx, status) =
             watch::channel(sequenced::status(&sequencer, 0, &family, &list_tx));
+        let (positions_tx, positions) = live::Positions::new();
         let started = Self {
             sequenced: prepare,
-            ..Self::started(requests, (status, list), installation, latch)
+            ..Self::started(requests, (status, list), positions, installation, latch)
         };
         tokio::spawn(sequenced::run(
             sequencer,
             family,
             (Arc::clone(&started.latch), Arc::clone(&started.arming)),
             inbox,
-            (status_tx, list_tx),
+            (status_tx, list_tx, positions_tx),
         ));
         started
     }

@@ -267,7 +267,11 @@ pub(super) async fn run<F: Family>(
     mut family: F,
     (latch, arming): (Arc<Latch>, Arc<ArmingShared>),
     mut inbox: mpsc::UnboundedReceiver<Request>,
-    (status_tx, list): (watch::Sender<Status>, watch::Sender<Listed>),
+    (status_tx, list, mut positions): (
+        watch::Sender<Status>,
+        watch::Sender<Listed>,
+        super::live::Positions,
+    ),
 ) {
     let epoch = Instant::now();
     let now_us = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
@@ -411,6 +415,7 @@ pub(super) async fn run<F: Family>(
         if publisher.due(urgent, sequencer.state_at(now)) {
             publish(&status_tx, status(&sequencer, now, &family, &list));
         }
+        positions.publish(&sequencer);
     }
 }
 

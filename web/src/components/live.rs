@@ -6,9 +6,16 @@
 //! or the matrix is live. The bridge refuses what it must (`live_estop_latched`,
 //! `player_busy`, `live_off`, `record_name_taken`…): the refusal shows under the
 //! Control page's buttons as any other.
+//!
+//! While the card is shown it asks the bridge for the balls' live positions
+//! (`live_positions`, read in this chunk: [`crate::lazy::read_live_positions`]) and,
+//! while live, draws them ([`LiveMatrix`]): the matrix from above, each ball a square
+//! shaded by its depth, with the shallowest and deepest positions in words.
 
 use floatball_shared::api::{ClientMessage, LivePhase, LiveStatus};
+use leptos::html::Canvas;
 use leptos::prelude::*;
+use wasm_bindgen::JsCast;
 
 use crate::context::Ctx;
 use crate::i18n::LiveText;
@@ -22,6 +29,115 @@ fn phase_text(phase: LivePhase) -> LiveText {
         LivePhase::Following => LiveText::LivePhaseFollowing,
         LivePhase::Holding => LiveText::LivePhaseHolding,
         LivePhase::Leaving => LiveText::LivePhaseLeaving,
+    }
+}
+
+/// The canvas' width, CSS pixels.
+const MATRIX_WIDTH_PX: f64 = 320.0;
+
+/// The grey of a ball `position_mm` deep in `travel_mm`: light at the top, dark at
+/// the bottom.
+fn shade(position_mm: i32, travel_mm: f64) -> String {
+    let depth = (f64::from(position_mm) / travel_mm.max(1.0)).clamp(0.0, 1.0);
+    #[allow(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "within 40–230"
+    )]
+    let level = (230.0 - depth * 190.0).round() as u8;
+    format!("rgb({level},{level},{level})")
+}
+
+/// The matrix's rows and columns for `balls` balls: the installation's when it
+/// holds them, else one row.
+fn grid(balls: usize, rows: u32, cols: u32) -> (usize, usize) {
+    let (rows, cols) = (rows as usize, cols as usize);
+    if rows * cols >= balls && cols > 0 {
+        (rows, cols)
+    } else {
+        (1, balls.max(1))
+    }
+}
+
+/// The balls' live positions, drawn from above while live (see the module's doc).
+#[component]
+fn LiveMatrix() -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    // Asked for while the card is shown, again on every connect.
+    Effect::new(move |_| {
+        if ctx.connected() {
+            ctx.send(&ClientMessage::LivePositions { on: true });
+        }
+    });
+    on_cleanup(move || {
+        ctx.send(&ClientMessage::LivePositions { on: false });
+        ctx.live_positions.try_set(Vec::new());
+    });
+    let canvas = NodeRef::<Canvas>::new();
+    Effect::new(move |_| {
+        let Some(canvas) = canvas.get() else { return };
+        let (rows, cols, travel_mm) = ctx.installation.with(|info| {
+            info.as_ref()
+                .map_or((0, 0, 1.0), |info| (info.rows, info.cols, info.travel_mm))
+        });
+        ctx.live_positions.with(|positions| {
+            if positions.is_empty() {
+                return;
+            }
+            let (rows, cols) = grid(positions.len(), rows, cols);
+            #[allow(clippy::cast_precision_loss, reason = "a matrix's size")]
+            let cell = (MATRIX_WIDTH_PX / cols as f64).clamp(1.0, 24.0);
+            #[allow(
+                clippy::cast_possible_truncation,
+                clippy::cast_sign_loss,
+                clippy::cast_precision_loss,
+                reason = "a canvas' size"
+            )]
+            {
+                canvas.set_width((cell * cols as f64).ceil() as u32);
+                canvas.set_height((cell * rows as f64).ceil() as u32);
+            }
+            let Some(context) =
+                canvas.get_context("2d").ok().flatten().and_then(|context| {
+                    context.dyn_into::<web_sys::CanvasRenderingContext2d>().ok()
+                })
+            else {
+                return;
+            };
+            for (ball, &position_mm) in positions.iter().enumerate() {
+                context.set_fill_style_str(&shade(position_mm, travel_mm));
+                #[allow(clippy::cast_precision_loss, reason = "a matrix's size")]
+                let (x, y) = ((ball % cols) as f64 * cell, (ball / cols) as f64 * cell);
+                context.fill_rect(x, y, (cell - 1.0).max(1.0), (cell - 1.0).max(1.0));
+            }
+        });
+    });
+    let range = move || {
+        ctx.live_positions.with(|positions| {
+            let low = positions.iter().copied().min()?;
+            let high = positions.iter().copied().max()?;
+            Some((positions.len(), low, high))
+        })
+    };
+    view! {
+        <Show when=move || range().is_some()>
+            <h4>{ctx.tr(LiveText::LivePositionsLabel)}</h4>
+            <canvas class="live-matrix" node_ref=canvas data-testid="live-matrix"></canvas>
+            {move || {
+                range().map(|(balls, low, high)| {
+                    view! {
+                        <p
+                            class="note muted"
+                            data-testid="live-positions"
+                            data-low-mm=low
+                            data-high-mm=high
+                        >
+                            {balls} " " {ctx.tr(LiveText::LiveBalls)} ": " {low} "–" {high} " mm"
+                        </p>
+                    }
+                })
+            }}
+        </Show>
     }
 }
 
@@ -102,6 +218,7 @@ pub fn LiveCard() -> impl IntoView {
                     }
                 }
             }}
+            <LiveMatrix />
             <h4>{ctx.tr(LiveText::LiveRecord)}</h4>
             <label class="field">
                 <span>{ctx.tr(LiveText::LiveRecordName)}</span>

@@ -41,6 +41,10 @@ texts! {
     LiveRecordStop => "停止录制", "Stop recording";
     /// Recorded so far, seconds.
     LiveRecorded => "已录制（秒）", "Recorded (s)";
+    /// The live positions' label (the matrix from above, darker is lower).
+    LivePositionsLabel => "实时位置（俯视，越深越低）", "Live positions (from above, darker is lower)";
+    /// Balls.
+    LiveBalls => "个球", "balls";
     /// Recording needs a name.
     LiveRecordNeedsName => "请输入演出名称", "Type a name for the show";
 }
