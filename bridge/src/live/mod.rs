@@ -19,7 +19,8 @@
 //! state — the merge ([`floatball_shared::live::merge`]: highest priority, then
 //! latest; sACN's sequence rule and stream termination), the sources seen, the
 //! counters — and publishes a new `Arc<LiveInput>` on a `watch` channel
-//! ([`AppState::subscribe_live`]) at most every [`PUBLISH_EVERY`], when something
+//! ([`AppState::subscribe_live`]) at most every [`PUBLISH_EVERY`] (a change after a
+//! quiet period at once), when something
 //! changed. No lock is taken: the snapshot is a value.
 //!
 //! A universe's balls have a target while the universe is **live**: a source of it
@@ -324,6 +325,10 @@ async fn run(
     let mut tick = tokio::time::interval(PUBLISH_EVERY);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     state.publish_live(live.snapshot(Instant::now()));
+    // When the last snapshot went out: a change after a quiet period goes out at once
+    // (its latency is the drive's alone), changes coming faster at most every
+    // `PUBLISH_EVERY` (the tick sends what waited).
+    let mut published_at = Instant::now();
     loop {
         tokio::select! {
             _ = stopping.changed() => return,
@@ -344,12 +349,21 @@ async fn run(
                         Err(_) => break,
                     }
                 }
+                let now = Instant::now();
+                if now.saturating_duration_since(published_at) >= PUBLISH_EVERY {
+                    live.counters.dropped = dropped.load(Ordering::Relaxed);
+                    if live.due(now) {
+                        state.publish_live(live.snapshot(now));
+                        published_at = now;
+                    }
+                }
             }
             _ = tick.tick() => {
                 live.counters.dropped = dropped.load(Ordering::Relaxed);
                 let now = Instant::now();
                 if live.due(now) {
                     state.publish_live(live.snapshot(now));
+                    published_at = now;
                 }
             }
         }
