@@ -48,6 +48,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use axum::http::{Method, StatusCode};
+use common::olad::Olad;
 use common::process::Process;
 use common::{next_message, send_text};
 use floatball_bridge::live::LiveStatus;
@@ -106,95 +107,20 @@ fn ola_run(program: &str, args: &[&str]) -> bool {
 /// bridge's ArtPollReply, sent to 127.0.0.1:6454, reaches whichever socket bound that
 /// port last, not necessarily olad's) and its E1.31 plugin; OLA universe 0 out on
 /// Art-Net Port-Address 0:0:0 (universe 1), OLA universe 1 on E1.31 universe 1.
-/// Killed when dropped.
-struct Olad {
-    child: Child,
-    _config: tempfile::TempDir,
-}
-
-impl Olad {
-    fn start() -> Self {
-        use std::os::unix::fs::PermissionsExt;
-        let config = tempfile::tempdir().expect("a config dir");
-        let dir = config.path();
-        std::fs::write(
-            dir.join("ola-artnet.conf"),
-            "enabled = true\nip = 127.0.0.1\nuse_loopback = true\nalways_broadcast = true\n",
-        )
-        .expect("ola-artnet.conf");
-        std::fs::write(dir.join("ola-e131.conf"), "enabled = true\n").expect("ola-e131.conf");
-        // Every other plugin off: nothing probes serial ports or USB.
-        for plugin in [
-            "dummy",
-            "espnet",
-            "ftdidmx",
-            "gpio",
-            "karate",
-            "kinet",
-            "milinst",
-            "opendmx",
-            "openpixelcontrol",
-            "osc",
-            "pathport",
-            "renard",
-            "sandnet",
-            "shownet",
-            "spi",
-            "stageprofi",
-            "uartdmx",
-            "usbdmx",
-            "usbserial",
-        ] {
-            std::fs::write(dir.join(format!("ola-{plugin}.conf")), "enabled = false\n")
-                .expect("a plugin's conf");
-        }
-        for entry in std::fs::read_dir(dir).expect("the config dir") {
-            let path = entry.expect("an entry").path();
-            std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o666)).expect("chmod");
-        }
-        std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o777)).expect("chmod");
-        let root = Command::new("id")
-            .arg("-u")
-            .output()
-            .is_ok_and(|out| out.stdout.trim_ascii() == b"0");
-        let mut command = if root {
-            let mut command = Command::new("setpriv");
-            command.args(["--reuid=65534", "--regid=65534", "--clear-groups", "olad"]);
-            command
-        } else {
-            Command::new("olad")
-        };
-        let child = command
-            .arg("-c")
-            .arg(dir)
-            .args(["--no-http", "-l", "1"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("olad starts");
-        let olad = Self {
-            child,
-            _config: config,
-        };
+fn start_olad() -> Olad {
+    let olad = Olad::start(
+        &[
+            (
+                "artnet",
+                "enabled = true\nip = 127.0.0.1\nuse_loopback = true\nalways_broadcast = true\n",
+            ),
+            ("e131", "enabled = true\n"),
+        ],
         // Ready when its ports can be patched (Art-Net is device 1, E1.31 device 2).
-        let ready = Instant::now();
-        while !ola_run("ola_patch", &["-d", "1", "-p", "0", "-u", "0"]) {
-            assert!(
-                ready.elapsed() < Duration::from_secs(10),
-                "olad did not start"
-            );
-            std::thread::sleep(Duration::from_millis(100));
-        }
-        assert!(ola_run("ola_patch", &["-d", "2", "-p", "0", "-u", "1"]));
-        olad
-    }
-}
-
-impl Drop for Olad {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
+        || ola_run("ola_patch", &["-d", "1", "-p", "0", "-u", "0"]),
+    );
+    assert!(ola_run("ola_patch", &["-d", "2", "-p", "0", "-u", "1"]));
+    olad
 }
 
 /// The slots of balls 0–2: each one's 16-bit position `value`, `step` apart.
@@ -522,7 +448,7 @@ async fn consoles_move_the_targets_over_art_net_and_sacn() {
     }
     // olad first: a unicast datagram to a port two sockets share goes to the one
     // bound last — the bridge's.
-    let olad = ola.then(Olad::start);
+    let olad = ola.then(start_olad);
     let config = format!(
         "[matrix]\nrows = 1\ncols = 4\ntravel_mm = {TRAVEL_MM:.1}\n\
          [[gateway]]\nport = \"sim\"\nbaud = 115200\n\
@@ -972,6 +898,23 @@ async fn balls_at(bridge: &Process, token: &str, what: &str, mm: f64) -> Vec<f64
     }
 }
 
+/// The simulated balls once balls 0–2 stand within 1 mm of `mm` (at most 5 s).
+async fn balls_at_rest(bridge: &Process, token: &str, mm: f64) -> (Vec<f64>, u64) {
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let balls = sim_balls(bridge, token).await;
+        if balls.0.len() >= 3 && balls.0[..3].iter().all(|&at| (at - mm).abs() < 1.0) {
+            return balls;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "not at rest at {mm:.1} mm: {:?}",
+            balls.0
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
 /// The next error from the bridge (statuses skipped), within 5 s: its code.
 async fn next_error(ws: &mut common::Ws) -> String {
     loop {
@@ -1102,9 +1045,18 @@ async fn live_mode(bridge: &Process, family: &str, fader: impl Fn(u16) -> Fader)
         balls_at(bridge, &token, &format!("{family}: the ramp"), mm(value)).await;
     }
     // The live positions, asked for: what the simulated balls show.
+    // (At rest at the ramp's end: the positions are published ten times a second, so
+    // a moving ball's may be a few mm behind the simulated one.)
     send_text(&mut ws, r#"{"type":"live_positions","on":true}"#).await;
-    let (sim, _) = sim_balls(bridge, &token).await;
-    let positions_mm = live_positions(&mut ws, |mm| !mm.is_empty()).await;
+    let end_mm = mm(0x2800);
+    let positions_mm = live_positions(&mut ws, |mm| {
+        mm.len() >= 3
+            && mm[..3]
+                .iter()
+                .all(|&at| (f64::from(at) - end_mm).abs() < 1.0)
+    })
+    .await;
+    let (sim, _) = balls_at_rest(bridge, &token, end_mm).await;
     assert!(
         !positions_mm.is_empty() && positions_mm.len() <= sim.len(),
         "{family}: {positions_mm:?}"

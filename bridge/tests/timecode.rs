@@ -35,11 +35,12 @@ mod common;
 
 use std::io::Write;
 use std::net::UdpSocket;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
+use common::olad::Olad;
 use common::process::{Process, links_up};
 use common::{Ws, native_show, next_message, send_text};
 use floatball_shared::api::{PlayerState, ServerMessage, SimPositions, Status};
@@ -161,99 +162,23 @@ fn ola() -> bool {
     false
 }
 
-/// `olad` with only its Art-Net plugin on the loopback, killed when dropped.
-struct Olad {
-    child: Child,
-    _config: tempfile::TempDir,
-}
-
-impl Olad {
-    fn start() -> Self {
-        let config = tempfile::tempdir().expect("a config dir");
-        let dir = config.path();
-        std::fs::write(
-            dir.join("ola-artnet.conf"),
+/// `olad` with only its Art-Net plugin on the loopback, ready when `ola_timecode` can
+/// talk to it.
+fn start_olad() -> Olad {
+    Olad::start(
+        &[(
+            "artnet",
             "enabled = true\nip = 127.0.0.1\nuse_loopback = true\n",
-        )
-        .expect("ola-artnet.conf");
-        // Every other plugin off: nothing probes serial ports or USB.
-        for plugin in [
-            "dummy",
-            "e131",
-            "espnet",
-            "ftdidmx",
-            "gpio",
-            "karate",
-            "kinet",
-            "milinst",
-            "opendmx",
-            "openpixelcontrol",
-            "osc",
-            "pathport",
-            "renard",
-            "sandnet",
-            "shownet",
-            "spi",
-            "stageprofi",
-            "uartdmx",
-            "usbdmx",
-            "usbserial",
-        ] {
-            std::fs::write(dir.join(format!("ola-{plugin}.conf")), "enabled = false\n")
-                .expect("a plugin's conf");
-        }
-        use std::os::unix::fs::PermissionsExt;
-        for entry in std::fs::read_dir(dir).expect("the config dir") {
-            let path = entry.expect("an entry").path();
-            std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o666)).expect("chmod");
-        }
-        std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o777)).expect("chmod");
-        let root = Command::new("id")
-            .arg("-u")
-            .output()
-            .is_ok_and(|out| out.stdout.trim_ascii() == b"0");
-        let mut command = if root {
-            let mut command = Command::new("setpriv");
-            command.args(["--reuid=65534", "--regid=65534", "--clear-groups", "olad"]);
-            command
-        } else {
-            Command::new("olad")
-        };
-        let child = command
-            .arg("-c")
-            .arg(dir)
-            .args(["--no-http", "-l", "1"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("olad starts");
-        // Ready when ola_timecode can talk to it.
-        let ready = Instant::now();
-        while Command::new("ola_timecode")
-            .args(["-f", "EBU", "00:00:00:00"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .status()
-            .map_or(true, |status| !status.success())
-        {
-            assert!(
-                ready.elapsed() < Duration::from_secs(10),
-                "olad did not start"
-            );
-            std::thread::sleep(Duration::from_millis(100));
-        }
-        Self {
-            child,
-            _config: config,
-        }
-    }
-}
-
-impl Drop for Olad {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
+        )],
+        || {
+            Command::new("ola_timecode")
+                .args(["-f", "EBU", "00:00:00:00"])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .status()
+                .is_ok_and(|status| status.success())
+        },
+    )
 }
 
 /// How the timecode leaves this test.
@@ -663,7 +588,7 @@ async fn uim2503_chases_art_net_timecode_from_ola_and_stops_on_loss() {
     if ola() {
         // olad first: a unicast datagram to a port two sockets share goes to the one
         // bound last — the bridge's.
-        let _olad = Olad::start();
+        let _olad = start_olad();
         chase_family(
             "UIM2503 (ola)",
             gateway,

@@ -4,6 +4,7 @@
 
 pub mod golden;
 pub mod mbox_sim;
+pub mod olad;
 pub mod process;
 pub mod scl_peer;
 
