@@ -915,13 +915,14 @@ async fn balls_at_rest(bridge: &Process, token: &str, mm: f64) -> (Vec<f64>, u64
     }
 }
 
-/// The next error from the bridge (statuses skipped), within 5 s: its code.
+/// The next error from the bridge (statuses and other news skipped), within 5 s: its
+/// code.
 async fn next_error(ws: &mut common::Ws) -> String {
     loop {
-        match next_message(ws).await {
-            ServerMessage::Error { code, .. } => return code,
-            ServerMessage::Status(_) | ServerMessage::Timecode(_) | ServerMessage::Schedule(_) => {}
-            other => panic!("an error expected, not {other:?}"),
+        // Statuses, feedback, the e-stop's own answer (it may come after the status
+        // that showed it), positions: not what is waited for.
+        if let ServerMessage::Error { code, .. } = next_message(ws).await {
+            return code;
         }
     }
 }
