@@ -88,19 +88,7 @@ fn run_logged(
         player.poll(*now_us);
         let status = player.status();
         for frame in player.take_frames() {
-            let boxes = frame.positions_pulses.iter().zip(&frame.outputs);
-            for (twin, (positions, outputs)) in twins.iter_mut().zip(boxes) {
-                let datagram = MotionFrame {
-                    mode: TimeMode::Relative,
-                    route: Route::BROADCAST_SILENT,
-                    sequence: 0,
-                    time_code: TimeCode::from_ms(frame.time_ms),
-                    positions_pulses: AxisPositions::from_slice(positions).unwrap(),
-                    digital: DigitalOutputs::from_bits(outputs.digital_bits),
-                    analog: outputs.analog,
-                };
-                twin.receive(frame.slot_us, &datagram.encode());
-            }
+            send(&frame, twins);
             log(&status, &frame, twins);
         }
         let state = player.status().state;
