@@ -282,6 +282,13 @@ impl Rig {
         positions
     }
 
+    /// Asserts every ball is at home (within 0.01 mm).
+    fn assert_homed(&self) {
+        for position in self.positions_mm() {
+            assert!(position.abs() < 0.01, "homed to {position}");
+        }
+    }
+
     fn anyone_moving(&self) -> bool {
         self.lines
             .iter()
@@ -295,6 +302,18 @@ fn entry(show: Show, delay_ms: u64, cycles: u32) -> Entry {
         delay_ms,
         cycles,
     }
+}
+
+/// A rig of 1 × 2 units started on a playlist of two 12 s waves, "wave" then
+/// "second" (each once, no delay); returns the rig, the second show and the playlist.
+fn started_with_two_entries() -> (Rig, Show, Vec<Entry>) {
+    let first = wave(1, 2, 60, 200);
+    let mut second = wave(1, 2, 60, 200);
+    second.name = "second".into();
+    let mut rig = Rig::new(installation(1, 2, &[115_200]));
+    let playlist = vec![entry(first, 0, 1), entry(second.clone(), 0, 1)];
+    rig.start(playlist.clone(), false).unwrap();
+    (rig, second, playlist)
 }
 
 /// Plays to `Playing` and checks every ball against the show every 100 ms until the
@@ -443,9 +462,7 @@ fn an_estop_stops_every_ball_within_one_instruction_and_start_homes_first() {
     rig.start(vec![entry(show, 0, 1)], false).unwrap();
     assert_eq!(rig.state(), PlayerState::Homing);
     rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Approaching);
-    for position in rig.positions_mm() {
-        assert!(position.abs() < 0.01, "homed to {position}");
-    }
+    rig.assert_homed();
     rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
     assert_eq!(rig.player.status().entry, Some(0));
     assert!(rig.player.status().show_time_ms < 100);
@@ -453,12 +470,7 @@ fn an_estop_stops_every_ball_within_one_instruction_and_start_homes_first() {
 
 #[test]
 fn reset_stops_homes_and_restarts_from_the_first_entry() {
-    let first = wave(1, 2, 60, 200);
-    let mut second = wave(1, 2, 60, 200);
-    second.name = "second".into();
-    let mut rig = Rig::new(installation(1, 2, &[115_200]));
-    let playlist = vec![entry(first.clone(), 0, 1), entry(second.clone(), 0, 1)];
-    rig.start(playlist.clone(), false).unwrap();
+    let (mut rig, _, playlist) = started_with_two_entries();
     rig.run_until(60_000_000, |rig| {
         rig.player.status().entry == Some(1) && rig.state() == PlayerState::Playing
     });
@@ -486,9 +498,7 @@ fn reset_stops_homes_and_restarts_from_the_first_entry() {
     assert!(halfway.progress < 1.0, "{halfway:?}");
     assert_eq!((halfway.show, halfway.show_time_ms), (None, 0));
     rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Approaching);
-    for position in rig.positions_mm() {
-        assert!(position.abs() < 0.01, "homed to {position}");
-    }
+    rig.assert_homed();
     assert_eq!(rig.player.status().show_time_ms, 0, "no stale time");
     rig.run_until(60_000_000, |rig| rig.state() == PlayerState::Playing);
     assert_eq!(rig.player.status().entry, Some(0));
@@ -497,12 +507,7 @@ fn reset_stops_homes_and_restarts_from_the_first_entry() {
 
 #[test]
 fn a_locate_ends_the_show_without_a_stop_and_approaches_the_new_entry_without_homing() {
-    let first = wave(1, 2, 60, 200);
-    let mut second = wave(1, 2, 60, 200);
-    second.name = "second".into();
-    let mut rig = Rig::new(installation(1, 2, &[115_200]));
-    let playlist = vec![entry(first.clone(), 0, 1), entry(second.clone(), 0, 1)];
-    rig.start(playlist.clone(), false).unwrap();
+    let (mut rig, second, playlist) = started_with_two_entries();
     rig.run_until(60_000_000, |rig| {
         rig.player.status().entry == Some(0)
             && rig.state() == PlayerState::Playing
@@ -618,9 +623,7 @@ fn home_stops_brings_every_ball_home_and_stays_idle() {
         "homing shows no show's time"
     );
     rig.run_until(30_000_000, |rig| rig.state() == PlayerState::Idle);
-    for position in rig.positions_mm() {
-        assert!(position.abs() < 0.01, "homed to {position}");
-    }
+    rig.assert_homed();
     let until_us = rig.now_us + 1_000_000;
     rig.run_until(2_000_000, |rig| rig.now_us >= until_us);
     assert!(
