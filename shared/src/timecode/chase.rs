@@ -955,6 +955,18 @@ mod tests {
         )
     }
 
+    /// Tells the chase the player's status at `at_ms`: playing `entry` at show time
+    /// `show_time_ms`.
+    fn playing(chase: &mut Chase, entry: usize, show_time_ms: u64, at_ms: u64) {
+        chase.player(
+            PlayerView::Playing {
+                entry,
+                show_time_ms,
+            },
+            at_ms,
+        );
+    }
+
     /// Feeds a running timecode from `from_ms` (timecode) at `at_ms` (clock) for
     /// `for_ms`, a frame at a time, polling after each; returns the actions with the
     /// clock time they came at.
@@ -1002,13 +1014,7 @@ mod tests {
         // The show plays at 3 s: at 3.4 s a status says its time is 0.2 s — it
         // reached 0 at 3.2 s, 0.2 s after the start: the lead is 0.2 s, not 2.
         chase.player(PlayerView::Busy, 3_100);
-        chase.player(
-            PlayerView::Playing {
-                entry: 0,
-                show_time_ms: 200,
-            },
-            3_400,
-        );
+        playing(&mut chase, 0, 200, 3_400);
         let status = chase.status(3_400);
         assert_eq!(status.state, ChaseState::Chasing);
         assert_eq!(status.lead_ms, 200);
@@ -1035,25 +1041,13 @@ mod tests {
         );
         // In step at first…
         run(&mut chase, 10 * 3_600_000 + 20_040, 40, 1_960);
-        chase.player(
-            PlayerView::Playing {
-                entry: 0,
-                show_time_ms: 22_000,
-            },
-            2_000,
-        );
+        playing(&mut chase, 0, 22_000, 2_000);
         assert_eq!(chase.status(2_000).offset_ms, Some(0));
         // …then 600 ms behind, after the settling second: a locate, aimed at the
         // timecode plus the locate's lead (the start's until one is measured).
         let actions = run(&mut chase, 10 * 3_600_000 + 22_000, 2_000, 1_000);
         assert!(actions.is_empty(), "{actions:?}");
-        chase.player(
-            PlayerView::Playing {
-                entry: 0,
-                show_time_ms: 22_500,
-            },
-            3_100,
-        );
+        playing(&mut chase, 0, 22_500, 3_100);
         assert_eq!(chase.status(3_100).offset_ms, Some(-600));
         let actions = run(&mut chase, 10 * 3_600_000 + 23_120, 3_120, 0);
         assert_eq!(
@@ -1068,22 +1062,10 @@ mod tests {
         );
         assert_eq!(chase.status(3_120).locates, 1);
         // The old show plays on until the locate ends it: not taken for the new one.
-        chase.player(
-            PlayerView::Playing {
-                entry: 0,
-                show_time_ms: 23_100,
-            },
-            3_200,
-        );
+        playing(&mut chase, 0, 23_100, 3_200);
         assert_eq!(chase.status(3_200).state, ChaseState::Locating);
         chase.player(PlayerView::Busy, 3_300);
-        chase.player(
-            PlayerView::Playing {
-                entry: 0,
-                show_time_ms: 25_120,
-            },
-            3_600,
-        );
+        playing(&mut chase, 0, 25_120, 3_600);
         let status = chase.status(3_600);
         assert_eq!(status.state, ChaseState::Chasing);
         // At the time asked for 480 ms after the locate was issued.
@@ -1094,13 +1076,7 @@ mod tests {
     fn a_jump_locates_and_a_jump_out_of_every_cue_stops() {
         let mut chase = Chase::new(config(OnLoss::Hold), "artnet", two_cues());
         run(&mut chase, 10 * 3_600_000, 0, 0);
-        chase.player(
-            PlayerView::Playing {
-                entry: 0,
-                show_time_ms: 2_000,
-            },
-            2_000,
-        );
+        playing(&mut chase, 0, 2_000, 2_000);
         assert!(run(&mut chase, 10 * 3_600_000 + 40, 40, 2_000).is_empty());
         // To entry 1's second cue (65 s in) + 10 s.
         let actions = run(&mut chase, 10 * 3_600_000 + 75_000, 2_080, 0);
@@ -1117,13 +1093,7 @@ mod tests {
         assert_eq!(chase.status(2_080).state, ChaseState::Locating);
         // Playing again; then a jump to 12:00, in no cue.
         chase.player(PlayerView::Busy, 2_100);
-        chase.player(
-            PlayerView::Playing {
-                entry: 1,
-                show_time_ms: 12_000,
-            },
-            6_080,
-        );
+        playing(&mut chase, 1, 12_000, 6_080);
         assert_eq!(chase.status(6_080).locate_lead_ms, 4_000);
         let actions = run(&mut chase, 12 * 3_600_000, 6_120, 0);
         assert_eq!(actions, vec![(6_120, Action::Stop)]);
@@ -1135,13 +1105,7 @@ mod tests {
         for on_loss in [OnLoss::Hold, OnLoss::Stop] {
             let mut chase = Chase::new(config(on_loss), "mtc", two_cues());
             run(&mut chase, 10 * 3_600_000 - 2_000, 0, 0);
-            chase.player(
-                PlayerView::Playing {
-                    entry: 0,
-                    show_time_ms: 0,
-                },
-                2_000,
-            );
+            playing(&mut chase, 0, 0, 2_000);
             run(&mut chase, 10 * 3_600_000 - 1_960, 40, 3_000);
             // Silence: at 1 s past the last sample, nothing; after, the loss.
             let last = 3_040;
@@ -1173,13 +1137,7 @@ mod tests {
         // Stopped from elsewhere (an operator's Home): the cue is not started again.
         let mut chase = Chase::new(config(OnLoss::Hold), "artnet", two_cues());
         run(&mut chase, 10 * 3_600_000 - 2_000, 0, 2_000);
-        chase.player(
-            PlayerView::Playing {
-                entry: 0,
-                show_time_ms: 0,
-            },
-            2_000,
-        );
+        playing(&mut chase, 0, 0, 2_000);
         chase.player(PlayerView::Idle, 2_500);
         assert!(run(&mut chase, 10 * 3_600_000 + 540, 2_540, 3_000).is_empty());
         assert_eq!(chase.status(5_540).state, ChaseState::Waiting);
@@ -1285,23 +1243,11 @@ mod tests {
         assert_eq!(chase.trim(0), None, "not chasing");
         run(&mut chase, 10 * 3_600_000 - 1_960, 40, 1_960);
         // Playing at 2 s, 30 ms ahead of the timecode: locked on at +30.
-        chase.player(
-            PlayerView::Playing {
-                entry: 0,
-                show_time_ms: 30,
-            },
-            2_000,
-        );
+        playing(&mut chase, 0, 30, 2_000);
         // Locked on after the settling second.
         assert_eq!(chase.trim(2_000), None);
         run(&mut chase, 10 * 3_600_000 + 40, 2_040, 960);
-        chase.player(
-            PlayerView::Playing {
-                entry: 0,
-                show_time_ms: 1_030,
-            },
-            3_000,
-        );
+        playing(&mut chase, 0, 1_030, 3_000);
         assert_eq!(chase.trim(3_000), Some((0, 2_000 - 30)));
         // The timecode runs 0.5 % fast: 10 s on the clock are 10.05 s of timecode. The
         // show's time 0 by the timecode is then 50 ms earlier on the clock.
@@ -1345,13 +1291,7 @@ mod tests {
         );
         assert_eq!(chase.status(6_520).lead_ms, 3_500);
         // It took 3.8 s: entry 1's estimate (4 s) is reckoned 300 ms longer.
-        chase.player(
-            PlayerView::Playing {
-                entry: 0,
-                show_time_ms: 0,
-            },
-            6_520 + 3_800,
-        );
+        playing(&mut chase, 0, 0, 6_520 + 3_800);
         assert_eq!(chase.status(10_320).lead_ms, 3_800);
         chase.set_lead_estimate(1, 0, 4_000, 6_000);
         assert_eq!(chase.lead_for(1), 4_300);
@@ -1376,13 +1316,7 @@ mod tests {
             );
             at = tc_at + 40;
             // The units' clock gains 1 ms every 10 s.
-            chase.player(
-                PlayerView::Playing {
-                    entry: 0,
-                    show_time_ms: show_time_ms + show_time_ms / 10_000,
-                },
-                tc_at,
-            );
+            playing(&mut chase, 0, show_time_ms + show_time_ms / 10_000, tc_at);
         }
         // Locked on at the second status (the first second settles).
         let status = chase.status(at);
