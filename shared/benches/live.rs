@@ -18,12 +18,8 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use floatball_shared::live::filter::{BallState, FilterLimits, MotionFilter};
 use floatball_shared::uim2503::sim::noise::SplitMix;
 
-const LIMITS: FilterLimits = FilterLimits {
-    travel_mm: 7500.0,
-    max_speed_mm_s: 2000.0,
-    max_accel_mm_s2: 4000.0,
-    dt_ms: 20,
-};
+/// The default limits at a 20 ms step (7.5 m of travel, 2 m/s, 4 m/s²).
+const LIMITS: FilterLimits = FilterLimits::default_at(20);
 
 /// 60 s at 50 steps/s.
 const STEPS: usize = 3000;

@@ -57,6 +57,20 @@ pub struct FilterLimits {
     pub dt_ms: u32,
 }
 
+impl FilterLimits {
+    /// The default limits (a matrix of UFQ750 units, as
+    /// [`crate::show::Limits::for_layout`] gives them) at a step of `dt_ms`.
+    #[must_use]
+    pub const fn default_at(dt_ms: u32) -> Self {
+        Self {
+            travel_mm: crate::show::DEFAULT_TRAVEL_MM,
+            max_speed_mm_s: crate::show::validate::DEFAULT_MAX_SPEED_MM_S,
+            max_accel_mm_s2: crate::show::validate::DEFAULT_MAX_ACCEL_MM_S2,
+            dt_ms,
+        }
+    }
+}
+
 /// Limits the filter cannot work with.
 #[derive(Debug, Clone, Copy, PartialEq, Error)]
 pub enum FilterError {
@@ -327,12 +341,7 @@ mod tests {
 
     use super::*;
 
-    pub(super) const LIMITS: FilterLimits = FilterLimits {
-        travel_mm: 7500.0,
-        max_speed_mm_s: 2000.0,
-        max_accel_mm_s2: 4000.0,
-        dt_ms: 20,
-    };
+    pub(super) const LIMITS: FilterLimits = FilterLimits::default_at(20);
 
     pub(super) fn filter() -> MotionFilter {
         MotionFilter::new(LIMITS).unwrap()

@@ -291,12 +291,7 @@ mod tests {
     use super::*;
     use crate::show::{Limits, validate};
 
-    pub(super) const LIMITS: FilterLimits = FilterLimits {
-        travel_mm: 7500.0,
-        max_speed_mm_s: 2000.0,
-        max_accel_mm_s2: 4000.0,
-        dt_ms: 20,
-    };
+    pub(super) const LIMITS: FilterLimits = FilterLimits::default_at(20);
 
     pub(super) const LAYOUT: Layout = Layout {
         rows: 2,

@@ -11,12 +11,8 @@ use crate::api::LivePhase;
 use crate::live::filter::FilterLimits;
 use crate::show::Layout;
 
-const LIMITS: FilterLimits = FilterLimits {
-    travel_mm: 7500.0,
-    max_speed_mm_s: 2000.0,
-    max_accel_mm_s2: 4000.0,
-    dt_ms: 20,
-};
+/// The default limits at a 20 ms step (7.5 m of travel, 2 m/s, 4 m/s²).
+const LIMITS: FilterLimits = FilterLimits::default_at(20);
 const PERIOD_US: u64 = 20_000;
 const BALLS: usize = 3;
 const HOME_US: u64 = 100_000;
