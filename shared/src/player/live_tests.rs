@@ -559,18 +559,25 @@ fn sequencer_at_approach() -> Sequencer<Recording> {
     sequencer
 }
 
+/// Sends every ball to the bottom and polls 50 times, every 70 ms from `now_us` (a
+/// late caller: the period is 20 ms); returns the last poll's time.
+fn poll_late_to_the_bottom(sequencer: &mut Sequencer<Recording>, now_us: u64) -> u64 {
+    sequencer.set_live_input(input(&[Some(7500.0); BALLS], false));
+    let mut t = now_us;
+    for _ in 0..50 {
+        t += 70_000;
+        sequencer.poll(t);
+    }
+    t
+}
+
 #[test]
 fn a_late_caller_skips_periods_and_the_filter_never_runs_ahead() {
     let (mut sequencer, now) = following(&[Some(0.0); BALLS]);
     let from = sequencer.live_states().to_vec();
     let skip = sequencer.drive().periods.len();
-    sequencer.set_live_input(input(&[Some(7500.0); BALLS], false));
     // Polled every 70 ms instead of 20: one step per poll.
-    let mut t = now;
-    for _ in 0..50 {
-        t += 70_000;
-        sequencer.poll(t);
-    }
+    poll_late_to_the_bottom(&mut sequencer, now);
     let periods = &sequencer.drive().periods[skip..];
     assert_eq!(periods.len(), 50);
     check_limits(&from, periods);
@@ -617,13 +624,8 @@ fn a_drive_that_runs_its_own_clock_gets_every_period_from_a_late_caller() {
     let from = sequencer.live_states().to_vec();
     let skip = sequencer.drive().periods.len();
     let first_slot = sequencer.next_wakeup_us(now).unwrap();
-    sequencer.set_live_input(input(&[Some(7500.0); BALLS], false));
     // Polled every 70 ms: three or four periods each time, none missed.
-    let mut t = now;
-    for _ in 0..50 {
-        t += 70_000;
-        sequencer.poll(t);
-    }
+    let t = poll_late_to_the_bottom(&mut sequencer, now);
     let periods = &sequencer.drive().periods[skip..];
     assert_eq!(periods.len() as u64, (t - first_slot) / PERIOD_US + 1);
     for (index, (slot_us, _)) in periods.iter().enumerate() {
