@@ -159,6 +159,19 @@ async fn run(state: AppState) {
     }
 }
 
+/// A motors-off's outcome: `failed` names where it was not sent (with why), if
+/// anywhere.
+fn motors_off_sent(failed: &[String]) -> Result<(), String> {
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "the motors-off was not sent to {}",
+            failed.join("; ")
+        ))
+    }
+}
+
 impl Scheduler {
     /// Follows the loop's run in `status`: running, then idle again with no e-stop
     /// since (it came to its end by itself: started again while the window lasts), or
@@ -430,14 +443,7 @@ impl Scheduler {
                 }
             }
         }
-        if failed.is_empty() {
-            Ok(())
-        } else {
-            Err(format!(
-                "the motors-off was not sent to {}",
-                failed.join("; ")
-            ))
-        }
+        motors_off_sent(&failed)
     }
 
     /// `*0;MO=0;` on every UIM2503 link: every unit's motor off.
@@ -458,14 +464,7 @@ impl Scheduler {
                 failed.push(format!("gateway {index}: {error}"));
             }
         }
-        if failed.is_empty() {
-            Ok(())
-        } else {
-            Err(format!(
-                "the motors-off was not sent to {}",
-                failed.join("; ")
-            ))
-        }
+        motors_off_sent(&failed)
     }
 
     /// Records an outcome (logged when it differs from the last one).
