@@ -53,10 +53,6 @@ pub const MAX_SLEEP: Duration = Duration::from_secs(30);
 /// How soon a start that did not happen is tried again.
 pub const RETRY: Duration = Duration::from_secs(2);
 
-/// The state a refusal names while an operator has the matrix live (the matrix is
-/// theirs until the window's end, as after an e-stop).
-const LIVE: &str = "live";
-
 /// How long a window's Home may take before the motors are left on and the outcome
 /// says so.
 pub const HOMED_WITHIN: Duration = Duration::from_secs(600);
@@ -159,6 +155,35 @@ async fn run(state: AppState) {
     }
 }
 
+/// Why the scheduler did not start the matrix.
+#[derive(Debug, Clone, PartialEq)]
+enum Refusal {
+    /// An e-stop is latched (an operator pressed it).
+    EstopLatched,
+    /// An operator has the matrix live.
+    Live,
+    /// Anything else: its code and parameters.
+    Other(Code, Params),
+}
+
+impl Refusal {
+    /// Whether an operator took the matrix over (pressed the e-stop, or took it
+    /// live): it is theirs until the window's end, and a loop's playlist is not
+    /// started over.
+    fn taken_over(&self) -> bool {
+        matches!(self, Self::EstopLatched | Self::Live)
+    }
+
+    /// The outcome recorded for it.
+    fn outcome(self) -> (Code, Params) {
+        match self {
+            Self::EstopLatched => (Code::ScheduleEstopLatched, Params::new()),
+            Self::Live => (Code::ScheduleNotIdle, params! {"state" => "live"}),
+            Self::Other(code, params) => (code, params),
+        }
+    }
+}
+
 /// A motors-off's outcome: `failed` names where it was not sent (with why), if
 /// anywhere.
 fn motors_off_sent(failed: &[String]) -> Result<(), String> {
@@ -199,26 +224,34 @@ impl Scheduler {
     }
 
     /// Why the matrix may not be started by the schedule now, if it may not.
-    fn not_ready(&self) -> Option<(Code, Params)> {
+    fn not_ready(&self) -> Option<Refusal> {
         if self.state.playback().latch().is_latched() {
-            return Some((Code::ScheduleEstopLatched, Params::new()));
+            return Some(Refusal::EstopLatched);
         }
         if self.state.starts_pending() {
-            return Some((Code::ScheduleNotIdle, params! {"state" => "starting"}));
+            return Some(Refusal::Other(
+                Code::ScheduleNotIdle,
+                params! {"state" => "starting"},
+            ));
         }
         let status = self.state.subscribe_status().borrow().clone();
         if status.live.is_some() {
-            return Some((Code::ScheduleNotIdle, params! {"state" => LIVE}));
+            return Some(Refusal::Live);
         }
         match status.state {
             PlayerState::Idle => {}
             PlayerState::Error => {
-                return Some((
+                return Some(Refusal::Other(
                     Code::ScheduleInError,
                     params! {"error" => status.last_error.unwrap_or_default()},
                 ));
             }
-            other => return Some((Code::ScheduleNotIdle, params! {"state" => other.as_str()})),
+            other => {
+                return Some(Refusal::Other(
+                    Code::ScheduleNotIdle,
+                    params! {"state" => other.as_str()},
+                ));
+            }
         }
         // The status's own gateways when it lists them all (it is the newest); the
         // full list (published a little behind) for a large installation.
@@ -232,7 +265,7 @@ impl Scheduler {
             && gateways.iter().all(|gateway| gateway.link == LinkState::Up)
         {
             let gateway = summary.problems.first().copied().unwrap_or_default();
-            return Some((
+            return Some(Refusal::Other(
                 Code::ScheduleLinkDown,
                 params! {"gateway" => gateway, "link" => "not up"},
             ));
@@ -245,7 +278,7 @@ impl Scheduler {
                     LinkState::Down => "down",
                     LinkState::NotAnswering => "not answering",
                 };
-                return Some((
+                return Some(Refusal::Other(
                     Code::ScheduleLinkDown,
                     params! {"gateway" => gateway.index, "link" => link},
                 ));
@@ -263,7 +296,7 @@ impl Scheduler {
                     .map(|drive| drive.address.clone()),
             );
             if !missing.is_empty() {
-                return Some((
+                return Some(Refusal::Other(
                     Code::ScheduleUnitsMissing,
                     params! {"gateway" => gateway.index, "stations" => missing.join(", ")},
                 ));
@@ -289,13 +322,14 @@ impl Scheduler {
                     &self.state,
                     Control::Start(StartFrom::default()),
                 ) {
-                    Err(_latched) => Err((Code::ScheduleEstopLatched, Params::new())),
+                    Err(_latched) => Err(Refusal::EstopLatched),
                     Ok(starting) => match starting.await {
                         Ok(()) => Ok(generation),
-                        Err(ServerMessage::Error { message, .. }) => {
-                            Err((Code::ScheduleStartRefused, params! {"reason" => message}))
-                        }
-                        Err(other) => Err((
+                        Err(ServerMessage::Error { message, .. }) => Err(Refusal::Other(
+                            Code::ScheduleStartRefused,
+                            params! {"reason" => message},
+                        )),
+                        Err(other) => Err(Refusal::Other(
                             Code::ScheduleStartRefused,
                             params! {"reason" => format!("{other:?}")},
                         )),
@@ -325,16 +359,16 @@ impl Scheduler {
                 self.record(now, true, code, params);
                 true
             }
-            Err((code, params)) => {
+            Err(refusal) => {
                 self.attempt = Some((occasion, Instant::now()));
                 // A loop starting over is tried again while the window lasts (a link
                 // that dropped between two runs) — but not once an operator pressed
-                // the e-stop: they have taken over until the window's end.
-                // So has one who took the matrix live.
-                let live = params.get("state").is_some_and(|state| state == LIVE);
-                if code == Code::ScheduleEstopLatched || live {
+                // the e-stop or took the matrix live: they have taken over until the
+                // window's end.
+                if refusal.taken_over() {
                     self.memory.run_ended = false;
                 }
+                let (code, params) = refusal.outcome();
                 self.record(now, false, code, params);
                 false
             }
@@ -503,5 +537,29 @@ impl Scheduler {
             next_start: decision.next_start.map(|start| start.to_string()),
             last: self.last.clone(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_refusal_is_taken_over_by_its_kind_and_records_its_code() {
+        assert!(Refusal::EstopLatched.taken_over());
+        assert!(Refusal::Live.taken_over());
+        assert_eq!(
+            Refusal::Live.outcome(),
+            (Code::ScheduleNotIdle, params! {"state" => "live"})
+        );
+        assert_eq!(
+            Refusal::EstopLatched.outcome(),
+            (Code::ScheduleEstopLatched, Params::new())
+        );
+        // A refusal naming the same state is another's (a state string decides
+        // nothing).
+        let other = Refusal::Other(Code::ScheduleNotIdle, params! {"state" => "live"});
+        assert!(!other.taken_over());
+        assert!(!Refusal::Other(Code::ScheduleInError, Params::new()).taken_over());
     }
 }
