@@ -504,9 +504,11 @@ impl SclDrive {
             .collect()
     }
 
-    fn move_stages(&self, targets_counts: &[i32], enable: bool) -> Vec<Stage> {
+    /// The feeds' speed (the approach's, rev/s) and ramps (the top acceleration,
+    /// rev/s²), in whole steps as a drive holds them, never faster nor harder than
+    /// set.
+    fn feed_ramps(&self) -> (Decimal, Decimal) {
         let per_rev = f64::from(self.config.steps_per_rev);
-        // In whole steps as a drive holds them, never faster nor harder than set.
         let velocity = at_most(
             &units::VELOCITY,
             self.config.approach_speed_mm_s * self.config.counts_per_mm / per_rev,
@@ -515,28 +517,23 @@ impl SclDrive {
             &units::ACCELERATION,
             self.config.max_accel_mm_s2 * self.config.counts_per_mm / per_rev,
         );
+        (velocity, accel)
+    }
+
+    fn move_stages(&self, targets_counts: &[i32], enable: bool) -> Vec<Stage> {
+        let (velocity, accel) = self.feed_ramps();
         let target = |unit: usize| targets_counts.get(unit).copied().unwrap_or(0);
         let feed = self.by_line(|unit| {
-            enable
-                .then_some(Command::MotorEnable)
-                .into_iter()
-                .chain([
-                    Command::Velocity {
-                        rev_s: Some(velocity),
-                    },
-                    Command::Acceleration {
-                        rev_s2: Some(accel),
-                    },
-                    Command::Deceleration {
-                        rev_s2: Some(accel),
-                    },
+            asks_enabled_first(
+                unit,
+                enable,
+                feed_settings(velocity, accel).into_iter().chain([
                     Command::Distance {
                         counts: Some(target(unit)),
                     },
                     Command::FeedToPosition,
-                ])
-                .map(|command| ask(unit, command, Check::NotRefused))
-                .collect()
+                ]),
+            )
         });
         let arrive = Lane::of((0..self.config.units.len()).map(|unit| {
             ask(
@@ -640,6 +637,36 @@ fn ask(unit: usize, command: Command, check: Check) -> Action {
 /// `value` with `scale` decimals, as a parameter.
 /// `value` in whole steps of `resolution` ([`units`]): at most `value`, within the
 /// drive's range (its smallest value when `value` is below it).
+/// A feed's speed (`VE`, rev/s) and ramps (`AC`, `DE`, rev/s²).
+fn feed_settings(velocity: Decimal, accel: Decimal) -> [Command; 3] {
+    [
+        Command::Velocity {
+            rev_s: Some(velocity),
+        },
+        Command::Acceleration {
+            rev_s2: Some(accel),
+        },
+        Command::Deceleration {
+            rev_s2: Some(accel),
+        },
+    ]
+}
+
+/// `commands` to `unit` in order, each answered without a refusal; after `ME` when
+/// `enable`.
+fn asks_enabled_first(
+    unit: usize,
+    enable: bool,
+    commands: impl IntoIterator<Item = Command>,
+) -> Vec<Action> {
+    enable
+        .then_some(Command::MotorEnable)
+        .into_iter()
+        .chain(commands)
+        .map(|command| ask(unit, command, Check::NotRefused))
+        .collect()
+}
+
 fn at_most(resolution: &units::Resolution, value: f64) -> Decimal {
     let steps = (value / resolution.step + 1e-9).floor() as i64;
     let steps = steps.clamp(resolution.min_steps.max(1), resolution.max_steps);

@@ -47,7 +47,7 @@
 //! - **E-stop**: the port's `SK` stops every drive (at `DE`); everything queued is
 //!   dropped and the positions are unknown ([`super::SclDrive`]'s `stop`).
 
-use super::{Action, Check, Command, Lane, SclDrive, Stage, ask, at_most};
+use super::{Action, Check, Command, Lane, SclDrive, Stage, ask, asks_enabled_first, at_most, feed_settings};
 use crate::line::Line;
 use crate::live::filter::{BallState, FilterLimits};
 use crate::player::{LiveSetup, StartError};
@@ -555,23 +555,15 @@ impl SclDrive {
         self.believed_counts = None;
         self.moving_to = None;
         // The jog's ramps, and the last feed's speed and ramps.
-        let per_rev = f64::from(self.config.steps_per_rev);
-        let accel = at_most(
-            &units::ACCELERATION,
-            self.config.max_accel_mm_s2 * self.config.counts_per_mm / per_rev,
-        );
-        let velocity = at_most(
-            &units::VELOCITY,
-            self.config.approach_speed_mm_s * self.config.counts_per_mm / per_rev,
-        );
+        let (velocity, accel) = self.feed_ramps();
         // Enabled first when the run did not move them yet (a drive disabled at a
         // schedule window's end refuses to move, alarm `8000` No Move).
         let enable = std::mem::take(&mut self.enable_first);
         let prepare = self.by_line(|unit| {
-            enable
-                .then_some(Command::MotorEnable)
-                .into_iter()
-                .chain([
+            asks_enabled_first(
+                unit,
+                enable,
+                [
                     // A jog starts at `JS`, its speed following in the next request: the
                     // smallest, never the power-up `JS`.
                     Command::JogSpeed {
@@ -583,18 +575,10 @@ impl SclDrive {
                     Command::JogDeceleration {
                         rev_s2: Some(accel),
                     },
-                    Command::Velocity {
-                        rev_s: Some(velocity),
-                    },
-                    Command::Acceleration {
-                        rev_s2: Some(accel),
-                    },
-                    Command::Deceleration {
-                        rev_s2: Some(accel),
-                    },
-                ])
-                .map(|command| ask(unit, command, Check::NotRefused))
-                .collect()
+                ]
+                .into_iter()
+                .chain(feed_settings(velocity, accel)),
+            )
         });
         self.begin_stages(now_us, vec![prepare]);
         true
