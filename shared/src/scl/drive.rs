@@ -305,9 +305,8 @@ pub struct SclDrive {
     loaded: usize,
     loading: bool,
     now_us: u64,
-    /// A locate ended the run under way: the next move first stops every drive and
-    /// kills its program (`SK`, at its deceleration), then feeds on.
-    kill_first: bool,
+    /// What the next move does before it feeds.
+    before_next_move: BeforeMove,
     /// How live mode jogs on these lines ([`SclDrive::with_live`]); `None`: live mode
     /// is refused.
     live_config: Option<SclLiveConfig>,
@@ -321,9 +320,17 @@ pub struct SclDrive {
     /// Live mode's last stages (`SJ`, the exact `FP`, the arrival) run on while idle:
     /// a step begun meanwhile runs after them.
     ending: bool,
-    /// The next move begins with `ME` (set by each run: a disabled drive refuses to
-    /// move, alarm `8000` No Move).
-    enable_first: bool,
+}
+
+/// What the next move does before it feeds, taken by that move.
+#[derive(Debug, Clone, Copy, Default)]
+struct BeforeMove {
+    /// A locate ended the run under way: every drive stopped and its program killed
+    /// (`SK`, at its deceleration), a stage of its own before the feed.
+    kill: bool,
+    /// Each run: `ME` first in every drive's feed (a disabled drive refuses to move,
+    /// alarm `8000` No Move); live mode's first jog takes it too.
+    enable: bool,
 }
 
 impl SclDrive {
@@ -357,13 +364,12 @@ impl SclDrive {
             loaded: 0,
             loading: false,
             now_us: 0,
-            kill_first: false,
+            before_next_move: BeforeMove::default(),
             live_config: None,
             live: None,
             believed_counts: None,
             moving_to: None,
             ending: false,
-            enable_first: false,
         }
     }
 
@@ -552,9 +558,9 @@ impl SclDrive {
         self.loading = false;
         self.believed_counts = None;
         self.moving_to = Some(targets_counts.to_vec());
-        let enable = std::mem::take(&mut self.enable_first);
-        let mut stages = self.move_stages(targets_counts, enable);
-        if std::mem::take(&mut self.kill_first) {
+        let before = std::mem::take(&mut self.before_next_move);
+        let mut stages = self.move_stages(targets_counts, before.enable);
+        if before.kill {
             let kill = self.by_line(|unit| vec![ask(unit, Command::StopKill, Check::NotRefused)]);
             stages.insert(0, kill);
         }
@@ -877,7 +883,7 @@ impl Drive for SclDrive {
 
     fn begin_run(&mut self, now_us: u64, _first: Option<&mut SclEntry>) {
         self.now_us = now_us;
-        self.enable_first = true;
+        self.before_next_move.enable = true;
     }
 
     fn begin_home(&mut self, now_us: u64) {
@@ -1032,7 +1038,7 @@ impl Drive for SclDrive {
         self.playing = false;
         self.loading = false;
         self.started_us = None;
-        self.kill_first = false;
+        self.before_next_move.kill = false;
         self.live = None;
         self.believed_counts = None;
         self.moving_to = None;
@@ -1044,7 +1050,7 @@ impl Drive for SclDrive {
     /// their positions, and the move's `FP` takes them on from there.
     fn interrupt(&mut self, _now_us: u64) -> bool {
         self.stop();
-        self.kill_first = true;
+        self.before_next_move.kill = true;
         true
     }
 

@@ -558,7 +558,7 @@ impl SclDrive {
         let (velocity, accel) = self.feed_ramps();
         // Enabled first when the run did not move them yet (a drive disabled at a
         // schedule window's end refuses to move, alarm `8000` No Move).
-        let enable = std::mem::take(&mut self.enable_first);
+        let enable = std::mem::take(&mut self.before_next_move.enable);
         let prepare = self.by_line(|unit| {
             asks_enabled_first(
                 unit,
