@@ -47,7 +47,9 @@
 //! - **E-stop**: the port's `SK` stops every drive (at `DE`); everything queued is
 //!   dropped and the positions are unknown ([`super::SclDrive`]'s `stop`).
 
-use super::{Action, Check, Command, Lane, SclDrive, Stage, ask, asks_enabled_first, at_most, feed_settings};
+use super::{
+    Action, Check, Command, Lane, SclDrive, Stage, ask, asks_enabled_first, at_most, feed_settings,
+};
 use crate::line::Line;
 use crate::live::filter::{BallState, FilterLimits};
 use crate::player::{LiveSetup, StartError};
