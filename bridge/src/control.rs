@@ -185,6 +185,17 @@ pub fn issue_unless_latched(
     Ok(async move { run(&state, control, generation).await })
 }
 
+/// Why a request was refused, in English, for a source's log or outcome (the
+/// schedule, timecode): the error's message, or the answer itself when it is not an
+/// error.
+#[must_use]
+pub fn reason(refusal: ServerMessage) -> String {
+    match refusal {
+        ServerMessage::Error { message, .. } => message,
+        other => format!("{other:?}"),
+    }
+}
+
 /// Carries out `control`, a request issued at e-stop `generation` (for Reset and
 /// Home, after their own stop was pressed).
 ///

@@ -28,8 +28,7 @@
 use std::time::{Duration, Instant};
 
 use floatball_shared::api::{
-    LinkState, PlayerState, ScheduleOutcome, ScheduleStatus, ScheduleWindowNow, ServerMessage,
-    StartFrom, Status,
+    LinkState, PlayerState, ScheduleOutcome, ScheduleStatus, ScheduleWindowNow, StartFrom, Status,
 };
 use floatball_shared::codes::{Code, Params, english_text};
 use floatball_shared::params;
@@ -325,13 +324,9 @@ impl Scheduler {
                     Err(_latched) => Err(Refusal::EstopLatched),
                     Ok(starting) => match starting.await {
                         Ok(()) => Ok(generation),
-                        Err(ServerMessage::Error { message, .. }) => Err(Refusal::Other(
+                        Err(refusal) => Err(Refusal::Other(
                             Code::ScheduleStartRefused,
-                            params! {"reason" => message},
-                        )),
-                        Err(other) => Err(Refusal::Other(
-                            Code::ScheduleStartRefused,
-                            params! {"reason" => format!("{other:?}")},
+                            params! {"reason" => control::reason(refusal)},
                         )),
                     },
                 }
@@ -403,10 +398,7 @@ impl Scheduler {
         let homing = control::issue_unless_latched(&self.state, Control::Home)
             .map_err(|_latched| (Code::ScheduleEndLatched, Params::new()))?;
         if let Err(error) = homing.await {
-            return Err(refused(match error {
-                ServerMessage::Error { message, .. } => message,
-                other => format!("{other:?}"),
-            }));
+            return Err(refused(control::reason(error)));
         }
         let _ = tokio::time::timeout(
             HOMING_SEEN_WITHIN,

@@ -286,10 +286,7 @@ fn issue(
             tracing::info!("timecode: {action:?}");
             let results = results.clone();
             tokio::spawn(async move {
-                let outcome = run.await.err().map(|refused| match refused {
-                    floatball_shared::api::ServerMessage::Error { message, .. } => message,
-                    other => format!("{other:?}"),
-                });
+                let outcome = run.await.err().map(control::reason);
                 let _ = results.send(outcome).await;
             });
         }
