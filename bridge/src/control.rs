@@ -235,6 +235,14 @@ pub async fn run(state: &AppState, control: Control, generation: u64) -> Result<
     result.map_err(|error| refusal(&error))
 }
 
+/// The acceleration of a start's run-ups from inside an entry (the cut the player
+/// plays, [`floatball_shared::show::Show::from_time`]): half the installation's top
+/// acceleration, mm/s². The timecode lead's estimate of a table's preload cuts the
+/// show with it too, so it plans the rows the player will send.
+pub fn run_up_accel_mm_s2(installation: &floatball_shared::plan::Installation) -> f64 {
+    installation.limits.max_accel_mm_s2 / 2.0
+}
+
 /// Where a Start or Reset begins ([`StartFrom`], its entry 1-based): the entry
 /// (0-based) and, for a time inside it, its show cut there (read from the store and
 /// cut on a blocking thread; the run-ups at half the installation's top
@@ -272,7 +280,7 @@ pub async fn begin_at(state: &AppState, from: StartFrom) -> Result<At, ServerMes
     }
     let name = named.show.clone();
     let reading = state.clone();
-    let accel_mm_s2 = state.playback().installation().limits.max_accel_mm_s2 / 2.0;
+    let accel_mm_s2 = run_up_accel_mm_s2(&state.playback().installation());
     let cut = tokio::task::spawn_blocking(move || {
         let show = ShowName::parse(&name)
             .map_err(|error| error.to_string())

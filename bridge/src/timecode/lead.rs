@@ -162,7 +162,7 @@ fn estimate(installation: &Installation, show: &Show, time_ms: u64, from: From, 
 /// chosen depth) of the show cut at that time, as the player would plan it; a show the
 /// planner refuses, every unit's first 256 rows.
 fn table_ms(installation: &Installation, show: &Show, time_ms: u64) -> f64 {
-    let cut = match show.from_time(time_ms, f64::NAN) {
+    let cut = match show.from_time(time_ms, crate::control::run_up_accel_mm_s2(installation)) {
         Some(cut) => cut.show,
         None => return 0.0,
     };
@@ -274,6 +274,24 @@ mod tests {
         // Late in the show fewer rows are left to preload.
         let late = full_table_ms(&installation, &show, 55_000);
         assert!(late < full / 2.0, "{late} ms");
+        // From inside the show: the preload of the cut the player plays (run-ups at
+        // half the top acceleration, not the default), and the start's 100 ms.
+        let cut = show
+            .from_time(30_050, crate::control::run_up_accel_mm_s2(&installation))
+            .unwrap()
+            .show;
+        let plan = Plan::new(&cut, &installation, PlanOptions::default()).unwrap();
+        let run = &plan.gateways[0];
+        let bytes = stream::rows(&plan, run, 0, run.preload_rows)
+            .as_bytes()
+            .len();
+        let preload_ms = floatball_shared::line::Line::new(115_200).time_us(bytes) / 1_000;
+        let inside = estimate(&installation, &show, 30_050, From::Home, Load::Table)
+            - estimate(&installation, &show, 30_050, From::Home, Load::Nothing);
+        assert!(
+            inside.abs_diff(preload_ms + 100) <= 1,
+            "{inside} vs {preload_ms} + 100 ms"
+        );
         // MBOX: the approach at one speed (no ramps), five frames of 20 ms after it,
         // and a period.
         let to_mm = show
