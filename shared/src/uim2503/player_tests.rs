@@ -1249,11 +1249,51 @@ fn rest_mm(rig: &Rig) -> Option<Vec<f64>> {
     crate::player::Drive::rest_positions_mm(rig.player.sequencer().drive())
 }
 
-/// Live mode again after leaving, when the bridge had fallen behind its rows while
-/// the balls moved (a stall under load longer than the FIFO: the units ran out of
-/// rows and braked with `SD` where they were): the positions are read back after
-/// leaving, so the next live mode starts its rows where the units are — not with a
-/// row from where the filter left them, which the unit cannot follow (error 0x40).
+/// The bridge stalls under load for longer than the FIFO's rows while the balls
+/// move: the units run dry, brake with `SD` and take no row written after. Their
+/// water level tells (`PV;`): live mode fails saying so — not silently standing
+/// while the status says following — and live mode again homes first.
+#[test]
+fn rows_run_dry_in_a_stall_fail_live_mode_and_live_again_homes_first() {
+    use crate::api::LivePhase;
+    let mut rig = Rig::new(installation(2, 2, &[115_200]));
+    let phase = |rig: &Rig| rig.player.status().live.map(|live| live.phase);
+    let at = |mm: f64| move |_| vec![Some(mm); 4];
+    rig.player.sequencer_mut().go_live(0).unwrap();
+    rig.carry_out();
+    rig.run_until(30_000_000, |rig| phase(rig) == Some(LivePhase::Following));
+    let until = rig.now_us + 1_000_000;
+    run_live(&mut rig, until, &at(1000.0));
+    // A step, and the bridge stalls for 200 ms (over 14 rows) while the balls move.
+    let until = rig.now_us + 300_000;
+    run_live(&mut rig, until, &at(3000.0));
+    for _ in 0..200 {
+        rig.step_polled(false);
+    }
+    let stalled_us = rig.now_us;
+    rig.run_until(1_000_000, |rig| rig.state() == PlayerState::Error);
+    assert!(
+        rig.now_us - stalled_us < 500_000,
+        "{} µs",
+        rig.now_us - stalled_us
+    );
+    let reason = rig.player.status().last_error.unwrap_or_default();
+    assert!(reason.contains("rows ran out"), "{reason}");
+    rig.estop();
+    rig.player.sequencer_mut().go_live(rig.now_us).unwrap();
+    rig.carry_out();
+    assert_eq!(rig.state(), PlayerState::Homing);
+    rig.run_until(30_000_000, |rig| phase(rig) == Some(LivePhase::Following));
+    let until = rig.now_us + 3_000_000;
+    run_live(&mut rig, until, &at(2000.0));
+    let at = rig.positions_mm();
+    assert!(at.iter().all(|&mm| (mm - 2000.0).abs() < 0.5), "{at:?}");
+}
+
+/// The bridge stalls while the balls brake after Leave live: the units run dry
+/// and stop short of where the rows end. Their positions are read back after
+/// leaving, so live mode again starts its rows where the units are — not with a row
+/// from where the filter left them, which the unit cannot follow (error 0x40).
 #[test]
 fn live_again_after_the_rows_ran_dry_starts_where_the_units_stopped() {
     use crate::api::LivePhase;
@@ -1263,22 +1303,25 @@ fn live_again_after_the_rows_ran_dry_starts_where_the_units_stopped() {
     rig.player.sequencer_mut().go_live(0).unwrap();
     rig.carry_out();
     rig.run_until(30_000_000, |rig| phase(rig) == Some(LivePhase::Following));
-    let until = rig.now_us + 2_000_000;
-    run_live(&mut rig, until, &at(1000.0));
-    // A step, and the bridge stalls for 200 ms (over 14 rows) while the balls move.
-    let until = rig.now_us + 300_000;
-    run_live(&mut rig, until, &at(3000.0));
-    for _ in 0..200 {
-        rig.step_polled(false);
-    }
     let until = rig.now_us + 1_000_000;
+    run_live(&mut rig, until, &at(1000.0));
+    let until = rig.now_us + 600_000;
     run_live(&mut rig, until, &at(3000.0));
     rig.player.sequencer_mut().leave_live(rig.now_us);
-    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
-    // The units stopped short of 3,000 mm; what the drive has is what they answer.
-    let stood = rig.positions_mm();
-    assert!(stood.iter().all(|&mm| mm < 2_900.0), "{stood:?}");
+    for _ in 0..STALL_STEPS {
+        rig.step_polled(false);
+    }
+    rig.run_until(5_000_000, |rig| rig.player.status().live.is_none());
+    assert_eq!(
+        rig.state(),
+        PlayerState::Idle,
+        "{:?}",
+        rig.player.status().last_error
+    );
+    // The units stopped short of where the rows end; what the drive has is what
+    // they answer.
     rig.run_until(2_000_000, |rig| rest_mm(rig).is_some());
+    let stood = rig.positions_mm();
     let rest = rest_mm(&rig).unwrap();
     for (believed, at) in rest.iter().zip(&stood) {
         assert!((believed - at).abs() < 0.02, "{rest:?} vs {stood:?}");
@@ -1295,6 +1338,9 @@ fn live_again_after_the_rows_ran_dry_starts_where_the_units_stopped() {
     let at = rig.positions_mm();
     assert!(at.iter().all(|&mm| (mm - 2000.0).abs() < 0.5), "{at:?}");
 }
+
+/// The stall while braking after Leave live, in rig steps (ms).
+const STALL_STEPS: usize = 120;
 
 /// Live mode asked for again at once after leaving (while the units still run the
 /// FIFO's last rows, their positions not yet read back): it homes first rather than

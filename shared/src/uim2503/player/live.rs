@@ -24,6 +24,13 @@
 //! - **Rounding**: rows are whole counts, so the filter runs a little under the
 //!   installation's speed and acceleration (what half a count at each end of a row can
 //!   add): no row asks a unit for more than it has.
+//! - **Running dry**: a bridge more than [`LIVE_FIFO_ROWS`] rows late (a stall under
+//!   heavy load) leaves the units without a row; they brake with `SD`, stop, and run
+//!   no row written after — silently (the rows' `QT` is broadcast, so not even a full
+//!   FIFO is answered). Every [`LEVEL_CHECK_ROWS`] rows each gateway's first unit is
+//!   asked its water level (`PV;`); more than twice [`LIVE_FIFO_ROWS`] pending means
+//!   it stopped taking rows: live mode fails with that said, the matrix is stopped,
+//!   and the next live mode homes first.
 //! - **End**: the last rows hold the balls at rest; the FIFO runs out after them and
 //!   the units stop where the rows end. Their positions are then **read back**
 //!   ([`AfterLive`]): a unit whose FIFO ran dry before (the bridge fell more than the
@@ -46,6 +53,11 @@ use crate::uim2503::{schedule, stream};
 
 /// Rows every unit's FIFO holds ahead while live.
 pub const LIVE_FIFO_ROWS: usize = 6;
+
+/// Rows between two questions of each gateway's water level (`PV;` to its first
+/// unit) while live: a unit whose FIFO ran dry stopped and runs no row written after
+/// (PROTOCOL.md §1.6), so its level climbs past what is ever written ahead.
+pub const LEVEL_CHECK_ROWS: usize = 16;
 
 /// Position questions after live mode before one counts as unanswered (the
 /// positions then stay unknown: the next live mode or show homes or asks).
@@ -331,6 +343,30 @@ impl Uim2503Drive {
         }
     }
 
+    /// A water level (`PV;`) answered while the units run live rows: why live mode
+    /// fails when the unit stopped taking rows (its FIFO ran dry).
+    pub(super) fn live_ran_dry(&self, gateway: usize, station: u8, value: u16) -> Option<String> {
+        let live = self.live.as_ref().filter(|live| live.started)?;
+        if usize::from(value) <= 2 * LIVE_FIFO_ROWS {
+            return None;
+        }
+        let run = live
+            .plan
+            .gateways
+            .iter()
+            .find(|run| run.gateway == gateway)?;
+        let first = *run.units.first()?;
+        (live.plan.units[first].address.station == station).then(|| {
+            format!(
+                "{} has {value} live rows pending, not taking them: its rows ran out (the \
+                 bridge fell more than {LIVE_FIFO_ROWS} rows of {} ms behind, e.g. under heavy \
+                 load) and the units on gateway {gateway} stopped; the matrix was stopped",
+                self.describe_unit(first),
+                live.row_ms
+            )
+        })
+    }
+
     /// One period's rows: every unit's state at the period's end.
     pub(super) fn live_rows(&mut self, states: &[BallState]) {
         let Some(mut live) = self.live.take() else {
@@ -342,10 +378,21 @@ impl Uim2503Drive {
                 let state = states.get(unit).copied().unwrap_or_default();
                 plan.rows[index] = self.live_row(state, live.row_ms);
             }
+            let check = live.next_row % LEVEL_CHECK_ROWS == 0;
             for run in &live.plan.gateways {
+                let mut batch = stream::rows(&live.plan, run, index, index + 1);
+                if check && let Some(&first) = run.units.first() {
+                    let station = live.plan.units[first].address.station;
+                    for instruction in [
+                        Instruction::Select { station },
+                        Instruction::PvtStart { row: None },
+                    ] {
+                        let _ = batch.push(&instruction, stream::FORM);
+                    }
+                }
                 self.commands.push(Command::Bulk {
                     gateway: run.gateway,
-                    batch: stream::rows(&live.plan, run, index, index + 1),
+                    batch,
                 });
             }
             live.next_row += 1;

@@ -305,8 +305,13 @@ impl Uim2503Drive {
                 sequencer.advance(phase);
             }
             Feedback::Ack(Ack::PvtStart { value }) if drive.live.is_some() => {
-                let phase = drive.live_barrier_answered(now_us, gateway, frame.station(), value);
-                sequencer.advance(phase);
+                if let Some(reason) = drive.live_ran_dry(gateway, frame.station(), value) {
+                    sequencer.fail(reason);
+                } else {
+                    let phase =
+                        drive.live_barrier_answered(now_us, gateway, frame.station(), value);
+                    sequencer.advance(phase);
+                }
             }
             Feedback::Ack(Ack::PvtStart { value }) => {
                 let phase = drive.barrier_answered(now_us, gateway, frame.station(), value);
