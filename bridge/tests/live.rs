@@ -1275,7 +1275,9 @@ async fn live_mode(
     println!("{family}: recorded {recorded:?}");
 
     // Leave live: the balls brake to rest, the matrix is idle, the live positions say
-    // so once and stop; then live again (the positions known: no homing).
+    // so once and stop; then live again (the positions known: no homing — UIM2503
+    // units are asked where they stand once their FIFO ran out, a few rows after
+    // idle, hence the moment's pause; asked at once they would home first).
     send_text(&mut ws, r#"{"type":"live_positions","on":true}"#).await;
     live_positions(&mut ws, |mm| !mm.is_empty()).await;
     send_text(&mut ws, r#"{"type":"live","on":false}"#).await;
@@ -1301,6 +1303,7 @@ async fn live_mode(
     .await
     .expect("the live positions end and the matrix is idle after leaving");
     send_text(&mut ws, r#"{"type":"live_positions","on":false}"#).await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
     send_text(&mut ws, r#"{"type":"live","on":true}"#).await;
     common::status_until(&mut ws, long, |status| {
         phase(status) == Some(LivePhase::Following)
