@@ -240,7 +240,9 @@ impl Uim2503Drive {
 
     /// A feedback frame from `gateway`, for the drive under `sequencer`: a unit's
     /// error fails the run (or drops an arming), a watermark notice lowers the water
-    /// level, a position answer confirms a move, a `PV;` answer the load's barrier.
+    /// level, a position answer confirms a move (or, after live mode, says where a
+    /// unit stopped), a `PV;` answer the load's barrier (while live, a water level
+    /// that fails live mode when the unit stopped taking rows).
     pub fn handle_feedback(
         sequencer: &mut Sequencer<Self>,
         now_us: u64,
