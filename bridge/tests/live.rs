@@ -30,7 +30,8 @@
 //!     balls follow a fader ramp, a 1,000 mm step is followed at the top speed
 //!     (sampled on the simulation's clock) and silence → holding; a recording stored
 //!     as a show that plans, Leave live, and the e-stop with both protocols' input
-//!     coming: stopped, nothing moves, `live on` refused while latched.
+//!     coming (sACN's, then Art-Net's once sACN's stream ended, reaching the
+//!     targets): stopped, nothing moves, `live on` refused while latched.
 //!
 //! `olad`, `ola_set_dmx`, `ola_streaming_client` and `ola_patch` are found on the
 //! `PATH`; without them this test's own Art-Net and sACN (unicast) senders stand in
@@ -1310,9 +1311,9 @@ async fn live_mode(
     })
     .await;
 
-    // The e-stop with both protocols' input coming: stopped; the input keeps coming
-    // and nothing moves; live mode does not come back by itself, and a `live on`
-    // while latched is refused.
+    // The e-stop with both protocols' input coming: stopped; each protocol's input
+    // reaches the targets and nothing moves; live mode does not come back by itself,
+    // and a `live on` while latched is refused.
     let second = other(0x2400);
     tokio::time::sleep(Duration::from_millis(200)).await;
     send_text(&mut ws, r#"{"type":"estop"}"#).await;
@@ -1322,16 +1323,30 @@ async fn live_mode(
     .await;
     tokio::time::sleep(Duration::from_millis(200)).await;
     let (stopped, _) = sim_balls(bridge, &token).await;
-    for value in [0x3000u16, 0x6000, 0x1000] {
-        console.set(value);
-        second.set(value.wrapping_add(0x800));
-        tokio::time::sleep(Duration::from_millis(250)).await;
+    let (sacn, artnet) = if matches!(console, Fader::Sacn { .. }) {
+        (console, second)
+    } else {
+        (second, console)
+    };
+    // sACN (priority 150) has the universe while both send…
+    for value in [0x3000u16, 0x6000] {
+        artnet.set(value);
+        sacn.set(value + 0x800);
+        status_until(bridge, &token, "sACN's input after the e-stop", |status| {
+            follows(status, value + 0x800, 0)
+        })
+        .await;
     }
-    let (after, _) = sim_balls(bridge, &token).await;
-    assert!(
-        stopped.iter().zip(&after).all(|(a, b)| (a - b).abs() < 1.0),
-        "{family}: moved after the e-stop: {stopped:?} → {after:?}"
-    );
+    // …and once its stream ended, Art-Net's.
+    sacn.stop();
+    artnet.set(0x1000);
+    status_until(
+        bridge,
+        &token,
+        "Art-Net's input after the e-stop",
+        |status| follows(status, 0x1000, 0),
+    )
+    .await;
     send_text(&mut ws, r#"{"type":"live","on":true}"#).await;
     assert_eq!(next_error(&mut ws).await, "live_estop_latched");
     // Nothing comes back by itself meanwhile (input still coming).
@@ -1346,7 +1361,11 @@ async fn live_mode(
         }
     })
     .await;
-    console.stop();
-    second.stop();
+    let (after, _) = sim_balls(bridge, &token).await;
+    assert!(
+        stopped.iter().zip(&after).all(|(a, b)| (a - b).abs() < 1.0),
+        "{family}: moved after the e-stop: {stopped:?} → {after:?}"
+    );
+    artnet.stop();
     println!("{family}: live mode checked in {:?}", started.elapsed());
 }
