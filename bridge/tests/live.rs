@@ -24,12 +24,14 @@
 //! 9. where the kernel loops multicast back on `lo`, a second bridge joining on
 //!    `sacn_interface = "127.0.0.1"` takes this test's own multicast sACN.
 //! 10. (and 11., 12.) live mode end to end through the WebSocket on a bridge of each
-//!     family — UIM2503 gateways fed over Art-Net, MBOX boxes over sACN, MOONS'
-//!     drives (jogging) over Art-Net: go live, the simulated balls follow a fader
-//!     ramp, a 1,000 mm step is followed at the top speed (sampled on the
-//!     simulation's clock), silence → holding, a recording stored as a show that
-//!     plans, Leave live, and the e-stop: stopped while input keeps coming, `live on`
-//!     refused while latched.
+//!     family, fed over both protocols in turn on the one bridge — UIM2503 gateways
+//!     over Art-Net then sACN, MBOX boxes over sACN then Art-Net, MOONS' drives
+//!     (jogging) over Art-Net then sACN: go live, for each protocol the simulated
+//!     balls follow a fader ramp, a 1,000 mm step is followed at the top speed
+//!     (sampled on the simulation's clock) and silence → holding; a recording stored
+//!     as a show that plans, Leave live, and the e-stop with both protocols' input
+//!     coming (sACN's, then Art-Net's once sACN's stream ended, reaching the
+//!     targets): stopped, nothing moves, `live on` refused while latched.
 //!
 //! `olad`, `ola_set_dmx`, `ola_streaming_client` and `ola_patch` are found on the
 //! `PATH`; without them this test's own Art-Net and sACN (unicast) senders stand in
@@ -750,29 +752,47 @@ async fn consoles_move_the_targets_over_art_net_and_sacn() {
     drop(ws);
 
     // 10. Live mode on UIM2503 gateways (this bridge: a new installation with the
-    // live-mode limits), fed over Art-Net.
+    // live-mode limits), fed over Art-Net, then sACN.
     drop(bridge);
     let bridge = Process::start(&live_mode_config(
         4,
         "[[gateway]]\nport = \"sim\"\nbaud = 115200\n",
     ));
-    live_mode(&bridge, "UIM2503", |value| Fader::artnet(ola, value)).await;
+    live_mode(
+        &bridge,
+        "UIM2503",
+        |value| Fader::artnet(ola, value),
+        |value| Fader::sacn(ola_sacn, value),
+    )
+    .await;
     drop(bridge);
 
-    // 11. Live mode on MBOX boxes, fed over sACN.
+    // 11. Live mode on MBOX boxes, fed over sACN, then Art-Net.
     let bridge = Process::start(&live_mode_config(
         3,
         "[mbox]\nhost_port = 0\n[[gateway]]\nkind = \"mbox\"\nport = \"sim\"\naxes = 3\n",
     ));
-    live_mode(&bridge, "MBOX", |value| Fader::sacn(ola_sacn, value)).await;
+    live_mode(
+        &bridge,
+        "MBOX",
+        |value| Fader::sacn(ola_sacn, value),
+        |value| Fader::artnet(ola, value),
+    )
+    .await;
     drop(bridge);
 
-    // 12. Live mode on MOONS' drives (jogging), fed over Art-Net.
+    // 12. Live mode on MOONS' drives (jogging), fed over Art-Net, then sACN.
     let bridge = Process::start(&live_mode_config(
         3,
         "[scl]\nhost_port = 0\n[[gateway]]\nkind = \"scl\"\nport = \"sim\"\nunits = 3\n",
     ));
-    live_mode(&bridge, "MOONS'", |value| Fader::artnet(ola, value)).await;
+    live_mode(
+        &bridge,
+        "MOONS'",
+        |value| Fader::artnet(ola, value),
+        |value| Fader::sacn(ola_sacn, value),
+    )
+    .await;
     drop(bridge);
 
     // 9. Multicast on the loopback (where the kernel allows it): a bridge joining on
@@ -964,6 +984,14 @@ enum Fader {
 }
 
 impl Fader {
+    /// The protocol's name, for the messages.
+    fn protocol(&self) -> &'static str {
+        match self {
+            Self::Artnet { .. } => "Art-Net",
+            Self::Sacn { .. } => "sACN",
+        }
+    }
+
     fn artnet(ola: bool, value: u16) -> Self {
         let shared = Arc::new(std::sync::atomic::AtomicU16::new(value));
         let now = Arc::clone(&shared);
@@ -1012,13 +1040,104 @@ fn four(value: u16) -> Vec<u8> {
     (0..4).flat_map(|_| value.to_be_bytes()).collect()
 }
 
-/// Live mode end to end on `bridge` (10: UIM2503 over Art-Net; 11: MBOX over sACN;
-/// 12: MOONS' drives over Art-Net):
-/// go live over the WebSocket, a fader ramp followed by the simulated balls, a step
-/// far beyond the top speed followed within it, input lost → holding, Leave live,
-/// Record → Stop recording → the show stored, and the e-stop: stopped, input keeps
-/// coming and nothing moves, a `live on` while latched refused.
-async fn live_mode(bridge: &Process, family: &str, fader: impl Fn(u16) -> Fader) {
+/// The 16-bit position of `mm`.
+fn value_of(mm: f64) -> u16 {
+    (mm / TRAVEL_MM * 65535.0).round() as u16
+}
+
+/// A step of `console` from `from_mm` to `to_mm` (far beyond the top speed): the
+/// simulated balls follow it at the top speed, not in one jump. The simulation's own
+/// clock times the samples.
+async fn step_followed(
+    bridge: &Process,
+    token: &str,
+    what: &str,
+    console: &Fader,
+    (from, to): (f64, f64),
+) {
+    console.set(value_of(to));
+    let mut samples: Vec<(u64, f64)> = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let (balls, at_us) = sim_balls(bridge, token).await;
+        samples.push((at_us, balls[0]));
+        if (balls[0] - to).abs() < 3.0 {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "{what}: the step not followed: {balls:?}\n{}",
+            bridge.log()
+        );
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    let mut fastest_mm_s = 0.0f64;
+    let mut i = 0;
+    for j in 1..samples.len() {
+        let (t0, p0) = samples[i];
+        let (t1, p1) = samples[j];
+        // Windows of a quarter of a second: a box's 20 ms frame (or an HTTP round
+        // trip) is then under a tenth of the distance.
+        if t1.saturating_sub(t0) >= 250_000 {
+            fastest_mm_s = fastest_mm_s.max((p1 - p0).abs() / ((t1 - t0) as f64 / 1e6));
+            i = j;
+        }
+    }
+    let took_s = (samples.last().expect("samples").0 - samples[0].0) as f64 / 1e6;
+    let distance_mm = (to - from).abs();
+    assert!(
+        fastest_mm_s <= TOP_SPEED_MM_S * 1.15,
+        "{what}: {fastest_mm_s:.0} mm/s over the top speed: {samples:?}"
+    );
+    assert!(
+        fastest_mm_s >= TOP_SPEED_MM_S * 0.5 && took_s >= distance_mm / TOP_SPEED_MM_S * 0.9,
+        "{what}: the step took {took_s:.2} s at {fastest_mm_s:.0} mm/s at most: {samples:?}"
+    );
+    println!(
+        "{what}: a {distance_mm:.0} mm step followed in {took_s:.2} s, {fastest_mm_s:.0} mm/s \
+         at most ({} samples)",
+        samples.len()
+    );
+}
+
+/// The console goes silent: the balls hold, the status says so.
+async fn loss_holds(
+    bridge: &Process,
+    token: &str,
+    what: &str,
+    ws: &mut common::Ws,
+    console: Fader,
+) {
+    use floatball_shared::api::LivePhase;
+    console.stop();
+    let status = common::status_until(ws, Duration::from_secs(15), |status| {
+        phase(status) == Some(LivePhase::Holding)
+    })
+    .await;
+    assert!(status.live.as_deref().is_some_and(|live| live.input_lost));
+    let (held, _) = sim_balls(bridge, token).await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let (still, _) = sim_balls(bridge, token).await;
+    assert!(
+        held.iter().zip(&still).all(|(a, b)| (a - b).abs() < 1.0),
+        "{what}: moved while holding: {held:?} → {still:?}"
+    );
+}
+
+/// Live mode end to end on `bridge` (10: UIM2503 over Art-Net, then sACN; 11: MBOX
+/// over sACN, then Art-Net; 12: MOONS' drives over Art-Net, then sACN), one bridge
+/// for both protocols: go live over the WebSocket; over `fader`'s protocol a fader
+/// ramp followed by the simulated balls, a step far beyond the top speed followed
+/// within it, input lost → holding; the same over `other`'s (input back over it);
+/// Record → Stop recording → the show stored, Leave live, and the e-stop with both
+/// protocols' input coming: stopped, nothing moves, a `live on` while latched
+/// refused.
+async fn live_mode(
+    bridge: &Process,
+    family: &str,
+    fader: impl Fn(u16) -> Fader,
+    other: impl Fn(u16) -> Fader,
+) {
     use floatball_shared::api::{LivePhase, PlayerState};
     let started = Instant::now();
     let token = bridge.operator().await;
@@ -1070,67 +1189,29 @@ async fn live_mode(bridge: &Process, family: &str, fader: impl Fn(u16) -> Fader)
         "{family}: live positions {positions_mm:?}, the simulated balls at {sim:?}"
     );
     send_text(&mut ws, r#"{"type":"live_positions","on":false}"#).await;
-    // A step of 1,000 mm: followed at the top speed, not in one jump. The
-    // simulation's own clock times the samples.
+    // A step of 1,000 mm: followed at the top speed, not in one jump.
+    let what = format!("{family} over {}", console.protocol());
     let (from, to) = (mm(0x2800), mm(0x2800) + 1_000.0);
-    console.set((to / TRAVEL_MM * 65535.0).round() as u16);
-    let mut samples: Vec<(u64, f64)> = Vec::new();
-    let deadline = Instant::now() + Duration::from_secs(5);
-    loop {
-        let (balls, at_us) = sim_balls(bridge, &token).await;
-        samples.push((at_us, balls[0]));
-        if (balls[0] - to).abs() < 3.0 {
-            break;
-        }
-        assert!(
-            Instant::now() < deadline,
-            "{family}: the step not followed: {balls:?}\n{}",
-            bridge.log()
-        );
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
-    let mut fastest_mm_s = 0.0f64;
-    let mut i = 0;
-    for j in 1..samples.len() {
-        let (t0, p0) = samples[i];
-        let (t1, p1) = samples[j];
-        // Windows of a quarter of a second: a box's 20 ms frame (or an HTTP round
-        // trip) is then under a tenth of the distance.
-        if t1.saturating_sub(t0) >= 250_000 {
-            fastest_mm_s = fastest_mm_s.max((p1 - p0).abs() / ((t1 - t0) as f64 / 1e6));
-            i = j;
-        }
-    }
-    let took_s = (samples.last().expect("samples").0 - samples[0].0) as f64 / 1e6;
-    assert!(
-        fastest_mm_s <= TOP_SPEED_MM_S * 1.15,
-        "{family}: {fastest_mm_s:.0} mm/s over the top speed: {samples:?}"
-    );
-    assert!(
-        fastest_mm_s >= TOP_SPEED_MM_S * 0.5 && took_s >= (to - from) / TOP_SPEED_MM_S * 0.9,
-        "{family}: the step took {took_s:.2} s at {fastest_mm_s:.0} mm/s at most: {samples:?}"
-    );
-    println!(
-        "{family}: a {:.0} mm step followed in {took_s:.2} s, {fastest_mm_s:.0} mm/s at most \
-         ({} samples)",
-        to - from,
-        samples.len()
-    );
-
+    step_followed(bridge, &token, &what, &console, (from, to)).await;
     // Loss: the console stops; the balls hold, the status says so.
-    console.stop();
-    let status = common::status_until(&mut ws, long, |status| {
-        phase(status) == Some(LivePhase::Holding)
+    loss_holds(bridge, &token, &what, &mut ws, console).await;
+
+    // The other protocol, on the same bridge: input back over it (where the balls
+    // hold), following again; its ramp, its step (back up), its loss.
+    let held = value_of(to);
+    let console = other(held);
+    let what = format!("{family} over {}", console.protocol());
+    common::status_until(&mut ws, long, |status| {
+        phase(status) == Some(LivePhase::Following)
     })
     .await;
-    assert!(status.live.as_deref().is_some_and(|live| live.input_lost));
-    let (held, _) = sim_balls(bridge, &token).await;
-    tokio::time::sleep(Duration::from_millis(300)).await;
-    let (still, _) = sim_balls(bridge, &token).await;
-    assert!(
-        held.iter().zip(&still).all(|(a, b)| (a - b).abs() < 1.0),
-        "{family}: moved while holding: {held:?} → {still:?}"
-    );
+    for value in [held - 0x400, held - 0x800, held - 0xc00] {
+        console.set(value);
+        balls_at(bridge, &token, &format!("{what}: the ramp"), mm(value)).await;
+    }
+    let from = mm(held - 0xc00);
+    step_followed(bridge, &token, &what, &console, (from, from - 1_000.0)).await;
+    loss_holds(bridge, &token, &what, &mut ws, console).await;
 
     // Input back: following again; a recording.
     let console = fader(0x2000);
@@ -1195,7 +1276,9 @@ async fn live_mode(bridge: &Process, family: &str, fader: impl Fn(u16) -> Fader)
     println!("{family}: recorded {recorded:?}");
 
     // Leave live: the balls brake to rest, the matrix is idle, the live positions say
-    // so once and stop; then live again (the positions known: no homing).
+    // so once and stop; then live again (the positions known: no homing — UIM2503
+    // units are asked where they stand once their FIFO ran out, a few rows after
+    // idle, hence the moment's pause; asked at once they would home first).
     send_text(&mut ws, r#"{"type":"live_positions","on":true}"#).await;
     live_positions(&mut ws, |mm| !mm.is_empty()).await;
     send_text(&mut ws, r#"{"type":"live","on":false}"#).await;
@@ -1221,14 +1304,18 @@ async fn live_mode(bridge: &Process, family: &str, fader: impl Fn(u16) -> Fader)
     .await
     .expect("the live positions end and the matrix is idle after leaving");
     send_text(&mut ws, r#"{"type":"live_positions","on":false}"#).await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
     send_text(&mut ws, r#"{"type":"live","on":true}"#).await;
     common::status_until(&mut ws, long, |status| {
         phase(status) == Some(LivePhase::Following)
     })
     .await;
 
-    // The e-stop: stopped; the input keeps coming and nothing moves; live mode does
-    // not come back by itself, and a `live on` while latched is refused.
+    // The e-stop with both protocols' input coming: stopped; each protocol's input
+    // reaches the targets and nothing moves; live mode does not come back by itself,
+    // and a `live on` while latched is refused.
+    let second = other(0x2400);
+    tokio::time::sleep(Duration::from_millis(200)).await;
     send_text(&mut ws, r#"{"type":"estop"}"#).await;
     common::status_until(&mut ws, long, |status| {
         status.state == PlayerState::Stopped && status.live.is_none()
@@ -1236,15 +1323,30 @@ async fn live_mode(bridge: &Process, family: &str, fader: impl Fn(u16) -> Fader)
     .await;
     tokio::time::sleep(Duration::from_millis(200)).await;
     let (stopped, _) = sim_balls(bridge, &token).await;
-    for value in [0x3000u16, 0x6000, 0x1000] {
-        console.set(value);
-        tokio::time::sleep(Duration::from_millis(250)).await;
+    let (sacn, artnet) = if matches!(console, Fader::Sacn { .. }) {
+        (console, second)
+    } else {
+        (second, console)
+    };
+    // sACN (priority 150) has the universe while both send…
+    for value in [0x3000u16, 0x6000] {
+        artnet.set(value);
+        sacn.set(value + 0x800);
+        status_until(bridge, &token, "sACN's input after the e-stop", |status| {
+            follows(status, value + 0x800, 0)
+        })
+        .await;
     }
-    let (after, _) = sim_balls(bridge, &token).await;
-    assert!(
-        stopped.iter().zip(&after).all(|(a, b)| (a - b).abs() < 1.0),
-        "{family}: moved after the e-stop: {stopped:?} → {after:?}"
-    );
+    // …and once its stream ended, Art-Net's.
+    sacn.stop();
+    artnet.set(0x1000);
+    status_until(
+        bridge,
+        &token,
+        "Art-Net's input after the e-stop",
+        |status| follows(status, 0x1000, 0),
+    )
+    .await;
     send_text(&mut ws, r#"{"type":"live","on":true}"#).await;
     assert_eq!(next_error(&mut ws).await, "live_estop_latched");
     // Nothing comes back by itself meanwhile (input still coming).
@@ -1259,6 +1361,11 @@ async fn live_mode(bridge: &Process, family: &str, fader: impl Fn(u16) -> Fader)
         }
     })
     .await;
-    console.stop();
+    let (after, _) = sim_balls(bridge, &token).await;
+    assert!(
+        stopped.iter().zip(&after).all(|(a, b)| (a - b).abs() < 1.0),
+        "{family}: moved after the e-stop: {stopped:?} → {after:?}"
+    );
+    artnet.stop();
     println!("{family}: live mode checked in {:?}", started.elapsed());
 }

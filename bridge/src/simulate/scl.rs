@@ -15,7 +15,8 @@
 //!
 //! [`SimDrives`] are the bridge's own simulated installation (`kind = "scl"`,
 //! `port = "sim"`): every such entry's drives on one bus and one start wire, on
-//! loopback UDP.
+//! loopback UDP, each drive answering on a thread of its own ([`UdpDrives`]), never
+//! behind the bridge's async work.
 
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -26,9 +27,6 @@ use floatball_shared::api::SimDrive;
 use floatball_shared::line::Line;
 use floatball_shared::scl::twin::{Bus, Drive, DriveConfig, StartWire, status};
 use floatball_shared::scl::{Address, IoPoint, Segment};
-use tokio::net::UdpSocket;
-use tokio::sync::watch;
-use tokio::task::JoinHandle;
 
 use crate::ports::uim2503::serial::open_port;
 
@@ -270,29 +268,38 @@ impl SimDrives {
     }
 }
 
+/// How often a drive's thread looks whether it is to stop (its socket's read
+/// timeout).
+const STOP_POLL: Duration = Duration::from_millis(50);
+
 /// Drives answering eSCL on UDP sockets until [`Self::stop`] (or until dropped).
+///
+/// Each drive answers on a thread of its own, not on the bridge's async runtime: a
+/// real drive answers whatever the bridge is busy with, and the bridge's link gives
+/// it [`crate::ports::scl::ANSWER_TIMEOUT`] — a simulated drive queued behind busy
+/// tasks on the runtime's few workers could miss that window under load.
 #[derive(Debug)]
 pub struct UdpDrives {
     sockets: Vec<SocketAddr>,
     bus: Arc<Mutex<Bus>>,
     epoch: Instant,
-    stop: watch::Sender<bool>,
-    tasks: Vec<JoinHandle<()>>,
+    stop: Arc<AtomicBool>,
+    threads: Vec<std::thread::JoinHandle<()>>,
 }
 
 impl UdpDrives {
     /// Binds one socket a drive of `bus` (drive `i` on `listen`'s port + `i`; port 0:
-    /// each on a free port) and starts answering.
+    /// each on a free port) and starts answering, each drive on its own thread.
     ///
     /// # Errors
-    /// A port past 65535, or a socket that cannot be bound.
+    /// A port past 65535, or a socket or thread that cannot be had.
     pub fn spawn(listen: SocketAddr, bus: Bus) -> Result<Self, String> {
         let count = bus.drives().len();
         let bus = Arc::new(Mutex::new(bus));
         let epoch = Instant::now();
-        let (stop, stopped) = watch::channel(false);
+        let stop = Arc::new(AtomicBool::new(false));
         let mut sockets = Vec::with_capacity(count);
-        let mut tasks = Vec::with_capacity(count);
+        let mut bound = Vec::with_capacity(count);
         for index in 0..count {
             let mut at = listen;
             if at.port() != 0 {
@@ -303,8 +310,8 @@ impl UdpDrives {
             }
             let socket = std::net::UdpSocket::bind(at)
                 .and_then(|socket| {
-                    socket.set_nonblocking(true)?;
-                    UdpSocket::from_std(socket)
+                    socket.set_read_timeout(Some(STOP_POLL))?;
+                    Ok(socket)
                 })
                 .map_err(|err| format!("cannot listen on UDP {at}: {err}"))?;
             sockets.push(
@@ -312,21 +319,24 @@ impl UdpDrives {
                     .local_addr()
                     .map_err(|err| format!("cannot read the address of UDP {at}: {err}"))?,
             );
-            tasks.push(tokio::spawn(answer(
-                socket,
-                index,
-                Arc::clone(&bus),
-                epoch,
-                stopped.clone(),
-            )));
+            bound.push(socket);
         }
-        Ok(Self {
+        let mut running = Self {
             sockets,
             bus,
             epoch,
             stop,
-            tasks,
-        })
+            threads: Vec::with_capacity(count),
+        };
+        for (index, socket) in bound.into_iter().enumerate() {
+            let (bus, stop) = (Arc::clone(&running.bus), Arc::clone(&running.stop));
+            let thread = std::thread::Builder::new()
+                .name(format!("sim-scl-drive-{index}"))
+                .spawn(move || answer(&socket, index, &bus, epoch, &stop))
+                .map_err(|err| format!("cannot start simulated MOONS' drive {index}: {err}"))?;
+            running.threads.push(thread);
+        }
+        Ok(running)
     }
 
     /// Each drive's socket, in order.
@@ -344,11 +354,17 @@ impl UdpDrives {
 
     /// Stops every drive; returns the bus run to now.
     pub async fn stop(mut self) -> Bus {
-        let _ = self.stop.send(true);
-        for task in std::mem::take(&mut self.tasks) {
-            if let Err(err) = task.await {
-                tracing::error!("a simulated MOONS' drive stopped unexpectedly: {err}");
-            }
+        self.stop.store(true, Ordering::Release);
+        let threads = std::mem::take(&mut self.threads);
+        let joined = tokio::task::spawn_blocking(move || {
+            threads
+                .into_iter()
+                .filter_map(|thread| thread.join().err())
+                .count()
+        })
+        .await;
+        if !matches!(joined, Ok(0)) {
+            tracing::error!("a simulated MOONS' drive stopped unexpectedly");
         }
         let mut bus = self
             .bus
@@ -361,40 +377,99 @@ impl UdpDrives {
 }
 
 impl Drop for UdpDrives {
-    /// The drives stop answering (their sockets close when their tasks see it).
+    /// The drives stop answering (their threads see it within [`STOP_POLL`] and
+    /// close their sockets).
     fn drop(&mut self) {
-        let _ = self.stop.send(true);
+        self.stop.store(true, Ordering::Release);
     }
 }
 
-/// One drive's socket: each datagram goes to the drive, each answer line back to the
-/// sender.
-async fn answer(
-    socket: UdpSocket,
+/// One drive's socket, on its own thread: each datagram goes to the drive, each
+/// answer line back to the sender, until `stop`.
+fn answer(
+    socket: &std::net::UdpSocket,
     index: usize,
-    bus: Arc<Mutex<Bus>>,
+    bus: &Mutex<Bus>,
     epoch: Instant,
-    mut stop: watch::Receiver<bool>,
+    stop: &AtomicBool,
 ) {
     let mut buffer = vec![0u8; MAX_DATAGRAM];
-    loop {
-        tokio::select! {
-            received = socket.recv_from(&mut buffer) => match received {
-                Ok((len, sender)) => {
-                    let datagram = buffer.get(..len).unwrap_or_default();
-                    let answers = bus
-                        .lock()
-                        .unwrap_or_else(PoisonError::into_inner)
-                        .receive_escl(index, datagram, micros(epoch, Instant::now()));
-                    for answer in answers {
-                        if let Err(err) = socket.send_to(&answer, sender).await {
-                            tracing::warn!("simulated MOONS' drive {index}: cannot answer {sender}: {err}");
-                        }
+    while !stop.load(Ordering::Acquire) {
+        match socket.recv_from(&mut buffer) {
+            Ok((len, sender)) => {
+                let datagram = buffer.get(..len).unwrap_or_default();
+                let answers = bus
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .receive_escl(index, datagram, micros(epoch, Instant::now()));
+                for answer in answers {
+                    if let Err(err) = socket.send_to(&answer, sender) {
+                        tracing::warn!(
+                            "simulated MOONS' drive {index}: cannot answer {sender}: {err}"
+                        );
                     }
                 }
-                Err(err) => tracing::debug!("simulated MOONS' drive {index}: receive failed: {err}"),
-            },
-            _ = stop.changed() => break,
+            }
+            Err(err)
+                if matches!(
+                    err.kind(),
+                    std::io::ErrorKind::WouldBlock
+                        | std::io::ErrorKind::TimedOut
+                        | std::io::ErrorKind::Interrupted
+                ) => {}
+            Err(err) => tracing::debug!("simulated MOONS' drive {index}: receive failed: {err}"),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use floatball_shared::scl::{Command, Request};
+
+    /// A simulated drive answers `IP` while the async runtime it was started from is
+    /// busy (its one worker blocked): under load the bridge's own tasks must not keep
+    /// a drive from answering within the link's window.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 1)]
+    async fn a_drive_answers_while_the_runtime_is_busy() {
+        let wire = parse_start_wire(DEFAULT_START_WIRE).expect("a wire");
+        let drives = UdpDrives::spawn(
+            SocketAddr::from(([127, 0, 0, 1], 0)),
+            bus(1, false, wire).expect("a bus"),
+        )
+        .expect("the drives");
+        let to = drives.sockets()[0];
+        // The runtime's only worker busy for 3 s (as a long synchronous stretch of
+        // work would keep it).
+        let busy = Arc::new(AtomicBool::new(true));
+        let (started, began) = std::sync::mpsc::channel();
+        let blocker = {
+            let busy = Arc::clone(&busy);
+            tokio::spawn(async move {
+                let _ = started.send(());
+                std::thread::sleep(Duration::from_secs(3));
+                busy.store(false, Ordering::SeqCst);
+            })
+        };
+        began.recv().expect("the worker is busy");
+        let socket = std::net::UdpSocket::bind("127.0.0.1:0").expect("a socket");
+        socket
+            .set_read_timeout(Some(Duration::from_secs(10)))
+            .expect("a timeout");
+        socket
+            .send_to(&Request::new(Command::ImmediatePosition).to_escl(), to)
+            .expect("sent");
+        let mut buffer = [0u8; 64];
+        let length = socket.recv(&mut buffer).expect("an answer");
+        let answered_while_busy = busy.load(Ordering::SeqCst);
+        let answer = String::from_utf8_lossy(&buffer[..length]).into_owned();
+        assert!(answer.contains("IP="), "{answer:?}");
+        assert!(
+            answered_while_busy,
+            "the drive answered only once the runtime was free again"
+        );
+        blocker.await.expect("the blocker");
+        let bus = drives.stop().await;
+        assert_eq!(bus.drives().len(), 1);
     }
 }

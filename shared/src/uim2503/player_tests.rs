@@ -34,6 +34,8 @@ struct Line {
     /// The station the bulk lane last selected, restored after a priority write.
     bulk_selection: Option<Vec<u8>>,
     reselect: bool,
+    /// Feedback decoded while the bridge was stalled, handed to the player after.
+    stalled: Vec<crate::uim2503::feedback::Frame>,
     /// Every instruction written, in order: when it began to cross the line (µs) and its
     /// bytes — what the golden wire test pins.
     wire: Vec<(u64, Vec<u8>)>,
@@ -108,6 +110,7 @@ impl Rig {
                     decoder: FrameDecoder::new(),
                     bulk_selection: None,
                     reselect: false,
+                    stalled: Vec::new(),
                     wire: Vec::new(),
                 }
             })
@@ -172,6 +175,12 @@ impl Rig {
     /// One step of virtual time: the lines move bytes, the gateways run, answers come
     /// back, the player is polled.
     fn step(&mut self) {
+        self.step_polled(true);
+    }
+
+    /// One step of virtual time; `polled: false`: the bridge is busy (a stall under
+    /// load) — the lines and the units go on, the player is neither told nor polled.
+    fn step_polled(&mut self, polled: bool) {
         let end = self.now_us + STEP_US;
         for (index, line) in self.lines.iter_mut().enumerate() {
             // Writer: one instruction at a time, priority first, as the bridge's link; a
@@ -229,11 +238,18 @@ impl Rig {
                 arrived.push(line.answers.pop_front().unwrap().1);
             }
             let frames: Vec<_> = line.decoder.push(&arrived).collect();
-            for frame in frames {
-                self.player.handle_feedback(end, index, &frame);
+            if polled {
+                for frame in line.stalled.drain(..).chain(frames) {
+                    self.player.handle_feedback(end, index, &frame);
+                }
+            } else {
+                line.stalled.extend(frames);
             }
         }
         self.now_us = end;
+        if !polled {
+            return;
+        }
         let links = self.links();
         self.player.poll(self.now_us, &links);
         self.carry_out();
@@ -1229,4 +1245,148 @@ fn a_clock_trim_shortens_streamed_rows_by_at_most_a_millisecond_to_follow_a_fast
         "{shortened} rows shortened"
     );
     assert_eq!(rig.player.status().last_error, None);
+}
+
+/// The balls' rest positions as the drive has them (`None`: unknown).
+fn rest_mm(rig: &Rig) -> Option<Vec<f64>> {
+    crate::player::Drive::rest_positions_mm(rig.player.sequencer().drive())
+}
+
+/// The bridge stalls under load for longer than the FIFO's rows while the balls
+/// move: the units run dry, brake with `SD` and take no row written after. Their
+/// water level tells (`PV;`): live mode fails saying so — not silently standing
+/// while the status says following — and live mode again homes first.
+#[test]
+fn rows_run_dry_in_a_stall_fail_live_mode_and_live_again_homes_first() {
+    use crate::api::LivePhase;
+    let mut rig = Rig::new(installation(2, 2, &[115_200]));
+    let phase = |rig: &Rig| rig.player.status().live.map(|live| live.phase);
+    let at = |mm: f64| move |_| vec![Some(mm); 4];
+    rig.player.sequencer_mut().go_live(0).unwrap();
+    rig.carry_out();
+    rig.run_until(30_000_000, |rig| phase(rig) == Some(LivePhase::Following));
+    let until = rig.now_us + 1_000_000;
+    run_live(&mut rig, until, &at(1000.0));
+    // A step, and the bridge stalls for 200 ms (over 14 rows) while the balls move.
+    let until = rig.now_us + 300_000;
+    run_live(&mut rig, until, &at(3000.0));
+    for _ in 0..200 {
+        rig.step_polled(false);
+    }
+    let stalled_us = rig.now_us;
+    rig.run_until(1_000_000, |rig| rig.state() == PlayerState::Error);
+    assert!(
+        rig.now_us - stalled_us < 500_000,
+        "{} µs",
+        rig.now_us - stalled_us
+    );
+    let reason = rig.player.status().last_error.unwrap_or_default();
+    assert!(reason.contains("rows ran out"), "{reason}");
+    rig.estop();
+    rig.player.sequencer_mut().go_live(rig.now_us).unwrap();
+    rig.carry_out();
+    assert_eq!(rig.state(), PlayerState::Homing);
+    rig.run_until(30_000_000, |rig| phase(rig) == Some(LivePhase::Following));
+    let until = rig.now_us + 3_000_000;
+    run_live(&mut rig, until, &at(2000.0));
+    let at = rig.positions_mm();
+    assert!(at.iter().all(|&mm| (mm - 2000.0).abs() < 0.5), "{at:?}");
+}
+
+/// The bridge stalls while the balls brake after Leave live: the units run dry
+/// and stop short of where the rows end. Their positions are read back after
+/// leaving, so live mode again starts its rows where the units are — not with a row
+/// from where the filter left them, which the unit cannot follow (error 0x40).
+#[test]
+fn live_again_after_the_rows_ran_dry_starts_where_the_units_stopped() {
+    use crate::api::LivePhase;
+    let mut rig = Rig::new(installation(2, 2, &[115_200]));
+    let phase = |rig: &Rig| rig.player.status().live.map(|live| live.phase);
+    let at = |mm: f64| move |_| vec![Some(mm); 4];
+    rig.player.sequencer_mut().go_live(0).unwrap();
+    rig.carry_out();
+    rig.run_until(30_000_000, |rig| phase(rig) == Some(LivePhase::Following));
+    let until = rig.now_us + 1_000_000;
+    run_live(&mut rig, until, &at(1000.0));
+    let until = rig.now_us + 600_000;
+    run_live(&mut rig, until, &at(3000.0));
+    rig.player.sequencer_mut().leave_live(rig.now_us);
+    for _ in 0..STALL_STEPS {
+        rig.step_polled(false);
+    }
+    rig.run_until(5_000_000, |rig| rig.player.status().live.is_none());
+    assert_eq!(
+        rig.state(),
+        PlayerState::Idle,
+        "{:?}",
+        rig.player.status().last_error
+    );
+    // The units stopped short of where the rows end; what the drive has is what
+    // they answer.
+    rig.run_until(2_000_000, |rig| rest_mm(rig).is_some());
+    let stood = rig.positions_mm();
+    let rest = rest_mm(&rig).unwrap();
+    for (believed, at) in rest.iter().zip(&stood) {
+        assert!((believed - at).abs() < 0.02, "{rest:?} vs {stood:?}");
+    }
+    let note = rig.player.status().last_error.unwrap_or_default();
+    assert!(note.contains("their rows ran out"), "{note}");
+    // Live again: no homing, the approach from where the balls are, no overload.
+    rig.player.sequencer_mut().go_live(rig.now_us).unwrap();
+    rig.carry_out();
+    assert_ne!(rig.state(), PlayerState::Homing);
+    let until = rig.now_us + 3_000_000;
+    run_live(&mut rig, until, &at(2000.0));
+    assert_eq!(phase(&rig), Some(LivePhase::Following));
+    let at = rig.positions_mm();
+    assert!(at.iter().all(|&mm| (mm - 2000.0).abs() < 0.5), "{at:?}");
+}
+
+/// The stall while braking after Leave live, in rig steps (ms).
+const STALL_STEPS: usize = 120;
+
+/// Live mode asked for again at once after leaving (while the units still run the
+/// FIFO's last rows, their positions not yet read back): it homes first rather than
+/// load a new table under the old run; asked a moment later, it does not home.
+#[test]
+fn live_again_at_once_after_leaving_homes_and_a_moment_later_does_not() {
+    use crate::api::LivePhase;
+    let mut rig = Rig::new(installation(2, 2, &[115_200]));
+    let phase = |rig: &Rig| rig.player.status().live.map(|live| live.phase);
+    let at = |mm: f64| move |_| vec![Some(mm); 4];
+    rig.player.sequencer_mut().go_live(0).unwrap();
+    rig.carry_out();
+    rig.run_until(30_000_000, |rig| phase(rig) == Some(LivePhase::Following));
+    let until = rig.now_us + 2_000_000;
+    run_live(&mut rig, until, &at(1500.0));
+    rig.player.sequencer_mut().leave_live(rig.now_us);
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert!(rig.anyone_moving() || rest_mm(&rig).is_none());
+    rig.player.sequencer_mut().go_live(rig.now_us).unwrap();
+    rig.carry_out();
+    assert_eq!(rig.state(), PlayerState::Homing);
+    rig.run_until(30_000_000, |rig| phase(rig) == Some(LivePhase::Following));
+    let until = rig.now_us + 2_000_000;
+    run_live(&mut rig, until, &at(1500.0));
+    rig.player.sequencer_mut().leave_live(rig.now_us);
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    // Read back within a few rows (14 ms each) after the FIFO ran out.
+    let idle_us = rig.now_us;
+    rig.run_until(1_000_000, |rig| rest_mm(rig).is_some());
+    assert!(
+        rig.now_us - idle_us < 200_000,
+        "{} µs",
+        rig.now_us - idle_us
+    );
+    assert!(
+        rest_mm(&rig)
+            .unwrap()
+            .iter()
+            .all(|&mm| (mm - 1500.0).abs() < 0.01)
+    );
+    assert_eq!(rig.player.status().last_error, None);
+    rig.player.sequencer_mut().go_live(rig.now_us).unwrap();
+    rig.carry_out();
+    assert_ne!(rig.state(), PlayerState::Homing);
+    rig.run_until(5_000_000, |rig| phase(rig) == Some(LivePhase::Following));
 }

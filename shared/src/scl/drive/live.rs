@@ -75,6 +75,13 @@ pub const TURNAROUND_US: u64 = 1_000;
 /// exactly (what the periods' steps leave as margin).
 pub const CATCH_UP_SHARE: f64 = 0.7;
 
+/// At rest, the filter too, a drive its model puts farther than this from the
+/// filtered position is fed there (`DI` at the exact count, `FP`), mm: jogging has
+/// no hold on position, so a stop that came late (the bridge stalled under load
+/// while the drive ramped down) would otherwise leave the ball off until it moves
+/// again.
+pub const REST_TOLERANCE_MM: f64 = 1.0;
+
 /// One eSCL exchange (a datagram and its answer on the network), µs (assumed).
 pub const ESCL_EXCHANGE_US: u64 = 1_000;
 
@@ -139,6 +146,9 @@ pub(in crate::scl) struct LiveUnit {
     /// One request and its answer on its lane, s: a speed reaches the drive after
     /// those queued before it on the lane, and is the filtered one that much later.
     exchange_s: f64,
+    /// The count it was last fed to at rest ([`REST_TOLERANCE_MM`]), until it jogs
+    /// again.
+    fed: Option<i32>,
 }
 
 /// Live motion under way.
@@ -539,6 +549,7 @@ impl SclDrive {
                     ),
                     lane,
                     exchange_s: leads.get(unit).copied().unwrap_or(0.0),
+                    fed: None,
                 }
             })
             .collect();
@@ -684,9 +695,30 @@ impl SclDrive {
                 if let Mode::Jog(_) = state.mode {
                     state.mode = Mode::Rest;
                     asks.push((state.lane, unit, vec![Command::StopJogging], false));
+                    continue;
+                }
+                // At rest where the model (its requests, shifted to its last read)
+                // says, off the filter: fed to the exact count, once.
+                let target = self.config.counts(next.position_mm);
+                let (at, speed) = state.model.at(slot_us);
+                let off_mm = (at - f64::from(target)).abs() / run.counts_per_mm;
+                if !state.model.jogging
+                    && speed == 0.0
+                    && off_mm > REST_TOLERANCE_MM
+                    && state.fed != Some(target)
+                {
+                    state.fed = Some(target);
+                    let feed = vec![
+                        Command::Distance {
+                            counts: Some(target),
+                        },
+                        Command::FeedToPosition,
+                    ];
+                    asks.push((state.lane, unit, feed, false));
                 }
                 continue;
             }
+            state.fed = None;
             // When this one arrives: after what the lane has queued.
             let count = commands(1).0.len();
             let before = queued.get(state.lane).copied().unwrap_or(0) + count;

@@ -24,10 +24,26 @@
 //! - **Rounding**: rows are whole counts, so the filter runs a little under the
 //!   installation's speed and acceleration (what half a count at each end of a row can
 //!   add): no row asks a unit for more than it has.
+//! - **Running dry**: a bridge more than [`LIVE_FIFO_ROWS`] rows late (a stall under
+//!   heavy load) leaves the units without a row; they brake with `SD`, stop, and run
+//!   no row written after — silently (the rows' `QT` is broadcast, so not even a full
+//!   FIFO is answered). Every [`LEVEL_CHECK_ROWS`] rows each gateway's first unit is
+//!   asked its water level (`PV;`); more than twice [`LIVE_FIFO_ROWS`] pending means
+//!   it stopped taking rows: live mode fails with that said, the matrix is stopped,
+//!   and the next live mode homes first.
 //! - **End**: the last rows hold the balls at rest; the FIFO runs out after them and
-//!   the units stop where the rows end, their positions known.
+//!   the units stop where the rows end. Their positions are then **read back**
+//!   ([`AfterLive`]): a unit whose FIFO ran dry before (the bridge fell more than the
+//!   FIFO's rows behind, e.g. under heavy load) braked with `SD` and stands where it
+//!   stopped, not where the rows end (PROTOCOL.md §1.6: "when rows run out, stop with
+//!   SD"; the rows written after that are never run). Until every unit answered, the
+//!   positions are unknown (live mode or a show asked for meanwhile homes or asks,
+//!   and no new table is loaded under an old run still going): live mode again
+//!   starts its rows where each unit really is, not with a row the unit cannot
+//!   follow.
 
 use super::{Command, Phase, START_LEAD_US, Step, Uim2503Drive};
+use crate::line::Line;
 use crate::live::filter::{BallState, FilterLimits};
 use crate::player::{LiveSetup, StartError};
 use crate::uim2503::ascii::{Batch, Instruction};
@@ -37,6 +53,34 @@ use crate::uim2503::{schedule, stream};
 
 /// Rows every unit's FIFO holds ahead while live.
 pub const LIVE_FIFO_ROWS: usize = 6;
+
+/// Rows between two questions of each gateway's water level (`PV;` to its first
+/// unit) while live: a unit whose FIFO ran dry stopped and runs no row written after
+/// (PROTOCOL.md §1.6), so its level climbs past what is ever written ahead.
+pub const LEVEL_CHECK_ROWS: usize = 16;
+
+/// Position questions after live mode before one counts as unanswered (the
+/// positions then stay unknown: the next live mode or show homes or asks).
+const AFTER_LIVE_QUERIES: u32 = 20;
+
+/// The least time between two rounds of position questions after live mode, µs.
+const AFTER_LIVE_WAIT_US: u64 = 20_000;
+
+/// After live mode: where each unit stopped, asked (`PA;`) once its FIFO ran out.
+/// A unit's position is taken when it answers where the rows left it, or the same
+/// twice running (at rest elsewhere: its FIFO ran dry and it braked there).
+#[derive(Debug, Clone)]
+pub(super) struct AfterLive {
+    /// Where the rows left each unit, counts.
+    expected: Vec<Option<i32>>,
+    /// Each unit's last answer, counts.
+    answers: Vec<Option<i32>>,
+    confirmed: Vec<bool>,
+    next_query_us: u64,
+    /// Between rounds of questions, µs.
+    wait_us: u64,
+    queries: u32,
+}
 
 /// Live motion under way on the units.
 #[derive(Debug, Clone)]
@@ -227,6 +271,7 @@ impl Uim2503Drive {
             });
         }
         self.believed.iter_mut().for_each(|counts| *counts = None);
+        self.after_live = None;
         self.step = Step::Idle;
         self.progress = 0.0;
         self.live = Some(LiveStream {
@@ -298,6 +343,30 @@ impl Uim2503Drive {
         }
     }
 
+    /// A water level (`PV;`) answered while the units run live rows: why live mode
+    /// fails when the unit stopped taking rows (its FIFO ran dry).
+    pub(super) fn live_ran_dry(&self, gateway: usize, station: u8, value: u16) -> Option<String> {
+        let live = self.live.as_ref().filter(|live| live.started)?;
+        if usize::from(value) <= 2 * LIVE_FIFO_ROWS {
+            return None;
+        }
+        let run = live
+            .plan
+            .gateways
+            .iter()
+            .find(|run| run.gateway == gateway)?;
+        let first = *run.units.first()?;
+        (live.plan.units[first].address.station == station).then(|| {
+            format!(
+                "{} has {value} live rows pending, not taking them: its rows ran out (the \
+                 bridge fell more than {LIVE_FIFO_ROWS} rows of {} ms behind, e.g. under heavy \
+                 load) and the units on gateway {gateway} stopped; the matrix was stopped",
+                self.describe_unit(first),
+                live.row_ms
+            )
+        })
+    }
+
     /// One period's rows: every unit's state at the period's end.
     pub(super) fn live_rows(&mut self, states: &[BallState]) {
         let Some(mut live) = self.live.take() else {
@@ -309,10 +378,21 @@ impl Uim2503Drive {
                 let state = states.get(unit).copied().unwrap_or_default();
                 plan.rows[index] = self.live_row(state, live.row_ms);
             }
+            let check = live.next_row % LEVEL_CHECK_ROWS == 0;
             for run in &live.plan.gateways {
+                let mut batch = stream::rows(&live.plan, run, index, index + 1);
+                if check && let Some(&first) = run.units.first() {
+                    let station = live.plan.units[first].address.station;
+                    for instruction in [
+                        Instruction::Select { station },
+                        Instruction::PvtStart { row: None },
+                    ] {
+                        let _ = batch.push(&instruction, stream::FORM);
+                    }
+                }
                 self.commands.push(Command::Bulk {
                     gateway: run.gateway,
-                    batch: stream::rows(&live.plan, run, index, index + 1),
+                    batch,
                 });
             }
             live.next_row += 1;
@@ -320,13 +400,108 @@ impl Uim2503Drive {
         self.live = Some(live);
     }
 
-    /// Live motion is over: the balls rest at `states`.
-    pub(super) fn end_live_stream(&mut self, states: &[BallState]) {
-        self.live = None;
+    /// Live motion is over at `at_us`: the rows leave the balls at rest at `states`.
+    /// Where they are is asked once the FIFO ran out ([`AfterLive`]); unknown until
+    /// then.
+    pub(super) fn end_live_stream(&mut self, at_us: u64, states: &[BallState]) {
+        let row_us = self
+            .live
+            .take()
+            .map_or(u64::from(ROW_MAX_MS), |live| u64::from(live.row_ms))
+            * 1_000;
         let installation = &self.config.installation;
-        for (believed, state) in self.believed.iter_mut().zip(states) {
-            *believed = installation.counts(state.position_mm);
-        }
+        let expected: Vec<Option<i32>> = (0..installation.units.len())
+            .map(|unit| {
+                states
+                    .get(unit)
+                    .and_then(|state| installation.counts(state.position_mm))
+            })
+            .collect();
+        let units = expected.len();
+        self.believed.iter_mut().for_each(|counts| *counts = None);
+        self.after_live = Some(AfterLive {
+            expected,
+            answers: vec![None; units],
+            confirmed: vec![false; units],
+            // The rows still in the FIFO run out (one more for the row under way).
+            next_query_us: at_us + (LIVE_FIFO_ROWS as u64 + 1) * row_us,
+            wait_us: (2 * row_us).max(AFTER_LIVE_WAIT_US),
+            queries: 0,
+        });
         self.step = Step::Idle;
+    }
+
+    /// Whether the positions after live mode are still being asked.
+    pub(super) fn after_live_under_way(&self) -> bool {
+        self.after_live.is_some()
+    }
+
+    /// While idle after live mode: the position questions, when due.
+    pub(super) fn poll_after_live(&mut self, now_us: u64) {
+        let Some(after) = self.after_live.as_mut() else {
+            return;
+        };
+        if now_us < after.next_query_us {
+            return;
+        }
+        if after.queries >= AFTER_LIVE_QUERIES {
+            // Not every unit answered: the positions stay unknown.
+            self.after_live = None;
+            return;
+        }
+        after.queries += 1;
+        let installation = &self.config.installation;
+        let mut slowest_us = 0;
+        for (gateway, spec) in installation.gateways.iter().enumerate() {
+            let stations: Vec<u8> = installation
+                .units_on(gateway)
+                .filter(|&unit| !after.confirmed.get(unit).copied().unwrap_or(true))
+                .map(|unit| installation.units[unit].station)
+                .collect();
+            if !stations.is_empty() {
+                let batch = stream::where_are(&stations);
+                // Questions and answers both cross the line: leave room for them.
+                slowest_us = slowest_us.max(3 * Line::new(spec.baud).time_us(batch.len() * 2));
+                self.commands.push(Command::Bulk { gateway, batch });
+            }
+        }
+        after.next_query_us = now_us + after.wait_us.max(slowest_us);
+    }
+
+    /// A unit's answer to a position question after live mode. Once every unit's
+    /// position is known they are the drive's; a note when some ball stood elsewhere
+    /// than the rows left it.
+    pub(super) fn after_live_answered(&mut self, unit: usize, counts: i32) -> Option<String> {
+        let after = self.after_live.as_mut()?;
+        let expected = after.expected.get(unit).copied().flatten();
+        let previous = after.answers.get_mut(unit)?.replace(counts);
+        if Some(counts) == expected || previous == Some(counts) {
+            after.confirmed[unit] = true;
+        }
+        if !after.confirmed.iter().all(|&done| done) {
+            return None;
+        }
+        let after = self.after_live.take()?;
+        self.believed.clone_from(&after.answers);
+        let off: Vec<(usize, f64)> = after
+            .answers
+            .iter()
+            .zip(&after.expected)
+            .enumerate()
+            .filter_map(|(unit, (answer, expected))| {
+                let (answer, expected) = (answer.as_ref()?, expected.as_ref()?);
+                (answer != expected).then(|| {
+                    let per_mm = self.config.installation.counts_per_mm;
+                    (unit, f64::from(answer - expected).abs() / per_mm)
+                })
+            })
+            .collect();
+        let &(first, mm) = off.first()?;
+        Some(format!(
+            "{} ball(s) stopped away from where live mode left them (first {}, {mm:.1} mm \
+             from it): their rows ran out (the bridge fell behind); their positions were read",
+            off.len(),
+            self.describe_unit(first)
+        ))
     }
 }

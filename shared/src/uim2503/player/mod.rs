@@ -183,6 +183,8 @@ pub struct Uim2503Drive {
     disarms: u64,
     /// Live mode's rows on the units, while live.
     live: Option<live::LiveStream>,
+    /// The positions asked after live mode, until every unit answered.
+    after_live: Option<live::AfterLive>,
 }
 
 impl Uim2503Drive {
@@ -213,6 +215,7 @@ impl Uim2503Drive {
             preloaded: None,
             disarms: 0,
             live: None,
+            after_live: None,
         }
     }
 
@@ -237,7 +240,9 @@ impl Uim2503Drive {
 
     /// A feedback frame from `gateway`, for the drive under `sequencer`: a unit's
     /// error fails the run (or drops an arming), a watermark notice lowers the water
-    /// level, a position answer confirms a move, a `PV;` answer the load's barrier.
+    /// level, a position answer confirms a move (or, after live mode, says where a
+    /// unit stopped), a `PV;` answer the load's barrier (while live, a water level
+    /// that fails live mode when the unit stopped taking rows).
     pub fn handle_feedback(
         sequencer: &mut Sequencer<Self>,
         now_us: u64,
@@ -274,6 +279,14 @@ impl Uim2503Drive {
                     *level = Some(level.map_or(watermark, |level| level.min(watermark)));
                 }
             }
+            Feedback::Ack(Ack::PtpPosition { position_counts }) if drive.after_live_under_way() => {
+                // Only questions are sent after live mode: each answer is a position.
+                if let Some(unit) = unit
+                    && let Some(note) = drive.after_live_answered(unit, position_counts)
+                {
+                    sequencer.set_last_error(Some(note));
+                }
+            }
             Feedback::Ack(Ack::PtpPosition { position_counts }) => {
                 // `PA=p;` itself is acknowledged with its target: only answers to the
                 // position queries, sent once the move should be over, confirm it.
@@ -294,8 +307,13 @@ impl Uim2503Drive {
                 sequencer.advance(phase);
             }
             Feedback::Ack(Ack::PvtStart { value }) if drive.live.is_some() => {
-                let phase = drive.live_barrier_answered(now_us, gateway, frame.station(), value);
-                sequencer.advance(phase);
+                if let Some(reason) = drive.live_ran_dry(gateway, frame.station(), value) {
+                    sequencer.fail(reason);
+                } else {
+                    let phase =
+                        drive.live_barrier_answered(now_us, gateway, frame.station(), value);
+                    sequencer.advance(phase);
+                }
             }
             Feedback::Ack(Ack::PvtStart { value }) => {
                 let phase = drive.barrier_answered(now_us, gateway, frame.station(), value);
@@ -338,8 +356,8 @@ impl Drive for Uim2503Drive {
         self.live_rows(states);
     }
 
-    fn end_live(&mut self, _at_us: u64, states: &[crate::live::filter::BallState]) {
-        self.end_live_stream(states);
+    fn end_live(&mut self, at_us: u64, states: &[crate::live::filter::BallState]) {
+        self.end_live_stream(at_us, states);
     }
 
     fn begin_run(&mut self, _now_us: u64, first: Option<&mut Arc<Plan>>) {
@@ -439,6 +457,7 @@ impl Drive for Uim2503Drive {
     fn stop(&mut self) {
         self.step = Step::Idle;
         self.live = None;
+        self.after_live = None;
         self.loaded_entry = None;
         self.preloaded = None;
         self.disarm_tables();
@@ -478,13 +497,14 @@ impl Drive for Uim2503Drive {
     }
 
     fn idle_wakeup_us(&self, now_us: u64) -> Option<u64> {
-        self.arming_under_way().then_some(now_us + TICK_US)
+        (self.arming_under_way() || self.after_live_under_way()).then_some(now_us + TICK_US)
     }
 
-    fn poll_idle(&mut self, _now_us: u64) {
+    fn poll_idle(&mut self, now_us: u64) {
         let links = std::mem::take(&mut self.links);
         self.poll_arming(&links);
         self.links = links;
+        self.poll_after_live(now_us);
     }
 }
 
@@ -749,5 +769,10 @@ impl Player {
     /// rows come out of [`Player::take_commands`] as a show's do.
     pub fn sequencer_mut(&mut self) -> &mut Sequencer<Uim2503Drive> {
         &mut self.sequencer
+    }
+
+    /// The sequencer under the player, to read.
+    pub fn sequencer(&self) -> &Sequencer<Uim2503Drive> {
+        &self.sequencer
     }
 }

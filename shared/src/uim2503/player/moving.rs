@@ -49,6 +49,8 @@ impl Uim2503Drive {
     }
 
     fn begin_move(&mut self, now_us: u64, targets: Vec<i32>) {
+        // A move's own questions confirm it from here on.
+        self.after_live = None;
         let installation = &self.config.installation;
         let speed = installation
             .counts(installation.approach_speed_mm_s)

@@ -9,7 +9,7 @@
 #[cfg(target_arch = "wasm32")]
 use wasm_bindgen_test::wasm_bindgen_test as test;
 
-use super::super::live::{FOLLOW_SPEED_SHARE, TURNAROUND_US};
+use super::super::live::{FOLLOW_SPEED_SHARE, REST_TOLERANCE_MM, TURNAROUND_US};
 use super::*;
 use crate::api::LivePhase;
 use crate::codes::Coded;
@@ -64,6 +64,9 @@ struct LiveRig {
     last_velocity: Vec<f64>,
     /// Every live phase seen, in order.
     phases: Vec<Option<LivePhase>>,
+    /// The bridge is busy (a stall under load): the line and the drives go on, the
+    /// sequencer is not polled.
+    stalled: bool,
 }
 
 impl LiveRig {
@@ -94,6 +97,7 @@ impl LiveRig {
             hardest_mm_s2: 0.0,
             last_velocity: vec![0.0; 3],
             phases: Vec::new(),
+            stalled: false,
         }
     }
 
@@ -159,8 +163,10 @@ impl LiveRig {
             drive.delivered(id, deliver_us);
             drive.answer(now_us, id, Ok(lines_of(&answer)));
         }
-        self.sequencer.poll(now_us);
-        self.send();
+        if !self.stalled {
+            self.sequencer.poll(now_us);
+            self.send();
+        }
         self.watch();
     }
 
@@ -604,4 +610,42 @@ fn snaps_to_the_ends_of_the_travel_stay_within_it() {
     println!("travel 0–3000 mm: the twins went from {lowest:.3} to {highest:.3} mm");
     rig.within_limits();
     assert!(lowest > -0.5 && highest < 3_000.5, "{lowest} {highest}");
+}
+
+/// The bridge stalls under load while the drives ramp down to a stop (their `SJ`
+/// and the slower speeds come late, and they jog on past the filter): once the
+/// filter rests, each drive is fed to the exact count — jogging holds no position,
+/// and a ball would otherwise stay off until the input moves again.
+#[test]
+fn a_stall_while_stopping_is_made_good_at_rest() {
+    for line in [SclLine::Escl, SclLine::Rs485 { baud: BAUD }] {
+        let mut worst = (0.0f64, 0, 0);
+        for stall_ms in [60u64, 250] {
+            for at_ms in (0..400).step_by(40) {
+                let mut rig = LiveRig::on(line);
+                rig.go_live(&[200.0, 200.0, 200.0]);
+                rig.run_for(300_000, |_| Some(vec![200.0; 3]));
+                rig.run_for(at_ms * 1000 + 1000, |_| Some(vec![262.5; 3]));
+                rig.stalled = true;
+                rig.run_for(stall_ms * 1000, |_| Some(vec![262.5; 3]));
+                rig.stalled = false;
+                rig.run_for(1_500_000, |_| Some(vec![262.5; 3]));
+                let off = rig
+                    .twin_mm()
+                    .iter()
+                    .map(|mm| (mm - 262.5).abs())
+                    .fold(0.0, f64::max);
+                if off > worst.0 {
+                    worst = (off, stall_ms, at_ms);
+                }
+                assert_eq!(rig.phase(), Some(LivePhase::Following));
+                rig.within_limits();
+            }
+        }
+        println!(
+            "{line:?}: at rest at most {:.2} mm off (a stall of {} ms {} ms into the step)",
+            worst.0, worst.1, worst.2
+        );
+        assert!(worst.0 <= REST_TOLERANCE_MM, "{line:?}: {worst:?}");
+    }
 }
