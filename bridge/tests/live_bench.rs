@@ -22,7 +22,7 @@
 //!   it is the first row carrying the change; the time is when the read that completed
 //!   it ended. Beside it the line's floor (one row round for 50 units at its longest,
 //!   `50 × 33 + 13` bytes, at 115,200 baud) and the row time; the ball moves
-//!   `LIVE_FIFO_ROWS` rows after its row is written;
+//!   the FIFO's rows (`live_fifo_rows`) after its row is written;
 //! - **packet → first motion out, MOONS'**: three eSCL drives that are this bench's
 //!   UDP sockets (`common::scl_peer::Peer::udp`, the SCL twin answering); the first
 //!   jog command (`DI`, `CJ`, `CS` or `SJ`) to drive 0 after the packet;
@@ -435,7 +435,9 @@ async fn uim2503_latency(changes: u64) {
         latencies_ms.len(),
         f64::from(row_bytes) * 10.0 / f64::from(BAUD) * 1000.0,
         f64::from(100 * 33 + 13) * 10.0 / f64::from(BAUD) * 1000.0,
-        floatball_shared::uim2503::player::live::LIVE_FIFO_ROWS
+        floatball_shared::uim2503::player::live::live_fifo_rows(
+            u8::try_from(period_ms).unwrap_or(u8::MAX)
+        )
     );
 }
 

@@ -1046,9 +1046,10 @@ fn live_rows_stream_into_the_fifo_and_the_units_follow_within_the_limits() {
     rig.run_until(30_000_000, |rig| phase(rig) == Some(LivePhase::Preparing));
     rig.run_until(5_000_000, |rig| phase(rig) == Some(LivePhase::Approaching));
     let live = rig.player.status().live.unwrap();
-    // Four units at 115,200 baud: a 14 ms row; the FIFO six rows deep.
+    // Four units at 115,200 baud: a 14 ms row; the FIFO eleven rows deep (at least
+    // 150 ms ahead).
     assert_eq!(live.period_ms, 14, "{live:?}");
-    assert_eq!(live.latency_ms, 7 * 14);
+    assert_eq!(live.latency_ms, 12 * 14);
     let until = rig.now_us + 5_000_000;
     run_live(&mut rig, until, &first);
     assert_eq!(phase(&rig), Some(LivePhase::Following));
@@ -1267,10 +1268,11 @@ fn rows_run_dry_in_a_stall_fail_live_mode_and_live_again_homes_first() {
     rig.run_until(30_000_000, |rig| phase(rig) == Some(LivePhase::Following));
     let until = rig.now_us + 1_000_000;
     run_live(&mut rig, until, &at(1000.0));
-    // A step, and the bridge stalls for 200 ms (over 14 rows) while the balls move.
+    // A step, and the bridge stalls for 250 ms (over 17 rows, more than the FIFO
+    // holds) while the balls move.
     let until = rig.now_us + 300_000;
     run_live(&mut rig, until, &at(3000.0));
-    for _ in 0..200 {
+    for _ in 0..STALL_STEPS {
         rig.step_polled(false);
     }
     let stalled_us = rig.now_us;
@@ -1342,8 +1344,10 @@ fn live_again_after_the_rows_ran_dry_starts_where_the_units_stopped() {
     assert!(at.iter().all(|&mm| (mm - 2000.0).abs() < 0.5), "{at:?}");
 }
 
-/// The stall while braking after Leave live, in rig steps (ms).
-const STALL_STEPS: usize = 120;
+/// A stall of the bridge while live or braking after Leave live, in rig steps (ms):
+/// longer than the
+/// FIFO holds ahead ([`crate::uim2503::player::live::LIVE_FIFO_MIN_MS`]).
+const STALL_STEPS: usize = 250;
 
 /// Live mode asked for again at once after leaving (while the units still run the
 /// FIFO's last rows, their positions not yet read back): it homes first rather than

@@ -10,7 +10,7 @@
 //!   (every unit takes the same rows at the same time), at least [`ROW_MIN_MS`]; more
 //!   than [`ROW_MAX_MS`] is refused ([`StartError::LiveLineTooSlow`]).
 //! - **Prepare**: every gateway's units are configured for FIFO mode (motor on, the
-//!   table cleared, the watermark notice), given [`LIVE_FIFO_ROWS`] rows at rest where
+//!   table cleared, the watermark notice), given [`live_fifo_rows`] rows at rest where
 //!   they stand, armed (`PV=0`) and confirmed with the `PV;` barrier (it answers the
 //!   water level); then `*0;BG;` goes on every gateway's priority lane at one instant
 //!   ([`START_LEAD_US`] ahead), and the units' start is the first period's slot.
@@ -18,17 +18,18 @@
 //!   at the period's end — a filter step has a constant acceleration, so the unit's
 //!   cubic between rows is the filter's parabola exactly — written into the table
 //!   round (`row % 256`), rows every unit of a gateway shares broadcast once
-//!   ([`stream::rows`]). The FIFO stays [`LIVE_FIFO_ROWS`] deep: a row written at a
-//!   slot runs that many rows later, so the latency is `(LIVE_FIFO_ROWS + 1)` row
-//!   times (one more for an input that just missed a slot).
+//!   ([`stream::rows`]). The FIFO stays [`live_fifo_rows`] deep (six rows, and at least
+//!   [`LIVE_FIFO_MIN_MS`]): a row written at a slot runs that many rows later, so the
+//!   latency is one row time more than the FIFO's depth (one more row for an input
+//!   that just missed a slot).
 //! - **Rounding**: rows are whole counts, so the filter runs a little under the
 //!   installation's speed and acceleration (what half a count at each end of a row can
 //!   add): no row asks a unit for more than it has.
-//! - **Running dry**: a bridge more than [`LIVE_FIFO_ROWS`] rows late (a stall under
+//! - **Running dry**: a bridge more than [`live_fifo_rows`] rows late (a stall under
 //!   heavy load) leaves the units without a row; they brake with `SD`, stop, and run
 //!   no row written after — silently (the rows' `QT` is broadcast, so not even a full
 //!   FIFO is answered). Every [`LEVEL_CHECK_ROWS`] rows each gateway's first unit is
-//!   asked its water level (`PV;`); more than twice [`LIVE_FIFO_ROWS`] pending means
+//!   asked its water level (`PV;`); more than twice the FIFO's rows pending means
 //!   it stopped taking rows: live mode fails with that said, the matrix is stopped,
 //!   and the next live mode homes first.
 //! - **End**: the last rows hold the balls at rest; the FIFO runs out after them and
@@ -51,8 +52,21 @@ use crate::uim2503::plan::{GatewayRun, Plan, RunMode, UnitPlan};
 use crate::uim2503::pvt::{ROW_MAX_MS, ROW_MIN_MS, Row, TABLE_ROWS};
 use crate::uim2503::{schedule, stream};
 
-/// Rows every unit's FIFO holds ahead while live.
+/// Rows every unit's FIFO holds ahead while live, at least.
 pub const LIVE_FIFO_ROWS: usize = 6;
+
+/// Time every unit's FIFO holds ahead while live, at least, ms: the bridge may fall
+/// this far behind (a stall on a loaded host) before a unit runs dry. Six rows of a
+/// small matrix's short row time (84 ms at 14 ms) ran dry under load.
+pub const LIVE_FIFO_MIN_MS: u64 = 150;
+
+/// Rows every unit's FIFO holds ahead while live at rows of `row_ms`: at least
+/// [`LIVE_FIFO_ROWS`], and at least [`LIVE_FIFO_MIN_MS`] of them.
+#[must_use]
+pub fn live_fifo_rows(row_ms: u8) -> usize {
+    let by_time = LIVE_FIFO_MIN_MS.div_ceil(u64::from(row_ms.max(1)));
+    LIVE_FIFO_ROWS.max(usize::try_from(by_time).unwrap_or(LIVE_FIFO_ROWS))
+}
 
 /// Rows between two questions of each gateway's water level (`PV;` to its first
 /// unit) while live: a unit whose FIFO ran dry stopped and runs no row written after
@@ -181,7 +195,7 @@ impl Uim2503Drive {
             },
             approach_speed_mm_s: installation.approach_speed_mm_s,
             layout: installation.layout(),
-            latency_us: (LIVE_FIFO_ROWS as u64 + 1) * row_us,
+            latency_us: (live_fifo_rows(row_ms) as u64 + 1) * row_us,
             // The units take a row from their FIFO every row time, late caller or
             // not: every row is written.
             every_period: true,
@@ -210,7 +224,7 @@ impl Uim2503Drive {
         }
     }
 
-    /// Configures every unit for FIFO mode, preloads [`LIVE_FIFO_ROWS`] rows at rest
+    /// Configures every unit for FIFO mode, preloads [`live_fifo_rows`] rows at rest
     /// at `states` and arms them with the barrier.
     pub(super) fn begin_live_stream(&mut self, states: &[BallState]) -> bool {
         let Ok(row_ms) = self.live_row_ms() else {
@@ -242,7 +256,7 @@ impl Uim2503Drive {
                     gateway,
                     mode: RunMode::Fifo,
                     units: members,
-                    preload_rows: LIVE_FIFO_ROWS,
+                    preload_rows: live_fifo_rows(row_ms),
                     line: crate::line::Line::new(spec.baud),
                 })
             })
@@ -263,7 +277,7 @@ impl Uim2503Drive {
                 continue;
             };
             let mut batch = stream::configure(&plan, run);
-            batch.extend(&stream::rows(&plan, run, 0, LIVE_FIFO_ROWS));
+            batch.extend(&stream::rows(&plan, run, 0, live_fifo_rows(row_ms)));
             batch.extend(&stream::arm_and_confirm(plan.units[first].address.station));
             self.commands.push(Command::Bulk {
                 gateway: run.gateway,
@@ -278,7 +292,7 @@ impl Uim2503Drive {
             confirmed: vec![false; plan.gateways.len()],
             plan,
             row_ms,
-            next_row: LIVE_FIFO_ROWS,
+            next_row: live_fifo_rows(row_ms),
             started: false,
         });
         true
@@ -315,10 +329,11 @@ impl Uim2503Drive {
         if live.plan.units[first].address.station != station {
             return Phase::Pending;
         }
-        if usize::from(value) != LIVE_FIFO_ROWS {
+        let rows = live_fifo_rows(live.row_ms);
+        if usize::from(value) != rows {
             let who = self.describe_unit(first);
             return Phase::Failed(format!(
-                "{who} answered PV with {value} while preparing live mode, expected {LIVE_FIFO_ROWS}; the matrix was stopped"
+                "{who} answered PV with {value} while preparing live mode, expected {rows}; the matrix was stopped"
             ));
         }
         live.confirmed[index] = true;
@@ -347,7 +362,8 @@ impl Uim2503Drive {
     /// fails when the unit stopped taking rows (its FIFO ran dry).
     pub(super) fn live_ran_dry(&self, gateway: usize, station: u8, value: u16) -> Option<String> {
         let live = self.live.as_ref().filter(|live| live.started)?;
-        if usize::from(value) <= 2 * LIVE_FIFO_ROWS {
+        let rows = live_fifo_rows(live.row_ms);
+        if usize::from(value) <= 2 * rows {
             return None;
         }
         let run = live
@@ -359,7 +375,7 @@ impl Uim2503Drive {
         (live.plan.units[first].address.station == station).then(|| {
             format!(
                 "{} has {value} live rows pending, not taking them: its rows ran out (the \
-                 bridge fell more than {LIVE_FIFO_ROWS} rows of {} ms behind, e.g. under heavy \
+                 bridge fell more than {rows} rows of {} ms behind, e.g. under heavy \
                  load) and the units on gateway {gateway} stopped; the matrix was stopped",
                 self.describe_unit(first),
                 live.row_ms
@@ -404,11 +420,8 @@ impl Uim2503Drive {
     /// Where they are is asked once the FIFO ran out ([`AfterLive`]); unknown until
     /// then.
     pub(super) fn end_live_stream(&mut self, at_us: u64, states: &[BallState]) {
-        let row_us = self
-            .live
-            .take()
-            .map_or(u64::from(ROW_MAX_MS), |live| u64::from(live.row_ms))
-            * 1_000;
+        let row_ms = self.live.take().map_or(ROW_MAX_MS, |live| live.row_ms);
+        let row_us = u64::from(row_ms) * 1_000;
         let installation = &self.config.installation;
         let expected: Vec<Option<i32>> = (0..installation.units.len())
             .map(|unit| {
@@ -424,7 +437,7 @@ impl Uim2503Drive {
             answers: vec![None; units],
             confirmed: vec![false; units],
             // The rows still in the FIFO run out (one more for the row under way).
-            next_query_us: at_us + (LIVE_FIFO_ROWS as u64 + 1) * row_us,
+            next_query_us: at_us + (live_fifo_rows(row_ms) as u64 + 1) * row_us,
             wait_us: (2 * row_us).max(AFTER_LIVE_WAIT_US),
             queries: 0,
         });
@@ -503,5 +516,26 @@ impl Uim2503Drive {
             off.len(),
             self.describe_unit(first)
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_fifo_holds_six_rows_and_at_least_150_ms() {
+        // A small matrix's short rows: 150 ms of them.
+        assert_eq!(live_fifo_rows(14), 11);
+        assert_eq!(live_fifo_rows(10), 15);
+        assert_eq!(live_fifo_rows(25), 6);
+        // Long rows: six.
+        assert_eq!(live_fifo_rows(156), 6);
+        assert_eq!(live_fifo_rows(u8::MAX), 6);
+        for row_ms in ROW_MIN_MS..=u8::MAX {
+            let rows = live_fifo_rows(row_ms);
+            assert!(rows >= LIVE_FIFO_ROWS && rows < TABLE_ROWS);
+            assert!(rows as u64 * u64::from(row_ms) >= LIVE_FIFO_MIN_MS);
+        }
     }
 }
