@@ -534,7 +534,7 @@ mod tests {
         assert_eq!(live_fifo_rows(u8::MAX), 6);
         for row_ms in ROW_MIN_MS..=u8::MAX {
             let rows = live_fifo_rows(row_ms);
-            assert!(rows >= LIVE_FIFO_ROWS && rows < TABLE_ROWS);
+            assert!((LIVE_FIFO_ROWS..TABLE_ROWS).contains(&rows));
             assert!(rows as u64 * u64::from(row_ms) >= LIVE_FIFO_MIN_MS);
         }
     }
