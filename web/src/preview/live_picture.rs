@@ -70,8 +70,12 @@ pub fn live_show(positions_mm: &[i32], layout: Layout) -> Show {
 fn range_mm(positions_mm: &[f32]) -> Option<(i64, i64)> {
     let low = positions_mm.iter().copied().reduce(f32::min)?;
     let high = positions_mm.iter().copied().reduce(f32::max)?;
-    #[allow(clippy::cast_possible_truncation, reason = "positions within the travel")]
-    Some((low.round() as i64, high.round() as i64))
+    #[allow(
+        clippy::cast_possible_truncation,
+        reason = "positions within the travel"
+    )]
+    let whole = |mm: f32| mm.round() as i64;
+    Some((whole(low), whole(high)))
 }
 
 /// The live picture, or (the operator chose the show) the bar that leads to it.
