@@ -190,6 +190,22 @@ fn art_dmx(data: &[u8]) -> Vec<u8> {
     packet
 }
 
+/// Whether an element `css` is on screen (the Preview keeps a show hidden under the
+/// live picture).
+async fn displayed(browser: &Browser, css: &str) -> bool {
+    for element in browser
+        .client
+        .find_all(Locator::Css(css))
+        .await
+        .expect("find elements")
+    {
+        if element.is_displayed().await.expect("displayed") {
+            return true;
+        }
+    }
+    false
+}
+
 /// A fingerprint of the picture on the canvas `css`, once two more frames are drawn.
 async fn picture(browser: &Browser, css: &str) -> String {
     let script = r"
@@ -281,17 +297,20 @@ async fn go_live_shows_the_phase_a_recorded_take_is_listed_and_leave_live_ends_i
     const LIVE_PICTURE: &str = "[data-testid=preview-live-picture]";
     const LIVE_CANVAS: &str = "[data-testid=preview-live-picture] [data-testid=preview-canvas]";
     browser.click("[data-testid=nav-preview]").await;
-    browser
-        .wait_for_attribute(LIVE_PICTURE, "data-high-mm", "500", UI_TIMEOUT)
-        .await;
-    let live_picture = browser.wait_for(LIVE_PICTURE).await;
-    for (name, value) in [("data-balls", "4"), ("data-low-mm", "500")] {
-        assert_eq!(
-            live_picture.attr(name).await.expect("attribute").as_deref(),
-            Some(value),
-            "{name}"
-        );
+    for (name, value) in [("data-high-mm", "500"), ("data-low-mm", "500")] {
+        browser
+            .wait_for_attribute(LIVE_PICTURE, name, value, UI_TIMEOUT)
+            .await;
     }
+    let live_picture = browser.wait_for(LIVE_PICTURE).await;
+    assert_eq!(
+        live_picture
+            .attr("data-balls")
+            .await
+            .expect("attribute")
+            .as_deref(),
+        Some("4")
+    );
     assert!(
         !browser
             .text("[data-testid=preview-live-title]")
@@ -306,7 +325,7 @@ async fn go_live_shows_the_phase_a_recorded_take_is_listed_and_leave_live_ends_i
             UI_TIMEOUT,
         )
         .await;
-    assert_eq!(count(&browser, "[data-testid=preview-empty]").await, 0);
+    assert!(!displayed(&browser, "[data-testid=preview-empty]").await);
     browser
         .wait_for(&format!("{LIVE_CANVAS}[data-renderer=webgl2]"))
         .await;
@@ -353,7 +372,7 @@ async fn go_live_shows_the_phase_a_recorded_take_is_listed_and_leave_live_ends_i
     browser
         .wait_for_attribute(LIVE_PICTURE, "data-low-mm", "1000", UI_TIMEOUT)
         .await;
-    assert_eq!(count(&browser, "[data-testid=preview-name]").await, 0);
+    assert!(!displayed(&browser, "[data-testid=preview-name]").await);
     browser.click("[data-testid=preview-live-to-show]").await;
     browser
         .wait_for_text("[data-testid=preview-name]", "take")

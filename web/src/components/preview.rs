@@ -8,8 +8,8 @@
 //!
 //! While the matrix is live the live picture takes over (the balls at their live
 //! positions, [`crate::preview::live_picture`]: its code is in the Live card's chunk,
-//! [`crate::lazy::live_preview`]); the chosen show stays chosen, a tap away, and is
-//! shown again when live mode ends.
+//! [`crate::lazy::live_preview`]); the chosen show stays chosen, hidden as it was, a
+//! tap away, and is shown again when live mode ends.
 
 use std::sync::Arc;
 
@@ -116,10 +116,12 @@ pub fn PreviewScreen() -> impl IntoView {
                 </div>
             </aside>
             <div class="viewer">
-                <Show when=move || live.get()>
-                    <LazyPage load=crate::lazy::load_live_preview />
-                </Show>
-                <Show when=move || !live.get() || ctx.preview_show_while_live.get()>
+                {move || live.get().then(|| view! { <LazyPage load=crate::lazy::load_live_preview /> }.into_any())}
+                // Hidden, not dropped, under the live picture: the show stays as it was
+                // (and its view is never rebuilt, which keeps the first load small).
+                <div style:display=move || {
+                    if live.get() && !ctx.preview_show_while_live.get() { "none" } else { "block" }
+                }>
                 {move || match ctx.preview.get() {
                     Some(PreviewItem::Loading(name)) => Some(view! {
                         <h2>{name}</h2>
@@ -142,7 +144,7 @@ pub fn PreviewScreen() -> impl IntoView {
                     installation=Signal::derive(move || ctx.installation_now())
                     from_ms=Signal::derive(move || ctx.preview_from_ms.get())
                 />
-                </Show>
+                </div>
             </div>
         </section>
     }
