@@ -190,10 +190,50 @@ fn art_dmx(data: &[u8]) -> Vec<u8> {
     packet
 }
 
+/// Whether an element `css` is on screen (the Preview keeps a show hidden under the
+/// live picture).
+async fn displayed(browser: &Browser, css: &str) -> bool {
+    for element in browser
+        .client
+        .find_all(Locator::Css(css))
+        .await
+        .expect("find elements")
+    {
+        if element.is_displayed().await.expect("displayed") {
+            return true;
+        }
+    }
+    false
+}
+
+/// A fingerprint of the picture on the canvas `css`, once two more frames are drawn.
+async fn picture(browser: &Browser, css: &str) -> String {
+    let script = r"
+        const [css, done] = arguments;
+        requestAnimationFrame(() => requestAnimationFrame(() => {
+            const url = document.querySelector(css).toDataURL('image/png');
+            let hash = 0;
+            for (let i = 0; i < url.length; i++) hash = (hash * 31 + url.charCodeAt(i)) | 0;
+            done(url.length + ':' + hash);
+        }));
+    ";
+    browser
+        .client
+        .execute_async(script, vec![serde_json::Value::from(css)])
+        .await
+        .expect("read the picture")
+        .as_str()
+        .unwrap_or_default()
+        .to_owned()
+}
+
 /// The Live card on Control (issue 38): Go live shows the phase until the balls
 /// follow a console's Art-Net (this test's own datagrams), Record a take and Stop
 /// recording → the take is among the controller's files, Leave live → off. While
 /// live the card draws the balls' live positions, and they move with the console.
+/// The Preview page shows the live picture meanwhile (the 3D matrix, every ball at
+/// its live position); a show previewed while live is one tap from it, and is what
+/// the page shows again once live mode ends.
 #[tokio::test]
 async fn go_live_shows_the_phase_a_recorded_take_is_listed_and_leave_live_ends_it() {
     let socket = std::net::UdpSocket::bind("127.0.0.1:0").expect("a socket");
@@ -251,7 +291,54 @@ async fn go_live_shows_the_phase_a_recorded_take_is_listed_and_leave_live_ends_i
         )
         .await;
     browser.wait_for("[data-testid=live-matrix]").await;
+
+    // The Preview page: the live picture, the installation's 4 balls at 500 mm, on
+    // the 3D stage; the card gone meanwhile, the positions keep coming.
+    const LIVE_PICTURE: &str = "[data-testid=preview-live-picture]";
+    const LIVE_CANVAS: &str = "[data-testid=preview-live-picture] [data-testid=preview-canvas]";
+    browser.click("[data-testid=nav-preview]").await;
+    for (name, value) in [("data-high-mm", "500"), ("data-low-mm", "500")] {
+        browser
+            .wait_for_attribute(LIVE_PICTURE, name, value, UI_TIMEOUT)
+            .await;
+    }
+    let live_picture = browser.wait_for(LIVE_PICTURE).await;
+    assert_eq!(
+        live_picture
+            .attr("data-balls")
+            .await
+            .expect("attribute")
+            .as_deref(),
+        Some("4")
+    );
+    assert!(
+        !browser
+            .text("[data-testid=preview-live-title]")
+            .await
+            .is_empty()
+    );
+    browser
+        .wait_for_attribute(
+            "[data-testid=preview-live-phase]",
+            "data-phase",
+            "following",
+            UI_TIMEOUT,
+        )
+        .await;
+    assert!(!displayed(&browser, "[data-testid=preview-empty]").await);
+    browser
+        .wait_for(&format!("{LIVE_CANVAS}[data-renderer=webgl2]"))
+        .await;
+    let at_500 = picture(&browser, LIVE_CANVAS).await;
+    // The console moves the balls: the picture follows.
     fader.store(0x80, std::sync::atomic::Ordering::SeqCst);
+    browser
+        .wait_for_attribute(LIVE_PICTURE, "data-low-mm", "1000", PLAY_TIMEOUT)
+        .await;
+    assert_ne!(picture(&browser, LIVE_CANVAS).await, at_500);
+
+    // Back on Control, the card has them too (asked for again when it opened).
+    browser.click("[data-testid=nav-control]").await;
     browser
         .wait_for_attribute(
             "[data-testid=live-positions]",
@@ -271,6 +358,26 @@ async fn go_live_shows_the_phase_a_recorded_take_is_listed_and_leave_live_ends_i
     browser
         .wait_for("[data-testid=controller-file][data-name=take]")
         .await;
+    // A show previewed while live: the show, with a bar to the live picture; from
+    // the live picture, a button back to the show.
+    browser
+        .click("[data-testid=controller-file][data-name=take]")
+        .await;
+    browser.click("[data-testid=preview-controller]").await;
+    browser.wait_for("[data-testid=preview-live-bar]").await;
+    browser
+        .wait_for_text("[data-testid=preview-name]", "take")
+        .await;
+    browser.click("[data-testid=preview-live-open]").await;
+    browser
+        .wait_for_attribute(LIVE_PICTURE, "data-low-mm", "1000", UI_TIMEOUT)
+        .await;
+    assert!(!displayed(&browser, "[data-testid=preview-name]").await);
+    browser.click("[data-testid=preview-live-to-show]").await;
+    browser
+        .wait_for_text("[data-testid=preview-name]", "take")
+        .await;
+    assert_eq!(count(&browser, LIVE_PICTURE).await, 0);
 
     browser.click("[data-testid=nav-control]").await;
     browser.click("[data-testid=leave-live]").await;
@@ -282,6 +389,14 @@ async fn go_live_shows_the_phase_a_recorded_take_is_listed_and_leave_live_ends_i
             PLAY_TIMEOUT,
         )
         .await;
+    // Not live: the Preview page shows the show chosen, without the live bar.
+    browser.click("[data-testid=nav-preview]").await;
+    browser
+        .wait_for_text("[data-testid=preview-name]", "take")
+        .await;
+    browser.wait_for("[data-testid=preview-canvas]").await;
+    assert_eq!(count(&browser, "[data-testid=preview-live-bar]").await, 0);
+    assert_eq!(count(&browser, LIVE_PICTURE).await, 0);
     sending.store(false, std::sync::atomic::Ordering::SeqCst);
     console.join().expect("the console thread");
 }

@@ -139,8 +139,16 @@ pub struct Ctx {
     /// The bridge's timecode chase, when it has one on (`ServerMessage::Timecode`).
     pub timecode: RwSignal<Option<floatball_shared::timecode::chase::TimecodeStatus>>,
     /// The balls' live positions, whole mm (`ServerMessage::LivePositions`, asked for
-    /// by the Live card while it is shown); empty while not live.
+    /// by the Live card and the Preview page's live picture while they are shown);
+    /// empty while not live.
     pub live_positions: RwSignal<Vec<i32>>,
+    /// How many views want [`Ctx::live_positions`] now: the last one to go stops
+    /// asking (`crate::components::live::want_live_positions`).
+    pub live_positions_wanted: StoredValue<u32>,
+    /// While the matrix is live, the Preview page shows the show chosen there
+    /// instead of the live picture: set when a show is chosen, cleared whenever
+    /// live mode begins or ends (the live picture takes over again).
+    pub preview_show_while_live: RwSignal<bool>,
     /// Whether the draft kept in the browser was read back into [`Ctx::create`]
     /// (the Create page does it when first opened, its code being a chunk).
     pub create_restored: StoredValue<bool>,
@@ -263,6 +271,8 @@ impl Ctx {
             create: RwSignal::new(crate::create::Draft::new()),
             timecode: RwSignal::new(None),
             live_positions: RwSignal::new(Vec::new()),
+            live_positions_wanted: StoredValue::new(0),
+            preview_show_while_live: RwSignal::new(false),
             create_restored: StoredValue::new(false),
             origin: StoredValue::new(origin),
             services: StoredValue::new_local(services),
@@ -359,13 +369,18 @@ impl Ctx {
 
     /// Takes the matrix's status (`None`: none known). The E-stop acknowledgement
     /// ends once the matrix leaves `stopped` (homing, playing…): it no longer
-    /// describes the matrix, whether or not an E-stop button is shown.
+    /// describes the matrix, whether or not an E-stop button is shown. When live mode
+    /// begins or ends, the Preview page shows the live picture again (or its show).
     pub fn set_status(&self, status: Option<Status>) {
         let stopped = |status: &Option<Status>| {
             status.as_ref().map(|s| s.state) == Some(PlayerState::Stopped)
         };
+        let live = |status: &Option<Status>| status.as_ref().is_some_and(|s| s.live.is_some());
         let was_stopped = self.status.with_untracked(stopped);
         let now_stopped = stopped(&status);
+        if self.status.with_untracked(live) != live(&status) {
+            self.preview_show_while_live.set(false);
+        }
         self.status.set(status);
         if was_stopped && !now_stopped {
             self.estop_ack.set(None);
@@ -551,6 +566,7 @@ impl Ctx {
         }
         let name = file.name.clone();
         self.preview_from_ms.set(None);
+        self.preview_show_while_live.set(true);
         if file.kind == ShowFormat::Json {
             let read = read_json(file.show_name(), file.text.as_bytes());
             self.preview
@@ -584,6 +600,7 @@ impl Ctx {
         let Some(client) = self.client() else { return };
         let name = name.to_owned();
         self.preview_from_ms.set(None);
+        self.preview_show_while_live.set(true);
         self.preview.set(Some(PreviewItem::Loading(name.clone())));
         self.page.set(Page::Preview);
         let ctx = *self;

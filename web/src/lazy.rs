@@ -24,8 +24,10 @@
 //! files need no chunk), the Preview's check of a show against the limits
 //! ([`show_violations`]: the show is on screen first, its problems a moment after)
 //! and the reading of the schedule's and the timecode chase's messages
-//! ([`read_show_control`]: fetched when the bridge first sends one), and Control's
-//! Live card ([`live_card`]: fetched when it is opened or the matrix is live).
+//! ([`read_show_control`]: fetched when the bridge first sends one), Control's
+//! Live card ([`live_card`]: fetched when it is opened or the matrix is live) and, in
+//! the same chunk, the Preview's live picture ([`live_preview`]: fetched when the
+//! Preview page is open while the matrix is live).
 
 use std::future::Future;
 use std::pin::Pin;
@@ -281,7 +283,8 @@ split!(
 split!(
     live,
     /// A `live_positions` message read ([`crate::wire::read_live_positions`]): its
-    /// reader comes with the Live card, the one asking for them. `None` when it does
+    /// reader comes with the Live card and the Preview's live picture, the ones
+    /// asking for them. `None` when it does
     /// not read (the browser's console says why).
     pub fn read_live_positions(text: String) -> Option<floatball_shared::api::ServerMessage> {
         crate::wire::read_live_positions(&text)
@@ -291,6 +294,21 @@ split!(
             .ok()
     }
 );
+
+split!(
+    live,
+    /// The Preview page's live picture ([`crate::preview::live_picture`]): the matrix
+    /// at its live positions, in the Live card's chunk (it reads the same
+    /// `live_positions`), fetched when the Preview page is open while live.
+    pub fn live_preview() -> PageView {
+        || view! { <crate::preview::live_picture::LivePicture /> }.into_any()
+    }
+);
+
+/// [`live_preview`] as a [`Loader`].
+pub fn load_live_preview() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkError>>>> {
+    Box::pin(live_preview())
+}
 
 /// [`live_card`] as a [`Loader`].
 pub fn load_live() -> Pin<Box<dyn Future<Output = Result<PageView, ChunkError>>>> {

@@ -61,7 +61,8 @@ pub enum Decoded {
     /// schedule or a timecode chase is used, its reading stays out of the first load.
     ShowControl(String),
     /// A `live_positions` message, read by [`read_live_positions`] in the `live`
-    /// chunk ([`crate::lazy::read_live_positions`]): asked for only by the Live card.
+    /// chunk ([`crate::lazy::read_live_positions`]): asked for only by the Live card
+    /// and the Preview's live picture.
     LivePositions(String),
 }
 

@@ -10,7 +10,10 @@
 //! While the card is shown it asks the bridge for the balls' live positions
 //! (`live_positions`, read in this chunk: [`crate::lazy::read_live_positions`]) and,
 //! while live, draws them ([`LiveMatrix`]): the matrix from above, each ball a square
-//! shaded by its depth, with the shallowest and deepest positions in words.
+//! shaded by its depth, with the shallowest and deepest positions in words. The
+//! Preview page's live picture ([`crate::preview::live_picture`], in this chunk too)
+//! asks for them as well: [`want_live_positions`] counts the views that want them,
+//! so the one that goes does not stop them for the other.
 
 use floatball_shared::api::{ClientMessage, LivePhase, LiveStatus};
 use leptos::html::Canvas;
@@ -21,7 +24,7 @@ use crate::context::Ctx;
 use crate::i18n::LiveText;
 
 /// The phase's words.
-fn phase_text(phase: LivePhase) -> LiveText {
+pub(crate) fn phase_text(phase: LivePhase) -> LiveText {
     match phase {
         LivePhase::Homing => LiveText::LivePhaseHoming,
         LivePhase::Preparing => LiveText::LivePhasePreparing,
@@ -50,7 +53,7 @@ fn shade(position_mm: i32, travel_mm: f64) -> String {
 
 /// The matrix's rows and columns for `balls` balls: the installation's when it
 /// holds them, else one row.
-fn grid(balls: usize, rows: u32, cols: u32) -> (usize, usize) {
+pub(crate) fn grid(balls: usize, rows: u32, cols: u32) -> (usize, usize) {
     let (rows, cols) = (rows as usize, cols as usize);
     if rows * cols >= balls && cols > 0 {
         (rows, cols)
@@ -59,20 +62,51 @@ fn grid(balls: usize, rows: u32, cols: u32) -> (usize, usize) {
     }
 }
 
-/// The balls' live positions, drawn from above while live (see the module's doc).
-#[component]
-fn LiveMatrix() -> impl IntoView {
-    let ctx = expect_context::<Ctx>();
-    // Asked for while the card is shown, again on every connect.
+/// One more view wants the live positions: whether it is the first.
+fn wanted_by_one_more(wanted: &mut u32) -> bool {
+    *wanted = wanted.saturating_add(1);
+    *wanted == 1
+}
+
+/// A view that wanted the live positions is gone: whether it was the last.
+fn wanted_by_one_less(wanted: &mut u32) -> bool {
+    *wanted = wanted.saturating_sub(1);
+    *wanted == 0
+}
+
+/// Asks the bridge for the balls' live positions while the calling view is shown
+/// (again on every connect: a new session starts without them). The views that
+/// want them are counted ([`Ctx::live_positions_wanted`]): only the last one to go
+/// asks the bridge to stop and clears [`Ctx::live_positions`], so the Live card and
+/// the Preview's live picture never switch them off for each other, whichever order
+/// they come and go in.
+pub(crate) fn want_live_positions(ctx: Ctx) {
+    ctx.live_positions_wanted.update_value(|wanted| {
+        wanted_by_one_more(wanted);
+    });
     Effect::new(move |_| {
         if ctx.connected() {
             ctx.send(&ClientMessage::LivePositions { on: true });
         }
     });
     on_cleanup(move || {
-        ctx.send(&ClientMessage::LivePositions { on: false });
-        ctx.live_positions.try_set(Vec::new());
+        let last = ctx
+            .live_positions_wanted
+            .try_update_value(wanted_by_one_less)
+            .unwrap_or(true);
+        if last {
+            ctx.send(&ClientMessage::LivePositions { on: false });
+            ctx.live_positions.try_set(Vec::new());
+        }
     });
+}
+
+/// The balls' live positions, drawn from above while live (see the module's doc).
+#[component]
+fn LiveMatrix() -> impl IntoView {
+    let ctx = expect_context::<Ctx>();
+    // Asked for while the card is shown, again on every connect.
+    want_live_positions(ctx);
     let canvas = NodeRef::<Canvas>::new();
     Effect::new(move |_| {
         let Some(canvas) = canvas.get() else { return };
@@ -306,6 +340,30 @@ mod tests {
         ] {
             assert!(!can_record(Some(&status(phase, false))), "{phase:?}");
         }
+    }
+
+    #[test]
+    fn the_live_positions_stop_only_when_the_last_view_that_wants_them_goes() {
+        let mut wanted = 0;
+        assert!(wanted_by_one_more(&mut wanted), "the card: the first");
+        assert!(!wanted_by_one_more(&mut wanted), "the preview: a second");
+        assert!(
+            !wanted_by_one_less(&mut wanted),
+            "the card goes: still wanted"
+        );
+        assert!(
+            wanted_by_one_less(&mut wanted),
+            "the preview goes: the last"
+        );
+        // The other order: one goes before the next comes.
+        assert!(wanted_by_one_more(&mut wanted));
+        assert!(wanted_by_one_less(&mut wanted));
+        assert!(wanted_by_one_more(&mut wanted));
+        assert_eq!(wanted, 1);
+        // Never below none.
+        assert!(wanted_by_one_less(&mut wanted));
+        assert!(wanted_by_one_less(&mut wanted));
+        assert_eq!(wanted, 0);
     }
 
     #[test]

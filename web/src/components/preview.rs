@@ -5,6 +5,11 @@
 //! Once a show is chosen the file lists fold away on a phone, so the picture is
 //! above the fold; "Choose another show" opens them again. Wide screens keep them
 //! beside the picture.
+//!
+//! While the matrix is live the live picture takes over (the balls at their live
+//! positions, [`crate::preview::live_picture`]: its code is in the Live card's chunk,
+//! [`crate::lazy::live_preview`]); the chosen show stays chosen, hidden as it was, a
+//! tap away, and is shown again when live mode ends.
 
 use std::sync::Arc;
 
@@ -13,6 +18,7 @@ use leptos::prelude::*;
 use crate::components::widgets::RowButton;
 use crate::context::{Ctx, PreviewItem};
 use crate::i18n::Text;
+use crate::lazy::LazyPage;
 use crate::preview::PreviewPage;
 
 /// The Preview page.
@@ -33,6 +39,10 @@ pub fn PreviewScreen() -> impl IntoView {
         },
         crate::preview::show_changed,
     );
+    let live = Memo::new(move |_| {
+        ctx.status
+            .with(|status| status.as_ref().is_some_and(|status| status.live.is_some()))
+    });
     let current = move || {
         ctx.preview.with(|item| match item {
             Some(
@@ -106,6 +116,12 @@ pub fn PreviewScreen() -> impl IntoView {
                 </div>
             </aside>
             <div class="viewer">
+                {move || live.get().then(|| view! { <LazyPage load=crate::lazy::load_live_preview /> }.into_any())}
+                // Hidden, not dropped, under the live picture: the show stays as it was
+                // (and its view is never rebuilt, which keeps the first load small).
+                <div style:display=move || {
+                    if live.get() && !ctx.preview_show_while_live.get() { "none" } else { "block" }
+                }>
                 {move || match ctx.preview.get() {
                     Some(PreviewItem::Loading(name)) => Some(view! {
                         <h2>{name}</h2>
@@ -128,6 +144,7 @@ pub fn PreviewScreen() -> impl IntoView {
                     installation=Signal::derive(move || ctx.installation_now())
                     from_ms=Signal::derive(move || ctx.preview_from_ms.get())
                 />
+                </div>
             </div>
         </section>
     }

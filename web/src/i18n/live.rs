@@ -1,4 +1,5 @@
-//! The Live card's strings (Control page, issue 38): they come with its chunk.
+//! The Live card's strings (Control page, issue 38) and the Preview page's live
+//! picture's: they come with their chunk.
 
 texts! {
     /// The Live card's fixed strings.
@@ -47,4 +48,18 @@ texts! {
     LiveBalls => "个球", "balls";
     /// Recording needs a name.
     LiveRecordNeedsName => "请输入演出名称", "Type a name for the show";
+    /// The Preview page's live picture: its heading.
+    LivePictureTitle => "实时 — 来自矩阵的位置", "Live — positions from the matrix";
+    /// What the live picture shows.
+    LivePictureExplain => "矩阵处于实时模式：每个球画在控制器报告的位置（每秒最多更新 10 次）。实时模式结束后，预览回到之前显示的内容。", "The matrix is live: every ball is drawn where the controller reports it (up to 10 updates a second). When live mode ends, the preview goes back to what it showed before.";
+    /// No positions yet.
+    LivePictureWaiting => "正在等待矩阵的位置…", "Waiting for the positions from the matrix…";
+    /// From the live picture back to the show chosen.
+    LivePictureToShow => "显示所选演出", "Show the chosen show";
+    /// A show shown while live: the matrix is live.
+    LivePictureLiveNow => "矩阵处于实时模式。", "The matrix is live.";
+    /// From the show back to the live picture.
+    LivePictureToLive => "显示实时画面", "Show the live picture";
+    /// The tapped ball's live position.
+    LivePictureBallAt => "位置", "at";
 }

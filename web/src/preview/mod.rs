@@ -14,12 +14,15 @@
 //! - [`camera`], [`scene`], [`gestures`]: the 3D view's maths and touch handling;
 //! - [`stage`]: a show on a canvas (sampling and the renderer); [`gl`]: WebGL2;
 //!   [`top_view`]: the 2D fallback;
-//! - [`plot`]: one ball over the whole show; [`perf`]: the performance panel.
+//! - [`plot`]: one ball over the whole show; [`perf`]: the performance panel;
+//! - [`live_picture`]: the matrix's live positions while it is live (issue 38), in
+//!   the Live card's chunk.
 
 pub mod camera;
 pub mod gestures;
 pub mod gl;
 pub mod live;
+pub mod live_picture;
 pub mod model;
 pub mod perf;
 pub mod playback;
@@ -563,7 +566,10 @@ fn problems_view(checked: Option<&Checked>, lang: Signal<Lang>) -> AnyView {
 }
 
 /// Runs `act` on the stage, if there is one.
-fn with_stage(stage: StoredValue<Option<Stage>, LocalStorage>, act: impl FnOnce(&mut Stage)) {
+pub(crate) fn with_stage(
+    stage: StoredValue<Option<Stage>, LocalStorage>,
+    act: impl FnOnce(&mut Stage),
+) {
     stage.update_value(|stage| {
         if let Some(stage) = stage {
             act(stage);
@@ -592,12 +598,12 @@ fn run_frames(clock: RwSignal<Clock>, stage: StoredValue<Option<Stage>, LocalSto
 
 /// What the stage's canvas is wired to (all `Copy`, for the event handlers).
 #[derive(Clone, Copy)]
-struct StageParts {
-    show: Signal<Option<Arc<Show>>>,
-    canvas: NodeRef<Canvas>,
-    stage: StoredValue<Option<Stage>, LocalStorage>,
-    gestures: StoredValue<Gestures>,
-    view_choice: RwSignal<ViewChoice>,
+pub(crate) struct StageParts {
+    pub(crate) show: Signal<Option<Arc<Show>>>,
+    pub(crate) canvas: NodeRef<Canvas>,
+    pub(crate) stage: StoredValue<Option<Stage>, LocalStorage>,
+    pub(crate) gestures: StoredValue<Gestures>,
+    pub(crate) view_choice: RwSignal<ViewChoice>,
 }
 
 /// Where a pointer event is on its target, CSS pixels.
@@ -617,7 +623,7 @@ fn point(event: &web_sys::MouseEvent) -> Vec2 {
 /// the right button or Shift), wheel to zoom, tap to select a ball. One canvas per
 /// renderer: a canvas that had a WebGL2 context cannot draw in 2D, so switching
 /// makes a new one.
-fn stage_canvas(kind: RendererKind, parts: StageParts) -> impl IntoView {
+pub(crate) fn stage_canvas(kind: RendererKind, parts: StageParts) -> impl IntoView {
     let StageParts {
         show,
         canvas,
@@ -691,7 +697,7 @@ fn stage_canvas(kind: RendererKind, parts: StageParts) -> impl IntoView {
 }
 
 /// Runs `step` on every animation frame while `alive`.
-fn animate(step: Rc<dyn Fn()>, alive: Arc<AtomicBool>) {
+pub(crate) fn animate(step: Rc<dyn Fn()>, alive: Arc<AtomicBool>) {
     request_animation_frame(move || {
         if alive.load(Ordering::Relaxed) {
             step();
