@@ -175,10 +175,34 @@ split!(
     pub fn show_violations(
         show: std::sync::Arc<floatball_shared::show::Show>,
         limits: floatball_shared::show::Limits,
-    ) -> Vec<floatball_shared::show::Violation> {
-        floatball_shared::show::validate(&show, &limits)
+        shown: usize,
+    ) -> Violations {
+        let all = floatball_shared::show::validate(&show, &limits);
+        let words = |lang: Lang| {
+            all.iter()
+                .take(shown)
+                .map(|violation| lang.error_of(violation))
+                .collect()
+        };
+        Violations {
+            words_zh: words(Lang::Zh),
+            words_en: words(Lang::En),
+            all,
+        }
     }
 );
+
+/// A show's violations of the limits ([`show_violations`]) and the first few in
+/// words, in each language (their words and parameters stay in the check's chunk).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Violations {
+    /// Every violation.
+    pub all: Vec<floatball_shared::show::Violation>,
+    /// The first ones in 中文.
+    pub words_zh: Vec<String>,
+    /// The first ones in English.
+    pub words_en: Vec<String>,
+}
 
 split!(
     showcontrol,

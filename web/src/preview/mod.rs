@@ -63,6 +63,8 @@ struct Checked {
     /// Whether `limits` are the installation's.
     installed: bool,
     violations: Vec<Violation>,
+    /// The first [`PROBLEMS_SHOWN`] violations in words, in 中文 and in English.
+    words: [Vec<String>; 2],
     /// The balls with a violation, each once, in order.
     beyond: Vec<usize>,
 }
@@ -78,7 +80,11 @@ impl Checked {
             || Limits::for_layout(show.layout.rows, show.layout.cols),
             crate::installation::limits_of,
         );
-        let violations = crate::lazy::show_violations(show, limits).await?;
+        let crate::lazy::Violations {
+            all: violations,
+            words_zh,
+            words_en,
+        } = crate::lazy::show_violations(show, limits, PROBLEMS_SHOWN).await?;
         let mut beyond: Vec<usize> = violations
             .iter()
             .filter_map(|violation| violation.unit.map(|unit| unit.index))
@@ -89,6 +95,7 @@ impl Checked {
             limits,
             installed: installation.is_some(),
             violations,
+            words: [words_zh, words_en],
             beyond,
         })
     }
@@ -546,12 +553,7 @@ fn problems_view(checked: Option<&Checked>, lang: Signal<Lang>) -> AnyView {
     } else {
         Text::BeyondLimits
     };
-    let in_lang = lang.get();
-    let shown: Vec<String> = violations
-        .iter()
-        .take(PROBLEMS_SHOWN)
-        .map(|violation| in_lang.error_of(violation))
-        .collect();
+    let shown = checked.words[usize::from(lang.get() == Lang::En)].clone();
     let more = count.saturating_sub(shown.len());
     view! {
         <div class="note error" data-testid="preview-problems" data-limits=if installed { "installation" } else { "default" }>
