@@ -1190,8 +1190,14 @@ mod tests {
         artnet(&mut live, 1, &[0x90, 0], new);
         assert!(live.values_changed);
         assert!(publish_now(new, repeat, Some(start)));
-        assert!(!publish_now(new, repeat, None), "a repeat waits for the tick");
-        assert!(!publish_now(new, repeat, Some(repeat)), "new values at most every 10 ms");
+        assert!(
+            !publish_now(new, repeat, None),
+            "a repeat waits for the tick"
+        );
+        assert!(
+            !publish_now(new, repeat, Some(repeat)),
+            "new values at most every 10 ms"
+        );
     }
 
     #[tokio::test]

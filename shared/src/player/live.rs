@@ -445,9 +445,7 @@ impl Live {
             period_ms: ms(self.setup.period_us()),
             latency_ms: ms(self.setup.latency_us),
             recording: recorder.is_some(),
-            recorded_ms: recorder.map_or(0, |recorder| {
-                recorder.recorded_ms()
-            }),
+            recorded_ms: recorder.map_or(0, |recorder| recorder.recorded_ms()),
         }
     }
 }
