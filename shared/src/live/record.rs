@@ -389,6 +389,37 @@ mod tests {
             })
         );
     }
+
+    /// A step re-timed to a change of live input (`crate::player::live`) is shorter
+    /// than the filter's: it is recorded as a row of its own length, and the show
+    /// passes through its state at that time.
+    #[test]
+    fn a_shorter_step_is_recorded_for_its_time() {
+        let filter = MotionFilter::new(LIMITS).unwrap();
+        let short = MotionFilter::new(FilterLimits { dt_ms: 13, ..LIMITS }).unwrap();
+        let mut states = vec![BallState::at_rest(1000.0); 6];
+        let mut recorder = Recorder::new("x", LAYOUT, filter, &states).unwrap();
+        for state in &mut states {
+            short.step(state, Some(3000.0), None);
+        }
+        let after_short = states[0];
+        recorder.push_step(&states, &[], 13);
+        for _ in 0..50 {
+            for state in &mut states {
+                filter.step(state, Some(3000.0), None);
+            }
+            recorder.push(&states, &[]);
+        }
+        assert_eq!(recorder.recorded_ms(), 13 + 50 * 20);
+        let show = recorder.finish();
+        assert!(validate(&show, &limits()).is_empty());
+        let mut sampler = crate::show::Sampler::new(&show);
+        let mut at = [0.0f32; 6];
+        sampler.sample(13.0, &mut at, None);
+        assert!((f64::from(at[0]) - after_short.position_mm).abs() < 1e-3);
+        sampler.sample(1013.0, &mut at, None);
+        assert!((f64::from(at[0]) - states[0].position_mm).abs() < 1e-3);
+    }
 }
 
 #[cfg(all(test, not(target_arch = "wasm32")))]
