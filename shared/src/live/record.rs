@@ -396,7 +396,11 @@ mod tests {
     #[test]
     fn a_shorter_step_is_recorded_for_its_time() {
         let filter = MotionFilter::new(LIMITS).unwrap();
-        let short = MotionFilter::new(FilterLimits { dt_ms: 13, ..LIMITS }).unwrap();
+        let short = MotionFilter::new(FilterLimits {
+            dt_ms: 13,
+            ..LIMITS
+        })
+        .unwrap();
         let mut states = vec![BallState::at_rest(1000.0); 6];
         let mut recorder = Recorder::new("x", LAYOUT, filter, &states).unwrap();
         for state in &mut states {
