@@ -55,13 +55,13 @@
 //!   the record request was sent (the request is taken after it), and at most one
 //!   period plus the frame lead (5 ms) and 1 ms after the simulation's time read once
 //!   the status said `recording` (the next step's slot). Inside that window the
-//!   offset with the least mean square error over the first second of samples (0.5 ms
+//!   offset with the least mean square error over the first 250 ms of samples (0.5 ms
 //!   steps, then 20 µs) is taken — the fader's speed (up to 1,000 mm/s) makes a wrong
 //!   offset cost about 1 mm a millisecond, so the fit is sharp — and printed with the
 //!   window. The recording's clock is the filter's: when the bridge is late for a
 //!   period it steps once and skips the rest (the filter's time runs slower than the
 //!   wall's, never faster), so the recording falls a period behind the box's clock
-//!   each time; the offset is therefore followed second by second, each second's
+//!   each time; the offset is therefore followed a quarter of a second at a time, each
 //!   fitted within −5…+45 ms of the one before, and how far it moved over the run is
 //!   printed (0 when no period was skipped). What remains is
 //!   the box's own path (a straight line over each frame against the filter's
@@ -795,14 +795,15 @@ fn compare_recorded(
         request_us.0 as f64,
         request_us.1 as f64 + (PERIOD_MS * 1000) as f64 + lead_us + 1_000.0,
     );
-    // Second by second: the first inside the window the record request bounds, each
-    // next within −5…+45 ms of the one before (the recording's clock falls behind by a
+    // A quarter of a second at a time: the first inside the window the record request
+    // bounds, each next within −5…+45 ms of the one before (the recording's clock falls behind by a
     // period whenever the bridge skipped a late one).
+    const WINDOW_US: u64 = 250_000;
     let first_us = samples.first().map_or(0, |(us, _)| *us);
     let mut zero_us = None;
     let (mut first_zero_us, mut found) = (0.0, Vec::new());
     for chunk in
-        samples.chunk_by(|a, b| (a.0 - first_us) / 1_000_000 == (b.0 - first_us) / 1_000_000)
+        samples.chunk_by(|a, b| (a.0 - first_us) / WINDOW_US == (b.0 - first_us) / WINDOW_US)
     {
         let zero = match zero_us {
             None => {
@@ -821,7 +822,7 @@ fn compare_recorded(
     println!(
         "  against the bridge's own filtered motion (its recording, {recorded_ms} ms; time 0 \
          on the simulation's clock {:.2} ms after the record request was sent (window \
-         {:.1} ms), {:.1} ms later by the last second: periods the bridge skipped): {count} \
+         {:.1} ms), {:.1} ms later by the last quarter second: periods the bridge skipped): {count} \
          ball samples: p50 {p50:.2} mm, p99 {p99:.2} mm, max {max:.2} mm",
         (first_zero_us - from_us) / 1000.0,
         (to_us - from_us) / 1000.0,
