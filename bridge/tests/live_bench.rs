@@ -12,7 +12,10 @@
 //!   in the frame period), the send instant is stamped, and the first motion frame
 //!   received after it whose position for ball 0 differs from the resting one is the
 //!   first motion out carrying the change (decoded with `shared::mbox::Datagram`).
-//!   p50/p99/max against one frame period + 2 ms. A console's repeat of the current
+//!   p50/p99/max against one frame period + 2 ms. The balls rest before each change,
+//!   so the change comes after a quiet period: the bridge's next frame goes half a
+//!   period after the last at the earliest, not at the next slot
+//!   (`shared::player::live`, "A change goes at once"). A console's repeat of the current
 //!   value every 100 ms keeps the input from being lost;
 //! - **packet → first motion out, UIM2503**: 100 units at 115,200 baud — two
 //!   gateways of 50 (one line carries at most 81 in live mode), each a pseudo-terminal
@@ -35,18 +38,47 @@
 //!   random fader for `LIVE_BENCH_ERROR_SECONDS` (60): every 100 ms a new random
 //!   fader speed up to ±1,500 mm/s (the top speed is 1,000 mm/s), the value clamped
 //!   into 100–1,900 mm, sent at 44 packets/s. `GET /api/sim/positions` is sampled
-//!   every ~10 ms; each sample is timed by the simulated box's own clock (`time_us`),
-//!   put on this bench's clock by the smallest offset seen (the fastest answer), so
-//!   no HTTP delay is in the times. The filtered input is computed here with
+//!   every ~10 ms; each sample carries the simulated box's own clock (`time_us`, the
+//!   instant its positions are of), so no HTTP delay is in the times.
+//!   **Against the bridge's own filtered motion** (exact): the bridge records its
+//!   filtered steps through the run (Record over the WebSocket, started with the
+//!   balls at rest before the fader moves, so the recording has no lead-in; Stop
+//!   recording after it; the show is read back with `GET /api/shows/<name>`), and
+//!   each sample of balls 0–2 is compared with the recording at the same time
+//!   (`shared::show::Sampler`, the filter's parabolas between steps). **Alignment**:
+//!   a recorded step's state is where the boxes are to be a frame period after the
+//!   step's slot, and its frame leaves at that slot asking for a period; the first
+//!   step's state is the recording's first row's end, so the recording's time 0 is
+//!   the slot of its first step (as the box's clock sees it: when that frame
+//!   arrived). That slot is on the bridge's clock, which the bench cannot read; it is
+//!   bounded on the simulation's clock: after the simulation's time read just before
+//!   the record request was sent (the request is taken after it), and at most one
+//!   period plus the frame lead (5 ms) and 1 ms after the simulation's time read once
+//!   the status said `recording` (the next step's slot). Inside that window the
+//!   offset with the least mean square error over the first 250 ms of samples (0.5 ms
+//!   steps, then 20 µs) is taken — the fader's speed (up to 1,000 mm/s) makes a wrong
+//!   offset cost about 1 mm a millisecond, so the fit is sharp — and printed with the
+//!   window. The recording's clock is the filter's: when the bridge is late for a
+//!   period it steps once and skips the rest (the filter's time runs slower than the
+//!   wall's, never faster), so the recording falls a period behind the box's clock
+//!   each time; the offset is therefore followed a quarter of a second at a time, each
+//!   fitted within −5…+45 ms of the one before, and how far it moved over the run is
+//!   printed (0 when no period was skipped). What remains is
+//!   the box's own path (a straight line over each frame against the filter's
+//!   parabola, at most `a·dt²/8` = 0.2 mm; a frame re-targeted early starts from
+//!   where the axis is), the sender's lateness (each frame leaves within about a
+//!   millisecond of its slot), the loopback, and the pulses' rounding.
+//!   **Against the bench's own filter** (an upper bound, as before the recording
+//!   existed): the filtered input computed here with
 //!   `shared::live::filter::MotionFilter` on the values sent (a step every 20 ms,
-//!   each taking the latest value sent before it, from rest where ball 0 was), and
-//!   each sample of ball 0 is compared with the filter's output `L` ms earlier
-//!   (linear between steps); the steps' phase (0–18 ms, 2 ms apart) and the constant
-//!   lag `L` (0–150 ms, 5 ms apart) are the ones that give the smallest largest error
-//!   — the pipeline's delay, reported with it. What remains includes which value
-//!   each of the bridge's steps took (the receivers publish every 10 ms; this
-//!   bench's steps see every packet). The error against the raw input (the value
-//!   sent, same lag, and at its own best lag) is printed for context.
+//!   each taking the latest value sent before it, from rest where ball 0 was), each
+//!   sample of ball 0 (put on this bench's clock by the smallest offset seen, the
+//!   fastest answer) compared with the filter's output `L` ms earlier (linear between
+//!   steps); the steps' phase (0–18 ms, 2 ms apart) and the constant lag `L` (0–150
+//!   ms, 5 ms apart) are the ones that give the smallest largest error. It includes
+//!   which value each of the bridge's steps took, which this bench cannot see. The
+//!   error against the raw input (the value sent, same lag, and at its own best lag)
+//!   is printed for context.
 //!
 //! `LIVE_BENCH_ONLY` (`latency`, `uim2503`, `moons`, `cpu`, `error`) runs one part;
 //! `LIVE_BENCH_CHANGES`, `LIVE_BENCH_UIM2503_CHANGES`, `LIVE_BENCH_MOONS_CHANGES`,
@@ -63,12 +95,13 @@ use axum::http::Method;
 use common::process::Process;
 use common::send_text;
 use floatball_bridge::live::LiveStatus;
-use floatball_shared::api::LivePhase;
+use floatball_shared::api::{LivePhase, ServerMessage};
 use floatball_shared::live::artnet::{self, PortAddress};
 use floatball_shared::live::filter::{BallState, FilterLimits, MotionFilter};
 use floatball_shared::mbox::Datagram;
 use floatball_shared::mbox::motion::AxisCount;
 use floatball_shared::mbox::twin::{MboxTwin, TwinConfig};
+use floatball_shared::show::{Sampler, Show};
 
 const TRAVEL_MM: f64 = 2000.0;
 const TOP_SPEED_MM_S: f64 = 1000.0;
@@ -583,7 +616,7 @@ async fn position_error(seconds: u64) {
     let start_mm = 1000.0;
     let inputs: Arc<Mutex<Vec<(Instant, f64)>>> = Arc::new(Mutex::new(Vec::new()));
     let repeat = Repeat::start(to, 3, value(start_mm));
-    let (_ws, token, _) = go_live(&bridge, Duration::from_secs(30)).await;
+    let (mut ws, token, _) = go_live(&bridge, Duration::from_secs(30)).await;
     // At rest on the first value.
     let deadline = Instant::now() + Duration::from_secs(5);
     loop {
@@ -596,6 +629,22 @@ async fn position_error(seconds: u64) {
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
     drop(repeat);
+    // The bridge records its filtered motion from here, the balls at rest: the
+    // recording's time 0 is the slot of its first step, between the simulation's
+    // clock just before the request and one period and the frame lead after it was
+    // taken (see the module's doc).
+    let take = "live bench error";
+    let before_us = bridge.sim_positions(&token).await.boxes[0].time_us;
+    send_text(
+        &mut ws,
+        &serde_json::json!({"type": "record", "name": take}).to_string(),
+    )
+    .await;
+    common::status_until(&mut ws, Duration::from_secs(5), |status| {
+        status.live.as_deref().is_some_and(|live| live.recording)
+    })
+    .await;
+    let after_us = bridge.sim_positions(&token).await.boxes[0].time_us;
     let running = Arc::new(AtomicBool::new(true));
     let (run, sent) = (Arc::clone(&running), Arc::clone(&inputs));
     let fader = std::thread::spawn(move || {
@@ -627,11 +676,14 @@ async fn position_error(seconds: u64) {
     let first_mm = mm(value(start_mm));
     // (when the answer came, the simulation's clock, ball 0 mm)
     let mut answers: Vec<(Instant, u64, f64)> = Vec::new();
+    // (the simulation's clock, balls 0–2 mm)
+    let mut balls: Vec<(u64, [f64; 3])> = Vec::new();
     while started.elapsed() < Duration::from_secs(seconds) {
         let positions = bridge.sim_positions(&token).await;
         let one = &positions.boxes[0];
-        let pulses = one.positions_pulses[0];
-        answers.push((Instant::now(), one.time_us, f64::from(pulses).abs() / 100.0));
+        let mm = |axis: usize| f64::from(one.positions_pulses[axis]).abs() / 100.0;
+        answers.push((Instant::now(), one.time_us, mm(0)));
+        balls.push((one.time_us, [mm(0), mm(1), mm(2)]));
         tokio::time::sleep(Duration::from_millis(10)).await;
     }
     // Each sample on the simulation's clock, put on this bench's by the smallest
@@ -654,6 +706,25 @@ async fn position_error(seconds: u64) {
     running.store(false, Ordering::SeqCst);
     fader.join().expect("the fader");
     let inputs = inputs.lock().expect("inputs").clone();
+    send_text(&mut ws, r#"{"type":"record_stop"}"#).await;
+    let recorded_ms = loop {
+        match common::next_message(&mut ws).await {
+            ServerMessage::Recorded { duration_ms, .. } => break duration_ms,
+            ServerMessage::Error { message, .. } => panic!("the recording: {message}"),
+            _ => {}
+        }
+    };
+    let reply = bridge
+        .request(
+            Method::GET,
+            &format!("/api/shows/{}", common::encode_path(take)),
+            Some(&token),
+            None,
+        )
+        .await;
+    let show = Show::from_json(std::str::from_utf8(&reply.body).expect("utf-8"))
+        .expect("the recorded show");
+    compare_recorded(&show, recorded_ms, &balls, (before_us, after_us));
 
     let by_answer: Vec<(Instant, f64)> = answers.iter().map(|(at, _, ball)| (*at, *ball)).collect();
     compare(
@@ -667,6 +738,97 @@ async fn position_error(seconds: u64) {
         &by_answer,
         first_mm,
         "timed by the answer's arrival",
+    );
+}
+
+/// Prints |simulated ball − the bridge's own filtered motion| (the recording `show`)
+/// over `samples` of balls 0–2 (the simulation's clock), the recording's time 0 put
+/// on that clock within `request_us` (the simulation's clock before the record
+/// request and after it was taken) plus one period and the frame lead: the offset
+/// there with the least mean square error (see the module's doc).
+fn compare_recorded(
+    show: &Show,
+    recorded_ms: u64,
+    samples: &[(u64, [f64; 3])],
+    request_us: (u64, u64),
+) {
+    let mut sampler = Sampler::new(show);
+    let end_ms = sampler.duration_ms() as f64;
+    // |sim − recording| of every sample of `chunk` inside the recording, its time 0 at
+    // `zero_us`.
+    let mut errors = |chunk: &[(u64, [f64; 3])], zero_us: f64| -> Vec<f64> {
+        let mut at = [0.0f32; 3];
+        let mut errors = Vec::with_capacity(chunk.len() * 3);
+        for (sim_us, ball) in chunk {
+            let t_ms = (*sim_us as f64 - zero_us) / 1000.0;
+            if !(0.0..=end_ms).contains(&t_ms) {
+                continue;
+            }
+            sampler.sample(t_ms, &mut at, None);
+            for (sim, filtered) in ball.iter().zip(at) {
+                errors.push((sim - f64::from(filtered)).abs());
+            }
+        }
+        errors
+    };
+    let mean_square =
+        |errors: &[f64]| errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64;
+    // The offset in `from..=to` with the least mean square error over `chunk`: 0.5 ms
+    // steps, then 20 µs steps around the best.
+    type Errors<'a> = dyn FnMut(&[(u64, [f64; 3])], f64) -> Vec<f64> + 'a;
+    let fit = |errors: &mut Errors<'_>, chunk: &[(u64, [f64; 3])], from: f64, to: f64| -> f64 {
+        let mut search = |from: f64, to: f64, step: f64| {
+            let mut best = (from, f64::INFINITY);
+            let mut zero = from;
+            while zero <= to {
+                let score = mean_square(&errors(chunk, zero));
+                if score < best.1 {
+                    best = (zero, score);
+                }
+                zero += step;
+            }
+            best.0
+        };
+        let coarse = search(from, to, 500.0);
+        search(coarse - 500.0, coarse + 500.0, 20.0)
+    };
+    let lead_us = 5_000.0;
+    let (from_us, to_us) = (
+        request_us.0 as f64,
+        request_us.1 as f64 + (PERIOD_MS * 1000) as f64 + lead_us + 1_000.0,
+    );
+    // A quarter of a second at a time: the first inside the window the record request
+    // bounds, each next within −5…+45 ms of the one before (the recording's clock falls behind by a
+    // period whenever the bridge skipped a late one).
+    const WINDOW_US: u64 = 250_000;
+    let first_us = samples.first().map_or(0, |(us, _)| *us);
+    let mut zero_us = None;
+    let (mut first_zero_us, mut found) = (0.0, Vec::new());
+    for chunk in
+        samples.chunk_by(|a, b| (a.0 - first_us) / WINDOW_US == (b.0 - first_us) / WINDOW_US)
+    {
+        let zero = match zero_us {
+            None => {
+                let zero = fit(&mut errors, chunk, from_us, to_us);
+                first_zero_us = zero;
+                zero
+            }
+            Some(last) => fit(&mut errors, chunk, last - 5_000.0, last + 45_000.0),
+        };
+        found.extend(errors(chunk, zero));
+        zero_us = Some(zero);
+    }
+    let last_zero_us = zero_us.unwrap_or(first_zero_us);
+    let count = found.len();
+    let (p50, p99, max) = percentiles(&mut found);
+    println!(
+        "  against the bridge's own filtered motion (its recording, {recorded_ms} ms; time 0 \
+         on the simulation's clock {:.2} ms after the record request was sent (window \
+         {:.1} ms), {:.1} ms later by the last quarter second: periods the bridge skipped): {count} \
+         ball samples: p50 {p50:.2} mm, p99 {p99:.2} mm, max {max:.2} mm",
+        (first_zero_us - from_us) / 1000.0,
+        (to_us - from_us) / 1000.0,
+        (last_zero_us - first_zero_us) / 1000.0
     );
 }
 

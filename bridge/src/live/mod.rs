@@ -20,7 +20,8 @@
 //! latest; sACN's sequence rule and stream termination), the sources seen, the
 //! counters — and publishes a new `Arc<LiveInput>` on a `watch` channel
 //! ([`AppState::subscribe_live`]) at most every [`PUBLISH_EVERY`] (a change after a
-//! quiet period at once), when something
+//! quiet period at once; new values are not held back by a snapshot that only
+//! counted packets, a console repeating its values), when something
 //! changed. No lock is taken: the snapshot is a value.
 //!
 //! A universe's balls have a target while the universe is **live**: a source of it
@@ -325,10 +326,13 @@ async fn run(
     let mut tick = tokio::time::interval(PUBLISH_EVERY);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     state.publish_live(live.snapshot(Instant::now()));
-    // When the last snapshot went out: a change after a quiet period goes out at once
-    // (its latency is the drive's alone), changes coming faster at most every
-    // `PUBLISH_EVERY` (the tick sends what waited).
+    // When the last snapshot went out, and the last that carried new values: a change
+    // after a quiet period goes out at once (its latency is the drive's alone), changes
+    // coming faster at most every `PUBLISH_EVERY` (the tick sends what waited); a
+    // snapshot that only counted packets (a console repeating its values) holds no
+    // new value back ([`publish_now`]).
     let mut published_at = Instant::now();
+    let mut values_published_at = published_at;
     loop {
         tokio::select! {
             _ = stopping.changed() => return,
@@ -350,24 +354,42 @@ async fn run(
                     }
                 }
                 let now = Instant::now();
-                if now.saturating_duration_since(published_at) >= PUBLISH_EVERY {
+                let values = live.values_changed;
+                if publish_now(now, published_at, values.then_some(values_published_at)) {
                     live.counters.dropped = dropped.load(Ordering::Relaxed);
                     if live.due(now) {
                         state.publish_live(live.snapshot(now));
                         published_at = now;
+                        if values {
+                            values_published_at = now;
+                        }
                     }
                 }
             }
             _ = tick.tick() => {
                 live.counters.dropped = dropped.load(Ordering::Relaxed);
                 let now = Instant::now();
+                let values = live.values_changed;
                 if live.due(now) {
                     state.publish_live(live.snapshot(now));
                     published_at = now;
+                    if values {
+                        values_published_at = now;
+                    }
                 }
             }
         }
     }
+}
+
+/// Whether a datagram just taken publishes a snapshot at `now` (the last went out at
+/// `published_at`): when the last is [`PUBLISH_EVERY`] old, or when the datagram
+/// brought new values (`values`: when the last snapshot with new values went out)
+/// and that one is. A snapshot that only counted packets — a console repeating its
+/// values — then does not hold a new value back by up to a tick.
+fn publish_now(now: Instant, published_at: Instant, values: Option<Instant>) -> bool {
+    now.saturating_duration_since(published_at) >= PUBLISH_EVERY
+        || values.is_some_and(|at| now.saturating_duration_since(at) >= PUBLISH_EVERY)
 }
 
 /// What a source was last heard as.
@@ -414,6 +436,11 @@ struct Live {
     poll_second: (u64, u32),
     last_expire: Instant,
     config_live: LiveConfig,
+    /// Each universe's merged slots as last compared ([`Live::values_changed`]).
+    slots_seen: BTreeMap<u16, Vec<u8>>,
+    /// An accepted packet changed a universe's merged slots since the last snapshot
+    /// (a repeat of the same values does not).
+    values_changed: bool,
 }
 
 /// The installation's scale for DMX values.
@@ -499,6 +526,8 @@ impl Live {
             poll_second: (u64::MAX, 0),
             last_expire: now,
             config_live: live.clone(),
+            slots_seen: BTreeMap::new(),
+            values_changed: false,
         };
         this.apply(config);
         this
@@ -664,6 +693,13 @@ impl Live {
         match fed {
             Fed::Accepted => {
                 self.counters.accepted += 1;
+                let slots = self.merge.slots(universe, self.ms(datagram.at));
+                let seen = self.slots_seen.entry(universe).or_default();
+                if slots.is_some_and(|slots| slots != seen.as_slice()) {
+                    seen.clear();
+                    seen.extend_from_slice(slots.unwrap_or_default());
+                    self.values_changed = true;
+                }
                 self.received_at = Some(datagram.at);
                 self.universe_heard.insert(universe, datagram.at);
                 self.dirty.insert(universe);
@@ -818,6 +854,7 @@ impl Live {
             }
         }
         self.dirty.clear();
+        self.values_changed = false;
         self.live_then = live;
         self.counters_then = self.counters.clone();
         self.generation += 1;
@@ -1131,6 +1168,36 @@ mod tests {
         assert!(input.lost);
         assert!(input.targets.iter().all(Option::is_none));
         assert!(!live.due(later));
+    }
+
+    /// Issue 38's latency: a console repeating its values every 100 ms publishes a
+    /// snapshot each time (the counters); a new value 2 ms after such a repeat goes
+    /// out at once, not at the next tick; new values keep their 10 ms pace.
+    #[tokio::test]
+    async fn a_new_value_is_not_held_back_by_a_repeat_of_the_old_one() {
+        let start = Instant::now();
+        let mut live = Live::new(&config(2), None, None, start);
+        artnet(&mut live, 1, &[0x80, 0], start);
+        assert!(live.values_changed);
+        let _ = live.snapshot(start);
+        assert!(!live.values_changed);
+        let repeat = start + Duration::from_millis(100);
+        artnet(&mut live, 1, &[0x80, 0], repeat);
+        assert!(!live.values_changed, "the same values again");
+        assert!(live.due(repeat), "the counters changed");
+        let _ = live.snapshot(repeat);
+        let new = repeat + Duration::from_millis(2);
+        artnet(&mut live, 1, &[0x90, 0], new);
+        assert!(live.values_changed);
+        assert!(publish_now(new, repeat, Some(start)));
+        assert!(
+            !publish_now(new, repeat, None),
+            "a repeat waits for the tick"
+        );
+        assert!(
+            !publish_now(new, repeat, Some(repeat)),
+            "new values at most every 10 ms"
+        );
     }
 
     #[tokio::test]

@@ -18,7 +18,10 @@
 //! colour, rebuilt (and handed) only when the snapshot or the loss changed. The input
 //! is **lost** when the snapshot says so or its latest packet is older than
 //! `hold_after_ms` (the receivers publish only on change: a silent network publishes
-//! nothing new).
+//! nothing new). While a change would move the next live step forward (MBOX boxes
+//! after a quiet period, [`Sequencer::live_awaits_change`]) the task also wakes on
+//! the watch's change ([`Feed::changed`]) and polls at once, so the change's frame
+//! goes when the sequencer allows rather than at the next slot.
 //!
 //! **The positions** ([`Positions`]): while live, every ball's filtered position
 //! ([`Sequencer::live_states`]), rounded to whole mm, is published on a watch at most
@@ -195,7 +198,7 @@ pub(super) struct Feed {
 impl Feed {
     /// Hands `sequencer` the latest live input (see the module's doc).
     pub(super) fn feed<D: Drive>(&mut self, sequencer: &mut Sequencer<D>) {
-        let Some(input) = &self.input else {
+        let Some(input) = &mut self.input else {
             self.fed = None;
             sequencer.set_live_input(LiveInput {
                 lost: true,
@@ -203,8 +206,9 @@ impl Feed {
             });
             return;
         };
-        // The borrow ends here: nothing is held while the vectors are built.
-        let snapshot = Arc::clone(&input.borrow());
+        // The borrow ends here: nothing is held while the vectors are built. Marked
+        // seen: [`Feed::changed`] wakes on the next one.
+        let snapshot = Arc::clone(&input.borrow_and_update());
         if self.built != Some(snapshot.generation) {
             self.built = Some(snapshot.generation);
             self.targets_mm.clear();
@@ -234,6 +238,19 @@ impl Feed {
             colours: &self.colours,
             lost,
         });
+    }
+
+    /// Resolves when the receivers publish a snapshot not fed yet (never without
+    /// their watch, or once they are gone). The task waits on it while a change would
+    /// move the next live step forward ([`Sequencer::live_awaits_change`]).
+    pub(super) async fn changed(&mut self) {
+        let gone = match self.input.as_mut() {
+            Some(input) => input.changed().await.is_err(),
+            None => true,
+        };
+        if gone {
+            std::future::pending::<()>().await;
+        }
     }
 
     /// Carries out `request` at `now_us`; returns the generation live mode's outputs

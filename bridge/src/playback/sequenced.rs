@@ -313,6 +313,8 @@ pub(super) async fn run<F: Family>(
                 request = Some(received);
             }
             Some(received) = inputs.recv() => input = Some(received),
+            // Live input changed after a quiet period: its step may go now.
+            () = live_feed.changed(), if sequencer.live_awaits_change() => {}
             () = tokio::time::sleep_until(sleep_until.into()) => {}
         }
         // A clock trim is not news: applied at once, it wakes nothing else.

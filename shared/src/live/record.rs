@@ -113,6 +113,8 @@ pub struct Recorder {
     dt_ms: u32,
     lead_in_steps: u64,
     steps: u64,
+    /// The time the steps recorded so far last, ms.
+    recorded_ms: u64,
     balls: Vec<Recording>,
 }
 
@@ -208,6 +210,7 @@ impl Recorder {
             dt_ms,
             lead_in_steps: lead_in_steps as u64,
             steps: 0,
+            recorded_ms: 0,
             balls,
         })
     }
@@ -224,14 +227,29 @@ impl Recorder {
         self.steps
     }
 
+    /// The time the steps recorded so far last, ms (after the lead-ins).
+    #[must_use]
+    pub fn recorded_ms(&self) -> u64 {
+        self.recorded_ms
+    }
+
     /// Records one filter step: every ball's state after it, and its colour (an empty
     /// slice, or `None` for a ball: no colour this step).
     pub fn push(&mut self, states: &[BallState], colours: &[Option<[u8; 3]>]) {
+        self.push_step(states, colours, self.dt_ms);
+    }
+
+    /// Records one filter step of `dt_ms` (a step re-timed to a change of the input
+    /// may be shorter than the filter's, [`crate::player::live`]; clamped into a
+    /// row's 10–255 ms): as [`Recorder::push`].
+    pub fn push_step(&mut self, states: &[BallState], colours: &[Option<[u8; 3]>], dt_ms: u32) {
+        let dt_ms = dt_ms.clamp(ROW_MIN_MS, ROW_MAX_MS);
         self.steps += 1;
-        let time_ms = (self.lead_in_steps + self.steps) * u64::from(self.dt_ms);
+        self.recorded_ms += u64::from(dt_ms);
+        let time_ms = self.lead_in_ms() + self.recorded_ms;
         for (ball, recording) in self.balls.iter_mut().enumerate() {
             let state = states.get(ball).copied().unwrap_or(recording.last);
-            recording.push(state, self.dt_ms);
+            recording.push(state, dt_ms);
             if let Some(rgb) = colours.get(ball).copied().flatten()
                 && recording.rgb != Some(rgb)
             {
@@ -365,6 +383,41 @@ mod tests {
                 balls: 6
             })
         );
+    }
+
+    /// A step re-timed to a change of live input (`crate::player::live`) is shorter
+    /// than the filter's: it is recorded as a row of its own length, and the show
+    /// passes through its state at that time.
+    #[test]
+    fn a_shorter_step_is_recorded_for_its_time() {
+        let filter = MotionFilter::new(LIMITS).unwrap();
+        let short = MotionFilter::new(FilterLimits {
+            dt_ms: 13,
+            ..LIMITS
+        })
+        .unwrap();
+        let mut states = vec![BallState::at_rest(1000.0); 6];
+        let mut recorder = Recorder::new("x", LAYOUT, filter, &states).unwrap();
+        for state in &mut states {
+            short.step(state, Some(3000.0), None);
+        }
+        let after_short = states[0];
+        recorder.push_step(&states, &[], 13);
+        for _ in 0..50 {
+            for state in &mut states {
+                filter.step(state, Some(3000.0), None);
+            }
+            recorder.push(&states, &[]);
+        }
+        assert_eq!(recorder.recorded_ms(), 13 + 50 * 20);
+        let show = recorder.finish();
+        assert!(validate(&show, &limits()).is_empty());
+        let mut sampler = crate::show::Sampler::new(&show);
+        let mut at = [0.0f32; 6];
+        sampler.sample(13.0, &mut at, None);
+        assert!((f64::from(at[0]) - after_short.position_mm).abs() < 1e-3);
+        sampler.sample(1013.0, &mut at, None);
+        assert!((f64::from(at[0]) - states[0].position_mm).abs() < 1e-3);
     }
 }
 

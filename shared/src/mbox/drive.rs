@@ -26,8 +26,15 @@
 //!   a show's, from the sequencer's filtered states for the period's end (`time_ms`
 //!   the period, every output 0). The filter's step is the frame period. An input
 //!   waits at most a period for the next slot, and its frame takes a period: the
-//!   latency is two periods (40 ms at 20 ms). Boxes take frames over Ethernet, so no
-//!   line limits the number of balls that move.
+//!   latency is two periods (40 ms at 20 ms). A change after a quiet period does not
+//!   wait for the grid ([`Drive::live_early_step_us`]): a box takes a frame whenever
+//!   it comes (an early frame replaces the move under way from where the axes are,
+//!   `docs/protocol-notes.md`, "The twin"), so its frame goes half a period (at
+//!   least 10 ms) after the last one at the earliest, its step filtered for the time
+//!   since the last frame, and the frames go on a period apart from it; each still
+//!   asks for a period (`time_ms`), so absolute time codes count on as always.
+//!   Boxes take frames over Ethernet, so no line limits the number of balls that
+//!   move.
 //! - **Clock trim** ([`Drive::trim_clock`], a timecode chase): the show's time 0
 //!   moves as far as the timecode puts it since the first trim, so each frame's
 //!   sample time follows the timecode exactly rather than the bridge's free-running
@@ -446,6 +453,16 @@ impl Drive for MboxDrive {
         self.progress = 0.0;
         self.next_slot_us = self.next_slot_us.max(now_us);
         false
+    }
+
+    /// Half a period, at least 10 ms (none when that is a period or more).
+    fn live_early_step_us(&self) -> Option<u64> {
+        let period_us = self.period_us() / 1_000 * 1_000;
+        let gap_us = (period_us / 2)
+            .div_ceil(1_000)
+            .saturating_mul(1_000)
+            .max(crate::player::live::EARLY_STEP_MIN_US);
+        (gap_us < period_us).then_some(gap_us)
     }
 
     fn live_step(&mut self, slot_us: u64, states: &[BallState]) {

@@ -784,3 +784,80 @@ fn with_a_clock_trim_each_frame_samples_the_show_at_the_given_clock() {
     player.trim_clock(now, 0, given_start(now) + 40_000);
     assert_eq!(player.status().show_time_ms, before - 40);
 }
+
+/// Issue 38's latency: a change of the input just after a slot, the balls at rest,
+/// goes out half a period after that slot (not a whole period), its step filtered
+/// for the 10 ms it really has; the frames then go a period apart from it, and a
+/// fader that keeps moving stays on that grid.
+#[test]
+fn a_live_change_after_a_quiet_period_goes_before_the_next_slot_filtered_for_its_time() {
+    let mut player = player();
+    let mut twins = twins();
+    let limits = player.config().installation.limits;
+    let mut now = 0;
+    let rest = |_| vec![Some(1000.0); 6];
+    player
+        .sequencer_mut()
+        .set_live_input(crate::player::LiveInput {
+            targets_mm: &rest(0),
+            ..Default::default()
+        });
+    player.sequencer_mut().go_live(now).unwrap();
+    let frames = run_live(&mut player, &mut twins, &mut now, 10_000_000, &rest);
+    let last = frames.last().unwrap().clone();
+    assert_eq!(last.positions_pulses[0][0], CALIBRATION.pulses(1000.0));
+    // 1 ms after the last slot the fader moves: too soon for a frame (the gap is
+    // half a period), but the next is due 10 ms after the slot, not 20.
+    now = last.slot_us + 1_000;
+    assert!(player.sequencer().live_awaits_change());
+    let moved = vec![Some(1100.0); 6];
+    player
+        .sequencer_mut()
+        .set_live_input(crate::player::LiveInput {
+            targets_mm: &moved,
+            ..Default::default()
+        });
+    assert!(!player.sequencer().live_awaits_change());
+    player.poll(now);
+    assert!(player.take_frames().is_empty());
+    let due = player.next_wakeup_us(now).unwrap();
+    assert_eq!(due, last.slot_us + 10_000);
+    player.poll(due + 300);
+    let early = player.take_frames();
+    assert_eq!(early.len(), 1, "{early:?}");
+    let early = &early[0];
+    assert_eq!(early.slot_us, last.slot_us + 10_000);
+    assert_eq!(early.time_ms, 20);
+    // From rest, a 10 ms step moves at most a·dt²/2 (2 mm here; a 20 ms step could
+    // move 8 mm) and the state's speed is at most a·dt.
+    let moved_pulses = (early.positions_pulses[0][0] - last.positions_pulses[0][0]).abs();
+    assert!(moved_pulses > 0);
+    let dt_s = 0.010;
+    assert!(
+        f64::from(moved_pulses)
+            <= limits.max_accel_mm_s2 * dt_s * dt_s / 2.0 * CALIBRATION.pulses_per_mm + 1.0,
+        "{moved_pulses} pulses in 10 ms"
+    );
+    for state in player.sequencer().live_states() {
+        assert!(state.velocity_mm_s <= limits.max_accel_mm_s2 * dt_s + 1e-6);
+    }
+    send(early, &mut twins);
+    // The fader keeps moving (a new value every 10 ms): frames a period apart from
+    // the early one, each a move within the limits.
+    let from = now;
+    let fader = move |t: u64| vec![Some(1100.0 + (t - from) as f64 / 10_000.0); 6];
+    let following = run_live(&mut player, &mut twins, &mut now, from + 1_000_000, &fader);
+    assert!(following.len() >= 49, "{}", following.len());
+    assert_eq!(following[0].slot_us, early.slot_us + 20_000);
+    let per_frame_pulses = limits.max_speed_mm_s * 0.02 * CALIBRATION.pulses_per_mm;
+    for pair in following.windows(2) {
+        assert_eq!(pair[1].slot_us - pair[0].slot_us, DEFAULT_PERIOD_US);
+        let step = (pair[1].positions_pulses[0][0] - pair[0].positions_pulses[0][0]).abs();
+        assert!(f64::from(step) <= per_frame_pulses + 1.0);
+    }
+    for twin in &twins {
+        let counters = twin.snapshot().counters;
+        assert_eq!(counters.time_code_faults, 0);
+        assert_eq!(counters.wrong_axes, 0);
+    }
+}

@@ -32,6 +32,21 @@
 //!   the limits — unless the drive's units run the outputs on their own clock
 //!   ([`LiveSetup::every_period`], a FIFO of rows): then every period missed is
 //!   stepped and given, in order.
+//! - **A change goes at once** (drives that take an output whenever it comes,
+//!   [`super::Drive::live_early_step_us`]: MBOX boxes): when the input changes after
+//!   a quiet period (the last step took no change), the next step does not wait for
+//!   the grid: it is taken as soon as the caller polls after the change, but not
+//!   before the drive's gap after the last slot (half a period, at least 10 ms), on
+//!   a whole millisecond after the last slot, and the grid goes on a period from it.
+//!   That step is filtered for its real time — a filter of the same limits whose
+//!   step is the time since the last slot — so no ball is asked for more speed or
+//!   acceleration than the limits in the time it really has; its recorded row lasts
+//!   that time (10 ms or more: a row's shortest). Only a change after a quiet
+//!   period moves the grid: changes that keep coming (a fader moving) are taken on
+//!   the grid, so the outputs come at most once more per period than without it,
+//!   and only at the start of a movement. A following step of the period's length
+//!   may then overshoot a target by at most `a_max·dt²/8` (the grids differ), within
+//!   the limits.
 //! - **Input lost** (the caller says so, after its configured time): every ball
 //!   holds — the filter brakes it within the limits and it stays — and the status
 //!   says `holding` ([`crate::api::LivePhase::Holding`]); input back, the balls
@@ -60,6 +75,10 @@ use crate::show::{Layout, Show};
 
 /// Periods at rest sent after leaving live mode, before the matrix is idle.
 pub const LIVE_SETTLE_PERIODS: u32 = 5;
+
+/// The shortest step re-timed to a change of the input, µs: a recorded row's
+/// shortest ([`crate::live::record`]).
+pub const EARLY_STEP_MIN_US: u64 = 10_000;
 
 /// How a drive family carries live motion ([`super::Drive::live_setup`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -176,6 +195,15 @@ pub(super) struct Live {
     lost: bool,
     /// The next period's slot, µs.
     pub(super) next_slot_us: u64,
+    /// The slot of the last step given to the drive, µs (`None` before the first).
+    last_slot_us: Option<u64>,
+    /// The least time after the last slot a change of the input may move the next
+    /// step to, µs ([`super::Drive::live_early_step_us`]); `None`: never.
+    early_gap_us: Option<u64>,
+    /// The input changed (targets, speed limits, loss) since the last step.
+    changed: bool,
+    /// The last step followed the input and took no change.
+    quiet: bool,
 }
 
 /// What a period of live motion ended with.
@@ -199,6 +227,10 @@ impl Live {
             colours: Vec::new(),
             lost: false,
             next_slot_us: 0,
+            last_slot_us: None,
+            early_gap_us: None,
+            changed: false,
+            quiet: false,
         }
     }
 
@@ -209,10 +241,47 @@ impl Live {
     /// Takes the latest input.
     pub(super) fn set_input(&mut self, input: LiveInput<'_>) {
         let balls = self.balls();
-        fill(&mut self.targets_mm, input.targets_mm, balls);
-        fill(&mut self.speed_limits_mm_s, input.speed_limits_mm_s, balls);
+        let mut changed = fill(&mut self.targets_mm, input.targets_mm, balls);
+        changed |= fill(&mut self.speed_limits_mm_s, input.speed_limits_mm_s, balls);
         fill(&mut self.colours, input.colours, balls);
+        changed |= self.lost != input.lost;
         self.lost = input.lost;
+        self.changed |= changed;
+    }
+
+    /// Whether a change of the input now would move the next step forward (see the
+    /// module's doc): following, the last step quiet, nothing changed since.
+    pub(super) fn awaits_change(&self) -> bool {
+        self.early_gap_us.is_some()
+            && self.last_slot_us.is_some()
+            && self.quiet
+            && !self.changed
+            && matches!(self.motion, Motion::Following)
+    }
+
+    /// The earliest a step re-timed to a change may be taken, µs, if one is waiting.
+    fn early_from_us(&self) -> Option<u64> {
+        let gap_us = self.early_gap_us?;
+        let last_us = self.last_slot_us?;
+        (self.changed && self.quiet && matches!(self.motion, Motion::Following))
+            .then(|| last_us.saturating_add(gap_us))
+            .filter(|&from_us| from_us < self.next_slot_us)
+    }
+
+    /// When the next step is due, µs: the grid's slot, or earlier for a change after a
+    /// quiet period.
+    pub(super) fn next_step_us(&self) -> u64 {
+        self.early_from_us()
+            .map_or(self.next_slot_us, |from_us| from_us.min(self.next_slot_us))
+    }
+
+    /// The slot of a step re-timed to a change, due at `now_us`: a whole millisecond
+    /// after the last slot, not after `now_us`.
+    fn early_slot_us(&self, now_us: u64) -> Option<u64> {
+        let from_us = self.early_from_us()?;
+        let last_us = self.last_slot_us?;
+        (now_us >= from_us && now_us < self.next_slot_us)
+            .then(|| last_us + (now_us - last_us) / 1_000 * 1_000)
     }
 
     /// The balls rest at `positions_mm` at `now_us`: the approach to the latest
@@ -252,6 +321,7 @@ impl Live {
             began_us: now_us,
         };
         self.next_slot_us = now_us;
+        self.last_slot_us = None;
     }
 
     fn clamped_targets(&self) -> Vec<Option<f64>> {
@@ -275,16 +345,29 @@ impl Live {
         }
     }
 
-    /// One period: every ball's state at its end (in [`Live::states`]). Whether the
+    /// One period of `dt_ms` (the setup's, or shorter for a step re-timed to a
+    /// change): every ball's state at its end (in [`Live::states`]). Whether the
     /// period follows the input (a recording takes it).
-    pub(super) fn period(&mut self) -> (Period, bool) {
+    pub(super) fn period(&mut self, dt_ms: u32) -> (Period, bool) {
+        self.quiet = !self.changed && matches!(self.motion, Motion::Following);
+        self.changed = false;
+        let own = self.filter;
+        let filter = if dt_ms == own.limits().dt_ms {
+            own
+        } else {
+            MotionFilter::new(FilterLimits {
+                dt_ms,
+                ..own.limits()
+            })
+            .unwrap_or(own)
+        };
         match &self.motion {
             Motion::Homing | Motion::Preparing { .. } => (Period::Going, false),
             Motion::Approaching { approach, .. } => {
                 let mut done = true;
                 for (ball, state) in self.states.iter_mut().enumerate() {
                     let target = approach.targets_mm.get(ball).copied().flatten();
-                    self.filter.step(state, target, Some(approach.speed_mm_s));
+                    filter.step(state, target, Some(approach.speed_mm_s));
                     done &= state.velocity_mm_s == 0.0
                         && target.is_none_or(|mm| state.position_mm == mm);
                 }
@@ -302,14 +385,14 @@ impl Live {
                         self.targets_mm.get(ball).copied().flatten()
                     };
                     let limit = self.speed_limits_mm_s.get(ball).copied().flatten();
-                    self.filter.step(state, target, limit);
+                    filter.step(state, target, limit);
                 }
                 (Period::Going, true)
             }
             Motion::Leaving { settled } => {
                 let settled = *settled;
                 for state in &mut self.states {
-                    self.filter.step(state, None, None);
+                    filter.step(state, None, None);
                 }
                 let resting = self.states.iter().all(|state| state.velocity_mm_s == 0.0);
                 let settled = if resting { settled + 1 } else { 0 };
@@ -362,18 +445,22 @@ impl Live {
             period_ms: ms(self.setup.period_us()),
             latency_ms: ms(self.setup.latency_us),
             recording: recorder.is_some(),
-            recorded_ms: recorder.map_or(0, |recorder| {
-                recorder.steps() * u64::from(self.setup.limits.dt_ms)
-            }),
+            recorded_ms: recorder.map_or(0, |recorder| recorder.recorded_ms()),
         }
     }
 }
 
-/// `into` as `from`, one per ball (missing: `None`).
-fn fill<T: Copy>(into: &mut Vec<Option<T>>, from: &[Option<T>], balls: usize) {
+/// `into` as `from`, one per ball (missing: `None`); whether it changed.
+fn fill<T: Copy + PartialEq>(into: &mut Vec<Option<T>>, from: &[Option<T>], balls: usize) -> bool {
+    let changed = into.len() != balls
+        || into
+            .iter()
+            .enumerate()
+            .any(|(ball, now)| *now != from.get(ball).copied().flatten());
     into.clear();
     into.extend(from.iter().copied().take(balls));
     into.resize(balls, None);
+    changed
 }
 
 impl<D: super::Drive> super::Sequencer<D> {
@@ -398,6 +485,11 @@ impl<D: super::Drive> super::Sequencer<D> {
                 family: "an installation without positive limits",
             })?;
         let mut live = Live::new(setup, filter);
+        // Whole milliseconds, and never a step shorter than a recorded row's shortest.
+        live.early_gap_us = self
+            .drive
+            .live_early_step_us()
+            .map(|gap_us| gap_us.max(EARLY_STEP_MIN_US).div_ceil(1_000) * 1_000);
         // The input handed before the request, kept.
         if let Some(previous) = self.live_input.take() {
             live.set_input(LiveInput {
@@ -559,8 +651,18 @@ impl<D: super::Drive> super::Sequencer<D> {
         }
     }
 
+    /// Whether a change of the live input now would move the next live step forward
+    /// (a drive with [`super::Drive::live_early_step_us`], following, the last step
+    /// quiet, no change since): the caller then wakes on the input's change and polls
+    /// at once.
+    #[must_use]
+    pub fn live_awaits_change(&self) -> bool {
+        self.live.as_ref().is_some_and(Live::awaits_change)
+    }
+
     /// Live motion's period, when due: skips the periods missed (the filter's time
-    /// runs slower, never faster), steps once, hands the drive the states.
+    /// runs slower, never faster), steps once, hands the drive the states; or a step
+    /// re-timed to a change of the input (see the module's doc).
     pub(super) fn poll_live(&mut self, now_us: u64) {
         let Some(live) = self.live.as_mut() else {
             return;
@@ -571,17 +673,29 @@ impl<D: super::Drive> super::Sequencer<D> {
             return;
         }
         let period_us = live.setup.period_us();
-        while now_us >= live.next_slot_us {
-            let behind = (now_us - live.next_slot_us) / period_us;
-            let slot_us = if live.setup.every_period {
-                live.next_slot_us
+        let period_ms = live.setup.limits.dt_ms.max(1);
+        loop {
+            let (slot_us, dt_ms) = if now_us >= live.next_slot_us {
+                let behind = (now_us - live.next_slot_us) / period_us;
+                let slot_us = if live.setup.every_period {
+                    live.next_slot_us
+                } else {
+                    live.next_slot_us + behind * period_us
+                };
+                (slot_us, period_ms)
+            } else if let Some(slot_us) = live.early_slot_us(now_us)
+                && let Some(last_us) = live.last_slot_us
+            {
+                let dt_ms = u32::try_from((slot_us - last_us) / 1_000).unwrap_or(period_ms);
+                (slot_us, dt_ms)
             } else {
-                live.next_slot_us + behind * period_us
+                break;
             };
+            live.last_slot_us = Some(slot_us);
             live.next_slot_us = slot_us + period_us;
-            let (period, filtered) = live.period();
+            let (period, filtered) = live.period(dt_ms);
             if filtered && let Some(recorder) = self.recorder.as_mut() {
-                recorder.push(&live.states, live.colours());
+                recorder.push_step(&live.states, live.colours(), dt_ms);
             }
             self.drive.live_step(slot_us, &live.states);
             if period == Period::Left {

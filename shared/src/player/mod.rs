@@ -275,8 +275,20 @@ pub trait Drive {
     }
 
     /// One live period from `slot_us`: every ball is to be at `states` (position and
-    /// velocity) one period later. Called once per period, the slots in order.
+    /// velocity) one period later. Called once per period, the slots in order (a
+    /// drive with [`Drive::live_early_step_us`] may see a slot less than a period
+    /// after the last: the grid re-timed to a change of the input).
     fn live_step(&mut self, _slot_us: u64, _states: &[BallState]) {}
+
+    /// Whether a change of live input after a quiet period may move the next live
+    /// slot forward ([`live`], "A change goes at once"): `Some(gap)`, the least time
+    /// after the last slot, µs (whole ms, at least the shortest recordable step), the
+    /// drive taking each frame whenever it comes and every slot's output lasting a
+    /// period from it (MBOX boxes); `None` (the default): the slots stay on the
+    /// period's grid (units that run the outputs on their own clock).
+    fn live_early_step_us(&self) -> Option<u64> {
+        None
+    }
 
     /// Live motion is over at `at_us`: the balls rest at `states` (their positions
     /// are known).
@@ -644,7 +656,7 @@ impl<D: Drive> Sequencer<D> {
                 Some(live) if matches!(live.motion, Motion::Preparing { .. }) => {
                     self.drive.next_wakeup_us(now_us)
                 }
-                Some(live) => Some(live.next_slot_us.max(now_us)),
+                Some(live) => Some(live.next_step_us().max(now_us)),
                 None => None,
             },
         }
