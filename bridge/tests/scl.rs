@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use common::process::{Process, links_up};
 use common::scl_peer::{Peer, Simulator, config, drop_end_mm, drop_show, serial_config};
 use common::{Ws, next_reply, send_text, until};
-use floatball_shared::api::{PlayerState, ServerMessage};
+use floatball_shared::api::{PlayerState, ServerMessage, Status};
 use floatball_shared::scl::{IoPoint, Level, Segment};
 
 fn end_mm(ball: usize) -> f64 {
@@ -36,16 +36,38 @@ async fn operator(bridge: &Process) -> Ws {
 
 /// Presses the e-stop while the drives are polled, and returns what reached them
 /// from just before the press.
-async fn press(ws: &mut Ws, peer: &Peer) -> Vec<common::scl_peer::Received> {
+/// The last status seen while waiting for the e-stop's answer comes with them (the
+/// status that shows the stop may come before the answer: see [`stopped`]).
+async fn press(ws: &mut Ws, peer: &Peer) -> (Vec<common::scl_peer::Received>, Option<Status>) {
     tokio::time::sleep(Duration::from_millis(150)).await;
     let pressed = Instant::now();
     send_text(ws, r#"{"type":"estop"}"#).await;
-    assert!(matches!(
-        next_reply(ws).await,
-        ServerMessage::EstopSent { .. }
-    ));
+    let mut seen = None;
+    loop {
+        match common::next_message(ws).await {
+            ServerMessage::Status(status) => seen = Some(status),
+            ServerMessage::EstopSent { .. } => break,
+            other => panic!("expected the e-stop's answer, got {other:?}"),
+        }
+    }
     tokio::time::sleep(Duration::from_millis(200)).await;
-    peer.since(pressed)
+    (peer.since(pressed), seen)
+}
+
+/// The status that shows the matrix stopped after [`press`]: the last one it saw, if
+/// that shows it (a stopped matrix's status may not change again for a while), or
+/// the next that does.
+async fn stopped(ws: &mut Ws, seen: Option<Status>) -> Status {
+    match seen {
+        Some(status) if status.state == PlayerState::Stopped => status,
+        _ => {
+            until(ws, Duration::from_secs(5), |status| {
+                status.state == PlayerState::Stopped
+            })
+            .await
+            .1
+        }
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -111,7 +133,7 @@ async fn an_rs485_line_answers_the_console_and_stops_every_drive_first() {
     );
 
     // The e-stop: SK to every drive, back to back, before any other request.
-    let lines = press(&mut ws, &peer).await;
+    let (lines, _) = press(&mut ws, &peer).await;
     let texts: Vec<&str> = lines.iter().map(|line| line.text.as_str()).collect();
     let first = texts
         .iter()
@@ -194,17 +216,14 @@ async fn start_uploads_programs_fires_the_trigger_and_plays_to_the_end() {
         status.state == PlayerState::Playing
     })
     .await;
-    let lines = press(&mut ws, &peer).await;
+    let (lines, seen) = press(&mut ws, &peer).await;
     let texts: Vec<&str> = lines.iter().map(|line| line.text.as_str()).collect();
     let first = texts
         .iter()
         .position(|text| text.ends_with("SK"))
         .expect("a stop");
     assert_eq!(&texts[first..first + 3], ["1SK", "2SK", "3SK"], "{texts:?}");
-    let (_, stopped) = until(&mut ws, Duration::from_secs(5), |status| {
-        status.state == PlayerState::Stopped
-    })
-    .await;
+    let stopped = stopped(&mut ws, seen).await;
     assert_eq!(stopped.last_error, None);
 }
 
@@ -226,7 +245,7 @@ async fn escl_drives_play_to_the_end_and_each_gets_the_stop() {
     assert_eq!(reply.text, "IP = 1000");
     assert_eq!(reply.drive, peer.sockets[1].to_string());
 
-    let lines = press(&mut ws, &peer).await;
+    let (lines, seen) = press(&mut ws, &peer).await;
     for drive in 0..3 {
         let stops = lines
             .iter()
@@ -235,10 +254,7 @@ async fn escl_drives_play_to_the_end_and_each_gets_the_stop() {
         // The stop and its three repeats.
         assert_eq!(stops, 4, "drive {drive}: {lines:?}");
     }
-    let (_, stopped) = until(&mut ws, Duration::from_secs(5), |status| {
-        status.state == PlayerState::Stopped
-    })
-    .await;
+    let stopped = stopped(&mut ws, seen).await;
     assert_eq!(stopped.gateways[0].drives.len(), 3);
 }
 
