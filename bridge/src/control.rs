@@ -126,21 +126,132 @@ pub async fn playlist(state: &AppState) -> Result<Playlist, ServerMessage> {
     })?
 }
 
-/// Takes `control` as it arrives, from any client (the WebSocket, OSC): Reset and
+/// Takes `control` as it arrives, from any client (the WebSocket, OSC): checked first
+/// ([`check`]: a request that will be refused has no effect at all), then Reset and
 /// Home press the e-stop at once ([`crate::playback::Playback::estop`]), and every
 /// request is tagged now with the e-stop generation, so that an e-stop arriving after
 /// it voids it even while it is being prepared. Returns the rest of the work, for the
 /// caller to spawn: [`run`] at that generation.
+///
+/// A Reset to a time inside a show is the one request whose check needs the show
+/// itself (where its cut can start): its stop is pressed once the cut is known to
+/// start, unless an e-stop came meanwhile (then it is refused as superseded).
+///
+/// # Errors
+/// The refusal [`check`] found: nothing was stopped, latched or homed.
 pub fn issue(
     state: &AppState,
     control: Control,
-) -> impl std::future::Future<Output = Result<(), ServerMessage>> + Send + 'static {
-    if matches!(control, Control::Reset(_) | Control::Home) {
+) -> Result<
+    impl std::future::Future<Output = Result<(), ServerMessage>> + Send + 'static,
+    ServerMessage,
+> {
+    check(state, control)?;
+    let cut_first = reset_inside_a_show(control);
+    if stops_first(control) && cut_first.is_none() {
         state.playback().estop();
     }
     let generation = state.playback().latch().generation();
     let state = state.clone();
-    async move { run(&state, control, generation).await }
+    Ok(async move {
+        let generation = match cut_first {
+            None => generation,
+            Some(from) => {
+                begin_at(&state, from).await?;
+                let playback = state.playback();
+                if playback.latch().generation() != generation {
+                    return Err(refusal(&PlaybackError::Refused(StartError::Superseded)));
+                }
+                playback.estop();
+                playback.latch().generation()
+            }
+        };
+        run(&state, control, generation).await
+    })
+}
+
+/// Whether `control` stops the matrix before it does anything else (Reset, Home).
+fn stops_first(control: Control) -> bool {
+    matches!(control, Control::Reset(_) | Control::Home)
+}
+
+/// Where a Reset begins when that is a time inside a show: its stop waits for the
+/// cut to be known to start ([`issue`]).
+fn reset_inside_a_show(control: Control) -> Option<StartFrom> {
+    match control {
+        Control::Reset(from) if from.time_ms.is_some_and(|time_ms| time_ms > 0) => Some(from),
+        _ => None,
+    }
+}
+
+/// Checks `control` against the stored playlist before it has any effect (issue 52):
+/// a Start, Reset, goto or locate at an entry the playlist lacks, at a time at or past
+/// its show's end (by the show's stored length), from a time on drives that cannot
+/// start inside a show, or on an empty playlist is refused here, so that its Reset
+/// never stops the matrix nor latches the e-stop. Home has nothing to check. Cheap: the
+/// playlist and the shows' summaries are in memory.
+///
+/// # Errors
+/// The refusal, coded as [`run`] would have refused it.
+pub fn check(state: &AppState, control: Control) -> Result<(), ServerMessage> {
+    let (Control::Start(from) | Control::Reset(from) | Control::Locate(from)) = control else {
+        return Ok(());
+    };
+    let refused = |error: StartError| refusal(&PlaybackError::Refused(error));
+    let playlist = state.playlist().get();
+    let entries = playlist.entries.len();
+    let entry = from.entry.unwrap_or(1);
+    let Some(named) = entry
+        .checked_sub(1)
+        .and_then(|index| playlist.entries.get(index))
+    else {
+        return Err(refused(if entries == 0 {
+            StartError::Empty
+        } else {
+            StartError::NoSuchEntry { entry, entries }
+        }));
+    };
+    let time_ms = from.time_ms.unwrap_or(0);
+    if time_ms == 0 {
+        return Ok(());
+    }
+    if !state.playback().cuts() {
+        return Err(refused(StartError::NoCut { entry }));
+    }
+    let shows = state.shows().list();
+    let Some(summary) = shows.iter().find(|summary| summary.name == named.show) else {
+        return Err(ServerMessage::from_template(
+            Code::EntryUnreadable,
+            params! {"entry" => entry, "show" => named.show, "reason" => "the show is not stored"},
+        ));
+    };
+    if time_ms >= summary.duration_ms {
+        return Err(refused(StartError::PastTheEnd {
+            entry,
+            time_ms,
+            duration_ms: summary.duration_ms,
+        }));
+    }
+    Ok(())
+}
+
+/// Why a request from a source that may not release an e-stop was not issued
+/// ([`issue_unless_latched`]); nothing was stopped, latched or homed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum NotIssued {
+    /// The e-stop is latched, or was pressed as the request was issued.
+    Latched,
+    /// The request will be refused ([`check`]): the refusal.
+    Refused(Box<ServerMessage>),
+}
+
+impl std::fmt::Display for NotIssued {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Latched => Latched.fmt(f),
+            Self::Refused(refusal) => f.write_str(&reason((**refusal).clone())),
+        }
+    }
 }
 
 /// An e-stop is latched (or was pressed as the request was issued): a source other
@@ -158,31 +269,54 @@ impl std::fmt::Display for Latched {
 }
 
 /// [`issue`] for a source that must never release an e-stop — OSC, the schedule,
-/// timecode: refused while one is latched, and void when one is pressed before the
-/// request is accepted ([`crate::estop::unreleasing_generation`]: the generation is
-/// read before the latch is looked at, and an e-stop pressed with a Reset's or Home's
-/// own stop is seen).
+/// timecode: refused while one is latched, refused when [`check`] refuses it, and void
+/// when one is pressed before the request is accepted
+/// ([`crate::estop::unreleasing_generation`]: the generation is read before the latch
+/// is looked at, and an e-stop pressed with a Reset's or Home's own stop is seen).
 ///
 /// # Errors
-/// [`Latched`]: nothing was issued (a Reset or Home pressed no stop).
+/// [`NotIssued`]: nothing was issued, stopped, latched or homed.
 pub fn issue_unless_latched(
     state: &AppState,
     control: Control,
-) -> Result<impl std::future::Future<Output = Result<(), ServerMessage>> + Send + 'static, Latched>
+) -> Result<impl std::future::Future<Output = Result<(), ServerMessage>> + Send + 'static, NotIssued>
 {
     let playback = state.playback();
+    if playback.latch().is_latched() {
+        return Err(NotIssued::Latched);
+    }
+    check(state, control).map_err(|refusal| NotIssued::Refused(Box::new(refusal)))?;
+    let cut_first = reset_inside_a_show(control);
     let stop = || {
         playback.estop();
     };
-    let own_stop: Option<&dyn Fn()> = if matches!(control, Control::Reset(_) | Control::Home) {
+    let own_stop: Option<&dyn Fn()> = if stops_first(control) && cut_first.is_none() {
         Some(&stop)
     } else {
         None
     };
-    let generation =
-        crate::estop::unreleasing_generation(playback.latch(), own_stop).ok_or(Latched)?;
+    let generation = crate::estop::unreleasing_generation(playback.latch(), own_stop)
+        .ok_or(NotIssued::Latched)?;
     let state = state.clone();
-    Ok(async move { run(&state, control, generation).await })
+    Ok(async move {
+        let generation = match cut_first {
+            None => generation,
+            Some(from) => {
+                begin_at(&state, from).await?;
+                let playback = state.playback();
+                let superseded = || refusal(&PlaybackError::Refused(StartError::Superseded));
+                if playback.latch().generation() != generation {
+                    return Err(superseded());
+                }
+                let stop = || {
+                    playback.estop();
+                };
+                crate::estop::unreleasing_generation(playback.latch(), Some(&stop))
+                    .ok_or_else(superseded)?
+            }
+        };
+        run(&state, control, generation).await
+    })
 }
 
 /// Why a request was refused, in English, for a source's log or outcome (the

@@ -835,8 +835,17 @@ fn answer(
                 ClientMessage::Start(from) => Control::Start(from),
                 _ => Control::Home,
             };
-            // Reset and Home stop at once; every one of them is tagged now.
-            let running = control::issue(state, control);
+            // Checked first (a refused one changes nothing), then Reset and Home stop
+            // at once; every one of them is tagged now.
+            let running = match control::issue(state, control) {
+                Ok(running) => running,
+                Err(refusal) => {
+                    if let ServerMessage::Error { message, .. } = &refusal {
+                        tracing::warn!("{control:?} refused: {message}");
+                    }
+                    return Some(refusal);
+                }
+            };
             let replies = replies.clone();
             tokio::spawn(async move {
                 if let Err(refusal) = running.await {

@@ -11,6 +11,10 @@
 //! the feedback address, while `/floatball/estop` works; unknown addresses and packets
 //! that are not OSC are refused and logged.
 //!
+//! Untrusted OSC (issue 52, without liblo): malformed packets from an allowed sender
+//! are refused whole and move nothing, and a refused Reset or goto leaves a playing
+//! show playing, the e-stop unlatched.
+//!
 //! `oscsend` and `oscdump` are found on the `PATH`. Without them the test says so and
 //! passes — unless `FLOATBALL_REQUIRE_LIBLO=1` (`cargo xtask test` sets it, having
 //! installed `liblo-tools`), when their absence fails it.
@@ -24,7 +28,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use common::process::{Process, links_up, wave_json};
-use common::{Ws, next_message};
+use common::{Ws, next_message, send_text};
 use floatball_shared::api::{PlayerState, ServerMessage, Status};
 use floatball_shared::show::Show;
 use floatball_shared::show::validate::DEFAULT_MAX_ACCEL_MM_S2;
@@ -308,6 +312,235 @@ async fn osc_starts_stops_and_refuses_as_configured() {
     logged(&bridge, "refused: not OSC").await;
     stays(&mut ws, PlayerState::Idle, Duration::from_millis(500)).await;
     oscsend(port, "/floatball/estop", &[]);
+    status_until(&mut ws, "stopped", |status| {
+        status.state == PlayerState::Stopped
+    })
+    .await;
+}
+
+/// The 81-byte packet of issue 52 (hex): a bundle whose first element's size (25) is
+/// not a multiple of 4, then `/floatball/start 1 -inf` — which the OSC crate used
+/// before read as a `/floatball/start` without arguments, a Start from the beginning.
+const MISALIGNED_START: &str = "2362756e646c65000000000000000001000000192f666c6f617462616c6c2f\
+                                78000000002c6900000000000100000000202f666c6f617462616c6c2f7374\
+                                617274000000002c69660000000001ff800000";
+
+fn hex(text: &str) -> Vec<u8> {
+    (0..text.len())
+        .step_by(2)
+        .map(|at| u8::from_str_radix(&text[at..at + 2], 16).expect("hex"))
+        .collect()
+}
+
+/// A bundle of a 25-byte element (`/floatball/x ,i 1` and a stray byte) then `message`,
+/// padded to a multiple of 4 as a sender would: the shape of issue 52's packet.
+fn behind_a_misaligned_element(message: &OscMessage) -> Vec<u8> {
+    let first = rosc::encoder::encode(&OscPacket::Message(OscMessage {
+        addr: "/floatball/x".into(),
+        args: vec![OscType::Int(1)],
+    }))
+    .unwrap();
+    let second = rosc::encoder::encode(&OscPacket::Message(message.clone())).unwrap();
+    let mut bytes = b"#bundle\0\0\0\0\0\0\0\0\x01".to_vec();
+    bytes.extend(25_u32.to_be_bytes());
+    bytes.extend(&first);
+    bytes.push(0);
+    bytes.extend(u32::try_from(second.len()).unwrap().to_be_bytes());
+    bytes.extend(&second);
+    while !bytes.len().is_multiple_of(4) {
+        bytes.push(0);
+    }
+    bytes
+}
+
+/// `/floatball/start ,ifif` with only 8 bytes of data, in a bundle.
+fn lying_type_tags_in_a_bundle() -> Vec<u8> {
+    let mut message = b"/floatball/start\0\0\0\0,ifif\0\0\0".to_vec();
+    message.extend(1_i32.to_be_bytes());
+    message.extend(0.5_f32.to_be_bytes());
+    let mut bytes = b"#bundle\0\0\0\0\0\0\0\0\x01".to_vec();
+    bytes.extend(u32::try_from(message.len()).unwrap().to_be_bytes());
+    bytes.extend(&message);
+    bytes
+}
+
+fn osc_message(addr: &str, args: Vec<OscType>) -> OscMessage {
+    OscMessage {
+        addr: addr.into(),
+        args,
+    }
+}
+
+/// What the feedback socket received, decoded, collected by a thread of its own.
+struct Feedback {
+    messages: Arc<Mutex<Vec<OscMessage>>>,
+    address: std::net::SocketAddr,
+}
+
+impl Feedback {
+    fn start() -> Self {
+        let socket = UdpSocket::bind("127.0.0.1:0").expect("feedback socket");
+        socket
+            .set_read_timeout(Some(Duration::from_millis(200)))
+            .unwrap();
+        let address = socket.local_addr().unwrap();
+        let messages = Arc::new(Mutex::new(Vec::new()));
+        let seen = Arc::downgrade(&messages);
+        std::thread::spawn(move || {
+            let mut buffer = [0u8; 1500];
+            // Ends once the test has dropped its `Feedback`.
+            while let Some(seen) = seen.upgrade() {
+                if let Ok(length) = socket.recv(&mut buffer)
+                    && let Ok((_, OscPacket::Message(message))) =
+                        rosc::decoder::decode_udp(&buffer[..length])
+                {
+                    seen.lock()
+                        .unwrap_or_else(std::sync::PoisonError::into_inner)
+                        .push(message);
+                }
+            }
+        });
+        Self { messages, address }
+    }
+
+    /// The `/floatball/latched` values received so far.
+    fn latched(&self) -> Vec<OscType> {
+        self.messages
+            .lock()
+            .unwrap()
+            .iter()
+            .filter(|message| message.addr == "/floatball/latched")
+            .flat_map(|message| message.args.clone())
+            .collect()
+    }
+
+    /// Waits up to 10 s for a `/floatball/refused` whose reason holds `why`.
+    async fn refused(&self, why: &str) -> String {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        loop {
+            let found = self.messages.lock().unwrap().iter().find_map(|message| {
+                match (message.addr.as_str(), message.args.as_slice()) {
+                    ("/floatball/refused", [_, OscType::String(reason)])
+                        if reason.contains(why) =>
+                    {
+                        Some(reason.clone())
+                    }
+                    _ => None,
+                }
+            });
+            if let Some(reason) = found {
+                return reason;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "no /floatball/refused with {why:?}: {:?}",
+                self.messages.lock().unwrap()
+            );
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    }
+}
+
+/// Issue 52: untrusted OSC never moves the matrix, and a refused command changes
+/// nothing. With motion allowed and the OSC e-stop switched off:
+/// - malformed packets from an allowed sender — the issue's 81-byte bundle, the same
+///   shape hiding `reset 1 -5` and `home 0`, a bundle whose type tags lie — are
+///   refused whole, logged and reported; nothing moves (the balls stay where they are);
+/// - while a show plays, `reset 2` and `goto 2` (no entry 2) and `reset 1 9.995` (past
+///   the end of a 10 s show) are refused and the show plays on: no stop, no latch;
+///   the app's `{"type":"reset","entry":2}` is refused the same way.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn malformed_or_refused_osc_changes_nothing() {
+    let port = free_port();
+    let feedback = Feedback::start();
+    let bridge = Process::start(&config(&format!(
+        "listen = \"127.0.0.1:{port}\"\nallow = [\"127.0.0.1\"]\nmotion = true\n\
+         estop = false\nfeedback = \"{}\"\n",
+        feedback.address
+    )));
+    let file = wave_json("wave", 1, 3, 10_000, 100.0);
+    let token = bridge.prepare_show("wave", &file, false).await;
+    let mut ws = bridge.ws(&token).await;
+    assert!(links_up(&mut ws).await, "{}", bridge.log());
+    let before = bridge.sim_positions(&token).await;
+
+    let sender = UdpSocket::bind("127.0.0.1:0").expect("sender");
+    let send = |bytes: &[u8]| {
+        sender.send_to(bytes, ("127.0.0.1", port)).expect("send");
+    };
+    let packet = hex(MISALIGNED_START);
+    assert_eq!(packet.len(), 81);
+    send(&packet);
+    logged(&bridge, "not a multiple of 4").await;
+    for hidden in [
+        osc_message(
+            "/floatball/start",
+            vec![OscType::Int(1), OscType::Float(f32::NEG_INFINITY)],
+        ),
+        osc_message("/floatball/reset", vec![OscType::Int(1), OscType::Int(-5)]),
+        osc_message("/floatball/home", vec![OscType::Int(0)]),
+    ] {
+        send(&behind_a_misaligned_element(&hidden));
+    }
+    logged(&bridge, "a bundle element's size of 25").await;
+    feedback.refused("size of 25").await;
+    send(&lying_type_tags_in_a_bundle());
+    let lying = logged(&bridge, "an int32 argument runs past the end").await;
+    assert!(lying.contains("OSC from 127.0.0.1:"), "{lying}");
+    feedback.refused("runs past the end").await;
+    stays(&mut ws, PlayerState::Idle, Duration::from_millis(700)).await;
+    let after = bridge.sim_positions(&token).await;
+    // Every unit as it was: position, motor, moves (the simulation's clock moves on).
+    let units = |positions: &floatball_shared::api::SimPositions| {
+        let value = serde_json::to_value(positions).unwrap();
+        value["gateways"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|gateway| gateway["units"].clone())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(units(&before), units(&after), "the balls moved");
+
+    // A show plays; refused commands leave it playing.
+    send_text(&mut ws, r#"{"type":"start"}"#).await;
+    status_until(&mut ws, "playing", |status| {
+        status.state == PlayerState::Playing
+    })
+    .await;
+    let message = |addr: &str, args: Vec<OscType>| {
+        rosc::encoder::encode(&OscPacket::Message(osc_message(addr, args))).unwrap()
+    };
+    send(&message("/floatball/reset", vec![OscType::Int(2)]));
+    feedback.refused("there is no entry 2").await;
+    send(&message("/floatball/goto", vec![OscType::Int(2)]));
+    send(&message(
+        "/floatball/reset",
+        vec![OscType::Int(1), OscType::Float(9.995)],
+    ));
+    feedback.refused("cannot start at 9995 ms").await;
+    send_text(&mut ws, r#"{"type":"reset","entry":2}"#).await;
+    stays(&mut ws, PlayerState::Playing, Duration::from_millis(700)).await;
+    let log = bridge.log();
+    assert_eq!(
+        log.matches("refused: there is no entry 2").count(),
+        3,
+        "reset 2, goto 2 and the app's reset 2 are each refused and logged:\n{log}"
+    );
+    assert!(
+        feedback
+            .latched()
+            .iter()
+            .all(|latched| *latched == OscType::Int(0)),
+        "the e-stop latched: {:?}",
+        feedback.latched()
+    );
+    assert!(
+        !feedback.latched().is_empty(),
+        "no /floatball/latched feedback"
+    );
+    // The operator's e-stop ends it.
+    send_text(&mut ws, r#"{"type":"estop"}"#).await;
     status_until(&mut ws, "stopped", |status| {
         status.state == PlayerState::Stopped
     })

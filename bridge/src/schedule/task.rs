@@ -321,7 +321,11 @@ impl Scheduler {
                     &self.state,
                     Control::Start(StartFrom::default()),
                 ) {
-                    Err(_latched) => Err(Refusal::EstopLatched),
+                    Err(control::NotIssued::Latched) => Err(Refusal::EstopLatched),
+                    Err(control::NotIssued::Refused(refusal)) => Err(Refusal::Other(
+                        Code::ScheduleStartRefused,
+                        params! {"reason" => control::reason(*refusal)},
+                    )),
                     Ok(starting) => match starting.await {
                         Ok(()) => Ok(generation),
                         Err(refusal) => Err(Refusal::Other(
@@ -395,8 +399,11 @@ impl Scheduler {
                 before.last_error.unwrap_or_default()
             )));
         }
-        let homing = control::issue_unless_latched(&self.state, Control::Home)
-            .map_err(|_latched| (Code::ScheduleEndLatched, Params::new()))?;
+        let homing =
+            control::issue_unless_latched(&self.state, Control::Home).map_err(|not| match not {
+                control::NotIssued::Latched => (Code::ScheduleEndLatched, Params::new()),
+                control::NotIssued::Refused(refusal) => refused(control::reason(*refusal)),
+            })?;
         if let Err(error) = homing.await {
             return Err(refused(control::reason(error)));
         }

@@ -281,7 +281,7 @@ fn issue(
         Action::Stop => Control::Home,
     };
     match control::issue_unless_latched(state, control) {
-        Err(latched) => note_refusal(chase, last_refusal, latched.to_string(), now_ms),
+        Err(not_issued) => note_refusal(chase, last_refusal, not_issued.to_string(), now_ms),
         Ok(run) => {
             tracing::info!("timecode: {action:?}");
             let results = results.clone();

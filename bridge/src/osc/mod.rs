@@ -22,10 +22,18 @@
 //! `/floatball/refused <address> <why>`, except of messages on the feedback's own
 //! addresses ([`FEEDBACK_ADDRESSES`]: two bridges would answer each other for ever).
 //!
-//! Bundles are taken apart and their messages carried out at once, in order (their
-//! time tags are not waited for). A packet's size is checked before it is decoded,
-//! which bounds how deep bundles and arrays can nest: no bytes can exhaust the stack,
-//! and nothing here panics on any bytes.
+//! Packets are read strictly as OSC 1.0 defines them ([`decode`], our own reader: the
+//! `rosc` crate's let a malformed bundle element hand the next message's address no
+//! arguments): a packet with any defect — an element size that is not a multiple of
+//! 4, a string without its padding, type tags that do not match the data, bundles
+//! nested too deep — is refused whole, logged and reported, and nothing in it is
+//! carried out. Bundles are taken apart and their messages carried out at once, in
+//! order (their time tags are not waited for). Nothing here panics on any bytes.
+//!
+//! A command is checked before it has any effect ([`control::issue_unless_latched`]):
+//! one that will be refused — no such entry, a time past the show's end, the e-stop
+//! latched — changes nothing (no stop, no latch, no home); a button's release is
+//! ignored.
 //!
 //! Feedback ([`feedback_messages`]): `/floatball/state`, `/floatball/entry`,
 //! `/floatball/show`, `/floatball/time`, `/floatball/latched`, each its own datagram,
@@ -43,13 +51,11 @@ use tokio::net::UdpSocket;
 use tokio::time::Instant;
 
 use crate::config::OscConfig;
+
+mod decode;
 use crate::control::{self, Control};
 use crate::state::AppState;
-
-/// The largest packet decoded, bytes: a command is tens of bytes, a bundle of a few
-/// of them a few hundred. Larger packets are refused unread, which bounds how deeply
-/// their bundles and arrays can nest.
-pub const MAX_PACKET_BYTES: usize = 1500;
+pub use decode::{MAX_ARRAY_DEPTH, MAX_BUNDLE_DEPTH, MAX_PACKET_BYTES, decode};
 
 /// Most feedback rounds a second (while the show time runs).
 pub const FEEDBACK_PER_S: u32 = 10;
@@ -275,10 +281,12 @@ fn handle(
                 // Only an operator in the app releases an e-stop: a Start, Reset, Home
                 // or goto from OSC is refused while one is latched, and void if one is
                 // pressed as it is issued.
+                // Checked before it has any effect: a refused Reset or goto stops
+                // nothing and latches nothing.
                 let running = match control::issue_unless_latched(state, control) {
                     Ok(running) => running,
-                    Err(latched) => {
-                        refuse(&osc.addr, &latched.to_string());
+                    Err(not_issued) => {
+                        refuse(&osc.addr, &not_issued.to_string());
                         continue;
                     }
                 };
@@ -303,31 +311,6 @@ fn handle(
             }
         }
     }
-}
-
-/// The messages of a datagram, those of its bundles in order.
-///
-/// # Errors
-/// Why it cannot be read: too large, not OSC.
-pub fn decode(packet: &[u8]) -> Result<Vec<OscMessage>, String> {
-    if packet.len() > MAX_PACKET_BYTES {
-        return Err(format!(
-            "a packet of {} bytes is over the {MAX_PACKET_BYTES} bytes taken",
-            packet.len()
-        ));
-    }
-    let (_, packet) =
-        rosc::decoder::decode_udp(packet).map_err(|error| format!("not OSC: {error}"))?;
-    let mut messages = Vec::new();
-    let mut pending = vec![packet];
-    // Depth first, in order: a bundle's elements are pushed last first.
-    while let Some(packet) = pending.pop() {
-        match packet {
-            OscPacket::Message(message) => messages.push(message),
-            OscPacket::Bundle(bundle) => pending.extend(bundle.content.into_iter().rev()),
-        }
-    }
-    Ok(messages)
 }
 
 /// What `message` asks for.
@@ -636,46 +619,6 @@ mod tests {
     }
 
     #[test]
-    fn bundles_are_taken_apart_in_order() {
-        let inner = OscPacket::Bundle(rosc::OscBundle {
-            timetag: (0, 1).into(),
-            content: vec![
-                OscPacket::Message(osc("/floatball/home", vec![])),
-                OscPacket::Message(osc("/floatball/goto", vec![OscType::Int(2)])),
-            ],
-        });
-        let outer = OscPacket::Bundle(rosc::OscBundle {
-            timetag: (0, 1).into(),
-            content: vec![
-                OscPacket::Message(osc("/floatball/estop", vec![])),
-                inner,
-                OscPacket::Message(osc("/floatball/start", vec![])),
-            ],
-        });
-        let bytes = rosc::encoder::encode(&outer).unwrap();
-        let addrs: Vec<String> = decode(&bytes)
-            .unwrap()
-            .into_iter()
-            .map(|message| message.addr)
-            .collect();
-        assert_eq!(
-            addrs,
-            [
-                "/floatball/estop",
-                "/floatball/home",
-                "/floatball/goto",
-                "/floatball/start"
-            ]
-        );
-        assert!(
-            decode(&[0; MAX_PACKET_BYTES + 1])
-                .unwrap_err()
-                .contains("over")
-        );
-        assert!(decode(b"hello").unwrap_err().starts_with("not OSC"));
-    }
-
-    #[test]
     fn a_flood_of_refusals_is_counted_past_the_limit() {
         let mut refusals = Refusals::new();
         for sender in 0..(REFUSALS_LOGGED_PER_S + 12) {
@@ -738,7 +681,8 @@ mod tests {
             };
             read(&bytes);
         }
-        // Bundles inside bundles, each one element of the next.
+        // Bundles inside bundles, each one element of the next: refused past the
+        // depth taken.
         let mut nested = valid.clone();
         while nested.len() + 20 <= MAX_PACKET_BYTES {
             let mut bundle = b"#bundle\0\0\0\0\0\0\0\0\x01".to_vec();
@@ -746,7 +690,7 @@ mod tests {
             bundle.extend(&nested);
             nested = bundle;
         }
-        assert_eq!(decode(&nested).unwrap().len(), 1);
+        assert!(decode(&nested).unwrap_err().contains("nested over"));
         // Arrays inside arrays: `[[[…]]]` as the type tags.
         let depth = (MAX_PACKET_BYTES - 24) / 2;
         let mut arrays = b"/floatball/start\0\0\0\0,".to_vec();
