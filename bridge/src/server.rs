@@ -28,7 +28,7 @@ use axum::Router;
 use axum::extract::{ConnectInfo, Request};
 use axum::http::{HeaderName, HeaderValue, StatusCode, header};
 use axum::middleware::{Next, from_fn, map_response};
-use axum::response::Response;
+use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use hyper::server::conn::http1;
 use hyper_util::rt::{TokioIo, TokioTimer};
@@ -125,6 +125,40 @@ pub fn static_files(static_dir: &Path) -> Router {
         .nest_service("/pkg", pkg)
         .fallback_service(rest)
         .layer(from_fn(cache_headers))
+        .layer(from_fn(refuse_long_names))
+}
+
+/// The longest file name the static files are looked up by, bytes: Linux's
+/// `NAME_MAX` (255) less the 3 bytes of a precompressed copy's `.br` or `.gz`, which
+/// is looked up too. A longer path segment can name no file here, and looking it up
+/// failed with an error the file service answered `500`.
+pub const MAX_NAME_BYTES: usize = 255 - 3;
+
+/// Answers `404` to a path with a segment longer than [`MAX_NAME_BYTES`] once
+/// percent-decoded (no file, no app route has such a name), before any file is
+/// looked up.
+async fn refuse_long_names(request: Request, next: Next) -> Response {
+    let too_long = request
+        .uri()
+        .path()
+        .split('/')
+        .any(|segment| decoded_len(segment) > MAX_NAME_BYTES);
+    if too_long {
+        return StatusCode::NOT_FOUND.into_response();
+    }
+    next.run(request).await
+}
+
+/// The length of `segment` percent-decoded, bytes (each `%XX` one byte).
+fn decoded_len(segment: &str) -> usize {
+    let escapes = segment
+        .as_bytes()
+        .windows(3)
+        .filter(|window| {
+            window[0] == b'%' && window[1].is_ascii_hexdigit() && window[2].is_ascii_hexdigit()
+        })
+        .count();
+    segment.len() - 2 * escapes
 }
 
 /// Sets `Cache-Control` (see the module doc) and `Vary: Accept-Encoding` (the body

@@ -214,3 +214,30 @@ fn without_a_build_the_template_page_is_served() {
     assert_eq!(answer.body, b"template page");
     assert_eq!(answer.header("cache-control"), Some("no-cache"));
 }
+
+/// A path segment longer than a file name can be (255 bytes, less a precompressed
+/// copy's `.br`) is a 404, not the `500` the file lookup's "name too long" gave (found
+/// by the storm of issue 52); 252 bytes are still looked up (an app route: the page).
+#[test]
+fn a_name_too_long_for_a_file_is_a_404() {
+    let served = serve(true);
+    let name = |length: usize| "a".repeat(length);
+    for path in [
+        format!("/{}", name(253)),
+        format!("/{}", name(256)),
+        format!("/settings/{}", name(300)),
+        format!("/pkg/{}.js", name(253)),
+        format!("/{}", "%41".repeat(256)),
+    ] {
+        let answer = get(served.addr, &path, "br");
+        assert_eq!(answer.status, 404, "{}…", &path[..20]);
+    }
+    assert_eq!(
+        get(served.addr, &format!("/{}", name(252)), "br").status,
+        200
+    );
+    assert_eq!(
+        get(served.addr, &format!("/{}", "%41".repeat(252)), "gzip").status,
+        200
+    );
+}

@@ -11,7 +11,8 @@
 //!   brotli and gzip copies, the page that loads them).
 //! - [`stages`]: the test stages and their summary.
 //! - [`side_by_side`]: a stage's test binaries run two (or more) at a time.
-//! - [`fuzz`]: `cargo xtask fuzz`, the fuzz targets at length.
+//! - [`fuzz`]: `cargo xtask fuzz`, the fuzz targets and the storm with its motion
+//!   oracle at length, with figures.
 //! - [`stress`]: the engine's race and load tests, many times in a row.
 //! - [`mbox_bench`]: one bridge streaming to many simulated MBOX boxes, with figures.
 //! - [`scale_bench`]: one bridge playing to 100 UIM2503 gateways over TCP, with figures.
@@ -63,8 +64,13 @@ commands:
   test   install what is missing, then run every check and test
          options: --only WORDS (only the stages whose name contains WORDS, e.g.
                   `--only 'native tests'`; for repeating one stage by hand)
-  fuzz   run the fuzz targets (readers of untrusted bytes) in an optimised build
+  fuzz   run the fuzz targets (readers of untrusted bytes) in an optimised build,
+         then the storm with its motion oracle: every input of a real bridge on each
+         family's simulated matrix, with figures
          options: --bytes N (per target, default 10000000)  --target NAME  --seed S
+                  --storm-seconds S (per family, default 60)  --storm-rate R
+                  (datagrams/s in all, default 2000)  --storm-seed S
+                  --skip-bench  --skip-storm
   stress run the e-stop race and load tests many times in a row, with figures
          options: --runs N (default 50)
   mbox-bench  stream a show to simulated MBOX boxes on loopback at 20 ms; print the
