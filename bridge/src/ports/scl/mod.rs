@@ -1040,38 +1040,57 @@ impl<'a> Owner<'a> {
         wake
     }
 
+    /// Handles every event already in `inbox` (answers, requests), the latch first.
+    fn take_queued(&mut self, inbox: &Receiver<Event>) {
+        while let Ok(event) = inbox.try_recv() {
+            self.observe_latch(inbox);
+            self.handle(event);
+        }
+    }
+
     fn run(mut self, inbox: &Receiver<Event>) {
         while !self.shared.closed.load(Ordering::Acquire) {
-            self.connect();
-            self.observe_latch(inbox);
-            if self.repeats.due(Instant::now())
-                && let Some(transport) = self.transport.as_mut()
-                && let Err(err) = transport.stop_all(self.shared)
-            {
-                tracing::debug!(
-                    "SCL gateway {}: a repeated stop failed: {err}",
-                    self.shared.index
-                );
+            if !self.turn(inbox) {
+                return;
             }
-            self.expire();
-            self.poll();
-            self.dispatch();
-            let wait = self
-                .next_deadline()
-                .saturating_duration_since(Instant::now());
-            match inbox.recv_timeout(wait) {
-                Ok(event) => {
-                    // The latch first: an e-stop overtakes whatever came with it.
-                    self.observe_latch(inbox);
-                    self.handle(event);
-                    while let Ok(event) = inbox.try_recv() {
-                        self.observe_latch(inbox);
-                        self.handle(event);
-                    }
-                }
-                Err(RecvTimeoutError::Timeout) => {}
-                Err(RecvTimeoutError::Disconnected) => return,
+        }
+    }
+
+    /// One turn of the owner: the line, the latch, the stops to repeat, what is
+    /// queued, the requests timed out, the poll, the next request; then waits for an
+    /// event or the next deadline. `false` when every handle is gone.
+    fn turn(&mut self, inbox: &Receiver<Event>) -> bool {
+        self.connect();
+        self.observe_latch(inbox);
+        if self.repeats.due(Instant::now())
+            && let Some(transport) = self.transport.as_mut()
+            && let Err(err) = transport.stop_all(self.shared)
+        {
+            tracing::debug!(
+                "SCL gateway {}: a repeated stop failed: {err}",
+                self.shared.index
+            );
+        }
+        // Answers already queued are taken before any request is timed out: an owner
+        // that wakes late (a loaded host) must not count an answer that came in time
+        // as missed.
+        self.take_queued(inbox);
+        self.expire();
+        self.poll();
+        self.dispatch();
+        let wait = self
+            .next_deadline()
+            .saturating_duration_since(Instant::now());
+        match inbox.recv_timeout(wait) {
+            Ok(event) => {
+                // The latch first: an e-stop overtakes whatever came with it.
+                self.observe_latch(inbox);
+                self.handle(event);
+                self.take_queued(inbox);
+                true
             }
+            Err(RecvTimeoutError::Timeout) => true,
+            Err(RecvTimeoutError::Disconnected) => false,
         }
     }
 }

@@ -171,3 +171,94 @@ async fn a_line_carries_one_request_at_a_time_and_the_estop_goes_first() {
         .await;
     assert_eq!(stale, Err(SclError::Void));
 }
+
+/// A transport that takes every request and answers nothing (the test answers).
+struct Quiet;
+
+impl Transport for Quiet {
+    fn send(&mut self, _: &LinkShared, _: usize, _: &str) -> std::io::Result<()> {
+        Ok(())
+    }
+
+    fn stop_all(&mut self, _: &LinkShared) -> std::io::Result<()> {
+        Ok(())
+    }
+
+    fn per_drive(&self) -> bool {
+        false
+    }
+}
+
+/// Issue 47: an owner that wakes after a request's deadline (a loaded host) while the
+/// answer already waits in its inbox takes the answer — it came in time — instead of
+/// counting the request as missed ("drive … did not answer WT0.05 within 100 ms"
+/// put a bridge in error under load).
+#[test]
+fn an_answer_queued_before_the_owner_looks_is_not_a_timeout() {
+    let latch = Arc::new(Latch::new());
+    let shared = LinkShared {
+        index: 0,
+        port: "test".to_owned(),
+        baud: 115_200,
+        drives: vec![DriveShared {
+            name: "0".to_owned(),
+            address: Address::new('0'),
+            position_counts: AtomicI64::new(0),
+            known: AtomicU32::new(0),
+            status_code: AtomicU32::new(0),
+            alarm_code: AtomicU32::new(0),
+            missed_replies: AtomicU64::new(0),
+            error: Mutex::new(None),
+        }],
+        latch: Arc::clone(&latch),
+        poll: Duration::from_secs(3600),
+        up: AtomicBool::new(false),
+        down_reason: Mutex::new(None),
+        closed: AtomicBool::new(false),
+        program_jobs: AtomicUsize::new(0),
+        replies: broadcast::channel(4).0,
+    };
+    let (events, inbox) = channel();
+    let opener: Opener = Box::new(|_, _| Ok(Box::new(Quiet) as Box<dyn Transport>));
+    let mut owner = Owner::new(&shared, opener, events.clone());
+    owner.connect();
+    // The first poll is due at once: out of the way first, answered by nobody.
+    owner.next_poll = Instant::now() + Duration::from_secs(3600);
+    let (done, mut answered) = oneshot::channel();
+    owner.enqueue(Job {
+        drive: 0,
+        text: "WT0.05".to_owned(),
+        inert: false,
+        expect: Expect::One,
+        generation: latch.generation(),
+        purpose: Purpose::Player,
+        delivered: None,
+        done: Some(done),
+    });
+    shared.program_jobs.fetch_add(1, Ordering::AcqRel);
+    owner.dispatch();
+    let deadline = owner
+        .in_flight
+        .first()
+        .and_then(Option::as_ref)
+        .map(|flight| flight.deadline)
+        .expect("in flight");
+    // The drive answers in time; the reader queues it for the owner…
+    events
+        .send(Event::Line {
+            connection: owner.connection,
+            drive: None,
+            text: "0%".to_owned(),
+        })
+        .expect("queued");
+    // …which only looks after the deadline.
+    std::thread::sleep(
+        deadline.saturating_duration_since(Instant::now()) + Duration::from_millis(5),
+    );
+    // The turn's wait ends with the next poll (soon), not an hour from now.
+    owner.next_poll = Instant::now() + Duration::from_millis(20);
+    assert!(owner.turn(&inbox));
+    let (result, _) = answered.try_recv().expect("answered at once");
+    assert_eq!(result, Ok(vec!["%".to_owned()]));
+    assert_eq!(shared.drives[0].missed_replies.load(Ordering::Acquire), 0);
+}

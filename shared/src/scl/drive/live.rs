@@ -76,11 +76,26 @@ pub const TURNAROUND_US: u64 = 1_000;
 pub const CATCH_UP_SHARE: f64 = 0.7;
 
 /// At rest, the filter too, a drive its model puts farther than this from the
-/// filtered position is fed there (`DI` at the exact count, `FP`), mm: jogging has
-/// no hold on position, so a stop that came late (the bridge stalled under load
+/// filtered position is fed there (`DI` at the exact count, `FP`), counts: jogging
+/// has no hold on position, so a stop that came late (the bridge stalled under load
 /// while the drive ramped down) would otherwise leave the ball off until it moves
-/// again.
-pub const REST_TOLERANCE_MM: f64 = 1.0;
+/// again, and the jog runs [`END_MARGIN_MM`] inside the ends. Half a count: every
+/// drive at rest stands on its exact count (until 47 it was 1 mm, and balls rested up
+/// to 0.17 mm past the end of the travel).
+pub const REST_TOLERANCE_COUNTS: f64 = 0.5;
+
+/// How far inside either end of the travel the drives jog, mm: the filtered motion is
+/// squeezed into the travel less this at each end ([`SclDrive::inside`]: positions
+/// and speeds scaled by `(travel − 2·margin)/travel`, so the limits still hold), and a
+/// drive that comes to rest is fed to the exact count of the unsqueezed position
+/// ([`REST_TOLERANCE_COUNTS`]). A jog has no hold on position: a speed or a stop that
+/// reaches a drive a little late (the line's requests go one after the other, a loaded
+/// host wakes late) carries it on a little past where the filter stopped — up to
+/// 0.17 mm was seen through the bridge on a 1000 mm travel at 500 mm/s — and at an
+/// end that would be past the travel. The margin covers three times that; a stall of
+/// the bridge longer than a period while a drive runs at speed towards an end is not
+/// covered (its rest feed brings it back).
+pub const END_MARGIN_MM: f64 = 0.5;
 
 /// One eSCL exchange (a datagram and its answer on the network), µs (assumed).
 pub const ESCL_EXCHANGE_US: u64 = 1_000;
@@ -146,14 +161,31 @@ pub(in crate::scl) struct LiveUnit {
     /// One request and its answer on its lane, s: a speed reaches the drive after
     /// those queued before it on the lane, and is the filtered one that much later.
     exchange_s: f64,
-    /// The count it was last fed to at rest ([`REST_TOLERANCE_MM`]), until it jogs
+    /// The count it was last fed to at rest ([`REST_TOLERANCE_COUNTS`]), until it jogs
     /// again.
     fed: Option<i32>,
+}
+
+/// `state` as the drives jog it: squeezed into the travel less [`END_MARGIN_MM`] at
+/// each end (at most a quarter of the travel), positions and speeds scaled alike, so
+/// the limits hold and nothing a jog carries on past the filter leaves the travel.
+fn inside(state: BallState, travel_mm: f64) -> BallState {
+    if travel_mm <= 0.0 {
+        return state;
+    }
+    let margin_mm = END_MARGIN_MM.min(travel_mm / 4.0);
+    let scale = (travel_mm - 2.0 * margin_mm) / travel_mm;
+    BallState {
+        position_mm: margin_mm + state.position_mm.clamp(0.0, travel_mm) * scale,
+        velocity_mm_s: state.velocity_mm_s * scale,
+    }
 }
 
 /// Live motion under way.
 #[derive(Debug, Clone)]
 pub(in crate::scl) struct LiveRun {
+    /// The travel, mm (the filter's: 0 to this).
+    travel_mm: f64,
     period_us: u64,
     slot_us: u64,
     pub(in crate::scl) units: Vec<LiveUnit>,
@@ -536,12 +568,13 @@ impl SclDrive {
                     .get(unit)
                     .copied()
                     .unwrap_or_else(|| BallState::at_rest(0.0));
+                let jogged = inside(state, self.config.travel_mm);
                 LiveUnit {
                     mode: Mode::Rest,
                     sent_steps: 0,
-                    prev: state,
-                    from: state,
-                    to: state,
+                    prev: jogged,
+                    from: jogged,
+                    to: jogged,
                     model: Model::at_rest(
                         f64::from(self.config.counts(state.position_mm)),
                         now_us,
@@ -554,6 +587,7 @@ impl SclDrive {
             })
             .collect();
         self.live = Some(LiveRun {
+            travel_mm: self.config.travel_mm,
             period_us,
             slot_us: now_us,
             units,
@@ -633,7 +667,11 @@ impl SclDrive {
             })
             .collect();
         for (unit, state) in run.units.iter_mut().enumerate() {
-            let next = states.get(unit).copied().unwrap_or(state.to);
+            // The filter's state (the rest feed's exact count), and as jogged: inside
+            // the ends by the margin.
+            let exact = states.get(unit).copied();
+            let next = exact.map_or(state.to, |exact| inside(exact, run.travel_mm));
+            let exact = exact.unwrap_or(next);
             state.prev = state.from;
             state.from = state.to;
             state.to = next;
@@ -699,12 +737,12 @@ impl SclDrive {
                 }
                 // At rest where the model (its requests, shifted to its last read)
                 // says, off the filter: fed to the exact count, once.
-                let target = self.config.counts(next.position_mm);
+                let target = self.config.counts(exact.position_mm);
                 let (at, speed) = state.model.at(slot_us);
-                let off_mm = (at - f64::from(target)).abs() / run.counts_per_mm;
+                let off_counts = (at - f64::from(target)).abs();
                 if !state.model.jogging
                     && speed == 0.0
-                    && off_mm > REST_TOLERANCE_MM
+                    && off_counts >= REST_TOLERANCE_COUNTS
                     && state.fed != Some(target)
                 {
                     state.fed = Some(target);
