@@ -197,6 +197,34 @@ pub fn check(state: &AppState, control: Control) -> Result<(), ServerMessage> {
     let (Control::Start(from) | Control::Reset(from) | Control::Locate(from)) = control else {
         return Ok(());
     };
+    let (entry, show) = named_entry(state, from)?;
+    let time_ms = from.time_ms.unwrap_or(0);
+    if time_ms == 0 {
+        return Ok(());
+    }
+    let shows = state.shows().list();
+    let Some(summary) = shows.iter().find(|summary| summary.name == show) else {
+        return Err(ServerMessage::from_template(
+            Code::EntryUnreadable,
+            params! {"entry" => entry, "show" => show, "reason" => "the show is not stored"},
+        ));
+    };
+    if time_ms >= summary.duration_ms {
+        return Err(refusal(&PlaybackError::Refused(StartError::PastTheEnd {
+            entry,
+            time_ms,
+            duration_ms: summary.duration_ms,
+        })));
+    }
+    Ok(())
+}
+
+/// The entry `from` names (1-based) and its show's name, from the stored playlist;
+/// for a start from a time inside it, the family must be able to start there.
+///
+/// # Errors
+/// An empty playlist, an entry it lacks, a family that cannot start inside a show.
+fn named_entry(state: &AppState, from: StartFrom) -> Result<(usize, String), ServerMessage> {
     let refused = |error: StartError| refusal(&PlaybackError::Refused(error));
     let playlist = state.playlist().get();
     let entries = playlist.entries.len();
@@ -211,28 +239,10 @@ pub fn check(state: &AppState, control: Control) -> Result<(), ServerMessage> {
             StartError::NoSuchEntry { entry, entries }
         }));
     };
-    let time_ms = from.time_ms.unwrap_or(0);
-    if time_ms == 0 {
-        return Ok(());
-    }
-    if !state.playback().cuts() {
+    if from.time_ms.unwrap_or(0) > 0 && !state.playback().cuts() {
         return Err(refused(StartError::NoCut { entry }));
     }
-    let shows = state.shows().list();
-    let Some(summary) = shows.iter().find(|summary| summary.name == named.show) else {
-        return Err(ServerMessage::from_template(
-            Code::EntryUnreadable,
-            params! {"entry" => entry, "show" => named.show, "reason" => "the show is not stored"},
-        ));
-    };
-    if time_ms >= summary.duration_ms {
-        return Err(refused(StartError::PastTheEnd {
-            entry,
-            time_ms,
-            duration_ms: summary.duration_ms,
-        }));
-    }
-    Ok(())
+    Ok((entry, named.show.clone()))
 }
 
 /// Why a request from a source that may not release an e-stop was not issued
@@ -389,19 +399,7 @@ pub fn run_up_accel_mm_s2(installation: &floatball_shared::plan::Installation) -
 /// be read, a family that cannot start inside a show.
 pub async fn begin_at(state: &AppState, from: StartFrom) -> Result<At, ServerMessage> {
     let refused = |error: StartError| refusal(&PlaybackError::Refused(error));
-    let playlist = state.playlist().get();
-    let entries = playlist.entries.len();
-    let entry = from.entry.unwrap_or(1);
-    let Some(named) = entry
-        .checked_sub(1)
-        .and_then(|index| playlist.entries.get(index))
-    else {
-        return Err(refused(if entries == 0 {
-            StartError::Empty
-        } else {
-            StartError::NoSuchEntry { entry, entries }
-        }));
-    };
+    let (entry, name) = named_entry(state, from)?;
     let time_ms = from.time_ms.unwrap_or(0);
     if time_ms == 0 {
         return Ok(At {
@@ -409,10 +407,6 @@ pub async fn begin_at(state: &AppState, from: StartFrom) -> Result<At, ServerMes
             cut: None,
         });
     }
-    if !state.playback().cuts() {
-        return Err(refused(StartError::NoCut { entry }));
-    }
-    let name = named.show.clone();
     let reading = state.clone();
     let accel_mm_s2 = run_up_accel_mm_s2(&state.playback().installation());
     let cut = tokio::task::spawn_blocking(move || {

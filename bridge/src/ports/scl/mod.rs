@@ -154,6 +154,20 @@ struct DriveShared {
 }
 
 impl DriveShared {
+    /// A drive named `name`, at `address` on a line, nothing known of it yet.
+    fn new(name: String, address: Option<Address>) -> Self {
+        Self {
+            name,
+            address,
+            position_counts: AtomicI64::new(0),
+            known: AtomicU32::new(0),
+            status_code: AtomicU32::new(0),
+            alarm_code: AtomicU32::new(0),
+            missed_replies: AtomicU64::new(0),
+            error: Mutex::new(None),
+        }
+    }
+
     fn set_error(&self, error: Option<String>) {
         if let Ok(mut slot) = self.error.lock() {
             *slot = error;
@@ -277,16 +291,7 @@ impl SclLink {
         latch: Arc<Latch>,
         replies: broadcast::Sender<SclReply>,
     ) -> Result<Self, String> {
-        let drive = |name: String, address: Option<Address>| DriveShared {
-            name,
-            address,
-            position_counts: AtomicI64::new(0),
-            known: AtomicU32::new(0),
-            status_code: AtomicU32::new(0),
-            alarm_code: AtomicU32::new(0),
-            missed_replies: AtomicU64::new(0),
-            error: Mutex::new(None),
-        };
+        let drive = DriveShared::new;
         let (drives, baud, opener): (Vec<DriveShared>, u32, Opener) = match gateway {
             SclGateway::Serial {
                 port,
