@@ -97,6 +97,8 @@ impl Rig {
                 config.stations = stations;
                 config.seed = gateway as u64;
                 config.max_accel_mm_s2 = installation.limits.max_accel_mm_s2;
+                config.max_speed_mm_s = installation.limits.max_speed_mm_s;
+                config.travel_mm = installation.limits.travel_mm;
                 config.counts_per_mm = installation.counts_per_mm;
                 Line {
                     gateway: Gateway::new(config).unwrap(),
@@ -1393,4 +1395,327 @@ fn live_again_at_once_after_leaving_homes_and_a_moment_later_does_not() {
     rig.carry_out();
     assert_ne!(rig.state(), PlayerState::Homing);
     rig.run_until(5_000_000, |rig| phase(rig) == Some(LivePhase::Following));
+}
+
+// ---- live at the ends of the travel, and arming after live (issue 47) ----
+
+/// The matrix the outside check used: 1 × 3 balls, a 1000 mm travel, 500 mm/s,
+/// 2000 mm/s², one gateway at 115,200 baud (11 ms live rows).
+fn small_installation() -> Installation {
+    let mut installation = installation(1, 3, &[115_200]);
+    installation.limits.travel_mm = 1000.0;
+    installation.limits.max_speed_mm_s = 500.0;
+    installation.limits.max_accel_mm_s2 = 2000.0;
+    installation.stop_decel_mm_s2 = 2000.0;
+    installation.approach_speed_mm_s = 250.0;
+    installation
+}
+
+impl Rig {
+    /// Every ball's true position and velocity, counts and counts/s.
+    fn kinematics_counts(&self) -> Vec<(f64, f64)> {
+        let mut out = vec![(0.0, 0.0); self.installation.units.len()];
+        for (gateway, line) in self.lines.iter().enumerate() {
+            for (slot, unit) in self.installation.units_on(gateway).enumerate() {
+                let view = line.gateway.unit(slot).unwrap();
+                out[unit] = (view.position_counts, view.velocity_counts_s);
+            }
+        }
+        out
+    }
+
+    /// Goes live with every ball to `first_mm` and waits until they follow.
+    fn live_at(&mut self, first_mm: &[f64]) {
+        let targets: Vec<Option<f64>> = first_mm.iter().map(|&mm| Some(mm)).collect();
+        self.player
+            .sequencer_mut()
+            .set_live_input(crate::player::LiveInput {
+                targets_mm: &targets,
+                ..Default::default()
+            });
+        self.player.sequencer_mut().go_live(self.now_us).unwrap();
+        self.carry_out();
+        self.run_until(30_000_000, |rig| {
+            rig.player.status().live.map(|live| live.phase)
+                == Some(crate::api::LivePhase::Following)
+        });
+    }
+}
+
+/// What the balls did while [`follow_live`] ran: the peaks of the twins' own motion
+/// (velocity every ms; acceleration from it over each ms) and of positions sampled
+/// every 10 ms (as an outside check reading `GET /api/sim/positions` would), mm/s and
+/// mm/s².
+#[derive(Debug, Default, Clone, Copy)]
+struct Peaks {
+    speed_mm_s: f64,
+    accel_mm_s2: f64,
+    sampled_speed_mm_s: f64,
+    sampled_accel_mm_s2: f64,
+}
+
+/// Live for `duration_us` with every ball's target `targets_mm`: no unit fault, and
+/// the peaks of the motion.
+fn follow_live(rig: &mut Rig, duration_us: u64, targets_mm: &[f64]) -> Peaks {
+    let targets: Vec<Option<f64>> = targets_mm.iter().map(|&mm| Some(mm)).collect();
+    let cpm = rig.installation.counts_per_mm;
+    let until = rig.now_us + duration_us;
+    let mut peaks = Peaks::default();
+    let mut before = rig.kinematics_counts();
+    let mut samples: Vec<Vec<f64>> = Vec::new();
+    while rig.now_us < until {
+        rig.player
+            .sequencer_mut()
+            .set_live_input(crate::player::LiveInput {
+                targets_mm: &targets,
+                ..Default::default()
+            });
+        rig.step();
+        assert_ne!(
+            rig.state(),
+            PlayerState::Error,
+            "{:?}",
+            rig.player.status().last_error
+        );
+        let now = rig.kinematics_counts();
+        for (&(_, v0), &(_, v1)) in before.iter().zip(&now) {
+            peaks.speed_mm_s = peaks.speed_mm_s.max(v1.abs() / cpm);
+            let accel = (v1 - v0).abs() / (STEP_US as f64 / 1e6) / cpm;
+            peaks.accel_mm_s2 = peaks.accel_mm_s2.max(accel);
+        }
+        before = now;
+        if rig.now_us.is_multiple_of(10_000) {
+            samples.push(rig.positions_mm());
+        }
+    }
+    let dt_s = 0.01;
+    for pair in samples.windows(2) {
+        for (a, b) in pair[0].iter().zip(&pair[1]) {
+            peaks.sampled_speed_mm_s = peaks.sampled_speed_mm_s.max((b - a).abs() / dt_s);
+        }
+    }
+    for three in samples.windows(3) {
+        for ((a, b), c) in three[0].iter().zip(&three[1]).zip(&three[2]) {
+            let second = c - 2.0 * b + a;
+            peaks.sampled_accel_mm_s2 = peaks.sampled_accel_mm_s2.max(second.abs() / (dt_s * dt_s));
+        }
+    }
+    peaks
+}
+
+/// Every ball rests exactly at `counts` (the twin's own position, to the count).
+fn assert_at_counts(rig: &Rig, counts: &[f64]) {
+    let at: Vec<(f64, f64)> = rig.kinematics_counts();
+    for (ball, (&(position, velocity), &want)) in at.iter().zip(counts).enumerate() {
+        assert_eq!(
+            (position, velocity),
+            (want, 0.0),
+            "ball {ball} at {position} counts moving {velocity} counts/s"
+        );
+    }
+}
+
+/// Issue 47, item 1: a fader at 0 (the top) or full (the travel) brings every ball to
+/// that end exactly, to the count, and never past it — before, a state rounded on
+/// its own near an end (0.4 counts below the top still rising → the top, still
+/// rising) made the next row dip past it and the unit stopped with LIMIT (0x41).
+/// From these starts every ball's last rows towards the end were such a pair.
+#[test]
+fn a_fader_at_either_end_brings_the_balls_there_to_the_count_never_past_it() {
+    let mut rig = Rig::new(small_installation());
+    let limits = rig.installation.limits;
+    rig.live_at(&[109.0, 118.0, 20.0]);
+    follow_live(&mut rig, 1_000_000, &[109.0, 118.0, 20.0]);
+    // Snapped to the top.
+    let peaks = follow_live(&mut rig, 2_000_000, &[0.0; 3]);
+    assert_at_counts(&rig, &[0.0; 3]);
+    let mut worst = peaks;
+    // To the bottom of the travel, from where the last rows dipped past it.
+    follow_live(&mut rig, 3_000_000, &[120.0, 131.0, 142.0]);
+    let peaks = follow_live(&mut rig, 3_000_000, &[1000.0; 3]);
+    assert_at_counts(&rig, &[100_000.0; 3]);
+    worst.speed_mm_s = worst.speed_mm_s.max(peaks.speed_mm_s);
+    worst.accel_mm_s2 = worst.accel_mm_s2.max(peaks.accel_mm_s2);
+    // Full travel steps, and slow fades onto each end, back and forth.
+    for (targets, duration_us) in [
+        ([0.0; 3], 3_000_000),
+        ([1000.0; 3], 3_000_000),
+        ([0.0; 3], 3_000_000),
+        ([0.004, 999.996, 0.0], 1_000_000),
+        ([1000.0, 0.0, 1000.0], 3_000_000),
+    ] {
+        let peaks = follow_live(&mut rig, duration_us, &targets);
+        worst.speed_mm_s = worst.speed_mm_s.max(peaks.speed_mm_s);
+        worst.accel_mm_s2 = worst.accel_mm_s2.max(peaks.accel_mm_s2);
+    }
+    assert_at_counts(&rig, &[100_000.0, 0.0, 100_000.0]);
+    let from = rig.now_us;
+    let fade = |ball: usize, t_us: u64| {
+        // Each ball fades at its own speed onto an end and off it again.
+        let rate_mm_s = [37.0, 113.0, 290.0][ball];
+        let s = (t_us - from) as f64 / 1e6;
+        (1000.0 - rate_mm_s * s).clamp(0.0, 1000.0)
+    };
+    while rig.now_us < from + 30_000_000 {
+        let at: Vec<f64> = (0..3).map(|ball| fade(ball, rig.now_us)).collect();
+        let peaks = follow_live(&mut rig, 5_000, &at);
+        worst.speed_mm_s = worst.speed_mm_s.max(peaks.speed_mm_s);
+        worst.accel_mm_s2 = worst.accel_mm_s2.max(peaks.accel_mm_s2);
+    }
+    follow_live(&mut rig, 1_000_000, &[0.0; 3]);
+    assert_at_counts(&rig, &[0.0; 3]);
+    // The twins' own motion never above the limits (they refuse a row over them:
+    // OVERLOAD, and a row past an end: LIMIT, both faults the loop above fails on).
+    assert!(
+        worst.speed_mm_s <= limits.max_speed_mm_s + 1e-6,
+        "{worst:?}"
+    );
+    assert!(
+        worst.accel_mm_s2 <= limits.max_accel_mm_s2 * 1.001,
+        "{worst:?}"
+    );
+    // Leaving rests where they are, read back exactly.
+    rig.player.sequencer_mut().leave_live(rig.now_us);
+    rig.run_until(5_000_000, |rig| rest_mm(rig).is_some());
+    assert_eq!(rest_mm(&rig), Some(vec![0.0; 3]));
+    assert_eq!(rig.player.status().last_error, None);
+}
+
+/// Issue 47, item 2: the share of the top speed and acceleration live motion uses at
+/// the ball on UIM2503 units, on a fader step across the whole travel and back (the
+/// figures in `docs/live.md`): the twins' own motion, and positions sampled every
+/// 10 ms. Rows are whole counts, so the filter keeps 6/T² + 6/T counts/s² under the
+/// top acceleration (at 100 counts/mm and 11 ms rows, 501 mm/s²: a quarter) and
+/// 3/T + 1 counts/s under the top speed (2.7 mm/s).
+#[test]
+fn live_motion_at_the_ball_uses_three_quarters_of_the_acceleration() {
+    let mut rig = Rig::new(small_installation());
+    let limits = rig.installation.limits;
+    assert_eq!(rig.player.sequencer_mut().go_live(0), Ok(()));
+    assert_eq!(rig.player.status().live.unwrap().period_ms, 11);
+    rig.estop();
+    rig.live_at(&[0.0; 3]);
+    follow_live(&mut rig, 500_000, &[0.0; 3]);
+    let down = follow_live(&mut rig, 3_000_000, &[1000.0; 3]);
+    assert_at_counts(&rig, &[100_000.0; 3]);
+    let up = follow_live(&mut rig, 3_000_000, &[0.0; 3]);
+    assert_at_counts(&rig, &[0.0; 3]);
+    let share = |value: f64, limit: f64| value / limit;
+    for (what, peaks) in [("0 → full", down), ("full → 0", up)] {
+        eprintln!(
+            "{what}: speed {:.1} mm/s ({:.1} %), sampled every 10 ms {:.1} mm/s ({:.1} %); \
+             acceleration {:.0} mm/s² ({:.1} %), sampled every 10 ms {:.0} mm/s² ({:.1} %)",
+            peaks.speed_mm_s,
+            100.0 * share(peaks.speed_mm_s, limits.max_speed_mm_s),
+            peaks.sampled_speed_mm_s,
+            100.0 * share(peaks.sampled_speed_mm_s, limits.max_speed_mm_s),
+            peaks.accel_mm_s2,
+            100.0 * share(peaks.accel_mm_s2, limits.max_accel_mm_s2),
+            peaks.sampled_accel_mm_s2,
+            100.0 * share(peaks.sampled_accel_mm_s2, limits.max_accel_mm_s2),
+        );
+    }
+    for (what, peaks) in [("0 → full", down), ("full → 0", up)] {
+        let speed = share(peaks.speed_mm_s, limits.max_speed_mm_s);
+        let accel = share(peaks.accel_mm_s2, limits.max_accel_mm_s2);
+        assert!((0.99..=1.0).contains(&speed), "{what}: {peaks:?}");
+        assert!((0.74..=1.0).contains(&accel), "{what}: {peaks:?}");
+        let sampled = share(peaks.sampled_accel_mm_s2, limits.max_accel_mm_s2);
+        assert!((0.70..=0.85).contains(&sampled), "{what}: {peaks:?}");
+    }
+}
+
+/// Issue 47, item 3: a show armed right after Leave live, while the units still run
+/// the FIFO's last rows: a unit takes no table mode while it runs rows (`MP[3]` is
+/// refused, silently after `*0;`), so the tables went into the FIFO and Start failed
+/// ("answered PV with 20 after loading, expected 0"). Arming now waits until every
+/// unit answered where it stopped, then loads; the show plays as written.
+#[test]
+fn arming_right_after_leaving_live_waits_for_the_last_rows_then_plays_as_written() {
+    let show = wave(2, 2, 20, 100);
+    let mut rig = Rig::new(installation(2, 2, &[115_200]));
+    rig.live_at(&[1500.0; 4]);
+    follow_live(&mut rig, 1_000_000, &[1500.0; 4]);
+    rig.player.sequencer_mut().leave_live(rig.now_us);
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert!(rig.anyone_moving(), "the FIFO's last rows still run");
+    let marks = rig.wire_marks();
+    assert!(rig.arm(vec![entry(show.clone(), 0, 1)], false));
+    // Nothing of the table goes out while the last rows run.
+    while rig.anyone_moving() {
+        rig.step();
+        assert!(
+            !rig.wire_since(&marks).contains("MP[3]"),
+            "configured under the old rows"
+        );
+        assert_eq!(rig.armed_progress(), Some(0.0));
+    }
+    rig.run_until(10_000_000, |rig| rig.armed_progress() == Some(1.0));
+    assert_eq!(rig.player.status().last_error, None);
+    assert!(rest_mm(&rig).is_some());
+    let marks = rig.wire_marks();
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    let worst = follow(&mut rig, &show);
+    assert!(worst <= 1.0, "a ball was {worst:.3} mm off its show");
+    assert!(
+        !rig.wire_since(&marks).contains("QP"),
+        "the armed tables were used"
+    );
+    rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
+    assert_eq!(rig.player.status().last_error, None);
+}
+
+/// Issue 47, the shows: a take recorded live that brakes into either end (the
+/// filter's own steps, as [`crate::live::record`] keeps them) is planned with rows
+/// that stay inside the travel — rounded on their own, the last-but-one row ended
+/// at the end still moving and the last dipped past it — and plays to the count.
+#[test]
+fn a_recorded_take_braking_into_either_end_plays_to_the_count() {
+    use crate::live::filter::{BallState, MotionFilter};
+    use crate::live::record::Recorder;
+    use crate::uim2503::plan::{Plan, PlanOptions};
+    use crate::uim2503::pvt::rounding::{End, Envelope};
+    let installation = small_installation();
+    let drive = super::player::Uim2503Drive::new(PlayerConfig {
+        installation: installation.clone(),
+    });
+    let setup = crate::player::Drive::live_setup(&drive).unwrap();
+    let filter = MotionFilter::new(setup.limits).unwrap();
+    let mut states: Vec<BallState> = [109.0, 118.0, 20.0]
+        .into_iter()
+        .map(BallState::at_rest)
+        .collect();
+    let mut recorder = Recorder::new("take", installation.layout(), filter, &states).unwrap();
+    for targets in [[0.0; 3], [120.0, 131.0, 142.0], [1000.0; 3], [0.0; 3]] {
+        for _ in 0..300 {
+            for (state, &target) in states.iter_mut().zip(&targets) {
+                filter.step(state, Some(target), None);
+            }
+            recorder.push(&states, &[]);
+        }
+    }
+    let show = recorder.finish();
+    let mut rig = Rig::new(installation.clone());
+    rig.start(vec![entry(show.clone(), 0, 1)], false).unwrap();
+    rig.run_until(120_000_000, |rig| rig.state() == PlayerState::Playing);
+    let start_us = rig.now_us;
+    while rig.state() == PlayerState::Playing {
+        rig.step();
+    }
+    assert_eq!(rig.player.status().last_error, None);
+    assert_eq!(rig.state(), PlayerState::Idle);
+    assert!(rig.now_us - start_us >= show.duration_ms() * 1_000);
+    assert_at_counts(&rig, &[0.0; 3]);
+    // Every planned row stays inside along its cubic, within the limits.
+    let plan = Plan::new(&show, &installation, PlanOptions::default()).unwrap();
+    let envelope = Envelope::of(&installation);
+    for unit in &plan.units {
+        let mut from = End::at_rest(unit.start_counts);
+        for row in &unit.rows {
+            assert!(envelope.row_inside(from, row), "{from:?} → {row:?}");
+            assert!(envelope.row_within_limits(from, row), "{from:?} → {row:?}");
+            from = End::of(row);
+        }
+        assert_eq!(from, End::at_rest(0));
+    }
 }

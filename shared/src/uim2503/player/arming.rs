@@ -8,6 +8,12 @@
 //! `BG`, so nothing moves. The manual's own sequences write the rows before the
 //! approach (PROTOCOL §1.6): a point-to-point move leaves the table as it is.
 //!
+//! Right after live mode the units still run the FIFO's last rows, and a unit
+//! refuses a table mode (`MP[3]`) while it runs rows — silently, for the broadcast
+//! configuration — so the tables would be loaded into a FIFO: arming then waits,
+//! its progress at 0, until every unit answered where it stopped
+//! ([`super::live`]'s read-back after live mode), and loads them then.
+//!
 //! A Start whose first plan is the armed one takes the armed tables over
 //! ([`Player::start_prepared`]): its load phase goes on from where arming got (nothing
 //! left when it is armed) and only arms and confirms (`PV=0`, `PV;`). Anything that
@@ -188,6 +194,12 @@ impl Uim2503Drive {
             .any(|run| queued(run.gateway).is_none())
         {
             self.disarm_tables();
+            return;
+        }
+        if self.after_live.is_some() {
+            // Live mode's last rows may still run: a unit takes no table mode while
+            // it runs rows (`MP[3]` is refused, and silently after `*0;`), so the
+            // table waits until every unit answered where it stopped.
             return;
         }
         // Only what was queued on an earlier turn can have been written since.

@@ -24,7 +24,16 @@
 //!   that just missed a slot).
 //! - **Rounding**: rows are whole counts, so the filter runs a little under the
 //!   installation's speed and acceleration (what half a count at each end of a row can
-//!   add): no row asks a unit for more than it has.
+//!   add, [`rounding_margins`]: 6/T² + 6/T counts/s² — at 100 counts/mm and 11 ms rows
+//!   501 mm/s², a quarter of 2,000 mm/s²; the row is made long enough that this is at
+//!   most half the limits): no row asks a unit for more than it has. Each row is the
+//!   whole-count row nearest to the filter's state that the unit accepts after the
+//!   row before it ([`rounding::live_row`]): inside the travel along its whole cubic,
+//!   with an end from which the next row can stay inside too — near an end of the
+//!   travel a state rounded on its own (0.4 counts below the top, still rising, becomes
+//!   the top itself, still rising) makes the next row's cubic dip past the end, and
+//!   the unit stops with LIMIT. So a fader at 0 or full brings the balls to the very
+//!   end, to the count, and never past it.
 //! - **Running dry**: a bridge more than [`live_fifo_rows`] rows late (a stall under
 //!   heavy load) leaves the units without a row; they brake with `SD`, stop, and run
 //!   no row written after — silently (the rows' `QT` is broadcast, so not even a full
@@ -49,6 +58,7 @@ use crate::live::filter::{BallState, FilterLimits};
 use crate::player::{LiveSetup, StartError};
 use crate::uim2503::ascii::{Batch, Instruction};
 use crate::uim2503::plan::{GatewayRun, Plan, RunMode, UnitPlan};
+use crate::uim2503::pvt::rounding::{self, End, Envelope};
 use crate::uim2503::pvt::{ROW_MAX_MS, ROW_MIN_MS, Row, TABLE_ROWS};
 use crate::uim2503::{schedule, stream};
 
@@ -102,6 +112,8 @@ pub(super) struct LiveStream {
     /// The units' rows: a table's round of rows per unit, the next at `next_row % 256`.
     plan: Plan,
     row_ms: u8,
+    /// The travel and limits the rows keep, in counts.
+    envelope: Envelope,
     next_row: usize,
     /// Per run: the barrier answered.
     confirmed: Vec<bool>,
@@ -148,7 +160,7 @@ impl Uim2503Drive {
     /// last.
     pub(super) fn live_row_ms(&self) -> Result<u8, StartError> {
         let installation = &self.config.installation;
-        let mut row_ms = u64::from(ROW_MIN_MS);
+        let mut row_ms = u64::from(rounding_row_min_ms(installation));
         for (gateway, spec) in installation.gateways.iter().enumerate() {
             let units = installation.units_on(gateway).count();
             if units == 0 {
@@ -175,15 +187,10 @@ impl Uim2503Drive {
         let installation = &self.config.installation;
         let limits = installation.limits;
         let row_us = u64::from(row_ms) * 1_000;
-        // Rows are whole counts: a position off by half a count at each end of a row
-        // (and a velocity by half a count/s) bends its cubic by up to 6/T² + 3/T
-        // counts/s² and 1.5/T counts/s. The filter keeps that much under the limits,
-        // so no row asks the unit for more than it has (the unit refuses a row over
-        // its limits).
-        let t_s = f64::from(row_ms) / 1000.0;
-        let per_mm = installation.counts_per_mm.abs().max(f64::MIN_POSITIVE);
-        let accel_margin = (6.0 / (t_s * t_s) + 6.0 / t_s) / per_mm;
-        let speed_margin = (3.0 / t_s + 1.0) / per_mm;
+        // Rows are whole counts: the filter keeps what rounding can add under the
+        // limits, so no row asks the unit for more than it has (the unit refuses a
+        // row over its limits).
+        let (speed_margin, accel_margin) = rounding_margins(installation, row_ms);
         Ok(LiveSetup {
             limits: FilterLimits {
                 travel_mm: limits.travel_mm,
@@ -214,12 +221,32 @@ impl Uim2503Drive {
             .collect()
     }
 
-    /// A ball's state as a row of `row_ms`.
-    fn live_row(&self, state: BallState, row_ms: u8) -> Row {
-        let installation = &self.config.installation;
+    /// A ball's state as a row of `row_ms` after the row that ended at `from`: the
+    /// whole-count row nearest to it that the unit accepts ([`rounding::live_row`]:
+    /// inside the travel along its whole cubic, and after it every next row can be,
+    /// within the limits).
+    fn live_row(&self, envelope: &Envelope, from: End, state: BallState, row_ms: u8) -> Row {
+        let per_mm = self.config.installation.counts_per_mm;
+        rounding::live_row(
+            envelope,
+            from,
+            state.position_mm * per_mm,
+            state.velocity_mm_s * per_mm,
+            row_ms,
+        )
+    }
+
+    /// A row of `row_ms` at rest at `position_mm` (rounded, inside the travel).
+    fn rest_row(&self, envelope: &Envelope, position_mm: f64, row_ms: u8) -> Row {
+        let counts = self
+            .config
+            .installation
+            .counts(position_mm)
+            .unwrap_or(envelope.low_counts)
+            .clamp(envelope.low_counts, envelope.high_counts);
         Row {
-            position_counts: installation.counts(state.position_mm).unwrap_or(0),
-            velocity_counts_s: installation.counts(state.velocity_mm_s).unwrap_or(0),
+            position_counts: counts,
+            velocity_counts_s: 0,
             duration_ms: row_ms,
         }
     }
@@ -231,13 +258,14 @@ impl Uim2503Drive {
             return false;
         };
         let installation = &self.config.installation;
+        let envelope = Envelope::of(installation);
         let units: Vec<UnitPlan> = installation
             .units
             .iter()
             .enumerate()
             .map(|(unit, address)| {
                 let state = states.get(unit).copied().unwrap_or_default();
-                let rest = self.live_row(BallState::at_rest(state.position_mm), row_ms);
+                let rest = self.rest_row(&envelope, state.position_mm, row_ms);
                 UnitPlan {
                     address: *address,
                     start_counts: rest.position_counts,
@@ -292,6 +320,7 @@ impl Uim2503Drive {
             confirmed: vec![false; plan.gateways.len()],
             plan,
             row_ms,
+            envelope,
             next_row: live_fifo_rows(row_ms),
             started: false,
         });
@@ -390,9 +419,12 @@ impl Uim2503Drive {
         };
         if live.started {
             let index = live.next_row % TABLE_ROWS;
+            // Every row follows the one before it (the preload's rest rows first).
+            let previous = (live.next_row + TABLE_ROWS - 1) % TABLE_ROWS;
             for (unit, plan) in live.plan.units.iter_mut().enumerate() {
                 let state = states.get(unit).copied().unwrap_or_default();
-                plan.rows[index] = self.live_row(state, live.row_ms);
+                let from = End::of(&plan.rows[previous]);
+                plan.rows[index] = self.live_row(&live.envelope, from, state, live.row_ms);
             }
             let check = live.next_row % LEVEL_CHECK_ROWS == 0;
             for run in &live.plan.gateways {
@@ -420,14 +452,24 @@ impl Uim2503Drive {
     /// Where they are is asked once the FIFO ran out ([`AfterLive`]); unknown until
     /// then.
     pub(super) fn end_live_stream(&mut self, at_us: u64, states: &[BallState]) {
-        let row_ms = self.live.take().map_or(ROW_MAX_MS, |live| live.row_ms);
+        let live = self.live.take();
+        let row_ms = live.as_ref().map_or(ROW_MAX_MS, |live| live.row_ms);
         let row_us = u64::from(row_ms) * 1_000;
         let installation = &self.config.installation;
+        // Where the last rows written leave each unit (the states rounded as the
+        // rows were, inside the travel).
         let expected: Vec<Option<i32>> = (0..installation.units.len())
-            .map(|unit| {
-                states
+            .map(|unit| match &live {
+                Some(live) => {
+                    let last = (live.next_row + TABLE_ROWS - 1) % TABLE_ROWS;
+                    live.plan
+                        .units
+                        .get(unit)
+                        .map(|plan| plan.rows[last].position_counts)
+                }
+                None => states
                     .get(unit)
-                    .and_then(|state| installation.counts(state.position_mm))
+                    .and_then(|state| installation.counts(state.position_mm)),
             })
             .collect();
         let units = expected.len();
@@ -519,9 +561,65 @@ impl Uim2503Drive {
     }
 }
 
+/// What rounding a live row to whole counts can add to the filter's motion at rows
+/// of `row_ms`, in mm/s and mm/s²: a position off by half a count at each end of a
+/// row (and a velocity by half a count/s) bends its cubic by up to 6/T² + 3/T
+/// counts/s² and 1.5/T counts/s; kept here are 6/T² + 6/T and 3/T + 1, which also
+/// leave room for the row ends chosen near an end of the travel
+/// ([`rounding::live_row`]: none over the limits in its tests' random sweep). The
+/// filter keeps that much under the limits, so no row asks the unit for more than
+/// it has. At 100 counts/mm: 606 mm/s² at 10 ms rows, 501 at 11 ms, 310 at 14 ms.
+fn rounding_margins(installation: &crate::plan::Installation, row_ms: u8) -> (f64, f64) {
+    let t_s = f64::from(row_ms.max(1)) / 1000.0;
+    let per_mm = installation.counts_per_mm.abs().max(f64::MIN_POSITIVE);
+    let speed_margin_mm_s = (3.0 / t_s + 1.0) / per_mm;
+    let accel_margin_mm_s2 = (6.0 / (t_s * t_s) + 6.0 / t_s) / per_mm;
+    (speed_margin_mm_s, accel_margin_mm_s2)
+}
+
+/// The shortest live row, ms, at which rounding takes at most half of the top speed
+/// and acceleration ([`rounding_margins`]): shorter rows of a coarse calibration or a
+/// low acceleration would bend the cubics by more than the filter can leave spare
+/// (at 100 counts/mm and 500 mm/s², 16 ms rather than 10).
+fn rounding_row_min_ms(installation: &crate::plan::Installation) -> u8 {
+    let limits = installation.limits;
+    (ROW_MIN_MS..=ROW_MAX_MS)
+        .find(|&row_ms| {
+            let (speed_mm_s, accel_mm_s2) = rounding_margins(installation, row_ms);
+            speed_mm_s <= limits.max_speed_mm_s / 2.0 && accel_mm_s2 <= limits.max_accel_mm_s2 / 2.0
+        })
+        .unwrap_or(ROW_MAX_MS)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rows_are_long_enough_for_rounding_to_take_at_most_half_the_limits() {
+        let installation = |accel_mm_s2: f64, counts_per_mm: f64| {
+            let mut installation =
+                crate::plan::Installation::demo(1, 1, &[115_200]).expect("a matrix");
+            installation.limits.max_accel_mm_s2 = accel_mm_s2;
+            installation.counts_per_mm = counts_per_mm;
+            installation
+        };
+        // 100 counts/mm: 10 ms rows bend the cubics by up to 606 mm/s².
+        assert_eq!(rounding_row_min_ms(&installation(2000.0, 100.0)), 10);
+        assert_eq!(rounding_row_min_ms(&installation(500.0, 100.0)), 16);
+        assert_eq!(rounding_row_min_ms(&installation(2000.0, 10.0)), 25);
+        let (_, accel_mm_s2) = rounding_margins(&installation(2000.0, 100.0), 11);
+        assert!((accel_mm_s2 - 501.3).abs() < 0.1, "{accel_mm_s2}");
+        for accel in [100.0, 500.0, 2000.0, 40_000.0] {
+            let installation = installation(accel, 100.0);
+            let row_ms = rounding_row_min_ms(&installation);
+            let (_, margin) = rounding_margins(&installation, row_ms);
+            assert!(
+                margin <= accel / 2.0 || row_ms == ROW_MAX_MS,
+                "{accel}: {row_ms} ms"
+            );
+        }
+    }
 
     #[test]
     fn the_fifo_holds_six_rows_and_at_least_150_ms() {

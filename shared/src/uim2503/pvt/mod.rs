@@ -2,9 +2,12 @@
 //!
 //! - a row is evaluated as a cubic Hermite segment ([`crate::motion::Segment`]), the
 //!   evaluation shared by the simulator, the planner, show validation and the preview;
+//! - [`rounding`]: a motion in whole counts as rows the unit accepts (inside the
+//!   travel along every cubic, within the limits);
 //! - [`table`]: a unit's 256-row table with its `MP` parameters and the FIFO,
 //!   single-sequence and loop runs, as a state machine advanced by time.
 
+pub mod rounding;
 pub mod table;
 
 pub use table::{
