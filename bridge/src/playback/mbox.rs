@@ -1,6 +1,9 @@
 //! MBOX boxes as a family under the sequencer ([`super::sequenced`]): the boxes'
 //! drive ([`floatball_shared::mbox::drive`]) queues one frame per period, and the
-//! boxes' sender ([`crate::ports::mbox::MboxNet`]) sends each at its slot, one datagram a box.
+//! boxes' sender ([`crate::ports::mbox::MboxNet`]) sends each at its slot, one datagram
+//! a box (a live frame paced, for each box, at the instant it leaves). Before each poll
+//! the drive learns the frame lead and the send lateness the sender measured lately,
+//! which the live status's latency counts.
 
 use std::time::{Duration, Instant};
 
@@ -61,6 +64,11 @@ impl Family for MboxFamily {
         // Frames are handed to the sender FRAME_LEAD ahead of their slot; it sends
         // them at their slot.
         u64::try_from(FRAME_LEAD.as_micros()).unwrap_or(0)
+    }
+
+    fn before_poll(&self, drive: &mut MboxDrive) {
+        // The live latency counts the lead and the lateness the sender measured.
+        drive.set_send_timing(self.lead_us(), self.boxes.recent_lateness_us());
     }
 
     fn carry_out(

@@ -31,6 +31,22 @@
 //! (FN `0x0090`, one register) is relayed only while the box owes a console read of
 //! that shape. The bridge's own polls are never relayed.
 //!
+//! **Live frames are paced at the instant they leave** ([`floatball_shared::mbox::pace`],
+//! issue 47): a box runs each frame from where its axes are when it arrives, so a frame
+//! that leaves sooner after the one before than the period cuts that one's line short
+//! and the ball runs the lag off faster than the top speed, and one that leaves later
+//! finds the axes resting. For each live frame the sender asks each box's
+//! [`BoxPacer`] — a model of the box fed every frame this sender sent, at the time it
+//! sent it — for the line the box is to run from where its axes are now, within the
+//! top speed and acceleration (the frame's targets brought in when they would need
+//! more), and sends that. Frames that are not live (homing, approaches, shows) go as
+//! made and are only followed; an e-stop makes the box's positions unknown to its
+//! pacer. Each box's frame is paced at its own send instant.
+//!
+//! **Send lateness.** Besides the all-time histogram ([`MboxNet::timing`]) the sender
+//! keeps the latest a frame left over the last [`RECENT_LATENESS`] or so
+//! ([`MboxNet::recent_lateness_us`]): the live status's latency counts it.
+//!
 //! A box's datagrams name every box as receiver (`0xFFFF`): each is sent to one box's
 //! own address and port, so the box need not know its configured address.
 
@@ -43,6 +59,7 @@ use std::time::{Duration, Instant};
 
 use floatball_shared::api::{GatewayKind, GatewayStatus, LinkState, MboxRegisters, MboxReply};
 use floatball_shared::mbox::console::{Operation, ReplyLayout, render_reply};
+use floatball_shared::mbox::pace::{BoxPacer, Paced};
 use floatball_shared::mbox::player::MboxFrame;
 use floatball_shared::mbox::register::FN_ESTOP;
 use floatball_shared::mbox::{
@@ -68,6 +85,9 @@ pub const DOWN_AFTER: Duration = Duration::from_millis(1_600);
 pub const ESTOP_REPEATS: u32 = crate::estop::REPEATS;
 /// The time between two repeats of the e-stop or its release.
 pub const ESTOP_REPEAT_INTERVAL: Duration = crate::estop::REPEAT_INTERVAL;
+/// How far back [`MboxNet::recent_lateness_us`] looks: the latest of this window and
+/// the one before.
+pub const RECENT_LATENESS: Duration = Duration::from_secs(5);
 
 /// One box's counters and last answer: written by the sender and the receiver,
 /// read by anyone.
@@ -127,6 +147,9 @@ struct Timing {
     max_lateness_us: AtomicU64,
     /// The longest a frame took from its first datagram to its last, µs.
     max_spread_us: AtomicU64,
+    /// The latest a frame's first datagram left over this [`RECENT_LATENESS`] window
+    /// and the one before, µs.
+    recent_max_lateness_us: AtomicU64,
 }
 
 impl Timing {
@@ -137,6 +160,7 @@ impl Timing {
             lateness: std::array::from_fn(|_| AtomicU64::new(0)),
             max_lateness_us: AtomicU64::new(0),
             max_spread_us: AtomicU64::new(0),
+            recent_max_lateness_us: AtomicU64::new(0),
         }
     }
 
@@ -456,6 +480,15 @@ impl MboxNet {
         self.shared.timing.snapshot(&self.shared.boxes)
     }
 
+    /// The latest a motion frame's first datagram left after its slot lately (over the
+    /// last [`RECENT_LATENESS`] to twice that), µs; 0 before any frame.
+    pub fn recent_lateness_us(&self) -> u64 {
+        self.shared
+            .timing
+            .recent_max_lateness_us
+            .load(Ordering::Relaxed)
+    }
+
     /// Box `index`'s configured address and port.
     pub fn address(&self, index: usize) -> Option<SocketAddr> {
         self.shared.boxes.get(index).map(|one| one.address)
@@ -485,7 +518,8 @@ fn estop_datagram(value: u16) -> Vec<u8> {
 /// (1 for its first frame, counting on and wrapping past 0 to 1).
 ///
 /// **Time codes.** A frame takes `time_ms` (a move's frames the time left, show and
-/// settle frames the period). Relative: the time code is that time. Absolute: the box
+/// settle frames the period, a live frame what its box's pacer made of it — four
+/// periods, or less near the travel's ends and at rest). Relative: the time code is that time. Absolute: the box
 /// takes a frame's time code minus the previous frame's (the document: 「指令的执行时间
 /// 是当前指令里的绝对时间减去上一条指令里的绝对时间」), so each box's time code counts
 /// on from the last one it was sent by exactly the frame's time, from 0 when the
@@ -511,11 +545,11 @@ impl FrameEncoder {
         }
     }
 
-    /// Box `index`'s time code of `frame`, counted on when `frame` is absolute: its
+    /// Box `index`'s time code of a frame of `time_ms`, counted on when absolute: its
     /// time (relative), or box `index`'s last time code plus its time (absolute; never
     /// 0).
-    fn time_code(&mut self, frame: &MboxFrame, index: usize) -> Option<TimeCode> {
-        let time_ms = frame.time_ms.max(1);
+    fn time_code(&mut self, time_ms: u32, index: usize) -> Option<TimeCode> {
+        let time_ms = time_ms.max(1);
         match self.time {
             TimeMode::Relative => Some(TimeCode::from_ms(time_ms)),
             TimeMode::Absolute => {
@@ -530,9 +564,23 @@ impl FrameEncoder {
     /// absolute time code); `None` (and not counted) when the frame has no valid axis
     /// count for it or the box is not configured.
     fn datagram(&mut self, frame: &MboxFrame, index: usize) -> Option<Vec<u8>> {
-        let positions_pulses =
-            AxisPositions::from_slice(frame.positions_pulses.get(index)?).ok()?;
-        let time_code = self.time_code(frame, index)?;
+        let paced = Paced {
+            positions_pulses: frame.positions_pulses.get(index)?.clone(),
+            time_ms: frame.time_ms,
+        };
+        self.paced_datagram(frame, index, &paced)
+    }
+
+    /// Box `index`'s datagram of `frame` with the targets and time of `paced` (what
+    /// its pacer made of the frame), counted as [`Self::datagram`] counts.
+    fn paced_datagram(
+        &mut self,
+        frame: &MboxFrame,
+        index: usize,
+        paced: &Paced,
+    ) -> Option<Vec<u8>> {
+        let positions_pulses = AxisPositions::from_slice(&paced.positions_pulses).ok()?;
+        let time_code = self.time_code(paced.time_ms, index)?;
         let sequence = self.sequence.get_mut(index)?;
         *sequence = sequence.wrapping_add(1).max(1);
         let output = frame.outputs.get(index).copied().unwrap_or_default();
@@ -566,6 +614,11 @@ struct Outbox<'a> {
     /// Per box: a poll is unanswered (replies count when it was sent).
     polled: Vec<Option<u64>>,
     encoder: FrameEncoder,
+    /// Per box: its model for pacing live frames.
+    pacers: Vec<BoxPacer>,
+    /// The [`RECENT_LATENESS`] window now, the latest a frame left in it and in the
+    /// one before, µs.
+    lateness_window: (u64, u64, u64),
     meter_since: Instant,
     meter_sent: Vec<u64>,
 }
@@ -585,6 +638,8 @@ impl<'a> Outbox<'a> {
             pending: std::collections::VecDeque::new(),
             polled: vec![None; boxes],
             encoder: FrameEncoder::new(shared.time, boxes),
+            pacers: vec![BoxPacer::new(); boxes],
+            lateness_window: (0, 0, 0),
             meter_since: now,
             meter_sent: vec![0; boxes],
         }
@@ -622,6 +677,10 @@ impl<'a> Outbox<'a> {
         self.needs_release = true;
         while inbox.try_recv().is_ok() {}
         self.pending.clear();
+        // Every axis stops where it is: the pacers no longer know where.
+        for pacer in &mut self.pacers {
+            pacer.forget();
+        }
     }
 
     fn frame(&mut self, outgoing: Outgoing) {
@@ -634,23 +693,70 @@ impl<'a> Outbox<'a> {
             self.repeats.start_with(0, Instant::now());
         }
         let started = Instant::now();
+        let slot_us = self.micros_at(outgoing.slot);
         for index in 0..outgoing.frame.positions_pulses.len() {
-            if let Some(datagram) = self.encoder.datagram(&outgoing.frame, index) {
+            if let Some(datagram) = self.pace(&outgoing.frame, slot_us, index) {
                 self.send_to(index, &datagram);
             }
         }
         let finished = Instant::now();
         let late = finished.saturating_duration_since(outgoing.slot) > self.shared.period / 2;
-        self.shared.timing.record(
-            started.saturating_duration_since(outgoing.slot),
-            finished.saturating_duration_since(started),
-            late,
-        );
+        let lateness = started.saturating_duration_since(outgoing.slot);
+        self.shared
+            .timing
+            .record(lateness, finished.saturating_duration_since(started), late);
+        self.recent_lateness(started, lateness);
         if late {
             for one in &self.shared.boxes {
                 one.late_frames.fetch_add(1, Ordering::AcqRel);
             }
         }
+    }
+
+    /// `at` as µs since the boxes were opened.
+    fn micros_at(&self, at: Instant) -> u64 {
+        u64::try_from(at.saturating_duration_since(self.shared.epoch).as_micros())
+            .unwrap_or(u64::MAX)
+    }
+
+    /// Box `index`'s datagram of `frame` (of slot `slot_us`) as it leaves now: paced by
+    /// the box's pacer when the frame is live, else as made (and followed by the
+    /// pacer).
+    fn pace(&mut self, frame: &MboxFrame, slot_us: u64, index: usize) -> Option<Vec<u8>> {
+        let made = frame.positions_pulses.get(index)?;
+        let send_us = self.shared.micros();
+        let pacer = self.pacers.get_mut(index)?;
+        match frame.pace.as_ref().and_then(|limits| limits.get(index)) {
+            Some(limits) => {
+                let paced = pacer.pace(limits, slot_us, send_us, frame.time_ms, made);
+                self.encoder.paced_datagram(frame, index, &paced)
+            }
+            None => {
+                pacer.observe(slot_us, send_us, frame.time_ms, made);
+                self.encoder.datagram(frame, index)
+            }
+        }
+    }
+
+    /// Counts a frame that left `lateness` after its slot, at `at`, in the recent
+    /// latest.
+    fn recent_lateness(&mut self, at: Instant, lateness: Duration) {
+        let window = self
+            .micros_at(at)
+            .checked_div(u64::try_from(RECENT_LATENESS.as_micros()).unwrap_or(1))
+            .unwrap_or(0);
+        let lateness_us = u64::try_from(lateness.as_micros()).unwrap_or(u64::MAX);
+        let (now, latest, before) = &mut self.lateness_window;
+        if window != *now {
+            *before = if window == *now + 1 { *latest } else { 0 };
+            *latest = 0;
+            *now = window;
+        }
+        *latest = (*latest).max(lateness_us);
+        self.shared
+            .timing
+            .recent_max_lateness_us
+            .store((*latest).max(*before), Ordering::Relaxed);
     }
 
     /// The time between two batches of polls: every box once in [`POLL_INTERVAL`].

@@ -24,6 +24,11 @@
 //! code: [`absolute_time_codes_count_on_by_each_frames_time`] checks that each box's
 //! absolute time code counts on by exactly the time the relative wire gives the same
 //! frame, and that twins fed the absolute wire count no time-code fault.
+//!
+//! The playlists here have no live frame, which the sender paces at the instant it
+//! sends it ([`floatball_shared::mbox::pace`]): the golden wire is the shows' as it
+//! was. [`live_frames_leave_paced_and_absolute_codes_count_on_by_the_paced_time`] runs
+//! the real sender (its socket and thread) on a few frames instead.
 
 use std::collections::VecDeque;
 use std::fmt::Write as _;
@@ -562,5 +567,100 @@ fn absolute_time_codes_count_on_by_each_frames_time() {
             assert!(counters.motion_frames > 50, "{counters:?}");
             assert_eq!(counters.time_code_faults, 0, "{counters:?}");
         }
+    }
+}
+
+/// The sender itself — its socket, its pacers, its encoder: a frame that is not live
+/// leaves as made; a live frame leaves paced (a box at rest where its model says gets
+/// half a period; a step beyond what a line may do is brought in to the velocity
+/// change the pacer allows, on a line of [`HOLD_PERIODS`] periods); in absolute time
+/// each box's code counts on by the time its datagram asks.
+#[test]
+fn live_frames_leave_paced_and_absolute_codes_count_on_by_the_paced_time() {
+    use std::sync::Arc;
+
+    use floatball_shared::mbox::drive::BoxCalibration;
+    use floatball_shared::mbox::pace::{
+        ACCEL_WINDOW_US, BoxLimits, HOLD_PERIODS, PaceLimits, guard_accel_pulses_s2,
+    };
+    use floatball_shared::show::OutputSample;
+
+    use super::MboxNet;
+
+    let calibration = BoxCalibration {
+        axes: 3,
+        pulses_per_mm: 100.0,
+        sign: 1,
+        offset_pulses: 0,
+    };
+    let limits = BoxLimits::new(&calibration, 1000.0, 500.0, 2000.0);
+    let pace: PaceLimits = Arc::from([limits]);
+    // The velocity change a line may make, over the hold.
+    let hold_ms = 20 * u32::try_from(HOLD_PERIODS).expect("periods");
+    let brought_in = (guard_accel_pulses_s2(&limits, ACCEL_WINDOW_US) * 0.010 * f64::from(hold_ms)
+        / 1000.0)
+        .round() as i32;
+    for (time, codes) in [
+        (TimeMode::Relative, [20, 10, hold_ms]),
+        (TimeMode::Absolute, [20, 30, 30 + hold_ms]),
+    ] {
+        let the_box = std::net::UdpSocket::bind("127.0.0.1:0").expect("the box's socket");
+        the_box
+            .set_read_timeout(Some(Duration::from_secs(2)))
+            .expect("a timeout");
+        let latch = Arc::new(Latch::new());
+        let net = MboxNet::open(
+            0,
+            &[the_box.local_addr().expect("its address")],
+            Duration::from_millis(20),
+            time,
+            Arc::clone(&latch),
+        )
+        .expect("the sender");
+        let frame = |slot_us: u64, pulses: i32, live: bool| MboxFrame {
+            slot_us,
+            time_ms: 20,
+            positions_pulses: vec![vec![pulses; 3]],
+            outputs: vec![OutputSample::default()],
+            pace: live.then(|| PaceLimits::clone(&pace)),
+        };
+        let epoch = Instant::now() + Duration::from_millis(10);
+        let generation = latch.generation();
+        // At rest at 0 (as made), live at rest there, then a live step of 10 mm in one
+        // period (500 mm/s from rest) — 100 ms apart, so that a sender held up by a
+        // loaded host still sends them apart.
+        for (slot_us, pulses, live) in [(0, 0, false), (100_000, 0, true), (200_000, 1_000, true)] {
+            net.send(
+                frame(slot_us, pulses, live),
+                epoch + Duration::from_micros(slot_us),
+                generation,
+            );
+        }
+        let mut motion = Vec::new();
+        let mut buffer = [0u8; 256];
+        while motion.len() < 3 {
+            let length = the_box.recv(&mut buffer).expect("a datagram");
+            if let Ok(Datagram::Motion(frame)) = Datagram::decode(&buffer[..length]) {
+                motion.push(frame);
+            }
+        }
+        assert!(motion.iter().all(|frame| frame.mode == time));
+        let got: Vec<u32> = motion
+            .iter()
+            .map(|frame| frame.time_code.wire_ms())
+            .collect();
+        assert_eq!(got, codes, "{time:?}");
+        let pulses: Vec<i32> = motion
+            .iter()
+            .map(|frame| frame.positions_pulses.as_slice()[0])
+            .collect();
+        assert_eq!(pulses, [0, 0, brought_in], "{time:?}");
+        // The sender counts a frame once its datagrams are out.
+        let deadline = Instant::now() + Duration::from_secs(2);
+        while net.timing().frames_sent < 3 && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        assert_eq!(net.timing().frames_sent, 3);
+        assert!(net.recent_lateness_us() <= net.timing().max_lateness_us);
     }
 }

@@ -1,27 +1,37 @@
 //! `floatball simulate --kind mbox`: MBOX boxes on real UDP sockets — for tests on
-//! loopback and for demonstrations on a LAN.
+//! loopback and for demonstrations on a LAN — and the bridge's own simulated boxes
+//! (`port = "sim"`).
 //!
 //! Each box is a [`MboxTwin`] (the sans-IO twin in `floatball_shared::mbox::twin`) on
-//! its own socket, owned by its own task: a datagram is handed to the twin with the
-//! time since the boxes started, and the twin's reply, if any, goes back to the
-//! sender's address and port. N boxes listen on consecutive ports from the first (or
-//! each on a port of the system's choosing when the first is 0), with consecutive IP
-//! addresses from the first, so each has its own address in datagrams.
+//! its own socket, answered by **a thread of its own**, not a task on the bridge's
+//! async runtime: a real box takes each frame when it arrives and answers a register
+//! read whatever the bridge is busy with, and a box queued behind busy tasks on the
+//! runtime's few workers would take frames late — which moves its axes as a late
+//! frame does (`docs/protocol-notes.md`, "The twin") — and miss the bridge's polls
+//! (the MOONS' simulator, [`super::scl`], moved to threads for the same reason). A
+//! datagram is handed to the twin with the time since the boxes started, read as it
+//! is received, and the twin's reply, if any, goes back to the sender's address and
+//! port. N boxes listen on consecutive ports from the first (or each on a port of the
+//! system's choosing when the first is 0), with consecutive IP addresses from the
+//! first, so each has its own address in datagrams.
 //!
-//! [`MboxBoxes::stop`] ends every task and returns each box's final [`SimBox`].
+//! [`MboxBoxes::snapshots`] shows every box now (`GET /api/sim/positions`);
+//! [`MboxBoxes::stop`] ends every thread and returns each box's final [`SimBox`].
 
-use std::net::{Ipv4Addr, SocketAddr};
-use std::time::Instant;
+use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
 
 use floatball_shared::api::SimBox;
 use floatball_shared::mbox::AxisCount;
 use floatball_shared::mbox::twin::{MboxTwin, TwinConfig};
-use tokio::net::UdpSocket;
-use tokio::sync::{mpsc, oneshot, watch};
-use tokio::task::JoinHandle;
 
 /// The largest datagram a box takes (anything longer is cut and refused as malformed).
 const MAX_DATAGRAM: usize = 65_536;
+
+/// How often a box's thread looks whether it is to stop (its socket's read timeout).
+const STOP_POLL: Duration = Duration::from_millis(50);
 
 /// What to simulate, and where.
 #[derive(Debug, Clone, Copy)]
@@ -80,83 +90,99 @@ pub struct RunningBox {
     pub ip: Ipv4Addr,
 }
 
-/// The boxes, each answering on its socket until [`Self::stop`].
+/// The boxes, each answering on its socket, on its own thread, until [`Self::stop`]
+/// (or until dropped).
 #[derive(Debug)]
 pub struct MboxBoxes {
     boxes: Vec<RunningBox>,
-    stop: watch::Sender<bool>,
-    tasks: Vec<JoinHandle<SimBox>>,
-    /// Per box: where to ask for its state now.
-    asks: Vec<mpsc::UnboundedSender<oneshot::Sender<SimBox>>>,
+    /// Per box: its twin, shared with its thread.
+    twins: Vec<Arc<Mutex<MboxTwin>>>,
+    epoch: Instant,
+    stop: Arc<AtomicBool>,
+    threads: Vec<std::thread::JoinHandle<()>>,
 }
 
 impl MboxBoxes {
     /// Binds every box's socket and starts answering.
     ///
     /// # Errors
-    /// A port or IP address past the last one, or a socket that cannot be bound.
+    /// A port or IP address past the last one, or a socket or thread that cannot be
+    /// had.
     pub async fn start(options: MboxOptions) -> Result<Self, String> {
         Self::spawn(options)
     }
 
-    /// As [`Self::start`], from code that is not async (inside the runtime).
+    /// As [`Self::start`], from code that is not async.
     ///
     /// # Errors
     /// As [`Self::start`].
     pub fn spawn(options: MboxOptions) -> Result<Self, String> {
         let epoch = Instant::now();
-        let (stop, stopped) = watch::channel(false);
-        let mut boxes = Vec::with_capacity(usize::from(options.boxes));
-        let mut tasks = Vec::with_capacity(usize::from(options.boxes));
-        let mut asks = Vec::with_capacity(usize::from(options.boxes));
+        let count = usize::from(options.boxes);
+        let mut boxes = Vec::with_capacity(count);
+        let mut sockets = Vec::with_capacity(count);
         for index in 0..options.boxes {
             let (listen, ip) = box_at(&options, index)?;
-            let socket = std::net::UdpSocket::bind(listen)
+            let socket = UdpSocket::bind(listen)
                 .and_then(|socket| {
-                    socket.set_nonblocking(true)?;
-                    UdpSocket::from_std(socket)
+                    socket.set_read_timeout(Some(STOP_POLL))?;
+                    Ok(socket)
                 })
                 .map_err(|err| format!("cannot listen on UDP {listen}: {err}"))?;
             let local = socket
                 .local_addr()
                 .map_err(|err| format!("cannot read the address of UDP {listen}: {err}"))?;
-            let twin = MboxTwin::new(TwinConfig::new(ip, options.axes));
             boxes.push(RunningBox { socket: local, ip });
+            sockets.push(socket);
+        }
+        let mut running = Self {
+            twins: boxes
+                .iter()
+                .map(|one| {
+                    Arc::new(Mutex::new(MboxTwin::new(TwinConfig::new(
+                        one.ip,
+                        options.axes,
+                    ))))
+                })
+                .collect(),
+            boxes,
+            epoch,
+            stop: Arc::new(AtomicBool::new(false)),
+            threads: Vec::with_capacity(count),
+        };
+        for (index, socket) in sockets.into_iter().enumerate() {
+            let twin = Arc::clone(&running.twins[index]);
+            let stop = Arc::clone(&running.stop);
             let loss = Loss::new(
                 options.drop_percent,
-                options.seed.wrapping_add(u64::from(index)),
+                options.seed.wrapping_add(index as u64),
             );
-            let (ask, asked) = mpsc::unbounded_channel();
-            asks.push(ask);
-            tasks.push(tokio::spawn(answer(
-                socket,
-                twin,
-                loss,
-                epoch,
-                asked,
-                stopped.clone(),
-            )));
+            let thread = std::thread::Builder::new()
+                .name(format!("sim-mbox-{index}"))
+                .spawn(move || answer(&socket, &twin, loss, epoch, &stop))
+                .map_err(|err| format!("cannot start simulated MBOX box {index}: {err}"))?;
+            running.threads.push(thread);
         }
-        Ok(Self {
-            boxes,
-            stop,
-            tasks,
-            asks,
-        })
+        Ok(running)
     }
 
-    /// Every box's state now, in order (a box that stopped is left out).
+    /// Every box's state now, in order.
     pub async fn snapshots(&self) -> Vec<SimBox> {
-        let mut snapshots = Vec::with_capacity(self.asks.len());
-        for ask in &self.asks {
-            let (reply, answer) = oneshot::channel();
-            if ask.send(reply).is_ok()
-                && let Ok(snapshot) = answer.await
-            {
-                snapshots.push(snapshot);
-            }
-        }
-        snapshots
+        self.snapshots_now()
+    }
+
+    /// Every box's state now, in order (from code that is not async).
+    #[must_use]
+    pub fn snapshots_now(&self) -> Vec<SimBox> {
+        let now_us = micros(self.epoch, Instant::now());
+        self.twins
+            .iter()
+            .map(|twin| {
+                let mut twin = twin.lock().unwrap_or_else(PoisonError::into_inner);
+                twin.advance(now_us);
+                twin.snapshot()
+            })
+            .collect()
     }
 
     /// The boxes, in order.
@@ -166,18 +192,33 @@ impl MboxBoxes {
     }
 
     /// Stops every box; returns each one's final state, in order.
-    pub async fn stop(self) -> Vec<SimBox> {
-        // Receivers may be gone if a task ended already; the join below says so.
-        let _ = self.stop.send(true);
-        let mut snapshots = Vec::with_capacity(self.tasks.len());
-        for task in self.tasks {
-            match task.await {
-                Ok(snapshot) => snapshots.push(snapshot),
-                Err(err) => tracing::error!("a simulated MBOX stopped unexpectedly: {err}"),
-            }
+    pub async fn stop(mut self) -> Vec<SimBox> {
+        self.stop.store(true, Ordering::Release);
+        let threads = std::mem::take(&mut self.threads);
+        let joined = tokio::task::spawn_blocking(move || {
+            threads
+                .into_iter()
+                .filter_map(|thread| thread.join().err())
+                .count()
+        })
+        .await;
+        if !matches!(joined, Ok(0)) {
+            tracing::error!("a simulated MBOX stopped unexpectedly");
         }
-        snapshots
+        self.snapshots_now()
     }
+}
+
+impl Drop for MboxBoxes {
+    /// The boxes stop answering (their threads see it within [`STOP_POLL`] and close
+    /// their sockets).
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+    }
+}
+
+fn micros(epoch: Instant, at: Instant) -> u64 {
+    u64::try_from(at.saturating_duration_since(epoch).as_micros()).unwrap_or(u64::MAX)
 }
 
 /// Box `index`'s socket and IP address.
@@ -205,43 +246,120 @@ fn box_at(options: &MboxOptions, index: u16) -> Result<(SocketAddr, Ipv4Addr), S
     Ok((listen, ip))
 }
 
-/// One box: takes datagrams until `stop`, answers the sender; returns the box's state.
-async fn answer(
-    socket: UdpSocket,
-    mut twin: MboxTwin,
+/// One box, on its own thread: takes datagrams until `stop` (each at the time it was
+/// received), answers the sender.
+fn answer(
+    socket: &UdpSocket,
+    twin: &Mutex<MboxTwin>,
     mut loss: Loss,
     epoch: Instant,
-    mut asked: mpsc::UnboundedReceiver<oneshot::Sender<SimBox>>,
-    mut stop: watch::Receiver<bool>,
-) -> SimBox {
-    let micros = || u64::try_from(epoch.elapsed().as_micros()).unwrap_or(u64::MAX);
+    stop: &AtomicBool,
+) {
     let mut buffer = vec![0u8; MAX_DATAGRAM];
-    loop {
-        tokio::select! {
-            received = socket.recv_from(&mut buffer) => match received {
-                Ok((len, sender)) => {
-                    let datagram = buffer.get(..len).unwrap_or_default();
-                    if loss.drops() {
-                        continue;
-                    }
-                    if let Some(reply) = twin.receive(micros(), datagram)
-                        && !loss.drops()
-                        && let Err(err) = socket.send_to(&reply, sender).await
-                    {
-                        tracing::warn!("simulated MBOX {}: cannot reply to {sender}: {err}", twin.snapshot().ip);
-                    }
+    while !stop.load(Ordering::Acquire) {
+        match socket.recv_from(&mut buffer) {
+            Ok((len, sender)) => {
+                let received_us = micros(epoch, Instant::now());
+                if loss.drops() {
+                    continue;
                 }
-                // On Linux an ICMP "port unreachable" for an earlier reply surfaces
-                // here; the box carries on, as a real one does.
-                Err(err) => tracing::debug!("simulated MBOX: receive failed: {err}"),
-            },
-            Some(reply) = asked.recv() => {
-                twin.advance(micros());
-                let _ = reply.send(twin.snapshot());
+                let datagram = buffer.get(..len).unwrap_or_default();
+                let reply = twin
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .receive(received_us, datagram);
+                if let Some(reply) = reply
+                    && !loss.drops()
+                    && let Err(err) = socket.send_to(&reply, sender)
+                {
+                    let ip = twin
+                        .lock()
+                        .unwrap_or_else(PoisonError::into_inner)
+                        .saved_ip();
+                    tracing::warn!("simulated MBOX {ip}: cannot reply to {sender}: {err}");
+                }
             }
-            _ = stop.changed() => break,
+            // Timeouts (a look at `stop`), and, on Linux, an ICMP "port unreachable"
+            // for an earlier reply: the box carries on, as a real one does.
+            Err(err)
+                if matches!(
+                    err.kind(),
+                    std::io::ErrorKind::WouldBlock
+                        | std::io::ErrorKind::TimedOut
+                        | std::io::ErrorKind::Interrupted
+                ) => {}
+            Err(err) => tracing::debug!("simulated MBOX: receive failed: {err}"),
         }
     }
-    twin.advance(micros());
-    twin.snapshot()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::time::Duration;
+
+    use floatball_shared::mbox::register::FN_IP;
+    use floatball_shared::mbox::{Datagram, Encode, ReadBank, RegisterRange, RegisterRead, Route};
+
+    use super::*;
+
+    /// A simulated box answers a register read while the async runtime it was started
+    /// from is busy (its one worker blocked): the bridge's own tasks under load must
+    /// not keep a box from answering (its polls are counted missed after 500 ms, and
+    /// the box is `down` after 1.6 s), nor from taking a frame when it comes.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 1)]
+    async fn a_box_answers_while_the_runtime_is_busy() {
+        let boxes = MboxBoxes::start(MboxOptions {
+            listen: SocketAddr::from(([127, 0, 0, 1], 0)),
+            boxes: 1,
+            axes: AxisCount::Three,
+            ip: Ipv4Addr::new(192, 168, 15, 201),
+            drop_percent: 0,
+            seed: 0,
+        })
+        .await
+        .expect("the box");
+        let to = boxes.boxes()[0].socket;
+        // The runtime's only worker busy for 3 s (as a long synchronous stretch of work
+        // would keep it).
+        let busy = Arc::new(AtomicBool::new(true));
+        let (started, began) = std::sync::mpsc::channel();
+        let blocker = {
+            let busy = Arc::clone(&busy);
+            tokio::spawn(async move {
+                let _ = started.send(());
+                std::thread::sleep(Duration::from_secs(3));
+                busy.store(false, Ordering::SeqCst);
+            })
+        };
+        began.recv().expect("the worker is busy");
+        let socket = std::net::UdpSocket::bind("127.0.0.1:0").expect("a socket");
+        socket
+            .set_read_timeout(Some(Duration::from_secs(10)))
+            .expect("a timeout");
+        let read = RegisterRead {
+            bank: ReadBank::Fn,
+            route: Route::BROADCAST,
+            range: RegisterRange::new(FN_IP, 4).expect("a range"),
+        };
+        socket.send_to(&read.encode(), to).expect("sent");
+        let mut buffer = [0u8; 256];
+        let length = socket.recv(&mut buffer).expect("an answer");
+        let answered_while_busy = busy.load(Ordering::SeqCst);
+        match Datagram::decode(&buffer[..length]) {
+            Ok(Datagram::ReadReply(reply)) => {
+                assert_eq!(reply.block.values(), [192, 168, 15, 201]);
+            }
+            other => panic!("not a register reply: {other:?}"),
+        }
+        assert!(
+            answered_while_busy,
+            "the box answered only once the runtime was free again"
+        );
+        blocker.await.expect("the blocker");
+        let snapshots = boxes.stop().await;
+        assert_eq!(snapshots.len(), 1);
+        assert_eq!(snapshots[0].counters.register_reads, 1);
+    }
 }

@@ -24,17 +24,30 @@
 //!   newest position.
 //! - **Live mode** ([`crate::player::live`]): one frame per period, the same frame as
 //!   a show's, from the sequencer's filtered states for the period's end (`time_ms`
-//!   the period, every output 0). The filter's step is the frame period. An input
-//!   waits at most a period for the next slot, and its frame takes a period: the
-//!   latency is two periods (40 ms at 20 ms). A change after a quiet period does not
-//!   wait for the grid ([`Drive::live_early_step_us`]): a box takes a frame whenever
-//!   it comes (an early frame replaces the move under way from where the axes are,
-//!   `docs/protocol-notes.md`, "The twin"), so its frame goes half a period (at
-//!   least 10 ms) after the last one at the earliest, its step filtered for the time
-//!   since the last frame, and the frames go on a period apart from it; each still
-//!   asks for a period (`time_ms`), so absolute time codes count on as always.
-//!   Boxes take frames over Ethernet, so no line limits the number of balls that
-//!   move.
+//!   the period, every output 0), carrying every box's limits in pulses
+//!   ([`MboxFrame::pace`]): the bridge's sender paces each live frame at the instant
+//!   it leaves ([`crate::mbox::pace`]), so the box's straight lines — from where its
+//!   axes are when the frame arrives — keep the top speed and acceleration at the
+//!   ball whatever the frames' send jitter (issue 47). For that margin the filter runs
+//!   at [`crate::mbox::pace::LIVE_SPEED_SHARE`] of the top speed and
+//!   [`crate::mbox::pace::live_accel_share`] of the top acceleration (90 % and a
+//!   third at 20 ms frames). The filter's step is the frame period. A change after a
+//!   quiet period does not wait for the grid ([`Drive::live_early_step_us`]): a box
+//!   takes a frame whenever it comes (an early frame replaces the move under way from
+//!   where the axes are, `docs/protocol-notes.md`, "The twin"), so its frame goes
+//!   half a period (at least 10 ms) after the last one at the earliest, its step
+//!   filtered for the time since the last frame, and the frames go on a period apart
+//!   from it; each still asks for a period (`time_ms`; the pacer makes the box's line
+//!   longer, the next frame cutting it). Boxes take frames over
+//!   Ethernet, so no line limits the number of balls that move.
+//! - **Live latency** ([`Drive::live_latency_us`]), from an input reaching the bridge
+//!   to the frame that carries it leaving, at most: a period waiting for the frame
+//!   that takes it (while the input keeps changing; after a quiet period half of one
+//!   at most), the frame lead the bridge makes frames with, and the send lateness its
+//!   sender measured lately ([`MboxDrive::set_send_timing`]) — 26 ms or so at 20 ms
+//!   frames, where the status said 40 (two periods: it counted the frame's move,
+//!   which begins as the frame arrives). Without the bridge (lead and lateness 0)
+//!   it is the period.
 //! - **Clock trim** ([`Drive::trim_clock`], a timecode chase): the show's time 0
 //!   moves as far as the timecode puts it since the first trim, so each frame's
 //!   sample time follows the timecode exactly rather than the bridge's free-running
@@ -42,6 +55,7 @@
 //!   Without a trim nothing changes.
 
 use crate::live::filter::{BallState, FilterLimits};
+use crate::mbox::pace::{BoxLimits, LIVE_SPEED_SHARE, PaceLimits, live_accel_share};
 use crate::plan::Installation;
 use crate::player::{Drive, LiveSetup, Phase, StartError};
 use crate::show::{OutputSample, Sampler, Show};
@@ -98,6 +112,10 @@ pub struct MboxFrame {
     pub positions_pulses: Vec<Vec<i32>>,
     /// Per box (gateway order): its digital and analog outputs.
     pub outputs: Vec<OutputSample>,
+    /// Live frames: every box's limits, for the sender to pace the frame at the
+    /// instant it leaves ([`crate::mbox::pace`]); `None`: the frame goes as made
+    /// (homing, approaches, shows).
+    pub pace: Option<PaceLimits>,
 }
 
 /// A playlist entry prepared for the boxes: its show and the show's sampler.
@@ -149,13 +167,35 @@ pub struct MboxDrive {
     frames: Vec<MboxFrame>,
     samples: Vec<f32>,
     progress: f64,
+    /// Every box's limits in its pulses, carried by live frames for the sender's pacer.
+    pace: PaceLimits,
+    /// How long before its slot a frame is made, µs (the bridge's frame lead).
+    frame_lead_us: u64,
+    /// The latest a frame left after its slot lately, µs, as the sender measured it.
+    send_lateness_us: u64,
 }
 
 impl MboxDrive {
     /// The drive for the boxes in `config`, positions unknown.
     #[must_use]
     pub fn new(config: MboxPlayerConfig) -> Self {
+        let limits = config.installation.limits;
+        let pace = config
+            .boxes
+            .iter()
+            .map(|calibration| {
+                BoxLimits::new(
+                    calibration,
+                    limits.travel_mm,
+                    limits.max_speed_mm_s,
+                    limits.max_accel_mm_s2,
+                )
+            })
+            .collect();
         Self {
+            pace,
+            frame_lead_us: 0,
+            send_lateness_us: 0,
             config,
             step: Step::Idle,
             believed_mm: None,
@@ -177,9 +217,22 @@ impl MboxDrive {
         std::mem::take(&mut self.frames)
     }
 
+    /// How the frames are sent (the bridge, before each poll): made `frame_lead_us`
+    /// before their slot, and leaving at most `send_lateness_us` after it lately. The
+    /// live latency counts both ([`Drive::live_latency_us`]).
+    pub fn set_send_timing(&mut self, frame_lead_us: u64, send_lateness_us: u64) {
+        self.frame_lead_us = frame_lead_us;
+        self.send_lateness_us = send_lateness_us;
+    }
+
     /// The frame period, µs (at least 1 ms).
     fn period_us(&self) -> u64 {
         self.config.period_us.max(1_000)
+    }
+
+    /// The live latency, µs ([`Drive::live_latency_us`]).
+    fn live_latency(&self) -> u64 {
+        self.period_us() / 1_000 * 1_000 + self.frame_lead_us + self.send_lateness_us
     }
 
     fn begin_move(&mut self, now_us: u64, targets_mm: Vec<f64>) {
@@ -313,6 +366,7 @@ impl MboxDrive {
             time_ms: u32::try_from(time_us / 1_000).unwrap_or(u32::MAX).max(1),
             positions_pulses: positions,
             outputs,
+            pace: None,
         });
     }
 }
@@ -429,15 +483,25 @@ impl Drive for MboxDrive {
         Ok(LiveSetup {
             limits: FilterLimits {
                 travel_mm: limits.travel_mm,
-                max_speed_mm_s: limits.max_speed_mm_s,
-                max_accel_mm_s2: limits.max_accel_mm_s2,
+                max_speed_mm_s: limits.max_speed_mm_s * LIVE_SPEED_SHARE,
+                max_accel_mm_s2: limits.max_accel_mm_s2
+                    * live_accel_share(self.period_us(), &self.pace),
                 dt_ms,
             },
             approach_speed_mm_s: installation.approach_speed_mm_s,
             layout: installation.layout(),
-            latency_us: 2 * u64::from(dt_ms) * 1_000,
+            latency_us: self.live_latency(),
             every_period: false,
         })
+    }
+
+    /// From an input reaching the bridge to the frame that carries it leaving, at most:
+    /// a period waiting for the frame that takes it (while the input keeps changing;
+    /// a change after a quiet period waits half of one at most), the frame lead, and
+    /// the send lateness measured lately. The box starts the frame's line as it
+    /// arrives: the ball follows from then (a switched LAN adds tens of µs).
+    fn live_latency_us(&self) -> Option<u64> {
+        Some(self.live_latency())
     }
 
     fn rest_positions_mm(&self) -> Option<Vec<f64>> {
@@ -469,6 +533,9 @@ impl Drive for MboxDrive {
         let period_us = self.config.period_us.max(1_000) / 1_000 * 1_000;
         let targets_mm: Vec<f64> = states.iter().map(|state| state.position_mm).collect();
         self.push_frame(slot_us, period_us, &targets_mm, None);
+        if let Some(frame) = self.frames.last_mut() {
+            frame.pace = Some(PaceLimits::clone(&self.pace));
+        }
         self.next_slot_us = slot_us + period_us;
     }
 

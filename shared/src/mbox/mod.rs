@@ -59,6 +59,7 @@ pub mod console;
 pub mod drive;
 mod error;
 pub mod motion;
+pub mod pace;
 pub mod player;
 pub mod register;
 #[cfg(test)]

@@ -651,7 +651,16 @@ fn live_frames_every_period_follow_the_filter_and_the_twins_take_them() {
     let mut frames = run_live(&mut player, &mut twins, &mut now, 10_000_000, &first);
     let live = player.status().live.unwrap();
     assert_eq!(live.phase, LivePhase::Following);
-    assert_eq!(live.latency_ms, 40);
+    // Input to frame at most: a period waiting for the frame that takes it (no frame
+    // lead nor send lateness here)…
+    assert_eq!(live.latency_ms, 20);
+    // … and with the bridge's: its 5 ms lead and the lateness its sender measured.
+    player
+        .sequencer_mut()
+        .drive_mut()
+        .set_send_timing(5_000, 1_200);
+    assert_eq!(player.status().live.unwrap().latency_ms, 27);
+    player.sequencer_mut().drive_mut().set_send_timing(0, 0);
     let at_1000: Vec<i32> = twins.iter().flat_map(MboxTwin::positions_pulses).collect();
     assert_eq!(at_1000, vec![CALIBRATION.pulses(1000.0); 6]);
     // A snap to the bottom and back on half the balls: frames every period, each a

@@ -293,6 +293,13 @@ pub trait Drive {
     /// Live motion is over at `at_us`: the balls rest at `states` (their positions
     /// are known).
     fn end_live(&mut self, _at_us: u64, _states: &[BallState]) {}
+
+    /// The live latency the status reports now, µs, for a drive that measures it
+    /// (MBOX boxes: from what their sender measures); `None` (the default): the
+    /// setup's ([`LiveSetup::latency_us`]).
+    fn live_latency_us(&self) -> Option<u64> {
+        None
+    }
 }
 
 /// Why `entries` cannot begin at `at`, if they cannot.
@@ -534,10 +541,13 @@ impl<D: Drive> Sequencer<D> {
         }
         .status();
         status.armed = self.drive.armed();
-        status.live = self
-            .live
-            .as_ref()
-            .map(|live| Box::new(live.status(self.recorder.as_ref())));
+        status.live = self.live.as_ref().map(|live| {
+            let mut live = live.status(self.recorder.as_ref());
+            if let Some(latency_us) = self.drive.live_latency_us() {
+                live.latency_ms = u32::try_from(latency_us.div_ceil(1_000)).unwrap_or(u32::MAX);
+            }
+            Box::new(live)
+        });
         status
     }
 
