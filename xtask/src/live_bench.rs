@@ -1,5 +1,5 @@
-//! `cargo xtask live-bench [--debug] [--changes N] [--cpu-seconds S] [--seconds S]`:
-//! live input's figures (issue 38).
+//! `cargo xtask live-bench [--debug] [--changes N] [--cpu-seconds S] [--seconds S]
+//! [--cycles N]`: live input's figures (issues 38 and 47).
 //!
 //! Runs the bridge test `bridge/tests/live_bench.rs` (a release build unless
 //! `--debug`) with `LIVE_BENCH=1`: the real `floatball` binary fed Art-Net by the
@@ -9,7 +9,10 @@
 //! MOONS' jog command over eSCL, N / 2 changes each), the bridge's CPU with 10,000
 //! simulated MBOX axes and 40 universes × 44 packets/s for S seconds (default 20),
 //! and the largest position error against the filtered input over a random-fader
-//! run (default 60 s). Nothing about speed is asserted.
+//! run (default 60 s). Nothing about speed is asserted. Then `bridge/tests/live_limits.rs`
+//! with `LIVE_LIMITS_CYCLES=N` (default 5): per family, a fader snapped to the bottom
+//! of the travel and back N times, and the peak speed and acceleration at the ball
+//! (the simulated balls sampled ~10 ms apart) printed against the limits.
 
 use crate::tools;
 
@@ -20,10 +23,11 @@ struct Options {
     changes: u64,
     cpu_seconds: u64,
     seconds: u64,
+    cycles: u64,
 }
 
-const USAGE: &str =
-    "usage: cargo xtask live-bench [--debug] [--changes N] [--cpu-seconds S] [--seconds S]";
+const USAGE: &str = "usage: cargo xtask live-bench [--debug] [--changes N] [--cpu-seconds S] \
+                     [--seconds S] [--cycles N]";
 
 fn parse_options(args: &[String]) -> Result<Options, String> {
     let mut options = Options {
@@ -31,6 +35,7 @@ fn parse_options(args: &[String]) -> Result<Options, String> {
         changes: 200,
         cpu_seconds: 20,
         seconds: 60,
+        cycles: 5,
     };
     let mut args = args.iter();
     while let Some(flag) = args.next() {
@@ -42,6 +47,7 @@ fn parse_options(args: &[String]) -> Result<Options, String> {
             "--changes" => &mut options.changes,
             "--cpu-seconds" => &mut options.cpu_seconds,
             "--seconds" => &mut options.seconds,
+            "--cycles" => &mut options.cycles,
             _ => return Err(USAGE.to_owned()),
         };
         *slot = args
@@ -66,15 +72,8 @@ pub fn live_bench(args: &[String]) -> Result<(), String> {
          axes, a {} s random fader",
         options.changes, options.cpu_seconds, options.seconds
     );
-    let mut command = tools::cargo(&env);
-    command.arg("test");
-    if !options.debug {
-        command.arg("--release");
-    }
     tools::run_command(
-        command
-            .args(["--package", "floatball-bridge"])
-            .args(["--test", "live_bench", "--", "--nocapture"])
+        bridge_test(&env, options.debug, "live_bench")
             .env("LIVE_BENCH", "1")
             .env("LIVE_BENCH_CHANGES", options.changes.to_string())
             .env(
@@ -87,7 +86,30 @@ pub fn live_bench(args: &[String]) -> Result<(), String> {
             )
             .env("LIVE_BENCH_CPU_SECONDS", options.cpu_seconds.to_string())
             .env("LIVE_BENCH_ERROR_SECONDS", options.seconds.to_string()),
+    )?;
+    println!(
+        "xtask: the limits at the ball: a fader snapped to either end {} times per family",
+        options.cycles
+    );
+    tools::run_command(
+        bridge_test(&env, options.debug, "live_limits")
+            .args(["--test-threads", "1"])
+            .env("LIVE_LIMITS_CYCLES", options.cycles.to_string()),
     )
+}
+
+/// `cargo test` of the bridge's test `name` with its output shown, in release unless
+/// `debug`; more test arguments may follow.
+fn bridge_test(env: &tools::Env, debug: bool, name: &str) -> std::process::Command {
+    let mut command = tools::cargo(env);
+    command.arg("test");
+    if !debug {
+        command.arg("--release");
+    }
+    command
+        .args(["--package", "floatball-bridge"])
+        .args(["--test", name, "--", "--nocapture"]);
+    command
 }
 
 #[cfg(test)]
@@ -103,16 +125,26 @@ mod tests {
                 debug: false,
                 changes: 200,
                 cpu_seconds: 20,
-                seconds: 60
+                seconds: 60,
+                cycles: 5
             })
         );
         assert_eq!(
-            parse_options(&strings(&["--debug", "--changes", "50", "--seconds", "10"])),
+            parse_options(&strings(&[
+                "--debug",
+                "--changes",
+                "50",
+                "--seconds",
+                "10",
+                "--cycles",
+                "2"
+            ])),
             Ok(Options {
                 debug: true,
                 changes: 50,
                 cpu_seconds: 20,
-                seconds: 10
+                seconds: 10,
+                cycles: 2
             })
         );
         assert!(parse_options(&strings(&["--changes", "0"])).is_err());

@@ -124,7 +124,9 @@ commands:
          out p50/p99/max (MBOX frame, UIM2503 row at 115200 baud for 100 units, MOONS'
          jog command over eSCL), the bridge's CPU with 10,000 simulated MBOX axes
          and 40 universes x 44 packets/s, the largest position error against the
-         filtered input over a random fader
+         filtered input over a random fader; then per family a fader snapped to
+         either end --cycles N times (default 5): the peak speed and acceleration at
+         the ball against the limits
          options: --debug  --changes N (MBOX; UIM2503 and MOONS' N/2; default 200)
                   --cpu-seconds S (default 20)
                   --seconds S (default 60)

@@ -40,6 +40,7 @@ const NATIVE: side_by_side::Plan = side_by_side::Plan {
     ],
     seconds: &[
         ("playback", 23),
+        ("live_limits", 23),
         ("arming", 19),
         ("start_from", 15),
         ("commission", 15),
