@@ -12,7 +12,9 @@
 //! run (default 60 s). Nothing about speed is asserted. Then `bridge/tests/live_limits.rs`
 //! with `LIVE_LIMITS_CYCLES=N` (default 5): per family, a fader snapped to the bottom
 //! of the travel and back N times, and the peak speed and acceleration at the ball
-//! (the simulated balls sampled ~10 ms apart) printed against the limits.
+//! (the simulated balls sampled ~10 ms apart) printed against the limits; for MOONS'
+//! drives, whose simulation in the bridge carries no clock, the sans-IO rig's figures
+//! (`shared/src/scl/drive/tests/live.rs`: every drive twin every millisecond).
 
 use crate::tools;
 
@@ -95,7 +97,26 @@ pub fn live_bench(args: &[String]) -> Result<(), String> {
         bridge_test(&env, options.debug, "live_limits")
             .args(["--test-threads", "1"])
             .env("LIVE_LIMITS_CYCLES", options.cycles.to_string()),
-    )
+    )?;
+    // The simulated MOONS' drives in the bridge carry no clock: their peak speed and
+    // acceleration at the ball come from the sans-IO rig, which checks every drive
+    // twin every millisecond on a line whose timing is modelled byte by byte.
+    println!("xtask: MOONS' drives at the ball: the drive twins' rig (every millisecond)");
+    let mut rig = tools::cargo(&env);
+    rig.arg("test");
+    if !options.debug {
+        rig.arg("--release");
+    }
+    tools::run_command(rig.args([
+        "--package",
+        "floatball-shared",
+        "--lib",
+        "scl::drive::tests::live",
+        "--",
+        "--nocapture",
+        "--test-threads",
+        "1",
+    ]))
 }
 
 /// `cargo test` of the bridge's test `name` with its output shown, in release unless

@@ -617,8 +617,16 @@ fn snaps_to_the_ends_of_the_travel_stay_within_it_and_reach_them() {
                 );
             }
         }
+        let limits = config(None);
         println!(
-            "{line:?}: travel 0–3000 mm: the twins went from {lowest:.1} to {highest:.1} counts"
+            "{line:?}: travel 0–3000 mm: the twins went from {lowest:.1} to {highest:.1} \
+             counts; at the ball (every ms): peak speed {:.0} mm/s ({:.1} % of \
+             {MAX_SPEED_MM_S}), peak acceleration {:.0} mm/s² ({:.1} % of {})",
+            rig.fastest_mm_s,
+            100.0 * rig.fastest_mm_s / MAX_SPEED_MM_S,
+            rig.hardest_mm_s2,
+            100.0 * rig.hardest_mm_s2 / limits.max_accel_mm_s2,
+            limits.max_accel_mm_s2
         );
         rig.within_limits();
         assert!(
