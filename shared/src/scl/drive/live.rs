@@ -85,17 +85,18 @@ pub const CATCH_UP_SHARE: f64 = 0.7;
 pub const REST_TOLERANCE_COUNTS: f64 = 0.5;
 
 /// How far inside either end of the travel the drives jog, mm: the filtered motion is
-/// squeezed into the travel less this at each end ([`SclDrive::inside`]: positions
-/// and speeds scaled by `(travel − 2·margin)/travel`, so the limits still hold), and a
-/// drive that comes to rest is fed to the exact count of the unsqueezed position
+/// squeezed into the travel less this at each end ([`inside`]: positions and speeds
+/// scaled by `(travel − 2·margin)/travel`, so the limits still hold), and a drive that
+/// comes to rest is fed to the exact count of the unsqueezed position
 /// ([`REST_TOLERANCE_COUNTS`]). A jog has no hold on position: a speed or a stop that
-/// reaches a drive a little late (the line's requests go one after the other, a loaded
-/// host wakes late) carries it on a little past where the filter stopped — up to
-/// 0.17 mm was seen through the bridge on a 1000 mm travel at 500 mm/s — and at an
-/// end that would be past the travel. The margin covers three times that; a stall of
-/// the bridge longer than a period while a drive runs at speed towards an end is not
-/// covered (its rest feed brings it back).
-pub const END_MARGIN_MM: f64 = 0.5;
+/// reaches a drive late (the line's requests go one after the other, a loaded host
+/// wakes late) carries it on past where the filter stopped — up to 0.17 mm was seen
+/// through the bridge on a 1000 mm travel at 500 mm/s on a quiet host, 0.9 mm with both
+/// cores of a 2-core host busy compiling — and at an end that would be past the
+/// travel. The margin covers twice the worst seen; a stall of the bridge longer than
+/// that while a drive runs towards an end is not covered (its rest feed brings it
+/// back).
+pub const END_MARGIN_MM: f64 = 2.0;
 
 /// One eSCL exchange (a datagram and its answer on the network), µs (assumed).
 pub const ESCL_EXCHANGE_US: u64 = 1_000;
