@@ -1115,7 +1115,20 @@ async fn loss_holds(
     })
     .await;
     assert!(status.live.as_deref().is_some_and(|live| live.input_lost));
-    let (held, _) = sim_balls(bridge, token).await;
+    // The status says holding once the filter rests; the balls may still finish
+    // their braking (an MBOX box runs its paced lines out, a UIM2503 unit its FIFO's
+    // rows): within 2 s they stand still, and then they stay.
+    let settled_by = Instant::now() + Duration::from_secs(2);
+    let (mut held, _) = sim_balls(bridge, token).await;
+    loop {
+        tokio::time::sleep(Duration::from_millis(100)).await;
+        let (now, _) = sim_balls(bridge, token).await;
+        let still = held.iter().zip(&now).all(|(a, b)| (a - b).abs() < 0.01);
+        held = now;
+        if still || Instant::now() > settled_by {
+            break;
+        }
+    }
     tokio::time::sleep(Duration::from_millis(300)).await;
     let (still, _) = sim_balls(bridge, token).await;
     assert!(
