@@ -4,13 +4,7 @@
 //! and [`super::schedule`].
 //!
 //! Positions are converted from absolute millimetres, each rounded on its own, so the
-//! rounding error stays below half a count and never accumulates along a track —
-//! except where a row so rounded would leave the travel along its cubic, or leave the
-//! next row no way to stay inside (near an end: a show braking into the top whose
-//! last-but-one row ends 0.4 counts below it, still rising, rounded to the top itself,
-//! still rising); that row gets the nearest end that keeps both inside
-//! ([`rounding::keep_inside`]), so a show that reaches an end reaches it to the count
-//! and the unit never stops at its limit switch.
+//! rounding error stays below half a count and never accumulates along a track.
 //!
 //! ```
 //! use floatball_shared::plan::{Installation, GatewaySpec};
@@ -40,7 +34,7 @@ use crate::plan::{Installation, UnitAddress};
 
 use thiserror::Error;
 
-use super::pvt::{ROW_MAX_MS, ROW_MIN_MS, Row, TABLE_ROWS, rounding};
+use super::pvt::{ROW_MAX_MS, ROW_MIN_MS, Row, TABLE_ROWS};
 use crate::codes::{Code, Coded, Params};
 use crate::line::Line;
 use crate::params;
@@ -281,7 +275,6 @@ impl Plan {
                 counts_per_mm: installation.counts_per_mm,
             })
         };
-        let envelope = rounding::Envelope::of(installation);
         let mut units = Vec::with_capacity(tracks.len());
         for (unit, (track, address)) in tracks.zip(&installation.units).enumerate() {
             let track = track.borrow();
@@ -301,18 +294,9 @@ impl Plan {
                 row_start_ms.push(t_ms);
                 t_ms += u64::from(duration_ms);
             }
-            let start_counts = counts(unit, track.start_mm)?;
-            // Near an end of the travel rows rounded on their own can make a cubic
-            // dip past it (the unit stops with LIMIT): those get the nearest ends that
-            // stay inside.
-            let per_mm = installation.counts_per_mm;
-            rounding::keep_inside(&envelope, start_counts, &mut rows, |index| {
-                let row = &track.rows[index];
-                (row.position_mm * per_mm, row.velocity_mm_s * per_mm)
-            });
             units.push(UnitPlan {
                 address: *address,
-                start_counts,
+                start_counts: counts(unit, track.start_mm)?,
                 rows,
                 row_start_ms,
             });
