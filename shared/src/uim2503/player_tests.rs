@@ -1664,4 +1664,3 @@ fn arming_right_after_leaving_live_waits_for_the_last_rows_then_plays_as_written
     rig.run_until(5_000_000, |rig| rig.state() == PlayerState::Idle);
     assert_eq!(rig.player.status().last_error, None);
 }
-
