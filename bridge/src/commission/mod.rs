@@ -1,4 +1,5 @@
-//! Commissioning a UIM2503 gateway's units (PROTOCOL §1.1, §1.5 `SN`): find them,
+//! Commissioning a UIM2503 gateway's units (`docs/gateways.md` §2–§4: the roll call
+//! by serial number, `SN`, and the station each unit is given): find them,
 //! give them their stations, show which ball is which, and keep their health.
 //!
 //! - **Roll call** ([`Commission::roll_call`]): the broadcast serial query `*0;SN;`

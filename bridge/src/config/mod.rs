@@ -1,4 +1,5 @@
-//! The installation's configuration: `<data-dir>/floatball.toml` (DESIGN §2).
+//! The installation's configuration: `<data-dir>/floatball.toml` (every key in
+//! `docs/configuration.md`).
 //!
 //! On first start the file is written with every key at its default and a comment
 //! saying what it means ([`DEFAULT_FILE`], kept as `config/default.toml`). The file is
@@ -58,7 +59,8 @@ pub const FILE_NAME: &str = "floatball.toml";
 /// Slowest and fastest baud rate accepted.
 pub const BAUD_RANGE: std::ops::RangeInclusive<u32> = 1200..=921_600;
 
-/// Baud rate of a real gateway unless configured: the factory setting (PROTOCOL §1.2).
+/// Baud rate of a real gateway unless configured: the factory setting
+/// (`docs/protocol-notes.md` §3, "The gateway's own commands").
 pub const DEFAULT_SERIAL_BAUD: u32 = 9600;
 
 /// Baud rate of the simulated gateway unless configured.
