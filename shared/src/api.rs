@@ -1190,6 +1190,11 @@ pub struct SclDriveStatus {
     pub alarm_code: Option<u16>,
     /// Requests it left unanswered within the timeout.
     pub missed_replies: u64,
+    /// Program segments it saved to its non-volatile memory (`QS`) since the bridge
+    /// started: each segment's memory lasts about 10,000 writes, so a repeated Start
+    /// of the same show writes none.
+    #[serde(default)]
+    pub flash_writes: u64,
     /// Its last refusal or missed answer, in words, if any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
@@ -1652,6 +1657,7 @@ mod tests {
                 status_code: Some(0x4001),
                 alarm_code: Some(0),
                 missed_replies: 1,
+                flash_writes: 3,
                 error: None,
             }],
             baud: Some(9600),
@@ -1661,7 +1667,7 @@ mod tests {
         assert_eq!(json["kind"], "scl");
         assert_eq!(
             json["drives"][0],
-            serde_json::json!({"address": "1", "position_counts": -1200, "status_code": 16385, "alarm_code": 0, "missed_replies": 1})
+            serde_json::json!({"address": "1", "position_counts": -1200, "status_code": 16385, "alarm_code": 0, "missed_replies": 1, "flash_writes": 3})
         );
         let back: GatewayStatus = serde_json::from_value(json).expect("back");
         assert_eq!(back, status);

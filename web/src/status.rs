@@ -335,6 +335,7 @@ mod tests {
             status_code: Some(1),
             alarm_code: Some(alarm_code),
             missed_replies,
+            flash_writes: 0,
             error: None,
         };
         let scl = GatewayStatus {

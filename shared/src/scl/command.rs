@@ -55,6 +55,15 @@ impl Decimal {
         self.mantissa < 0
     }
 
+    /// The value without its sign.
+    #[must_use]
+    pub const fn abs(self) -> Self {
+        Self {
+            mantissa: self.mantissa.abs(),
+            scale: self.scale,
+        }
+    }
+
     /// The value as a float.
     #[must_use]
     #[allow(clippy::cast_precision_loss)] // A display value; 53 bits are plenty.
@@ -427,14 +436,24 @@ pub enum Command {
     },
     /// `CJ`: commence jogging at `JS`, in the direction of the sign of `DI`.
     CommenceJogging,
-    /// `CS`: change the speed while jogging, rev/s (reached at `JA`, or `JL` when
-    /// slower).
+    /// `CS`: change the speed while jogging, rev/s, **signed**: the sign is the
+    /// direction (`-` backward), whatever `DI` says (HCR p. 71; reached at `JA`, or
+    /// `JL` when slower). Immediate: it cannot be stored in a program.
     ChangeSpeed {
-        /// The new speed, rev/s (not negative).
+        /// The new velocity, rev/s (negative: backward).
         rev_s: Decimal,
     },
-    /// `SJ`: stop jogging (slowing down at `JL`).
+    /// `SJ`: stop jogging (slowing down at `JL`). Immediate (HCR p. 248): a program
+    /// stops its jog with `SM` instead.
     StopJogging,
+    /// `SM`: stop the move under way (HCR p. 250) — buffered, so a program can stop a
+    /// jog (with `MT1`, HCR p. 64).
+    StopMove {
+        /// `D`: at `DE` (or `JL` when jogging); `M`: at `AM`.
+        rate: StopRate,
+    },
+    /// `WM`: wait until the move under way ends (HCR p. 272; with `MT1`).
+    WaitOnMove,
     /// `EG`: electronic gearing, steps per revolution.
     ElectronicGearing {
         /// Steps per revolution, or `None` to ask.
@@ -488,10 +507,12 @@ pub enum Command {
         /// The segment called, or `None` to return.
         segment: Option<Segment>,
     },
-    /// `QL`: load a stored segment into the queue.
+    /// `QL`: load the queue — with a segment, from that stored segment; without
+    /// (`QL` alone), from the host: every buffered command that follows becomes the
+    /// next line until `QS` or `QE` (HCR p. 216).
     QueueLoad {
-        /// The segment.
-        segment: Segment,
+        /// The stored segment, or `None`: the lines that follow from the host.
+        segment: Option<Segment>,
     },
     /// `QS`: save the queue as a stored segment.
     QueueSave {
@@ -505,14 +526,6 @@ pub enum Command {
     },
     /// `QE`: execute the queue.
     QueueExecuteLoaded,
-    /// `QW`: Floatball's "queue write" (no MOONS' page describes how a host writes a
-    /// segment): the drive answers `%`, stores every following command line as the
-    /// next line of `segment` (answering `*`) until an empty line, then answers `%`.
-    /// A real drive refuses it (`?`); see `docs/protocol-notes.md` §8.
-    QueueWrite {
-        /// The segment written.
-        segment: Segment,
-    },
     /// `QU`: upload a stored segment, or with `None` (`QU0`) the queue; the drive
     /// answers `%`, then `QU{lines + 1}` and each line (see
     /// [`QueueUpload`](super::response::QueueUpload)).
@@ -562,7 +575,16 @@ pub enum Command {
         /// The second operand.
         second: Register,
     },
-    /// `RX`: load a register with a value (buffered).
+    /// `RL`: load a register with a value at once, or with `None` ask it (immediate,
+    /// HCR p. 226: never stored in a program).
+    RegisterLoadImmediate {
+        /// The register.
+        register: Register,
+        /// The value, or `None` to ask.
+        value: Option<i32>,
+    },
+    /// `RX`: load a register with a value (buffered, HCR p. 234: a program may hold it;
+    /// `RXJ` sets the jog speed while jogging, in 0.25 rpm, signed — HCR p. 64).
     RegisterLoad {
         /// The register.
         register: Register,
@@ -590,16 +612,97 @@ pub enum Command {
     AlarmCode,
     /// `AR`: reset the alarm.
     AlarmReset,
+    /// `BS`: ask how many of the command buffer's 63 places are free (HCR p. 53).
+    BufferStatus,
+    /// `PS`: pause the command buffer: what follows is kept until `CT` (HCR p. 206).
+    Pause,
+    /// `CT`: continue the paused command buffer (immediate, HCR p. 72); sent without
+    /// an address on RS-485 it continues every drive of the line at once (HCR p. 305).
+    Continue,
+}
+
+/// How `SM` stops (HCR p. 250).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum StopRate {
+    /// `D`: at `DE`, or at `JL` while jogging.
+    Decel,
+    /// `M`: at `AM`.
+    Max,
+}
+
+impl StopRate {
+    /// The letter on the wire.
+    #[must_use]
+    pub const fn letter(self) -> char {
+        match self {
+            Self::Decel => 'D',
+            Self::Max => 'M',
+        }
+    }
+
+    /// The rate of a letter.
+    #[must_use]
+    pub const fn from_letter(letter: char) -> Option<Self> {
+        match letter {
+            'D' => Some(Self::Decel),
+            'M' => Some(Self::Max),
+            _ => None,
+        }
+    }
+}
+
+/// Where a command goes when a drive receives it (HCR p. 13, and each command's
+/// page: "Type").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Kind {
+    /// Into the command buffer (or, while `QL` loads, the queue), run one at a time;
+    /// the only commands a stored program may hold (HCR p. 13).
+    Buffered,
+    /// Carried out the moment it arrives, never stored.
+    Immediate,
 }
 
 impl Command {
     /// Every mnemonic, for error messages and tests (the math commands as `R+` … `R&`).
-    pub const MNEMONICS: [&'static str; 49] = [
+    pub const MNEMONICS: [&'static str; 54] = [
         "FL", "FP", "FS", "DI", "VE", "AC", "DE", "EG", "SP", "EP", "IP", "WI", "WT", "QG", "QR",
-        "QJ", "QC", "QL", "QS", "QX", "QE", "QW", "QU", "TI", "TR", "CR", "MT", "SO", "R+", "R-",
-        "R*", "R/", "R|", "R&", "RX", "RM", "SK", "ST", "ME", "MD", "SC", "AL", "AR", "JS", "JA",
-        "JL", "CJ", "CS", "SJ",
+        "QJ", "QC", "QL", "QS", "QX", "QE", "QU", "TI", "TR", "CR", "MT", "SO", "R+", "R-", "R*",
+        "R/", "R|", "R&", "RL", "RX", "RM", "SK", "ST", "ME", "MD", "SC", "AL", "AR", "JS", "JA",
+        "JL", "CJ", "CS", "SJ", "SM", "WM", "BS", "PS", "CT",
     ];
+
+    /// Buffered or immediate, as the HCR types it (the page of each: the command's
+    /// page; a query — a setting without its value — is answered at once).
+    #[must_use]
+    pub const fn kind(&self) -> Kind {
+        if self.is_query() {
+            return Kind::Immediate;
+        }
+        match self {
+            // p. 248 SJ, p. 71 CS, p. 249 SK, p. 254 ST, p. 41 AR, p. 140 IP,
+            // p. 242 SC, p. 33 AL, p. 53 BS, p. 72 CT, p. 226 RL,
+            // p. 216 QL, p. 218 QS, p. 212 QE, p. 219 QU.
+            Self::StopJogging
+            | Self::ChangeSpeed { .. }
+            | Self::StopKill
+            | Self::Stop
+            | Self::AlarmReset
+            | Self::ImmediatePosition
+            | Self::StatusCode
+            | Self::AlarmCode
+            | Self::BufferStatus
+            | Self::Continue
+            | Self::RegisterLoadImmediate { .. }
+            | Self::QueueLoad { .. }
+            | Self::QueueSave { .. }
+            | Self::QueueExecuteLoaded
+            | Self::QueueUpload { .. } => Kind::Immediate,
+            // Every other command here is BUFFERED on its page: among them DI (p. 77),
+            // ME/MD (p. 176/175), CJ (p. 64), SM (p. 250), WM (p. 272), PS (p. 206),
+            // RX (p. 234), QX (p. 220), QC (p. 210), MT (p. 183), JA/JL/JS (p. 150/155/157).
+            _ => Kind::Buffered,
+        }
+    }
 
     /// The mnemonic.
     #[must_use]
@@ -618,6 +721,12 @@ impl Command {
             Self::CommenceJogging => "CJ",
             Self::ChangeSpeed { .. } => "CS",
             Self::StopJogging => "SJ",
+            Self::StopMove { .. } => "SM",
+            Self::WaitOnMove => "WM",
+            Self::BufferStatus => "BS",
+            Self::Pause => "PS",
+            Self::Continue => "CT",
+            Self::RegisterLoadImmediate { .. } => "RL",
             Self::ElectronicGearing { .. } => "EG",
             Self::SetPosition { .. } => "SP",
             Self::EncoderPosition { .. } => "EP",
@@ -632,7 +741,6 @@ impl Command {
             Self::QueueSave { .. } => "QS",
             Self::QueueExecute { .. } => "QX",
             Self::QueueExecuteLoaded => "QE",
-            Self::QueueWrite { .. } => "QW",
             Self::QueueUpload { .. } => "QU",
             Self::TestInput { .. } => "TI",
             Self::TestRegister { .. } => "TR",
@@ -680,6 +788,8 @@ impl Command {
                 | Self::ImmediatePosition
                 | Self::StatusCode
                 | Self::AlarmCode
+                | Self::BufferStatus
+                | Self::RegisterLoadImmediate { value: None, .. }
         )
     }
 }
@@ -716,11 +826,15 @@ impl fmt::Display for Command {
                 line,
             } => write!(f, "{count_register}{line}"),
             Self::QueueJump { condition, line } => write!(f, "{}{line}", condition.letter()),
-            Self::QueueCall { segment } => optional(f, segment),
-            Self::QueueLoad { segment }
-            | Self::QueueSave { segment }
-            | Self::QueueExecute { segment }
-            | Self::QueueWrite { segment } => write!(f, "{segment}"),
+            Self::QueueCall { segment } | Self::QueueLoad { segment } => optional(f, segment),
+            Self::QueueSave { segment } | Self::QueueExecute { segment } => {
+                write!(f, "{segment}")
+            }
+            Self::StopMove { rate } => write!(f, "{}", rate.letter()),
+            Self::RegisterLoadImmediate { register, value } => {
+                write!(f, "{register}")?;
+                optional(f, value)
+            }
             // The queue is segment 0 on the wire.
             Self::QueueUpload { segment } => match segment {
                 Some(segment) => write!(f, "{segment}"),
@@ -751,7 +865,11 @@ impl fmt::Display for Command {
             | Self::AlarmCode
             | Self::AlarmReset
             | Self::CommenceJogging
-            | Self::StopJogging => Ok(()),
+            | Self::StopJogging
+            | Self::WaitOnMove
+            | Self::BufferStatus
+            | Self::Pause
+            | Self::Continue => Ok(()),
         }
     }
 }

@@ -19,13 +19,23 @@
 //!   window's end (`MD`) moves again; then `IP` to each drive until it
 //!   stands at its target, every [`WAIT_POLL_US`], at most the whole travel at the
 //!   approach speed and 5 s more;
-//! - **load** (the first cycle of an entry, when programs are uploaded): for each drive
-//!   in turn, each segment written with `QW`, its lines, and the lone CR that ends it,
-//!   then read back with `QU` and compared;
-//! - **play**: `QX1` to every drive (lanes by line); with a trigger, then the trigger
-//!   output low, 100 ms, high (every program waits for that edge); the show's time 0
-//!   ([`Drive::show_start_us`]) is when the first `QX1` reached its drive (or the
-//!   trigger's `SO…L` reached the trigger drive: the edge), as the caller says with
+//! - **load** (the first cycle of an entry, when programs are uploaded) — only for
+//!   programs of more than one segment, which must be stored (a `QC` returns by
+//!   loading its caller from memory, HCR p. 210): each segment read with `QU n`
+//!   (HCR p. 219) and, only where it differs, loaded with `QL` and its lines and saved
+//!   with `QS n` (HCR p. 216, 218), then read back. A repeated Start of the same show
+//!   writes nothing: each partition lasts about 10,000 writes (HCR p. 294). The writes
+//!   are counted per drive ([`SclDrive::flash_writes`]);
+//! - **play**: a program of one segment goes to the queue, never to memory: `QL`, its
+//!   lines, and `QE` runs it (HCR p. 212); a stored one runs with `QX1` (lanes by
+//!   line: every drive loaded first, then started one after the other). With a
+//!   trigger, the trigger output is set to its idle level first (its drive runs
+//!   nothing then), every other drive started (they wait at line 1, `WI`), and then
+//!   the edge: where the trigger drive plays a ball, its own program's line 1 sets
+//!   the output (`SO`, in place of its `WI`) and it is started last; else the bridge
+//!   sets it, and back 100 ms later. The bridge never sends a buffered command to a
+//!   drive whose program runs. The show's time 0 ([`Drive::show_start_us`]) is when
+//!   the first start (or the edge) reached its drive, as the caller says with
 //!   [`SclDrive::delivered`] — the status says `playing` from then on; then the
 //!   show's length, and `SC` to each drive until no program runs and no motor moves
 //!   (at most 10 s).
@@ -41,7 +51,9 @@ use std::collections::VecDeque;
 
 use super::qprogram::QProgram;
 use super::units;
-use super::{Answer, Command, Decimal, IoPoint, Level, QueueUpload, Reply, Segment};
+use super::{
+    Answer, Command, Decimal, InputCondition, IoPoint, Level, QueueUpload, Reply, Segment,
+};
 use crate::live::filter::BallState;
 use crate::player::{Drive, Phase};
 
@@ -174,6 +186,36 @@ pub struct SclEntry {
     pub duration_ms: u64,
 }
 
+/// The levels of the trigger output: `(idle, fire)` for the start condition the
+/// programs wait for (a falling edge or a low level fires low).
+#[must_use]
+pub fn trigger_levels(condition: InputCondition) -> (Level, Level) {
+    match condition {
+        InputCondition::Falling | InputCondition::Low => (Level::High, Level::Low),
+        InputCondition::Rising | InputCondition::High => (Level::Low, Level::High),
+    }
+}
+
+/// The program of the ball whose drive is the trigger: its line 1, the wait for the
+/// start input, becomes the edge itself (`SO`, the output at its firing level), so
+/// the bridge never writes to a drive whose program runs. Returns whether it did.
+pub fn fire_from_program(segments: &mut Segments, output: IoPoint) -> bool {
+    let Some((_, main)) = segments.first_mut() else {
+        return false;
+    };
+    match main.first().copied() {
+        Some(Command::WaitForInput { condition, .. }) => {
+            let (_, fire) = trigger_levels(condition);
+            main[0] = Command::SetOutput {
+                output,
+                level: fire,
+            };
+            true
+        }
+        _ => false,
+    }
+}
+
 impl SclEntry {
     /// The entry of a show whose tracks start at `start_mm`, with `programs`.
     #[must_use]
@@ -183,21 +225,39 @@ impl SclEntry {
         programs: Option<Vec<QProgram>>,
         duration_ms: u64,
     ) -> Self {
+        let mut programs: Option<Vec<Segments>> = programs.map(|programs| {
+            programs
+                .into_iter()
+                .map(|program| program.segments)
+                .collect()
+        });
+        // The trigger drive's ball fires the edge from its own program.
+        if let (
+            Some(programs),
+            Some(Trigger {
+                drive: Ok(drive),
+                output,
+                ..
+            }),
+        ) = (programs.as_mut(), config.trigger.as_ref())
+            && let Some(unit) = config
+                .units
+                .iter()
+                .position(|slot| slot.gateway == 0 && slot.drive == *drive)
+            && let Some(segments) = programs.get_mut(unit)
+        {
+            fire_from_program(segments, *output);
+        }
         Self {
             start_counts: start_mm.into_iter().map(|mm| config.counts(mm)).collect(),
-            programs: programs.map(|programs| {
-                programs
-                    .into_iter()
-                    .map(|program| program.segments)
-                    .collect()
-            }),
+            programs,
             duration_ms,
         }
     }
 }
 
-/// One request for the caller to send: `text` (SCL without the address; empty: the
-/// lone CR that ends a `QW`) to drive `drive` of gateway entry `gateway`.
+/// One request for the caller to send: `text` (SCL without the address) to drive
+/// `drive` of gateway entry `gateway`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SclAsk {
     /// Hand it back with the answer ([`SclDrive::answer`]).
@@ -222,12 +282,18 @@ enum Check {
     /// `SC` without a program running or a motor moving (asked again until the
     /// deadline).
     Ended,
-    /// `QW`'s `%`.
-    QueueWrite { segment: Segment },
-    /// A program line's `*` or `%`.
-    Line { segment: Segment },
-    /// The end of a segment's `%`.
-    SegmentEnd { segment: Segment },
+    /// `QU n` before a write: the segment as stored; where it differs from
+    /// `commands`, the write follows.
+    Compare {
+        segment: Segment,
+        commands: Vec<Command>,
+    },
+    /// `QL`'s `%`: the queue loads from the host.
+    QueueLoad,
+    /// A program line's `*` (`segment`: where it is saved; `None`: the queue).
+    Line { segment: Option<Segment> },
+    /// `QS n`'s `%`: one write to the segment's memory.
+    Saved { segment: Segment },
     /// `QU`: the lines written.
     ReadBack {
         segment: Segment,
@@ -320,6 +386,9 @@ pub struct SclDrive {
     /// Live mode's last stages (`SJ`, the exact `FP`, the arrival) run on while idle:
     /// a step begun meanwhile runs after them.
     ending: bool,
+    /// Each unit's drive: the segments it was told to save (`QS`) since the bridge
+    /// started.
+    flash_writes: Vec<u64>,
 }
 
 /// What the next move does before it feeds, taken by that move.
@@ -370,7 +439,26 @@ impl SclDrive {
             believed_counts: None,
             moving_to: None,
             ending: false,
+            flash_writes: Vec::new(),
         }
+    }
+
+    /// Each unit's drive: how many segments it saved to its non-volatile memory
+    /// (`QS`) since the bridge started, in unit order.
+    #[must_use]
+    pub fn flash_writes(&self) -> Vec<u64> {
+        let mut counts = self.flash_writes.clone();
+        counts.resize(self.config.units.len(), 0);
+        counts
+    }
+
+    /// The unit whose drive is the trigger's, if the trigger drive plays a ball.
+    fn trigger_unit(&self) -> Option<usize> {
+        let drive = self.config.trigger.as_ref()?.drive.as_ref().ok()?;
+        self.config
+            .units
+            .iter()
+            .position(|slot| slot.gateway == 0 && slot.drive == *drive)
     }
 
     /// The drive with live mode on these lines ([`live`]).
@@ -450,6 +538,36 @@ impl SclDrive {
             _ => None,
         };
         let read_at_us = lane.answered_delivered_us.unwrap_or(now_us);
+        if let (Check::Compare { segment, commands }, Ok(lines)) = (check, &answer) {
+            // Stored as it is: nothing to write. Else load it and save it (one write
+            // to the segment's memory), and read it back.
+            let rest: Vec<&str> = lines.iter().skip(1).map(String::as_str).collect();
+            let same = matches!(
+                QueueUpload::parse(&rest),
+                Ok((_, QueueUpload::Lines(stored))) if stored == *commands
+            );
+            if !same {
+                let write = write_segment(*unit, *segment, commands);
+                for action in write.into_iter().rev() {
+                    lane.actions.push_front(action);
+                }
+            }
+            return self.after_answer(now_us);
+        }
+        if let (Check::Saved { .. }, Ok(lines)) = (check, &answer)
+            && matches!(
+                lines.first().map(|line| Reply::parse(line)),
+                Some(Ok(Reply {
+                    answer: Answer::Executed,
+                    ..
+                }))
+            )
+        {
+            if self.flash_writes.len() <= *unit {
+                self.flash_writes.resize(unit + 1, 0);
+            }
+            self.flash_writes[*unit] += 1;
+        }
         match judge(&name, command.as_ref(), check, answer, limit_ms) {
             Verdict::Ok => {
                 if let Some(live) = self.live.as_mut() {
@@ -473,6 +591,10 @@ impl SclDrive {
                 self.failure.get_or_insert(why);
             }
         }
+        self.after_answer(now_us);
+    }
+
+    fn after_answer(&mut self, now_us: u64) {
         // Live mode (and its end) is not polled between its periods: the lane's next
         // request goes now.
         if self.live.is_some() || self.ending {
@@ -640,6 +762,41 @@ fn ask(unit: usize, command: Command, check: Check) -> Action {
     }
 }
 
+/// `QL`, `commands` as the lines of the queue, `QS segment` and `QU segment` to read it
+/// back: a stored segment written.
+fn write_segment(unit: usize, segment: Segment, commands: &[Command]) -> Vec<Action> {
+    let mut actions = vec![ask(
+        unit,
+        Command::QueueLoad { segment: None },
+        Check::QueueLoad,
+    )];
+    actions.extend(commands.iter().map(|command| {
+        ask(
+            unit,
+            *command,
+            Check::Line {
+                segment: Some(segment),
+            },
+        )
+    }));
+    actions.push(ask(
+        unit,
+        Command::QueueSave { segment },
+        Check::Saved { segment },
+    ));
+    actions.push(ask(
+        unit,
+        Command::QueueUpload {
+            segment: Some(segment),
+        },
+        Check::ReadBack {
+            segment,
+            commands: commands.to_vec(),
+        },
+    ));
+    actions
+}
+
 /// `value` with `scale` decimals, as a parameter.
 /// `value` in whole steps of `resolution` ([`units`]): at most `value`, within the
 /// drive's range (its smallest value when `value` is below it).
@@ -753,18 +910,22 @@ fn judge(
                 _ => Verdict::Ok,
             }
         }
-        Check::QueueWrite { .. } => match first {
+        Check::Compare { .. } => Verdict::Ok,
+        Check::QueueLoad | Check::Saved { .. } => match first {
             Some(Ok(Reply {
                 answer: Answer::Executed,
                 ..
             })) => Verdict::Ok,
             Some(Ok(Reply {
-                answer: Answer::Refused { .. },
+                answer: Answer::Refused { code },
                 ..
             })) => Verdict::Failed(format!(
-                "{name} refused {text}: it does not take programs from the bridge. Load each \
-                 drive's program with MOONS' Q Programmer (the app offers every ball's program \
-                 as a download) and set programs = \"stored\" in [scl]"
+                "{name} refused {text}{}: it does not take programs from the bridge (a \
+                 drive without Q programs?). Load each drive's program with MOONS' Q \
+                 Programmer (the app offers every ball's program as a download) and set \
+                 programs = \"stored\" in [scl]",
+                code.map(|code| format!(" (code {code})"))
+                    .unwrap_or_default()
             )),
             Some(Ok(reply)) => {
                 Verdict::Failed(format!("{name} answered {text} with {}", reply.answer))
@@ -773,22 +934,12 @@ fn judge(
         },
         Check::Line { segment } => match first {
             Some(Ok(Reply {
-                answer: Answer::Buffered | Answer::Executed,
+                answer: Answer::Buffered,
                 ..
             })) => Verdict::Ok,
             Some(Ok(reply)) => Verdict::Failed(format!(
-                "{name} answered line {text} of segment {segment} with {}",
-                reply.answer
-            )),
-            _ => Verdict::Failed(unparsed()),
-        },
-        Check::SegmentEnd { segment } => match first {
-            Some(Ok(Reply {
-                answer: Answer::Executed,
-                ..
-            })) => Verdict::Ok,
-            Some(Ok(reply)) => Verdict::Failed(format!(
-                "{name} answered the end of segment {segment} with {}",
+                "{name} answered line {text} of {} with {}",
+                segment.map_or_else(|| "the queue".to_owned(), |s| format!("segment {s}")),
                 reply.answer
             )),
             _ => Verdict::Failed(unparsed()),
@@ -902,35 +1053,23 @@ impl Drive for SclDrive {
         let Some(programs) = entry.programs.as_ref().filter(|_| cycle == 1) else {
             return false;
         };
+        // Programs of more than one segment are stored: each segment compared with
+        // what the drive holds, written only where it differs.
         let mut actions = Vec::new();
         for (unit, segments) in programs.iter().enumerate() {
-            for (segment, commands) in segments {
-                let segment = *segment;
-                actions.push(ask(
-                    unit,
-                    Command::QueueWrite { segment },
-                    Check::QueueWrite { segment },
-                ));
-                actions.extend(
-                    commands
-                        .iter()
-                        .map(|command| ask(unit, *command, Check::Line { segment })),
-                );
-                actions.push(Action::Ask {
-                    unit,
-                    command: None,
-                    check: Check::SegmentEnd { segment },
-                });
-                actions.push(ask(
-                    unit,
-                    Command::QueueUpload {
-                        segment: Some(segment),
-                    },
-                    Check::ReadBack {
-                        segment,
-                        commands: commands.clone(),
-                    },
-                ));
+            if segments.len() > 1 {
+                for (segment, commands) in segments {
+                    actions.push(ask(
+                        unit,
+                        Command::QueueUpload {
+                            segment: Some(*segment),
+                        },
+                        Check::Compare {
+                            segment: *segment,
+                            commands: commands.clone(),
+                        },
+                    ));
+                }
             }
             actions.push(Action::Loaded);
         }
@@ -947,18 +1086,53 @@ impl Drive for SclDrive {
         self.loading = false;
         self.started_us = None;
         self.duration_ms = entry.duration_ms;
-        let execute = |unit| {
-            Segment::new(1)
-                .map(|segment| ask(unit, Command::QueueExecute { segment }, Check::NotRefused))
-                .into_iter()
-                .collect::<Vec<_>>()
+        let programs = entry.programs.as_ref();
+        let queued = |unit: usize| -> Option<&Vec<Command>> {
+            programs
+                .and_then(|programs| programs.get(unit))
+                .filter(|segments| segments.len() == 1)
+                .and_then(|segments| segments.first())
+                .map(|(_, commands)| commands)
         };
+        let trigger_unit = self.trigger_unit();
         let mut stages = Vec::new();
+        // Programs of one segment to the queue, never to memory (HCR p. 216).
+        let load = self.by_line(|unit| match queued(unit) {
+            Some(commands) => {
+                let mut actions = vec![ask(
+                    unit,
+                    Command::QueueLoad { segment: None },
+                    Check::QueueLoad,
+                )];
+                actions.extend(
+                    commands
+                        .iter()
+                        .map(|command| ask(unit, *command, Check::Line { segment: None })),
+                );
+                actions
+            }
+            None => Vec::new(),
+        });
+        let Some(first) = Segment::new(1) else {
+            return;
+        };
+        let start = |unit: usize| {
+            if queued(unit).is_some() {
+                ask(unit, Command::QueueExecuteLoaded, Check::NotRefused)
+            } else {
+                ask(
+                    unit,
+                    Command::QueueExecute { segment: first },
+                    Check::NotRefused,
+                )
+            }
+        };
         match self.config.trigger.clone() {
             None => {
-                // Each line's first drive starts when its `QX1` is through: the
+                stages.push(load);
+                // Each line's first drive starts when its start is through: the
                 // earliest is the show's time 0 (the others follow one request each).
-                let mut fire = self.by_line(execute);
+                let mut fire = self.by_line(|unit| vec![start(unit)]);
                 for lane in &mut fire {
                     if !lane.actions.is_empty() {
                         lane.actions.insert(1, Action::Started);
@@ -967,30 +1141,51 @@ impl Drive for SclDrive {
                 stages.push(fire);
             }
             Some(Trigger { drive, output, .. }) => {
-                stages.push(self.by_line(execute));
-                let drive = match drive {
-                    Ok(drive) => drive,
-                    Err(why) => {
-                        self.failure = Some(why);
-                        return;
-                    }
-                };
+                if let Err(why) = drive {
+                    self.failure = Some(why);
+                    return;
+                }
+                let condition = programs
+                    .and_then(|programs| programs.first())
+                    .and_then(|segments| segments.first())
+                    .and_then(|(_, commands)| {
+                        commands.iter().find_map(|command| match command {
+                            Command::WaitForInput { condition, .. } => Some(*condition),
+                            _ => None,
+                        })
+                    })
+                    .unwrap_or(InputCondition::Falling);
+                let (idle, fire) = trigger_levels(condition);
                 // The trigger drive's slot follows the units'.
-                let _ = drive;
-                let unit = self.config.units.len();
-                let set = |level| {
+                let trigger_slot = self.config.units.len();
+                let set = |unit: usize, level| {
                     ask(
                         unit,
                         Command::SetOutput { output, level },
                         Check::NotRefused,
                     )
                 };
-                stages.push(vec![Lane::of([
-                    set(Level::Low),
-                    Action::Started,
-                    Action::Sleep(TRIGGER_PULSE_US),
-                    set(Level::High),
-                ])]);
+                // The wire at its idle level while the trigger drive runs nothing.
+                stages.push(vec![Lane::of([set(trigger_slot, idle)])]);
+                stages.push(load);
+                // Every other drive started: each waits at its `WI`.
+                stages.push(self.by_line(|unit| {
+                    if Some(unit) == trigger_unit {
+                        Vec::new()
+                    } else {
+                        vec![start(unit)]
+                    }
+                }));
+                // The edge: the trigger ball's own program sets it, or the bridge.
+                stages.push(vec![match trigger_unit {
+                    Some(unit) => Lane::of([start(unit), Action::Started]),
+                    None => Lane::of([
+                        set(trigger_slot, fire),
+                        Action::Started,
+                        Action::Sleep(TRIGGER_PULSE_US),
+                        set(trigger_slot, idle),
+                    ]),
+                }]);
             }
         }
         stages.push(vec![Lane::of([Action::ShowEnd])]);

@@ -6,18 +6,19 @@
 //!
 //! This module owns:
 //! - [`Command`]: every command the seed's Q programs use (`FL FP FS DI VE AC DE EG SP
-//!   WI WT QG QR QJ TI TR CR QC MT SO`, `R+ R- R* R/ R| R&`, `RX RM`) and what a host
-//!   needs to run drives safely (`SK ST ME MD IP EP SC AL AR QL QS QX QE QW QU`), and
-//!   jogging for smooth shows (`JS JA JL CJ CS SJ`, unconfirmed: `docs/protocol-notes.md`
-//!   §8), typed with units (`DI` counts, `VE` rev/s, `AC`/`DE` rev/s², `WT` s); a value
-//!   of `None` is the query form (`VE` alone asks). Its text is `Display` ([`command`]).
+//!   WI WT QG QR QJ TI TR CR QC MT SO`, `R+ R- R* R/ R| R&`, `RX RM`), what a host
+//!   needs to run drives safely (`SK ST ME MD IP EP SC AL AR QL QS QX QE QU`), to
+//!   stream a command buffer (`BS PS CT`) and to jog (`JS JA JL CJ CS SJ`, and in
+//!   programs `RXJ SM WM`), typed with units (`DI` counts, `VE` rev/s, `AC`/`DE`
+//!   rev/s², `WT` s); a value of `None` is the query form (`VE` alone asks). Its text
+//!   is `Display` ([`command`]); [`Command::kind`] is its type in MOONS' Host Command
+//!   Reference — buffered or immediate — which decides whether a program may hold it.
 //! - [`Request`]: a command with the optional RS-485 [`Address`] before it, its wire
 //!   form with the carriage return ([`Request::to_wire`]), and [`parse_script`] /
 //!   [`Request::parse`] for command lines ([`parse`]).
 //! - [`Reply`] and [`Answer`]: the drive's `%`, `*`, `?code` and `XX=value`, with the
 //!   address a drive on a shared line puts first, and [`QueueUpload`], the lines after
-//!   the `%` of a `QU` ([`response`]). `QW` (queue write) is Floatball's own command for
-//!   downloading a segment (see `docs/protocol-notes.md` §8).
+//!   the `%` of a `QU` ([`response`]).
 //! - [`twin`]: a simulated drive and a bus of them (the drive twin).
 //! - eSCL: [`Request::to_escl`], [`Reply::from_escl`], … with the header
 //!   [`escl::HEADER`] and the port [`escl::UDP_PORT`] ([`escl`]).
@@ -69,8 +70,8 @@ pub mod twin;
 pub mod units;
 
 pub use command::{
-    Address, Command, Decimal, InputCondition, IoPoint, JumpCondition, Level, MathOp, QLine,
-    Register, Request, Segment,
+    Address, Command, Decimal, InputCondition, IoPoint, JumpCondition, Kind, Level, MathOp, QLine,
+    Register, Request, Segment, StopRate,
 };
 pub use error::{EsclError, ParseError, ParseErrorKind};
 pub use parse::parse_script;

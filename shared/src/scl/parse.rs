@@ -7,7 +7,7 @@
 
 use super::command::{
     Address, Command, Decimal, InputCondition, IoPoint, JumpCondition, Level, MathOp, QLine,
-    Register, Request, Segment,
+    Register, Request, Segment, StopRate,
 };
 use super::error::{ParseError, ParseErrorKind};
 use super::response::{Answer, QueueUpload, Reply, UploadHeader};
@@ -368,7 +368,11 @@ impl<'a> Cursor<'a> {
                     return Err(self.missing(mnemonic, "a speed in rev/s"));
                 }
                 Command::ChangeSpeed {
-                    rev_s: self.non_negative_decimal(mnemonic, "a speed in rev/s")?,
+                    rev_s: self.decimal(
+                        mnemonic,
+                        "a speed in rev/s (signed: the direction)",
+                        "-133.3333 to 133.3333",
+                    )?,
                 }
             }
             "EG" => Command::ElectronicGearing {
@@ -402,7 +406,7 @@ impl<'a> Cursor<'a> {
                 segment: self.optional(|c| c.segment(mnemonic))?,
             },
             "QL" => Command::QueueLoad {
-                segment: self.segment(mnemonic)?,
+                segment: self.optional(|c| c.segment(mnemonic))?,
             },
             "QS" => Command::QueueSave {
                 segment: self.segment(mnemonic)?,
@@ -411,9 +415,6 @@ impl<'a> Cursor<'a> {
                 segment: self.segment(mnemonic)?,
             },
             "QE" => Command::QueueExecuteLoaded,
-            "QW" => Command::QueueWrite {
-                segment: self.segment(mnemonic)?,
-            },
             "QU" => Command::QueueUpload {
                 segment: self.upload_segment(mnemonic)?,
             },
@@ -429,6 +430,21 @@ impl<'a> Cursor<'a> {
                 register: self.register(mnemonic)?,
                 value: self.signed(mnemonic)?,
             },
+            "RL" => Command::RegisterLoadImmediate {
+                register: self.register(mnemonic)?,
+                value: self.optional(|c| c.signed(mnemonic))?,
+            },
+            "SM" => Command::StopMove {
+                rate: self.letter(
+                    mnemonic,
+                    "D (at DE or JL) or M (at AM)",
+                    StopRate::from_letter,
+                )?,
+            },
+            "WM" => Command::WaitOnMove,
+            "BS" => Command::BufferStatus,
+            "PS" => Command::Pause,
+            "CT" => Command::Continue,
             "RX" => Command::RegisterLoad {
                 register: self.register(mnemonic)?,
                 value: self.signed(mnemonic)?,

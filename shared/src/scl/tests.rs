@@ -354,11 +354,13 @@ fn escl_datagrams_carry_the_header_the_text_and_a_carriage_return() {
 }
 
 #[test]
-fn queue_write_and_upload_name_a_segment_and_upload_zero_is_the_queue() {
+fn queue_load_and_upload_name_a_segment_and_upload_zero_is_the_queue() {
+    // HCR p. 216: `QL` alone loads from the host; `QL3` from segment 3.
+    assert_eq!(command("QL"), Command::QueueLoad { segment: None });
     assert_eq!(
-        command("QW3"),
-        Command::QueueWrite {
-            segment: Segment::new(3).unwrap()
+        command("QL3"),
+        Command::QueueLoad {
+            segment: Segment::new(3)
         }
     );
     assert_eq!(command("QU0"), Command::QueueUpload { segment: None });
@@ -368,14 +370,17 @@ fn queue_write_and_upload_name_a_segment_and_upload_zero_is_the_queue() {
             segment: Segment::new(12).unwrap().into()
         }
     );
-    for line in ["QW1", "QW12", "QU0", "QU1", "QU12", "1QW2", "=QU0"] {
+    for line in [
+        "QL", "QL12", "QU0", "QU1", "QU12", "1QL", "=QU0", "1QS2", "QE",
+    ] {
         assert_eq!(Request::parse(line).unwrap().to_string(), line);
     }
     assert!(!command("QU0").is_query());
     use ParseErrorKind as K;
-    refused("QW0", 1, 3, |k| matches!(k, K::OutOfRange { .. }));
-    refused("QW13", 1, 3, |k| matches!(k, K::OutOfRange { .. }));
-    refused("QW", 1, 3, |k| matches!(k, K::MissingParameter { .. }));
+    // `QW` is no MOONS' command (HCR: none such): unknown.
+    refused("QW1", 1, 1, |k| matches!(k, K::UnknownMnemonic { .. }));
+    refused("QL0", 1, 3, |k| matches!(k, K::OutOfRange { .. }));
+    refused("QL13", 1, 3, |k| matches!(k, K::OutOfRange { .. }));
     refused("QU13", 1, 3, |k| matches!(k, K::OutOfRange { .. }));
     refused("QU", 1, 3, |k| matches!(k, K::MissingParameter { .. }));
     refused("QU00", 1, 3, |k| matches!(k, K::BadParameter { .. }));
@@ -519,6 +524,10 @@ mod proptests {
                 Command::QueueExecuteLoaded,
                 Command::StopKill,
                 Command::Stop,
+                Command::WaitOnMove,
+                Command::BufferStatus,
+                Command::Pause,
+                Command::Continue,
                 Command::MotorEnable,
                 Command::MotorDisable,
                 Command::StatusCode,
@@ -550,10 +559,14 @@ mod proptests {
             )
                 .prop_map(|(condition, line)| Command::QueueJump { condition, line }),
             proptest::option::of(segment()).prop_map(|segment| Command::QueueCall { segment }),
-            segment().prop_map(|segment| Command::QueueLoad { segment }),
+            proptest::option::of(segment()).prop_map(|segment| Command::QueueLoad { segment }),
             segment().prop_map(|segment| Command::QueueSave { segment }),
             segment().prop_map(|segment| Command::QueueExecute { segment }),
-            segment().prop_map(|segment| Command::QueueWrite { segment }),
+            decimal().prop_map(|rev_s| Command::ChangeSpeed { rev_s }),
+            proptest::sample::select(vec![StopRate::Decel, StopRate::Max])
+                .prop_map(|rate| Command::StopMove { rate }),
+            (register(), proptest::option::of(any::<i32>()))
+                .prop_map(|(register, value)| Command::RegisterLoadImmediate { register, value }),
             proptest::option::of(segment()).prop_map(|segment| Command::QueueUpload { segment }),
             (point(), level()).prop_map(|(input, level)| Command::TestInput { input, level }),
             (point(), level()).prop_map(|(output, level)| Command::SetOutput { output, level }),

@@ -107,8 +107,7 @@ pub enum SclError {
 #[derive(Debug)]
 struct Job {
     drive: usize,
-    /// The SCL text without the address (the link adds it on a line); empty: the lone
-    /// CR that ends a `QW`.
+    /// The SCL text without the address (the link adds it on a line).
     text: String,
     /// Whether it may go while the e-stop is latched (a query or a stop).
     inert: bool,
@@ -149,6 +148,9 @@ struct DriveShared {
     status_code: AtomicU32,
     alarm_code: AtomicU32,
     missed_replies: AtomicU64,
+    /// Segments it saved to its non-volatile memory (`QS` answered `%`) since the
+    /// bridge started: each partition lasts about 10,000 writes.
+    flash_writes: AtomicU64,
     /// The last refusal or missed answer, if any; held only to copy it in or out.
     error: Mutex<Option<String>>,
 }
@@ -164,6 +166,7 @@ impl DriveShared {
             status_code: AtomicU32::new(0),
             alarm_code: AtomicU32::new(0),
             missed_replies: AtomicU64::new(0),
+            flash_writes: AtomicU64::new(0),
             error: Mutex::new(None),
         }
     }
@@ -184,6 +187,7 @@ impl DriveShared {
             alarm_code: (known & 4 != 0)
                 .then(|| u16::try_from(self.alarm_code.load(Ordering::Acquire)).unwrap_or(0)),
             missed_replies: self.missed_replies.load(Ordering::Acquire),
+            flash_writes: self.flash_writes.load(Ordering::Acquire),
             error: self.error.lock().ok().and_then(|slot| slot.clone()),
         }
     }
@@ -514,6 +518,24 @@ fn finish(shared: &LinkShared, mut job: Job, result: Result<Vec<String>, SclErro
     {
         drive.missed_replies.fetch_add(1, Ordering::AcqRel);
         drive.set_error(Some(error.to_string()));
+    }
+    if let (Some(drive), Ok(lines)) = (drive, &result)
+        && job.text.starts_with("QS")
+        && lines
+            .first()
+            .and_then(|line| Reply::parse(line).ok())
+            .is_some_and(|reply| reply.answer == Answer::Executed)
+    {
+        // A write to the drive's non-volatile memory (from Start or the console).
+        let writes = drive.flash_writes.fetch_add(1, Ordering::AcqRel) + 1;
+        tracing::info!(
+            gateway = shared.index,
+            drive = %drive.name,
+            request = %job.text,
+            flash_writes = writes,
+            "a program segment was saved to the drive's memory (about 10,000 writes \
+             each segment lasts)"
+        );
     }
     match job.purpose {
         Purpose::Poll => {
@@ -970,11 +992,7 @@ impl<'a> Owner<'a> {
                     .unwrap_or_default();
                 let error = SclError::Timeout {
                     drive: format!("{drive:?} on SCL gateway {}", self.shared.index),
-                    request: if flight.job.text.is_empty() {
-                        "the end of a QW".to_owned()
-                    } else {
-                        flight.job.text.clone()
-                    },
+                    request: flight.job.text.clone(),
                     timeout_ms: u64::try_from(flight.timeout.as_millis()).unwrap_or(u64::MAX),
                 };
                 finish(self.shared, flight.job, Err(error));

@@ -277,13 +277,14 @@ impl Model {
                 }
             }
             Command::ChangeSpeed { rev_s } => {
-                if let Some(v) = held(Some(rev_s)) {
-                    self.jog_counts_s = v;
-                    if self.jogging {
-                        let (x, now_v) = self.raw(at_us);
-                        let run_v = self.jog_dir * v;
-                        self.push(at_us, Profile::run(x, now_v, run_v, rate, rate));
-                    }
+                // Signed: the sign is the direction (HCR p. 71).
+                if let Some(v) = held(Some(rev_s.abs()))
+                    && self.jogging
+                {
+                    self.jog_dir = if rev_s.is_negative() { -1.0 } else { 1.0 };
+                    let (x, now_v) = self.raw(at_us);
+                    let run_v = self.jog_dir * v;
+                    self.push(at_us, Profile::run(x, now_v, run_v, rate, rate));
                 }
             }
             Command::CommenceJogging if !self.jogging => {
@@ -712,22 +713,34 @@ impl SclDrive {
                 }
             }
             // What the speed `steps` takes, from the mode the drive is told to be in:
-            // a jog starts at once (`CJ` at the `JS` it has, never above the top
-            // speed), its speed follows.
+            // jogging, a `CS` whose sign is the way (HCR p. 71: it turns the ball
+            // round through 0 at `JA`/`JL`); from rest, `JS` and `CJ` (buffered: they
+            // start the jog once the drive stands, and a `CS` is only for a jog).
             let commands = |steps: i64| -> (Vec<Command>, bool) {
-                let speed = Command::ChangeSpeed {
-                    rev_s: write(steps),
-                };
+                let speed = write(steps);
                 match state.mode {
-                    Mode::Jog(jog) if jog == forward => (vec![speed], true),
                     Mode::Jog(_) => (
-                        vec![Command::StopJogging, way, Command::CommenceJogging, speed],
-                        false,
+                        vec![Command::ChangeSpeed {
+                            rev_s: if forward {
+                                speed
+                            } else {
+                                super::Decimal::new(-speed.mantissa(), speed.scale())
+                                    .unwrap_or(speed)
+                            },
+                        }],
+                        true,
                     ),
-                    Mode::Rest if last_forward == forward => {
-                        (vec![Command::CommenceJogging, speed], false)
+                    Mode::Rest => {
+                        let start = [
+                            Command::JogSpeed { rev_s: Some(speed) },
+                            Command::CommenceJogging,
+                        ];
+                        if last_forward == forward {
+                            (start.to_vec(), false)
+                        } else {
+                            (std::iter::once(way).chain(start).collect(), false)
+                        }
                     }
-                    Mode::Rest => (vec![way, Command::CommenceJogging, speed], false),
                 }
             };
             if !moving {

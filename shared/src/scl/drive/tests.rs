@@ -10,6 +10,7 @@ use super::*;
 use crate::api::PlayerState;
 use crate::player::EntryTiming;
 use crate::player::{Run, Sequencer, StartAt};
+use crate::scl::Request;
 use crate::scl::qprogram::{QProgramConfig, compile};
 use crate::scl::twin::{self, DriveConfig};
 use crate::show::{Layout, Show, Track, TrackRow};
@@ -212,7 +213,7 @@ fn a_show_homes_approaches_uploads_starts_and_ends_where_it_was_drawn() {
             PlayerState::Playing,
             PlayerState::Approaching,
             // The second cycle's start (no upload): `playing` once every drive
-            // took its QX1.
+            // took its QE.
             PlayerState::Loading,
             PlayerState::Playing,
             PlayerState::Idle,
@@ -231,11 +232,43 @@ fn a_show_homes_approaches_uploads_starts_and_ends_where_it_was_drawn() {
         ]
     );
     assert_eq!(lines.iter().filter(|line| *line == "ME").count(), 1);
-    // The upload of the first cycle only, read back; QX1 starts each cycle.
-    assert_eq!(lines.iter().filter(|line| *line == "QW1").count(), 1);
-    assert_eq!(lines.iter().filter(|line| *line == "QU1").count(), 1);
-    assert_eq!(lines.iter().filter(|line| *line == "QX1").count(), 2);
-    assert_eq!(lines.last().map(String::as_str), Some("QX1"));
+    // A program of one segment goes to the queue each cycle (`QL`, its lines, `QE`:
+    // HCR p. 216, 212), never to memory: no `QS`, nothing to read back.
+    assert_eq!(lines.iter().filter(|line| *line == "QL").count(), 2);
+    assert_eq!(lines.iter().filter(|line| *line == "QE").count(), 2);
+    assert!(
+        !lines
+            .iter()
+            .any(|line| line.starts_with("QS") || line.starts_with("QU"))
+    );
+    assert_eq!(lines.last().map(String::as_str), Some("QE"));
+    // The third ball's program takes three segments: stored, each segment once
+    // (compared with `QU` first); the others none.
+    assert_eq!(rig.sequencer.drive().flash_writes(), [0, 0, 3]);
+    let stored: Vec<u32> = rig
+        .twins
+        .iter()
+        .map(twin::Drive::flash_writes_total)
+        .collect();
+    assert_eq!(stored, [0, 0, 3]);
+    rig.commands(2);
+    // A repeated Start of the same show writes nothing (HCR p. 294: each partition
+    // lasts about 10,000 writes): every segment read back equal.
+    let run = entry(rig.sequencer.drive().config(), 1);
+    rig.sequencer.start(rig.now_us, vec![run], false).unwrap();
+    rig.run_until(rig.now_us + 60_000_000);
+    assert_eq!(rig.sequencer.status().state, PlayerState::Idle);
+    assert_eq!(rig.sequencer.drive().flash_writes(), [0, 0, 3]);
+    let stored: Vec<u32> = rig
+        .twins
+        .iter()
+        .map(twin::Drive::flash_writes_total)
+        .collect();
+    assert_eq!(stored, [0, 0, 3]);
+    let third = rig.commands(2);
+    assert!(third.iter().any(|line| line == "QU1"));
+    assert!(!third.iter().any(|line| line.starts_with("QS")));
+    assert_eq!(rig.positions(), [500, 1_000, 1_500]);
 }
 
 #[test]
@@ -308,21 +341,23 @@ fn home_rests_at_home_and_a_refused_upload_fails_naming_the_drive() {
     assert_eq!(rig.positions(), [0, 0, 0]);
     // A program the drive cannot take: an answer that is not its own.
     let config = rig.sequencer.drive().config().clone();
-    rig.refused = Some("QW1");
+    rig.refused = Some("QL");
     rig.sequencer
         .start(rig.now_us, vec![entry(&config, 1)], false)
         .unwrap();
     rig.run_until(rig.now_us + 60_000_000);
+    // The third ball's program is stored (three segments): its first `QL` is the
+    // first, before any drive plays.
     assert_eq!(
-        rig.commands(0).last().map(String::as_str),
-        Some("QW1"),
+        rig.commands(2).last().map(String::as_str),
+        Some("QL"),
         "nothing after"
     );
     let status = rig.sequencer.status();
     assert_eq!(status.state, PlayerState::Error);
     let error = status.last_error.unwrap();
     assert!(
-        error.starts_with("drive \"1\" on SCL gateway 0 refused QW1: it does not take programs"),
+        error.starts_with("drive \"3\" on SCL gateway 0 refused QL (code 6): it does not take"),
         "{error}"
     );
     assert!(rig.sequencer.take_estop(), "the matrix is stopped");
@@ -336,7 +371,7 @@ fn drives_disabled_at_a_window_s_end_move_again_at_the_next_start() {
     rig.run_until(60_000_000);
     // The schedule's end: MD to every drive (the bridge sends it, not the drive).
     for twin in &mut rig.twins {
-        assert_eq!(twin.receive_line("MD", rig.now_us).as_deref(), Some("%\r"));
+        assert_eq!(twin.receive_line("MD", rig.now_us).as_deref(), Some("*\r"));
         assert!(!twin.is_enabled());
     }
     // Without ME a move is refused (No Move): what a Start before this change met.
@@ -394,7 +429,10 @@ fn a_ball_that_does_not_arrive_fails_the_move_after_the_travel_time() {
 }
 
 #[test]
-fn with_a_trigger_every_program_is_executed_then_the_trigger_pulses() {
+fn with_a_trigger_every_drive_waits_then_the_trigger_ball_fires_the_edge_itself() {
+    // The trigger is drive 1's output 2, and drive 1 plays a ball: its program's line
+    // 1 is the edge (`SO2L` in place of `WI3F`), and it is started last, so the
+    // bridge never writes to a drive whose program runs.
     let trigger = Trigger {
         drive: Ok(0),
         name: "drive \"1\" on SCL gateway 0".into(),
@@ -402,32 +440,64 @@ fn with_a_trigger_every_program_is_executed_then_the_trigger_pulses() {
     };
     let mut drive = SclDrive::new(config(Some(trigger)));
     let config = drive.config().clone();
-    let mut run = entry(&config, 1);
-    drive.begin_play(0, &mut run.prepared, true);
+    let settings = QProgramConfig {
+        counts_per_mm: COUNTS_PER_MM,
+        tolerance_mm: 20.0,
+        ..QProgramConfig::default()
+    };
+    let programs: Vec<_> = show()
+        .tracks
+        .iter()
+        .map(|track| compile(track, &settings).unwrap())
+        .collect();
+    let mut entry = SclEntry::new(&config, [0.0; 3], Some(programs), 1_000);
+    let first_lines: Vec<String> = entry
+        .programs
+        .as_ref()
+        .unwrap()
+        .iter()
+        .map(|segments| segments[0].1[0].to_string())
+        .collect();
+    assert_eq!(first_lines, ["SO2L", "WI3F", "WI3F"]);
+    drive.begin_play(0, &mut entry, true);
     let mut sent = Vec::new();
     let mut now_us = 0;
-    for _ in 0..20 {
+    for _ in 0..400 {
         assert_eq!(drive.poll(now_us, None), Phase::Pending);
         for ask in drive.take_asks() {
-            sent.push(format!("{} {}", ask.drive, ask.text));
-            let answer = if ask.text == "SC" { "SC=0000" } else { "%" };
+            let command = Request::parse(&ask.text).unwrap().command;
+            if !matches!(command.kind(), crate::scl::Kind::Immediate) || ask.text.starts_with("Q") {
+                sent.push(format!("{} {}", ask.drive, ask.text));
+            }
+            let answer = match command.kind() {
+                _ if ask.text == "SC" => "SC=0000",
+                crate::scl::Kind::Buffered => "*",
+                crate::scl::Kind::Immediate => "%",
+            };
             drive.answer(now_us, ask.id, Ok(vec![answer.into()]));
         }
-        if sent.len() == 5 {
-            assert_eq!(drive.started_us(), Some(0));
-            assert_eq!(drive.next_wakeup_us(0), Some(20_000));
-        }
-        now_us = drive.next_wakeup_us(now_us).unwrap_or(now_us);
-        if sent.len() == 9 {
+        if drive.started_us().is_some() {
             break;
         }
+        now_us = drive.next_wakeup_us(now_us).unwrap_or(now_us + 1_000);
     }
+    assert!(drive.started_us().is_some());
+    // The wire at its idle level first; every queue loaded; drives 2 and 3 started
+    // (waiting at WI3F); drive 1 last: its program sets the wire.
+    assert_eq!(sent[0], "0 SO2H");
+    let position = |line: &str| sent.iter().position(|sent| sent == line).unwrap();
+    // (The third ball's program is stored: `QX1`, no queue.)
+    assert!(position("0 QL") < position("1 QE"));
+    assert!(position("1 QL") < position("1 QE"));
+    assert!(position("1 QE") < position("0 QE") && position("2 QX1") < position("0 QE"));
+    assert_eq!(sent.last().map(String::as_str), Some("0 QE"));
+    // The edge goes only as line 1 of drive 1's queue, never on its own.
     assert_eq!(
-        sent,
-        [
-            "0 QX1", "1 QX1", "2 QX1", "0 SO2L", "0 SO2H", "0 SC", "1 SC", "2 SC"
-        ][..sent.len().min(8)]
+        sent.iter().filter(|line| line.ends_with("SO2L")).count(),
+        1,
+        "{sent:?}"
     );
+    assert_eq!(position("0 SO2L"), position("0 QL") + 1);
 }
 
 #[test]
@@ -442,7 +512,7 @@ fn the_state_is_playing_from_the_first_drives_start_and_counts_from_its_arrival(
     for _ in 0..10_000 {
         rig.sequencer.poll(rig.now_us);
         for ask in rig.sequencer.drive_mut().take_asks() {
-            if ask.text == "QX1" {
+            if ask.text == "QE" {
                 starts.push(ask);
                 continue;
             }
@@ -461,7 +531,7 @@ fn the_state_is_playing_from_the_first_drives_start_and_counts_from_its_arrival(
             twin.advance(rig.now_us);
         }
     }
-    assert_eq!(starts.len(), 1, "one QX1 at a time on a line");
+    assert_eq!(starts.len(), 1, "one QE at a time on a line");
     let status = rig.sequencer.status();
     assert_eq!(
         status.state,
@@ -599,9 +669,10 @@ fn a_start_from_a_time_uploads_the_cut_then_the_whole_show_for_the_next_cycle() 
     assert_eq!(rig.sequencer.status().state, PlayerState::Idle);
     assert_eq!(rig.positions(), [500, 1_000, 1_500]);
     let lines = rig.commands(1);
-    // Two uploads: the cut's, then the whole show's for the entry's second cycle.
-    assert_eq!(lines.iter().filter(|line| *line == "QW1").count(), 2);
-    assert_eq!(lines.iter().filter(|line| *line == "QX1").count(), 2);
+    // Two loads of the queue: the cut's, then the whole show's for the entry's
+    // second cycle.
+    assert_eq!(lines.iter().filter(|line| *line == "QL").count(), 2);
+    assert_eq!(lines.iter().filter(|line| *line == "QE").count(), 2);
 }
 
 #[test]

@@ -1,40 +1,47 @@
 //! Smooth shows (issue 34, item 2): every stretch the ball moves one way between two
 //! turning points (or rests) is a **jog** whose speed is changed every `step_s`, so the
-//! ball glides through the show instead of stopping at every keyframe:
+//! ball glides through the show instead of stopping at every keyframe. Only buffered
+//! commands, as a stored program must hold (HCR p. 13), the way HCR p. 64 stops a jog
+//! inside a program (`MT1`, set in segment 1, so that `CJ` does not hold the program):
 //!
 //! ```text
-//! DI-1          the direction (the sign of DI)
+//! DI-1          the direction (the sign of DI, HCR p. 64)
 //! JS0.4125      the speed for the first step, rev/s
-//! CJ            jog: speeds up at JA
+//! CJ            jog: speeds up at JA (HCR p. 64)
 //! WT0.15        one step
-//! CS0.8000      the next speed (JA faster, JL slower)
+//! RXJ-192       the next velocity in the J register: 0.25 rpm steps, signed as CS
+//!               (HCR p. 64, p. 71); reached at JA (faster) or JL (slower)
 //! WT0.15
 //! …
-//! CS0.2125      the last speed …
+//! RXJ-51        the last velocity …
 //! WT0.08        … for this long, then
-//! SJ            slow down to rest at JL (MT0: the program waits)
-//! DI250000      and, from where it stopped, exactly to the keyframe's count
+//! SMD           slow down to rest at JL (HCR p. 250)
+//! WM            and wait until the motor stands (HCR p. 272)
+//! DI250000      then, from where it stopped, exactly to the keyframe's count
 //! FP
+//! WM
 //! ```
 //!
 //! Each speed is solved so that the ball is where the show is at the end of its step,
 //! from where the drive really is: the speed as the drive holds it (a whole step of
 //! 1/240 rev/s) and the ramp at `JA`/`JL` as the drive runs it (the twin's
 //! [`Profile`]), so the rounding of one speed is taken back by the next and the
-//! position never drifts. The last speed and when `SJ` comes are chosen so that the
+//! position never drifts. The last speed and when `SM` comes are chosen so that the
 //! stop ends at the keyframe's count as close to its time as the steps allow; the
 //! `FP` then takes the drive the fraction of a count (or few counts) left. Where the
 //! show rests, `WT`; a stretch too short for two steps is an `FP` from rest to rest.
 //!
-//! `JA` = `JL` is set once in segment 1: 1.5 × the show's largest acceleration (within
-//! the installation's limit). The step is the shortest (a multiple of 10 ms, at least
-//! [`MIN_STEP_S`]) whose lines fit the drive. The semantics of `CJ CS SJ JS JA JL` are
-//! **unconfirmed** (no page of the reference found): `docs/protocol-notes.md` §8.
+//! `JA` = `JL` is set once in segment 1, before any jog (HCR p. 150/155: not while
+//! jogging): 1.5 × the show's largest acceleration (within the installation's limit).
+//! The step is the shortest (a multiple of 10 ms, at least [`MIN_STEP_S`]) whose
+//! lines fit the drive. How a drive ramps from one jog speed to the next (at
+//! `JA`/`JL`, through 0 when the sign changes) is our reading of HCR p. 71 for `CS`,
+//! taken for the `J` register too: `docs/protocol-notes.md` §8.
 
 use super::keyframes::Samples;
 use super::reduce::{Limits, Step, plan_step};
 use super::{Keyframe, QProgram, QProgramConfig, QProgramError, Timed, Writer};
-use crate::scl::command::{Command, Decimal};
+use crate::scl::command::{Command, Decimal, Register, StopRate};
 use crate::scl::twin::Profile;
 use crate::scl::units;
 use crate::show::Track;
@@ -71,7 +78,10 @@ pub(super) fn accel(samples: &Samples, config: &QProgramConfig) -> Option<Decima
     units::ACCELERATION.write(steps)
 }
 
-/// The step that fits `budget_lines`: each stretch costs about 9 lines and two a step.
+/// The jog velocity's register (HCR p. 64).
+const JOG_REGISTER: char = 'J';
+
+/// The step that fits `budget_lines`: each stretch costs about 11 lines and two a step.
 pub(super) fn step_for(counts: &[i64], times_s: &[f64], budget_lines: usize) -> f64 {
     let (mut moving_s, mut stretches, mut rests) = (0.0, 0_usize, 0_usize);
     let mut last = 0_i64;
@@ -87,17 +97,18 @@ pub(super) fn step_for(counts: &[i64], times_s: &[f64], budget_lines: usize) -> 
         }
         last = direction;
     }
-    let room = budget_lines.saturating_sub(9 * stretches + rests).max(1) as f64;
+    let room = budget_lines.saturating_sub(11 * stretches + rests).max(1) as f64;
     let step_s = (2.0 * moving_s / room).max(MIN_STEP_S);
     (step_s * 100.0).ceil() / 100.0
 }
 
-/// A speed (counts/s, not negative) as the drive holds it: whole steps, at least one.
-fn held_speed(counts_s: f64, steps_per_rev: f64, max_steps: i64) -> (Decimal, f64) {
+/// A speed (counts/s, not negative) as the drive holds it: whole steps, at least one;
+/// the steps (1/240 rev/s, the `J` register's 0.25 rpm), `JS`'s text and counts/s.
+fn held_speed(counts_s: f64, steps_per_rev: f64, max_steps: i64) -> (i64, Decimal, f64) {
     let unit = units::VELOCITY.step * steps_per_rev;
     let steps = ((counts_s / unit).round() as i64).clamp(units::VELOCITY.min_steps, max_steps);
     let written = units::VELOCITY.write(steps).unwrap_or(Decimal::from_int(0));
-    (written, steps as f64 * unit)
+    (steps, written, steps as f64 * unit)
 }
 
 /// The smallest `x ≥ 0` where `f` (rising) reaches 0, by bisection within `[0, high]`.
@@ -223,7 +234,12 @@ impl Writer<'_> {
             );
         }
         if jogging {
-            self.lines.push(Command::StopJogging);
+            // HCR p. 64: a program stops its jog with `SM` (`SJ` is immediate), and
+            // waits for the stop with `WM`.
+            self.lines.push(Command::StopMove {
+                rate: StopRate::Decel,
+            });
+            self.lines.push(Command::WaitOnMove);
             let stop = Profile::stop(x, v, rate);
             x = stop.end_counts().unwrap_or(x);
             let stop_s = stop.duration_s();
@@ -244,6 +260,7 @@ impl Writer<'_> {
                 counts: Some(counts),
             });
             self.lines.push(Command::FeedToPosition);
+            self.lines.push(Command::WaitOnMove);
             let held = units::VELOCITY.held(speed).unwrap_or(0.0) * steps_per_rev;
             let accel = self.limits.accel_counts_s2;
             let fix = Profile::to_rest(x, 0.0, goal, held, accel, accel);
@@ -270,9 +287,9 @@ impl Writer<'_> {
     }
 
     /// Jogs from `(x, v)` (counts, counts/s) at `velocity` (counts/s, signed) for
-    /// `for_s`: `JS` and `CJ` when not yet `jogging`, else `CS`, then the `WT`; the
-    /// speed as the drive holds it ([`held_speed`]; `rate` counts/s², `max_steps` of
-    /// `VE`). Returns where the drive is then.
+    /// `for_s`: `JS` and `CJ` when not yet `jogging`, else `RXJ` (signed), then the
+    /// `WT`; the speed as the drive holds it ([`held_speed`]; `rate` counts/s²,
+    /// `max_steps` of `VE`). Returns where the drive is then.
     fn jog_for(
         &mut self,
         (x, v): (f64, f64),
@@ -281,14 +298,26 @@ impl Writer<'_> {
         for_s: f64,
         (rate, steps_per_rev, max_steps): (f64, f64, i64),
     ) -> (f64, f64) {
-        let (written, held) = held_speed(velocity.abs(), steps_per_rev, max_steps);
-        self.lines.push(if *jogging {
-            Command::ChangeSpeed { rev_s: written }
-        } else {
-            Command::JogSpeed {
-                rev_s: Some(written),
-            }
-        });
+        let (steps, written, held) = held_speed(velocity.abs(), steps_per_rev, max_steps);
+        let register = Register::new(JOG_REGISTER);
+        self.lines
+            .push(if *jogging && let Some(register) = register {
+                // The stretch's way, also for a speed of 0 (−0.0 going backward): a
+                // signed J of the other sign would turn the ball round (HCR p. 71).
+                let signed = if velocity.is_sign_negative() {
+                    -steps
+                } else {
+                    steps
+                };
+                Command::RegisterLoad {
+                    register,
+                    value: i32::try_from(signed).unwrap_or(0),
+                }
+            } else {
+                Command::JogSpeed {
+                    rev_s: Some(written),
+                }
+            });
         if !*jogging {
             self.lines.push(Command::CommenceJogging);
             *jogging = true;
@@ -327,6 +356,7 @@ impl Writer<'_> {
         let start_counts = self.at_counts;
         self.first = Some(self.limits);
         self.jog_accel = Some(plan.accel);
+        self.multitasking = true;
         let mut index = 0;
         while index + 1 < candidates.len() {
             let direction = (counts[index + 1] - counts[index]).signum();

@@ -675,6 +675,9 @@ struct Writer<'a> {
     keyframes: Vec<Keyframe>,
     /// `JA` and `JL` of a program that jogs ([`mod@jog`]), set in segment 1.
     jog_accel: Option<Decimal>,
+    /// `MT1` (a program that jogs, so that `CJ` does not hold it): every `FP` is
+    /// followed by `WM`.
+    multitasking: bool,
 }
 
 impl<'a> Writer<'a> {
@@ -697,6 +700,7 @@ impl<'a> Writer<'a> {
             timed: Vec::new(),
             keyframes: Vec::new(),
             jog_accel: None,
+            multitasking: false,
         }
     }
 
@@ -763,6 +767,10 @@ impl<'a> Writer<'a> {
             self.speed = Some(speed);
         }
         self.lines.push(Command::FeedToPosition);
+        if self.multitasking {
+            // With `MT1` an `FP` does not hold the program (HCR p. 183): wait for it.
+            self.lines.push(Command::WaitOnMove);
+        }
         self.timed.push(Timed {
             start_s: self.now_s,
             from_counts: self.at_counts,
@@ -982,7 +990,9 @@ impl<'a> Writer<'a> {
         if let Some((input, condition)) = self.config.start {
             setup.push(Command::WaitForInput { input, condition });
         }
-        setup.push(Command::Multitasking { on: Some(false) });
+        setup.push(Command::Multitasking {
+            on: Some(self.multitasking),
+        });
         if let Some(rev_s2) = accel_decimal(&self.first.unwrap_or(self.limits)) {
             setup.push(Command::Acceleration {
                 rev_s2: Some(rev_s2),

@@ -283,10 +283,10 @@ fn the_start_line_waits_on_the_configured_input_or_is_left_out() {
         ..QProgramConfig::default()
     };
     let program = compile(&tiny(), &none).unwrap();
-    assert_eq!(
+    assert!(matches!(
         program.segments[0].1[0],
-        Command::Multitasking { on: Some(false) }
-    );
+        Command::Multitasking { on: Some(_) }
+    ));
     assert!(
         program
             .segments
@@ -503,14 +503,15 @@ fn a_bad_configuration_is_refused_by_name() {
     assert_eq!(program.report.moves, 0);
 }
 
-/// Loads `program` into a twin standing at `start_counts` (`SP`, then `QW` per
-/// segment), starts it with `QX1` and fires the start input at `start_us`.
+/// Loads `program` into a twin standing at `start_counts` (`SP`, then `QL`, the lines
+/// and `QS n` per segment), starts it with `QX1` and fires the start input at
+/// `start_us`.
 fn load(program: &QProgram, start_counts: i64, start_us: u64) -> Drive {
     let mut drive = Drive::new(DriveConfig::default());
     let mut say = |line: String| drive.receive_line(&line, 0);
     say(format!("SP{start_counts}"));
     for (segment, commands) in &program.segments {
-        assert_eq!(say(format!("QW{segment}")).as_deref(), Some("%\r"));
+        assert_eq!(say("QL".to_owned()).as_deref(), Some("%\r"));
         for command in commands {
             assert_eq!(
                 say(command.to_string()).as_deref(),
@@ -518,9 +519,9 @@ fn load(program: &QProgram, start_counts: i64, start_us: u64) -> Drive {
                 "{command}"
             );
         }
-        assert_eq!(say(String::new()).as_deref(), Some("%\r"));
+        assert_eq!(say(format!("QS{segment}")).as_deref(), Some("%\r"));
     }
-    assert_eq!(say("QX1".to_owned()).as_deref(), Some("%\r"));
+    assert_eq!(say("QX1".to_owned()).as_deref(), Some("*\r"));
     drive.set_input(IoPoint::new(3).unwrap(), Level::Low, start_us);
     drive
 }
@@ -781,9 +782,21 @@ fn a_smooth_wave_jogs_on_a_twin_within_five_millimetres() {
         let report = program.report;
         assert!(report.max_deviation_mm <= goal_mm, "{report:?}");
         assert!(
-            program.text().contains("\nCJ\n") && program.text().contains("\nCS"),
+            program.text().contains("\nCJ\n") && program.text().contains("\nRXJ"),
             "not jogged: {report:?}"
         );
+        // HCR p. 13: a stored program holds buffered commands only — no `CS`, no
+        // `SJ` (p. 71, 248); the jog stops with `SM` under `MT1` (p. 64).
+        let lines: Vec<&Command> = program.segments.iter().flat_map(|(_, c)| c).collect();
+        assert!(
+            lines.iter().all(|c| c.kind() == crate::scl::Kind::Buffered),
+            "{:?}",
+            lines
+                .iter()
+                .find(|c| c.kind() != crate::scl::Kind::Buffered)
+        );
+        assert!(lines.contains(&&Command::Multitasking { on: Some(true) }));
+        assert!(!lines.contains(&&Command::Multitasking { on: Some(false) }));
         true_to_the_drive(&program);
         // The twin (which refuses what a drive refuses) runs it as compiled: where
         // the ball is every 10 ms, against the show.

@@ -7,8 +7,8 @@ use std::collections::VecDeque;
 use super::profile::Profile;
 use super::program::Program;
 use crate::scl::command::{
-    Address, Command, Decimal, InputCondition, IoPoint, JumpCondition, Level, MathOp, Register,
-    Request, Segment,
+    Address, Command, Decimal, InputCondition, IoPoint, JumpCondition, Kind, Level, MathOp,
+    Register, Request, Segment, StopRate,
 };
 use crate::scl::response::{Answer, QueueUpload, Reply};
 use crate::scl::{escl, units};
@@ -106,10 +106,23 @@ const STEPS_PER_INSTANT: u32 = 200;
 const PAUSE_S: f64 = 0.001;
 /// Time within which two instants are the same (float rounding).
 pub(super) const EPSILON_S: f64 = 1e-9;
-/// The refusal code for a value out of range (HCR p. 251: `?5`).
+/// The refusal code for a value out of range (HCR p. 304: `?5`).
 const OUT_OF_RANGE: u16 = 5;
+/// The refusal code of a full command buffer, or a full segment while `QL` loads
+/// (HCR p. 304: `?6`, "Command buffer (queue) full").
+pub const BUFFER_FULL: u16 = 6;
+/// The refusal code of a command the drive cannot carry out now (HCR p. 304: `?7`):
+/// `CS` while not jogging, `JA`/`JL` while jogging (HCR p. 71, 150, 155).
+pub const CANNOT_PROCESS: u16 = 7;
+/// The refusal code of a command a running program does not allow (HCR p. 304: `?8`,
+/// "Program running").
+pub const PROGRAM_RUNNING: u16 = 8;
+/// The command buffer's places (HCR p. 53: `BS` answers 63 when it is empty).
+pub const BUFFER_PLACES: usize = 63;
 /// `EG` range (the twin's limits; `VE`, `AC`, `DE` and `WT`: [`units`]).
 const STEPS_PER_REV_RANGE: std::ops::RangeInclusive<u32> = 200..=51_200;
+/// The jog speed's register (HCR p. 64: `J`, 0.25 rpm).
+const JOG_REGISTER: char = 'J';
 /// Registers `'0'` to `'z'`.
 const REGISTERS: usize = (b'z' - b'0' + 1) as usize;
 
@@ -196,43 +209,17 @@ impl ConditionCode {
     }
 }
 
-/// Where a host's command goes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Class {
-    /// Executed at once, answered `%` (or its value).
-    Immediate,
-    /// Put in the command buffer, answered `*`.
-    Buffered,
-    /// Only means something in a program (`QG QR QJ QC`): refused from a host.
-    ProgramOnly,
-}
-
-fn class(command: &Command) -> Class {
-    use Command as C;
-    if command.is_query() {
-        return Class::Immediate;
-    }
-    match command {
-        C::Distance { .. }
-        | C::ImmediatePosition
-        | C::StatusCode
-        | C::AlarmCode
-        | C::AlarmReset
-        | C::StopKill
-        | C::Stop
-        | C::MotorEnable
-        | C::MotorDisable
-        | C::QueueLoad { .. }
-        | C::QueueSave { .. }
-        | C::QueueExecute { .. }
-        | C::QueueExecuteLoaded
-        | C::QueueWrite { .. }
-        | C::QueueUpload { .. } => Class::Immediate,
-        C::QueueGoto { .. } | C::QueueRepeat { .. } | C::QueueJump { .. } | C::QueueCall { .. } => {
-            Class::ProgramOnly
-        }
-        _ => Class::Buffered,
-    }
+/// Whether a command only means something in a program (`QG QR QJ QC`): buffered,
+/// but refused from a host outside a `QL` load (a flow command needs a running
+/// queue; our choice where the HCR is silent, `docs/protocol-notes.md` §8).
+fn program_only(command: &Command) -> bool {
+    matches!(
+        command,
+        Command::QueueGoto { .. }
+            | Command::QueueRepeat { .. }
+            | Command::QueueJump { .. }
+            | Command::QueueCall { .. }
+    )
 }
 
 /// Whether a command's values are in the twin's ranges (else `?5`): `VE`, `AC`, `DE`
@@ -244,7 +231,7 @@ fn in_range(command: &Command) -> bool {
     };
     match *command {
         Command::Velocity { rev_s } | Command::JogSpeed { rev_s } => held(rev_s, units::VELOCITY),
-        Command::ChangeSpeed { rev_s } => held(Some(rev_s), units::VELOCITY),
+        Command::ChangeSpeed { rev_s } => held(Some(rev_s.abs()), units::VELOCITY),
         Command::JogAcceleration { rev_s2 } | Command::JogDeceleration { rev_s2 } => {
             held(rev_s2, units::ACCELERATION)
         }
@@ -262,30 +249,6 @@ fn in_range(command: &Command) -> bool {
         } => !register.is_read_only(),
         _ => true,
     }
-}
-
-/// Whether a buffered command can take time (a move or a wait).
-fn takes_time(command: &Command) -> bool {
-    matches!(
-        command,
-        Command::FeedToLength
-            | Command::FeedToPosition
-            | Command::FeedToSensor { .. }
-            | Command::CommenceJogging
-            | Command::StopJogging
-            | Command::WaitTime { .. }
-            | Command::WaitForInput { .. }
-    )
-}
-
-/// Whether a line may be stored in a segment by `QW`: not a query, not `QW`/`QU`.
-pub(super) fn storable(command: &Command) -> bool {
-    !command.is_query()
-        && !matches!(
-            command,
-            Command::QueueWrite { .. } | Command::QueueUpload { .. }
-        )
-        && in_range(command)
 }
 
 /// A simulated MOONS' drive. See the [module](super) and `docs/protocol-notes.md` §8.
@@ -315,9 +278,20 @@ pub struct Drive {
     pub(super) queue: Vec<Command>,
     pub(super) program: Option<Program>,
     host: VecDeque<Command>,
+    /// `PS` ran: the command buffer waits for `CT`.
+    paused: bool,
+    /// The jog velocity while jogging (the `J` register), in steps of 0.25 rpm
+    /// (1/240 rev/s), signed: the direction (HCR p. 64, p. 71).
+    jog_steps: i64,
     pub(super) wait: Wait,
-    /// `QW` in progress: the segment and the lines so far.
-    pub(super) writing: Option<(Segment, Vec<Command>)>,
+    /// `QL` (without a segment) is loading the queue from the host.
+    pub(super) loading: bool,
+    /// The stored segment the queue was loaded from (`QX`, `QC`, `QL n`), if any:
+    /// where a `QC` returns from (HCR p. 210: the caller is loaded again from memory).
+    pub(super) running_segment: Option<Segment>,
+    /// Writes to each segment's non-volatile partition (`QS`; HCR p. 294: about 10,000
+    /// each).
+    flash_writes: [u32; 12],
     steps_at_instant: u32,
     output_log: Vec<OutputChange>,
     move_log: Vec<MoveEnd>,
@@ -365,8 +339,12 @@ impl Drive {
             queue: Vec::new(),
             program: None,
             host: VecDeque::new(),
+            paused: false,
+            jog_steps: 0,
             wait: Wait::Nothing,
-            writing: None,
+            loading: false,
+            running_segment: None,
+            flash_writes: [0; 12],
             steps_at_instant: 0,
             output_log: Vec::new(),
             move_log: Vec::new(),
@@ -396,16 +374,23 @@ impl Drive {
 
     /// One line from the host (a trailing CR allowed), at `now_us`: the drive's whole
     /// answer, every line ended by CR, or `None` when it says nothing (a line for
-    /// another drive; an empty line outside a `QW`).
+    /// another drive, an empty line, a global command that asks nothing).
+    ///
+    /// A drive with an address also takes a **global** line, one without an address
+    /// (it starts with a command's capital letter): every drive on the line carries
+    /// it out, and none answers unless it asks for data (HCR p. 304–305).
     pub fn receive_line(&mut self, line: &str, now_us: u64) -> Option<String> {
         self.advance(now_us);
         let line = line.strip_suffix('\r').unwrap_or(line);
+        let global =
+            self.config.address.is_some() && line.starts_with(|c: char| c.is_ascii_uppercase());
         let prefix = self
             .config
             .address
             .map(|a| a.to_string())
             .unwrap_or_default();
         let body = match self.config.address {
+            Some(_) if global => line,
             Some(address) => {
                 // Only lines that start with its address are for it.
                 line.strip_prefix(address.character())?
@@ -413,19 +398,21 @@ impl Drive {
             None => line,
         };
         if body.trim_matches([' ', '\t']).is_empty() {
-            return self.end_queue_write().then(|| format!("{prefix}%\r"));
+            return None;
         }
-        let text = if self.config.address.is_some() {
+        let text = if self.config.address.is_some() && !global {
             line
         } else {
             body
         };
         let Ok(request) = Request::parse(text) else {
-            return Some(format!("{prefix}?\r"));
+            return (!global).then(|| format!("{prefix}?\r"));
         };
-        if let Command::QueueUpload { segment } = request.command
-            && self.writing.is_none()
-        {
+        if global && !request.command.is_query() {
+            let _ = self.execute_request(request.command);
+            return None;
+        }
+        if let Command::QueueUpload { segment } = request.command {
             let upload = self.queue_upload(segment);
             let mut text = format!("{prefix}%\r");
             for line in upload.lines() {
@@ -477,57 +464,87 @@ impl Drive {
             .collect()
     }
 
-    /// Ends a `QW`: stores its lines; `false` if no write was open.
-    pub fn end_queue_write(&mut self) -> bool {
-        match self.writing.take() {
-            Some((segment, lines)) => {
-                self.segments[usize::from(segment.get() - 1)] = Some(lines);
-                true
-            }
-            None => false,
-        }
+    /// Writes to `segment`'s non-volatile partition so far (each `QS` of it).
+    #[must_use]
+    pub fn flash_writes(&self, segment: Segment) -> u32 {
+        self.flash_writes[usize::from(segment.get() - 1)]
+    }
+
+    /// One more write to `segment`'s partition.
+    pub(super) fn count_flash_write(&mut self, segment: Segment) {
+        let slot = &mut self.flash_writes[usize::from(segment.get() - 1)];
+        *slot = slot.saturating_add(1);
+    }
+
+    /// Writes to every segment's partition together.
+    #[must_use]
+    pub fn flash_writes_total(&self) -> u32 {
+        self.flash_writes.iter().sum()
+    }
+
+    /// Whether `QL` is loading the queue from the host.
+    #[must_use]
+    pub fn is_loading(&self) -> bool {
+        self.loading
+    }
+
+    /// Free places in the command buffer (what `BS` answers).
+    #[must_use]
+    pub fn buffer_free(&self) -> usize {
+        BUFFER_PLACES.saturating_sub(self.host.len())
+    }
+
+    /// Whether the motor jogs (`CJ` under way, not stopping).
+    #[must_use]
+    pub fn is_jogging(&self) -> bool {
+        matches!(
+            self.motion.as_ref().map(|motion| motion.kind),
+            Some(MotionKind::Jog { .. })
+        )
     }
 
     fn execute_request(&mut self, command: Command) -> Vec<Answer> {
-        let refused = |code| vec![Answer::Refused { code }];
+        let refused = |code| vec![Answer::Refused { code: Some(code) }];
         if self.wait == Wait::Spin {
             self.wake();
         }
-        if let Some((_, lines)) = &mut self.writing {
-            if command == Command::StopKill {
-                // An e-stop is never stored: it ends the write unsaved and stops.
-                self.writing = None;
-                self.stop_and_kill();
-                return vec![Answer::Executed];
+        if !in_range(&command) {
+            return refused(OUT_OF_RANGE);
+        }
+        if command.kind() == Kind::Immediate {
+            // Carried out at once, also while `QL` loads: never a line (HCR p. 13).
+            return self.immediate(command);
+        }
+        if self.loading {
+            if self.queue.len() >= QueueUpload::MAX_LINES {
+                return refused(BUFFER_FULL);
             }
-            if !storable(&command) || lines.len() >= QueueUpload::MAX_LINES {
-                return refused(None);
-            }
-            lines.push(command);
+            self.queue.push(command);
             return vec![Answer::Buffered];
         }
-        if !in_range(&command) {
-            return refused(Some(OUT_OF_RANGE));
+        if self.program.is_some() {
+            // Our choice where the HCR is silent (`docs/protocol-notes.md` §8): a
+            // running program owns the buffer; the bridge never sends buffered
+            // commands to a drive whose program runs.
+            return refused(PROGRAM_RUNNING);
         }
-        match class(&command) {
-            Class::ProgramOnly => refused(None),
-            Class::Buffered => {
-                if self.program.is_some() {
-                    // Between two program lines: what takes no time is done at once;
-                    // moves and waits are the program's.
-                    if takes_time(&command) {
-                        return refused(None);
-                    }
-                    self.apply(command);
-                    self.run();
-                    return vec![Answer::Buffered];
-                }
-                self.host.push_back(command);
-                self.run();
-                vec![Answer::Buffered]
-            }
-            Class::Immediate => self.immediate(command),
+        if program_only(&command) {
+            return vec![Answer::Refused { code: None }];
         }
+        if matches!(
+            command,
+            Command::JogAcceleration { .. } | Command::JogDeceleration { .. }
+        ) && self.is_jogging()
+        {
+            // HCR p. 150, 155: JA and JL cannot be changed while jogging.
+            return refused(CANNOT_PROCESS);
+        }
+        if self.host.len() >= BUFFER_PLACES {
+            return refused(BUFFER_FULL);
+        }
+        self.host.push_back(command);
+        self.run();
+        vec![Answer::Buffered]
     }
 
     fn immediate(&mut self, command: Command) -> Vec<Answer> {
@@ -565,19 +582,53 @@ impl Drive {
             }
             Command::StatusCode => value("SC", format!("{:04X}", self.status_code())),
             Command::AlarmCode => value("AL", format!("{:04X}", self.alarm)),
-            Command::QueueWrite { segment } => {
-                if self.program.is_some() {
-                    return vec![Answer::Refused { code: None }];
+            Command::BufferStatus => value("BS", self.buffer_free().to_string()),
+            Command::RegisterLoadImmediate {
+                register,
+                value: None,
+            } => vec![Answer::Value {
+                name: format!("RL{register}"),
+                value: self.register(register).to_string(),
+            }],
+            Command::RegisterLoadImmediate {
+                register,
+                value: Some(value),
+            } => {
+                if register.is_read_only() {
+                    return vec![Answer::Refused {
+                        code: Some(OUT_OF_RANGE),
+                    }];
                 }
-                self.writing = Some((segment, Vec::new()));
+                self.write_register(register, value);
+                self.run();
                 ok
             }
-            Command::QueueLoad { .. }
-            | Command::QueueSave { .. }
-            | Command::QueueExecute { .. }
-            | Command::QueueExecuteLoaded => {
-                if self.program.is_some() || !self.host.is_empty() {
-                    return vec![Answer::Refused { code: None }];
+            Command::ChangeSpeed { rev_s } => {
+                // HCR p. 71: the speed while jogging; not jogging, nothing to change.
+                if !self.is_jogging() {
+                    return vec![Answer::Refused {
+                        code: Some(CANNOT_PROCESS),
+                    }];
+                }
+                let steps = units::VELOCITY.steps(rev_s.abs()).unwrap_or(0);
+                self.set_jog_steps(if rev_s.is_negative() { -steps } else { steps });
+                ok
+            }
+            Command::StopJogging => {
+                self.stop_jog();
+                self.run();
+                ok
+            }
+            Command::Continue => {
+                self.paused = false;
+                self.run();
+                ok
+            }
+            Command::QueueLoad { .. } | Command::QueueSave { .. } | Command::QueueExecuteLoaded => {
+                if self.program.is_some() {
+                    return vec![Answer::Refused {
+                        code: Some(PROGRAM_RUNNING),
+                    }];
                 }
                 if !self.queue_command(command) {
                     return vec![Answer::Refused { code: None }];
@@ -824,6 +875,7 @@ impl Drive {
                 .unwrap_or(i32::MAX),
             'f' => i32::from(self.alarm),
             'h' => i32::try_from(self.condition.value).unwrap_or(i32::MAX),
+            JOG_REGISTER => i32::try_from(self.jog_steps).unwrap_or(i32::MAX),
             _ => self.registers.get(index).copied().unwrap_or(0),
         }
     }
@@ -876,7 +928,9 @@ impl Drive {
                 }
                 self.steps_at_instant += 1;
                 self.program_step();
-            } else if let Some(&command) = self.host.front() {
+            } else if !self.paused
+                && let Some(&command) = self.host.front()
+            {
                 match self.execute(command) {
                     Step::Again => {}
                     _ => {
@@ -919,8 +973,11 @@ impl Drive {
                     self.fault(alarm::NO_MOVE);
                     return Step::Stop;
                 }
+                // HCR p. 64: CJ starts at JS, the way the last DI says.
+                let steps = units::VELOCITY.steps(self.jog_speed_rev_s).unwrap_or(0);
                 let direction = if self.distance_counts < 0 { -1.0 } else { 1.0 };
-                let speed = direction * self.counts(self.jog_speed_rev_s, units::VELOCITY);
+                self.jog_steps = if direction < 0.0 { -steps } else { steps };
+                let speed = self.jog_counts_s(self.jog_steps);
                 let (accel, decel) = self.jog_rates();
                 self.motion = Some(Motion {
                     start_s: self.clock_s,
@@ -928,27 +985,30 @@ impl Drive {
                     kind: MotionKind::Jog { direction },
                     offset_counts: 0.0,
                 });
-                // A jog never ends by itself: the program goes on (even with `MT0`).
+                // A jog is a move that never ends by itself: with `MT0` what follows
+                // waits until something stops it (`SJ`, `ST`, `SK` — none of which a
+                // program can hold: HCR p. 64); with `MT1` the program goes on.
+                if !self.multitasking {
+                    self.wait = Wait::Motion;
+                }
                 Step::Next
             }
-            Command::StopJogging => {
-                if let Some(motion) = &self.motion
-                    && let MotionKind::Jog { .. } = motion.kind
-                {
-                    let (x, v) = motion.at(self.clock_s);
-                    let (_, decel) = self.jog_rates();
-                    self.motion = Some(Motion {
-                        start_s: self.clock_s,
-                        profile: Profile::stop(x, v, decel),
-                        kind: MotionKind::Move,
-                        offset_counts: 0.0,
-                    });
-                    // A stop that takes no time ends the motion now.
-                    self.set_clock(self.clock_s);
-                    if !self.multitasking {
-                        self.wait = Wait::Motion;
-                    }
+            Command::StopMove { rate } => {
+                // HCR p. 250: stops the move under way (a jog at `JL`), not a wait.
+                match rate {
+                    StopRate::Decel if self.is_jogging() => self.stop_jog(),
+                    _ => self.stop_motion(),
                 }
+                Step::Next
+            }
+            Command::WaitOnMove => {
+                if self.motion.is_some() {
+                    self.wait = Wait::Motion;
+                }
+                Step::Next
+            }
+            Command::Pause => {
+                self.paused = true;
                 Step::Next
             }
             Command::WaitTime { s } => {
@@ -965,14 +1025,18 @@ impl Drive {
                 }
                 Step::Next
             }
+            Command::QueueExecute { segment } if self.program.is_none() => {
+                // From the host's buffer: the segment runs (HCR p. 220).
+                if !self.queue_command(Command::QueueExecute { segment }) {
+                    return Step::Stop;
+                }
+                Step::Next
+            }
             Command::QueueGoto { .. }
             | Command::QueueRepeat { .. }
             | Command::QueueJump { .. }
             | Command::QueueCall { .. }
-            | Command::QueueLoad { .. }
-            | Command::QueueSave { .. }
-            | Command::QueueExecute { .. }
-            | Command::QueueExecuteLoaded => self.flow(command),
+            | Command::QueueExecute { .. } => self.flow(command),
             Command::StopKill => {
                 self.stop_and_kill();
                 Step::Stop
@@ -1000,23 +1064,6 @@ impl Drive {
             Command::JogSpeed { rev_s: Some(v) } => self.jog_speed_rev_s = v,
             Command::JogAcceleration { rev_s2: Some(a) } => self.jog_accel_rev_s2 = a,
             Command::JogDeceleration { rev_s2: Some(d) } => self.jog_decel_rev_s2 = d,
-            Command::ChangeSpeed { rev_s } => {
-                // The jog speed from now on; while jogging, reached at `JA` (or `JL`).
-                self.jog_speed_rev_s = rev_s;
-                if let Some(motion) = &self.motion
-                    && let MotionKind::Jog { direction } = motion.kind
-                {
-                    let (x, v) = motion.at(self.clock_s);
-                    let speed = direction * self.counts(rev_s, units::VELOCITY);
-                    let (accel, decel) = self.jog_rates();
-                    self.motion = Some(Motion {
-                        start_s: self.clock_s,
-                        profile: Profile::run(x, v, speed, accel, decel),
-                        kind: MotionKind::Jog { direction },
-                        offset_counts: 0.0,
-                    });
-                }
-            }
             Command::ElectronicGearing {
                 steps_per_rev: Some(s),
             } => self.steps_per_rev = s,
@@ -1117,17 +1164,70 @@ impl Drive {
         if register.is_read_only() {
             return;
         }
+        if register.character() == JOG_REGISTER {
+            // HCR p. 64: loading `J` changes the jog speed (0.25 rpm units, signed
+            // as `CS`: the direction), not `JS` nor `DI`.
+            self.set_jog_steps(i64::from(value));
+            return;
+        }
         let index = usize::from(register.character() as u8 - b'0');
         if let Some(slot) = self.registers.get_mut(index) {
             *slot = value;
         }
     }
 
-    /// Empties the command buffer and ends the program; nothing waits.
+    /// Empties the command buffer and ends the program (and a `QL` load); nothing
+    /// waits.
     pub(super) fn kill(&mut self) {
         self.host.clear();
         self.program = None;
+        self.loading = false;
+        self.paused = false;
         self.wait = Wait::Nothing;
+    }
+
+    /// The jog velocity (the `J` register) set to `steps` of 1/240 rev/s, signed:
+    /// while jogging, reached at `JA` (faster) or `JL` (slower), through 0 when the
+    /// sign changes.
+    fn set_jog_steps(&mut self, steps: i64) {
+        self.jog_steps = steps;
+        if let Some(motion) = &self.motion
+            && let MotionKind::Jog { .. } = motion.kind
+        {
+            let (x, v) = motion.at(self.clock_s);
+            let speed = self.jog_counts_s(steps);
+            let (accel, decel) = self.jog_rates();
+            let direction = if steps < 0 { -1.0 } else { 1.0 };
+            self.motion = Some(Motion {
+                start_s: self.clock_s,
+                profile: Profile::run(x, v, speed, accel, decel),
+                kind: MotionKind::Jog { direction },
+                offset_counts: 0.0,
+            });
+        }
+    }
+
+    /// A jog velocity in steps of 1/240 rev/s, counts/s.
+    fn jog_counts_s(&self, steps: i64) -> f64 {
+        steps as f64 * units::VELOCITY.step * f64::from(self.steps_per_rev)
+    }
+
+    /// Ends a jog: slows down to rest at `JL` (`SJ`, or `SM D` while jogging).
+    fn stop_jog(&mut self) {
+        if let Some(motion) = &self.motion
+            && let MotionKind::Jog { .. } = motion.kind
+        {
+            let (x, v) = motion.at(self.clock_s);
+            let (_, decel) = self.jog_rates();
+            self.motion = Some(Motion {
+                start_s: self.clock_s,
+                profile: Profile::stop(x, v, decel),
+                kind: MotionKind::Move,
+                offset_counts: 0.0,
+            });
+            // A stop that takes no time ends the motion now.
+            self.set_clock(self.clock_s);
+        }
     }
 
     fn stop_and_kill(&mut self) {

@@ -1,5 +1,6 @@
 //! The queue, the stored segments and the program flow: `QL QS QX QE` load, save and
-//! run; `QG` goes to a line, `QR` repeats, `QJ` jumps on the condition code, `QC`
+//! run (`QL` alone loads the host's buffered commands until `QS` or `QE`, HCR p. 216;
+//! every `QS` is a write to the segment's non-volatile partition, counted); `QG` goes to a line, `QR` repeats, `QJ` jumps on the condition code, `QC`
 //! calls a segment (at most [`MAX_CALL_DEPTH`] deep; a deeper call is ignored, a
 //! return without a call too — HCR p. 163) and returns. A `QJ` to its own line or
 //! past the end of the queue is ignored (HCR p. 167). The end of the queue ends the
@@ -14,8 +15,10 @@ pub const MAX_CALL_DEPTH: usize = 5;
 /// A caller's place, kept while a called segment runs.
 #[derive(Debug, Clone, PartialEq, Eq)]
 struct Frame {
-    /// The caller's lines (the queue when it was called).
-    lines: Vec<Command>,
+    /// The stored segment the caller was loaded from: a return loads it again from
+    /// memory (HCR p. 210); `None` (a queue loaded from the host) cannot be returned
+    /// to.
+    segment: Option<Segment>,
     /// Where it goes on: the line after its `QC`.
     return_index: usize,
     /// Its `QR` counters.
@@ -95,23 +98,38 @@ impl Drive {
         None
     }
 
-    /// `QL QS QX QE` from the host: `false` if refused (nothing stored to load).
+    /// `QL QS QE` (immediate) and `QX` (from the host's buffer): `false` if refused
+    /// (nothing stored to load).
     pub(super) fn queue_command(&mut self, command: Command) -> bool {
         match command {
-            Command::QueueLoad { segment } => match self.segment(segment) {
+            Command::QueueLoad { segment: None } => {
+                // HCR p. 216: from line 1, what follows from the host.
+                self.queue.clear();
+                self.running_segment = None;
+                self.loading = true;
+                true
+            }
+            Command::QueueLoad {
+                segment: Some(segment),
+            } => match self.segment(segment) {
                 Some(lines) => {
                     self.queue = lines.to_vec();
+                    self.running_segment = Some(segment);
+                    self.loading = false;
                     true
                 }
                 None => false,
             },
             Command::QueueSave { segment } => {
                 self.segments[usize::from(segment.get() - 1)] = Some(self.queue.clone());
+                self.count_flash_write(segment);
+                self.loading = false;
                 true
             }
             Command::QueueExecute { segment } => match self.segment(segment) {
                 Some(lines) => {
                     self.queue = lines.to_vec();
+                    self.running_segment = Some(segment);
                     self.program = Some(Program::at(0));
                     true
                 }
@@ -121,6 +139,7 @@ impl Drive {
                 }
             },
             Command::QueueExecuteLoaded => {
+                self.loading = false;
                 self.program = Some(Program::at(0));
                 true
             }
@@ -128,8 +147,8 @@ impl Drive {
         }
     }
 
-    /// A flow command met in the running program (from the host's buffer they were
-    /// refused, or — `QL QS QX QE` — run as immediate commands).
+    /// A flow command met in the running program (`QG QR QJ QC QX`; from the host's
+    /// buffer `QG QR QJ QC` were refused).
     pub(super) fn flow(&mut self, command: Command) -> Step {
         if self.program.is_none() {
             return Step::Next;
@@ -180,10 +199,11 @@ impl Drive {
                 let Some(lines) = self.load(segment) else {
                     return Step::Stop;
                 };
-                let caller = std::mem::replace(&mut self.queue, lines);
+                self.queue = lines;
+                let caller = self.running_segment.replace(segment);
                 if let Some(program) = &mut self.program {
                     program.stack.push(Frame {
-                        lines: caller,
+                        segment: caller,
                         return_index: program.index + 1,
                         repeats: std::mem::replace(&mut program.repeats, [None; 62]),
                     });
@@ -197,38 +217,32 @@ impl Drive {
                 match program.stack.pop() {
                     Some(frame) => {
                         program.repeats = frame.repeats;
-                        self.queue = frame.lines;
+                        let Some(lines) = frame.segment.and_then(|segment| self.load(segment))
+                        else {
+                            // Our choice (HCR silent): a caller not stored cannot be
+                            // loaded again — the Blank Q Segment alarm.
+                            if frame.segment.is_none() {
+                                self.blank_segment();
+                            }
+                            return Step::Stop;
+                        };
+                        self.running_segment = frame.segment;
+                        self.queue = lines;
                         Step::Goto(frame.return_index)
                     }
                     // HCR p. 163: a return without a call is ignored.
                     None => Step::Next,
                 }
             }
-            Command::QueueLoad { segment } => match self.load(segment) {
-                // The running lines are replaced; the program goes on at the next
-                // line number.
-                Some(lines) => {
-                    self.queue = lines;
-                    Step::Next
-                }
-                None => Step::Stop,
-            },
-            Command::QueueSave { segment } => {
-                self.segments[usize::from(segment.get() - 1)] = Some(self.queue.clone());
-                Step::Next
-            }
             Command::QueueExecute { segment } => match self.load(segment) {
                 Some(lines) => {
                     self.queue = lines;
+                    self.running_segment = Some(segment);
                     self.program = Some(Program::at(0));
                     Step::Goto(0)
                 }
                 None => Step::Stop,
             },
-            Command::QueueExecuteLoaded => {
-                self.program = Some(Program::at(0));
-                Step::Goto(0)
-            }
             _ => Step::Next,
         }
     }

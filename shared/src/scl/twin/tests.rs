@@ -1,6 +1,8 @@
 //! The seed's example programs on the twin, each with the behaviour the seed describes;
-//! RS-485 addressing and the start wire on a bus; stop-and-kill; `QW`/`QU`; refusals
-//! and alarms; and random lines that must never panic a drive.
+//! RS-485 addressing and the start wire on a bus; stop-and-kill; `QL`/`QS`/`QE`/`QU`;
+//! what the Host Command Reference refuses (immediate commands never stored, full
+//! segments and buffers, `CS` not jogging, `JA`/`JL` jogging); and random lines that
+//! must never panic a drive.
 
 #[cfg(target_arch = "wasm32")]
 use wasm_bindgen_test::wasm_bindgen_test as test;
@@ -23,11 +25,12 @@ fn drive() -> Drive {
     Drive::new(DriveConfig::default())
 }
 
-/// Writes `program` (one command a line) as `segment` with `QW`, checking the answers.
+/// Stores `program` (one command a line) as `segment` the HCR's way — `QL`, the
+/// lines, `QS n` (p. 216, 218) — checking the answers.
 fn store(drive: &mut Drive, n: u8, program: &str, now_us: u64) {
     let prefix = drive.address().map(|a| a.to_string()).unwrap_or_default();
     assert_eq!(
-        drive.receive_line(&format!("{prefix}QW{n}"), now_us),
+        drive.receive_line(&format!("{prefix}QL"), now_us),
         Some(format!("{prefix}%\r"))
     );
     for line in program.lines() {
@@ -38,7 +41,7 @@ fn store(drive: &mut Drive, n: u8, program: &str, now_us: u64) {
         );
     }
     assert_eq!(
-        drive.receive_line(&format!("{prefix}\r"), now_us),
+        drive.receive_line(&format!("{prefix}QS{n}\r"), now_us),
         Some(format!("{prefix}%\r"))
     );
     assert_eq!(
@@ -47,10 +50,11 @@ fn store(drive: &mut Drive, n: u8, program: &str, now_us: u64) {
     );
 }
 
+/// `QX n` from the host: buffered (HCR p. 220), it runs the segment at once.
 fn run(drive: &mut Drive, n: u8, now_us: u64) {
     assert_eq!(
         drive.receive_line(&format!("QX{n}"), now_us).as_deref(),
-        Some("%\r")
+        Some("*\r")
     );
 }
 
@@ -188,7 +192,8 @@ fn set_position_names_where_the_motor_stands() {
 #[test]
 fn a_qg_loop_moves_waits_half_a_second_and_goes_round_for_ever() {
     let mut d = drive();
-    assert_eq!(d.receive_line("DI1000", 0).as_deref(), Some("%\r"));
+    // DI is buffered (HCR p. 77).
+    assert_eq!(d.receive_line("DI1000", 0).as_deref(), Some("*\r"));
     store(&mut d, 1, SEED_PROGRAMS[4], 0);
     run(&mut d, 1, 0);
     d.advance(2 * S);
@@ -373,11 +378,14 @@ fn on_a_bus_only_the_addressed_drive_answers_after_its_address() {
         })
         .collect();
     let mut bus = Bus::new(drives);
-    assert_eq!(bus.receive(b"1DI8000\r", 0), b"1%\r");
+    assert_eq!(bus.receive(b"1DI8000\r", 0), b"1*\r");
     assert_eq!(bus.receive(b"1VE200\r", 0), b"1?5\r");
     assert_eq!(bus.receive(b"1AC10\r", 0), b"1*\r");
     assert_eq!(bus.receive(b"5SK\r", 0), b"");
-    assert_eq!(bus.receive(b"IP\r", 0), b"");
+    // A global line (no address) is for every drive; one that asks is answered by
+    // each (HCR p. 305: they collide on a real line), one that sets, by none.
+    assert_eq!(bus.receive(b"IP\r", 0), b"0IP=0\r1IP=0\r2IP=0\r");
+    assert_eq!(bus.receive(b"JS2\r", 0), b"");
     // A line may arrive in pieces; two lines in one read.
     assert_eq!(bus.receive(b"2D", 0), b"");
     assert_eq!(bus.receive(b"I\r0DI", 0), b"2DI=0\r");
@@ -406,8 +414,17 @@ fn the_start_wire_starts_every_drive_at_the_same_instant() {
                 address: Address::new(c),
                 ..DriveConfig::default()
             });
-            store(&mut d, 1, "WI3F\nDI1000\nFL", 0);
-            run_addressed(&mut d, c);
+            // Drive 0 is the trigger: its own program sets the wire (the bridge
+            // never writes to a drive whose program runs).
+            let program = if c == '0' {
+                "SO2L\nDI1000\nFL"
+            } else {
+                "WI3F\nDI1000\nFL"
+            };
+            store(&mut d, 1, program, 0);
+            if c != '0' {
+                run_addressed(&mut d, c);
+            }
             d
         })
         .collect();
@@ -419,7 +436,9 @@ fn the_start_wire_starts_every_drive_at_the_same_instant() {
     });
     bus.advance(S);
     assert!(bus.drives().iter().all(|d| d.position_counts() == 0.0));
-    assert_eq!(bus.receive(b"0SO2L\r", 1_234_567), b"0*\r");
+    // A buffered line to a drive whose program runs is refused: program running.
+    assert_eq!(bus.receive(b"1SO2L\r", S), b"1?8\r");
+    assert_eq!(bus.receive(b"0QX1\r", 1_234_567), b"0*\r");
     bus.advance(3 * S);
     for d in bus.drives() {
         assert_eq!(d.position_counts(), 1000.0);
@@ -445,7 +464,7 @@ fn the_start_wire_starts_every_drive_at_the_same_instant() {
         input: point(3),
     });
     for line in [
-        "1QW1", "1WI3F", "1SO1L", "1", "1QX1", "0QW1", "0WT0.3", "0SO2L", "0", "0QX1",
+        "1QL", "1WI3F", "1SO1L", "1QE", "0QL", "0WT0.3", "0SO2L", "0QE",
     ] {
         bus.receive_line(line, 0);
     }
@@ -457,7 +476,7 @@ fn the_start_wire_starts_every_drive_at_the_same_instant() {
 fn run_addressed(d: &mut Drive, c: char) {
     assert_eq!(
         d.receive_line(&format!("{c}QX1"), 0),
-        Some(format!("{c}%\r"))
+        Some(format!("{c}*\r"))
     );
 }
 
@@ -495,7 +514,7 @@ fn sk_mid_move_stops_at_de_and_empties_the_program_and_the_buffer() {
 }
 
 #[test]
-fn qw_stores_a_segment_and_qu_reads_it_back() {
+fn ql_and_qs_store_a_segment_and_qu_reads_it_back() {
     let mut d = drive();
     store(&mut d, 3, SEED_PROGRAMS[0], 0);
     let answer = d.receive_line("QU3", 0).unwrap();
@@ -509,6 +528,13 @@ fn qw_stores_a_segment_and_qu_reads_it_back() {
     let (_, upload) = QueueUpload::parse(&lines[1..]).unwrap();
     assert_eq!(upload, d.queue_upload(Some(segment(3))));
     assert_eq!(d.receive_line("QU4", 0).as_deref(), Some("%\rQU0\r"));
+    // The queue keeps what QL loaded.
+    assert!(
+        d.receive_line("QU0", 0)
+            .unwrap()
+            .starts_with("%\rQU7\rWI3F\r")
+    );
+    d.receive_line("QL", 0);
     assert_eq!(d.receive_line("QU0", 0).as_deref(), Some("%\rQU1\r"));
     assert_eq!(d.receive_line("QL3", 0).as_deref(), Some("%\r"));
     assert!(
@@ -531,22 +557,189 @@ fn qw_stores_a_segment_and_qu_reads_it_back() {
         d.receive_line("7QU1", 0).as_deref(),
         Some("7%\r7QU3\r7DI10\r7FL\r")
     );
-    // At most 62 lines; the 63rd is refused; queries are not stored.
+    // At most 62 lines: the 63rd is refused, queue full (HCR p. 304: `?6`); a
+    // query is answered, not stored.
     let mut d = drive();
-    d.receive_line("QW2", 0);
+    d.receive_line("QL", 0);
     for _ in 0..62 {
         assert_eq!(d.receive_line("WT0.1", 0).as_deref(), Some("*\r"));
     }
-    assert_eq!(d.receive_line("WT0.1", 0).as_deref(), Some("?\r"));
-    assert_eq!(d.receive_line("IP", 0).as_deref(), Some("?\r"));
-    assert_eq!(d.receive_line("", 0).as_deref(), Some("%\r"));
+    assert_eq!(d.receive_line("WT0.1", 0).as_deref(), Some("?6\r"));
+    assert_eq!(d.receive_line("IP", 0).as_deref(), Some("IP=0\r"));
+    assert_eq!(d.receive_line("QS2", 0).as_deref(), Some("%\r"));
     assert_eq!(d.segment(segment(2)).unwrap().len(), 62);
-    // SK during a write is never stored: it ends the write unsaved.
-    d.receive_line("QW4", 0);
+    assert_eq!(d.flash_writes(segment(2)), 1);
+    // SK while the queue loads ends the load; nothing is saved.
+    d.receive_line("QL", 0);
     d.receive_line("FL", 0);
     assert_eq!(d.receive_line("SK", 0).as_deref(), Some("%\r"));
-    assert_eq!(d.receive_line("", 0), None);
+    assert!(!d.is_loading());
     assert_eq!(d.segment(segment(4)), None);
+    // `QW` is no MOONS' command: a real drive answers `?` (the HCR has none).
+    assert_eq!(d.receive_line("QW1", 0).as_deref(), Some("?\r"));
+}
+
+#[test]
+fn immediate_commands_sent_while_the_queue_loads_are_carried_out_never_stored() {
+    // HCR p. 13: immediate commands are executed at once; a stored program is made
+    // of buffered commands only. CS (p. 71) and SJ (p. 248) are immediate.
+    let mut d = drive();
+    assert_eq!(d.receive_line("QL", 0).as_deref(), Some("%\r"));
+    for (line, answer) in [
+        ("JS1", "*"),
+        ("MT1", "*"),
+        ("CJ", "*"),
+        ("WT0.5", "*"),
+        // Not jogging now (the queue is only loading): refused, not stored.
+        ("CS2", "?7"),
+        ("SJ", "%"),
+        ("RLJ480", "%"),
+        ("SC", "SC=0009"),
+        ("RXJ480", "*"),
+        ("WT0.5", "*"),
+        ("SMD", "*"),
+        ("WM", "*"),
+        ("SO1L", "*"),
+    ] {
+        assert_eq!(
+            d.receive_line(line, 0),
+            Some(format!("{answer}\r")),
+            "{line}"
+        );
+    }
+    let queue: Vec<String> = d.queue().iter().map(ToString::to_string).collect();
+    assert_eq!(
+        queue,
+        [
+            "JS1", "MT1", "CJ", "WT0.5", "RXJ480", "WT0.5", "SMD", "WM", "SO1L"
+        ]
+    );
+    assert!(
+        d.queue()
+            .iter()
+            .all(|c| c.kind() == crate::scl::Kind::Buffered)
+    );
+    // QE ends the load and runs the queue from line 1, without touching memory.
+    assert_eq!(d.receive_line("QE", 0).as_deref(), Some("%\r"));
+    assert_eq!(d.flash_writes_total(), 0);
+    d.advance(3 * S);
+    // 1 rev/s (20 000 counts/s) for 0.5 s, then 2 rev/s (RXJ480: 480 × 0.25 rpm),
+    // then the stop; SO1L after WM, when the motor stands.
+    assert!(!d.is_executing() && !d.is_moving());
+    let stop = d.move_ends()[0];
+    assert!(close(d.output_changes()[0].at_s, stop.at_s), "{stop:?}");
+    assert!(d.position_counts() > 20_000.0);
+}
+
+#[test]
+fn the_command_buffer_holds_63_commands_pauses_and_continues() {
+    let mut d = drive();
+    assert_eq!(d.receive_line("BS", 0).as_deref(), Some("BS=63\r"));
+    // HCR p. 206: PS holds what follows until CT (p. 72).
+    assert_eq!(d.receive_line("PS", 0).as_deref(), Some("*\r"));
+    assert_eq!(d.receive_line("BS", 0).as_deref(), Some("BS=63\r"));
+    for n in 0..63 {
+        assert_eq!(d.receive_line("WT0.01", 0).as_deref(), Some("*\r"), "{n}");
+    }
+    assert_eq!(d.receive_line("BS", 0).as_deref(), Some("BS=0\r"));
+    // HCR p. 53: a command more overflows the buffer: `?6` (p. 304).
+    assert_eq!(d.receive_line("WT0.01", 0).as_deref(), Some("?6\r"));
+    d.advance(S);
+    assert_eq!(d.receive_line("BS", S).as_deref(), Some("BS=0\r"));
+    // CT continues it: a command leaves the buffer when it starts, one every 10 ms.
+    assert_eq!(d.receive_line("CT", S).as_deref(), Some("%\r"));
+    d.advance(S + 305_000);
+    assert_eq!(
+        d.receive_line("BS", S + 305_000).as_deref(),
+        Some("BS=31\r")
+    );
+    d.advance(2 * S);
+    assert_eq!(d.receive_line("BS", 2 * S).as_deref(), Some("BS=63\r"));
+    let mut bus = Bus::new(
+        "01".chars()
+            .map(|c| {
+                Drive::new(DriveConfig {
+                    address: Address::new(c),
+                    ..DriveConfig::default()
+                })
+            })
+            .collect(),
+    );
+    for line in ["0PS", "1PS", "0DI100", "1DI200", "0FL", "1FL"] {
+        bus.receive_line(line, 0);
+    }
+    bus.advance(S);
+    assert!(bus.drives().iter().all(|d| d.position_counts() == 0.0));
+    // One CT without an address starts both at once, unanswered (HCR p. 305).
+    assert_eq!(bus.receive(b"CT\r", S), b"");
+    bus.advance(2 * S);
+    let ends: Vec<f64> = bus.drives().iter().map(|d| d.move_ends()[0].at_s).collect();
+    assert!(
+        ends.iter().all(|&at_s| at_s > 1.0 && at_s < 1.1),
+        "{ends:?}"
+    );
+    assert_eq!(bus.drives()[1].position_counts(), 200.0);
+}
+
+#[test]
+fn cs_is_signed_refused_unless_jogging_and_ja_jl_are_refused_while_jogging() {
+    let mut d = drive();
+    for line in ["JA10", "JL10", "JS1", "DI1", "CJ"] {
+        assert_eq!(d.receive_line(line, 0).as_deref(), Some("*\r"), "{line}");
+    }
+    d.advance(S);
+    // HCR p. 150, 155: JA and JL cannot change while jogging.
+    assert_eq!(d.receive_line("JA20", S).as_deref(), Some("?7\r"));
+    assert_eq!(d.receive_line("JL20", S).as_deref(), Some("?7\r"));
+    // HCR p. 71: the sign of CS is the direction, whatever DI said.
+    assert_eq!(d.receive_line("CS-1", S).as_deref(), Some("%\r"));
+    d.advance(2 * S);
+    assert!(d.velocity_counts_s() < 0.0);
+    assert_eq!(d.receive_line("SJ", 2 * S).as_deref(), Some("%\r"));
+    d.advance(3 * S);
+    assert!(!d.is_moving());
+    assert_eq!(d.receive_line("CS1", 3 * S).as_deref(), Some("?7\r"));
+    assert_eq!(d.receive_line("JA20", 3 * S).as_deref(), Some("*\r"));
+}
+
+#[test]
+fn a_jog_under_mt0_in_a_program_never_ends() {
+    // HCR p. 64: SJ and ST are immediate, so a program cannot stop its jog; with
+    // MT0 the program waits for CJ's move to end, which it never does.
+    let mut d = drive();
+    store(&mut d, 1, "MT0\nJS1\nCJ\nSO1L", 0);
+    run(&mut d, 1, 0);
+    d.advance(600 * S);
+    assert!(d.is_jogging() && d.is_executing());
+    assert!(d.output_changes().is_empty());
+    // The e-stop ends it.
+    assert_eq!(d.receive_line("SK", 600 * S).as_deref(), Some("%\r"));
+    d.advance(601 * S);
+    assert!(!d.is_moving() && !d.is_executing());
+}
+
+#[test]
+fn a_call_returns_by_loading_its_caller_from_memory() {
+    // HCR p. 210: the calling segment is loaded again from memory at the return.
+    let mut d = drive();
+    store(&mut d, 2, "SO1L\nQC", 0);
+    store(&mut d, 1, "QC2\nSO2L", 0);
+    run(&mut d, 1, 0);
+    d.advance(S);
+    assert_eq!(
+        (d.output(point(1)), d.output(point(2))),
+        (Level::Low, Level::Low)
+    );
+    // A queue loaded from the host is no segment: its call cannot return.
+    let mut d = drive();
+    store(&mut d, 2, "SO1L\nQC", 0);
+    for line in ["QL", "QC2", "SO2L", "QE"] {
+        d.receive_line(line, 0);
+    }
+    d.advance(S);
+    assert_eq!(d.output(point(1)), Level::Low);
+    assert_eq!(d.output(point(2)), Level::High);
+    assert_eq!(d.alarm_code(), alarm::BLANK_Q_SEGMENT);
 }
 
 #[test]
@@ -610,7 +803,7 @@ fn refusals_and_alarms() {
         ("SC", "SC=0009"),
         ("AL", "AL=0000"),
         ("QL1", "?"),
-        ("QX1", "?"),
+        ("QX1", "*"),
     ] {
         assert_eq!(
             d.receive_line(line, 0),
@@ -633,7 +826,7 @@ fn refusals_and_alarms() {
     d.receive_line("FP", S);
     assert_eq!(d.alarm_code(), alarm::POSITION_LIMIT | alarm::NO_MOVE);
     d.receive_line("AR", S);
-    assert_eq!(d.receive_line("MD", S).as_deref(), Some("%\r"));
+    assert_eq!(d.receive_line("MD", S).as_deref(), Some("*\r"));
     assert_eq!(d.status_code() & status::MOTOR_ENABLED, 0);
     d.receive_line("FP", S);
     assert_eq!(d.alarm_code(), alarm::NO_MOVE);
@@ -642,15 +835,19 @@ fn refusals_and_alarms() {
     d.receive_line("FP", S);
     d.advance(2 * S);
     assert_eq!(d.position_counts(), 500.0);
-    // A buffered command while a program runs is refused; immediate ones are not.
+    // A buffered command while a program runs is refused, program running (`?8`;
+    // our choice where the HCR is silent); immediate ones are not.
     store(&mut d, 1, "WT10", 2 * S);
     run(&mut d, 1, 2 * S);
-    assert_eq!(d.receive_line("FL", 2 * S).as_deref(), Some("?\r"));
-    assert_eq!(d.receive_line("WT1", 2 * S).as_deref(), Some("?\r"));
-    // What takes no time is done at once, between two lines.
-    assert_eq!(d.receive_line("SO4L", 2 * S).as_deref(), Some("*\r"));
-    assert_eq!(d.output(point(4)), Level::Low);
-    assert_eq!(d.receive_line("QX1", 2 * S).as_deref(), Some("?\r"));
+    for line in ["FL", "WT1", "SO4L", "QX1"] {
+        assert_eq!(
+            d.receive_line(line, 2 * S).as_deref(),
+            Some("?8\r"),
+            "{line}"
+        );
+    }
+    assert_eq!(d.output(point(4)), Level::High);
+    assert_eq!(d.receive_line("QL", 2 * S).as_deref(), Some("?8\r"));
     assert_eq!(d.receive_line("QW1", 2 * S).as_deref(), Some("?\r"));
     assert_eq!(d.receive_line("SC", 2 * S).as_deref(), Some("SC=4809\r"));
     // Register math: the result in the accumulator, the condition code set.
@@ -697,14 +894,17 @@ fn a_loop_that_never_waits_does_not_hang_and_still_sees_its_input() {
 fn escl_datagrams_get_one_datagram_a_line() {
     let mut d = drive();
     assert_eq!(
-        d.receive_escl(b"\x00\x07QW1\r", 0),
+        d.receive_escl(b"\x00\x07QL\r", 0),
         [b"\x00\x07%\r".to_vec()]
     );
     assert_eq!(
         d.receive_escl(b"\x00\x07FL\r", 0),
         [b"\x00\x07*\r".to_vec()]
     );
-    assert_eq!(d.receive_escl(b"\x00\x07\r", 0), [b"\x00\x07%\r".to_vec()]);
+    assert_eq!(
+        d.receive_escl(b"\x00\x07QS1\r", 0),
+        [b"\x00\x07%\r".to_vec()]
+    );
     assert_eq!(
         d.receive_escl(b"\x00\x07QU1\r", 0),
         [
@@ -728,8 +928,9 @@ mod proptests {
                 "FL", "FP", "FS7H", "FS3F", "DI1000", "DI-500", "DI0", "VE20", "VE0.5", "AC25",
                 "DE400", "WI3F", "WI7H", "WT0.01", "WT0", "MT1", "MT0", "SO1L", "SO2H", "TI5L",
                 "RX35", "R+12", "R/30", "TR05", "CR12", "SK", "ST", "ME", "MD", "AR", "SC", "IP",
-                "QW1", "QW2", "QU1", "QU0", "QX1", "QX2", "QE", "QL1", "QS3", "QC1", "QC2", "QC",
-                "QG1", "QJT1", "QR31", "SP100", "EP5", "EG200", "",
+                "QL", "QU1", "QU0", "QX1", "QX2", "QE", "QL1", "QS3", "QC1", "QC2", "QC", "CS-1",
+                "CS2", "CJ", "SJ", "SMD", "WM", "RXJ-100", "RLJ50", "BS", "PS", "CT", "JA5", "QG1",
+                "QJT1", "QR31", "SP100", "EP5", "EG200", "",
             ])
             .prop_map(str::to_owned),
             "[ -~]{0,12}",
@@ -795,15 +996,16 @@ mod proptests {
 #[test]
 fn a_jog_speeds_up_at_ja_changes_speed_and_stops_at_jl() {
     // JA = JL = 10 rev/s² (200 000 counts/s²), JS 1 rev/s, backwards (DI's sign); 1 s
-    // later CS2, 1 s later SJ: with MT0 the program waits for the stop, then SO1L.
+    // later the J register at −2 rev/s (−480 × 0.25 rpm, signed as CS), 1 s later SM D
+    // at JL and WM: the program waits for the stop (MT1, HCR p. 64), then SO1L.
     let mut d = drive();
     store(
         &mut d,
         1,
-        "JA10\nJL10\nJS1\nDI-1\nCJ\nWT1\nCS2\nWT1\nSJ\nSO1L",
+        "JA10\nJL10\nJS1\nDI-1\nMT1\nCJ\nWT1\nRXJ-480\nWT1\nSMD\nWM\nSO1L",
         0,
     );
-    assert_eq!(d.receive_line("QX1", 0).as_deref(), Some("%\r"));
+    assert_eq!(d.receive_line("QX1", 0).as_deref(), Some("*\r"));
     d.advance(S / 2);
     // Up to 20 000 counts/s in 0.1 s (1000 counts), then 0.4 s at it.
     assert!(
@@ -821,7 +1023,8 @@ fn a_jog_speeds_up_at_ja_changes_speed_and_stops_at_jl() {
     let low = d.output_changes()[0];
     assert!((low.at_s - 2.2).abs() < 1e-9, "{low:?}");
     // Its values as asked, and refused below a drive's range.
-    assert_eq!(d.receive_line("JS", 3 * S).as_deref(), Some("JS=2\r"));
+    // Loading J leaves JS (HCR p. 64).
+    assert_eq!(d.receive_line("JS", 3 * S).as_deref(), Some("JS=1\r"));
     assert_eq!(d.receive_line("JA", 3 * S).as_deref(), Some("JA=10\r"));
     assert_eq!(d.receive_line("CS0.001", 3 * S).as_deref(), Some("?5\r"));
     assert_eq!(d.receive_line("JL0.1", 3 * S).as_deref(), Some("?5\r"));

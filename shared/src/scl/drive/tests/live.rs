@@ -345,7 +345,13 @@ fn follow_a_ramp(line: SclLine) -> LiveRig {
     let sent = &rig.sent[0];
     assert!(sent.iter().any(|line| line.starts_with("CS")));
     assert!(sent.iter().any(|line| line == "SJ"));
-    assert!(sent.iter().any(|line| line == "DI-1") && sent.iter().any(|line| line == "DI1"));
+    // Turned round by the sign of CS (HCR p. 71: the sign is the direction), never
+    // a CS while not jogging (the twin refuses it, `?7`).
+    assert!(sent.iter().any(|line| line.starts_with("CS-")));
+    assert!(
+        sent.iter()
+            .any(|line| line.starts_with("CS") && !line.starts_with("CS-"))
+    );
     assert!(!sent.iter().any(|line| line.starts_with('?')));
     rig
 }
