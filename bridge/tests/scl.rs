@@ -2,7 +2,7 @@
 //! on a pseudo-terminal and three eSCL drives on loopback UDP, played by the drive
 //! twin (`common::scl_peer`): console lines and their decoded answers, the status
 //! polls, the e-stop (`SK` to every drive before anything else), Start playing a show
-//! from uploaded Q programs to its end, and a drive that refuses `QW`.
+//! from uploaded Q programs to its end, and a drive that refuses `QL`.
 
 mod common;
 
@@ -171,15 +171,19 @@ fn assert_played(states: &[PlayerState], peer: &Peer) {
     assert_eq!(peer.positions(), ends);
     for ball in 0..3 {
         assert!(peer.with_drive(ball, |drive| {
-            drive.segment(Segment::new(1).unwrap()).is_some()
+            drive.segment(Segment::new(1).unwrap()).is_some() || !drive.queue().is_empty()
         }));
     }
 }
 
-/// The first line of drive `ball`'s program.
+/// The first line of drive `ball`'s program: stored in segment 1, or (a program of
+/// one segment, never stored) in the queue.
 fn first_line(peer: &Peer, ball: usize) -> String {
     peer.with_drive(ball, |drive| {
-        drive.segment(Segment::new(1).unwrap()).unwrap()[0].to_string()
+        drive
+            .segment(Segment::new(1).unwrap())
+            .unwrap_or(drive.queue())[0]
+            .to_string()
     })
 }
 
@@ -191,14 +195,13 @@ async fn start_uploads_programs_fires_the_trigger_and_plays_to_the_end() {
     let mut ws = operator(&bridge).await;
     let states = play_to_end(&mut ws).await;
     assert_played(&states, &peer);
-    // Program 1 waits for the start input (3, falling edge); the trigger output went
-    // low, then high again.
-    assert_eq!(first_line(&peer, 0), "WI3F");
+    // The other programs wait for the start input (3, falling edge); the trigger
+    // drive's ball fires it from its own line 1, started last, after the bridge set
+    // the wire high while no program ran on it.
+    assert_eq!(first_line(&peer, 0), "SO2L");
+    assert_eq!(first_line(&peer, 1), "WI3F");
     let output = IoPoint::new(2).unwrap();
-    assert_eq!(
-        peer.with_drive(0, |drive| drive.output(output)),
-        Level::High
-    );
+    assert_eq!(peer.with_drive(0, |drive| drive.output(output)), Level::Low);
     let wire: Vec<String> = peer
         .received
         .lock()
@@ -206,9 +209,20 @@ async fn start_uploads_programs_fires_the_trigger_and_plays_to_the_end() {
         .iter()
         .map(|line| line.text.clone())
         .collect();
-    let low = wire.iter().position(|line| line == "1SO2L").expect("low");
     let high = wire.iter().position(|line| line == "1SO2H").expect("high");
-    assert!(low < high);
+    let line_1 = wire
+        .iter()
+        .position(|line| line == "1SO2L")
+        .expect("line 1");
+    let last_start = wire
+        .iter()
+        .rposition(|line| line == "1QE" || line == "1QX1");
+    assert!(high < line_1 && line_1 < last_start.expect("started"));
+    for other in ["2QE", "2QX1", "3QE", "3QX1"] {
+        if let Some(at) = wire.iter().position(|line| line == other) {
+            assert!(at < last_start.unwrap(), "{other} after drive 1's start");
+        }
+    }
 
     // Again, and the e-stop during the program: SK to every drive, back to back.
     send_text(&mut ws, r#"{"type":"start"}"#).await;
@@ -259,9 +273,9 @@ async fn escl_drives_play_to_the_end_and_each_gets_the_stop() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_drive_that_refuses_qw_is_named_with_what_to_do() {
+async fn a_drive_that_refuses_ql_is_named_with_what_to_do() {
     let peer = Peer::udp(3);
-    peer.refuse_qw.lock().unwrap().push(1);
+    peer.refuse_ql.lock().unwrap().push(1);
     let bridge = Process::start(&udp_config(&peer, ""));
     let mut ws = operator(&bridge).await;
     send_text(&mut ws, r#"{"type":"start"}"#).await;
@@ -270,7 +284,7 @@ async fn a_drive_that_refuses_qw_is_named_with_what_to_do() {
     })
     .await;
     let error = failed.last_error.unwrap_or_default();
-    assert!(error.contains("refused QW1"), "{error}");
+    assert!(error.contains("refused QL"), "{error}");
     assert!(error.contains("Q Programmer"), "{error}");
     assert!(error.contains("programs = \"stored\""), "{error}");
 }
@@ -390,12 +404,13 @@ async fn stored_programs_are_started_without_an_upload() {
     for (ball, track) in show.tracks.iter().enumerate() {
         let program = floatball_shared::scl::qprogram::compile(track, &compiler).expect("fits");
         peer.with_drive(ball, |drive| {
+            // As Q Programmer stores them: `QL`, the lines, `QS n` (HCR p. 216, 218).
             for (segment, lines) in &program.segments {
-                drive.receive_line(&format!("QW{segment}"), 0);
+                drive.receive_line("QL", 0);
                 for line in lines {
                     drive.receive_line(&line.to_string(), 0);
                 }
-                drive.receive_line("", 0);
+                drive.receive_line(&format!("QS{segment}"), 0);
             }
         });
     }
@@ -408,7 +423,8 @@ async fn stored_programs_are_started_without_an_upload() {
     assert_eq!(peer.positions(), ends);
     let sent = peer.since(started);
     assert!(
-        sent.iter().all(|line| !line.text.starts_with("QW")),
+        sent.iter()
+            .all(|line| !line.text.starts_with("QL") && !line.text.starts_with("QS")),
         "{sent:?}"
     );
     assert!(sent.iter().any(|line| line.text == "QX1"), "{sent:?}");

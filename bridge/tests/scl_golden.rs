@@ -3,17 +3,19 @@
 //! drive twin (`common::scl_peer`), which records every line the bridge writes. One
 //! bridge start-up carries out the operator's actions
 //!
-//! 1. Start (the first): approach, compile and upload (`QW` … lone CR, `QU`
-//!    read-back), the start, play to the end;
+//! 1. Start (the first): approach, compile and load (a program of one segment into
+//!    the queue — `QL`, its lines, `QE`; a longer one compared with `QU` and saved with
+//!    `QL` … `QS` only where it differs, then read back), the start, play to the end;
 //! 2. Start again, and the e-stop while the show plays;
 //! 3. Home, until idle;
 //! 4. Start after the e-stop (and the Home), played to the end,
 //!
-//! and the golden file (`tests/golden/scl_qx1.txt` without a trigger: `QX1` starts
-//! every drive; `tests/golden/scl_trigger.txt` with `trigger = "1:2"`: `QX1`, then
-//! the trigger output low and high) holds, per action and per drive, in order, every
-//! line that drive was sent, byte for byte without its CR (a line begins with the
-//! drive's address character; `1` alone is drive 1's lone CR that ends a `QW` segment).
+//! and the golden file (`tests/golden/scl_qx1.txt` without a trigger: `QE` or `QX1`
+//! starts every drive; `tests/golden/scl_trigger.txt` with `trigger = "1:2"`: the
+//! trigger output set high, drives 2 and 3 started, then drive 1, whose program's line
+//! 1 is the edge) holds, per action and per drive, in order, every line that drive
+//! was sent, byte for byte without its CR (a line begins with the drive's address
+//! character).
 //!
 //! **Left out: the queries `IP`, `SC` and `AL`, and only those.** The link polls every
 //! drive with `IP`, `SC` and `AL` every `poll_ms` whenever it has nothing else queued
@@ -137,7 +139,7 @@ impl Marks {
         let mut out = format!(
             "# {title}\n\
              # Every line the bridge wrote to each drive (RS-485, addresses {ADDRESSES}), in order,\n\
-             # per operator action, without its CR; \"1\" alone: drive 1's lone CR that ends a QW.\n\
+             # per operator action, without its CR.\n\
              # Left out: the queries {} (status polls, waits for positions and for the end).\n\
              # Regenerate: FLOATBALL_BLESS=1 cargo test -p floatball-bridge --test scl_golden\n",
             QUERIES.join(" ")
@@ -288,8 +290,12 @@ async fn scenario(scl: &str, title: &str) -> String {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn the_wire_of_start_estop_home_start_with_qx1() {
-    let golden = scenario("", "MOONS' drives, no trigger: QX1 starts every drive").await;
+async fn the_wire_of_start_estop_home_start_without_a_trigger() {
+    let golden = scenario(
+        "",
+        "MOONS' drives, no trigger: QE (queue) or QX1 (stored) starts every drive",
+    )
+    .await;
     assert_golden("scl_qx1.txt", &golden);
 }
 

@@ -90,12 +90,13 @@ fn drives_on_an_rs485_line_answer_when_addressed_and_store_and_run_programs() {
         banner.contains(&path) && banner.contains("3 MOONS' drives"),
         "{banner}"
     );
-    // A download: QW, the lines (each buffered), the empty line that ends it.
-    assert_eq!(ask(&mut master, "1QW1", 1), ["1%\r"]);
+    // A download as the HCR defines it: QL, the lines (each buffered), QS1 saves them
+    // (p. 216, 218).
+    assert_eq!(ask(&mut master, "1QL", 1), ["1%\r"]);
     for line in ["1WI3F", "1VE20", "1DI8000", "1FL"] {
         assert_eq!(ask(&mut master, line, 1), ["1*\r"], "{line}");
     }
-    assert_eq!(ask(&mut master, "1", 1), ["1%\r"]);
+    assert_eq!(ask(&mut master, "1QS1", 1), ["1%\r"]);
     // Read back with QU: %, QU5, then the four lines.
     let upload = ask(&mut master, "1QU1", 6);
     assert_eq!(upload[0], "1%\r");
@@ -111,10 +112,10 @@ fn drives_on_an_rs485_line_answer_when_addressed_and_store_and_run_programs() {
     assert_eq!(program.lines()[1..], ["WI3F", "VE20", "DI8000", "FL"]);
     // Another address is not answered; drive 2 moves on its own.
     master.write_all(b"5IP\r").unwrap();
-    assert_eq!(ask(&mut master, "2DI-1000", 1), ["2%\r"]);
+    assert_eq!(ask(&mut master, "2DI-1000", 1), ["2*\r"]);
     assert_eq!(ask(&mut master, "2FL", 1), ["2*\r"]);
     // Drive 1 runs its program, which waits for the start wire (drive 0's Y2 → X3).
-    assert_eq!(ask(&mut master, "1QX1", 1), ["1%\r"]);
+    assert_eq!(ask(&mut master, "1QX1", 1), ["1*\r"]);
     std::thread::sleep(Duration::from_millis(100));
     assert_eq!(ask(&mut master, "1IP", 1), ["1IP=0\r"]);
     assert_eq!(ask(&mut master, "0SO2L", 1), ["0*\r"]);
@@ -183,16 +184,16 @@ fn drives_on_udp_answer_escl_and_share_the_start_wire() {
     let host = UdpSocket::bind("127.0.0.1:0").unwrap();
     host.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     let drive_1 = sockets[1];
-    assert_eq!(escl(&host, drive_1, "QW2", 1), ["%\r"]);
+    assert_eq!(escl(&host, drive_1, "QL", 1), ["%\r"]);
     assert_eq!(escl(&host, drive_1, "WI3F", 1), ["*\r"]);
     assert_eq!(escl(&host, drive_1, "DI2500", 1), ["*\r"]);
     assert_eq!(escl(&host, drive_1, "FP", 1), ["*\r"]);
-    assert_eq!(escl(&host, drive_1, "", 1), ["%\r"]);
+    assert_eq!(escl(&host, drive_1, "QS2", 1), ["%\r"]);
     assert_eq!(
         escl(&host, drive_1, "QU2", 5),
         ["%\r", "QU4\r", "WI3F\r", "DI2500\r", "FP\r"]
     );
-    assert_eq!(escl(&host, drive_1, "QX2", 1), ["%\r"]);
+    assert_eq!(escl(&host, drive_1, "QX2", 1), ["*\r"]);
     // Drive 0's Y2 is wired to every drive's X3.
     assert_eq!(escl(&host, sockets[0], "SO2L", 1), ["*\r"]);
     std::thread::sleep(Duration::from_millis(200));

@@ -529,6 +529,9 @@ pub struct SimDrive {
     pub waiting_input: bool,
     /// How many of the 12 Q segments hold a program.
     pub segments_stored: usize,
+    /// Lines in its queue (a program of one segment runs from there, never stored).
+    #[serde(default)]
+    pub queue_lines: usize,
     /// How many moves it ended since it was switched on.
     pub moves_ended: usize,
     /// The alarm code (`AL`); 0 = none.
@@ -536,6 +539,9 @@ pub struct SimDrive {
     /// The motor is enabled (`ME`; `MD` disables it).
     #[serde(default)]
     pub motor_enabled: bool,
+    /// Writes to its segments' non-volatile memory (`QS`) since it was switched on.
+    #[serde(default)]
+    pub flash_writes: u32,
 }
 
 /// One simulated gateway in [`SimPositions`].

@@ -117,10 +117,31 @@ pub struct SclConfig {
 /// Where Start finds the drives' Q programs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SclPrograms {
-    /// Compiled from the show and written to every drive (`QW`), read back (`QU`).
+    /// Compiled from the show at every Start: a program of one segment loaded into
+    /// the drive's queue (`QL`, its lines, `QE`: never its memory); a longer one
+    /// saved to its segments (`QL`, `QS`) only where `QU` shows they differ.
     Upload,
     /// Already on the drives (loaded with Q Programmer); Start only starts them.
     Stored,
+}
+
+impl SclConfig {
+    /// The trigger drive's place on the first gateway entry (its index there), if a
+    /// trigger is set and its drive is listed: the drive plays that unit when the
+    /// unit is on entry 0 at that place.
+    pub fn trigger_drive(&self) -> Option<usize> {
+        let (address, _) = self.trigger?;
+        match self.gateways.first()? {
+            SclGateway::Serial { addresses, .. } => {
+                addresses.iter().position(|&listed| listed == address)
+            }
+            // eSCL and simulated drives take the address characters in order.
+            gateway => Address::CHARACTERS
+                .chars()
+                .position(|character| character == address.character())
+                .filter(|&index| index < gateway.drives()),
+        }
+    }
 }
 
 /// One `kind = "scl"` gateway entry.

@@ -20,6 +20,7 @@ use floatball_shared::api::QProgramListing;
 use floatball_shared::codes::Code;
 use floatball_shared::params;
 use floatball_shared::plan::verdict::Why;
+use floatball_shared::scl::drive::fire_from_program;
 use floatball_shared::scl::qprogram::{QProgramError, compile};
 
 use super::library::{NameParam, store_failure};
@@ -116,7 +117,18 @@ pub async fn qprogram(
         })?;
         let config = compiling.config();
         let settings = qprogram_config(&config.installation, &overrides(&config));
-        let program = compile(track, &settings).map_err(|error| compile_failure(error, unit))?;
+        let mut program =
+            compile(track, &settings).map_err(|error| compile_failure(error, unit))?;
+        // The trigger drive's ball fires the common start from its own line 1 (as
+        // Start uploads it): a stored program must do the same.
+        if let Some(scl) = config.scl()
+            && let Some((_, output)) = scl.trigger
+            && let Some(place) = config.installation.units.get(unit)
+            && place.gateway == 0
+            && scl.trigger_drive() == Some(usize::from(place.station.saturating_sub(1)))
+        {
+            fire_from_program(&mut program.segments, output);
+        }
         Ok::<_, Failure>(QProgramListing {
             unit,
             show: show.name.clone(),

@@ -257,9 +257,11 @@ impl SimDrives {
                                 .filter_map(Segment::new)
                                 .filter(|&segment| drive.segment(segment).is_some())
                                 .count(),
+                            queue_lines: drive.queue().len(),
                             moves_ended: drive.move_ends().len(),
                             alarm_code: drive.alarm_code(),
                             motor_enabled: drive.is_enabled(),
+                            flash_writes: drive.flash_writes_total(),
                         })
                     })
                 })

@@ -40,8 +40,8 @@ pub struct Peer {
     pub received: Arc<Mutex<Vec<Received>>>,
     pub path: std::path::PathBuf,
     pub sockets: Vec<SocketAddr>,
-    /// Drives (by index) that refuse `QW` as a real drive does.
-    pub refuse_qw: Arc<Mutex<Vec<usize>>>,
+    /// Drives (by index) that refuse `QL`, as a drive without Q programs does.
+    pub refuse_ql: Arc<Mutex<Vec<usize>>>,
     epoch: Instant,
     stop: Arc<AtomicBool>,
 }
@@ -100,7 +100,7 @@ impl Peer {
                 input: IoPoint::new(3).unwrap(),
             });
         }
-        let refuse_qw = Arc::new(Mutex::new(Vec::new()));
+        let refuse_ql = Arc::new(Mutex::new(Vec::new()));
         let epoch = Instant::now();
         // The reader stamps every chunk as it arrives; the drives answer in another
         // thread, so their (timed) answers never delay a stamp.
@@ -129,7 +129,7 @@ impl Peer {
             Arc::clone(&bus),
             Arc::clone(&received),
             Arc::clone(&stop),
-            Arc::clone(&refuse_qw),
+            Arc::clone(&refuse_ql),
         );
         std::thread::spawn(move || {
             let byte_time = if baud == 0 {
@@ -164,7 +164,7 @@ impl Peer {
                     let now_us = micros(epoch, line_free);
                     let answer = {
                         let mut bus = b.lock().unwrap();
-                        let refused = text.get(1..).is_some_and(|rest| rest.starts_with("QW"))
+                        let refused = text.get(1..).is_some_and(|rest| rest.starts_with("QL"))
                             && text
                                 .chars()
                                 .next()
@@ -189,7 +189,7 @@ impl Peer {
             received,
             path,
             sockets: Vec::new(),
-            refuse_qw,
+            refuse_ql,
             epoch,
             stop,
         }
@@ -202,7 +202,7 @@ impl Peer {
                 .map(|_| Drive::new(DriveConfig::default()))
                 .collect(),
         );
-        let refuse_qw = Arc::new(Mutex::new(Vec::new()));
+        let refuse_ql = Arc::new(Mutex::new(Vec::new()));
         let epoch = Instant::now();
         let mut sockets = Vec::new();
         for index in 0..count {
@@ -215,7 +215,7 @@ impl Peer {
                 Arc::clone(&bus),
                 Arc::clone(&received),
                 Arc::clone(&stop),
-                Arc::clone(&refuse_qw),
+                Arc::clone(&refuse_ql),
             );
             std::thread::spawn(move || {
                 let mut buffer = [0u8; 2048];
@@ -233,7 +233,7 @@ impl Peer {
                         text: text.clone(),
                         drive: Some(index),
                     });
-                    let answers = if text.starts_with("QW") && q.lock().unwrap().contains(&index) {
+                    let answers = if text.starts_with("QL") && q.lock().unwrap().contains(&index) {
                         vec![b"\x00\x07?\r".to_vec()]
                     } else {
                         b.lock()
@@ -251,7 +251,7 @@ impl Peer {
             received,
             path: std::path::PathBuf::new(),
             sockets,
-            refuse_qw,
+            refuse_ql,
             epoch,
             stop,
         }

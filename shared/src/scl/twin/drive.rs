@@ -1230,9 +1230,12 @@ impl Drive {
         }
     }
 
+    /// `SK`: stops the motion and erases the queue (HCR p. 249) and the buffer.
     fn stop_and_kill(&mut self) {
         self.stop_motion();
         self.kill();
+        self.queue.clear();
+        self.running_segment = None;
     }
 
     /// Slows the motion down to rest at `DE`.
