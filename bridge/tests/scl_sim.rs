@@ -71,6 +71,7 @@ async fn plays_to_the_end(
     bridge: &Process,
     ws: &mut Ws,
     token: &str,
+    streamed: bool,
 ) -> floatball_shared::api::Status {
     send_text(ws, r#"{"type":"start"}"#).await;
     let (states, last) = until(ws, Duration::from_secs(15), |status| {
@@ -86,11 +87,20 @@ async fn plays_to_the_end(
             (ball / 3, ball % 3),
             "{drive:?}"
         );
-        // A program ran: stored, or (one segment) from the queue.
-        assert!(
-            drive.segments_stored >= 1 || drive.queue_lines >= 1,
-            "{drive:?}"
-        );
+        // A program ran: stored, or (one segment) from the queue; a streamed show
+        // leaves neither (and writes nothing to memory).
+        if streamed {
+            assert_eq!(
+                (drive.segments_stored, drive.queue_lines, drive.flash_writes),
+                (0, 0, 0),
+                "{drive:?}"
+            );
+        } else {
+            assert!(
+                drive.segments_stored >= 1 || drive.queue_lines >= 1,
+                "{drive:?}"
+            );
+        }
         assert!(!drive.waiting_input && !drive.executing, "{drive:?}");
         assert!(drive.moves_ended > 0, "{drive:?}");
         assert_eq!(drive.alarm_code, 0, "{drive:?}");
@@ -145,7 +155,7 @@ async fn simulated_drives_on_one_start_wire_play_and_stop() {
     assert_eq!(first_line(0).await, "SO2L");
     assert_eq!(first_line(1).await, "WI3F");
     assert_eq!(first_line(3).await, "WI3F");
-    plays_to_the_end(&bridge, &mut ws, &token).await;
+    plays_to_the_end(&bridge, &mut ws, &token, false).await;
     // One-segment programs run from the queue: nothing written to memory; a
     // longer one is stored once, and a second Start writes nothing more.
     let written: Vec<u32> = drives(&bridge, &token)
@@ -153,7 +163,7 @@ async fn simulated_drives_on_one_start_wire_play_and_stop() {
         .iter()
         .map(|drive| drive.flash_writes)
         .collect();
-    let status = plays_to_the_end(&bridge, &mut ws, &token).await;
+    let status = plays_to_the_end(&bridge, &mut ws, &token, false).await;
     let again: Vec<u32> = drives(&bridge, &token)
         .await
         .iter()
@@ -172,10 +182,22 @@ async fn simulated_drives_on_one_start_wire_play_and_stop() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn simulated_drives_stream_the_show_into_their_command_buffers() {
+    // `programs = "stream"`: every drive paused, its buffer filled, the rest sent as
+    // the show plays; the trigger ball's first line fires the common start.
+    let bridge = Process::start(&config(
+        "trigger = \"0:2\"\ntolerance_mm = 20.0\nprograms = \"stream\"",
+    ));
+    let (mut ws, token) = operator(&bridge).await;
+    plays_to_the_end(&bridge, &mut ws, &token, true).await;
+    estop_stops_every_drive(&bridge, &mut ws, &token).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn simulated_drives_without_a_trigger_are_started_each_by_qx() {
     let bridge = Process::start(&config("tolerance_mm = 20.0"));
     let (mut ws, token) = operator(&bridge).await;
-    plays_to_the_end(&bridge, &mut ws, &token).await;
+    plays_to_the_end(&bridge, &mut ws, &token, false).await;
 }
 
 async fn plan(bridge: &Process, token: &str) -> PlanReport {

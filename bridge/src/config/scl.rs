@@ -123,6 +123,27 @@ pub enum SclPrograms {
     Upload,
     /// Already on the drives (loaded with Q Programmer); Start only starts them.
     Stored,
+    /// Every ball's show streamed into its drive's command buffer as it plays (`PS`,
+    /// the buffer filled, `CT`, then `BS` and the next lines), whatever its length.
+    Stream,
+}
+
+impl SclPrograms {
+    /// Whether Start compiles the programs (uploaded or streamed).
+    pub fn compiled(self) -> bool {
+        matches!(self, Self::Upload | Self::Stream)
+    }
+
+    /// When a ball's show is streamed: `upload` streams the shows no stored
+    /// program follows within the tolerance; `stream` all of them.
+    pub fn streaming(self) -> floatball_shared::scl::qprogram::Streaming {
+        use floatball_shared::scl::qprogram::Streaming;
+        match self {
+            Self::Upload => Streaming::WhenNeeded,
+            Self::Stream => Streaming::Always,
+            Self::Stored => Streaming::Never,
+        }
+    }
 }
 
 impl SclConfig {
@@ -452,12 +473,15 @@ impl Checker<'_> {
             Some(text) => match text.get_ref().as_str() {
                 "upload" => SclPrograms::Upload,
                 "stored" => SclPrograms::Stored,
+                "stream" => SclPrograms::Stream,
                 other => {
                     return Err(self.at(
                         &text.span(),
                         format!(
                             "programs = {other:?} must be \"upload\" (Start writes the compiled \
-                             programs) or \"stored\" (loaded with Q Programmer)"
+                             programs, streaming the shows too long to store), \"stream\" \
+                             (Start streams every show) or \"stored\" (loaded with Q \
+                             Programmer)"
                         ),
                     ));
                 }

@@ -49,7 +49,7 @@ use floatball_shared::uim2503::plan::PlanOptions;
 use super::library::{NameParam, store_failure};
 use super::session::{Operator, Session};
 use super::{Failure, blocking, json_body};
-use crate::config::{ConfigError, SclConfig, SclPrograms};
+use crate::config::{ConfigError, SclConfig};
 use crate::install::{self, InstallError};
 use crate::ports::mbox::MboxTiming;
 use crate::ports::scl::program::{compile_show, qprogram_config};
@@ -132,10 +132,7 @@ pub async fn plan(
     let result = blocking(move || {
         let show = planning.shows().load(&name).map_err(store_failure)?;
         let config = planning.config();
-        let Some(scl) = config
-            .scl()
-            .filter(|scl| scl.programs == SclPrograms::Upload)
-        else {
+        let Some(scl) = config.scl().filter(|scl| scl.programs.compiled()) else {
             // The show is planned as it is freed: never whole beside its plan.
             return Ok(report_of(
                 show,
@@ -162,7 +159,11 @@ fn refuse_uncompilable(
     installation: &Installation,
     scl: &SclConfig,
 ) {
-    if let Err(uncompilable) = compile_show(show, &qprogram_config(installation, scl)) {
+    if let Err(uncompilable) = compile_show(
+        show,
+        &qprogram_config(installation, scl),
+        scl.programs.streaming(),
+    ) {
         refuse(plan, &uncompilable.why, &uncompilable.fixes);
     }
 }

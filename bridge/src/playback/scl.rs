@@ -188,7 +188,7 @@ pub struct SclPrepare {
 
 impl Prepare for SclPrepare {
     fn cuts(&self) -> bool {
-        self.scl.programs == SclPrograms::Upload
+        self.scl.programs.compiled()
     }
 
     fn prepare(
@@ -203,14 +203,16 @@ impl Prepare for SclPrepare {
         for (index, entry) in entries.into_iter().enumerate() {
             let show = &entry.show;
             let programs = match self.scl.programs {
-                SclPrograms::Upload => Some(compile_show(show, &settings).map_err(
-                    |Uncompilable { why, fixes }| StartError::Infeasible {
-                        entry: index + 1,
-                        show: show.name.clone(),
-                        reason: Box::new(why),
-                        fixes,
-                    },
-                )?),
+                SclPrograms::Upload | SclPrograms::Stream => Some(
+                    compile_show(show, &settings, self.scl.programs.streaming()).map_err(
+                        |Uncompilable { why, fixes }| StartError::Infeasible {
+                            entry: index + 1,
+                            show: show.name.clone(),
+                            reason: Box::new(why),
+                            fixes,
+                        },
+                    )?,
+                ),
                 SclPrograms::Stored => None,
             };
             let duration_ms = show.duration_ms();

@@ -70,6 +70,17 @@ pub const TRIGGER_PULSE_US: u64 = 100_000;
 /// How long after a show's length the programs may still run, µs.
 pub const END_GRACE_US: u64 = 10_000_000;
 
+/// Lines of a streamed show put in a drive's command buffer before its start (of its
+/// 63 places, HCR p. 53).
+pub const STREAM_PRIME_LINES: usize = 56;
+
+/// Places of the command buffer a top-up leaves free (a line under way, slack).
+pub const STREAM_RESERVE: usize = 2;
+
+/// How often the bridge asks a streaming drive how much room its buffer has (`BS`),
+/// µs: 63 places hold about 1.5 s of a show jogged every 50 ms.
+pub const STREAM_REFILL_US: u64 = 150_000;
+
 /// Status code bit: a Q program is running (HCR, `SC`).
 pub const SC_PROGRAM_RUNNING: u16 = 0x4000;
 
@@ -182,6 +193,9 @@ pub struct SclEntry {
     pub start_counts: Vec<i32>,
     /// Each unit's program's segments, in unit order.
     pub programs: Option<Vec<Segments>>,
+    /// Each unit's program is streamed (its one list of lines into the command
+    /// buffer), not stored.
+    pub streamed: Vec<bool>,
     /// The show's length, ms.
     pub duration_ms: u64,
 }
@@ -225,6 +239,11 @@ impl SclEntry {
         programs: Option<Vec<QProgram>>,
         duration_ms: u64,
     ) -> Self {
+        let streamed: Vec<bool> = programs
+            .iter()
+            .flatten()
+            .map(|program| program.streamed)
+            .collect();
         let mut programs: Option<Vec<Segments>> = programs.map(|programs| {
             programs
                 .into_iter()
@@ -251,6 +270,7 @@ impl SclEntry {
         Self {
             start_counts: start_mm.into_iter().map(|mm| config.counts(mm)).collect(),
             programs,
+            streamed,
             duration_ms,
         }
     }
@@ -294,6 +314,8 @@ enum Check {
     Line { segment: Option<Segment> },
     /// `QS n`'s `%`: one write to the segment's memory.
     Saved { segment: Segment },
+    /// `BS`: the room in a streaming drive's buffer, filled with its next lines.
+    Free,
     /// `QU`: the lines written.
     ReadBack {
         segment: Segment,
@@ -319,6 +341,9 @@ enum Action {
     Started,
     /// A unit's programs are written.
     Loaded,
+    /// The end of a round of top-ups on a line: another round after
+    /// [`STREAM_REFILL_US`] while any of `units` has lines left to stream.
+    Refill { units: Vec<usize> },
 }
 
 #[derive(Debug, Default)]
@@ -389,6 +414,8 @@ pub struct SclDrive {
     /// Each unit's drive: the segments it was told to save (`QS`) since the bridge
     /// started.
     flash_writes: Vec<u64>,
+    /// Each streaming unit's lines still to send, while a streamed show plays.
+    streams: Vec<VecDeque<Command>>,
 }
 
 /// What the next move does before it feeds, taken by that move.
@@ -440,6 +467,7 @@ impl SclDrive {
             moving_to: None,
             ending: false,
             flash_writes: Vec::new(),
+            streams: Vec::new(),
         }
     }
 
@@ -550,6 +578,27 @@ impl SclDrive {
                 let write = write_segment(*unit, *segment, commands);
                 for action in write.into_iter().rev() {
                     lane.actions.push_front(action);
+                }
+            }
+            return self.after_answer(now_us);
+        }
+        if let (Check::Free, Ok(lines)) = (check, &answer)
+            && let Some(free) = lines
+                .first()
+                .and_then(|line| Reply::parse(line).ok())
+                .and_then(|reply| reply.answer.value_i64())
+        {
+            // As many of its next lines as its buffer has room for, before anything
+            // else on this line.
+            let room = usize::try_from(free)
+                .unwrap_or(0)
+                .saturating_sub(STREAM_RESERVE);
+            if let Some(stream) = self.streams.get_mut(*unit) {
+                let take = room.min(stream.len());
+                let next: Vec<Command> = stream.drain(..take).collect();
+                for command in next.into_iter().rev() {
+                    lane.actions
+                        .push_front(ask(*unit, command, Check::Line { segment: None }));
                 }
             }
             return self.after_answer(now_us);
@@ -742,6 +791,23 @@ impl SclDrive {
                                 Some(self.started_us.map_or(at_us, |first| first.min(at_us)));
                         }
                         Action::Loaded => self.loaded += 1,
+                        Action::Refill { units } => {
+                            let left: Vec<usize> = units
+                                .iter()
+                                .copied()
+                                .filter(|&unit| {
+                                    self.streams.get(unit).is_some_and(|s| !s.is_empty())
+                                })
+                                .collect();
+                            if !left.is_empty() {
+                                lane.actions.push_back(Action::Sleep(STREAM_REFILL_US));
+                                lane.actions
+                                    .extend(left.iter().map(|&unit| {
+                                        ask(unit, Command::BufferStatus, Check::Free)
+                                    }));
+                                lane.actions.push_back(Action::Refill { units: left });
+                            }
+                        }
                     }
                 }
             }
@@ -910,7 +976,7 @@ fn judge(
                 _ => Verdict::Ok,
             }
         }
-        Check::Compare { .. } => Verdict::Ok,
+        Check::Compare { .. } | Check::Free => Verdict::Ok,
         Check::QueueLoad | Check::Saved { .. } => match first {
             Some(Ok(Reply {
                 answer: Answer::Executed,
@@ -1057,7 +1123,8 @@ impl Drive for SclDrive {
         // what the drive holds, written only where it differs.
         let mut actions = Vec::new();
         for (unit, segments) in programs.iter().enumerate() {
-            if segments.len() > 1 {
+            let streamed = entry.streamed.get(unit).copied().unwrap_or(false);
+            if segments.len() > 1 && !streamed {
                 for (segment, commands) in segments {
                     actions.push(ask(
                         unit,
@@ -1087,17 +1154,44 @@ impl Drive for SclDrive {
         self.started_us = None;
         self.duration_ms = entry.duration_ms;
         let programs = entry.programs.as_ref();
-        let queued = |unit: usize| -> Option<&Vec<Command>> {
+        let streamed = |unit: usize| entry.streamed.get(unit).copied().unwrap_or(false);
+        let lines_of = |unit: usize| -> Option<&Vec<Command>> {
             programs
                 .and_then(|programs| programs.get(unit))
                 .filter(|segments| segments.len() == 1)
                 .and_then(|segments| segments.first())
                 .map(|(_, commands)| commands)
         };
+        let queued = |unit: usize| lines_of(unit).filter(|_| !streamed(unit));
+        // A streamed show: every drive paused (`PS`), its buffer filled, the rest sent
+        // as it plays (HCR p. 206, 53).
+        self.streams = (0..self.config.units.len())
+            .map(|unit| match lines_of(unit).filter(|_| streamed(unit)) {
+                Some(lines) => lines.iter().copied().collect(),
+                None => VecDeque::new(),
+            })
+            .collect();
+        let primes: Vec<Vec<Command>> = self
+            .streams
+            .iter_mut()
+            .map(|stream| {
+                let take = STREAM_PRIME_LINES.min(stream.len());
+                stream.drain(..take).collect()
+            })
+            .collect();
         let trigger_unit = self.trigger_unit();
         let mut stages = Vec::new();
         // Programs of one segment to the queue, never to memory (HCR p. 216).
         let load = self.by_line(|unit| match queued(unit) {
+            None if streamed(unit) => {
+                let mut actions = vec![ask(unit, Command::Pause, Check::NotRefused)];
+                actions.extend(
+                    primes[unit]
+                        .iter()
+                        .map(|command| ask(unit, *command, Check::Line { segment: None })),
+                );
+                actions
+            }
             Some(commands) => {
                 let mut actions = vec![ask(
                     unit,
@@ -1117,7 +1211,9 @@ impl Drive for SclDrive {
             return;
         };
         let start = |unit: usize| {
-            if queued(unit).is_some() {
+            if streamed(unit) {
+                ask(unit, Command::Continue, Check::NotRefused)
+            } else if queued(unit).is_some() {
                 ask(unit, Command::QueueExecuteLoaded, Check::NotRefused)
             } else {
                 ask(
@@ -1188,7 +1284,20 @@ impl Drive for SclDrive {
                 }]);
             }
         }
-        stages.push(vec![Lane::of([Action::ShowEnd])]);
+        // The show plays: each line tops up its streaming drives' buffers.
+        let mut playing = vec![Lane::of([Action::ShowEnd])];
+        for gateway in 0..self.config.gateways {
+            let units: Vec<usize> = (0..self.config.units.len())
+                .filter(|&unit| {
+                    self.config.units[unit].gateway == gateway
+                        && self.streams.get(unit).is_some_and(|s| !s.is_empty())
+                })
+                .collect();
+            if !units.is_empty() {
+                playing.push(Lane::of([Action::Refill { units }]));
+            }
+        }
+        stages.push(playing);
         let ended = Lane::of(
             (0..self.config.units.len()).map(|unit| ask(unit, Command::StatusCode, Check::Ended)),
         );
@@ -1228,6 +1337,7 @@ impl Drive for SclDrive {
 
     fn stop(&mut self) {
         self.stages.clear();
+        self.streams.clear();
         self.asks.clear();
         self.failure = None;
         self.playing = false;

@@ -10,7 +10,9 @@ use floatball_shared::codes::{Code, Coded, Params};
 use floatball_shared::params;
 use floatball_shared::plan::Installation;
 use floatball_shared::plan::verdict::{Fix, Why};
-use floatball_shared::scl::qprogram::{QProgram, QProgramConfig, QProgramError, compile};
+use floatball_shared::scl::qprogram::{
+    QProgram, QProgramConfig, QProgramError, Streaming, compile_for_drive,
+};
 use floatball_shared::scl::{Request, parse_script};
 use floatball_shared::show::Show;
 
@@ -47,10 +49,12 @@ pub fn qprogram_config(installation: &Installation, scl: &SclConfig) -> QProgram
 
 /// Compiles every ball's track of `show` with `settings`, in ball order, on as many
 /// threads as the machine has cores (each ball is independent; a 10-minute show takes
-/// about 0.1–0.3 s a ball). Blocking: call it from a blocking thread.
+/// about 0.1–0.3 s a ball), stored or streamed as `streaming` allows. Blocking: call
+/// it from a blocking thread.
 pub fn compile_every_ball(
     show: &Show,
     settings: &QProgramConfig,
+    streaming: Streaming,
 ) -> Vec<Result<QProgram, QProgramError>> {
     let threads = std::thread::available_parallelism()
         .map_or(1, std::num::NonZeroUsize::get)
@@ -64,7 +68,7 @@ pub fn compile_every_ball(
                 scope.spawn(move || {
                     tracks
                         .iter()
-                        .map(|track| compile(track, settings))
+                        .map(|track| compile_for_drive(track, settings, streaming))
                         .collect::<Vec<_>>()
                 })
             })
@@ -98,11 +102,18 @@ pub struct Uncompilable {
 /// # Errors
 /// [`Uncompilable`]: the first ball that cannot be compiled, and the tolerance that
 /// would take the ball that strays furthest.
-pub fn compile_show(show: &Show, settings: &QProgramConfig) -> Result<Vec<QProgram>, Uncompilable> {
+pub fn compile_show(
+    show: &Show,
+    settings: &QProgramConfig,
+    streaming: Streaming,
+) -> Result<Vec<QProgram>, Uncompilable> {
     let mut programs = Vec::with_capacity(show.tracks.len());
     let mut largest_mm: Option<f64> = None;
     let mut first = None;
-    for (ball, program) in compile_every_ball(show, settings).into_iter().enumerate() {
+    for (ball, program) in compile_every_ball(show, settings, streaming)
+        .into_iter()
+        .enumerate()
+    {
         match program {
             Ok(program) => programs.push(program),
             Err(error) => {
@@ -224,10 +235,10 @@ mod tests {
             tolerance_mm: 1000.0,
             ..QProgramConfig::default()
         };
-        let together = compile_every_ball(&show, &settings);
+        let together = compile_every_ball(&show, &settings, Streaming::Never);
         assert_eq!(together.len(), 7);
         for (ball, (program, track)) in together.iter().zip(&show.tracks).enumerate() {
-            let alone = compile(track, &settings);
+            let alone = floatball_shared::scl::qprogram::compile(track, &settings);
             assert_eq!(
                 program.as_ref().map(QProgram::text).ok(),
                 alone.as_ref().map(QProgram::text).ok(),
@@ -240,13 +251,13 @@ mod tests {
             tolerance_mm: 0.001,
             ..settings
         };
-        let refused = compile_every_ball(&show, &strict);
+        let refused = compile_every_ball(&show, &strict, Streaming::Never);
         assert_eq!(refused.len(), 7);
         assert!(
             refused
                 .iter()
                 .all(|program| matches!(program, Err(QProgramError::TooFar { .. })))
         );
-        assert!(compile_every_ball(&wave(1, 1, 1, 200), &settings).len() == 1);
+        assert!(compile_every_ball(&wave(1, 1, 1, 200), &settings, Streaming::Never).len() == 1);
     }
 }

@@ -716,3 +716,118 @@ fn a_locate_kills_the_programs_and_feeds_on_from_where_the_balls_stopped() {
 }
 
 mod live;
+
+/// A smooth wave, ±`amplitude_mm` around 1 m every `period_s`, from rest, for
+/// `periods` periods (rows of 200 ms).
+fn wave_track(period_s: f64, periods: usize, amplitude_mm: f64) -> Track {
+    let rows = (period_s * periods as f64 / 0.2).round() as usize;
+    let omega = std::f64::consts::TAU / period_s;
+    Track {
+        start_mm: 1000.0 - amplitude_mm,
+        rows: (1..=rows)
+            .map(|row| {
+                let t = row as f64 * 0.2;
+                TrackRow::new(
+                    1000.0 - amplitude_mm * (omega * t).cos(),
+                    amplitude_mm * omega * (omega * t).sin(),
+                    200,
+                )
+            })
+            .collect(),
+        colours: Vec::new(),
+    }
+}
+
+#[test]
+fn a_streamed_show_keeps_every_buffer_topped_up_and_follows_the_show() {
+    // Issue 46, item 3: a show streamed into the command buffers (`PS`, the buffer
+    // filled, `CT`; `BS` and the next lines as it plays), on three twins that refuse a
+    // 64th buffered command.
+    let mut rig = Rig::new();
+    let config = rig.sequencer.drive().config().clone();
+    let settings = QProgramConfig {
+        counts_per_mm: COUNTS_PER_MM,
+        start: None,
+        ..QProgramConfig::default()
+    };
+    let tracks: Vec<Track> = (0..3)
+        .map(|ball| wave_track(3.0 + ball as f64, 4, 300.0))
+        .collect();
+    let programs: Vec<_> = tracks
+        .iter()
+        .map(|track| crate::scl::qprogram::compile_streamed(track, &settings).unwrap())
+        .collect();
+    let longest = programs.iter().map(QProgram::lines).max().unwrap();
+    assert!(
+        longest > 62 * 12,
+        "{longest} lines: more than a drive stores"
+    );
+    let duration_ms = tracks.iter().map(Track::duration_ms).max().unwrap();
+    let run = Run {
+        name: "waves".into(),
+        duration_ms,
+        timing: EntryTiming {
+            delay_ms: 0,
+            cycles: 1,
+        },
+        prepared: SclEntry::new(
+            &config,
+            tracks.iter().map(|track| track.start_mm),
+            Some(programs),
+            duration_ms,
+        ),
+    };
+    let show = Show {
+        name: "waves".into(),
+        layout: Layout {
+            rows: 1,
+            cols: 3,
+            pitch_mm: 500.0,
+        },
+        tracks: tracks.clone(),
+        outputs: Vec::new(),
+    };
+    let mut sampler = crate::show::sample::Sampler::new(&show);
+    let mut show_mm = [0.0_f32; 3];
+    rig.sequencer.start(0, vec![run], false).unwrap();
+    while rig.sequencer.status().state != PlayerState::Playing {
+        let at_us = rig.now_us + 1_000;
+        rig.run_until(at_us);
+        assert!(rig.now_us < 30_000_000, "{:?}", rig.sequencer.status());
+    }
+    let started_us = rig.sequencer.drive().started_us().unwrap();
+    // Every 10 ms the balls are where the show is, within 5 mm.
+    let mut worst: f64 = 0.0;
+    let mut fullest = 0;
+    for step in 1..(duration_ms / 10) {
+        rig.run_until(started_us + step * 10_000);
+        for twin in &mut rig.twins {
+            twin.advance(rig.now_us);
+        }
+        let t_ms = rig.now_us.saturating_sub(started_us) as f64 / 1_000.0;
+        sampler.sample(t_ms, &mut show_mm, None);
+        for (twin, show_mm) in rig.twins.iter().zip(show_mm) {
+            let at_mm = twin.position_counts() / COUNTS_PER_MM;
+            worst = worst.max((at_mm - f64::from(show_mm)).abs());
+            fullest = fullest.max(63 - twin.buffer_free());
+        }
+    }
+    rig.run_until(started_us + (duration_ms + 15_000) * 1_000);
+    assert_eq!(
+        rig.sequencer.status().state,
+        PlayerState::Idle,
+        "{:?}",
+        rig.sequencer.status()
+    );
+    assert!(worst < 5.0, "{worst} mm");
+    assert!(fullest <= 63);
+    let lines = rig.commands(0);
+    assert_eq!(lines.iter().filter(|line| *line == "PS").count(), 1);
+    assert_eq!(lines.iter().filter(|line| *line == "CT").count(), 1);
+    assert!(lines.iter().filter(|line| *line == "BS").count() > 10);
+    assert!(
+        !lines.iter().any(|line| line.starts_with('Q')),
+        "no program: {lines:?}"
+    );
+    assert_eq!(rig.sequencer.drive().flash_writes(), [0, 0, 0]);
+}

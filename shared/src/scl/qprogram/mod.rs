@@ -52,6 +52,7 @@ mod jog;
 mod keyframes;
 mod moves;
 mod reduce;
+mod stream;
 #[cfg(test)]
 mod tests;
 
@@ -173,12 +174,17 @@ pub struct Reduction {
     pub at_ms: u64,
 }
 
+pub use stream::{Streaming, compile_for_drive, compile_streamed};
+
 /// A compiled program: its segments in order (segment 1 the main program), where each
 /// move ends, and the report.
 #[derive(Debug, Clone, PartialEq)]
 pub struct QProgram {
-    /// The stored segments, each at most 62 commands.
+    /// The stored segments, each at most 62 commands — or, when [`Self::streamed`],
+    /// one list of any length that the bridge streams into the drive's command buffer.
     pub segments: Vec<(Segment, Vec<Command>)>,
+    /// Too long for a drive's 12 segments: streamed ([`compile_streamed`]).
+    pub streamed: bool,
     /// Where each `FP` move ends, in order.
     pub keyframes: Vec<Keyframe>,
     /// What the compiler did to the show.
@@ -192,7 +198,11 @@ impl QProgram {
     pub fn text(&self) -> String {
         let mut text = String::new();
         for (segment, commands) in &self.segments {
-            let role = if segment.get() == 1 { "main" } else { "moves" };
+            let role = match (self.streamed, segment.get()) {
+                (true, _) => "streamed",
+                (false, 1) => "main",
+                (false, _) => "moves",
+            };
             let _ = writeln!(
                 text,
                 "[segment {segment}: {role}, {} lines]",
@@ -678,6 +688,8 @@ struct Writer<'a> {
     /// `MT1` (a program that jogs, so that `CJ` does not hold it): every `FP` is
     /// followed by `WM`.
     multitasking: bool,
+    /// Streamed, not stored: no segments, any length ([`stream`]).
+    streamed: bool,
 }
 
 impl<'a> Writer<'a> {
@@ -701,6 +713,7 @@ impl<'a> Writer<'a> {
             keyframes: Vec::new(),
             jog_accel: None,
             multitasking: false,
+            streamed: false,
         }
     }
 
@@ -924,16 +937,24 @@ impl<'a> Writer<'a> {
                 position_mm: start_counts as f64 / self.config.counts_per_mm,
             });
         }
-        if self.lines.len() > budget_lines {
+        if !self.streamed && self.lines.len() > budget_lines {
             return Err(QProgramError::TooManyLines {
                 lines: self.lines.len(),
                 limit: budget_lines,
             });
         }
-        let segments = self.layout()?;
+        let segments = if self.streamed {
+            // Streamed into the command buffer: one list, no segments, no calls.
+            let mut all = self.setup();
+            all.extend_from_slice(&self.lines);
+            one(all)
+        } else {
+            self.layout()?
+        };
         let lines = segments.iter().map(|(_, commands)| commands.len()).sum();
         let moves = self.keyframes.len();
         Ok(QProgram {
+            streamed: self.streamed,
             segments,
             keyframes: self.keyframes,
             report: Reduction {
