@@ -8,12 +8,26 @@
 //! of MS ms (default 200), swinging ±A mm (default 500); with `--from-rest 1` every
 //! ball swings the same sine from rest at its top instead (no abrupt start); compiled with the default `QProgramConfig` except the tolerance,
 //! which is lifted so that every ball reports its figure instead of being refused.
+//!
+//! `--stream 1`: every ball streamed instead (`compile_streamed`: the jog every
+//! 50 ms, any length), and each stream played on a drive twin the way the bridge
+//! feeds it (`PS`, the buffer filled, `CT`, then `BS` and the next lines every
+//! 150 ms, never more than the 63 places): the largest distance between the twin's
+//! ball and the show, sampled every 10 ms, over the whole show, from the end of its
+//! first period to its last second (a demo wave starts at speed and stops dead in
+//! its last row, which no drive follows), and past its end; and the line budget (drives per line at 9600 and 115200 baud, and per
+//! eSCL gateway entry).
 
 use std::time::Instant;
 
-use floatball_shared::scl::qprogram::{QProgramConfig, compile};
+use floatball_shared::scl::drive::{SclLine, stream_budget};
+use floatball_shared::scl::qprogram::{
+    QProgram, QProgramConfig, STREAM_STEP_S, compile, compile_streamed,
+};
+use floatball_shared::scl::twin::{Drive, DriveConfig};
 use floatball_shared::show::TrackRow;
 use floatball_shared::show::demo::Wave;
+use floatball_shared::show::sample::Sampler;
 
 fn main() {
     let mut rows = 10_u32;
@@ -23,6 +37,7 @@ fn main() {
     let mut row_ms = 200_u32;
     let mut amplitude_mm = None;
     let mut from_rest = false;
+    let mut stream = false;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut pairs = args.chunks(2);
     while let Some([flag, value]) = pairs.next() {
@@ -38,6 +53,7 @@ fn main() {
             "--row-ms" => row_ms = number as u32,
             "--amplitude-mm" => amplitude_mm = Some(number),
             "--from-rest" => from_rest = number != 0.0,
+            "--stream" => stream = number != 0.0,
             _ => return eprintln!("unknown option {flag}"),
         }
     }
@@ -70,6 +86,14 @@ fn main() {
         tolerance_mm: f64::INFINITY,
         ..QProgramConfig::default()
     };
+    if stream {
+        // Started by `CT`, not an input.
+        let config = QProgramConfig {
+            start: None,
+            ..config
+        };
+        return streamed(&show, &config, period_s);
+    }
     println!(
         "show: {rows} x {cols} balls, {} PVT rows of {row_ms} ms each ({:.1} min), wave period {period_s} s",
         rows_per_ball,
@@ -127,4 +151,141 @@ fn main() {
         total_ms,
         total_ms / show.tracks.len().max(1) as f64
     );
+}
+
+/// Every ball streamed and played on a twin fed as the bridge feeds it.
+fn streamed(show: &floatball_shared::show::Show, config: &QProgramConfig, period_s: f64) {
+    for (name, line) in [
+        ("RS-485 at 9600 baud", SclLine::Rs485 { baud: 9_600 }),
+        ("RS-485 at 115200 baud", SclLine::Rs485 { baud: 115_200 }),
+        ("an eSCL gateway entry", SclLine::Escl),
+    ] {
+        let budget = stream_budget(line, STREAM_STEP_S);
+        println!(
+            "line budget, {name}: {} drives ({:.0} exchanges/s carried, {:.0} a drive)",
+            budget.drives, budget.exchanges_per_s, budget.exchanges_per_s_per_drive
+        );
+    }
+    println!(
+        "ball  lines  model_dev_mm at_ms  twin_dev_mm  mid_show_mm  after_end_mm  \
+         compile_ms  play_ms"
+    );
+    let mut sampler = Sampler::new(show);
+    let mut show_mm = vec![0.0_f32; show.tracks.len()];
+    let (mut worst, mut worst_after, mut most_lines) = (0.0_f64, 0.0_f64, 0);
+    let mut worst_overshoot = 0.0_f64;
+    for (ball, track) in show.tracks.iter().enumerate() {
+        let started = Instant::now();
+        let program = match compile_streamed(track, config) {
+            Ok(program) => program,
+            Err(error) => {
+                println!("{ball:>4}  refused: {error}");
+                continue;
+            }
+        };
+        let compile_ms = started.elapsed().as_secs_f64() * 1000.0;
+        let started = Instant::now();
+        let (all, after, overshoot) = play(
+            &program,
+            track.start_mm,
+            config,
+            |t_ms| {
+                sampler.sample(t_ms, &mut show_mm, None);
+                f64::from(show_mm[ball])
+            },
+            period_s,
+            show.duration_ms(),
+        );
+        let play_ms = started.elapsed().as_secs_f64() * 1000.0;
+        worst = worst.max(all);
+        worst_after = worst_after.max(after);
+        worst_overshoot = worst_overshoot.max(overshoot);
+        most_lines = most_lines.max(program.lines());
+        if ball < 5 || ball + 1 == show.tracks.len() {
+            println!(
+                "{ball:>4}  {:>5}  {:>5.1} at {:>6}  {:>11.1}  {:>20.1}  {:>12.1}  \
+                 {compile_ms:>10.0}  {play_ms:>7.0}",
+                program.lines(),
+                program.report.max_deviation_mm,
+                program.report.at_ms,
+                all,
+                after,
+                overshoot
+            );
+        }
+    }
+    println!(
+        "all {} balls streamed: at most {most_lines} lines a ball; on the twins the largest \
+         deviation {worst:.1} mm, {worst_after:.1} mm from the end of the first period to the last second; \
+         past the show's end (it stops dead) {worst_overshoot:.1} mm",
+        show.tracks.len()
+    );
+}
+
+/// Plays `program` on a twin standing at `start_mm`, fed as the bridge feeds it; the
+/// largest |twin − show| (mm) over the show, from `period_s` on, and after the end.
+fn play(
+    program: &QProgram,
+    start_mm: f64,
+    config: &QProgramConfig,
+    mut show_at: impl FnMut(f64) -> f64,
+    period_s: f64,
+    duration_ms: u64,
+) -> (f64, f64, f64) {
+    let mut drive = Drive::new(DriveConfig::default());
+    let say = |drive: &mut Drive, line: &str, now_us: u64| {
+        let answer = drive.receive_line(line, now_us).unwrap_or_default();
+        assert!(!answer.starts_with('?'), "{line}: {answer}");
+    };
+    say(
+        &mut drive,
+        &format!("SP{}", (start_mm * config.counts_per_mm).round()),
+        0,
+    );
+    let mut lines = program
+        .segments
+        .iter()
+        .flat_map(|(_, commands)| commands)
+        .peekable();
+    say(&mut drive, "PS", 0);
+    for _ in 0..56 {
+        if let Some(line) = lines.next() {
+            say(&mut drive, &line.to_string(), 0);
+        }
+    }
+    say(&mut drive, "CT", 0);
+    let (mut all, mut after, mut overshoot) = (0.0_f64, 0.0_f64, 0.0_f64);
+    let mut next_refill_us = 150_000;
+    // The show, and a few seconds more for the last stop and feed.
+    for step in 0..=(duration_ms / 10 + 500) {
+        let now_us = step * 10_000;
+        if now_us >= next_refill_us {
+            next_refill_us += 150_000;
+            let room = drive.buffer_free().saturating_sub(2);
+            for _ in 0..room {
+                match lines.next() {
+                    Some(line) => say(&mut drive, &line.to_string(), now_us),
+                    None => break,
+                }
+            }
+        }
+        drive.advance(now_us);
+        let t_ms = (now_us as f64 / 1000.0).min(duration_ms as f64);
+        let off = (drive.position_counts() / config.counts_per_mm - show_at(t_ms)).abs();
+        if now_us > duration_ms * 1_000 {
+            // Past the show's end: a show that ends at speed is overshot while the
+            // drive slows down (no drive stops dead).
+            overshoot = overshoot.max(off);
+            continue;
+        }
+        all = all.max(off);
+        // From the end of the first period to the show's last second (the demo
+        // wave starts at speed and stops dead in its last row: no drive follows
+        // either; the whole-show figure includes them).
+        if now_us as f64 >= period_s * 1e6 && now_us + 1_000_000 <= duration_ms * 1_000 {
+            after = after.max(off);
+        }
+    }
+    assert!(lines.peek().is_none(), "lines left at the show's end");
+    (all, after, overshoot)
 }

@@ -4,6 +4,13 @@
 //! The binary and the built app come from `cargo xtask test` through `FLOATBALL_BIN`
 //! and `FLOATBALL_STATIC_DIR`; without them the workspace's `target/debug/floatball`
 //! and `static/` are used, and a missing build is reported with what to run.
+//!
+//! Every process started here ends with the test, also when it fails or panics:
+//! [`Bridge`] and [`Browser`] hold a [`processes::ProcessTree`] that kills the whole
+//! tree (ChromeDriver and the Chromium it started) and removes its temporary
+//! directories when dropped.
+
+pub mod processes;
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -12,7 +19,9 @@ use std::time::Duration;
 
 use fantoccini::{Client, ClientBuilder};
 use tokio::io::{AsyncBufReadExt, BufReader};
-use tokio::process::{Child, Command};
+use tokio::process::Command;
+
+use crate::processes::ProcessTree;
 
 /// How long a page may take to show what a test waits for.
 pub const UI_TIMEOUT: Duration = Duration::from_secs(20);
@@ -82,10 +91,11 @@ pub fn static_dir() -> PathBuf {
     dir
 }
 
-/// A running `floatball` process; killed when dropped.
+/// A running `floatball` process; killed when dropped (with any process it
+/// started), then its data directory removed.
 #[derive(Debug)]
 pub struct Bridge {
-    child: Child,
+    process: ProcessTree,
     /// Where it listens.
     pub addr: SocketAddr,
     /// Its data directory (kept across restarts by [`Bridge::restart`]).
@@ -124,9 +134,9 @@ impl Bridge {
             std::fs::write(data_dir.join("floatball.toml"), config).expect("write the config");
         }
         let args: Vec<String> = args.iter().map(|arg| (*arg).to_owned()).collect();
-        let (child, addr) = spawn_bridge("127.0.0.1:0", &data_dir, &args).await;
+        let (process, addr) = spawn_bridge("127.0.0.1:0", &data_dir, &args).await;
         Self {
-            child,
+            process,
             addr,
             data_dir,
             args,
@@ -139,17 +149,24 @@ impl Bridge {
         format!("http://{}/", self.addr)
     }
 
-    /// Kills the process and waits for it to be gone.
+    /// Kills the process (and any it started) and waits for it to be gone.
     pub async fn stop(&mut self) {
-        let _ = self.child.kill().await;
+        self.process.end();
     }
 
     /// Starts it again on the same port and data directory.
     pub async fn restart(&mut self) {
         self.stop().await;
-        let (child, addr) = spawn_bridge(&self.addr.to_string(), &self.data_dir, &self.args).await;
-        self.child = child;
+        let (process, addr) =
+            spawn_bridge(&self.addr.to_string(), &self.data_dir, &self.args).await;
+        self.process = process;
         self.addr = addr;
+    }
+
+    /// The bridge's processes now running (its pid and those of any process it
+    /// started); empty once stopped.
+    pub fn pids(&self) -> std::collections::BTreeSet<u32> {
+        self.process.members()
     }
 }
 
@@ -157,8 +174,9 @@ async fn spawn_bridge(
     listen: &str,
     data_dir: &std::path::Path,
     args: &[String],
-) -> (Child, SocketAddr) {
-    let mut child = Command::new(bridge_binary())
+) -> (ProcessTree, SocketAddr) {
+    let mut command = Command::new(bridge_binary());
+    command
         .args(["--listen", listen])
         .args(args)
         .arg("--data-dir")
@@ -166,11 +184,13 @@ async fn spawn_bridge(
         .arg("--static-dir")
         .arg(static_dir())
         .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .kill_on_drop(true)
-        .spawn()
-        .expect("start floatball");
-    let stdout = child.stdout.take().expect("stdout");
+        .stderr(Stdio::inherit());
+    // The data directory is the bridge's own: a process whose command line names it
+    // is one of the bridge's.
+    let marker = data_dir.display().to_string();
+    let mut process = ProcessTree::spawn(&mut command, Some(marker), None)
+        .unwrap_or_else(|err| panic!("cannot start {}: {err}", bridge_binary().display()));
+    let stdout = process.child_mut().stdout.take().expect("stdout");
     let mut lines = BufReader::new(stdout).lines();
     let line = tokio::time::timeout(Duration::from_secs(30), lines.next_line())
         .await
@@ -184,7 +204,7 @@ async fn spawn_bridge(
         .unwrap_or_else(|| panic!("unexpected first line from floatball: {line}"));
     // Keep draining stdout so the bridge never blocks on a full pipe.
     tokio::spawn(async move { while let Ok(Some(_)) = lines.next_line().await {} });
-    (child, addr)
+    (process, addr)
 }
 
 /// Where screenshots go: `<target>/screens`, next to the test binary's profile
@@ -201,13 +221,19 @@ pub fn screens_dir() -> PathBuf {
     dir
 }
 
-/// A running ChromeDriver and a headless Chromium session; both end when dropped.
+/// A running ChromeDriver and a headless Chromium session; both end when dropped,
+/// with every process Chromium started, and the profile is removed.
+///
+/// ChromeDriver and Chromium work in a temporary directory of the browser's own:
+/// Chromium's profile (`profile/`, its `--user-data-dir`), their `TMPDIR` (`tmp/`)
+/// and `XDG_CONFIG_HOME` (`config/`, where the crash reporter keeps its database).
+/// Whatever they write there goes when the browser does.
 #[derive(Debug)]
 pub struct Browser {
     /// The WebDriver client.
     pub client: Client,
-    _driver: Child,
-    _profile: tempfile::TempDir,
+    driver: ProcessTree,
+    profile_dir: PathBuf,
 }
 
 impl Browser {
@@ -226,14 +252,25 @@ impl Browser {
             .and_then(|listener| listener.local_addr())
             .expect("free port")
             .port();
-        let driver = Command::new(&chromedriver)
+        let dir = tempfile::tempdir().expect("the browser's temporary directory");
+        let profile_dir = dir.path().join("profile");
+        let temp_dir = dir.path().join("tmp");
+        std::fs::create_dir(&temp_dir).expect("the browser's TMPDIR");
+        let mut command = Command::new(&chromedriver);
+        // Chromium's temporary files and its crash reporter's database (under
+        // `$XDG_CONFIG_HOME/chromium`) go in the browser's directory too.
+        command
             .arg(format!("--port={port}"))
+            .env("TMPDIR", &temp_dir)
+            .env("XDG_CONFIG_HOME", dir.path().join("config"))
             .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .kill_on_drop(true)
-            .spawn()
+            .stderr(Stdio::null());
+        // Every Chromium process names the directory in its command line (the profile,
+        // or the crash reporter's database): so even the crash reporter, which leaves
+        // the process group and its parent, is found.
+        let marker = dir.path().display().to_string();
+        let driver = ProcessTree::spawn(&mut command, Some(marker), Some(dir))
             .unwrap_or_else(|err| panic!("cannot start {chromedriver}: {err}"));
-        let profile = tempfile::tempdir().expect("profile dir");
         let mut capabilities = serde_json::Map::new();
         capabilities.insert(
             "goog:chromeOptions".into(),
@@ -257,7 +294,7 @@ impl Browser {
                     format!("--lang={lang}"),
                     format!("--accept-lang={lang}"),
                     format!("--window-size={},{height}", width.max(500)),
-                    format!("--user-data-dir={}", profile.path().display()),
+                    format!("--user-data-dir={}", profile_dir.display()),
                 ]
             }),
         );
@@ -273,8 +310,8 @@ impl Browser {
                 Ok(client) => {
                     return Self {
                         client,
-                        _driver: driver,
-                        _profile: profile,
+                        driver,
+                        profile_dir,
                     };
                 }
                 Err(err) => {
@@ -284,6 +321,17 @@ impl Browser {
             }
         }
         panic!("cannot start a Chromium session: {last_error:?}");
+    }
+
+    /// The pids of ChromeDriver and of every process of the browser now running.
+    pub fn pids(&self) -> std::collections::BTreeSet<u32> {
+        self.driver.members()
+    }
+
+    /// Chromium's profile directory (`--user-data-dir`), removed when the browser
+    /// ends.
+    pub fn profile_dir(&self) -> &Path {
+        &self.profile_dir
     }
 
     /// Waits until the element matching `css` has attribute `name` equal to `value`.

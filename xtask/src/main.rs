@@ -11,6 +11,7 @@
 //!   brotli and gzip copies, the page that loads them).
 //! - [`stages`]: the test stages and their summary.
 //! - [`side_by_side`]: a stage's test binaries run two (or more) at a time.
+//! - [`leftovers`]: what a test stage left running, named, killed and failed.
 //! - [`fuzz`]: `cargo xtask fuzz`, the fuzz targets and the storm with its motion
 //!   oracle at length, with figures.
 //! - [`stress`]: the engine's race and load tests, many times in a row.
@@ -35,6 +36,7 @@ mod create_bench;
 mod csv_report;
 mod fuzz;
 mod identify_repeat;
+mod leftovers;
 mod live_bench;
 mod load_bench;
 mod mbox_bench;

@@ -12,6 +12,11 @@
 //!
 //! Every binary runs as `cargo test` runs it: from its package's directory, with
 //! `CARGO_MANIFEST_DIR` and `CARGO_PKG_NAME` set, and the arguments given after `--`.
+//!
+//! A stage ends with its ten slowest test binaries by wall time (libtest gives no
+//! per-test times on stable Rust). [`run_timed`] does the same for a test command
+//! that runs its binaries itself (`wasm-pack test`), timing each from cargo's
+//! `Running` line to the next.
 
 use std::collections::VecDeque;
 use std::ffi::OsString;
@@ -113,11 +118,12 @@ pub fn run(
         .filter(|end| !end.passed)
         .map(|end| end.label.clone())
         .collect();
-    ended.sort_by(|a, b| b.seconds.total_cmp(&a.seconds));
-    println!("xtask: the longest test binaries:");
-    for end in ended.iter().take(8) {
-        println!("  {:>6.1} s  {}", end.seconds, end.label);
-    }
+    print_slowest(
+        &ended
+            .iter()
+            .map(|end| (end.label.clone(), end.seconds))
+            .collect::<Vec<_>>(),
+    );
     if plan.doc_tests {
         let mut command = tools::cargo(env);
         command.args(["test", "--doc"]).args(args);
@@ -133,6 +139,89 @@ pub fn run(
     } else {
         Err(format!("failed: {}", failures.join(", ")))
     }
+}
+
+/// How many of the slowest test binaries a stage names at its end.
+const SLOWEST_SHOWN: usize = 10;
+
+/// Prints the [`SLOWEST_SHOWN`] slowest of `times` (a test binary's label, its wall
+/// time in s), slowest first. Per test, libtest gives no times on stable Rust
+/// (`--report-time` is a nightly option): a binary's wall time is what there is.
+fn print_slowest(times: &[(String, f64)]) {
+    let mut times = times.to_vec();
+    times.sort_by(|a, b| b.1.total_cmp(&a.1));
+    println!("xtask: the slowest test binaries (wall time):");
+    for (label, seconds) in times.iter().take(SLOWEST_SHOWN) {
+        println!("  {seconds:>6.1} s  {label}");
+    }
+}
+
+/// Runs `command` (a `cargo test` or `wasm-pack test` whose runner prints each
+/// binary's results after cargo's `Running <target> (<path>)` line), its output and
+/// errors passed through line by line as they come; then prints the slowest test
+/// binaries, each timed from its `Running` line to the next one (or the end).
+///
+/// # Errors
+/// The command could not start, or failed.
+pub fn run_timed(command: Command) -> Result<(), String> {
+    let (result, times) = run_and_time(command);
+    if !times.is_empty() {
+        print_slowest(&times);
+    }
+    result
+}
+
+/// [`run_timed`] but the printing of the slowest: how it ended, and each binary's
+/// label with its wall time in s, in the order they ran.
+fn run_and_time(mut command: Command) -> (Result<(), String>, Vec<(String, f64)>) {
+    let described = tools::describe(&command);
+    println!("xtask: $ {described}");
+    let mut times: Vec<(String, f64)> = Vec::new();
+    let pipe = std::io::pipe().and_then(|(reader, writer)| {
+        let errors = writer.try_clone()?;
+        Ok((reader, writer, errors))
+    });
+    let (reader, writer, errors) = match pipe {
+        Ok(ends) => ends,
+        Err(err) => return (Err(format!("cannot make a pipe: {err}")), times),
+    };
+    command.stdout(writer).stderr(errors);
+    let mut child = match command.spawn() {
+        Ok(child) => child,
+        Err(err) => return (Err(format!("cannot start `{described}`: {err}")), times),
+    };
+    // The pipe's writing ends live on in the child only: the reading ends with it.
+    drop(command);
+    let mut current: Option<(String, Instant)> = None;
+    for line in BufReader::new(reader).split(b'\n') {
+        let Ok(line) = line else { break };
+        let line = String::from_utf8_lossy(&line);
+        println!("{line}");
+        if let Some(label) = running_label(&line) {
+            if let Some((label, started)) = current.take() {
+                times.push((label, started.elapsed().as_secs_f64()));
+            }
+            current = Some((label, Instant::now()));
+        }
+    }
+    let status = child.wait();
+    if let Some((label, started)) = current.take() {
+        times.push((label, started.elapsed().as_secs_f64()));
+    }
+    let result = match status {
+        Ok(status) if status.success() => Ok(()),
+        Ok(status) => Err(format!("`{described}` failed ({status})")),
+        Err(err) => Err(format!("waiting for `{described}`: {err}")),
+    };
+    (result, times)
+}
+
+/// The test binary cargo says it starts on `line`
+/// (`     Running tests/web.rs (target/…/web-1a2b.wasm)`): `tests/web.rs`.
+fn running_label(line: &str) -> Option<String> {
+    let rest = line.strip_prefix("     Running ")?;
+    let (label, path) = rest.split_once(" (")?;
+    path.ends_with(')').then(|| label.trim().to_owned())
 }
 
 /// `cargo test <args> --no-run`: the test binaries it built.
@@ -323,6 +412,45 @@ mod tests {
         assert!(!binary.integration);
         assert_eq!(binary.package, "xtask");
         assert_eq!(binary.label, "xtask unit tests (bin)");
+    }
+
+    #[test]
+    fn cargos_running_line_names_the_binary() {
+        assert_eq!(
+            running_label(
+                "     Running unittests src/lib.rs (target/wasm32-unknown-unknown/debug/deps/floatball_web-1.wasm)"
+            )
+            .as_deref(),
+            Some("unittests src/lib.rs")
+        );
+        assert_eq!(
+            running_label("     Running tests/web.rs (target/debug/deps/web-2)").as_deref(),
+            Some("tests/web.rs")
+        );
+        // wasm-bindgen-test-runner's own line, and test output, are not cargo's.
+        assert_eq!(
+            running_label("Running headless tests in Chrome on `http://127.0.0.1:1/`"),
+            None
+        );
+        assert_eq!(running_label("test running ... ok"), None);
+    }
+
+    #[test]
+    fn run_timed_passes_the_output_through_and_times_each_binary() {
+        let mut command = Command::new("sh");
+        command.args([
+            "-c",
+            "echo '     Running tests/a.rs (a)'; sleep 0.3; \
+             echo '     Running tests/b.rs (b)' >&2; echo done",
+        ]);
+        let (result, times) = run_and_time(command);
+        assert_eq!(result, Ok(()));
+        let labels: Vec<&str> = times.iter().map(|(label, _)| label.as_str()).collect();
+        assert_eq!(labels, ["tests/a.rs", "tests/b.rs"]);
+        assert!(times[0].1 >= 0.25 && times[1].1 < 0.25, "{times:?}");
+        let mut failing = Command::new("sh");
+        failing.args(["-c", "exit 3"]);
+        assert!(run_timed(failing).is_err());
     }
 
     #[test]

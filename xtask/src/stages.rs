@@ -3,10 +3,15 @@
 //!
 //! Stages keep going after a failure so one run shows everything that is wrong; the
 //! command fails if any stage failed.
+//!
+//! The stages that start processes (the native, web and end-to-end tests) fail if
+//! any they started still runs when they end, and kill it (see [`leftovers`]); the
+//! test stages end with their slowest test binaries.
 
 use std::time::Instant;
 
 use crate::app;
+use crate::leftovers;
 use crate::side_by_side;
 use crate::tools::{self, Env};
 
@@ -153,35 +158,41 @@ pub fn test(args: &[String]) -> Result<(), String> {
         ]))
     });
     stage("native tests", &|env| {
-        side_by_side::run(
-            env,
-            &["--workspace", "--exclude", "floatball-e2e"],
-            // ser2net, liblo-tools and ola were installed above: their absence is a
-            // failure, not a skip.
-            &[
-                (tools::REQUIRE_SER2NET, "1".into()),
-                (tools::REQUIRE_LIBLO, "1".into()),
-                (tools::REQUIRE_OLA, "1".into()),
-            ],
-            &NATIVE,
-        )
+        watched(env, || {
+            side_by_side::run(
+                env,
+                &["--workspace", "--exclude", "floatball-e2e"],
+                // ser2net, liblo-tools and ola were installed above: their absence is
+                // a failure, not a skip.
+                &[
+                    (tools::REQUIRE_SER2NET, "1".into()),
+                    (tools::REQUIRE_LIBLO, "1".into()),
+                    (tools::REQUIRE_OLA, "1".into()),
+                ],
+                &NATIVE,
+            )
+        })
     });
     stage("shared tests on wasm32 (Node.js)", &|env| {
-        tools::run_command(tools::cargo(env).args([
+        let mut command = tools::cargo(env);
+        command.args([
             "test",
             "--package",
             "floatball-shared",
             "--target",
             "wasm32-unknown-unknown",
-        ]))
+        ]);
+        side_by_side::run_timed(command)
     });
     stage("web tests in headless Chromium (wasm-pack)", &|env| {
-        tools::run_command(
-            tools::program(env, "wasm-pack")
+        watched(env, || {
+            let mut command = tools::program(env, "wasm-pack");
+            command
                 .args(["test", "--headless", "--chrome", "--chromedriver"])
                 .arg(tools::CHROMEDRIVER)
-                .arg("web"),
-        )
+                .arg("web");
+            side_by_side::run_timed(command)
+        })
     });
     // The app as operators get it (release, `wasm-opt`): the end-to-end tests run it
     // and hold its first load to the budget (issue 35). They run the `floatball` the
@@ -194,19 +205,21 @@ pub fn test(args: &[String]) -> Result<(), String> {
     stage(
         "end-to-end tests (real bridge, headless Chromium)",
         &|env| {
-            side_by_side::run(
-                env,
-                &["--package", "floatball-e2e"],
-                &[
-                    (
-                        "FLOATBALL_BIN",
-                        env.target_dir.join("debug").join("floatball").into(),
-                    ),
-                    ("FLOATBALL_STATIC_DIR", env.root.join("static").into()),
-                    ("CHROMEDRIVER", tools::CHROMEDRIVER.into()),
-                ],
-                &END_TO_END,
-            )
+            watched(env, || {
+                side_by_side::run(
+                    env,
+                    &["--package", "floatball-e2e"],
+                    &[
+                        (
+                            "FLOATBALL_BIN",
+                            env.target_dir.join("debug").join("floatball").into(),
+                        ),
+                        ("FLOATBALL_STATIC_DIR", env.root.join("static").into()),
+                        ("CHROMEDRIVER", tools::CHROMEDRIVER.into()),
+                    ],
+                    &END_TO_END,
+                )
+            })
         },
     );
 
@@ -227,6 +240,18 @@ pub fn test(args: &[String]) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!("{failed} stage(s) failed"))
+    }
+}
+
+/// Runs a stage's `body`; then fails the stage if a process it started still runs
+/// (naming and killing it: see [`leftovers`]), as well as when `body` failed.
+fn watched(env: &Env, body: impl FnOnce() -> Result<(), String>) -> Result<(), String> {
+    let watch = leftovers::Watch::start(env);
+    let outcome = body();
+    match (outcome, watch.finish()) {
+        (Ok(()), left) => left,
+        (Err(failed), Ok(())) => Err(failed),
+        (Err(failed), Err(left)) => Err(format!("{failed}; {left}")),
     }
 }
 

@@ -21,7 +21,7 @@ use floatball_shared::codes::Code;
 use floatball_shared::params;
 use floatball_shared::plan::verdict::Why;
 use floatball_shared::scl::drive::fire_from_program;
-use floatball_shared::scl::qprogram::{QProgramError, compile};
+use floatball_shared::scl::qprogram::{QProgramError, Streaming, compile_for_drive};
 
 use super::library::{NameParam, store_failure};
 use super::session::Session;
@@ -117,8 +117,13 @@ pub async fn qprogram(
         })?;
         let config = compiling.config();
         let settings = qprogram_config(&config.installation, &overrides(&config));
-        let mut program =
-            compile(track, &settings).map_err(|error| compile_failure(error, unit))?;
+        // As Start sends it: stored (or queued), or streamed when no stored program
+        // follows the show (`programs`).
+        let streaming = config
+            .scl()
+            .map_or(Streaming::Never, |scl| scl.programs.streaming());
+        let mut program = compile_for_drive(track, &settings, streaming)
+            .map_err(|error| compile_failure(error, unit))?;
         // The trigger drive's ball fires the common start from its own line 1 (as
         // Start uploads it): a stored program must do the same.
         if let Some(scl) = config.scl()

@@ -57,8 +57,10 @@ use super::{
 use crate::live::filter::BallState;
 use crate::player::{Drive, Phase};
 
+pub mod budget;
 pub mod live;
 
+pub use budget::{StreamBudget, stream_budget};
 pub use live::{LIVE_PERIOD_MAX_MS, LIVE_PERIOD_MIN_MS, SclLine, SclLiveConfig};
 
 /// How often the drive asks while it waits for the drives (`IP`, `SC`), µs.
@@ -1163,6 +1165,24 @@ impl Drive for SclDrive {
                 .map(|(_, commands)| commands)
         };
         let queued = |unit: usize| lines_of(unit).filter(|_| !streamed(unit));
+        // Each line must carry its streams, or the buffers run dry mid-show.
+        if let Some(live) = &self.live_config {
+            for (gateway, line) in live.lines.iter().enumerate() {
+                let streaming = (0..self.config.units.len())
+                    .filter(|&unit| streamed(unit) && self.config.units[unit].gateway == gateway)
+                    .count();
+                let budget = stream_budget(*line, crate::scl::qprogram::STREAM_STEP_S).drives;
+                if streaming > budget {
+                    self.failure = Some(format!(
+                        "SCL gateway {gateway} would stream the show to {streaming} drives; \
+                         its line carries {budget} ({line:?}): give the drives a faster \
+                         line (115200 baud, or eSCL), fewer drives a line, or shows short \
+                         enough to store"
+                    ));
+                    return;
+                }
+            }
+        }
         // A streamed show: every drive paused (`PS`), its buffer filled, the rest sent
         // as it plays (HCR p. 206, 53).
         self.streams = (0..self.config.units.len())

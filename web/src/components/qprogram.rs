@@ -1,8 +1,10 @@
 //! One ball's Q program for MOONS' drives, under the controller files: pick a ball,
-//! see the program the bridge compiles for it from the selected show (its listing,
-//! its segments and lines and the largest deviation from the show), and save it to
-//! the device as a `.q` file — what an installer loads with MOONS' Q Programmer when
-//! the drives do not take the bridge's upload.
+//! see exactly the lines Start sends its drive for the selected show (the listing:
+//! one segment loaded into the drive's queue, several stored in its segments, or a
+//! show too long to store streamed into its command buffer; the segments and lines,
+//! and the largest deviation from the show), and save it to the device as a `.q`
+//! file — what an installer loads with MOONS' Q Programmer when Start is not to load
+//! the drives (`programs = "stored"`).
 //!
 //! Shown on installations with MOONS' drives only; the ball number is the CSV's
 //! `uN` (row-major, from 0).

@@ -831,3 +831,40 @@ fn a_streamed_show_keeps_every_buffer_topped_up_and_follows_the_show() {
     );
     assert_eq!(rig.sequencer.drive().flash_writes(), [0, 0, 0]);
 }
+
+#[test]
+fn a_line_too_slow_for_its_streams_is_refused_before_anything_is_sent() {
+    // Three drives streaming on one RS-485 line at 9600 baud: it carries one.
+    let live = SclLiveConfig {
+        lines: vec![SclLine::Rs485 { baud: 9_600 }],
+        max_speed_mm_s: 2_000.0,
+        layout: Layout {
+            rows: 1,
+            cols: 3,
+            pitch_mm: 500.0,
+        },
+    };
+    let mut drive = SclDrive::new(config(None)).with_live(live);
+    let config = drive.config().clone();
+    let settings = QProgramConfig {
+        counts_per_mm: COUNTS_PER_MM,
+        start: None,
+        tolerance_mm: 20.0,
+        ..QProgramConfig::default()
+    };
+    let programs: Vec<_> = show()
+        .tracks
+        .iter()
+        .map(|track| crate::scl::qprogram::compile_streamed(track, &settings).unwrap())
+        .collect();
+    let mut entry = SclEntry::new(&config, [0.0; 3], Some(programs), 1_000);
+    drive.begin_play(0, &mut entry, true);
+    let Phase::Failed(why) = drive.poll(0, None) else {
+        panic!("not refused");
+    };
+    assert!(
+        why.starts_with("SCL gateway 0 would stream the show to 3 drives; its line carries 1"),
+        "{why}"
+    );
+    assert!(drive.take_asks().is_empty());
+}

@@ -174,7 +174,7 @@ pub struct Reduction {
     pub at_ms: u64,
 }
 
-pub use stream::{Streaming, compile_for_drive, compile_streamed};
+pub use stream::{STREAM_STEP_S, Streaming, compile_for_drive, compile_streamed};
 
 /// A compiled program: its segments in order (segment 1 the main program), where each
 /// move ends, and the report.

@@ -16,6 +16,9 @@ use super::{QProgram, QProgramConfig, QProgramError, Writer, check, keyframes, t
 use crate::scl::units;
 use crate::show::Track;
 
+/// The step of a streamed jog, s: the shortest a stored program may have.
+pub const STREAM_STEP_S: f64 = MIN_STEP_S;
+
 /// When a ball's show is streamed rather than stored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Streaming {
