@@ -38,6 +38,7 @@ fn main() {
     let mut amplitude_mm = None;
     let mut from_rest = false;
     let mut stream = false;
+    let mut from_s = None;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut pairs = args.chunks(2);
     while let Some([flag, value]) = pairs.next() {
@@ -54,6 +55,7 @@ fn main() {
             "--amplitude-mm" => amplitude_mm = Some(number),
             "--from-rest" => from_rest = number != 0.0,
             "--stream" => stream = number != 0.0,
+            "--from-s" => from_s = Some(number),
             _ => return eprintln!("unknown option {flag}"),
         }
     }
@@ -92,7 +94,7 @@ fn main() {
             start: None,
             ..config
         };
-        return streamed(&show, &config, period_s);
+        return streamed(&show, &config, from_s.unwrap_or(period_s));
     }
     println!(
         "show: {rows} x {cols} balls, {} PVT rows of {row_ms} ms each ({:.1} min), wave period {period_s} s",
@@ -174,6 +176,7 @@ fn streamed(show: &floatball_shared::show::Show, config: &QProgramConfig, period
     let mut show_mm = vec![0.0_f32; show.tracks.len()];
     let (mut worst, mut worst_after, mut most_lines) = (0.0_f64, 0.0_f64, 0);
     let mut worst_overshoot = 0.0_f64;
+    let mut worst_after_at = (0, 0);
     for (ball, track) in show.tracks.iter().enumerate() {
         let started = Instant::now();
         let program = match compile_streamed(track, config) {
@@ -185,7 +188,7 @@ fn streamed(show: &floatball_shared::show::Show, config: &QProgramConfig, period
         };
         let compile_ms = started.elapsed().as_secs_f64() * 1000.0;
         let started = Instant::now();
-        let (all, after, overshoot) = play(
+        let (all, (after, after_at_ms), overshoot) = play(
             &program,
             track.start_mm,
             config,
@@ -198,6 +201,9 @@ fn streamed(show: &floatball_shared::show::Show, config: &QProgramConfig, period
         );
         let play_ms = started.elapsed().as_secs_f64() * 1000.0;
         worst = worst.max(all);
+        if after > worst_after {
+            worst_after_at = (ball, after_at_ms);
+        }
         worst_after = worst_after.max(after);
         worst_overshoot = worst_overshoot.max(overshoot);
         most_lines = most_lines.max(program.lines());
@@ -216,9 +222,11 @@ fn streamed(show: &floatball_shared::show::Show, config: &QProgramConfig, period
     }
     println!(
         "all {} balls streamed: at most {most_lines} lines a ball; on the twins the largest \
-         deviation {worst:.1} mm, {worst_after:.1} mm from the end of the first period to the last second; \
+         deviation {worst:.1} mm, {worst_after:.1} mm from the end of the first period to the last second (ball {}, at {} ms); \
          past the show's end (it stops dead) {worst_overshoot:.1} mm",
-        show.tracks.len()
+        show.tracks.len(),
+        worst_after_at.0,
+        worst_after_at.1
     );
 }
 
@@ -231,7 +239,7 @@ fn play(
     mut show_at: impl FnMut(f64) -> f64,
     period_s: f64,
     duration_ms: u64,
-) -> (f64, f64, f64) {
+) -> (f64, (f64, u64), f64) {
     let mut drive = Drive::new(DriveConfig::default());
     let say = |drive: &mut Drive, line: &str, now_us: u64| {
         let answer = drive.receive_line(line, now_us).unwrap_or_default();
@@ -255,6 +263,7 @@ fn play(
     }
     say(&mut drive, "CT", 0);
     let (mut all, mut after, mut overshoot) = (0.0_f64, 0.0_f64, 0.0_f64);
+    let mut after_at_ms = 0;
     let mut next_refill_us = 150_000;
     // The show, and a few seconds more for the last stop and feed.
     for step in 0..=(duration_ms / 10 + 500) {
@@ -283,9 +292,12 @@ fn play(
         // wave starts at speed and stops dead in its last row: no drive follows
         // either; the whole-show figure includes them).
         if now_us as f64 >= period_s * 1e6 && now_us + 1_000_000 <= duration_ms * 1_000 {
+            if off > after {
+                after_at_ms = now_us / 1_000;
+            }
             after = after.max(off);
         }
     }
     assert!(lines.peek().is_none(), "lines left at the show's end");
-    (all, after, overshoot)
+    (all, (after, after_at_ms), overshoot)
 }

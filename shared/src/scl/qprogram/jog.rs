@@ -31,6 +31,12 @@
 //! `FP` then takes the drive the fraction of a count (or few counts) left. Where the
 //! show rests, `WT`; a stretch too short for two steps is an `FP` from rest to rest.
 //!
+//! A **stream** ([`super::stream`]) glides: it does not stop at the show's turning
+//! points but turns the ball round with the sign of `J` (HCR p. 71: the sign is the
+//! direction), each step's velocity solved signed, from rest to the next rest; a
+//! stretch too fast to make in its time is made at the top speed, late, rather than
+//! refused (the report counts it).
+//!
 //! `JA` = `JL` is set once in segment 1, before any jog (HCR p. 150/155: not while
 //! jogging): 1.5 × the show's largest acceleration (within the installation's limit).
 //! The step is the shortest (a multiple of 10 ms, at least [`MIN_STEP_S`]) whose
@@ -160,11 +166,14 @@ impl Writer<'_> {
             .clamp(units::VELOCITY.min_steps, units::VELOCITY.max_steps);
         let max_speed = max_steps as f64 * units::VELOCITY.step * steps_per_rev;
         let target_s = target_ms as f64 / 1000.0;
-        let direction: f64 = if to_counts >= self.at_counts {
-            1.0
+        // A stream glides through its turning points (the sign of `J` turns the ball
+        // round, HCR p. 71): its first way is where the show goes first.
+        let first_way = if self.streamed {
+            self.show_counts(samples, self.now_s + plan.step_s) - self.at_counts as f64
         } else {
-            -1.0
+            (to_counts - self.at_counts) as f64
         };
+        let direction: f64 = if first_way >= 0.0 { 1.0 } else { -1.0 };
         let at_ms = target_ms;
         let out_of_range = |counts: i64| QProgramError::OutOfRange {
             at_ms,
@@ -182,14 +191,23 @@ impl Writer<'_> {
         while target_s - self.now_s >= 1.5 * step {
             let t_next = self.now_s + step;
             let want = self.show_counts(samples, t_next);
-            let speed = solve(max_speed, |speed| {
-                let (end, _) = Profile::run(x, v, direction * speed, rate, rate).at(step);
-                direction * (end - want)
-            });
+            let velocity = if self.streamed {
+                // Signed: where the ball is at the step's end rises with the velocity.
+                solve(2.0 * max_speed, |shifted| {
+                    let (end, _) = Profile::run(x, v, shifted - max_speed, rate, rate).at(step);
+                    end - want
+                }) - max_speed
+            } else {
+                direction
+                    * solve(max_speed, |speed| {
+                        let (end, _) = Profile::run(x, v, direction * speed, rate, rate).at(step);
+                        direction * (end - want)
+                    })
+            };
             (x, v) = self.jog_for(
                 (x, v),
                 &mut jogging,
-                direction * speed,
+                velocity,
                 step,
                 (rate, steps_per_rev, max_steps),
             );
@@ -197,6 +215,12 @@ impl Writer<'_> {
         // The last speed and the wait before `SJ`: the stop ends at `to_counts`, as
         // near `target_s` as the 10 ms of `WT` allow.
         let goal = to_counts as f64;
+        // (A glide comes to its end from either side.)
+        let direction = if self.streamed {
+            if goal >= x { 1.0 } else { -1.0 }
+        } else {
+            direction
+        };
         let left_s = (target_s - self.now_s).max(0.0);
         let mut best: Option<(f64, f64, f64)> = None; // (|late|, wait, speed)
         let waits = (left_s / units::WAIT.step).round() as i64;
@@ -362,9 +386,15 @@ impl Writer<'_> {
             let direction = (counts[index + 1] - counts[index]).signum();
             // The stretch: as far as the direction holds.
             let mut end = index + 1;
-            while end + 1 < candidates.len()
-                && (counts[end + 1] - counts[end]).signum() == direction
-            {
+            // A stream glides on through turning points, to the next rest.
+            let goes_on = |way: i64| {
+                if self.streamed && direction != 0 {
+                    way != 0
+                } else {
+                    way == direction
+                }
+            };
+            while end + 1 < candidates.len() && goes_on((counts[end + 1] - counts[end]).signum()) {
                 end += 1;
             }
             let target_ms = samples.times_ms[candidates[end]];
@@ -381,6 +411,18 @@ impl Writer<'_> {
                     let limits: Limits = self.limits;
                     let then_wait = match plan_step(distance, duration_s, &limits) {
                         Some(Step::Move { then_wait, .. }) => then_wait,
+                        _ if self.streamed => {
+                            // A stream plays on: the move at the top speed, late (the
+                            // report counts it), rather than no show at all.
+                            let speed = self.fix_speed();
+                            self.feed(counts[end], speed, target_ms)?;
+                            self.keyframes.push(Keyframe {
+                                time_ms: target_ms,
+                                position_mm: counts[end] as f64 / self.config.counts_per_mm,
+                            });
+                            index = end;
+                            continue;
+                        }
                         _ => {
                             return Err(QProgramError::TooFast {
                                 at_ms: target_ms,
