@@ -312,6 +312,16 @@ impl Model {
         }
     }
 
+    /// Whether its jog is under way at `at_us` (a `CJ` taken, and the stop before it
+    /// ended).
+    fn jogs_at(&self, at_us: u64) -> bool {
+        self.jogging
+            && self
+                .pieces
+                .last()
+                .is_none_or(|(start_us, _)| *start_us <= at_us)
+    }
+
     /// The drive said `counts` at `at_us`.
     fn read(&mut self, at_us: u64, counts: i64) {
         self.shift_counts = counts as f64 - self.raw(at_us).0;
@@ -844,6 +854,11 @@ impl SclDrive {
             let steps = low;
             let (list, replace) = commands(steps);
             if replace && steps == state.sent_steps {
+                continue;
+            }
+            // A `CS` is only for a jog under way (HCR p. 71; a drive refuses it, `?7`,
+            // while its `JS`/`CJ` still wait behind a stop): held back until then.
+            if replace && !model.jogs_at(arrives_us) {
                 continue;
             }
             state.mode = Mode::Jog(forward);
