@@ -35,8 +35,10 @@
 //!   whose request arrives late (the line's requests go one after the other) ramps a
 //!   little harder than the filter and catches up.
 //! - **The period** is what the line carries ([`SclDrive::live_period_us`]): on RS-485
-//!   one request at a time, each answered — every drive's `CS`, one `IP` and one
-//!   turn-round (`SJ DI CJ`) per period, each exchange with [`TURNAROUND_US`] more;
+//!   one request at a time, each answered — every drive's `CS`, one `IP` and room for
+//!   three more exchanges (a start from rest, `DI JS CJ`) per period, each exchange
+//!   with [`TURNAROUND_US`] more; a drive jogging turns round by the sign of its `CS`
+//!   (HCR p. 71), and a `CS` waits for the jog it changes;
 //!   over eSCL each drive has its own datagrams. At least [`LIVE_PERIOD_MIN_MS`]; a
 //!   line that needs more than [`LIVE_PERIOD_MAX_MS`] is refused
 //!   ([`StartError::LiveLineTooSlow`]). When the line is late, a speed not yet sent is

@@ -4,7 +4,9 @@
 //! This module owns:
 //! - [`Drive`] ([`drive`]): one drive — parameters (`DI VE AC DE EG MT`), immediate
 //!   and buffered commands from a host, the queue and the twelve stored segments
-//!   ([`program`]: `QW QU QL QS QX QE`, `QG QR QJ QC` up to five calls deep), trapezoid
+//!   ([`program`]: `QL QS QE QU QX`, `QG QR QJ QC` up to five calls deep), the
+//!   command buffer of 63 places (`BS PS CT`), jogs (`CJ`, the `J` register, `CS SJ
+//!   SM WM`), each command buffered or immediate as the HCR types it, trapezoid
 //!   moves with separate `AC`/`DE` (`FL FP FS`, [`profile`]), `WI WT`, outputs, inputs,
 //!   registers and their math, the condition code, `SK ST ME MD`, the status word and
 //!   the alarms; answers `%`, `*`, `?` and `XX=value`, after its address on RS-485.
@@ -20,11 +22,12 @@
 //! use floatball_shared::scl::twin::{Drive, DriveConfig};
 //!
 //! let mut drive = Drive::new(DriveConfig::default());
-//! // Store the seed's feed to length as segment 1, then run it.
-//! for line in ["QW1", "AC25", "DE25", "VE20", "DI80000", "FL", ""] {
+//! // Store the seed's feed to length as segment 1 (`QL`, its lines, `QS1`), run it.
+//! for line in ["QL", "AC25", "DE25", "VE20", "DI80000", "FL", "QS1"] {
 //!     drive.receive_line(line, 0);
 //! }
-//! assert_eq!(drive.receive_line("QX1", 0).as_deref(), Some("%\r"));
+//! // `QX` is buffered (HCR p. 220): answered `*`.
+//! assert_eq!(drive.receive_line("QX1", 0).as_deref(), Some("*\r"));
 //! drive.advance(10_000_000);
 //! assert_eq!(drive.position_counts(), 80_000.0);
 //! assert_eq!(drive.receive_line("IP", 10_000_000).as_deref(), Some("IP=80000\r"));
