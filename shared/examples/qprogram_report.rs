@@ -280,7 +280,15 @@ fn play(
         }
         drive.advance(now_us);
         let t_ms = (now_us as f64 / 1000.0).min(duration_ms as f64);
-        let off = (drive.position_counts() / config.counts_per_mm - show_at(t_ms)).abs();
+        let show_mm = show_at(t_ms);
+        let off = (drive.position_counts() / config.counts_per_mm - show_mm).abs();
+        if std::env::var_os("QPROGRAM_TRACE").is_some() && now_us <= 5_000_000 && step % 5 == 0 {
+            eprintln!(
+                "trace {t_ms:.0} ms: ball {:.1} mm, show {show_mm:.1} mm, {:.0} mm/s",
+                drive.position_counts() / config.counts_per_mm,
+                drive.velocity_counts_s() / config.counts_per_mm
+            );
+        }
         if now_us > duration_ms * 1_000 {
             // Past the show's end: a show that ends at speed is overshot while the
             // drive slows down (no drive stops dead).
