@@ -553,6 +553,16 @@ fn scl_gateways_and_their_settings() {
 #[test]
 fn scl_mistakes_are_named_with_their_place() {
     let wrong = |from: &str, to: &str| parse(&SCL.replacen(from, to, 1)).expect_err(to).to_string();
+    // `programs = "stream"`: every show streamed into the drives' command buffers.
+    let streamed =
+        parse(&SCL.replacen("programs = \"stored\"", "programs = \"stream\"", 1)).expect("stream");
+    let scl = streamed.scl().expect("scl");
+    assert_eq!(scl.programs, SclPrograms::Stream);
+    assert!(scl.programs.compiled());
+    assert_eq!(
+        scl.programs.streaming(),
+        floatball_shared::scl::qprogram::Streaming::Always
+    );
     assert_eq!(
         wrong("addresses = \"123\"", "addresses = \"12a\""),
         "data/floatball.toml line 12, column 16: gateway 1: 'a' is not a drive address; the \
@@ -575,7 +585,8 @@ fn scl_mistakes_are_named_with_their_place() {
     assert_eq!(
         wrong("programs = \"stored\"", "programs = \"flash\""),
         "data/floatball.toml line 6, column 12: programs = \"flash\" must be \"upload\" \
-         (Start writes the compiled programs) or \"stored\" (loaded with Q Programmer)"
+         (Start writes the compiled programs, streaming the shows too long to store), \
+         \"stream\" (Start streams every show) or \"stored\" (loaded with Q Programmer)"
     );
     assert_eq!(
         wrong("poll_ms = 100", "poll_ms = 5"),
