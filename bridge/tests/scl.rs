@@ -429,3 +429,42 @@ async fn stored_programs_are_started_without_an_upload() {
     );
     assert!(sent.iter().any(|line| line.text == "QX1"), "{sent:?}");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn streamed_drives_on_a_line_start_on_one_ct_without_an_address() {
+    // `programs = "stream"` on an RS-485 line: every drive paused and primed (`PS`,
+    // its first lines), then one `CT` without an address continues them all at once
+    // (HCR p. 72, 305); nothing is loaded into a queue or memory.
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::serial(dir.path(), "rs485", "123", 0, true);
+    let bridge = Process::start(&serial_config(&peer, "programs = \"stream\""));
+    let mut ws = operator(&bridge).await;
+    let started = Instant::now();
+    let states = play_to_end(&mut ws).await;
+    assert!(states.contains(&PlayerState::Playing), "{states:?}");
+    let ends: Vec<i64> = (0..3).map(|ball| (end_mm(ball) * 100.0) as i64).collect();
+    assert_eq!(peer.positions(), ends);
+    let sent: Vec<String> = peer
+        .since(started)
+        .into_iter()
+        .map(|line| line.text)
+        .collect();
+    assert_eq!(
+        sent.iter().filter(|line| *line == "CT").count(),
+        1,
+        "{sent:?}"
+    );
+    for address in ["1", "2", "3"] {
+        assert!(sent.contains(&format!("{address}PS")), "{sent:?}");
+        assert!(!sent.contains(&format!("{address}CT")), "{sent:?}");
+        assert!(
+            !sent
+                .iter()
+                .any(|line| line.starts_with(&format!("{address}Q"))),
+            "{sent:?}"
+        );
+    }
+    let ct = sent.iter().position(|line| line == "CT").unwrap();
+    let last_ps = sent.iter().rposition(|line| line.ends_with("PS")).unwrap();
+    assert!(last_ps < ct);
+}

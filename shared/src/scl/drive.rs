@@ -96,6 +96,10 @@ pub enum Expect {
     One,
     /// `QU`: `%`, then a header `QU{n+1}` and `n` lines (or `?` alone).
     Upload,
+    /// A **global** line: sent without an address, so every drive on the RS-485 line
+    /// takes it, and none answers (HCR p. 305) — the one `CT` that starts every
+    /// streaming drive of a line at once. The request is done when it is written.
+    Global,
 }
 
 impl Expect {
@@ -341,6 +345,9 @@ enum Action {
     /// The show's time 0 is when the request answered last on this lane reached its
     /// drive (the first `QX1`, the trigger's edge).
     Started,
+    /// A global line to every drive of gateway entry `gateway` (its RS-485 line):
+    /// [`Expect::Global`].
+    Global { gateway: usize, command: Command },
     /// A unit's programs are written.
     Loaded,
     /// The end of a round of top-ups on a line: another round after
@@ -776,6 +783,27 @@ impl SclDrive {
                                     .map(ToString::to_string)
                                     .unwrap_or_default(),
                                 expect: command.as_ref().map_or(Expect::One, Expect::of),
+                            });
+                            lane.waiting = Some((id, action));
+                        }
+                        Action::Global { gateway, command } => {
+                            let Some(drive) = self
+                                .config
+                                .units
+                                .iter()
+                                .find(|slot| slot.gateway == *gateway)
+                                .map(|slot| slot.drive)
+                            else {
+                                continue;
+                            };
+                            let id = self.next_id;
+                            self.next_id += 1;
+                            self.asks.push(SclAsk {
+                                id,
+                                gateway: *gateway,
+                                drive,
+                                text: command.to_string(),
+                                expect: Expect::Global,
                             });
                             lane.waiting = Some((id, action));
                         }
@@ -1248,8 +1276,30 @@ impl Drive for SclDrive {
                 stages.push(load);
                 // Each line's first drive starts when its start is through: the
                 // earliest is the show's time 0 (the others follow one request each).
-                let mut fire = self.by_line(|unit| vec![start(unit)]);
-                for lane in &mut fire {
+                // The streaming drives of an RS-485 line start together, on one `CT`
+                // without an address (HCR p. 72, 305).
+                let rs485 = |gateway: usize| {
+                    self.live_config.as_ref().is_some_and(|live| {
+                        matches!(live.lines.get(gateway), Some(SclLine::Rs485 { .. }))
+                    })
+                };
+                let mut fire = self.by_line(|unit| {
+                    let gateway = self.config.units[unit].gateway;
+                    if streamed(unit) && rs485(gateway) {
+                        Vec::new()
+                    } else {
+                        vec![start(unit)]
+                    }
+                });
+                for (gateway, lane) in fire.iter_mut().enumerate() {
+                    let streams = (0..self.config.units.len())
+                        .any(|unit| streamed(unit) && self.config.units[unit].gateway == gateway);
+                    if streams && rs485(gateway) {
+                        lane.actions.push_front(Action::Global {
+                            gateway,
+                            command: Command::Continue,
+                        });
+                    }
                     if !lane.actions.is_empty() {
                         lane.actions.insert(1, Action::Started);
                     }

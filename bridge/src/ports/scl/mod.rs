@@ -632,6 +632,7 @@ impl InFlight {
     fn complete(&self) -> bool {
         match self.job.expect {
             Expect::One => !self.lines.is_empty(),
+            Expect::Global => true,
             Expect::Upload => match self.lines.as_slice() {
                 [] => false,
                 [first, rest @ ..] => {
@@ -936,7 +937,22 @@ impl<'a> Owner<'a> {
             let Some(transport) = self.transport.as_mut() else {
                 return;
             };
-            if let Err(err) = transport.send(self.shared, job.drive, &job.text) {
+            let global = job.expect == Expect::Global;
+            if global && transport.per_drive() {
+                // eSCL has no line every drive hears: one datagram a drive.
+                finish(
+                    self.shared,
+                    job,
+                    Err(SclError::Gone(
+                        "a line without an address needs an RS-485 line".to_owned(),
+                    )),
+                );
+                continue;
+            }
+            // A global line goes without an address (no drive has the index `MAX`):
+            // every drive on the line takes it, none answers (HCR p. 305).
+            let to = if global { usize::MAX } else { job.drive };
+            if let Err(err) = transport.send(self.shared, to, &job.text) {
                 finish(self.shared, job, Err(SclError::Down(err.to_string())));
                 self.lose(format!("write failed: {err}"));
                 return;
@@ -954,9 +970,17 @@ impl<'a> Owner<'a> {
                         .shared
                         .line_time(job.text.len() + 1 + usize::from(address)),
             );
+            if global {
+                // Nobody answers: done when it is through the line.
+                let mut done = job;
+                done.delivered = Some(Instant::now() + self.shared.line_time(done.text.len() + 1));
+                finish(self.shared, done, Ok(Vec::new()));
+                continue;
+            }
             let answer_bytes = match job.expect {
                 Expect::One => ANSWER_BYTES,
                 Expect::Upload => ANSWER_BYTES * 64,
+                Expect::Global => 0,
             };
             let timeout =
                 ANSWER_TIMEOUT + self.shared.line_time(job.text.len() + 2 + answer_bytes) * 2;
