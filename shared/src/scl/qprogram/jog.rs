@@ -33,7 +33,9 @@
 //!
 //! A **stream** ([`super::stream`]) glides: it does not stop at the show's turning
 //! points but turns the ball round with the sign of `J` (HCR p. 71: the sign is the
-//! direction), each step's velocity solved signed, from rest to the next rest; a
+//! direction), each step's velocity solved signed — aimed at where the show is two
+//! steps on and held for both, so that catching up does not overshoot — from rest
+//! to the next rest; a
 //! stretch too fast to make in its time is made at the top speed, late, rather than
 //! refused (the report counts it).
 //!
@@ -83,6 +85,9 @@ pub(super) fn accel(samples: &Samples, config: &QProgramConfig) -> Option<Decima
         .clamp(units::ACCELERATION.min_steps, units::ACCELERATION.max_steps);
     units::ACCELERATION.write(steps)
 }
+
+/// How many steps on a stream aims each step's velocity.
+const STREAM_HORIZON_STEPS: f64 = 2.0;
 
 /// The jog velocity's register (HCR p. 64).
 const JOG_REGISTER: char = 'J';
@@ -192,10 +197,15 @@ impl Writer<'_> {
             let t_next = self.now_s + step;
             let want = self.show_counts(samples, t_next);
             let velocity = if self.streamed {
-                // Signed: where the ball is at the step's end rises with the velocity.
+                // Signed: where the ball is rises with the velocity. Aimed at the
+                // show some steps on, held for them, so that catching up does not
+                // overshoot (the next step aims again).
+                let horizon_s = STREAM_HORIZON_STEPS * step;
+                let ahead = self.show_counts(samples, self.now_s + horizon_s);
                 solve(2.0 * max_speed, |shifted| {
-                    let (end, _) = Profile::run(x, v, shifted - max_speed, rate, rate).at(step);
-                    end - want
+                    let (end, _) =
+                        Profile::run(x, v, shifted - max_speed, rate, rate).at(horizon_s);
+                    end - ahead
                 }) - max_speed
             } else {
                 direction

@@ -860,7 +860,7 @@ fn a_stream_glides_through_the_turning_points_of_a_fast_wave() {
     // Issue 46, item 5: the demo wave every 3 s (it starts at 1047 mm/s at most,
     // which no drive follows from rest) streamed: jogged every 50 ms, turned round by
     // the sign of `J`, never stopped at a turning point; played on a twin fed the way
-    // the bridge feeds it, within 5 mm once it has caught up (from 4 s on).
+    // the bridge feeds it, within 5 mm from the end of its first period on.
     let show = Wave {
         period_s: 3.0,
         ..Wave::new(1, 2, 100, 200)
@@ -920,7 +920,7 @@ fn a_stream_glides_through_the_turning_points_of_a_fast_wave() {
                 }
             }
             drive.advance(now_us);
-            if t_ms >= 4_000 && t_ms + 1_000 <= track.duration_ms() {
+            if t_ms >= 3_000 && t_ms + 1_000 <= track.duration_ms() {
                 let off = (drive.position_counts() / config.counts_per_mm - show_mm).abs();
                 worst = worst.max(off);
             }
