@@ -258,6 +258,38 @@ async fn escl_drives_play_to_the_end_and_each_gets_the_stop() {
     };
     assert_eq!(reply.text, "IP = 1000");
     assert_eq!(reply.drive, peer.sockets[1].to_string());
+    // The twin refuses what the Host Command Reference refuses, through the console
+    // (whose parser already refuses `QW`, no MOONS' command): `CS` while not jogging
+    // cannot be carried out (`?7`, HCR p. 71, 304), a 63rd line of the queue is full
+    // (`?6`), and an immediate command while `QL` loads is carried out, not stored.
+    for (line, text) in [
+        ("1CS1", "refused (code 7)"),
+        ("1QL", "executed"),
+        ("1IP", "IP = 1000"),
+    ] {
+        let message = format!(r#"{{"type":"raw","line":"{line}","gateway":0}}"#);
+        send_text(&mut ws, &message).await;
+        let ServerMessage::SclReply(reply) = next_reply(&mut ws).await else {
+            panic!("an scl_reply");
+        };
+        assert_eq!(reply.text, text, "{line}");
+    }
+    for _ in 0..62 {
+        send_text(&mut ws, r#"{"type":"raw","line":"1WT0.01","gateway":0}"#).await;
+        let ServerMessage::SclReply(reply) = next_reply(&mut ws).await else {
+            panic!("an scl_reply");
+        };
+        assert_eq!(reply.text, "buffered");
+    }
+    send_text(&mut ws, r#"{"type":"raw","line":"1WT0.01","gateway":0}"#).await;
+    let ServerMessage::SclReply(reply) = next_reply(&mut ws).await else {
+        panic!("an scl_reply");
+    };
+    assert_eq!(reply.text, "refused (code 6)");
+    assert!(peer.with_drive(1, |drive| drive.queue().len() == 62 && drive.is_loading()));
+    // `SK` ends the load (the e-stop below presses it anyway).
+    send_text(&mut ws, r#"{"type":"raw","line":"1SK","gateway":0}"#).await;
+    let _ = next_reply(&mut ws).await;
 
     let (lines, seen) = press(&mut ws, &peer).await;
     for drive in 0..3 {
