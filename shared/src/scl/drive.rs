@@ -626,6 +626,27 @@ impl SclDrive {
             }
             self.flash_writes[*unit] += 1;
         }
+        // Live: a speed that came before its jog began is asked again next period.
+        let early = matches!(command, Some(Command::ChangeSpeed { .. }))
+            && matches!(
+                answer
+                    .as_ref()
+                    .ok()
+                    .and_then(|lines| lines.first())
+                    .map(|line| Reply::parse(line)),
+                Some(Ok(Reply {
+                    answer: Answer::Refused {
+                        code: Some(live::CS_NOT_JOGGING)
+                    },
+                    ..
+                }))
+            );
+        if early
+            && let Some(live) = self.live.as_mut()
+            && !live.early_speed(*unit)
+        {
+            return self.after_answer(now_us);
+        }
         match judge(&name, command.as_ref(), check, answer, limit_ms) {
             Verdict::Ok => {
                 if let Some(live) = self.live.as_mut() {

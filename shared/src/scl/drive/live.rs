@@ -115,6 +115,13 @@ pub const FOLLOW_ACCEL_SHARE: f64 = 0.8;
 /// The share of a line the period counts on (as the planner's).
 const LINE_SHARE: f64 = crate::uim2503::schedule::LINE_UTILISATION;
 
+/// The refusal of a `CS` while not jogging (HCR p. 304: `?7`, cannot process).
+pub const CS_NOT_JOGGING: u16 = 7;
+
+/// `CS`s a drive may refuse in a row (`?7`) while its jog has not begun, before live
+/// mode stops naming it.
+pub const EARLY_SPEEDS_MAX: u32 = 50;
+
 /// How a gateway entry reaches its drives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SclLine {
@@ -167,6 +174,8 @@ pub(in crate::scl) struct LiveUnit {
     /// The count it was last fed to at rest ([`REST_TOLERANCE_COUNTS`]), until it jogs
     /// again.
     fed: Option<i32>,
+    /// Its `CS`s refused in a row because its jog had not begun yet (`?7`).
+    early_speeds: u32,
 }
 
 /// `state` as the drives jog it: squeezed into the travel less [`END_MARGIN_MM`] at
@@ -222,10 +231,14 @@ pub(in crate::scl) struct Model {
     rate_counts_s2: f64,
     /// The last `IP` minus the model there, counts.
     shift_counts: f64,
+    /// `DI`'s value: where an `FP` goes, counts.
+    di_counts: f64,
+    /// The feeds' `VE` as held, counts/s (an `FP` to the exact count at rest).
+    feed_counts_s: f64,
 }
 
 impl Model {
-    fn at_rest(counts: f64, at_us: u64, rate_counts_s2: f64) -> Self {
+    fn at_rest(counts: f64, at_us: u64, rate_counts_s2: f64, feed_counts_s: f64) -> Self {
         Self {
             pieces: vec![(at_us, Profile::stop(counts, 0.0, rate_counts_s2))],
             jogging: false,
@@ -234,6 +247,8 @@ impl Model {
             jog_counts_s: 0.0,
             rate_counts_s2,
             shift_counts: 0.0,
+            di_counts: counts,
+            feed_counts_s,
         }
     }
 
@@ -272,7 +287,17 @@ impl Model {
         };
         let rate = self.rate_counts_s2;
         match *command {
-            Command::Distance { counts: Some(c) } => self.forward = c >= 0,
+            Command::Distance { counts: Some(c) } => {
+                self.forward = c >= 0;
+                self.di_counts = f64::from(c);
+            }
+            Command::FeedToPosition if !self.jogging => {
+                // The feed to the exact count at rest: a jog after it starts when it
+                // ends (a `CJ` waits for the move before it).
+                let (x, v) = self.raw(at_us);
+                let feed = Profile::to_rest(x, v, self.di_counts, self.feed_counts_s, rate, rate);
+                self.push(at_us, feed);
+            }
             Command::JogSpeed { rev_s } => {
                 if let Some(v) = held(rev_s) {
                     self.jog_counts_s = v;
@@ -373,8 +398,24 @@ impl LiveRun {
     /// `command` reached unit `unit`'s drive at `at_us`.
     pub(super) fn took(&mut self, unit: usize, command: &Command, at_us: u64, per_rev: f64) {
         if let Some(state) = self.units.get_mut(unit) {
+            if matches!(command, Command::ChangeSpeed { .. }) {
+                state.early_speeds = 0;
+            }
             state.model.take(command, at_us, per_rev);
         }
+    }
+
+    /// Unit `unit`'s drive refused a `CS` because its jog had not begun (`?7`: its
+    /// `JS`/`CJ` still wait behind the move before them — HCR p. 71 takes a `CS` only
+    /// while jogging). The speed is asked again next period; whether that has
+    /// happened [`EARLY_SPEEDS_MAX`] times in a row (then it is a fault).
+    pub(super) fn early_speed(&mut self, unit: usize) -> bool {
+        let Some(state) = self.units.get_mut(unit) else {
+            return true;
+        };
+        state.early_speeds += 1;
+        state.sent_steps = 0;
+        state.early_speeds > EARLY_SPEEDS_MAX
     }
 }
 
@@ -574,6 +615,9 @@ impl SclDrive {
         let mm_per_rev = f64::from(self.config.steps_per_rev) / self.config.counts_per_mm;
         let (speed, accel) = self.held_limits().unwrap_or((0.0, 0.0));
         let rates = accel * self.config.counts_per_mm;
+        let (feed_velocity, _) = self.feed_ramps();
+        let feed_counts_s = units::VELOCITY.held(feed_velocity).unwrap_or(0.0)
+            * f64::from(self.config.steps_per_rev);
         let units = lane_of
             .iter()
             .enumerate()
@@ -593,10 +637,12 @@ impl SclDrive {
                         f64::from(self.config.counts(state.position_mm)),
                         now_us,
                         rates,
+                        feed_counts_s,
                     ),
                     lane,
                     exchange_s: leads.get(unit).copied().unwrap_or(0.0),
                     fed: None,
+                    early_speeds: 0,
                 }
             })
             .collect();
