@@ -1,4 +1,4 @@
-//! Atomic, durable file writes (DESIGN §5): a crash or a power cut leaves either the
+//! Atomic, durable file writes (`docs/architecture.md` §5): a crash or a power cut leaves either the
 //! old file or the new one, never half of one.
 //!
 //! The bytes go to a temporary file in the same directory (its name starts with `.` and

@@ -1,4 +1,4 @@
-//! The WebSocket endpoint `/ws?token=…` (DESIGN §4): status and feedback out, control
+//! The WebSocket endpoint `/ws?token=…` (`docs/architecture.md` §4): status and feedback out, control
 //! and console lines in.
 //!
 //! Before the upgrade: a browser's cross-site `Origin` is refused (403) — allowed are

@@ -1,4 +1,4 @@
-//! The JSON messages of the HTTP and WebSocket API (DESIGN §4): the contract between
+//! The JSON messages of the HTTP and WebSocket API (`docs/architecture.md` §4): the contract between
 //! the bridge and its clients.
 //!
 //! The bridge serialises these and the web app deserialises them (and the other way
@@ -1139,7 +1139,7 @@ pub struct UnitHealth {
     pub faults: Vec<UnitFault>,
 }
 
-/// The last error a unit reported: an `ER` frame (PROTOCOL §1.4), as
+/// The last error a unit reported: an `ER` frame (`docs/protocol-notes.md` §2), as
 /// [`crate::uim2503::feedback::UnitError`] decodes it; the app says it in words through its
 /// code.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

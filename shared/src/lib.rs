@@ -6,7 +6,7 @@
 //! browser and in tests.
 //!
 //! # Layout
-//! - [`api`]: the JSON messages of the HTTP and WebSocket API (DESIGN §4), shared by the
+//! - [`api`]: the JSON messages of the HTTP and WebSocket API (`docs/architecture.md` §4), shared by the
 //!   bridge and the app so both sides agree on every field.
 //! - [`codes`]: the stable error codes (and their parameters) of every refusal,
 //!   validation problem and parse error, enumerable for the translation tests.

@@ -1,4 +1,4 @@
-//! The bridge's HTTP API (DESIGN §4) as typed calls over a [`Transport`].
+//! The bridge's HTTP API (`docs/architecture.md` §4) as typed calls over a [`Transport`].
 //!
 //! The client knows the contract: which path, which method, which body, and what
 //! each status code means ([`Failure`]). It does not know how bytes travel: the app

@@ -1,5 +1,5 @@
 //! The Control page's playlist editing as a plain type (the vendor app's
-//! "configuration", PROTOCOL §1.7): a [`Playlist`] plus one checkbox per entry. Move
+//! "configuration", `docs/uim2503.md` §4): a [`Playlist`] plus one checkbox per entry. Move
 //! up, move down, delete and edit act on the checked entries; add appends with the
 //! defaults. Start, E-stop and Reset ignore the checkboxes (they are socket messages,
 //! not edits).

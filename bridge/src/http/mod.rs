@@ -1,4 +1,4 @@
-//! The HTTP API under `/api` (DESIGN §4; `docs/api.md`).
+//! The HTTP API under `/api` (`docs/architecture.md` §4; `docs/api.md`).
 //!
 //! - [`session`]: login, logout, password change, and the extractors that let a
 //!   handler run only for a logged-in client ([`session::Session`]) or only once the

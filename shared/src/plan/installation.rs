@@ -1,4 +1,4 @@
-//! The machine a show runs on (DESIGN §2): the [`Installation`] — the matrix, its
+//! The machine a show runs on (`docs/architecture.md` §2): the [`Installation`] — the matrix, its
 //! limits and calibration, every gateway's line and kind of drive ([`GatewaySpec`],
 //! [`DriveKind`]) — and the one rule that gives every unit its gateway and station
 //! ([`allocate`]).
@@ -18,7 +18,7 @@ use crate::show::{Layout, Limits};
 /// The `port` of the built-in simulated gateway.
 pub const SIM_PORT: &str = "sim";
 
-/// The most units the manual allows on one UIM2503 gateway (PROTOCOL §1.1).
+/// The most units the manual allows on one UIM2503 gateway (`docs/uim2503.md` §1).
 pub const MAX_UNITS_PER_GATEWAY: usize = 100;
 
 /// The station numbers a unit may have on a bus (0 addresses every unit).

@@ -1,4 +1,4 @@
-//! The installation and what every family's plan is judged by (DESIGN §4–5):
+//! The installation and what every family's plan is judged by (`docs/architecture.md` §4–5):
 //!
 //! - [`installation`]: the [`Installation`] (which unit hangs where, calibration, lines,
 //!   kinds of drive) and the one rule that gives every unit its gateway and station;

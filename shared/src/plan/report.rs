@@ -17,7 +17,7 @@ use crate::show::Show;
 use crate::uim2503::plan::{Plan, PlanError, PlanOptions, RunMode};
 use crate::uim2503::schedule::{self, Simulation};
 
-/// The baud rates a UIM2503 can be set to (`BDR=x;`, PROTOCOL §1.2), ascending.
+/// The baud rates a UIM2503 can be set to (`BDR=x;`, `docs/uim2503.md` §2), ascending.
 pub const GATEWAY_BAUDS: [u32; 5] = [9600, 19_200, 38_400, 57_600, 115_200];
 
 /// The report for `show` on `installation`. An invalid show gets a report saying so.

@@ -1,5 +1,5 @@
 //! The show sequencer: one state machine for the playlist on every drive family
-//! (DESIGN §1, §4–5). It owns everything that is not a family's own — the entries,
+//! (`docs/architecture.md` §1, §4–5). It owns everything that is not a family's own — the entries,
 //! their delays and cycles, the loop, the approach before each show, the order of
 //! load and play, what an e-stop voids, Reset, Home, "home first when the balls'
 //! positions are unknown" (at start-up, after an e-stop or an error), the progress and

@@ -1,5 +1,5 @@
 //! CSV keyframe import: what 3D tools (3ds Max, Blender, TouchDesigner) export, turned
-//! into a [`Show`] of PVT rows (DESIGN §3).
+//! into a [`Show`] of PVT rows (`docs/architecture.md` §3).
 //!
 //! The file:
 //! ```text

@@ -1,5 +1,5 @@
 //! The velocities at CSV keyframes: the curve a ball follows between the keyframes a 3D
-//! tool exported (DESIGN §3).
+//! tool exported (`docs/architecture.md` §3).
 //!
 //! Every gap between two keyframes is one Hermite cubic (a PVT row, split into rows of
 //! at most 255 ms on the same cubic), fixed by the two positions and the velocities at

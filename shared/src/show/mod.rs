@@ -1,5 +1,5 @@
 //! Shows: what every ball of a matrix does over time, independent of the hardware
-//! (DESIGN §3).
+//! (`docs/architecture.md` §3).
 //!
 //! A [`Show`] is a name, a [`Layout`] (rows × columns of balls) and one [`Track`] per
 //! ball in row-major order. Positions are in **mm below the top** (0 = top, the

@@ -1,4 +1,4 @@
-//! Validation of a show against an installation's physical limits (DESIGN §3): on
+//! Validation of a show against an installation's physical limits (`docs/architecture.md` §3): on
 //! upload, before start and in the preview.
 //!
 //! [`validate()`] returns every [`Violation`], each naming the ball, the time, the value

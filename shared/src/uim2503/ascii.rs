@@ -1,5 +1,5 @@
 //! The UIM2503 instruction language: the ASCII text a host sends the gateway (manual §6.1,
-//! §8; `PROTOCOL.md` §1.3, §1.5).
+//! §8; `docs/protocol-notes.md` §1).
 //!
 //! An instruction is at most [`MAX_LEN`] (20) characters including its final `;`, ASCII
 //! 1–127 only, in one of four shapes: `XX=v;`, `XX;`, `XX[i]=v;`, `XX[i];`. `XX` is a
@@ -587,7 +587,7 @@ const U32: Range = Range::new(0, u32::MAX as i128);
 const I64: Range = Range::new(i64::MIN as i128, i64::MAX as i128);
 /// `SN[X]=s/n` and any hexadecimal operand.
 const U64: Range = Range::new(0, u64::MAX as i128);
-/// `BDR=x`: 9600–115200 baud (`PROTOCOL.md` §1.2).
+/// `BDR=x`: 9600–115200 baud (`docs/uim2503.md` §2, `docs/protocol-notes.md` §3).
 const BAUD: Range = Range::new(gateway::MIN_BAUD as i128, gateway::MAX_BAUD as i128);
 
 /// Whether the mnemonic may be written with an index (`None` of these take one).

@@ -1,5 +1,5 @@
 //! The binary feedback frames the gateway sends the host (manual §6.2–6.3, §8 "ACK";
-//! `PROTOCOL.md` §1.4–1.5).
+//! `docs/protocol-notes.md` §2).
 //!
 //! `[0xFy header] [station] [code] [data 0] … [data n] [0xEy tail]`: 4–12 bytes, at most
 //! 8 data bytes. Only the header has high nibble F and only the tail has E; every other

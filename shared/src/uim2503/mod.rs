@@ -1,5 +1,5 @@
 //! UIM2503 RS232→CAN gateways with UFQ750 units: everything of this family in one
-//! place (PROTOCOL §1).
+//! place (`docs/uim2503.md`).
 //!
 //! - [`ascii`]: the gateway's ASCII instruction codec (batches, the compact form);
 //! - [`feedback`]: the units' feedback frames (acknowledgements, errors, notices);

@@ -1,4 +1,4 @@
-//! The UIM2503 planner (PROTOCOL §1.6, DESIGN §4–5): from a show and an
+//! The UIM2503 planner (`docs/uim2503.md` §3, `docs/architecture.md` §4–5): from a show and an
 //! installation to every unit's rows in counts and how each gateway runs them (the
 //! [`Plan`]); the instruction stream and its refill schedule are [`super::stream`]
 //! and [`super::schedule`].

@@ -1,6 +1,6 @@
 //! The Control and Settings pages: the playlist with its checkboxes and icons (add,
 //! move up, move down, delete, edit), Start / E-stop / Reset / Home, the bandwidth
-//! verdict and the live status (PROTOCOL §1.7).
+//! verdict and the live status (`docs/uim2503.md` §4).
 //!
 //! With many gateways (a status that summarises them, [`crate::status::summarised`])
 //! the status shows how many are up, the lowest buffer and where, and the gateways

@@ -1,5 +1,5 @@
 //! The Files page: local files (in the browser) and controller files, with Upload,
-//! Download, Preview, Save to device and Delete (PROTOCOL §1.7); on installations of
+//! Download, Preview, Save to device and Delete (`docs/uim2503.md` §4); on installations of
 //! MOONS' drives, each ball's Q program ([`super::qprogram`]).
 
 use std::rc::Rc;

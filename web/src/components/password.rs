@@ -1,6 +1,6 @@
 //! The password form: the forced change of the factory password right after the
 //! first login (on the Login page), and the change from Settings at any time later
-//! (`POST /api/password`, PROTOCOL §1.7). Both confirm a change with a toast.
+//! (`POST /api/password`, `docs/uim2503.md` §4). Both confirm a change with a toast.
 
 use floatball_shared::codes::Code;
 use leptos::prelude::*;

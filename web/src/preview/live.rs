@@ -2,7 +2,7 @@
 //! preview shows the machine's show time.
 //!
 //! The bridge reports `show_time_ms` in its status at most ten times a second
-//! (DESIGN §4); between two reports the time runs on from the last one by the local
+//! (`docs/architecture.md` §4); between two reports the time runs on from the last one by the local
 //! clock, so the animation stays smooth. A report a little behind what is already on
 //! screen (the messages' own delay varies) holds the picture rather than jumping back;
 //! if reports stop coming, the time stops a second after the last.

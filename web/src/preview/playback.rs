@@ -1,5 +1,5 @@
 //! The preview's transport controls as a plain type: the vendor app's restart, step
-//! back, pause / play and step forward (PROTOCOL §1.7), plus a time slider and the
+//! back, pause / play and step forward (`docs/uim2503.md` §4), plus a time slider and the
 //! playback speed.
 
 /// How far one step back or forward moves, ms.

@@ -1,7 +1,7 @@
 //! Where things are in the 3D view: the ceiling grid, each ball on its cable, the
 //! floor reference; which ball a tap hits; and how a ball is lit.
 //!
-//! A ball's position is the length of its cable, mm below the grid (DESIGN §3): ball
+//! A ball's position is the length of its cable, mm below the grid (`docs/architecture.md` §3): ball
 //! `unit` (row-major) hangs from its anchor in the grid, at `position_mm` below it,
 //! with the ball just under the cable's end. The floor reference is the plane the
 //! balls' bottoms reach at the end of travel. Metres in the world, as in

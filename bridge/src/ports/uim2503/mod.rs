@@ -25,7 +25,7 @@
 //! comes back while the e-stop is latched, the stop is its first write.
 //!
 //! **Presence.** An open port is not a gateway: the writer greets the gateway (`ABC;`,
-//! `PROTOCOL.md` §1.2) as soon as the line opens and again whenever the line has been
+//! `docs/uim2503.md` §2, `docs/protocol-notes.md` §3) as soon as the line opens and again whenever the line has been
 //! idle for [`GREETING_INTERVAL`]. The link is `Up` only once the gateway has answered
 //! (`AA AB AC`, or any feedback frame); [`MISSED_GREETINGS`] greetings in a row left
 //! unanswered for [`ANSWER_TIMEOUT`] each make it `NotAnswering` (writes are refused,

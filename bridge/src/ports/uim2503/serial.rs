@@ -1,5 +1,5 @@
 //! Serial-port links through the `serialport` crate: 8 data bits, no parity, 1 stop bit,
-//! no flow control (PROTOCOL §1.2).
+//! no flow control (`docs/uim2503.md` §2).
 //!
 //! The port is opened, lost and opened again by the [`supervisor`](super::supervisor)
 //! (the same loop as a network link's); this module owns how a port is opened, read

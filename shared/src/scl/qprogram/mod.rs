@@ -531,6 +531,12 @@ fn compile_moves(
             program = jogged;
         }
     }
+    within_tolerance(program, config)
+}
+
+/// `program`, or [`QProgramError::TooFar`] when it strays from the show more than the
+/// tolerance.
+fn within_tolerance(program: QProgram, config: &QProgramConfig) -> Result<QProgram, QProgramError> {
     if program.report.max_deviation_mm > config.tolerance_mm {
         return Err(QProgramError::TooFar {
             deviation_mm: program.report.max_deviation_mm,

@@ -12,7 +12,9 @@
 
 use super::jog::{self, MIN_STEP_S};
 use super::reduce::Limits;
-use super::{QProgram, QProgramConfig, QProgramError, Writer, check, keyframes, to_counts};
+use super::{
+    QProgram, QProgramConfig, QProgramError, Writer, check, keyframes, to_counts, within_tolerance,
+};
 use crate::scl::units;
 use crate::show::Track;
 
@@ -80,14 +82,7 @@ pub fn compile_streamed(track: &Track, config: &QProgramConfig) -> Result<QProgr
             });
         }
     };
-    if program.report.max_deviation_mm > config.tolerance_mm {
-        return Err(QProgramError::TooFar {
-            deviation_mm: program.report.max_deviation_mm,
-            at_ms: program.report.at_ms,
-            tolerance_mm: config.tolerance_mm,
-        });
-    }
-    Ok(program)
+    within_tolerance(program, &config)
 }
 
 /// A ball's program for a drive: stored when it fits within the tolerance, else

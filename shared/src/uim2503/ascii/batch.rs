@@ -1,7 +1,7 @@
 //! [`Batch`]: encoded instructions on their way to a gateway.
 //!
 //! A batch can only be built by encoding typed [`Instruction`]s, so nothing reaches a
-//! serial line that the codec has not validated (DESIGN §5), and the link knows where
+//! serial line that the codec has not validated (`docs/architecture.md` §5), and the link knows where
 //! every instruction ends: it writes one instruction at a time so an e-stop never waits
 //! behind more than one.
 

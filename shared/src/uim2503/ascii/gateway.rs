@@ -1,4 +1,4 @@
-//! The gateway's own three-letter commands (`PROTOCOL.md` §1.2), which it acts on
+//! The gateway's own three-letter commands (`docs/uim2503.md` §2, `docs/protocol-notes.md` §3), which it acts on
 //! itself instead of passing them to the units, and the greeting's answer.
 //!
 //! - `ABC;`, the greeting (hand-shake, presence check): the gateway answers with bytes

@@ -6,7 +6,7 @@
 //! the sequence range or the watermark; not the motor on) and the preload rows, in
 //! rounds as the line drains — and nothing else: no `MO=1`, no `PA`, no `PV=n`, no
 //! `BG`, so nothing moves. The manual's own sequences write the rows before the
-//! approach (PROTOCOL §1.6): a point-to-point move leaves the table as it is.
+//! approach (`docs/uim2503.md` §3): a point-to-point move leaves the table as it is.
 //!
 //! Right after live mode the units still run the FIFO's last rows, and a unit
 //! refuses a table mode (`MP[3]`) while it runs rows — silently, for the broadcast

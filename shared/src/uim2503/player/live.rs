@@ -45,8 +45,8 @@
 //!   the units stop where the rows end. Their positions are then **read back**
 //!   ([`AfterLive`]): a unit whose FIFO ran dry before (the bridge fell more than the
 //!   FIFO's rows behind, e.g. under heavy load) braked with `SD` and stands where it
-//!   stopped, not where the rows end (PROTOCOL.md §1.6: "when rows run out, stop with
-//!   SD"; the rows written after that are never run). Until every unit answered, the
+//!   stopped, not where the rows end (`docs/uim2503.md` §3: a FIFO whose rows run
+//!   out stops, with `SD`; the rows written after that are never run). Until every unit answered, the
 //!   positions are unknown (live mode or a show asked for meanwhile homes or asks,
 //!   and no new table is loaded under an old run still going): live mode again
 //!   starts its rows where each unit really is, not with a row the unit cannot
@@ -80,7 +80,7 @@ pub fn live_fifo_rows(row_ms: u8) -> usize {
 
 /// Rows between two questions of each gateway's water level (`PV;` to its first
 /// unit) while live: a unit whose FIFO ran dry stopped and runs no row written after
-/// (PROTOCOL.md §1.6), so its level climbs past what is ever written ahead.
+/// (`docs/uim2503.md` §3), so its level climbs past what is ever written ahead.
 pub const LEVEL_CHECK_ROWS: usize = 16;
 
 /// Position questions after live mode before one counts as unanswered (the

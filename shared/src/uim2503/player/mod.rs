@@ -1,5 +1,5 @@
-//! The player: plays a playlist on the matrix as a sans-IO state machine (DESIGN §4–5,
-//! PROTOCOL §1.7). The bridge drives it with the time, the links' state and every
+//! The player: plays a playlist on the matrix as a sans-IO state machine (`docs/architecture.md` §4–5,
+//! `docs/uim2503.md` §4). The bridge drives it with the time, the links' state and every
 //! feedback frame, and carries out the [`Command`]s it returns.
 //!
 //! - **Start** plans every entry first and refuses an invalid or infeasible show before
@@ -469,7 +469,7 @@ impl Drive for Uim2503Drive {
 
     /// A locate: what was queued is dropped and the positions are unknown (the balls
     /// stop wherever the show had them); the next move's `PA=…;BG;` ends the PVT
-    /// motion on every unit ("another mode", PROTOCOL §1.6) and takes each ball on
+    /// motion on every unit ("another mode", `docs/uim2503.md` §3) and takes each ball on
     /// from where it is, asked for until it arrives.
     fn interrupt(&mut self, _now_us: u64) -> bool {
         self.stop();

@@ -1,4 +1,4 @@
-//! PVT (position–velocity–time) motion as the UFQ750 runs it (PROTOCOL §1.6, manual §7).
+//! PVT (position–velocity–time) motion as the UFQ750 runs it (`docs/uim2503.md` §3, manual §7).
 //!
 //! - a row is evaluated as a cubic Hermite segment ([`crate::motion::Segment`]), the
 //!   evaluation shared by the simulator, the planner, show validation and the preview;

@@ -13,7 +13,7 @@
 //!   something to do, so a caller can sleep until then.
 //! - [`Gateway::units`] shows every unit (station, serial, position, velocity, motor,
 //!   moving) for the bridge's `GET /api/sim/positions`.
-//! - The gateway's own commands (`PROTOCOL.md` §1.2): it answers the greeting `ABC;`
+//! - The gateway's own commands (`docs/uim2503.md` §2, `docs/protocol-notes.md` §3): it answers the greeting `ABC;`
 //!   with `AA AB AC`, and stores the line speed of `BDR=x;`, which
 //!   [`Gateway::restart`] (a power cycle) hands to its serial port ([`Uart`]); until
 //!   then the line keeps its speed.
