@@ -3,7 +3,7 @@
 //! status, its progress up to 1.0) and nothing moves; Start then needs only the
 //! approach; an e-stop or a console line disarms; a new playlist arms its first entry.
 
-mod common;
+use crate::common;
 
 use std::time::{Duration, Instant};
 

@@ -3,7 +3,7 @@
 //! pseudo-terminal gateway that stays silent after `BDR`, a playlist edit made while
 //! the change waits answers at once.
 
-mod common;
+use crate::common;
 
 use std::time::{Duration, Instant};
 

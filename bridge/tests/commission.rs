@@ -2,7 +2,7 @@
 //! factory-fresh units at 9600 baud is rolled call, given stations 1–100 in serial
 //! order, a unit is identified, and the stations survive a restart.
 
-mod common;
+use crate::common;
 
 use std::time::{Duration, Instant};
 

@@ -3,7 +3,7 @@
 //! speed changes only through the guided change that keeps the link in step), nothing
 //! of it reaches the line, and the link keeps working.
 
-mod common;
+use crate::common;
 
 use std::time::{Duration, Instant};
 

@@ -2,7 +2,7 @@
 //! the playlist, started over the WebSocket, played on the simulated matrix; the plan
 //! report; an infeasible show refused with its numbers.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -7,7 +7,7 @@
 //! `FLOATBALL_RACE_REPS` sets the repetitions of the whole set of offsets (default 2);
 //! `cargo xtask stress` runs it many times over.
 
-mod common;
+use crate::common;
 
 use std::time::{Duration, Instant};
 

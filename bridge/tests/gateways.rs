@@ -4,7 +4,7 @@
 //! The test's gateways answer the bridge's greeting (`ABC;` → `AA AB AC`, without which
 //! a link is not up) and keep the greetings out of the bytes the tests compare.
 
-mod common;
+use crate::common;
 
 use std::io::{Read, Write};
 use std::sync::Arc;

@@ -2,7 +2,7 @@
 //! server accepts, a recipe regenerates the same bytes, `--help` names every pattern
 //! and parameter, and clamped values are reported.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::{Command, Output};

@@ -3,7 +3,7 @@
 //! recipe and regenerates the same bytes, words scroll either way, and a file that is
 //! not a picture is refused in words.
 
-mod common;
+use crate::common;
 
 use std::io::Cursor;
 use std::path::Path;

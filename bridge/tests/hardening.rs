@@ -3,7 +3,7 @@
 //! browser-security headers, misleading show names and unbounded uploads are refused,
 //! and nothing an interrupted write left behind survives a restart.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -1,7 +1,7 @@
 //! The HTTP API over real sockets: every call's success and each of its errors, the
 //! login limit, token expiry, uploads cut off half-way, and a restart.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

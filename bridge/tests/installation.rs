@@ -4,7 +4,7 @@
 //! kept by a restart; refused while a show plays. And the patch of live input
 //! (`GET` / `PUT /api/live/patch`), written into the same file.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -84,7 +84,7 @@
 //! `LIVE_BENCH_CHANGES`, `LIVE_BENCH_UIM2503_CHANGES`, `LIVE_BENCH_MOONS_CHANGES`,
 //! `LIVE_BENCH_CPU_SECONDS`, `LIVE_BENCH_ERROR_SECONDS` size them.
 
-mod common;
+use crate::common;
 
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, AtomicU16, Ordering};

@@ -24,7 +24,7 @@
 //! limits (`--nocapture`); `cargo xtask live-bench` runs this with more cycles
 //! (`LIVE_LIMITS_CYCLES`) for the figures.
 
-mod common;
+use crate::common;
 
 use std::net::UdpSocket;
 use std::sync::Arc;

@@ -2,7 +2,7 @@
 //! memory stays bounded (each argon2id check needs 19 MiB; only a few run at once, in
 //! work areas that are reused).
 
-mod common;
+use crate::common;
 
 use std::net::{IpAddr, SocketAddr};
 use std::process::Stdio;

@@ -2,7 +2,7 @@
 //! --kind mbox` processes (whose final state is printed when they stop, and whose
 //! registers the test reads over UDP), and `port = "sim"` boxes in the bridge.
 
-mod common;
+use crate::common;
 
 use std::net::{SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};

@@ -9,7 +9,7 @@
 //! it prints: the bridge's CPU use, frames per second, how late the frames left
 //! (p50/p99/max, from `GET /api/mbox/timing`) and the late frames.
 
-mod common;
+use crate::common;
 
 use std::time::{Duration, Instant};
 

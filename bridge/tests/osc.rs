@@ -19,7 +19,7 @@
 //! passes — unless `FLOATBALL_REQUIRE_LIBLO=1` (`cargo xtask test` sets it, having
 //! installed `liblo-tools`), when their absence fails it.
 
-mod common;
+use crate::common;
 
 use std::io::{BufRead, BufReader};
 use std::net::UdpSocket;

@@ -5,7 +5,7 @@
 //! again. Home then brings every ball home with a status of its own (no show, no
 //! stale time) and the matrix stays idle.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

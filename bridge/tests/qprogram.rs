@@ -1,7 +1,7 @@
 //! `GET /api/qprogram/{show}?unit=N` over real sockets: a CSV show uploaded, one ball's
 //! Q program as JSON and as a download, and the 400/404/422 answers.
 
-mod common;
+use crate::common;
 
 use axum::http::{Method, StatusCode, header};
 use common::Bridge;

@@ -19,7 +19,7 @@
 //! `SCALE_BENCH_FEEDBACK=on` keeps it on (every frame of every gateway as JSON, as a
 //! console would get).
 
-mod common;
+use crate::common;
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};

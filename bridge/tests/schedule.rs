@@ -13,7 +13,7 @@
 //! is started again; and a bridge restarted in the middle of a window (the clock
 //! set there from its start) resumes the window's program.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

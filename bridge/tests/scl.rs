@@ -4,7 +4,7 @@
 //! polls, the e-stop (`SK` to every drive before anything else), Start playing a show
 //! from uploaded Q programs to its end, and a drive that refuses `QL`.
 
-mod common;
+use crate::common;
 
 use std::time::{Duration, Instant};
 

@@ -13,7 +13,7 @@
 //! [--presses N]` runs it at length in a release build (`SCL_BENCH_PRESSES`) and reads
 //! the figures it prints: the median and the maximum latency of each line.
 
-mod common;
+use crate::common;
 
 use std::time::{Duration, Instant};
 

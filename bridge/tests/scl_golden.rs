@@ -52,9 +52,9 @@
 //! goldens (one `ME` line per drive per action that moves).
 //!
 //! Regenerate with `FLOATBALL_BLESS=1 cargo test -p floatball-bridge --test
-//! scl_golden` and read the diff.
+//! integration -- scl_golden::` and read the diff.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 
@@ -141,7 +141,8 @@ impl Marks {
              # Every line the bridge wrote to each drive (RS-485, addresses {ADDRESSES}), in order,\n\
              # per operator action, without its CR.\n\
              # Left out: the queries {} (status polls, waits for positions and for the end).\n\
-             # Regenerate: FLOATBALL_BLESS=1 cargo test -p floatball-bridge --test scl_golden\n",
+             # Regenerate: FLOATBALL_BLESS=1 cargo test -p floatball-bridge --test integration -- \
+             scl_golden::\n",
             QUERIES.join(" ")
         );
         for (action, _) in &self.marks {

@@ -5,7 +5,7 @@
 //! stored program and end position, and the e-stop stops them all. The verdict
 //! (`GET /api/plan`) compiles the programs as Start does.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -19,7 +19,7 @@
 //! tests say so and pass — unless `FLOATBALL_REQUIRE_SER2NET=1` (`cargo xtask test`
 //! sets it, having installed ser2net), when its absence fails them.
 
-mod common;
+use crate::common;
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};

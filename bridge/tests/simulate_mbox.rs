@@ -4,7 +4,7 @@
 //! axis's position, so positions are checked in the final state the process prints
 //! when it is stopped.
 
-mod common;
+use crate::common;
 
 use std::net::{SocketAddr, UdpSocket};
 use std::time::Duration;

@@ -16,7 +16,7 @@
 //! distances there, from the show and from the cut, and in the hold. Also: an entry the playlist lacks and a time past the
 //! show's end are refused with their codes.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -18,7 +18,7 @@
 //! restart) and with the index removed before each start (it is rebuilt in the
 //! background). Nothing about speed is asserted.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

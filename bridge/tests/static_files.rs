@@ -3,7 +3,7 @@
 //! `/pkg/`, `no-cache` for the page and every other file, `Vary: Accept-Encoding`, and
 //! the built page (`pkg/index.html`) in place of the template.
 
-mod common;
+use crate::common;
 
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};

@@ -20,7 +20,7 @@
 //! status-clock [--runs N]` runs it in a release build (`STATUS_CLOCK_RUNS`) and prints
 //! p50 / p99 / max per family over every status of every run.
 
-mod common;
+use crate::common;
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};

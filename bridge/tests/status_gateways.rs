@@ -3,7 +3,7 @@
 //! `gateway_summary`, and `GET /api/status/gateways` lists every one in installation
 //! order. A status of 100 gateways that are all up stays under 2 KB.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

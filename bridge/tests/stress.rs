@@ -8,7 +8,7 @@
 //! `FLOATBALL_STRESS_ROUNDS` sets the rounds per gateway count (default 3); `cargo
 //! xtask stress` runs it many times over.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};

@@ -31,7 +31,7 @@
 //! (`cargo xtask test` sets it, having installed `ola`), when their absence fails it.
 //! `olad` refuses to run as root: as root it is run as `nobody` (setpriv).
 
-mod common;
+use crate::common;
 
 use std::io::Write;
 use std::net::UdpSocket;

@@ -26,7 +26,7 @@
 //! sets `correct_drift = false` (the drift as it was). The sender sends each frame
 //! as it begins.
 
-mod common;
+use crate::common;
 
 use std::net::UdpSocket;
 use std::sync::Arc;

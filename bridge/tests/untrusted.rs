@@ -80,7 +80,7 @@
 //! sends only the hand-built cases whose label holds its text (`"issue 52"`: the
 //! finding alone). The figures are printed (`--nocapture` shows them).
 
-mod common;
+use crate::common;
 mod storm;
 
 use std::net::{SocketAddr, UdpSocket};

@@ -1,7 +1,7 @@
 //! The WebSocket endpoint over real sockets: who may connect, status delivery and its
 //! rate, many clients, and answers to every kind of message.
 
-mod common;
+use crate::common;
 
 use std::time::{Duration, Instant};
 

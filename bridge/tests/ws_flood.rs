@@ -3,7 +3,7 @@
 //! (docs/api.md, "Replies and floods"); an e-stop in the middle of a flood is still
 //! pressed and acknowledged.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -134,6 +134,38 @@ pub struct Built {
 
 /// Builds the app into `static/pkg/`.
 pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
+    build_web_beside(env, build, None)
+}
+
+/// Work that can run beside the app's build once cargo has compiled it: `wasm-opt`
+/// then keeps one core busy for a minute and more, and cargo is free for another
+/// build.
+pub type Beside<'a> = &'a (dyn Fn() -> Result<(), String> + Sync);
+
+/// [`build_web`], with `beside` (if any) run on a thread of its own from the end of
+/// the compilation to the end of the build, which fails if it failed.
+///
+/// # Errors
+/// As [`build_web`], or what `beside` returned.
+pub fn build_web_beside(env: &Env, build: Build, beside: Option<Beside>) -> Result<(), String> {
+    std::thread::scope(|scope| {
+        let mut beside_run = None;
+        let built = build_web_inner(env, build, &mut || {
+            if let Some(work) = beside {
+                beside_run = Some(scope.spawn(work));
+            }
+        });
+        let beside_done = beside_run.map_or(Ok(()), |handle| {
+            handle
+                .join()
+                .unwrap_or_else(|_| Err("the work beside the app's build panicked".to_owned()))
+        });
+        built.and(beside_done)
+    })
+}
+
+/// [`build_web`]; `compiled` is called once cargo is done.
+fn build_web_inner(env: &Env, build: Build, compiled: &mut dyn FnMut()) -> Result<(), String> {
     println!(
         "xtask: building the web app ({} profile) into static/pkg/",
         build.profile()
@@ -168,6 +200,8 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
                 .map_err(|err| format!("cannot clear {}: {err}", dir.display()))?;
         }
     }
+    compiled();
+    let compiled = std::time::Instant::now();
     let split = split_wasm(&read(&wasm)?, &split_dir)?;
     tools::run_command(
         tools::program(env, "wasm-bindgen")
@@ -202,20 +236,28 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
         }
     }
     let bindgen_wasm = staging.join("floatball_bg.wasm");
+    println!(
+        "xtask: split and bound in {:.1} s",
+        compiled.elapsed().as_secs_f64()
+    );
+    let optimised = std::time::Instant::now();
     if build == Build::Release {
         let wasm_opt = tools::ensure_wasm_opt(env)?;
-        let optimise = |path: &Path, zero_filled: bool| {
+        let optimise = |path: &Path, main: bool| {
             tools::run_command(
                 tools::program(env, &wasm_opt.to_string_lossy())
                     // `--converge` repeats the passes while the module still shrinks
-                    // (about 2 KB of brotli). The memory the main module defines
+                    // (about 2 KB of brotli): on the main module only, the first load
+                    // (the chunks, fetched when a rare page opens, shrink by little
+                    // and took most of the time). The memory the main module defines
                     // starts zeroed (`--zero-filled-memory`); a chunk imports that
                     // memory long after it was written, so not for the chunks. Not
                     // `--low-memory-unused` (another 2 KB): the stack sits at the
                     // bottom of memory, and a stack about to overflow must trap, not
                     // be optimised around.
-                    .args(["-Oz", "--converge"])
-                    .args(zero_filled.then_some("--zero-filled-memory"))
+                    .arg("-Oz")
+                    .args(main.then_some("--converge"))
+                    .args(main.then_some("--zero-filled-memory"))
                     .args(tools::WASM_FEATURES)
                     .arg(path)
                     .arg("-o")
@@ -241,7 +283,7 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
                             // The lock is held only to take the next module.
                             let next = queue.lock().map_or(None, |mut modules| modules.next());
                             match next {
-                                Some((path, zero_filled)) => optimise(path, zero_filled)?,
+                                Some((path, main)) => optimise(path, main)?,
                                 None => return Ok(()),
                             }
                         }
@@ -257,7 +299,12 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
                 })
                 .collect::<Result<Vec<()>, String>>()
         })?;
+        println!(
+            "xtask: wasm-opt in {:.1} s",
+            optimised.elapsed().as_secs_f64()
+        );
     }
+    let packaging = std::time::Instant::now();
     let chunks = split
         .chunks
         .iter()
@@ -288,6 +335,10 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
     }
     let pkg = static_dir.join("pkg");
     write_pkg(&pkg, &packaged, build.levels())?;
+    println!(
+        "xtask: packaged and compressed in {:.1} s",
+        packaging.elapsed().as_secs_f64()
+    );
     println!(
         "xtask: wrote {} with {}, {}, {} and {} chunk(s) (and .br/.gz copies)",
         pkg.join("index.html").display(),

@@ -169,8 +169,9 @@ pub fn fuzz(args: &[String]) -> Result<(), String> {
             "--package",
             "floatball-bridge",
             "--test",
-            "untrusted",
+            tools::BRIDGE_TESTS,
             "--",
+            "untrusted::",
             "--nocapture",
             "--test-threads=1",
         ]);

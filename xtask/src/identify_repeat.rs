@@ -39,10 +39,10 @@ pub fn identify_repeat(args: &[String]) -> Result<(), String> {
                 "--package",
                 "floatball-bridge",
                 "--test",
-                "commission",
+                tools::BRIDGE_TESTS,
             ])
             .args([
-                "identify_moves_its_ball_every_time_under_load",
+                "commission::identify_moves_its_ball_every_time_under_load",
                 "--",
                 "--exact",
                 "--nocapture",

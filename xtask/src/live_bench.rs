@@ -129,7 +129,9 @@ fn bridge_test(env: &tools::Env, debug: bool, name: &str) -> std::process::Comma
     }
     command
         .args(["--package", "floatball-bridge"])
-        .args(["--test", name, "--", "--nocapture"]);
+        .args(["--test", tools::BRIDGE_TESTS, "--"])
+        .arg(tools::bridge_module(name))
+        .arg("--nocapture");
     command
 }
 

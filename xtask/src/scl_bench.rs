@@ -34,7 +34,13 @@ pub fn scl_bench(args: &[String]) -> Result<(), String> {
     tools::run_command(
         tools::cargo(&env)
             .args(["test", "--release", "--package", "floatball-bridge"])
-            .args(["--test", "scl_bench", "--", "--nocapture"])
+            .args([
+                "--test",
+                tools::BRIDGE_TESTS,
+                "--",
+                "scl_bench::",
+                "--nocapture",
+            ])
             .env("SCL_BENCH_PRESSES", presses.to_string()),
     )
 }

@@ -39,6 +39,11 @@ pub struct Plan<'a> {
     pub seconds: &'a [(&'a str, u32)],
     /// Run the doc tests too (`cargo test --doc` with the same arguments).
     pub doc_tests: bool,
+    /// Integration test binaries made of a module per subject (`tests/main.rs` with
+    /// `mod playback; …`), by target name: each module runs as if it were a binary
+    /// of its own — in a process of its own, named by the module in `solo` and
+    /// `seconds`, labelled `tests/<module>.rs`.
+    pub by_module: &'a [&'a str],
 }
 
 /// A test binary as `cargo test --no-run` built it.
@@ -53,6 +58,9 @@ struct Binary {
     package: String,
     package_dir: PathBuf,
     executable: PathBuf,
+    /// The arguments it runs with: for one module of a binary of modules, `--exact`
+    /// and the module's tests.
+    args: Vec<String>,
 }
 
 /// One binary's end.
@@ -60,6 +68,8 @@ struct Ended {
     label: String,
     seconds: f64,
     passed: bool,
+    /// What failed inside it, said in one line (see [`failure_summary`]).
+    why: String,
 }
 
 /// Builds the test binaries of `cargo test <args>`, then runs them side by side (see
@@ -73,7 +83,14 @@ pub fn run(
     envs: &[(&str, OsString)],
     plan: &Plan,
 ) -> Result<(), String> {
-    let binaries = build(env, args, envs)?;
+    let mut binaries = Vec::new();
+    for binary in build(env, args, envs)? {
+        if binary.integration && plan.by_module.contains(&binary.name.as_str()) {
+            binaries.extend(modules_of(&binary, envs)?);
+        } else {
+            binaries.push(binary);
+        }
+    }
     let mut pooled: Vec<Binary> = Vec::new();
     let mut solo: Vec<Binary> = Vec::new();
     for binary in binaries {
@@ -116,7 +133,7 @@ pub fn run(
     let mut failures: Vec<String> = ended
         .iter()
         .filter(|end| !end.passed)
-        .map(|end| end.label.clone())
+        .map(|end| format!("{} ({})", end.label, end.why))
         .collect();
     print_slowest(
         &ended
@@ -224,6 +241,73 @@ fn running_label(line: &str) -> Option<String> {
     path.ends_with(')').then(|| label.trim().to_owned())
 }
 
+/// The modules of a test binary made of modules ([`Plan::by_module`]), each as a
+/// binary that runs that module's tests alone (`--exact <module>::<test> …`).
+///
+/// # Errors
+/// The binary could not list its tests, or it has a test outside any module.
+fn modules_of(binary: &Binary, envs: &[(&str, OsString)]) -> Result<Vec<Binary>, String> {
+    let mut command = Command::new(&binary.executable);
+    command
+        .args(["--list", "--format", "terse"])
+        .current_dir(&binary.package_dir);
+    for (key, value) in envs {
+        command.env(key, value);
+    }
+    let output = command
+        .output()
+        .map_err(|err| format!("cannot list the tests of {}: {err}", binary.label))?;
+    if !output.status.success() {
+        return Err(format!(
+            "{} could not list its tests ({})",
+            binary.label, output.status
+        ));
+    }
+    let listed = String::from_utf8_lossy(&output.stdout);
+    let mut modules: Vec<(String, Vec<String>)> = Vec::new();
+    for test in tests_listed(&listed) {
+        let Some((module, _)) = test.split_once("::") else {
+            return Err(format!(
+                "{}: test `{test}` is outside any module; its tests run module by module",
+                binary.label
+            ));
+        };
+        match modules.iter_mut().find(|(name, _)| name == module) {
+            Some((_, tests)) => tests.push(test.to_owned()),
+            None => modules.push((module.to_owned(), vec![test.to_owned()])),
+        }
+    }
+    Ok(modules
+        .into_iter()
+        .map(|(module, tests)| Binary {
+            label: format!("{} tests/{module}.rs", binary.package),
+            name: module,
+            args: std::iter::once("--exact".to_owned()).chain(tests).collect(),
+            ..binary.clone()
+        })
+        .collect())
+}
+
+/// The tests `--list --format terse` lists (`name: test` lines; benchmarks left out).
+fn tests_listed(listed: &str) -> impl Iterator<Item = &str> {
+    listed
+        .lines()
+        .filter_map(|line| line.strip_suffix(": test"))
+}
+
+/// Builds the test binaries of `cargo test <args>` (with `envs` set) and runs none:
+/// a later [`run`] with the same arguments finds them built.
+///
+/// # Errors
+/// The build failed.
+pub fn build_only(
+    env: &tools::Env,
+    args: &[&str],
+    envs: &[(&str, OsString)],
+) -> Result<(), String> {
+    build(env, args, envs).map(|_| ())
+}
+
 /// `cargo test <args> --no-run`: the test binaries it built.
 fn build(
     env: &tools::Env,
@@ -302,6 +386,7 @@ fn binary_of(message: &serde_json::Value) -> Option<Binary> {
         package,
         package_dir,
         executable,
+        args: Vec::new(),
     })
 }
 
@@ -346,6 +431,7 @@ fn run_one(binary: &Binary, envs: &[(&str, OsString)]) -> Ended {
     let started = Instant::now();
     let mut command = Command::new(&binary.executable);
     command
+        .args(&binary.args)
         .current_dir(&binary.package_dir)
         .env("CARGO_MANIFEST_DIR", &binary.package_dir)
         .env("CARGO_PKG_NAME", &binary.package);
@@ -376,6 +462,54 @@ fn run_one(binary: &Binary, envs: &[(&str, OsString)]) -> Ended {
         label: binary.label.clone(),
         seconds,
         passed,
+        why: if passed {
+            String::new()
+        } else {
+            failure_summary(&text)
+        },
+    }
+}
+
+/// How many characters of a panic's message [`failure_summary`] keeps.
+const PANIC_SHOWN_CHARS: usize = 240;
+
+/// One line saying what failed in a test binary's output: the failed tests libtest
+/// lists at its end, and the first panic's place and message — so a stage's summary,
+/// the end of a CI log, names the test and the reason and not only the binary.
+fn failure_summary(text: &str) -> String {
+    let lines: Vec<&str> = text.lines().collect();
+    let listed = lines
+        .iter()
+        .rposition(|line| *line == "failures:")
+        .map(|at| {
+            lines[at + 1..]
+                .iter()
+                .take_while(|line| line.starts_with("    ") || line.is_empty())
+                .map(|line| line.trim())
+                .filter(|name| !name.is_empty())
+                .collect::<Vec<_>>()
+        })
+        .unwrap_or_default();
+    let panic = lines
+        .iter()
+        .position(|line| line.contains("panicked at "))
+        .map(|at| {
+            let place = lines[at]
+                .split_once("panicked at ")
+                .map_or("", |(_, place)| place.trim_end_matches(':'));
+            let message: String = lines
+                .get(at + 1)
+                .unwrap_or(&"")
+                .chars()
+                .take(PANIC_SHOWN_CHARS)
+                .collect();
+            format!("{place}: {message}")
+        });
+    match (listed.is_empty(), panic) {
+        (true, None) => "no test failed: the binary itself did".to_owned(),
+        (true, Some(panic)) => panic,
+        (false, None) => listed.join(", "),
+        (false, Some(panic)) => format!("{}; first panic at {panic}", listed.join(", ")),
     }
 }
 
@@ -412,6 +546,31 @@ mod tests {
         assert!(!binary.integration);
         assert_eq!(binary.package, "xtask");
         assert_eq!(binary.label, "xtask unit tests (bin)");
+    }
+
+    #[test]
+    fn a_terse_list_gives_the_tests() {
+        let listed = "playback::a_show_plays: test\nscl::x::y: test\nbench_one: benchmark\n";
+        assert_eq!(
+            tests_listed(listed).collect::<Vec<_>>(),
+            ["playback::a_show_plays", "scl::x::y"]
+        );
+    }
+
+    #[test]
+    fn a_failure_is_said_by_its_tests_and_first_panic() {
+        let text = "running 2 tests\ntest a ... FAILED\ntest b ... ok\n\nfailures:\n\n\
+            ---- a stdout ----\n\nthread 'a' (7) panicked at bridge/tests/live.rs:86:5:\n\
+            olad is not installed\nnote: run with `RUST_BACKTRACE=1`\n\n\nfailures:\n    a\n\n\
+            test result: FAILED. 1 passed; 1 failed\n";
+        assert_eq!(
+            failure_summary(text),
+            "a; first panic at bridge/tests/live.rs:86:5: olad is not installed"
+        );
+        assert_eq!(
+            failure_summary("Segmentation fault\n"),
+            "no test failed: the binary itself did"
+        );
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //! any they started still runs when they end, and kill it (see [`leftovers`]); the
 //! test stages end with their slowest test binaries.
 
+use std::ffi::OsString;
 use std::time::Instant;
 
 use crate::app;
@@ -63,24 +64,45 @@ const NATIVE: side_by_side::Plan = side_by_side::Plan {
         ("live", 4),
     ],
     doc_tests: true,
+    by_module: &["integration"],
 };
 
-/// The end-to-end test binaries (each a bridge and a browser): commissioning 100
-/// units from the app, the longest by far, runs beside all the others.
+/// The end-to-end test binaries (each a bridge and a browser), longest first.
 const END_TO_END: side_by_side::Plan = side_by_side::Plan {
     solo: &[],
     seconds: &[
-        ("commission", 146),
-        ("create", 42),
-        ("operator_mbox", 38),
-        ("screens", 33),
-        ("controls", 24),
-        ("operator_scl", 21),
-        ("operator", 16),
-        ("files", 9),
+        ("commission", 53),
+        ("create", 45),
+        ("screens", 42),
+        ("operator_mbox", 39),
+        ("controls", 28),
+        ("operator_scl", 22),
+        ("operator", 17),
+        ("files", 14),
+        ("installation", 10),
+        ("language", 8),
     ],
     doc_tests: false,
+    by_module: &[],
 };
+
+/// How many characters of a failed stage's reason the summary repeats.
+const ERROR_SHOWN_CHARS: usize = 1500;
+
+/// `cargo test`'s arguments for the end-to-end tests.
+const END_TO_END_ARGS: [&str; 2] = ["--package", "floatball-e2e"];
+
+/// The environment of the end-to-end tests' build and binaries.
+fn end_to_end_envs(env: &Env) -> Vec<(&'static str, OsString)> {
+    vec![
+        (
+            "FLOATBALL_BIN",
+            env.target_dir.join("debug").join("floatball").into(),
+        ),
+        ("FLOATBALL_STATIC_DIR", env.root.join("static").into()),
+        ("CHROMEDRIVER", tools::CHROMEDRIVER.into()),
+    ]
+}
 
 /// One line of the summary.
 struct Outcome {
@@ -199,26 +221,23 @@ pub fn test(args: &[String]) -> Result<(), String> {
     // native tests built (`target/debug/floatball`, linked for the bridge's
     // integration tests): a `cargo build` of the bridge alone would compile its
     // dependencies again, with the features the tests do not unify in.
+    //
+    // Once cargo has compiled the app, `wasm-opt` keeps one core busy for over a
+    // minute: the end-to-end tests are compiled beside it, so that stage starts with
+    // its binaries built.
     stage("build the app (release)", &|env| {
-        app::build_web(env, app::Build::Release)
+        let envs = end_to_end_envs(env);
+        app::build_web_beside(
+            env,
+            app::Build::Release,
+            Some(&|| side_by_side::build_only(env, &END_TO_END_ARGS, &envs)),
+        )
     });
     stage(
         "end-to-end tests (real bridge, headless Chromium)",
         &|env| {
             watched(env, || {
-                side_by_side::run(
-                    env,
-                    &["--package", "floatball-e2e"],
-                    &[
-                        (
-                            "FLOATBALL_BIN",
-                            env.target_dir.join("debug").join("floatball").into(),
-                        ),
-                        ("FLOATBALL_STATIC_DIR", env.root.join("static").into()),
-                        ("CHROMEDRIVER", tools::CHROMEDRIVER.into()),
-                    ],
-                    &END_TO_END,
-                )
+                side_by_side::run(env, &END_TO_END_ARGS, &end_to_end_envs(env), &END_TO_END)
             })
         },
     );
@@ -231,6 +250,17 @@ pub fn test(args: &[String]) -> Result<(), String> {
             "FAIL"
         };
         println!("  {mark} {:<52} {:>7.1} s", outcome.name, outcome.seconds);
+        if let Some(error) = &outcome.error {
+            // The end of a log is often all that is kept of it: the reason goes here
+            // too, not only under the stage's own heading.
+            let shown: String = error.chars().take(ERROR_SHOWN_CHARS).collect();
+            let more = if shown.len() < error.len() {
+                " …"
+            } else {
+                ""
+            };
+            println!("       {shown}{more}");
+        }
     }
     println!("xtask: disk: {}", tools::free_space(&env.target_dir));
     let failed = outcomes.iter().filter(|o| o.error.is_some()).count();

@@ -47,9 +47,7 @@ pub fn stress(args: &[String]) -> Result<(), String> {
     let env = tools::Env::discover(&root)?;
     let mut build = tools::cargo(&env);
     build.args(["test", "--package", "floatball-bridge", "--no-run"]);
-    for (target, _) in TARGETS {
-        build.args(["--test", target]);
-    }
+    build.args(["--test", tools::BRIDGE_TESTS]);
     tools::run_command(&mut build)?;
     for (target, what) in TARGETS {
         let started = Instant::now();
@@ -57,7 +55,9 @@ pub fn stress(args: &[String]) -> Result<(), String> {
             let mut command = tools::cargo(&env);
             command
                 .args(["test", "--quiet", "--package", "floatball-bridge"])
-                .args(["--test", target, "--", "--nocapture"]);
+                .args(["--test", tools::BRIDGE_TESTS, "--"])
+                .arg(tools::bridge_module(target))
+                .arg("--nocapture");
             if let Err(error) = tools::run_command(&mut command) {
                 return Err(format!(
                     "{target}: run {run} of {runs} failed after {} passed in a row: {error}",

@@ -94,7 +94,13 @@ pub fn timecode_bench(args: &[String]) -> Result<(), String> {
     let mut command = tools::cargo(&env);
     command
         .args(["test", "--package", "floatball-bridge"])
-        .args(["--test", "timecode_bench", "--", "--nocapture"]);
+        .args([
+            "--test",
+            tools::BRIDGE_TESTS,
+            "--",
+            "timecode_bench::",
+            "--nocapture",
+        ]);
     for (key, value) in vars {
         command.env(key, value);
     }

@@ -496,7 +496,17 @@ pub fn parse_counts<const N: usize>(
     Ok(values)
 }
 
-/// Builds the bridge's integration test `test` in release, then runs it with `vars`
+/// The bridge's integration tests: one binary of a module per subject, whose tests
+/// are `<module>::…` (`bridge/tests/main.rs`).
+pub const BRIDGE_TESTS: &str = "integration";
+
+/// The libtest filter that picks the bridge's test module `module` alone: its tests'
+/// names start with `<module>::`, and no other module's name ends with `module`.
+pub fn bridge_module(module: &str) -> String {
+    format!("{module}::")
+}
+
+/// Builds the bridge's integration tests in release, then runs module `test` with `vars`
 /// set and its output shown, after raising the open-file limit to the hard one (the
 /// benches open a socket or two per simulated gateway).
 ///
@@ -511,7 +521,7 @@ pub fn run_release_bench(test: &str, vars: &[(&str, String)], banner: &str) -> R
         "--package",
         "floatball-bridge",
         "--test",
-        test,
+        BRIDGE_TESTS,
     ];
     run_command(cargo(&env).args(args).arg("--no-run"))?;
     println!("xtask: {banner}");
@@ -523,7 +533,9 @@ pub fn run_release_bench(test: &str, vars: &[(&str, String)], banner: &str) -> R
         .arg("sh")
         .arg(cargo(&env).get_program())
         .args(args)
-        .args(["--", "--nocapture"]);
+        .arg("--")
+        .arg(bridge_module(test))
+        .arg("--nocapture");
     for (key, value) in vars {
         command.env(key, value);
     }
