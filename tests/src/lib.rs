@@ -123,6 +123,12 @@ impl Bridge {
         Self::start_with_all(None, args).await
     }
 
+    /// Starts the bridge on a free port with a fresh data directory whose
+    /// `floatball.toml` is `config`, and the extra flags `args` (kept by a restart).
+    pub async fn start_with_config_and_args(config: &str, args: &[&str]) -> Self {
+        Self::start_with_all(Some(config), args).await
+    }
+
     async fn start_with(config: Option<&str>) -> Self {
         Self::start_with_all(config, &[]).await
     }
