@@ -83,7 +83,7 @@ const END_TO_END: side_by_side::Plan = side_by_side::Plan {
         ("language", 8),
     ],
     doc_tests: false,
-    by_module: &[],
+    by_module: &["end_to_end"],
 };
 
 /// How many characters of a failed stage's reason the summary repeats.
