@@ -111,6 +111,34 @@ impl Marks {
         self.marks.push((action, at));
     }
 
+    /// Waits until every drive got `command` since the last mark: an e-stop's stop
+    /// lines are on the wire before the next action's mark. The status says
+    /// `stopped` as the e-stop is taken, and on a loaded machine a drive's `SK` can
+    /// reach the line after that (the next action's section then held it once).
+    async fn until_every_drive_got(&self, command: &str) {
+        let since = self.marks.last().map_or(0, |(_, at)| *at);
+        let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
+        loop {
+            let lines = self.lines();
+            let missing: Vec<char> = ADDRESSES
+                .chars()
+                .filter(|address| {
+                    !lines[since.min(lines.len())..]
+                        .iter()
+                        .any(|line| *line == format!("{address}{command}"))
+                })
+                .collect();
+            if missing.is_empty() {
+                return;
+            }
+            assert!(
+                tokio::time::Instant::now() < deadline,
+                "drives {missing:?} got no {command} within 5 s"
+            );
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+    }
+
     /// Every line received, in order.
     fn lines(&self) -> Vec<String> {
         self.peer
@@ -235,6 +263,7 @@ async fn scenario(scl: &str, title: &str) -> String {
         status.state == PlayerState::Stopped
     })
     .await;
+    marks.until_every_drive_got("SK").await;
     // Some polls while stopped.
     tokio::time::sleep(Duration::from_millis(200)).await;
 
@@ -263,6 +292,7 @@ async fn scenario(scl: &str, title: &str) -> String {
         status.state == PlayerState::Stopped
     })
     .await;
+    marks.until_every_drive_got("SK").await;
 
     // After an e-stop the positions are unknown: Start homes first.
     marks.mark("Start after the e-stop (homes first, played to the end)");
