@@ -164,17 +164,17 @@ pub fn fuzz(args: &[String]) -> Result<(), String> {
             storm.seconds, storm.rate_per_s
         );
         let mut command = tools::cargo(&env);
-        command.args([
-            "test",
-            "--package",
-            "floatball-bridge",
-            "--test",
-            tools::BRIDGE_TESTS,
-            "--",
-            "untrusted::",
-            "--nocapture",
-            "--test-threads=1",
-        ]);
+        command
+            .args([
+                "test",
+                "--package",
+                "floatball-bridge",
+                "--test",
+                tools::BRIDGE_TESTS,
+                "--",
+            ])
+            .arg(tools::bridge_module("untrusted"))
+            .args(["--nocapture", "--test-threads=1"]);
         for (key, value) in storm.vars() {
             command.env(key, value);
         }

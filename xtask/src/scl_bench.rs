@@ -34,13 +34,9 @@ pub fn scl_bench(args: &[String]) -> Result<(), String> {
     tools::run_command(
         tools::cargo(&env)
             .args(["test", "--release", "--package", "floatball-bridge"])
-            .args([
-                "--test",
-                tools::BRIDGE_TESTS,
-                "--",
-                "scl_bench::",
-                "--nocapture",
-            ])
+            .args(["--test", tools::BRIDGE_TESTS, "--"])
+            .arg(tools::bridge_module("scl_bench"))
+            .arg("--nocapture")
             .env("SCL_BENCH_PRESSES", presses.to_string()),
     )
 }

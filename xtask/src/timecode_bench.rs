@@ -94,13 +94,9 @@ pub fn timecode_bench(args: &[String]) -> Result<(), String> {
     let mut command = tools::cargo(&env);
     command
         .args(["test", "--package", "floatball-bridge"])
-        .args([
-            "--test",
-            tools::BRIDGE_TESTS,
-            "--",
-            "timecode_bench::",
-            "--nocapture",
-        ]);
+        .args(["--test", tools::BRIDGE_TESTS, "--"])
+        .arg(tools::bridge_module("timecode_bench"))
+        .arg("--nocapture");
     for (key, value) in vars {
         command.env(key, value);
     }
