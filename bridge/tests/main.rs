@@ -27,6 +27,7 @@ mod link_sim;
 mod live;
 mod live_bench;
 mod live_limits;
+mod live_mode;
 mod login_load;
 mod mbox;
 mod mbox_bench;
