@@ -1,5 +1,5 @@
 //! Component tests of the Commissioning page in a real browser (`wasm-pack test
-//! --headless --chrome web -- --test commission`), against a fake bridge: the roll
+//! --headless --chrome web --test browser -- commission::`), against a fake bridge: the roll
 //! call's collision and flags, "assign all in grid order", a unit's own station,
 //! Identify then a tap on the grid, a tap that moves a ball, "save mapping" with the
 //! bridge's problems, and the guided line-speed change (held while the gateway is
@@ -27,11 +27,7 @@ use leptos::task::tick;
 use wasm_bindgen_futures::JsFuture;
 use wasm_bindgen_test::*;
 
-mod dom;
-
-use dom::*;
-
-wasm_bindgen_test_configure!(run_in_browser);
+use crate::dom::*;
 
 /// How the fake bridge answers a request: at once, or held until the test releases
 /// it (a line-speed change waiting for the gateway's power cycle).

@@ -7,7 +7,7 @@
 //!
 //! `cargo xtask create-bench` runs it in the app as served (the `wasm-release`
 //! profile, whose shared crate is optimised for speed); `wasm-pack test --headless
-//! --chrome web --test create -- --nocapture` in a debug build.
+//! --chrome web --test browser -- create:: --nocapture` in a debug build.
 //! Printed, not asserted (timings vary with the machine's load); `docs/create.md`
 //! gives the figures. Only sanity is checked: every show within the limits.
 
@@ -21,11 +21,7 @@ use floatball_web::preview::stage::{RendererKind, Stage, now_ms};
 use wasm_bindgen_futures::JsFuture;
 use wasm_bindgen_test::*;
 
-mod dom;
-
-use dom::*;
-
-wasm_bindgen_test_configure!(run_in_browser);
+use crate::dom::*;
 
 /// Waits for the next animation frame, so each change is its own frame.
 async fn next_frame() {

@@ -1,5 +1,5 @@
 //! Component tests of the Files page's behaviour and the login's wait, in a real
-//! browser (`wasm-pack test --headless --chrome web -- --test files`), with the
+//! browser (`wasm-pack test --headless --chrome web --test browser -- files::`), with the
 //! app's own style sheet: the selected row is highlighted, long problem lists are
 //! cut to 20 with "show all", long messages are clipped, the login's wait counts
 //! down and logs in by itself, the password changes from Settings with a toast.
@@ -26,11 +26,7 @@ use leptos::task::tick;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_test::*;
 
-mod dom;
-
-use dom::*;
-
-wasm_bindgen_test_configure!(run_in_browser);
+use crate::dom::*;
 
 /// How the fake bridge answers: given the request and how many came before it.
 type Route = Box<dyn Fn(&Request, usize) -> Response>;

@@ -1,5 +1,5 @@
 //! The Create page's planner worker in a real browser (`wasm-pack test --headless
-//! --chrome web --test plan_worker`): with no app module named in the page none is
+//! --chrome web --test browser -- plan_worker::`): with no app module named in the page none is
 //! started; one whose script cannot run (this test server has no
 //! `/plan-worker.js`) answers the pending request with the failure and takes no more
 //! work, so the page plans on its own thread instead. The worker at work — the
@@ -12,11 +12,7 @@ use std::rc::Rc;
 use floatball_web::plan_worker::{Answer, PlanWorker};
 use wasm_bindgen_test::*;
 
-mod dom;
-
-use dom::*;
-
-wasm_bindgen_test_configure!(run_in_browser);
+use crate::dom::*;
 
 #[wasm_bindgen_test]
 async fn a_worker_that_cannot_run_says_so_and_takes_no_more_work() {

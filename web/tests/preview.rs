@@ -30,11 +30,7 @@ use wasm_bindgen::{JsCast, JsValue};
 use wasm_bindgen_test::*;
 use web_sys::{HtmlCanvasElement, WebGl2RenderingContext as Gl};
 
-mod dom;
-
-use dom::*;
-
-wasm_bindgen_test_configure!(run_in_browser);
+use crate::dom::*;
 
 // ----------------------------------------------------------------------------------
 // Shows

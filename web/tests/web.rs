@@ -42,11 +42,7 @@ use wasm_bindgen::JsCast;
 use wasm_bindgen_futures::JsFuture;
 use wasm_bindgen_test::*;
 
-mod dom;
-
-use dom::*;
-
-wasm_bindgen_test_configure!(run_in_browser);
+use crate::dom::*;
 
 // ----------------------------------------------------------------------------------
 // The fake bridge

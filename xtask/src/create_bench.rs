@@ -1,9 +1,10 @@
 //! `cargo xtask create-bench`: what one change of a parameter on the Create page costs
 //! in the app as it is served, with figures.
 //!
-//! Runs the browser benchmark `web/tests/create.rs` in headless Chromium, built with
-//! the `wasm-release` profile `cargo xtask build` serves (not `wasm-pack test
-//! --release`, whose size-optimised parts would differ): for a 10 × 10 and a
+//! Runs the browser benchmark `web/tests/create.rs` (the `create::` module of the
+//! browser tests' binary) in headless Chromium, built with the `wasm-release` profile
+//! `cargo xtask build` serves (not `wasm-pack test --release`, whose size-optimised
+//! parts would differ): for a 10 × 10 and a
 //! 100 × 100 matrix and a 22 s and a 60 s show, the median and largest time from the
 //! change to the new picture drawn, and what generating, handing the show to the stage
 //! and the limit check after the picture take. Nothing about speed is asserted.
@@ -37,8 +38,9 @@ pub fn create_bench(args: &[String]) -> Result<(), String> {
                 "--package",
                 "floatball-web",
                 "--test",
-                "create",
+                "browser",
                 "--",
+                "create::",
                 "--nocapture",
             ])
             // Cargo runs the test's wasm with wasm-bindgen's runner, which drives
