@@ -566,6 +566,7 @@ fn parse<T: DeserializeOwned>(response: &Response) -> Result<T, Failure> {
 mod tests {
     use std::cell::RefCell;
     use std::task::{Context, Poll, Waker};
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use super::*;
 
@@ -618,7 +619,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn login_posts_the_password_and_reads_the_token() {
         let fake = bridge(200, r#"{"token":"t1","must_change_password":true}"#);
         let client = Client::new(fake.clone(), "http://10.0.0.2:8080");
@@ -633,7 +634,7 @@ mod tests {
         assert_eq!(request.bearer, None);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn wrong_password_and_rate_limit_are_told_apart() {
         let client = Client::new(bridge(401, ""), "");
         assert_eq!(run(client.login("x")), Err(Failure::Unauthorized));
@@ -654,7 +655,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn an_unreachable_bridge_is_a_network_failure() {
         let fake = Rc::new(Canned {
             response: Err("connection refused".into()),
@@ -667,7 +668,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn calls_carry_the_token() {
         let fake = bridge(200, "[]");
         let client = Client::new(fake.clone(), "").with_token("abc");
@@ -676,7 +677,7 @@ mod tests {
         assert_eq!(fake.requests.borrow()[0].url, "/api/shows");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_list_with_retry_after_is_not_complete() {
         let client = Client::new(bridge(200, "[]"), "");
         assert_eq!(run(client.shows_listed()), Ok((Vec::new(), true)));
@@ -693,7 +694,7 @@ mod tests {
         assert_eq!(run(client.shows()), Ok(Vec::new()));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn upload_encodes_the_name_sends_the_type_and_reports_progress() {
         let fake = bridge(
             201,
@@ -720,7 +721,7 @@ mod tests {
         assert_eq!(*seen.borrow(), vec![1.0]);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn validation_details_come_through() {
         let fake = bridge(
             422,
@@ -736,7 +737,7 @@ mod tests {
         assert_eq!(error.details.len(), 2);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn status_codes_map_to_failures() {
         let response = |status: u16, body: &str| Response {
             status,
@@ -780,13 +781,13 @@ mod tests {
         assert_eq!(parse_retry_after("Wed, 21 Oct 2015 07:28:00 GMT"), None);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_missing_planner_is_not_an_error() {
         let client = Client::new(bridge(404, ""), "").with_token("t");
         assert_eq!(run(client.plan("wave")), Ok(None));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn playlist_put_without_a_body_returns_what_was_sent() {
         let fake = bridge(204, "");
         let client = Client::new(fake.clone(), "").with_token("t");
@@ -799,7 +800,7 @@ mod tests {
         assert!(body.contains(r#""loop":true"#), "{body}");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn commissioning_calls_post_to_the_gateway() {
         let roll = r#"{"gateway":1,"units":[{"serial":7,"station":5,"last_answer_age_ms":3}],"duplicated":[5],"took_ms":40}"#;
         let fake = bridge(200, roll);
@@ -847,7 +848,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn path_segments_are_percent_encoded() {
         assert_eq!(encode_path_segment("wave-2_a.b~"), "wave-2_a.b~");
         assert_eq!(encode_path_segment("a/b?c#d e"), "a%2Fb%3Fc%23d%20e");

@@ -279,6 +279,7 @@ pub fn position_text(position_mm: Option<f64>) -> String {
 #[cfg(test)]
 mod tests {
     use floatball_shared::api::{GatewayKind, InstallationGateway, UnitFault};
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use super::*;
 
@@ -317,7 +318,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn flags_name_the_collision_the_stranger_and_the_fault() {
         let mut faulty = unit(3, 2);
         faulty.fault = Some(UnitFault {
@@ -349,7 +350,7 @@ mod tests {
         assert!(unit_flags(&clean, &clean.units[0]).is_empty());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn grid_order_gives_the_stations_by_ascending_serial() {
         let units = [unit(30, 5), unit(10, 5), unit(20, 5), unit(10, 5)];
         let assignments = grid_order(&units, &[7, 8, 9, 11]);
@@ -375,7 +376,7 @@ mod tests {
         assert!(grid_order(&[], &[1, 2]).is_empty());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn stations_are_whole_numbers_from_1_to_127() {
         assert_eq!(parse_station(" 12 "), Some(12));
         assert_eq!(parse_station("127"), Some(127));
@@ -384,7 +385,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn distances_are_positive_millimetres_or_the_default() {
         assert_eq!(parse_distance(""), Ok(None));
         assert_eq!(parse_distance(" 20 "), Ok(Some(20.0)));
@@ -394,7 +395,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn tapping_after_identifying_maps_and_swaps() {
         let info = info(&[&[1, 2, 3, 4]], 2);
         let mut mapping = Mapping::new(&info, 0).unwrap();
@@ -423,7 +424,7 @@ mod tests {
         assert_eq!(saved.rows, info.rows);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn cells_of_a_second_gateway_start_where_the_first_ends() {
         let info = info(&[&[1, 2, 3], &[1, 2, 3, 4, 5]], 4);
         let mapping = Mapping::new(&info, 1).unwrap();
@@ -441,7 +442,7 @@ mod tests {
         assert!(!cells[1].changed && !cells[1].placed);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn ages_and_positions_read_plainly() {
         assert_eq!(age_text(0), "0.0 s");
         assert_eq!(age_text(12_345), "12.3 s");

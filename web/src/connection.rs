@@ -80,13 +80,14 @@ pub fn retry_delay_ms(failures: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn starts_disconnected() {
         assert_eq!(Connection::new().link(), Link::Disconnected);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn connected_only_after_the_bridge_speaks() {
         let mut connection = Connection::new();
         connection.on_connecting();
@@ -95,7 +96,7 @@ mod tests {
         assert_eq!(connection.link(), Link::Connected);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn backoff_doubles_and_is_capped() {
         let mut connection = Connection::new();
         let delays: Vec<u32> = (0..6).map(|_| connection.on_lost()).collect();
@@ -103,7 +104,7 @@ mod tests {
         assert_eq!(connection.link(), Link::Disconnected);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_message_resets_the_backoff() {
         let mut connection = Connection::new();
         connection.on_lost();
@@ -112,7 +113,7 @@ mod tests {
         assert_eq!(connection.on_lost(), FIRST_RETRY_MS);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn huge_failure_counts_do_not_overflow() {
         assert_eq!(retry_delay_ms(u32::MAX), MAX_RETRY_MS);
     }

@@ -470,6 +470,7 @@ fn describe_ack(ack: Ack) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     fn frame(station: u8, code: u8, data: &[u8]) -> FeedbackFrame {
         FeedbackFrame {
@@ -480,7 +481,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn lines_wait_for_the_parsers_and_each_family_gets_its_own() {
         let text = "*5;PV;";
         let to = Route::BROADCAST;
@@ -523,7 +524,7 @@ mod tests {
         ));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn valid_text_is_ready_line_by_line() {
         assert_eq!(check("  \n # only a comment\n"), Check::Empty);
         assert_eq!(
@@ -535,7 +536,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_parser_error_is_shown_with_its_place() {
         let Check::Invalid(error) = check("*5;\nQT[3]=0;") else {
             panic!("QT=0 must be refused");
@@ -549,7 +550,7 @@ mod tests {
         assert!(error.message.contains("`;`"), "{error:?}");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_gateways_own_commands_are_lines_like_any_other() {
         assert_eq!(
             check("ABC;\nbdr=115200;"),
@@ -565,7 +566,7 @@ mod tests {
         assert!(error.message.contains("9600–115200"), "{error:?}");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn mbox_text_is_checked_with_the_mbox_parser_and_the_selected_box() {
         let every = Route::BROADCAST;
         assert_eq!(check_mbox(" # nothing\n", every), Check::Empty);
@@ -652,7 +653,7 @@ mod tests {
         ));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn scl_text_is_checked_with_the_scl_parser() {
         assert_eq!(check_scl("  \n"), Check::Empty);
         assert_eq!(
@@ -690,7 +691,7 @@ mod tests {
         assert_eq!(Family::of(&Status::default()), Family::Uim2503);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn mbox_replies_join_the_log() {
         let mut log = FeedbackLog::default();
         log.push_mbox(&MboxReply {
@@ -709,7 +710,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn frames_are_decoded_in_the_manuals_notation() {
         assert_eq!(describe(&frame(5, code::PV, &[3, 0])), "PV = 3");
         assert_eq!(
@@ -752,7 +753,7 @@ mod tests {
         assert!(bad.contains("station 200"), "{bad}");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn positions_are_also_in_mm_on_known_stations() {
         let installation = InstallationInfo {
             rows: 2,
@@ -836,7 +837,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_log_keeps_the_newest_frames_first() {
         let mut log = FeedbackLog::default();
         assert!(log.is_empty());

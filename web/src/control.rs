@@ -348,6 +348,7 @@ impl Action {
 #[cfg(test)]
 mod tests {
     use floatball_shared::api::PlanReport;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use super::*;
 
@@ -369,7 +370,7 @@ mod tests {
         names.iter().map(|name| (*name).to_owned()).collect()
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_round_starts_pending_and_takes_its_answers() {
         let mut plans = PlanVerdicts::default();
         let round = plans.begin(&shows(&["a", "b"]), true).expect("connected");
@@ -381,7 +382,7 @@ mod tests {
         assert_eq!(plans.verdicts()[1].1.key(), "infeasible");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_late_answer_of_an_older_round_is_dropped() {
         let mut plans = PlanVerdicts::default();
         let old = plans.begin(&shows(&["a"]), true).expect("connected");
@@ -393,7 +394,7 @@ mod tests {
         assert_eq!(plans.verdicts()[0].1, Verdict::Unavailable);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn without_the_bridge_there_are_no_verdicts_and_old_answers_stay_out() {
         let mut plans = PlanVerdicts::default();
         let round = plans.begin(&shows(&["a"]), true).expect("connected");
@@ -403,7 +404,7 @@ mod tests {
         assert!(plans.is_empty());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn start_waits_for_entries_and_is_blocked_by_an_infeasible_show() {
         let mut editor = PlaylistEditor::default();
         let mut plans = PlanVerdicts::default();
@@ -418,7 +419,7 @@ mod tests {
         assert!(plans.allow_start(&editor));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn panels_toggle_and_edit_wants_a_checked_entry() {
         assert_eq!(Panel::None.pressed(Panel::Add, 0), Ok(Panel::Add));
         assert_eq!(Panel::Add.pressed(Panel::Add, 0), Ok(Panel::None));
@@ -429,7 +430,7 @@ mod tests {
         assert_eq!(needs_checks(1), Ok(()));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_playlist_is_locked_and_start_blocked_while_the_matrix_runs() {
         let running = [
             PlayerState::Waiting,
@@ -460,7 +461,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_bridges_lock_refusal_is_recognised() {
         let body = serde_json::to_string(&ApiError::coded(
             Code::PlaylistLocked,
@@ -480,7 +481,7 @@ mod tests {
         assert!(!is_locked_refusal(&Failure::NotFound));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn reset_and_home_always_ask_and_start_only_after_a_stop() {
         for state in [None, Some(PlayerState::Idle), Some(PlayerState::Playing)] {
             assert_eq!(Action::Start.confirmation(state), None);
@@ -499,7 +500,7 @@ mod tests {
         assert_eq!(Action::Home.key(), "home");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn start_and_reset_begin_where_typed() {
         let from = |entry: &str, time: &str| start_from(entry, time);
         assert_eq!(from("", ""), Ok(StartFrom::default()));
@@ -534,7 +535,7 @@ mod tests {
         assert_eq!(Action::Home.message_from(at), ClientMessage::Home);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn forms_start_from_the_entry_or_the_defaults_and_read_back() {
         assert_eq!(
             TimingForm::of_entry(None),
@@ -569,7 +570,7 @@ mod tests {
         assert_eq!(TimingForm::parse("1,5", "0"), Err(InputError::Cycles));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_save_sends_only_a_change_and_takes_the_bridges_answer() {
         let mut editor = PlaylistEditor::default();
         assert_eq!(begin_save(&mut editor, PlaylistEditor::move_up), None);

@@ -393,6 +393,7 @@ pub fn format_number(value: f64, step: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     fn numbers(draft: &Draft) -> Vec<(&'static str, f64)> {
         let pattern = pattern_of(draft.current()).unwrap();
@@ -406,7 +407,7 @@ mod tests {
             .collect()
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_new_draft_is_one_segment_of_the_first_pattern_with_its_defaults() {
         let draft = Draft::new();
         assert_eq!(draft.segments().len(), 1);
@@ -420,7 +421,7 @@ mod tests {
         assert_eq!(draft.recipe().segments.len(), 1);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn segments_are_added_after_the_edited_one_moved_and_removed_but_one_stays() {
         let mut draft = Draft::new();
         let other = PATTERNS.last().unwrap().name;
@@ -451,7 +452,7 @@ mod tests {
         assert!(!draft.remove(5));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn parameters_stay_within_their_ranges_and_a_new_pattern_starts_from_its_defaults() {
         let mut draft = Draft::new();
         let pattern = pattern_of(draft.current()).unwrap();
@@ -484,7 +485,7 @@ mod tests {
         assert!(draft.current().params.is_empty());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn durations_stay_within_the_recipe_limits() {
         let mut draft = Draft::new();
         draft.set_duration_s(1e9);
@@ -499,7 +500,7 @@ mod tests {
         assert_eq!(draft.current().transition_s, MAX_TRANSITION_S);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn names_become_file_names_the_controller_accepts() {
         let mut draft = Draft::new();
         draft.name = "  lobby/wave: v2?  ".into();
@@ -512,7 +513,7 @@ mod tests {
         assert_eq!(format_number(1500.0, 10.0), "1500");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_draft_round_trips_through_its_recipe() {
         let mut draft = Draft::new();
         draft.add(PATTERNS.last().unwrap().name);
@@ -524,7 +525,7 @@ mod tests {
         assert_eq!(back.name, "round trip");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_recipe_carries_the_grid_it_is_made_for() {
         let mut draft = Draft::new();
         draft.set_grid(6, 7);
@@ -554,7 +555,7 @@ mod tests {
         assert_eq!(Draft::from_recipe(bare, (2, 9)).unwrap().grid(), (2, 9));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_made_show_fits_its_target_and_gets_a_verdict_for_an_installation() {
         let mut draft = Draft::new();
         draft.set_grid(4, 5);

@@ -235,12 +235,13 @@ pub fn qprogram_file_name(show: &str, unit: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     fn local(name: &str) -> LocalFile {
         LocalFile::new(name, String::new(), 0.0).unwrap()
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn kinds_come_from_the_extension() {
         assert_eq!(local("wave.CSV").kind, ShowFormat::Csv);
         assert_eq!(local("a.b.json").kind, ShowFormat::Json);
@@ -249,7 +250,7 @@ mod tests {
         assert!(LocalFile::new("x.png", String::new(), 0.0).is_none());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn show_names_drop_the_extension() {
         assert_eq!(local("波浪.csv").show_name(), "波浪");
         assert_eq!(local("a.b.json").show_name(), "a.b");
@@ -258,7 +259,7 @@ mod tests {
         assert_eq!(copy.show_name(), "wave");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn listings_stay_sorted_and_keep_a_valid_selection() {
         let mut list = Listing::default();
         list.upsert(local("b.csv"));
@@ -278,7 +279,7 @@ mod tests {
         assert_eq!(list.items().len(), 2);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn upsert_replaces_a_file_of_the_same_name() {
         let mut list = Listing::default();
         list.upsert(local("a.csv"));
@@ -287,7 +288,7 @@ mod tests {
         assert_eq!(list.get("a.csv").unwrap().text, "new");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn replace_keeps_the_selection_only_if_still_there() {
         let summary = |name: &str| ShowSummary {
             name: name.into(),
@@ -311,7 +312,7 @@ mod tests {
         LocalFile::new(name, text.into(), 0.0).unwrap().to_show()
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn csv_without_a_layout_is_previewed_as_a_square_grid() {
         let four = "time_ms,u0,u1,u2,u3\n0,100,100,100,100\n500,200,300,400,500\n";
         let show = preview("four.csv", four).unwrap();
@@ -323,14 +324,14 @@ mod tests {
         assert_eq!((show.layout.rows, show.layout.cols), (1, 7));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn previews_are_not_held_to_limits() {
         // Beyond any travel, and still: shown, with its problems listed by the preview.
         let show = preview("deep.csv", "time_ms,u0\n0,90000\n").unwrap();
         assert_eq!(show.tracks[0].start_mm, 90_000.0);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn unreadable_files_say_why() {
         let error = preview("bad.csv", "time_ms,u0\n0,1\n5,2\n").unwrap_err();
         assert!(
@@ -343,7 +344,7 @@ mod tests {
         assert!(error.details()[0].contains("not valid"), "{error:?}");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn ball_numbers_are_plain_digits() {
         assert_eq!(parse_ball("0"), Some(0));
         assert_eq!(parse_ball(" 42 "), Some(42));
@@ -353,7 +354,7 @@ mod tests {
         assert_eq!(qprogram_file_name("wave", 7), "wave-unit7.q");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn long_messages_are_clipped_on_a_character_boundary() {
         assert_eq!(clip_message("short"), "short");
         let long = "é".repeat(MAX_MESSAGE_CHARS + 5);
@@ -364,12 +365,12 @@ mod tests {
         assert_eq!(clip_message(&exact), exact);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn supported_extensions_name_every_format() {
         assert_eq!(supported_extensions(), ".csv, .json");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_selection_can_be_cleared() {
         let mut list = Listing::default();
         list.upsert(local("a.csv"));
@@ -378,7 +379,7 @@ mod tests {
         assert_eq!(list.items().len(), 1);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn sizes_and_durations_read_well() {
         assert_eq!(format_bytes(999), "999 B");
         assert_eq!(format_bytes(1_500), "1.5 kB");

@@ -1238,8 +1238,9 @@ impl Lang {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn both_languages_name_the_connection_states() {
         assert_eq!(Lang::Zh.t(Text::Connected), "已连接");
         assert_eq!(Lang::Zh.t(Text::NotConnected), "未连接");
@@ -1247,7 +1248,7 @@ mod tests {
         assert_eq!(Lang::En.t(Text::NotConnected), "Not connected");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn every_text_differs_between_the_languages() {
         fn check<T: Words + std::fmt::Debug>(texts: &[T]) {
             for text in texts {
@@ -1263,7 +1264,7 @@ mod tests {
         check(LiveText::ALL);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_q_program_report_names_its_deviation_and_when() {
         let listing = QProgramListing {
             unit: 3,
@@ -1286,7 +1287,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn balls_are_named_from_one_in_both_languages() {
         assert_eq!(Lang::En.ball_name(7, 1, 2), "Ball u7 (row 2, col 3)");
         assert_eq!(Lang::Zh.ball_name(7, 1, 2), "球 u7（第 2 行，第 3 列）");
@@ -1299,7 +1300,7 @@ mod tests {
         assert!(Lang::Zh.drawn_by(false, 640, 480).contains("640×480"));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn every_error_code_has_a_text_in_both_languages() {
         // 中文 from this app's table, English the shared template of the code.
         for &code in Code::ALL {
@@ -1338,7 +1339,7 @@ mod tests {
         assert_eq!(unique.len(), listed.len(), "a code is listed twice");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn coded_errors_read_in_the_chosen_language() {
         let mut params = Params::new();
         params.insert("min".into(), "4".into());
@@ -1399,7 +1400,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn plan_verdicts_read_in_the_chosen_language() {
         let params = |pairs: &[(&str, &str)]| -> Params {
             pairs
@@ -1482,7 +1483,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_refused_start_reads_its_coded_reason_and_fixes_in_the_chosen_language() {
         let params = |pairs: &[(&str, &str)]| -> Params {
             pairs
@@ -1592,7 +1593,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_refused_q_program_reads_its_coded_reason() {
         let body = ApiError {
             error: "the program would be 12.3 mm off…".into(),
@@ -1626,7 +1627,7 @@ mod tests {
         assert!(!zh.contains("the program"), "{zh}");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_app_starts_in_the_stored_or_the_browsers_language() {
         let tags = |list: &[&str]| list.iter().map(|tag| (*tag).to_owned()).collect::<Vec<_>>();
         assert_eq!(Lang::at_start(None, &tags(&["zh-CN", "en"])), Lang::Zh);
@@ -1638,7 +1639,7 @@ mod tests {
         assert_eq!(Lang::at_start(Some("en"), &tags(&["zh-CN"])), Lang::En);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn codes_round_trip() {
         for lang in [Lang::Zh, Lang::En] {
             assert_eq!(Lang::from_code(lang.code()), lang);
@@ -1646,7 +1647,7 @@ mod tests {
         assert_eq!(Lang::from_code("fr"), Lang::Zh);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn unsupported_files_are_named_with_what_is_supported() {
         assert_eq!(
             Lang::En.unsupported_file("a.bin"),
@@ -1659,7 +1660,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn rate_limit_messages_carry_the_wait() {
         assert_eq!(
             Lang::En.too_many_attempts(Some(42)),
@@ -1672,7 +1673,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn failures_read_as_sentences() {
         assert_eq!(
             Lang::En.failure(&Failure::Unauthorized),

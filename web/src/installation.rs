@@ -350,8 +350,7 @@ pub fn health_warnings(gateways: &[GatewayStatus]) -> Vec<HealthWarning> {
 
 #[cfg(test)]
 mod tests {
-    #[cfg(target_arch = "wasm32")]
-    use wasm_bindgen_test::wasm_bindgen_test as test;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use floatball_shared::api::{LinkState, UnitHealth};
 
@@ -377,7 +376,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn limits_come_from_the_installation() {
         let mut info = info();
         info.max_speed_mm_s = 300.0;
@@ -388,7 +387,7 @@ mod tests {
         assert_eq!(limits.travel_mm, 7500.0);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn stations_read_and_write_as_ranges() {
         assert_eq!(format_stations(&[1, 2, 3, 5, 7, 8]), "1-3, 5, 7-8");
         assert_eq!(format_stations(&[]), "");
@@ -408,7 +407,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_form_shows_and_reads_back_the_installation() {
         let info = info();
         let form = InstallationForm::of(&info);
@@ -425,7 +424,7 @@ mod tests {
         assert_eq!(read.gateways[0].baud, None);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn every_unreadable_field_is_listed_and_values_are_left_to_the_bridge() {
         let mut form = InstallationForm::of(&info());
         form.set(Field::Rows, "2.5".into());
@@ -449,7 +448,7 @@ mod tests {
         assert_eq!(form.read().map(|info| info.max_speed_mm_s), Ok(-5.0));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn only_unwell_gateways_warn() {
         let gateway = |health: Option<UnitHealth>| GatewayStatus {
             index: 0,

@@ -69,6 +69,11 @@ pub mod wire;
 
 use wasm_bindgen::prelude::wasm_bindgen;
 
+// The unit tests run on wasm32 in the browser, with the browser tests (`wasm-pack
+// test --headless --chrome web`), as the app runs; natively too, with `cargo test`.
+#[cfg(test)]
+wasm_bindgen_test::wasm_bindgen_test_configure!(run_in_browser);
+
 /// Entry point called by `index.html`: mounts the app into `<body>`.
 #[wasm_bindgen]
 pub fn start() {

@@ -119,8 +119,9 @@ impl Page {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn hashes_round_trip() {
         for page in Page::ALL {
             assert_eq!(Page::from_hash(&page.hash()), page);
@@ -130,7 +131,7 @@ mod tests {
         assert_eq!(Page::from_hash("#control"), Page::Control);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn control_pages_need_a_login() {
         assert_eq!(Page::Control.resolve(false), Page::Login);
         assert_eq!(Page::Console.resolve(false), Page::Login);

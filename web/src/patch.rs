@@ -136,8 +136,9 @@ pub fn page_rows(patch: &Patch, cols: u32, page: usize) -> Vec<BallRow> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn ten_thousand_balls_summarise_as_forty_universes() {
         let patch = whole_matrix(100, 100, Profile::default(), 1, 1).unwrap();
         let ranges = universe_ranges(&patch);

@@ -281,6 +281,7 @@ pub fn can_start(editor: &PlaylistEditor, verdicts: &[(String, Verdict)]) -> boo
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     fn editor(shows: &[&str]) -> PlaylistEditor {
         let mut editor = PlaylistEditor::new(Playlist::default());
@@ -300,7 +301,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn add_uses_the_defaults() {
         let mut editor = PlaylistEditor::new(Playlist {
             default_delay_ms: 1500,
@@ -320,7 +321,7 @@ mod tests {
         assert!(!editor.is_checked(0));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn move_up_moves_each_checked_entry_and_keeps_the_checks() {
         let mut editor = editor(&["a", "b", "c", "d"]);
         check(&mut editor, &[1, 3]);
@@ -333,7 +334,7 @@ mod tests {
         assert_eq!(names(&editor), ["b", "d", "a", "c"]);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn move_down_is_the_mirror() {
         let mut editor = editor(&["a", "b", "c", "d"]);
         check(&mut editor, &[0, 2]);
@@ -345,7 +346,7 @@ mod tests {
         assert!(!editor.move_down());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn nothing_checked_moves_nothing() {
         let mut editor = editor(&["a", "b"]);
         assert!(!editor.move_up());
@@ -355,7 +356,7 @@ mod tests {
         assert_eq!(names(&editor), ["a", "b"]);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn delete_removes_all_checked() {
         let mut editor = editor(&["a", "b", "c", "d"]);
         check(&mut editor, &[0, 2, 3]);
@@ -364,7 +365,7 @@ mod tests {
         assert_eq!(editor.checked_count(), 0);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_timecode_start_goes_to_the_checked_entries_and_is_cleared_by_none() {
         let mut editor = editor(&["a", "b", "c"]);
         check(&mut editor, &[0, 2]);
@@ -388,7 +389,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn edit_changes_only_the_checked_entries() {
         let mut editor = editor(&["a", "b", "c"]);
         check(&mut editor, &[0, 2]);
@@ -402,7 +403,7 @@ mod tests {
         assert_eq!(editor.first_checked().map(|e| e.delay_ms), Some(2500));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn replace_keeps_checks_on_unchanged_entries() {
         let mut editor = editor(&["a", "b", "c"]);
         check(&mut editor, &[0, 1]);
@@ -416,7 +417,7 @@ mod tests {
         assert_eq!(editor.entries().len(), 4);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_highlight_marks_only_the_entry_that_plays() {
         let editor = editor(&["a", "b", "a"]);
         let status = |entry, show: &str| Status {
@@ -436,7 +437,7 @@ mod tests {
         assert_eq!(editor.playing_entry(&Status::default()), None);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn settings_and_shows() {
         let mut editor = editor(&["a", "b", "a"]);
         editor.set_settings(1000, 2, true);
@@ -446,7 +447,7 @@ mod tests {
         assert_eq!(editor.shows(), ["a", "b", "c"]);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn typed_numbers_are_checked() {
         assert_eq!(parse_delay_s("1.5"), Ok(1500));
         assert_eq!(parse_delay_s(" 2,25 "), Ok(2250));
@@ -466,7 +467,7 @@ mod tests {
         assert_eq!(format_delay_s(2000), "2");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn start_waits_for_a_playlist_and_refuses_infeasible_shows() {
         let report = |feasible| PlanReport {
             show: "a".into(),

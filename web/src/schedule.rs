@@ -194,12 +194,11 @@ pub fn shown(status: Option<&ScheduleStatus>) -> Option<&ScheduleStatus> {
 
 #[cfg(test)]
 mod tests {
-    #[cfg(target_arch = "wasm32")]
-    use wasm_bindgen_test::wasm_bindgen_test as test;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use super::*;
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_form_reads_back_what_it_was_given_and_names_what_it_cannot_read() {
         let mut schedule = Schedule {
             enabled: true,

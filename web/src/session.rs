@@ -70,6 +70,7 @@ impl Origin {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     fn origin(protocol: &str) -> Origin {
         Origin {
@@ -78,14 +79,14 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_page_host_is_same_origin() {
         assert_eq!(origin("http:").base_url("192.168.1.17:8080"), "");
         assert_eq!(origin("http:").base_url(" 192.168.1.17:8080/ "), "");
         assert_eq!(origin("http:").base_url(""), "");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn another_address_is_absolute() {
         assert_eq!(
             origin("http:").base_url("10.0.0.5:8080"),
@@ -97,7 +98,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn websocket_urls_carry_the_token() {
         assert_eq!(
             origin("http:").ws_url("192.168.1.17:8080", "a b"),
@@ -113,7 +114,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn sessions_round_trip_without_a_password() {
         let session = Session {
             address: "10.0.0.5".into(),

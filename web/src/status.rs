@@ -256,8 +256,9 @@ pub fn time_text(status: &Status) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn state_keys_match_the_api() {
         for state in [
             PlayerState::Idle,
@@ -279,7 +280,7 @@ mod tests {
         assert!(!streams(PlayerState::Homing) && !streams(PlayerState::Idle));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn gateway_lines_by_kind() {
         let uim = GatewayStatus {
             index: 0,
@@ -377,7 +378,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_summarised_status_names_its_problems_and_the_lowest_buffer() {
         let mut unwell = gateway(42, LinkState::Up);
         unwell.health = Some(floatball_shared::api::UnitHealth {
@@ -459,7 +460,7 @@ mod tests {
         assert!(Lang::Zh.more_gateways(5).contains('5'));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn time_and_progress() {
         let mut status = Status {
             show_time_ms: 12_500,
@@ -491,7 +492,7 @@ mod tests {
         assert_eq!(starting_text(Lang::En, &status), None);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_given_start_counts_down_while_loading() {
         let mut status = Status {
             state: PlayerState::Loading,

@@ -154,8 +154,7 @@ fn read(tag: &Tag, text: &str) -> Result<ServerMessage, serde_json::Error> {
 
 #[cfg(test)]
 mod tests {
-    #[cfg(target_arch = "wasm32")]
-    use wasm_bindgen_test::wasm_bindgen_test as test;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use floatball_shared::api::{
         ArmedShow, FeedbackFrame, GatewayKind, GatewayStatus, LinkState, PlayerState, SclReply,
@@ -165,7 +164,7 @@ mod tests {
     use super::*;
 
     /// Every variant the bridge sends, as serde writes it, reads back the same.
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn every_message_reads_back_as_serde_wrote_it() {
         let status = Status {
             state: PlayerState::Idle,
@@ -326,7 +325,7 @@ mod tests {
         assert!(read_show_control(r#"{"type":"pong"}"#).is_err());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn unknown_or_broken_messages_are_errors() {
         for text in [
             r#"{"type":"dance"}"#,

@@ -310,8 +310,7 @@ pub fn LiveCard() -> impl IntoView {
 
 #[cfg(test)]
 mod tests {
-    #[cfg(target_arch = "wasm32")]
-    use wasm_bindgen_test::wasm_bindgen_test as test;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use super::*;
 
@@ -326,7 +325,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_recording_begins_only_while_the_balls_follow_and_none_is_under_way() {
         assert!(!can_record(None));
         assert!(can_record(Some(&status(LivePhase::Following, false))));
@@ -342,7 +341,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_live_positions_stop_only_when_the_last_view_that_wants_them_goes() {
         let mut wanted = 0;
         assert!(wanted_by_one_more(&mut wanted), "the card: the first");
@@ -366,7 +365,7 @@ mod tests {
         assert_eq!(wanted, 0);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn every_phase_has_its_words() {
         let phases = [
             LivePhase::Homing,

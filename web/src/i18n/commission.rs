@@ -118,12 +118,11 @@ impl Lang {
 
 #[cfg(test)]
 mod tests {
-    #[cfg(target_arch = "wasm32")]
-    use wasm_bindgen_test::wasm_bindgen_test as test;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use super::*;
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn faults_read_in_words_in_both_languages() {
         let fault = UnitFault {
             station: 7,
@@ -137,7 +136,7 @@ mod tests {
         assert!(zh.contains("跟不上") && zh.contains("0x40"), "{zh}");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn sentences_carry_their_values() {
         let changed = BaudChanged {
             from_baud: 9600,

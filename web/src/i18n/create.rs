@@ -273,10 +273,11 @@ pub fn error(lang: Lang, error: &CreateError) -> String {
 #[cfg(test)]
 mod tests {
     use floatball_shared::create::{PATTERNS, ParamKind};
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use super::*;
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn every_pattern_parameter_and_choice_has_its_chinese() {
         for spec in PATTERNS {
             assert!(
@@ -305,7 +306,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn notes_name_the_segment_the_parameter_and_the_values_in_both_languages() {
         let note = Note::number(
             1,

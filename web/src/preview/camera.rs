@@ -210,6 +210,7 @@ impl Orbit {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     const VIEWPORT: Viewport = Viewport {
         width: 800.0,
@@ -230,7 +231,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_target_lands_in_the_middle() {
         let camera = Orbit::fit(
             Vec3::new(-2.0, -7.5, -2.0),
@@ -241,7 +242,7 @@ mod tests {
         assert!(close(middle, Vec2::new(400.0, 300.0)), "{middle}");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_known_point_lands_on_the_expected_pixel() {
         // Seen from the front at 10 m with a 45° field of view, the visible half
         // height at the target is 10 tan(22.5°) m = 4.142 m: a point 1 m up and 1 m to
@@ -257,7 +258,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_ray_under_a_pixel_goes_through_the_point_there() {
         let mut camera = front_view();
         camera.yaw = 0.7;
@@ -271,7 +272,7 @@ mod tests {
         assert!((ray.direction.length() - 1.0).abs() < 1e-6);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_fitted_view_holds_the_whole_scene() {
         let (min, max) = (Vec3::new(-5.0, -8.0, -5.0), Vec3::new(5.0, 0.0, 5.0));
         for aspect in [9.0 / 16.0, 1.0, 16.0 / 9.0] {
@@ -302,7 +303,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn drags_turn_zoom_and_pan() {
         let mut camera = front_view();
         camera.rotate(Vec2::new(0.0, 10_000.0));
@@ -331,7 +332,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_light_comes_from_the_eye_side() {
         let camera = front_view();
         let light = camera.light();

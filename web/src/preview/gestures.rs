@@ -131,8 +131,9 @@ impl Gestures {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_short_still_press_is_a_tap() {
         let mut gestures = Gestures::default();
         gestures.down(1, Vec2::new(10.0, 10.0), false, 0.0);
@@ -151,7 +152,7 @@ mod tests {
         assert!(gestures.moved(7, Vec2::ONE).is_empty());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn one_finger_orbits_once_it_has_left_the_tap_area() {
         let mut gestures = Gestures::default();
         gestures.down(1, Vec2::ZERO, false, 0.0);
@@ -170,7 +171,7 @@ mod tests {
         assert_eq!(gestures.up(1, Vec2::new(21.0, 5.0), true, 100.0), None);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_right_button_pans() {
         let mut gestures = Gestures::default();
         gestures.down(1, Vec2::ZERO, true, 0.0);
@@ -180,7 +181,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn two_fingers_pinch_and_pan() {
         let mut gestures = Gestures::default();
         gestures.down(1, Vec2::new(100.0, 100.0), false, 0.0);
@@ -208,7 +209,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_wheel_zooms_out_towards_the_user() {
         let Gesture::Zoom(out) = Gestures::wheel(100.0) else {
             panic!("a zoom")

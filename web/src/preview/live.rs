@@ -70,6 +70,7 @@ impl LiveClock {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     /// A status of the matrix in `state` at `show_time_ms` into `show`.
     pub(crate) fn status(state: PlayerState, show: &str, show_time_ms: u64) -> Status {
@@ -90,7 +91,7 @@ pub(crate) mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn follows_only_the_same_show_while_it_plays() {
         let playing = status(PlayerState::Playing, "ripple", 1000);
         assert!(plays(&playing, "ripple"));
@@ -108,7 +109,7 @@ pub(crate) mod tests {
         assert_eq!(clock.time_at(20.0), None, "disconnected");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn runs_on_between_reports_and_stops_a_second_after_the_last() {
         let mut clock = LiveClock::default();
         clock.report(
@@ -121,7 +122,7 @@ pub(crate) mod tests {
         assert_eq!(clock.time_at(9000.0), Some(6000.0), "no report for long");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_late_report_holds_the_picture_and_a_real_jump_is_followed() {
         let mut clock = LiveClock::default();
         let playing = |ms| status(PlayerState::Playing, "s", ms);

@@ -334,8 +334,7 @@ fn LiveStage() -> impl IntoView {
 
 #[cfg(test)]
 mod tests {
-    #[cfg(target_arch = "wasm32")]
-    use wasm_bindgen_test::wasm_bindgen_test as test;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use floatball_shared::show::Sampler;
 
@@ -356,7 +355,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_live_positions_are_laid_out_on_the_installations_grid() {
         let info = installation(2, 3);
         assert_eq!(
@@ -381,7 +380,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn every_ball_is_drawn_at_its_live_position() {
         let positions_mm = [0, 500, 1000, 1999, 250, 750];
         let show = live_show(&positions_mm, live_layout(6, Some(&installation(2, 3))));

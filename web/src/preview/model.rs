@@ -197,6 +197,7 @@ impl ViewChoice {
 #[cfg(test)]
 mod tests {
     use floatball_shared::api::PlayerState;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use super::*;
     use crate::preview::live::tests::status;
@@ -205,7 +206,7 @@ mod tests {
         status(PlayerState::Playing, show, show_time_ms)
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_own_clock_runs_by_the_time_between_frames() {
         let mut clock = Clock::new(1000.0);
         clock.for_show(10_000);
@@ -222,7 +223,7 @@ mod tests {
         assert_eq!(clock.t_ms(), 650.0, "the paused time does not count");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_new_show_starts_over_at_the_same_speed() {
         let mut clock = Clock::new(0.0);
         clock.for_show(5000);
@@ -237,7 +238,7 @@ mod tests {
         assert!(clock.playback().playing());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn live_mode_follows_the_machine_until_a_control_takes_over() {
         let mut clock = Clock::new(0.0);
         clock.for_show(60_000);
@@ -259,7 +260,7 @@ mod tests {
         assert_eq!(clock.t_ms(), 3600.0);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn live_mode_ends_when_the_machine_stops_but_speed_and_pause_keep_it() {
         let mut clock = Clock::new(0.0);
         clock.for_show(60_000);
@@ -275,7 +276,7 @@ mod tests {
         assert!(!clock.live_on());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn three_d_draws_unless_the_top_view_is_chosen_or_webgl_fails() {
         let mut view = ViewChoice::default();
         assert_eq!(view.mode(), Mode::ThreeD);
@@ -292,7 +293,7 @@ mod tests {
         assert!(!view.explains_no_webgl());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn selection_and_the_performance_panel() {
         let mut view = ViewChoice::default();
         assert_eq!(view.selected(), None);
@@ -305,7 +306,7 @@ mod tests {
         assert!(!view.toggle_perf());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_show_opened_from_a_start_time_waits_there() {
         let mut clock = Clock::new(0.0);
         clock.for_show_from(10_000, Some(2_500));

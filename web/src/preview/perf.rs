@@ -322,10 +322,11 @@ pub fn PerfPanel(
 #[cfg(test)]
 mod tests {
     use floatball_shared::show::{Limits, Sampler, validate};
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use super::*;
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn synthetic_shows_have_the_sizes_asked_and_keep_the_limits() {
         for balls in SIZES {
             let show = synthetic_show(balls);
@@ -341,7 +342,7 @@ mod tests {
         assert_eq!(show.tracks.len(), 9);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn synthetic_shows_move_and_change_colour() {
         let show = synthetic_show(100);
         let mut sampler = Sampler::new(&show);
@@ -359,7 +360,7 @@ mod tests {
         assert!(positions.iter().all(|p| (0.0..=7500.0).contains(p)));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_median_is_the_middle() {
         assert_eq!(median(&mut []), 0.0);
         assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);

@@ -130,8 +130,9 @@ impl Playback {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn plays_to_the_end_and_stops_there() {
         let mut playback = Playback::new(1000);
         assert!(playback.playing());
@@ -147,7 +148,7 @@ mod tests {
         assert_eq!(playback.t_ms(), 1000.0);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn steps_pause_and_stay_inside_the_show() {
         let mut playback = Playback::new(1200);
         playback.step_forward();
@@ -165,7 +166,7 @@ mod tests {
         assert_eq!(playback.t_ms(), 0.0, "paused");
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn toggle_pauses_resumes_and_starts_over_at_the_end() {
         let mut playback = Playback::new(1000);
         playback.advance(300.0);
@@ -184,7 +185,7 @@ mod tests {
         assert_eq!(playback.t_ms(), 0.0);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn speed_scales_time_and_survives_a_new_show() {
         let mut playback = Playback::new(10_000);
         playback.set_speed(4.0);
@@ -204,7 +205,7 @@ mod tests {
         assert!(SPEEDS.contains(&1.0));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn following_pauses_the_own_clock() {
         let mut playback = Playback::new(10_000);
         playback.follow(2500.0);
@@ -215,7 +216,7 @@ mod tests {
         assert_eq!(playback.t_ms(), 10_000.0);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn restart_and_seek() {
         let mut playback = Playback::new(1000);
         playback.seek(700.0);

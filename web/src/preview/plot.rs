@@ -423,6 +423,7 @@ fn curve(
 #[cfg(test)]
 mod tests {
     use floatball_shared::show::{Layout, Track, TrackRow, validate};
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     use super::*;
 
@@ -454,7 +455,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_motion_is_the_shared_evaluator_inside_every_row() {
         let show = show();
         let limits = Limits::for_layout(1, 2);
@@ -473,7 +474,7 @@ mod tests {
         assert!(BallPlot::new(&show, 2, &limits, &[]).is_none());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn only_this_balls_violations_are_marked_on_their_panel() {
         let show = show();
         let limits = Limits::for_layout(1, 2);
@@ -487,7 +488,7 @@ mod tests {
         assert!(still.violations.is_empty() && still.marks().is_empty());
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn limits_and_times_land_inside_their_panels() {
         let show = show();
         let limits = Limits::for_layout(1, 2);

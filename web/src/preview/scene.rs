@@ -163,6 +163,7 @@ pub fn lit(rgb: [u8; 3], normal: Vec3, light: Vec3) -> [u8; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     fn scene() -> Scene {
         Scene::new(
@@ -175,7 +176,7 @@ mod tests {
         )
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn balls_hang_below_their_anchor_in_the_grid() {
         let scene = scene();
         assert_eq!(scene.anchor(0), Vec3::new(-0.5, 0.0, -0.25));
@@ -195,7 +196,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_grid_has_a_line_per_row_and_column_and_the_floor_an_outline() {
         let (ceiling, floor) = scene().grid_lines();
         assert_eq!(ceiling.len(), 2 * (2 + 3));
@@ -210,7 +211,7 @@ mod tests {
         assert_eq!(every_other[2], ceiling[4]);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_tap_picks_the_nearest_ball_on_its_ray() {
         let scene = scene();
         let positions = [1000.0, 1000.0, 1000.0, 1000.0, 3000.0, 1000.0];
@@ -235,7 +236,7 @@ mod tests {
         assert_eq!(scene.pick(ray, &positions), None);
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn lighting_is_lambert_with_ambient() {
         assert_eq!(lit([200, 100, 0], Vec3::Z, Vec3::Z), [200, 100, 0]);
         assert_eq!(lit([200, 100, 0], Vec3::Z, Vec3::NEG_Z), [60, 30, 0]);

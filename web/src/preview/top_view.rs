@@ -133,6 +133,7 @@ pub fn draw(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wasm_bindgen_test::wasm_bindgen_test;
 
     fn layout(rows: u32, cols: u32) -> Layout {
         Layout {
@@ -142,7 +143,7 @@ mod tests {
         }
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn the_grid_is_centred_in_square_cells() {
         let geometry = Geometry::fit(layout(2, 4), 400.0, 400.0);
         assert_eq!(geometry.cell, 100.0);
@@ -151,7 +152,7 @@ mod tests {
         assert_eq!(geometry.centre(5), (150.0, 250.0));
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn a_tap_hits_the_ball_of_its_cell() {
         let geometry = Geometry::fit(layout(2, 4), 400.0, 400.0);
         let positions = [0.0; 8];
@@ -183,7 +184,7 @@ mod tests {
         );
     }
 
-    #[test]
+    #[wasm_bindgen_test(unsupported = test)]
     fn higher_balls_are_bigger_and_brighter() {
         let geometry = Geometry::fit(layout(1, 1), 100.0, 100.0);
         assert!(geometry.radius(0.0) > geometry.radius(7500.0));
