@@ -134,38 +134,6 @@ pub struct Built {
 
 /// Builds the app into `static/pkg/`.
 pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
-    build_web_beside(env, build, None)
-}
-
-/// Work that can run beside the app's build once cargo has compiled it: `wasm-opt`
-/// then keeps one core busy for a minute and more, and cargo is free for another
-/// build.
-pub type Beside<'a> = &'a (dyn Fn() -> Result<(), String> + Sync);
-
-/// [`build_web`], with `beside` (if any) run on a thread of its own from the end of
-/// the compilation to the end of the build, which fails if it failed.
-///
-/// # Errors
-/// As [`build_web`], or what `beside` returned.
-pub fn build_web_beside(env: &Env, build: Build, beside: Option<Beside>) -> Result<(), String> {
-    std::thread::scope(|scope| {
-        let mut beside_run = None;
-        let built = build_web_inner(env, build, &mut || {
-            if let Some(work) = beside {
-                beside_run = Some(scope.spawn(work));
-            }
-        });
-        let beside_done = beside_run.map_or(Ok(()), |handle| {
-            handle
-                .join()
-                .unwrap_or_else(|_| Err("the work beside the app's build panicked".to_owned()))
-        });
-        built.and(beside_done)
-    })
-}
-
-/// [`build_web`]; `compiled` is called once cargo is done.
-fn build_web_inner(env: &Env, build: Build, compiled: &mut dyn FnMut()) -> Result<(), String> {
     println!(
         "xtask: building the web app ({} profile) into static/pkg/",
         build.profile()
@@ -200,7 +168,6 @@ fn build_web_inner(env: &Env, build: Build, compiled: &mut dyn FnMut()) -> Resul
                 .map_err(|err| format!("cannot clear {}: {err}", dir.display()))?;
         }
     }
-    compiled();
     let compiled = std::time::Instant::now();
     let split = split_wasm(&read(&wasm)?, &split_dir)?;
     tools::run_command(

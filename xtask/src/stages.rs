@@ -9,9 +9,9 @@
 //! test stages end with their slowest test binaries.
 
 use std::ffi::OsString;
+use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
-use crate::app;
 use crate::leftovers;
 use crate::side_by_side;
 use crate::tools::{self, Env};
@@ -35,7 +35,8 @@ const NATIVE: side_by_side::Plan = side_by_side::Plan {
         "link_sim",
         // Chases timecode in step (and runs olad on Art-Net's and OLA's fixed ports).
         "timecode",
-        // Live input from olad's Art-Net and sACN (fixed ports 6454 and 5568).
+        // Live input from olad's Art-Net and sACN (fixed ports 6454 and 5568; so
+        // does `live_mode`, which no other test beside it uses).
         "live",
         // The bridge's unit tests: the SCL line's e-stop within 20 ms of the press.
         "floatball_bridge",
@@ -45,6 +46,7 @@ const NATIVE: side_by_side::Plan = side_by_side::Plan {
         "untrusted",
     ],
     seconds: &[
+        ("live_mode", 33),
         ("playback", 23),
         ("live_limits", 23),
         ("arming", 19),
@@ -104,6 +106,85 @@ fn end_to_end_envs(env: &Env) -> Vec<(&'static str, OsString)> {
     ]
 }
 
+/// The stage that runs the wasm32 tests, the browser tests and the end-to-end tests'
+/// build beside the release app's build.
+const SIDE_BY_SIDE_STAGE: &str = "wasm32 and browser tests beside the release app";
+
+/// The part of [`SIDE_BY_SIDE_STAGE`] that runs in the background.
+const RELEASE_APP_PART: &str = "build the app (release)";
+
+/// How many lines of a failed background build's output its error repeats.
+const FAILED_LOG_LINES: usize = 30;
+
+/// One of the things a stage runs side by side, as it ended.
+struct Part {
+    name: &'static str,
+    seconds: f64,
+    error: Option<String>,
+}
+
+impl Part {
+    fn failed(name: &'static str, error: &str) -> Part {
+        Part {
+            name,
+            seconds: 0.0,
+            error: Some(error.to_owned()),
+        }
+    }
+
+    /// `ok   <name> (<s> s)` or `FAIL <name> (<s> s)`.
+    fn line(&self) -> String {
+        let mark = if self.error.is_none() { "ok  " } else { "FAIL" };
+        format!("{mark} {} ({:.1} s)", self.name, self.seconds)
+    }
+}
+
+/// Runs `body` as the part `name` of a stage, timed, with a heading and an end line
+/// like a stage's.
+fn part(name: &'static str, body: impl FnOnce() -> Result<(), String>) -> Part {
+    println!("\nxtask: --> {name}");
+    let started = Instant::now();
+    let error = body().err();
+    let ended = Part {
+        name,
+        seconds: started.elapsed().as_secs_f64(),
+        error,
+    };
+    println!("xtask: {}", ended.line());
+    ended
+}
+
+/// Builds the release app (`cargo xtask build`, in a process of its own) with its
+/// output into `log` instead of the terminal, where the tests beside it write theirs.
+///
+/// # Errors
+/// The build failed (with the end of its output), or could not start.
+fn release_app_in_background(env: &Env, log: &mut String) -> Result<(), String> {
+    let exe = std::env::current_exe().map_err(|err| format!("cannot find the xtask: {err}"))?;
+    let mut command = tools::program(env, &exe.to_string_lossy());
+    command.arg("build");
+    println!(
+        "xtask: $ {} (in the background; its output follows the other parts')",
+        tools::describe(&command)
+    );
+    let output = command
+        .output()
+        .map_err(|err| format!("cannot start `{}`: {err}", tools::describe(&command)))?;
+    log.push_str(&String::from_utf8_lossy(&output.stdout));
+    log.push_str(&String::from_utf8_lossy(&output.stderr));
+    if output.status.success() {
+        Ok(())
+    } else {
+        let lines: Vec<&str> = log.lines().collect();
+        let tail = lines[lines.len().saturating_sub(FAILED_LOG_LINES)..].join("\n");
+        Err(format!(
+            "`{}` failed ({}); the end of its output:\n{tail}",
+            tools::describe(&command),
+            output.status
+        ))
+    }
+}
+
 /// One line of the summary.
 struct Outcome {
     name: &'static str,
@@ -127,6 +208,8 @@ pub fn test(args: &[String]) -> Result<(), String> {
         env.target_dir.display()
     );
     let mut outcomes = Vec::new();
+    // The parts of the stage that runs things side by side, for the summary.
+    let parts: Mutex<Vec<Part>> = Mutex::new(Vec::new());
     let mut stage = |name: &'static str, body: &dyn Fn(&Env) -> Result<(), String>| {
         if only
             .as_ref()
@@ -183,7 +266,16 @@ pub fn test(args: &[String]) -> Result<(), String> {
         watched(env, || {
             side_by_side::run(
                 env,
-                &["--workspace", "--exclude", "floatball-e2e"],
+                // The web app's unit tests run on wasm32, as the app does, in the
+                // browser tests' stage: natively they would cost a build of Leptos and
+                // the browser bindings that nothing else here needs.
+                &[
+                    "--workspace",
+                    "--exclude",
+                    "floatball-e2e",
+                    "--exclude",
+                    "floatball-web",
+                ],
                 // ser2net, liblo-tools and ola were installed above: their absence is
                 // a failure, not a skip.
                 &[
@@ -195,43 +287,81 @@ pub fn test(args: &[String]) -> Result<(), String> {
             )
         })
     });
-    stage("shared tests on wasm32 (Node.js)", &|env| {
-        let mut command = tools::cargo(env);
-        command.args([
-            "test",
-            "--package",
-            "floatball-shared",
-            "--target",
-            "wasm32-unknown-unknown",
-        ]);
-        side_by_side::run_timed(command)
-    });
-    stage("web tests in headless Chromium (wasm-pack)", &|env| {
-        watched(env, || {
-            let mut command = tools::program(env, "wasm-pack");
-            command
-                .args(["test", "--headless", "--chrome", "--chromedriver"])
-                .arg(tools::CHROMEDRIVER)
-                .arg("web");
-            side_by_side::run_timed(command)
-        })
-    });
     // The app as operators get it (release, `wasm-opt`): the end-to-end tests run it
-    // and hold its first load to the budget (issue 35). They run the `floatball` the
+    // and hold its first load to the budget (issue 35). Its build spends minutes on one
+    // core (fat LTO, then `wasm-opt`), so it runs in the background, its output kept
+    // for the end, while the wasm32 tests, the browser tests and the build of the
+    // end-to-end tests take the other. The end-to-end tests run the `floatball` the
     // native tests built (`target/debug/floatball`, linked for the bridge's
     // integration tests): a `cargo build` of the bridge alone would compile its
     // dependencies again, with the features the tests do not unify in.
-    //
-    // Once cargo has compiled the app, `wasm-opt` keeps one core busy for over a
-    // minute: the end-to-end tests are compiled beside it, so that stage starts with
-    // its binaries built.
-    stage("build the app (release)", &|env| {
-        let envs = end_to_end_envs(env);
-        app::build_web_beside(
-            env,
-            app::Build::Release,
-            Some(&|| side_by_side::build_only(env, &END_TO_END_ARGS, &envs)),
-        )
+    stage(SIDE_BY_SIDE_STAGE, &|env| {
+        let (mut ended, app_log) = std::thread::scope(|scope| {
+            let app = scope.spawn(|| {
+                let mut log = String::new();
+                let part = part(RELEASE_APP_PART, || {
+                    release_app_in_background(env, &mut log)
+                });
+                (part, log)
+            });
+            let mut ended = vec![
+                part("shared tests on wasm32 (Node.js)", || {
+                    let mut command = tools::cargo(env);
+                    command.args([
+                        "test",
+                        "--package",
+                        "floatball-shared",
+                        "--target",
+                        "wasm32-unknown-unknown",
+                    ]);
+                    side_by_side::run_timed(command)
+                }),
+                part("web tests in headless Chromium (wasm-pack)", || {
+                    watched(env, || {
+                        let mut command = tools::program(env, "wasm-pack");
+                        command
+                            .args(["test", "--headless", "--chrome", "--chromedriver"])
+                            .arg(tools::CHROMEDRIVER)
+                            .arg("web");
+                        side_by_side::run_timed(command)
+                    })
+                }),
+                part("build the end-to-end tests", || {
+                    side_by_side::build_only(env, &END_TO_END_ARGS, &end_to_end_envs(env))
+                }),
+            ];
+            let (app, log) = app.join().unwrap_or_else(|_| {
+                (
+                    Part::failed(RELEASE_APP_PART, "the thread of the app's build panicked"),
+                    String::new(),
+                )
+            });
+            ended.push(app);
+            (ended, log)
+        });
+        println!("\nxtask: the output of `{RELEASE_APP_PART}`, which ran beside the parts above:");
+        print!("{app_log}");
+        ended.sort_by_key(|part| part.name != RELEASE_APP_PART);
+        let failed: Vec<String> = ended
+            .iter()
+            .filter_map(|part| {
+                part.error
+                    .as_ref()
+                    .map(|error| format!("{}: {error}", part.name))
+            })
+            .collect();
+        for part in &ended {
+            println!("xtask: {}", part.line());
+        }
+        parts
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .append(&mut ended);
+        if failed.is_empty() {
+            Ok(())
+        } else {
+            Err(failed.join("; "))
+        }
     });
     stage(
         "end-to-end tests (real bridge, headless Chromium)",
@@ -250,6 +380,11 @@ pub fn test(args: &[String]) -> Result<(), String> {
             "FAIL"
         };
         println!("  {mark} {:<52} {:>7.1} s", outcome.name, outcome.seconds);
+        if outcome.name == SIDE_BY_SIDE_STAGE {
+            for part in parts.lock().unwrap_or_else(PoisonError::into_inner).iter() {
+                println!("         {}", part.line());
+            }
+        }
         if let Some(error) = &outcome.error {
             // The end of a log is often all that is kept of it: the reason goes here
             // too, not only under the stage's own heading.
