@@ -1,15 +1,16 @@
-//! Commissioning from a phone, end to end: a bridge whose simulated gateway has 25
-//! factory-fresh units on a 5 × 5 matrix (`--sim-factory-fresh`: every unit on
+//! Commissioning from a phone, end to end: a bridge whose simulated gateway has 9
+//! factory-fresh units on a 3 × 3 matrix (`--sim-factory-fresh`: every unit on
 //! station 5) is commissioned entirely from the app at phone size — the roll call
-//! shows the collision on station 5, "assign all in grid order" gives stations 1–25
+//! shows the collision on station 5, "assign all in grid order" gives stations 1–9
 //! in serial order, Identify moves exactly one simulated unit, tapping the grid builds
 //! the mapping, Save stores it, the mapping survives a restart of the bridge, and a
 //! show then plays with each ball where its cell is.
 //!
-//! The installer's walk is the same for 25 balls as for 100, and each identify takes
-//! the better part of a second: the bridge's own test (`bridge/tests/commission.rs`)
-//! rolls call and assigns a gateway of 100 units at 9600 baud, so this one keeps the
-//! phone's walk to a 5 × 5 matrix.
+//! The installer's walk is the same for 9 balls as for 100 (a corner, an edge, the
+//! middle; the collision on station 5 among them), and each identify takes the better
+//! part of a second: the bridge's own test (`bridge/tests/commission.rs`) rolls call
+//! and assigns a gateway of 100 units at 9600 baud, so this one keeps the phone's walk
+//! to a 3 × 3 matrix.
 //!
 //! A simulated unit hangs above the cell of its place in the simulator's list
 //! (`GET /api/sim/positions`, unit order): unit *p* is the ball above cell *p*. The
@@ -22,7 +23,7 @@ use floatball_e2e::{Bridge, Browser, INDICATOR, PLAY_TIMEOUT, UI_TIMEOUT};
 use serde_json::Value;
 
 /// The matrix's side: [`SIDE`] × [`SIDE`] balls.
-const SIDE: usize = 5;
+const SIDE: usize = 3;
 
 /// The units of the simulated gateway, one per cell.
 const UNITS: usize = SIDE * SIDE;
@@ -314,7 +315,7 @@ async fn a_factory_fresh_matrix_is_commissioned_from_a_phone_and_plays_where_its
         "{rows:?}"
     );
 
-    // Assign all in grid order: stations 1–25 by ascending serial, and a clean roll
+    // Assign all in grid order: stations 1–9 by ascending serial, and a clean roll
     // call to confirm it.
     tap(&browser, "[data-testid=assign-all]").await;
     browser

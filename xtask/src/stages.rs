@@ -73,11 +73,11 @@ const NATIVE: side_by_side::Plan = side_by_side::Plan {
 const END_TO_END: side_by_side::Plan = side_by_side::Plan {
     solo: &[],
     seconds: &[
-        ("commission", 53),
         ("create", 45),
         ("screens", 42),
         ("operator_mbox", 39),
         ("controls", 28),
+        ("commission", 24),
         ("operator_scl", 22),
         ("operator", 17),
         ("files", 14),
