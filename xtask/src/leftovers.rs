@@ -11,6 +11,13 @@
 //! (its `.org.chromium.Chromium.*` folders, and `.tmp*` folders holding a profile),
 //! saying how much: a note, not a failure.
 //!
+//! Only this run's processes count: those in the session `cargo xtask` runs in, or
+//! carrying its mark in their environment ([`RUN_MARK`], which every process the
+//! xtask starts inherits; it survives a `setsid`, and Chromium's zygote, which clears
+//! its environment, stays in the session). A browser or a test run of someone else's
+//! on the same machine is neither killed nor reported, and a Chromium folder some
+//! running process still uses is not removed.
+//!
 //! Processes are read from `/proc` (Linux); a process is known by its pid and start
 //! time, so a pid used again is not taken for the old process.
 
@@ -36,12 +43,65 @@ const COMMAND_LINE_CHARS: usize = 240;
 /// Programs (file names, or the start of one) the test stages start.
 const WATCHED_PROGRAMS: [&str; 4] = ["ser2net", "olad", "oscdump", "oscsend"];
 
+/// The environment variable that marks the processes of one `cargo xtask` run: the
+/// pid of the outermost xtask, set by [`mark_this_run`].
+pub const RUN_MARK: &str = "FLOATBALL_XTASK_RUN";
+
+/// Marks this run: sets [`RUN_MARK`] (unless an outer xtask set it), which every
+/// process started from here inherits.
+///
+/// # Safety
+/// Call it before any thread is started (it changes the process's environment).
+pub unsafe fn mark_this_run() {
+    if std::env::var_os(RUN_MARK).is_none() {
+        // SAFETY: the caller guarantees no other thread runs yet.
+        unsafe { std::env::set_var(RUN_MARK, std::process::id().to_string()) };
+    }
+}
+
+/// Whose processes a [`Watch`] looks at: this run's (see the module doc).
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Owner {
+    /// The session this xtask runs in.
+    session: Option<u32>,
+    /// `RUN_MARK=<value>`, as it appears in a marked process's environment.
+    mark: Option<Vec<u8>>,
+}
+
+impl Owner {
+    /// This process's session and mark.
+    fn this_run() -> Self {
+        let session = read_process(std::process::id()).and_then(|me| me.session);
+        let mark = std::env::var(RUN_MARK)
+            .ok()
+            .map(|value| format!("{RUN_MARK}={value}").into_bytes());
+        Self { session, mark }
+    }
+
+    /// Whether `process` is this run's: in its session, or marked.
+    fn owns(&self, process: &Process) -> bool {
+        if self.session.is_some() && process.session == self.session {
+            return true;
+        }
+        let Some(mark) = &self.mark else {
+            return false;
+        };
+        std::fs::read(format!("/proc/{}/environ", process.pid)).is_ok_and(|environ| {
+            environ
+                .split(|&byte| byte == 0)
+                .any(|variable| variable == mark.as_slice())
+        })
+    }
+}
+
 /// A process as `/proc` shows it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 struct Process {
     pid: u32,
     /// Clock ticks after boot: with the pid, names the process for good.
     start_ticks: u64,
+    /// Its session (field 6 of `/proc/<pid>/stat`).
+    session: Option<u32>,
     /// Its arguments, `argv[0]` first.
     args: Vec<String>,
     /// Where its executable is (`/proc/<pid>/exe`), if readable.
@@ -73,6 +133,7 @@ type Kinds = fn(&Process, &Path) -> bool;
 pub struct Watch {
     target_dir: PathBuf,
     kinds: Kinds,
+    owner: Owner,
     before: BTreeSet<(u32, u64)>,
     temp_before: BTreeSet<OsString>,
 }
@@ -85,13 +146,15 @@ impl Watch {
 
     /// [`Watch::start`] for the processes that `kinds` picks.
     fn start_for(target_dir: PathBuf, kinds: Kinds) -> Self {
-        let before = watched(&target_dir, kinds)
+        let owner = Owner::this_run();
+        let before = watched(&target_dir, kinds, &owner)
             .iter()
             .map(Process::key)
             .collect();
         Self {
             target_dir,
             kinds,
+            owner,
             before,
             temp_before: temp_entries(),
         }
@@ -110,7 +173,7 @@ impl Watch {
     }
 
     fn new_processes(&self) -> Vec<Process> {
-        watched(&self.target_dir, self.kinds)
+        watched(&self.target_dir, self.kinds, &self.owner)
             .into_iter()
             .filter(|process| !self.before.contains(&process.key()))
             .collect()
@@ -165,7 +228,7 @@ impl Watch {
         let mut removed = Vec::new();
         for name in temp_entries().difference(&self.temp_before) {
             let path = temp.join(name);
-            if !is_chromium_leftover(&path) {
+            if !is_chromium_leftover(&path) || in_use(&path) {
                 continue;
             }
             let bytes = size_of(&path);
@@ -185,25 +248,52 @@ impl Watch {
     }
 }
 
-/// The running processes (not zombies, never this one) that `kinds` picks.
-fn watched(target_dir: &Path, kinds: Kinds) -> Vec<Process> {
+/// The running processes of `owner` (not zombies, never this one) that `kinds`
+/// picks.
+fn watched(target_dir: &Path, kinds: Kinds, owner: &Owner) -> Vec<Process> {
     let me = std::process::id();
-    let Ok(entries) = std::fs::read_dir("/proc") else {
-        return Vec::new();
-    };
-    entries
-        .filter_map(Result::ok)
-        .filter_map(|entry| entry.file_name().to_str()?.parse::<u32>().ok())
+    pids()
+        .into_iter()
         .filter(|&pid| pid != me)
         .filter_map(read_process)
-        .filter(|process| kinds(process, target_dir))
+        .filter(|process| kinds(process, target_dir) && owner.owns(process))
         .collect()
+}
+
+/// The pids in `/proc`.
+fn pids() -> Vec<u32> {
+    std::fs::read_dir("/proc")
+        .map(|entries| {
+            entries
+                .filter_map(Result::ok)
+                .filter_map(|entry| entry.file_name().to_str()?.parse::<u32>().ok())
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Whether a running process (anyone's) names `dir` on its command line or has a
+/// file under it open.
+fn in_use(dir: &Path) -> bool {
+    let named = dir.to_string_lossy().into_owned();
+    pids().into_iter().any(|pid| {
+        let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
+        if String::from_utf8_lossy(&cmdline).contains(named.as_str()) {
+            return true;
+        }
+        std::fs::read_dir(format!("/proc/{pid}/fd")).is_ok_and(|fds| {
+            fds.filter_map(Result::ok)
+                .filter_map(|fd| std::fs::read_link(fd.path()).ok())
+                .any(|target| target.starts_with(dir))
+        })
+    })
 }
 
 /// The process `pid`, unless it is gone or a zombie.
 fn read_process(pid: u32) -> Option<Process> {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     let start_ticks = start_ticks(&stat)?;
+    let session = session(&stat);
     let args: Vec<String> = std::fs::read(format!("/proc/{pid}/cmdline"))
         .ok()?
         .split(|&byte| byte == 0)
@@ -214,6 +304,7 @@ fn read_process(pid: u32) -> Option<Process> {
     Some(Process {
         pid,
         start_ticks,
+        session,
         args,
         exe,
     })
@@ -229,6 +320,12 @@ fn start_ticks(stat: &str) -> Option<u64> {
         return None;
     }
     fields.get(19)?.parse().ok()
+}
+
+/// Field 6 of `/proc/<pid>/stat` (`session`), counted after the name's last `)`.
+fn session(stat: &str) -> Option<u32> {
+    let (_, rest) = stat.rsplit_once(')')?;
+    rest.split_whitespace().nth(3)?.parse().ok()
 }
 
 /// Whether `process` is of a kind the tests start: Chromium (`chromium`, `chrome…`),
@@ -328,6 +425,7 @@ mod tests {
         Process {
             pid: 42,
             start_ticks: 7,
+            session: Some(3),
             args: args.iter().map(|arg| (*arg).to_owned()).collect(),
             exe: exe.map(PathBuf::from),
         }
@@ -369,6 +467,7 @@ mod tests {
     fn the_start_time_is_read_after_the_name() {
         let stat = "123 (a (b) c) S 1 123 123 0 -1 4194560 1 0 0 0 0 0 0 0 20 0 1 0 98765 1 1";
         assert_eq!(start_ticks(stat), Some(98765));
+        assert_eq!(session(stat), Some(123));
         let zombie = "123 (x) Z 1 123 123 0 -1 4194560 1 0 0 0 0 0 0 0 20 0 1 0 98765 1 1";
         assert_eq!(start_ticks(zombie), None);
         assert_eq!(start_ticks("garbage"), None);
@@ -422,6 +521,81 @@ mod tests {
         reaper.join().expect("reaper").expect("wait");
         let watch = Watch::start_for(target, ours);
         assert_eq!(watch.finish_processes(), Ok(()));
+    }
+
+    /// Polls `done` every 20 ms for at most 5 s.
+    fn eventually(done: impl Fn() -> bool) -> bool {
+        let end = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < end {
+            if done() {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        false
+    }
+
+    /// A process in this session is this run's; one that left it (`setsid`) is this
+    /// run's only if it carries the run's mark; another's is never.
+    #[test]
+    fn this_runs_processes_are_those_in_its_session_or_marked() {
+        let value = format!("leftovers-test-{}", std::process::id());
+        let owner = Owner {
+            session: Owner::this_run().session,
+            mark: Some(format!("{RUN_MARK}={value}").into_bytes()),
+        };
+        assert!(owner.session.is_some());
+        let start = |marked: bool| {
+            let mut command = Command::new("setsid");
+            command.args(["sleep", "300"]).env_remove(RUN_MARK);
+            if marked {
+                command.env(RUN_MARK, &value);
+            }
+            command.spawn().expect("setsid")
+        };
+        let mut in_session = Command::new("sleep")
+            .arg("300")
+            .env_remove(RUN_MARK)
+            .spawn()
+            .expect("sleep");
+        let (mut marked, mut foreign) = (start(true), start(false));
+        let left_the_session = |pid: u32| {
+            eventually(|| {
+                read_process(pid).is_some_and(|process| {
+                    process.args.first().is_some_and(|name| name == "sleep")
+                        && process.session != owner.session
+                })
+            })
+        };
+        assert!(left_the_session(marked.id()) && left_the_session(foreign.id()));
+        let owns = |pid: u32| owner.owns(&read_process(pid).expect("running"));
+        assert!(owns(in_session.id()));
+        assert!(owns(marked.id()));
+        assert!(!owns(foreign.id()));
+        for child in [&mut in_session, &mut marked, &mut foreign] {
+            child.kill().expect("kill");
+            child.wait().expect("wait");
+        }
+    }
+
+    /// A folder a running process holds open (or names) is in use, and no longer
+    /// once the process ended.
+    #[test]
+    fn a_folder_a_process_uses_is_in_use() {
+        let temp = tempfile::tempdir().expect("temp dir");
+        let file = temp.path().join("Singleton");
+        std::fs::write(&file, b"x").expect("write");
+        assert!(!in_use(temp.path()));
+        let mut tail = Command::new("tail")
+            .arg("-f")
+            .arg(&file)
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .expect("tail");
+        assert!(eventually(|| in_use(temp.path())));
+        tail.kill().expect("kill");
+        tail.wait().expect("wait");
+        assert!(eventually(|| !in_use(temp.path())));
     }
 
     #[test]

@@ -135,6 +135,8 @@ commands:
 ";
 
 fn main() -> ExitCode {
+    // SAFETY: first thing in `main`, before any thread is started.
+    unsafe { leftovers::mark_this_run() };
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("run") => run(&args[1..]),

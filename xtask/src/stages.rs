@@ -4,6 +4,12 @@
 //! Stages keep going after a failure so one run shows everything that is wrong; the
 //! command fails if any stage failed.
 //!
+//! One stage runs its parts side by side: the release app's build spends minutes on
+//! one core (fat LTO, then `wasm-opt`), so it runs in the background (its output
+//! printed when the stage ends) while the shared crate's wasm32 tests, the web app's
+//! tests in Chromium and the end-to-end tests' build take turns on the other; the
+//! summary gives each part's time under the stage's.
+//!
 //! The stages that start processes (the native, web and end-to-end tests) fail if
 //! any they started still runs when they end, and kill it (see [`leftovers`]); the
 //! test stages end with their slowest test binaries.
