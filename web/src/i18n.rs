@@ -796,10 +796,23 @@ impl Lang {
 
     /// Why a show file cannot be read or is refused, as the preview says it: the
     /// parser's problem (with its line and column) when the file does not read.
+    /// Called in the CSV reader's chunk ([`crate::lazy::read_csv`]), which carries the
+    /// words of the CSV reader's problems; a native (JSON) file's reading in the main
+    /// module uses [`Self::refused_json`].
     pub fn refused(self, refused: &floatball_shared::show::Refused) -> String {
         use floatball_shared::show::Refused;
         match refused {
             Refused::Csv(error) | Refused::KeyframeTooLate { error, .. } => self.error_of(error),
+            other => self.refused_json(other),
+        }
+    }
+
+    /// [`Self::refused`] for a native (JSON) show file, whose reading never gives a
+    /// CSV reader's problem: the JSON parser's problem (with its line and column) when
+    /// the file does not read, else the refusal.
+    pub fn refused_json(self, refused: &floatball_shared::show::Refused) -> String {
+        use floatball_shared::show::Refused;
+        match refused {
             Refused::Unreadable(error) => self.error_of(error),
             other => self.error_of(other),
         }

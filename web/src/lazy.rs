@@ -129,11 +129,14 @@ split!(
     csv,
     /// A local CSV file read for the preview ([`crate::files::LocalFile::to_show`]):
     /// the CSV reader (keyframes, curves, their error words) is a chunk of its own,
-    /// fetched when the first CSV file is previewed.
+    /// fetched when the first CSV file is previewed. A file that does not read gives
+    /// why in `lang` ([`Lang::refused`]), worded in the chunk: the parameters of the
+    /// CSV reader's problems are code of the chunk too.
     pub fn read_csv(
         file: crate::files::LocalFile,
-    ) -> Result<floatball_shared::show::Show, floatball_shared::show::Refused> {
-        file.to_show()
+        lang: Lang,
+    ) -> Result<floatball_shared::show::Show, String> {
+        file.to_show().map_err(|refused| lang.refused(&refused))
     }
 );
 
