@@ -2,9 +2,11 @@
 //!
 //! `floatball-web` is compiled to wasm32 with `--cfg floatball_split` and the linker's
 //! relocations kept (`-C link-arg=--emit-relocs`, given by `cargo rustc` to the app's
-//! crate only, so the dependencies the browser tests compiled are reused). Then
-//! [`split_wasm`] cuts it at its split points (`web/src/lazy.rs`: the Create,
-//! Commissioning and Installation pages) with `wasm_split_cli_support`, as
+//! crate only, so the dependencies the browser tests compiled are reused; the whole
+//! wasm32 target is compiled with Leptos' `erase_components`, see
+//! `.cargo/config.toml`). Then [`split_wasm`] cuts it at its split points
+//! (`web/src/lazy.rs` lists them: the rarely opened pages and the parts of the
+//! first-load pages that can come a moment later) with `wasm_split_cli_support`, as
 //! cargo-leptos' `--split` does: a main module, a chunk per page (and one per group
 //! of functions several pages share), and the chunks' loader module, which the main
 //! module imports and which fetches a chunk the first time its page is opened.
