@@ -1,6 +1,7 @@
-//! The Commissioning page's sentences with values in them (its fixed strings are
-//! [`super::Text`] variants): a gateway's title, a roll call's summary, a unit's fault
-//! in words, what identify and a line-speed change did.
+//! The Commissioning page's words, which come with its chunk: its fixed strings
+//! ([`CommissionText`]) and its sentences with values in them: a gateway's title, a
+//! roll call's summary, a unit's fault in words, what identify and a line-speed
+//! change did.
 
 use floatball_shared::api::{BaudChanged, GatewayKind, Identifying, RollCall, UnitFault};
 use floatball_shared::uim2503::feedback::UnitError;

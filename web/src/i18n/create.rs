@@ -1,4 +1,5 @@
-//! The Create page's words that come from the show-creation catalogue
+//! The Create page's fixed strings ([`CreateText`]) and its words that come from the
+//! show-creation catalogue
 //! ([`floatball_shared::create::PATTERNS`]): each pattern's name and help, each
 //! parameter's label, each choice's word, in both languages (English is the
 //! catalogue's own); the notes of what was changed to keep within the limits, and
