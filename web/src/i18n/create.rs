@@ -1,10 +1,9 @@
 //! The Create page's fixed strings ([`CreateText`]) and its words that come from the
-//! show-creation catalogue
-//! ([`floatball_shared::create::PATTERNS`]): each pattern's name and help, each
-//! parameter's label, each choice's word, in both languages (English is the
-//! catalogue's own); the notes of what was changed to keep within the limits, and
-//! why a show cannot be made. A test checks that every pattern, parameter and choice
-//! of the catalogue has its Chinese here.
+//! show-creation catalogue ([`floatball_shared::create::PATTERNS`]): each pattern's
+//! name and help, each parameter's label, each choice's word, in both languages
+//! (English is the catalogue's own); the notes of what was changed to keep within
+//! the limits, and why a show cannot be made. A test checks that every pattern,
+//! parameter and choice of the catalogue has its Chinese here.
 
 use floatball_shared::create::{Change, CreateError, Note, ParamSpec, number};
 
