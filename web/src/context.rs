@@ -16,7 +16,7 @@ use floatball_shared::api::{
     ClientMessage, InstallationInfo, PlayerState, Problem, ServerMessage, ShowSummary, Status,
 };
 use floatball_shared::codes::{Code, Coded, Params};
-use floatball_shared::show::{Refused, Show, ShowFormat, read_json};
+use floatball_shared::show::{Show, ShowFormat, read_json};
 use leptos::prelude::*;
 use leptos::task::spawn_local;
 
@@ -558,19 +558,20 @@ impl Ctx {
     /// Opens the Preview page on a local file: a JSON file at once; a CSV file once
     /// the CSV reader, a chunk of its own ([`crate::lazy::read_csv`]), is here.
     pub fn preview_local(&self, file: &LocalFile) {
-        fn ready(name: String, lang: Lang, read: Result<Show, Refused>) -> PreviewItem {
+        fn ready(name: String, read: Result<Show, String>) -> PreviewItem {
             match read {
                 Ok(show) => PreviewItem::Ready(name, Arc::new(show)),
-                Err(refused) => PreviewItem::Failed(name, lang.refused(&refused)),
+                Err(why) => PreviewItem::Failed(name, why),
             }
         }
         let name = file.name.clone();
         self.preview_from_ms.set(None);
         self.preview_show_while_live.set(true);
         if file.kind == ShowFormat::Json {
-            let read = read_json(file.show_name(), file.text.as_bytes());
-            self.preview
-                .set(Some(ready(name, self.lang.get_untracked(), read)));
+            let lang = self.lang.get_untracked();
+            let read = read_json(file.show_name(), file.text.as_bytes())
+                .map_err(|refused| lang.refused_json(&refused));
+            self.preview.set(Some(ready(name, read)));
             self.page.set(Page::Preview);
             return;
         }
@@ -580,8 +581,8 @@ impl Ctx {
         let file = file.clone();
         spawn_local(async move {
             let lang = ctx.lang.get_untracked();
-            let item = match crate::lazy::read_csv(file).await {
-                Ok(read) => ready(name.clone(), lang, read),
+            let item = match crate::lazy::read_csv(file, lang).await {
+                Ok(read) => ready(name.clone(), read),
                 Err(crate::lazy::ChunkError) => {
                     PreviewItem::Failed(name.clone(), lang.t(Text::CsvReaderFailed).to_owned())
                 }
@@ -610,7 +611,7 @@ impl Ctx {
                     Ok(show) => PreviewItem::Ready(name.clone(), Arc::new(show)),
                     Err(refused) => PreviewItem::Failed(
                         name.clone(),
-                        ctx.lang.get_untracked().refused(&refused),
+                        ctx.lang.get_untracked().refused_json(&refused),
                     ),
                 },
                 Err(failure) => PreviewItem::Failed(name.clone(), ctx.failed(&failure)),

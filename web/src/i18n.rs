@@ -8,8 +8,6 @@
 //! this app does not know (a newer or older bridge).
 
 mod codes;
-mod commission;
-pub mod create;
 
 use floatball_shared::api::{
     ApiError, LinkState, PlanReport, PlayerState, Problem, QProgramListing,
@@ -54,17 +52,24 @@ macro_rules! texts {
 
 /// A fixed string in both languages (中文, English). [`Text`] holds those of the
 /// first load; a page in a chunk of its own keeps its own table (e.g.
-/// [`ScheduleText`], [`PatchText`]), so its strings come with its chunk.
+/// [`ScheduleText`], [`PatchText`], [`CommissionText`], [`CreateText`],
+/// [`PasswordText`]), so its strings come with its chunk.
 pub trait Words: Copy + Send + Sync + 'static {
     /// The string in Chinese and in English.
     fn pair(self) -> (&'static str, &'static str);
 }
 
+mod commission;
+pub mod create;
 mod live;
+mod password;
 mod patch;
 mod schedule;
 
+pub use commission::CommissionText;
+pub use create::CreateText;
 pub use live::LiveText;
+pub use password::PasswordText;
 pub use patch::PatchText;
 pub use schedule::ScheduleText;
 
@@ -113,22 +118,6 @@ texts! {
     LoggedInTo => "已登录到", "Logged in to";
     /// The logout button.
     Logout => "退出登录", "Log out";
-    /// The forced password change: title.
-    ChangePasswordTitle => "请修改初始密码", "Change the factory password";
-    /// The forced password change: why.
-    ChangePasswordNote => "初始密码必须修改后才能上传文件和控制浮球。", "The factory password must be changed before files can be uploaded or the matrix controlled.";
-    /// Label: the current password (when the app does not have it).
-    CurrentPassword => "当前密码", "Current password";
-    /// Label: the new password.
-    NewPassword => "新密码", "New password";
-    /// Label: the new password again.
-    ConfirmPassword => "确认新密码", "Confirm the new password";
-    /// The change-password button.
-    ChangePasswordButton => "修改密码", "Change password";
-    /// The two new passwords differ.
-    PasswordsDiffer => "两次输入的新密码不一致", "The two new passwords differ";
-    /// 401 on a password change.
-    WrongCurrentPassword => "当前密码错误", "The current password is wrong";
     /// 403: change the password first.
     MustChangePasswordFirst => "请先修改初始密码", "Change the factory password first";
     /// Files: the local tab.
@@ -445,10 +434,6 @@ texts! {
     ShowFewer => "收起", "Show fewer";
     /// A file was deleted; its name follows.
     Deleted => "已删除", "Deleted";
-    /// The password was changed.
-    PasswordChanged => "密码已修改", "The password was changed";
-    /// Settings: what a password change does to other logins.
-    PasswordChangeNote => "修改后，其他设备上的登录将失效，需要用新密码重新登录。", "Logins on other devices end; they log in again with the new password.";
     /// The playlist was stored on the controller.
     PlaylistSaved => "配置已保存", "Playlist saved";
     /// Login: the app logs in by itself when the wait is over.
@@ -544,74 +529,10 @@ texts! {
     // ---- app-commission ----
     /// Control's third tab and the page's title: Commissioning.
     NavCommission => "调试", "Commissioning";
-    /// What the page is for.
-    CommissionIntro => "找到每个单元，给它站号和它在网格中的位置。演出运行时这里的操作会被拒绝。", "Find every unit, give it its station and its place in the grid. While a show plays, the controller refuses what this page asks.";
-    /// The installation could not be read (the reason follows).
-    InstallationUnreadable => "无法读取安装配置：", "The installation could not be read:";
-    /// A gateway whose units cannot be called (MBOX, MOONS').
-    NotUim2503 => "只有 UIM2503 网关可以点名、分配站号和识别。", "Roll call, stations and identify are for UIM2503 gateways.";
-    /// Ask every unit on the gateway.
-    RollCall => "点名", "Roll call";
-    /// Before the first roll call.
-    NoRollCallYet => "尚未点名：点“点名”查找这个网关上的每个单元。", "No roll call yet: Roll call finds every unit on this gateway.";
     /// Column: serial number.
     Serial => "序列号", "Serial";
-    /// Column: station.
-    Station => "站号", "Station";
-    /// Column: position.
-    Position => "位置", "Position";
-    /// Column: how long ago it last answered.
-    LastAnswer => "最后应答", "Last answer";
     /// Column: the unit's last error.
     UnitErrorColumn => "错误", "Error";
-    /// Flag: more than one unit on this station.
-    FlagDuplicated => "站号重复", "shared station";
-    /// Flag: the station is not configured on this gateway.
-    FlagUnexpected => "未配置", "not configured";
-    /// Flag: the unit reported an error.
-    FlagFault => "报错", "error";
-    /// Stations several units answer on (a list follows).
-    DuplicatedStations => "多个单元共用的站号：", "Stations several units answer on:";
-    /// Configured stations nobody answered on (a list follows).
-    MissingStations => "已配置但无应答的站号：", "Configured stations nobody answered on:";
-    /// Stations that answered but are not configured (a list follows).
-    UnexpectedStations => "有应答但未配置的站号：", "Stations that answered but are not configured:";
-    /// A roll call with nothing wrong.
-    RollCallClean => "每个配置的站号都有且只有一个单元应答。", "Every configured station answered, one unit each.";
-    /// Give the units the gateway's stations by serial number.
-    AssignAll => "按网格顺序全部分配", "Assign all in grid order";
-    /// What "assign all" does.
-    AssignAllNote => "序列号从小到大的单元依次获得本网关按单元格顺序配置的站号，然后重新点名。", "Units by ascending serial number get this gateway's configured stations in cell order; then a new roll call.";
-    /// Give one unit the station typed.
-    Assign => "分配", "Assign";
-    /// The field of a unit's new station.
-    NewStation => "新站号", "New station";
-    /// A station that cannot be used.
-    BadStation => "站号必须是 1 到 127 的整数", "A station is a whole number from 1 to 127";
-    /// Move one ball down and back.
-    Identify => "识别", "Identify";
-    /// The field of how far Identify moves a ball (empty: the controller's default).
-    IdentifyDistance => "识别时下移距离 (mm)", "Identify moves down (mm)";
-    /// The identify distance is not a positive number.
-    BadDistance => "距离必须是大于 0 的毫米数，留空则用默认值", "The distance is a number of mm above 0; leave it empty for the default";
-    /// The grid's heading.
-    GridSeenFromBelow => "网格（从下往上看）", "The grid, seen from below";
-    /// How the grid works.
-    GridHint => "点某个单元的“识别”，看哪个球在动，再点按它在网格中的格子。点按格子会让配置在那里的球移动。", "Tap a unit's Identify, watch which ball moves, then tap its cell in the grid. Tapping a cell moves the ball configured there.";
-    /// Store the gateway's stations in the installation.
-    SaveMapping => "保存映射", "Save mapping";
-    /// The mapping was stored.
-    MappingSaved => "映射已保存并已生效", "Mapping saved and applied";
-    /// The gateway's line speed.
-    LineSpeed => "线路速率", "Line speed";
-    /// Start the guided line-speed change.
-    ChangeLineSpeed => "更改速率", "Change line speed";
-    /// What the guided change does, before it starts.
-    BaudPowerCycle => "应用会向网关发送 BDR 命令。真实网关要在断电再上电后才使用新速率：开始后请关掉网关电源再打开，应用会等待它以新速率应答。模拟网关会自行重启。失败时恢复原速率。", "The app sends the gateway BDR. A real gateway takes the new speed only after a restart: once this starts, switch the gateway off and on again while the app waits for it to answer at the new speed. A simulated gateway restarts by itself. If it does not answer, the old speed is restored.";
-    /// Confirm the line-speed change.
-    StartBaudChange => "开始更改", "Start the change";
-    /// While the app waits for the gateway.
-    BaudWaiting => "现在请将网关断电再上电。正在等待网关以新速率应答…", "Switch the gateway off and on now. Waiting for it to answer at the new speed…";
     // ---- appscale ----
     /// Status with many gateways: the label of how many links are up.
     GatewaysUp => "在线", "Up";
@@ -626,52 +547,8 @@ texts! {
     // ---- create ----
     /// The Create page's tab.
     NavCreate => "创作", "Create";
-    /// The Create page's pattern choice.
-    Pattern => "图案", "Pattern";
-    /// The Create page's list of segments.
-    Timeline => "时间线", "Timeline";
-    /// Add a segment after the chosen one.
-    AddSegment => "添加片段", "Add a segment";
-    /// A segment's own length.
-    SegmentDuration => "时长 (s)", "Duration (s)";
-    /// The blend into the next segment.
-    SegmentTransition => "过渡到下一段 (s)", "Blend into the next (s)";
-    /// The generated show's name.
-    ShowNameLabel => "节目名称", "Show name";
-    /// Keep the generated show in the browser's local files.
-    SaveToLocalFiles => "保存到本地文件", "Save to local files";
-    /// The show was kept in the local files.
-    SavedToLocalFiles => "已保存到本地文件", "Saved to the local files";
-    /// Send the generated show to the controller.
-    UploadToController => "上传到控制器", "Upload to the controller";
-    /// Offer the recipe as a download.
-    DownloadRecipe => "下载配方", "Download the recipe";
-    /// Open a recipe file.
-    OpenRecipe => "打开配方", "Open a recipe";
-    /// A recipe file that cannot be used.
-    RecipeUnreadable => "无法使用这个配方：", "This recipe cannot be used:";
-    /// How long the last change took to generate and show.
-    GeneratedIn => "生成用时", "Generated in";
-    /// The heading of what was changed to stay within the limits.
-    ClampedHeading => "为保持在限值之内已作调整：", "Changed to stay within the limits:";
-    /// The grid made for while connected.
-    MadeForInstallation => "按控制器的装置生成（行列、间距、行程、速度和加速度限值）", "Made for the controller's installation (grid, pitch, travel, speed and acceleration limits)";
-    /// The grid made for while offline.
-    MadeForDefaultGrid => "离线：按下面的矩阵和默认限值生成", "Offline: made for the matrix below and the default limits";
-    /// Rows of balls (offline grid).
-    GridRows => "行数", "Rows";
-    /// Balls in each row (offline grid).
-    GridCols => "列数", "Columns";
     /// Pick a picture for a picture pattern.
     ChoosePicture => "选择图片", "Choose a picture";
-    /// No picture picked yet.
-    NoPicture => "尚未选择图片", "No picture chosen";
-    /// The planner's verdict heading on the Create page.
-    BandwidthVerdict => "线路带宽", "Line bandwidth";
-    /// The show could not be generated.
-    CannotGenerate => "无法生成：", "Cannot generate:";
-    /// A new draft.
-    NewRecipe => "重新开始", "Start again";
     // ---- the Schedule page and the Control page's schedule line ----
     /// Control's fourth tab and the page's title: Schedule.
     NavSchedule => "时间表", "Schedule";
@@ -796,10 +673,23 @@ impl Lang {
 
     /// Why a show file cannot be read or is refused, as the preview says it: the
     /// parser's problem (with its line and column) when the file does not read.
+    /// Called in the CSV reader's chunk ([`crate::lazy::read_csv`]), which carries the
+    /// words of the CSV reader's problems; a native (JSON) file's reading in the main
+    /// module uses [`Self::refused_json`].
     pub fn refused(self, refused: &floatball_shared::show::Refused) -> String {
         use floatball_shared::show::Refused;
         match refused {
             Refused::Csv(error) | Refused::KeyframeTooLate { error, .. } => self.error_of(error),
+            other => self.refused_json(other),
+        }
+    }
+
+    /// [`Self::refused`] for a native (JSON) show file, whose reading never gives a
+    /// CSV reader's problem: the JSON parser's problem (with its line and column) when
+    /// the file does not read, else the refusal.
+    pub fn refused_json(self, refused: &floatball_shared::show::Refused) -> String {
+        use floatball_shared::show::Refused;
+        match refused {
             Refused::Unreadable(error) => self.error_of(error),
             other => self.error_of(other),
         }
@@ -1262,6 +1152,9 @@ mod tests {
         check(ScheduleText::ALL);
         check(PatchText::ALL);
         check(LiveText::ALL);
+        check(CommissionText::ALL);
+        check(CreateText::ALL);
+        check(PasswordText::ALL);
     }
 
     #[wasm_bindgen_test(unsupported = test)]

@@ -1,33 +1,44 @@
-//! The pages an operator on the show floor never opens, loaded when opened: Create
-//! (its patterns, text and picture decoders, the recipe model and the planner the
-//! worker runs), Commissioning, Installation and Settings; and two tools of the
-//! operator's pages needed only now and then: the console's parsers and the CSV
-//! reader of a local file's preview.
+//! What the first load can do without, loaded when first needed. Pages an operator
+//! on the show floor never opens: Create (its patterns, text and picture decoders,
+//! the recipe model and the planner the worker runs), Commissioning, Installation,
+//! Settings, Schedule and Patch. And parts of the first-load pages needed only now
+//! and then, each fetched the first time it is asked for.
 //!
 //! Each is a split point of `wasm_split_helpers` (the runtime under Leptos'
 //! `#[lazy]`, re-exported as [`leptos::wasm_split`]): built with `--cfg
 //! floatball_split` (as `cargo xtask build` does, see `xtask/src/app.rs`), the linker
 //! keeps its relocations and `wasm_split_cli_support` moves what only the split point
-//! reaches into its own wasm chunk, fetched the first time the point is called.
-//! Leptos' own `#[lazy]` is not used: it panics when a chunk fails to load (a panic
-//! aborts the whole app, the E-STOP with it); the `fallible` option used here gives
-//! [`ChunkError`] instead, which [`LazyPage`] shows with a Retry (a failed load is
-//! not cached, so Retry fetches again). Without the cfg (the browser tests, clippy)
-//! every point is a plain `async fn` in the one module.
+//! reaches (code and the data only that code uses, such as its words) into its own
+//! wasm chunk, fetched the first time the point is called. Leptos' own `#[lazy]` is
+//! not used: it panics when a chunk fails to load (a panic aborts the whole app, the
+//! E-STOP with it); the `fallible` option used here gives [`ChunkError`] instead,
+//! which [`LazyPage`] and [`chunk_view`] show with a Retry (a failed load is not
+//! cached, so Retry fetches again) and a Reload. Without the cfg (the browser tests,
+//! clippy) every point is a plain `async fn` in the one module.
 //!
 //! What the first load must carry — the top bar, the E-STOP, the WebSocket, Login,
-//! Files, Preview, Control and Console — is never behind a split point. Tools of
-//! those pages that can come a moment later are: the console's parsers
-//! ([`console_parsers`]: the Console page opens at once, and its check of a typed
-//! line waits the few milliseconds its chunk takes, fetched as the page opens), the
-//! CSV reader ([`read_csv`]: a local CSV file's preview waits for it; native show
-//! files need no chunk), the Preview's check of a show against the limits
-//! ([`show_violations`]: the show is on screen first, its problems a moment after)
-//! and the reading of the schedule's and the timecode chase's messages
-//! ([`read_show_control`]: fetched when the bridge first sends one), Control's
-//! Live card ([`live_card`]: fetched when it is opened or the matrix is live) and, in
-//! the same chunk, the Preview's live picture ([`live_preview`]: fetched when the
-//! Preview page is open while the matrix is live).
+//! Files, Preview, Control and Console — is never behind a split point. Parts of
+//! those pages that can come a moment later are, and why each can wait:
+//! - the console's parsers ([`console_parsers`]): the Console page opens at once,
+//!   and its check of a typed line waits the few milliseconds its chunk takes,
+//!   fetched as the page opens;
+//! - the CSV reader ([`read_csv`]): a local CSV file's preview waits for it (native
+//!   show files need no chunk), and it words a CSV file's refusal itself, so the
+//!   CSV problems' parameters and words are in its chunk too;
+//! - the Preview's check of a show against the limits ([`show_violations`]): the
+//!   show is on screen first, its problems a moment after;
+//! - the Preview's plot of a tapped ball ([`plot_panel`]) and its performance panel
+//!   ([`perf_panel`]): drawn when asked for;
+//! - the reading of the schedule's and the timecode chase's messages
+//!   ([`read_show_control`]): fetched when the bridge first sends one;
+//! - Control's Live card ([`live_card`]: fetched when it is opened or the matrix is
+//!   live) and, in the same chunk, the reading of live positions
+//!   ([`read_live_positions`]) and the Preview's live picture ([`live_preview`]:
+//!   fetched when the Preview page is open while the matrix is live);
+//! - the Files page's Q program panel ([`qprogram_panel`]): only on installations
+//!   with MOONS' drives;
+//! - the forced change of the factory password ([`forced_password_form`]): once per
+//!   installation, at its first login.
 
 use std::future::Future;
 use std::pin::Pin;
@@ -129,11 +140,14 @@ split!(
     csv,
     /// A local CSV file read for the preview ([`crate::files::LocalFile::to_show`]):
     /// the CSV reader (keyframes, curves, their error words) is a chunk of its own,
-    /// fetched when the first CSV file is previewed.
+    /// fetched when the first CSV file is previewed. A file that does not read gives
+    /// why in `lang` ([`Lang::refused`]), worded in the chunk: the parameters of the
+    /// CSV reader's problems are code of the chunk too.
     pub fn read_csv(
         file: crate::files::LocalFile,
-    ) -> Result<floatball_shared::show::Show, floatball_shared::show::Refused> {
-        file.to_show()
+        lang: Lang,
+    ) -> Result<floatball_shared::show::Show, String> {
+        file.to_show().map_err(|refused| lang.refused(&refused))
     }
 );
 

@@ -14,7 +14,7 @@ use floatball_web::components::files::FilesPage;
 use floatball_web::components::login::LoginPage;
 use floatball_web::components::widgets::ToastArea;
 use floatball_web::connection::Link;
-use floatball_web::context::{Ctx, Sender, Services};
+use floatball_web::context::{Ctx, PreviewItem, Sender, Services};
 use floatball_web::files::{LocalFile, MAX_MESSAGE_CHARS, SHOWN_PROBLEMS};
 use floatball_web::i18n::Lang;
 use floatball_web::page::Page;
@@ -464,4 +464,40 @@ fn disabled(container: &web_sys::HtmlElement, test_id: &str) -> bool {
 
 fn type_into(container: &web_sys::HtmlElement, test_id: &str, value: &str) {
     set_value(container, test_id, value, "input");
+}
+
+/// A local file that does not read says why in the operator's language: a CSV file
+/// with the CSV reader's problem and where it is (worded in the reader's chunk,
+/// `floatball_web::lazy::read_csv`), a JSON file with the JSON parser's (worded in
+/// the main module).
+#[wasm_bindgen_test]
+async fn a_local_file_that_does_not_read_says_why_in_the_chosen_language() {
+    let bridge = FakeBridge::new(|_, _| answer(500, ""));
+    let ctx = context(&bridge, "files-refused", false);
+    let csv = LocalFile::new("bad.csv", "time_ms,u0\n0,100\nsoon,200\n".into(), 0.0).unwrap();
+    let json = LocalFile::new("bad.json", "{\"version\": 1,".into(), 0.0).unwrap();
+    for lang in [Lang::En, Lang::Zh] {
+        ctx.lang.set(lang);
+        for file in [&csv, &json] {
+            ctx.preview_local(file);
+            let mut waited_ticks = 0;
+            while matches!(ctx.preview.get_untracked(), Some(PreviewItem::Loading(_))) {
+                assert!(waited_ticks < 100, "{} is still loading", file.name);
+                tick().await;
+                waited_ticks += 1;
+            }
+            let expected = lang.refused(&file.to_show().unwrap_err());
+            assert_eq!(
+                ctx.preview.get_untracked(),
+                Some(PreviewItem::Failed(file.name.clone(), expected.clone()))
+            );
+            if file.name == "bad.csv" {
+                let line = match lang {
+                    Lang::En => "line 3, column 1: ",
+                    Lang::Zh => "第 3 行第 1 列：",
+                };
+                assert!(expected.starts_with(line), "{expected}");
+            }
+        }
+    }
 }

@@ -2,9 +2,11 @@
 //!
 //! `floatball-web` is compiled to wasm32 with `--cfg floatball_split` and the linker's
 //! relocations kept (`-C link-arg=--emit-relocs`, given by `cargo rustc` to the app's
-//! crate only, so the dependencies the browser tests compiled are reused). Then
-//! [`split_wasm`] cuts it at its split points (`web/src/lazy.rs`: the Create,
-//! Commissioning and Installation pages) with `wasm_split_cli_support`, as
+//! crate only, so the dependencies the browser tests compiled are reused; the whole
+//! wasm32 target is compiled with Leptos' `erase_components`, see
+//! `.cargo/config.toml`). Then [`split_wasm`] cuts it at its split points
+//! (`web/src/lazy.rs` lists them: the rarely opened pages and the parts of the
+//! first-load pages that can come a moment later) with `wasm_split_cli_support`, as
 //! cargo-leptos' `--split` does: a main module, a chunk per page (and one per group
 //! of functions several pages share), and the chunks' loader module, which the main
 //! module imports and which fetches a chunk the first time its page is opened.
@@ -584,8 +586,10 @@ pub fn render_page(
 
 /// The most a phone may download before the app is usable (issue 35): the page,
 /// `boot.js`, the js glue, the chunk loader, the main wasm and the css, as sent to a
-/// browser that accepts brotli. `cargo xtask load-bench` fails above it.
-pub const FIRST_LOAD_BUDGET_BYTES: u64 = 400_000;
+/// browser that accepts brotli. `cargo xtask load-bench` fails above it. 370 KB
+/// since issue 48 brought the first load from some 400 KB to some 363 KB (Leptos'
+/// `erase_components`, more words in chunks); the issue's aim is 350 KB.
+pub const FIRST_LOAD_BUDGET_BYTES: u64 = 370_000;
 
 /// The first load of the app built into `static_dir/pkg` as the bridge sends it with
 /// `Accept-Encoding: br` (the `.br` copy where there is one): each file (its path

@@ -21,7 +21,7 @@ use crate::commission::{
 use crate::components::control::ControlTabs;
 use crate::components::widgets::{ErrorNote, ProblemList, TextField};
 use crate::context::Ctx;
-use crate::i18n::Text;
+use crate::i18n::{CommissionText, Text};
 
 /// The page: the installation, then one panel per gateway.
 #[component]
@@ -59,12 +59,12 @@ pub fn CommissionPage() -> impl IntoView {
     let unreadable = Signal::derive(move || {
         load_error
             .get()
-            .map(|why| format!("{} {why}", ctx.t(Text::InstallationUnreadable)))
+            .map(|why| format!("{} {why}", ctx.t(CommissionText::InstallationUnreadable)))
     });
     view! {
         <section class="commission" data-testid="commission">
             <ControlTabs />
-            <p class="muted">{ctx.tr(Text::CommissionIntro)}</p>
+            <p class="muted">{ctx.tr(CommissionText::CommissionIntro)}</p>
             <ErrorNote text=unreadable test_id="installation-error" />
             {move || {
                 kinds
@@ -164,7 +164,12 @@ fn GatewayPanel(
         let Some(client) = ctx.client() else { return };
         let Ok(distance_mm) = parse_distance(&distance.get_untracked()) else {
             said.set(Said {
-                text: Some(ctx.lang.get_untracked().t(Text::BadDistance).to_owned()),
+                text: Some(
+                    ctx.lang
+                        .get_untracked()
+                        .t(CommissionText::BadDistance)
+                        .to_owned(),
+                ),
                 problems: Vec::new(),
             });
             return;
@@ -229,7 +234,7 @@ fn GatewayPanel(
             match client.put_installation(&body).await {
                 Ok(answer) => {
                     info.set(Some(answer));
-                    ctx.notify(ctx.lang.get_untracked().t(Text::MappingSaved));
+                    ctx.notify(ctx.lang.get_untracked().t(CommissionText::MappingSaved));
                 }
                 Err(failure) => said.set(said_of(ctx, &failure)),
             }
@@ -238,7 +243,7 @@ fn GatewayPanel(
 
     let uim = kind == GatewayKind::Uim2503;
     let not_uim = (!uim).then(|| {
-        view! { <p class="note muted" data-testid="not-uim2503">{ctx.tr(Text::NotUim2503)}</p> }
+        view! { <p class="note muted" data-testid="not-uim2503">{ctx.tr(CommissionText::NotUim2503)}</p> }
     });
     let body = uim.then(|| {
         view! {
@@ -249,21 +254,21 @@ fn GatewayPanel(
                     disabled=move || busy.get() || !ctx.connected()
                     on:click=move |_| roll_call()
                 >
-                    {ctx.tr(Text::RollCall)}
+                    {ctx.tr(CommissionText::RollCall)}
                 </button>
                 <button
                     data-testid="assign-all"
                     disabled=move || busy.get() || roll.with(Option::is_none)
                     on:click=move |_| assign_all()
                 >
-                    {ctx.tr(Text::AssignAll)}
+                    {ctx.tr(CommissionText::AssignAll)}
                 </button>
                 {move || busy.get().then(|| view! { <span class="muted">{ctx.t(Text::Working)}</span> })}
             </div>
-            <p class="muted small">{ctx.tr(Text::AssignAllNote)}</p>
+            <p class="muted small">{ctx.tr(CommissionText::AssignAllNote)}</p>
             <div class="distance">
                 <TextField
-                    label=Text::IdentifyDistance
+                    label=CommissionText::IdentifyDistance
                     value=distance
                     test_id="identify-distance"
                     inputmode="decimal"
@@ -315,12 +320,12 @@ fn RollCallView(
     move || {
         let Some(found) = roll.get() else {
             return view! {
-                <p class="muted" data-testid="no-rollcall">{ctx.tr(Text::NoRollCallYet)}</p>
+                <p class="muted" data-testid="no-rollcall">{ctx.tr(CommissionText::NoRollCallYet)}</p>
             }
             .into_any();
         };
         let lang = ctx.lang.get();
-        let stations = |label: Text, list: &[u8], test_id: &'static str| {
+        let stations = |label: CommissionText, list: &[u8], test_id: &'static str| {
             (!list.is_empty()).then(|| {
                 view! {
                     <p class="note warn" data-testid=test_id data-stations=lang.station_list(list)>
@@ -330,7 +335,7 @@ fn RollCallView(
             })
         };
         let clean = roll_call_clean(&found).then(|| {
-            view! { <p class="note done" data-testid="roll-clean">{lang.t(Text::RollCallClean)}</p> }
+            view! { <p class="note done" data-testid="roll-clean">{lang.t(CommissionText::RollCallClean)}</p> }
         });
         let rows = found
             .units
@@ -346,9 +351,9 @@ fn RollCallView(
                     .iter()
                     .map(|flag| {
                         let text = match flag {
-                            crate::commission::UnitFlag::Duplicated => Text::FlagDuplicated,
-                            crate::commission::UnitFlag::Unexpected => Text::FlagUnexpected,
-                            crate::commission::UnitFlag::Fault => Text::FlagFault,
+                            crate::commission::UnitFlag::Duplicated => CommissionText::FlagDuplicated,
+                            crate::commission::UnitFlag::Unexpected => CommissionText::FlagUnexpected,
+                            crate::commission::UnitFlag::Fault => CommissionText::FlagFault,
                         };
                         view! { <span class=format!("badge {}", flag.key())>{lang.t(text)}</span> }
                     })
@@ -378,14 +383,14 @@ fn RollCallView(
                         <div class="unit-facts">
                             <span class="mono">{format!("SN {serial}")}</span>
                             <span>
-                                {lang.t(Text::Station)} " " <strong>{station}</strong>
+                                {lang.t(CommissionText::Station)} " " <strong>{station}</strong>
                             </span>
                             {badges}
                         </div>
                         <div class="unit-facts muted">
-                            <span>{lang.t(Text::Position)} " " {position_text(unit.position_mm)}</span>
+                            <span>{lang.t(CommissionText::Position)} " " {position_text(unit.position_mm)}</span>
                             <span>
-                                {lang.t(Text::LastAnswer)} " " {age_text(unit.last_answer_age_ms)}
+                                {lang.t(CommissionText::LastAnswer)} " " {age_text(unit.last_answer_age_ms)}
                             </span>
                             {fault}
                         </div>
@@ -395,15 +400,15 @@ fn RollCallView(
                                 disabled=move || busy.get()
                                 on:click=move |_| identify(station)
                             >
-                                {lang.t(Text::Identify)}
+                                {lang.t(CommissionText::Identify)}
                             </button>
                             <input
                                 type="text"
                                 inputmode="numeric"
                                 class="station-input"
                                 data-testid="unit-station"
-                                aria-label=lang.t(Text::NewStation)
-                                placeholder=lang.t(Text::NewStation)
+                                aria-label=lang.t(CommissionText::NewStation)
+                                placeholder=lang.t(CommissionText::NewStation)
                                 prop:value=typed
                                 on:input=move |ev| typed.set(event_target_value(&ev))
                             />
@@ -412,7 +417,7 @@ fn RollCallView(
                                 disabled=move || busy.get()
                                 on:click=move |_| give()
                             >
-                                {lang.t(Text::Assign)}
+                                {lang.t(CommissionText::Assign)}
                             </button>
                         </div>
                         {move || {
@@ -420,7 +425,7 @@ fn RollCallView(
                                 .then(|| {
                                     view! {
                                         <p class="note error" data-testid="bad-station">
-                                            {ctx.t(Text::BadStation)}
+                                            {ctx.t(CommissionText::BadStation)}
                                         </p>
                                     }
                                 })
@@ -431,9 +436,9 @@ fn RollCallView(
             .collect_view();
         view! {
             <p data-testid="roll-summary">{lang.roll_call_summary(&found)}</p>
-            {stations(Text::DuplicatedStations, &found.duplicated, "duplicated-stations")}
-            {stations(Text::MissingStations, &found.missing, "missing-stations")}
-            {stations(Text::UnexpectedStations, &found.unexpected, "unexpected-stations")}
+            {stations(CommissionText::DuplicatedStations, &found.duplicated, "duplicated-stations")}
+            {stations(CommissionText::MissingStations, &found.missing, "missing-stations")}
+            {stations(CommissionText::UnexpectedStations, &found.unexpected, "unexpected-stations")}
             {clean}
             <ul class="list units" data-testid="units" data-count=found.units.len()>
                 {rows}
@@ -509,8 +514,8 @@ fn GridView(
         })
     };
     view! {
-        <h4>{ctx.tr(Text::GridSeenFromBelow)}</h4>
-        <p class="muted small">{ctx.tr(Text::GridHint)}</p>
+        <h4>{ctx.tr(CommissionText::GridSeenFromBelow)}</h4>
+        <p class="muted small">{ctx.tr(CommissionText::GridHint)}</p>
         {move || {
             moving
                 .get()
@@ -540,7 +545,7 @@ fn GridView(
                 disabled=move || busy.get() || unchanged()
                 on:click=move |_| save()
             >
-                {ctx.tr(Text::SaveMapping)}
+                {ctx.tr(CommissionText::SaveMapping)}
             </button>
         </div>
     }
@@ -612,14 +617,14 @@ fn BaudChange(gateway: usize, info: RwSignal<Option<InstallationInfo>>) -> impl 
         BaudStep::Idle => ().into_any(),
         BaudStep::Explain => view! {
             <div class="note" data-testid="baud-explain">
-                <p>{ctx.tr(Text::BaudPowerCycle)}</p>
+                <p>{ctx.tr(CommissionText::BaudPowerCycle)}</p>
                 <div class="confirm">
                     <button
                         class="confirm-yes primary"
                         data-testid="baud-confirm"
                         on:click=move |_| start()
                     >
-                        {ctx.tr(Text::StartBaudChange)}
+                        {ctx.tr(CommissionText::StartBaudChange)}
                     </button>
                     <button
                         class="confirm-cancel"
@@ -634,7 +639,7 @@ fn BaudChange(gateway: usize, info: RwSignal<Option<InstallationInfo>>) -> impl 
         .into_any(),
         BaudStep::Waiting => view! {
             <p class="note warn" data-testid="baud-waiting" role="status">
-                {ctx.tr(Text::BaudWaiting)}
+                {ctx.tr(CommissionText::BaudWaiting)}
             </p>
         }
         .into_any(),
@@ -653,12 +658,12 @@ fn BaudChange(gateway: usize, info: RwSignal<Option<InstallationInfo>>) -> impl 
     }
     };
     view! {
-        <h4>{ctx.tr(Text::LineSpeed)}</h4>
+        <h4>{ctx.tr(CommissionText::LineSpeed)}</h4>
         <div class="toolbar">
             <span class="muted" data-testid="baud-now">{move || ctx.lang.get().line_speed(current())}</span>
             <select
                 data-testid="baud-select"
-                aria-label=ctx.tr(Text::LineSpeed)
+                aria-label=ctx.tr(CommissionText::LineSpeed)
                 on:change=move |ev| {
                     if let Ok(baud) = event_target_value(&ev).parse() {
                         chosen.set(baud);
@@ -674,7 +679,7 @@ fn BaudChange(gateway: usize, info: RwSignal<Option<InstallationInfo>>) -> impl 
                 }
                 on:click=move |_| step.set(BaudStep::Explain)
             >
-                {ctx.tr(Text::ChangeLineSpeed)}
+                {ctx.tr(CommissionText::ChangeLineSpeed)}
             </button>
         </div>
         {stage}

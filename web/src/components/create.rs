@@ -30,7 +30,7 @@ use crate::components::{store, stored};
 use crate::context::Ctx;
 use crate::create::{Draft, Made, Target, format_number};
 use crate::files::LocalFile;
-use crate::i18n::{Text, create as words};
+use crate::i18n::{CreateText, Text, create as words};
 use crate::plan_worker::PlanWorker;
 use crate::preview::PreviewPage;
 
@@ -306,7 +306,7 @@ pub fn CreatePage() -> impl IntoView {
                     {move || {
                         format!(
                             "{} {:.0} ms",
-                            lang.get().t(Text::GeneratedIn),
+                            lang.get().t(CreateText::GeneratedIn),
                             outcome.with(|o| o.generated_ms),
                         )
                     }}
@@ -377,7 +377,7 @@ fn Timeline(show: RwSignal<Option<Arc<Show>>>) -> impl IntoView {
     };
     view! {
         <label class="show-name">
-            <span>{ctx.tr(Text::ShowNameLabel)}</span>
+            <span>{ctx.tr(CreateText::ShowNameLabel)}</span>
             <input
                 type="text"
                 maxlength="100"
@@ -390,7 +390,7 @@ fn Timeline(show: RwSignal<Option<Arc<Show>>>) -> impl IntoView {
             />
         </label>
         <h3>
-            {ctx.tr(Text::Timeline)}
+            {ctx.tr(CreateText::Timeline)}
             " "
             <span class="muted" data-testid="create-total">
                 {move || {
@@ -413,7 +413,7 @@ fn Timeline(show: RwSignal<Option<Arc<Show>>>) -> impl IntoView {
                 })
             }
         >
-            {ctx.tr(Text::AddSegment)}
+            {ctx.tr(CreateText::AddSegment)}
         </button>
     }
 }
@@ -473,11 +473,11 @@ fn SegmentEditor() -> impl IntoView {
     view! {
         <div class="card segment-editor" data-testid="segment-editor">
             <h3>
-                {move || format!("{} {}", ctx.t(Text::Pattern), draft.with(|d| d.selected() + 1))}
+                {move || format!("{} {}", ctx.t(CreateText::Pattern), draft.with(|d| d.selected() + 1))}
             </h3>
             <select
                 data-testid="create-pattern"
-                aria-label=move || ctx.t(Text::Pattern)
+                aria-label=move || ctx.t(CreateText::Pattern)
                 on:change=move |ev| {
                     let name = event_target_value(&ev);
                     draft.update(|d| d.set_pattern(&name));
@@ -491,7 +491,7 @@ fn SegmentEditor() -> impl IntoView {
             <div class="params">{params}</div>
             <div class="timing">
                 <label>
-                    <span>{ctx.tr(Text::SegmentDuration)}</span>
+                    <span>{ctx.tr(CreateText::SegmentDuration)}</span>
                     {number_input(
                         "segment-duration",
                         |d| d.current().duration_s,
@@ -500,7 +500,7 @@ fn SegmentEditor() -> impl IntoView {
                     )}
                 </label>
                 <label>
-                    <span>{ctx.tr(Text::SegmentTransition)}</span>
+                    <span>{ctx.tr(CreateText::SegmentTransition)}</span>
                     {number_input(
                         "segment-transition",
                         |d| d.current().transition_s,
@@ -678,7 +678,7 @@ fn param_control(ctx: Ctx, pattern: &'static str, spec: &'static ParamSpec) -> A
                     <span class="muted" data-testid=chosen_id>
                         {move || match chosen() {
                             Some(kib) => format!("{kib} KB"),
-                            None => ctx.t(Text::NoPicture).to_owned(),
+                            None => ctx.t(CreateText::NoPicture).to_owned(),
                         }}
                     </span>
                 </label>
@@ -728,21 +728,21 @@ fn Checks(
                 when=online
                 fallback=move || {
                     view! {
-                        <p class="muted">{ctx.tr(Text::MadeForDefaultGrid)}</p>
+                        <p class="muted">{ctx.tr(CreateText::MadeForDefaultGrid)}</p>
                         <div class="grid-size">
                             <label>
-                                <span>{ctx.tr(Text::GridRows)}</span>
+                                <span>{ctx.tr(CreateText::GridRows)}</span>
                                 {grid_input("create-rows", true)}
                             </label>
                             <label>
-                                <span>{ctx.tr(Text::GridCols)}</span>
+                                <span>{ctx.tr(CreateText::GridCols)}</span>
                                 {grid_input("create-cols", false)}
                             </label>
                         </div>
                     }
                 }
             >
-                <p class="muted" data-testid="create-for-installation">{ctx.tr(Text::MadeForInstallation)}</p>
+                <p class="muted" data-testid="create-for-installation">{ctx.tr(CreateText::MadeForInstallation)}</p>
             </Show>
             {move || {
                 outcome
@@ -750,7 +750,7 @@ fn Checks(
                     .map(|error| {
                         view! {
                             <p class="note error" data-testid="create-error">
-                                {ctx.t(Text::CannotGenerate)} " " {error}
+                                {ctx.t(CreateText::CannotGenerate)} " " {error}
                             </p>
                         }
                     })
@@ -761,7 +761,7 @@ fn Checks(
                     .then(|| {
                         view! {
                             <div class="note" data-testid="create-notes">
-                                <p>{ctx.t(Text::ClampedHeading)}</p>
+                                <p>{ctx.t(CreateText::ClampedHeading)}</p>
                                 <ul>{notes.into_iter().map(|n| view! { <li>{n}</li> }).collect_view()}</ul>
                             </div>
                         }
@@ -779,7 +779,7 @@ fn Checks(
                                 data-verdict=key
                                 data-planned=planned_in
                             >
-                                <strong>{ctx.t(Text::BandwidthVerdict)} ": "</strong>
+                                <strong>{ctx.t(CreateText::BandwidthVerdict)} ": "</strong>
                                 {ctx.t(if feasible { Text::PlanFeasible } else { Text::PlanInfeasible })}
                                 {reason.map(|reason| view! { <p>{reason}</p> })}
                                 {(!fixes.is_empty())
@@ -834,7 +834,7 @@ fn Actions(
             let lang = ctx.lang.get_untracked();
             match store.put(&file).await {
                 Ok(()) => {
-                    let text = format!("{}: {}", lang.t(Text::SavedToLocalFiles), file.name);
+                    let text = format!("{}: {}", lang.t(CreateText::SavedToLocalFiles), file.name);
                     ctx.local_files.update(|list| list.upsert(file));
                     ctx.notify(text.clone());
                     message.set(Some(Message::done(text)));
@@ -900,7 +900,7 @@ fn Actions(
                 }
                 Err(error) => message.set(Some(Message::error(format!(
                     "{} {}",
-                    lang.t(Text::RecipeUnreadable),
+                    lang.t(CreateText::RecipeUnreadable),
                     words::error(lang, &error)
                 )))),
             }
@@ -910,7 +910,7 @@ fn Actions(
     view! {
         <div class="actions create-actions">
             <button data-testid="create-save-local" disabled=move || !ready() on:click=save_local>
-                {ctx.tr(Text::SaveToLocalFiles)}
+                {ctx.tr(CreateText::SaveToLocalFiles)}
             </button>
             <button
                 data-testid="create-upload"
@@ -919,14 +919,14 @@ fn Actions(
             >
                 {move || match progress.get() {
                     Some(fraction) => ctx.lang.get().uploading((fraction * 100.0).round() as u32),
-                    None => ctx.t(Text::UploadToController).to_owned(),
+                    None => ctx.t(CreateText::UploadToController).to_owned(),
                 }}
             </button>
             <button data-testid="create-download-recipe" on:click=download_recipe>
-                {ctx.tr(Text::DownloadRecipe)}
+                {ctx.tr(CreateText::DownloadRecipe)}
             </button>
             <label class="button">
-                {ctx.tr(Text::OpenRecipe)}
+                {ctx.tr(CreateText::OpenRecipe)}
                 <input type="file" accept=".json,application/json" data-testid="create-open-recipe" on:change=open_recipe />
             </label>
             <button
@@ -939,7 +939,7 @@ fn Actions(
                     });
                 }
             >
-                {ctx.tr(Text::NewRecipe)}
+                {ctx.tr(CreateText::NewRecipe)}
             </button>
         </div>
     }

@@ -198,7 +198,7 @@ pub fn InstallationPage() -> impl IntoView {
                 <form class="form" data-testid="installation-form" on:submit=save>
                     <div class="card">
                         <h3>{ctx.tr(Text::MatrixTitle)}</h3>
-                        <div class="installation-fields">{Field::ALL.map(matrix_field).to_vec()}</div>
+                        <div class="installation-fields">{Field::ALL.into_iter().map(matrix_field).collect::<Vec<_>>()}</div>
                     </div>
                     <h3>{ctx.tr(Text::Gateways)}</h3>
                     <ol class="installation-gateways">{gateways}</ol>

@@ -9,7 +9,7 @@ use leptos::task::spawn_local;
 use crate::client::Failure;
 use crate::components::widgets::{ErrorNote, TextField};
 use crate::context::Ctx;
-use crate::i18n::Text;
+use crate::i18n::{PasswordText, Text};
 use crate::page::Page;
 
 /// Old, new and repeated password, and the change.
@@ -37,7 +37,7 @@ pub fn PasswordForm(
         let lang = ctx.lang.get_untracked();
         done.set(false);
         if new.get_untracked() != confirm.get_untracked() {
-            note.set(Some(lang.t(Text::PasswordsDiffer).into()));
+            note.set(Some(lang.t(PasswordText::PasswordsDiffer).into()));
             return;
         }
         let Some(client) = ctx.client() else { return };
@@ -51,7 +51,7 @@ pub fn PasswordForm(
             match client.change_password(&old, &typed).await {
                 Ok(()) => {
                     remembered.set(None);
-                    ctx.notify(lang.t(Text::PasswordChanged));
+                    ctx.notify(lang.t(PasswordText::PasswordChanged));
                     if forced {
                         ctx.login_notice.set(None);
                         ctx.session.update(|session| {
@@ -72,13 +72,13 @@ pub fn PasswordForm(
                 // (An older bridge answers it without a code: MustChangePassword.)
                 Err(Failure::MustChangePassword) => {
                     remembered.set(None);
-                    note.set(Some(lang.t(Text::WrongCurrentPassword).into()));
+                    note.set(Some(lang.t(PasswordText::WrongCurrentPassword).into()));
                 }
                 Err(Failure::Rejected(error))
                     if error.code == Code::WrongCurrentPassword.as_str() =>
                 {
                     remembered.set(None);
-                    note.set(Some(lang.t(Text::WrongCurrentPassword).into()));
+                    note.set(Some(lang.t(PasswordText::WrongCurrentPassword).into()));
                 }
                 Err(failure) => {
                     let mut text = ctx.failed(&failure);
@@ -95,21 +95,21 @@ pub fn PasswordForm(
         });
     };
     let (form_id, title) = if forced {
-        ("password-form", Text::ChangePasswordTitle)
+        ("password-form", PasswordText::ChangePasswordTitle)
     } else {
-        ("settings-password-form", Text::ChangePasswordButton)
+        ("settings-password-form", PasswordText::ChangePasswordButton)
     };
     view! {
         <form class="card form" on:submit=submit data-testid=form_id>
             <h2>{ctx.tr(title)}</h2>
             <p class="muted">
                 {move || {
-                    ctx.t(if forced { Text::ChangePasswordNote } else { Text::PasswordChangeNote })
+                    ctx.t(if forced { PasswordText::ChangePasswordNote } else { PasswordText::PasswordChangeNote })
                 }}
             </p>
             <Show when=move || remembered.with(Option::is_none)>
                 <TextField
-                    label=Text::CurrentPassword
+                    label=PasswordText::CurrentPassword
                     value=current
                     test_id="password-current"
                     kind="password"
@@ -118,7 +118,7 @@ pub fn PasswordForm(
                 />
             </Show>
             <TextField
-                label=Text::NewPassword
+                label=PasswordText::NewPassword
                 value=new
                 test_id="password-new"
                 kind="password"
@@ -126,7 +126,7 @@ pub fn PasswordForm(
                 on_edit=edited
             />
             <TextField
-                label=Text::ConfirmPassword
+                label=PasswordText::ConfirmPassword
                 value=confirm
                 test_id="password-confirm"
                 kind="password"
@@ -134,12 +134,12 @@ pub fn PasswordForm(
                 on_edit=edited
             />
             <button type="submit" class="primary" data-testid="password-submit" disabled=busy>
-                {move || ctx.t(if busy.get() { Text::Working } else { Text::ChangePasswordButton })}
+                {move || if busy.get() { ctx.t(Text::Working) } else { ctx.t(PasswordText::ChangePasswordButton) }}
             </button>
             <ErrorNote text=note test_id="password-error" alert=true />
             <Show when=move || done.get()>
                 <p class="note done" data-testid="password-done">
-                    {ctx.tr(Text::PasswordChanged)}
+                    {ctx.tr(PasswordText::PasswordChanged)}
                 </p>
             </Show>
         </form>

@@ -17,13 +17,13 @@ use leptos::prelude::*;
 
 use crate::context::Ctx;
 use crate::files::{SHOWN_PROBLEMS, clip_message};
-use crate::i18n::Text;
+use crate::i18n::{Text, Words};
 
 /// A label (in the current language) over `children`, the control it names.
 #[component]
-pub fn Field(
+pub fn Field<W: Words>(
     /// What the control is.
-    label: Text,
+    label: W,
     /// The label's class, if any.
     #[prop(optional)]
     class: Option<&'static str>,
@@ -40,9 +40,9 @@ pub fn Field(
 
 /// A labelled text input bound to `value`.
 #[component]
-pub fn TextField(
+pub fn TextField<W: Words>(
     /// What the field is.
-    label: Text,
+    label: W,
     /// What is typed; the field shows it and writes every edit to it.
     value: RwSignal<String>,
     /// The input's `data-testid`.

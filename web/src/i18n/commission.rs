@@ -1,6 +1,7 @@
-//! The Commissioning page's sentences with values in them (its fixed strings are
-//! [`super::Text`] variants): a gateway's title, a roll call's summary, a unit's fault
-//! in words, what identify and a line-speed change did.
+//! The Commissioning page's words, which come with its chunk: its fixed strings
+//! ([`CommissionText`]) and its sentences with values in them: a gateway's title, a
+//! roll call's summary, a unit's fault in words, what identify and a line-speed
+//! change did.
 
 use floatball_shared::api::{BaudChanged, GatewayKind, Identifying, RollCall, UnitFault};
 use floatball_shared::uim2503::feedback::UnitError;
@@ -163,4 +164,73 @@ mod tests {
         );
         assert_eq!(Lang::En.cell_label(0, 2, 3), "row 1, column 3: station 3");
     }
+}
+
+texts! {
+    /// The Commissioning page's fixed strings: they come with its chunk.
+    CommissionText;
+    /// What the page is for.
+    CommissionIntro => "找到每个单元，给它站号和它在网格中的位置。演出运行时这里的操作会被拒绝。", "Find every unit, give it its station and its place in the grid. While a show plays, the controller refuses what this page asks.";
+    /// The installation could not be read (the reason follows).
+    InstallationUnreadable => "无法读取安装配置：", "The installation could not be read:";
+    /// A gateway whose units cannot be called (MBOX, MOONS').
+    NotUim2503 => "只有 UIM2503 网关可以点名、分配站号和识别。", "Roll call, stations and identify are for UIM2503 gateways.";
+    /// Ask every unit on the gateway.
+    RollCall => "点名", "Roll call";
+    /// Before the first roll call.
+    NoRollCallYet => "尚未点名：点“点名”查找这个网关上的每个单元。", "No roll call yet: Roll call finds every unit on this gateway.";
+    /// Column: station.
+    Station => "站号", "Station";
+    /// Column: position.
+    Position => "位置", "Position";
+    /// Column: how long ago it last answered.
+    LastAnswer => "最后应答", "Last answer";
+    /// Flag: more than one unit on this station.
+    FlagDuplicated => "站号重复", "shared station";
+    /// Flag: the station is not configured on this gateway.
+    FlagUnexpected => "未配置", "not configured";
+    /// Flag: the unit reported an error.
+    FlagFault => "报错", "error";
+    /// Stations several units answer on (a list follows).
+    DuplicatedStations => "多个单元共用的站号：", "Stations several units answer on:";
+    /// Configured stations nobody answered on (a list follows).
+    MissingStations => "已配置但无应答的站号：", "Configured stations nobody answered on:";
+    /// Stations that answered but are not configured (a list follows).
+    UnexpectedStations => "有应答但未配置的站号：", "Stations that answered but are not configured:";
+    /// A roll call with nothing wrong.
+    RollCallClean => "每个配置的站号都有且只有一个单元应答。", "Every configured station answered, one unit each.";
+    /// Give the units the gateway's stations by serial number.
+    AssignAll => "按网格顺序全部分配", "Assign all in grid order";
+    /// What "assign all" does.
+    AssignAllNote => "序列号从小到大的单元依次获得本网关按单元格顺序配置的站号，然后重新点名。", "Units by ascending serial number get this gateway's configured stations in cell order; then a new roll call.";
+    /// Give one unit the station typed.
+    Assign => "分配", "Assign";
+    /// The field of a unit's new station.
+    NewStation => "新站号", "New station";
+    /// A station that cannot be used.
+    BadStation => "站号必须是 1 到 127 的整数", "A station is a whole number from 1 to 127";
+    /// Move one ball down and back.
+    Identify => "识别", "Identify";
+    /// The field of how far Identify moves a ball (empty: the controller's default).
+    IdentifyDistance => "识别时下移距离 (mm)", "Identify moves down (mm)";
+    /// The identify distance is not a positive number.
+    BadDistance => "距离必须是大于 0 的毫米数，留空则用默认值", "The distance is a number of mm above 0; leave it empty for the default";
+    /// The grid's heading.
+    GridSeenFromBelow => "网格（从下往上看）", "The grid, seen from below";
+    /// How the grid works.
+    GridHint => "点某个单元的“识别”，看哪个球在动，再点按它在网格中的格子。点按格子会让配置在那里的球移动。", "Tap a unit's Identify, watch which ball moves, then tap its cell in the grid. Tapping a cell moves the ball configured there.";
+    /// Store the gateway's stations in the installation.
+    SaveMapping => "保存映射", "Save mapping";
+    /// The mapping was stored.
+    MappingSaved => "映射已保存并已生效", "Mapping saved and applied";
+    /// The gateway's line speed.
+    LineSpeed => "线路速率", "Line speed";
+    /// Start the guided line-speed change.
+    ChangeLineSpeed => "更改速率", "Change line speed";
+    /// What the guided change does, before it starts.
+    BaudPowerCycle => "应用会向网关发送 BDR 命令。真实网关要在断电再上电后才使用新速率：开始后请关掉网关电源再打开，应用会等待它以新速率应答。模拟网关会自行重启。失败时恢复原速率。", "The app sends the gateway BDR. A real gateway takes the new speed only after a restart: once this starts, switch the gateway off and on again while the app waits for it to answer at the new speed. A simulated gateway restarts by itself. If it does not answer, the old speed is restored.";
+    /// Confirm the line-speed change.
+    StartBaudChange => "开始更改", "Start the change";
+    /// While the app waits for the gateway.
+    BaudWaiting => "现在请将网关断电再上电。正在等待网关以新速率应答…", "Switch the gateway off and on now. Waiting for it to answer at the new speed…";
 }

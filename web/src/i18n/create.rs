@@ -1,9 +1,9 @@
-//! The Create page's words that come from the show-creation catalogue
-//! ([`floatball_shared::create::PATTERNS`]): each pattern's name and help, each
-//! parameter's label, each choice's word, in both languages (English is the
-//! catalogue's own); the notes of what was changed to keep within the limits, and
-//! why a show cannot be made. A test checks that every pattern, parameter and choice
-//! of the catalogue has its Chinese here.
+//! The Create page's fixed strings ([`CreateText`]) and its words that come from the
+//! show-creation catalogue ([`floatball_shared::create::PATTERNS`]): each pattern's
+//! name and help, each parameter's label, each choice's word, in both languages
+//! (English is the catalogue's own); the notes of what was changed to keep within
+//! the limits, and why a show cannot be made. A test checks that every pattern,
+//! parameter and choice of the catalogue has its Chinese here.
 
 use floatball_shared::create::{Change, CreateError, Note, ParamSpec, number};
 
@@ -388,4 +388,53 @@ mod tests {
             CreateError::EmptyTimeline.to_string()
         );
     }
+}
+
+texts! {
+    /// The Create page's fixed strings: they come with its chunk.
+    CreateText;
+    /// The Create page's pattern choice.
+    Pattern => "图案", "Pattern";
+    /// The Create page's list of segments.
+    Timeline => "时间线", "Timeline";
+    /// Add a segment after the chosen one.
+    AddSegment => "添加片段", "Add a segment";
+    /// A segment's own length.
+    SegmentDuration => "时长 (s)", "Duration (s)";
+    /// The blend into the next segment.
+    SegmentTransition => "过渡到下一段 (s)", "Blend into the next (s)";
+    /// The generated show's name.
+    ShowNameLabel => "节目名称", "Show name";
+    /// Keep the generated show in the browser's local files.
+    SaveToLocalFiles => "保存到本地文件", "Save to local files";
+    /// The show was kept in the local files.
+    SavedToLocalFiles => "已保存到本地文件", "Saved to the local files";
+    /// Send the generated show to the controller.
+    UploadToController => "上传到控制器", "Upload to the controller";
+    /// Offer the recipe as a download.
+    DownloadRecipe => "下载配方", "Download the recipe";
+    /// Open a recipe file.
+    OpenRecipe => "打开配方", "Open a recipe";
+    /// A recipe file that cannot be used.
+    RecipeUnreadable => "无法使用这个配方：", "This recipe cannot be used:";
+    /// How long the last change took to generate and show.
+    GeneratedIn => "生成用时", "Generated in";
+    /// The heading of what was changed to stay within the limits.
+    ClampedHeading => "为保持在限值之内已作调整：", "Changed to stay within the limits:";
+    /// The grid made for while connected.
+    MadeForInstallation => "按控制器的装置生成（行列、间距、行程、速度和加速度限值）", "Made for the controller's installation (grid, pitch, travel, speed and acceleration limits)";
+    /// The grid made for while offline.
+    MadeForDefaultGrid => "离线：按下面的矩阵和默认限值生成", "Offline: made for the matrix below and the default limits";
+    /// Rows of balls (offline grid).
+    GridRows => "行数", "Rows";
+    /// Balls in each row (offline grid).
+    GridCols => "列数", "Columns";
+    /// No picture picked yet.
+    NoPicture => "尚未选择图片", "No picture chosen";
+    /// The planner's verdict heading on the Create page.
+    BandwidthVerdict => "线路带宽", "Line bandwidth";
+    /// The show could not be generated.
+    CannotGenerate => "无法生成：", "Cannot generate:";
+    /// A new draft.
+    NewRecipe => "重新开始", "Start again";
 }
