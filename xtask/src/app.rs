@@ -12,8 +12,8 @@
 //! module imports and which fetches a chunk the first time its page is opened.
 //! `wasm-bindgen` writes the main module's js glue into a staging directory under the
 //! target directory (`--keep-lld-exports`: the chunks import the table and the stack
-//! pointer); a release build then goes through `wasm-opt -Oz --converge` (main and
-//! chunks; [`build_web`] says why the flags).
+//! pointer); a release build then goes through `wasm-opt -Oz` (main and chunks;
+//! [`build_web`] says why the flags).
 //! [`package`] gives every wasm, the js, the loader and `static/style.css`
 //! content-hashed names (`floatball_bg-<16 hex>.wasm`, `split_create-<16 hex>.wasm`,
 //! `floatball-<16 hex>.js`, `floatball_split-<16 hex>.js`, `style-<16 hex>.css`),
@@ -40,7 +40,7 @@ use crate::tools::{self, Env};
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Build {
     /// Small and fast, as operators get it (`cargo xtask run`): the `wasm-release`
-    /// profile of the workspace `Cargo.toml`, `wasm-opt -Oz --converge`, brotli at its best.
+    /// profile of the workspace `Cargo.toml`, `wasm-opt -Oz`, brotli at its best.
     Release,
     /// Quick, for a developer's edit-and-look loop (`cargo xtask build --test`): the
     /// dev profile, which reuses what the browser tests already compiled instead of
@@ -215,17 +215,16 @@ pub fn build_web(env: &Env, build: Build) -> Result<(), String> {
         let optimise = |path: &Path, main: bool| {
             tools::run_command(
                 tools::program(env, &wasm_opt.to_string_lossy())
-                    // `--converge` repeats the passes while the module still shrinks
-                    // (about 2 KB of brotli): on the main module only, the first load
-                    // (the chunks, fetched when a rare page opens, shrink by little
-                    // and took most of the time). The memory the main module defines
-                    // starts zeroed (`--zero-filled-memory`); a chunk imports that
-                    // memory long after it was written, so not for the chunks. Not
-                    // `--low-memory-unused` (another 2 KB): the stack sits at the
-                    // bottom of memory, and a stack about to overflow must trap, not
-                    // be optimised around.
+                    // One round of `-Oz`: `--converge` (the passes repeated while the
+                    // module still shrinks) took the main module from 345.2 to 344.3
+                    // KB of brotli for 84 s of one core in every release build, and
+                    // the first load is within its budget without it. The memory the
+                    // main module defines starts zeroed (`--zero-filled-memory`); a
+                    // chunk imports that memory long after it was written, so not for
+                    // the chunks. Not `--low-memory-unused` (another 2 KB): the stack
+                    // sits at the bottom of memory, and a stack about to overflow must
+                    // trap, not be optimised around.
                     .arg("-Oz")
-                    .args(main.then_some("--converge"))
                     .args(main.then_some("--zero-filled-memory"))
                     .args(tools::WASM_FEATURES)
                     .arg(path)

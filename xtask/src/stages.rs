@@ -294,7 +294,7 @@ pub fn test(args: &[String]) -> Result<(), String> {
         })
     });
     // The app as operators get it (release, `wasm-opt`): the end-to-end tests run it
-    // and hold its first load to the budget (issue 35). Its build spends minutes on one
+    // and hold its first load to the budget. Its build spends minutes on one
     // core (fat LTO, then `wasm-opt`), so it runs in the background, its output kept
     // for the end, while the wasm32 tests, the browser tests and the build of the
     // end-to-end tests take the other. The end-to-end tests run the `floatball` the
