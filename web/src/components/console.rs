@@ -11,7 +11,7 @@ use floatball_shared::api::ClientMessage;
 use leptos::prelude::*;
 
 use crate::components::widgets::{BridgeError, Field};
-use crate::console::{Check, Family, mbox_route};
+use crate::console::{Check, Family, FeedbackLog, mbox_route};
 use crate::context::Ctx;
 use crate::i18n::Text;
 
@@ -216,8 +216,8 @@ pub fn ConsolePage() -> impl IntoView {
                 </button>
             </div>
             <ul class="mono feedback" data-testid="feedback-list">
-                {move || ctx.feedback.with(|log| {
-                    if log.is_empty() {
+                {move || {
+                    ctx.feedback.with(FeedbackLog::is_empty).then(|| {
                         let empty = move || {
                             ctx.t(
                                 match family.get() {
@@ -227,21 +227,26 @@ pub fn ConsolePage() -> impl IntoView {
                                 },
                             )
                         };
-                        return view! { <li class="muted">{empty}</li> }.into_any();
+                        view! { <li class="muted">{empty}</li> }
+                    })
+                }}
+                // Keyed by the line's id: a new frame adds one line at the top and
+                // drops the oldest, instead of rewriting all of them (a gateway sends
+                // many frames a second; the page kept a phone's core busy).
+                <For
+                    each=move || ctx.feedback.with(|log| log.lines().cloned().collect::<Vec<_>>())
+                    key=|line| line.id
+                    children=move |line| {
+                        let (source, hex) = (line.source(), line.hex.clone());
+                        view! {
+                            <li data-testid="feedback-line">
+                                <span class="where">{source}</span>
+                                <span class="what">{move || line.text_in(ctx.lang.get())}</span>
+                                <span class="hex muted">{hex}</span>
+                            </li>
+                        }
                     }
-                    log.lines()
-                        .map(|line| {
-                            view! {
-                                <li data-testid="feedback-line">
-                                    <span class="where">{line.source()}</span>
-                                    <span class="what">{line.text_in(ctx.lang.get())}</span>
-                                    <span class="hex muted">{line.hex.clone()}</span>
-                                </li>
-                            }
-                        })
-                        .collect_view()
-                        .into_any()
-                })}
+                />
             </ul>
         </section>
     }
