@@ -377,17 +377,28 @@ async fn the_simulator_on_a_line_plays_the_show_and_takes_the_stop_first() {
     })
     .await;
     assert_eq!(stopped.last_error, None);
-    let lines: Vec<String> = wire
-        .lock()
-        .unwrap()
-        .iter()
-        .filter(|line| line.at >= pressed)
-        .map(|line| line.text.clone())
-        .collect();
+    // The status may say stopped before the simulated drives' reader has taken the
+    // stops off the line (on a loaded machine): the wire is read until it holds
+    // three since the press, at most 5 s.
+    let since_pressed = || -> Vec<String> {
+        wire.lock()
+            .unwrap()
+            .iter()
+            .filter(|line| line.at >= pressed)
+            .map(|line| line.text.clone())
+            .collect()
+    };
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let mut lines = since_pressed();
+    while lines.iter().filter(|line| line.ends_with("SK")).count() < 3 && Instant::now() < deadline
+    {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        lines = since_pressed();
+    }
     let first = lines
         .iter()
         .position(|line| line.ends_with("SK"))
-        .expect("a stop");
+        .unwrap_or_else(|| panic!("a stop: {lines:?}"));
     assert_eq!(&lines[first..first + 3], ["0SK", "1SK", "2SK"], "{lines:?}");
 }
 
